@@ -1,0 +1,41 @@
+# mimic_add_library(<name> [PUBLIC_DEPS ...] [PRIVATE_DEPS ...])
+# One library per module folder: include/ is PUBLIC, src/ (all .cpp, recursively) is PRIVATE.
+function(mimic_warnings target)
+  target_compile_options(${target} PRIVATE -Wall -Wextra -Wpedantic -Wshadow -Wconversion
+    -Wno-sign-conversion -Wnon-virtual-dtor -Wold-style-cast -Woverloaded-virtual)
+  if(MIMIC_NATIVE)
+    target_compile_options(${target} PRIVATE -march=native)
+  endif()
+  if(MIMIC_SANITIZE)
+    target_compile_options(${target} PRIVATE -fsanitize=address,undefined -fno-omit-frame-pointer)
+    target_link_options(${target} PRIVATE -fsanitize=address,undefined)
+  endif()
+endfunction()
+
+function(mimic_add_library name)
+  cmake_parse_arguments(ARG "" "" "PUBLIC_DEPS;PRIVATE_DEPS" ${ARGN})
+  file(GLOB_RECURSE srcs CONFIGURE_DEPENDS ${CMAKE_CURRENT_SOURCE_DIR}/src/*.cpp)
+  add_library(mimic_${name} STATIC ${srcs})
+  add_library(mimic::${name} ALIAS mimic_${name})
+  target_include_directories(mimic_${name}
+    PUBLIC ${CMAKE_CURRENT_SOURCE_DIR}/include
+    PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/src)
+  target_link_libraries(mimic_${name} PUBLIC ${ARG_PUBLIC_DEPS} PRIVATE ${ARG_PRIVATE_DEPS})
+  target_compile_definitions(mimic_${name} PUBLIC GLM_FORCE_XYZW_ONLY GLM_ENABLE_EXPERIMENTAL)
+  mimic_warnings(mimic_${name})
+endfunction()
+
+# mimic_add_tests(<lib> DEPS ...): one test binary per library from tests/<lib>/*_test.cpp.
+function(mimic_add_tests lib)
+  cmake_parse_arguments(ARG "" "" "DEPS" ${ARGN})
+  file(GLOB srcs CONFIGURE_DEPENDS ${CMAKE_CURRENT_SOURCE_DIR}/${lib}/*.cpp)
+  if(NOT srcs)
+    return()
+  endif()
+  add_executable(mimic_${lib}_tests ${srcs})
+  target_link_libraries(mimic_${lib}_tests PRIVATE ${ARG_DEPS} mimic_test_support GTest::gtest_main GTest::gmock)
+  mimic_warnings(mimic_${lib}_tests)
+  gtest_discover_tests(mimic_${lib}_tests
+    PROPERTIES ENVIRONMENT "MIMIC_SHARED_DATA=${MIMIC_SHARED_DATA};MIMIC_BIN=${CMAKE_BINARY_DIR}/bin/mimic"
+    DISCOVERY_TIMEOUT 60)
+endfunction()

@@ -1,0 +1,13 @@
+#!/usr/bin/env bash
+# Configures and builds Mimic into build/ (program at build/bin/mimic).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+type=${MIMIC_BUILD_TYPE:-Release}
+gen=()
+command -v ninja >/dev/null && gen=(-G Ninja)
+if [ ! -f build/CMakeCache.txt ]; then
+  cmake -S . -B build "${gen[@]}" -DCMAKE_BUILD_TYPE="$type" "$@"
+else
+  cmake -S . -B build "$@" >/dev/null
+fi
+cmake --build build -j "$(nproc)"

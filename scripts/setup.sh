@@ -1,0 +1,31 @@
+#!/usr/bin/env bash
+# Installs every Debian package Mimic needs to build, test and run. This file is the one place
+# the dependency list lives. Idempotent and non-interactive; run as root (or with sudo).
+set -euo pipefail
+
+packages=(
+  build-essential cmake ninja-build pkg-config git
+  libglm-dev                       # math
+  libboost-dev libboost-system-dev # Asio: serial ports and networking
+  libexpected-dev                  # Result<T> = tl::expected
+  nlohmann-json3-dev               # body model / calibration files
+  libhidapi-dev libusb-1.0-0-dev   # USB devices
+  libglfw3-dev libgl-dev           # viewer
+  libgtest-dev libgmock-dev googletest libbenchmark-dev
+  xvfb liblo-tools                 # viewer under a virtual display; OSC peer for interop tests
+)
+
+missing=()
+for p in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q 'install ok installed' || missing+=("$p")
+done
+if [ ${#missing[@]} -eq 0 ]; then
+  echo "setup: all ${#packages[@]} packages present"
+  exit 0
+fi
+SUDO=""
+[ "$(id -u)" -eq 0 ] || SUDO="sudo"
+echo "setup: installing ${missing[*]}"
+export DEBIAN_FRONTEND=noninteractive
+$SUDO apt-get update -qq
+$SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}"

@@ -1,0 +1,27 @@
+// Where tests find the shared third-party data and the built program.
+#pragma once
+
+#include <cstdlib>
+#include <filesystem>
+#include <string>
+
+namespace mimic::test {
+
+// ../shared/data beside the checkout (CMake passes the path in MIMIC_SHARED_DATA).
+inline std::string shared_data(const std::string& relative = "") {
+  const char* env = std::getenv("MIMIC_SHARED_DATA");
+  std::string root = env ? env : "../shared/data";
+  return relative.empty() ? root : root + "/" + relative;
+}
+
+inline std::string mimic_binary() {
+  const char* env = std::getenv("MIMIC_BIN");
+  return env ? env : "mimic";
+}
+
+inline const char* kShared_clips[] = {"02_04", "02_05", "02_06", "05_02",
+                                      "06_04", "07_01", "09_11", "13_26"};
+
+inline std::string clip_path(const std::string& id) { return shared_data("bvh/" + id + ".bvh"); }
+
+}  // namespace mimic::test
