@@ -1,0 +1,266 @@
+#include "mimic/avatar/body_field.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include <glm/gtc/matrix_transform.hpp>
+#include <glm/gtx/euler_angles.hpp>
+
+namespace mimic::avatar {
+
+namespace {
+
+constexpr int kMaxRayCandidates = 64;
+constexpr int kMaxSteps = 512;
+constexpr float kMinStep_m = 0.0005f;
+
+glm::mat3 rotation_xyz(const glm::vec3& angles_rad) {
+  // R = Rz · Ry · Rx: x applied first, matching the orientation_deg convention of the file.
+  return glm::mat3(glm::eulerAngleZ(angles_rad.z) * glm::eulerAngleY(angles_rad.y) *
+                   glm::eulerAngleX(angles_rad.x));
+}
+
+float falloff_value(Falloff f, float t) {
+  switch (f) {
+    case Falloff::linear: return t;
+    case Falloff::parabolic: return t * t;
+    case Falloff::hyperbolic: return std::sqrt(t);
+  }
+  return t;
+}
+
+PrimitiveState lerp_state(const PrimitiveState& a, const PrimitiveState& b, float u) {
+  return {a.semi_axes_m + u * (b.semi_axes_m - a.semi_axes_m), a.center_m + u * (b.center_m - a.center_m),
+          a.orientation_rad + u * (b.orientation_rad - a.orientation_rad)};
+}
+
+// Field of one metaball term at squared ellipsoidal distance s.
+inline float term(float s, float inv_r2, float weight_norm) {
+  const float u = 1.0f - s * inv_r2;
+  return u > 0.0f ? weight_norm * u * u * u : 0.0f;
+}
+
+}  // namespace
+
+PrimitiveState deformed_state(const PrimitiveState& g0, const PrimitiveState& gmin,
+                              const PrimitiveState& gmax, Falloff falloff, float theta,
+                              float theta0, float theta_min, float theta_max) {
+  if (theta >= theta0) {
+    const float span = theta_max - theta0;
+    const float t = span > 1e-6f ? std::clamp((theta - theta0) / span, 0.0f, 1.0f) : 0.0f;
+    return lerp_state(g0, gmax, falloff_value(falloff, t));
+  }
+  const float span = theta0 - theta_min;
+  const float t = span > 1e-6f ? std::clamp((theta0 - theta) / span, 0.0f, 1.0f) : 0.0f;
+  return lerp_state(g0, gmin, falloff_value(falloff, t));
+}
+
+Result<BodyField> BodyField::create(const BodyModel& model, const Skeleton& skeleton) {
+  BodyField f;
+  const size_t n = model.primitives.size();
+  if (n >= 65535) return fail(Errc::invalid_argument, "too many primitives");
+  f.sources_.reserve(n);
+  for (const Primitive& p : model.primitives) {
+    Source s;
+    s.joint = skeleton.find_joint(p.joint);
+    if (s.joint < 0)
+      return fail(Errc::invalid_argument, "primitive '" + p.name + "': skeleton has no joint '" + p.joint + "'");
+    s.g0 = p.state;
+    if (p.deformation) {
+      s.dof = skeleton.find_dof(p.deformation->dof);
+      if (s.dof < 0)
+        return fail(Errc::invalid_argument,
+                    "primitive '" + p.name + "': skeleton has no DOF '" + p.deformation->dof + "'");
+      s.gmin = p.deformation->at_min;
+      s.gmax = p.deformation->at_max;
+      s.falloff = p.deformation->falloff;
+      const Dof& d = skeleton.dof(s.dof);
+      s.theta0 = d.rest_rad;
+      s.theta_min = d.min_rad;
+      s.theta_max = d.max_rad;
+    }
+    f.sources_.push_back(s);
+    const float r2 = p.influence * p.influence;
+    f.r2_.push_back(r2);
+    f.inv_r2_.push_back(1.0f / r2);
+    const float base = 1.0f - 1.0f / r2;
+    f.weight_norm_.push_back(p.weight / (base * base * base));
+    f.groups_.push_back(p.groups);
+    f.part_.push_back(p.part);
+    f.hard_.push_back(p.kind == PrimitiveKind::ellipsoid ? 1 : 0);
+  }
+  f.unit_from_world_.resize(n);
+  f.center_.resize(n);
+  f.bound_radius_.resize(n);
+  f.min_axis_.resize(n);
+  // A valid initial frame: the zero posture.
+  std::vector<RigidTransform> w(skeleton.joint_count());
+  const Pose zero = skeleton.zero_pose();
+  forward_kinematics(skeleton, zero, w);
+  f.update(w, zero.dof_rad);
+  return f;
+}
+
+void BodyField::update(std::span<const RigidTransform> world_from_joint, std::span<const float> dof_rad) {
+  const size_t n = sources_.size();
+  for (size_t i = 0; i < n; ++i) {
+    const Source& s = sources_[i];
+    const PrimitiveState st =
+        s.dof < 0 ? s.g0
+                  : deformed_state(s.g0, s.gmin, s.gmax, s.falloff, dof_rad[s.dof], s.theta0, s.theta_min, s.theta_max);
+    const RigidTransform& wj = world_from_joint[s.joint];
+    const glm::mat3 world_rot = glm::mat3_cast(wj.rotation) * rotation_xyz(st.orientation_rad);
+    const glm::vec3 inv_axes = 1.0f / st.semi_axes_m;
+    // unit_from_world = S⁻¹ · Rᵀ: rows of Rᵀ are the primitive's axes in world.
+    glm::mat3 m = glm::transpose(world_rot);
+    for (int c = 0; c < 3; ++c)
+      for (int r = 0; r < 3; ++r) m[c][r] *= inv_axes[r];
+    unit_from_world_[i] = m;
+    center_[i] = wj.apply(st.center_m);
+    const float max_axis = std::max({st.semi_axes_m.x, st.semi_axes_m.y, st.semi_axes_m.z});
+    min_axis_[i] = std::min({st.semi_axes_m.x, st.semi_axes_m.y, st.semi_axes_m.z});
+    bound_radius_[i] = (hard_[i] ? 1.0f : std::sqrt(r2_[i])) * max_axis;
+  }
+}
+
+float BodyField::field(const glm::vec3& p, GroupMask mask) const {
+  float sum = 0;
+  for (int i = 0; i < size(); ++i) {
+    if (!(groups_[i] & mask) || hard_[i]) continue;
+    const glm::vec3 q = unit_from_world_[i] * (p - center_[i]);
+    sum += term(glm::dot(q, q), inv_r2_[i], weight_norm_[i]);
+  }
+  return sum;
+}
+
+float BodyField::field_of_part(const glm::vec3& p, RigidPart part) const {
+  float sum = 0;
+  for (int i = 0; i < size(); ++i) {
+    if (part_[i] != part || hard_[i]) continue;
+    const glm::vec3 q = unit_from_world_[i] * (p - center_[i]);
+    sum += term(glm::dot(q, q), inv_r2_[i], weight_norm_[i]);
+  }
+  return sum;
+}
+
+bool BodyField::inside(const glm::vec3& p, GroupMask mask) const {
+  for (int i = 0; i < size(); ++i) {
+    if (!(groups_[i] & mask) || !hard_[i]) continue;
+    const glm::vec3 q = unit_from_world_[i] * (p - center_[i]);
+    if (glm::dot(q, q) <= 1.0f) return true;
+  }
+  return field(p, mask) >= kIsoLevel;
+}
+
+int BodyField::candidates_near_plane(const glm::vec3& origin, const glm::vec3& normal, GroupMask mask,
+                                     std::span<uint16_t> out) const {
+  int n = 0;
+  for (int i = 0; i < size() && n < static_cast<int>(out.size()); ++i) {
+    if (!(groups_[i] & mask)) continue;
+    if (std::abs(glm::dot(center_[i] - origin, normal)) >= bound_radius_[i]) continue;
+    out[n++] = static_cast<uint16_t>(i);
+  }
+  return n;
+}
+
+int BodyField::candidates_of_part(RigidPart part, std::span<uint16_t> out) const {
+  int n = 0;
+  for (int i = 0; i < size() && n < static_cast<int>(out.size()); ++i)
+    if (part_[i] == part) out[n++] = static_cast<uint16_t>(i);
+  return n;
+}
+
+RayHit BodyField::cast_outermost(const glm::vec3& origin, const glm::vec3& dir,
+                                 std::span<const uint16_t> candidates) const {
+  // Along the ray each metaball contributes w·g(a t² + 2 b t + c) on its support interval.
+  float qa[kMaxRayCandidates], qb[kMaxRayCandidates], qc[kMaxRayCandidates];
+  float ir2[kMaxRayCandidates], wn[kMaxRayCandidates], peak[kMaxRayCandidates];
+  int n = 0;
+  float t_far = -1.0f, t_hard = -1.0f;
+  float step = std::numeric_limits<float>::max();
+  for (uint16_t idx : candidates) {
+    const glm::mat3& m = unit_from_world_[idx];
+    const glm::vec3 q0 = m * (origin - center_[idx]);
+    const glm::vec3 q1 = m * dir;
+    const float a = glm::dot(q1, q1), b = glm::dot(q0, q1), c = glm::dot(q0, q0);
+    if (hard_[idx]) {
+      const float disc = b * b - a * (c - 1.0f);
+      if (disc > 0.0f) t_hard = std::max(t_hard, (-b + std::sqrt(disc)) / a);
+      continue;
+    }
+    const float disc = b * b - a * (c - r2_[idx]);
+    if (disc <= 0.0f) continue;
+    const float root = std::sqrt(disc);
+    const float t1 = (-b + root) / a;
+    if (t1 <= 0.0f || n == kMaxRayCandidates) continue;
+    const float t0 = std::max(0.0f, (-b - root) / a);
+    qa[n] = a;
+    qb[n] = b;
+    qc[n] = c;
+    ir2[n] = inv_r2_[idx];
+    wn[n] = weight_norm_[idx];
+    peak[n] = std::clamp(-b / a, t0, t1);
+    t_far = std::max(t_far, t1);
+    // A blended bump cannot be narrower than a fraction of the support chord it lives on.
+    step = std::min(step, (t1 - t0) * 0.125f);
+    ++n;
+  }
+  auto field_at = [&](float t) {
+    float sum = 0;
+    for (int k = 0; k < n; ++k) sum += term((qa[k] * t + 2.0f * qb[k]) * t + qc[k], ir2[k], wn[k]);
+    return sum;
+  };
+
+  float t_meta = -1.0f;
+  if (n > 0) {
+    step = std::max(step, kMinStep_m);
+    step = std::max(step, t_far / kMaxSteps);
+    std::sort(peak, peak + n, [](float x, float y) { return x > y; });
+    // March inwards from the far end of all supports, visiting every primitive's peak too.
+    float t_out = t_far, f_out = 0.0f;
+    float grid = t_far - step;
+    int next_peak = 0;
+    while (true) {
+      float t;
+      if (next_peak < n && peak[next_peak] >= grid) {
+        t = peak[next_peak++];
+        if (t >= t_out) continue;
+      } else {
+        t = grid;
+        grid -= step;
+      }
+      if (t < 0.0f) break;
+      const float f = field_at(t);
+      if (f >= kIsoLevel) {
+        // Bracketed: f(t) ≥ 1 > f(t_out). Illinois false position on f − 1.
+        float lo = t, flo = f - kIsoLevel, hi = t_out, fhi = f_out - kIsoLevel;
+        int side = 0;
+        for (int it = 0; it < 30 && hi - lo > 1e-6f; ++it) {
+          const float mid = (lo * fhi - hi * flo) / (fhi - flo);
+          const float fm = field_at(mid) - kIsoLevel;
+          if (fm >= 0.0f) {
+            lo = mid;
+            flo = fm;
+            if (side == -1) fhi *= 0.5f;
+            side = -1;
+          } else {
+            hi = mid;
+            fhi = fm;
+            if (side == 1) flo *= 0.5f;
+            side = 1;
+          }
+        }
+        t_meta = std::abs(flo) < std::abs(fhi) ? lo : hi;
+        break;
+      }
+      t_out = t;
+      f_out = f;
+      if (t == 0.0f) break;
+      if (grid < 0.0f && grid > -step) grid = 0.0f;
+    }
+  }
+  return RayHit{std::max(t_meta, t_hard)};
+}
+
+}  // namespace mimic::avatar
