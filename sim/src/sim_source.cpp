@@ -31,7 +31,8 @@ size_t SimSource::poll(std::span<devices::SensorSample> out) {
   size_t n = 0;
   while (n < out.size()) {
     if (pending_ == 0) {
-      if (start_s_ + rig_.next_host_time_s() > now) break;
+      // A nanosecond of slack: rounding in the time arithmetic must not hold a tick back.
+      if (start_s_ + rig_.next_host_time_s() > now + 1e-9) break;
       rig_.step(tick_, start_s_);
       pending_ = tick_.size();
       ++status_.records;
