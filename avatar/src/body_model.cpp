@@ -23,7 +23,10 @@ constexpr int kFormatVersion = 1;
 
 using nlohmann::json;
 
-json vec(const glm::vec3& v) { return json::array({v.x, v.y, v.z}); }
+// Six decimals (micrometres, microdegrees) keep files readable and round trips exact.
+double rounded(float v) { return std::round(static_cast<double>(v) * 1e6) / 1e6; }
+
+json vec(const glm::vec3& v) { return json::array({rounded(v.x), rounded(v.y), rounded(v.z)}); }
 
 json state_json(const PrimitiveState& s) {
   return json{{"semi_axes", vec(s.semi_axes_m)}, {"center", vec(s.center_m)},
@@ -33,9 +36,9 @@ json state_json(const PrimitiveState& s) {
 json dof_json(const DofDesc& d) {
   return json{{"name", d.name},
               {"axis", vec(d.axis)},
-              {"min_deg", glm::degrees(d.min_rad)},
-              {"max_deg", glm::degrees(d.max_rad)},
-              {"rest_deg", glm::degrees(d.rest_rad)}};
+              {"min_deg", rounded(glm::degrees(d.min_rad))},
+              {"max_deg", rounded(glm::degrees(d.max_rad))},
+              {"rest_deg", rounded(glm::degrees(d.rest_rad))}};
 }
 
 // Reads JSON with a running path so every error says where it is.
@@ -248,8 +251,8 @@ std::string to_json(const BodyModel& model, bool pretty) {
     json pj{{"name", p.name},
             {"joint", p.joint},
             {"kind", p.kind == PrimitiveKind::metaball ? "metaball" : "ellipsoid"},
-            {"weight", p.weight},
-            {"influence", p.influence},
+            {"weight", rounded(p.weight)},
+            {"influence", rounded(p.influence)},
             {"groups", groups},
             {"state", state_json(p.state)}};
     if (p.part != RigidPart::none) pj["part"] = rigid_part_name(p.part);
@@ -282,10 +285,10 @@ std::string to_json(const BodyModel& model, bool pretty) {
                    {"boundary_contours", s.boundary_contours},
                    {"rigid_rings", s.rigid_rings},
                    {"rigid_points", s.rigid_points},
-                   {"crotch_drop_m", s.crotch_drop_m},
-                   {"chest_ring", s.chest_ring},
-                   {"neck_start", s.neck_start}};
-  return j.dump(pretty ? 1 : -1, '\t');
+                   {"crotch_drop_m", rounded(s.crotch_drop_m)},
+                   {"chest_ring", rounded(s.chest_ring)},
+                   {"neck_start", rounded(s.neck_start)}};
+  return j.dump(pretty ? 1 : -1, ' ');
 }
 
 Result<BodyModel> body_model_from_json(std::string_view text, std::string_view source_name) {
