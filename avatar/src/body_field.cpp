@@ -1,6 +1,7 @@
 #include "mimic/avatar/body_field.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 
@@ -12,7 +13,6 @@ namespace mimic::avatar {
 namespace {
 
 constexpr int kMaxRayCandidates = 64;
-constexpr int kMaxSteps = 512;
 constexpr float kMinStep_m = 0.0005f;
 
 glm::mat3 rotation_xyz(const glm::vec3& angles_rad) {
@@ -86,6 +86,7 @@ Result<BodyField> BodyField::create(const BodyModel& model, const Skeleton& skel
     f.inv_r2_.push_back(1.0f / r2);
     const float base = 1.0f - 1.0f / r2;
     f.weight_norm_.push_back(p.weight / (base * base * base));
+    f.cbrt_inv_wn_.push_back(std::cbrt(1.0f / f.weight_norm_.back()));
     f.groups_.push_back(p.groups);
     f.part_.push_back(p.part);
     f.hard_.push_back(p.kind == PrimitiveKind::ellipsoid ? 1 : 0);
@@ -171,96 +172,195 @@ int BodyField::candidates_of_part(RigidPart part, std::span<uint16_t> out) const
   return n;
 }
 
-RayHit BodyField::cast_outermost(const glm::vec3& origin, const glm::vec3& dir,
-                                 std::span<const uint16_t> candidates) const {
-  // Along the ray each metaball contributes w·g(a t² + 2 b t + c) on its support interval.
+namespace {
+
+// The metaball terms along one ray: term k contributes wn[k]·g(a t² + 2 b t + c).
+struct RayTerms {
   float qa[kMaxRayCandidates], qb[kMaxRayCandidates], qc[kMaxRayCandidates];
   float ir2[kMaxRayCandidates], wn[kMaxRayCandidates], peak[kMaxRayCandidates];
+  float t0[kMaxRayCandidates], t1[kMaxRayCandidates], chord[kMaxRayCandidates];
+  float cbrt_inv_wn[kMaxRayCandidates];
   int n = 0;
-  float t_far = -1.0f, t_hard = -1.0f;
-  float step = std::numeric_limits<float>::max();
+  float t_far = -1.0f;
+  float t_hard = -1.0f;
+
+  // Adds a metaball term if its support reaches t ≥ 0.
+  void add(float a, float b, float c, float r2, float inv_r2, float weight_norm, float cbrt_inv_weight_norm) {
+    const float disc = b * b - a * (c - r2);
+    if (disc <= 0.0f || n == kMaxRayCandidates) return;
+    const float root = std::sqrt(disc);
+    const float end = (-b + root) / a;
+    if (end <= 0.0f) return;
+    const float start = std::max(0.0f, (-b - root) / a);
+    qa[n] = a;
+    qb[n] = b;
+    qc[n] = c;
+    ir2[n] = inv_r2;
+    wn[n] = weight_norm;
+    cbrt_inv_wn[n] = cbrt_inv_weight_norm;
+    peak[n] = std::clamp(-b / a, start, end);
+    t0[n] = start;
+    t1[n] = end;
+    chord[n] = 2.0f * root / a;  // whole support chord, also where the ray starts inside it
+    t_far = std::max(t_far, end);
+    ++n;
+  }
+  void add_hard(float a, float b, float c) {
+    const float disc = b * b - a * (c - 1.0f);
+    if (disc > 0.0f) t_hard = std::max(t_hard, (-b + std::sqrt(disc)) / a);
+  }
+
+  float field_at(float t) const {
+    float sum = 0;
+    for (int k = 0; k < n; ++k) sum += term((qa[k] * t + 2.0f * qb[k]) * t + qc[k], ir2[k], wn[k]);
+    return sum;
+  }
+
+  // Beyond the last point where some term reaches 1/n, the sum of the n terms is below the
+  // iso-level: the outermost crossing cannot lie further out. −1 when no term ever does.
+  float start_bound() const {
+    static const auto table = [] {
+      std::array<float, kMaxRayCandidates + 1> t{};
+      for (int i = 1; i <= kMaxRayCandidates; ++i) t[i] = std::cbrt(1.0f / static_cast<float>(i));
+      return t;
+    }();
+    const float inv_n_cbrt = table[n];
+    float start = -1.0f;
+    for (int k = 0; k < n; ++k) {
+      // term_k ≥ 1/n  ⇔  u ≥ (1/(n·wn))^(1/3)  ⇔  s ≤ R²·(1 − that).
+      const float u_min = inv_n_cbrt * cbrt_inv_wn[k];
+      if (u_min >= 1.0f) continue;
+      const float s_max = (1.0f - u_min) / ir2[k];
+      const float disc = qb[k] * qb[k] - qa[k] * (qc[k] - s_max);
+      if (disc <= 0.0f) continue;
+      start = std::max(start, (-qb[k] + std::sqrt(disc)) / qa[k]);
+    }
+    return start;
+  }
+
+  // Outermost t with field ≥ 1 (or a hard ellipsoid's exit), −1 when none.
+  float outermost() {
+    float t_meta = -1.0f;
+    const float start = n > 0 ? start_bound() : -1.0f;
+    if (start >= 0.0f) {
+      t_far = start;
+      std::sort(peak, peak + n, [](float x, float y) { return x > y; });
+      // March inwards from the far end of all supports with a step no longer than an eighth
+      // of the shortest support chord around the current t, visiting every primitive's peak
+      // too, so neither a thin primitive nor a blended bridge between two is stepped over.
+      float t_out = t_far, f_out = field_at(t_far);
+      float t = t_far;
+      int next_peak = 0;
+      if (f_out >= kIsoLevel) return std::max(t_far, t_hard);
+      while (t > 0.0f) {
+        float step = std::numeric_limits<float>::max();
+        float below = -1.0f;  // the next support end inside, when t is in no support
+        for (int k = 0; k < n; ++k) {
+          if (t <= t1[k] && t >= t0[k]) step = std::min(step, chord[k]);
+          else if (t1[k] < t) below = std::max(below, t1[k]);
+        }
+        float next = step < std::numeric_limits<float>::max() ? t - std::max(step * 0.125f, kMinStep_m)
+                                                            : below;
+        next = std::max(next, 0.0f);
+        if (next_peak < n && peak[next_peak] > next) {
+          next = std::min(peak[next_peak++], t);
+          if (next >= t_out) continue;
+        }
+        t = next;
+        const float f = field_at(t);
+        if (f >= kIsoLevel) {
+          t_meta = refine(t, f, t_out, f_out);
+          break;
+        }
+        t_out = t;
+        f_out = f;
+      }
+    }
+    return std::max(t_meta, t_hard);
+  }
+
+  // Field and its derivative along the ray.
+  float field_and_slope(float t, float& slope) const {
+    float sum = 0, d = 0;
+    for (int k = 0; k < n; ++k) {
+      const float u = 1.0f - ((qa[k] * t + 2.0f * qb[k]) * t + qc[k]) * ir2[k];
+      if (u > 0.0f) {
+        sum += wn[k] * u * u * u;
+        d -= 3.0f * wn[k] * u * u * ir2[k] * 2.0f * (qa[k] * t + qb[k]);
+      }
+    }
+    slope = d;
+    return sum;
+  }
+
+  // Bracketed root of field − 1 on [lo, hi] (field(lo) ≥ 1 > field(hi)): Newton steps from
+  // the secant estimate, falling back to bisection whenever a step leaves the bracket.
+  float refine(float lo, float f_lo, float hi, float f_hi) const {
+    float flo = f_lo - kIsoLevel, fhi = f_hi - kIsoLevel;
+    float t = (lo * fhi - hi * flo) / (fhi - flo);
+    for (int it = 0; it < 32; ++it) {
+      float slope;
+      const float f = field_and_slope(t, slope) - kIsoLevel;
+      if (std::abs(f) < 1e-5f || hi - lo < 1e-5f) return t;
+      if (f >= 0.0f) lo = t, flo = f;
+      else hi = t, fhi = f;
+      float next = slope != 0.0f ? t - f / slope : 0.5f * (lo + hi);
+      if (!(next > lo && next < hi)) next = 0.5f * (lo + hi);
+      if (std::abs(next - t) < 2e-6f) return next;
+      t = next;
+    }
+    return t;
+  }
+};
+
+}  // namespace
+
+RayHit BodyField::cast_outermost(const glm::vec3& origin, const glm::vec3& dir,
+                                 std::span<const uint16_t> candidates) const {
+  RayTerms terms;
   for (uint16_t idx : candidates) {
+    // Cheap reject: the ray must pass within the primitive's bounding sphere, ahead of the origin.
+    const glm::vec3 v = center_[idx] - origin;
+    const float along = glm::dot(v, dir), bound = bound_radius_[idx];
+    if (along < -bound || glm::dot(v, v) - along * along > bound * bound) continue;
     const glm::mat3& m = unit_from_world_[idx];
     const glm::vec3 q0 = m * (origin - center_[idx]);
     const glm::vec3 q1 = m * dir;
     const float a = glm::dot(q1, q1), b = glm::dot(q0, q1), c = glm::dot(q0, q0);
-    if (hard_[idx]) {
-      const float disc = b * b - a * (c - 1.0f);
-      if (disc > 0.0f) t_hard = std::max(t_hard, (-b + std::sqrt(disc)) / a);
-      continue;
-    }
-    const float disc = b * b - a * (c - r2_[idx]);
-    if (disc <= 0.0f) continue;
-    const float root = std::sqrt(disc);
-    const float t1 = (-b + root) / a;
-    if (t1 <= 0.0f || n == kMaxRayCandidates) continue;
-    const float t0 = std::max(0.0f, (-b - root) / a);
-    qa[n] = a;
-    qb[n] = b;
-    qc[n] = c;
-    ir2[n] = inv_r2_[idx];
-    wn[n] = weight_norm_[idx];
-    peak[n] = std::clamp(-b / a, t0, t1);
-    t_far = std::max(t_far, t1);
-    // A blended bump cannot be narrower than a fraction of the support chord it lives on.
-    step = std::min(step, (t1 - t0) * 0.125f);
-    ++n;
+    if (hard_[idx]) terms.add_hard(a, b, c);
+    else terms.add(a, b, c, r2_[idx], inv_r2_[idx], weight_norm_[idx], cbrt_inv_wn_[idx]);
   }
-  auto field_at = [&](float t) {
-    float sum = 0;
-    for (int k = 0; k < n; ++k) sum += term((qa[k] * t + 2.0f * qb[k]) * t + qc[k], ir2[k], wn[k]);
-    return sum;
-  };
+  return RayHit{terms.outermost()};
+}
 
-  float t_meta = -1.0f;
-  if (n > 0) {
-    step = std::max(step, kMinStep_m);
-    step = std::max(step, t_far / kMaxSteps);
-    std::sort(peak, peak + n, [](float x, float y) { return x > y; });
-    // March inwards from the far end of all supports, visiting every primitive's peak too.
-    float t_out = t_far, f_out = 0.0f;
-    float grid = t_far - step;
-    int next_peak = 0;
-    while (true) {
-      float t;
-      if (next_peak < n && peak[next_peak] >= grid) {
-        t = peak[next_peak++];
-        if (t >= t_out) continue;
-      } else {
-        t = grid;
-        grid -= step;
-      }
-      if (t < 0.0f) break;
-      const float f = field_at(t);
-      if (f >= kIsoLevel) {
-        // Bracketed: f(t) ≥ 1 > f(t_out). Illinois false position on f − 1.
-        float lo = t, flo = f - kIsoLevel, hi = t_out, fhi = f_out - kIsoLevel;
-        int side = 0;
-        for (int it = 0; it < 30 && hi - lo > 1e-6f; ++it) {
-          const float mid = (lo * fhi - hi * flo) / (fhi - flo);
-          const float fm = field_at(mid) - kIsoLevel;
-          if (fm >= 0.0f) {
-            lo = mid;
-            flo = fm;
-            if (side == -1) fhi *= 0.5f;
-            side = -1;
-          } else {
-            hi = mid;
-            fhi = fm;
-            if (side == 1) flo *= 0.5f;
-            side = 1;
-          }
-        }
-        t_meta = std::abs(flo) < std::abs(fhi) ? lo : hi;
-        break;
-      }
-      t_out = t;
-      f_out = f;
-      if (t == 0.0f) break;
-      if (grid < 0.0f && grid > -step) grid = 0.0f;
-    }
+void BodyField::cast_star(const glm::vec3& origin, const glm::vec3& front, const glm::vec3& left,
+                          std::span<const float> angles_rad, std::span<const uint16_t> candidates,
+                          std::span<RayHit> hits) const {
+  // Everything that does not depend on the ray's angle is computed once per contour:
+  // q0 = M(o − c), M·front, M·left; then q1 = cos·Mf + sin·Ml per ray.
+  const int n = std::min<int>(static_cast<int>(candidates.size()), kMaxRayCandidates);
+  glm::vec3 q0[kMaxRayCandidates], mf[kMaxRayCandidates], ml[kMaxRayCandidates];
+  float cc[kMaxRayCandidates];
+  for (int k = 0; k < n; ++k) {
+    const uint16_t idx = candidates[k];
+    const glm::mat3& m = unit_from_world_[idx];
+    q0[k] = m * (origin - center_[idx]);
+    mf[k] = m * front;
+    ml[k] = m * left;
+    cc[k] = glm::dot(q0[k], q0[k]);
   }
-  return RayHit{std::max(t_meta, t_hard)};
+  for (size_t j = 0; j < angles_rad.size(); ++j) {
+    const float ca = std::cos(angles_rad[j]), sa = std::sin(angles_rad[j]);
+    RayTerms terms;
+    for (int k = 0; k < n; ++k) {
+      const uint16_t idx = candidates[k];
+      const glm::vec3 q1 = ca * mf[k] + sa * ml[k];
+      const float a = glm::dot(q1, q1), b = glm::dot(q0[k], q1);
+      if (hard_[idx]) terms.add_hard(a, b, cc[k]);
+      else terms.add(a, b, cc[k], r2_[idx], inv_r2_[idx], weight_norm_[idx], cbrt_inv_wn_[idx]);
+    }
+    hits[j] = RayHit{terms.outermost()};
+  }
 }
 
 }  // namespace mimic::avatar

@@ -160,6 +160,7 @@ struct BodySkin::Impl {
   Mesh mesh;
   std::vector<glm::vec3> scratch_grid, scratch_rows, scratch_poly;
   std::vector<uint16_t> candidates;
+  std::vector<RayHit> star_hits;
   SkinTimings timings;
   SkinStats stats;
 
@@ -182,6 +183,7 @@ struct BodySkin::Impl {
   void compute_ring(const Ring& r);
   void cast_into(uint32_t slot, const glm::vec3& origin, const glm::vec3& dir,
                  std::span<const uint16_t> cand, const glm::vec3& fallback);
+  void store(uint32_t slot, const glm::vec3& origin, const glm::vec3& dir, RayHit hit, const glm::vec3& fallback);
   int gather(GroupMask mask);
   void build_output();
   void evaluate_bspline();
@@ -200,7 +202,11 @@ int BodySkin::Impl::gather(GroupMask mask) {
 
 void BodySkin::Impl::cast_into(uint32_t slot, const glm::vec3& origin, const glm::vec3& dir,
                                std::span<const uint16_t> cand, const glm::vec3& fallback) {
-  const RayHit hit = field.cast_outermost(origin, dir, cand);
+  store(slot, origin, dir, field.cast_outermost(origin, dir, cand), fallback);
+}
+
+void BodySkin::Impl::store(uint32_t slot, const glm::vec3& origin, const glm::vec3& dir, RayHit hit,
+                           const glm::vec3& fallback) {
   ++stats.rays;
   ctrl_origin[slot] = origin;
   if (hit.hit()) {
@@ -220,9 +226,11 @@ void BodySkin::Impl::compute_ring(const Ring& r) {
       const int n = field.candidates_near_plane(p.origin, p.normal, r.mask, candidates);
       const std::span<const uint16_t> cand(candidates.data(), n);
       const std::vector<float>& ang = angle_tables[r.angles];
+      const std::span<RayHit> hits(star_hits.data(), r.slots.size());
+      field.cast_star(p.origin, p.front, p.left, ang, cand, hits);
       for (size_t j = 0; j < r.slots.size(); ++j) {
         const glm::vec3 d = std::cos(ang[j]) * p.front + std::sin(ang[j]) * p.left;
-        cast_into(r.slots[j], p.origin, d, cand, p.origin + kMissRadius_m * d);
+        store(r.slots[j], p.origin, d, hits[j], p.origin + kMissRadius_m * d);
       }
       break;
     }
@@ -322,6 +330,7 @@ Status BodySkin::Impl::build(const BodyModel& model) {
   const SkinLayout& L = layout;
   world_from_joint.resize(skeleton.joint_count());
   candidates.resize(kMaxCandidates);
+  star_hits.resize(static_cast<size_t>(L.torso_points));
 
   auto joint = [&](const char* name) { return skeleton.find_joint(name); };
   for (const char* name : {"pelvis", "spine_lower", "spine_mid", "spine_upper", "neck", "neck_upper", "head",
@@ -430,9 +439,9 @@ Status BodySkin::Impl::build(const BodyModel& model) {
                                L.shoulder_bridge, chest_id, false);
   const int r_bridge = add_arc("r_shoulder_bridge", group_bit(Group::right_shoulder), chest_slots[fr], chest_slots[kr],
                                L.shoulder_bridge, chest_id, false);
-  bridges.push_back({crotch_bridge});
-  bridges.push_back({l_bridge});
-  bridges.push_back({r_bridge});
+  bridges.push_back(Bridge{crotch_bridge, 0, 0, {}, {}});
+  bridges.push_back(Bridge{l_bridge, 0, 0, {}, {}});
+  bridges.push_back(Bridge{r_bridge, 0, 0, {}, {}});
 
   // Compute what exists so far in the rest posture: the loops' geometry sets the limb angles.
   for (const Ring& r : rings) compute_ring(r);
@@ -605,6 +614,9 @@ Status BodySkin::Impl::build(const BodyModel& model) {
       rigid.push_back(std::move(rm));
     }
   }
+  size_t widest = 0;
+  for (const Ring& r : rings) widest = std::max(widest, r.slots.size());
+  star_hits.resize(widest);
   build_output();
   return {};
 }

@@ -69,6 +69,13 @@ class BodyField {
   RayHit cast_outermost(const glm::vec3& origin, const glm::vec3& dir,
                         std::span<const uint16_t> candidates) const;
 
+  // A star of rays from one origin within a plane: ray j runs along
+  // cos(angles_rad[j])·front + sin(angles_rad[j])·left (front, left orthonormal). Same result as
+  // cast_outermost per ray, with the per-primitive work shared by the whole contour.
+  void cast_star(const glm::vec3& origin, const glm::vec3& front, const glm::vec3& left,
+                 std::span<const float> angles_rad, std::span<const uint16_t> candidates,
+                 std::span<RayHit> hits) const;
+
  private:
   struct Source {
     int joint = -1;
@@ -82,6 +89,7 @@ class BodyField {
   std::vector<glm::mat3> unit_from_world_;
   std::vector<glm::vec3> center_;
   std::vector<float> weight_norm_;   // w / (1 − 1/R²)³
+  std::vector<float> cbrt_inv_wn_;   // (1 / weight_norm)^(1/3)
   std::vector<float> inv_r2_;        // 1/R²
   std::vector<float> r2_;            // R²
   std::vector<float> bound_radius_;  // R · max semi-axis
