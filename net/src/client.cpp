@@ -95,7 +95,10 @@ Status Client::Impl::open_connection(Clock::time_point deadline) {
     connect_done = true;
     connect_ec = ec;
   });
-  while (!connect_done && Clock::now() < deadline) io.run_one_until(deadline);
+  while (!connect_done && Clock::now() < deadline) {
+    if (io.stopped()) io.restart();
+    io.run_one_until(deadline);
+  }
   if (!connect_done || connect_ec) {
     boost::system::error_code ignore;
     sock->close(ignore);
@@ -121,7 +124,10 @@ Status Client::Impl::open_connection(Clock::time_point deadline) {
   queue_control(std::span<const uint8_t>(buf.data(), n));
   flush();
   read();
-  while (!handshake_done && !fatal && generation == gen && Clock::now() < deadline) io.run_one_until(deadline);
+  while (!handshake_done && !fatal && generation == gen && Clock::now() < deadline) {
+    if (io.stopped()) io.restart();
+    io.run_one_until(deadline);
+  }
   if (fatal) return status();
   if (!handshake_done) {
     lose_connection();
@@ -362,15 +368,19 @@ Status Client::run_until(Clock::time_point deadline) {
   if (d.dropped) {
     if (!d.opt.reconnect || d.token == 0) return fail(Errc::disconnected, "connection to " + d.opt.connect + " lost");
     d.stats.reconnects++;
-    const auto limit = std::min(deadline, Clock::now() + seconds(d.opt.connect_timeout_s));
+    // The handshake gets its full timeout even when the caller's slice is shorter: a half-done
+    // resume would cost the server a session. (Blocking; see the header.)
+    const auto limit = Clock::now() + seconds(d.opt.connect_timeout_s);
     if (auto s = d.open_connection(limit); !s) {
       if (d.fatal) return s;
       d.dropped = true;  // try again on the next call
       return {};
     }
   }
-  if (d.io.stopped()) d.io.restart();
-  while (Clock::now() < deadline && !d.fatal && !d.dropped) d.io.run_one_until(deadline);
+  while (Clock::now() < deadline && !d.fatal && !d.dropped) {
+    if (d.io.stopped()) d.io.restart();
+    d.io.run_one_until(deadline);
+  }
   return d.status();
 }
 

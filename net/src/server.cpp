@@ -169,6 +169,7 @@ struct Session : std::enable_shared_from_this<Session> {
         std::chrono::duration<double>(srv.opt.hello_timeout_s)));
     hello_timer.async_wait([self = shared_from_this()](const boost::system::error_code& ec) {
       if (ec || self->closed || self->active) return;
+      self->count(Reject::timeout);
       self->refuse(Reject::timeout, "no HELLO in time");
     });
     read();
@@ -805,6 +806,8 @@ void Server::run() {
 }
 
 void Server::stop() { impl_->io.stop(); }
+
+void Server::dispatch(std::function<void()> fn) { asio::post(impl_->io, std::move(fn)); }
 
 const ServerStats& Server::stats() const { return impl_->stats; }
 

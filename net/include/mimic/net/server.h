@@ -16,6 +16,7 @@
 #include <array>
 #include <chrono>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <span>
 #include <string>
@@ -103,6 +104,9 @@ class Server {
   void poll();
   void run();
   void stop();  // any thread
+  // Runs `fn` on the thread driving the server (any thread may call; allocates: not for the
+  // realtime loop). For setup, tools and tests.
+  void dispatch(std::function<void()> fn);
 
   const ServerStats& stats() const;
   std::vector<SessionInfo> sessions() const;
