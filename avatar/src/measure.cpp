@@ -285,7 +285,8 @@ std::string format_measurements(const BodyMeasurements& m) {
   std::snprintf(buf, sizeof buf, "%-24s %10s  %s\n", "measurement", "value", "unit");
   out += buf;
   for (const auto& r : measurement_rows(m)) {
-    std::snprintf(buf, sizeof buf, "%-24s %10.2f  %s\n", r.name.c_str(), r.value, r.unit.c_str());
+    std::snprintf(buf, sizeof buf, r.unit == "m2" ? "%-24s %10.3f  %s\n" : "%-24s %10.2f  %s\n", r.name.c_str(),
+                  r.value, r.unit.c_str());
     out += buf;
   }
   std::snprintf(buf, sizeof buf,
@@ -357,8 +358,9 @@ std::string format_comparison(const BodyMeasurements& ours, const BodyMeasuremen
   for (const auto& c : compare(ours, reference, tolerance)) {
     const std::string label = c.ref.name + " (" + c.ref.unit + ")";
     const std::optional<double> diff = c.difference ? std::optional<double>(100.0 * *c.difference) : std::nullopt;
-    std::snprintf(buf, sizeof buf, "%-24s %10s %10s %8s  %s\n", label.c_str(), num(c.ours, "%.2f").c_str(),
-                  num(c.ref.value, "%.2f").c_str(), num(diff, "%+.1f").c_str(), c.pass ? "PASS" : "FAIL");
+    const char* fmt = c.ref.unit == "m2" ? "%.3f" : "%.2f";
+    std::snprintf(buf, sizeof buf, "%-24s %10s %10s %8s  %s\n", label.c_str(), num(c.ours, fmt).c_str(),
+                  num(c.ref.value, fmt).c_str(), num(diff, "%+.1f").c_str(), c.pass ? "PASS" : "FAIL");
     out += buf;
   }
   return out;
