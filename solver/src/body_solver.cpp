@@ -40,6 +40,101 @@ bool heading_of(const glm::vec3& forward, glm::quat& out) {
   return true;
 }
 
+// One evaluation of an arm or leg for a given swivel: the two-bone positions turned into DOF
+// values (clamped), with how far the limits had to cut them.
+struct ChainInput {
+  const Skeleton* s;
+  const SolverModel::Chain* ch;
+  const RigidTransform* parent_w;
+  glm::vec3 start;
+  const RigidTransform* end_t;
+  std::span<const float> warm;   // current DOF values (warm start of the decompositions)
+  glm::vec3 hinge_hint{0.0f};    // which way the hinge should face when over-extension is possible
+  const glm::vec3* last_bend = nullptr;
+};
+
+struct ChainSolution {
+  bool ok = false;
+  std::array<float, 3> upper{}, end{};
+  float bend = 0;
+  glm::vec3 bend_world{0.0f};
+  float violation = 0;  // radians cut off by the limits, summed
+};
+
+float decompose_clamped(const Skeleton& s, const int* dofs, int count, const glm::quat& q,
+                        std::span<const float> warm, std::array<float, 3>& out) {
+  std::array<glm::vec3, 3> axes;
+  std::array<float, 3> lo{}, hi{};
+  for (int i = 0; i < count; ++i) {
+    const auto& f = s.dof(dofs[i]);
+    axes[i] = f.axis, lo[i] = f.min_rad, hi[i] = f.max_rad;
+    out[i] = warm[dofs[i]];
+  }
+  angles_from_rotation(q, std::span(axes.data(), count), std::span(out.data(), count),
+                       std::span(lo.data(), count), std::span(hi.data(), count));
+  float violation = 0;
+  for (int i = 0; i < count; ++i) {
+    const float v = std::clamp(out[i], lo[i], hi[i]);
+    violation += std::abs(v - out[i]);
+    out[i] = v;
+  }
+  return violation;
+}
+
+ChainSolution solve_chain(const ChainInput& in, const glm::vec3& pole) {
+  const Skeleton& s = *in.s;
+  const SolverModel::Chain& ch = *in.ch;
+  ChainSolution out;
+  TwoBoneIkJob tb;
+  tb.start_m = in.start;
+  tb.target_m = in.end_t->translation;
+  tb.pole_dir = pole;
+  tb.upper_m = ch.upper_m;
+  tb.lower_m = ch.lower_m;
+  const auto& flex = s.dof(ch.flex_dof);
+  tb.min_bend_rad = std::max(0.0f, flex.min_rad);
+  tb.max_bend_rad = std::max(tb.min_bend_rad, flex.max_rad);
+  if (!tb.Run()) return out;
+  const glm::vec3 x_w = glm::normalize(tb.mid_m - in.start);
+  const glm::vec3 f = glm::normalize(tb.end_m - tb.mid_m);
+  glm::vec3 b_w = perpendicular_part(f, x_w);
+  if (glm::length(b_w) < 1e-3f) {
+    // Straight: the bend plane is free; keep the one the pole implies.
+    b_w = perpendicular_part(-pole, x_w);
+    if (glm::length(b_w) < 1e-4f) b_w = perpendicular_part(in.parent_w->rotation * ch.bend_dir, x_w);
+    if (glm::length(b_w) < 1e-4f) b_w = perpendicular_part(in.parent_w->rotation * ch.hinge, x_w);
+  }
+  b_w = glm::normalize(b_w);
+  // A nearly straight limb may be over-extended (a bend below zero) instead: then the bend plane
+  // turns over. Keep the plane whose hinge agrees with the hint.
+  const float bend0 = std::atan2(glm::dot(f, b_w), glm::dot(f, x_w));
+  if (flex.min_rad < 0 && bend0 <= -flex.min_rad) {
+    const glm::vec3 hint = in.last_bend ? glm::cross(x_w, *in.last_bend) : in.hinge_hint;
+    if (glm::dot(glm::cross(x_w, b_w), hint) < 0) b_w = -b_w;
+  }
+  const glm::vec3 h_w = glm::cross(x_w, b_w);
+  const glm::mat3 world_m(x_w, b_w, h_w);
+  const glm::mat3 rest_m(ch.upper_dir, ch.bend_dir, ch.hinge);
+  const glm::quat upper_world = glm::normalize(glm::quat_cast(world_m * glm::transpose(rest_m)));
+  out.violation = decompose_clamped(s, ch.upper_dofs.data(), ch.upper_dof_count,
+                                    glm::conjugate(in.parent_w->rotation) * upper_world, in.warm, out.upper);
+  const float bend = std::atan2(glm::dot(f, b_w), glm::dot(f, x_w));
+  out.bend = std::clamp(bend, flex.min_rad, flex.max_rad);
+  out.violation += std::abs(out.bend - bend);
+  out.bend_world = b_w;
+  // The upper joint as clamped, then the bend: what is left orients the hand or foot.
+  glm::quat upper_local(1, 0, 0, 0);
+  for (int i = 0; i < ch.upper_dof_count; ++i) upper_local = upper_local * glm::angleAxis(out.upper[i], s.dof(ch.upper_dofs[i]).axis);
+  const glm::quat mid_pre = in.parent_w->rotation * upper_local * glm::angleAxis(out.bend, ch.hinge);
+  out.violation += decompose_clamped(s, ch.end_dofs.data(), ch.end_dof_count,
+                                     glm::conjugate(mid_pre) * in.end_t->rotation, in.warm, out.end);
+  out.ok = true;
+  return out;
+}
+
+// Limits first, then closeness to the hinted swivel.
+float chain_cost(const ChainSolution& c, float phi) { return 40.0f * c.violation + 0.1f * phi * phi; }
+
 }  // namespace
 
 Result<SolverModel> SolverModel::create(Skeleton skeleton, std::vector<SensorMount> mounts,
@@ -86,9 +181,15 @@ Result<SolverModel> SolverModel::create(Skeleton skeleton, std::vector<SensorMou
                                        kChains[c][1] + "–" + kChains[c][2]);
     if (s.dof_begin(ch.mid) == s.dof_end(ch.mid))
       return fail(Errc::invalid_argument, std::string("solver: joint ") + kChains[c][1] + " has no bend DOF");
-    if (s.dof_end(ch.end) - s.dof_end(ch.mid) + (s.dof_end(ch.mid) - s.dof_begin(ch.mid) - 1) > 3)
-      return fail(Errc::unsupported, std::string("solver: more than 3 DOFs below the bend of ") + kChains[c][1]);
     ch.flex_dof = s.dof_begin(ch.mid);
+    // DOF indices are packed per joint, parents first, so the middle's and the end's are apart.
+    if ((s.dof_end(ch.mid) - ch.flex_dof - 1) + (s.dof_end(ch.end) - s.dof_begin(ch.end)) > 3)
+      return fail(Errc::unsupported, std::string("solver: more than 3 DOFs below the bend of ") + kChains[c][1]);
+    for (int d = ch.flex_dof + 1; d < s.dof_end(ch.mid); ++d) ch.end_dofs[ch.end_dof_count++] = d;
+    if (s.dof_end(ch.upper) - s.dof_begin(ch.upper) > 3)
+      return fail(Errc::unsupported, std::string("solver: more than 3 DOFs at ") + kChains[c][0]);
+    for (int d = s.dof_begin(ch.upper); d < s.dof_end(ch.upper); ++d) ch.upper_dofs[ch.upper_dof_count++] = d;
+    for (int d = s.dof_begin(ch.end); d < s.dof_end(ch.end); ++d) ch.end_dofs[ch.end_dof_count++] = d;
     ch.upper_m = glm::length(s.offset_m(ch.mid));
     ch.lower_m = glm::length(s.offset_m(ch.end));
     if (ch.upper_m <= 0 || ch.lower_m <= 0)
@@ -102,6 +203,13 @@ Result<SolverModel> SolverModel::create(Skeleton skeleton, std::vector<SensorMou
                                          " must be straight in the zero posture with its bend axis across it");
     // Elbows hang down and a little back, knees point forward.
     ch.default_pole = c < 2 ? glm::normalize(glm::vec3(0, -1, -0.3f)) : glm::vec3(0, 0, 1);
+    if (c < 2) {
+      const int clavicle = s.parent(ch.upper);
+      if (clavicle > 0 && std::find(m.trunk_joints_.begin(), m.trunk_joints_.end(), clavicle) == m.trunk_joints_.end())
+        for (int d = s.dof_begin(clavicle); d < s.dof_end(clavicle); ++d) m.arm_dofs_[c].push_back(d);
+      for (int d = s.dof_begin(ch.upper); d < s.dof_end(ch.upper); ++d) m.arm_dofs_[c].push_back(d);
+      m.arm_dofs_[c].push_back(ch.flex_dof);
+    }
     m.chain_of_joint_[ch.upper] = m.chain_of_joint_[ch.mid] = m.chain_of_joint_[ch.end] = static_cast<int8_t>(c);
     if (c >= 2)
       for (int j : {ch.upper, ch.mid})
@@ -113,12 +221,16 @@ Result<SolverModel> SolverModel::create(Skeleton skeleton, std::vector<SensorMou
 }
 
 SolverContext::SolverContext(const SolverModel& model)
-    : ls_(model.skeleton(), static_cast<int>(model.trunk_dofs_.size() + model.leg_dofs_.size()),
-          static_cast<int>(model.trunk_joints_.size()) + 3) {
+    : ls_(model.skeleton(),
+          static_cast<int>(model.trunk_dofs_.size() + model.leg_dofs_.size() + model.arm_dofs_[0].size() +
+                           model.arm_dofs_[1].size()),
+          static_cast<int>(model.trunk_joints_.size()) + 7) {
   const int n = model.skeleton().joint_count();
-  targets_.reserve(model.trunk_joints_.size() + 3);
-  ls_dofs_.reserve(model.trunk_dofs_.size() + model.leg_dofs_.size());
+  targets_.reserve(model.trunk_joints_.size() + 7);
+  ls_dofs_.reserve(model.trunk_dofs_.size() + model.leg_dofs_.size() + model.arm_dofs_[0].size() +
+                   model.arm_dofs_[1].size());
   segment_target_.resize(n);
+  prior_.resize(model.skeleton().dof_count());
   has_target_.resize(n);
   world_.resize(n);
 }
@@ -196,6 +308,20 @@ bool SolveJob::Run() {
     }
     if (feet) c.ls_dofs_.insert(c.ls_dofs_.end(), m.leg_dofs_.begin(), m.leg_dofs_.end());
   }
+  // Hands: the arm DOFs (clavicle, shoulder, elbow bend) join the solve so that the trunk
+  // leaves the hands within reach; the analytic chains below then place the arms exactly.
+  if (trunk_observed) {
+    for (int arm = 0; arm < 2; ++arm) {
+      const int e = m.chains_[arm].end;
+      if (!c.has_target_[e]) continue;
+      c.targets_.push_back(IkTarget{e, c.segment_target_[e].translation, glm::quat(1, 0, 0, 0), o.position_weight, 0.0f});
+      c.ls_dofs_.insert(c.ls_dofs_.end(), m.arm_dofs_[arm].begin(), m.arm_dofs_[arm].end());
+      const int clavicle = s.parent(m.chains_[arm].upper);
+      if (c.has_target_[clavicle])
+        c.targets_.push_back(IkTarget{clavicle, c.segment_target_[clavicle].translation, c.segment_target_[clavicle].rotation,
+                                      o.position_weight, o.rotation_weight});
+    }
+  }
   ls_iterations = 0;
   if (trunk_observed) {
     LeastSquaresIkJob ls;
@@ -203,7 +329,11 @@ bool SolveJob::Run() {
     ls.dofs = c.ls_dofs_;
     ls.solve_root = !root_known;
     ls.targets = c.targets_;
-    ls.prior_rad = m.prior_rad_;
+    // Relaxed trunk, but no pull on the arms: their DOFs are there only to keep the hands in reach.
+    std::copy(m.prior_rad_.begin(), m.prior_rad_.end(), c.prior_.begin());
+    for (int arm = 0; arm < 2; ++arm)
+      for (int d : m.arm_dofs_[arm]) c.prior_[d] = dof[d];
+    ls.prior_rad = c.prior_;
     ls.prior_weight = o.prior_weight;
     ls.damping = o.damping;
     ls.max_iterations = o.iterations;
@@ -233,6 +363,9 @@ bool SolveJob::Run() {
     joint_dofs_from_rotation(s, j, glm::conjugate(parent_rot) * c.segment_target_[j].rotation, dof);
   };
   bool is_trunk[64] = {};
+  bool solved_by_ls[64] = {};
+  if (trunk_observed)
+    for (int d : c.ls_dofs_) solved_by_ls[s.dof(d).joint] = true;
   for (int j : m.trunk_joints_) is_trunk[j] = true;
 
   for (int j = 0; j < s.joint_count(); ++j) {
@@ -260,39 +393,47 @@ bool SolveJob::Run() {
           const float reach = ch.upper_m + ch.lower_m;
           pole = guess + 0.3f * reach * default_pole;
         }
-        TwoBoneIkJob tb;
-        tb.start_m = start;
-        tb.target_m = end_t.translation;
-        tb.pole_dir = pole;
-        tb.upper_m = ch.upper_m;
-        tb.lower_m = ch.lower_m;
-        const auto& flex = s.dof(ch.flex_dof);
-        tb.min_bend_rad = std::max(0.0f, flex.min_rad);
-        tb.max_bend_rad = std::max(tb.min_bend_rad, flex.max_rad);
-        if (tb.Run()) {
-          const glm::vec3 x_w = glm::normalize(tb.mid_m - start);
-          const glm::vec3 f = glm::normalize(tb.end_m - tb.mid_m);
-          glm::vec3 b_w = perpendicular_part(f, x_w);
-          if (glm::length(b_w) < 1e-3f) {
-            // Straight: the bend plane is free; keep the one the pole (or the last frame) implies.
-            b_w = perpendicular_part(-pole, x_w);
-            if (glm::length(b_w) < 1e-4f && c.have_previous_) b_w = perpendicular_part(c.last_bend_world_[ci], x_w);
-            if (glm::length(b_w) < 1e-4f) b_w = perpendicular_part(parent_w.rotation * ch.bend_dir, x_w);
-            if (glm::length(b_w) < 1e-4f) b_w = perpendicular_part(parent_w.rotation * ch.hinge, x_w);
+        ChainInput in{&s, &ch, &parent_w, start, &end_t, dof};
+        if (c.has_target_[ch.upper]) in.hinge_hint = c.segment_target_[ch.upper].rotation * ch.hinge;
+        else if (c.has_target_[ch.mid]) in.hinge_hint = c.segment_target_[ch.mid].rotation * ch.hinge;
+        else if (c.have_previous_) in.last_bend = &c.last_bend_world_[ci];
+        else in.hinge_hint = end_t.rotation * ch.hinge;
+        // Swivel: the hint first; if the limits cannot follow it (shoulder twist, forearm twist,
+        // wrist, hip rotation …), the feasible swivel nearest to it.
+        const glm::vec3 axis_dir = end_t.translation - start;
+        const float axis_len = glm::length(axis_dir);
+        const glm::vec3 n = axis_len > 1e-6f ? axis_dir / axis_len : glm::vec3(0, -1, 0);
+        glm::vec3 e1 = perpendicular_part(pole, n);
+        if (glm::length(e1) < 1e-6f) e1 = perpendicular_part(default_pole, n);
+        if (glm::length(e1) < 1e-6f) e1 = perpendicular_part(glm::vec3(0, 0, 1), n);
+        if (glm::length(e1) < 1e-6f) e1 = perpendicular_part(glm::vec3(1, 0, 0), n);
+        e1 = glm::normalize(e1);
+        const glm::vec3 e2 = glm::cross(n, e1);
+        ChainSolution best = solve_chain(in, e1);
+        if (best.ok && best.violation > 1e-4f) {
+          float best_phi = 0;
+          float best_cost = chain_cost(best, 0.0f);
+          constexpr int kSamples = 16;
+          for (int k = 1; k < kSamples; ++k) {
+            const float phi = 6.2831853f * static_cast<float>(k) / kSamples - (k > kSamples / 2 ? 6.2831853f : 0.0f);
+            const ChainSolution cand = solve_chain(in, std::cos(phi) * e1 + std::sin(phi) * e2);
+            const float cost = chain_cost(cand, phi);
+            if (cand.ok && cost < best_cost) best = cand, best_cost = cost, best_phi = phi;
           }
-          b_w = glm::normalize(b_w);
-          c.last_bend_world_[ci] = b_w;
-          const glm::vec3 h_w = glm::cross(x_w, b_w);
-          const glm::mat3 world_m(x_w, b_w, h_w);
-          const glm::mat3 rest_m(ch.upper_dir, ch.bend_dir, ch.hinge);
-          const glm::quat upper_world = glm::normalize(glm::quat_cast(world_m * glm::transpose(rest_m)));
-          joint_dofs_from_rotation(s, j, glm::conjugate(parent_w.rotation) * upper_world, dof);
-          const float bend = std::atan2(glm::dot(f, b_w), glm::dot(f, x_w));
-          dof[ch.flex_dof] = std::clamp(bend, flex.min_rad, flex.max_rad);
+          for (float step = 6.2831853f / (2 * kSamples); step > 0.005f; step *= 0.5f) {
+            for (float phi : {best_phi - step, best_phi + step}) {
+              const ChainSolution cand = solve_chain(in, std::cos(phi) * e1 + std::sin(phi) * e2);
+              const float cost = chain_cost(cand, phi);
+              if (cand.ok && cost < best_cost) best = cand, best_cost = cost, best_phi = phi;
+            }
+          }
+        }
+        if (best.ok) {
+          for (int i = 0; i < ch.upper_dof_count; ++i) dof[ch.upper_dofs[i]] = best.upper[i];
+          dof[ch.flex_dof] = best.bend;
+          for (int i = 0; i < ch.end_dof_count; ++i) dof[ch.end_dofs[i]] = best.end[i];
+          c.last_bend_world_[ci] = best.bend_world;
           fk(j);
-          const glm::quat mid_pre = c.world_[j].rotation * glm::angleAxis(dof[ch.flex_dof], ch.hinge);
-          dof_range_from_rotation(s, ch.flex_dof + 1, s.dof_end(ch.end),
-                                  glm::conjugate(mid_pre) * end_t.rotation, dof);
           chain_solved[ci] = true;
           continue;
         }
@@ -303,7 +444,7 @@ bool SolveJob::Run() {
       }
     } else {
       if (c.has_target_[j]) from_orientation(j);
-      else relax(j);
+      else if (!solved_by_ls[j]) relax(j);
     }
     fk(j);
   }

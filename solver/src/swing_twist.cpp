@@ -24,6 +24,18 @@ float limit_violation(float v, std::span<const float> lo, std::span<const float>
 }
 
 // Candidate cost: distance to the previous values; leaving the limits costs far more.
+// Of θ and θ ± 2π, the one inside the limits (if any) nearest the previous value: unwrapping
+// towards a previous value far from the truth must not push an angle out of its range.
+float nearest_turn(float angle, float previous, std::span<const float> lo, std::span<const float> hi, size_t i) {
+  float best = angle, best_cost = 0;
+  for (int k = -1; k <= 1; ++k) {
+    const float a = angle + static_cast<float>(k) * kTwoPi;
+    const float cost = 1e6f * limit_violation(a, lo, hi, i) + (a - previous) * (a - previous);
+    if (k == -1 || cost < best_cost) best = a, best_cost = cost;
+  }
+  return best;
+}
+
 // With two DOFs the third angle is what gets dropped, so it should be small (prev = 0).
 float branch_cost(const std::array<float, 3>& c, const std::array<float, 3>& prev,
                   std::span<const float> lo, std::span<const float> hi) {
@@ -69,7 +81,7 @@ void decompose3(const glm::quat& local, const glm::vec3& a0, const glm::vec3& a1
   int best = 0;
   float best_cost = 0;
   for (int k = 0; k < n_cand; ++k) {
-    for (size_t i = 0; i < 3; ++i) cand[k][i] = unwrap_near(cand[k][i], prev[i]);
+    for (size_t i = 0; i < 3; ++i) cand[k][i] = nearest_turn(unwrap_near(cand[k][i], prev[i]), prev[i], lo, hi, i);
     const float cost = branch_cost(cand[k], prev, lo, hi);
     if (k == 0 || cost < best_cost) {
       best = k;
@@ -93,7 +105,8 @@ void angles_from_rotation(const glm::quat& local, std::span<const glm::vec3> axe
   assert(axes.size() == angles_rad.size() && !axes.empty() && axes.size() <= 3);
   switch (axes.size()) {
     case 1:
-      angles_rad[0] = unwrap_near(twist_angle_rad(local, axes[0]), angles_rad[0]);
+      angles_rad[0] = nearest_turn(unwrap_near(twist_angle_rad(local, axes[0]), angles_rad[0]), angles_rad[0],
+                                   min_rad, max_rad, 0);
       break;
     case 2: {
       // Dropping the rotation about a0 × a1 (the rightmost factor) keeps that axis' image.
@@ -106,27 +119,31 @@ void angles_from_rotation(const glm::quat& local, std::span<const glm::vec3> axe
   }
 }
 
-void dof_range_from_rotation(const avatar::Skeleton& skeleton, int first_dof, int last_dof,
-                             const glm::quat& rotation, std::span<float> dof_rad) {
-  const int n = last_dof - first_dof;
-  if (n <= 0) return;
+void dofs_from_rotation(const avatar::Skeleton& skeleton, std::span<const int> dofs,
+                        const glm::quat& rotation, std::span<float> dof_rad) {
+  const size_t n = dofs.size();
+  if (n == 0) return;
   assert(n <= 3);
   std::array<glm::vec3, 3> axes;
-  std::array<float, 3> lo{}, hi{};
-  for (int i = 0; i < n; ++i) {
-    const avatar::Dof& f = skeleton.dof(first_dof + i);
+  std::array<float, 3> lo{}, hi{}, angles{};
+  for (size_t i = 0; i < n; ++i) {
+    const avatar::Dof& f = skeleton.dof(dofs[i]);
     axes[i] = f.axis;
     lo[i] = f.min_rad;
     hi[i] = f.max_rad;
+    angles[i] = dof_rad[dofs[i]];
   }
-  angles_from_rotation(rotation, std::span(axes.data(), n), dof_rad.subspan(first_dof, n),
+  angles_from_rotation(rotation, std::span(axes.data(), n), std::span(angles.data(), n),
                        std::span(lo.data(), n), std::span(hi.data(), n));
-  for (int i = 0; i < n; ++i) dof_rad[first_dof + i] = std::clamp(dof_rad[first_dof + i], lo[i], hi[i]);
+  for (size_t i = 0; i < n; ++i) dof_rad[dofs[i]] = std::clamp(angles[i], lo[i], hi[i]);
 }
 
 void joint_dofs_from_rotation(const avatar::Skeleton& skeleton, int joint, const glm::quat& local,
                               std::span<float> dof_rad) {
-  dof_range_from_rotation(skeleton, skeleton.dof_begin(joint), skeleton.dof_end(joint), local, dof_rad);
+  std::array<int, 3> dofs{};
+  const int n = skeleton.dof_end(joint) - skeleton.dof_begin(joint);
+  for (int i = 0; i < n; ++i) dofs[i] = skeleton.dof_begin(joint) + i;
+  dofs_from_rotation(skeleton, std::span(dofs.data(), n), local, dof_rad);
 }
 
 }  // namespace mimic::solver

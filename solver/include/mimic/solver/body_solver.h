@@ -64,6 +64,10 @@ class SolverModel {
   struct Chain {        // shoulder–elbow–wrist or hip–knee–ankle
     int upper = -1, mid = -1, end = -1;
     int flex_dof = -1;  // the middle joint's first DOF: its bend
+    std::array<int, 3> upper_dofs{};
+    int upper_dof_count = 0;
+    std::array<int, 3> end_dofs{};  // DOFs after the bend that orient the end segment
+    int end_dof_count = 0;
     glm::vec3 upper_dir{0};   // unit upper link in the upper joint's frame
     glm::vec3 bend_dir{0};    // where the lower link swings when the bend grows (upper frame)
     glm::vec3 hinge{0};       // bend axis (upper frame); (upper_dir, bend_dir, hinge) right-handed
@@ -83,6 +87,7 @@ class SolverModel {
   std::vector<int> trunk_dofs_;                   // spine, neck, head
   std::vector<int> trunk_joints_;
   std::vector<int> leg_dofs_;                     // hips and knees (root placed from the feet)
+  std::array<std::vector<int>, 2> arm_dofs_;      // clavicle, shoulder, elbow bend
   std::array<Chain, 4> chains_{};                 // l arm, r arm, l leg, r leg
   std::vector<int8_t> chain_of_joint_;            // chain index for upper/mid/end joints, else -1
   std::vector<float> prior_rad_;                  // relaxed values
@@ -99,6 +104,7 @@ class SolverContext {
   LeastSquaresIkContext ls_;
   std::vector<IkTarget> targets_;
   std::vector<int> ls_dofs_;
+  std::vector<float> prior_;
   std::vector<avatar::RigidTransform> segment_target_;  // per joint
   std::vector<uint8_t> has_target_;                      // per joint
   std::vector<avatar::RigidTransform> world_;

@@ -33,10 +33,10 @@ void angles_from_rotation(const glm::quat& local, std::span<const glm::vec3> axe
 void joint_dofs_from_rotation(const avatar::Skeleton& skeleton, int joint, const glm::quat& local,
                               std::span<float> dof_rad);
 
-// DOFs [first, last) of the skeleton (consecutive, possibly spanning joints along one chain whose
-// link rotations compose: the caller guarantees no translation between them matters) from one
-// rotation. Used for forearm twist + wrist, which together orient the hand.
-void dof_range_from_rotation(const avatar::Skeleton& skeleton, int first_dof, int last_dof,
-                             const glm::quat& rotation, std::span<float> dof_rad);
+// Up to three skeleton DOFs (indices, in the order their rotations compose, possibly spanning
+// joints along one chain) from one rotation, clamped to their limits. Used for forearm twist +
+// wrist, which together orient the hand.
+void dofs_from_rotation(const avatar::Skeleton& skeleton, std::span<const int> dofs,
+                        const glm::quat& rotation, std::span<float> dof_rad);
 
 }  // namespace mimic::solver
