@@ -1,0 +1,197 @@
+// mimic devices: what trackers and input devices are connected, optionally watched for changes.
+#include <atomic>
+#include <chrono>
+#include <csignal>
+#include <cstdio>
+#include <ctime>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "command.h"
+#include "mimic/devices/usb_discovery.h"
+
+namespace mimic::app {
+namespace {
+
+constexpr const char* kName = "devices";
+constexpr const char* kUsage =
+    "usage: mimic devices [--json] [--watch [--interval S] [--duration S]]\n"
+    "\n"
+    "Lists what Mimic can use that is connected to this machine:\n"
+    "  - USB devices recognised by vendor/product id (libusb): 3Dconnexion SpaceMouse,\n"
+    "    SpaceNavigator, SpacePilot ... and USB-serial adapters a Flock of Birds or a serial\n"
+    "    Spaceball/Magellan may sit behind (FTDI, Prolific PL2303, Silicon Labs CP210x, WCH\n"
+    "    CH340/CH341/CH9102, Keyspan);\n"
+    "  - 3Dconnexion HID devices as hidapi sees them, with the path to give a spacemouse: source;\n"
+    "  - serial ports: /dev/ttyS* with a UART fitted, /dev/ttyUSB*, /dev/ttyACM*, and the\n"
+    "    links in /dev/serial/by-id.\n"
+    "When USB or HID cannot be listed (no libusb/hidapi in this build, no /dev/bus/usb in a\n"
+    "container) the output says why, and the rest is still listed.\n"
+    "\n"
+    "options:\n"
+    "  --json          one JSON object instead of text (with --watch: one object per change,\n"
+    "                  one per line)\n"
+    "  --watch         keep running and print arrivals (+) and departures (-) until Ctrl-C;\n"
+    "                  uses libusb hot-plug notification where available and rescans every\n"
+    "                  --interval seconds in any case (serial ports have no notification)\n"
+    "  --interval S    rescan period for --watch (default 1)\n"
+    "  --duration S    stop watching after S seconds (default: until Ctrl-C)\n"
+    "\n"
+    "Exit status: 0 (also when nothing is connected), 2 on bad usage.\n";
+
+std::atomic<bool> g_stop{false};
+void on_signal(int) { g_stop.store(true); }
+
+nlohmann::json to_json(const devices::DeviceInventory& inv) {
+  auto hex = [](uint16_t v) {
+    char b[8];
+    std::snprintf(b, sizeof b, "%04x", v);
+    return std::string(b);
+  };
+  nlohmann::json j;
+  j["usb"] = nlohmann::json::array();
+  for (const auto& u : inv.usb.recognised) {
+    j["usb"].push_back({{"vendor_id", hex(u.vendor_id)},
+                        {"product_id", hex(u.product_id)},
+                        {"name", u.name},
+                        {"kind", u.kind == devices::UsbKind::six_dof ? "6dof" : "usb-serial"},
+                        {"bus", u.bus},
+                        {"address", u.address}});
+  }
+  j["usb_other_devices"] = inv.usb.other_devices;
+  if (!inv.usb_error.empty()) j["usb_error"] = inv.usb_error;
+  j["hid"] = nlohmann::json::array();
+  for (const auto& h : inv.hid) {
+    j["hid"].push_back({{"vendor_id", hex(h.vendor_id)},
+                        {"product_id", hex(h.product_id)},
+                        {"name", h.model ? h.model->name : h.product},
+                        {"path", h.path},
+                        {"serial", h.serial}});
+  }
+  if (!inv.hid_error.empty()) j["hid_error"] = inv.hid_error;
+  j["serial"] = nlohmann::json::array();
+  for (const auto& s : inv.serial) j["serial"].push_back({{"path", s.path}, {"target", s.target}, {"kind", s.kind}});
+  j["nothing_connected"] = inv.nothing_to_use();
+  return j;
+}
+
+void print_text(const devices::DeviceInventory& inv) {
+  std::printf("USB (libusb):\n");
+  if (!inv.usb_error.empty()) {
+    std::printf("  cannot list: %s\n", inv.usb_error.c_str());
+  } else {
+    for (const auto& u : inv.usb.recognised) {
+      std::printf("  %04x:%04x  %-40s bus %u address %u\n", u.vendor_id, u.product_id, u.name.c_str(), u.bus,
+                  u.address);
+    }
+    if (inv.usb.recognised.empty()) std::printf("  no 3Dconnexion device or USB-serial adapter");
+    if (inv.usb.recognised.empty()) std::printf(" (%zu other USB devices)\n", inv.usb.other_devices);
+  }
+  std::printf("HID (hidapi):\n");
+  if (!inv.hid_error.empty()) {
+    std::printf("  cannot list: %s\n", inv.hid_error.c_str());
+  } else if (inv.hid.empty()) {
+    std::printf("  no 3Dconnexion HID device\n");
+  }
+  for (const auto& h : inv.hid) {
+    std::printf("  %04x:%04x  %-40s spacemouse:%s\n", h.vendor_id, h.product_id, h.model ? h.model->name : "",
+                h.path.c_str());
+  }
+  std::printf("Serial ports:\n");
+  if (inv.serial.empty()) std::printf("  none\n");
+  for (const auto& s : inv.serial) {
+    if (s.target != s.path) std::printf("  %-44s %s -> %s\n", s.path.c_str(), s.kind.c_str(), s.target.c_str());
+    else std::printf("  %-44s %s\n", s.path.c_str(), s.kind.c_str());
+  }
+  if (inv.nothing_to_use()) {
+    std::printf("\nNo 6-DOF input device or USB-serial adapter is connected.%s\n",
+                inv.serial.empty() ? " No serial ports either."
+                                   : " A serial tracker may still be on one of the serial ports above.");
+  }
+  std::fflush(stdout);
+}
+
+std::string timestamp() {
+  const std::time_t t = std::time(nullptr);
+  char b[32];
+  std::strftime(b, sizeof b, "%H:%M:%S", std::localtime(&t));
+  return b;
+}
+
+int run(const std::vector<std::string>& argv) {
+  Args args(argv, {"interval", "duration"}, {"json", "watch"});
+  if (!args.ok()) return usage_error(kName, args.error());
+  if (args.help()) {
+    std::printf("%s", kUsage);
+    return 0;
+  }
+  if (!args.positionals().empty()) return usage_error(kName, "unexpected argument '" + args.positionals()[0] + "'");
+  double interval_s = 1.0, duration_s = 0.0;
+  if (!args.get_double("interval", interval_s) || !args.get_double("duration", duration_s)) {
+    return usage_error(kName, args.error());
+  }
+  if (!(interval_s > 0)) return usage_error(kName, "--interval must be positive");
+  if ((args.has("interval") || args.has("duration")) && !args.has("watch")) {
+    return usage_error(kName, "--interval and --duration only apply with --watch");
+  }
+  const bool json = args.has("json");
+
+  auto inv = devices::scan_devices();
+  if (json) {
+    std::printf("%s\n", to_json(inv).dump(json && args.has("watch") ? -1 : 2).c_str());
+    std::fflush(stdout);
+  } else {
+    print_text(inv);
+  }
+  if (!args.has("watch")) return 0;
+
+  std::signal(SIGINT, on_signal);
+  std::signal(SIGTERM, on_signal);
+  std::atomic<bool> usb_changed{false};
+  auto hotplug = devices::UsbHotplug::start([&] { usb_changed.store(true); });
+  if (!json) {
+    std::string how = "USB hot-plug notification";
+    if (!hotplug) {
+      how = "no USB hot-plug: ";
+      how += hotplug.error().message;
+    }
+    std::printf("\nWatching (%s; rescans every %g s). Ctrl-C to stop.\n", how.c_str(), interval_s);
+    std::fflush(stdout);
+  }
+  auto lines = devices::inventory_lines(inv);
+  using clock = std::chrono::steady_clock;
+  const auto start = clock::now();
+  auto next_scan = start + std::chrono::duration<double>(interval_s);
+  while (!g_stop.load()) {
+    if (duration_s > 0 && clock::now() - start >= std::chrono::duration<double>(duration_s)) break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    if (!usb_changed.exchange(false) && clock::now() < next_scan) continue;
+    next_scan = clock::now() + std::chrono::duration<double>(interval_s);
+    auto now = devices::scan_devices();
+    auto now_lines = devices::inventory_lines(now);
+    const auto change = devices::diff_inventory(lines, now_lines);
+    if (change.arrived.empty() && change.departed.empty()) continue;
+    if (json) {
+      nlohmann::json j = to_json(now);
+      j["arrived"] = change.arrived;
+      j["departed"] = change.departed;
+      std::printf("%s\n", j.dump().c_str());
+    } else {
+      for (const auto& a : change.arrived) std::printf("%s + %s\n", timestamp().c_str(), a.c_str());
+      for (const auto& d : change.departed) std::printf("%s - %s\n", timestamp().c_str(), d.c_str());
+    }
+    std::fflush(stdout);
+    lines = std::move(now_lines);
+  }
+  return 0;
+}
+
+}  // namespace
+
+MIMIC_COMMAND(devices, kName, "list connected trackers, SpaceMice and serial ports (--watch for hot-plug)",
+              kUsage, run);
+
+}  // namespace mimic::app
