@@ -11,7 +11,11 @@
 #include <nlohmann/json.hpp>
 
 #include "command.h"
+#include "mimic/devices/hid_spacemouse.h"
+#include "mimic/devices/magellan.h"
+#include "mimic/devices/spaceball.h"
 #include "mimic/devices/usb_discovery.h"
+#include "mimic/sim/virtual_hid.h"
 
 namespace mimic::app {
 namespace {
@@ -19,6 +23,7 @@ namespace {
 constexpr const char* kName = "devices";
 constexpr const char* kUsage =
     "usage: mimic devices [--json] [--watch [--interval S] [--duration S]]\n"
+    "       mimic devices --read SOURCE [--duration S]\n"
     "\n"
     "Lists what Mimic can use that is connected to this machine:\n"
     "  - USB devices recognised by vendor/product id (libusb): 3Dconnexion SpaceMouse,\n"
@@ -38,7 +43,17 @@ constexpr const char* kUsage =
     "                  uses libusb hot-plug notification where available and rescans every\n"
     "                  --interval seconds in any case (serial ports have no notification)\n"
     "  --interval S    rescan period for --watch (default 1)\n"
-    "  --duration S    stop watching after S seconds (default: until Ctrl-C)\n"
+    "  --duration S    stop watching (or reading) after S seconds (default: until Ctrl-C)\n"
+    "  --read SOURCE   open one 6-DOF input device and print what it sends, ten lines a\n"
+    "                  second, then its status; SOURCE is one of\n"
+    "                    spaceball:PATH   serial Spaceball (params: probe, dead, reset, tscale,\n"
+    "                                     rscale, null, baud)\n"
+    "                    magellan:PATH    serial Magellan / SpaceMouse (params: settle, probe,\n"
+    "                                     dead, scale, null)\n"
+    "                    spacemouse       first 3Dconnexion USB device; spacemouse:HIDRAW_PATH a\n"
+    "                                     given one; spacemouse:sim a simulated SpaceNavigator\n"
+    "                  Frames: translation T and rotation R in [-1, 1], +X right, +Y up, +Z\n"
+    "                  toward the user; buttons as a bit mask (bit 0 = button 1).\n"
     "\n"
     "Exit status: 0 (also when nothing is connected), 2 on bad usage.\n";
 
@@ -121,8 +136,72 @@ std::string timestamp() {
   return b;
 }
 
+Result<std::unique_ptr<devices::InputSource>> open_input(const std::string& text) {
+  auto spec = devices::parse_source_spec(text);
+  if (!spec) return tl::unexpected(spec.error());
+  if (spec->scheme == "spaceball") {
+    auto o = devices::spaceball_options(*spec);
+    if (!o) return tl::unexpected(o.error());
+    return devices::make_spaceball_source(*o);
+  }
+  if (spec->scheme == "magellan") {
+    auto o = devices::magellan_options(*spec);
+    if (!o) return tl::unexpected(o.error());
+    return devices::make_magellan_source(*o);
+  }
+  if (spec->scheme == "spacemouse") {
+    if (spec->target == "sim") return sim::make_simulated_spacemouse({});
+    devices::HidSpaceMouseOptions o;
+    o.path = spec->target;
+    return devices::make_hid_spacemouse_source(o);
+  }
+  return fail(Errc::invalid_argument, "--read takes spaceball:, magellan: or spacemouse sources, not " + spec->scheme);
+}
+
+int read_source(const std::string& text, double duration_s) {
+  auto src = open_input(text);
+  if (!src) return usage_error(kName, src.error().what());
+  if (auto r = (*src)->start(); !r) return failure(kName, r.error().what());
+  std::signal(SIGINT, on_signal);
+  std::signal(SIGTERM, on_signal);
+  using clock = std::chrono::steady_clock;
+  const auto start = clock::now();
+  auto next_print = start;
+  uint64_t frames = 0;
+  devices::InputFrame f;
+  bool have = false;
+  while (!g_stop.load()) {
+    const auto now = clock::now();
+    if (duration_s > 0 && now - start >= std::chrono::duration<double>(duration_s)) break;
+    devices::InputFrame g;
+    while ((*src)->poll(g)) {
+      f = g;
+      have = true;
+      ++frames;
+    }
+    if (have && now >= next_print) {
+      next_print = now + std::chrono::milliseconds(100);
+      std::printf("%7.3f  T %+.3f %+.3f %+.3f  R %+.3f %+.3f %+.3f  buttons 0x%03x\n",
+                  std::chrono::duration<double>(now - start).count(), f.translation.x, f.translation.y,
+                  f.translation.z, f.rotation.x, f.rotation.y, f.rotation.z, f.buttons);
+      std::fflush(stdout);
+      have = false;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  const auto st = (*src)->status();
+  static const char* kStates[] = {"disconnected", "connecting", "streaming", "stale", "error"};
+  std::printf("status: %s: %s, %llu frames polled, %llu records, %llu resyncs, %llu reconnects%s%s\n",
+              st.description.c_str(), kStates[static_cast<int>(st.state)],
+              static_cast<unsigned long long>(frames), static_cast<unsigned long long>(st.records),
+              static_cast<unsigned long long>(st.resyncs), static_cast<unsigned long long>(st.reconnects),
+              st.last_error.empty() ? "" : "; last error: ", st.last_error.c_str());
+  (*src)->stop();
+  return 0;
+}
+
 int run(const std::vector<std::string>& argv) {
-  Args args(argv, {"interval", "duration"}, {"json", "watch"});
+  Args args(argv, {"interval", "duration", "read"}, {"json", "watch"});
   if (!args.ok()) return usage_error(kName, args.error());
   if (args.help()) {
     std::printf("%s", kUsage);
@@ -134,8 +213,14 @@ int run(const std::vector<std::string>& argv) {
     return usage_error(kName, args.error());
   }
   if (!(interval_s > 0)) return usage_error(kName, "--interval must be positive");
+  if (args.has("read")) {
+    if (args.has("watch") || args.has("json") || args.has("interval")) {
+      return usage_error(kName, "--read takes only --duration");
+    }
+    return read_source(*args.get("read"), duration_s);
+  }
   if ((args.has("interval") || args.has("duration")) && !args.has("watch")) {
-    return usage_error(kName, "--interval and --duration only apply with --watch");
+    return usage_error(kName, "--interval and --duration only apply with --watch or --read");
   }
   const bool json = args.has("json");
 

@@ -17,7 +17,7 @@ constexpr std::string_view kConfigure = "z\rm3\rc30\rnH\rbH\r";
 class MagellanDriver final : public detail::SerialInputDriver {
  public:
   explicit MagellanDriver(MagellanOptions o)
-      : SerialInputDriver("magellan", o.path, {9600, 2, true},
+      : SerialInputDriver("magellan", o.path, {o.baud, 2, true},
                           {o.probe_after_s, o.dead_after_s, o.reconnect_interval_s}),
         opt_(std::move(o)) {}
   ~MagellanDriver() override { shutdown(); }
@@ -117,6 +117,7 @@ Result<MagellanOptions> magellan_options(const SourceSpec& spec) {
   o.path = spec.target;
   if (o.path.empty()) return fail(Errc::invalid_argument, spec.text + ": a serial device path is required");
   detail::SpecParams p(spec);
+  p.unsigned_param("baud", o.baud);
   p.double_param("settle", o.settle_s);
   p.double_param("probe", o.probe_after_s);
   p.double_param("dead", o.dead_after_s);
