@@ -451,9 +451,7 @@ Result<BvhClip> parse_bvh(std::string_view text, std::string_view source_name, c
 Result<BvhClip> load_bvh(const std::string& path, const BvhParseOptions& options) {
   auto text = read_file(path);
   if (!text) return tl::unexpected(text.error());
-  std::string_view name = path;
-  if (const size_t slash = name.find_last_of('/'); slash != std::string_view::npos) name.remove_prefix(slash + 1);
-  return parse_bvh(*text, name, options);
+  return parse_bvh(*text, path, options);
 }
 
 }  // namespace mimic::avatar

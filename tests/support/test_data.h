@@ -14,9 +14,13 @@ inline std::string shared_data(const std::string& relative = "") {
   return relative.empty() ? root : root + "/" + relative;
 }
 
+// MIMIC_BIN, else the `mimic` built beside the running test binary (both land in build/bin;
+// CTest's ENVIRONMENT list does not always carry MIMIC_BIN through gtest_discover_tests).
 inline std::string mimic_binary() {
-  const char* env = std::getenv("MIMIC_BIN");
-  return env ? env : "mimic";
+  if (const char* env = std::getenv("MIMIC_BIN")) return env;
+  std::error_code ec;
+  const auto beside = std::filesystem::read_symlink("/proc/self/exe", ec).parent_path() / "mimic";
+  return !ec && std::filesystem::exists(beside, ec) ? beside.string() : "mimic";
 }
 
 inline const char* kShared_clips[] = {"02_04", "02_05", "02_06", "05_02",

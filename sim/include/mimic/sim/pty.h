@@ -49,8 +49,9 @@ class Pty {
   Wait wait_readable(std::chrono::microseconds timeout) const;
   // Non-blocking read; 0 when nothing is pending. Errc::disconnected when no slave is open.
   Result<size_t> read(std::span<uint8_t> out);
-  // Writes all bytes (waits briefly while the pty buffer is full). Errc::disconnected when no
-  // slave is open: the bytes are lost, as on a cable with nobody listening.
+  // Writes what fits without blocking and returns the count (the rest is lost while the host
+  // does not read). Errc::disconnected when no slave is open: the bytes are lost, as on a cable
+  // with nobody listening.
   Result<size_t> write(std::span<const uint8_t> bytes);
   // Discards bytes the driver wrote that were not read yet.
   void flush_input();

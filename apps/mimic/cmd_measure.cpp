@@ -1,0 +1,98 @@
+// mimic measure: body measurements (height, tape girths, volume, area) of a mesh file.
+#include <cmath>
+#include <cstdio>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "command.h"
+#include "mimic/avatar/measure.h"
+#include "mimic/avatar/mesh_check.h"
+#include "mimic/avatar/mesh_io.h"
+
+namespace mimic::app {
+namespace {
+
+constexpr const char* kName = "measure";
+constexpr const char* kUsage =
+    "usage: mimic measure [--obj FILE] [--joints CSV] [--units-per-metre N] [--json]\n"
+    "\n"
+    "Measures a standing body mesh as a tailor would: standing height, tape-measure girths\n"
+    "(chest, waist, hips, left thigh, left calf, left upper arm), enclosed volume and surface\n"
+    "area. A girth is the convex-hull perimeter of the cross-section loop around the torso or\n"
+    "limb axis, so arms beside the torso are not wrapped in (docs/measurements.md).\n"
+    "\n"
+    "options:\n"
+    "  --obj FILE            mesh to measure: .obj, .ply or .glb (default: the shared MakeHuman\n"
+    "                        base mesh, <shared data>/mesh/makehuman_base_body.obj)\n"
+    "  --joints CSV          joint centres, rows name,x,y,z with MakeHuman joint names (pelvis,\n"
+    "                        spine-1..4, neck, head, head-2, ground, l-/r-upper-leg, -knee,\n"
+    "                        -ankle, -shoulder, -elbow, -hand), in the mesh's units; required\n"
+    "                        with --obj (default: <shared data>/mesh/makehuman_base_joints.csv)\n"
+    "  --units-per-metre N   mesh and joint units per metre (default 10: MakeHuman decimetres;\n"
+    "                        1 for meshes written by Mimic)\n"
+    "  --json                print JSON instead of a table\n"
+    "  -h, --help            this text\n"
+    "\n"
+    "Frames: +Y up, the body faces +Z, its left is +X. Shared data: $MIMIC_SHARED_DATA or\n"
+    "../shared/data beside the checkout. Exit status: 0 measured, 1 unreadable input,\n"
+    "2 bad usage.\n";
+
+int run_measure(const std::vector<std::string>& argv) {
+  Args args(argv, {"obj", "joints", "units-per-metre"}, {"json"});
+  if (args.help()) {
+    std::fputs(kUsage, stdout);
+    return 0;
+  }
+  if (!args.ok()) return usage_error(kName, args.error());
+  double units_per_metre = 10.0;
+  if (!args.get_double("units-per-metre", units_per_metre)) return usage_error(kName, args.error());
+  if (!(units_per_metre > 0) || !std::isfinite(units_per_metre))
+    return usage_error(kName, "--units-per-metre must be a positive number");
+  if (!args.positionals().empty()) return usage_error(kName, "unexpected argument '" + args.positionals()[0] + "'");
+
+  const std::string data = shared_data_dir();
+  const bool default_mesh = !args.has("obj");
+  const std::string mesh_path = args.get_or("obj", data + "/mesh/makehuman_base_body.obj");
+  // The shared mesh comes with its joints; another mesh needs them given.
+  std::string joints_path = args.get_or("joints", default_mesh ? data + "/mesh/makehuman_base_joints.csv" : "");
+  if (joints_path.empty())
+    return usage_error(kName, "--joints CSV is needed to place the girths on a mesh other than the default");
+
+  const auto metres_per_unit = static_cast<float>(1.0 / units_per_metre);
+  auto mesh = avatar::read_mesh(mesh_path, metres_per_unit);
+  if (!mesh) return failure(kName, mesh.error().what());
+  auto landmarks = avatar::load_makehuman_joints(joints_path, metres_per_unit);
+  if (!landmarks) return failure(kName, landmarks.error().what());
+
+  const avatar::BodyMeasurements m = avatar::measure_body(*mesh, *landmarks);
+  const avatar::MeshTopology topo = avatar::analyze_topology(*mesh);
+  const bool closed = avatar::is_closed_oriented_manifold(topo);
+
+  if (args.has("json")) {
+    auto j = nlohmann::ordered_json::parse(avatar::measurements_json(m));
+    nlohmann::ordered_json out;
+    out["mesh"] = mesh_path;
+    out["joints"] = joints_path;
+    out["units_per_metre"] = units_per_metre;
+    out["vertices"] = topo.vertex_count;
+    out["triangles"] = topo.face_count;
+    out["closed_oriented_manifold"] = closed;
+    out["genus"] = topo.genus;
+    out["measurements"] = j;
+    std::printf("%s\n", out.dump(2).c_str());
+    return 0;
+  }
+  std::printf("mesh:   %s\njoints: %s\n", mesh_path.c_str(), joints_path.c_str());
+  std::printf("surface: %zu vertices, %zu triangles, %s, genus %d\n\n", topo.vertex_count, topo.face_count,
+              closed ? "closed oriented manifold" : "NOT a closed oriented manifold", topo.genus);
+  std::fputs(avatar::format_measurements(m).c_str(), stdout);
+  if (!closed) std::printf("note: the volume of an open or non-manifold surface is not meaningful\n");
+  return 0;
+}
+
+}  // namespace
+
+MIMIC_COMMAND(measure, kName, "measure a body mesh: height, tape girths, volume, area", kUsage, run_measure);
+
+}  // namespace mimic::app
