@@ -169,16 +169,16 @@ BodyModel default_body_model() {
              {0.19f, 1.35f, 0.0f});
   }
   a.add("l_armpit", "l_shoulder", {0.16f, 1.305f, 0.0f}, {0.04f, 0.035f, 0.045f}, G({left_shoulder, left_upper_arm}));
-  a.add("l_humerus", "l_shoulder", {0.28f, 1.341f, 0.0f}, {0.11f, 0.036f, 0.036f}, G({left_upper_arm}));
+  a.add("l_humerus", "l_shoulder", {0.28f, 1.341f, 0.0f}, {0.11f, 0.031f, 0.031f}, G({left_upper_arm}));
   {
-    Primitive& p = a.add("l_biceps", "l_shoulder", {0.29f, 1.341f, 0.025f}, {0.08f, 0.034f, 0.033f}, G({left_upper_arm}));
-    a.muscle(p, "l_elbow_flexion", {0.082f, 0.033f, 0.032f}, {0.29f, 1.341f, 0.025f}, {0.06f, 0.04f, 0.046f},
-             {0.28f, 1.341f, 0.037f}, Falloff::parabolic);
+    Primitive& p = a.add("l_biceps", "l_shoulder", {0.29f, 1.341f, 0.018f}, {0.08f, 0.029f, 0.028f}, G({left_upper_arm}));
+    a.muscle(p, "l_elbow_flexion", {0.082f, 0.028f, 0.027f}, {0.29f, 1.341f, 0.018f}, {0.06f, 0.035f, 0.041f},
+             {0.28f, 1.341f, 0.03f}, Falloff::parabolic);
   }
   {
-    Primitive& p = a.add("l_triceps", "l_shoulder", {0.28f, 1.345f, -0.02f}, {0.09f, 0.036f, 0.034f}, G({left_upper_arm}));
-    a.muscle(p, "l_elbow_flexion", {0.085f, 0.038f, 0.037f}, {0.28f, 1.345f, -0.022f}, {0.1f, 0.033f, 0.029f},
-             {0.285f, 1.345f, -0.018f});
+    Primitive& p = a.add("l_triceps", "l_shoulder", {0.28f, 1.345f, -0.015f}, {0.09f, 0.031f, 0.029f}, G({left_upper_arm}));
+    a.muscle(p, "l_elbow_flexion", {0.085f, 0.033f, 0.032f}, {0.28f, 1.345f, -0.017f}, {0.1f, 0.028f, 0.025f},
+             {0.285f, 1.345f, -0.013f});
   }
   a.add("l_elbow", "l_elbow", {0.4f, 1.341f, 0.0f}, {0.035f, 0.031f, 0.031f}, G({left_upper_arm, left_lower_arm}));
   {

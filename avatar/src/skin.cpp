@@ -241,10 +241,14 @@ void BodySkin::Impl::compute_ring(const Ring& r) {
       const glm::vec3 axis = safe_normalize(c.point[1] - c.point[0], c.normal[0]);
       const int n = gather(r.mask);
       const std::span<const uint16_t> cand(candidates.data(), n);
+      // Origins are P's projection on the link, kept between just before the joint and the
+      // S ring: in extreme postures (an arm swung across the chest) the bare projection can
+      // land far down the limb, from where the ray would miss the junction.
+      const float s_along = glm::dot(ctrl_origin[s.slots[0]] - a, axis);
       for (size_t j = 0; j < r.slots.size(); ++j) {
         const glm::vec3 sj = ctrl[s.slots[j]];
         const glm::vec3 pj = sj + r.alpha * (ctrl[r.goal[j]] - sj);
-        const glm::vec3 o = a + glm::dot(pj - a, axis) * axis;
+        const glm::vec3 o = a + std::clamp(glm::dot(pj - a, axis), -0.05f, std::max(s_along, -0.05f)) * axis;
         const glm::vec3 so = a + glm::dot(sj - a, axis) * axis;
         const glm::vec3 d = safe_normalize(pj - o, safe_normalize(sj - so, c.normal[0]));
         cast_into(r.slots[j], o, d, cand, pj);
@@ -490,21 +494,25 @@ Status BodySkin::Impl::build(const BodyModel& model) {
     int chain;
     std::vector<uint32_t>* loop;
     GroupMask upper, lower;
+    GroupMask junction;  // the groups the loop was sampled in, also seen by the driven rings
     int upper_rows, lower_rows;  // lower_rows 0: a single-piece surface (the neck)
     float start_u;               // S ring position along the first link
     const char* upper_part;
     const char* lower_part;
   };
   const LimbSpec limbs[] = {
-      {"neck", 1, &neck_loop, group_bit(Group::upper_torso), 0, L.neck_contours, 0, L.neck_start, "neck", nullptr},
-      {"l_arm", 2, &l_arm_loop, group_bit(Group::left_upper_arm), group_bit(Group::left_lower_arm), L.upper_arm_contours,
-       L.lower_arm_contours, 0.3f, "left_upper_arm", "left_lower_arm"},
-      {"r_arm", 3, &r_arm_loop, group_bit(Group::right_upper_arm), group_bit(Group::right_lower_arm), L.upper_arm_contours,
-       L.lower_arm_contours, 0.3f, "right_upper_arm", "right_lower_arm"},
-      {"l_leg", 4, &l_leg_loop, group_bit(Group::left_upper_leg), group_bit(Group::left_lower_leg), L.upper_leg_contours,
-       L.lower_leg_contours, 0.25f, "left_upper_leg", "left_lower_leg"},
-      {"r_leg", 5, &r_leg_loop, group_bit(Group::right_upper_leg), group_bit(Group::right_lower_leg), L.upper_leg_contours,
-       L.lower_leg_contours, 0.25f, "right_upper_leg", "right_lower_leg"},
+      {"neck", 1, &neck_loop, group_bit(Group::upper_torso), 0, group_bit(Group::upper_torso), L.neck_contours, 0,
+       L.neck_start, "neck", nullptr},
+      {"l_arm", 2, &l_arm_loop, group_bit(Group::left_upper_arm), group_bit(Group::left_lower_arm),
+       group_bit(Group::left_shoulder), L.upper_arm_contours, L.lower_arm_contours, 0.3f, "left_upper_arm",
+       "left_lower_arm"},
+      {"r_arm", 3, &r_arm_loop, group_bit(Group::right_upper_arm), group_bit(Group::right_lower_arm),
+       group_bit(Group::right_shoulder), L.upper_arm_contours, L.lower_arm_contours, 0.3f, "right_upper_arm",
+       "right_lower_arm"},
+      {"l_leg", 4, &l_leg_loop, group_bit(Group::left_upper_leg), group_bit(Group::left_lower_leg), group_bit(Group::hip),
+       L.upper_leg_contours, L.lower_leg_contours, 0.25f, "left_upper_leg", "left_lower_leg"},
+      {"r_leg", 5, &r_leg_loop, group_bit(Group::right_upper_leg), group_bit(Group::right_lower_leg), group_bit(Group::hip),
+       L.upper_leg_contours, L.lower_leg_contours, 0.25f, "right_upper_leg", "right_lower_leg"},
   };
   const int k = L.boundary_contours;
   for (const LimbSpec& spec : limbs) {
@@ -556,7 +564,9 @@ Status BodySkin::Impl::build(const BodyModel& model) {
       Ring r;
       r.name = std::string(spec.name) + "_driven_" + std::to_string(i);
       r.kind = RingKind::driven;
-      r.mask = spec.upper;
+      // The ring nearest the loop sees the loop's own groups too, so the shapes flow into
+      // each other and an extreme posture cannot leave its rays with nothing to hit.
+      r.mask = i == 1 ? GroupMask(spec.upper | spec.junction) : spec.upper;
       r.s_ring = star_ids[0];
       r.goal = loop;
       r.alpha = 1.0f - static_cast<float>(i) / static_cast<float>(k + 1);

@@ -2,8 +2,11 @@
 
 #include <random>
 
+#include "mimic/avatar/bvh.h"
 #include "mimic/avatar/mesh_check.h"
+#include "mimic/avatar/retarget.h"
 #include "mimic/avatar/skin.h"
+#include "test_data.h"
 
 namespace mimic::avatar {
 namespace {
@@ -128,6 +131,36 @@ TEST(Skin, MusclesDeformWithTheirJoint) {
     return best;
   };
   EXPECT_GT(front_of_upper_arm(glm::radians(140.0f)), front_of_upper_arm(0.0f) + 0.004f);
+}
+
+}  // namespace
+}  // namespace mimic::avatar
+
+namespace mimic::avatar {
+namespace {
+
+// Poses the default body through every shared clip (every 40th frame, frame 0 included) and
+// checks the envelope in each: closed, consistently oriented, outward, no ray misses.
+TEST(Skin, ClosedAndOutwardThroughEverySharedClip) {
+  BodySkin s = make_skin(1);
+  const double rest_volume = analyze_topology(s.mesh()).signed_volume;
+  int poses = 0;
+  for (const char* id : test::kShared_clips) {
+    auto clip = load_bvh(test::clip_path(id));
+    ASSERT_TRUE(clip) << clip.error().what();
+    auto r = retarget_bvh(*clip);
+    ASSERT_TRUE(r) << r.error().what();
+    for (size_t f = 0; f < r->poses.size(); f += 40) {
+      s.evaluate(transfer_pose(r->skeleton, r->poses[f], s.skeleton()));
+      const std::string what = std::string(id) + " frame " + std::to_string(f);
+      expect_closed_outward(s.mesh(), what);
+      EXPECT_EQ(s.stats().missed_rays, 0) << what;
+      // Posture changes the volume only a little (muscles bulge, folds overlap at joints).
+      EXPECT_NEAR(analyze_topology(s.mesh()).signed_volume, rest_volume, 0.15 * rest_volume) << what;
+      ++poses;
+    }
+  }
+  EXPECT_GT(poses, 200);
 }
 
 }  // namespace
