@@ -51,6 +51,7 @@ struct ChainInput {
   std::span<const float> warm;   // current DOF values (warm start of the decompositions)
   glm::vec3 hinge_hint{0.0f};    // which way the hinge should face when over-extension is possible
   const glm::vec3* last_bend = nullptr;
+  const glm::quat* upper_rot = nullptr;  // the upper segment's measured orientation, if any
 };
 
 struct ChainSolution {
@@ -99,8 +100,10 @@ ChainSolution solve_chain(const ChainInput& in, const glm::vec3& pole) {
   const glm::vec3 f = glm::normalize(tb.end_m - tb.mid_m);
   glm::vec3 b_w = perpendicular_part(f, x_w);
   if (glm::length(b_w) < 1e-3f) {
-    // Straight: the bend plane is free; keep the one the pole implies.
-    b_w = perpendicular_part(-pole, x_w);
+    // Straight: the bend plane is free; keep the one the upper segment's sensor shows, else
+    // the one the pole implies.
+    if (in.upper_rot) b_w = perpendicular_part(*in.upper_rot * ch.bend_dir, x_w);
+    if (glm::length(b_w) < 1e-4f) b_w = perpendicular_part(-pole, x_w);
     if (glm::length(b_w) < 1e-4f) b_w = perpendicular_part(in.parent_w->rotation * ch.bend_dir, x_w);
     if (glm::length(b_w) < 1e-4f) b_w = perpendicular_part(in.parent_w->rotation * ch.hinge, x_w);
   }
@@ -394,6 +397,7 @@ bool SolveJob::Run() {
           pole = guess + 0.3f * reach * default_pole;
         }
         ChainInput in{&s, &ch, &parent_w, start, &end_t, dof};
+        if (c.has_target_[ch.upper]) in.upper_rot = &c.segment_target_[ch.upper].rotation;
         if (c.has_target_[ch.upper]) in.hinge_hint = c.segment_target_[ch.upper].rotation * ch.hinge;
         else if (c.has_target_[ch.mid]) in.hinge_hint = c.segment_target_[ch.mid].rotation * ch.hinge;
         else if (c.have_previous_) in.last_bend = &c.last_bend_world_[ci];

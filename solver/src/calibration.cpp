@@ -141,15 +141,42 @@ Fit fit_body(const SkeletonDesc& base, const std::vector<SensorStats>& stats, co
   if (has("l_shoulder") && has("r_shoulder")) prop.shoulder_width_m = glm::length(mark["l_shoulder"] - mark["r_shoulder"]);
   if (has("l_hip") && has("r_hip")) prop.hip_width_m = glm::length(mark["l_hip"] - mark["r_hip"]);
   avatar::apply_proportions(out.desc, prop);
-  // Hip joints' height below the pelvis, when both are seen.
-  if (has("pelvis") && (has("l_hip") || has("r_hip"))) {
-    float dy = 0;
-    int n = 0;
-    for (const char* h : {"l_hip", "r_hip"})
-      if (has(h)) dy += glm::dot(mark[h] - mark["pelvis"], up), ++n;
-    dy /= static_cast<float>(n);
-    for (auto& j : out.desc.joints)
-      if ((j.name == "l_hip" || j.name == "r_hip") && dy < 0 && dy > -0.3f) j.offset_m.y = dy;
+  // Hip and shoulder joints where the thigh and upper-arm sensors put them (relative to the
+  // pelvis and the chest), averaged over both sides to keep the skeleton symmetric.
+  const glm::quat inv_h = glm::conjugate(heading);
+  auto mirror = [](glm::vec3 v) { return glm::vec3(-v.x, v.y, v.z); };
+  auto set_pair_offset = [&](const std::string& joint, const std::vector<glm::vec3>& left_offsets) {
+    if (left_offsets.empty()) return;
+    glm::vec3 o(0.0f);
+    for (const auto& v : left_offsets) o += v;
+    o /= static_cast<float>(left_offsets.size());
+    if (glm::length(o) > 0.4f) return;  // not a body
+    for (auto& jd : out.desc.joints) {
+      const bool left = jd.name == "l_" + joint, right = jd.name == "r_" + joint;
+      if (!left && !right) continue;
+      const glm::vec3 old = jd.offset_m;
+      jd.offset_m = left ? o : mirror(o);
+      for (auto& par : out.desc.joints)
+        if (par.name == jd.parent && glm::length(par.tip_m - old) < 1e-5f) par.tip_m = jd.offset_m;
+    }
+  };
+  if (has("pelvis")) {
+    std::vector<glm::vec3> hips;
+    if (has("l_hip")) hips.push_back(inv_h * (mark["l_hip"] - mark["pelvis"]));
+    if (has("r_hip")) hips.push_back(mirror(inv_h * (mark["r_hip"] - mark["pelvis"])));
+    set_pair_offset("hip", hips);
+  }
+  if (has("l_shoulder") || has("r_shoulder")) {
+    Skeleton sk = build();
+    const auto wz = zero_world(sk);
+    const glm::vec3 root_now = root_position(sk, wz);
+    auto placed_now = [&](const char* n) { return root_now + heading * (jpos(sk, wz, n) - wz[0].translation); };
+    const glm::vec3 chest = has("spine_upper") ? mark["spine_upper"] : placed_now("spine_upper");
+    const glm::vec3 clav = sk.offset_m(sk.find_joint("l_clavicle"));
+    std::vector<glm::vec3> shoulders;
+    if (has("l_shoulder")) shoulders.push_back(inv_h * (mark["l_shoulder"] - chest) - clav);
+    if (has("r_shoulder")) shoulders.push_back(mirror(inv_h * (mark["r_shoulder"] - chest)) - clav);
+    set_pair_offset("shoulder", shoulders);
   }
   s = build();
   w = zero_world(s);
@@ -198,19 +225,19 @@ Fit fit_body(const SkeletonDesc& base, const std::vector<SensorStats>& stats, co
   };
   for (const char* side : {"l_", "r_"}) {
     const std::string sd(side);
-    const float mirror = sd == "l_" ? 1.0f : -1.0f;
+    const float side_sign = sd == "l_" ? 1.0f : -1.0f;
     if (opt.pose == CalibrationPose::n_pose) set(sd + "shoulder_abduction", -80.0f * kPi / 180.0f);
     if (has((sd + "wrist").c_str())) {
       const glm::vec3 a = has((sd + "shoulder").c_str()) ? mark[sd + "shoulder"] : placed((sd + "shoulder").c_str());
       const glm::vec3 d = glm::normalize(inv_heading * (mark[sd + "wrist"] - a));
       const float abd = std::asin(std::clamp(d.y, -1.0f, 1.0f));
       set(sd + "shoulder_abduction", abd);
-      if (std::cos(abd) > 0.3f) set(sd + "shoulder_flexion", std::atan2(d.z, mirror * d.x));
+      if (std::cos(abd) > 0.3f) set(sd + "shoulder_flexion", std::atan2(d.z, side_sign * d.x));
     }
     if (has((sd + "ankle").c_str())) {
       const glm::vec3 h = has((sd + "hip").c_str()) ? mark[sd + "hip"] : placed((sd + "hip").c_str());
       const glm::vec3 d = glm::normalize(inv_heading * (mark[sd + "ankle"] - h));
-      set(sd + "hip_abduction", std::asin(std::clamp(mirror * d.x, -1.0f, 1.0f)));
+      set(sd + "hip_abduction", std::asin(std::clamp(side_sign * d.x, -1.0f, 1.0f)));
       set(sd + "hip_flexion", std::atan2(d.z, -d.y));
     }
   }
