@@ -336,6 +336,10 @@ bool SolveJob::Run() {
     std::copy(m.prior_rad_.begin(), m.prior_rad_.end(), c.prior_.begin());
     for (int arm = 0; arm < 2; ++arm)
       for (int d : m.arm_dofs_[arm]) c.prior_[d] = dof[d];
+    // A segment with its own sensor needs no pull: its orientation is measured.
+    for (int j : m.trunk_joints_)
+      if (c.has_target_[j])
+        for (int d = s.dof_begin(j); d < s.dof_end(j); ++d) c.prior_[d] = dof[d];
     ls.prior_rad = c.prior_;
     ls.prior_weight = o.prior_weight;
     ls.damping = o.damping;
