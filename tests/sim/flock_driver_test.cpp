@@ -84,6 +84,17 @@ TEST(FlockDriver, FourBirdsGroupModeEveryFormatWithButtons) {
     }
     EXPECT_EQ(per_bird.size(), 4u);
     for (int a = 1; a <= 4; ++a) EXPECT_GE(per_bird[a], 4) << a;
+    if (f == fl::Format::matrix) {
+      // Query a slave bird through its FBB address while the group streams.
+      auto st = r.driver->query_status(3);
+      ASSERT_TRUE(st) << st.error().what();
+      EXPECT_FALSE(st->master);
+      EXPECT_EQ(st->format, fl::Format::matrix);
+      auto addr = r.driver->examine(fl::param::kFbbAddress, 3);
+      ASSERT_TRUE(addr);
+      EXPECT_EQ((*addr)[0], 3);
+      EXPECT_GE(test::collect(*r.driver, 8).size(), 8u);  // and the stream came back
+    }
     const FlockInfo info = r.driver->info();
     EXPECT_EQ(info.sensor_addresses, (std::vector<int>{1, 2, 3, 4}));
     EXPECT_EQ(info.flock_status.size(), 14u);
@@ -109,7 +120,7 @@ TEST(FlockDriver, ExtendedRangeControllerScalesTo144Inches) {
   EXPECT_EQ(r.driver->info().model, "6DERC");
 }
 
-TEST(FlockDriver, Range72InchesAndHemisphereAndRates) {
+TEST(FlockDriver, Range72InchesAndRates) {
   sim::VirtualFlockConfig sc = test::fast_sim(1);
   sc.provider = test::static_provider(2.0f);  // ~1 m: needs the 72 in range
   Rig r = start(sc, [](FlockConfig& c) {
@@ -121,6 +132,29 @@ TEST(FlockDriver, Range72InchesAndHemisphereAndRates) {
   ASSERT_GE(got.size(), 4u);
   for (const auto& s : got) expect_pose(s, fl::Format::position_quaternion, 1, 2.0f);
   EXPECT_NEAR(r.driver->info().measurement_rate_hz, 60.0, 0.5);
+}
+
+TEST(FlockDriver, HemisphereSelectsWhichMirrorImageIsReported) {
+  // Sensors behind the transmitter (Mimic -Z = Flock -X): right only in the aft hemisphere.
+  sim::VirtualFlockConfig sc = test::fast_sim(2);
+  sc.provider = [](double, int bird, SensorSample& out) {
+    const SensorSample s = test::static_pose(bird);
+    out.position_m = {s.position_m.x, s.position_m.y, -s.position_m.z};
+  };
+  for (fl::Hemisphere h : {fl::Hemisphere::aft, fl::Hemisphere::forward}) {
+    Rig r = start(sc, [h](FlockConfig& c) {
+      c.birds = 2;
+      c.hemisphere = h;
+    });
+    const auto got = test::collect(*r.driver, 6);
+    ASSERT_GE(got.size(), 6u);
+    for (const auto& s : got) {
+      const glm::vec3 p = test::static_pose(s.sensor - 1).position_m;
+      const glm::vec3 truth(p.x, p.y, -p.z);
+      const glm::vec3 expected = h == fl::Hemisphere::aft ? truth : -truth;
+      EXPECT_LT(glm::length(s.position_m - expected), 0.0006f) << fl::hemisphere_name(h);
+    }
+  }
 }
 
 TEST(FlockDriver, PointModeStandaloneGroupAndPerBird) {
@@ -261,6 +295,13 @@ TEST(FlockDriver, ErrorCodeQuery) {
   ASSERT_TRUE(e) << e.error().what();
   EXPECT_EQ(e->code, 6);
   EXPECT_EQ(e->text, "invalid RS232 command");
+  // Status of each bird while streaming in group mode is in the next test; here the master.
+  auto st = r.driver->query_status();
+  ASSERT_TRUE(st) << st.error().what();
+  EXPECT_TRUE(st->master);
+  EXPECT_TRUE(st->running);
+  EXPECT_EQ(st->format, fl::Format::position_quaternion);
+  EXPECT_FALSE(r.driver->examine(200));  // no such parameter
   // Streaming resumes after the query.
   std::vector<SensorSample> flush(256);
   r.driver->poll(flush);

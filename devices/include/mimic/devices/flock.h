@@ -49,6 +49,11 @@ struct FlockConfig {
   std::chrono::milliseconds reinit_after{1000};      // no record this long: start-up again
   std::chrono::milliseconds retry_every{500};        // between failed start-up attempts
   size_t queue_capacity = 1024;                      // samples between reader and poll()
+  // SCHED_FIFO priority (1-99) for the reader thread, so records are stamped and handed over
+  // promptly on a loaded machine; 0 leaves the normal scheduler. Needs CAP_SYS_NICE; without it
+  // the thread runs normally and info().realtime says so. The thread blocks in reads, so it
+  // never starves the machine.
+  int realtime_priority = 0;
 };
 
 // From a "flock:<path>?birds=4&baud=115200&format=pos_quat&mode=stream&hemisphere=forward&
@@ -63,6 +68,7 @@ struct FlockInfo {
   double measurement_rate_hz = 0;
   std::vector<int> sensor_addresses;
   std::vector<uint8_t> flock_status;  // parameter 36, one byte per address 1..14 (empty standalone)
+  bool realtime = false;              // the reader thread got its SCHED_FIFO priority
 };
 
 // One answer to an error-code query (parameters 10/16 of the master).
@@ -86,9 +92,14 @@ class FlockSource final : public SensorSource {
   void stop() override;
 
   FlockInfo info() const;
-  // Stops output, asks the master for its error code, and resumes. Not for the realtime loop:
-  // waits for the reader thread (at most `timeout`).
+  // Queries while running. Each stops output, sends EXAMINE to the master (address −1) or to an
+  // FBB address, reads the reply and resumes the stream. Not for the realtime loop: they wait for
+  // the reader thread, at most `timeout`. Errc::timeout when the unit does not answer.
+  Result<std::vector<uint8_t>> examine(uint8_t parameter, int address = -1,
+                                       std::chrono::milliseconds timeout = std::chrono::milliseconds(2000));
   Result<FlockError> query_error(std::chrono::milliseconds timeout = std::chrono::milliseconds(2000));
+  Result<flock::BirdStatus> query_status(int address = -1,
+                                         std::chrono::milliseconds timeout = std::chrono::milliseconds(2000));
   // Samples dropped because poll() did not keep up with the queue.
   uint64_t dropped_samples() const;
 
