@@ -6,6 +6,7 @@
 // Rig parameters (sim and bvh):
 //   sensors=3|6|11|all (6)  rate=HZ (100)  noise_mm=σ (1)  noise_deg=σ (0.5)  drift_mm=σ/√s (0)
 //   drift_deg=σ/√s (0)  latency_ms=MS (0)  dropout=P (0)  burst=TICKS (1)  seed=N (1)
+// bvh only: loop=1 plays the clip again and again (otherwise its last frame is held).
 // Replay parameters: speed=X (1; 0 = unpaced)  loop=1  from=S (seconds after the first sample).
 // Sources run on the host's steady clock unless a clock is given.
 //
@@ -35,7 +36,8 @@ Result<RigConfig> rig_config_from_spec(const devices::SourceSpec& spec, const av
 Result<ReplayOptions> replay_options_from_spec(const devices::SourceSpec& spec);
 
 // What a log recorded from `source` (opened from `spec`) should say in its header: the spec,
-// and for simulated sources the sensor layout, seed and rate; for replays, the original header.
+// and for simulated sources the sensor layout, seed and rate; for replays, the original header;
+// for a started Flock, its birds (named "bird<address>"), measurement rate and model.
 LogHeader log_header_for(const devices::SourceSpec& spec, const devices::SensorSource& source);
 
 }  // namespace mimic::sim
