@@ -158,7 +158,7 @@ Result<FanoutResult> measure_fanout(int subscribers, int avatars, double rate_hz
           const uint16_t a = pose_avatar(p);
           const uint32_t seq = pose_sequence(p);
           if (a < s.last.size()) {
-            if (s.last[a] != 0 && seq > s.last[a] + 1) lost += seq - s.last[a] - 1;
+            if (seq > s.last[a] + 1) lost += seq - s.last[a] - 1;  // sequences start at 1
             s.last[a] = seq;
           }
           received++;
