@@ -191,5 +191,24 @@ TEST(BvhMotion, PlaysTheClipWithInterpolation) {
   EXPECT_FALSE(load_bvh_motion("/nonexistent/clip.bvh"));
 }
 
+TEST(BvhMotion, CanDriveAnotherBody) {
+  auto body = Skeleton::build(default_skeleton_desc());
+  ASSERT_TRUE(body);
+  BvhMotionOptions options;
+  options.body = &*body;
+  auto m = load_bvh_motion(test::clip_path("07_01"), options);
+  ASSERT_TRUE(m) << m.error().what();
+  EXPECT_EQ((*m)->skeleton().dof_count(), body->dof_count());
+  EXPECT_EQ((*m)->skeleton().offset_m(body->find_joint("l_knee")), body->offset_m(body->find_joint("l_knee")));
+  auto plain = load_bvh_motion(test::clip_path("07_01"));
+  ASSERT_TRUE(plain);
+  Pose a = body->zero_pose(), b = (*plain)->skeleton().zero_pose();
+  (*m)->sample(1.0, a);
+  (*plain)->sample(1.0, b);
+  EXPECT_EQ(a.dof_rad, b.dof_rad) << "same joint angles";
+  const float ratio = standing_root_height_m(*body) / standing_root_height_m((*plain)->skeleton());
+  EXPECT_NEAR(a.root_position_m.y, b.root_position_m.y * ratio, 1e-4f);
+}
+
 }  // namespace
 }  // namespace mimic::avatar
