@@ -11,6 +11,9 @@
 #include <thread>
 #include <vector>
 
+#include <pthread.h>
+#include <sched.h>
+
 #include <benchmark/benchmark.h>
 
 #include "mimic/devices/flock.h"
@@ -35,8 +38,18 @@ double percentile(std::vector<double> v, double p) {
   return v[std::min(v.size() - 1, static_cast<size_t>(p * static_cast<double>(v.size() - 1) + 0.5))];
 }
 
+// Arg: SCHED_FIFO priority for the simulator, the driver's reader and the consumer (0 = normal
+// scheduling). With it the consumer polls every 20 us instead of spinning, so the figure is what
+// a realtime loop polling that often would see.
 void BM_FlockLatencyPtyToConsumer(benchmark::State& state) {
   const double seconds = 3.0;
+  const int rt = static_cast<int>(state.range(0));
+  bool consumer_rt = false;
+  if (rt > 0) {
+    sched_param p{};
+    p.sched_priority = rt;
+    consumer_rt = pthread_setschedparam(pthread_self(), SCHED_FIFO, &p) == 0;
+  }
   std::vector<double> to_stamp_us, to_consumer_us;
   uint64_t resyncs = 0, records = 0;
   for (auto _ : state) {
@@ -47,6 +60,7 @@ void BM_FlockLatencyPtyToConsumer(benchmark::State& state) {
     sc.birds = kBirds;
     sc.auto_config_busy_s = 0.05;
     sc.boot_garbage = false;
+    sc.realtime_priority = rt;
     sc.provider = [&](double, int bird, mimic::devices::SensorSample& out) {
       const int seq = next_seq[static_cast<size_t>(bird + 1)]++ % kSlots;
       out.position_m = glm::vec3(0.0f, 0.0f, static_cast<float>(seq * kStepM));
@@ -67,6 +81,7 @@ void BM_FlockLatencyPtyToConsumer(benchmark::State& state) {
     dc.birds = kBirds;
     dc.settle = std::chrono::milliseconds(20);
     dc.auto_config_wait = std::chrono::milliseconds(80);
+    dc.realtime_priority = rt;
     mimic::devices::FlockSource driver(dc);
     if (auto s = driver.start(); !s) {
       state.SkipWithError(s.error().what().c_str());
@@ -86,8 +101,14 @@ void BM_FlockLatencyPtyToConsumer(benchmark::State& state) {
         to_stamp_us.push_back((s.host_time_s - t_w) * 1e6);
         to_consumer_us.push_back((t_consumer - t_w) * 1e6);
       }
-      if (n == 0) std::this_thread::yield();
+      if (n == 0) {
+        if (consumer_rt)
+          std::this_thread::sleep_for(std::chrono::microseconds(20));
+        else
+          std::this_thread::yield();
+      }
     }
+    state.counters["reader_realtime"] = driver.info().realtime ? 1 : 0;
     resyncs = driver.status().resyncs;
     records = driver.status().records;
     driver.stop();
@@ -97,9 +118,14 @@ void BM_FlockLatencyPtyToConsumer(benchmark::State& state) {
   state.counters["stamp_p50_us"] = percentile(to_stamp_us, 0.50);
   state.counters["stamp_p99_us"] = percentile(to_stamp_us, 0.99);
   state.counters["consumer_p50_us"] = percentile(to_consumer_us, 0.50);
+  state.counters["consumer_p90_us"] = percentile(to_consumer_us, 0.90);
   state.counters["consumer_p99_us"] = percentile(to_consumer_us, 0.99);
   state.counters["consumer_max_us"] = percentile(to_consumer_us, 1.0);
+  if (rt > 0) {
+    sched_param p{};
+    pthread_setschedparam(pthread_self(), SCHED_OTHER, &p);
+  }
 }
-BENCHMARK(BM_FlockLatencyPtyToConsumer)->Iterations(1)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_FlockLatencyPtyToConsumer)->Arg(0)->Arg(20)->Iterations(1)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 }  // namespace

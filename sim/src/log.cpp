@@ -75,12 +75,16 @@ bool read_transform(const nlohmann::json& j, avatar::RigidTransform& t) {
   const auto& tr = j.value("translation_m", nlohmann::json());
   const auto& ro = j.value("rotation_wxyz", nlohmann::json());
   if (!tr.is_array() || tr.size() != 3 || !ro.is_array() || ro.size() != 4) return false;
-  for (const auto& v : tr)
-    if (!v.is_number()) return false;
-  for (const auto& v : ro)
-    if (!v.is_number()) return false;
-  t.translation = {tr[0].get<float>(), tr[1].get<float>(), tr[2].get<float>()};
-  t.rotation = glm::quat(ro[0].get<float>(), ro[1].get<float>(), ro[2].get<float>(), ro[3].get<float>());
+  float v[7];
+  for (int i = 0; i < 7; ++i) {
+    const auto& x = i < 3 ? tr[static_cast<size_t>(i)] : ro[static_cast<size_t>(i - 3)];
+    if (!x.is_number()) return false;
+    const double d = x.get<double>();
+    if (!(std::abs(d) <= 3.0e38)) return false;  // finite and representable as a float
+    v[i] = static_cast<float>(d);
+  }
+  t.translation = {v[0], v[1], v[2]};
+  t.rotation = glm::quat(v[3], v[4], v[5], v[6]);
   return true;
 }
 

@@ -1,5 +1,8 @@
 #include "mimic/sim/virtual_flock.h"
 
+#include <pthread.h>
+#include <sched.h>
+
 #include <algorithm>
 #include <array>
 #include <atomic>
@@ -597,7 +600,14 @@ Status VirtualFlock::start() {
   if (impl_->thread.joinable()) return fail(Errc::invalid_argument, "virtual flock already started");
   impl_->stop = false;
   impl_->t0 = Clock::now();
-  impl_->thread = std::thread([this] { impl_->run(); });
+  impl_->thread = std::thread([this] {
+    if (impl_->cfg.realtime_priority > 0) {
+      sched_param p{};
+      p.sched_priority = std::clamp(impl_->cfg.realtime_priority, 1, 99);
+      pthread_setschedparam(pthread_self(), SCHED_FIFO, &p);
+    }
+    impl_->run();
+  });
   return {};
 }
 

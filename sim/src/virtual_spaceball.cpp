@@ -69,7 +69,8 @@ void SpaceballDevice::receive(std::span<const uint8_t> bytes, double now_s) {
   for (uint8_t b : bytes) {
     if (b == 0x11 || b == 0x13 || b == 0x0A) continue;
     if (b == 0x0D) {
-      if (!line_.empty()) command(line_, now_s);
+      // While the firmware boots (until the banner) the host is not listened to.
+      if (!line_.empty() && !banner_pending_) command(line_, now_s);
       line_.clear();
       continue;
     }

@@ -151,17 +151,48 @@ TEST(Motion, WalkGoesAroundACircleFacingTheWayItMoves) {
   }
   EXPECT_GT(max_y - min_y, 0.01f) << "the pelvis bobs";
   EXPECT_LT(max_y - min_y, 0.08f);
-  // Legs alternate: half a gait cycle later the other knee does what this one did.
-  m->sample(0.8, p);
-  m->sample(0.8 + 0.55, q);
-  EXPECT_NEAR(p.dof_rad[s.find_dof("l_knee_flexion")], q.dof_rad[s.find_dof("r_knee_flexion")], 1e-5f);
-  // And the swing knee bends well past the stance knee.
-  float max_knee = 0;
-  for (double t = 0; t < 1.1; t += 0.01) {
+  // Legs alternate: each knee peaks in its own swing, half a cycle apart, and bends about as
+  // far (not exactly: on a curve the inner and outer legs take different steps).
+  float max_knee[2] = {0, 0};
+  double peak_t[2] = {0, 0};
+  for (double t = 0; t < 1.1; t += 0.005) {
     m->sample(t, p);
-    max_knee = std::max(max_knee, p.dof_rad[s.find_dof("l_knee_flexion")]);
+    for (int k = 0; k < 2; ++k) {
+      const float v = p.dof_rad[s.find_dof(k == 0 ? "l_knee_flexion" : "r_knee_flexion")];
+      if (v > max_knee[k]) {
+        max_knee[k] = v;
+        peak_t[k] = t;
+      }
+    }
   }
-  EXPECT_GT(glm::degrees(max_knee), 50.0f);
+  EXPECT_GT(glm::degrees(max_knee[0]), 50.0f);
+  EXPECT_NEAR(max_knee[0], max_knee[1], glm::radians(10.0f));
+  const double apart = std::fmod(std::abs(peak_t[0] - peak_t[1]), 1.1);
+  EXPECT_NEAR(apart, 0.55, 0.06);
+}
+
+TEST(Motion, WalkPlantsTheStanceFoot) {
+  const Skeleton s = default_skeleton();
+  const auto m = make("walk", s);
+  Pose p = s.zero_pose();
+  std::vector<RigidTransform> w(s.joint_count());
+  // Flat-foot part of each stance (left heel strike at 0, right at half a cycle): the ball of
+  // the foot stays put on the floor.
+  for (int k = 0; k < 2; ++k) {
+    const int toes = s.find_joint(k == 0 ? "l_toes" : "r_toes");
+    const double start = (k == 0 ? 0.0 : 0.55) + 2 * 1.1;  // a later cycle, away from t = 0
+    glm::vec3 first{0};
+    float drift = 0;
+    for (double t = start + 0.12 * 1.1; t < start + 0.55 * 1.1; t += 1.0 / 120) {
+      m->sample(t, p);
+      forward_kinematics(s, p, w);
+      const glm::vec3 ball = w[toes].translation;
+      if (drift == 0 && first == glm::vec3(0)) first = ball;
+      drift = std::max(drift, glm::length(ball - first));
+      EXPECT_NEAR(ball.y, 0.018f, 0.004f) << "ball on the floor";
+    }
+    EXPECT_LT(drift, 0.005f) << "no foot sliding";
+  }
 }
 
 TEST(Motion, Deterministic) {

@@ -109,7 +109,7 @@ TEST(FlockDriver, ExtendedRangeControllerScalesTo144Inches) {
   EXPECT_EQ(r.driver->info().model, "6DERC");
 }
 
-TEST(FlockDriver, Range72InchesAndHemisphereAndRates) {
+TEST(FlockDriver, Range72InchesAndRates) {
   sim::VirtualFlockConfig sc = test::fast_sim(1);
   sc.provider = test::static_provider(2.0f);  // ~1 m: needs the 72 in range
   Rig r = start(sc, [](FlockConfig& c) {
@@ -121,6 +121,29 @@ TEST(FlockDriver, Range72InchesAndHemisphereAndRates) {
   ASSERT_GE(got.size(), 4u);
   for (const auto& s : got) expect_pose(s, fl::Format::position_quaternion, 1, 2.0f);
   EXPECT_NEAR(r.driver->info().measurement_rate_hz, 60.0, 0.5);
+}
+
+TEST(FlockDriver, HemisphereSelectsWhichMirrorImageIsReported) {
+  // Sensors behind the transmitter (Mimic -Z = Flock -X): right only in the aft hemisphere.
+  sim::VirtualFlockConfig sc = test::fast_sim(2);
+  sc.provider = [](double, int bird, SensorSample& out) {
+    const SensorSample s = test::static_pose(bird);
+    out.position_m = {s.position_m.x, s.position_m.y, -s.position_m.z};
+  };
+  for (fl::Hemisphere h : {fl::Hemisphere::aft, fl::Hemisphere::forward}) {
+    Rig r = start(sc, [h](FlockConfig& c) {
+      c.birds = 2;
+      c.hemisphere = h;
+    });
+    const auto got = test::collect(*r.driver, 6);
+    ASSERT_GE(got.size(), 6u);
+    for (const auto& s : got) {
+      const glm::vec3 p = test::static_pose(s.sensor - 1).position_m;
+      const glm::vec3 truth(p.x, p.y, -p.z);
+      const glm::vec3 expected = h == fl::Hemisphere::aft ? truth : -truth;
+      EXPECT_LT(glm::length(s.position_m - expected), 0.0006f) << fl::hemisphere_name(h);
+    }
+  }
 }
 
 TEST(FlockDriver, PointModeStandaloneGroupAndPerBird) {

@@ -1,5 +1,8 @@
 #include "mimic/devices/flock.h"
 
+#include <pthread.h>
+#include <sched.h>
+
 #include <algorithm>
 #include <array>
 #include <atomic>
@@ -250,6 +253,7 @@ struct FlockSource::Impl {
     cycle_period_s = cfg.report_every / std::max(1.0, found.measurement_rate_hz);
     {
       std::lock_guard lock(mu);
+      found.realtime = info.realtime;
       info = found;
     }
     port->flush_input();
@@ -414,7 +418,16 @@ Status FlockSource::start() {
     return s;
   }
   m.state = DeviceState::streaming;
-  m.thread = std::thread([&m] { m.run(); });
+  m.thread = std::thread([&m] {
+    if (m.cfg.realtime_priority > 0) {
+      sched_param p{};
+      p.sched_priority = std::clamp(m.cfg.realtime_priority, 1, 99);
+      const bool ok = pthread_setschedparam(pthread_self(), SCHED_FIFO, &p) == 0;
+      std::lock_guard lock(m.mu);
+      m.info.realtime = ok;
+    }
+    m.run();
+  });
   return {};
 }
 

@@ -49,6 +49,11 @@ struct FlockConfig {
   std::chrono::milliseconds reinit_after{1000};      // no record this long: start-up again
   std::chrono::milliseconds retry_every{500};        // between failed start-up attempts
   size_t queue_capacity = 1024;                      // samples between reader and poll()
+  // SCHED_FIFO priority (1-99) for the reader thread, so records are stamped and handed over
+  // promptly on a loaded machine; 0 leaves the normal scheduler. Needs CAP_SYS_NICE; without it
+  // the thread runs normally and info().realtime says so. The thread blocks in reads, so it
+  // never starves the machine.
+  int realtime_priority = 0;
 };
 
 // From a "flock:<path>?birds=4&baud=115200&format=pos_quat&mode=stream&hemisphere=forward&
@@ -63,6 +68,7 @@ struct FlockInfo {
   double measurement_rate_hz = 0;
   std::vector<int> sensor_addresses;
   std::vector<uint8_t> flock_status;  // parameter 36, one byte per address 1..14 (empty standalone)
+  bool realtime = false;              // the reader thread got its SCHED_FIFO priority
 };
 
 // One answer to an error-code query (parameters 10/16 of the master).

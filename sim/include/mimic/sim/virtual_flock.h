@@ -53,6 +53,9 @@ struct VirtualFlockConfig {
   // Garbage and one partial record at power-up and after reset(), as real units send.
   bool boot_garbage = true;
   FlockSampleProvider provider;  // empty: make_builtin_flock_motion(seed)
+  // SCHED_FIFO priority (1-99) for the serving thread, for timing measurements on a loaded
+  // machine; 0 = normal scheduling. Silently normal without CAP_SYS_NICE.
+  int realtime_priority = 0;
   // Called on the simulator thread right after a record's bytes were written to the pty, with
   // the host monotonic time (seconds, steady_clock) and the bird's address. For latency tests.
   std::function<void(double host_time_s, int address, std::span<const uint8_t> record)> on_record_written;

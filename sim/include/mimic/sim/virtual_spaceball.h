@@ -2,7 +2,8 @@
 // (docs/device-protocols.md §2, §5.6): power-up banner after the host opens the port, replies
 // to `@` reset, `hm`, `"`, `k` and `%` echo, echoes of configuration commands, `?cmd` for
 // unknown ones, D packets only once enabled (MSS… / M…) with the true interval in 1/16 ms, and
-// K / '.' packets on button changes. Output is paced at the line's baud rate (10 bits a byte).
+// K / '.' packets on button changes. Commands that arrive while it boots (before the banner)
+// are ignored. Output is paced at the line's baud rate (10 bits a byte).
 #pragma once
 
 #include <memory>

@@ -1,0 +1,239 @@
+// mimic run: the realtime service. Reads trackers, solves, deforms, and serves the avatars.
+#include <atomic>
+#include <chrono>
+#include <csignal>
+#include <cstdio>
+#include <cstdlib>
+#include <thread>
+
+#include <nlohmann/json.hpp>
+
+#include "command.h"
+#include "mimic/net/client.h"
+#include "mimic/net/server.h"
+#include "mimic/net/vmc.h"
+#include "pipeline.h"
+
+namespace mimic::app {
+namespace {
+
+std::atomic<bool> g_stop{false};
+extern "C" void on_signal(int) { g_stop = true; }
+
+const char* kUsage =
+    "usage: mimic run [--source SPEC [--body FILE]]... [--listen ADDR:PORT] [--secret S]\n"
+    "                 [--publish HOST:PORT] [--vmc HOST:PORT] [--duration S] [--json] [--quiet]\n"
+    "\n"
+    "Runs the realtime pipeline (read -> solve -> deform -> encode -> send) and serves the avatars\n"
+    "to subscribers (mimic subscribe, VR scenes). With no arguments: simulated trackers on the\n"
+    "built-in walk, the default body, serving on 127.0.0.1:7777.\n"
+    "\n"
+    "options:\n"
+    "  --source SPEC       tracker source of one avatar; repeat for several avatars\n"
+    "                      (default sim:walk; e.g. sim:idle?rate=90&sensors=11&seed=2)\n"
+    "  --body FILE         body model of the avatar of the preceding --source (default body\n"
+    "                      otherwise); sent once to every subscriber as it joins\n"
+    "  --listen ADDR:PORT  where to serve (default 127.0.0.1:7777; port 0 picks one). Any\n"
+    "                      non-loopback address requires --secret\n"
+    "  --secret S          shared secret publishers must present (also MIMIC_SECRET)\n"
+    "  --publish HOST:PORT do not host: publish the avatars into the scene served there\n"
+    "  --vmc HOST:PORT     also send the first avatar as VMC (OSC over UDP), e.g. 127.0.0.1:39539\n"
+    "  --duration S        stop by itself after S seconds (default: run until Ctrl-C)\n"
+    "  --json              print a JSON summary (stage timings p50/p99, frames, server counters)\n"
+    "                      on stdout at exit\n"
+    "  --quiet             no live status line on stderr\n"
+    "\n"
+    "The first line on stdout says where the scene is served: 'serving on ADDR:PORT'.\n";
+
+// Splits repeated --source/--body pairs out of argv (the Args parser keeps one value per key).
+bool take_sources(std::vector<std::string>& args, std::vector<std::pair<std::string, std::string>>& out,
+                  std::string& error) {
+  std::vector<std::string> rest;
+  for (size_t i = 0; i < args.size(); ++i) {
+    std::string a = args[i], value;
+    std::string key;
+    for (const char* k : {"--source", "--body"}) {
+      if (a == k) {
+        if (i + 1 >= args.size()) {
+          error = std::string("option ") + k + " needs a value";
+          return false;
+        }
+        key = k;
+        value = args[++i];
+      } else if (a.rfind(std::string(k) + "=", 0) == 0) {
+        key = k;
+        value = a.substr(std::string(k).size() + 1);
+      }
+    }
+    if (key == "--source") {
+      out.emplace_back(value, "");
+    } else if (key == "--body") {
+      if (out.empty()) out.emplace_back("sim:walk", "");
+      if (!out.back().second.empty()) {
+        error = "two --body options for one --source";
+        return false;
+      }
+      out.back().second = value;
+    } else {
+      rest.push_back(a);
+    }
+  }
+  args = rest;
+  return true;
+}
+
+int run(const std::vector<std::string>& argv) {
+  std::vector<std::string> args = argv;
+  std::vector<std::pair<std::string, std::string>> sources;
+  std::string error;
+  if (!take_sources(args, sources, error)) return usage_error("run", error);
+  Args a(args, {"listen", "secret", "publish", "vmc", "duration"}, {"json", "quiet"});
+  if (a.help()) {
+    std::printf("%s", kUsage);
+    return 0;
+  }
+  if (!a.ok()) return usage_error("run", a.error());
+  if (!a.positionals().empty()) return usage_error("run", "unexpected argument '" + a.positionals()[0] + "'");
+  double duration_s = 0;
+  if (!a.get_double("duration", duration_s)) return usage_error("run", a.error());
+  if (sources.empty()) sources.emplace_back("sim:walk", "");
+
+  std::string secret = a.get_or("secret", "");
+  if (secret.empty())
+    if (const char* env = std::getenv("MIMIC_SECRET")) secret = env;
+
+  std::unique_ptr<net::Server> server;
+  std::unique_ptr<net::Client> publisher;
+  std::string where;
+  if (a.has("publish")) {
+    net::ClientOptions o;
+    o.connect = *a.get("publish");
+    o.role = net::Role::publisher;
+    o.secret = secret;
+    o.name = "mimic run";
+    auto c = net::Client::connect(o);
+    if (!c) return failure("run", c.error().what());
+    publisher = std::move(*c);
+    where = "publishing into " + o.connect;
+  } else {
+    net::ServerOptions o;
+    o.listen = a.get_or("listen", "127.0.0.1:7777");
+    o.secret = secret;
+    auto s = net::Server::create(o);
+    if (!s) return failure("run", s.error().what());
+    server = std::move(*s);
+    where = "serving on " + server->endpoint();
+  }
+
+  // Setup: everything is allocated here, before the loop.
+  std::vector<std::unique_ptr<PoseFeed>> feeds;
+  std::vector<std::string> models;
+  for (const auto& [spec, body] : sources) {
+    auto feed = open_feed(spec);
+    if (!feed) return failure("run", feed.error().what());
+    auto model = load_body_model(body, (*feed)->skeleton());
+    if (!model) return failure("run", model.error().what());
+    feeds.push_back(std::move(*feed));
+    models.push_back(std::move(*model));
+  }
+  std::unique_ptr<net::VmcSender> vmc;
+  if (a.has("vmc")) {
+    auto v = net::VmcSender::open(*a.get("vmc"), feeds[0]->skeleton());
+    if (!v) return failure("run", v.error().what());
+    vmc = std::move(*v);
+  }
+  Pipeline pipeline({server.get(), publisher.get(), vmc.get()});
+  size_t model_bytes_total = 0;
+  for (size_t i = 0; i < feeds.size(); ++i) {
+    const uint16_t dofs = static_cast<uint16_t>(feeds[i]->skeleton().dof_count());
+    std::fprintf(stderr, "mimic run: avatar %zu: %s, body model %zu bytes, pose frame %zu bytes\n", i + 1,
+                 feeds[i]->describe().c_str(), models[i].size(), net::pose_packet_bytes(dofs));
+    model_bytes_total += models[i].size();
+    if (auto st = pipeline.add_avatar("avatar" + std::to_string(i + 1), std::move(feeds[i]), std::move(models[i]), nullptr); !st)
+      return failure("run", st.error().what());
+  }
+  std::printf("%s\n", where.c_str());
+  std::fflush(stdout);
+
+  g_stop = false;
+  std::signal(SIGINT, on_signal);
+  std::signal(SIGTERM, on_signal);
+  const bool status_line = !a.has("quiet");
+  using C = std::chrono::steady_clock;
+  const auto start = C::now();
+  auto next_status = start;
+  uint64_t last_frames = 0;
+  auto last_status = start;
+  char line[320];
+  while (!g_stop) {
+    const auto now = C::now();
+    if (duration_s > 0 && now - start >= std::chrono::duration<double>(duration_s)) break;
+    pipeline.tick();
+    const auto slice = C::now() + std::chrono::microseconds(500);
+    if (server) {
+      server->run_until(slice);
+    } else if (publisher) {
+      if (auto st = publisher->run_until(slice); !st) {
+        std::fprintf(stderr, "\nmimic run: %s\n", st.error().what().c_str());
+        break;
+      }
+    }
+    if (status_line && C::now() >= next_status) {
+      const double dt = std::chrono::duration<double>(C::now() - last_status).count();
+      const double fps = double(pipeline.frames() - last_frames) / std::max(dt, 1e-9);
+      last_frames = pipeline.frames();
+      last_status = C::now();
+      next_status = last_status + std::chrono::milliseconds(500);
+      int n = std::snprintf(line, sizeof line, "\r%zu avatar(s) %6.1f fps", pipeline.avatar_count(), fps);
+      if (server) {
+        const auto& st = server->stats();
+        n += std::snprintf(line + n, sizeof line - size_t(n), " | subs %llu drop %llu rej %llu",
+                           static_cast<unsigned long long>(st.subscribers), static_cast<unsigned long long>(st.frames_dropped),
+                           static_cast<unsigned long long>(st.rejected_total()));
+      }
+      n += std::snprintf(line + n, sizeof line - size_t(n), " | p50/p99 us");
+      for (int s = 0; s < kStageCount && n < int(sizeof line) - 32; ++s) {
+        const auto sum = pipeline.timer(s).summary();
+        n += std::snprintf(line + n, sizeof line - size_t(n), " %s %.0f/%.0f", stage_name(s), sum.p50_us, sum.p99_us);
+      }
+      std::fputs(line, stderr);
+      std::fputs("   ", stderr);
+      std::fflush(stderr);
+    }
+  }
+  std::signal(SIGINT, SIG_DFL);
+  std::signal(SIGTERM, SIG_DFL);
+  if (status_line) std::fputs("\n", stderr);
+  const double elapsed = std::chrono::duration<double>(C::now() - start).count();
+  std::fprintf(stderr, "mimic run: stopped after %.1f s, %llu frames\n", elapsed, static_cast<unsigned long long>(pipeline.frames()));
+  if (a.has("json")) {
+    nlohmann::json j;
+    j["duration_s"] = elapsed;
+    j["avatars"] = pipeline.avatar_count();
+    j["frames"] = pipeline.frames();
+    j["fps"] = double(pipeline.frames()) / std::max(elapsed, 1e-9) / double(std::max<size_t>(1, pipeline.avatar_count()));
+    j["send_failures"] = pipeline.send_failures();
+    j["model_bytes"] = model_bytes_total;
+    for (int s = 0; s < kStageCount; ++s) {
+      const auto sum = pipeline.timer(s).summary();
+      j["stages"][stage_name(s)] = {{"p50_us", sum.p50_us}, {"p99_us", sum.p99_us}, {"max_us", sum.max_us},
+                                    {"count", sum.count}};
+    }
+    if (server) {
+      const auto& st = server->stats();
+      j["server"] = {{"endpoint", server->endpoint()},  {"sessions_accepted", st.sessions_accepted},
+                     {"subscribers", st.subscribers},   {"frames_out", st.frames_out},
+                     {"frames_dropped", st.frames_dropped}, {"bytes_out", st.bytes_out},
+                     {"rejected", st.rejected_total()}, {"resumed", st.resumed}};
+    }
+    std::printf("%s\n", j.dump().c_str());
+  }
+  if (publisher) publisher->close();
+  return 0;
+}
+
+}  // namespace
+
+MIMIC_COMMAND(run, "run", "run the realtime pipeline and serve the avatars (the default command)", kUsage, run);
+
+}  // namespace mimic::app

@@ -1,0 +1,124 @@
+// mimic subscribe: joins a scene as a viewer and prints what arrives.
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "command.h"
+#include "mimic/net/client.h"
+#include "mimic/net/server.h"
+
+namespace mimic::app {
+namespace {
+
+const char* kUsage =
+    "usage: mimic subscribe [--connect HOST:PORT] [--count N] [--duration S] [--mesh-lod L] [--json]\n"
+    "\n"
+    "Joins the scene served by 'mimic run' as a subscriber: receives every avatar's body model\n"
+    "once, then its pose frames (latest wins). Prints one line per model and per frame, or with\n"
+    "--json only a summary object at the end:\n"
+    "  frames, avatars, fps, latency_ms_p50, latency_ms_p99, lost, out_of_order, model_bytes,\n"
+    "  frame_bytes_mean, mesh_frames, reconnects, duration_s\n"
+    "Latency is the frame's capture time (sender's clock) to its arrival here.\n"
+    "\n"
+    "options:\n"
+    "  --connect HOST:PORT  the scene (default 127.0.0.1:7777)\n"
+    "  --count N            stop after N pose frames\n"
+    "  --duration S         stop after S seconds (default: until --count, or forever)\n"
+    "  --mesh-lod L         also receive mesh frames at LOD L (0 = finest)\n"
+    "  --json               print only the JSON summary\n";
+
+double percentile(std::vector<double> v, double q) {
+  if (v.empty()) return 0;
+  const size_t k = std::min(v.size() - 1, static_cast<size_t>(q * double(v.size() - 1) + 0.5));
+  std::nth_element(v.begin(), v.begin() + static_cast<long>(k), v.end());
+  return v[k];
+}
+
+int subscribe(const std::vector<std::string>& argv) {
+  Args a(argv, {"connect", "count", "duration", "mesh-lod"}, {"json"});
+  if (a.help()) {
+    std::printf("%s", kUsage);
+    return 0;
+  }
+  if (!a.ok()) return usage_error("subscribe", a.error());
+  long count = 0, lod = -1;
+  double duration_s = 0;
+  if (!a.get_int("count", count) || !a.get_double("duration", duration_s) || !a.get_int("mesh-lod", lod))
+    return usage_error("subscribe", a.error());
+  if (count < 0) return usage_error("subscribe", "--count must be positive");
+  if (a.has("mesh-lod") && (lod < 0 || lod > 7)) return usage_error("subscribe", "--mesh-lod must be 0..7");
+  const bool json = a.has("json");
+
+  net::ClientOptions o;
+  o.connect = a.get_or("connect", "127.0.0.1:7777");
+  o.role = net::Role::subscriber;
+  o.name = "mimic subscribe";
+  if (lod >= 0) o.mesh_lod = static_cast<uint8_t>(lod);
+  auto c = net::Client::connect(o);
+  if (!c) return failure("subscribe", c.error().what());
+  net::Client& client = **c;
+
+  using C = std::chrono::steady_clock;
+  std::vector<double> latency_ms;
+  latency_ms.reserve(1 << 16);
+  C::time_point first{}, last{};
+  uint64_t frames = 0;
+  client.on_model = [&](const net::RemoteAvatar& m) {
+    if (!json)
+      std::printf("model avatar=%u name=%s dofs=%u revision=%u bytes=%zu\n", m.id, m.name.c_str(), m.dof_count,
+                  m.revision, m.model_bytes.size());
+  };
+  client.on_removed = [&](uint16_t id) {
+    if (!json) std::printf("removed avatar=%u\n", id);
+  };
+  client.on_pose = [&](const net::RemoteAvatar& m, uint64_t now_us) {
+    const double lat = (double(now_us) - double(m.last.time_us)) * 1e-3;
+    latency_ms.push_back(lat);
+    last = C::now();
+    if (frames++ == 0) first = last;
+    if (!json)
+      std::printf("pose avatar=%u seq=%u latency_ms=%.3f root=(%.3f %.3f %.3f)%s\n", m.id, m.last.sequence, lat,
+                  m.pose.root_position_m.x, m.pose.root_position_m.y, m.pose.root_position_m.z,
+                  (m.last.flags & net::kPoseStale) ? " stale" : "");
+  };
+  const auto start = C::now();
+  Status st;
+  while (count == 0 || frames < uint64_t(count)) {
+    const auto now = C::now();
+    if (duration_s > 0 && now - start >= std::chrono::duration<double>(duration_s)) break;
+    st = client.run_until(now + std::chrono::milliseconds(5));
+    if (!st) break;
+  }
+  const auto& s = client.stats();
+  const double span = std::chrono::duration<double>(last - first).count();
+  if (json) {
+    nlohmann::json j;
+    j["frames"] = frames;
+    j["avatars"] = client.avatars().size();
+    j["fps"] = frames > 1 && span > 0 ? double(frames - 1) / span : 0.0;
+    j["latency_ms_p50"] = percentile(latency_ms, 0.50);
+    j["latency_ms_p99"] = percentile(latency_ms, 0.99);
+    j["lost"] = s.lost;
+    j["out_of_order"] = s.out_of_order;
+    j["model_bytes"] = s.model_bytes;
+    j["models"] = s.models;
+    j["frame_bytes_mean"] = s.frames ? double(s.frame_bytes) / double(s.frames) : 0.0;
+    j["mesh_frames"] = s.mesh_frames;
+    j["reconnects"] = s.reconnects;
+    j["duration_s"] = std::chrono::duration<double>(C::now() - start).count();
+    std::printf("%s\n", j.dump().c_str());
+  }
+  client.close();
+  if (!st) return failure("subscribe", st.error().what());
+  return 0;
+}
+
+}  // namespace
+
+MIMIC_COMMAND(subscribe, "subscribe", "join a scene as a viewer and print or summarise what arrives", kUsage,
+              subscribe);
+
+}  // namespace mimic::app

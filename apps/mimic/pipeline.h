@@ -1,0 +1,130 @@
+// The realtime pipeline of `mimic run`: for every avatar, read (poll its tracker source) →
+// solve (samples → Pose) → deform (Pose → skin) → encode (pose frame) → send (server fan-out,
+// remote publisher, VMC). Built at setup; Pipeline::tick() never allocates or throws: a source
+// with nothing new is skipped, a failed send is counted.
+//
+// Seams (replaceable without touching the loop): PoseFeed does read + solve, Deformer does
+// deform. Until the solver and the skin deformer are wired in, the feed poses the avatar from
+// the motion that drives the simulated sensors, and the deformer runs forward kinematics.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <memory>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "mimic/avatar/motion.h"
+#include "mimic/avatar/skeleton.h"
+#include "mimic/core/result.h"
+#include "mimic/devices/sample.h"
+#include "mimic/devices/source.h"
+
+namespace mimic::net {
+class Server;
+class Client;
+class VmcSender;
+}  // namespace mimic::net
+
+namespace mimic::app {
+
+enum Stage { kStageRead, kStageSolve, kStageDeform, kStageEncode, kStageSend, kStageLatency, kStageCount };
+const char* stage_name(int stage);
+
+// p50/p99 over the last `window` values; add() never allocates.
+class StageTimer {
+ public:
+  explicit StageTimer(size_t window = 2048) : ring_(window), scratch_(window) {}
+  void add(double us);
+  struct Summary {
+    double p50_us = 0, p99_us = 0, max_us = 0;
+    uint64_t count = 0;
+  };
+  Summary summary();  // uses preallocated scratch: no allocation
+
+ private:
+  std::vector<float> ring_, scratch_;
+  size_t next_ = 0, filled_ = 0;
+  uint64_t count_ = 0;
+};
+
+// Read + solve for one avatar.
+class PoseFeed {
+ public:
+  virtual ~PoseFeed() = default;
+  virtual const avatar::Skeleton& skeleton() const = 0;
+  virtual std::string describe() const = 0;
+  virtual Status start() = 0;
+  // Polls the source; the number of new samples (0: nothing new this tick).
+  virtual size_t read() = 0;
+  // The pose from the samples read last. `capture_s` is the host time (steady clock, seconds)
+  // at the newest sample's last byte.
+  virtual void solve(avatar::Pose& pose, double& capture_s, bool& stale) = 0;
+  virtual devices::DeviceStatus status() const = 0;
+};
+
+// Pose → skin. The stand-in computes joint frames (what the skin deformer starts from).
+class Deformer {
+ public:
+  virtual ~Deformer() = default;
+  virtual void deform(const avatar::Pose& pose) = 0;
+};
+
+// A sensor source on a virtual body following `motion`; the solve stage poses the avatar from
+// the motion at the newest sample's device time (stand-in for the solver).
+Result<std::unique_ptr<PoseFeed>> make_motion_feed(std::shared_ptr<const avatar::Motion> motion,
+                                                   std::unique_ptr<devices::SensorSource> source,
+                                                   std::string description);
+// A feed for a source spec ("sim:walk?rate=90", ...): what this build can open.
+Result<std::unique_ptr<PoseFeed>> open_feed(const std::string& spec_text);
+
+// Built-in motion by name ("walk", "idle"), falling back to a procedural stand-in.
+Result<std::shared_ptr<const avatar::Motion>> builtin_motion(const std::string& name,
+                                                             const avatar::Skeleton& skeleton);
+
+std::unique_ptr<Deformer> make_fk_deformer(const avatar::Skeleton& skeleton);
+
+// The body model bytes for an avatar: the file given with --body, or the default body.
+Result<std::string> load_body_model(const std::string& path, const avatar::Skeleton& skeleton);
+
+struct PipelineOutputs {
+  net::Server* server = nullptr;     // host the scene here
+  net::Client* publisher = nullptr;  // publish into a scene hosted elsewhere
+  net::VmcSender* vmc = nullptr;     // VMC/OSC output of the first avatar
+};
+
+class Pipeline {
+ public:
+  explicit Pipeline(PipelineOutputs outputs) : out_(outputs) {}
+
+  Status add_avatar(const std::string& name, std::unique_ptr<PoseFeed> feed, std::string model_bytes,
+                    std::unique_ptr<Deformer> deformer);
+  // One pass over every avatar. Never allocates or throws.
+  void tick();
+
+  size_t avatar_count() const { return avatars_.size(); }
+  uint64_t frames() const { return frames_; }
+  uint64_t send_failures() const { return send_failures_; }
+  StageTimer& timer(int stage) { return timers_[stage]; }
+  const PoseFeed& feed(size_t i) const { return *avatars_[i].feed; }
+
+ private:
+  struct Avatar {
+    std::string name;
+    std::unique_ptr<PoseFeed> feed;
+    std::unique_ptr<Deformer> deformer;
+    avatar::Pose pose;
+    uint16_t server_id = 0;
+    int publisher_slot = -1;
+    uint32_t sequence = 0;
+    std::vector<uint8_t> packet;
+  };
+  PipelineOutputs out_;
+  std::vector<Avatar> avatars_;
+  std::array<StageTimer, kStageCount> timers_;
+  uint64_t frames_ = 0;
+  uint64_t send_failures_ = 0;
+};
+
+}  // namespace mimic::app

@@ -1,0 +1,125 @@
+// The scene server: publishers bring avatars (body model once, then pose frames), subscribers
+// receive every avatar's model on join and its latest frames after. One TCP connection per
+// client carries everything (docs/protocol.md explains why).
+//
+// Frames are latest-wins: each subscriber has one write in flight and one pending slot per
+// avatar, so a slow or stalled subscriber overwrites (and counts) its own old frames and never
+// delays anyone else. Hostile input (malformed, truncated, oversized, out-of-order packets,
+// unknown versions, floods) is refused, counted in ServerStats and, where it breaks the stream,
+// ends only that session.
+//
+// Threading: a Server is driven by one thread (run, run_until or poll) and every call except
+// stop() and port() must come from that thread. Local avatars (the in-process pipeline) publish
+// through publish_pose(), which never allocates or throws.
+#pragma once
+
+#include <array>
+#include <chrono>
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "mimic/core/result.h"
+#include "mimic/net/frame_codec.h"
+
+namespace mimic::net {
+
+struct ServerOptions {
+  std::string listen = "127.0.0.1:0";  // ADDR:PORT; port 0 picks a free port
+  // Publishers must present it. Required when `listen` is not a loopback address.
+  std::string secret;
+  size_t max_sessions = 4096;
+  double hello_timeout_s = 2.0;       // a connection that does not say HELLO in time is closed
+  double resume_grace_s = 10.0;       // how long a dropped session's token (and avatars) live
+  double max_packets_per_s = 1000;    // per session, with one second of burst
+  int send_buffer_bytes = 32 * 1024;  // kernel send buffer per session (bounds staleness)
+  size_t max_control_backlog_bytes = 8u << 20;  // models/meshes queued for a stalled client
+};
+
+struct ServerStats {
+  uint64_t sessions_accepted = 0;
+  uint64_t sessions_open = 0;
+  uint64_t publishers = 0;
+  uint64_t subscribers = 0;
+  uint64_t resumed = 0;
+  uint64_t avatars = 0;
+  uint64_t packets_in = 0;
+  uint64_t bytes_in = 0;
+  uint64_t bytes_out = 0;
+  uint64_t frames_in = 0;        // pose frames accepted from publishers (local or remote)
+  uint64_t frames_out = 0;       // pose frames written to subscribers
+  uint64_t frames_dropped = 0;   // latest-wins: overwritten before a subscriber could take them
+  uint64_t mesh_frames_out = 0;
+  uint64_t model_bytes_out = 0;
+  uint64_t sessions_closed_for_input = 0;  // ended because of what the peer sent
+  uint64_t sessions_closed_slow = 0;       // control backlog overflow
+  std::array<uint64_t, kRejectCount> rejected{};  // by Reject code
+
+  uint64_t rejected_total() const {
+    uint64_t n = 0;
+    for (auto v : rejected) n += v;
+    return n;
+  }
+};
+
+struct ServerImpl;  // internal
+
+struct SessionInfo {
+  uint32_t id = 0;
+  Role role = Role::subscriber;
+  std::string name;
+  uint64_t frames_out = 0;
+  uint64_t frames_dropped = 0;
+  uint64_t rejected = 0;
+};
+
+class Server {
+ public:
+  static Result<std::unique_ptr<Server>> create(const ServerOptions& options);
+  ~Server();
+  Server(const Server&) = delete;
+  Server& operator=(const Server&) = delete;
+
+  uint16_t port() const;
+  std::string endpoint() const;  // "127.0.0.1:7777"
+
+  // Avatars published from this process. `model_bytes` is the serialised body model (opaque
+  // here); pose frames must carry `dof_count` values.
+  Result<uint16_t> add_avatar(const std::string& name, uint16_t dof_count, std::string model_bytes);
+  void remove_avatar(uint16_t avatar);
+  // `packet` is an encoded pose frame (encode_pose); its avatar field is set to `avatar`. Packets
+  // not newer than the last one are refused (out_of_order). Never allocates or throws.
+  Reject publish_pose(uint16_t avatar, std::span<const uint8_t> packet);
+  // LODs (bit i = LOD i, i < 8) some subscriber wants mesh frames of for `avatar`.
+  uint8_t mesh_lods_wanted(uint16_t avatar) const;
+  Status set_mesh_topology(const MeshTopology& topology);
+  // An encoded mesh frame (encode_mesh) for an avatar and LOD whose topology is set.
+  Reject publish_mesh(uint16_t avatar, uint8_t lod, std::span<const uint8_t> packet);
+
+  // Drive the network: until `deadline`, once without blocking, or until stop().
+  void run_until(std::chrono::steady_clock::time_point deadline);
+  void poll();
+  void run();
+  void stop();  // any thread
+  // Runs `fn` on the thread driving the server (any thread may call; allocates: not for the
+  // realtime loop). For setup, tools and tests.
+  void dispatch(std::function<void()> fn);
+
+  const ServerStats& stats() const;
+  std::vector<SessionInfo> sessions() const;
+
+ private:
+  explicit Server(std::unique_ptr<ServerImpl> impl);
+  std::unique_ptr<ServerImpl> impl_;
+};
+
+// "127.0.0.1:7777" -> host and port; clear error otherwise.
+Result<std::pair<std::string, uint16_t>> split_host_port(const std::string& text);
+
+// Wall clock in µs since the Unix epoch (pose frame timestamps).
+uint64_t wall_clock_us();
+
+}  // namespace mimic::net

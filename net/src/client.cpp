@@ -1,0 +1,417 @@
+#include <utility>
+
+#include "mimic/net/client.h"
+
+#include <array>
+#include <boost/asio.hpp>
+#include <cstring>
+#include <optional>
+
+#include "mimic/net/server.h"
+
+namespace mimic::net {
+
+namespace asio = boost::asio;
+using tcp = asio::ip::tcp;
+using Clock = std::chrono::steady_clock;
+
+namespace {
+constexpr size_t kMaxSlots = 16;
+
+Clock::duration seconds(double s) {
+  return std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(s));
+}
+}  // namespace
+
+struct PublishedAvatar {
+  bool live = false;
+  std::string name;
+  uint16_t dof_count = 0;
+  std::vector<uint8_t> model_packet;
+  std::array<uint8_t, kMaxDatagramBytes> pose{};
+  size_t pose_size = 0;
+  bool pending = false;
+};
+
+struct Client::Impl {
+  Client* owner = nullptr;
+  ClientOptions opt;
+  asio::io_context io{1};
+  std::optional<tcp::socket> sock;
+  tcp::endpoint endpoint;
+  PacketReader reader{kMaxPacketBytes};
+  bool connected = false;
+  bool handshake_done = false;
+  std::optional<Error> fatal;   // the session is over for good
+  bool dropped = false;         // connection lost; may resume
+  uint64_t token = 0;
+  uint32_t caps = 0;
+  uint64_t generation = 0;      // handlers of an old socket ignore themselves
+  ClientStats stats;
+  std::map<uint16_t, RemoteAvatar> avatars;
+  std::array<PublishedAvatar, kMaxSlots> published;
+  avatar::Pose scratch_pose;
+  MeshTopology scratch_topology;
+
+  std::vector<uint8_t> out, control;
+  bool writing = false;
+
+  Status open_connection(Clock::time_point deadline);
+  void read();
+  void on_packet(std::span<const uint8_t> p);
+  void queue_control(std::span<const uint8_t> bytes) { control.insert(control.end(), bytes.begin(), bytes.end()); }
+  void flush();
+  void lose_connection() {
+    if (!connected) return;
+    connected = false;
+    dropped = true;
+    ++generation;
+    boost::system::error_code ec;
+    if (sock) sock->close(ec);
+    writing = false;
+  }
+  void end(Errc code, std::string message) {
+    if (!fatal) fatal = Error{code, std::move(message)};
+    lose_connection();
+  }
+  Status status() const {
+    if (fatal) return tl::unexpected(*fatal);
+    return {};
+  }
+};
+
+Status Client::Impl::open_connection(Clock::time_point deadline) {
+  ++generation;
+  const uint64_t gen = generation;
+  sock.emplace(io);
+  reader = PacketReader(kMaxPacketBytes);
+  out.clear();
+  control.clear();
+  writing = false;
+  handshake_done = false;
+  bool connect_done = false;
+  boost::system::error_code connect_ec;
+  sock->async_connect(endpoint, [&](const boost::system::error_code& ec) {
+    connect_done = true;
+    connect_ec = ec;
+  });
+  while (!connect_done && Clock::now() < deadline) {
+    if (io.stopped()) io.restart();
+    io.run_one_until(deadline);
+  }
+  if (!connect_done || connect_ec) {
+    boost::system::error_code ignore;
+    sock->close(ignore);
+    if (!connect_done) io.run_for(std::chrono::milliseconds(10));
+    return fail(connect_done ? Errc::io_error : Errc::timeout,
+                "cannot connect to " + opt.connect + ": " + (connect_done ? connect_ec.message() : "timed out"));
+  }
+  boost::system::error_code ignore;
+  sock->set_option(tcp::no_delay(true), ignore);
+  connected = true;
+  dropped = false;
+
+  Hello h;
+  h.role = opt.role;
+  h.name = opt.name.substr(0, kMaxNameBytes);
+  h.secret = opt.secret;
+  h.mesh_lod = opt.mesh_lod;
+  h.capabilities = kCapPose | kCapResume | (opt.mesh_lod != kNoMesh ? uint32_t(kCapMesh) : 0u);
+  h.resume_token = token;
+  std::array<uint8_t, kMaxHelloBytes> buf{};
+  const size_t n = encode_hello(h, buf);
+  if (n == 0) return fail(Errc::invalid_argument, "name or secret too long");
+  queue_control(std::span<const uint8_t>(buf.data(), n));
+  flush();
+  read();
+  while (!handshake_done && !fatal && generation == gen && Clock::now() < deadline) {
+    if (io.stopped()) io.restart();
+    io.run_one_until(deadline);
+  }
+  if (fatal) return status();
+  if (!handshake_done) {
+    lose_connection();
+    return fail(Errc::timeout, "no answer to HELLO from " + opt.connect);
+  }
+  return {};
+}
+
+void Client::Impl::read() {
+  const uint64_t gen = generation;
+  auto space = reader.write_space(16 * 1024);
+  sock->async_read_some(asio::buffer(space.data(), space.size()),
+                        [this, gen](const boost::system::error_code& ec, size_t n) {
+                          if (gen != generation) return;
+                          if (ec) {
+                            lose_connection();
+                            return;
+                          }
+                          stats.bytes_in += n;
+                          reader.commit(n);
+                          for (;;) {
+                            std::span<const uint8_t> p;
+                            const Reject e = reader.next(p);
+                            if (e != Reject::ok) {
+                              stats.rejected++;
+                              end(Errc::parse_error, std::string("bad stream from server: ") + reject_name(e));
+                              return;
+                            }
+                            if (p.empty()) break;
+                            on_packet(p);
+                            if (gen != generation) return;
+                          }
+                          read();
+                        });
+}
+
+void Client::Impl::on_packet(std::span<const uint8_t> p) {
+  const auto type = static_cast<MsgType>(p[2]);
+  const uint64_t now_us = wall_clock_us();
+  switch (type) {
+    case MsgType::welcome: {
+      Welcome w;
+      if (decode_welcome(p, w) != Reject::ok) break;
+      const bool was_resume = token != 0;
+      token = w.session_token;
+      caps = w.capabilities;
+      handshake_done = true;
+      if (w.resumed) stats.resumed++;
+      // A publisher whose session was not kept brings its avatars again.
+      if (opt.role == Role::publisher && (!w.resumed || !was_resume)) {
+        for (auto& a : published)
+          if (a.live) queue_control(a.model_packet);
+      }
+      for (auto& a : published)
+        if (a.live && a.pose_size) a.pending = true;
+      flush();
+      return;
+    }
+    case MsgType::reject: {
+      RejectMsg r;
+      if (decode_reject(p, r) == Reject::ok) {
+        end(Errc::disconnected, std::string("server refused the session: ") + reject_name(r.reason) + " (" +
+                                    r.message + ")");
+        return;
+      }
+      break;
+    }
+    case MsgType::bye: end(Errc::disconnected, "server said goodbye"); return;
+    case MsgType::avatar_model: {
+      AvatarModel m;
+      if (decode_avatar_model(p, m) != Reject::ok) break;
+      auto& a = avatars[m.avatar];
+      const bool same = a.id == m.avatar && a.revision == m.revision;
+      a.id = m.avatar;
+      a.name = m.name;
+      a.dof_count = m.dof_count;
+      a.revision = m.revision;
+      a.model_bytes = std::move(m.model_bytes);
+      if (!same) a.has_pose = false;
+      stats.models++;
+      stats.model_bytes += p.size();
+      if (owner->on_model) owner->on_model(a);
+      return;
+    }
+    case MsgType::avatar_removed: {
+      uint16_t id = 0;
+      if (decode_avatar_removed(p, id) != Reject::ok) break;
+      avatars.erase(id);
+      if (owner->on_removed) owner->on_removed(id);
+      return;
+    }
+    case MsgType::pose: {
+      PoseHeader h;
+      if (decode_pose(p, h, scratch_pose) != Reject::ok) break;
+      auto it = avatars.find(h.avatar);
+      if (it == avatars.end()) break;
+      auto& a = it->second;
+      if (a.has_pose) {
+        const int32_t step = static_cast<int32_t>(h.sequence - a.last.sequence);
+        if (step <= 0) {
+          stats.out_of_order++;
+          return;
+        }
+        a.lost += uint64_t(step - 1);
+        stats.lost += uint64_t(step - 1);
+      }
+      a.last = h;
+      std::swap(a.pose, scratch_pose);
+      a.has_pose = true;
+      a.frames++;
+      stats.frames++;
+      stats.frame_bytes += p.size();
+      if (owner->on_pose) owner->on_pose(a, now_us);
+      return;
+    }
+    case MsgType::mesh_topology: {
+      if (decode_mesh_topology(p, scratch_topology) != Reject::ok) break;
+      auto it = avatars.find(scratch_topology.avatar);
+      if (it == avatars.end()) break;
+      it->second.mesh_indices = scratch_topology.indices;
+      it->second.mesh_vertex_count = scratch_topology.vertex_count;
+      return;
+    }
+    case MsgType::mesh: {
+      MeshFrameHeader h;
+      auto it = avatars.find(pose_avatar(p));
+      if (it == avatars.end()) break;
+      if (decode_mesh(p, h, it->second.mesh_positions_m) != Reject::ok) break;
+      it->second.mesh_frames++;
+      stats.mesh_frames++;
+      stats.mesh_bytes += p.size();
+      if (owner->on_mesh) owner->on_mesh(it->second);
+      return;
+    }
+    default: break;
+  }
+  stats.rejected++;
+}
+
+void Client::Impl::flush() {
+  if (writing || !connected) return;
+  out.clear();
+  out.insert(out.end(), control.begin(), control.end());
+  control.clear();
+  if (handshake_done) {
+    for (auto& a : published) {
+      if (!a.live || !a.pending) continue;
+      a.pending = false;
+      out.insert(out.end(), a.pose.begin(), a.pose.begin() + static_cast<long>(a.pose_size));
+    }
+  }
+  if (out.empty()) return;
+  writing = true;
+  const uint64_t gen = generation;
+  asio::async_write(*sock, asio::buffer(out), [this, gen](const boost::system::error_code& ec, size_t) {
+    if (gen != generation) return;
+    writing = false;
+    if (ec) {
+      lose_connection();
+      return;
+    }
+    flush();
+  });
+}
+
+Client::Client(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) { impl_->owner = this; }
+
+Client::~Client() {
+  if (!impl_) return;
+  impl_->lose_connection();
+  impl_->io.restart();
+  impl_->io.poll();
+}
+
+Result<std::unique_ptr<Client>> Client::connect(const ClientOptions& options) {
+  auto hp = split_host_port(options.connect);
+  if (!hp) return tl::unexpected(hp.error());
+  auto impl = std::make_unique<Impl>();
+  impl->opt = options;
+  boost::system::error_code ec;
+  auto addr = asio::ip::make_address(hp->first, ec);
+  if (ec) {
+    tcp::resolver resolver(impl->io);
+    auto results = resolver.resolve(hp->first, std::to_string(hp->second), ec);
+    if (ec || results.empty()) return fail(Errc::not_found, "cannot resolve '" + hp->first + "'");
+    addr = results.begin()->endpoint().address();
+  }
+  impl->endpoint = tcp::endpoint(addr, hp->second);
+  impl->out.reserve(16 * 1024);
+  impl->control.reserve(4 * 1024);
+  impl->scratch_pose.dof_rad.reserve(kMaxPoseDofs);
+  std::unique_ptr<Client> client(new Client(std::move(impl)));
+  if (auto s = client->impl_->open_connection(Clock::now() + seconds(options.connect_timeout_s)); !s)
+    return tl::unexpected(s.error());
+  return client;
+}
+
+Result<uint8_t> Client::add_avatar(const std::string& name, uint16_t dof_count, std::string model_bytes) {
+  auto& d = *impl_;
+  if (d.opt.role != Role::publisher) return fail(Errc::invalid_argument, "only publishers add avatars");
+  if (dof_count > kMaxPoseDofs) return fail(Errc::out_of_range, "too many DOFs for a pose frame");
+  for (uint8_t slot = 0; slot < kMaxSlots; ++slot) {
+    auto& a = d.published[slot];
+    if (a.live) continue;
+    AvatarModel m;
+    m.avatar = slot;
+    m.dof_count = dof_count;
+    m.name = name.substr(0, kMaxNameBytes);
+    m.model_bytes = std::move(model_bytes);
+    a.model_packet.resize(avatar_model_packet_bytes(m));
+    if (encode_avatar_model(m, a.model_packet) == 0) return fail(Errc::out_of_range, "body model too large");
+    a.live = true;
+    a.name = m.name;
+    a.dof_count = dof_count;
+    d.queue_control(a.model_packet);
+    d.flush();
+    return slot;
+  }
+  return fail(Errc::out_of_range, "a publisher carries at most 16 avatars");
+}
+
+Status Client::publish_pose(uint8_t slot, const PoseHeader& header, const avatar::Pose& pose) {
+  auto& d = *impl_;
+  if (slot >= kMaxSlots || !d.published[slot].live) return fail(Errc::not_found, "no such avatar slot");
+  auto& a = d.published[slot];
+  if (pose.dof_rad.size() != a.dof_count) return fail(Errc::invalid_argument, "pose has the wrong DOF count");
+  PoseHeader h = header;
+  h.avatar = slot;
+  a.pose_size = encode_pose(h, pose, a.pose);
+  a.pending = true;
+  d.flush();
+  return d.status();
+}
+
+Status Client::run_until(Clock::time_point deadline) {
+  auto& d = *impl_;
+  if (d.fatal) return d.status();
+  if (d.dropped) {
+    if (!d.opt.reconnect || d.token == 0) return fail(Errc::disconnected, "connection to " + d.opt.connect + " lost");
+    d.stats.reconnects++;
+    // The handshake gets its full timeout even when the caller's slice is shorter: a half-done
+    // resume would cost the server a session. (Blocking; see the header.)
+    const auto limit = Clock::now() + seconds(d.opt.connect_timeout_s);
+    if (auto s = d.open_connection(limit); !s) {
+      if (d.fatal) return s;
+      d.dropped = true;  // try again on the next call
+      return {};
+    }
+  }
+  while (Clock::now() < deadline && !d.fatal && !d.dropped) {
+    if (d.io.stopped()) d.io.restart();
+    d.io.run_one_until(deadline);
+  }
+  return d.status();
+}
+
+Status Client::poll() {
+  auto& d = *impl_;
+  if (d.io.stopped()) d.io.restart();
+  d.io.poll();
+  return d.status();
+}
+
+void Client::drop_connection() { impl_->lose_connection(); }
+
+void Client::close() {
+  auto& d = *impl_;
+  if (!d.connected) return;
+  std::array<uint8_t, 16> buf{};
+  const size_t n = encode_bye(buf);
+  boost::system::error_code ec;
+  // Whatever is still queued goes first; BYE is the last thing on the stream.
+  asio::write(*d.sock, asio::buffer(d.control), ec);
+  asio::write(*d.sock, asio::buffer(buf.data(), n), ec);
+  d.token = 0;
+  d.lose_connection();
+  d.dropped = false;
+  d.fatal = Error{Errc::disconnected, "closed"};
+}
+
+bool Client::connected() const { return impl_->connected; }
+uint64_t Client::session_token() const { return impl_->token; }
+uint32_t Client::negotiated_capabilities() const { return impl_->caps; }
+const std::map<uint16_t, RemoteAvatar>& Client::avatars() const { return impl_->avatars; }
+const ClientStats& Client::stats() const { return impl_->stats; }
+
+}  // namespace mimic::net

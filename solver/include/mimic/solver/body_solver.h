@@ -1,0 +1,132 @@
+// Whole-body solve: sensor samples → Pose of Mimic's skeleton, for any sensor layout from three
+// sensors (head, hands) to one per segment.
+//
+// Each valid sample gives its segment's world pose through the calibrated mounting offset
+// (world_from_segment = reference_from_sensor · sensor_from_segment; the tracker's reference
+// frame is taken as Mimic's world). Per frame:
+//   1. root: the pelvis segment's pose when it has a sensor; otherwise the root is an unknown of
+//      step 2, held upright towards the head's heading (and towards the feet when they have
+//      sensors);
+//   2. trunk: a damped least-squares solve (warm-started from the pose passed in, joint limits
+//      honoured, pulled towards the relaxed posture) of spine, neck and head DOFs to every
+//      trunk segment's position and orientation;
+//   3. arms and legs: analytic two-bone chains shoulder–elbow–wrist and hip–knee–ankle reaching
+//      for the hand/foot segment, the swivel taken from the upper-arm/thigh or forearm/shin
+//      sensor when present, else from the hand/foot orientation; the hand/foot orientation then
+//      sets forearm twist and wrist, or the ankle;
+//   4. any other segment with a sensor (clavicle, toes, …) takes its orientation; joints nothing
+//      observes return to their relaxed values.
+// DOFs come from rotations by swing–twist/Euler decomposition without flips (swing_twist.h) and
+// are clamped to their limits.
+//
+// Ozz-style: SolverModel is immutable (built at setup), SolverContext is the caller-owned scratch
+// (built at setup for one model), SolveJob::Run() never allocates or throws.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "mimic/avatar/skeleton.h"
+#include "mimic/core/result.h"
+#include "mimic/devices/sample.h"
+#include "mimic/solver/least_squares_ik.h"
+
+namespace mimic::solver {
+
+struct SensorMount {
+  uint16_t sensor = 0;                          // SensorSample::sensor
+  std::string segment;                          // skeleton joint carrying the sensor
+  avatar::RigidTransform segment_from_sensor;   // where the sensor sits on the segment
+};
+
+struct SolverOptions {
+  float position_weight = 10.0f;   // least-squares residual weight per metre
+  float rotation_weight = 1.0f;    // per radian
+  float prior_weight = 0.05f;      // pull of the trunk towards the relaxed posture, per radian
+  float damping = 0.05f;           // Levenberg–Marquardt λ
+  int iterations = 8;              // least-squares iterations per frame at most
+};
+
+class SolverModel {
+ public:
+  // Fails on a skeleton without Mimic's joint names (pelvis, spine, limbs), a mount on an
+  // unknown segment or two mounts with one sensor id.
+  static Result<SolverModel> create(avatar::Skeleton skeleton, std::vector<SensorMount> mounts,
+                                    SolverOptions options = {});
+
+  const avatar::Skeleton& skeleton() const { return skeleton_; }
+  std::span<const SensorMount> mounts() const { return mounts_; }
+  const SolverOptions& options() const { return options_; }
+
+  struct Chain {        // shoulder–elbow–wrist or hip–knee–ankle
+    int upper = -1, mid = -1, end = -1;
+    int flex_dof = -1;  // the middle joint's first DOF: its bend
+    std::array<int, 3> upper_dofs{};
+    int upper_dof_count = 0;
+    std::array<int, 3> end_dofs{};  // DOFs after the bend that orient the end segment
+    int end_dof_count = 0;
+    glm::vec3 upper_dir{0};   // unit upper link in the upper joint's frame
+    glm::vec3 bend_dir{0};    // where the lower link swings when the bend grows (upper frame)
+    glm::vec3 hinge{0};       // bend axis (upper frame); (upper_dir, bend_dir, hinge) right-handed
+    float upper_m = 0, lower_m = 0;
+    glm::vec3 default_pole{0};  // mid-joint direction with nothing else to go on (root frame)
+  };
+
+ private:
+  friend class SolverContext;
+  friend struct SolveJob;
+  avatar::Skeleton skeleton_;
+  std::vector<SensorMount> mounts_;
+  SolverOptions options_;
+  std::vector<int> slot_of_sensor_;               // sensor id → mount index or -1
+  std::vector<int> mount_joint_;                  // per mount
+  std::vector<avatar::RigidTransform> sensor_from_segment_;  // per mount
+  std::vector<int> trunk_dofs_;                   // spine, neck, head
+  std::vector<int> trunk_joints_;
+  std::vector<int> leg_dofs_;                     // hips and knees (root placed from the feet)
+  std::array<std::vector<int>, 2> arm_dofs_;      // clavicle, shoulder, elbow bend
+  std::array<Chain, 4> chains_{};                 // l arm, r arm, l leg, r leg
+  std::vector<int8_t> chain_of_joint_;            // chain index for upper/mid/end joints, else -1
+  std::vector<float> prior_rad_;                  // relaxed values
+  int head_ = -1;
+};
+
+class SolverContext {
+ public:
+  explicit SolverContext(const SolverModel& model);  // allocates; call at setup
+  void reset() { have_previous_ = false; }           // forget the warm start's swivel history
+
+ private:
+  friend struct SolveJob;
+  LeastSquaresIkContext ls_;
+  std::vector<IkTarget> targets_;
+  std::vector<int> ls_dofs_;
+  std::vector<float> prior_;
+  std::vector<avatar::RigidTransform> segment_target_;  // per joint
+  std::vector<uint8_t> has_target_;                      // per joint
+  std::vector<avatar::RigidTransform> world_;
+  std::array<glm::vec3, 4> last_bend_world_{};
+  bool have_previous_ = false;
+};
+
+struct SolveJob {
+  // [in]
+  const SolverModel* model = nullptr;
+  std::span<const devices::SensorSample> samples;  // newest sample per sensor; samples without
+                                                   // kSampleValid, unknown ids or non-finite
+                                                   // values are ignored
+  SolverContext* context = nullptr;
+  // [in, out] warm start (the previous frame's solution, or zero_pose()) in, solution out
+  avatar::Pose* pose = nullptr;
+  // [out]
+  int sensors_used = 0;
+  int ls_iterations = 0;
+
+  bool Validate() const;
+  bool Run();
+};
+
+}  // namespace mimic::solver

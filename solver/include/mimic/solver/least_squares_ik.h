@@ -1,0 +1,74 @@
+// Damped least-squares IK (Levenberg–Marquardt) over a chosen set of a skeleton's DOFs, and
+// optionally its root, towards world-space position and orientation targets on joints.
+//
+// Warm-started from the pose passed in; each iteration linearises the forward kinematics,
+// solves (JᵀJ + (λ² + w_prior²)·I)·δ = Jᵀr + w_prior²·(θ_prior − θ) by Cholesky and clamps every
+// DOF into its limits (a DOF held at a limit by the gradient drops out of the step). Frames:
+// world, metres, radians. Scratch lives in a caller-owned LeastSquaresIkContext sized once;
+// Run() never allocates and returns false when Validate() fails.
+#pragma once
+
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include "mimic/avatar/skeleton.h"
+
+namespace mimic::solver {
+
+struct IkTarget {
+  int joint = -1;                               // skeleton joint index
+  glm::vec3 position_m{0.0f};                   // wanted world_from_joint translation
+  glm::quat rotation{1.0f, 0.0f, 0.0f, 0.0f};   // wanted world_from_joint rotation
+  float position_weight = 0;                    // residual weight per metre; 0 ignores position
+  float rotation_weight = 0;                    // residual weight per radian; 0 ignores rotation
+};
+
+class LeastSquaresIkContext {
+ public:
+  LeastSquaresIkContext() = default;
+  // Scratch for `skeleton` (at most 64 joints), up to max_dofs DOF unknowns (+ 6 for the root)
+  // and max_targets targets. Allocates; call at setup.
+  LeastSquaresIkContext(const avatar::Skeleton& skeleton, int max_dofs, int max_targets);
+
+  int joint_count() const { return joints_; }
+  int max_dofs() const { return max_dofs_; }
+  int max_targets() const { return max_targets_; }
+  // World transforms of the last evaluated pose (valid after Run()).
+  std::span<const avatar::RigidTransform> world_from_joint() const { return world_; }
+
+ private:
+  friend struct LeastSquaresIkJob;
+  int joints_ = 0, max_dofs_ = 0, max_targets_ = 0;
+  std::vector<avatar::RigidTransform> world_;
+  std::vector<glm::vec3> dof_axis_world_;  // per skeleton DOF
+  std::vector<float> jacobian_;            // rows × cols, row-major
+  std::vector<float> residual_;
+  std::vector<float> normal_;              // cols × cols
+  std::vector<float> rhs_;
+  std::vector<uint64_t> chain_mask_;       // per target: bit j set when joint j moves it
+};
+
+struct LeastSquaresIkJob {
+  // [in]
+  const avatar::Skeleton* skeleton = nullptr;
+  std::span<const int> dofs;           // skeleton DOF indices to solve for (distinct)
+  bool solve_root = false;             // root position and orientation are unknowns too
+  std::span<const IkTarget> targets;
+  std::span<const float> prior_rad;    // empty, or one preferred value per skeleton DOF
+  float prior_weight = 0.05f;          // pull towards prior_rad, per radian
+  float damping = 0.02f;               // λ: resists large steps (keeps the warm start)
+  int max_iterations = 10;
+  float step_tolerance = 1e-5f;        // stop when no unknown moves more than this
+  LeastSquaresIkContext* context = nullptr;
+  // [in, out] warm start in, solution (inside the joint limits) out
+  avatar::Pose* pose = nullptr;
+  // [out]
+  int iterations = 0;
+  float residual_norm = 0;             // weighted residual after the last iteration
+
+  bool Validate() const;
+  bool Run();
+};
+
+}  // namespace mimic::solver

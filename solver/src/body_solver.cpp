@@ -1,0 +1,455 @@
+#include "mimic/solver/body_solver.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "mimic/solver/swing_twist.h"
+#include "mimic/solver/two_bone_ik.h"
+
+namespace mimic::solver {
+
+using avatar::Pose;
+using avatar::RigidTransform;
+using avatar::Skeleton;
+
+namespace {
+
+constexpr const char* kTrunk[] = {"spine_lower", "spine_mid", "spine_upper", "neck", "neck_upper", "head"};
+constexpr const char* kChains[4][3] = {{"l_shoulder", "l_elbow", "l_wrist"},
+                                       {"r_shoulder", "r_elbow", "r_wrist"},
+                                       {"l_hip", "l_knee", "l_ankle"},
+                                       {"r_hip", "r_knee", "r_ankle"}};
+
+bool finite_sample(const devices::SensorSample& s) {
+  const auto& p = s.position_m;
+  const auto& q = s.orientation;
+  return std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z) && std::isfinite(q.w) &&
+         std::isfinite(q.x) && std::isfinite(q.y) && std::isfinite(q.z) &&
+         glm::dot(q, q) > 0.25f;
+}
+
+glm::vec3 perpendicular_part(const glm::vec3& v, const glm::vec3& unit_axis) {
+  return v - unit_axis * glm::dot(v, unit_axis);
+}
+
+// Rotation about +Y that turns +Z towards the horizontal part of `forward`; false if vertical.
+bool heading_of(const glm::vec3& forward, glm::quat& out) {
+  const glm::vec2 h(forward.x, forward.z);
+  if (glm::length(h) < 0.2f) return false;
+  out = glm::angleAxis(std::atan2(h.x, h.y), glm::vec3(0, 1, 0));
+  return true;
+}
+
+// One evaluation of an arm or leg for a given swivel: the two-bone positions turned into DOF
+// values (clamped), with how far the limits had to cut them.
+struct ChainInput {
+  const Skeleton* s;
+  const SolverModel::Chain* ch;
+  const RigidTransform* parent_w;
+  glm::vec3 start;
+  const RigidTransform* end_t;
+  std::span<const float> warm;   // current DOF values (warm start of the decompositions)
+  glm::vec3 hinge_hint{0.0f};    // which way the hinge should face when over-extension is possible
+  const glm::vec3* last_bend = nullptr;
+};
+
+struct ChainSolution {
+  bool ok = false;
+  std::array<float, 3> upper{}, end{};
+  float bend = 0;
+  glm::vec3 bend_world{0.0f};
+  float violation = 0;  // radians cut off by the limits, summed
+};
+
+float decompose_clamped(const Skeleton& s, const int* dofs, int count, const glm::quat& q,
+                        std::span<const float> warm, std::array<float, 3>& out) {
+  std::array<glm::vec3, 3> axes;
+  std::array<float, 3> lo{}, hi{};
+  for (int i = 0; i < count; ++i) {
+    const auto& f = s.dof(dofs[i]);
+    axes[i] = f.axis, lo[i] = f.min_rad, hi[i] = f.max_rad;
+    out[i] = warm[dofs[i]];
+  }
+  angles_from_rotation(q, std::span(axes.data(), count), std::span(out.data(), count),
+                       std::span(lo.data(), count), std::span(hi.data(), count));
+  float violation = 0;
+  for (int i = 0; i < count; ++i) {
+    const float v = std::clamp(out[i], lo[i], hi[i]);
+    violation += std::abs(v - out[i]);
+    out[i] = v;
+  }
+  return violation;
+}
+
+ChainSolution solve_chain(const ChainInput& in, const glm::vec3& pole) {
+  const Skeleton& s = *in.s;
+  const SolverModel::Chain& ch = *in.ch;
+  ChainSolution out;
+  TwoBoneIkJob tb;
+  tb.start_m = in.start;
+  tb.target_m = in.end_t->translation;
+  tb.pole_dir = pole;
+  tb.upper_m = ch.upper_m;
+  tb.lower_m = ch.lower_m;
+  const auto& flex = s.dof(ch.flex_dof);
+  tb.min_bend_rad = std::max(0.0f, flex.min_rad);
+  tb.max_bend_rad = std::max(tb.min_bend_rad, flex.max_rad);
+  if (!tb.Run()) return out;
+  const glm::vec3 x_w = glm::normalize(tb.mid_m - in.start);
+  const glm::vec3 f = glm::normalize(tb.end_m - tb.mid_m);
+  glm::vec3 b_w = perpendicular_part(f, x_w);
+  if (glm::length(b_w) < 1e-3f) {
+    // Straight: the bend plane is free; keep the one the pole implies.
+    b_w = perpendicular_part(-pole, x_w);
+    if (glm::length(b_w) < 1e-4f) b_w = perpendicular_part(in.parent_w->rotation * ch.bend_dir, x_w);
+    if (glm::length(b_w) < 1e-4f) b_w = perpendicular_part(in.parent_w->rotation * ch.hinge, x_w);
+  }
+  b_w = glm::normalize(b_w);
+  // A nearly straight limb may be over-extended (a bend below zero) instead: then the bend plane
+  // turns over. Keep the plane whose hinge agrees with the hint.
+  const float bend0 = std::atan2(glm::dot(f, b_w), glm::dot(f, x_w));
+  if (flex.min_rad < 0 && bend0 <= -flex.min_rad) {
+    const glm::vec3 hint = in.last_bend ? glm::cross(x_w, *in.last_bend) : in.hinge_hint;
+    if (glm::dot(glm::cross(x_w, b_w), hint) < 0) b_w = -b_w;
+  }
+  const glm::vec3 h_w = glm::cross(x_w, b_w);
+  const glm::mat3 world_m(x_w, b_w, h_w);
+  const glm::mat3 rest_m(ch.upper_dir, ch.bend_dir, ch.hinge);
+  const glm::quat upper_world = glm::normalize(glm::quat_cast(world_m * glm::transpose(rest_m)));
+  out.violation = decompose_clamped(s, ch.upper_dofs.data(), ch.upper_dof_count,
+                                    glm::conjugate(in.parent_w->rotation) * upper_world, in.warm, out.upper);
+  const float bend = std::atan2(glm::dot(f, b_w), glm::dot(f, x_w));
+  out.bend = std::clamp(bend, flex.min_rad, flex.max_rad);
+  out.violation += std::abs(out.bend - bend);
+  out.bend_world = b_w;
+  // The upper joint as clamped, then the bend: what is left orients the hand or foot.
+  glm::quat upper_local(1, 0, 0, 0);
+  for (int i = 0; i < ch.upper_dof_count; ++i) upper_local = upper_local * glm::angleAxis(out.upper[i], s.dof(ch.upper_dofs[i]).axis);
+  const glm::quat mid_pre = in.parent_w->rotation * upper_local * glm::angleAxis(out.bend, ch.hinge);
+  out.violation += decompose_clamped(s, ch.end_dofs.data(), ch.end_dof_count,
+                                     glm::conjugate(mid_pre) * in.end_t->rotation, in.warm, out.end);
+  out.ok = true;
+  return out;
+}
+
+// Limits first, then closeness to the hinted swivel.
+float chain_cost(const ChainSolution& c, float phi) { return 40.0f * c.violation + 0.1f * phi * phi; }
+
+}  // namespace
+
+Result<SolverModel> SolverModel::create(Skeleton skeleton, std::vector<SensorMount> mounts,
+                                        SolverOptions options) {
+  SolverModel m;
+  m.skeleton_ = std::move(skeleton);
+  m.mounts_ = std::move(mounts);
+  m.options_ = options;
+  const Skeleton& s = m.skeleton_;
+  if (s.joint_count() > 64) return fail(Errc::unsupported, "solver: more than 64 joints");
+  if (s.dof_begin(0) != s.dof_end(0)) return fail(Errc::unsupported, "solver: the root joint must have no DOFs");
+
+  int max_id = -1;
+  for (const auto& mt : m.mounts_) max_id = std::max(max_id, int{mt.sensor});
+  m.slot_of_sensor_.assign(static_cast<size_t>(max_id + 1), -1);
+  for (size_t i = 0; i < m.mounts_.size(); ++i) {
+    const auto& mt = m.mounts_[i];
+    const int j = s.find_joint(mt.segment);
+    if (j < 0) return fail(Errc::not_found, "solver: sensor " + std::to_string(mt.sensor) + " is on unknown segment '" + mt.segment + "'");
+    if (m.slot_of_sensor_[mt.sensor] >= 0)
+      return fail(Errc::invalid_argument, "solver: sensor id " + std::to_string(mt.sensor) + " mounted twice");
+    m.slot_of_sensor_[mt.sensor] = static_cast<int>(i);
+    m.mount_joint_.push_back(j);
+    m.sensor_from_segment_.push_back(mt.segment_from_sensor.inverse());
+  }
+
+  for (const char* name : kTrunk) {
+    const int j = s.find_joint(name);
+    if (j < 0) continue;
+    m.trunk_joints_.push_back(j);
+    for (int d = s.dof_begin(j); d < s.dof_end(j); ++d) m.trunk_dofs_.push_back(d);
+  }
+  m.head_ = s.find_joint("head");
+  if (m.head_ < 0) return fail(Errc::not_found, "solver: the skeleton has no 'head' joint");
+
+  m.chain_of_joint_.assign(s.joint_count(), -1);
+  for (int c = 0; c < 4; ++c) {
+    Chain& ch = m.chains_[c];
+    ch.upper = s.find_joint(kChains[c][0]);
+    ch.mid = s.find_joint(kChains[c][1]);
+    ch.end = s.find_joint(kChains[c][2]);
+    if (ch.upper < 0 || ch.mid < 0 || ch.end < 0 || s.parent(ch.mid) != ch.upper || s.parent(ch.end) != ch.mid)
+      return fail(Errc::not_found, std::string("solver: the skeleton lacks the chain ") + kChains[c][0] + "–" +
+                                       kChains[c][1] + "–" + kChains[c][2]);
+    if (s.dof_begin(ch.mid) == s.dof_end(ch.mid))
+      return fail(Errc::invalid_argument, std::string("solver: joint ") + kChains[c][1] + " has no bend DOF");
+    ch.flex_dof = s.dof_begin(ch.mid);
+    // DOF indices are packed per joint, parents first, so the middle's and the end's are apart.
+    if ((s.dof_end(ch.mid) - ch.flex_dof - 1) + (s.dof_end(ch.end) - s.dof_begin(ch.end)) > 3)
+      return fail(Errc::unsupported, std::string("solver: more than 3 DOFs below the bend of ") + kChains[c][1]);
+    for (int d = ch.flex_dof + 1; d < s.dof_end(ch.mid); ++d) ch.end_dofs[ch.end_dof_count++] = d;
+    if (s.dof_end(ch.upper) - s.dof_begin(ch.upper) > 3)
+      return fail(Errc::unsupported, std::string("solver: more than 3 DOFs at ") + kChains[c][0]);
+    for (int d = s.dof_begin(ch.upper); d < s.dof_end(ch.upper); ++d) ch.upper_dofs[ch.upper_dof_count++] = d;
+    for (int d = s.dof_begin(ch.end); d < s.dof_end(ch.end); ++d) ch.end_dofs[ch.end_dof_count++] = d;
+    ch.upper_m = glm::length(s.offset_m(ch.mid));
+    ch.lower_m = glm::length(s.offset_m(ch.end));
+    if (ch.upper_m <= 0 || ch.lower_m <= 0)
+      return fail(Errc::invalid_argument, std::string("solver: zero-length link in the chain from ") + kChains[c][0]);
+    ch.upper_dir = s.offset_m(ch.mid) / ch.upper_m;
+    const glm::vec3 lower_dir = s.offset_m(ch.end) / ch.lower_m;
+    ch.hinge = s.dof(ch.flex_dof).axis;
+    ch.bend_dir = glm::cross(ch.hinge, ch.upper_dir);
+    if (std::abs(glm::dot(ch.hinge, ch.upper_dir)) > 1e-3f || glm::dot(lower_dir, ch.upper_dir) < 0.999f)
+      return fail(Errc::unsupported, std::string("solver: the chain from ") + kChains[c][0] +
+                                         " must be straight in the zero posture with its bend axis across it");
+    // Elbows hang down and a little back, knees point forward.
+    ch.default_pole = c < 2 ? glm::normalize(glm::vec3(0, -1, -0.3f)) : glm::vec3(0, 0, 1);
+    if (c < 2) {
+      const int clavicle = s.parent(ch.upper);
+      if (clavicle > 0 && std::find(m.trunk_joints_.begin(), m.trunk_joints_.end(), clavicle) == m.trunk_joints_.end())
+        for (int d = s.dof_begin(clavicle); d < s.dof_end(clavicle); ++d) m.arm_dofs_[c].push_back(d);
+      for (int d = s.dof_begin(ch.upper); d < s.dof_end(ch.upper); ++d) m.arm_dofs_[c].push_back(d);
+      m.arm_dofs_[c].push_back(ch.flex_dof);
+    }
+    m.chain_of_joint_[ch.upper] = m.chain_of_joint_[ch.mid] = m.chain_of_joint_[ch.end] = static_cast<int8_t>(c);
+    if (c >= 2)
+      for (int j : {ch.upper, ch.mid})
+        for (int d = s.dof_begin(j); d < s.dof_end(j); ++d) m.leg_dofs_.push_back(d);
+  }
+  m.prior_rad_.resize(s.dof_count());
+  for (int d = 0; d < s.dof_count(); ++d) m.prior_rad_[d] = s.dof(d).rest_rad;
+  return m;
+}
+
+SolverContext::SolverContext(const SolverModel& model)
+    : ls_(model.skeleton(),
+          static_cast<int>(model.trunk_dofs_.size() + model.leg_dofs_.size() + model.arm_dofs_[0].size() +
+                           model.arm_dofs_[1].size()),
+          static_cast<int>(model.trunk_joints_.size()) + 7) {
+  const int n = model.skeleton().joint_count();
+  targets_.reserve(model.trunk_joints_.size() + 7);
+  ls_dofs_.reserve(model.trunk_dofs_.size() + model.leg_dofs_.size() + model.arm_dofs_[0].size() +
+                   model.arm_dofs_[1].size());
+  segment_target_.resize(n);
+  prior_.resize(model.skeleton().dof_count());
+  has_target_.resize(n);
+  world_.resize(n);
+}
+
+bool SolveJob::Validate() const {
+  if (!model || !context || !pose) return false;
+  const Skeleton& s = model->skeleton();
+  return static_cast<int>(pose->dof_rad.size()) == s.dof_count() &&
+         context->ls_.joint_count() == s.joint_count() &&
+         static_cast<int>(context->has_target_.size()) == s.joint_count();
+}
+
+bool SolveJob::Run() {
+  if (!Validate()) return false;
+  const SolverModel& m = *model;
+  SolverContext& c = *context;
+  const Skeleton& s = m.skeleton_;
+  const SolverOptions& o = m.options_;
+  Pose& p = *pose;
+  std::span<float> dof(p.dof_rad);
+
+  // 1. Segment targets from the samples.
+  std::fill(c.has_target_.begin(), c.has_target_.end(), uint8_t{0});
+  sensors_used = 0;
+  for (const auto& smp : samples) {
+    if (!(smp.flags & devices::kSampleValid) || smp.sensor >= m.slot_of_sensor_.size()) continue;
+    const int slot = m.slot_of_sensor_[smp.sensor];
+    if (slot < 0 || !finite_sample(smp)) continue;
+    const RigidTransform world_from_sensor{glm::normalize(smp.orientation), smp.position_m};
+    const int j = m.mount_joint_[slot];
+    c.segment_target_[j] = world_from_sensor * m.sensor_from_segment_[slot];
+    c.has_target_[j] = 1;
+    ++sensors_used;
+  }
+  if (!std::isfinite(p.root_position_m.x + p.root_position_m.y + p.root_position_m.z) ||
+      !(glm::dot(p.root_orientation, p.root_orientation) > 0.25f))
+    p.root_position_m = glm::vec3(0.0f), p.root_orientation = glm::quat(1, 0, 0, 0);
+
+  // 2. Root from the pelvis, else an unknown of the trunk solve.
+  const bool root_known = c.has_target_[0] != 0;
+  if (root_known) {
+    const RigidTransform& t = c.segment_target_[0];
+    p.root_orientation = t.rotation;
+    p.root_position_m = t.translation - t.rotation * s.offset_m(0);
+  }
+
+  // 3. Trunk: damped least squares.
+  c.targets_.clear();
+  c.ls_dofs_.clear();
+  c.ls_dofs_.insert(c.ls_dofs_.end(), m.trunk_dofs_.begin(), m.trunk_dofs_.end());
+  for (int j : m.trunk_joints_)
+    if (c.has_target_[j])
+      c.targets_.push_back(IkTarget{j, c.segment_target_[j].translation, c.segment_target_[j].rotation,
+                                    o.position_weight, o.rotation_weight});
+  const bool trunk_observed = !c.targets_.empty();
+  if (!root_known && trunk_observed) {
+    // Keep the pelvis upright and facing where the head (or the feet) face.
+    glm::quat heading = p.root_orientation;
+    const glm::quat head_rot = c.has_target_[m.head_] ? c.segment_target_[m.head_].rotation : glm::quat(1, 0, 0, 0);
+    glm::vec3 forward(0.0f);
+    for (int leg = 2; leg < 4; ++leg)
+      if (c.has_target_[m.chains_[leg].end]) forward += c.segment_target_[m.chains_[leg].end].rotation * glm::vec3(0, 0, 1);
+    if (glm::length(forward) < 0.5f && c.has_target_[m.head_]) {
+      forward = head_rot * glm::vec3(0, 0, 1);
+      if (glm::length(glm::vec2(forward.x, forward.z)) < 0.3f) forward = head_rot * glm::vec3(0, 1, 0);
+    }
+    heading_of(forward, heading);
+    c.targets_.push_back(IkTarget{0, glm::vec3(0.0f), heading, 0.0f, 0.5f * o.rotation_weight});
+    bool feet = false;
+    for (int leg = 2; leg < 4; ++leg) {
+      const int e = m.chains_[leg].end;
+      if (!c.has_target_[e]) continue;
+      c.targets_.push_back(IkTarget{e, c.segment_target_[e].translation, glm::quat(1, 0, 0, 0), o.position_weight, 0.0f});
+      feet = true;
+    }
+    if (feet) c.ls_dofs_.insert(c.ls_dofs_.end(), m.leg_dofs_.begin(), m.leg_dofs_.end());
+  }
+  // Hands: the arm DOFs (clavicle, shoulder, elbow bend) join the solve so that the trunk
+  // leaves the hands within reach; the analytic chains below then place the arms exactly.
+  if (trunk_observed) {
+    for (int arm = 0; arm < 2; ++arm) {
+      const int e = m.chains_[arm].end;
+      if (!c.has_target_[e]) continue;
+      c.targets_.push_back(IkTarget{e, c.segment_target_[e].translation, glm::quat(1, 0, 0, 0), o.position_weight, 0.0f});
+      c.ls_dofs_.insert(c.ls_dofs_.end(), m.arm_dofs_[arm].begin(), m.arm_dofs_[arm].end());
+      const int clavicle = s.parent(m.chains_[arm].upper);
+      if (c.has_target_[clavicle])
+        c.targets_.push_back(IkTarget{clavicle, c.segment_target_[clavicle].translation, c.segment_target_[clavicle].rotation,
+                                      o.position_weight, o.rotation_weight});
+    }
+  }
+  ls_iterations = 0;
+  if (trunk_observed) {
+    LeastSquaresIkJob ls;
+    ls.skeleton = &s;
+    ls.dofs = c.ls_dofs_;
+    ls.solve_root = !root_known;
+    ls.targets = c.targets_;
+    // Relaxed trunk, but no pull on the arms: their DOFs are there only to keep the hands in reach.
+    std::copy(m.prior_rad_.begin(), m.prior_rad_.end(), c.prior_.begin());
+    for (int arm = 0; arm < 2; ++arm)
+      for (int d : m.arm_dofs_[arm]) c.prior_[d] = dof[d];
+    ls.prior_rad = c.prior_;
+    ls.prior_weight = o.prior_weight;
+    ls.damping = o.damping;
+    ls.max_iterations = o.iterations;
+    ls.context = &c.ls_;
+    ls.pose = &p;
+    ls.Run();
+    ls_iterations = ls.iterations;
+  }
+
+  // 4. Limbs and the rest, parents first.
+  std::array<bool, 4> chain_solved{};
+  auto fk = [&](int j) {
+    const glm::quat local = s.local_rotation(j, dof);
+    const int par = s.parent(j);
+    if (par < 0) {
+      c.world_[j] = RigidTransform{p.root_orientation * local, p.root_position_m + p.root_orientation * s.offset_m(j)};
+    } else {
+      c.world_[j] = RigidTransform{c.world_[par].rotation * local, c.world_[par].apply(s.offset_m(j))};
+    }
+  };
+  auto relax = [&](int j) {
+    for (int d = s.dof_begin(j); d < s.dof_end(j); ++d) dof[d] = m.prior_rad_[d];
+  };
+  auto from_orientation = [&](int j) {
+    const int par = s.parent(j);
+    const glm::quat parent_rot = par < 0 ? p.root_orientation : c.world_[par].rotation;
+    joint_dofs_from_rotation(s, j, glm::conjugate(parent_rot) * c.segment_target_[j].rotation, dof);
+  };
+  bool is_trunk[64] = {};
+  bool solved_by_ls[64] = {};
+  if (trunk_observed)
+    for (int d : c.ls_dofs_) solved_by_ls[s.dof(d).joint] = true;
+  for (int j : m.trunk_joints_) is_trunk[j] = true;
+
+  for (int j = 0; j < s.joint_count(); ++j) {
+    const int ci = m.chain_of_joint_[j];
+    if (j == 0 || is_trunk[j]) {
+      if (j != 0 && !trunk_observed) {
+        if (c.has_target_[j]) from_orientation(j);
+      }
+    } else if (ci >= 0) {
+      const SolverModel::Chain& ch = m.chains_[ci];
+      if (j == ch.upper && c.has_target_[ch.end]) {
+        const RigidTransform& parent_w = c.world_[s.parent(j)];
+        const glm::vec3 start = parent_w.apply(s.offset_m(j));
+        const RigidTransform& end_t = c.segment_target_[ch.end];
+        glm::vec3 pole;
+        const glm::vec3 default_pole = p.root_orientation * ch.default_pole;
+        if (c.has_target_[ch.mid]) {
+          pole = end_t.translation - ch.lower_m * (c.segment_target_[ch.mid].rotation * ch.upper_dir) - start;
+        } else if (c.has_target_[ch.upper]) {
+          pole = ch.upper_m * (c.segment_target_[ch.upper].rotation * ch.upper_dir);
+        } else {
+          // The hand (foot) rarely bends far from its forearm (shin): guess the middle joint
+          // one lower link back along it, leaning on the natural direction when that is vague.
+          const glm::vec3 guess = end_t.translation - ch.lower_m * (end_t.rotation * ch.upper_dir) - start;
+          const float reach = ch.upper_m + ch.lower_m;
+          pole = guess + 0.3f * reach * default_pole;
+        }
+        ChainInput in{&s, &ch, &parent_w, start, &end_t, dof};
+        if (c.has_target_[ch.upper]) in.hinge_hint = c.segment_target_[ch.upper].rotation * ch.hinge;
+        else if (c.has_target_[ch.mid]) in.hinge_hint = c.segment_target_[ch.mid].rotation * ch.hinge;
+        else if (c.have_previous_) in.last_bend = &c.last_bend_world_[ci];
+        else in.hinge_hint = end_t.rotation * ch.hinge;
+        // Swivel: the hint first; if the limits cannot follow it (shoulder twist, forearm twist,
+        // wrist, hip rotation …), the feasible swivel nearest to it.
+        const glm::vec3 axis_dir = end_t.translation - start;
+        const float axis_len = glm::length(axis_dir);
+        const glm::vec3 n = axis_len > 1e-6f ? axis_dir / axis_len : glm::vec3(0, -1, 0);
+        glm::vec3 e1 = perpendicular_part(pole, n);
+        if (glm::length(e1) < 1e-6f) e1 = perpendicular_part(default_pole, n);
+        if (glm::length(e1) < 1e-6f) e1 = perpendicular_part(glm::vec3(0, 0, 1), n);
+        if (glm::length(e1) < 1e-6f) e1 = perpendicular_part(glm::vec3(1, 0, 0), n);
+        e1 = glm::normalize(e1);
+        const glm::vec3 e2 = glm::cross(n, e1);
+        ChainSolution best = solve_chain(in, e1);
+        if (best.ok && best.violation > 1e-4f) {
+          float best_phi = 0;
+          float best_cost = chain_cost(best, 0.0f);
+          constexpr int kSamples = 16;
+          for (int k = 1; k < kSamples; ++k) {
+            const float phi = 6.2831853f * static_cast<float>(k) / kSamples - (k > kSamples / 2 ? 6.2831853f : 0.0f);
+            const ChainSolution cand = solve_chain(in, std::cos(phi) * e1 + std::sin(phi) * e2);
+            const float cost = chain_cost(cand, phi);
+            if (cand.ok && cost < best_cost) best = cand, best_cost = cost, best_phi = phi;
+          }
+          for (float step = 6.2831853f / (2 * kSamples); step > 0.005f; step *= 0.5f) {
+            for (float phi : {best_phi - step, best_phi + step}) {
+              const ChainSolution cand = solve_chain(in, std::cos(phi) * e1 + std::sin(phi) * e2);
+              const float cost = chain_cost(cand, phi);
+              if (cand.ok && cost < best_cost) best = cand, best_cost = cost, best_phi = phi;
+            }
+          }
+        }
+        if (best.ok) {
+          for (int i = 0; i < ch.upper_dof_count; ++i) dof[ch.upper_dofs[i]] = best.upper[i];
+          dof[ch.flex_dof] = best.bend;
+          for (int i = 0; i < ch.end_dof_count; ++i) dof[ch.end_dofs[i]] = best.end[i];
+          c.last_bend_world_[ci] = best.bend_world;
+          fk(j);
+          chain_solved[ci] = true;
+          continue;
+        }
+      }
+      if (!chain_solved[ci]) {
+        if (c.has_target_[j]) from_orientation(j);
+        else relax(j);
+      }
+    } else {
+      if (c.has_target_[j]) from_orientation(j);
+      else if (!solved_by_ls[j]) relax(j);
+    }
+    fk(j);
+  }
+  c.have_previous_ = true;
+  return true;
+}
+
+}  // namespace mimic::solver

@@ -1,0 +1,244 @@
+#include "mimic/solver/least_squares_ik.h"
+
+#include <algorithm>
+#include <cassert>
+#include <cmath>
+
+namespace mimic::solver {
+
+using avatar::Pose;
+using avatar::RigidTransform;
+using avatar::Skeleton;
+
+namespace {
+
+constexpr int kRootUnknowns = 6;
+
+// Rotation vector (axis · angle, |angle| ≤ π) of a unit quaternion.
+glm::vec3 rotation_vector(glm::quat q) {
+  if (q.w < 0) q = -q;
+  const glm::vec3 v(q.x, q.y, q.z);
+  const float s = glm::length(v);
+  if (s < 1e-8f) return 2.0f * v;
+  return v * (2.0f * std::atan2(s, q.w) / s);
+}
+
+glm::quat exp_rotation(const glm::vec3& rv) {
+  const float angle = glm::length(rv);
+  if (angle < 1e-8f) return glm::normalize(glm::quat(1.0f, 0.5f * rv.x, 0.5f * rv.y, 0.5f * rv.z));
+  return glm::angleAxis(angle, rv / angle);
+}
+
+// FK that also records every DOF's rotation axis in world space.
+void evaluate(const Skeleton& s, const Pose& pose, std::span<RigidTransform> world,
+              std::span<glm::vec3> axis_world) {
+  const int n = s.joint_count();
+  const glm::quat root_rot = glm::normalize(pose.root_orientation);
+  for (int j = 0; j < n; ++j) {
+    const int p = s.parent(j);
+    glm::quat r = p < 0 ? root_rot : world[p].rotation;
+    for (int i = s.dof_begin(j); i < s.dof_end(j); ++i) {
+      const auto& f = s.dof(i);
+      axis_world[i] = r * f.axis;
+      r = r * glm::angleAxis(pose.dof_rad[i], f.axis);
+    }
+    world[j].rotation = r;
+    world[j].translation = p < 0 ? pose.root_position_m + root_rot * s.offset_m(j)
+                                 : world[p].apply(s.offset_m(j));
+  }
+}
+
+// Fills residual rows in target order; returns the row count.
+int fill_residual(std::span<const IkTarget> targets, std::span<const RigidTransform> world,
+                  std::span<float> r) {
+  int row = 0;
+  for (const IkTarget& t : targets) {
+    const RigidTransform& w = world[t.joint];
+    if (t.position_weight > 0) {
+      const glm::vec3 e = t.position_weight * (t.position_m - w.translation);
+      r[row++] = e.x, r[row++] = e.y, r[row++] = e.z;
+    }
+    if (t.rotation_weight > 0) {
+      const glm::vec3 e = t.rotation_weight * rotation_vector(t.rotation * glm::conjugate(w.rotation));
+      r[row++] = e.x, r[row++] = e.y, r[row++] = e.z;
+    }
+  }
+  return row;
+}
+
+// In-place Cholesky solve of the SPD n×n system a·x = b (x overwrites b). False if not SPD.
+bool cholesky_solve(std::span<float> a, std::span<float> b, int n) {
+  for (int j = 0; j < n; ++j) {
+    float d = a[j * n + j];
+    for (int k = 0; k < j; ++k) d -= a[j * n + k] * a[j * n + k];
+    if (!(d > 1e-12f)) return false;
+    d = std::sqrt(d);
+    a[j * n + j] = d;
+    for (int i = j + 1; i < n; ++i) {
+      float v = a[i * n + j];
+      for (int k = 0; k < j; ++k) v -= a[i * n + k] * a[j * n + k];
+      a[i * n + j] = v / d;
+    }
+  }
+  for (int i = 0; i < n; ++i) {  // L·y = b
+    float v = b[i];
+    for (int k = 0; k < i; ++k) v -= a[i * n + k] * b[k];
+    b[i] = v / a[i * n + i];
+  }
+  for (int i = n - 1; i >= 0; --i) {  // Lᵀ·x = y
+    float v = b[i];
+    for (int k = i + 1; k < n; ++k) v -= a[k * n + i] * b[k];
+    b[i] = v / a[i * n + i];
+  }
+  return true;
+}
+
+}  // namespace
+
+LeastSquaresIkContext::LeastSquaresIkContext(const Skeleton& skeleton, int max_dofs, int max_targets)
+    : joints_(skeleton.joint_count()), max_dofs_(max_dofs), max_targets_(max_targets) {
+  const int cols = max_dofs + kRootUnknowns;
+  const int rows = 6 * max_targets;
+  world_.resize(joints_);
+  dof_axis_world_.resize(skeleton.dof_count());
+  jacobian_.resize(static_cast<size_t>(rows) * cols);
+  residual_.resize(rows);
+  normal_.resize(static_cast<size_t>(cols) * cols);
+  rhs_.resize(cols);
+  chain_mask_.resize(max_targets);
+}
+
+bool LeastSquaresIkJob::Validate() const {
+  if (!skeleton || !pose || !context) return false;
+  const Skeleton& s = *skeleton;
+  if (s.joint_count() > 64 || context->joints_ != s.joint_count()) return false;
+  if (static_cast<int>(context->dof_axis_world_.size()) != s.dof_count()) return false;
+  if (static_cast<int>(dofs.size()) > context->max_dofs_) return false;
+  if (static_cast<int>(targets.size()) > context->max_targets_) return false;
+  if (static_cast<int>(pose->dof_rad.size()) != s.dof_count()) return false;
+  if (!prior_rad.empty() && static_cast<int>(prior_rad.size()) != s.dof_count()) return false;
+  for (int d : dofs)
+    if (d < 0 || d >= s.dof_count()) return false;
+  for (const IkTarget& t : targets)
+    if (t.joint < 0 || t.joint >= s.joint_count() || t.position_weight < 0 || t.rotation_weight < 0)
+      return false;
+  return max_iterations >= 0 && damping >= 0 && prior_weight >= 0;
+}
+
+bool LeastSquaresIkJob::Run() {
+  if (!Validate()) return false;
+  const Skeleton& s = *skeleton;
+  LeastSquaresIkContext& c = *context;
+  Pose& p = *pose;
+  const int root_cols = solve_root ? kRootUnknowns : 0;
+  const int cols = root_cols + static_cast<int>(dofs.size());
+  const std::span<RigidTransform> world(c.world_);
+  const std::span<glm::vec3> axes(c.dof_axis_world_);
+
+  for (size_t t = 0; t < targets.size(); ++t) {
+    uint64_t mask = 0;
+    for (int j = targets[t].joint; j >= 0; j = s.parent(j)) mask |= uint64_t{1} << j;
+    c.chain_mask_[t] = mask;
+  }
+
+  iterations = 0;
+  const float lambda2 = damping * damping;
+  const float prior2 = prior_rad.empty() ? 0.0f : prior_weight * prior_weight;
+  for (int it = 0; it < max_iterations && cols > 0; ++it) {
+    evaluate(s, p, world, axes);
+    const int rows = fill_residual(targets, world, c.residual_);
+    float* jac = c.jacobian_.data();
+    std::fill(jac, jac + static_cast<size_t>(rows) * cols, 0.0f);
+
+    // Jacobian, one row block per target term.
+    int row = 0;
+    for (size_t t = 0; t < targets.size(); ++t) {
+      const IkTarget& tg = targets[t];
+      const glm::vec3 e = world[tg.joint].translation;
+      const int pos_row = tg.position_weight > 0 ? row : -1;
+      if (tg.position_weight > 0) row += 3;
+      const int rot_row = tg.rotation_weight > 0 ? row : -1;
+      if (tg.rotation_weight > 0) row += 3;
+      auto put = [&](int r0, float w, int col, const glm::vec3& v) {
+        jac[(r0 + 0) * cols + col] = w * v.x;
+        jac[(r0 + 1) * cols + col] = w * v.y;
+        jac[(r0 + 2) * cols + col] = w * v.z;
+      };
+      if (solve_root) {
+        const glm::vec3 arm = e - p.root_position_m;
+        for (int k = 0; k < 3; ++k) {
+          glm::vec3 unit(0.0f);
+          unit[k] = 1.0f;
+          if (pos_row >= 0) put(pos_row, tg.position_weight, k, unit);
+          if (pos_row >= 0) put(pos_row, tg.position_weight, 3 + k, glm::cross(unit, arm));
+          if (rot_row >= 0) put(rot_row, tg.rotation_weight, 3 + k, unit);
+        }
+      }
+      for (size_t k = 0; k < dofs.size(); ++k) {
+        const int d = dofs[k];
+        const int j = s.dof(d).joint;
+        if (!(c.chain_mask_[t] >> j & 1u)) continue;
+        const int col = root_cols + static_cast<int>(k);
+        if (pos_row >= 0) put(pos_row, tg.position_weight, col, glm::cross(axes[d], e - world[j].translation));
+        if (rot_row >= 0) put(rot_row, tg.rotation_weight, col, axes[d]);
+      }
+    }
+
+    // Normal equations.
+    float* a = c.normal_.data();
+    float* b = c.rhs_.data();
+    for (int i = 0; i < cols; ++i) {
+      for (int k = 0; k <= i; ++k) {
+        float sum = 0;
+        for (int r = 0; r < rows; ++r) sum += jac[r * cols + i] * jac[r * cols + k];
+        a[i * cols + k] = sum;
+        a[k * cols + i] = sum;
+      }
+      float g = 0;
+      for (int r = 0; r < rows; ++r) g += jac[r * cols + i] * c.residual_[r];
+      b[i] = g;
+      a[i * cols + i] += lambda2;
+    }
+    for (size_t k = 0; k < dofs.size(); ++k) {
+      const int col = root_cols + static_cast<int>(k);
+      const int d = dofs[k];
+      if (prior2 > 0) {
+        a[col * cols + col] += prior2;
+        b[col] += prior2 * (prior_rad[d] - p.dof_rad[d]);
+      }
+      // A DOF pinned at a limit with the gradient pushing outwards leaves the step.
+      const auto& f = s.dof(d);
+      const bool at_min = p.dof_rad[d] <= f.min_rad + 1e-6f && b[col] < 0;
+      const bool at_max = p.dof_rad[d] >= f.max_rad - 1e-6f && b[col] > 0;
+      if (at_min || at_max) {
+        for (int i = 0; i < cols; ++i) a[col * cols + i] = a[i * cols + col] = 0.0f;
+        a[col * cols + col] = 1.0f;
+        b[col] = 0.0f;
+      }
+    }
+    if (!cholesky_solve(std::span(a, static_cast<size_t>(cols) * cols), std::span(b, cols), cols)) break;
+
+    float biggest = 0;
+    for (int i = 0; i < cols; ++i) biggest = std::max(biggest, std::abs(b[i]));
+    if (!std::isfinite(biggest)) break;
+    if (solve_root) {
+      p.root_position_m += glm::vec3(b[0], b[1], b[2]);
+      p.root_orientation = glm::normalize(exp_rotation(glm::vec3(b[3], b[4], b[5])) * p.root_orientation);
+    }
+    for (size_t k = 0; k < dofs.size(); ++k) {
+      const int d = dofs[k];
+      const auto& f = s.dof(d);
+      p.dof_rad[d] = std::clamp(p.dof_rad[d] + b[root_cols + k], f.min_rad, f.max_rad);
+    }
+    ++iterations;
+    if (biggest < step_tolerance) break;
+  }
+  evaluate(s, p, world, axes);
+  const int rows = fill_residual(targets, world, c.residual_);
+  float sum = 0;
+  for (int r = 0; r < rows; ++r) sum += c.residual_[r] * c.residual_[r];
+  residual_norm = std::sqrt(sum);
+  return true;
+}
+
+}  // namespace mimic::solver

@@ -1,0 +1,163 @@
+// End to end: `mimic sim spaceball` serves a virtual Spaceball on a pty; `mimic devices --read`
+// drives it with the real driver; `mimic devices` lists what is connected.
+#include <signal.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "test_data.h"
+
+extern char** environ;
+
+namespace {
+
+// A child process whose stdout we read line by line.
+struct Child {
+  pid_t pid = -1;
+  FILE* out = nullptr;
+
+  explicit Child(const std::vector<std::string>& args) {
+    int fds[2];
+    if (::pipe(fds) != 0) return;
+    posix_spawn_file_actions_t fa;
+    posix_spawn_file_actions_init(&fa);
+    posix_spawn_file_actions_adddup2(&fa, fds[1], 1);
+    posix_spawn_file_actions_addclose(&fa, fds[0]);
+    std::vector<char*> argv;
+    for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
+    argv.push_back(nullptr);
+    if (posix_spawn(&pid, argv[0], &fa, nullptr, argv.data(), environ) != 0) pid = -1;
+    posix_spawn_file_actions_destroy(&fa);
+    ::close(fds[1]);
+    out = ::fdopen(fds[0], "r");
+  }
+  std::string line() {
+    char buf[512];
+    if (!out || !std::fgets(buf, sizeof buf, out)) return {};
+    std::string s(buf);
+    if (!s.empty() && s.back() == '\n') s.pop_back();
+    return s;
+  }
+  std::string rest() {
+    std::string s;
+    char buf[512];
+    while (out && std::fgets(buf, sizeof buf, out)) s += buf;
+    return s;
+  }
+  int wait() {
+    int status = 0;
+    if (pid > 0) ::waitpid(pid, &status, 0);
+    pid = -1;
+    return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+  }
+  ~Child() {
+    if (pid > 0) {
+      ::kill(pid, SIGKILL);
+      ::waitpid(pid, nullptr, 0);
+    }
+    if (out) std::fclose(out);
+  }
+};
+
+}  // namespace
+
+TEST(SimSpaceballCli, DriverReadsTheVirtualSpaceballEndToEnd) {
+  const std::string mimic = mimic::test::mimic_binary();
+  const auto log = std::filesystem::temp_directory_path() / ("mimic-sb-" + std::to_string(::getpid()) + ".log");
+  Child sim({mimic, "sim", "spaceball", "--model", "3003", "--seed", "5", "--power-up", "0.1", "--log", log.string()});
+  ASSERT_GT(sim.pid, 0);
+  const std::string path = sim.line();  // the first line is the pty path
+  ASSERT_EQ(path.rfind("/dev/pts/", 0), 0u) << path;
+
+  Child reader({mimic, "devices", "--read", "spaceball:" + path + "?probe=0.5", "--duration", "2.5"});
+  const std::string out = reader.rest();
+  EXPECT_EQ(reader.wait(), 0) << out;
+  EXPECT_NE(out.find("status: spaceball:" + path + " Spaceball 3003 firmware 2.63: streaming"), std::string::npos)
+      << out;
+  EXPECT_NE(out.find(" T "), std::string::npos) << out;
+  EXPECT_NE(out.find("0 resyncs, 0 reconnects"), std::string::npos) << out;
+
+  ASSERT_EQ(::kill(sim.pid, SIGTERM), 0);
+  EXPECT_EQ(sim.wait(), 0);
+  // The byte log shows the driver's reset and the device's banner and D packets.
+  std::ifstream in(log);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  const std::string text = ss.str();
+  EXPECT_NE(text.find(" in 0d 40 52 45 53 45 54 0d"), std::string::npos);  // \r@RESET\r
+  // Everything the device sent, as one hex stream: XON CR "@1" … and D packets after a CR.
+  std::string sent;
+  std::istringstream lines(text);
+  for (std::string l; std::getline(lines, l);) {
+    const auto at = l.find(" out");
+    if (at != std::string::npos) sent += l.substr(at + 4);
+  }
+  EXPECT_EQ(sent.rfind(" 11 0d 40 31", 0), 0u) << sent.substr(0, 40);
+  EXPECT_NE(sent.find(" 0d 44"), std::string::npos);
+  std::filesystem::remove(log);
+}
+
+TEST(SimSpaceballCli, UsageErrorsAndHelp) {
+  const std::string mimic = mimic::test::mimic_binary();
+  {
+    Child c({mimic, "sim", "spaceball", "--model", "5000"});
+    EXPECT_EQ(c.wait(), 2);
+  }
+  {
+    Child c({mimic, "sim", "spaceball", "--help"});
+    const std::string help = c.rest();
+    EXPECT_EQ(c.wait(), 0);
+    EXPECT_NE(help.find("--model 4000flx|3003|2003"), std::string::npos);
+    EXPECT_NE(help.find("--log FILE"), std::string::npos);
+  }
+  {
+    Child c({mimic, "sim", "--help"});
+    const std::string help = c.rest();
+    EXPECT_EQ(c.wait(), 0);
+    EXPECT_NE(help.find("spaceball"), std::string::npos);
+    EXPECT_NE(help.find("magellan"), std::string::npos);
+  }
+}
+
+TEST(DevicesCli, ListsAndSaysWhenNothingIsConnected) {
+  const std::string mimic = mimic::test::mimic_binary();
+  Child c({mimic, "devices", "--json"});
+  const std::string out = c.rest();
+  EXPECT_EQ(c.wait(), 0);
+  EXPECT_NE(out.find("\"nothing_connected\""), std::string::npos) << out;
+  EXPECT_NE(out.find("\"serial\""), std::string::npos) << out;
+  Child t({mimic, "devices"});
+  const std::string text = t.rest();
+  EXPECT_EQ(t.wait(), 0);
+  EXPECT_NE(text.find("Serial ports:"), std::string::npos) << text;
+  const bool none = out.find("\"nothing_connected\": true") != std::string::npos;
+  EXPECT_EQ(none, text.find("No 6-DOF input device or USB-serial adapter is connected.") != std::string::npos);
+}
+
+TEST(DevicesCli, WatchStopsAfterDurationAndReadsMagellan) {
+  const std::string mimic = mimic::test::mimic_binary();
+  Child w({mimic, "devices", "--watch", "--interval", "0.2", "--duration", "0.6"});
+  const std::string out = w.rest();
+  EXPECT_EQ(w.wait(), 0);
+  EXPECT_NE(out.find("Watching ("), std::string::npos) << out;
+
+  Child sim({mimic, "sim", "magellan", "--seed", "3"});
+  const std::string path = sim.line();
+  ASSERT_EQ(path.rfind("/dev/pts/", 0), 0u) << path;
+  Child reader({mimic, "devices", "--read", "magellan:" + path + "?settle=0.1", "--duration", "1.5"});
+  const std::string r = reader.rest();
+  EXPECT_EQ(reader.wait(), 0);
+  EXPECT_NE(r.find("MAGELLAN Version 6.60"), std::string::npos) << r;
+  EXPECT_NE(r.find(": streaming"), std::string::npos) << r;
+  ::kill(sim.pid, SIGINT);
+  EXPECT_EQ(sim.wait(), 0);
+}

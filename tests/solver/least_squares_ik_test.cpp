@@ -1,0 +1,125 @@
+#include "mimic/solver/least_squares_ik.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+namespace mimic::solver {
+namespace {
+
+using avatar::Pose;
+using avatar::RigidTransform;
+using avatar::Skeleton;
+
+Skeleton default_skeleton() { return *Skeleton::build(avatar::default_skeleton_desc()); }
+
+std::vector<int> dofs_of(const Skeleton& s, std::initializer_list<const char*> joints) {
+  std::vector<int> out;
+  for (const char* name : joints) {
+    const int j = s.find_joint(name);
+    for (int d = s.dof_begin(j); d < s.dof_end(j); ++d) out.push_back(d);
+  }
+  return out;
+}
+
+// A random pose of the spine, neck and head inside the limits; the head's world pose is a
+// reachable target, and the solve from the relaxed posture reaches it.
+TEST(LeastSquaresIk, ReachesReachableTrunkTargets) {
+  const Skeleton s = default_skeleton();
+  const std::vector<int> dofs = dofs_of(s, {"spine_lower", "spine_mid", "spine_upper", "neck", "neck_upper", "head"});
+  LeastSquaresIkContext ctx(s, static_cast<int>(dofs.size()), 4);
+  std::mt19937_64 rng(11);
+  std::vector<RigidTransform> w(s.joint_count());
+  for (int trial = 0; trial < 50; ++trial) {
+    Pose truth = s.zero_pose();
+    for (int d : dofs) {
+      std::uniform_real_distribution<float> u(0.6f * s.dof(d).min_rad, 0.6f * s.dof(d).max_rad);
+      truth.dof_rad[d] = u(rng);
+    }
+    forward_kinematics(s, truth, w);
+    const int head = s.find_joint("head"), chest = s.find_joint("spine_upper");
+    const IkTarget targets[] = {{head, w[head].translation, w[head].rotation, 10.0f, 1.0f},
+                                {chest, w[chest].translation, w[chest].rotation, 10.0f, 1.0f}};
+    Pose solved = s.zero_pose();
+    LeastSquaresIkJob job;
+    job.skeleton = &s;
+    job.dofs = dofs;
+    job.targets = targets;
+    job.context = &ctx;
+    job.pose = &solved;
+    job.max_iterations = 30;
+    ASSERT_TRUE(job.Run());
+    std::vector<RigidTransform> ws(s.joint_count());
+    forward_kinematics(s, solved, ws);
+    EXPECT_LT(glm::length(ws[head].translation - w[head].translation), 2e-3f) << trial;
+    EXPECT_LT(glm::length(ws[chest].translation - w[chest].translation), 2e-3f) << trial;
+    EXPECT_GT(std::abs(glm::dot(ws[head].rotation, w[head].rotation)), std::cos(glm::radians(0.5f)));
+  }
+}
+
+TEST(LeastSquaresIk, UnreachableTargetsStayFiniteAndInsideTheLimits) {
+  const Skeleton s = default_skeleton();
+  const std::vector<int> dofs = dofs_of(s, {"spine_lower", "spine_mid", "spine_upper", "neck", "neck_upper", "head"});
+  LeastSquaresIkContext ctx(s, static_cast<int>(dofs.size()), 2);
+  const int head = s.find_joint("head");
+  // Far behind and below: the spine bends back as far as its limits allow, no further.
+  const IkTarget targets[] = {{head, glm::vec3(0, -1.0f, -2.0f), glm::angleAxis(3.0f, glm::vec3(0, 1, 0)), 10.0f, 1.0f}};
+  Pose p = s.zero_pose();
+  LeastSquaresIkJob job;
+  job.skeleton = &s;
+  job.dofs = dofs;
+  job.targets = targets;
+  job.context = &ctx;
+  job.pose = &p;
+  job.max_iterations = 50;
+  ASSERT_TRUE(job.Run());
+  for (int d : dofs) {
+    ASSERT_TRUE(std::isfinite(p.dof_rad[d]));
+    EXPECT_GE(p.dof_rad[d], s.dof(d).min_rad - 1e-6f) << s.dof(d).name;
+    EXPECT_LE(p.dof_rad[d], s.dof(d).max_rad + 1e-6f) << s.dof(d).name;
+  }
+  // Extension (negative flexion) is what brings the head back; it ends on its limit.
+  EXPECT_NEAR(p.dof_rad[s.find_dof("spine_lower_flexion")], s.dof(s.find_dof("spine_lower_flexion")).min_rad, 1e-3f);
+  EXPECT_TRUE(std::isfinite(job.residual_norm));
+}
+
+TEST(LeastSquaresIk, SolvesTheRootWhenAsked) {
+  const Skeleton s = default_skeleton();
+  LeastSquaresIkContext ctx(s, 0, 1);
+  const int pelvis = 0;
+  const glm::quat want = glm::angleAxis(2.5f, glm::normalize(glm::vec3(0.2f, 1, 0.1f)));
+  const IkTarget targets[] = {{pelvis, glm::vec3(1, 0.9f, -2), want, 10.0f, 1.0f}};
+  Pose p = s.zero_pose();
+  LeastSquaresIkJob job;
+  job.skeleton = &s;
+  job.solve_root = true;
+  job.targets = targets;
+  job.context = &ctx;
+  job.pose = &p;
+  job.max_iterations = 20;
+  ASSERT_TRUE(job.Run());
+  EXPECT_LT(glm::length(p.root_position_m - glm::vec3(1, 0.9f, -2)), 1e-4f);
+  EXPECT_GT(std::abs(glm::dot(p.root_orientation, want)), 0.99999f);
+}
+
+TEST(LeastSquaresIk, ValidateRejectsMismatchedInputs) {
+  const Skeleton s = default_skeleton();
+  LeastSquaresIkContext ctx(s, 2, 1);
+  Pose p = s.zero_pose();
+  const std::vector<int> too_many = {0, 1, 2};
+  const IkTarget bad_joint[] = {{99, {}, {}, 1.0f, 1.0f}};
+  LeastSquaresIkJob job;
+  job.skeleton = &s;
+  job.context = &ctx;
+  job.pose = &p;
+  EXPECT_TRUE(job.Validate());
+  job.dofs = too_many;
+  EXPECT_FALSE(job.Run());
+  job.dofs = {};
+  job.targets = bad_joint;
+  EXPECT_FALSE(job.Run());
+}
+
+}  // namespace
+}  // namespace mimic::solver

@@ -1,0 +1,115 @@
+#include "mimic/solver/swing_twist.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+namespace mimic::solver {
+namespace {
+
+using avatar::Skeleton;
+
+Skeleton default_skeleton() { return *Skeleton::build(avatar::default_skeleton_desc()); }
+
+float quat_angle_deg(glm::quat a, glm::quat b) {
+  const glm::quat d = glm::normalize(a) * glm::conjugate(glm::normalize(b));
+  return glm::degrees(2.0f * std::asin(std::min(1.0f, glm::length(glm::vec3(d.x, d.y, d.z)))));
+}
+
+TEST(SwingTwist, TwistAngleOfAPureTwistIsItsAngle) {
+  const glm::vec3 axis = glm::normalize(glm::vec3(1, 2, -1));
+  for (float deg : {-170.0f, -90.0f, 0.0f, 30.0f, 179.0f})
+    EXPECT_NEAR(twist_angle_rad(glm::angleAxis(glm::radians(deg), axis), axis), glm::radians(deg), 1e-4f);
+  // A swing perpendicular to the axis has no twist.
+  EXPECT_NEAR(twist_angle_rad(glm::angleAxis(1.0f, glm::vec3(1, 0, 0)), glm::vec3(0, 1, 0)), 0.0f, 1e-6f);
+}
+
+// Every joint of the default skeleton: random DOF values inside the limits give back the same
+// rotation, and (away from gimbal lock) the same values.
+TEST(SwingTwist, JointRotationsRoundTripThroughNamedDofs) {
+  const Skeleton s = default_skeleton();
+  std::mt19937_64 rng(7);
+  for (int trial = 0; trial < 200; ++trial) {
+    for (int j = 0; j < s.joint_count(); ++j) {
+      std::vector<float> truth(s.dof_count(), 0.0f), solved(s.dof_count(), 0.0f);
+      for (int d = s.dof_begin(j); d < s.dof_end(j); ++d) {
+        const auto& f = s.dof(d);
+        std::uniform_real_distribution<float> u(f.min_rad, f.max_rad);
+        truth[d] = u(rng);
+      }
+      const int n = s.dof_end(j) - s.dof_begin(j);
+      const glm::quat q = s.local_rotation(j, truth);
+      // From the zero posture: the same rotation (wide joints have two Euler branches inside
+      // their limits, so the values may be the other branch).
+      joint_dofs_from_rotation(s, j, q, solved);
+      EXPECT_LT(quat_angle_deg(s.local_rotation(j, solved), q), 0.05f) << s.joint_name(j);
+      // Warm-started near the truth (as from the previous frame): the same values.
+      for (int d = s.dof_begin(j); d < s.dof_end(j); ++d) solved[d] = truth[d] + 0.1f;
+      joint_dofs_from_rotation(s, j, q, solved);
+      EXPECT_LT(quat_angle_deg(s.local_rotation(j, solved), q), 0.05f) << s.joint_name(j);
+      for (int d = s.dof_begin(j); d < s.dof_end(j); ++d) {
+        EXPECT_GE(solved[d], s.dof(d).min_rad - 1e-6f);
+        EXPECT_LE(solved[d], s.dof(d).max_rad + 1e-6f);
+        if (n == 3 && std::abs(truth[s.dof_begin(j) + 1]) > glm::radians(80.0f)) continue;
+        EXPECT_NEAR(solved[d], truth[d], 1e-3f) << s.dof(d).name;
+      }
+    }
+  }
+}
+
+// Sweeping a rotation through ±180° many times: the angles follow it without jumps.
+TEST(SwingTwist, NoFlipsWhenTurningPast180Degrees) {
+  const std::array<glm::vec3, 3> axes{glm::vec3(0, 1, 0), glm::vec3(1, 0, 0), glm::vec3(0, 0, 1)};
+  std::array<float, 3> angles{0, 0, 0};
+  float prev0 = 0;
+  for (int k = 1; k <= 2000; ++k) {
+    const float yaw = 0.01f * static_cast<float>(k);  // three full turns and more
+    const float pitch = 0.4f * std::sin(0.013f * static_cast<float>(k));
+    const float roll = 0.3f * std::cos(0.007f * static_cast<float>(k));
+    const glm::quat q = glm::angleAxis(yaw, axes[0]) * glm::angleAxis(pitch, axes[1]) * glm::angleAxis(roll, axes[2]);
+    angles_from_rotation(q, axes, angles);
+    EXPECT_NEAR(angles[0], yaw, 1e-3f) << k;
+    EXPECT_NEAR(angles[1], pitch, 1e-3f) << k;
+    EXPECT_NEAR(angles[2], roll, 1e-3f) << k;
+    EXPECT_LT(std::abs(angles[0] - prev0), 0.02f);
+    prev0 = angles[0];
+  }
+  // One axis: the twist unwraps too.
+  std::array<float, 1> t{0};
+  const std::array<glm::vec3, 1> one{glm::vec3(0, 0, 1)};
+  for (int k = 1; k <= 1000; ++k) {
+    angles_from_rotation(glm::angleAxis(-0.01f * static_cast<float>(k), one[0]), one, t);
+    EXPECT_NEAR(t[0], -0.01f * static_cast<float>(k), 1e-3f);
+  }
+}
+
+TEST(SwingTwist, GimbalLockKeepsThePreviousFirstAngle) {
+  const std::array<glm::vec3, 3> axes{glm::vec3(1, 0, 0), glm::vec3(0, 1, 0), glm::vec3(0, 0, 1)};
+  std::array<float, 3> angles{0.3f, 0.0f, 0.0f};
+  const glm::quat q = glm::angleAxis(0.3f, axes[0]) * glm::angleAxis(glm::radians(90.0f), axes[1]) *
+                      glm::angleAxis(0.2f, axes[2]);
+  angles_from_rotation(q, axes, angles);
+  for (float a : angles) EXPECT_TRUE(std::isfinite(a));
+  const glm::quat back = glm::angleAxis(angles[0], axes[0]) * glm::angleAxis(angles[1], axes[1]) *
+                         glm::angleAxis(angles[2], axes[2]);
+  EXPECT_LT(quat_angle_deg(back, q), 0.1f);
+  EXPECT_NEAR(angles[0], 0.3f, 1e-3f);
+}
+
+TEST(SwingTwist, TwoAxesKeepTheImageOfTheThirdAxis) {
+  // Wrist: flexion about −Z then deviation about −Y; the pointing direction (X) is what matters.
+  const std::array<glm::vec3, 2> axes{glm::vec3(0, 0, -1), glm::vec3(0, -1, 0)};
+  const glm::quat q = glm::angleAxis(0.5f, axes[0]) * glm::angleAxis(0.2f, axes[1]) *
+                      glm::angleAxis(0.3f, glm::vec3(1, 0, 0));  // plus a twist the wrist can't do
+  std::array<float, 2> a{0, 0};
+  angles_from_rotation(q, axes, a);
+  const glm::quat back = glm::angleAxis(a[0], axes[0]) * glm::angleAxis(a[1], axes[1]);
+  const glm::vec3 pointing = q * glm::vec3(1, 0, 0);
+  EXPECT_LT(glm::length(back * glm::vec3(1, 0, 0) - pointing), 1e-4f);
+  EXPECT_NEAR(a[0], 0.5f, 1e-4f);
+  EXPECT_NEAR(a[1], 0.2f, 1e-4f);
+}
+
+}  // namespace
+}  // namespace mimic::solver
