@@ -1,5 +1,6 @@
 #include "mimic/sim/open_source.h"
 
+#include <cmath>
 #include <cstdio>
 
 #include "mimic/avatar/motion.h"
@@ -14,9 +15,34 @@
 #define MIMIC_SIM_HAVE_FLOCK 0
 #endif
 
+// BVH clips retargeted onto Mimic's skeleton, when the retargeting code is built in.
+#if __has_include("mimic/avatar/retarget.h")
+#include "mimic/avatar/retarget.h"
+#define MIMIC_SIM_HAVE_BVH_MOTION 1
+#else
+#define MIMIC_SIM_HAVE_BVH_MOTION 0
+#endif
+
 namespace mimic::sim {
 
 namespace {
+
+// Plays a clip again and again (bvh:CLIP?loop=1); clips hold their last frame otherwise.
+class LoopedMotion final : public avatar::Motion {
+ public:
+  explicit LoopedMotion(std::unique_ptr<avatar::Motion> inner) : inner_(std::move(inner)) {}
+  const avatar::Skeleton& skeleton() const override { return inner_->skeleton(); }
+  double duration_s() const override { return inner_->duration_s(); }
+  bool loops() const override { return true; }
+  void sample(double t_s, avatar::Pose& out) const override {
+    const double d = inner_->duration_s();
+    inner_->sample(d > 0 ? t_s - d * std::floor(t_s / d) : 0.0, out);
+  }
+  std::string name() const override { return inner_->name(); }
+
+ private:
+  std::unique_ptr<avatar::Motion> inner_;
+};
 
 std::string describe_rig(const std::string& what, const RigConfig& c) {
   char text[160];
@@ -50,7 +76,20 @@ Result<std::unique_ptr<devices::SensorSource>> open_sensor_source(const devices:
     return rig_source(spec, std::shared_ptr<const avatar::Motion>(std::move(*motion)), std::move(clock));
   }
   if (spec.scheme == "bvh") {
+#if MIMIC_SIM_HAVE_BVH_MOTION
+    auto motion = avatar::load_bvh_motion(spec.target);
+    if (!motion) return tl::unexpected(motion.error());
+    std::shared_ptr<const avatar::Motion> shared;
+    const auto loop = spec.params.find("loop");
+    if (loop != spec.params.end() && (loop->second == "1" || loop->second == "true" || loop->second == "yes" ||
+                                      loop->second == "on"))
+      shared = std::make_shared<LoopedMotion>(std::move(*motion));
+    else
+      shared = std::shared_ptr<const avatar::Motion>(std::move(*motion));
+    return rig_source(spec, std::move(shared), std::move(clock));
+#else
     return fail(Errc::unsupported, "source '" + spec.text + "': BVH-driven motion is not built into this version");
+#endif
   }
   if (spec.scheme == "replay") {
     auto options = replay_options_from_spec(spec);

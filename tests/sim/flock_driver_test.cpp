@@ -84,6 +84,17 @@ TEST(FlockDriver, FourBirdsGroupModeEveryFormatWithButtons) {
     }
     EXPECT_EQ(per_bird.size(), 4u);
     for (int a = 1; a <= 4; ++a) EXPECT_GE(per_bird[a], 4) << a;
+    if (f == fl::Format::matrix) {
+      // Query a slave bird through its FBB address while the group streams.
+      auto st = r.driver->query_status(3);
+      ASSERT_TRUE(st) << st.error().what();
+      EXPECT_FALSE(st->master);
+      EXPECT_EQ(st->format, fl::Format::matrix);
+      auto addr = r.driver->examine(fl::param::kFbbAddress, 3);
+      ASSERT_TRUE(addr);
+      EXPECT_EQ((*addr)[0], 3);
+      EXPECT_GE(test::collect(*r.driver, 8).size(), 8u);  // and the stream came back
+    }
     const FlockInfo info = r.driver->info();
     EXPECT_EQ(info.sensor_addresses, (std::vector<int>{1, 2, 3, 4}));
     EXPECT_EQ(info.flock_status.size(), 14u);
@@ -284,6 +295,13 @@ TEST(FlockDriver, ErrorCodeQuery) {
   ASSERT_TRUE(e) << e.error().what();
   EXPECT_EQ(e->code, 6);
   EXPECT_EQ(e->text, "invalid RS232 command");
+  // Status of each bird while streaming in group mode is in the next test; here the master.
+  auto st = r.driver->query_status();
+  ASSERT_TRUE(st) << st.error().what();
+  EXPECT_TRUE(st->master);
+  EXPECT_TRUE(st->running);
+  EXPECT_EQ(st->format, fl::Format::position_quaternion);
+  EXPECT_FALSE(r.driver->examine(200));  // no such parameter
   // Streaming resumes after the query.
   std::vector<SensorSample> flush(256);
   r.driver->poll(flush);

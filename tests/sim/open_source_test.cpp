@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include "mimic/sim/sim_source.h"
+#include "test_data.h"
 #include "test_motion.h"
 
 namespace mimic::sim {
@@ -99,6 +100,59 @@ TEST(SourceParams, LogHeaderOfAReplayKeepsTheOriginalLayout) {
   EXPECT_EQ(h.rate_hz, 103.3);
   EXPECT_EQ(h.calibration_json, "{}");
   EXPECT_NE(h.description.find("flock:/dev/ttyUSB0"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace mimic::sim
+
+namespace mimic::sim {
+namespace {
+
+std::vector<devices::SensorSample> poll_all(devices::SensorSource& source) {
+  std::vector<devices::SensorSample> all, buf(64);
+  size_t n;
+  while ((n = source.poll(buf)) > 0) all.insert(all.end(), buf.begin(), buf.begin() + static_cast<long>(n));
+  return all;
+}
+
+TEST(OpenSensorSource, SimOnTheBuiltInWalk) {
+  auto clock = std::make_shared<ManualClock>(50.0);
+  auto source = open_sensor_source(spec("sim:walk?sensors=3&rate=50&seed=3"), clock);
+  ASSERT_TRUE(source) << source.error().what();
+  ASSERT_TRUE((*source)->start());
+  clock->set(50.5);  // ticks 0..25
+  const auto samples = poll_all(**source);
+  ASSERT_EQ(samples.size(), 26u * 3u);
+  EXPECT_NEAR(samples.back().host_time_s, 50.5, 1e-9);
+  EXPECT_GT(samples[0].position_m.y, 1.4f) << "the head sensor rides at head height";
+  EXPECT_NE((*source)->status().description.find("sim:walk"), std::string::npos);
+  // The walk moves forward.
+  EXPECT_GT(std::abs(samples.back().position_m.z - samples[0].position_m.z), 0.1f);
+  const auto* sim = dynamic_cast<const SimSource*>(source->get());
+  ASSERT_NE(sim, nullptr);
+  EXPECT_EQ(sim->rig().config().seed, 3u);
+  EXPECT_EQ(open_sensor_source(spec("sim:moonwalk"), clock).error().code, Errc::not_found);
+}
+
+TEST(OpenSensorSource, BvhClipDrivesTheRig) {
+  const std::string clip = test::shared_data("bvh/02_04.bvh");
+  auto clock = std::make_shared<ManualClock>(0.0);
+  auto source = open_sensor_source(*devices::parse_source_spec("bvh:" + clip + "?sensors=6&loop=1"), clock);
+  ASSERT_TRUE(source) << source.error().what();
+  ASSERT_TRUE((*source)->start());
+  clock->set(0.2);
+  EXPECT_EQ(poll_all(**source).size(), 21u * 6u);
+  auto missing = open_sensor_source(spec("bvh:/nonexistent/clip.bvh"), clock);
+  ASSERT_FALSE(missing);
+  EXPECT_NE(missing.error().message.find("/nonexistent/clip.bvh"), std::string::npos);
+}
+
+TEST(OpenSensorSource, NonTrackerSchemesSayWhy) {
+  auto r = open_sensor_source(spec("spacemouse"));
+  ASSERT_FALSE(r);
+  EXPECT_EQ(r.error().code, Errc::unsupported);
+  EXPECT_NE(r.error().message.find("6-DOF input"), std::string::npos);
+  EXPECT_FALSE(open_sensor_source(spec("replay:/nonexistent/x.mlog")));
 }
 
 }  // namespace

@@ -336,3 +336,23 @@ TEST(SensorRig, StepNeverAllocates) {
 
 }  // namespace
 }  // namespace mimic::sim
+
+namespace mimic::sim {
+namespace {
+
+TEST(SensorRig, BuiltInWalkStepsWithoutAllocating) {
+  const auto skeleton = avatar::Skeleton::build(avatar::default_skeleton_desc()).value();
+  std::shared_ptr<const avatar::Motion> walk(avatar::make_builtin_motion("walk", skeleton).value());
+  RigConfig c;
+  c.sensors = make_layout("11", skeleton).value();
+  c.position_noise_mm = 1;
+  auto rig = SensorRig::create(walk, c).value();
+  std::vector<devices::SensorSample> out(11);
+  rig.step(out);
+  const size_t before = test::allocation_count();
+  for (int k = 0; k < 300; ++k) rig.step(out);
+  EXPECT_EQ(test::allocation_count(), before);
+}
+
+}  // namespace
+}  // namespace mimic::sim

@@ -82,8 +82,12 @@ struct FlockSource::Impl {
   // Error query handshake.
   std::mutex req_mu;
   std::condition_variable req_cv;
-  bool error_requested = false;
-  std::optional<Result<FlockError>> error_answer;
+  struct ExamineRequest {
+    uint8_t parameter = 0;
+    int address = -1;
+  };
+  std::optional<ExamineRequest> request;
+  std::optional<Result<std::vector<uint8_t>>> answer;
 
   // Reader-thread state.
   fl::StreamDecoder decoder;
@@ -298,28 +302,31 @@ struct FlockSource::Impl {
     return true;
   }
 
-  void serve_error_request() {
+  // Answers an EXAMINE posted by another thread: output stops, the reply is read, the stream
+  // resumes. Records in flight are discarded with the stale output.
+  void serve_request() {
+    ExamineRequest req;
     {
       std::lock_guard lock(req_mu);
-      if (!error_requested) return;
+      if (!request) return;
+      req = *request;
     }
-    Result<FlockError> answer = fail(Errc::disconnected, "flock: port closed");
+    Result<std::vector<uint8_t>> result = fail(Errc::disconnected, "flock: port closed");
     if (port) {
-      if (auto q = quiesce(); !q) {
-        answer = tl::unexpected(q.error());
-      } else if (auto e = examine(fl::param::kExpandedErrorCode, -1); !e) {
-        answer = tl::unexpected(e.error());
-      } else {
-        answer = FlockError{(*e)[0], (*e)[1] & 0x0F, fl::error_name((*e)[0])};
+      if (auto q = quiesce(); !q)
+        result = tl::unexpected(q.error());
+      else
+        result = examine(req.parameter, standalone ? -1 : req.address);
+      if (port) {
+        port->flush_input();
+        decoder.reset();
+        if (cfg.stream) send({fl::cmd::kStream});
       }
-      port->flush_input();
-      decoder.reset();
-      if (port && cfg.stream) send({fl::cmd::kStream});
       last_record = Clock::now();
     }
     std::lock_guard lock(req_mu);
-    error_requested = false;
-    error_answer = std::move(answer);
+    request.reset();
+    answer = std::move(result);
     req_cv.notify_all();
   }
 
@@ -354,7 +361,7 @@ struct FlockSource::Impl {
   void run() {
     bool need_init = false;  // start() ran the first initialisation
     while (!stop.load()) {
-      serve_error_request();
+      serve_request();
       if (need_init || !port) {
         if (auto s = initialize(); !s) {
           set_error(s.error().message);
@@ -463,17 +470,32 @@ FlockInfo FlockSource::info() const {
   return impl_->info;
 }
 
-Result<FlockError> FlockSource::query_error(std::chrono::milliseconds timeout) {
+Result<std::vector<uint8_t>> FlockSource::examine(uint8_t parameter, int address,
+                                                 std::chrono::milliseconds timeout) {
   Impl& m = *impl_;
+  if (fl::examine_size(parameter) == 0)
+    return fail(Errc::invalid_argument, "flock: no EXAMINE parameter " + std::to_string(parameter));
   if (!m.thread.joinable()) return fail(Errc::disconnected, "flock: not started");
   std::unique_lock lock(m.req_mu);
-  m.error_answer.reset();
-  m.error_requested = true;
-  if (!m.req_cv.wait_for(lock, timeout, [&] { return m.error_answer.has_value(); })) {
-    m.error_requested = false;
-    return fail(Errc::timeout, "flock: error query not answered");
+  m.answer.reset();
+  m.request = Impl::ExamineRequest{parameter, address};
+  if (!m.req_cv.wait_for(lock, timeout, [&] { return m.answer.has_value(); })) {
+    m.request.reset();
+    return fail(Errc::timeout, "flock: EXAMINE " + std::to_string(parameter) + " not answered in time");
   }
-  return *m.error_answer;
+  return std::move(*m.answer);
+}
+
+Result<FlockError> FlockSource::query_error(std::chrono::milliseconds timeout) {
+  auto r = examine(fl::param::kExpandedErrorCode, -1, timeout);
+  if (!r) return tl::unexpected(r.error());
+  return FlockError{(*r)[0], (*r)[1] & 0x0F, fl::error_name((*r)[0])};
+}
+
+Result<fl::BirdStatus> FlockSource::query_status(int address, std::chrono::milliseconds timeout) {
+  auto r = examine(fl::param::kStatus, address, timeout);
+  if (!r) return tl::unexpected(r.error());
+  return fl::decode_status(static_cast<uint16_t>(fl::get_le16(r->data())));
 }
 
 uint64_t FlockSource::dropped_samples() const { return impl_->dropped.load(); }

@@ -92,9 +92,14 @@ class FlockSource final : public SensorSource {
   void stop() override;
 
   FlockInfo info() const;
-  // Stops output, asks the master for its error code, and resumes. Not for the realtime loop:
-  // waits for the reader thread (at most `timeout`).
+  // Queries while running. Each stops output, sends EXAMINE to the master (address −1) or to an
+  // FBB address, reads the reply and resumes the stream. Not for the realtime loop: they wait for
+  // the reader thread, at most `timeout`. Errc::timeout when the unit does not answer.
+  Result<std::vector<uint8_t>> examine(uint8_t parameter, int address = -1,
+                                       std::chrono::milliseconds timeout = std::chrono::milliseconds(2000));
   Result<FlockError> query_error(std::chrono::milliseconds timeout = std::chrono::milliseconds(2000));
+  Result<flock::BirdStatus> query_status(int address = -1,
+                                         std::chrono::milliseconds timeout = std::chrono::milliseconds(2000));
   // Samples dropped because poll() did not keep up with the queue.
   uint64_t dropped_samples() const;
 

@@ -6,6 +6,7 @@
 // Rig parameters (sim and bvh):
 //   sensors=3|6|11|all (6)  rate=HZ (100)  noise_mm=σ (1)  noise_deg=σ (0.5)  drift_mm=σ/√s (0)
 //   drift_deg=σ/√s (0)  latency_ms=MS (0)  dropout=P (0)  burst=TICKS (1)  seed=N (1)
+// bvh only: loop=1 plays the clip again and again (otherwise its last frame is held).
 // Replay parameters: speed=X (1; 0 = unpaced)  loop=1  from=S (seconds after the first sample).
 // Sources run on the host's steady clock unless a clock is given.
 //

@@ -1,0 +1,186 @@
+// End to end: `mimic record` from a simulated source, then `mimic replay --csv`, on the built
+// program.
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "test_data.h"
+
+namespace {
+
+namespace fs = std::filesystem;
+
+struct ShellRun {
+  int exit_code = -1;
+  std::string out;  // stdout
+  std::string err;  // stderr
+};
+
+ShellRun run_shell(const std::string& command) {
+  const fs::path dir = fs::temp_directory_path();
+  const std::string out_file = (dir / ("mimic_cli_rr_out_" + std::to_string(::getpid()))).string();
+  const std::string err_file = (dir / ("mimic_cli_rr_err_" + std::to_string(::getpid()))).string();
+  const int status = std::system((command + " >" + out_file + " 2>" + err_file).c_str());
+  ShellRun r;
+  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  auto slurp = [](const std::string& p) {
+    std::ifstream in(p, std::ios::binary);
+    std::stringstream ss;
+    ss << in.rdbuf();
+    return ss.str();
+  };
+  r.out = slurp(out_file);
+  r.err = slurp(err_file);
+  fs::remove(out_file);
+  fs::remove(err_file);
+  return r;
+}
+
+std::string mimic() {
+  std::string quoted = "'";
+  quoted += mimic::test::mimic_binary();
+  quoted += "'";
+  return quoted;
+}
+
+std::string work_dir() {
+  const fs::path d = fs::temp_directory_path() / ("mimic_cli_record_" + std::to_string(::getpid()));
+  fs::create_directories(d);
+  return d.string();
+}
+
+struct CsvSample {
+  double t;
+  int sensor;
+  double v[7];
+};
+
+// Parses replay --csv output; fails the test on any malformed line.
+std::vector<CsvSample> parse_csv(const std::string& text) {
+  std::vector<CsvSample> rows;
+  std::istringstream in(text);
+  std::string line;
+  while (std::getline(in, line)) {
+    CsvSample s{};
+    int consumed = 0;
+    const int fields = std::sscanf(line.c_str(), "%lf,%d,%lf,%lf,%lf,%lf,%lf,%lf,%lf%n", &s.t, &s.sensor, &s.v[0], &s.v[1],
+                                   &s.v[2], &s.v[3], &s.v[4], &s.v[5], &s.v[6], &consumed);
+    EXPECT_EQ(fields, 9) << "line: " << line;
+    EXPECT_EQ(static_cast<size_t>(consumed), line.size()) << "trailing text in line: " << line;
+    rows.push_back(s);
+  }
+  return rows;
+}
+
+TEST(CliRecordReplay, RecordsASimulatedWalkAndReplaysItAsCsv) {
+  const std::string log = work_dir() + "/walk.mlog";
+  const ShellRun rec = run_shell(mimic() + " record --source 'sim:walk?sensors=6&rate=100' --duration 1 --seed 7 --out '" +
+                            log + "' --quiet");
+  ASSERT_EQ(rec.exit_code, 0) << rec.err;
+  EXPECT_NE(rec.err.find("samples"), std::string::npos) << rec.err;
+  EXPECT_FALSE(fs::exists(log + ".part"));
+
+  const ShellRun rep = run_shell(mimic() + " replay '" + log + "' --csv --speed 0");
+  ASSERT_EQ(rep.exit_code, 0) << rep.err;
+  const auto rows = parse_csv(rep.out);
+  // One second at 100 Hz for 6 sensors, give or take the start-up and stop ticks.
+  EXPECT_GE(rows.size(), 6u * 90u);
+  EXPECT_LE(rows.size(), 6u * 115u);
+  EXPECT_EQ(rows.size() % 6, 0u) << "whole ticks only";
+  double prev_t = -1e300;
+  int counts[6] = {};
+  for (size_t i = 0; i < rows.size(); ++i) {
+    const auto& r = rows[i];
+    ASSERT_GE(r.sensor, 0);
+    ASSERT_LT(r.sensor, 6);
+    EXPECT_EQ(r.sensor, static_cast<int>(i % 6)) << "sensors in layout order within a tick";
+    ++counts[r.sensor];
+    EXPECT_GE(r.t, prev_t);
+    prev_t = r.t;
+    const double qn = std::sqrt(r.v[3] * r.v[3] + r.v[4] * r.v[4] + r.v[5] * r.v[5] + r.v[6] * r.v[6]);
+    EXPECT_NEAR(qn, 1.0, 1e-5);
+    EXPECT_GT(r.v[1], -0.1) << "sensor below the floor";
+    EXPECT_LT(r.v[1], 2.2) << "sensor above a standing person";
+  }
+  for (int c : counts) EXPECT_EQ(c, counts[0]);
+  // The head (sensor 0) rides highest.
+  EXPECT_GT(rows[0].v[1], rows[3].v[1]);
+  // Ticks are 10 ms apart.
+  EXPECT_NEAR(rows[6].t - rows[0].t, 0.01, 1e-5);
+
+  // Same seed, same samples: a second recording matches sample for sample (time stamps aside).
+  const std::string log2 = work_dir() + "/walk2.mlog";
+  ASSERT_EQ(run_shell(mimic() + " record --source 'sim:walk?sensors=6&rate=100&seed=7' --duration 0.3 --out '" + log2 +
+                      "' --quiet")
+                .exit_code,
+            0);
+  const auto rows2 = parse_csv(run_shell(mimic() + " replay '" + log2 + "' --csv --speed 0").out);
+  ASSERT_GE(rows2.size(), 6u * 20u);
+  for (size_t i = 0; i < 6u * 20u; ++i)
+    for (int k = 0; k < 7; ++k) EXPECT_EQ(rows2[i].v[k], rows[i].v[k]) << "sample " << i;
+}
+
+TEST(CliRecordReplay, DamagedLogReplaysTheGoodPartAndSaysWhereItStopped) {
+  const std::string dir = work_dir();
+  const std::string log = dir + "/whole.mlog", cut = dir + "/cut.mlog";
+  ASSERT_EQ(run_shell(mimic() + " record --source 'sim:idle?sensors=3' --duration 0.3 --out '" + log + "' --quiet")
+                .exit_code,
+            0);
+  const auto whole = parse_csv(run_shell(mimic() + " replay '" + log + "' --csv --speed 0").out);
+  ASSERT_GT(whole.size(), 30u);
+  // Cut the file inside the fifth-last sample record (the end record is 17 bytes, samples 63).
+  const auto size = fs::file_size(log);
+  fs::copy_file(log, cut, fs::copy_options::overwrite_existing);
+  fs::resize_file(cut, size - 17 - 4 * 63 - 20);
+  const ShellRun rep = run_shell(mimic() + " replay '" + cut + "' --csv --speed 0");
+  EXPECT_EQ(rep.exit_code, 1);
+  const auto rows = parse_csv(rep.out);
+  EXPECT_EQ(rows.size(), whole.size() - 5);
+  const auto stop_at = size - 17 - 5 * 63;
+  EXPECT_NE(rep.err.find("stopped at byte " + std::to_string(stop_at)), std::string::npos) << rep.err;
+  for (size_t i = 0; i < rows.size(); ++i) EXPECT_EQ(rows[i].v[0], whole[i].v[0]);
+}
+
+TEST(CliRecordReplay, CtrlCLeavesACompleteLog) {
+  const std::string log = work_dir() + "/interrupted.mlog";
+  const ShellRun rec = run_shell("( " + mimic() + " record --source sim:walk --out '" + log +
+                            "' --quiet & pid=$!; sleep 0.6; kill -INT $pid; wait $pid )");
+  ASSERT_EQ(rec.exit_code, 0) << rec.err;
+  EXPECT_NE(rec.err.find("interrupted"), std::string::npos) << rec.err;
+  const ShellRun rep = run_shell(mimic() + " replay '" + log + "' --csv --speed 0");
+  EXPECT_EQ(rep.exit_code, 0) << "log not closed cleanly: " << rep.err;
+  EXPECT_GT(parse_csv(rep.out).size(), 6u * 10u);
+}
+
+TEST(CliRecordReplay, UsageErrorsAreClear) {
+  ShellRun r = run_shell(mimic() + " record --out /tmp/x.mlog");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("--source"), std::string::npos) << r.err;
+  r = run_shell(mimic() + " record --source 'sim:walk?sensors=7' --out /tmp/x.mlog");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("sensors"), std::string::npos) << r.err;
+  r = run_shell(mimic() + " record --source spacemouse --out /tmp/x.mlog --duration 1");
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.err.find("6-DOF input"), std::string::npos) << r.err;
+  r = run_shell(mimic() + " replay /nonexistent.mlog");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("/nonexistent.mlog"), std::string::npos) << r.err;
+  r = run_shell(mimic() + " replay --help");
+  EXPECT_EQ(r.exit_code, 0);
+  EXPECT_NE(r.out.find("host_time_s,sensor,x_m,y_m,z_m,qw,qx,qy,qz"), std::string::npos);
+  r = run_shell(mimic() + " record --help");
+  EXPECT_EQ(r.exit_code, 0);
+  EXPECT_NE(r.out.find("--duration"), std::string::npos);
+}
+
+}  // namespace

@@ -1,0 +1,175 @@
+// End to end: `mimic sim flock` serves a virtual Flock of Birds on a pty; Mimic's Flock driver
+// opens the printed path and reads the flock.
+#include <signal.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <map>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "mimic/devices/flock.h"
+#include "test_data.h"
+
+extern char** environ;
+
+namespace {
+
+using namespace std::chrono_literals;
+
+// A child process whose stdout (and optionally stderr) we read.
+struct Child {
+  pid_t pid = -1;
+  FILE* out = nullptr;
+
+  explicit Child(const std::vector<std::string>& args, bool capture_stderr = false) {
+    int fds[2];
+    if (::pipe(fds) != 0) return;
+    posix_spawn_file_actions_t fa;
+    posix_spawn_file_actions_init(&fa);
+    posix_spawn_file_actions_adddup2(&fa, fds[1], 1);
+    if (capture_stderr) posix_spawn_file_actions_adddup2(&fa, fds[1], 2);
+    posix_spawn_file_actions_addclose(&fa, fds[0]);
+    std::vector<char*> argv;
+    for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
+    argv.push_back(nullptr);
+    if (posix_spawn(&pid, argv[0], &fa, nullptr, argv.data(), environ) != 0) pid = -1;
+    posix_spawn_file_actions_destroy(&fa);
+    ::close(fds[1]);
+    out = ::fdopen(fds[0], "r");
+  }
+  std::string line() {
+    char buf[512];
+    if (!out || !std::fgets(buf, sizeof buf, out)) return {};
+    std::string s(buf);
+    if (!s.empty() && s.back() == '\n') s.pop_back();
+    return s;
+  }
+  std::string rest() {
+    std::string s;
+    char buf[512];
+    while (out && std::fgets(buf, sizeof buf, out)) s += buf;
+    return s;
+  }
+  int wait() {
+    int status = 0;
+    if (pid > 0) ::waitpid(pid, &status, 0);
+    pid = -1;
+    return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+  }
+  ~Child() {
+    if (pid > 0) {
+      ::kill(pid, SIGKILL);
+      ::waitpid(pid, nullptr, 0);
+    }
+    if (out) std::fclose(out);
+  }
+};
+
+std::vector<mimic::devices::SensorSample> collect(mimic::devices::SensorSource& src, size_t want) {
+  std::vector<mimic::devices::SensorSample> got, buf(64);
+  const auto until = std::chrono::steady_clock::now() + 5s;
+  while (got.size() < want && std::chrono::steady_clock::now() < until) {
+    const size_t n = src.poll(buf);
+    got.insert(got.end(), buf.begin(), buf.begin() + static_cast<long>(n));
+    if (n == 0) std::this_thread::sleep_for(2ms);
+  }
+  return got;
+}
+
+TEST(SimFlockCli, DriverReadsFourBirdsInGroupMode) {
+  const std::string mimic = mimic::test::mimic_binary();
+  Child sim({mimic, "sim", "flock", "--birds", "4", "--seed", "3", "--busy", "0.05"});
+  ASSERT_GT(sim.pid, 0);
+  const std::string path = sim.line();  // the first line is the pty path
+  ASSERT_EQ(path.rfind("/dev/pts/", 0), 0u) << path;
+
+  auto spec = mimic::devices::parse_source_spec("flock:" + path + "?birds=4&baud=115200&format=pos_quat");
+  ASSERT_TRUE(spec) << spec.error().what();
+  auto cfg = mimic::devices::flock_config_from_spec(*spec);
+  ASSERT_TRUE(cfg) << cfg.error().what();
+  cfg->auto_config_wait = 150ms;
+  cfg->settle = 30ms;
+  mimic::devices::FlockSource flock(*cfg);
+  auto started = flock.start();
+  ASSERT_TRUE(started) << started.error().what();
+  const auto got = collect(flock, 40);
+  ASSERT_GE(got.size(), 40u);
+  std::map<int, int> per_bird;
+  for (const auto& s : got) {
+    ++per_bird[s.sensor];
+    // The built-in body, seen from a transmitter behind it: in front (+Z), within reach.
+    EXPECT_LT(glm::length(s.position_m), 1.6f);
+    EXPECT_GT(s.position_m.z, -0.01f);
+    EXPECT_NEAR(glm::length(s.orientation), 1.0f, 1e-3f);
+  }
+  EXPECT_EQ(per_bird.size(), 4u);
+  const auto status = flock.status();
+  EXPECT_EQ(status.state, mimic::devices::DeviceState::streaming);
+  EXPECT_NE(status.description.find("6DFOB 3.67"), std::string::npos) << status.description;
+  flock.stop();
+
+  ::kill(sim.pid, SIGTERM);
+  EXPECT_EQ(sim.wait(), 0);
+}
+
+TEST(SimFlockCli, ExtendedRangeWithMotionAndLog) {
+  const std::string mimic = mimic::test::mimic_binary();
+  const auto log = std::filesystem::temp_directory_path() / ("mimic-flock-" + std::to_string(::getpid()) + ".mlog");
+  Child sim({mimic, "sim", "flock", "--birds", "3", "--ert", "--motion", "idle", "--busy", "0.05", "--log", log.string()});
+  ASSERT_GT(sim.pid, 0);
+  const std::string path = sim.line();
+  ASSERT_EQ(path.rfind("/dev/pts/", 0), 0u) << path;
+  mimic::devices::FlockConfig cfg;
+  cfg.path = path;
+  cfg.birds = 3;
+  cfg.erc = true;
+  cfg.auto_config_wait = 150ms;
+  cfg.settle = 30ms;
+  mimic::devices::FlockSource flock(cfg);
+  auto started = flock.start();
+  ASSERT_TRUE(started) << started.error().what();
+  const auto got = collect(flock, 15);
+  ASSERT_GE(got.size(), 15u);
+  for (const auto& s : got) {
+    EXPECT_GE(s.sensor, 2);  // the ERC holds address 1
+    EXPECT_LE(s.sensor, 4);
+  }
+  EXPECT_EQ(flock.info().model, "6DERC");
+  flock.stop();
+  ::kill(sim.pid, SIGINT);
+  EXPECT_EQ(sim.wait(), 0);
+  EXPECT_GT(std::filesystem::file_size(log), 100u);
+  std::filesystem::remove(log);
+}
+
+TEST(SimFlockCli, HelpAndBadOptions) {
+  const std::string mimic = mimic::test::mimic_binary();
+  {
+    Child help({mimic, "sim", "flock", "--help"});
+    const std::string text = help.rest();
+    EXPECT_EQ(help.wait(), 0);
+    for (const char* opt : {"--birds", "--motion", "--bvh", "--baud", "--ert", "--seed", "--log", "--rate", "--faults"})
+      EXPECT_NE(text.find(opt), std::string::npos) << opt;
+  }
+  {
+    Child bad({mimic, "sim", "flock", "--birds", "15"}, true);
+    const std::string text = bad.rest();
+    EXPECT_EQ(bad.wait(), 2);
+    EXPECT_NE(text.find("--birds must be 1-14"), std::string::npos) << text;
+  }
+  {
+    Child bad({mimic, "sim", "flock", "--baud", "1234"}, true);
+    bad.rest();
+    EXPECT_EQ(bad.wait(), 2);
+  }
+}
+
+}  // namespace
