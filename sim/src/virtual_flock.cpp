@@ -348,10 +348,8 @@ struct VirtualFlock::Impl {
         return;
       case 'B':
         streaming = false;
-        if (!ready) {
-          set_error(target, configured ? 9 : 8);
-          return;
-        }
+        // Drivers send B first of all to stop a stream; an unconfigured flock just stays quiet.
+        if (!ready) return;
         if (!sleeping) emit_point(reply_at, target);
         return;
       case '?': streaming = false; return;

@@ -122,7 +122,10 @@ TEST(VirtualFlock, FlockNeedsAutoConfigurationAndReportsItsUnits) {
   EXPECT_EQ(fs[0], fl::kUnitAccessible | fl::kUnitErc | fl::kUnitTransmitter);  // not running yet
   EXPECT_EQ(fs[1], fl::kUnitAccessible | fl::kUnitSensor);
   EXPECT_EQ(fs[4], 0);  // nobody at address 5
-  h.send({'B'});  // not configured: no records, error 8 (no birds active)
+  h.send({'B'});  // not configured: no record (drivers send B first just to stop a stream)
+  EXPECT_TRUE(h.drain(80ms).empty());
+  EXPECT_EQ(examine(h, fl::param::kErrorCode), (Bytes{0}));
+  h.send({'@'});  // streaming needs a configured flock: error 8 (no birds active)
   EXPECT_TRUE(h.drain(80ms).empty());
   EXPECT_EQ(examine(h, fl::param::kErrorCode), (Bytes{8}));
 
@@ -144,6 +147,53 @@ TEST(VirtualFlock, FlockNeedsAutoConfigurationAndReportsItsUnits) {
   h.send({'P', fl::param::kAutoConfig, 6});
   std::this_thread::sleep_for(100ms);
   EXPECT_EQ(examine(h, fl::param::kExpandedErrorCode), (Bytes{13, 5}));
+}
+
+// VRPN's vrpn_Tracker_Flock::reset byte sequence (device-protocols.md §1.9), timings shortened:
+// what another project's driver sends must get what it expects.
+TEST(VirtualFlock, AnswersVrpnResetSequence) {
+  auto s = serve(test::fast_sim(4));
+  auto& h = *s.host;
+  h.send({'B'});
+  std::this_thread::sleep_for(20ms);
+  h.drain(20ms);
+  h.send({'P', 0x32, 4});  // auto-configuration, 4 units
+  std::this_thread::sleep_for(100ms);
+  Bytes burst = {'P', 0x23, 0x01};  // group mode
+  for (int i = 1; i <= 4; ++i) {
+    burst.push_back(fl::fbb_prefix(i));
+    burst.push_back(']');
+  }
+  for (int i = 1; i <= 4; ++i) {
+    burst.push_back(fl::fbb_prefix(i));
+    burst.push_back('L');
+    burst.push_back(0x0C);
+    burst.push_back(0x00);
+  }
+  h.send(burst);
+  EXPECT_TRUE(h.drain(50ms).empty());  // no acknowledgements
+  h.send({'O', 0x24});
+  const Bytes fs = h.read(14);
+  ASSERT_EQ(fs.size(), 14u);
+  for (int a = 0; a < 4; ++a) EXPECT_EQ(fs[static_cast<size_t>(a)] & 0xC0, 0xC0) << a;  // VRPN checks 80h and 40h
+  h.send({'O', 0x02, 'O', 0x06});
+  const Bytes cc = h.read(4);
+  ASSERT_EQ(cc.size(), 4u);
+  EXPECT_EQ(cc[0], 25);
+  EXPECT_NEAR(fl::measurement_rate_hz(fl::get_le16(&cc[2]), cc[0]), 103.3, 0.05);
+  h.send({'@'});
+  // 15-byte POS/QUAT group records, addresses 1..4 in order.
+  fl::StreamDecoder d({fl::Format::position_quaternion, false, true});
+  std::vector<int> addresses;
+  d.feed(h.read(15 * 8), [&](const fl::RawRecord& r, size_t) { addresses.push_back(r.address); });
+  EXPECT_EQ(addresses, (std::vector<int>{1, 2, 3, 4, 1, 2, 3, 4}));
+  // Error check and shutdown: B G, flush, O 10h -> 2 bytes.
+  h.send({'B', 'G'});
+  std::this_thread::sleep_for(30ms);
+  h.drain(20ms);
+  h.send({'O', 0x10});
+  EXPECT_EQ(h.read(2), (Bytes{0, 0}));
+  EXPECT_TRUE(s.flock->stats().sleeping);
 }
 
 TEST(VirtualFlock, PrefixCoversOnlyTheNextCommand) {
