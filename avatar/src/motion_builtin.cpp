@@ -226,7 +226,10 @@ class IdleMotion final : public ProceduralMotion {
     const double knee = rad(4.0);
     for (NamedDof d : {kLKneeFlexion, kRKneeFlexion}) set(p, d, knee);
     for (NamedDof d : {kLHipFlexion, kRHipFlexion, kLAnkleFlexion, kRAnkleFlexion}) set(p, d, 0.5 * knee);
-    for (NamedDof d : {kLHipRotation, kRHipRotation}) set(p, d, -0.5 * yaw);
+    // The hips undo the pelvis yaw so the feet keep pointing where they stand (the right
+    // axis mirrors the left, so a global yaw needs opposite values).
+    set(p, kLHipRotation, yaw);
+    set(p, kRHipRotation, -yaw);
     // Torso: breathing lifts the chest and clavicles; the spine undoes the pelvis yaw.
     set(p, kSpineLowerFlexion, rad(2.0));
     set(p, kSpineMidTwist, -0.6 * yaw);
