@@ -129,6 +129,7 @@ int run(const std::vector<std::string>& argv) {
   const bool live = !args.has("quiet") && ::isatty(STDERR_FILENO);
   const double start = now_s();
   double next_status = start;
+  double next_flush = start + 0.25;
   uint64_t total = 0;
   std::vector<devices::SensorSample> buf(1024);
   std::string error;
@@ -152,6 +153,12 @@ int run(const std::vector<std::string>& argv) {
     const double t = now_s();
     if (duration_s > 0 && t - start >= duration_s) break;
     if (replay && replay->finished()) break;
+    // Also flush on the wall clock: a source that falls silent must not keep its last
+    // samples in memory, where a crash would lose them.
+    if (t >= next_flush) {
+      if (auto st = writer->flush(); !st) error = st.error().what();
+      next_flush = t + 0.25;
+    }
     if (live && t >= next_status) {
       std::fprintf(stderr, "\r%s\033[K", status_line(t - start, total, sensors).c_str());
       next_status = t + 0.2;

@@ -79,9 +79,11 @@ int run(const std::vector<std::string>& argv) {
   const sim::LogContents& log = source.log();
   const bool live = !csv && !args.has("quiet") && ::isatty(STDERR_FILENO);
   if (!csv && !args.has("quiet"))
-    std::fprintf(stderr, "replaying %s: %s, %zu sensors, %s\n", path.c_str(),
+    std::fprintf(stderr, "replaying %s: %s, %zu sensors, %zu samples, %.3f s%s\n", path.c_str(),
                  log.header.source.empty() ? "unknown source" : log.header.source.c_str(), log.header.sensors.size(),
-                 source.status().description.c_str());
+                 log.samples.size(),
+                 log.samples.empty() ? 0.0 : log.samples.back().host_time_s - log.samples.front().host_time_s,
+                 log.complete ? "" : " (damaged)");
 
   install_stop_handler();
   if (auto st = source.start(); !st) return failure(kName, st.error().what());

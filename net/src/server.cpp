@@ -479,9 +479,19 @@ struct Session : std::enable_shared_from_this<Session> {
     }
     pending_mesh.clear();
     if (out.empty()) return;
-    writing = true;
     srv.stats.bytes_out += out.size();
-    asio::async_write(sock, asio::buffer(out),
+    // Try the kernel first: on a healthy connection the whole batch fits the socket buffer and
+    // no asynchronous operation (or completion handler) is needed at all.
+    boost::system::error_code write_ec;
+    const size_t sent = sock.write_some(asio::buffer(out), write_ec);
+    if (write_ec && write_ec != asio::error::would_block && write_ec != asio::error::try_again) {
+      close(false);
+      return;
+    }
+    if (!write_ec && sent == out.size()) return;
+    const size_t done = write_ec ? 0 : sent;
+    writing = true;
+    asio::async_write(sock, asio::buffer(out.data() + done, out.size() - done),
                       [self = shared_from_this()](const boost::system::error_code& ec, size_t) {
                         self->writing = false;
                         if (ec) {
@@ -560,6 +570,7 @@ void ServerImpl::start_accept() {
     stats.sessions_accepted++;
     boost::system::error_code ignore;
     sock.set_option(tcp::no_delay(true), ignore);
+    sock.non_blocking(true, ignore);  // flush() writes directly when the kernel has room
     if (opt.send_buffer_bytes > 0) sock.set_option(asio::socket_base::send_buffer_size(opt.send_buffer_bytes), ignore);
     auto s = std::make_shared<Session>(*this, std::move(sock));
     s->id = next_session_id++;

@@ -6,6 +6,13 @@
 #include "mimic/sim/open_source.h"
 #include "mimic/sim/sim_source.h"
 
+#if __has_include("mimic/devices/flock.h")
+#include "mimic/devices/flock.h"
+#define MIMIC_SIM_HAVE_FLOCK 1
+#else
+#define MIMIC_SIM_HAVE_FLOCK 0
+#endif
+
 namespace mimic::sim {
 
 namespace {
@@ -101,6 +108,17 @@ LogHeader log_header_for(const devices::SourceSpec& spec, const devices::SensorS
     h.device = orig.device;
     h.description = "re-recorded from a replay of '" + orig.source + "'";
   }
+#if MIMIC_SIM_HAVE_FLOCK
+  else if (const auto* flock = dynamic_cast<const devices::FlockSource*>(&source)) {
+    // Known once start() has configured the flock: one sensor per bird, named by FBB address.
+    const devices::FlockInfo info = flock->info();
+    for (int address : info.sensor_addresses)
+      h.sensors.push_back({static_cast<uint16_t>(address), "bird" + std::to_string(address), "", {}});
+    h.rate_hz = info.measurement_rate_hz;
+    if (!info.model.empty())
+      h.description = "Flock of Birds " + info.model + " software " + info.software_revision;
+  }
+#endif
   return h;
 }
 

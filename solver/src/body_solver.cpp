@@ -51,6 +51,7 @@ struct ChainInput {
   std::span<const float> warm;   // current DOF values (warm start of the decompositions)
   glm::vec3 hinge_hint{0.0f};    // which way the hinge should face when over-extension is possible
   const glm::vec3* last_bend = nullptr;
+  const glm::quat* upper_rot = nullptr;  // the upper segment's measured orientation, if any
 };
 
 struct ChainSolution {
@@ -99,8 +100,10 @@ ChainSolution solve_chain(const ChainInput& in, const glm::vec3& pole) {
   const glm::vec3 f = glm::normalize(tb.end_m - tb.mid_m);
   glm::vec3 b_w = perpendicular_part(f, x_w);
   if (glm::length(b_w) < 1e-3f) {
-    // Straight: the bend plane is free; keep the one the pole implies.
-    b_w = perpendicular_part(-pole, x_w);
+    // Straight: the bend plane is free; keep the one the upper segment's sensor shows, else
+    // the one the pole implies.
+    if (in.upper_rot) b_w = perpendicular_part(*in.upper_rot * ch.bend_dir, x_w);
+    if (glm::length(b_w) < 1e-4f) b_w = perpendicular_part(-pole, x_w);
     if (glm::length(b_w) < 1e-4f) b_w = perpendicular_part(in.parent_w->rotation * ch.bend_dir, x_w);
     if (glm::length(b_w) < 1e-4f) b_w = perpendicular_part(in.parent_w->rotation * ch.hinge, x_w);
   }
@@ -333,6 +336,10 @@ bool SolveJob::Run() {
     std::copy(m.prior_rad_.begin(), m.prior_rad_.end(), c.prior_.begin());
     for (int arm = 0; arm < 2; ++arm)
       for (int d : m.arm_dofs_[arm]) c.prior_[d] = dof[d];
+    // A segment with its own sensor needs no pull: its orientation is measured.
+    for (int j : m.trunk_joints_)
+      if (c.has_target_[j])
+        for (int d = s.dof_begin(j); d < s.dof_end(j); ++d) c.prior_[d] = dof[d];
     ls.prior_rad = c.prior_;
     ls.prior_weight = o.prior_weight;
     ls.damping = o.damping;
@@ -394,6 +401,7 @@ bool SolveJob::Run() {
           pole = guess + 0.3f * reach * default_pole;
         }
         ChainInput in{&s, &ch, &parent_w, start, &end_t, dof};
+        if (c.has_target_[ch.upper]) in.upper_rot = &c.segment_target_[ch.upper].rotation;
         if (c.has_target_[ch.upper]) in.hinge_hint = c.segment_target_[ch.upper].rotation * ch.hinge;
         else if (c.has_target_[ch.mid]) in.hinge_hint = c.segment_target_[ch.mid].rotation * ch.hinge;
         else if (c.have_previous_) in.last_bend = &c.last_bend_world_[ci];

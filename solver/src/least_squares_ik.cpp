@@ -105,6 +105,9 @@ LeastSquaresIkContext::LeastSquaresIkContext(const Skeleton& skeleton, int max_d
   residual_.resize(rows);
   normal_.resize(static_cast<size_t>(cols) * cols);
   rhs_.resize(cols);
+  normal0_.resize(static_cast<size_t>(cols) * cols);
+  rhs0_.resize(cols);
+  saved_.resize(cols);
   chain_mask_.resize(max_targets);
 }
 
@@ -142,85 +145,107 @@ bool LeastSquaresIkJob::Run() {
   }
 
   iterations = 0;
-  const float lambda2 = damping * damping;
   const float prior2 = prior_rad.empty() ? 0.0f : prior_weight * prior_weight;
-  for (int it = 0; it < max_iterations && cols > 0; ++it) {
+  // Objective: weighted residuals plus the prior, the quantity every accepted step lowers.
+  auto objective = [&]() {
     evaluate(s, p, world, axes);
     const int rows = fill_residual(targets, world, c.residual_);
-    float* jac = c.jacobian_.data();
-    std::fill(jac, jac + static_cast<size_t>(rows) * cols, 0.0f);
-
-    // Jacobian, one row block per target term.
-    int row = 0;
-    for (size_t t = 0; t < targets.size(); ++t) {
-      const IkTarget& tg = targets[t];
-      const glm::vec3 e = world[tg.joint].translation;
-      const int pos_row = tg.position_weight > 0 ? row : -1;
-      if (tg.position_weight > 0) row += 3;
-      const int rot_row = tg.rotation_weight > 0 ? row : -1;
-      if (tg.rotation_weight > 0) row += 3;
-      auto put = [&](int r0, float w, int col, const glm::vec3& v) {
-        jac[(r0 + 0) * cols + col] = w * v.x;
-        jac[(r0 + 1) * cols + col] = w * v.y;
-        jac[(r0 + 2) * cols + col] = w * v.z;
-      };
-      if (solve_root) {
-        const glm::vec3 arm = e - p.root_position_m;
-        for (int k = 0; k < 3; ++k) {
-          glm::vec3 unit(0.0f);
-          unit[k] = 1.0f;
-          if (pos_row >= 0) put(pos_row, tg.position_weight, k, unit);
-          if (pos_row >= 0) put(pos_row, tg.position_weight, 3 + k, glm::cross(unit, arm));
-          if (rot_row >= 0) put(rot_row, tg.rotation_weight, 3 + k, unit);
+    float sum = 0;
+    for (int r = 0; r < rows; ++r) sum += c.residual_[r] * c.residual_[r];
+    if (prior2 > 0)
+      for (int d : dofs) sum += prior2 * (p.dof_rad[d] - prior_rad[d]) * (p.dof_rad[d] - prior_rad[d]);
+    return sum;
+  };
+  float cost = objective();
+  float lambda = std::max(damping, 1e-4f);
+  bool rebuild = true;
+  float* a0 = c.normal0_.data();
+  float* g0 = c.rhs0_.data();
+  for (int it = 0; it < max_iterations && cols > 0; ++it) {
+    if (rebuild) {
+      const int rows = fill_residual(targets, world, c.residual_);  // world is at the current pose
+      float* jac = c.jacobian_.data();
+      std::fill(jac, jac + static_cast<size_t>(rows) * cols, 0.0f);
+      // Jacobian, one row block per target term.
+      int row = 0;
+      for (size_t t = 0; t < targets.size(); ++t) {
+        const IkTarget& tg = targets[t];
+        const glm::vec3 e = world[tg.joint].translation;
+        const int pos_row = tg.position_weight > 0 ? row : -1;
+        if (tg.position_weight > 0) row += 3;
+        const int rot_row = tg.rotation_weight > 0 ? row : -1;
+        if (tg.rotation_weight > 0) row += 3;
+        auto put = [&](int r0, float w, int col, const glm::vec3& v) {
+          jac[(r0 + 0) * cols + col] = w * v.x;
+          jac[(r0 + 1) * cols + col] = w * v.y;
+          jac[(r0 + 2) * cols + col] = w * v.z;
+        };
+        if (solve_root) {
+          const glm::vec3 arm = e - p.root_position_m;
+          for (int k = 0; k < 3; ++k) {
+            glm::vec3 unit(0.0f);
+            unit[k] = 1.0f;
+            if (pos_row >= 0) put(pos_row, tg.position_weight, k, unit);
+            if (pos_row >= 0) put(pos_row, tg.position_weight, 3 + k, glm::cross(unit, arm));
+            if (rot_row >= 0) put(rot_row, tg.rotation_weight, 3 + k, unit);
+          }
+        }
+        for (size_t k = 0; k < dofs.size(); ++k) {
+          const int d = dofs[k];
+          const int j = s.dof(d).joint;
+          if (!(c.chain_mask_[t] >> j & 1u)) continue;
+          const int col = root_cols + static_cast<int>(k);
+          if (pos_row >= 0) put(pos_row, tg.position_weight, col, glm::cross(axes[d], e - world[j].translation));
+          if (rot_row >= 0) put(rot_row, tg.rotation_weight, col, axes[d]);
         }
       }
-      for (size_t k = 0; k < dofs.size(); ++k) {
-        const int d = dofs[k];
-        const int j = s.dof(d).joint;
-        if (!(c.chain_mask_[t] >> j & 1u)) continue;
-        const int col = root_cols + static_cast<int>(k);
-        if (pos_row >= 0) put(pos_row, tg.position_weight, col, glm::cross(axes[d], e - world[j].translation));
-        if (rot_row >= 0) put(rot_row, tg.rotation_weight, col, axes[d]);
+      // Normal equations.
+      for (int i = 0; i < cols; ++i) {
+        for (int k = 0; k <= i; ++k) {
+          float sum = 0;
+          for (int r = 0; r < rows; ++r) sum += jac[r * cols + i] * jac[r * cols + k];
+          a0[i * cols + k] = sum;
+          a0[k * cols + i] = sum;
+        }
+        float g = 0;
+        for (int r = 0; r < rows; ++r) g += jac[r * cols + i] * c.residual_[r];
+        g0[i] = g;
       }
+      for (size_t k = 0; k < dofs.size(); ++k) {
+        const int col = root_cols + static_cast<int>(k);
+        const int d = dofs[k];
+        if (prior2 > 0) {
+          a0[col * cols + col] += prior2;
+          g0[col] += prior2 * (prior_rad[d] - p.dof_rad[d]);
+        }
+        // A DOF pinned at a limit with the gradient pushing outwards leaves the step.
+        const auto& f = s.dof(d);
+        const bool at_min = p.dof_rad[d] <= f.min_rad + 1e-6f && g0[col] < 0;
+        const bool at_max = p.dof_rad[d] >= f.max_rad - 1e-6f && g0[col] > 0;
+        if (at_min || at_max) {
+          for (int i = 0; i < cols; ++i) a0[col * cols + i] = a0[i * cols + col] = 0.0f;
+          a0[col * cols + col] = 1.0f;
+          g0[col] = 0.0f;
+        }
+      }
+      rebuild = false;
     }
-
-    // Normal equations.
     float* a = c.normal_.data();
     float* b = c.rhs_.data();
-    for (int i = 0; i < cols; ++i) {
-      for (int k = 0; k <= i; ++k) {
-        float sum = 0;
-        for (int r = 0; r < rows; ++r) sum += jac[r * cols + i] * jac[r * cols + k];
-        a[i * cols + k] = sum;
-        a[k * cols + i] = sum;
-      }
-      float g = 0;
-      for (int r = 0; r < rows; ++r) g += jac[r * cols + i] * c.residual_[r];
-      b[i] = g;
-      a[i * cols + i] += lambda2;
-    }
-    for (size_t k = 0; k < dofs.size(); ++k) {
-      const int col = root_cols + static_cast<int>(k);
-      const int d = dofs[k];
-      if (prior2 > 0) {
-        a[col * cols + col] += prior2;
-        b[col] += prior2 * (prior_rad[d] - p.dof_rad[d]);
-      }
-      // A DOF pinned at a limit with the gradient pushing outwards leaves the step.
-      const auto& f = s.dof(d);
-      const bool at_min = p.dof_rad[d] <= f.min_rad + 1e-6f && b[col] < 0;
-      const bool at_max = p.dof_rad[d] >= f.max_rad - 1e-6f && b[col] > 0;
-      if (at_min || at_max) {
-        for (int i = 0; i < cols; ++i) a[col * cols + i] = a[i * cols + col] = 0.0f;
-        a[col * cols + col] = 1.0f;
-        b[col] = 0.0f;
-      }
-    }
+    std::copy(a0, a0 + static_cast<size_t>(cols) * cols, a);
+    std::copy(g0, g0 + cols, b);
+    for (int i = 0; i < cols; ++i) a[i * cols + i] += lambda * lambda;
+    ++iterations;
     if (!cholesky_solve(std::span(a, static_cast<size_t>(cols) * cols), std::span(b, cols), cols)) break;
-
     float biggest = 0;
     for (int i = 0; i < cols; ++i) biggest = std::max(biggest, std::abs(b[i]));
     if (!std::isfinite(biggest)) break;
+
+    // Trial step; kept only if it lowers the objective (Levenberg–Marquardt), else undone with
+    // more damping, so the solve never oscillates between limits.
+    const glm::vec3 saved_root_pos = p.root_position_m;
+    const glm::quat saved_root_rot = p.root_orientation;
+    for (size_t k = 0; k < dofs.size(); ++k) c.saved_[k] = p.dof_rad[dofs[k]];
     if (solve_root) {
       p.root_position_m += glm::vec3(b[0], b[1], b[2]);
       p.root_orientation = glm::normalize(exp_rotation(glm::vec3(b[3], b[4], b[5])) * p.root_orientation);
@@ -230,8 +255,20 @@ bool LeastSquaresIkJob::Run() {
       const auto& f = s.dof(d);
       p.dof_rad[d] = std::clamp(p.dof_rad[d] + b[root_cols + k], f.min_rad, f.max_rad);
     }
-    ++iterations;
-    if (biggest < step_tolerance) break;
+    const float trial = objective();
+    if (trial < cost) {
+      const float gain = cost - trial;
+      cost = trial;
+      lambda = std::max(std::max(damping, 1e-4f), lambda * 0.3f);
+      rebuild = true;
+      if (biggest < step_tolerance || gain < 1e-7f * (1.0f + cost)) break;
+    } else {
+      p.root_position_m = saved_root_pos;
+      p.root_orientation = saved_root_rot;
+      for (size_t k = 0; k < dofs.size(); ++k) p.dof_rad[dofs[k]] = c.saved_[k];
+      lambda *= 4.0f;
+      if (lambda > 1e3f || biggest < step_tolerance) break;
+    }
   }
   evaluate(s, p, world, axes);
   const int rows = fill_residual(targets, world, c.residual_);

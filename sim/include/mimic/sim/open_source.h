@@ -36,7 +36,8 @@ Result<RigConfig> rig_config_from_spec(const devices::SourceSpec& spec, const av
 Result<ReplayOptions> replay_options_from_spec(const devices::SourceSpec& spec);
 
 // What a log recorded from `source` (opened from `spec`) should say in its header: the spec,
-// and for simulated sources the sensor layout, seed and rate; for replays, the original header.
+// and for simulated sources the sensor layout, seed and rate; for replays, the original header;
+// for a started Flock, its birds (named "bird<address>"), measurement rate and model.
 LogHeader log_header_for(const devices::SourceSpec& spec, const devices::SensorSource& source);
 
 }  // namespace mimic::sim

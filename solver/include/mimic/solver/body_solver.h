@@ -43,9 +43,9 @@ struct SensorMount {
 };
 
 struct SolverOptions {
-  float position_weight = 10.0f;   // least-squares residual weight per metre
-  float rotation_weight = 1.0f;    // per radian
-  float prior_weight = 0.05f;      // pull of the trunk towards the relaxed posture, per radian
+  float position_weight = 100.0f;  // least-squares residual weight per metre
+  float rotation_weight = 10.0f;   // per radian
+  float prior_weight = 0.3f;       // pull of the trunk towards the relaxed posture, per radian
   float damping = 0.05f;           // Levenberg–Marquardt λ
   int iterations = 8;              // least-squares iterations per frame at most
 };

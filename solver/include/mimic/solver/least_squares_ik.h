@@ -3,7 +3,9 @@
 //
 // Warm-started from the pose passed in; each iteration linearises the forward kinematics,
 // solves (JᵀJ + (λ² + w_prior²)·I)·δ = Jᵀr + w_prior²·(θ_prior − θ) by Cholesky and clamps every
-// DOF into its limits (a DOF held at a limit by the gradient drops out of the step). Frames:
+// DOF into its limits (a DOF held at a limit by the gradient drops out of the step). A step is
+// kept only if it lowers |r|² + w_prior²·|θ − θ_prior|²; otherwise it is undone and λ grows, so
+// the result never oscillates between limits and never gets worse than the warm start. Frames:
 // world, metres, radians. Scratch lives in a caller-owned LeastSquaresIkContext sized once;
 // Run() never allocates and returns false when Validate() fails.
 #pragma once
@@ -46,6 +48,8 @@ class LeastSquaresIkContext {
   std::vector<float> residual_;
   std::vector<float> normal_;              // cols × cols
   std::vector<float> rhs_;
+  std::vector<float> normal0_, rhs0_;      // undamped system, kept across rejected steps
+  std::vector<float> saved_;               // DOF values before a trial step
   std::vector<uint64_t> chain_mask_;       // per target: bit j set when joint j moves it
 };
 
@@ -57,14 +61,14 @@ struct LeastSquaresIkJob {
   std::span<const IkTarget> targets;
   std::span<const float> prior_rad;    // empty, or one preferred value per skeleton DOF
   float prior_weight = 0.05f;          // pull towards prior_rad, per radian
-  float damping = 0.02f;               // λ: resists large steps (keeps the warm start)
+  float damping = 0.02f;               // smallest λ (grows on rejected steps)
   int max_iterations = 10;
-  float step_tolerance = 1e-5f;        // stop when no unknown moves more than this
+  float step_tolerance = 1e-4f;        // stop when no unknown moves more than this
   LeastSquaresIkContext* context = nullptr;
   // [in, out] warm start in, solution (inside the joint limits) out
   avatar::Pose* pose = nullptr;
   // [out]
-  int iterations = 0;
+  int iterations = 0;                  // linear solves done
   float residual_norm = 0;             // weighted residual after the last iteration
 
   bool Validate() const;

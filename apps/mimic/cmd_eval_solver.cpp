@@ -1,0 +1,302 @@
+// `mimic eval-solver`: the joint-angle solver's accuracy on a BVH clip. The clip, retargeted onto
+// Mimic's skeleton, is the ground truth; the simulator's sensor rig wears it (noise, mounting
+// offsets); the solver calibrates on the clip's frame-0 T-pose and then sees only the sensor
+// stream.
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <memory>
+#include <random>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "command.h"
+#include "mimic/avatar/retarget.h"
+#include "mimic/sim/sensor_rig.h"
+#include "mimic/solver/body_solver.h"
+#include "mimic/solver/calibration.h"
+#include "mimic/solver/filters.h"
+#include "mimic/solver/pose_error.h"
+#include "mimic/solver/sensor_layout.h"
+
+namespace mimic::app {
+namespace {
+
+constexpr const char* kName = "eval-solver";
+
+constexpr const char* kUsage =
+    "usage: mimic eval-solver --bvh CLIP [options]\n"
+    "\n"
+    "Measures the joint-angle solver on a BVH clip. The clip, retargeted onto Mimic's skeleton, is\n"
+    "the ground truth. Virtual sensors ride on it (the simulator's sensor rig: strap positions of\n"
+    "the layout, each strap turned by a random mounting rotation, Gaussian noise). The solver\n"
+    "calibrates on one second of the clip's frame-0 T-pose, then solves every later frame from\n"
+    "the sensor stream alone (it never sees the clip's skeleton or angles), through the input\n"
+    "filters unless --no-filter.\n"
+    "\n"
+    "Reported per layout, over every joint but the toes (Mimic's skeleton has no fingers), in world\n"
+    "space without alignment:\n"
+    "  mpjpe_cm         mean per-joint position error\n"
+    "  mpjre_deg        mean per-joint rotation error (angle between solved and true joint frames)\n"
+    "  end_effector_mm  mean position error of head, wrists and ankles\n"
+    "  jitter_mm        mean |p[t+1] - 2 p[t] + p[t-1]| of solved joint positions per sample\n"
+    "                   (second difference at the sample rate); jitter_truth_mm is the same for\n"
+    "                   the ground truth\n"
+    "  solve_us         wall time of filtering + solving one frame, p50 and p99\n"
+    "\n"
+    "options:\n"
+    "  --bvh CLIP           clip to evaluate (CMU/cgspeed or Mimic joint names; required)\n"
+    "  --sensors LIST       layouts, comma-separated, of 3, 6, 11, all (default 3,6,11,all)\n"
+    "  --noise MM,DEG       sensor noise, position std dev in mm and orientation in degrees\n"
+    "                       (default 1,0.5)\n"
+    "  --tilt DEG           largest random mounting rotation of a strap (default 20)\n"
+    "  --rate HZ            sensor rate (default 120, the clip's frame rate)\n"
+    "  --seed N             noise and mounting seed (default 1)\n"
+    "  --frames N           evaluate at most N frames after the T-pose (default all)\n"
+    "  --no-filter          solve the raw samples (no One Euro filtering)\n"
+    "  --json               one JSON object per layout on stdout instead of the table; keys: clip,\n"
+    "                       sensors, frames, joints, mpjpe_cm, mpjre_deg, end_effector_mm,\n"
+    "                       end_effector_max_mm, jitter, jitter_mm, jitter_truth_mm,\n"
+    "                       jitter_definition, solve_us_p50, solve_us_p99, solve_us_max, noise_mm,\n"
+    "                       noise_deg, tilt_deg, rate_hz, seed, filter\n"
+    "  -h, --help           this text\n"
+    "\n"
+    "exit status: 0 done, 1 unreadable clip or failed calibration, 2 usage error\n";
+
+// The motion frozen at one instant: the wearer holding the calibration pose.
+class FrozenMotion final : public avatar::Motion {
+ public:
+  FrozenMotion(std::shared_ptr<const avatar::Motion> m, double t_s) : m_(std::move(m)), t_(t_s) {}
+  const avatar::Skeleton& skeleton() const override { return m_->skeleton(); }
+  double duration_s() const override { return 1e9; }
+  bool loops() const override { return false; }
+  void sample(double, avatar::Pose& out) const override { m_->sample(t_, out); }
+  std::string name() const override { return m_->name() + "@frozen"; }
+
+ private:
+  std::shared_ptr<const avatar::Motion> m_;
+  double t_;
+};
+
+// The motion from a later start (the clip after its T-pose).
+class ShiftedMotion final : public avatar::Motion {
+ public:
+  ShiftedMotion(std::shared_ptr<const avatar::Motion> m, double shift_s) : m_(std::move(m)), shift_(shift_s) {}
+  const avatar::Skeleton& skeleton() const override { return m_->skeleton(); }
+  double duration_s() const override { return std::max(0.0, m_->duration_s() - shift_); }
+  bool loops() const override { return false; }
+  void sample(double t, avatar::Pose& out) const override { m_->sample(t + shift_, out); }
+  std::string name() const override { return m_->name(); }
+
+ private:
+  std::shared_ptr<const avatar::Motion> m_;
+  double shift_;
+};
+
+struct Settings {
+  double noise_mm = 1.0, noise_deg = 0.5, tilt_deg = 20.0, rate_hz = 120.0;
+  uint64_t seed = 1;
+  long max_frames = -1;
+  bool filter = true;
+};
+
+std::string base_name(const std::string& path) {
+  const auto slash = path.find_last_of('/');
+  std::string b = slash == std::string::npos ? path : path.substr(slash + 1);
+  if (b.size() > 4 && b.substr(b.size() - 4) == ".bvh") b.resize(b.size() - 4);
+  return b;
+}
+
+struct Run {
+  solver::PoseErrorReport report;
+  std::string error;
+};
+
+Run evaluate(const std::shared_ptr<const avatar::Motion>& motion, double frame_time_s, const std::string& layout_name,
+             const Settings& st) {
+  const avatar::Skeleton& truth = motion->skeleton();
+  auto mounts = sim::make_layout(layout_name, truth);
+  if (!mounts) return {{}, mounts.error().message};
+  // Straps never sit square: a random turn of up to --tilt on every sensor.
+  std::mt19937_64 rng(st.seed * 7919 + 17);
+  std::uniform_real_distribution<float> u(-1.0f, 1.0f);
+  for (auto& m : *mounts) {
+    glm::vec3 axis(u(rng), u(rng), u(rng));
+    if (glm::length(axis) < 1e-3f) axis = {0, 0, 1};
+    m.segment_from_sensor.rotation = glm::angleAxis(glm::radians(static_cast<float>(st.tilt_deg)) * u(rng), glm::normalize(axis));
+  }
+  // The solver's view of the layout: which sensor is on which segment, and where the wearer
+  // was told to strap it (from its own layout table, matched by sensor name).
+  const avatar::Skeleton base = *avatar::Skeleton::build(avatar::default_skeleton_desc());
+  auto nominal = solver::standard_layout(layout_name, base);
+  if (!nominal) return {{}, nominal.error().message};
+  solver::SensorLayout layout;
+  layout.name = layout_name;
+  for (size_t i = 0; i < mounts->size(); ++i) {
+    solver::SensorBinding b{static_cast<uint16_t>(i), (*mounts)[i].name, (*mounts)[i].segment, glm::vec3(0.0f)};
+    for (const auto& nb : nominal->bindings)
+      if (nb.name == b.name) b.placement_m = nb.placement_m;
+    layout.bindings.push_back(b);
+  }
+
+  sim::RigConfig cfg;
+  cfg.sensors = *mounts;
+  cfg.rate_hz = st.rate_hz;
+  cfg.position_noise_mm = st.noise_mm;
+  cfg.orientation_noise_deg = st.noise_deg;
+  cfg.seed = st.seed;
+
+  // Calibration: one second of the frame-0 T-pose.
+  auto cal_rig = sim::SensorRig::create(std::make_shared<FrozenMotion>(motion, 0.0), cfg);
+  if (!cal_rig) return {{}, cal_rig.error().message};
+  std::vector<devices::SensorSample> tick(mounts->size()), capture;
+  const int cal_ticks = static_cast<int>(std::lround(st.rate_hz));
+  for (int k = 0; k < cal_ticks; ++k) {
+    cal_rig->step(tick);
+    capture.insert(capture.end(), tick.begin(), tick.end());
+  }
+  auto cal = solver::calibrate(avatar::default_skeleton_desc(), layout, capture);
+  if (!cal) return {{}, "calibration failed: " + cal.error().message};
+  auto model = solver::make_solver_model(*cal);
+  if (!model) return {{}, model.error().message};
+
+  // The motion after the T-pose.
+  cfg.seed = st.seed + 1;
+  auto motion_after = std::make_shared<ShiftedMotion>(motion, frame_time_s);
+  auto rig = sim::SensorRig::create(motion_after, cfg);
+  if (!rig) return {{}, rig.error().message};
+  solver::SolverContext ctx(*model);
+  solver::SensorFilterConfig fc;
+  fc.enabled = st.filter;
+  solver::SensorFilterBank filters(static_cast<int>(mounts->size()), fc);
+  const avatar::Skeleton& solved_skeleton = model->skeleton();
+  avatar::Pose pose = solved_skeleton.zero_pose();
+  std::vector<avatar::RigidTransform> solved_world(solved_skeleton.joint_count());
+  solver::PoseErrorAccumulator acc(truth, solved_skeleton);
+  long ticks = static_cast<long>(std::floor(motion_after->duration_s() * st.rate_hz)) + 1;
+  if (st.max_frames >= 0) ticks = std::min(ticks, st.max_frames);
+  for (long k = 0; k < ticks; ++k) {
+    rig->step(tick);
+    const auto t0 = std::chrono::steady_clock::now();
+    filters.process(tick);
+    solver::SolveJob job{&*model, tick, &ctx, &pose};
+    job.Run();
+    const auto t1 = std::chrono::steady_clock::now();
+    avatar::forward_kinematics(solved_skeleton, pose, solved_world);
+    acc.add(rig->true_world_from_joint(), solved_world, std::chrono::duration<double, std::micro>(t1 - t0).count());
+  }
+  return {acc.report(), {}};
+}
+
+bool parse_noise(const std::string& text, double& mm, double& deg) {
+  const auto comma = text.find(',');
+  if (comma == std::string::npos) return false;
+  char* end = nullptr;
+  const std::string a = text.substr(0, comma), b = text.substr(comma + 1);
+  mm = std::strtod(a.c_str(), &end);
+  if (a.empty() || *end != '\0') return false;
+  deg = std::strtod(b.c_str(), &end);
+  if (b.empty() || *end != '\0') return false;
+  return mm >= 0 && deg >= 0 && std::isfinite(mm) && std::isfinite(deg);
+}
+
+int run_eval_solver(const std::vector<std::string>& argv) {
+  Args args(argv, {"bvh", "sensors", "noise", "tilt", "rate", "seed", "frames"}, {"json", "no-filter"});
+  if (args.help()) {
+    std::printf("%s", kUsage);
+    return 0;
+  }
+  if (!args.ok()) return usage_error(kName, args.error());
+  if (!args.positionals().empty()) return usage_error(kName, "unexpected argument '" + args.positionals()[0] + "'");
+  const auto clip_path = args.get("bvh");
+  if (!clip_path) return usage_error(kName, "--bvh CLIP is required");
+  Settings st;
+  if (auto n = args.get("noise"); n && !parse_noise(*n, st.noise_mm, st.noise_deg))
+    return usage_error(kName, "--noise expects MM,DEG (two non-negative numbers), got '" + *n + "'");
+  long seed = 1, frames = -1;
+  if (!args.get_double("tilt", st.tilt_deg) || !args.get_double("rate", st.rate_hz) || !args.get_int("seed", seed) ||
+      !args.get_int("frames", frames))
+    return usage_error(kName, args.error());
+  if (!(st.rate_hz > 0)) return usage_error(kName, "--rate must be positive");
+  if (st.tilt_deg < 0 || st.tilt_deg > 180) return usage_error(kName, "--tilt must be within 0..180 degrees");
+  if (seed < 0) return usage_error(kName, "--seed must be non-negative");
+  st.seed = static_cast<uint64_t>(seed);
+  st.max_frames = args.has("frames") ? frames : -1;
+  st.filter = !args.has("no-filter");
+  std::vector<std::string> layouts;
+  {
+    std::stringstream ss(args.get_or("sensors", "3,6,11,all"));
+    std::string item;
+    while (std::getline(ss, item, ','))
+      if (!item.empty()) layouts.push_back(item);
+  }
+  for (const auto& l : layouts)
+    if (l != "3" && l != "6" && l != "11" && l != "all")
+      return usage_error(kName, "--sensors: unknown layout '" + l + "' (known: 3, 6, 11, all)");
+  if (layouts.empty()) return usage_error(kName, "--sensors: no layout given");
+
+  auto motion = avatar::load_bvh_motion(*clip_path);
+  if (!motion) return failure(kName, motion.error().message);
+  std::shared_ptr<const avatar::Motion> shared(std::move(*motion));
+  auto clip = avatar::load_bvh(*clip_path);  // for the frame time
+  if (!clip) return failure(kName, clip.error().message);
+  const std::string name = base_name(*clip_path);
+  const bool json = args.has("json");
+  if (!json) {
+    std::printf("clip %s: %.2f s at %.0f Hz; noise %.2f mm / %.2f deg; mounting tilt up to %.0f deg; filter %s; seed %llu\n",
+                name.c_str(), shared->duration_s(), st.rate_hz, st.noise_mm, st.noise_deg, st.tilt_deg,
+                st.filter ? "on" : "off", static_cast<unsigned long long>(st.seed));
+    std::printf("joint set: every joint but the toes; world space, no alignment. jitter = mean |p[t+1]-2p[t]+p[t-1]|\n");
+    std::printf("%-7s %7s %9s %10s %8s %11s %13s %11s %11s\n", "sensors", "frames", "mpjpe_cm", "mpjre_deg", "ee_mm",
+                "jitter_mm", "(truth_mm)", "solve_p50", "solve_p99");
+  }
+  int status = 0;
+  for (const auto& layout : layouts) {
+    const Run r = evaluate(shared, clip->frame_time_s, layout, st);
+    if (!r.error.empty()) {
+      std::fprintf(stderr, "mimic %s: %s layout %s: %s\n", kName, name.c_str(), layout.c_str(), r.error.c_str());
+      status = 1;
+      continue;
+    }
+    const auto& p = r.report;
+    if (json) {
+      nlohmann::json j{{"clip", name},
+                       {"sensors", layout},
+                       {"frames", p.frames},
+                       {"joints", p.joints},
+                       {"mpjpe_cm", p.mpjpe_cm},
+                       {"mpjre_deg", p.mpjre_deg},
+                       {"end_effector_mm", p.end_effector_mm},
+                       {"end_effector_max_mm", p.end_effector_max_mm},
+                       {"jitter", p.jitter_mm},
+                       {"jitter_mm", p.jitter_mm},
+                       {"jitter_truth_mm", p.jitter_truth_mm},
+                       {"jitter_definition", "mean |p[t+1]-2p[t]+p[t-1]| of solved joint positions per sample, mm"},
+                       {"solve_us_p50", p.solve_us_p50},
+                       {"solve_us_p99", p.solve_us_p99},
+                       {"solve_us_max", p.solve_us_max},
+                       {"noise_mm", st.noise_mm},
+                       {"noise_deg", st.noise_deg},
+                       {"tilt_deg", st.tilt_deg},
+                       {"rate_hz", st.rate_hz},
+                       {"seed", st.seed},
+                       {"filter", st.filter}};
+      std::printf("%s\n", j.dump().c_str());
+    } else {
+      std::printf("%-7s %7d %9.2f %10.1f %8.1f %11.2f %13.2f %9.1fus %9.1fus\n", layout.c_str(), p.frames, p.mpjpe_cm,
+                  p.mpjre_deg, p.end_effector_mm, p.jitter_mm, p.jitter_truth_mm, p.solve_us_p50, p.solve_us_p99);
+    }
+    std::fflush(stdout);
+  }
+  return status;
+}
+
+}  // namespace
+
+MIMIC_COMMAND(eval_solver, "eval-solver", "measure the joint-angle solver on a BVH clip (MPJPE, MPJRE, jitter, time)",
+              kUsage, run_eval_solver);
+
+}  // namespace mimic::app

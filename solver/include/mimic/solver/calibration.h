@@ -1,0 +1,78 @@
+// Sensor-to-segment calibration from a few seconds of the wearer standing still in a T-pose
+// (arms out, palms down) or an N-pose (arms down at the sides), facing any direction.
+//
+// From the capture (samples of every sensor of the layout, tracker reference frame = Mimic's
+// world, +Y up) it measures, per sensor, the mean pose and how much it moved; then
+//   - the heading from the left–right sensor pairs (hands, feet, upper arms, thighs);
+//   - body proportions: each sensor, strapped where the layout says (SensorLayout placements),
+//     marks its joint; height from head and feet (or the floor), arm length from shoulder to
+//     hand, leg length from hip to foot, spine length from pelvis to head, shoulder and hip
+//     width from the upper-arm and thigh sensors — whatever the layout has;
+//   - the calibration posture: the nominal pose, with arm elevation and leg spread as measured;
+//   - each sensor's offset on its segment, rotation and translation (segment_from_sensor).
+// Refuses, with the reason, a capture in which a sensor of the layout is missing (or too
+// sparse) or moved more than the stated tolerance. Saved and loaded as JSON.
+#pragma once
+
+#include <span>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "mimic/avatar/skeleton.h"
+#include "mimic/core/result.h"
+#include "mimic/devices/sample.h"
+#include "mimic/solver/body_solver.h"
+#include "mimic/solver/sensor_layout.h"
+
+namespace mimic::solver {
+
+enum class CalibrationPose { t_pose, n_pose };
+
+struct CalibrationOptions {
+  CalibrationPose pose = CalibrationPose::t_pose;
+  float max_motion_m = 0.03f;     // largest distance of a sensor from its mean over the capture
+  float max_motion_deg = 6.0f;    // largest angle of a sensor from its mean orientation
+  int min_samples = 5;            // per sensor
+  float floor_y_m = 0.0f;         // floor height when no foot sensor shows it
+};
+
+struct SensorCalibration {
+  uint16_t sensor = 0;
+  std::string name;     // e.g. "l_hand"
+  std::string segment;  // skeleton joint
+  avatar::RigidTransform segment_from_sensor;
+};
+
+struct Calibration {
+  avatar::SkeletonDesc skeleton;  // Mimic's skeleton fitted to the wearer
+  std::vector<SensorCalibration> sensors;
+  CalibrationPose pose = CalibrationPose::t_pose;
+  float height_m = 0;             // floor to top of the head, estimated
+  float heading_deg = 0;          // which way the wearer faced (0 = +Z, turning left positive)
+  // Capture statistics: how still the wearer stood.
+  int samples = 0;
+  double duration_s = 0;
+  float max_motion_mm = 0;
+  float max_motion_deg = 0;
+};
+
+// [in] base: the skeleton to fit (default_skeleton_desc() usually); layout: which sensor is
+// where; capture: every sample received during the stand-still (any order, any mix of sensors).
+Result<Calibration> calibrate(const avatar::SkeletonDesc& base, const SensorLayout& layout,
+                              std::span<const devices::SensorSample> capture,
+                              const CalibrationOptions& options = {});
+
+// The fitted skeleton and sensor mounts as the solver wants them.
+Result<SolverModel> make_solver_model(const Calibration& calibration, SolverOptions options = {});
+
+std::string calibration_to_json(const Calibration& calibration);
+// Clear error (parse_error naming the field) on malformed or incomplete text.
+Result<Calibration> calibration_from_json(std::string_view text);
+Status save_calibration(const std::string& path, const Calibration& calibration);
+Result<Calibration> load_calibration(const std::string& path);
+
+const char* calibration_pose_name(CalibrationPose pose);  // "tpose", "npose"
+Result<CalibrationPose> parse_calibration_pose(std::string_view name);
+
+}  // namespace mimic::solver

@@ -1,0 +1,113 @@
+// Input filtering for tracker samples: One Euro filters (Casiez, Roussel & Vogel, CHI 2012) on
+// position and orientation, a short-horizon predictor that pays back the filter's (and the
+// tracker's) latency, and rejection of jumps no body can make.
+//
+// One Euro: an exponential smoother whose cutoff rises with speed, fc = min_cutoff + beta·|ẋ|, so
+// a still sensor is smoothed hard (no jitter) and a fast one barely (little lag). Its lag at a
+// cutoff fc is about 1/(2π·fc) seconds; SensorFilterBank extrapolates each filtered pose along
+// its filtered velocity by `predict_s` (choose the tracker latency plus the filter lag to see the
+// body "now"; 0 turns prediction off). Orientations are filtered on the unit sphere (slerp),
+// their speed being the angular speed.
+//
+// Outliers: a sample farther from the last accepted one than max_speed · elapsed time (+ a noise
+// allowance), or turned faster than max_angular_speed, is replaced by the prediction and flagged
+// kSampleOutlier | kSampleStale (kept valid, so the solver holds the segment). After
+// `accept_after` consecutive outliers the new place is believed (the tracker was re-seated) and
+// the filter restarts there. Invalid samples (dropouts) are likewise bridged by the prediction
+// for at most `hold_s`, then passed on invalid.
+//
+// Time is the sample's device_time_s when it advances, else host_time_s. Nothing allocates after
+// construction; process() never throws.
+#pragma once
+
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include <glm/glm.hpp>
+#include <glm/gtc/quaternion.hpp>
+
+#include "mimic/devices/sample.h"
+
+namespace mimic::solver {
+
+struct OneEuroParams {
+  float min_cutoff_hz = 1.0f;   // cutoff of a still signal
+  float beta = 0.5f;            // cutoff increase per unit of speed (per m/s or per rad/s)
+  float derivative_cutoff_hz = 1.0f;
+};
+
+// Smoothing factor of a first-order low-pass at cutoff fc sampled every dt.
+float one_euro_alpha(float cutoff_hz, float dt_s);
+
+class OneEuroVec3 {
+ public:
+  explicit OneEuroVec3(OneEuroParams p = {}) : p_(p) {}
+  glm::vec3 filter(const glm::vec3& x, float dt_s);
+  void reset() { primed_ = false; }
+  const glm::vec3& value() const { return x_; }
+  const glm::vec3& velocity() const { return dx_; }  // filtered, units per second
+  bool primed() const { return primed_; }
+
+ private:
+  OneEuroParams p_;
+  glm::vec3 x_{0.0f}, dx_{0.0f};
+  bool primed_ = false;
+};
+
+class OneEuroQuat {
+ public:
+  explicit OneEuroQuat(OneEuroParams p = {}) : p_(p) {}
+  glm::quat filter(const glm::quat& q, float dt_s);
+  void reset() { primed_ = false; }
+  const glm::quat& value() const { return q_; }
+  const glm::vec3& angular_velocity() const { return w_; }  // world frame, rad/s
+  bool primed() const { return primed_; }
+
+ private:
+  OneEuroParams p_;
+  glm::quat q_{1, 0, 0, 0};
+  glm::vec3 w_{0.0f};
+  bool primed_ = false;
+};
+
+struct SensorFilterConfig {
+  OneEuroParams position{1.5f, 4.0f, 1.0f};   // beta per m/s
+  OneEuroParams rotation{1.5f, 0.5f, 1.0f};   // beta per rad/s
+  float predict_s = 0.0f;                     // extrapolation horizon
+  float max_speed_m_s = 12.0f;                // faster than any limb moves
+  float max_angular_speed_deg_s = 3000.0f;
+  float jump_allowance_m = 0.05f;             // noise and sample-timing slack on top
+  int accept_after = 12;                      // consecutive outliers that move the filter
+  float hold_s = 0.25f;                       // bridge dropouts this long
+  bool enabled = true;                        // false: only outlier rejection and dropout bridging
+};
+
+class SensorFilterBank {
+ public:
+  // Sensor ids 0 … max_sensor_id. Allocates.
+  explicit SensorFilterBank(int max_sensor_id, SensorFilterConfig config = {});
+
+  // Filters the samples in place (ids above max_sensor_id pass untouched). Never allocates.
+  void process(std::span<devices::SensorSample> samples);
+  void reset();
+  const SensorFilterConfig& config() const { return config_; }
+  uint64_t outliers() const { return outliers_; }
+
+ private:
+  struct State {
+    OneEuroVec3 pos;
+    OneEuroQuat rot;
+    double last_t = 0;
+    double last_good_t = 0;
+    bool seen = false;
+    int outlier_streak = 0;
+    glm::vec3 last_raw_pos{0.0f};
+    glm::quat last_raw_rot{1, 0, 0, 0};
+  };
+  SensorFilterConfig config_;
+  std::vector<State> state_;
+  uint64_t outliers_ = 0;
+};
+
+}  // namespace mimic::solver

@@ -1,0 +1,524 @@
+#include "mimic/solver/calibration.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <map>
+
+#include <nlohmann/json.hpp>
+
+#include "mimic/core/file.h"
+
+namespace mimic::solver {
+
+using avatar::Pose;
+using avatar::RigidTransform;
+using avatar::Skeleton;
+using avatar::SkeletonDesc;
+
+namespace {
+
+constexpr float kPi = 3.14159265358979f;
+
+struct SensorStats {
+  const SensorBinding* binding = nullptr;
+  int count = 0;
+  glm::dvec3 sum{0.0};
+  glm::dquat qsum{0, 0, 0, 0};
+  glm::quat first{1, 0, 0, 0};
+  glm::vec3 mean_pos{0.0f};
+  glm::quat mean_rot{1, 0, 0, 0};
+  float max_dist_m = 0, max_angle_deg = 0;
+};
+
+float angle_deg(const glm::quat& a, const glm::quat& b) {
+  const glm::quat d = a * glm::conjugate(b);
+  return glm::degrees(2.0f * std::asin(std::min(1.0f, glm::length(glm::vec3(d.x, d.y, d.z)))));
+}
+
+
+std::string fmt(float v, const char* f = "%.1f") {
+  char b[32];
+  std::snprintf(b, sizeof b, f, v);
+  return b;
+}
+
+// Joint world positions of a skeleton posed at `pose`.
+std::vector<RigidTransform> pose_world(const Skeleton& s, const Pose& pose) {
+  std::vector<RigidTransform> w(s.joint_count());
+  avatar::forward_kinematics(s, pose, w);
+  return w;
+}
+
+void scale_desc(SkeletonDesc& d, float k) {
+  for (auto& j : d.joints) {
+    j.offset_m *= k;
+    j.tip_m *= k;
+  }
+}
+
+struct Fit {
+  SkeletonDesc desc;
+  Pose pose;
+  float height_m = 0;
+};
+
+// One pass of the fit. `segment_rot` gives, per joint name, the rotation used to turn a sensor's
+// instructed placement into world space (the heading on the first pass, the fitted posture's
+// segment rotations on the second).
+Fit fit_body(const SkeletonDesc& base, const std::vector<SensorStats>& stats, const glm::quat& heading,
+             const std::map<std::string, glm::quat>& segment_rot, const CalibrationOptions& opt) {
+  Fit out;
+  out.desc = base;
+  const glm::vec3 up(0, 1, 0);
+  // Joint positions the sensors mark.
+  std::map<std::string, glm::vec3> mark;
+  for (const auto& st : stats) {
+    auto it = segment_rot.find(st.binding->segment);
+    const glm::quat r = it != segment_rot.end() ? it->second : heading;
+    mark[st.binding->segment] = st.mean_pos - r * st.binding->placement_m;
+  }
+  auto has = [&](const char* n) { return mark.count(n) > 0; };
+  auto build = [&]() { return *Skeleton::build(out.desc); };
+  auto zero_world = [&](const Skeleton& s) {
+    Pose p = s.zero_pose();
+    return pose_world(s, p);
+  };
+  auto jpos = [&](const Skeleton& s, const std::vector<RigidTransform>& w, const char* n) {
+    return w[s.find_joint(n)].translation;
+  };
+
+  // Overall size from the head's height above the floor (or the feet).
+  Skeleton s = build();
+  auto w = zero_world(s);
+  const float root_h0 = avatar::standing_root_height_m(s);
+  if (has("head")) {
+    const float head0 = jpos(s, w, "head").y + root_h0;
+    float scale;
+    if (has("l_ankle") || has("r_ankle")) {
+      float ankle_y = 0;
+      int n = 0;
+      for (const char* a : {"l_ankle", "r_ankle"})
+        if (has(a)) ankle_y += mark[a].y, ++n;
+      ankle_y /= static_cast<float>(n);
+      const float ankle0 = jpos(s, w, "l_ankle").y + root_h0;
+      scale = (mark["head"].y - ankle_y) / std::max(0.1f, head0 - ankle0);
+    } else {
+      scale = (mark["head"].y - opt.floor_y_m) / std::max(0.1f, head0);
+    }
+    if (scale > 0.5f && scale < 1.6f) scale_desc(out.desc, scale);
+  }
+  s = build();
+  w = zero_world(s);
+  avatar::Proportions prop = avatar::measure_proportions(s);
+
+  // Where the root sits: the pelvis sensor, else hanging below the head.
+  auto root_position = [&](const Skeleton& sk, const std::vector<RigidTransform>& wz) {
+    if (has("pelvis")) return mark["pelvis"];
+    if (has("head")) return mark["head"] - heading * (jpos(sk, wz, "head") - wz[0].translation);
+    return glm::vec3(0, avatar::standing_root_height_m(sk) + opt.floor_y_m, 0);
+  };
+
+  // Spine and neck: pelvis to chest to head.
+  if (has("pelvis") && has("head")) {
+    const float want = glm::dot(mark["head"] - mark["pelvis"], up);
+    if (has("spine_upper")) {
+      const float lower_want = glm::dot(mark["spine_upper"] - mark["pelvis"], up);
+      const float lower_now = jpos(s, w, "spine_upper").y - w[0].translation.y;
+      const float upper_now = jpos(s, w, "head").y - jpos(s, w, "spine_upper").y;
+      const float kl = lower_want / std::max(0.05f, lower_now);
+      const float ku = (want - lower_want) / std::max(0.05f, upper_now);
+      if (kl > 0.5f && kl < 2.0f) prop.spine_lower_m *= kl, prop.spine_mid_m *= kl;
+      if (ku > 0.5f && ku < 2.0f) prop.spine_upper_m *= ku, prop.neck_m *= ku;
+    } else {
+      const float now = jpos(s, w, "head").y - w[0].translation.y;
+      const float k = want / std::max(0.1f, now);
+      if (k > 0.5f && k < 2.0f) {
+        prop.spine_lower_m *= k, prop.spine_mid_m *= k, prop.spine_upper_m *= k, prop.neck_m *= k;
+      }
+    }
+  }
+  if (has("l_shoulder") && has("r_shoulder")) prop.shoulder_width_m = glm::length(mark["l_shoulder"] - mark["r_shoulder"]);
+  if (has("l_hip") && has("r_hip")) prop.hip_width_m = glm::length(mark["l_hip"] - mark["r_hip"]);
+  avatar::apply_proportions(out.desc, prop);
+  // Hip and shoulder joints where the thigh and upper-arm sensors put them (relative to the
+  // pelvis and the chest), averaged over both sides to keep the skeleton symmetric.
+  const glm::quat inv_h = glm::conjugate(heading);
+  auto mirror = [](glm::vec3 v) { return glm::vec3(-v.x, v.y, v.z); };
+  auto set_pair_offset = [&](const std::string& joint, const std::vector<glm::vec3>& left_offsets) {
+    if (left_offsets.empty()) return;
+    glm::vec3 o(0.0f);
+    for (const auto& v : left_offsets) o += v;
+    o /= static_cast<float>(left_offsets.size());
+    if (glm::length(o) > 0.4f) return;  // not a body
+    for (auto& jd : out.desc.joints) {
+      const bool left = jd.name == "l_" + joint, right = jd.name == "r_" + joint;
+      if (!left && !right) continue;
+      const glm::vec3 old = jd.offset_m;
+      jd.offset_m = left ? o : mirror(o);
+      for (auto& par : out.desc.joints)
+        if (par.name == jd.parent && glm::length(par.tip_m - old) < 1e-5f) par.tip_m = jd.offset_m;
+    }
+  };
+  if (has("pelvis")) {
+    std::vector<glm::vec3> hips;
+    if (has("l_hip")) hips.push_back(inv_h * (mark["l_hip"] - mark["pelvis"]));
+    if (has("r_hip")) hips.push_back(mirror(inv_h * (mark["r_hip"] - mark["pelvis"])));
+    set_pair_offset("hip", hips);
+  }
+  if (has("l_shoulder") || has("r_shoulder")) {
+    Skeleton sk = build();
+    const auto wz = zero_world(sk);
+    const glm::vec3 root_now = root_position(sk, wz);
+    auto placed_now = [&](const char* n) { return root_now + heading * (jpos(sk, wz, n) - wz[0].translation); };
+    const glm::vec3 chest = has("spine_upper") ? mark["spine_upper"] : placed_now("spine_upper");
+    const glm::vec3 clav = sk.offset_m(sk.find_joint("l_clavicle"));
+    std::vector<glm::vec3> shoulders;
+    if (has("l_shoulder")) shoulders.push_back(inv_h * (mark["l_shoulder"] - chest) - clav);
+    if (has("r_shoulder")) shoulders.push_back(mirror(inv_h * (mark["r_shoulder"] - chest)) - clav);
+    set_pair_offset("shoulder", shoulders);
+  }
+  s = build();
+  w = zero_world(s);
+
+  // Limbs: shoulder to wrist, hip to ankle; the ratio between the two links is kept.
+  glm::vec3 root = root_position(s, w);
+  auto placed = [&](const char* n) {  // joint position of the fitted skeleton standing at `root`
+    return root + heading * (jpos(s, w, n) - w[0].translation);
+  };
+  auto limb_length = [&](const char* upper, const char* end) -> float {
+    if (!has(end)) return 0.0f;
+    const glm::vec3 a = has(upper) ? mark[upper] : placed(upper);
+    return glm::length(mark[end] - a);
+  };
+  float arm = 0, leg = 0;
+  int n_arm = 0, n_leg = 0;
+  for (const char* side : {"l_", "r_"}) {
+    const std::string sd(side);
+    if (float l = limb_length((sd + "shoulder").c_str(), (sd + "wrist").c_str()); l > 0) arm += l, ++n_arm;
+    if (float l = limb_length((sd + "hip").c_str(), (sd + "ankle").c_str()); l > 0) leg += l, ++n_leg;
+  }
+  prop = avatar::measure_proportions(s);
+  if (n_arm > 0) {
+    const float total = prop.upper_arm_m + prop.forearm_m;
+    const float k = (arm / static_cast<float>(n_arm)) / total;
+    if (k > 0.6f && k < 1.5f) prop.upper_arm_m *= k, prop.forearm_m *= k;
+  }
+  if (n_leg > 0) {
+    const float total = prop.thigh_m + prop.shin_m;
+    const float k = (leg / static_cast<float>(n_leg)) / total;
+    if (k > 0.6f && k < 1.5f) prop.thigh_m *= k, prop.shin_m *= k;
+  }
+  avatar::apply_proportions(out.desc, prop);
+  s = build();
+  w = zero_world(s);
+  root = root_position(s, w);
+
+  // The calibration posture: nominal, with the limbs pointing where the sensors say.
+  out.pose = s.zero_pose();
+  out.pose.root_orientation = heading;
+  out.pose.root_position_m = root - heading * s.offset_m(0);
+  const glm::quat inv_heading = glm::conjugate(heading);
+  auto set = [&](const std::string& dof, float v) {
+    const int d = s.find_dof(dof);
+    if (d >= 0) out.pose.dof_rad[d] = std::clamp(v, s.dof(d).min_rad, s.dof(d).max_rad);
+  };
+  for (const char* side : {"l_", "r_"}) {
+    const std::string sd(side);
+    const float side_sign = sd == "l_" ? 1.0f : -1.0f;
+    if (opt.pose == CalibrationPose::n_pose) set(sd + "shoulder_abduction", -80.0f * kPi / 180.0f);
+    if (has((sd + "wrist").c_str())) {
+      const glm::vec3 a = has((sd + "shoulder").c_str()) ? mark[sd + "shoulder"] : placed((sd + "shoulder").c_str());
+      const glm::vec3 d = glm::normalize(inv_heading * (mark[sd + "wrist"] - a));
+      const float abd = std::asin(std::clamp(d.y, -1.0f, 1.0f));
+      set(sd + "shoulder_abduction", abd);
+      if (std::cos(abd) > 0.3f) set(sd + "shoulder_flexion", std::atan2(d.z, side_sign * d.x));
+    }
+    if (has((sd + "ankle").c_str())) {
+      const glm::vec3 h = has((sd + "hip").c_str()) ? mark[sd + "hip"] : placed((sd + "hip").c_str());
+      const glm::vec3 d = glm::normalize(inv_heading * (mark[sd + "ankle"] - h));
+      set(sd + "hip_abduction", std::asin(std::clamp(side_sign * d.x, -1.0f, 1.0f)));
+      set(sd + "hip_flexion", std::atan2(d.z, -d.y));
+    }
+  }
+  const float head_top = has("head") ? mark["head"].y + 0.12f : 0.0f;
+  float floor = opt.floor_y_m;
+  if (has("l_ankle") || has("r_ankle")) {
+    const glm::vec3 a = has("l_ankle") ? mark["l_ankle"] : mark["r_ankle"];
+    const auto wp = pose_world(s, out.pose);
+    floor = a.y - (wp[s.find_joint("l_ankle")].translation.y - (out.pose.root_position_m.y - avatar::standing_root_height_m(s)));
+  }
+  out.height_m = has("head") ? head_top - floor : 0.0f;
+  return out;
+}
+
+}  // namespace
+
+const char* calibration_pose_name(CalibrationPose pose) {
+  return pose == CalibrationPose::n_pose ? "npose" : "tpose";
+}
+
+Result<CalibrationPose> parse_calibration_pose(std::string_view name) {
+  if (name == "tpose" || name == "t") return CalibrationPose::t_pose;
+  if (name == "npose" || name == "n") return CalibrationPose::n_pose;
+  return fail(Errc::invalid_argument, "unknown calibration pose '" + std::string(name) + "' (tpose or npose)");
+}
+
+Result<Calibration> calibrate(const SkeletonDesc& base, const SensorLayout& layout,
+                              std::span<const devices::SensorSample> capture, const CalibrationOptions& opt) {
+  auto base_skeleton = Skeleton::build(base);
+  if (!base_skeleton) return tl::unexpected(base_skeleton.error());
+  if (layout.bindings.empty()) return fail(Errc::invalid_argument, "calibration: the layout has no sensors");
+  for (const auto& b : layout.bindings)
+    if (base_skeleton->find_joint(b.segment) < 0)
+      return fail(Errc::not_found, "calibration: sensor '" + b.name + "' is on unknown segment '" + b.segment + "'");
+
+  // Per-sensor mean pose and spread.
+  std::vector<SensorStats> stats(layout.bindings.size());
+  std::map<uint16_t, size_t> slot;
+  for (size_t i = 0; i < layout.bindings.size(); ++i) {
+    stats[i].binding = &layout.bindings[i];
+    slot[layout.bindings[i].sensor] = i;
+  }
+  double t0 = 0, t1 = 0;
+  int used = 0;
+  auto finite = [](const devices::SensorSample& s) {
+    return std::isfinite(s.position_m.x) && std::isfinite(s.position_m.y) && std::isfinite(s.position_m.z) &&
+           std::isfinite(s.orientation.w) && std::isfinite(s.orientation.x) && std::isfinite(s.orientation.y) &&
+           std::isfinite(s.orientation.z) && glm::dot(s.orientation, s.orientation) > 0.25f;
+  };
+  for (const auto& smp : capture) {
+    if (!(smp.flags & devices::kSampleValid) || !finite(smp)) continue;
+    auto it = slot.find(smp.sensor);
+    if (it == slot.end()) continue;
+    SensorStats& st = stats[it->second];
+    const glm::quat q = glm::normalize(smp.orientation);
+    if (st.count == 0) st.first = q;
+    const glm::quat aligned = glm::dot(q, st.first) < 0 ? -q : q;
+    st.sum += glm::dvec3(smp.position_m);
+    st.qsum = glm::dquat(st.qsum.w + aligned.w, st.qsum.x + aligned.x, st.qsum.y + aligned.y, st.qsum.z + aligned.z);
+    ++st.count;
+    if (used == 0) t0 = t1 = smp.host_time_s;
+    t0 = std::min(t0, smp.host_time_s);
+    t1 = std::max(t1, smp.host_time_s);
+    ++used;
+  }
+  std::string missing;
+  for (auto& st : stats) {
+    if (st.count < opt.min_samples)
+      missing += (missing.empty() ? "" : ", ") + st.binding->name + " (sensor " + std::to_string(st.binding->sensor) +
+                 ", " + std::to_string(st.count) + " samples)";
+  }
+  if (!missing.empty())
+    return fail(Errc::not_found, "calibration refused: no data from " + missing + "; check that every sensor is connected");
+  for (auto& st : stats) {
+    st.mean_pos = glm::vec3(st.sum / static_cast<double>(st.count));
+    st.mean_rot = glm::normalize(glm::quat(glm::normalize(st.qsum)));
+  }
+  for (const auto& smp : capture) {
+    if (!(smp.flags & devices::kSampleValid) || !finite(smp)) continue;
+    auto it = slot.find(smp.sensor);
+    if (it == slot.end()) continue;
+    SensorStats& st = stats[it->second];
+    st.max_dist_m = std::max(st.max_dist_m, glm::length(smp.position_m - st.mean_pos));
+    st.max_angle_deg = std::max(st.max_angle_deg, angle_deg(glm::normalize(smp.orientation), st.mean_rot));
+  }
+  Calibration cal;
+  std::string moved;
+  for (const auto& st : stats) {
+    cal.max_motion_mm = std::max(cal.max_motion_mm, 1000.0f * st.max_dist_m);
+    cal.max_motion_deg = std::max(cal.max_motion_deg, st.max_angle_deg);
+    if (st.max_dist_m > opt.max_motion_m || st.max_angle_deg > opt.max_motion_deg)
+      moved += (moved.empty() ? "" : ", ") + st.binding->name + " moved " + fmt(100.0f * st.max_dist_m) + " cm / " +
+               fmt(st.max_angle_deg) + "°";
+  }
+  if (!moved.empty())
+    return fail(Errc::out_of_range, "calibration refused: the wearer moved (" + moved + "; limits " +
+                                        fmt(100.0f * opt.max_motion_m) + " cm / " + fmt(opt.max_motion_deg) +
+                                        "°); stand still and try again");
+
+  // Heading from left–right pairs (left minus right points to the wearer's left, +X at 0).
+  glm::vec3 left(0.0f);
+  for (const auto& a : stats) {
+    const std::string& seg = a.binding->segment;
+    if (seg.rfind("l_", 0) != 0) continue;
+    for (const auto& b : stats)
+      if (b.binding->segment == "r_" + seg.substr(2)) left += a.mean_pos - b.mean_pos;
+  }
+  float heading_rad = 0;
+  if (glm::length(glm::vec2(left.x, left.z)) > 0.05f) heading_rad = std::atan2(-left.z, left.x);
+  const glm::quat heading = glm::angleAxis(heading_rad, glm::vec3(0, 1, 0));
+
+  // Two passes: the second places each sensor with its segment's fitted rotation.
+  std::map<std::string, glm::quat> segment_rot;
+  Fit fit = fit_body(base, stats, heading, segment_rot, opt);
+  {
+    const Skeleton s = *Skeleton::build(fit.desc);
+    const auto w = pose_world(s, fit.pose);
+    for (int j = 0; j < s.joint_count(); ++j) segment_rot[s.joint_name(j)] = w[j].rotation;
+  }
+  fit = fit_body(base, stats, heading, segment_rot, opt);
+
+  const Skeleton s = *Skeleton::build(fit.desc);
+  const auto w = pose_world(s, fit.pose);
+  cal.skeleton = fit.desc;
+  cal.pose = opt.pose;
+  cal.height_m = fit.height_m;
+  cal.heading_deg = glm::degrees(heading_rad);
+  cal.samples = used;
+  cal.duration_s = t1 - t0;
+  for (const auto& st : stats) {
+    const int j = s.find_joint(st.binding->segment);
+    SensorCalibration sc;
+    sc.sensor = st.binding->sensor;
+    sc.name = st.binding->name;
+    sc.segment = st.binding->segment;
+    sc.segment_from_sensor = w[j].inverse() * RigidTransform{st.mean_rot, st.mean_pos};
+    cal.sensors.push_back(sc);
+  }
+  return cal;
+}
+
+Result<SolverModel> make_solver_model(const Calibration& cal, SolverOptions options) {
+  auto s = Skeleton::build(cal.skeleton);
+  if (!s) return tl::unexpected(s.error());
+  std::vector<SensorMount> mounts;
+  for (const auto& sc : cal.sensors) mounts.push_back(SensorMount{sc.sensor, sc.segment, sc.segment_from_sensor});
+  return SolverModel::create(std::move(*s), std::move(mounts), options);
+}
+
+// --- JSON -------------------------------------------------------------------------------------
+
+namespace {
+
+using nlohmann::json;
+
+json vec(const glm::vec3& v) { return json::array({v.x, v.y, v.z}); }
+
+bool read_vec(const json& j, glm::vec3& out) {
+  if (!j.is_array() || j.size() != 3) return false;
+  for (int i = 0; i < 3; ++i) {
+    if (!j[i].is_number()) return false;
+    out[i] = j[i].get<float>();
+  }
+  return std::isfinite(out.x) && std::isfinite(out.y) && std::isfinite(out.z);
+}
+
+}  // namespace
+
+std::string calibration_to_json(const Calibration& cal) {
+  json j;
+  j["format"] = "mimic-calibration";
+  j["version"] = 1;
+  j["pose"] = calibration_pose_name(cal.pose);
+  j["height_m"] = cal.height_m;
+  j["heading_deg"] = cal.heading_deg;
+  j["capture"] = {{"samples", cal.samples}, {"duration_s", cal.duration_s},
+                  {"max_motion_mm", cal.max_motion_mm}, {"max_motion_deg", cal.max_motion_deg}};
+  json sensors = json::array();
+  for (const auto& sc : cal.sensors) {
+    const glm::quat& q = sc.segment_from_sensor.rotation;
+    sensors.push_back({{"sensor", sc.sensor}, {"name", sc.name}, {"segment", sc.segment},
+                       {"translation_m", vec(sc.segment_from_sensor.translation)},
+                       {"rotation_wxyz", json::array({q.w, q.x, q.y, q.z})}});
+  }
+  j["sensors"] = sensors;
+  json joints = json::array();
+  for (const auto& jd : cal.skeleton.joints) {
+    json dofs = json::array();
+    for (const auto& f : jd.dofs)
+      dofs.push_back({{"name", f.name}, {"axis", vec(f.axis)}, {"min_deg", glm::degrees(f.min_rad)},
+                      {"max_deg", glm::degrees(f.max_rad)}, {"rest_deg", glm::degrees(f.rest_rad)}});
+    joints.push_back({{"name", jd.name}, {"parent", jd.parent}, {"offset_m", vec(jd.offset_m)},
+                      {"tip_m", vec(jd.tip_m)}, {"dofs", dofs}});
+  }
+  j["skeleton"] = {{"joints", joints}};
+  return j.dump(1) + "\n";
+}
+
+Result<Calibration> calibration_from_json(std::string_view text) {
+  const json j = json::parse(text.begin(), text.end(), nullptr, false);
+  if (j.is_discarded()) return fail(Errc::parse_error, "calibration: not valid JSON");
+  auto bad = [](const std::string& what) { return fail(Errc::parse_error, "calibration: " + what); };
+  if (!j.is_object() || j.value("format", "") != "mimic-calibration") return bad("not a mimic-calibration file (\"format\")");
+  if (j.value("version", 0) != 1) return bad("unsupported version (expected 1)");
+  Calibration cal;
+  auto pose = parse_calibration_pose(j.value("pose", "tpose"));
+  if (!pose) return bad("\"pose\" must be tpose or npose");
+  cal.pose = *pose;
+  if (j.contains("height_m") && j["height_m"].is_number()) cal.height_m = j["height_m"].get<float>();
+  if (j.contains("heading_deg") && j["heading_deg"].is_number()) cal.heading_deg = j["heading_deg"].get<float>();
+  if (j.contains("capture") && j["capture"].is_object()) {
+    const json& c = j["capture"];
+    if (c.contains("samples") && c["samples"].is_number()) cal.samples = c["samples"].get<int>();
+    if (c.contains("duration_s") && c["duration_s"].is_number()) cal.duration_s = c["duration_s"].get<double>();
+    if (c.contains("max_motion_mm") && c["max_motion_mm"].is_number()) cal.max_motion_mm = c["max_motion_mm"].get<float>();
+    if (c.contains("max_motion_deg") && c["max_motion_deg"].is_number()) cal.max_motion_deg = c["max_motion_deg"].get<float>();
+  }
+  if (!j.contains("skeleton") || !j["skeleton"].is_object() || !j["skeleton"].contains("joints") ||
+      !j["skeleton"]["joints"].is_array())
+    return bad("missing \"skeleton\".\"joints\"");
+  int index = 0;
+  for (const json& jj : j["skeleton"]["joints"]) {
+    const std::string where = "skeleton joint " + std::to_string(index++);
+    if (!jj.is_object() || !jj.contains("name") || !jj["name"].is_string()) return bad(where + ": missing \"name\"");
+    avatar::JointDesc jd;
+    jd.name = jj["name"].get<std::string>();
+    if (jj.contains("parent") && jj["parent"].is_string()) jd.parent = jj["parent"].get<std::string>();
+    if (!jj.contains("offset_m") || !read_vec(jj["offset_m"], jd.offset_m)) return bad(where + " (" + jd.name + "): bad \"offset_m\"");
+    if (!jj.contains("tip_m") || !read_vec(jj["tip_m"], jd.tip_m)) return bad(where + " (" + jd.name + "): bad \"tip_m\"");
+    if (jj.contains("dofs")) {
+      if (!jj["dofs"].is_array()) return bad(where + " (" + jd.name + "): \"dofs\" is not an array");
+      for (const json& fj : jj["dofs"]) {
+        avatar::DofDesc f;
+        if (!fj.is_object() || !fj.contains("name") || !fj["name"].is_string() || !fj.contains("axis") ||
+            !read_vec(fj["axis"], f.axis) || !fj.contains("min_deg") || !fj["min_deg"].is_number() ||
+            !fj.contains("max_deg") || !fj["max_deg"].is_number())
+          return bad(where + " (" + jd.name + "): a DOF needs name, axis, min_deg, max_deg");
+        f.name = fj["name"].get<std::string>();
+        f.min_rad = glm::radians(fj["min_deg"].get<float>());
+        f.max_rad = glm::radians(fj["max_deg"].get<float>());
+        f.rest_rad = fj.contains("rest_deg") && fj["rest_deg"].is_number() ? glm::radians(fj["rest_deg"].get<float>()) : 0.0f;
+        jd.dofs.push_back(f);
+      }
+    }
+    cal.skeleton.joints.push_back(std::move(jd));
+  }
+  if (auto s = Skeleton::build(cal.skeleton); !s) return bad("skeleton: " + s.error().message);
+  if (!j.contains("sensors") || !j["sensors"].is_array()) return bad("missing \"sensors\"");
+  index = 0;
+  for (const json& sj : j["sensors"]) {
+    const std::string where = "sensor entry " + std::to_string(index++);
+    SensorCalibration sc;
+    if (!sj.is_object() || !sj.contains("sensor") || !sj["sensor"].is_number_unsigned() || sj["sensor"].get<unsigned>() > 65535)
+      return bad(where + ": bad \"sensor\" id");
+    sc.sensor = static_cast<uint16_t>(sj["sensor"].get<unsigned>());
+    if (!sj.contains("segment") || !sj["segment"].is_string()) return bad(where + ": missing \"segment\"");
+    sc.segment = sj["segment"].get<std::string>();
+    sc.name = sj.value("name", sc.segment);
+    if (!sj.contains("translation_m") || !read_vec(sj["translation_m"], sc.segment_from_sensor.translation))
+      return bad(where + ": bad \"translation_m\"");
+    const json& q = sj.contains("rotation_wxyz") ? sj["rotation_wxyz"] : json();
+    if (!q.is_array() || q.size() != 4 || !q[0].is_number() || !q[1].is_number() || !q[2].is_number() || !q[3].is_number())
+      return bad(where + ": bad \"rotation_wxyz\"");
+    glm::quat r(q[0].get<float>(), q[1].get<float>(), q[2].get<float>(), q[3].get<float>());
+    if (!(glm::dot(r, r) > 0.5f && glm::dot(r, r) < 2.0f)) return bad(where + ": \"rotation_wxyz\" is not a unit quaternion");
+    sc.segment_from_sensor.rotation = glm::normalize(r);
+    cal.sensors.push_back(sc);
+  }
+  return cal;
+}
+
+Status save_calibration(const std::string& path, const Calibration& cal) {
+  return write_file_atomic(path, calibration_to_json(cal));
+}
+
+Result<Calibration> load_calibration(const std::string& path) {
+  auto text = read_file(path);
+  if (!text) return tl::unexpected(text.error());
+  auto cal = calibration_from_json(*text);
+  if (!cal) return fail(cal.error().code, path + ": " + cal.error().message);
+  return cal;
+}
+
+}  // namespace mimic::solver

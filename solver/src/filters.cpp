@@ -1,0 +1,135 @@
+#include "mimic/solver/filters.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace mimic::solver {
+
+namespace {
+
+constexpr float kTwoPi = 6.28318530718f;
+
+glm::vec3 rotation_vector(glm::quat q) {
+  if (q.w < 0) q = -q;
+  const glm::vec3 v(q.x, q.y, q.z);
+  const float s = glm::length(v);
+  if (s < 1e-9f) return 2.0f * v;
+  return v * (2.0f * std::atan2(s, q.w) / s);
+}
+
+glm::quat exp_rotation(const glm::vec3& rv) {
+  const float a = glm::length(rv);
+  if (a < 1e-9f) return glm::quat(1, 0, 0, 0);
+  return glm::angleAxis(a, rv / a);
+}
+
+bool finite(const devices::SensorSample& s) {
+  return std::isfinite(s.position_m.x) && std::isfinite(s.position_m.y) && std::isfinite(s.position_m.z) &&
+         std::isfinite(s.orientation.w) && std::isfinite(s.orientation.x) && std::isfinite(s.orientation.y) &&
+         std::isfinite(s.orientation.z) && glm::dot(s.orientation, s.orientation) > 0.25f;
+}
+
+}  // namespace
+
+float one_euro_alpha(float cutoff_hz, float dt_s) {
+  const float tau = 1.0f / (kTwoPi * std::max(cutoff_hz, 1e-4f));
+  return 1.0f / (1.0f + tau / std::max(dt_s, 1e-6f));
+}
+
+glm::vec3 OneEuroVec3::filter(const glm::vec3& x, float dt_s) {
+  if (!primed_ || !(dt_s > 0)) {
+    if (!primed_) x_ = x, dx_ = glm::vec3(0.0f);
+    primed_ = true;
+    return x_;
+  }
+  const glm::vec3 raw_dx = (x - x_) / dt_s;
+  dx_ += one_euro_alpha(p_.derivative_cutoff_hz, dt_s) * (raw_dx - dx_);
+  const float cutoff = p_.min_cutoff_hz + p_.beta * glm::length(dx_);
+  x_ += one_euro_alpha(cutoff, dt_s) * (x - x_);
+  return x_;
+}
+
+glm::quat OneEuroQuat::filter(const glm::quat& q_in, float dt_s) {
+  glm::quat q = glm::normalize(q_in);
+  if (!primed_ || !(dt_s > 0)) {
+    if (!primed_) q_ = q, w_ = glm::vec3(0.0f);
+    primed_ = true;
+    return q_;
+  }
+  if (glm::dot(q, q_) < 0) q = -q;  // the nearer of ±q
+  const glm::vec3 raw_w = rotation_vector(q * glm::conjugate(q_)) / dt_s;
+  w_ += one_euro_alpha(p_.derivative_cutoff_hz, dt_s) * (raw_w - w_);
+  const float cutoff = p_.min_cutoff_hz + p_.beta * glm::length(w_);
+  q_ = glm::normalize(glm::slerp(q_, q, one_euro_alpha(cutoff, dt_s)));
+  return q_;
+}
+
+SensorFilterBank::SensorFilterBank(int max_sensor_id, SensorFilterConfig config)
+    : config_(config), state_(static_cast<size_t>(std::max(0, max_sensor_id) + 1)) {
+  reset();
+}
+
+void SensorFilterBank::reset() {
+  for (auto& s : state_) {
+    s = State{OneEuroVec3(config_.position), OneEuroQuat(config_.rotation)};
+  }
+  outliers_ = 0;
+}
+
+void SensorFilterBank::process(std::span<devices::SensorSample> samples) {
+  for (auto& smp : samples) {
+    if (smp.sensor >= state_.size()) continue;
+    State& st = state_[smp.sensor];
+    const double t = smp.device_time_s > st.last_t || !st.seen ? smp.device_time_s : smp.host_time_s;
+    const float dt = st.seen ? static_cast<float>(t - st.last_t) : 0.0f;
+    const bool usable = (smp.flags & devices::kSampleValid) && finite(smp);
+
+    // Where the sensor should be now, from the filtered state.
+    const glm::vec3 predicted_pos = st.pos.value() + st.pos.velocity() * std::max(dt, 0.0f);
+    const glm::quat predicted_rot = glm::normalize(exp_rotation(st.rot.angular_velocity() * std::max(dt, 0.0f)) * st.rot.value());
+
+    if (!usable) {
+      if (st.seen && t - st.last_good_t <= config_.hold_s) {
+        smp.position_m = predicted_pos;
+        smp.orientation = predicted_rot;
+        smp.flags = devices::kSampleValid | devices::kSampleStale | (smp.flags & devices::kSampleButton);
+      }
+      continue;
+    }
+    if (st.seen && dt > 0) {
+      // Against the last accepted raw sample: a jump, not the filter's lag, makes an outlier.
+      const float since = static_cast<float>(t - st.last_good_t);
+      const float allowed = config_.max_speed_m_s * since + config_.jump_allowance_m;
+      const float jump = glm::length(smp.position_m - st.last_raw_pos);
+      const glm::quat d = glm::normalize(smp.orientation) * glm::conjugate(st.last_raw_rot);
+      const float turn_deg = glm::degrees(2.0f * std::asin(std::min(1.0f, glm::length(glm::vec3(d.x, d.y, d.z)))));
+      const bool outlier = jump > allowed || turn_deg > config_.max_angular_speed_deg_s * since + 10.0f;
+      if (outlier && ++st.outlier_streak < config_.accept_after) {
+        ++outliers_;
+        smp.position_m = predicted_pos;
+        smp.orientation = predicted_rot;
+        smp.flags |= devices::kSampleOutlier | devices::kSampleStale;
+        st.last_t = t;
+        continue;
+      }
+      if (outlier) {  // persistent: the sensor really is there now
+        st.pos.reset();
+        st.rot.reset();
+      }
+    }
+    st.outlier_streak = 0;
+    st.last_raw_pos = smp.position_m;
+    st.last_raw_rot = glm::normalize(smp.orientation);
+    const glm::vec3 p = st.pos.filter(smp.position_m, dt);
+    const glm::quat q = st.rot.filter(smp.orientation, dt);
+    if (config_.enabled) {
+      smp.position_m = p + st.pos.velocity() * config_.predict_s;
+      smp.orientation = glm::normalize(exp_rotation(st.rot.angular_velocity() * config_.predict_s) * q);
+    }
+    st.seen = true;
+    st.last_t = t;
+    st.last_good_t = t;
+  }
+}
+
+}  // namespace mimic::solver

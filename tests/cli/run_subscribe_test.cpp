@@ -1,0 +1,181 @@
+// End to end over loopback: `mimic run` serves, `mimic subscribe` (and a second `mimic run
+// --publish`) join; Ctrl-C stops the service cleanly.
+#include <gtest/gtest.h>
+
+#include <fcntl.h>
+#include <poll.h>
+#include <signal.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "test_data.h"
+
+extern char** environ;
+
+namespace {
+
+// A child `mimic` with stdout and stderr on pipes.
+class Proc {
+ public:
+  explicit Proc(const std::vector<std::string>& rest) {
+    std::vector<std::string> args{mimic::test::mimic_binary()};
+    for (const auto& a : rest) args.push_back(a);
+    int out[2], err[2];
+    if (::pipe(out) != 0 || ::pipe(err) != 0) return;
+    posix_spawn_file_actions_t fa;
+    posix_spawn_file_actions_init(&fa);
+    posix_spawn_file_actions_adddup2(&fa, out[1], 1);
+    posix_spawn_file_actions_adddup2(&fa, err[1], 2);
+    posix_spawn_file_actions_addclose(&fa, out[0]);
+    posix_spawn_file_actions_addclose(&fa, err[0]);
+    std::vector<char*> argv;
+    for (auto& a : args) argv.push_back(a.data());
+    argv.push_back(nullptr);
+    ok_ = posix_spawn(&pid_, argv[0], &fa, nullptr, argv.data(), environ) == 0;
+    posix_spawn_file_actions_destroy(&fa);
+    ::close(out[1]);
+    ::close(err[1]);
+    out_ = out[0];
+    err_ = err[0];
+  }
+  ~Proc() {
+    if (ok_ && !exited_) {
+      ::kill(pid_, SIGKILL);
+      ::waitpid(pid_, nullptr, 0);
+    }
+    ::close(out_);
+    ::close(err_);
+  }
+  bool ok() const { return ok_; }
+  void signal(int sig) { ::kill(pid_, sig); }
+
+  // First stdout line (up to timeout).
+  std::string first_line(double timeout_s) {
+    const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
+    while (std::chrono::steady_clock::now() < end) {
+      if (auto nl = out_text_.find('\n'); nl != std::string::npos) return out_text_.substr(0, nl);
+      drain(50);
+    }
+    return "";
+  }
+  // Waits for exit (collecting output); the exit code, or -1 on timeout.
+  int wait(double timeout_s) {
+    const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
+    while (std::chrono::steady_clock::now() < end) {
+      drain(20);
+      int status = 0;
+      if (::waitpid(pid_, &status, WNOHANG) == pid_) {
+        exited_ = true;
+        drain(0);
+        drain(0);
+        return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+      }
+    }
+    return -1;
+  }
+  const std::string& out() const { return out_text_; }
+  const std::string& err() const { return err_text_; }
+
+ private:
+  void drain(int timeout_ms) {
+    pollfd p[2] = {{out_, POLLIN, 0}, {err_, POLLIN, 0}};
+    if (::poll(p, 2, timeout_ms) <= 0) return;
+    char buf[8192];
+    if (p[0].revents & POLLIN) {
+      const ssize_t n = ::read(out_, buf, sizeof buf);
+      if (n > 0) out_text_.append(buf, size_t(n));
+    }
+    if (p[1].revents & POLLIN) {
+      const ssize_t n = ::read(err_, buf, sizeof buf);
+      if (n > 0) err_text_.append(buf, size_t(n));
+    }
+  }
+  pid_t pid_ = -1;
+  bool ok_ = false, exited_ = false;
+  int out_ = -1, err_ = -1;
+  std::string out_text_, err_text_;
+};
+
+std::string endpoint_of(Proc& run) {
+  const std::string line = run.first_line(10.0);
+  const std::string prefix = "serving on ";
+  if (line.rfind(prefix, 0) != 0) return "";
+  return line.substr(prefix.size());
+}
+
+nlohmann::json last_json(const std::string& out) {
+  const auto start = out.rfind("\n{");
+  const std::string text = start == std::string::npos ? out : out.substr(start + 1);
+  return nlohmann::json::parse(text, nullptr, false);
+}
+
+TEST(RunSubscribe, SubscriberGetsModelAndFramesFromMimicRun) {
+  Proc run({"run", "--listen", "127.0.0.1:0", "--duration", "8", "--quiet", "--json"});
+  ASSERT_TRUE(run.ok());
+  const std::string ep = endpoint_of(run);
+  ASSERT_FALSE(ep.empty()) << run.err();
+  Proc sub({"subscribe", "--connect", ep, "--count", "90", "--json"});
+  ASSERT_EQ(sub.wait(15.0), 0) << sub.err();
+  const auto j = last_json(sub.out());
+  ASSERT_FALSE(j.is_discarded()) << sub.out();
+  for (const char* k : {"frames", "avatars", "fps", "latency_ms_p50", "latency_ms_p99", "lost", "model_bytes",
+                        "frame_bytes_mean"})
+    EXPECT_TRUE(j.contains(k)) << k;
+  EXPECT_EQ(j["frames"], 90);
+  EXPECT_EQ(j["avatars"], 1);
+  EXPECT_EQ(j["lost"], 0);
+  EXPECT_GT(j["model_bytes"].get<double>(), 100.0);
+  EXPECT_LE(j["frame_bytes_mean"].get<double>(), 200.0);
+  EXPECT_GT(j["fps"].get<double>(), 30.0);  // the default source runs at 90 Hz
+  EXPECT_GE(j["latency_ms_p50"].get<double>(), 0.0);
+  run.signal(SIGINT);
+  EXPECT_EQ(run.wait(10.0), 0) << run.err();
+  const auto r = last_json(run.out());
+  ASSERT_FALSE(r.is_discarded()) << run.out();
+  EXPECT_GT(r["frames"].get<int>(), 0);
+  EXPECT_EQ(r["server"]["frames_dropped"], 0);
+  for (const char* s : {"read", "solve", "deform", "encode", "send", "latency"})
+    EXPECT_TRUE(r["stages"].contains(s)) << s;
+}
+
+TEST(RunSubscribe, SeveralAvatarsAndARemotePublisher) {
+  Proc host({"run", "--listen", "127.0.0.1:0", "--source", "sim:walk", "--source", "sim:idle?seed=2",
+             "--duration", "12", "--quiet"});
+  const std::string ep = endpoint_of(host);
+  ASSERT_FALSE(ep.empty()) << host.err();
+  Proc guest({"run", "--publish", ep, "--source", "sim:walk?seed=3", "--duration", "10", "--quiet"});
+  const std::string guest_line = guest.first_line(10.0);
+  ASSERT_EQ(guest_line, "publishing into " + ep) << guest.err();
+  Proc sub({"subscribe", "--connect", ep, "--count", "300", "--json"});
+  ASSERT_EQ(sub.wait(15.0), 0) << sub.err();
+  const auto j = last_json(sub.out());
+  ASSERT_FALSE(j.is_discarded()) << sub.out();
+  EXPECT_EQ(j["avatars"], 3);  // two hosted, one published from the second process
+  EXPECT_EQ(j["models"], 3);
+  EXPECT_EQ(j["lost"], 0);
+}
+
+TEST(RunSubscribe, RefusesToExposeTheSceneWithoutASecret) {
+  Proc run({"run", "--listen", "0.0.0.0:0", "--duration", "1"});
+  EXPECT_EQ(run.wait(10.0), 1);
+  EXPECT_NE(run.err().find("secret"), std::string::npos) << run.err();
+}
+
+TEST(RunSubscribe, HelpIsComplete) {
+  Proc run({"run", "--help"});
+  ASSERT_EQ(run.wait(10.0), 0);
+  for (const char* opt : {"--source", "--body", "--listen", "--secret", "--publish", "--vmc", "--duration", "--json"})
+    EXPECT_NE(run.out().find(opt), std::string::npos) << opt;
+  Proc sub({"subscribe", "--help"});
+  ASSERT_EQ(sub.wait(10.0), 0);
+  for (const char* opt : {"--connect", "--count", "--json", "latency_ms_p99", "frame_bytes_mean"})
+    EXPECT_NE(sub.out().find(opt), std::string::npos) << opt;
+}
+
+}  // namespace

@@ -1,0 +1,176 @@
+#include "mimic/solver/calibration.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+#include "synthetic_sensors.h"
+
+namespace mimic::solver {
+namespace {
+
+using avatar::Pose;
+using avatar::RigidTransform;
+using avatar::Skeleton;
+
+// A wearer 8 % taller than the default skeleton, standing in a T-pose with the arms 8° low (as
+// people do), turned 30° to the left.
+struct Wearer {
+  Skeleton skeleton;
+  Pose pose;
+  Wearer(float scale = 1.08f, float heading_deg = 30.0f) {
+    auto desc = avatar::default_skeleton_desc();
+    for (auto& j : desc.joints) j.offset_m *= scale, j.tip_m *= scale;
+    skeleton = *Skeleton::build(desc);
+    pose = skeleton.zero_pose();
+    pose.root_orientation = glm::angleAxis(glm::radians(heading_deg), glm::vec3(0, 1, 0));
+    pose.root_position_m = {0.5f, avatar::standing_root_height_m(skeleton), -1.0f};
+    pose.dof_rad[skeleton.find_dof("l_shoulder_abduction")] = glm::radians(-8.0f);
+    pose.dof_rad[skeleton.find_dof("r_shoulder_abduction")] = glm::radians(-8.0f);
+  }
+};
+
+std::vector<devices::SensorSample> capture(const Wearer& w, const std::vector<SensorMount>& mounts, int ticks,
+                                           float noise_m, float noise_rad, float sway_m = 0) {
+  std::mt19937_64 rng(42);
+  std::vector<devices::SensorSample> all, tick;
+  for (int k = 0; k < ticks; ++k) {
+    Pose p = w.pose;
+    p.root_position_m.x += sway_m * std::sin(0.1f * static_cast<float>(k));
+    testing::sense(w.skeleton, p, mounts, tick, &rng, noise_m, noise_rad, 0.01 * k);
+    all.insert(all.end(), tick.begin(), tick.end());
+  }
+  return all;
+}
+
+float angle_deg(glm::quat a, glm::quat b) {
+  const glm::quat d = a * glm::conjugate(b);
+  return glm::degrees(2.0f * std::asin(std::min(1.0f, glm::length(glm::vec3(d.x, d.y, d.z)))));
+}
+
+TEST(Calibration, RecoversKnownOffsetsFromASimulatedTPose) {
+  for (const char* layout_name : {"6", "11", "3"}) {
+    const Wearer w;
+    const auto layout = *standard_layout(layout_name, w.skeleton);
+    const auto mounts = testing::mounts_for(layout, glm::radians(40.0f), 17);  // straps askew by up to 40°
+    const auto samples = capture(w, mounts, 100, 0.001f, glm::radians(0.5f));
+    auto cal = calibrate(avatar::default_skeleton_desc(), layout, samples);
+    ASSERT_TRUE(cal) << cal.error().what();
+    ASSERT_EQ(cal->sensors.size(), mounts.size());
+    EXPECT_NEAR(cal->heading_deg, 30.0f, 1.0f) << layout_name;
+    EXPECT_NEAR(cal->height_m, 1.08f * 1.67f, 0.06f) << layout_name;
+    for (size_t i = 0; i < mounts.size(); ++i) {
+      EXPECT_EQ(cal->sensors[i].segment, mounts[i].segment);
+      EXPECT_LT(angle_deg(cal->sensors[i].segment_from_sensor.rotation, mounts[i].segment_from_sensor.rotation), 3.0f)
+          << layout_name << " " << cal->sensors[i].name;
+      EXPECT_LT(glm::length(cal->sensors[i].segment_from_sensor.translation - mounts[i].segment_from_sensor.translation), 0.03f)
+          << layout_name << " " << cal->sensors[i].name;
+    }
+    // The fitted skeleton has the wearer's limb lengths (within a centimetre or two).
+    const Skeleton fitted = *Skeleton::build(cal->skeleton);
+    const auto truth = avatar::measure_proportions(w.skeleton), got = avatar::measure_proportions(fitted);
+    EXPECT_NEAR(got.upper_arm_m + got.forearm_m, truth.upper_arm_m + truth.forearm_m, 0.02f) << layout_name;
+    if (std::string(layout_name) != "3") {
+      EXPECT_NEAR(got.thigh_m + got.shin_m, truth.thigh_m + truth.shin_m, 0.02f);
+    }
+  }
+}
+
+// Calibrated on the stand-still, the solver puts the wearer's joints back where they are.
+TEST(Calibration, CalibratedSolverReproducesTheStandingPose) {
+  const Wearer w(0.95f, -60.0f);
+  const auto layout = *standard_layout("11", w.skeleton);
+  const auto mounts = testing::mounts_for(layout, glm::radians(30.0f), 3);
+  const auto samples = capture(w, mounts, 50, 0.0f, 0.0f);
+  auto cal = calibrate(avatar::default_skeleton_desc(), layout, samples);
+  ASSERT_TRUE(cal) << cal.error().what();
+  auto model = make_solver_model(*cal);
+  ASSERT_TRUE(model) << model.error().what();
+  SolverContext ctx(*model);
+  Pose solved = model->skeleton().zero_pose();
+  std::vector<devices::SensorSample> one(samples.end() - static_cast<long>(mounts.size()), samples.end());
+  for (int k = 0; k < 5; ++k) {
+    SolveJob job{&*model, one, &ctx, &solved};
+    ASSERT_TRUE(job.Run());
+  }
+  std::vector<RigidTransform> ws(model->skeleton().joint_count()), wt(w.skeleton.joint_count());
+  forward_kinematics(model->skeleton(), solved, ws);
+  forward_kinematics(w.skeleton, w.pose, wt);
+  for (const char* j : {"pelvis", "head", "l_wrist", "r_wrist", "l_ankle", "r_ankle", "l_elbow", "r_knee"}) {
+    EXPECT_LT(glm::length(ws[model->skeleton().find_joint(j)].translation - wt[w.skeleton.find_joint(j)].translation), 0.02f) << j;
+  }
+}
+
+TEST(Calibration, RefusesAMissingSensorNamingIt) {
+  const Wearer w;
+  const auto layout = *standard_layout("6", w.skeleton);
+  auto mounts = testing::mounts_for(layout, 0.0f, 1);
+  mounts.erase(mounts.begin() + 4);  // l_foot unplugged
+  const auto samples = capture(w, mounts, 50, 0.0f, 0.0f);
+  auto cal = calibrate(avatar::default_skeleton_desc(), layout, samples);
+  ASSERT_FALSE(cal);
+  EXPECT_NE(cal.error().message.find("l_foot"), std::string::npos) << cal.error().message;
+  EXPECT_NE(cal.error().message.find("no data"), std::string::npos);
+}
+
+TEST(Calibration, RefusesAWearerWhoMoves) {
+  const Wearer w;
+  const auto layout = *standard_layout("3", w.skeleton);
+  const auto mounts = testing::mounts_for(layout, 0.0f, 1);
+  const auto samples = capture(w, mounts, 100, 0.0f, 0.0f, 0.05f);  // swaying 5 cm
+  auto cal = calibrate(avatar::default_skeleton_desc(), layout, samples);
+  ASSERT_FALSE(cal);
+  EXPECT_NE(cal.error().message.find("moved"), std::string::npos) << cal.error().message;
+  // Noise alone is not motion.
+  EXPECT_TRUE(calibrate(avatar::default_skeleton_desc(), layout, capture(w, mounts, 100, 0.002f, glm::radians(1.0f))));
+}
+
+TEST(Calibration, JsonRoundTrip) {
+  const Wearer w;
+  const auto layout = *standard_layout("6", w.skeleton);
+  const auto mounts = testing::mounts_for(layout, glm::radians(20.0f), 8);
+  auto cal = calibrate(avatar::default_skeleton_desc(), layout, capture(w, mounts, 20, 0.0f, 0.0f));
+  ASSERT_TRUE(cal);
+  const std::string text = calibration_to_json(*cal);
+  auto back = calibration_from_json(text);
+  ASSERT_TRUE(back) << back.error().what();
+  ASSERT_EQ(back->skeleton.joints.size(), cal->skeleton.joints.size());
+  for (size_t j = 0; j < cal->skeleton.joints.size(); ++j) {
+    const auto &a = cal->skeleton.joints[j], &b = back->skeleton.joints[j];
+    EXPECT_EQ(a.name, b.name);
+    EXPECT_EQ(a.parent, b.parent);
+    EXPECT_LT(glm::length(a.offset_m - b.offset_m), 1e-6f);
+    EXPECT_LT(glm::length(a.tip_m - b.tip_m), 1e-6f);
+    ASSERT_EQ(a.dofs.size(), b.dofs.size());
+    for (size_t d = 0; d < a.dofs.size(); ++d) {
+      EXPECT_EQ(a.dofs[d].name, b.dofs[d].name);
+      EXPECT_NEAR(a.dofs[d].min_rad, b.dofs[d].min_rad, 1e-6f);
+      EXPECT_NEAR(a.dofs[d].max_rad, b.dofs[d].max_rad, 1e-6f);
+    }
+  }
+  ASSERT_EQ(back->sensors.size(), cal->sensors.size());
+  for (size_t i = 0; i < cal->sensors.size(); ++i) {
+    EXPECT_LT(glm::length(back->sensors[i].segment_from_sensor.translation - cal->sensors[i].segment_from_sensor.translation), 1e-6f);
+    EXPECT_LT(angle_deg(back->sensors[i].segment_from_sensor.rotation, cal->sensors[i].segment_from_sensor.rotation), 1e-3f);
+  }
+  EXPECT_TRUE(make_solver_model(*back));
+}
+
+TEST(Calibration, MalformedJsonGivesAClearError) {
+  EXPECT_EQ(calibration_from_json("{").error().code, Errc::parse_error);
+  EXPECT_NE(calibration_from_json("{\"format\":\"other\"}").error().message.find("format"), std::string::npos);
+  const Wearer w;
+  const auto layout = *standard_layout("3", w.skeleton);
+  auto cal = calibrate(avatar::default_skeleton_desc(), layout, capture(w, testing::mounts_for(layout, 0, 1), 10, 0, 0));
+  ASSERT_TRUE(cal);
+  std::string text = calibration_to_json(*cal);
+  const auto at = text.find("\"rotation_wxyz\"");
+  text.replace(at, 15, "\"rotation_xyzw\"");
+  auto bad = calibration_from_json(text);
+  ASSERT_FALSE(bad);
+  EXPECT_NE(bad.error().message.find("rotation_wxyz"), std::string::npos) << bad.error().message;
+}
+
+}  // namespace
+}  // namespace mimic::solver
