@@ -12,6 +12,7 @@
 #include "mimic/net/client.h"
 #include "mimic/net/server.h"
 #include "mimic/net/vmc.h"
+#include "alloc_count.h"
 #include "pipeline.h"
 
 namespace mimic::app {
@@ -39,8 +40,8 @@ const char* kUsage =
     "  --publish HOST:PORT do not host: publish the avatars into the scene served there\n"
     "  --vmc HOST:PORT     also send the first avatar as VMC (OSC over UDP), e.g. 127.0.0.1:39539\n"
     "  --duration S        stop by itself after S seconds (default: run until Ctrl-C)\n"
-    "  --json              print a JSON summary (stage timings p50/p99, frames, server counters)\n"
-    "                      on stdout at exit\n"
+    "  --json              print a JSON summary (stage timings p50/p99 in microseconds, frames,\n"
+    "                      fps, loop_allocations, server counters) on stdout at exit\n"
     "  --quiet             no live status line on stderr\n"
     "\n"
     "The first line on stdout says where the scene is served: 'serving on ADDR:PORT'.\n";
@@ -165,11 +166,18 @@ int run(const std::vector<std::string>& argv) {
   uint64_t last_frames = 0;
   auto last_status = start;
   char line[320];
+  // Allocations inside the frame work (read → send), counted once the first frames have warmed
+  // every buffer up; the network servicing between frames (joins, leaves) may allocate.
+  constexpr uint64_t kWarmupFrames = 100;
+  uint64_t loop_allocations = 0;
   while (!g_stop) {
     const auto now = C::now();
     if (duration_s > 0 && now - start >= std::chrono::duration<double>(duration_s)) break;
+    const uint64_t allocs_before = thread_allocation_count();
+    const bool warm = pipeline.frames() >= kWarmupFrames;
     pipeline.tick();
-    const auto slice = C::now() + std::chrono::microseconds(500);
+    if (warm) loop_allocations += thread_allocation_count() - allocs_before;
+    const auto slice = C::now() + std::chrono::microseconds(200);
     if (server) {
       server->run_until(slice);
     } else if (publisher) {
@@ -213,6 +221,7 @@ int run(const std::vector<std::string>& argv) {
     j["frames"] = pipeline.frames();
     j["fps"] = double(pipeline.frames()) / std::max(elapsed, 1e-9) / double(std::max<size_t>(1, pipeline.avatar_count()));
     j["send_failures"] = pipeline.send_failures();
+    j["loop_allocations"] = loop_allocations;
     j["model_bytes"] = model_bytes_total;
     for (int s = 0; s < kStageCount; ++s) {
       const auto sum = pipeline.timer(s).summary();

@@ -3,9 +3,9 @@
 // remote publisher, VMC). Built at setup; Pipeline::tick() never allocates or throws: a source
 // with nothing new is skipped, a failed send is counted.
 //
-// Seams (replaceable without touching the loop): PoseFeed does read + solve, Deformer does
-// deform. Until the solver and the skin deformer are wired in, the feed poses the avatar from
-// the motion that drives the simulated sensors, and the deformer runs forward kinematics.
+// Seams (replaceable without touching the loop): PoseFeed does read + solve (tracker source +
+// body solver), Deformer does deform. Until the skin deformer is wired in, the deformer runs
+// forward kinematics (the joint frames the skin starts from).
 #pragma once
 
 #include <array>
@@ -72,14 +72,15 @@ class Deformer {
 };
 
 // A sensor source on a virtual body following `motion`; the solve stage poses the avatar from
-// the motion at the newest sample's device time (stand-in for the solver).
+// the motion at the newest sample's device time (ground truth, for measurements).
 Result<std::unique_ptr<PoseFeed>> make_motion_feed(std::shared_ptr<const avatar::Motion> motion,
                                                    std::unique_ptr<devices::SensorSource> source,
                                                    std::string description);
-// A feed for a source spec ("sim:walk?rate=90", ...): what this build can open.
+// Tracker source (sim:, bvh:, replay:, flock: — see sim/open_source.h) + body solver, on
+// Mimic's default skeleton.
 Result<std::unique_ptr<PoseFeed>> open_feed(const std::string& spec_text);
 
-// Built-in motion by name ("walk", "idle"), falling back to a procedural stand-in.
+// Built-in motion by name ("walk", "idle").
 Result<std::shared_ptr<const avatar::Motion>> builtin_motion(const std::string& name,
                                                              const avatar::Skeleton& skeleton);
 

@@ -140,6 +140,9 @@ TEST(RunSubscribe, SubscriberGetsModelAndFramesFromMimicRun) {
   ASSERT_FALSE(r.is_discarded()) << run.out();
   EXPECT_GT(r["frames"].get<int>(), 0);
   EXPECT_EQ(r["server"]["frames_dropped"], 0);
+  // The realtime loop allocated nothing per frame, although a subscriber joined and left.
+  EXPECT_EQ(r["loop_allocations"], 0);
+  EXPECT_EQ(r["send_failures"], 0);
   for (const char* s : {"read", "solve", "deform", "encode", "send", "latency"})
     EXPECT_TRUE(r["stages"].contains(s)) << s;
 }

@@ -346,7 +346,7 @@ TEST(SpaceballOverPtyRecovery, MissingDeviceIsDisconnectedNotAnError) {
   auto source = mimic::devices::make_spaceball_source(fast_driver("/dev/nonexistent-spaceball"));
   ASSERT_TRUE(source->start());
   InputFrame f;
-  std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  ASSERT_TRUE(wait_until([&] { return !source->status().last_error.empty(); }, 5.0));
   EXPECT_FALSE(source->poll(f));
   const auto st = source->status();
   EXPECT_EQ(st.state, DeviceState::disconnected);
