@@ -258,12 +258,16 @@ Status Pipeline::add_avatar(const std::string& name, std::unique_ptr<PoseFeed> f
   a.feed = std::move(feed);
   a.deformer = deformer ? std::move(deformer) : make_fk_deformer(s);
   avatars_.push_back(std::move(a));
+  pending_latency_.assign(avatars_.size(), 0.0);
+  pending_send_us_.assign(avatars_.size(), 0.0);
   return {};
 }
 
 void Pipeline::tick() {
   using C = std::chrono::steady_clock;
   auto us = [](C::time_point a, C::time_point b) { return std::chrono::duration<double, std::micro>(b - a).count(); };
+  // One write per subscriber for all avatars of this pass.
+  if (out_.server) out_.server->begin_batch();
   for (size_t i = 0; i < avatars_.size(); ++i) {
     Avatar& a = avatars_[i];
     const auto t0 = C::now();
@@ -295,9 +299,24 @@ void Pipeline::tick() {
     timers_[kStageSolve].add(us(t1, t2));
     timers_[kStageDeform].add(us(t2, t3));
     timers_[kStageEncode].add(us(t3, t4));
-    timers_[kStageSend].add(us(t4, t5));
-    timers_[kStageLatency].add(std::max(0.0, now_s() - capture_s) * 1e6);
+    pending_send_us_[i] = us(t4, t5);
+    pending_latency_[i] = capture_s;
     frames_++;
+  }
+  // The frames leave the sockets here, in one write per subscriber: every avatar of this pass
+  // counts the flush in its send stage.
+  double flush_us = 0;
+  if (out_.server) {
+    const auto t0 = C::now();
+    out_.server->end_batch();
+    flush_us = us(t0, C::now());
+  }
+  const double now = now_s();
+  for (size_t i = 0; i < avatars_.size(); ++i) {
+    if (pending_latency_[i] <= 0) continue;
+    timers_[kStageSend].add(pending_send_us_[i] + flush_us);
+    timers_[kStageLatency].add(std::max(0.0, now - pending_latency_[i]) * 1e6);
+    pending_latency_[i] = 0;
   }
 }
 

@@ -123,6 +123,8 @@ class Pipeline {
   };
   PipelineOutputs out_;
   std::vector<Avatar> avatars_;
+  std::vector<double> pending_latency_;  // capture time of each avatar's frame this pass, or 0
+  std::vector<double> pending_send_us_;
   std::array<StageTimer, kStageCount> timers_;
   uint64_t frames_ = 0;
   uint64_t send_failures_ = 0;

@@ -182,3 +182,24 @@ TEST(RunSubscribe, HelpIsComplete) {
 }
 
 }  // namespace
+
+namespace {
+
+TEST(Bench, NetSectionReportsItsFigures) {
+  Proc bench({"bench", "--section", "net", "--quick", "--json"});
+  ASSERT_EQ(bench.wait(60.0), 0) << bench.err();
+  const auto j = last_json(bench.out());
+  ASSERT_FALSE(j.is_discarded()) << bench.out();
+  const auto& n = j["net"];
+  EXPECT_EQ(n["bytes_per_avatar_frame"]["mimic"], 150);
+  EXPECT_GT(n["bytes_per_avatar_frame"]["vmc"].get<int>(), n["bytes_per_avatar_frame"]["raw_float"].get<int>());
+  EXPECT_GT(n["bytes_per_avatar_frame"]["raw_float"].get<int>(), 150);
+  for (const char* k : {"loopback_latency_us", "record_to_socket_us", "fanout_90hz", "max_streams_kept_up"})
+    EXPECT_TRUE(n.contains(k)) << k;
+  EXPECT_GT(n["record_to_socket_us"]["frames"].get<int>(), 0);
+  // Every fan-out point delivered what it could account for: received + lost = expected.
+  for (const auto& f : n["fanout_90hz"])
+    EXPECT_EQ(f["received"].get<uint64_t>() + f["lost"].get<uint64_t>(), f["expected"].get<uint64_t>());
+}
+
+}  // namespace
