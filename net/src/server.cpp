@@ -698,7 +698,7 @@ Reject ServerImpl::accept_mesh(Avatar& a, uint8_t lod, std::span<const uint8_t> 
   for (auto& s : sessions) {
     if (!s->active || s->role != Role::subscriber || s->mesh_lod != lod) continue;
     s->mark_mesh(a.id);
-    s->flush();
+    if (!batching) s->flush();
   }
   return Reject::ok;
 }
