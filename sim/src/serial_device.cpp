@@ -1,5 +1,8 @@
 #include "mimic/sim/serial_device.h"
 
+#include <fcntl.h>
+#include <unistd.h>
+
 #include <algorithm>
 #include <array>
 #include <chrono>
@@ -76,6 +79,10 @@ Result<std::unique_ptr<PtyServer>> PtyServer::start(std::unique_ptr<SerialDevice
     log = std::fopen(log_path.c_str(), "w");
     if (!log) return fail(Errc::io_error, log_path + ": " + std::strerror(errno));
   }
+  // A master whose slave was never opened reports neither data nor hang-up, so the first open
+  // would be invisible. Opening and closing the slave once puts the master into the hang-up
+  // state, and the driver's open becomes the power-up edge.
+  if (const int fd = ::open(pty->slave_path().c_str(), O_RDWR | O_NOCTTY | O_CLOEXEC); fd >= 0) ::close(fd);
   std::unique_ptr<PtyServer> s(new PtyServer(std::move(*pty), std::move(device), log));
   s->thread_ = std::thread([p = s.get()] { p->run(); });
   return s;
