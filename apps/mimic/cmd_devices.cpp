@@ -11,11 +11,8 @@
 #include <nlohmann/json.hpp>
 
 #include "command.h"
-#include "mimic/devices/hid_spacemouse.h"
-#include "mimic/devices/magellan.h"
-#include "mimic/devices/spaceball.h"
 #include "mimic/devices/usb_discovery.h"
-#include "mimic/sim/virtual_hid.h"
+#include "mimic/sim/open_input.h"
 
 namespace mimic::app {
 namespace {
@@ -52,6 +49,7 @@ constexpr const char* kUsage =
     "                                     dead, scale, null)\n"
     "                    spacemouse       first 3Dconnexion USB device; spacemouse:HIDRAW_PATH a\n"
     "                                     given one; spacemouse:sim a simulated SpaceNavigator\n"
+    "                                     (vid=HEX&pid=HEX pick the device or simulated model)\n"
     "                  Frames: translation T and rotation R in [-1, 1], +X right, +Y up, +Z\n"
     "                  toward the user; buttons as a bit mask (bit 0 = button 1).\n"
     "\n"
@@ -139,23 +137,7 @@ std::string timestamp() {
 Result<std::unique_ptr<devices::InputSource>> open_input(const std::string& text) {
   auto spec = devices::parse_source_spec(text);
   if (!spec) return tl::unexpected(spec.error());
-  if (spec->scheme == "spaceball") {
-    auto o = devices::spaceball_options(*spec);
-    if (!o) return tl::unexpected(o.error());
-    return devices::make_spaceball_source(*o);
-  }
-  if (spec->scheme == "magellan") {
-    auto o = devices::magellan_options(*spec);
-    if (!o) return tl::unexpected(o.error());
-    return devices::make_magellan_source(*o);
-  }
-  if (spec->scheme == "spacemouse") {
-    if (spec->target == "sim") return sim::make_simulated_spacemouse({});
-    devices::HidSpaceMouseOptions o;
-    o.path = spec->target;
-    return devices::make_hid_spacemouse_source(o);
-  }
-  return fail(Errc::invalid_argument, "--read takes spaceball:, magellan: or spacemouse sources, not " + spec->scheme);
+  return sim::open_input_source(*spec);
 }
 
 int read_source(const std::string& text, double duration_s) {

@@ -18,6 +18,7 @@ namespace {
 constexpr const char* kSpaceballUsage =
     "usage: mimic sim spaceball [--model 4000flx|3003|2003] [--seed S] [--log FILE]\n"
     "                           [--firmware X.YY] [--left-handed] [--power-up S] [--period S]\n"
+    "                           [--faults P]\n"
     "\n"
     "Serves a virtual serial Spaceball on a new pseudo-terminal and prints its path as the\n"
     "first line of stdout. It speaks the real protocol (docs/devices-spaceball.md): when a\n"
@@ -36,6 +37,8 @@ constexpr const char* kSpaceballUsage =
     "  --left-handed   4000 FLX handedness bit and descriptor say left-handed\n"
     "  --power-up S    delay from port open to banner (default 2, as the hardware)\n"
     "  --period S      interval between D packets while the ball moves (default 0.03)\n"
+    "  --faults P      probability per D packet of a line fault drawn from the seed: noise\n"
+    "                  before it, a lost byte, or a corrupt ^ escape (default 0)\n"
     "\n"
     "Try: mimic sim spaceball & then mimic devices --read spaceball:<path>\n";
 
@@ -82,7 +85,7 @@ bool read_seed(Args& args, uint64_t& seed) {
 
 int run_spaceball(const std::vector<std::string>& argv) {
   const char* name = "sim spaceball";
-  Args args(argv, {"model", "seed", "log", "firmware", "power-up", "period"}, {"left-handed"});
+  Args args(argv, {"model", "seed", "log", "firmware", "power-up", "period", "faults"}, {"left-handed"});
   if (!args.ok()) return usage_error(name, args.error());
   if (!args.positionals().empty()) return usage_error(name, "unexpected argument '" + args.positionals()[0] + "'");
   sim::VirtualSpaceballConfig cfg;
@@ -95,12 +98,13 @@ int run_spaceball(const std::vector<std::string>& argv) {
   }
   cfg.right_handed = !args.has("left-handed");
   if (!read_seed(args, cfg.seed) || !args.get_double("power-up", cfg.power_up_delay_s) ||
-      !args.get_double("period", cfg.data_period_s)) {
+      !args.get_double("period", cfg.data_period_s) || !args.get_double("faults", cfg.fault_rate)) {
     return usage_error(name, args.error());
   }
   if (cfg.power_up_delay_s < 0 || !(cfg.data_period_s > 0)) {
     return usage_error(name, "--power-up must be >= 0 and --period > 0");
   }
+  if (cfg.fault_rate < 0 || cfg.fault_rate > 1) return usage_error(name, "--faults must be in 0..1");
   return serve(name, sim::start_virtual_spaceball(cfg, args.get_or("log", "")));
 }
 

@@ -10,9 +10,9 @@
 #include "mimic/net/frame_codec.h"
 #include "mimic/net/server.h"
 #include "mimic/net/vmc.h"
-#include "mimic/sim/clock.h"
-#include "mimic/sim/sensor_rig.h"
-#include "mimic/sim/sim_source.h"
+#include "mimic/sim/open_source.h"
+#include "mimic/solver/body_solver.h"
+#include "mimic/solver/sensor_layout.h"
 
 namespace mimic::app {
 
@@ -21,60 +21,6 @@ namespace {
 double now_s() {
   return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
 }
-
-// A procedural walk in place (treadmill): legs and arms swing in opposition, the pelvis bobs.
-// Stands in for the built-in motions until they are linked into this program.
-class StandinWalk final : public avatar::Motion {
- public:
-  StandinWalk(const avatar::Skeleton& s, bool idle) : skeleton_(s), idle_(idle) {
-    auto find = [&](const char* n) { return s.find_dof(n); };
-    l_hip_ = find("l_hip_flexion");
-    r_hip_ = find("r_hip_flexion");
-    l_knee_ = find("l_knee_flexion");
-    r_knee_ = find("r_knee_flexion");
-    l_sh_flex_ = find("l_shoulder_flexion");
-    r_sh_flex_ = find("r_shoulder_flexion");
-    l_sh_abd_ = find("l_shoulder_abduction");
-    r_sh_abd_ = find("r_shoulder_abduction");
-    l_elbow_ = find("l_elbow_flexion");
-    r_elbow_ = find("r_elbow_flexion");
-    twist_ = find("spine_mid_twist");
-    height_m_ = avatar::standing_root_height_m(s);
-  }
-  const avatar::Skeleton& skeleton() const override { return skeleton_; }
-  double duration_s() const override { return idle_ ? 4.0 : 1.1; }
-  bool loops() const override { return true; }
-  std::string name() const override { return idle_ ? "idle" : "walk"; }
-  void sample(double t_s, avatar::Pose& out) const override {
-    constexpr float kPi = 3.14159265f, kDeg = kPi / 180.0f;
-    const float ph = float(2.0 * 3.14159265358979 * std::fmod(t_s, duration_s()) / duration_s());
-    const float amp = idle_ ? 0.1f : 1.0f;
-    out.dof_rad.resize(static_cast<size_t>(skeleton_.dof_count()));
-    std::fill(out.dof_rad.begin(), out.dof_rad.end(), 0.0f);
-    auto set = [&](int dof, float v) {
-      if (dof >= 0) out.dof_rad[static_cast<size_t>(dof)] = v;
-    };
-    set(l_hip_, amp * 25 * kDeg * std::sin(ph));
-    set(r_hip_, -amp * 25 * kDeg * std::sin(ph));
-    set(l_knee_, amp * 30 * kDeg * (1 - std::cos(ph)) * 0.5f + amp * 20 * kDeg * std::max(0.0f, -std::sin(ph)));
-    set(r_knee_, amp * 30 * kDeg * (1 + std::cos(ph)) * 0.5f + amp * 20 * kDeg * std::max(0.0f, std::sin(ph)));
-    set(l_sh_abd_, -75 * kDeg);
-    set(r_sh_abd_, -75 * kDeg);
-    set(l_sh_flex_, -amp * 20 * kDeg * std::sin(ph));
-    set(r_sh_flex_, amp * 20 * kDeg * std::sin(ph));
-    set(l_elbow_, 15 * kDeg);
-    set(r_elbow_, 15 * kDeg);
-    set(twist_, amp * 5 * kDeg * std::sin(ph));
-    out.root_position_m = {0.0f, height_m_ - 0.02f * amp * (1 - std::cos(2 * ph)) * 0.5f, 0.0f};
-    out.root_orientation = glm::quat(1, 0, 0, 0);
-  }
-
- private:
-  avatar::Skeleton skeleton_;
-  bool idle_;
-  int l_hip_, r_hip_, l_knee_, r_knee_, l_sh_flex_, r_sh_flex_, l_sh_abd_, r_sh_abd_, l_elbow_, r_elbow_, twist_;
-  float height_m_ = 0.9f;
-};
 
 class MotionFeed final : public PoseFeed {
  public:
@@ -114,6 +60,71 @@ class MotionFeed final : public PoseFeed {
   std::array<devices::SensorSample, 64> samples_{};
   double newest_host_s_ = 0, newest_device_s_ = 0;
   bool stale_ = false;
+};
+
+// Tracker samples through the body solver: the newest sample of every sensor is kept, and the
+// solve stage runs the solver warm-started from the previous frame.
+class SolverFeed final : public PoseFeed {
+ public:
+  SolverFeed(solver::SolverModel model, std::unique_ptr<devices::SensorSource> source, std::string description)
+      : model_(std::move(model)), context_(model_), source_(std::move(source)), description_(std::move(description)) {
+    latest_.resize(kMaxSensors);
+    have_.assign(kMaxSensors, 0);
+    packed_.reserve(kMaxSensors);
+    warm_ = model_.skeleton().rest_pose();
+  }
+  const avatar::Skeleton& skeleton() const override { return model_.skeleton(); }
+  std::string describe() const override { return description_; }
+  Status start() override { return source_->start(); }
+  size_t read() override {
+    size_t total = 0;
+    for (;;) {
+      const size_t n = source_->poll(samples_);
+      for (size_t i = 0; i < n; ++i) {
+        const auto& smp = samples_[i];
+        newest_host_s_ = std::max(newest_host_s_, smp.host_time_s);
+        if (smp.sensor >= kMaxSensors) continue;
+        latest_[smp.sensor] = smp;
+        have_[smp.sensor] = 1;
+      }
+      total += n;
+      if (n < samples_.size()) break;
+    }
+    return total;
+  }
+  void solve(avatar::Pose& pose, double& capture_s, bool& stale) override {
+    packed_.clear();  // capacity kept: no allocation
+    stale = false;
+    for (size_t i = 0; i < kMaxSensors; ++i) {
+      if (!have_[i]) continue;
+      packed_.push_back(latest_[i]);
+      if ((latest_[i].flags & devices::kSampleValid) == 0) stale = true;
+    }
+    solver::SolveJob job;
+    job.model = &model_;
+    job.samples = packed_;
+    job.context = &context_;
+    job.pose = &warm_;
+    if (!job.Run()) stale = true;
+    // Copy into the caller's pose without reallocating (same DOF count).
+    pose.root_position_m = warm_.root_position_m;
+    pose.root_orientation = warm_.root_orientation;
+    std::copy(warm_.dof_rad.begin(), warm_.dof_rad.end(), pose.dof_rad.begin());
+    capture_s = newest_host_s_;
+  }
+  devices::DeviceStatus status() const override { return source_->status(); }
+
+ private:
+  static constexpr size_t kMaxSensors = 64;
+  solver::SolverModel model_;
+  solver::SolverContext context_;
+  std::unique_ptr<devices::SensorSource> source_;
+  std::string description_;
+  std::array<devices::SensorSample, 64> samples_{};
+  std::vector<devices::SensorSample> latest_, packed_;
+  std::vector<uint8_t> have_;
+  avatar::Pose warm_;
+  double newest_host_s_ = 0;
 };
 
 class FkDeformer final : public Deformer {
@@ -159,8 +170,9 @@ StageTimer::Summary StageTimer::summary() {
 
 Result<std::shared_ptr<const avatar::Motion>> builtin_motion(const std::string& name,
                                                              const avatar::Skeleton& skeleton) {
-  if (name == "walk" || name == "idle") return std::make_shared<StandinWalk>(skeleton, name == "idle");
-  return fail(Errc::not_found, "unknown built-in motion '" + name + "' (known: walk, idle)");
+  auto m = avatar::make_builtin_motion(name, skeleton);
+  if (!m) return tl::unexpected(m.error());
+  return std::shared_ptr<const avatar::Motion>(std::move(*m));
 }
 
 Result<std::unique_ptr<PoseFeed>> make_motion_feed(std::shared_ptr<const avatar::Motion> motion,
@@ -172,38 +184,33 @@ Result<std::unique_ptr<PoseFeed>> make_motion_feed(std::shared_ptr<const avatar:
 Result<std::unique_ptr<PoseFeed>> open_feed(const std::string& spec_text) {
   auto spec = devices::parse_source_spec(spec_text);
   if (!spec) return tl::unexpected(spec.error());
-  if (spec->scheme != "sim")
-    return fail(Errc::unsupported, "source '" + spec_text +
-                                       "': mimic run drives avatars from sim: sources in this build "
-                                       "(tracker sources need the solver)");
   auto skeleton = avatar::Skeleton::build(avatar::default_skeleton_desc());
   if (!skeleton) return tl::unexpected(skeleton.error());
-  auto motion = builtin_motion(spec->target.empty() ? "walk" : spec->target, *skeleton);
-  if (!motion) return tl::unexpected(motion.error());
-  sim::RigConfig cfg;
-  auto param = [&](const char* key, const std::string& fallback) {
-    auto it = spec->params.find(key);
-    return it == spec->params.end() ? fallback : it->second;
-  };
-  auto layout = sim::make_layout(param("sensors", "6"), *skeleton);
-  if (!layout) return tl::unexpected(layout.error());
-  cfg.sensors = std::move(*layout);
-  char* end = nullptr;
-  const std::string rate = param("rate", "90");
-  cfg.rate_hz = std::strtod(rate.c_str(), &end);
-  if (*end != '\0' || !(cfg.rate_hz > 0 && cfg.rate_hz <= 1000))
-    return fail(Errc::invalid_argument, "source '" + spec_text + "': rate must be in (0, 1000] Hz");
-  const std::string seed = param("seed", "1");
-  cfg.seed = std::strtoull(seed.c_str(), &end, 10);
-  if (*end != '\0') return fail(Errc::invalid_argument, "source '" + spec_text + "': bad seed");
-  cfg.position_noise_mm = 1.0;
-  cfg.orientation_noise_deg = 0.5;
-  auto rig = sim::SensorRig::create(*motion, cfg);
-  if (!rig) return tl::unexpected(rig.error());
-  const std::string desc = spec_text + " (" + std::to_string(cfg.sensors.size()) + " sensors, " +
-                           rate + " Hz, seed " + seed + ")";
-  auto source = std::make_unique<sim::SimSource>(std::move(*rig), std::make_shared<sim::SteadyClock>(), desc);
-  return make_motion_feed(*motion, std::move(source), desc);
+  // Where the sensors sit: a simulated rig knows exactly; a real tracker uses the standard
+  // layout's instructed placements until a calibration is given.
+  std::vector<solver::SensorMount> mounts;
+  if (spec->scheme == "sim" || spec->scheme == "bvh") {
+    auto rig = sim::rig_config_from_spec(*spec, *skeleton);
+    if (!rig) return tl::unexpected(rig.error());
+    for (size_t i = 0; i < rig->sensors.size(); ++i)
+      mounts.push_back({static_cast<uint16_t>(i), rig->sensors[i].segment, rig->sensors[i].segment_from_sensor});
+  } else {
+    auto it = spec->params.find("sensors");
+    auto layout = solver::standard_layout(it == spec->params.end() ? "6" : it->second, *skeleton);
+    if (!layout) return tl::unexpected(layout.error());
+    for (const auto& b : layout->bindings) {
+      avatar::RigidTransform t;
+      t.translation = b.placement_m;
+      mounts.push_back({b.sensor, b.segment, t});
+    }
+  }
+  auto model = solver::SolverModel::create(*skeleton, std::move(mounts));
+  if (!model) return tl::unexpected(model.error());
+  auto source = sim::open_sensor_source(*spec);
+  if (!source) return tl::unexpected(source.error());
+  std::string desc = (*source)->status().description;
+  if (desc.empty()) desc = spec_text;
+  return std::unique_ptr<PoseFeed>(new SolverFeed(std::move(*model), std::move(*source), desc));
 }
 
 std::unique_ptr<Deformer> make_fk_deformer(const avatar::Skeleton& skeleton) {
@@ -251,12 +258,41 @@ Status Pipeline::add_avatar(const std::string& name, std::unique_ptr<PoseFeed> f
   a.feed = std::move(feed);
   a.deformer = deformer ? std::move(deformer) : make_fk_deformer(s);
   avatars_.push_back(std::move(a));
+  pending_latency_.assign(avatars_.size(), 0.0);
+  pending_send_us_.assign(avatars_.size(), 0.0);
   return {};
+}
+
+// Mesh frames only while some subscriber wants this LOD. Announcing the topology allocates once
+// (the first time a thin client shows up); frames after that reuse the buffer.
+void Pipeline::send_mesh(Avatar& a, uint64_t time_us) {
+  const avatar::Mesh& mesh = *a.deformer->mesh();
+  const uint8_t lod = a.deformer->lod();
+  if (lod >= 8 || !(out_.server->mesh_lods_wanted(a.server_id) & (1u << lod))) return;
+  if (!a.topology_sent) {
+    net::MeshTopology t;
+    t.avatar = a.server_id;
+    t.lod = lod;
+    t.vertex_count = static_cast<uint32_t>(mesh.positions.size());
+    t.indices = mesh.indices;
+    if (!out_.server->set_mesh_topology(t)) {
+      send_failures_++;
+      return;
+    }
+    a.mesh_packet.resize(net::mesh_packet_bytes(mesh.positions.size()));
+    a.topology_sent = true;
+  }
+  const size_t n = net::encode_mesh({a.server_id, lod, a.sequence, time_us}, mesh.positions, a.mesh_packet);
+  if (n == 0 || out_.server->publish_mesh(a.server_id, lod, std::span<const uint8_t>(a.mesh_packet.data(), n)) !=
+                    net::Reject::ok)
+    send_failures_++;
 }
 
 void Pipeline::tick() {
   using C = std::chrono::steady_clock;
   auto us = [](C::time_point a, C::time_point b) { return std::chrono::duration<double, std::micro>(b - a).count(); };
+  // One write per subscriber for all avatars of this pass.
+  if (out_.server) out_.server->begin_batch();
   for (size_t i = 0; i < avatars_.size(); ++i) {
     Avatar& a = avatars_[i];
     const auto t0 = C::now();
@@ -284,13 +320,29 @@ void Pipeline::tick() {
         !out_.publisher->publish_pose(static_cast<uint8_t>(a.publisher_slot), h, a.pose))
       send_failures_++;
     if (out_.vmc && i == 0 && out_.vmc->send(a.pose, double(h.time_us) * 1e-6) == 0) send_failures_++;
+    if (out_.server && a.deformer->mesh()) send_mesh(a, h.time_us);
     const auto t5 = C::now();
     timers_[kStageSolve].add(us(t1, t2));
     timers_[kStageDeform].add(us(t2, t3));
     timers_[kStageEncode].add(us(t3, t4));
-    timers_[kStageSend].add(us(t4, t5));
-    timers_[kStageLatency].add(std::max(0.0, now_s() - capture_s) * 1e6);
+    pending_send_us_[i] = us(t4, t5);
+    pending_latency_[i] = capture_s;
     frames_++;
+  }
+  // The frames leave the sockets here, in one write per subscriber: every avatar of this pass
+  // counts the flush in its send stage.
+  double flush_us = 0;
+  if (out_.server) {
+    const auto t0 = C::now();
+    out_.server->end_batch();
+    flush_us = us(t0, C::now());
+  }
+  const double now = now_s();
+  for (size_t i = 0; i < avatars_.size(); ++i) {
+    if (pending_latency_[i] <= 0) continue;
+    timers_[kStageSend].add(pending_send_us_[i] + flush_us);
+    timers_[kStageLatency].add(std::max(0.0, now - pending_latency_[i]) * 1e6);
+    pending_latency_[i] = 0;
   }
 }
 

@@ -3,9 +3,9 @@
 // remote publisher, VMC). Built at setup; Pipeline::tick() never allocates or throws: a source
 // with nothing new is skipped, a failed send is counted.
 //
-// Seams (replaceable without touching the loop): PoseFeed does read + solve, Deformer does
-// deform. Until the solver and the skin deformer are wired in, the feed poses the avatar from
-// the motion that drives the simulated sensors, and the deformer runs forward kinematics.
+// Seams (replaceable without touching the loop): PoseFeed does read + solve (tracker source +
+// body solver), Deformer does deform. Until the skin deformer is wired in, the deformer runs
+// forward kinematics (the joint frames the skin starts from).
 #pragma once
 
 #include <array>
@@ -15,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "mimic/avatar/mesh.h"
 #include "mimic/avatar/motion.h"
 #include "mimic/avatar/skeleton.h"
 #include "mimic/core/result.h"
@@ -64,22 +65,27 @@ class PoseFeed {
   virtual devices::DeviceStatus status() const = 0;
 };
 
-// Pose → skin. The stand-in computes joint frames (what the skin deformer starts from).
+// Pose → skin. The stand-in computes joint frames (what the skin deformer starts from). A
+// deformer that produces a mesh returns it from mesh() (same topology every frame, at lod());
+// the pipeline then streams mesh frames to subscribers that asked for that LOD.
 class Deformer {
  public:
   virtual ~Deformer() = default;
   virtual void deform(const avatar::Pose& pose) = 0;
+  virtual const avatar::Mesh* mesh() const { return nullptr; }
+  virtual uint8_t lod() const { return 0; }
 };
 
 // A sensor source on a virtual body following `motion`; the solve stage poses the avatar from
-// the motion at the newest sample's device time (stand-in for the solver).
+// the motion at the newest sample's device time (ground truth, for measurements).
 Result<std::unique_ptr<PoseFeed>> make_motion_feed(std::shared_ptr<const avatar::Motion> motion,
                                                    std::unique_ptr<devices::SensorSource> source,
                                                    std::string description);
-// A feed for a source spec ("sim:walk?rate=90", ...): what this build can open.
+// Tracker source (sim:, bvh:, replay:, flock: — see sim/open_source.h) + body solver, on
+// Mimic's default skeleton.
 Result<std::unique_ptr<PoseFeed>> open_feed(const std::string& spec_text);
 
-// Built-in motion by name ("walk", "idle"), falling back to a procedural stand-in.
+// Built-in motion by name ("walk", "idle").
 Result<std::shared_ptr<const avatar::Motion>> builtin_motion(const std::string& name,
                                                              const avatar::Skeleton& skeleton);
 
@@ -119,9 +125,14 @@ class Pipeline {
     int publisher_slot = -1;
     uint32_t sequence = 0;
     std::vector<uint8_t> packet;
+    std::vector<uint8_t> mesh_packet;  // sized when the topology is announced
+    bool topology_sent = false;
   };
+  void send_mesh(Avatar& a, uint64_t time_us);
   PipelineOutputs out_;
   std::vector<Avatar> avatars_;
+  std::vector<double> pending_latency_;  // capture time of each avatar's frame this pass, or 0
+  std::vector<double> pending_send_us_;
   std::array<StageTimer, kStageCount> timers_;
   uint64_t frames_ = 0;
   uint64_t send_failures_ = 0;

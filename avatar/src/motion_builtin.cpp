@@ -22,10 +22,85 @@ constexpr double kHeelBack_m = 0.05;  // heel behind the ankle
 
 double rad(double deg) { return deg * kPi / 180.0; }
 
+// The DOFs the motions drive, resolved to skeleton indices once (sample() must not search
+// or allocate). Absent DOFs (another skeleton) resolve to -1 and are skipped.
+enum NamedDof : int {
+  kLHipAbduction,
+  kRHipAbduction,
+  kLAnkleInversion,
+  kRAnkleInversion,
+  kLKneeFlexion,
+  kRKneeFlexion,
+  kLHipFlexion,
+  kRHipFlexion,
+  kLAnkleFlexion,
+  kRAnkleFlexion,
+  kLHipRotation,
+  kRHipRotation,
+  kSpineLowerFlexion,
+  kSpineLowerTwist,
+  kSpineLowerLateralBend,
+  kSpineMidTwist,
+  kSpineMidLateralBend,
+  kSpineUpperFlexion,
+  kSpineUpperLateralBend,
+  kLClavicleElevation,
+  kRClavicleElevation,
+  kNeckTwist,
+  kNeckFlexion,
+  kHeadTwist,
+  kHeadFlexion,
+  kHeadLateralBend,
+  kLWristFlexion,
+  kRWristFlexion,
+  kLElbowFlexion,
+  kRElbowFlexion,
+  kNamedDofCount
+};
+constexpr const char* kNamedDofs[kNamedDofCount] = {
+    "l_hip_abduction",
+    "r_hip_abduction",
+    "l_ankle_inversion",
+    "r_ankle_inversion",
+    "l_knee_flexion",
+    "r_knee_flexion",
+    "l_hip_flexion",
+    "r_hip_flexion",
+    "l_ankle_flexion",
+    "r_ankle_flexion",
+    "l_hip_rotation",
+    "r_hip_rotation",
+    "spine_lower_flexion",
+    "spine_lower_twist",
+    "spine_lower_lateral_bend",
+    "spine_mid_twist",
+    "spine_mid_lateral_bend",
+    "spine_upper_flexion",
+    "spine_upper_lateral_bend",
+    "l_clavicle_elevation",
+    "r_clavicle_elevation",
+    "neck_twist",
+    "neck_flexion",
+    "head_twist",
+    "head_flexion",
+    "head_lateral_bend",
+    "l_wrist_flexion",
+    "r_wrist_flexion",
+    "l_elbow_flexion",
+    "r_elbow_flexion",
+};
+
 class ProceduralMotion : public Motion {
  public:
   ProceduralMotion(const Skeleton& skeleton, std::string name, double duration_s)
-      : skeleton_(skeleton), name_(std::move(name)), duration_s_(duration_s) {}
+      : skeleton_(skeleton), name_(std::move(name)), duration_s_(duration_s) {
+    for (int k = 0; k < kNamedDofCount; ++k) dof_index_[k] = skeleton_.find_dof(kNamedDofs[k]);
+    for (int k = 0; k < 2; ++k) {
+      shoulder_[k] = skeleton_.find_joint(k == 0 ? "l_shoulder" : "r_shoulder");
+      ankle_[k] = skeleton_.find_joint(k == 0 ? "l_ankle" : "r_ankle");
+      toes_[k] = skeleton_.find_joint(k == 0 ? "l_toes" : "r_toes");
+    }
+  }
 
   const Skeleton& skeleton() const override { return skeleton_; }
   double duration_s() const override { return duration_s_; }
@@ -46,9 +121,8 @@ class ProceduralMotion : public Motion {
   // table, the root height comes from it.
   virtual void shape(double t, Pose& out) const = 0;
 
-  int dof(const char* name) const { return skeleton_.find_dof(name); }
-  static void set(Pose& p, int index, double value_rad) {
-    if (index >= 0) p.dof_rad[index] = static_cast<float>(value_rad);
+  void set(Pose& p, NamedDof d, double value_rad) const {
+    if (dof_index_[d] >= 0) p.dof_rad[dof_index_[d]] = static_cast<float>(value_rad);
   }
 
   // Derived constructors call this once their parameters are set.
@@ -67,9 +141,8 @@ class ProceduralMotion : public Motion {
   // Lowest point of either sole: heel under the ankle, ball under the toe joint, toe tip.
   double lowest_sole_point(std::span<const RigidTransform> world) const {
     double lowest = 1e9;
-    for (const char* side : {"l_", "r_"}) {
-      const int ankle = skeleton_.find_joint(std::string(side) + "ankle");
-      const int toes = skeleton_.find_joint(std::string(side) + "toes");
+    for (int k = 0; k < 2; ++k) {
+      const int ankle = ankle_[k], toes = toes_[k];
       if (ankle < 0) continue;
       if (toes < 0) {
         lowest = std::min(lowest, double(world[ankle].translation.y) - kSole_m);
@@ -88,10 +161,9 @@ class ProceduralMotion : public Motion {
   // Shoulder DOFs for an arm hanging by `abduction` (from the T-pose, negative = down) and
   // swung forward by `swing` about the body's left-right axis; left-side convention (the
   // right side takes equal values for the mirror-image posture).
-  void arm(Pose& p, const char* side, double swing_rad, double abduction_rad, double elbow_rad) const {
-    const std::string s(side);
-    const int shoulder = skeleton_.find_joint("l_shoulder");
-    const int target = skeleton_.find_joint(s + "shoulder");
+  // side: 0 left, 1 right.
+  void arm(Pose& p, int side, double swing_rad, double abduction_rad, double elbow_rad) const {
+    const int shoulder = shoulder_[0], target = shoulder_[side];
     if (shoulder < 0 || target < 0 || skeleton_.dof_end(shoulder) - skeleton_.dof_begin(shoulder) != 3) return;
     std::array<glm::dvec3, 3> axes;
     for (int k = 0; k < 3; ++k) axes[k] = glm::dvec3(skeleton_.dof(skeleton_.dof_begin(shoulder) + k).axis);
@@ -101,7 +173,7 @@ class ProceduralMotion : public Motion {
     double out[3];
     dofs_from_rotation(axes, q, reference, out);
     for (int k = 0; k < 3; ++k) p.dof_rad[skeleton_.dof_begin(target) + k] = static_cast<float>(out[k]);
-    set(p, dof((s + "elbow_flexion").c_str()), elbow_rad);
+    set(p, side == 0 ? kLElbowFlexion : kRElbowFlexion, elbow_rad);
   }
 
   double root_height(double t) const {
@@ -116,6 +188,8 @@ class ProceduralMotion : public Motion {
   std::string name_;
   double duration_s_;
   std::vector<double> heights_;
+  std::array<int, kNamedDofCount> dof_index_{};
+  std::array<int, 2> shoulder_{-1, -1}, ankle_{-1, -1}, toes_{-1, -1};
 };
 
 // Relaxed standing: arms down with a slight elbow bend, breathing (4 s), a slow weight shift
@@ -144,37 +218,36 @@ class IdleMotion final : public ProceduralMotion {
     const double yaw = rad(2.0) * std::sin(w12 + 0.7);
     p.root_orientation = glm::quat(glm::angleAxis(yaw, glm::dvec3(0, 1, 0)));
     p.root_position_m = glm::vec3(glm::dquat(p.root_orientation) * glm::dvec3(shift_m, 0, 0));
-    set(p, dof("l_hip_abduction"), -lean);
-    set(p, dof("r_hip_abduction"), lean);
-    set(p, dof("l_ankle_inversion"), -lean);
-    set(p, dof("r_ankle_inversion"), lean);
+    set(p, kLHipAbduction, -lean);
+    set(p, kRHipAbduction, lean);
+    set(p, kLAnkleInversion, -lean);
+    set(p, kRAnkleInversion, lean);
     // Soft knees: hips and ankles share the bend so the shin stays over the foot.
     const double knee = rad(4.0);
-    for (const char* s : {"l_", "r_"}) {
-      const std::string side(s);
-      set(p, dof((side + "knee_flexion").c_str()), knee);
-      set(p, dof((side + "hip_flexion").c_str()), 0.5 * knee);
-      set(p, dof((side + "ankle_flexion").c_str()), 0.5 * knee);
-      set(p, dof((side + "hip_rotation").c_str()), -yaw * 0.5);
-    }
+    for (NamedDof d : {kLKneeFlexion, kRKneeFlexion}) set(p, d, knee);
+    for (NamedDof d : {kLHipFlexion, kRHipFlexion, kLAnkleFlexion, kRAnkleFlexion}) set(p, d, 0.5 * knee);
+    // The hips undo the pelvis yaw so the feet keep pointing where they stand (the right
+    // axis mirrors the left, so a global yaw needs opposite values).
+    set(p, kLHipRotation, yaw);
+    set(p, kRHipRotation, -yaw);
     // Torso: breathing lifts the chest and clavicles; the spine undoes the pelvis yaw.
-    set(p, dof("spine_lower_flexion"), rad(2.0));
-    set(p, dof("spine_mid_twist"), -0.6 * yaw);
-    set(p, dof("spine_upper_flexion"), rad(-1.5) * breath);
-    set(p, dof("spine_upper_lateral_bend"), rad(1.0) * std::sin(w12));
-    set(p, dof("l_clavicle_elevation"), rad(1.5) * breath);
-    set(p, dof("r_clavicle_elevation"), rad(1.5) * breath);
+    set(p, kSpineLowerFlexion, rad(2.0));
+    set(p, kSpineMidTwist, -0.6 * yaw);
+    set(p, kSpineUpperFlexion, rad(-1.5) * breath);
+    set(p, kSpineUpperLateralBend, rad(1.0) * std::sin(w12));
+    set(p, kLClavicleElevation, rad(1.5) * breath);
+    set(p, kRClavicleElevation, rad(1.5) * breath);
     // Head looks around slowly, nodding a little.
-    set(p, dof("neck_twist"), rad(12.0) * std::sin(w6) - 0.4 * yaw);
-    set(p, dof("head_twist"), rad(6.0) * std::sin(w6 + 0.3));
-    set(p, dof("neck_flexion"), rad(5.0) + rad(3.0) * std::sin(w4 + 1.0));
-    set(p, dof("head_flexion"), rad(-3.0) + rad(2.0) * std::sin(w3));
-    set(p, dof("head_lateral_bend"), rad(2.0) * std::sin(w12 + 2.0));
+    set(p, kNeckTwist, rad(12.0) * std::sin(w6) - 0.4 * yaw);
+    set(p, kHeadTwist, rad(6.0) * std::sin(w6 + 0.3));
+    set(p, kNeckFlexion, rad(5.0) + rad(3.0) * std::sin(w4 + 1.0));
+    set(p, kHeadFlexion, rad(-3.0) + rad(2.0) * std::sin(w3));
+    set(p, kHeadLateralBend, rad(2.0) * std::sin(w12 + 2.0));
     // Arms hang about 75° below the T-pose with a slight elbow bend, drifting with the sway.
-    arm(p, "l_", rad(4.0) + rad(2.0) * std::sin(w12), rad(-75.0) + rad(1.0) * breath, rad(14.0) + rad(3.0) * std::sin(w6));
-    arm(p, "r_", rad(4.0) - rad(2.0) * std::sin(w12), rad(-75.0) + rad(1.0) * breath, rad(14.0) - rad(3.0) * std::sin(w6 + 0.5));
-    set(p, dof("l_wrist_flexion"), rad(5.0));
-    set(p, dof("r_wrist_flexion"), rad(5.0));
+    arm(p, 0, rad(4.0) + rad(2.0) * std::sin(w12), rad(-75.0) + rad(1.0) * breath, rad(14.0) + rad(3.0) * std::sin(w6));
+    arm(p, 1, rad(4.0) - rad(2.0) * std::sin(w12), rad(-75.0) + rad(1.0) * breath, rad(14.0) - rad(3.0) * std::sin(w6 + 0.5));
+    set(p, kLWristFlexion, rad(5.0));
+    set(p, kRWristFlexion, rad(5.0));
   }
 
   float leg_m_ = 0.8f;
@@ -382,19 +455,19 @@ class WalkMotion final : public ProceduralMotion {
     solve_leg(p, legs_[1], root_rot, root_pos, fr, forward);
     // Torso: the spine undoes the pelvic tilt, rotation and obliquity so the chest stays calm
     // and the shoulders counter-rotate a little.
-    set(p, dof("spine_lower_flexion"), rad(-1.0));
-    set(p, dof("spine_lower_twist"), -0.6 * pelvis_yaw);
-    set(p, dof("spine_mid_twist"), -0.8 * pelvis_yaw);
-    set(p, dof("spine_lower_lateral_bend"), -0.6 * obliquity);
-    set(p, dof("spine_mid_lateral_bend"), -0.4 * obliquity);
-    set(p, dof("neck_flexion"), rad(3.0));
-    set(p, dof("head_flexion"), rad(-2.0));
-    set(p, dof("neck_twist"), rad(-6.0));  // looking a little into the curve
+    set(p, kSpineLowerFlexion, rad(-1.0));
+    set(p, kSpineLowerTwist, -0.6 * pelvis_yaw);
+    set(p, kSpineMidTwist, -0.8 * pelvis_yaw);
+    set(p, kSpineLowerLateralBend, -0.6 * obliquity);
+    set(p, kSpineMidLateralBend, -0.4 * obliquity);
+    set(p, kNeckFlexion, rad(3.0));
+    set(p, kHeadFlexion, rad(-2.0));
+    set(p, kNeckTwist, rad(-6.0));  // looking a little into the curve
     // Arms swing against the legs: the left arm forward while the left leg is back.
     const double swing_l = rad(3.0) - rad(14.0) * std::cos(kTwoPi * (ph - 0.93));
     const double swing_r = rad(3.0) - rad(14.0) * std::cos(kTwoPi * (ph + 0.5 - 0.93));
-    arm(p, "l_", swing_l, rad(-78.0), rad(18.0) + 0.6 * std::max(0.0, swing_l));
-    arm(p, "r_", swing_r, rad(-78.0), rad(18.0) + 0.6 * std::max(0.0, swing_r));
+    arm(p, 0, swing_l, rad(-78.0), rad(18.0) + 0.6 * std::max(0.0, swing_l));
+    arm(p, 1, swing_r, rad(-78.0), rad(18.0) + 0.6 * std::max(0.0, swing_r));
   }
 
   std::array<Leg, 2> legs_;

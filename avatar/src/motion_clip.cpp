@@ -48,6 +48,10 @@ Result<std::unique_ptr<Motion>> load_bvh_motion(const std::string& path, const B
   if (!clip) return tl::unexpected(clip.error());
   auto retargeted = retarget_bvh(*clip);
   if (!retargeted) return tl::unexpected(retargeted.error());
+  if (options.body) {
+    for (Pose& p : retargeted->poses) p = transfer_pose(retargeted->skeleton, p, *options.body);
+    retargeted->skeleton = *options.body;
+  }
   return make_clip_motion(std::move(*retargeted));
 }
 

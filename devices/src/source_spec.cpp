@@ -59,7 +59,8 @@ const SchemeSpec kSchemes[] = {
       {"dead", Kind::number, 0, 600},
       {"scale", Kind::number, 1, 32768},
       {"null", Kind::integer, 0, 1000}}},
-    {"spacemouse", false, "a hidraw path or empty", {{"vid", Kind::any}, {"pid", Kind::any}}},
+    {"spacemouse", false, "a hidraw path, 'sim' or empty",
+     {{"vid", Kind::any}, {"pid", Kind::any}, {"seed", Kind::integer, 0, 0x7FFFFFFF}}},
     // sim/bvh/replay keys are interpreted by sim/src/open_source*.cpp (docs/log-format.md).
     {"sim", false, "a motion name or empty",
      {{"seed", Kind::integer, 0, 0x7FFFFFFF},

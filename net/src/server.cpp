@@ -112,6 +112,7 @@ struct ServerImpl {
   Reject accept_pose(Avatar& a, std::span<const uint8_t> packet);
   Reject accept_mesh(Avatar& a, uint8_t lod, std::span<const uint8_t> packet);
   void fan_out_pose(uint16_t id);
+  bool batching = false;  // between begin_batch and end_batch: mark, flush once at the end
   uint64_t new_token() {
     uint64_t t = 0;
     while (t == 0 || resume.count(t)) t = rng();
@@ -697,7 +698,7 @@ Reject ServerImpl::accept_mesh(Avatar& a, uint8_t lod, std::span<const uint8_t> 
   for (auto& s : sessions) {
     if (!s->active || s->role != Role::subscriber || s->mesh_lod != lod) continue;
     s->mark_mesh(a.id);
-    s->flush();
+    if (!batching) s->flush();
   }
   return Reject::ok;
 }
@@ -706,7 +707,7 @@ void ServerImpl::fan_out_pose(uint16_t id) {
   for (auto& s : sessions) {
     if (!s->active || s->role != Role::subscriber) continue;
     s->mark_pose(id);
-    s->flush();
+    if (!batching) s->flush();
   }
 }
 
@@ -817,6 +818,13 @@ void Server::run() {
 }
 
 void Server::stop() { impl_->io.stop(); }
+
+void Server::begin_batch() { impl_->batching = true; }
+
+void Server::end_batch() {
+  impl_->batching = false;
+  for (auto& s : impl_->sessions) s->flush();
+}
 
 void Server::dispatch(std::function<void()> fn) { asio::post(impl_->io, std::move(fn)); }
 

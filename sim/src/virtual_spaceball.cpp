@@ -47,7 +47,7 @@ Result<sb::Model> parse_spaceball_model(std::string_view name) {
 }
 
 SpaceballDevice::SpaceballDevice(VirtualSpaceballConfig config)
-    : SerialDevice(config.baud, 10), cfg_(std::move(config)) {
+    : SerialDevice(config.baud, 10), cfg_(std::move(config)), fault_rng_(cfg_.seed ^ 0x5B5B5B5B5B5B5B5Bull) {
   if (cfg_.model == sb::Model::unknown) cfg_.model = sb::Model::sb2003;
   firmware_ = cfg_.firmware.empty() ? default_spaceball_firmware(cfg_.model) : cfg_.firmware;
   if (!cfg_.input) cfg_.input = default_input_pattern(cfg_.seed);
@@ -210,8 +210,51 @@ void SpaceballDevice::advance(double now_s) {
   const double dt = last_data_s_ < 0 ? cfg_.data_period_s : now_s - last_data_s_;
   last_data_s_ = now_s;
   const auto period = static_cast<uint16_t>(std::clamp(std::lround(dt * 16000.0), 0L, 65535L));
-  reply(sb::displacement_body(period, axes), now_s);
+  send_displacement(axes, period, now_s);
   ++d_packets_;
+}
+
+void SpaceballDevice::send_displacement(const sb::Axes& axes, uint16_t period, double at_s) {
+  std::array<uint8_t, 2 * 15 + 1 + 2> wire{};  // worst-case escaping, CR, and room for `^X`
+  size_t n = sb::encode_packet(sb::displacement_body(period, axes), wire);
+  const double roll = static_cast<double>(fault_rng_() >> 11) * (1.0 / 9007199254740992.0);
+  if (roll >= cfg_.fault_rate) {
+    send(std::span<const uint8_t>(wire.data(), n), at_s);
+    return;
+  }
+  ++faults_;
+  switch (fault_rng_() % 3) {
+    case 0: {  // noise, ended by a CR so it stands as a packet of its own
+      std::array<uint8_t, 8> noise{};
+      const size_t k = 1 + fault_rng_() % 6;
+      for (size_t i = 0; i < k; ++i) noise[i] = static_cast<uint8_t>(0x80 | (fault_rng_() & 0x7F));
+      noise[k] = 0x0D;
+      send(std::span<const uint8_t>(noise.data(), k + 1), at_s);
+      send(std::span<const uint8_t>(wire.data(), n), at_s);
+      return;
+    }
+    case 1: {  // a lost byte (never half of an escape pair, which would re-pair silently)
+      for (int tries = 0; tries < 8; ++tries) {
+        const size_t i = 1 + fault_rng_() % (n - 2);
+        if (wire[i] == 0x5E || wire[i - 1] == 0x5E) continue;
+        std::copy(wire.begin() + static_cast<long>(i) + 1, wire.begin() + static_cast<long>(n), wire.begin() + static_cast<long>(i));
+        --n;
+        break;
+      }
+      send(std::span<const uint8_t>(wire.data(), n), at_s);
+      return;
+    }
+    default: {  // `^X` is no escape
+      const size_t i = 1 + fault_rng_() % (n - 1);
+      std::copy_backward(wire.begin() + static_cast<long>(i), wire.begin() + static_cast<long>(n),
+                         wire.begin() + static_cast<long>(n) + 2);
+      wire[i] = 0x5E;
+      wire[i + 1] = 'X';
+      n += 2;
+      send(std::span<const uint8_t>(wire.data(), n), at_s);
+      return;
+    }
+  }
 }
 
 Result<std::unique_ptr<PtyServer>> start_virtual_spaceball(VirtualSpaceballConfig config,

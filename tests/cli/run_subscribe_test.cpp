@@ -134,12 +134,22 @@ TEST(RunSubscribe, SubscriberGetsModelAndFramesFromMimicRun) {
   EXPECT_LE(j["frame_bytes_mean"].get<double>(), 200.0);
   EXPECT_GT(j["fps"].get<double>(), 30.0);  // the default source runs at 90 Hz
   EXPECT_GE(j["latency_ms_p50"].get<double>(), 0.0);
+  // Stage timings on request, while running.
+  run.signal(SIGUSR1);
+  EXPECT_EQ(run.wait(0.5), -1);  // still running
   run.signal(SIGINT);
   EXPECT_EQ(run.wait(10.0), 0) << run.err();
+  EXPECT_NE(run.err().find("stopped after"), std::string::npos);
+  size_t json_lines = 0;
+  for (size_t p = run.out().find("\n{"); p != std::string::npos; p = run.out().find("\n{", p + 1)) json_lines++;
+  EXPECT_EQ(json_lines, 2u) << run.out();  // one on SIGUSR1, one at exit
   const auto r = last_json(run.out());
   ASSERT_FALSE(r.is_discarded()) << run.out();
   EXPECT_GT(r["frames"].get<int>(), 0);
   EXPECT_EQ(r["server"]["frames_dropped"], 0);
+  // The realtime loop allocated nothing per frame, although a subscriber joined and left.
+  EXPECT_EQ(r["loop_allocations"], 0);
+  EXPECT_EQ(r["send_failures"], 0);
   for (const char* s : {"read", "solve", "deform", "encode", "send", "latency"})
     EXPECT_TRUE(r["stages"].contains(s)) << s;
 }
@@ -176,6 +186,27 @@ TEST(RunSubscribe, HelpIsComplete) {
   ASSERT_EQ(sub.wait(10.0), 0);
   for (const char* opt : {"--connect", "--count", "--json", "latency_ms_p99", "frame_bytes_mean"})
     EXPECT_NE(sub.out().find(opt), std::string::npos) << opt;
+}
+
+}  // namespace
+
+namespace {
+
+TEST(Bench, NetSectionReportsItsFigures) {
+  Proc bench({"bench", "--section", "net", "--quick", "--json"});
+  ASSERT_EQ(bench.wait(60.0), 0) << bench.err();
+  const auto j = last_json(bench.out());
+  ASSERT_FALSE(j.is_discarded()) << bench.out();
+  const auto& n = j["net"];
+  EXPECT_EQ(n["bytes_per_avatar_frame"]["mimic"], 150);
+  EXPECT_GT(n["bytes_per_avatar_frame"]["vmc"].get<int>(), n["bytes_per_avatar_frame"]["raw_float"].get<int>());
+  EXPECT_GT(n["bytes_per_avatar_frame"]["raw_float"].get<int>(), 150);
+  for (const char* k : {"loopback_latency_us", "record_to_socket_us", "fanout_90hz", "max_streams_kept_up"})
+    EXPECT_TRUE(n.contains(k)) << k;
+  EXPECT_GT(n["record_to_socket_us"]["frames"].get<int>(), 0);
+  // Every fan-out point delivered what it could account for: received + lost = expected.
+  for (const auto& f : n["fanout_90hz"])
+    EXPECT_EQ(f["received"].get<uint64_t>() + f["lost"].get<uint64_t>(), f["expected"].get<uint64_t>());
 }
 
 }  // namespace

@@ -206,6 +206,31 @@ TEST(VirtualSpaceball, OutputIsPacedAtTheBaudRate) {
   EXPECT_NEAR(bytes_per_s, 960.0, 30.0);
 }
 
+TEST(VirtualSpaceball, FaultsCorruptOnlyTheirOwnPacket) {
+  auto cfg = fast_config(sb::Model::sb2003);
+  cfg.input = [](double) { return constant_frame(); };
+  cfg.fault_rate = 0.5;
+  cfg.baud = 0;
+  cfg.data_period_s = 0.005;
+  SpaceballDevice d(cfg);
+  Capture c;
+  d.host_opened(0.0);
+  run_to(d, c, 0.2);
+  host_sends(d, c, "MSS\r");
+  run_to(d, c, 2.2);
+  const auto ds = decoded(c, sb::PacketKind::displacement);
+  const auto expected = sb::from_frame(constant_frame(), cfg.scaling);
+  for (const auto& p : ds) EXPECT_EQ(p.axes, expected);
+  EXPECT_GT(d.faults(), 50u);
+  // Each fault costs at most its own packet, and each is seen by the framer (a dropped packet)
+  // or the decoder (a packet of the wrong length or with no type).
+  size_t none = 0;
+  for (const auto& p : c.packets) none += sb::decode(p).kind == sb::PacketKind::none;
+  EXPECT_EQ(c.framer.dropped() + none, d.faults());
+  EXPECT_GE(ds.size() + d.faults(), d.d_packets());
+  EXPECT_LE(ds.size(), d.d_packets());
+}
+
 TEST(VirtualSpaceball, ParsesModelNames) {
   EXPECT_EQ(*mimic::sim::parse_spaceball_model("4000flx"), sb::Model::sb4000flx);
   EXPECT_EQ(*mimic::sim::parse_spaceball_model("3003"), sb::Model::sb3003);
@@ -287,11 +312,41 @@ TEST(SpaceballOverPtyRecovery, DeviceStopsAnsweringAndComesBack) {
   EXPECT_GE((*server)->stats().host_opens, 1u);
 }
 
+TEST(SpaceballOverPtyRecovery, DriverResyncsOnLineNoiseAndLostBytes) {
+  auto cfg = fast_config(sb::Model::sb2003);
+  cfg.input = [](double) { return constant_frame(); };
+  cfg.fault_rate = 0.3;
+  cfg.data_period_s = 0.01;
+  cfg.seed = 11;
+  auto server = mimic::sim::start_virtual_spaceball(cfg);
+  ASSERT_TRUE(server) << server.error().what();
+  auto source = mimic::devices::make_spaceball_source(fast_driver((*server)->path()));
+  ASSERT_TRUE(source->start());
+  // Every frame that gets through carries the true values: corrupt packets are dropped, never
+  // half-decoded.
+  const InputFrame want = constant_frame();
+  int frames = 0;
+  ASSERT_TRUE(wait_until([&] {
+    InputFrame g;
+    while (source->poll(g)) {
+      if (g.translation.x == 0.0f) continue;  // a K packet before the first D
+      ++frames;
+      for (int k = 0; k < 3; ++k) {
+        EXPECT_NEAR(g.translation[k], want.translation[k], 1e-3f);
+        EXPECT_NEAR(g.rotation[k], want.rotation[k], 1e-3f);
+      }
+    }
+    return frames >= 30 && source->status().resyncs >= 5;
+  }, 8.0)) << frames << " frames, " << source->status().resyncs << " resyncs";
+  EXPECT_EQ(source->status().reconnects, 0u);
+  source->stop();
+}
+
 TEST(SpaceballOverPtyRecovery, MissingDeviceIsDisconnectedNotAnError) {
   auto source = mimic::devices::make_spaceball_source(fast_driver("/dev/nonexistent-spaceball"));
   ASSERT_TRUE(source->start());
   InputFrame f;
-  std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  ASSERT_TRUE(wait_until([&] { return !source->status().last_error.empty(); }, 5.0));
   EXPECT_FALSE(source->poll(f));
   const auto st = source->status();
   EXPECT_EQ(st.state, DeviceState::disconnected);

@@ -133,6 +133,8 @@ class HidSpaceMouse final : public InputSource {
     if (path.empty()) {
       hid_device_info* all = hid_enumerate(0, 0);
       for (auto* d = all; d; d = d->next) {
+        if (opt_.vendor_id && d->vendor_id != opt_.vendor_id) continue;
+        if (opt_.product_id && d->product_id != opt_.product_id) continue;
         if ((model = hid::find_model(d->vendor_id, d->product_id))) {
           path = d->path;
           break;

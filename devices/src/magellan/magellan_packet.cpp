@@ -75,8 +75,8 @@ Packet decode(std::span<const uint8_t> p) noexcept {
     case 'k': {
       if ((body.size() != 3 && body.size() != 4) || !all_valid(body)) return out;
       const unsigned n1 = body[0] & 0xFu, n2 = body[1] & 0xFu, n3 = body[2] & 0xFu;
-      uint32_t m = n1 | n2 << 4 | (n3 & 1u) << 8 | ((n3 >> 1) & 3u) << 9;
-      if (body.size() == 4) m |= static_cast<uint32_t>(body[3] & 0xFu) << 11;
+      uint32_t m = n1 | n2 << 4 | n3 << 8;
+      if (body.size() == 4) m |= static_cast<uint32_t>(body[3] & 0xFu) << 12;
       out.kind = PacketKind::keys;
       out.buttons = m;
       return out;
@@ -117,8 +117,8 @@ size_t keys_packet(uint32_t buttons, std::span<uint8_t, 6> out) noexcept {
   out[n++] = 'k';
   out[n++] = static_cast<uint8_t>(nibble_char(buttons & 0xFu));
   out[n++] = static_cast<uint8_t>(nibble_char((buttons >> 4) & 0xFu));
-  out[n++] = static_cast<uint8_t>(nibble_char((buttons >> 8) & 0x7u));
-  if (buttons & (0xFu << 11)) out[n++] = static_cast<uint8_t>(nibble_char((buttons >> 11) & 0xFu));
+  out[n++] = static_cast<uint8_t>(nibble_char((buttons >> 8) & 0xFu));
+  if (buttons & (0xFu << 12)) out[n++] = static_cast<uint8_t>(nibble_char((buttons >> 12) & 0xFu));
   out[n++] = kCr;
   return n;
 }

@@ -79,7 +79,10 @@ Result<std::unique_ptr<SerialPort>> SerialPort::open(const std::string& path, co
   if (!ec)
     impl->port.set_option(sp::stop_bits(o.stop_bits == 2 ? sp::stop_bits::two : sp::stop_bits::one), ec);
   if (!ec)
-    impl->port.set_option(sp::flow_control(o.xonxoff ? sp::flow_control::software : sp::flow_control::none), ec);
+    impl->port.set_option(sp::flow_control(o.rtscts    ? sp::flow_control::hardware
+                                           : o.xonxoff ? sp::flow_control::software
+                                                       : sp::flow_control::none),
+                          ec);
   if (ec) return fail(Errc::io_error, path + ": line setup: " + ec.message());
   // Records carry 11h/13h: make sure no flow-control or CR translation survives from a
   // previous user of the port, and reads return as soon as one byte is there.

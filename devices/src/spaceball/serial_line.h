@@ -1,13 +1,15 @@
-// The serial port as the 6-DOF drivers use it: open with line settings, read with a timeout,
-// write everything, close. Modem-line requests that a pseudo-terminal rejects are ignored.
+// The serial port as the 6-DOF drivers use it, over devices::SerialPort (Boost.Asio): open with
+// line settings and raise DTR/RTS where the line has them, read with a timeout, write, close.
 #pragma once
 
 #include <cstddef>
 #include <cstdint>
+#include <memory>
 #include <span>
 #include <string>
 
 #include "mimic/core/result.h"
+#include "mimic/devices/serial.h"
 
 namespace mimic::devices::detail {
 
@@ -19,20 +21,16 @@ struct LineSettings {
 
 class SerialLine {
  public:
-  SerialLine() = default;
-  SerialLine(const SerialLine&) = delete;
-  SerialLine& operator=(const SerialLine&) = delete;
-  ~SerialLine() { close(); }
-
   Status open(const std::string& path, const LineSettings& settings);
-  bool is_open() const { return fd_ >= 0; }
-  // Waits up to timeout_ms for bytes; 0 bytes on timeout; an error when the device went away.
+  bool is_open() const { return port_ != nullptr; }
+  // Waits up to timeout_ms for bytes; 0 bytes on timeout; Errc::disconnected when the device
+  // went away.
   Result<size_t> read(std::span<uint8_t> out, int timeout_ms);
   Status write(std::span<const uint8_t> bytes);
-  void close();
+  void close() { port_.reset(); }
 
  private:
-  int fd_ = -1;
+  std::unique_ptr<SerialPort> port_;
 };
 
 }  // namespace mimic::devices::detail

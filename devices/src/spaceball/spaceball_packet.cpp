@@ -194,7 +194,8 @@ Packet decode(std::span<const uint8_t> p) noexcept {
       out.kind = PacketKind::bad_command;
       return out;
     default:
-      out.kind = PacketKind::echo;
+      // Replies start with a printable command letter; anything else is line noise.
+      if (type >= 0x20 && type < 0x7F) out.kind = PacketKind::echo;
       return out;
   }
 }

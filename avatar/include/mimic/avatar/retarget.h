@@ -52,11 +52,14 @@ Pose transfer_pose(const Skeleton& from, const Pose& pose, const Skeleton& to);
 
 struct BvhMotionOptions {
   double metres_per_unit = kCmuMetresPerUnit;
+  // When set, the clip drives this body (copied) through transfer_pose instead of the
+  // performer's fitted skeleton.
+  const Skeleton* body = nullptr;
 };
 
 // A Motion over a retargeted clip: time t is frame t / frame_time (frame 0 at t = 0, the
 // T-pose for CMU clips), DOFs interpolated linearly between frames, root orientation by slerp.
-// Does not loop; duration = (frames − 1) · frame_time.
+// Does not loop; duration = (frames − 1) · frame_time. The Motion's name is the clip's path.
 Result<std::unique_ptr<Motion>> load_bvh_motion(const std::string& path, const BvhMotionOptions& options = {});
 std::unique_ptr<Motion> make_clip_motion(RetargetedClip clip);
 

@@ -51,7 +51,10 @@ enum class PacketKind : uint8_t {
 struct Packet {
   PacketKind kind = PacketKind::none;
   Axes axes{};
-  uint32_t buttons = 0;  // InputFrame convention: bit i = button i+1 (keys 1–8, 9 = '*', …)
+  // InputFrame convention, bit i = button i+1: keys 1–8 (n1, n2), 9 = '*' (n3 bit 0), 10/11 =
+  // Plus XT left/right (n3 bits 1–2), 12 = n3 bit 3 (meaning unknown, kept), 13–16 = the
+  // optional 4th nibble.
+  uint32_t buttons = 0;
   char echo_type = 0;    // for echo: the command letter
 };
 
@@ -63,8 +66,8 @@ bool is_known_version(std::string_view version_text) noexcept;
 
 // --- Encoding (simulator, tests); each returns the packet with its CR. ---
 std::array<uint8_t, 26> data_packet(const Axes& axes) noexcept;
-// Keys 1–8, '*' (button 9), Plus XT left/right (10, 11); extra keys 12–15 need the 4th nibble,
-// which is sent only when one of them is down.
+// Buttons as Packet::buttons; the 4th nibble (buttons 13–16) is sent only when one of them is
+// down.
 size_t keys_packet(uint32_t buttons, std::span<uint8_t, 6> out) noexcept;
 
 // --- Values ---

@@ -50,7 +50,7 @@ class Framer {
 using Axes = std::array<int16_t, 6>;
 
 enum class PacketKind : uint8_t {
-  none,           // empty packet (the CR after power-up XON) or unparseable
+  none,           // empty, unparseable, or not starting with a printable type (line noise)
   displacement,   // D
   keys,           // K (all models; the 4000 FLX sends it for compatibility)
   advanced_keys,  // . (4000 FLX)
@@ -59,7 +59,7 @@ enum class PacketKind : uint8_t {
   descriptor,     // " : 4000 FLX descriptor lines
   error,          // E
   bad_command,    // ? followed by the rejected command
-  echo,           // any other reply (configuration echoes)
+  echo,           // any other printable type (configuration echoes)
 };
 
 struct Packet {

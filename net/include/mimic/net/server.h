@@ -93,6 +93,10 @@ class Server {
   // `packet` is an encoded pose frame (encode_pose); its avatar field is set to `avatar`. Packets
   // not newer than the last one are refused (out_of_order). Never allocates or throws.
   Reject publish_pose(uint16_t avatar, std::span<const uint8_t> packet);
+  // Frames published between begin_batch() and end_batch() (one tick of several avatars) go to
+  // each subscriber in one write instead of one per avatar.
+  void begin_batch();
+  void end_batch();
   // LODs (bit i = LOD i, i < 8) some subscriber wants mesh frames of for `avatar`.
   uint8_t mesh_lods_wanted(uint16_t avatar) const;
   Status set_mesh_topology(const MeshTopology& topology);

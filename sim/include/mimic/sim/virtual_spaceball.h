@@ -7,6 +7,7 @@
 #pragma once
 
 #include <memory>
+#include <random>
 #include <string>
 
 #include "mimic/core/result.h"
@@ -28,6 +29,9 @@ struct VirtualSpaceballConfig {
   uint64_t seed = 1;
   InputPattern input;             // empty: default_input_pattern(seed)
   devices::spaceball::Scaling scaling;
+  // Line faults, per D packet, drawn from the seed: line noise (high-bit bytes and a CR) before
+  // the packet, a byte of the packet lost, or a corrupt `^` escape inside it.
+  double fault_rate = 0.0;
 };
 
 // Protocol engine on the caller's clock (no I/O).
@@ -42,6 +46,7 @@ class SpaceballDevice final : public SerialDevice {
   bool data_enabled() const { return enabled_; }
   uint64_t resets() const { return resets_; }
   uint64_t d_packets() const { return d_packets_; }
+  uint64_t faults() const { return faults_; }
 
  private:
   void command(std::string_view cmd, double now_s);
@@ -49,6 +54,7 @@ class SpaceballDevice final : public SerialDevice {
   void reply(std::span<const uint8_t> body, double at_s);
   void reply(std::string_view text, double at_s);
   void send_keys(uint32_t buttons, double at_s);
+  void send_displacement(const devices::spaceball::Axes& axes, uint16_t period, double at_s);
 
   VirtualSpaceballConfig cfg_;
   std::string firmware_;
@@ -64,6 +70,8 @@ class SpaceballDevice final : public SerialDevice {
   uint32_t buttons_ = 0;
   uint64_t resets_ = 0;
   uint64_t d_packets_ = 0;
+  uint64_t faults_ = 0;
+  std::mt19937_64 fault_rng_;
 };
 
 // Firmware string a model reports when none is configured: 2003 → "2.15", 3003 → "2.63",
