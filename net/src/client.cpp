@@ -176,6 +176,9 @@ void Client::Impl::on_packet(std::span<const uint8_t> p) {
       caps = w.capabilities;
       handshake_done = true;
       if (w.resumed) stats.resumed++;
+      // The server did not know us (it restarted, or the grace period ran out): the scene
+      // arrives afresh, so forget the old one.
+      if (was_resume && !w.resumed && opt.role == Role::subscriber) avatars.clear();
       // A publisher whose session was not kept brings its avatars again.
       if (opt.role == Role::publisher && (!w.resumed || !was_resume)) {
         for (auto& a : published)
