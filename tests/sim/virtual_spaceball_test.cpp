@@ -276,6 +276,7 @@ TEST_P(SpaceballOverPty, DriverReceivesWhatTheDeviceSends) {
   EXPECT_EQ(line.baud, 9600);
   EXPECT_EQ(line.stop_bits, 1);
   EXPECT_FALSE(line.rtscts);
+  EXPECT_EQ((*server)->stats().line_mismatches, 0u);
   source->stop();
 }
 
