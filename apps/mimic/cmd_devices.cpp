@@ -19,7 +19,7 @@ namespace {
 
 constexpr const char* kName = "devices";
 constexpr const char* kUsage =
-    "usage: mimic devices [--json] [--watch [--interval S] [--duration S]]\n"
+    "usage: mimic devices [--json] [--serial-dir DIRS] [--watch [--interval S] [--duration S]]\n"
     "       mimic devices --read SOURCE [--duration S]\n"
     "\n"
     "Lists what Mimic can use that is connected to this machine:\n"
@@ -40,6 +40,8 @@ constexpr const char* kUsage =
     "                  uses libusb hot-plug notification where available and rescans every\n"
     "                  --interval seconds in any case (serial ports have no notification)\n"
     "  --interval S    rescan period for --watch (default 1)\n"
+    "  --serial-dir DIRS  also look for ttyS*/ttyUSB*/ttyACM* entries (links to serial\n"
+    "                  devices or pseudo-terminals) in these comma-separated directories\n"
     "  --duration S    stop watching (or reading) after S seconds (default: until Ctrl-C)\n"
     "  --read SOURCE   open one 6-DOF input device and print what it sends, ten lines a\n"
     "                  second, then its status; SOURCE is one of\n"
@@ -183,7 +185,7 @@ int read_source(const std::string& text, double duration_s) {
 }
 
 int run(const std::vector<std::string>& argv) {
-  Args args(argv, {"interval", "duration", "read"}, {"json", "watch"});
+  Args args(argv, {"interval", "duration", "read", "serial-dir"}, {"json", "watch"});
   if (!args.ok()) return usage_error(kName, args.error());
   if (args.help()) {
     std::printf("%s", kUsage);
@@ -196,7 +198,7 @@ int run(const std::vector<std::string>& argv) {
   }
   if (!(interval_s > 0)) return usage_error(kName, "--interval must be positive");
   if (args.has("read")) {
-    if (args.has("watch") || args.has("json") || args.has("interval")) {
+    if (args.has("watch") || args.has("json") || args.has("interval") || args.has("serial-dir")) {
       return usage_error(kName, "--read takes only --duration");
     }
     return read_source(*args.get("read"), duration_s);
@@ -205,8 +207,19 @@ int run(const std::vector<std::string>& argv) {
     return usage_error(kName, "--interval and --duration only apply with --watch or --read");
   }
   const bool json = args.has("json");
+  devices::SerialScan scan;
+  if (auto dirs = args.get("serial-dir")) {
+    size_t start = 0;
+    while (start <= dirs->size()) {
+      const size_t comma = dirs->find(',', start);
+      const std::string d = dirs->substr(start, comma == std::string::npos ? std::string::npos : comma - start);
+      if (!d.empty()) scan.dirs.push_back(d);
+      if (comma == std::string::npos) break;
+      start = comma + 1;
+    }
+  }
 
-  auto inv = devices::scan_devices();
+  auto inv = devices::scan_devices(scan);
   if (json) {
     std::printf("%s\n", to_json(inv).dump(json && args.has("watch") ? -1 : 2).c_str());
     std::fflush(stdout);
@@ -237,7 +250,7 @@ int run(const std::vector<std::string>& argv) {
     std::this_thread::sleep_for(std::chrono::milliseconds(50));
     if (!usb_changed.exchange(false) && clock::now() < next_scan) continue;
     next_scan = clock::now() + std::chrono::duration<double>(interval_s);
-    auto now = devices::scan_devices();
+    auto now = devices::scan_devices(scan);
     auto now_lines = devices::inventory_lines(now);
     const auto change = devices::diff_inventory(lines, now_lines);
     if (change.arrived.empty() && change.departed.empty()) continue;

@@ -57,6 +57,7 @@ constexpr const char* kUsage =
     "  --seed N             noise and mounting seed (default 1)\n"
     "  --frames N           evaluate at most N frames after the T-pose (default all)\n"
     "  --no-filter          solve the raw samples (no One Euro filtering)\n"
+    "  --joints             also print the position error of every joint (table output)\n"
     "  --json               one JSON object per layout on stdout instead of the table; keys: clip,\n"
     "                       sensors, frames, joints, mpjpe_cm, mpjre_deg, end_effector_mm,\n"
     "                       end_effector_max_mm, jitter, jitter_mm, jitter_truth_mm,\n"
@@ -204,7 +205,7 @@ bool parse_noise(const std::string& text, double& mm, double& deg) {
 }
 
 int run_eval_solver(const std::vector<std::string>& argv) {
-  Args args(argv, {"bvh", "sensors", "noise", "tilt", "rate", "seed", "frames"}, {"json", "no-filter"});
+  Args args(argv, {"bvh", "sensors", "noise", "tilt", "rate", "seed", "frames"}, {"json", "no-filter", "joints"});
   if (args.help()) {
     std::printf("%s", kUsage);
     return 0;
@@ -288,6 +289,9 @@ int run_eval_solver(const std::vector<std::string>& argv) {
     } else {
       std::printf("%-7s %7d %9.2f %10.1f %8.1f %11.2f %13.2f %9.1fus %9.1fus\n", layout.c_str(), p.frames, p.mpjpe_cm,
                   p.mpjre_deg, p.end_effector_mm, p.jitter_mm, p.jitter_truth_mm, p.solve_us_p50, p.solve_us_p99);
+      if (args.has("joints"))
+        for (size_t i = 0; i < p.joint_names.size(); ++i)
+          std::printf("          %-14s %6.2f cm\n", p.joint_names[i].c_str(), p.joint_mpjpe_cm[i]);
     }
     std::fflush(stdout);
   }

@@ -80,7 +80,7 @@ int run_measure(const std::vector<std::string>& argv) {
     out["closed_oriented_manifold"] = closed;
     out["genus"] = topo.genus;
     out["measurements"] = j;
-    std::printf("%s\n", out.dump(2).c_str());
+    std::printf("%s\n", out.dump(2, ' ', false, nlohmann::ordered_json::error_handler_t::replace).c_str());
     return 0;
   }
   std::printf("mesh:   %s\njoints: %s\n", mesh_path.c_str(), joints_path.c_str());

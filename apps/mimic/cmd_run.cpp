@@ -19,7 +19,9 @@ namespace mimic::app {
 namespace {
 
 std::atomic<bool> g_stop{false};
+std::atomic<bool> g_report{false};
 extern "C" void on_signal(int) { g_stop = true; }
+extern "C" void on_report_signal(int) { g_report = true; }
 
 const char* kUsage =
     "usage: mimic run [--source SPEC [--body FILE]]... [--listen ADDR:PORT] [--secret S]\n"
@@ -41,10 +43,13 @@ const char* kUsage =
     "  --vmc HOST:PORT     also send the first avatar as VMC (OSC over UDP), e.g. 127.0.0.1:39539\n"
     "  --duration S        stop by itself after S seconds (default: run until Ctrl-C)\n"
     "  --json              print a JSON summary (stage timings p50/p99 in microseconds, frames,\n"
-    "                      fps, loop_allocations, server counters) on stdout at exit\n"
+    "                      fps, loop_allocations, server counters) on stdout at exit; the same\n"
+    "                      line is printed whenever the process receives SIGUSR1\n"
     "  --quiet             no live status line on stderr\n"
     "\n"
-    "The first line on stdout says where the scene is served: 'serving on ADDR:PORT'.\n";
+    "The first line on stdout says where the scene is served: 'serving on ADDR:PORT'. The live\n"
+    "status line (stderr) shows fps, subscribers, dropped and rejected frames and p50/p99 of each\n"
+    "stage in microseconds. Ctrl-C stops cleanly.\n";
 
 // Splits repeated --source/--body pairs out of argv (the Args parser keeps one value per key).
 bool take_sources(std::vector<std::string>& args, std::vector<std::pair<std::string, std::string>>& out,
@@ -156,8 +161,37 @@ int run(const std::vector<std::string>& argv) {
   std::printf("%s\n", where.c_str());
   std::fflush(stdout);
 
+  // Allocations inside the frame work (read → send), counted once the first frames have warmed
+  // every buffer up; the network servicing between frames (joins, leaves) may allocate.
+  constexpr uint64_t kWarmupFrames = 100;
+  uint64_t loop_allocations = 0;
+  auto summary = [&](double elapsed) {
+    nlohmann::json j;
+    j["duration_s"] = elapsed;
+    j["avatars"] = pipeline.avatar_count();
+    j["frames"] = pipeline.frames();
+    j["fps"] = double(pipeline.frames()) / std::max(elapsed, 1e-9) / double(std::max<size_t>(1, pipeline.avatar_count()));
+    j["send_failures"] = pipeline.send_failures();
+    j["loop_allocations"] = loop_allocations;
+    j["model_bytes"] = model_bytes_total;
+    for (int s = 0; s < kStageCount; ++s) {
+      const auto sum = pipeline.timer(s).summary();
+      j["stages"][stage_name(s)] = {{"p50_us", sum.p50_us}, {"p99_us", sum.p99_us}, {"max_us", sum.max_us},
+                                    {"count", sum.count}};
+    }
+    if (server) {
+      const auto& st = server->stats();
+      j["server"] = {{"endpoint", server->endpoint()},  {"sessions_accepted", st.sessions_accepted},
+                     {"subscribers", st.subscribers},   {"frames_out", st.frames_out},
+                     {"frames_dropped", st.frames_dropped}, {"bytes_out", st.bytes_out},
+                     {"rejected", st.rejected_total()}, {"resumed", st.resumed}};
+    }
+    return j;
+  };
   g_stop = false;
+  g_report = false;
   std::signal(SIGINT, on_signal);
+  std::signal(SIGUSR1, on_report_signal);
   std::signal(SIGTERM, on_signal);
   const bool status_line = !a.has("quiet");
   using C = std::chrono::steady_clock;
@@ -166,10 +200,6 @@ int run(const std::vector<std::string>& argv) {
   uint64_t last_frames = 0;
   auto last_status = start;
   char line[320];
-  // Allocations inside the frame work (read → send), counted once the first frames have warmed
-  // every buffer up; the network servicing between frames (joins, leaves) may allocate.
-  constexpr uint64_t kWarmupFrames = 100;
-  uint64_t loop_allocations = 0;
   while (!g_stop) {
     const auto now = C::now();
     if (duration_s > 0 && now - start >= std::chrono::duration<double>(duration_s)) break;
@@ -185,6 +215,11 @@ int run(const std::vector<std::string>& argv) {
         std::fprintf(stderr, "\nmimic run: %s\n", st.error().what().c_str());
         break;
       }
+    }
+    if (g_report.exchange(false)) {
+      // On request (SIGUSR1): the same JSON as at exit, one line on stdout.
+      std::printf("%s\n", summary(std::chrono::duration<double>(C::now() - start).count()).dump().c_str());
+      std::fflush(stdout);
     }
     if (status_line && C::now() >= next_status) {
       const double dt = std::chrono::duration<double>(C::now() - last_status).count();
@@ -211,32 +246,11 @@ int run(const std::vector<std::string>& argv) {
   }
   std::signal(SIGINT, SIG_DFL);
   std::signal(SIGTERM, SIG_DFL);
+  std::signal(SIGUSR1, SIG_DFL);
   if (status_line) std::fputs("\n", stderr);
   const double elapsed = std::chrono::duration<double>(C::now() - start).count();
   std::fprintf(stderr, "mimic run: stopped after %.1f s, %llu frames\n", elapsed, static_cast<unsigned long long>(pipeline.frames()));
-  if (a.has("json")) {
-    nlohmann::json j;
-    j["duration_s"] = elapsed;
-    j["avatars"] = pipeline.avatar_count();
-    j["frames"] = pipeline.frames();
-    j["fps"] = double(pipeline.frames()) / std::max(elapsed, 1e-9) / double(std::max<size_t>(1, pipeline.avatar_count()));
-    j["send_failures"] = pipeline.send_failures();
-    j["loop_allocations"] = loop_allocations;
-    j["model_bytes"] = model_bytes_total;
-    for (int s = 0; s < kStageCount; ++s) {
-      const auto sum = pipeline.timer(s).summary();
-      j["stages"][stage_name(s)] = {{"p50_us", sum.p50_us}, {"p99_us", sum.p99_us}, {"max_us", sum.max_us},
-                                    {"count", sum.count}};
-    }
-    if (server) {
-      const auto& st = server->stats();
-      j["server"] = {{"endpoint", server->endpoint()},  {"sessions_accepted", st.sessions_accepted},
-                     {"subscribers", st.subscribers},   {"frames_out", st.frames_out},
-                     {"frames_dropped", st.frames_dropped}, {"bytes_out", st.bytes_out},
-                     {"rejected", st.rejected_total()}, {"resumed", st.resumed}};
-    }
-    std::printf("%s\n", j.dump().c_str());
-  }
+  if (a.has("json")) std::printf("%s\n", summary(elapsed).dump().c_str());
   if (publisher) publisher->close();
   return 0;
 }

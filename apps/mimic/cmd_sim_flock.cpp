@@ -51,8 +51,9 @@ constexpr const char* kUsage =
     "  --ert         an extended range controller at FBB address 1 (144 in full scale); the\n"
     "                birds follow at addresses 2..N+1\n"
     "  --seed S      seed of the motion and of line faults (default 1)\n"
-    "  --log FILE    write the poses served (ground truth, one sample per bird per record) as\n"
-    "                a Mimic log (*.mlog)\n"
+    "  --log FILE    write a Mimic log (*.mlog): the poses served (ground truth, one sample\n"
+    "                per bird per record, on the simulator's clock) and every byte that\n"
+    "                crossed the line in either direction\n"
     "  --rate HZ     measurement rate, 14-144 (default 103.3)\n"
     "  --faults P    probability per record of a line fault: a lost byte, a stray phased\n"
     "                byte, a cut record (default 0)\n"
@@ -172,6 +173,7 @@ int run(const std::vector<std::string>& argv) {
     auto w = sim::LogWriter::create(*path, h);
     if (!w) return failure(kName, w.error().what());
     log = std::make_unique<sim::LogWriter>(std::move(*w));
+    // Samples carry the simulator's time; raw chunks the host's monotonic time.
     cfg.provider = [inner = cfg.provider, &log, &log_mu](double t_s, int bird, devices::SensorSample& out) {
       inner(t_s, bird, out);
       devices::SensorSample s = out;
@@ -179,6 +181,10 @@ int run(const std::vector<std::string>& argv) {
       s.device_time_s = t_s;
       std::lock_guard lock(log_mu);
       log->append(s);
+    };
+    cfg.on_bytes = [&log, &log_mu](double host_time_s, bool to_host, std::span<const uint8_t> bytes) {
+      std::lock_guard lock(log_mu);
+      log->append_raw(host_time_s, to_host ? sim::RawDirection::from_device : sim::RawDirection::to_device, bytes);
     };
   }
 

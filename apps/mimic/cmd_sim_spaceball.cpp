@@ -70,9 +70,11 @@ int serve(const char* name, Result<std::unique_ptr<sim::PtyServer>> server) {
   while (!g_stop.load()) std::this_thread::sleep_for(std::chrono::milliseconds(50));
   const auto st = (*server)->stats();
   (*server)->stop();
-  std::fprintf(stderr, "mimic sim %s: stopped; %llu bytes in, %llu bytes out, port opened %llu times\n", name + 4,
-               static_cast<unsigned long long>(st.bytes_in), static_cast<unsigned long long>(st.bytes_out),
-               static_cast<unsigned long long>(st.host_opens));
+  std::fprintf(stderr,
+               "mimic sim %s: stopped; %llu bytes in, %llu bytes out, port opened %llu times, %llu line-setting "
+               "mismatches\n",
+               name + 4, static_cast<unsigned long long>(st.bytes_in), static_cast<unsigned long long>(st.bytes_out),
+               static_cast<unsigned long long>(st.host_opens), static_cast<unsigned long long>(st.line_mismatches));
   return 0;
 }
 

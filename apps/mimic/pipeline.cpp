@@ -263,6 +263,31 @@ Status Pipeline::add_avatar(const std::string& name, std::unique_ptr<PoseFeed> f
   return {};
 }
 
+// Mesh frames only while some subscriber wants this LOD. Announcing the topology allocates once
+// (the first time a thin client shows up); frames after that reuse the buffer.
+void Pipeline::send_mesh(Avatar& a, uint64_t time_us) {
+  const avatar::Mesh& mesh = *a.deformer->mesh();
+  const uint8_t lod = a.deformer->lod();
+  if (lod >= 8 || !(out_.server->mesh_lods_wanted(a.server_id) & (1u << lod))) return;
+  if (!a.topology_sent) {
+    net::MeshTopology t;
+    t.avatar = a.server_id;
+    t.lod = lod;
+    t.vertex_count = static_cast<uint32_t>(mesh.positions.size());
+    t.indices = mesh.indices;
+    if (!out_.server->set_mesh_topology(t)) {
+      send_failures_++;
+      return;
+    }
+    a.mesh_packet.resize(net::mesh_packet_bytes(mesh.positions.size()));
+    a.topology_sent = true;
+  }
+  const size_t n = net::encode_mesh({a.server_id, lod, a.sequence, time_us}, mesh.positions, a.mesh_packet);
+  if (n == 0 || out_.server->publish_mesh(a.server_id, lod, std::span<const uint8_t>(a.mesh_packet.data(), n)) !=
+                    net::Reject::ok)
+    send_failures_++;
+}
+
 void Pipeline::tick() {
   using C = std::chrono::steady_clock;
   auto us = [](C::time_point a, C::time_point b) { return std::chrono::duration<double, std::micro>(b - a).count(); };
@@ -295,6 +320,7 @@ void Pipeline::tick() {
         !out_.publisher->publish_pose(static_cast<uint8_t>(a.publisher_slot), h, a.pose))
       send_failures_++;
     if (out_.vmc && i == 0 && out_.vmc->send(a.pose, double(h.time_us) * 1e-6) == 0) send_failures_++;
+    if (out_.server && a.deformer->mesh()) send_mesh(a, h.time_us);
     const auto t5 = C::now();
     timers_[kStageSolve].add(us(t1, t2));
     timers_[kStageDeform].add(us(t2, t3));

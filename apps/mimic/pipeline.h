@@ -15,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "mimic/avatar/mesh.h"
 #include "mimic/avatar/motion.h"
 #include "mimic/avatar/skeleton.h"
 #include "mimic/core/result.h"
@@ -64,11 +65,15 @@ class PoseFeed {
   virtual devices::DeviceStatus status() const = 0;
 };
 
-// Pose → skin. The stand-in computes joint frames (what the skin deformer starts from).
+// Pose → skin. The stand-in computes joint frames (what the skin deformer starts from). A
+// deformer that produces a mesh returns it from mesh() (same topology every frame, at lod());
+// the pipeline then streams mesh frames to subscribers that asked for that LOD.
 class Deformer {
  public:
   virtual ~Deformer() = default;
   virtual void deform(const avatar::Pose& pose) = 0;
+  virtual const avatar::Mesh* mesh() const { return nullptr; }
+  virtual uint8_t lod() const { return 0; }
 };
 
 // A sensor source on a virtual body following `motion`; the solve stage poses the avatar from
@@ -120,7 +125,10 @@ class Pipeline {
     int publisher_slot = -1;
     uint32_t sequence = 0;
     std::vector<uint8_t> packet;
+    std::vector<uint8_t> mesh_packet;  // sized when the topology is announced
+    bool topology_sent = false;
   };
+  void send_mesh(Avatar& a, uint64_t time_us);
   PipelineOutputs out_;
   std::vector<Avatar> avatars_;
   std::vector<double> pending_latency_;  // capture time of each avatar's frame this pass, or 0

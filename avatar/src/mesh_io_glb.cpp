@@ -96,7 +96,8 @@ Result<std::string> encode_glb(const Mesh& mesh) {
               {"accessors", accessors},
               {"bufferViews", views},
               {"buffers", {{{"byteLength", bin.size()}}}}};
-  std::string text = doc.dump();
+  // Part names are bytes from files; JSON must be UTF-8, so invalid sequences become U+FFFD.
+  std::string text = doc.dump(-1, ' ', false, json::error_handler_t::replace);
   while (text.size() % 4) text += ' ';
   while (bin.size() % 4) bin += '\0';
   if (12 + 8 + text.size() + 8 + bin.size() > UINT32_MAX) return fail(Errc::invalid_argument, "mesh too large for GLB");

@@ -101,6 +101,7 @@ void BM_Fanout90Hz(benchmark::State& state) {
     state.counters["dropped"] = double(r->frames_dropped);
     state.counters["lost"] = double(r->lost);
     state.counters["tick_p99_us"] = r->tick_p99_us;
+    state.counters["rate_hz"] = r->achieved_rate_hz;
     state.counters["kept_up"] = r->kept_up ? 1 : 0;
   }
 }

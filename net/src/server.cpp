@@ -97,6 +97,9 @@ struct ServerImpl {
   std::unordered_map<uint64_t, ResumeRecord> resume;
   std::mt19937_64 rng;
   uint32_t next_session_id = 1;
+  // Model revisions are unique across the server's life, so an avatar id reused after a removal
+  // never looks like a model a resuming subscriber already holds.
+  uint32_t next_revision = 1;
   std::array<uint8_t, 512> scratch{};
 
   void start_accept();
@@ -322,6 +325,16 @@ struct Session : std::enable_shared_from_this<Session> {
     std::array<uint8_t, 64> buf{};
     queue_control(std::span<const uint8_t>(buf.data(), encode_welcome(w, buf)));
     if (role == Role::subscriber) {
+      // A resumed subscriber may hold avatars that left while it was away.
+      for (auto it = models_known.begin(); it != models_known.end();) {
+        if (srv.avatar(it->first)) {
+          ++it;
+          continue;
+        }
+        std::array<uint8_t, 16> removed{};
+        queue_control(std::span<const uint8_t>(removed.data(), encode_avatar_removed(it->first, removed)));
+        it = models_known.erase(it);
+      }
       // Late joiner: every model it does not hold yet, then every latest pose, at once.
       for (auto& a : srv.avatars) {
         if (!a.live) continue;
@@ -645,7 +658,7 @@ Result<uint16_t> ServerImpl::new_avatar(const std::string& name, uint16_t dof_co
 void ServerImpl::update_model(Avatar& a, const AvatarModel& m) {
   AvatarModel copy = m;
   copy.avatar = a.id;
-  copy.revision = ++a.revision;
+  copy.revision = a.revision = next_revision++;
   copy.name = a.name;
   a.dof_count = m.dof_count;
   a.model_packet.resize(avatar_model_packet_bytes(copy));
@@ -698,7 +711,7 @@ Reject ServerImpl::accept_mesh(Avatar& a, uint8_t lod, std::span<const uint8_t> 
   for (auto& s : sessions) {
     if (!s->active || s->role != Role::subscriber || s->mesh_lod != lod) continue;
     s->mark_mesh(a.id);
-    s->flush();
+    if (!batching) s->flush();
   }
   return Reject::ok;
 }

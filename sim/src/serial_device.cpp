@@ -1,5 +1,8 @@
 #include "mimic/sim/serial_device.h"
 
+#include <fcntl.h>
+#include <unistd.h>
+
 #include <algorithm>
 #include <array>
 #include <chrono>
@@ -76,6 +79,10 @@ Result<std::unique_ptr<PtyServer>> PtyServer::start(std::unique_ptr<SerialDevice
     log = std::fopen(log_path.c_str(), "w");
     if (!log) return fail(Errc::io_error, log_path + ": " + std::strerror(errno));
   }
+  // A master whose slave was never opened reports neither data nor hang-up, so the first open
+  // would be invisible. Opening and closing the slave once puts the master into the hang-up
+  // state, and the driver's open becomes the power-up edge.
+  if (const int fd = ::open(pty->slave_path().c_str(), O_RDWR | O_NOCTTY | O_CLOEXEC); fd >= 0) ::close(fd);
   std::unique_ptr<PtyServer> s(new PtyServer(std::move(*pty), std::move(device), log));
   s->thread_ = std::thread([p = s.get()] { p->run(); });
   return s;
@@ -115,9 +122,26 @@ void PtyServer::log(const char* dir, std::span<const uint8_t> bytes, double t) {
   std::fflush(log_);
 }
 
+void PtyServer::check_line(double t) {
+  const LineSettings got = pty_.line_settings();
+  const auto& want = device_->expected_line();
+  const bool ok = got.baud == want.baud && got.data_bits == 8 && !got.parity &&
+                  got.stop_bits >= want.min_stop_bits && got.stop_bits <= want.max_stop_bits &&
+                  got.rtscts == want.rtscts;
+  if (ok) return;
+  ++stats_.line_mismatches;
+  if (log_) {
+    std::fprintf(log_, "%.6f line %d %d%c%d%s, device runs %d 8N%d%s\n", t, got.baud, got.data_bits,
+                 got.parity ? 'P' : 'N', got.stop_bits, got.rtscts ? " rtscts" : "", want.baud,
+                 want.min_stop_bits, want.rtscts ? " rtscts" : "");
+    std::fflush(log_);
+  }
+}
+
 void PtyServer::run() {
   std::array<uint8_t, 512> buf{};
   bool host_present = false;
+  bool line_checked = false;
   while (running_.load()) {
     double t = now_s();
     double wait_s;
@@ -140,12 +164,17 @@ void PtyServer::run() {
     std::lock_guard lock(mutex_);
     if (!host_present) {
       host_present = true;
+      line_checked = false;
       ++stats_.host_opens;
       device_->host_opened(t);
     }
     if (w == Pty::Wait::readable) {
       auto n = pty_.read(buf);
       if (n && *n > 0) {
+        if (!line_checked) {
+          line_checked = true;
+          check_line(t);
+        }
         stats_.bytes_in += *n;
         log("in", {buf.data(), *n}, t);
         device_->receive({buf.data(), *n}, t);

@@ -251,6 +251,8 @@ struct VirtualFlock::Impl {
         host_present = false;
         continue;
       }
+      if (cfg.on_bytes && *w > 0)
+        cfg.on_bytes(host_seconds(Clock::now()), true, std::span<const uint8_t>(o.bytes.data(), *w));
       if (o.address >= 0 && cfg.on_record_written)
         cfg.on_record_written(host_seconds(Clock::now()), o.address, o.bytes);
     }
@@ -557,6 +559,7 @@ struct VirtualFlock::Impl {
           now = now_s();
           if (now < silent_until_s) break;  // the cable is out: bytes go nowhere
           check_line();
+          if (cfg.on_bytes && *n > 0) cfg.on_bytes(host_seconds(Clock::now()), false, std::span<const uint8_t>(buf.data(), *n));
           for (size_t i = 0; i < *n; ++i) on_byte(buf[i], now);
           break;
         }

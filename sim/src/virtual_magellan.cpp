@@ -8,6 +8,7 @@ namespace mg = devices::magellan;
 
 MagellanDevice::MagellanDevice(VirtualMagellanConfig config)
     : SerialDevice(config.baud, 11), cfg_(std::move(config)) {
+  expect_line({9600, 2, 2, true});
   if (!cfg_.input) cfg_.input = default_input_pattern(cfg_.seed);
 }
 

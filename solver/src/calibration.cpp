@@ -106,7 +106,7 @@ Fit fit_body(const SkeletonDesc& base, const std::vector<SensorStats>& stats, co
     } else {
       scale = (mark["head"].y - opt.floor_y_m) / std::max(0.1f, head0);
     }
-    if (scale > 0.5f && scale < 1.6f) scale_desc(out.desc, scale);
+    scale_desc(out.desc, std::clamp(scale, 0.5f, 1.6f));  // children to giants
   }
   s = build();
   w = zero_world(s);
@@ -126,16 +126,15 @@ Fit fit_body(const SkeletonDesc& base, const std::vector<SensorStats>& stats, co
       const float lower_want = glm::dot(mark["spine_upper"] - mark["pelvis"], up);
       const float lower_now = jpos(s, w, "spine_upper").y - w[0].translation.y;
       const float upper_now = jpos(s, w, "head").y - jpos(s, w, "spine_upper").y;
-      const float kl = lower_want / std::max(0.05f, lower_now);
-      const float ku = (want - lower_want) / std::max(0.05f, upper_now);
-      if (kl > 0.5f && kl < 2.0f) prop.spine_lower_m *= kl, prop.spine_mid_m *= kl;
-      if (ku > 0.5f && ku < 2.0f) prop.spine_upper_m *= ku, prop.neck_m *= ku;
+      // Within bounds no body exceeds (a chest strap low on the sternum reads as a short spine).
+      const float kl = std::clamp(lower_want / std::max(0.05f, lower_now), 0.3f, 2.5f);
+      const float ku = std::clamp((want - lower_want) / std::max(0.05f, upper_now), 0.3f, 2.5f);
+      prop.spine_lower_m *= kl, prop.spine_mid_m *= kl;
+      prop.spine_upper_m *= ku, prop.neck_m *= ku;
     } else {
       const float now = jpos(s, w, "head").y - w[0].translation.y;
-      const float k = want / std::max(0.1f, now);
-      if (k > 0.5f && k < 2.0f) {
-        prop.spine_lower_m *= k, prop.spine_mid_m *= k, prop.spine_upper_m *= k, prop.neck_m *= k;
-      }
+      const float k = std::clamp(want / std::max(0.1f, now), 0.4f, 2.0f);
+      prop.spine_lower_m *= k, prop.spine_mid_m *= k, prop.spine_upper_m *= k, prop.neck_m *= k;
     }
   }
   if (has("l_shoulder") && has("r_shoulder")) prop.shoulder_width_m = glm::length(mark["l_shoulder"] - mark["r_shoulder"]);
@@ -186,10 +185,11 @@ Fit fit_body(const SkeletonDesc& base, const std::vector<SensorStats>& stats, co
   auto placed = [&](const char* n) {  // joint position of the fitted skeleton standing at `root`
     return root + heading * (jpos(s, w, n) - w[0].translation);
   };
+  // From the skeleton's own shoulder and hip (placed as fitted so far), so that the hands and
+  // feet are within the fitted limbs' reach whatever the upper-limb sensors said.
   auto limb_length = [&](const char* upper, const char* end) -> float {
     if (!has(end)) return 0.0f;
-    const glm::vec3 a = has(upper) ? mark[upper] : placed(upper);
-    return glm::length(mark[end] - a);
+    return glm::length(mark[end] - placed(upper));
   };
   float arm = 0, leg = 0;
   int n_arm = 0, n_leg = 0;
@@ -201,13 +201,13 @@ Fit fit_body(const SkeletonDesc& base, const std::vector<SensorStats>& stats, co
   prop = avatar::measure_proportions(s);
   if (n_arm > 0) {
     const float total = prop.upper_arm_m + prop.forearm_m;
-    const float k = (arm / static_cast<float>(n_arm)) / total;
-    if (k > 0.6f && k < 1.5f) prop.upper_arm_m *= k, prop.forearm_m *= k;
+    const float k = std::clamp((arm / static_cast<float>(n_arm)) / total, 0.6f, 1.5f);
+    prop.upper_arm_m *= k, prop.forearm_m *= k;
   }
   if (n_leg > 0) {
     const float total = prop.thigh_m + prop.shin_m;
-    const float k = (leg / static_cast<float>(n_leg)) / total;
-    if (k > 0.6f && k < 1.5f) prop.thigh_m *= k, prop.shin_m *= k;
+    const float k = std::clamp((leg / static_cast<float>(n_leg)) / total, 0.6f, 1.5f);
+    prop.thigh_m *= k, prop.shin_m *= k;
   }
   avatar::apply_proportions(out.desc, prop);
   s = build();

@@ -39,10 +39,14 @@ float one_euro_alpha(float cutoff_hz, float dt_s) {
 glm::vec3 OneEuroVec3::filter(const glm::vec3& x, float dt_s) {
   if (!primed_ || !(dt_s > 0)) {
     if (!primed_) x_ = x, dx_ = glm::vec3(0.0f);
+    raw_ = x;
     primed_ = true;
     return x_;
   }
-  const glm::vec3 raw_dx = (x - x_) / dt_s;
+  // The speed from raw samples (not from the lagging output), so it is the signal's true speed:
+  // it sets the cutoff and extrapolates the output.
+  const glm::vec3 raw_dx = (x - raw_) / dt_s;
+  raw_ = x;
   dx_ += one_euro_alpha(p_.derivative_cutoff_hz, dt_s) * (raw_dx - dx_);
   const float cutoff = p_.min_cutoff_hz + p_.beta * glm::length(dx_);
   x_ += one_euro_alpha(cutoff, dt_s) * (x - x_);
@@ -53,11 +57,13 @@ glm::quat OneEuroQuat::filter(const glm::quat& q_in, float dt_s) {
   glm::quat q = glm::normalize(q_in);
   if (!primed_ || !(dt_s > 0)) {
     if (!primed_) q_ = q, w_ = glm::vec3(0.0f);
+    raw_ = q;
     primed_ = true;
     return q_;
   }
   if (glm::dot(q, q_) < 0) q = -q;  // the nearer of ±q
-  const glm::vec3 raw_w = rotation_vector(q * glm::conjugate(q_)) / dt_s;
+  const glm::vec3 raw_w = rotation_vector(q * glm::conjugate(raw_)) / dt_s;
+  raw_ = q;
   w_ += one_euro_alpha(p_.derivative_cutoff_hz, dt_s) * (raw_w - w_);
   const float cutoff = p_.min_cutoff_hz + p_.beta * glm::length(w_);
   q_ = glm::normalize(glm::slerp(q_, q, one_euro_alpha(cutoff, dt_s)));

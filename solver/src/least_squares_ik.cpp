@@ -108,6 +108,7 @@ LeastSquaresIkContext::LeastSquaresIkContext(const Skeleton& skeleton, int max_d
   normal0_.resize(static_cast<size_t>(cols) * cols);
   rhs0_.resize(cols);
   saved_.resize(cols);
+  columns_.resize(cols);
   chain_mask_.resize(max_targets);
 }
 
@@ -157,7 +158,9 @@ bool LeastSquaresIkJob::Run() {
     return sum;
   };
   float cost = objective();
-  float lambda = std::max(damping, 1e-4f);
+  // The damping carries over from the last solve with this context: after a hard frame the
+  // next one starts with the step size that worked, instead of re-learning it.
+  float lambda = std::clamp(c.lambda_, std::max(damping, 1e-4f), 1e3f);
   bool rebuild = true;
   float* a0 = c.normal0_.data();
   float* g0 = c.rhs0_.data();
@@ -199,18 +202,34 @@ bool LeastSquaresIkJob::Run() {
           if (rot_row >= 0) put(rot_row, tg.rotation_weight, col, axes[d]);
         }
       }
-      // Normal equations.
-      for (int i = 0; i < cols; ++i) {
-        for (int k = 0; k <= i; ++k) {
-          float sum = 0;
-          for (int r = 0; r < rows; ++r) sum += jac[r * cols + i] * jac[r * cols + k];
-          a0[i * cols + k] = sum;
-          a0[k * cols + i] = sum;
+      // Normal equations, accumulated row by row over each target's non-zero columns only (a
+      // hand row touches the spine and its arm, not the other arm).
+      std::fill(a0, a0 + static_cast<size_t>(cols) * cols, 0.0f);
+      std::fill(g0, g0 + cols, 0.0f);
+      row = 0;
+      for (size_t t = 0; t < targets.size(); ++t) {
+        int* list = c.columns_.data();
+        int n_list = 0;
+        for (int k = 0; k < root_cols; ++k) list[n_list++] = k;
+        for (size_t k = 0; k < dofs.size(); ++k)
+          if (c.chain_mask_[t] >> s.dof(dofs[k]).joint & 1u) list[n_list++] = root_cols + static_cast<int>(k);
+        const int n_rows = (targets[t].position_weight > 0 ? 3 : 0) + (targets[t].rotation_weight > 0 ? 3 : 0);
+        for (int r = row; r < row + n_rows; ++r) {
+          const float* jr = jac + static_cast<size_t>(r) * cols;
+          const float res = c.residual_[r];
+          for (int ii = 0; ii < n_list; ++ii) {
+            const int i = list[ii];
+            const float vi = jr[i];
+            if (vi == 0.0f) continue;
+            g0[i] += vi * res;
+            float* ai = a0 + static_cast<size_t>(i) * cols;
+            for (int kk = 0; kk <= ii; ++kk) ai[list[kk]] += vi * jr[list[kk]];
+          }
         }
-        float g = 0;
-        for (int r = 0; r < rows; ++r) g += jac[r * cols + i] * c.residual_[r];
-        g0[i] = g;
+        row += n_rows;
       }
+      for (int i = 0; i < cols; ++i)
+        for (int k = 0; k < i; ++k) a0[k * cols + i] = a0[i * cols + k];
       for (size_t k = 0; k < dofs.size(); ++k) {
         const int col = root_cols + static_cast<int>(k);
         const int d = dofs[k];
@@ -261,7 +280,7 @@ bool LeastSquaresIkJob::Run() {
       cost = trial;
       lambda = std::max(std::max(damping, 1e-4f), lambda * 0.3f);
       rebuild = true;
-      if (biggest < step_tolerance || gain < 1e-7f * (1.0f + cost)) break;
+      if (biggest < step_tolerance || gain < 1e-4f * cost) break;
     } else {
       p.root_position_m = saved_root_pos;
       p.root_orientation = saved_root_rot;
@@ -270,6 +289,7 @@ bool LeastSquaresIkJob::Run() {
       if (lambda > 1e3f || biggest < step_tolerance) break;
     }
   }
+  c.lambda_ = lambda;
   evaluate(s, p, world, axes);
   const int rows = fill_residual(targets, world, c.residual_);
   float sum = 0;

@@ -220,6 +220,22 @@ TEST(MeshIo, WriteMeshRejectsUnknownExtensionAndBadMesh) {
   EXPECT_FALSE(write_mesh(overlap, temp_path("overlap.ply")));
 }
 
+TEST(MeshIo, PartNamesThatAreNotUtf8StillMakeValidGlb) {
+  Mesh m = two_part_cube();
+  m.parts[0].name = "bad\xff\xfename";
+  auto bytes = encode_glb(m);
+  ASSERT_TRUE(bytes);
+  auto back = parse_glb(*bytes);
+  ASSERT_TRUE(back) << back.error().what();
+  EXPECT_EQ(back->parts[0].name, "bad\xEF\xBF\xBD\xEF\xBF\xBDname");  // U+FFFD twice
+  // OBJ and PLY keep the bytes (minus control characters, which would break their lines).
+  m.parts[1].name = "two\nlines";
+  auto obj = parse_obj(*encode_obj(m));
+  ASSERT_TRUE(obj);
+  EXPECT_EQ(obj->parts[0].name, "bad\xff\xfename");
+  EXPECT_EQ(obj->parts[1].name, "two_lines");
+}
+
 TEST(MeshIo, WriteMeshFillsPartGapsWithAMeshPart) {
   Mesh m = two_part_cube();
   m.parts = {{"middle", 4, 4}};

@@ -134,8 +134,15 @@ TEST(RunSubscribe, SubscriberGetsModelAndFramesFromMimicRun) {
   EXPECT_LE(j["frame_bytes_mean"].get<double>(), 200.0);
   EXPECT_GT(j["fps"].get<double>(), 30.0);  // the default source runs at 90 Hz
   EXPECT_GE(j["latency_ms_p50"].get<double>(), 0.0);
+  // Stage timings on request, while running.
+  run.signal(SIGUSR1);
+  EXPECT_EQ(run.wait(0.5), -1);  // still running
   run.signal(SIGINT);
   EXPECT_EQ(run.wait(10.0), 0) << run.err();
+  EXPECT_NE(run.err().find("stopped after"), std::string::npos);
+  size_t json_lines = 0;
+  for (size_t p = run.out().find("\n{"); p != std::string::npos; p = run.out().find("\n{", p + 1)) json_lines++;
+  EXPECT_EQ(json_lines, 2u) << run.out();  // one on SIGUSR1, one at exit
   const auto r = last_json(run.out());
   ASSERT_FALSE(r.is_discarded()) << run.out();
   EXPECT_GT(r["frames"].get<int>(), 0);

@@ -143,6 +143,34 @@ TEST(DevicesCli, ListsAndSaysWhenNothingIsConnected) {
   EXPECT_EQ(none, text.find("No 6-DOF input device or USB-serial adapter is connected.") != std::string::npos);
 }
 
+TEST(DevicesCli, WatchSeesASerialPortArriveAndLeave) {
+  const std::string mimic = mimic::test::mimic_binary();
+  const auto dir = std::filesystem::temp_directory_path() / ("mimic-watch-" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  Child watch({mimic, "devices", "--watch", "--serial-dir", dir.string(), "--interval", "0.1", "--duration", "4"});
+  // Wait for the initial listing, then plug a "USB-serial adapter" in: a virtual Spaceball's pty
+  // behind a ttyUSB name; then unplug it.
+  std::string l;
+  while ((l = watch.line()).find("Watching (") == std::string::npos) ASSERT_FALSE(l.empty() && !watch.out);
+  Child sim({mimic, "sim", "spaceball"});
+  const std::string path = sim.line();
+  ASSERT_EQ(path.rfind("/dev/pts/", 0), 0u) << path;
+  std::filesystem::create_symlink(path, dir / "ttyUSB5");
+  std::string arrived;
+  while ((l = watch.line()).find(" + ") == std::string::npos) ASSERT_FALSE(l.empty());
+  arrived = l;
+  EXPECT_NE(arrived.find("+ serial " + (dir / "ttyUSB5").string() + " (USB serial, " + path + ")"), std::string::npos)
+      << arrived;
+  ::kill(sim.pid, SIGTERM);
+  EXPECT_EQ(sim.wait(), 0);
+  std::string departed;
+  while ((l = watch.line()).find(" - ") == std::string::npos) ASSERT_FALSE(l.empty());
+  departed = l;
+  EXPECT_NE(departed.find("- serial " + (dir / "ttyUSB5").string()), std::string::npos) << departed;
+  EXPECT_EQ(watch.wait(), 0);
+  std::filesystem::remove_all(dir);
+}
+
 TEST(DevicesCli, WatchStopsAfterDurationAndReadsMagellan) {
   const std::string mimic = mimic::test::mimic_binary();
   Child w({mimic, "devices", "--watch", "--interval", "0.2", "--duration", "0.6"});

@@ -175,6 +175,74 @@ TEST(Server, SubscriberResumesWithoutTheModelAgain) {
   ASSERT_TRUE(pump({sub.get(), pub.get()}, [&] { return sub->avatars().begin()->second.last.sequence == 20; }));
 }
 
+TEST(Server, SubscriberReconnectsToARestartedServer) {
+  uint16_t port = 0;
+  std::unique_ptr<Client> sub;
+  {
+    ServerThread st;
+    port = st.port();
+    st.call([&] { return *st.server().add_avatar("old", kDofs, "old model"); });
+    sub = subscriber(st);
+    ASSERT_TRUE(pump({sub.get()}, [&] { return sub->avatars().size() == 1; }));
+  }
+  ServerOptions opt;
+  opt.listen = "127.0.0.1:" + std::to_string(port);
+  ServerThread st(opt);
+  st.call([&] { return *st.server().add_avatar("new-a", kDofs, "a"); });
+  st.call([&] { return *st.server().add_avatar("new-b", kDofs, "b"); });
+  ASSERT_TRUE(pump({sub.get()}, [&] { return sub->avatars().size() == 2 && sub->stats().reconnects >= 1; }));
+  for (const auto& [id, a] : sub->avatars()) EXPECT_NE(a.name, "old");
+  EXPECT_EQ(sub->stats().resumed, 0u);
+}
+
+// A publisher whose host went away keeps its loop running: reconnecting never blocks it.
+TEST(Server, ReconnectingDoesNotBlockTheCaller) {
+  std::unique_ptr<Client> pub;
+  {
+    ServerThread st;
+    pub = publisher(st);
+    ASSERT_TRUE(pub->add_avatar("p", kDofs, "m"));
+    pump_for({pub.get()}, 0.05);
+  }
+  for (int i = 0; i < 10; ++i) {
+    const auto t0 = Clock::now();
+    EXPECT_TRUE(pub->publish_pose(0, {0, 0, uint32_t(i + 1), 0}, pose_with(0.1f)));
+    EXPECT_TRUE(pub->run_until(Clock::now() + std::chrono::milliseconds(20)));
+    // Bound far above the 20 ms asked for, far below the 3 s connect timeout.
+    EXPECT_LT(std::chrono::duration<double>(Clock::now() - t0).count(), 1.0);
+  }
+  EXPECT_GE(pub->stats().reconnects, 1u);
+  EXPECT_FALSE(pub->connected());
+}
+
+TEST(Server, ReusedAvatarIdStillSendsTheNewModelOnResume) {
+  ServerThread st;
+  const uint16_t first = st.call([&] { return *st.server().add_avatar("first", kDofs, "first model"); });
+  auto sub = subscriber(st);
+  ASSERT_TRUE(pump({sub.get()}, [&] { return sub->avatars().size() == 1; }));
+  sub->drop_connection();
+  st.call([&] { st.server().remove_avatar(first); });
+  const uint16_t second = st.call([&] { return *st.server().add_avatar("second", kDofs, "second model"); });
+  EXPECT_EQ(second, first);  // the id is reused
+  ASSERT_TRUE(pump({sub.get()}, [&] {
+    return sub->stats().resumed == 1 && sub->avatars().size() == 1 && sub->avatars().begin()->second.name == "second";
+  }));
+  EXPECT_EQ(sub->avatars().begin()->second.model_bytes, "second model");
+}
+
+TEST(Server, ResumedSubscriberHearsOfAvatarsThatLeft) {
+  ServerThread st;
+  const uint16_t gone = st.call([&] { return *st.server().add_avatar("gone", kDofs, "g"); });
+  st.call([&] { return *st.server().add_avatar("stays", kDofs, "s"); });
+  auto sub = subscriber(st);
+  ASSERT_TRUE(pump({sub.get()}, [&] { return sub->avatars().size() == 2; }));
+  sub->drop_connection();
+  st.call([&] { st.server().remove_avatar(gone); });
+  ASSERT_TRUE(pump({sub.get()}, [&] { return sub->stats().resumed == 1 && sub->avatars().size() == 1; }));
+  EXPECT_EQ(sub->avatars().begin()->second.name, "stays");
+  EXPECT_EQ(sub->stats().models, 2u);  // nothing re-sent
+}
+
 TEST(Server, PublisherResumeKeepsTheAvatar) {
   ServerThread st;
   auto pub = publisher(st);

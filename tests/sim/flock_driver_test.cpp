@@ -264,6 +264,22 @@ TEST(FlockDriver, SilentDeviceGoesStaleThenReconnects) {
   EXPECT_GE(after.size(), 8u);
 }
 
+TEST(FlockDriver, PortThatVanishesIsReportedDisconnected) {
+  Rig r = start(test::fast_sim(1));
+  ASSERT_GE(test::collect(*r.driver, 3).size(), 3u);
+  r.sim.reset();  // the pty goes away, like a USB adapter pulled out
+  const auto until = std::chrono::steady_clock::now() + 2s;
+  while (std::chrono::steady_clock::now() < until && r.driver->status().state != DeviceState::disconnected)
+    std::this_thread::sleep_for(5ms);
+  const DeviceStatus st = r.driver->status();
+  EXPECT_EQ(st.state, DeviceState::disconnected);
+  EXPECT_FALSE(st.last_error.empty());
+  std::vector<SensorSample> buf(16);
+  r.driver->poll(buf);
+  EXPECT_EQ(r.driver->poll(buf), 0u);
+  r.driver->stop();  // returns promptly while the thread is retrying
+}
+
 TEST(FlockDriver, ResetDeviceIsReinitialised) {
   Rig r = start(test::fast_sim(3), [](FlockConfig& c) { c.birds = 3; });
   ASSERT_GE(test::collect(*r.driver, 6).size(), 6u);

@@ -1,6 +1,10 @@
 // The virtual Magellan engine byte by byte, then our driver against it over a real pty.
 #include "mimic/sim/virtual_magellan.h"
 
+#include <fcntl.h>
+#include <termios.h>
+#include <unistd.h>
+
 #include <gtest/gtest.h>
 
 #include <chrono>
@@ -142,7 +146,27 @@ TEST(VirtualMagellan, DriverOverPty) {
   const auto line = (*server)->line_settings();
   EXPECT_EQ(line.baud, 9600);
   EXPECT_EQ(line.stop_bits, 2);
+  EXPECT_TRUE(line.rtscts);
+  EXPECT_EQ((*server)->stats().line_mismatches, 0u);
   source->stop();
+}
+
+TEST(VirtualMagellan, HostWithTheWrongLineIsNoticed) {
+  // VRPN opens a Magellan 8N1 without handshake; the simulator notes it (and still answers).
+  auto server = mimic::sim::start_virtual_magellan({});
+  ASSERT_TRUE(server);
+  const int fd = ::open((*server)->path().c_str(), O_RDWR | O_NOCTTY);
+  ASSERT_GE(fd, 0);
+  termios t{};
+  ASSERT_EQ(::tcgetattr(fd, &t), 0);
+  ::cfmakeraw(&t);
+  ::cfsetspeed(&t, B19200);
+  t.c_cflag &= ~static_cast<tcflag_t>(CSTOPB | CRTSCTS);
+  ASSERT_EQ(::tcsetattr(fd, TCSANOW, &t), 0);
+  ASSERT_EQ(::write(fd, "vQ\r", 3), 3);
+  ASSERT_TRUE(wait_until([&] { return (*server)->stats().bytes_out > 0; }, 3.0));
+  EXPECT_EQ((*server)->stats().line_mismatches, 1u);
+  ::close(fd);
 }
 
 TEST(VirtualMagellan, DriverReconnectsWhenDeviceComesBack) {

@@ -276,6 +276,7 @@ TEST_P(SpaceballOverPty, DriverReceivesWhatTheDeviceSends) {
   EXPECT_EQ(line.baud, 9600);
   EXPECT_EQ(line.stop_bits, 1);
   EXPECT_FALSE(line.rtscts);
+  EXPECT_EQ((*server)->stats().line_mismatches, 0u);
   source->stop();
 }
 
@@ -339,6 +340,20 @@ TEST(SpaceballOverPtyRecovery, DriverResyncsOnLineNoiseAndLostBytes) {
     return frames >= 30 && source->status().resyncs >= 5;
   }, 8.0)) << frames << " frames, " << source->status().resyncs << " resyncs";
   EXPECT_EQ(source->status().reconnects, 0u);
+  source->stop();
+}
+
+TEST(SpaceballOverPtyRecovery, PowerUpIsTheHostOpeningThePort) {
+  auto cfg = fast_config(sb::Model::sb3003);
+  auto server = mimic::sim::start_virtual_spaceball(cfg);
+  ASSERT_TRUE(server);
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  EXPECT_EQ((*server)->stats().host_opens, 0u);
+  EXPECT_EQ((*server)->stats().bytes_out, 0u);  // no banner into an unopened port
+  auto source = mimic::devices::make_spaceball_source(fast_driver((*server)->path()));
+  ASSERT_TRUE(source->start());
+  ASSERT_TRUE(wait_until([&] { return source->status().state == DeviceState::streaming; }, 5.0));
+  EXPECT_EQ((*server)->stats().host_opens, 1u);
   source->stop();
 }
 

@@ -2,6 +2,7 @@
 
 #include <fcntl.h>
 #include <sys/stat.h>
+#include <sys/sysmacros.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -11,6 +12,7 @@
 #include <filesystem>
 #include <fstream>
 #include <set>
+#include <sstream>
 #include <thread>
 
 #ifdef MIMIC_WITH_LIBUSB
@@ -53,15 +55,28 @@ std::string read_small_file(const std::string& path) {
   return s;
 }
 
-// True when the node at `path` is a character device that opens as a terminal.
-bool answers_as_tty(const std::string& path) {
+// True when `path` is a character device that a serial or pseudo-terminal slave driver owns,
+// according to /proc/tty/drivers. The port is never opened: opening a tty raises DTR and RTS,
+// and RTS holds a Flock of Birds in reset.
+bool is_serial_node(const std::string& path) {
   struct stat st {};
   if (::stat(path.c_str(), &st) != 0 || !S_ISCHR(st.st_mode)) return false;
-  const int fd = ::open(path.c_str(), O_RDWR | O_NOCTTY | O_NONBLOCK | O_CLOEXEC);
-  if (fd < 0) return errno == EACCES || errno == EBUSY;  // exists but is not ours to open now
-  const bool tty = ::isatty(fd) != 0;
-  ::close(fd);
-  return tty;
+  const unsigned major = ::major(st.st_rdev), minor = ::minor(st.st_rdev);
+  std::ifstream drivers("/proc/tty/drivers");
+  std::string line;
+  while (std::getline(drivers, line)) {
+    std::istringstream in(line);
+    std::string name, node, range, type;
+    unsigned maj = 0;
+    if (!(in >> name >> node >> maj >> range >> type)) continue;
+    if (maj != major || (type != "serial" && type != "pty:slave")) continue;
+    unsigned lo = 0, hi = 0;
+    const auto dash = range.find('-');
+    lo = static_cast<unsigned>(std::stoul(range.substr(0, dash)));
+    hi = dash == std::string::npos ? lo : static_cast<unsigned>(std::stoul(range.substr(dash + 1)));
+    if (minor >= lo && minor <= hi) return true;
+  }
+  return false;
 }
 
 std::string kind_of(const std::string& node_name) {
@@ -109,7 +124,7 @@ std::vector<SerialPortInfo> list_serial_ports(const SerialScan& scan) {
         const std::string type = read_small_file("/sys/class/tty/" + node + "/type");
         if (type == "0") continue;
       }
-      if (!answers_as_tty(target)) continue;
+      if (!is_serial_node(target)) continue;
       if (seen.insert(path).second) out.push_back({path, target, kind_of(name)});
     }
   }
@@ -117,7 +132,7 @@ std::vector<SerialPortInfo> list_serial_ports(const SerialScan& scan) {
     for (const auto& e : fs::directory_iterator(dir, ec)) {
       std::error_code ec2;
       const std::string target = fs::canonical(e.path(), ec2).string();
-      if (ec2 || !answers_as_tty(target)) continue;
+      if (ec2 || !is_serial_node(target)) continue;
       const std::string path = e.path().string();
       if (seen.insert(path).second) {
         out.push_back({path, target, kind_of(fs::path(target).filename().string())});

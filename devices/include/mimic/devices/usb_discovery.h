@@ -61,8 +61,9 @@ struct SerialScan {
   std::vector<std::string> link_dirs = {"/dev/serial/by-id"};  // every entry, whatever its name
 };
 
-// Only ports that exist, are character devices and answer as a terminal; ttyS ports whose
-// UART is absent (sysfs type 0, or EIO on open) are left out.
+// Only character devices a serial (or pseudo-terminal slave) driver owns, by /proc/tty/drivers;
+// ttyS ports without a UART (sysfs type 0) are left out. Ports are never opened, since opening
+// raises DTR/RTS and RTS resets a Flock of Birds.
 std::vector<SerialPortInfo> list_serial_ports(const SerialScan& scan = {});
 
 struct DeviceInventory {

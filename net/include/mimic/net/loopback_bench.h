@@ -26,7 +26,9 @@ struct FanoutResult {
   uint64_t frames_dropped = 0;    // server latest-wins drops
   uint64_t lost = 0;              // sequence gaps seen by subscribers
   double tick_p50_us = 0, tick_p99_us = 0;  // publish + fan-out of one tick on the server thread
-  bool kept_up = false;           // every tick on time and no frame lost
+  double achieved_rate_hz = 0;    // ticks / time from the first tick to the last frame sent
+  uint64_t late_ticks = 0;        // ticks started more than one period after they were due
+  bool kept_up = false;           // nothing lost or dropped, and at least 99% of the rate
 };
 
 // `subscribers` raw TCP subscribers (read by one extra thread) and `avatars` local avatars

@@ -40,6 +40,17 @@ class SerialDevice {
   // Earliest time more output may become available; a large value when none is queued.
   double next_output_s() const;
 
+  // The line the real device runs. PtyServer compares the host's termios with it when the host
+  // first writes after opening the port, and counts and logs a mismatch: a real device would
+  // read garbage or lose bytes, a pty carries them regardless.
+  struct ExpectedLine {
+    int baud = 9600;
+    int min_stop_bits = 1;
+    int max_stop_bits = 2;
+    bool rtscts = false;
+  };
+  const ExpectedLine& expected_line() const { return expected_line_; }
+
   // A switched-off device: input is ignored and nothing is sent until unmuted.
   void set_muted(bool muted) { muted_ = muted; }
   bool muted() const { return muted_; }
@@ -49,6 +60,7 @@ class SerialDevice {
   void send(std::span<const uint8_t> bytes, double at_s);
   void send(std::string_view text, double at_s);
   void drop_output();
+  void expect_line(ExpectedLine line) { expected_line_ = line; }
 
  private:
   struct Chunk {
@@ -59,12 +71,14 @@ class SerialDevice {
   double byte_s_;
   double line_free_s_ = 0;
   bool muted_ = false;
+  ExpectedLine expected_line_;
 };
 
 struct PtyServeStats {
   uint64_t bytes_in = 0;
   uint64_t bytes_out = 0;
   uint64_t host_opens = 0;
+  uint64_t line_mismatches = 0;  // host line settings that differ from the device's
 };
 
 // Serves a SerialDevice on a new pty from its own thread. Time t = 0 is the moment start()
@@ -88,6 +102,7 @@ class PtyServer {
   void run();
   double now_s() const;
   void log(const char* dir, std::span<const uint8_t> bytes, double t);
+  void check_line(double t);
 
   Pty pty_;
   std::unique_ptr<SerialDevice> device_;

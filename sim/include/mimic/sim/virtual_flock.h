@@ -59,6 +59,10 @@ struct VirtualFlockConfig {
   // Called on the simulator thread right after a record's bytes were written to the pty, with
   // the host monotonic time (seconds, steady_clock) and the bird's address. For latency tests.
   std::function<void(double host_time_s, int address, std::span<const uint8_t> record)> on_record_written;
+  // Called on the simulator thread with every chunk of bytes that crossed the line: to_host =
+  // true for what the unit sent (as written to the pty), false for what it received. For byte
+  // logs; host monotonic time in seconds.
+  std::function<void(double host_time_s, bool to_host, std::span<const uint8_t> bytes)> on_bytes;
 };
 
 struct VirtualFlockStats {

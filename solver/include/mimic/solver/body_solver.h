@@ -47,7 +47,7 @@ struct SolverOptions {
   float rotation_weight = 10.0f;   // per radian
   float prior_weight = 0.3f;       // pull of the trunk towards the relaxed posture, per radian
   float damping = 0.05f;           // Levenberg–Marquardt λ
-  int iterations = 8;              // least-squares iterations per frame at most
+  int iterations = 4;              // least-squares steps per frame at most (warm starts carry on)
 };
 
 class SolverModel {

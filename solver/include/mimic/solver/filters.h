@@ -51,7 +51,7 @@ class OneEuroVec3 {
 
  private:
   OneEuroParams p_;
-  glm::vec3 x_{0.0f}, dx_{0.0f};
+  glm::vec3 x_{0.0f}, dx_{0.0f}, raw_{0.0f};
   bool primed_ = false;
 };
 
@@ -66,14 +66,14 @@ class OneEuroQuat {
 
  private:
   OneEuroParams p_;
-  glm::quat q_{1, 0, 0, 0};
+  glm::quat q_{1, 0, 0, 0}, raw_{1, 0, 0, 0};
   glm::vec3 w_{0.0f};
   bool primed_ = false;
 };
 
 struct SensorFilterConfig {
-  OneEuroParams position{1.5f, 4.0f, 1.0f};   // beta per m/s
-  OneEuroParams rotation{1.5f, 0.5f, 1.0f};   // beta per rad/s
+  OneEuroParams position{3.0f, 10.0f, 1.0f};  // beta per m/s
+  OneEuroParams rotation{3.0f, 1.0f, 1.0f};   // beta per rad/s
   float predict_s = 0.0f;                     // extrapolation horizon
   float max_speed_m_s = 12.0f;                // faster than any limb moves
   float max_angular_speed_deg_s = 3000.0f;

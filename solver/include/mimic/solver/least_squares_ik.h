@@ -50,6 +50,8 @@ class LeastSquaresIkContext {
   std::vector<float> rhs_;
   std::vector<float> normal0_, rhs0_;      // undamped system, kept across rejected steps
   std::vector<float> saved_;               // DOF values before a trial step
+  std::vector<int> columns_;               // a target's non-zero Jacobian columns
+  float lambda_ = 0;                       // damping the last solve ended with
   std::vector<uint64_t> chain_mask_;       // per target: bit j set when joint j moves it
 };
 
@@ -63,7 +65,8 @@ struct LeastSquaresIkJob {
   float prior_weight = 0.05f;          // pull towards prior_rad, per radian
   float damping = 0.02f;               // smallest λ (grows on rejected steps)
   int max_iterations = 10;
-  float step_tolerance = 1e-4f;        // stop when no unknown moves more than this
+  float step_tolerance = 5e-4f;        // stop when no unknown moves more than this (or the
+                                       // objective drops by less than 0.01 %)
   LeastSquaresIkContext* context = nullptr;
   // [in, out] warm start in, solution (inside the joint limits) out
   avatar::Pose* pose = nullptr;

@@ -1,0 +1,126 @@
+// End-to-end: the built `mimic calibrate` and `mimic eval-solver`.
+#include <gtest/gtest.h>
+
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "test_data.h"
+
+namespace {
+
+struct Outcome {
+  int status = -1;
+  std::string out;  // stdout
+  std::string all;  // stdout and stderr
+};
+
+Outcome run_mimic(const std::string& args, bool split = false) {
+  Outcome r;
+  const std::string cmd = "'" + mimic::test::mimic_binary() + "' " + args + (split ? " 2>/dev/null" : " 2>&1");
+  FILE* p = ::popen(cmd.c_str(), "r");
+  if (!p) return r;
+  char buf[4096];
+  size_t n;
+  while ((n = std::fread(buf, 1, sizeof buf, p)) > 0) r.out.append(buf, n);
+  const int st = ::pclose(p);
+  r.status = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+  r.all = r.out;
+  return r;
+}
+
+std::string temp_path(const std::string& name) {
+  return (std::filesystem::temp_directory_path() / (name + "." + std::to_string(::getpid()))).string();
+}
+
+TEST(CalibrateCli, StandingStillWritesACalibrationTheSolverLoads) {
+  const std::string out = temp_path("calib.json");
+  std::filesystem::remove(out);
+  // The idle body sways a little: a tolerance wide enough for it.
+  const Outcome r = run_mimic("calibrate --source 'sim:idle?sensors=6' --out " + out +
+                              " --countdown 0 --seconds 0.5 --max-motion-deg 15");
+  ASSERT_EQ(r.status, 0) << r.all;
+  EXPECT_NE(r.all.find("stand still"), std::string::npos) << r.all;
+  EXPECT_NE(r.all.find("sensors 6/6"), std::string::npos) << r.all;
+  EXPECT_NE(r.all.find("wrote " + out), std::string::npos) << r.all;
+  ASSERT_TRUE(std::filesystem::exists(out));
+  std::ifstream in(out);
+  const auto j = nlohmann::json::parse(in);
+  EXPECT_EQ(j["format"], "mimic-calibration");
+  EXPECT_EQ(j["sensors"].size(), 6u);
+  EXPECT_GT(j["height_m"].get<double>(), 1.4);
+  EXPECT_LT(j["height_m"].get<double>(), 2.0);
+  std::filesystem::remove(out);
+}
+
+TEST(CalibrateCli, RefusesAMovingWearerAndAMissingSensorAndWritesNothing) {
+  const std::string out = temp_path("calib_refused.json");
+  std::filesystem::remove(out);
+  Outcome r = run_mimic("calibrate --source 'sim:walk?sensors=6' --out " + out + " --countdown 0 --seconds 0.3");
+  EXPECT_EQ(r.status, 1) << r.all;
+  EXPECT_NE(r.all.find("wearer moved"), std::string::npos) << r.all;
+  EXPECT_FALSE(std::filesystem::exists(out));
+  // Layout 11 on a source with 6 sensors: the five others are missing, by name.
+  r = run_mimic("calibrate --source 'sim:idle?sensors=6' --layout 11 --out " + out + " --countdown 0 --seconds 0.3");
+  EXPECT_EQ(r.status, 1) << r.all;
+  EXPECT_NE(r.all.find("no data from l_upper_arm"), std::string::npos) << r.all;
+  EXPECT_FALSE(std::filesystem::exists(out));
+}
+
+TEST(CalibrateCli, UsageErrors) {
+  EXPECT_EQ(run_mimic("calibrate --out x.json").status, 2);
+  EXPECT_EQ(run_mimic("calibrate --source sim:idle").status, 2);
+  EXPECT_EQ(run_mimic("calibrate --source sim:idle --out x.json --pose sideways").status, 2);
+  EXPECT_EQ(run_mimic("calibrate --source sim:idle --out x.json --layout 7").status, 2);
+  const Outcome help = run_mimic("calibrate --help");
+  EXPECT_EQ(help.status, 0);
+  for (const char* word : {"--source", "--out", "--layout", "--pose", "--seconds", "--countdown", "--max-motion-cm",
+                           "--max-motion-deg", "--floor-y", "T-pose", "refused"})
+    EXPECT_NE(help.out.find(word), std::string::npos) << word;
+}
+
+TEST(EvalSolverCli, PrintsOneJsonObjectPerLayoutWithTheRequiredKeys) {
+  const std::string clip = mimic::test::clip_path("07_01");
+  if (!std::filesystem::exists(clip)) GTEST_SKIP() << "shared data not found";
+  const Outcome r = run_mimic("eval-solver --bvh " + clip + " --sensors 3,6 --frames 120 --json", true);
+  ASSERT_EQ(r.status, 0) << r.out;
+  std::istringstream lines(r.out);
+  std::string line;
+  int objects = 0;
+  while (std::getline(lines, line)) {
+    const auto j = nlohmann::json::parse(line);
+    for (const char* key : {"clip", "sensors", "frames", "mpjpe_cm", "mpjre_deg", "end_effector_mm", "jitter",
+                            "jitter_definition", "solve_us_p50", "solve_us_p99"})
+      EXPECT_TRUE(j.contains(key)) << key;
+    EXPECT_EQ(j["clip"], "07_01");
+    EXPECT_EQ(j["frames"], 120);
+    EXPECT_GT(j["mpjpe_cm"].get<double>(), 0.0);
+    EXPECT_LT(j["mpjpe_cm"].get<double>(), objects == 0 ? 20.0 : 10.0);
+    EXPECT_EQ(j["sensors"], objects == 0 ? "3" : "6");
+    ++objects;
+  }
+  EXPECT_EQ(objects, 2);
+}
+
+TEST(EvalSolverCli, TableNamesTheJointSetAndJitterAndRejectsBadOptions) {
+  const std::string clip = mimic::test::clip_path("07_01");
+  if (!std::filesystem::exists(clip)) GTEST_SKIP() << "shared data not found";
+  const Outcome r = run_mimic("eval-solver --bvh " + clip + " --sensors 11 --frames 60 --noise 2,1");
+  ASSERT_EQ(r.status, 0) << r.all;
+  EXPECT_NE(r.all.find("joint set: every joint but the toes"), std::string::npos) << r.all;
+  EXPECT_NE(r.all.find("jitter = mean |p[t+1]-2p[t]+p[t-1]|"), std::string::npos) << r.all;
+  EXPECT_NE(r.all.find("noise 2.00 mm / 1.00 deg"), std::string::npos) << r.all;
+  EXPECT_EQ(run_mimic("eval-solver --bvh " + clip + " --sensors 5").status, 2);
+  EXPECT_EQ(run_mimic("eval-solver --bvh " + clip + " --noise 1").status, 2);
+  EXPECT_EQ(run_mimic("eval-solver").status, 2);
+  EXPECT_EQ(run_mimic("eval-solver --bvh /nonexistent.bvh").status, 1);
+}
+
+}  // namespace

@@ -1,0 +1,54 @@
+// The solver on shared CMU clips with simulated sensors (1 mm / 0.5° noise, straps askew):
+// loose bounds that catch regressions; the measured figures are in bench/solver and
+// `mimic eval-solver`.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+
+#include "clip_eval.h"
+#include "mimic/avatar/bvh.h"
+#include "test_data.h"
+
+namespace mimic::solver {
+namespace {
+
+const avatar::RetargetedClip* load(const std::string& id) {
+  static std::map<std::string, std::unique_ptr<avatar::RetargetedClip>> cache;
+  if (auto it = cache.find(id); it != cache.end()) return it->second.get();
+  auto bvh = avatar::load_bvh(test::clip_path(id));
+  if (!bvh) return nullptr;
+  auto r = avatar::retarget_bvh(*bvh);
+  if (!r) return nullptr;
+  return (cache[id] = std::make_unique<avatar::RetargetedClip>(std::move(*r))).get();
+}
+
+struct Bound {
+  const char* layout;
+  double mpjpe_cm, end_effector_mm;
+};
+
+TEST(ClipAccuracy, SimulatedSensorsOnSharedClipsStayWithinBounds) {
+  if (!std::filesystem::exists(test::clip_path("07_01"))) GTEST_SKIP() << "shared data not found";
+  const Bound bounds[] = {{"3", 16.0, 150.0}, {"6", 8.0, 30.0}, {"11", 8.0, 60.0}, {"all", 7.0, 60.0}};
+  for (const char* id : {"07_01", "13_26"}) {
+    const auto* clip = load(id);
+    ASSERT_NE(clip, nullptr) << id;
+    for (const auto& b : bounds) {
+      testing::ClipEvalConfig cfg;
+      cfg.layout = b.layout;
+      cfg.max_frames = 240;  // two seconds keep the test quick
+      const auto r = testing::evaluate_clip(*clip, cfg);
+      ASSERT_TRUE(r.error.empty()) << r.error;
+      const auto& p = r.report;
+      EXPECT_EQ(p.frames, 240);
+      EXPECT_TRUE(std::isfinite(p.mpjpe_cm) && std::isfinite(p.mpjre_deg));
+      EXPECT_LT(p.mpjpe_cm, b.mpjpe_cm) << id << " " << b.layout;
+      EXPECT_LT(p.end_effector_mm, b.end_effector_mm) << id << " " << b.layout;
+      EXPECT_LT(p.jitter_mm, p.jitter_truth_mm + 5.0) << id << " " << b.layout;  // no shaking
+    }
+  }
+}
+
+}  // namespace
+}  // namespace mimic::solver
