@@ -227,9 +227,9 @@ SolverContext::SolverContext(const SolverModel& model)
     : ls_(model.skeleton(),
           static_cast<int>(model.trunk_dofs_.size() + model.leg_dofs_.size() + model.arm_dofs_[0].size() +
                            model.arm_dofs_[1].size()),
-          static_cast<int>(model.trunk_joints_.size()) + 7) {
+          static_cast<int>(model.trunk_joints_.size()) + 9) {
   const int n = model.skeleton().joint_count();
-  targets_.reserve(model.trunk_joints_.size() + 7);
+  targets_.reserve(model.trunk_joints_.size() + 9);
   ls_dofs_.reserve(model.trunk_dofs_.size() + model.leg_dofs_.size() + model.arm_dofs_[0].size() +
                    model.arm_dofs_[1].size());
   segment_target_.resize(n);
@@ -319,7 +319,12 @@ bool SolveJob::Run() {
       if (!c.has_target_[e]) continue;
       c.targets_.push_back(IkTarget{e, c.segment_target_[e].translation, glm::quat(1, 0, 0, 0), o.position_weight, 0.0f});
       c.ls_dofs_.insert(c.ls_dofs_.end(), m.arm_dofs_[arm].begin(), m.arm_dofs_[arm].end());
-      const int clavicle = s.parent(m.chains_[arm].upper);
+      // An upper-arm sensor places the shoulder joint (through clavicle and spine) too.
+      const int upper = m.chains_[arm].upper;
+      if (c.has_target_[upper])
+        c.targets_.push_back(IkTarget{upper, c.segment_target_[upper].translation, c.segment_target_[upper].rotation,
+                                      o.position_weight, o.rotation_weight});
+      const int clavicle = s.parent(upper);
       if (c.has_target_[clavicle])
         c.targets_.push_back(IkTarget{clavicle, c.segment_target_[clavicle].translation, c.segment_target_[clavicle].rotation,
                                       o.position_weight, o.rotation_weight});
@@ -334,8 +339,10 @@ bool SolveJob::Run() {
     ls.targets = c.targets_;
     // Relaxed trunk, but no pull on the arms: their DOFs are there only to keep the hands in reach.
     std::copy(m.prior_rad_.begin(), m.prior_rad_.end(), c.prior_.begin());
+    // Shoulder and elbow move freely; the clavicle (rarely moving much) keeps its pull.
     for (int arm = 0; arm < 2; ++arm)
-      for (int d : m.arm_dofs_[arm]) c.prior_[d] = dof[d];
+      for (int d : m.arm_dofs_[arm])
+        if (s.dof(d).joint != s.parent(m.chains_[arm].upper)) c.prior_[d] = dof[d];
     // A segment with its own sensor needs no pull: its orientation is measured.
     for (int j : m.trunk_joints_)
       if (c.has_target_[j])
