@@ -228,14 +228,15 @@ Fit fit_body(const SkeletonDesc& base, const std::vector<SensorStats>& stats, co
     const float side_sign = sd == "l_" ? 1.0f : -1.0f;
     if (opt.pose == CalibrationPose::n_pose) set(sd + "shoulder_abduction", -80.0f * kPi / 180.0f);
     if (has((sd + "wrist").c_str())) {
-      const glm::vec3 a = has((sd + "shoulder").c_str()) ? mark[sd + "shoulder"] : placed((sd + "shoulder").c_str());
+      // From the fitted skeleton's own shoulder, so the fitted hand lands on the hand's mark.
+      const glm::vec3 a = placed((sd + "shoulder").c_str());
       const glm::vec3 d = glm::normalize(inv_heading * (mark[sd + "wrist"] - a));
       const float abd = std::asin(std::clamp(d.y, -1.0f, 1.0f));
       set(sd + "shoulder_abduction", abd);
       if (std::cos(abd) > 0.3f) set(sd + "shoulder_flexion", std::atan2(d.z, side_sign * d.x));
     }
     if (has((sd + "ankle").c_str())) {
-      const glm::vec3 h = has((sd + "hip").c_str()) ? mark[sd + "hip"] : placed((sd + "hip").c_str());
+      const glm::vec3 h = placed((sd + "hip").c_str());
       const glm::vec3 d = glm::normalize(inv_heading * (mark[sd + "ankle"] - h));
       set(sd + "hip_abduction", std::asin(std::clamp(side_sign * d.x, -1.0f, 1.0f)));
       set(sd + "hip_flexion", std::atan2(d.z, -d.y));
