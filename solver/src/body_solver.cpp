@@ -218,6 +218,11 @@ Result<SolverModel> SolverModel::create(Skeleton skeleton, std::vector<SensorMou
       for (int j : {ch.upper, ch.mid})
         for (int d = s.dof_begin(j); d < s.dof_end(j); ++d) m.leg_dofs_.push_back(d);
   }
+  {
+    std::vector<RigidTransform> w(s.joint_count());
+    forward_kinematics(s, s.rest_pose(), w);
+    m.head_from_root_rest_ = w[m.head_].translation - w[0].translation;
+  }
   m.prior_rad_.resize(s.dof_count());
   for (int d = 0; d < s.dof_count(); ++d) m.prior_rad_[d] = s.dof(d).rest_rad;
   return m;
@@ -301,6 +306,11 @@ bool SolveJob::Run() {
       if (glm::length(glm::vec2(forward.x, forward.z)) < 0.3f) forward = head_rot * glm::vec3(0, 1, 0);
     }
     heading_of(forward, heading);
+    if (!c.have_previous_ && c.has_target_[m.head_]) {
+      // First frame: start the root upright under the head rather than at the origin.
+      p.root_orientation = heading;
+      p.root_position_m = c.segment_target_[m.head_].translation - heading * m.head_from_root_rest_;
+    }
     c.targets_.push_back(IkTarget{0, glm::vec3(0.0f), heading, 0.0f, 0.5f * o.rotation_weight});
     bool feet = false;
     for (int leg = 2; leg < 4; ++leg) {
