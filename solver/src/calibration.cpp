@@ -202,7 +202,11 @@ Fit fit_body(const SkeletonDesc& base, const std::vector<SensorStats>& stats, co
   if (n_arm > 0) {
     const float total = prop.upper_arm_m + prop.forearm_m;
     const float k = std::clamp((arm / static_cast<float>(n_arm)) / total, 0.6f, 1.5f);
-    prop.upper_arm_m *= k, prop.forearm_m *= k;
+    // A stand-still cannot show where the elbow is along the arm; split shoulder–wrist as the
+    // anthropometric tables do (Winter: upper arm 0.186 H, forearm 0.146 H).
+    const float upper_share = 0.186f / (0.186f + 0.146f);
+    prop.upper_arm_m = k * total * upper_share;
+    prop.forearm_m = k * total * (1.0f - upper_share);
   }
   if (n_leg > 0) {
     const float total = prop.thigh_m + prop.shin_m;
