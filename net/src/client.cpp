@@ -56,19 +56,30 @@ struct Client::Impl {
   std::vector<uint8_t> out, control;
   bool writing = false;
 
-  Status open_connection(Clock::time_point deadline);
+  asio::steady_timer retry_timer{io};
+  asio::steady_timer handshake_timer{io};
+  bool connecting = false;             // a connection attempt (TCP or handshake) is under way
+  int failures = 0;                    // consecutive failed attempts
+  std::optional<Error> connect_error;  // why the last attempt failed
+
+  void start_connection();
+  void connect_failed(Errc code, std::string message);
+  void schedule_retry();
   void read();
   void on_packet(std::span<const uint8_t> p);
   void queue_control(std::span<const uint8_t> bytes) { control.insert(control.end(), bytes.begin(), bytes.end()); }
   void flush();
   void lose_connection() {
-    if (!connected) return;
+    if (!connected && !connecting) return;
     connected = false;
+    connecting = false;
     dropped = true;
     ++generation;
     boost::system::error_code ec;
     if (sock) sock->close(ec);
     writing = false;
+    handshake_timer.cancel();
+    schedule_retry();
   }
   void end(Errc code, std::string message) {
     if (!fatal) fatal = Error{code, std::move(message)};
@@ -80,7 +91,8 @@ struct Client::Impl {
   }
 };
 
-Status Client::Impl::open_connection(Clock::time_point deadline) {
+// Reconnection is asynchronous: the realtime loop that drives the client never waits for it.
+void Client::Impl::start_connection() {
   ++generation;
   const uint64_t gen = generation;
   sock.emplace(io);
@@ -89,51 +101,51 @@ Status Client::Impl::open_connection(Clock::time_point deadline) {
   control.clear();
   writing = false;
   handshake_done = false;
-  bool connect_done = false;
-  boost::system::error_code connect_ec;
-  sock->async_connect(endpoint, [&](const boost::system::error_code& ec) {
-    connect_done = true;
-    connect_ec = ec;
+  connecting = true;
+  handshake_timer.expires_after(seconds(opt.connect_timeout_s));
+  handshake_timer.async_wait([this, gen](const boost::system::error_code& ec) {
+    if (ec || gen != generation || handshake_done) return;
+    connect_failed(Errc::timeout, "no answer from " + opt.connect + " in time");
   });
-  while (!connect_done && Clock::now() < deadline) {
-    if (io.stopped()) io.restart();
-    io.run_one_until(deadline);
-  }
-  if (!connect_done || connect_ec) {
+  sock->async_connect(endpoint, [this, gen](const boost::system::error_code& ec) {
+    if (gen != generation) return;
+    if (ec) {
+      connect_failed(Errc::io_error, "cannot connect to " + opt.connect + ": " + ec.message());
+      return;
+    }
     boost::system::error_code ignore;
-    sock->close(ignore);
-    if (!connect_done) io.run_for(std::chrono::milliseconds(10));
-    return fail(connect_done ? Errc::io_error : Errc::timeout,
-                "cannot connect to " + opt.connect + ": " + (connect_done ? connect_ec.message() : "timed out"));
-  }
-  boost::system::error_code ignore;
-  sock->set_option(tcp::no_delay(true), ignore);
-  connected = true;
-  dropped = false;
+    sock->set_option(tcp::no_delay(true), ignore);
+    connected = true;
+    Hello h;
+    h.role = opt.role;
+    h.name = opt.name.substr(0, kMaxNameBytes);
+    h.secret = opt.secret;
+    h.mesh_lod = opt.mesh_lod;
+    h.capabilities = kCapPose | kCapResume | (opt.mesh_lod != kNoMesh ? uint32_t(kCapMesh) : 0u);
+    h.resume_token = token;
+    std::array<uint8_t, kMaxHelloBytes> buf{};
+    queue_control(std::span<const uint8_t>(buf.data(), encode_hello(h, buf)));
+    flush();
+    read();
+  });
+}
 
-  Hello h;
-  h.role = opt.role;
-  h.name = opt.name.substr(0, kMaxNameBytes);
-  h.secret = opt.secret;
-  h.mesh_lod = opt.mesh_lod;
-  h.capabilities = kCapPose | kCapResume | (opt.mesh_lod != kNoMesh ? uint32_t(kCapMesh) : 0u);
-  h.resume_token = token;
-  std::array<uint8_t, kMaxHelloBytes> buf{};
-  const size_t n = encode_hello(h, buf);
-  if (n == 0) return fail(Errc::invalid_argument, "name or secret too long");
-  queue_control(std::span<const uint8_t>(buf.data(), n));
-  flush();
-  read();
-  while (!handshake_done && !fatal && generation == gen && Clock::now() < deadline) {
-    if (io.stopped()) io.restart();
-    io.run_one_until(deadline);
-  }
-  if (fatal) return status();
-  if (!handshake_done) {
-    lose_connection();
-    return fail(Errc::timeout, "no answer to HELLO from " + opt.connect);
-  }
-  return {};
+void Client::Impl::connect_failed(Errc code, std::string message) {
+  connect_error = Error{code, std::move(message)};
+  failures++;
+  connected = true;  // so lose_connection tears the attempt down
+  lose_connection();
+}
+
+void Client::Impl::schedule_retry() {
+  if (!opt.reconnect || token == 0 || fatal) return;
+  // The first retry at once (a dropped connection usually comes straight back), then backing off.
+  retry_timer.expires_after(failures == 0 ? std::chrono::milliseconds(0) : std::chrono::milliseconds(250));
+  retry_timer.async_wait([this](const boost::system::error_code& ec) {
+    if (ec || !dropped || fatal || connecting) return;
+    stats.reconnects++;
+    start_connection();
+  });
 }
 
 void Client::Impl::read() {
@@ -175,6 +187,10 @@ void Client::Impl::on_packet(std::span<const uint8_t> p) {
       token = w.session_token;
       caps = w.capabilities;
       handshake_done = true;
+      connecting = false;
+      dropped = false;
+      failures = 0;
+      handshake_timer.cancel();
       if (w.resumed) stats.resumed++;
       // The server did not know us (it restarted, or the grace period ran out): the scene
       // arrives afresh, so forget the old one.
@@ -300,7 +316,9 @@ Client::Client(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) { impl_->own
 
 Client::~Client() {
   if (!impl_) return;
+  if (!impl_->fatal) impl_->fatal = Error{Errc::disconnected, "closed"};  // no reconnection now
   impl_->lose_connection();
+  impl_->retry_timer.cancel();
   impl_->io.restart();
   impl_->io.poll();
 }
@@ -323,8 +341,16 @@ Result<std::unique_ptr<Client>> Client::connect(const ClientOptions& options) {
   impl->control.reserve(4 * 1024);
   impl->scratch_pose.dof_rad.reserve(kMaxPoseDofs);
   std::unique_ptr<Client> client(new Client(std::move(impl)));
-  if (auto s = client->impl_->open_connection(Clock::now() + seconds(options.connect_timeout_s)); !s)
-    return tl::unexpected(s.error());
+  Impl& d = *client->impl_;
+  d.start_connection();
+  const auto deadline = Clock::now() + seconds(options.connect_timeout_s) + std::chrono::milliseconds(100);
+  while (!d.handshake_done && !d.fatal && !d.connect_error && Clock::now() < deadline) {
+    if (d.io.stopped()) d.io.restart();
+    d.io.run_one_until(deadline);
+  }
+  if (d.fatal) return tl::unexpected(*d.fatal);
+  if (d.connect_error) return tl::unexpected(*d.connect_error);
+  if (!d.handshake_done) return fail(Errc::timeout, "no answer from " + options.connect);
   return client;
 }
 
@@ -368,19 +394,9 @@ Status Client::publish_pose(uint8_t slot, const PoseHeader& header, const avatar
 Status Client::run_until(Clock::time_point deadline) {
   auto& d = *impl_;
   if (d.fatal) return d.status();
-  if (d.dropped) {
-    if (!d.opt.reconnect || d.token == 0) return fail(Errc::disconnected, "connection to " + d.opt.connect + " lost");
-    d.stats.reconnects++;
-    // The handshake gets its full timeout even when the caller's slice is shorter: a half-done
-    // resume would cost the server a session. (Blocking; see the header.)
-    const auto limit = Clock::now() + seconds(d.opt.connect_timeout_s);
-    if (auto s = d.open_connection(limit); !s) {
-      if (d.fatal) return s;
-      d.dropped = true;  // try again on the next call
-      return {};
-    }
-  }
-  while (Clock::now() < deadline && !d.fatal && !d.dropped) {
+  if (d.dropped && !d.connecting && (!d.opt.reconnect || d.token == 0))
+    return fail(Errc::disconnected, "connection to " + d.opt.connect + " lost");
+  while (Clock::now() < deadline && !d.fatal) {
     if (d.io.stopped()) d.io.restart();
     d.io.run_one_until(deadline);
   }

@@ -195,6 +195,26 @@ TEST(Server, SubscriberReconnectsToARestartedServer) {
   EXPECT_EQ(sub->stats().resumed, 0u);
 }
 
+// A publisher whose host went away keeps its loop running: reconnecting never blocks it.
+TEST(Server, ReconnectingDoesNotBlockTheCaller) {
+  std::unique_ptr<Client> pub;
+  {
+    ServerThread st;
+    pub = publisher(st);
+    ASSERT_TRUE(pub->add_avatar("p", kDofs, "m"));
+    pump_for({pub.get()}, 0.05);
+  }
+  for (int i = 0; i < 10; ++i) {
+    const auto t0 = Clock::now();
+    EXPECT_TRUE(pub->publish_pose(0, {0, 0, uint32_t(i + 1), 0}, pose_with(0.1f)));
+    EXPECT_TRUE(pub->run_until(Clock::now() + std::chrono::milliseconds(20)));
+    // Bound far above the 20 ms asked for, far below the 3 s connect timeout.
+    EXPECT_LT(std::chrono::duration<double>(Clock::now() - t0).count(), 1.0);
+  }
+  EXPECT_GE(pub->stats().reconnects, 1u);
+  EXPECT_FALSE(pub->connected());
+}
+
 TEST(Server, ReusedAvatarIdStillSendsTheNewModelOnResume) {
   ServerThread st;
   const uint16_t first = st.call([&] { return *st.server().add_avatar("first", kDofs, "first model"); });

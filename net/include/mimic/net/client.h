@@ -85,8 +85,8 @@ class Client {
   Status publish_pose(uint8_t slot, const PoseHeader& header, const avatar::Pose& pose);
 
   // Processes the network until `deadline`, or without blocking. An error means the session
-  // ended for good (rejected, or the connection dropped and resuming is off). After a drop,
-  // the call reconnects first, blocking up to connect_timeout_s.
+  // ended for good (rejected, or the connection dropped and resuming is off). Reconnecting
+  // after a drop happens in the background (at once, then every 250 ms) and never blocks.
   Status run_until(std::chrono::steady_clock::time_point deadline);
   Status poll();
 
