@@ -123,7 +123,9 @@ Result<BodyLandmarks> parse_makehuman_joints(std::string_view csv, float metres_
   BodyLandmarks lm;
   lm.ground_y_m = get("ground").y;
   lm.pelvis_m = get("pelvis");
-  for (const char* s : {"spine-4", "spine-3", "spine-2", "spine-1"}) lm.spine_m.push_back(get(s));
+  // Spine joints are optional (another skeleton may have fewer); spine-4 is the lowest.
+  for (const char* s : {"spine-4", "spine-3", "spine-2", "spine-1"})
+    if (auto it = joints.find(s); it != joints.end()) lm.spine_m.push_back(it->second);
   lm.neck_m = get("neck");
   lm.head_m = get("head");
   lm.head_top_m = get("head-2");
@@ -144,6 +146,35 @@ Result<BodyLandmarks> load_makehuman_joints(const std::string& csv_path, float m
   auto text = read_file(csv_path);
   if (!text) return tl::unexpected(text.error());
   return parse_makehuman_joints(*text, metres_per_unit, csv_path);
+}
+
+std::string format_landmarks_csv(const BodyLandmarks& lm, float units_per_metre) {
+  std::string out = "# Body landmarks (joint centres), MakeHuman joint names, " +
+                    std::to_string(units_per_metre) + " units per metre; +Y up, facing +Z, left +X\nname,x,y,z\n";
+  auto row = [&](const std::string& name, glm::vec3 p) {
+    char buf[160];
+    p *= units_per_metre;
+    std::snprintf(buf, sizeof buf, "%s,%.6f,%.6f,%.6f\n", name.c_str(), double(p.x), double(p.y), double(p.z));
+    out += buf;
+  };
+  row("ground", {0, lm.ground_y_m, 0});
+  row("pelvis", lm.pelvis_m);
+  // The top spine joint is spine-1, as in MakeHuman; at most four are kept.
+  const size_t n = std::min<size_t>(lm.spine_m.size(), 4);
+  for (size_t i = 0; i < n; ++i) row("spine-" + std::to_string(n - i), lm.spine_m[i]);
+  row("neck", lm.neck_m);
+  row("head", lm.head_m);
+  row("head-2", lm.head_top_m);
+  for (auto [side, limb] : {std::pair{"l-", &lm.left}, std::pair{"r-", &lm.right}}) {
+    const std::string p(side);
+    row(p + "upper-leg", limb->hip_m);
+    row(p + "knee", limb->knee_m);
+    row(p + "ankle", limb->ankle_m);
+    row(p + "shoulder", limb->shoulder_m);
+    row(p + "elbow", limb->elbow_m);
+    row(p + "hand", limb->wrist_m);
+  }
+  return out;
 }
 
 BodyLandmarks landmarks_from_skeleton(const Skeleton& s, const Pose& pose) {

@@ -349,6 +349,28 @@ TEST(Measure, PoseToMatchRecoversRandomReachablePostures) {
   }
 }
 
+TEST(Measure, LandmarkCsvRoundTrips) {
+  auto s = Skeleton::build(default_skeleton_desc());
+  ASSERT_TRUE(s);
+  const BodyLandmarks lm = landmarks_from_skeleton(*s, s->zero_pose());
+  auto back = parse_makehuman_joints(format_landmarks_csv(lm, 10.0f), 0.1f);
+  ASSERT_TRUE(back) << back.error().what();
+  EXPECT_NEAR(back->ground_y_m, lm.ground_y_m, 1e-6f);
+  ASSERT_EQ(back->spine_m.size(), 3u);
+  for (size_t i = 0; i < 3; ++i) EXPECT_LT(glm::length(back->spine_m[i] - lm.spine_m[i]), 1e-6f);
+  EXPECT_LT(glm::length(back->head_top_m - lm.head_top_m), 1e-6f);
+  EXPECT_LT(glm::length(back->left.wrist_m - lm.left.wrist_m), 1e-6f);
+  EXPECT_LT(glm::length(back->right.ankle_m - lm.right.ankle_m), 1e-6f);
+  // And MakeHuman's own landmarks survive the trip with their four spine joints in order.
+  auto mh = load_makehuman_joints(test::shared_data("mesh/makehuman_base_joints.csv"));
+  ASSERT_TRUE(mh);
+  auto mh_back = parse_makehuman_joints(format_landmarks_csv(*mh), 1.0f);
+  ASSERT_TRUE(mh_back);
+  ASSERT_EQ(mh_back->spine_m.size(), 4u);
+  EXPECT_LT(glm::length(mh_back->spine_m[0] - mh->spine_m[0]), 1e-6f);
+  EXPECT_LT(glm::length(mh_back->spine_m[3] - mh->spine_m[3]), 1e-6f);
+}
+
 TEST(Measure, LandmarksFromSkeletonStandOnTheGround) {
   auto s = Skeleton::build(default_skeleton_desc());
   ASSERT_TRUE(s);

@@ -42,11 +42,17 @@ struct BodyLandmarks {
 
 // MakeHuman joint CSV (rows `name,x,y,z`; `#` comments and a `name,x,y,z` header allowed):
 // l-upper-leg → left.hip, l-knee, l-ankle, l-shoulder, l-elbow, l-hand → left.wrist (same
-// for r-), pelvis, spine-4 … spine-1 (bottom to top), neck, head, head-2 → head_top,
-// ground → ground_y. Fails with parse_error naming the line, or not_found naming a missing joint.
+// for r-), pelvis, neck, head, head-2 → head_top, ground → ground_y, and whichever of
+// spine-4 … spine-1 (bottom to top) are present. Other rows are ignored. Fails with
+// parse_error naming the line, or not_found naming the missing joints.
 Result<BodyLandmarks> parse_makehuman_joints(std::string_view csv, float metres_per_unit = 0.1f,
                                              std::string_view source = "joints.csv");
 Result<BodyLandmarks> load_makehuman_joints(const std::string& csv_path, float metres_per_unit = 0.1f);
+
+// The same CSV form, so any landmarks (e.g. of Mimic's posed skeleton) can be saved beside a
+// mesh and measured with `mimic measure --obj … --joints …`. Up to four spine joints are kept,
+// the top one named spine-1.
+std::string format_landmarks_csv(const BodyLandmarks& landmarks, float units_per_metre = 1.0f);
 
 // Landmarks of a posed Mimic skeleton: its joints (spine_lower/mid/upper as the spine), the
 // head link's tip as head_top, and the ground 1.8 cm below the lowest joint or link tip (the
