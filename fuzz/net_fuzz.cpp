@@ -22,6 +22,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   MeshFrameHeader mesh_header;
   std::vector<glm::vec3> positions;
   uint16_t avatar = 0;
+  std::vector<SceneEntry> scene;
   for (const auto& piece : pieces) {
     const size_t n = piece[1] - piece[0];
     if (n) {
@@ -37,6 +38,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
       (void)decode_reject(p, reject);
       (void)decode_avatar_model(p, model);
       (void)decode_avatar_removed(p, avatar);
+      (void)decode_scene(p, scene);
       (void)decode_pose(p, pose_header, pose);
       (void)decode_mesh_topology(p, topology);
       (void)decode_mesh(p, mesh_header, positions);

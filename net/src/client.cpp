@@ -2,6 +2,7 @@
 
 #include "mimic/net/client.h"
 
+#include <algorithm>
 #include <array>
 #include <boost/asio.hpp>
 #include <cstring>
@@ -229,6 +230,21 @@ void Client::Impl::on_packet(std::span<const uint8_t> p) {
       stats.models++;
       stats.model_bytes += p.size();
       if (owner->on_model) owner->on_model(a);
+      return;
+    }
+    case MsgType::scene: {
+      std::vector<SceneEntry> scene;
+      if (decode_scene(p, scene) != Reject::ok) break;
+      for (auto it = avatars.begin(); it != avatars.end();) {
+        const bool listed = std::any_of(scene.begin(), scene.end(), [&](const SceneEntry& e) { return e.avatar == it->first; });
+        if (listed) {
+          ++it;
+          continue;
+        }
+        const uint16_t gone = it->first;
+        it = avatars.erase(it);
+        if (owner->on_removed) owner->on_removed(gone);
+      }
       return;
     }
     case MsgType::avatar_removed: {

@@ -173,6 +173,7 @@ size_t max_packet_bytes(uint8_t type) noexcept {
     case MsgType::bye:
     case MsgType::avatar_removed: return kMaxHelloBytes;
     case MsgType::avatar_model: return kHeaderBytes + 14 + 255 + kMaxModelBytes;
+    case MsgType::scene: return kMaxSceneBytes;
     case MsgType::pose: return kMaxDatagramBytes;
     case MsgType::mesh_topology:
     case MsgType::mesh: return kMaxMeshBytes;
@@ -254,6 +255,17 @@ size_t encode_avatar_model(const AvatarModel& m, std::span<uint8_t> out) noexcep
 size_t encode_avatar_removed(uint16_t avatar, std::span<uint8_t> out) noexcept {
   Writer w = begin(out, MsgType::avatar_removed);
   w.u16(avatar);
+  return finish(w);
+}
+
+size_t encode_scene(std::span<const SceneEntry> entries, std::span<uint8_t> out) noexcept {
+  if (entries.size() > 0xFFFF) return 0;
+  Writer w = begin(out, MsgType::scene);
+  w.u16(static_cast<uint16_t>(entries.size()));
+  for (const auto& e : entries) {
+    w.u16(e.avatar);
+    w.u32(e.revision);
+  }
   return finish(w);
 }
 
@@ -401,6 +413,20 @@ Reject decode_avatar_removed(std::span<const uint8_t> packet, uint16_t& avatar) 
   Reader r;
   if (const Reject e = open(packet, MsgType::avatar_removed, r); e != Reject::ok) return e;
   avatar = r.u16();
+  return close(r);
+}
+
+Reject decode_scene(std::span<const uint8_t> packet, std::vector<SceneEntry>& out) {
+  Reader r;
+  if (const Reject e = open(packet, MsgType::scene, r); e != Reject::ok) return e;
+  const uint16_t n = r.u16();
+  if (!r.ok) return Reject::truncated;
+  if (r.left() != 6u * n) return r.left() < 6u * n ? Reject::truncated : Reject::malformed;
+  out.resize(n);
+  for (auto& e : out) {
+    e.avatar = r.u16();
+    e.revision = r.u32();
+  }
   return close(r);
 }
 

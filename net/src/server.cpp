@@ -325,16 +325,15 @@ struct Session : std::enable_shared_from_this<Session> {
     std::array<uint8_t, 64> buf{};
     queue_control(std::span<const uint8_t>(buf.data(), encode_welcome(w, buf)));
     if (role == Role::subscriber) {
-      // A resumed subscriber may hold avatars that left while it was away.
-      for (auto it = models_known.begin(); it != models_known.end();) {
-        if (srv.avatar(it->first)) {
-          ++it;
-          continue;
-        }
-        std::array<uint8_t, 16> removed{};
-        queue_control(std::span<const uint8_t>(removed.data(), encode_avatar_removed(it->first, removed)));
-        it = models_known.erase(it);
-      }
+      // The scene as it is now: a resumed subscriber drops avatars that left while it was away
+      // (their removal may have been queued on the dead connection).
+      std::vector<SceneEntry> scene;
+      for (const auto& a : srv.avatars)
+        if (a.live) scene.push_back({a.id, a.revision});
+      for (auto it = models_known.begin(); it != models_known.end();)
+        it = srv.avatar(it->first) ? std::next(it) : models_known.erase(it);
+      std::vector<uint8_t> scene_packet(scene_packet_bytes(scene.size()));
+      queue_control(std::span<const uint8_t>(scene_packet.data(), encode_scene(scene, scene_packet)));
       // Late joiner: every model it does not hold yet, then every latest pose, at once.
       for (auto& a : srv.avatars) {
         if (!a.live) continue;

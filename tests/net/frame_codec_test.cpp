@@ -166,6 +166,17 @@ TEST(FrameCodec, ModelAndMeshRoundTrip) {
     for (int a = 0; a < 3; ++a) ASSERT_NEAR(out[i][a], pos[i][a], 2.0f / 65535.0f);
 }
 
+TEST(FrameCodec, SceneRoundTrips) {
+  std::vector<SceneEntry> in = {{1, 7}, {5, 9}, {4096, 123456}}, out;
+  Bytes b(scene_packet_bytes(in.size()));
+  ASSERT_EQ(encode_scene(in, b), b.size());
+  ASSERT_EQ(decode_scene(b, out), Reject::ok);
+  ASSERT_EQ(out.size(), 3u);
+  EXPECT_EQ(out[2].avatar, 4096);
+  EXPECT_EQ(out[2].revision, 123456u);
+  for (size_t n = 0; n < b.size(); ++n) EXPECT_NE(decode_scene(std::span<const uint8_t>(b).first(n), out), Reject::ok);
+}
+
 TEST(FrameCodec, TopologyWithIndexOutOfRangeIsMalformed) {
   MeshTopology t{4, 1, 3, {0, 1, 3}};
   Bytes b(256);
@@ -329,6 +340,8 @@ TEST(FrameCodec, RandomBytesNeverCrashDecoders) {
     MeshTopology t;
     MeshFrameHeader mh;
     std::vector<glm::vec3> pos;
+    std::vector<SceneEntry> scene;
+    ok += decode_scene(b, scene) == Reject::ok;
     ok += decode_pose(b, ph, p) == Reject::ok;
     ok += decode_hello(b, h) == Reject::ok;
     ok += decode_avatar_model(b, m) == Reject::ok;

@@ -37,12 +37,22 @@ avatar::Pose pose_with(float v, size_t dofs = kDofs) {
   return p;
 }
 
-// Publishes frames seq = first..last, pumping everyone after each so no frame is superseded.
+// Publishes frames seq = first..last; after each, drives everyone until every subscriber in
+// `others` has taken it (so the publisher's own latest-wins never merges two frames, however
+// loaded the machine is).
 void publish_range(Client& pub, uint8_t slot, uint32_t first, uint32_t last, std::vector<Client*> others) {
-  others.push_back(&pub);
+  std::vector<Client*> all = others;
+  all.push_back(&pub);
   for (uint32_t s = first; s <= last; ++s) {
+    std::vector<uint64_t> before;
+    for (Client* c : others) before.push_back(c->stats().frames);
     ASSERT_TRUE(pub.publish_pose(slot, {0, 0, s, wall_clock_us()}, pose_with(0.001f * float(s))));
-    pump_for(others, 0.0005);
+    pump(all, [&] {
+      for (size_t i = 0; i < others.size(); ++i)
+        if (others[i]->stats().frames <= before[i]) return false;
+      return true;
+    }, 2.0);
+    if (others.empty()) pump_for(all, 0.0005);
   }
 }
 
@@ -98,10 +108,12 @@ TEST(Server, ModelOnJoinThenPoses) {
 TEST(Server, LateJoinerGetsModelAndLatestPoseAtOnce) {
   ServerThread st;
   auto pub = publisher(st);
+  auto witness = subscriber(st);  // proves each frame reached the server before the next
   auto slot = pub->add_avatar("bob", kDofs, std::string(500, 'x'));
   ASSERT_TRUE(slot);
-  publish_range(*pub, *slot, 1, 30, {});
-  ASSERT_TRUE(pump({pub.get()}, [&] { return st.stats().frames_in == 30; }));
+  ASSERT_TRUE(pump({pub.get(), witness.get()}, [&] { return witness->avatars().size() == 1; }));
+  publish_range(*pub, *slot, 1, 30, {witness.get()});
+  EXPECT_EQ(st.stats().frames_in, 30u);
   auto late = subscriber(st);
   ASSERT_TRUE(pump({late.get()}, [&] { return late->stats().frames >= 1; }, 2.0));
   ASSERT_EQ(late->avatars().size(), 1u);

@@ -48,6 +48,7 @@ enum class MsgType : uint8_t {
   bye = 4,             // either way: clean leave (the session cannot be resumed)
   avatar_model = 10,   // publisher -> server (avatar = publisher's slot) and server -> subscriber
   avatar_removed = 11, // server -> subscriber
+  scene = 12,          // server -> subscriber after WELCOME: every live avatar (id, revision)
   pose = 20,           // quantised joint values; one datagram
   mesh_topology = 30,  // fixed index array of one avatar at one LOD
   mesh = 31,           // vertex positions at that LOD
@@ -142,6 +143,14 @@ struct PoseHeader {
 };
 inline constexpr uint16_t kPoseStale = 1u << 0;
 
+// The avatars present when a subscriber (re)joins: a resuming subscriber drops any avatar it
+// holds that is not listed (it may have missed the removal while away).
+struct SceneEntry {
+  uint16_t avatar = 0;
+  uint32_t revision = 0;
+};
+inline constexpr size_t kMaxSceneBytes = 64 * 1024;
+
 struct MeshTopology {
   uint16_t avatar = 0;
   uint8_t lod = 0;
@@ -171,6 +180,7 @@ size_t encode_reject(const RejectMsg& m, std::span<uint8_t> out) noexcept;
 size_t encode_bye(std::span<uint8_t> out) noexcept;
 size_t encode_avatar_model(const AvatarModel& m, std::span<uint8_t> out) noexcept;
 size_t encode_avatar_removed(uint16_t avatar, std::span<uint8_t> out) noexcept;
+size_t encode_scene(std::span<const SceneEntry> entries, std::span<uint8_t> out) noexcept;
 // Also 0 when pose.dof_rad.size() > kMaxPoseDofs.
 size_t encode_pose(const PoseHeader& h, const avatar::Pose& pose, std::span<uint8_t> out) noexcept;
 size_t encode_mesh_topology(const MeshTopology& m, std::span<uint8_t> out) noexcept;
@@ -180,6 +190,7 @@ size_t encode_mesh(const MeshFrameHeader& h, std::span<const glm::vec3> position
 
 inline size_t mesh_packet_bytes(size_t vertex_count) { return kHeaderBytes + 36 + 6 * vertex_count; }
 inline size_t mesh_topology_packet_bytes(size_t index_count) { return kHeaderBytes + 11 + 4 * index_count; }
+inline size_t scene_packet_bytes(size_t entries) { return kHeaderBytes + 2 + 6 * entries; }
 inline size_t avatar_model_packet_bytes(const AvatarModel& m) {
   return kHeaderBytes + 14 + m.name.size() + m.model_bytes.size();
 }
@@ -190,6 +201,7 @@ Reject decode_welcome(std::span<const uint8_t> packet, Welcome& out);
 Reject decode_reject(std::span<const uint8_t> packet, RejectMsg& out);
 Reject decode_avatar_model(std::span<const uint8_t> packet, AvatarModel& out);
 Reject decode_avatar_removed(std::span<const uint8_t> packet, uint16_t& avatar) noexcept;
+Reject decode_scene(std::span<const uint8_t> packet, std::vector<SceneEntry>& out);
 // `out.dof_rad` is resized to the packet's DOF count (no allocation when it already fits).
 Reject decode_pose(std::span<const uint8_t> packet, PoseHeader& header, avatar::Pose& out);
 Reject decode_mesh_topology(std::span<const uint8_t> packet, MeshTopology& out);
