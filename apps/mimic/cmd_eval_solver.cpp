@@ -139,7 +139,7 @@ Run evaluate(const std::shared_ptr<const avatar::Motion>& motion, double frame_t
   for (size_t i = 0; i < mounts->size(); ++i) {
     solver::SensorBinding b{static_cast<uint16_t>(i), (*mounts)[i].name, (*mounts)[i].segment, glm::vec3(0.0f)};
     for (const auto& nb : nominal->bindings)
-      if (nb.name == b.name) b.placement_m = nb.placement_m;
+      if (nb.name == b.name) b.placement_m = nb.placement_m, b.link_fraction = nb.link_fraction;
     layout.bindings.push_back(b);
   }
 

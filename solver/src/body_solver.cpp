@@ -218,6 +218,11 @@ Result<SolverModel> SolverModel::create(Skeleton skeleton, std::vector<SensorMou
       for (int j : {ch.upper, ch.mid})
         for (int d = s.dof_begin(j); d < s.dof_end(j); ++d) m.leg_dofs_.push_back(d);
   }
+  {
+    std::vector<RigidTransform> w(s.joint_count());
+    forward_kinematics(s, s.rest_pose(), w);
+    m.head_from_root_rest_ = w[m.head_].translation - w[0].translation;
+  }
   m.prior_rad_.resize(s.dof_count());
   for (int d = 0; d < s.dof_count(); ++d) m.prior_rad_[d] = s.dof(d).rest_rad;
   return m;
@@ -227,9 +232,9 @@ SolverContext::SolverContext(const SolverModel& model)
     : ls_(model.skeleton(),
           static_cast<int>(model.trunk_dofs_.size() + model.leg_dofs_.size() + model.arm_dofs_[0].size() +
                            model.arm_dofs_[1].size()),
-          static_cast<int>(model.trunk_joints_.size()) + 7) {
+          static_cast<int>(model.trunk_joints_.size()) + 9) {
   const int n = model.skeleton().joint_count();
-  targets_.reserve(model.trunk_joints_.size() + 7);
+  targets_.reserve(model.trunk_joints_.size() + 9);
   ls_dofs_.reserve(model.trunk_dofs_.size() + model.leg_dofs_.size() + model.arm_dofs_[0].size() +
                    model.arm_dofs_[1].size());
   segment_target_.resize(n);
@@ -301,6 +306,11 @@ bool SolveJob::Run() {
       if (glm::length(glm::vec2(forward.x, forward.z)) < 0.3f) forward = head_rot * glm::vec3(0, 1, 0);
     }
     heading_of(forward, heading);
+    if (!c.have_previous_ && c.has_target_[m.head_]) {
+      // First frame: start the root upright under the head rather than at the origin.
+      p.root_orientation = heading;
+      p.root_position_m = c.segment_target_[m.head_].translation - heading * m.head_from_root_rest_;
+    }
     c.targets_.push_back(IkTarget{0, glm::vec3(0.0f), heading, 0.0f, 0.5f * o.rotation_weight});
     bool feet = false;
     for (int leg = 2; leg < 4; ++leg) {
@@ -319,7 +329,12 @@ bool SolveJob::Run() {
       if (!c.has_target_[e]) continue;
       c.targets_.push_back(IkTarget{e, c.segment_target_[e].translation, glm::quat(1, 0, 0, 0), o.position_weight, 0.0f});
       c.ls_dofs_.insert(c.ls_dofs_.end(), m.arm_dofs_[arm].begin(), m.arm_dofs_[arm].end());
-      const int clavicle = s.parent(m.chains_[arm].upper);
+      // An upper-arm sensor places the shoulder joint (through clavicle and spine) too.
+      const int upper = m.chains_[arm].upper;
+      if (c.has_target_[upper])
+        c.targets_.push_back(IkTarget{upper, c.segment_target_[upper].translation, c.segment_target_[upper].rotation,
+                                      o.position_weight, o.rotation_weight});
+      const int clavicle = s.parent(upper);
       if (c.has_target_[clavicle])
         c.targets_.push_back(IkTarget{clavicle, c.segment_target_[clavicle].translation, c.segment_target_[clavicle].rotation,
                                       o.position_weight, o.rotation_weight});
@@ -334,8 +349,10 @@ bool SolveJob::Run() {
     ls.targets = c.targets_;
     // Relaxed trunk, but no pull on the arms: their DOFs are there only to keep the hands in reach.
     std::copy(m.prior_rad_.begin(), m.prior_rad_.end(), c.prior_.begin());
+    // Shoulder and elbow move freely; the clavicle (rarely moving much) keeps its pull.
     for (int arm = 0; arm < 2; ++arm)
-      for (int d : m.arm_dofs_[arm]) c.prior_[d] = dof[d];
+      for (int d : m.arm_dofs_[arm])
+        if (s.dof(d).joint != s.parent(m.chains_[arm].upper)) c.prior_[d] = dof[d];
     // A segment with its own sensor needs no pull: its orientation is measured.
     for (int j : m.trunk_joints_)
       if (c.has_target_[j])

@@ -191,10 +191,32 @@ Fit fit_body(const SkeletonDesc& base, const std::vector<SensorStats>& stats, co
     if (!has(end)) return 0.0f;
     return glm::length(mark[end] - placed(upper));
   };
-  float arm = 0, leg = 0;
-  int n_arm = 0, n_leg = 0;
+  float arm = 0, leg = 0, arm_share = 0, leg_share = 0;
+  int n_arm = 0, n_leg = 0, n_arm_share = 0, n_leg_share = 0;
+  // Sensors strapped at a known fraction of their link (layout "all": mid-link) show where each
+  // link ends: the elbow from the upper arm, then the wrist from the forearm (knee and ankle
+  // alike). Those marks replace the approximate ones.
+  auto fraction_of = [&](const std::string& seg) -> const SensorStats* {
+    for (const auto& st : stats)
+      if (st.binding->segment == seg && st.binding->link_fraction > 0.05f) return &st;
+    return nullptr;
+  };
+  auto chain_marks = [&](const std::string& upper, const std::string& mid, const std::string& end) -> float {
+    const SensorStats* su = fraction_of(upper);
+    const SensorStats* sm = fraction_of(mid);
+    if (!su || !sm) return 0.0f;
+    const glm::vec3 a = placed(upper.c_str());
+    const glm::vec3 e = a + (su->mean_pos - a) / su->binding->link_fraction;
+    const glm::vec3 wpos = e + (sm->mean_pos - e) / sm->binding->link_fraction;
+    mark[mid] = e;
+    mark[end] = wpos;
+    const float lu = glm::length(e - a), ll = glm::length(wpos - e);
+    return lu + ll > 0.1f ? std::clamp(lu / (lu + ll), 0.3f, 0.75f) : 0.0f;
+  };
   for (const char* side : {"l_", "r_"}) {
     const std::string sd(side);
+    if (float sh = chain_marks(sd + "shoulder", sd + "elbow", sd + "wrist"); sh > 0) arm_share += sh, ++n_arm_share;
+    if (float sh = chain_marks(sd + "hip", sd + "knee", sd + "ankle"); sh > 0) leg_share += sh, ++n_leg_share;
     if (float l = limb_length((sd + "shoulder").c_str(), (sd + "wrist").c_str()); l > 0) arm += l, ++n_arm;
     if (float l = limb_length((sd + "hip").c_str(), (sd + "ankle").c_str()); l > 0) leg += l, ++n_leg;
   }
@@ -202,12 +224,19 @@ Fit fit_body(const SkeletonDesc& base, const std::vector<SensorStats>& stats, co
   if (n_arm > 0) {
     const float total = prop.upper_arm_m + prop.forearm_m;
     const float k = std::clamp((arm / static_cast<float>(n_arm)) / total, 0.6f, 1.5f);
-    prop.upper_arm_m *= k, prop.forearm_m *= k;
+    // Where the elbow is along the arm a stand-still shows only through a sensor at a known
+    // place on the upper arm's link; else shoulder–wrist is split as the anthropometric tables
+    // do (Winter: upper arm 0.186 H, forearm 0.146 H).
+    const float upper_share = n_arm_share > 0 ? arm_share / static_cast<float>(n_arm_share) : 0.186f / (0.186f + 0.146f);
+    prop.upper_arm_m = k * total * upper_share;
+    prop.forearm_m = k * total * (1.0f - upper_share);
   }
   if (n_leg > 0) {
     const float total = prop.thigh_m + prop.shin_m;
     const float k = std::clamp((leg / static_cast<float>(n_leg)) / total, 0.6f, 1.5f);
-    prop.thigh_m *= k, prop.shin_m *= k;
+    const float thigh_share = n_leg_share > 0 ? leg_share / static_cast<float>(n_leg_share) : prop.thigh_m / total;
+    prop.thigh_m = k * total * thigh_share;
+    prop.shin_m = k * total * (1.0f - thigh_share);
   }
   avatar::apply_proportions(out.desc, prop);
   s = build();
@@ -228,14 +257,15 @@ Fit fit_body(const SkeletonDesc& base, const std::vector<SensorStats>& stats, co
     const float side_sign = sd == "l_" ? 1.0f : -1.0f;
     if (opt.pose == CalibrationPose::n_pose) set(sd + "shoulder_abduction", -80.0f * kPi / 180.0f);
     if (has((sd + "wrist").c_str())) {
-      const glm::vec3 a = has((sd + "shoulder").c_str()) ? mark[sd + "shoulder"] : placed((sd + "shoulder").c_str());
+      // From the fitted skeleton's own shoulder, so the fitted hand lands on the hand's mark.
+      const glm::vec3 a = placed((sd + "shoulder").c_str());
       const glm::vec3 d = glm::normalize(inv_heading * (mark[sd + "wrist"] - a));
       const float abd = std::asin(std::clamp(d.y, -1.0f, 1.0f));
       set(sd + "shoulder_abduction", abd);
       if (std::cos(abd) > 0.3f) set(sd + "shoulder_flexion", std::atan2(d.z, side_sign * d.x));
     }
     if (has((sd + "ankle").c_str())) {
-      const glm::vec3 h = has((sd + "hip").c_str()) ? mark[sd + "hip"] : placed((sd + "hip").c_str());
+      const glm::vec3 h = placed((sd + "hip").c_str());
       const glm::vec3 d = glm::normalize(inv_heading * (mark[sd + "ankle"] - h));
       set(sd + "hip_abduction", std::asin(std::clamp(side_sign * d.x, -1.0f, 1.0f)));
       set(sd + "hip_flexion", std::atan2(d.z, -d.y));

@@ -49,6 +49,7 @@ glm::vec3 OneEuroVec3::filter(const glm::vec3& x, float dt_s) {
   raw_ = x;
   dx_ += one_euro_alpha(p_.derivative_cutoff_hz, dt_s) * (raw_dx - dx_);
   const float cutoff = p_.min_cutoff_hz + p_.beta * glm::length(dx_);
+  lag_s_ = 1.0f / (kTwoPi * std::max(cutoff, 1e-3f));
   x_ += one_euro_alpha(cutoff, dt_s) * (x - x_);
   return x_;
 }
@@ -66,6 +67,7 @@ glm::quat OneEuroQuat::filter(const glm::quat& q_in, float dt_s) {
   raw_ = q;
   w_ += one_euro_alpha(p_.derivative_cutoff_hz, dt_s) * (raw_w - w_);
   const float cutoff = p_.min_cutoff_hz + p_.beta * glm::length(w_);
+  lag_s_ = 1.0f / (kTwoPi * std::max(cutoff, 1e-3f));
   q_ = glm::normalize(glm::slerp(q_, q, one_euro_alpha(cutoff, dt_s)));
   return q_;
 }
@@ -129,8 +131,12 @@ void SensorFilterBank::process(std::span<devices::SensorSample> samples) {
     const glm::vec3 p = st.pos.filter(smp.position_m, dt);
     const glm::quat q = st.rot.filter(smp.orientation, dt);
     if (config_.enabled) {
-      smp.position_m = p + st.pos.velocity() * config_.predict_s;
-      smp.orientation = glm::normalize(exp_rotation(st.rot.angular_velocity() * config_.predict_s) * q);
+      // Each filter lags by its time constant 1/(2π·fc); extrapolating by it (plus the asked-for
+      // horizon) puts the output back on time.
+      const float lead_p = config_.predict_s + (config_.compensate_lag ? st.pos.lag_s() : 0.0f);
+      const float lead_r = config_.predict_s + (config_.compensate_lag ? st.rot.lag_s() : 0.0f);
+      smp.position_m = p + st.pos.velocity() * lead_p;
+      smp.orientation = glm::normalize(exp_rotation(st.rot.angular_velocity() * lead_r) * q);
     }
     st.seen = true;
     st.last_t = t;

@@ -24,8 +24,10 @@ Result<SensorLayout> standard_layout(std::string_view name, const avatar::Skelet
   SensorLayout l;
   l.name = std::string(name);
   if (name == "all") {
-    for (int j = 0; j < skeleton.joint_count(); ++j)
+    for (int j = 0; j < skeleton.joint_count(); ++j) {
       add(l, skeleton.joint_name(j), skeleton.joint_name(j), 0.5f * skeleton.tip_m(j));
+      l.bindings.back().link_fraction = 0.5f;
+    }
   } else if (name == "3" || name == "6" || name == "11") {
     // Top of the head, back of the hand, sacrum, instep, outer upper arm, front of the thigh,
     // sternum: places a strap holds still on most people.

@@ -1,5 +1,7 @@
 #include "mimic/solver/swing_twist.h"
 
+#include "mimic/avatar/joint_angles.h"
+
 #include <algorithm>
 #include <array>
 #include <cassert>
@@ -23,7 +25,6 @@ float limit_violation(float v, std::span<const float> lo, std::span<const float>
   return 0.0f;
 }
 
-// Candidate cost: distance to the previous values; leaving the limits costs far more.
 // Of θ and θ ± 2π, the one inside the limits (if any) nearest the previous value: unwrapping
 // towards a previous value far from the truth must not push an angle out of its range.
 float nearest_turn(float angle, float previous, std::span<const float> lo, std::span<const float> hi, size_t i) {
@@ -36,59 +37,40 @@ float nearest_turn(float angle, float previous, std::span<const float> lo, std::
   return best;
 }
 
-// With two DOFs the third angle is what gets dropped, so it should be small (prev = 0).
-float branch_cost(const std::array<float, 3>& c, const std::array<float, 3>& prev,
-                  std::span<const float> lo, std::span<const float> hi) {
-  float cost = 0;
-  for (size_t i = 0; i < 3; ++i) {
-    const float d = c[i] - prev[i];
-    const float v = limit_violation(c[i], lo, hi, i);
-    cost += d * d + 1e6f * v;  // inside the limits first, nearest second
-  }
-  return cost;
-}
-
-// XYZ Euler angles of R' = Rx(α) Ry(β) Rz(γ) (glm matrices are column-major: m[col][row]).
-void decompose3(const glm::quat& local, const glm::vec3& a0, const glm::vec3& a1, const glm::vec3& a2,
-                std::span<float> angles, size_t n_out, std::span<const float> lo,
-                std::span<const float> hi) {
-  // In the basis (a0, a1, ±a2) the DOF rotations become rotations about x, y, z.
-  // Double precision: near gimbal lock the float angles lose a fraction of a degree.
-  const double s = glm::dot(glm::cross(a0, a1), a2) < 0 ? -1.0 : 1.0;
-  const glm::dmat3 m(glm::dvec3(a0), glm::dvec3(a1), s * glm::dvec3(a2));
-  const glm::dmat3 r = glm::transpose(m) * glm::mat3_cast(glm::dquat(local)) * m;
-  std::array<float, 3> prev{angles[0], angles[1], n_out > 2 ? angles[2] : 0.0f};
-
+// The decomposition nearest the previous values (avatar/joint_angles.h: exact Euler for three
+// orthogonal axes, twist for one, best fit otherwise), then the limits: of that solution, the
+// other Euler branch for three axes, and every angle ± 2π, the candidate inside the limits and
+// nearest the previous values wins.
+void decompose(const glm::quat& local, std::span<const glm::vec3> axes, std::span<float> angles,
+               std::span<const float> lo, std::span<const float> hi) {
+  const size_t n = axes.size();
+  std::array<glm::dvec3, 3> ax;
+  std::array<double, 3> prev{}, base{};
+  for (size_t i = 0; i < n; ++i) ax[i] = glm::dvec3(axes[i]), prev[i] = angles[i];
+  avatar::dofs_from_rotation(std::span(ax.data(), n), glm::dquat(local), std::span(prev.data(), n),
+                             std::span(base.data(), n));
   std::array<std::array<float, 3>, 2> cand{};
-  int n_cand = 2;
-  const double sb = std::clamp(r[2][0], -1.0, 1.0);
-  const double beta = std::asin(sb);
-  if (std::cos(beta) > 1e-6) {
-    const double alpha = std::atan2(-r[2][1], r[2][2]);
-    const double gamma = std::atan2(-r[1][0], r[0][0]);
-    cand[0] = {float(alpha), float(beta), float(s * gamma)};
-    cand[1] = {float(alpha + kPi), float(kPi - beta), float(s * (gamma + kPi))};
-  } else {
-    // Gimbal lock: α and γ turn about the same axis; keep α and give the rest to γ.
-    const double alpha = prev[0];
-    const glm::dmat3 rx_inv = glm::mat3_cast(glm::angleAxis(-alpha, glm::dvec3(1, 0, 0)));
-    const glm::dmat3 nm = rx_inv * r;
-    const double gamma = std::atan2(nm[0][1], nm[1][1]);
-    const double b = std::atan2(nm[2][0], nm[2][2]);
-    cand[0] = {float(alpha), float(b), float(s * gamma)};
-    n_cand = 1;
+  for (size_t i = 0; i < n; ++i) cand[0][i] = static_cast<float>(base[i]);
+  int n_cand = 1;
+  const bool orthogonal3 = n == 3 && std::abs(glm::dot(axes[0], axes[1])) < 1e-4f &&
+                           std::abs(glm::dot(axes[1], axes[2])) < 1e-4f && std::abs(glm::dot(axes[0], axes[2])) < 1e-4f;
+  if (orthogonal3) {  // (α + π, π − β, γ + π) is the same rotation
+    cand[1] = {cand[0][0] + kPi, kPi - cand[0][1], cand[0][2] + kPi};
+    n_cand = 2;
   }
+  std::array<float, 3> prevf{angles[0], n > 1 ? angles[1] : 0.0f, n > 2 ? angles[2] : 0.0f};
   int best = 0;
   float best_cost = 0;
   for (int k = 0; k < n_cand; ++k) {
-    for (size_t i = 0; i < 3; ++i) cand[k][i] = nearest_turn(unwrap_near(cand[k][i], prev[i]), prev[i], lo, hi, i);
-    const float cost = branch_cost(cand[k], prev, lo, hi);
-    if (k == 0 || cost < best_cost) {
-      best = k;
-      best_cost = cost;
+    for (size_t i = 0; i < n; ++i) cand[k][i] = nearest_turn(unwrap_near(cand[k][i], prevf[i]), prevf[i], lo, hi, i);
+    float cost = 0;
+    for (size_t i = 0; i < n; ++i) {
+      const float d = cand[k][i] - prevf[i];
+      cost += d * d + 1e6f * limit_violation(cand[k][i], lo, hi, i);  // inside the limits first
     }
+    if (k == 0 || cost < best_cost) best = k, best_cost = cost;
   }
-  for (size_t i = 0; i < n_out; ++i) angles[i] = cand[best][i];
+  for (size_t i = 0; i < n; ++i) angles[i] = cand[best][i];
 }
 
 }  // namespace
@@ -103,20 +85,7 @@ void angles_from_rotation(const glm::quat& local, std::span<const glm::vec3> axe
                           std::span<float> angles_rad, std::span<const float> min_rad,
                           std::span<const float> max_rad) {
   assert(axes.size() == angles_rad.size() && !axes.empty() && axes.size() <= 3);
-  switch (axes.size()) {
-    case 1:
-      angles_rad[0] = nearest_turn(unwrap_near(twist_angle_rad(local, axes[0]), angles_rad[0]), angles_rad[0],
-                                   min_rad, max_rad, 0);
-      break;
-    case 2: {
-      // Dropping the rotation about a0 × a1 (the rightmost factor) keeps that axis' image.
-      const glm::vec3 third = glm::cross(axes[0], axes[1]);
-      decompose3(local, axes[0], axes[1], third, angles_rad, 2, min_rad, max_rad);
-      break;
-    }
-    default:
-      decompose3(local, axes[0], axes[1], axes[2], angles_rad, 3, min_rad, max_rad);
-  }
+  decompose(local, axes, angles_rad, min_rad, max_rad);
 }
 
 void dofs_from_rotation(const avatar::Skeleton& skeleton, std::span<const int> dofs,

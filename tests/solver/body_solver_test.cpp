@@ -64,7 +64,8 @@ TEST(BodySolver, OneSensorPerSegmentRecoversEveryJoint) {
   }
 }
 
-// Six sensors: hands, feet and head land on their targets; the pelvis is exact.
+// Six sensors: hands, feet and head land on their targets (within a few millimetres: the trunk is
+// a least-squares fit pulled gently towards the relaxed posture); the pelvis is exact.
 TEST(BodySolver, SixSensorsReachTheEndEffectors) {
   Fixture f("6");
   SolverContext ctx(f.model);
@@ -84,11 +85,11 @@ TEST(BodySolver, SixSensorsReachTheEndEffectors) {
     const auto wt = fk(f.skeleton, truth), ws = fk(f.skeleton, solved);
     for (const char* e : effectors) {
       const int j = f.skeleton.find_joint(e);
-      EXPECT_LT(glm::length(wt[j].translation - ws[j].translation), 3e-3f) << e << " trial " << trial;
+      EXPECT_LT(glm::length(wt[j].translation - ws[j].translation), 5e-3f) << e << " trial " << trial;
       // The hand's orientation can need a twist the limits refuse under the solved (not the
       // true) clavicle and spine, which six sensors cannot see; mostly it is exact.
       const float dot = std::abs(glm::dot(wt[j].rotation, ws[j].rotation));
-      EXPECT_GT(dot, std::cos(glm::radians(12.5f))) << e;  // half-angle of 25°
+      EXPECT_GT(dot, std::cos(glm::radians(15.0f))) << e;  // half-angle of 30°
       orientation_checks += 1;
       orientation_exact += dot > std::cos(glm::radians(0.5f)) ? 1 : 0;
     }
@@ -119,7 +120,7 @@ TEST(BodySolver, ThreeSensorsEstimateTheRootAndReachHandsAndHead) {
     }
     // Three sensors cannot see the pelvis; it only has to stay under the head, near the body.
     EXPECT_LT(glm::length(wt[0].translation - ws[0].translation), 0.6f) << "pelvis, trial " << trial;
-    EXPECT_LT(ws[0].translation.y, ws[f.skeleton.find_joint("head")].translation.y - 0.3f);
+    EXPECT_LT(ws[0].translation.y, ws[f.skeleton.find_joint("head")].translation.y - 0.2f);
     expect_inside_limits(f.skeleton, solved);
   }
 }

@@ -30,6 +30,7 @@ struct ClipEvalConfig {
   uint64_t seed = 1;
   bool filter = true;
   SensorFilterConfig filter_config{};
+  bool oracle = false;  // solve with the true skeleton and mounts (isolates calibration error)
 };
 
 struct ClipEval {
@@ -53,7 +54,7 @@ inline ClipEval evaluate_clip(const avatar::RetargetedClip& clip, const ClipEval
   }
   auto cal = calibrate(avatar::default_skeleton_desc(), *layout, capture);
   if (!cal) return {{}, cal.error().what()};
-  auto model = make_solver_model(*cal);
+  auto model = cfg.oracle ? SolverModel::create(truth, mounts) : make_solver_model(*cal);
   if (!model) return {{}, model.error().what()};
   SolverContext ctx(*model);
   SensorFilterConfig fc = cfg.filter_config;

@@ -92,6 +92,7 @@ class SolverModel {
   std::vector<int8_t> chain_of_joint_;            // chain index for upper/mid/end joints, else -1
   std::vector<float> prior_rad_;                  // relaxed values
   int head_ = -1;
+  glm::vec3 head_from_root_rest_{0.0f};  // head joint relative to the root, relaxed posture
 };
 
 class SolverContext {

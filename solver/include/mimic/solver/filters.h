@@ -5,8 +5,8 @@
 // One Euro: an exponential smoother whose cutoff rises with speed, fc = min_cutoff + beta·|ẋ|, so
 // a still sensor is smoothed hard (no jitter) and a fast one barely (little lag). Its lag at a
 // cutoff fc is about 1/(2π·fc) seconds; SensorFilterBank extrapolates each filtered pose along
-// its filtered velocity by `predict_s` (choose the tracker latency plus the filter lag to see the
-// body "now"; 0 turns prediction off). Orientations are filtered on the unit sphere (slerp),
+// its filtered velocity by that lag (compensate_lag) plus `predict_s` (e.g. the tracker's
+// latency, to see the body "now"; 0 by default). Orientations are filtered on the unit sphere (slerp),
 // their speed being the angular speed.
 //
 // Outliers: a sample farther from the last accepted one than max_speed · elapsed time (+ a noise
@@ -47,10 +47,12 @@ class OneEuroVec3 {
   void reset() { primed_ = false; }
   const glm::vec3& value() const { return x_; }
   const glm::vec3& velocity() const { return dx_; }  // filtered, units per second
+  float lag_s() const { return lag_s_; }             // time constant at the current cutoff
   bool primed() const { return primed_; }
 
  private:
   OneEuroParams p_;
+  float lag_s_ = 0;
   glm::vec3 x_{0.0f}, dx_{0.0f}, raw_{0.0f};
   bool primed_ = false;
 };
@@ -62,10 +64,12 @@ class OneEuroQuat {
   void reset() { primed_ = false; }
   const glm::quat& value() const { return q_; }
   const glm::vec3& angular_velocity() const { return w_; }  // world frame, rad/s
+  float lag_s() const { return lag_s_; }
   bool primed() const { return primed_; }
 
  private:
   OneEuroParams p_;
+  float lag_s_ = 0;
   glm::quat q_{1, 0, 0, 0}, raw_{1, 0, 0, 0};
   glm::vec3 w_{0.0f};
   bool primed_ = false;
@@ -74,7 +78,8 @@ class OneEuroQuat {
 struct SensorFilterConfig {
   OneEuroParams position{3.0f, 10.0f, 1.0f};  // beta per m/s
   OneEuroParams rotation{3.0f, 1.0f, 1.0f};   // beta per rad/s
-  float predict_s = 0.0f;                     // extrapolation horizon
+  float predict_s = 0.0f;                     // extrapolation horizon beyond the filter lag
+  bool compensate_lag = true;                 // extrapolate by each filter's own lag
   float max_speed_m_s = 12.0f;                // faster than any limb moves
   float max_angular_speed_deg_s = 3000.0f;
   float jump_allowance_m = 0.05f;             // noise and sample-timing slack on top

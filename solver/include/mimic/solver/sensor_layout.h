@@ -5,7 +5,8 @@
 //   "3"   head, l_hand, r_hand
 //   "6"   "3" + pelvis, l_foot, r_foot
 //   "11"  "6" + l_upper_arm, r_upper_arm, l_thigh, r_thigh, chest
-//   "all" one sensor per joint of the skeleton, in skeleton order, named after the joint.
+//   "all" one sensor per joint of the skeleton, in skeleton order, named after the joint, at the
+//         middle of its link.
 // Each binding also carries where the wearer is told to strap the sensor (segment frame of the
 // zero posture, metres): calibration uses it only to estimate body proportions; the actual
 // offset is measured.
@@ -28,6 +29,8 @@ struct SensorBinding {
   std::string name;          // "head", "l_hand", "chest", …
   std::string segment;       // skeleton joint name
   glm::vec3 placement_m{0};  // instructed position on the segment (segment frame, zero posture)
+  float link_fraction = 0;   // > 0: strapped this far along the segment's link (0.5 = middle),
+                             // which placement_m then approximates on the default body
 };
 
 struct SensorLayout {

@@ -1,9 +1,12 @@
 // Rotations to named DOF values: a joint's local rotation R = R(a0, θ0) · R(a1, θ1) · R(a2, θ2)
 // (axes in the joint frame, as in avatar/skeleton.h) is decomposed back into θ.
 //
-// Continuity: every angle is unwrapped to lie within π of its previous value (the values passed
-// in), and of the two Euler branches the one nearest the previous values and inside the limits
-// wins, so a joint passing ±180° or gimbal lock does not flip. Never allocates.
+// The decomposition itself is avatar/joint_angles.h's (exact Euler for three orthogonal axes,
+// the twist for one, the best fit for two), nearest the previous values; on top of it this adds
+// the joint limits: of that solution, the other Euler branch and every angle ± 2π, the candidate
+// inside the limits and nearest the previous values wins, so a joint passing ±180° or gimbal
+// lock neither flips nor lands outside its range when an equivalent inside exists. Never
+// allocates.
 #pragma once
 
 #include <span>
@@ -21,8 +24,7 @@ float twist_angle_rad(const glm::quat& q, const glm::vec3& axis);
 
 // Decomposes `local` over 1–3 mutually orthogonal unit axes (axes.size() == angles.size()).
 // [in] angles_rad: previous values (the warm start); [out] the new values. With fewer than three
-// axes the part of `local` the axes cannot express is dropped so that the image of the missing
-// axis (a0 × a1 for two axes) is kept; for one axis the twist about it is kept.
+// axes, the nearest rotation the axes can express (one axis: the twist about it).
 // min_rad/max_rad (same size, may be empty) steer the branch choice; values are not clamped.
 void angles_from_rotation(const glm::quat& local, std::span<const glm::vec3> axes,
                           std::span<float> angles_rad, std::span<const float> min_rad = {},
