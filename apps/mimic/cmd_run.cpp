@@ -25,7 +25,8 @@ extern "C" void on_report_signal(int) { g_report = true; }
 
 const char* kUsage =
     "usage: mimic run [--source SPEC [--body FILE]]... [--listen ADDR:PORT] [--secret S]\n"
-    "                 [--publish HOST:PORT] [--vmc HOST:PORT] [--duration S] [--json] [--quiet]\n"
+    "                 [--publish HOST:PORT] [--vmc HOST:PORT] [--duration S] [--realtime PRIO]\n"
+    "                 [--json] [--quiet]\n"
     "\n"
     "Runs the realtime pipeline (read -> solve -> deform -> encode -> send) and serves the avatars\n"
     "to subscribers (mimic subscribe, VR scenes). With no arguments: simulated trackers on the\n"
@@ -42,6 +43,8 @@ const char* kUsage =
     "  --publish HOST:PORT do not host: publish the avatars into the scene served there\n"
     "  --vmc HOST:PORT     also send the first avatar as VMC (OSC over UDP), e.g. 127.0.0.1:39539\n"
     "  --duration S        stop by itself after S seconds (default: run until Ctrl-C)\n"
+    "  --realtime PRIO     run the loop at SCHED_FIFO priority PRIO (1-99; needs CAP_SYS_NICE),\n"
+    "                      so a busy machine does not delay frames\n"
     "  --json              print a JSON summary (stage timings p50/p99 in microseconds, frames,\n"
     "                      fps, loop_allocations, server counters) on stdout at exit; the same\n"
     "                      line is printed whenever the process receives SIGUSR1\n"
@@ -93,7 +96,7 @@ int run(const std::vector<std::string>& argv) {
   std::vector<std::pair<std::string, std::string>> sources;
   std::string error;
   if (!take_sources(args, sources, error)) return usage_error("run", error);
-  Args a(args, {"listen", "secret", "publish", "vmc", "duration"}, {"json", "quiet"});
+  Args a(args, {"listen", "secret", "publish", "vmc", "duration", "realtime"}, {"json", "quiet"});
   if (a.help()) {
     std::printf("%s", kUsage);
     return 0;
@@ -101,7 +104,9 @@ int run(const std::vector<std::string>& argv) {
   if (!a.ok()) return usage_error("run", a.error());
   if (!a.positionals().empty()) return usage_error("run", "unexpected argument '" + a.positionals()[0] + "'");
   double duration_s = 0;
-  if (!a.get_double("duration", duration_s)) return usage_error("run", a.error());
+  long rt_priority = 0;
+  if (!a.get_double("duration", duration_s) || !a.get_int("realtime", rt_priority)) return usage_error("run", a.error());
+  if (rt_priority < 0 || rt_priority > 99) return usage_error("run", "--realtime takes a priority 1-99");
   if (sources.empty()) sources.emplace_back("sim:walk", "");
 
   std::string secret = a.get_or("secret", "");
@@ -148,7 +153,10 @@ int run(const std::vector<std::string>& argv) {
     if (!v) return failure("run", v.error().what());
     vmc = std::move(*v);
   }
-  Pipeline pipeline({server.get(), publisher.get(), vmc.get()});
+  const PipelineOutputs outputs{server.get(), publisher.get(), vmc.get()};
+  Pipeline pipeline(outputs);
+  // Sleep between passes: new samples wait at most about this long (plus the timer slack).
+  constexpr int kIdleUs = 100;
   size_t model_bytes_total = 0;
   for (size_t i = 0; i < feeds.size(); ++i) {
     const uint16_t dofs = static_cast<uint16_t>(feeds[i]->skeleton().dof_count());
@@ -158,6 +166,9 @@ int run(const std::vector<std::string>& argv) {
     if (auto st = pipeline.add_avatar("avatar" + std::to_string(i + 1), std::move(feeds[i]), std::move(models[i]), nullptr); !st)
       return failure("run", st.error().what());
   }
+  if (rt_priority > 0 && !set_realtime_priority(int(rt_priority)))
+    std::fprintf(stderr, "mimic run: SCHED_FIFO priority %ld refused (needs CAP_SYS_NICE); running unprioritised\n",
+                 rt_priority);
   std::printf("%s\n", where.c_str());
   std::fflush(stdout);
 
@@ -207,14 +218,9 @@ int run(const std::vector<std::string>& argv) {
     const bool warm = pipeline.frames() >= kWarmupFrames;
     pipeline.tick();
     if (warm) loop_allocations += thread_allocation_count() - allocs_before;
-    const auto slice = C::now() + std::chrono::microseconds(200);
-    if (server) {
-      server->run_until(slice);
-    } else if (publisher) {
-      if (auto st = publisher->run_until(slice); !st) {
-        std::fprintf(stderr, "\nmimic run: %s\n", st.error().what().c_str());
-        break;
-      }
+    if (auto st = service_network(outputs, kIdleUs); !st) {
+      std::fprintf(stderr, "\nmimic run: %s\n", st.error().what().c_str());
+      break;
     }
     if (g_report.exchange(false)) {
       // On request (SIGUSR1): the same JSON as at exit, one line on stdout.

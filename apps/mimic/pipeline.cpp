@@ -1,7 +1,11 @@
 #include "pipeline.h"
 
+#include <pthread.h>
+#include <sched.h>
+
 #include <algorithm>
 #include <chrono>
+#include <thread>
 #include <cmath>
 #include <nlohmann/json.hpp>
 
@@ -138,6 +142,20 @@ class FkDeformer final : public Deformer {
 };
 
 }  // namespace
+
+Status service_network(const PipelineOutputs& out, int idle_us) {
+  if (out.server) out.server->poll();
+  if (out.publisher)
+    if (auto st = out.publisher->poll(); !st) return st;
+  if (idle_us > 0) std::this_thread::sleep_for(std::chrono::microseconds(idle_us));
+  return {};
+}
+
+bool set_realtime_priority(int priority) {
+  sched_param p{};
+  p.sched_priority = priority;
+  return pthread_setschedparam(pthread_self(), priority > 0 ? SCHED_FIFO : SCHED_OTHER, &p) == 0;
+}
 
 const char* stage_name(int stage) {
   static const char* kNames[kStageCount] = {"read", "solve", "deform", "encode", "send", "latency"};

@@ -94,11 +94,20 @@ std::unique_ptr<Deformer> make_fk_deformer(const avatar::Skeleton& skeleton);
 // The body model bytes for an avatar: the file given with --body, or the default body.
 Result<std::string> load_body_model(const std::string& path, const avatar::Skeleton& skeleton);
 
+// Gives the calling thread SCHED_FIFO priority `priority` (1-99), or back to normal scheduling
+// with 0. False when the system refuses (no privilege).
+bool set_realtime_priority(int priority);
+
 struct PipelineOutputs {
   net::Server* server = nullptr;     // host the scene here
   net::Client* publisher = nullptr;  // publish into a scene hosted elsewhere
   net::VmcSender* vmc = nullptr;     // VMC/OSC output of the first avatar
 };
+
+// Between passes of the loop: handles what the network has for us without blocking, then sleeps
+// `idle_us` (a precise sleep: waiting inside the network library rounds up to milliseconds).
+// An error means the remote scene we publish into ended the session.
+Status service_network(const PipelineOutputs& out, int idle_us);
 
 class Pipeline {
  public:
