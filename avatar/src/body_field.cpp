@@ -305,8 +305,8 @@ struct RayTerms {
     for (int it = 0; it < 32; ++it) {
       float slope;
       const float f = field_and_slope(t, slope) - kIsoLevel;
-      // |f| < 2e-4 is a few micrometres along the ray at the body's field gradients.
-      if (std::abs(f) < 2e-4f || hi - lo < 1e-5f) return t;
+      // |f| < 5e-4 is about ten micrometres along the ray at the body's field gradients.
+      if (std::abs(f) < 5e-4f || hi - lo < 1e-5f) return t;
       if (f >= 0.0f) lo = t, flo = f;
       else hi = t, fhi = f;
       float next = slope != 0.0f ? t - f / slope : 0.5f * (lo + hi);
