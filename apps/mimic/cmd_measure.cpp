@@ -27,8 +27,10 @@ constexpr const char* kUsage =
     "                        base mesh, <shared data>/mesh/makehuman_base_body.obj)\n"
     "  --joints CSV          joint centres, rows name,x,y,z with MakeHuman joint names (pelvis,\n"
     "                        spine-1..4, neck, head, head-2, ground, l-/r-upper-leg, -knee,\n"
-    "                        -ankle, -shoulder, -elbow, -hand), in the mesh's units; required\n"
-    "                        with --obj (default: <shared data>/mesh/makehuman_base_joints.csv)\n"
+    "                        -ankle, -shoulder, -elbow, -hand), in the mesh's units (default:\n"
+    "                        <shared data>/mesh/makehuman_base_joints.csv for the default mesh;\n"
+    "                        for another mesh without --joints they are estimated from average\n"
+    "                        proportions, and the upper-arm girth is left out)\n"
     "  --units-per-metre N   mesh and joint units per metre (default 10: MakeHuman decimetres;\n"
     "                        1 for meshes written by Mimic)\n"
     "  --json                print JSON instead of a table\n"
@@ -54,18 +56,22 @@ int run_measure(const std::vector<std::string>& argv) {
   const std::string data = shared_data_dir();
   const bool default_mesh = !args.has("obj");
   const std::string mesh_path = args.get_or("obj", data + "/mesh/makehuman_base_body.obj");
-  // The shared mesh comes with its joints; another mesh needs them given.
-  std::string joints_path = args.get_or("joints", default_mesh ? data + "/mesh/makehuman_base_joints.csv" : "");
-  if (joints_path.empty())
-    return usage_error(kName, "--joints CSV is needed to place the girths on a mesh other than the default");
+  // The shared mesh comes with its joints; another mesh without them gets estimated ones.
+  const std::string joints_path = args.get_or("joints", default_mesh ? data + "/mesh/makehuman_base_joints.csv" : "");
 
   const auto metres_per_unit = static_cast<float>(1.0 / units_per_metre);
   auto mesh = avatar::read_mesh(mesh_path, metres_per_unit);
   if (!mesh) return failure(kName, mesh.error().what());
-  auto landmarks = avatar::load_makehuman_joints(joints_path, metres_per_unit);
-  if (!landmarks) return failure(kName, landmarks.error().what());
+  avatar::BodyLandmarks landmarks;
+  if (joints_path.empty()) {
+    landmarks = avatar::estimate_landmarks(*mesh);
+  } else {
+    auto loaded = avatar::load_makehuman_joints(joints_path, metres_per_unit);
+    if (!loaded) return failure(kName, loaded.error().what());
+    landmarks = std::move(*loaded);
+  }
 
-  const avatar::BodyMeasurements m = avatar::measure_body(*mesh, *landmarks);
+  const avatar::BodyMeasurements m = avatar::measure_body(*mesh, landmarks);
   const avatar::MeshTopology topo = avatar::analyze_topology(*mesh);
   const bool closed = avatar::is_closed_oriented_manifold(topo);
 
@@ -73,7 +79,7 @@ int run_measure(const std::vector<std::string>& argv) {
     auto j = nlohmann::ordered_json::parse(avatar::measurements_json(m));
     nlohmann::ordered_json out;
     out["mesh"] = mesh_path;
-    out["joints"] = joints_path;
+    out["joints"] = joints_path.empty() ? nlohmann::ordered_json("estimated") : nlohmann::ordered_json(joints_path);
     out["units_per_metre"] = units_per_metre;
     out["vertices"] = topo.vertex_count;
     out["triangles"] = topo.face_count;
@@ -83,7 +89,9 @@ int run_measure(const std::vector<std::string>& argv) {
     std::printf("%s\n", out.dump(2, ' ', false, nlohmann::ordered_json::error_handler_t::replace).c_str());
     return 0;
   }
-  std::printf("mesh:   %s\njoints: %s\n", mesh_path.c_str(), joints_path.c_str());
+  std::printf("mesh:   %s\njoints: %s\n", mesh_path.c_str(),
+              joints_path.empty() ? "estimated from the mesh (no --joints; arms not located, no upper-arm girth)"
+                                  : joints_path.c_str());
   std::printf("surface: %zu vertices, %zu triangles, %s, genus %d\n\n", topo.vertex_count, topo.face_count,
               closed ? "closed oriented manifold" : "NOT a closed oriented manifold", topo.genus);
   std::fputs(avatar::format_measurements(m).c_str(), stdout);

@@ -177,6 +177,52 @@ std::string format_landmarks_csv(const BodyLandmarks& lm, float units_per_metre)
   return out;
 }
 
+BodyLandmarks estimate_landmarks(const Mesh& mesh) {
+  BodyLandmarks lm;
+  if (mesh.positions.empty()) return lm;
+  glm::vec3 lo = mesh.positions[0], hi = lo;
+  for (const auto& p : mesh.positions) {
+    lo = glm::min(lo, p);
+    hi = glm::max(hi, p);
+  }
+  const float H = hi.y - lo.y, cx = 0.5f * (lo.x + hi.x);
+  lm.ground_y_m = lo.y;
+  // Centroid of the vertices in a band 2% of H thick at height fraction f, with x in [x0, x1].
+  auto centroid = [&](float f, float x0, float x1) {
+    const float y = lo.y + f * H;
+    glm::dvec3 sum(0);
+    double n = 0;
+    for (const auto& p : mesh.positions)
+      if (std::abs(p.y - y) < 0.01f * H && p.x >= x0 && p.x <= x1) {
+        sum += glm::dvec3(p);
+        n += 1;
+      }
+    return n > 0 ? glm::vec3(sum / n) : glm::vec3(cx, y, 0.5f * (lo.z + hi.z));
+  };
+  // Torso: within 0.1 H of the mirror plane, which keeps hanging arms and hands out.
+  const float half = 0.1f * H;
+  auto torso = [&](float f) {
+    glm::vec3 c = centroid(f, cx - half, cx + half);
+    return glm::vec3(cx, lo.y + f * H, c.z);
+  };
+  lm.pelvis_m = torso(0.53f);
+  lm.spine_m = {torso(0.60f), torso(0.68f), torso(0.76f)};
+  lm.neck_m = torso(0.84f);
+  lm.head_m = torso(0.90f);
+  lm.head_top_m = {cx, hi.y, lm.head_m.z};
+  // Legs: the centroid of each side's band; hips sit a little inward of the upper thigh's centre.
+  for (float side : {1.0f, -1.0f}) {
+    LimbLandmarks& l = side > 0 ? lm.left : lm.right;
+    auto leg = [&](float f) { return side > 0 ? centroid(f, cx, hi.x) : centroid(f, lo.x, cx); };
+    l.knee_m = leg(0.285f);
+    l.ankle_m = leg(0.045f);
+    const glm::vec3 thigh = leg(0.44f);
+    l.hip_m = {cx + 0.9f * (thigh.x - cx), lo.y + 0.52f * H, thigh.z};
+    l.shoulder_m = l.elbow_m = l.wrist_m = glm::vec3(cx + side * 0.1f * H, lo.y + 0.82f * H, lm.neck_m.z);
+  }
+  return lm;
+}
+
 BodyLandmarks landmarks_from_skeleton(const Skeleton& s, const Pose& pose) {
   std::vector<RigidTransform> w(s.joint_count());
   forward_kinematics(s, pose, w);
@@ -247,7 +293,18 @@ BodyMeasurements measure_body(const Mesh& mesh, const BodyLandmarks& lm) {
     for (float y : levels(ground + from_h * H, ground + to_h * H)) best.offer(girth_at(y), y - ground, want_max);
     return best;
   };
-  const Best chest = search(0.68f, 0.76f, true, [&](float y) { return torso_girth(y, false); });
+  // Chest, bottom up, stopping at the armpit: where the torso loop suddenly grows by more than
+  // 15% in one 5 mm step it has taken in an arm (this also guards landmarks without arms).
+  Best chest;
+  {
+    std::optional<float> previous;
+    for (float y : levels(ground + 0.68f * H, ground + 0.76f * H)) {
+      const auto g = torso_girth(y, false);
+      if (g && previous && *g > 1.15f * *previous) break;
+      chest.offer(g, y - ground, true);
+      previous = g;
+    }
+  }
   const Best waist = search(0.56f, 0.66f, false, [&](float y) { return torso_girth(y, false); });
   // Hips: the torso's own loops; only a body whose torso splits below the whole range gets the
   // tape round both thighs (wrapping them everywhere would let spreading legs win).

@@ -237,6 +237,20 @@ TEST(Measure, MakeHumanBaseMeshFigures) {
   EXPECT_LT(m.thigh_level_m, m.hip_level_m + 0.05f);
 }
 
+TEST(Measure, EstimatedLandmarksMeasureMakeHumanAlmostLikeItsJoints) {
+  auto mesh = read_obj(test::shared_data("mesh/makehuman_base_body.obj"), 0.1f);
+  auto lm = load_makehuman_joints(test::shared_data("mesh/makehuman_base_joints.csv"));
+  ASSERT_TRUE(mesh && lm);
+  const BodyLandmarks est = estimate_landmarks(*mesh);
+  EXPECT_LT(glm::length(est.left.knee_m - lm->left.knee_m), 0.04f);
+  EXPECT_LT(glm::length(est.pelvis_m - lm->pelvis_m), 0.02f);
+  const BodyMeasurements ref = measure_body(*mesh, *lm), got = measure_body(*mesh, est);
+  EXPECT_FALSE(got.upper_arm_girth_m);  // arms are not located
+  BodyMeasurements ref_no_arm = ref;
+  ref_no_arm.upper_arm_girth_m.reset();
+  EXPECT_TRUE(comparison_passes(got, ref_no_arm, 0.03)) << format_comparison(got, ref_no_arm, 0.03);
+}
+
 TEST(Measure, ComparisonTableAndJson) {
   const CylinderBody b = cylinder_body();
   const BodyMeasurements ref = measure_body(b.mesh, b.lm);

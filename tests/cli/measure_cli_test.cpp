@@ -59,10 +59,7 @@ TEST(MeasureCli, JsonMatchesTheSharedMeshFigures) {
 }
 
 TEST(MeasureCli, BadUsageAndBadInputAreReported) {
-  Outcome r = run_mimic("measure --obj some.obj");
-  EXPECT_EQ(r.status, 2);
-  EXPECT_NE(r.output.find("--joints"), std::string::npos) << r.output;
-  r = run_mimic("measure --units-per-metre ten");
+  Outcome r = run_mimic("measure --units-per-metre ten");
   EXPECT_EQ(r.status, 2);
   EXPECT_NE(r.output.find("expects a number"), std::string::npos) << r.output;
   r = run_mimic("measure --units-per-metre -1");
@@ -76,6 +73,19 @@ TEST(MeasureCli, BadUsageAndBadInputAreReported) {
   r = run_mimic("measure --obj body.stl --joints j.csv");
   EXPECT_EQ(r.status, 1);
   EXPECT_NE(r.output.find("unknown extension"), std::string::npos) << r.output;
+}
+
+TEST(MeasureCli, MeshWithoutJointsGetsEstimatedLandmarks) {
+  const Outcome r = run_mimic("measure --json --obj '" + mimic::test::shared_data("mesh/makehuman_base_body.obj") + "'");
+  ASSERT_EQ(r.status, 0) << r.output;
+  const auto j = nlohmann::json::parse(r.output);
+  EXPECT_EQ(j["joints"], "estimated");
+  const auto& m = j["measurements"];
+  EXPECT_NEAR(m["chest_girth_cm"].get<double>(), 85.1, 2.0);
+  EXPECT_NEAR(m["waist_girth_cm"].get<double>(), 66.9, 2.0);
+  EXPECT_FALSE(m.contains("upper_arm_girth_cm"));
+  const Outcome text = run_mimic("measure --obj '" + mimic::test::shared_data("mesh/makehuman_base_body.obj") + "'");
+  EXPECT_NE(text.output.find("estimated from the mesh"), std::string::npos) << text.output;
 }
 
 TEST(MeasureCli, HelpListsEveryOption) {

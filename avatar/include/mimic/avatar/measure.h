@@ -54,6 +54,12 @@ Result<BodyLandmarks> load_makehuman_joints(const std::string& csv_path, float m
 // the top one named spine-1.
 std::string format_landmarks_csv(const BodyLandmarks& landmarks, float units_per_metre = 1.0f);
 
+// Rough landmarks of a standing, roughly left–right symmetric body mesh without joints, from
+// average human proportions: ground at the lowest point, torso and leg axes through the
+// centroids of horizontal bands of vertices (torso near the mirror plane, legs either side).
+// Arms are not located (shoulder = elbow = wrist), so no upper-arm girth is taken.
+BodyLandmarks estimate_landmarks(const Mesh& mesh_m);
+
 // Landmarks of a posed Mimic skeleton: its joints (spine_lower/mid/upper as the spine), the
 // head link's tip as head_top, and the ground 1.8 cm below the lowest joint or link tip (the
 // sole under the toe joint, as standing_root_height_m assumes).
@@ -71,7 +77,8 @@ struct BodyMeasurements {
 };
 
 // Search ranges (H = height):
-//   chest  max torso girth for slices at 0.68–0.76 H above ground
+//   chest  max torso girth for slices at 0.68–0.76 H above ground, up to the armpit (a slice
+//          whose torso loop is 15% longer than the one 5 mm below has taken in an arm)
 //   waist  min torso girth at 0.56–0.66 H
 //   hips   max torso girth at 0.45–0.54 H (only if the torso has split below the crotch at
 //          every one of those levels, the tape wraps both thighs instead)

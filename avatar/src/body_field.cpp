@@ -1,0 +1,367 @@
+#include "mimic/avatar/body_field.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
+
+#include <glm/gtc/matrix_transform.hpp>
+#include <glm/gtx/euler_angles.hpp>
+
+namespace mimic::avatar {
+
+namespace {
+
+constexpr int kMaxRayCandidates = 64;
+constexpr float kMinStep_m = 0.0005f;
+
+glm::mat3 rotation_xyz(const glm::vec3& angles_rad) {
+  // R = Rz · Ry · Rx: x applied first, matching the orientation_deg convention of the file.
+  return glm::mat3(glm::eulerAngleZ(angles_rad.z) * glm::eulerAngleY(angles_rad.y) *
+                   glm::eulerAngleX(angles_rad.x));
+}
+
+float falloff_value(Falloff f, float t) {
+  switch (f) {
+    case Falloff::linear: return t;
+    case Falloff::parabolic: return t * t;
+    case Falloff::hyperbolic: return std::sqrt(t);
+  }
+  return t;
+}
+
+PrimitiveState lerp_state(const PrimitiveState& a, const PrimitiveState& b, float u) {
+  return {a.semi_axes_m + u * (b.semi_axes_m - a.semi_axes_m), a.center_m + u * (b.center_m - a.center_m),
+          a.orientation_rad + u * (b.orientation_rad - a.orientation_rad)};
+}
+
+// Field of one metaball term at squared ellipsoidal distance s.
+inline float term(float s, float inv_r2, float weight_norm) {
+  const float u = 1.0f - s * inv_r2;
+  return u > 0.0f ? weight_norm * u * u * u : 0.0f;
+}
+
+}  // namespace
+
+PrimitiveState deformed_state(const PrimitiveState& g0, const PrimitiveState& gmin,
+                              const PrimitiveState& gmax, Falloff falloff, float theta,
+                              float theta0, float theta_min, float theta_max) {
+  if (theta >= theta0) {
+    const float span = theta_max - theta0;
+    const float t = span > 1e-6f ? std::clamp((theta - theta0) / span, 0.0f, 1.0f) : 0.0f;
+    return lerp_state(g0, gmax, falloff_value(falloff, t));
+  }
+  const float span = theta0 - theta_min;
+  const float t = span > 1e-6f ? std::clamp((theta0 - theta) / span, 0.0f, 1.0f) : 0.0f;
+  return lerp_state(g0, gmin, falloff_value(falloff, t));
+}
+
+Result<BodyField> BodyField::create(const BodyModel& model, const Skeleton& skeleton) {
+  BodyField f;
+  const size_t n = model.primitives.size();
+  if (n >= 65535) return fail(Errc::invalid_argument, "too many primitives");
+  f.sources_.reserve(n);
+  for (const Primitive& p : model.primitives) {
+    Source s;
+    s.joint = skeleton.find_joint(p.joint);
+    if (s.joint < 0)
+      return fail(Errc::invalid_argument, "primitive '" + p.name + "': skeleton has no joint '" + p.joint + "'");
+    s.g0 = p.state;
+    if (p.deformation) {
+      s.dof = skeleton.find_dof(p.deformation->dof);
+      if (s.dof < 0)
+        return fail(Errc::invalid_argument,
+                    "primitive '" + p.name + "': skeleton has no DOF '" + p.deformation->dof + "'");
+      s.gmin = p.deformation->at_min;
+      s.gmax = p.deformation->at_max;
+      s.falloff = p.deformation->falloff;
+      const Dof& d = skeleton.dof(s.dof);
+      s.theta0 = d.rest_rad;
+      s.theta_min = d.min_rad;
+      s.theta_max = d.max_rad;
+    }
+    f.sources_.push_back(s);
+    const float r2 = p.influence * p.influence;
+    f.r2_.push_back(r2);
+    f.inv_r2_.push_back(1.0f / r2);
+    const float base = 1.0f - 1.0f / r2;
+    f.weight_norm_.push_back(p.weight / (base * base * base));
+    f.cbrt_inv_wn_.push_back(std::cbrt(1.0f / f.weight_norm_.back()));
+    f.groups_.push_back(p.groups);
+    f.part_.push_back(p.part);
+    f.hard_.push_back(p.kind == PrimitiveKind::ellipsoid ? 1 : 0);
+  }
+  f.unit_from_world_.resize(n);
+  f.center_.resize(n);
+  f.bound_radius_.resize(n);
+  f.min_axis_.resize(n);
+  // A valid initial frame: the zero posture.
+  std::vector<RigidTransform> w(skeleton.joint_count());
+  const Pose zero = skeleton.zero_pose();
+  forward_kinematics(skeleton, zero, w);
+  f.update(w, zero.dof_rad);
+  return f;
+}
+
+void BodyField::update(std::span<const RigidTransform> world_from_joint, std::span<const float> dof_rad) {
+  const size_t n = sources_.size();
+  for (size_t i = 0; i < n; ++i) {
+    const Source& s = sources_[i];
+    const PrimitiveState st =
+        s.dof < 0 ? s.g0
+                  : deformed_state(s.g0, s.gmin, s.gmax, s.falloff, dof_rad[s.dof], s.theta0, s.theta_min, s.theta_max);
+    const RigidTransform& wj = world_from_joint[s.joint];
+    const glm::mat3 world_rot = glm::mat3_cast(wj.rotation) * rotation_xyz(st.orientation_rad);
+    const glm::vec3 inv_axes = 1.0f / st.semi_axes_m;
+    // unit_from_world = S⁻¹ · Rᵀ: rows of Rᵀ are the primitive's axes in world.
+    glm::mat3 m = glm::transpose(world_rot);
+    for (int c = 0; c < 3; ++c)
+      for (int r = 0; r < 3; ++r) m[c][r] *= inv_axes[r];
+    unit_from_world_[i] = m;
+    center_[i] = wj.apply(st.center_m);
+    const float max_axis = std::max({st.semi_axes_m.x, st.semi_axes_m.y, st.semi_axes_m.z});
+    min_axis_[i] = std::min({st.semi_axes_m.x, st.semi_axes_m.y, st.semi_axes_m.z});
+    bound_radius_[i] = (hard_[i] ? 1.0f : std::sqrt(r2_[i])) * max_axis;
+  }
+}
+
+float BodyField::field(const glm::vec3& p, GroupMask mask) const {
+  float sum = 0;
+  for (int i = 0; i < size(); ++i) {
+    if (!(groups_[i] & mask) || hard_[i]) continue;
+    const glm::vec3 q = unit_from_world_[i] * (p - center_[i]);
+    sum += term(glm::dot(q, q), inv_r2_[i], weight_norm_[i]);
+  }
+  return sum;
+}
+
+float BodyField::field_of_part(const glm::vec3& p, RigidPart part) const {
+  float sum = 0;
+  for (int i = 0; i < size(); ++i) {
+    if (part_[i] != part || hard_[i]) continue;
+    const glm::vec3 q = unit_from_world_[i] * (p - center_[i]);
+    sum += term(glm::dot(q, q), inv_r2_[i], weight_norm_[i]);
+  }
+  return sum;
+}
+
+bool BodyField::inside(const glm::vec3& p, GroupMask mask) const {
+  for (int i = 0; i < size(); ++i) {
+    if (!(groups_[i] & mask) || !hard_[i]) continue;
+    const glm::vec3 q = unit_from_world_[i] * (p - center_[i]);
+    if (glm::dot(q, q) <= 1.0f) return true;
+  }
+  return field(p, mask) >= kIsoLevel;
+}
+
+int BodyField::candidates_near_plane(const glm::vec3& origin, const glm::vec3& normal, GroupMask mask,
+                                     std::span<uint16_t> out) const {
+  int n = 0;
+  for (int i = 0; i < size() && n < static_cast<int>(out.size()); ++i) {
+    if (!(groups_[i] & mask)) continue;
+    if (std::abs(glm::dot(center_[i] - origin, normal)) >= bound_radius_[i]) continue;
+    out[n++] = static_cast<uint16_t>(i);
+  }
+  return n;
+}
+
+int BodyField::candidates_of_part(RigidPart part, std::span<uint16_t> out) const {
+  int n = 0;
+  for (int i = 0; i < size() && n < static_cast<int>(out.size()); ++i)
+    if (part_[i] == part) out[n++] = static_cast<uint16_t>(i);
+  return n;
+}
+
+namespace {
+
+// The metaball terms along one ray: term k contributes wn[k]·g(a t² + 2 b t + c).
+struct RayTerms {
+  float qa[kMaxRayCandidates], qb[kMaxRayCandidates], qc[kMaxRayCandidates];
+  float ir2[kMaxRayCandidates], wn[kMaxRayCandidates], peak[kMaxRayCandidates];
+  float t0[kMaxRayCandidates], t1[kMaxRayCandidates], chord[kMaxRayCandidates];
+  float cbrt_inv_wn[kMaxRayCandidates];
+  int n = 0;
+  float t_far = -1.0f;
+  float t_hard = -1.0f;
+
+  // Adds a metaball term if its support reaches t ≥ 0.
+  void add(float a, float b, float c, float r2, float inv_r2, float weight_norm, float cbrt_inv_weight_norm) {
+    const float disc = b * b - a * (c - r2);
+    if (disc <= 0.0f || n == kMaxRayCandidates) return;
+    const float root = std::sqrt(disc);
+    const float end = (-b + root) / a;
+    if (end <= 0.0f) return;
+    const float start = std::max(0.0f, (-b - root) / a);
+    qa[n] = a;
+    qb[n] = b;
+    qc[n] = c;
+    ir2[n] = inv_r2;
+    wn[n] = weight_norm;
+    cbrt_inv_wn[n] = cbrt_inv_weight_norm;
+    peak[n] = std::clamp(-b / a, start, end);
+    t0[n] = start;
+    t1[n] = end;
+    chord[n] = 2.0f * root / a;  // whole support chord, also where the ray starts inside it
+    t_far = std::max(t_far, end);
+    ++n;
+  }
+  void add_hard(float a, float b, float c) {
+    const float disc = b * b - a * (c - 1.0f);
+    if (disc > 0.0f) t_hard = std::max(t_hard, (-b + std::sqrt(disc)) / a);
+  }
+
+  float field_at(float t) const {
+    float sum = 0;
+    for (int k = 0; k < n; ++k) sum += term((qa[k] * t + 2.0f * qb[k]) * t + qc[k], ir2[k], wn[k]);
+    return sum;
+  }
+
+  // Beyond the last point where some term reaches 1/n, the sum of the n terms is below the
+  // iso-level: the outermost crossing cannot lie further out. −1 when no term ever does.
+  float start_bound() const {
+    static const auto table = [] {
+      std::array<float, kMaxRayCandidates + 1> t{};
+      for (int i = 1; i <= kMaxRayCandidates; ++i) t[i] = std::cbrt(1.0f / static_cast<float>(i));
+      return t;
+    }();
+    const float inv_n_cbrt = table[n];
+    float start = -1.0f;
+    for (int k = 0; k < n; ++k) {
+      // term_k ≥ 1/n  ⇔  u ≥ (1/(n·wn))^(1/3)  ⇔  s ≤ R²·(1 − that).
+      const float u_min = inv_n_cbrt * cbrt_inv_wn[k];
+      if (u_min >= 1.0f) continue;
+      const float s_max = (1.0f - u_min) / ir2[k];
+      const float disc = qb[k] * qb[k] - qa[k] * (qc[k] - s_max);
+      if (disc <= 0.0f) continue;
+      start = std::max(start, (-qb[k] + std::sqrt(disc)) / qa[k]);
+    }
+    return start;
+  }
+
+  // Outermost t with field ≥ 1 (or a hard ellipsoid's exit), −1 when none.
+  float outermost() {
+    float t_meta = -1.0f;
+    const float start = n > 0 ? start_bound() : -1.0f;
+    if (start >= 0.0f) {
+      t_far = start;
+      std::sort(peak, peak + n, [](float x, float y) { return x > y; });
+      // March inwards from the far end of all supports with a step no longer than an eighth
+      // of the shortest support chord around the current t, visiting every primitive's peak
+      // too, so neither a thin primitive nor a blended bridge between two is stepped over.
+      float t_out = t_far, f_out = field_at(t_far);
+      float t = t_far;
+      int next_peak = 0;
+      if (f_out >= kIsoLevel) return std::max(t_far, t_hard);
+      while (t > 0.0f) {
+        float step = std::numeric_limits<float>::max();
+        float below = -1.0f;  // the next support end inside, when t is in no support
+        for (int k = 0; k < n; ++k) {
+          if (t <= t1[k] && t >= t0[k]) step = std::min(step, chord[k]);
+          else if (t1[k] < t) below = std::max(below, t1[k]);
+        }
+        float next = step < std::numeric_limits<float>::max() ? t - std::max(step * 0.125f, kMinStep_m)
+                                                            : below;
+        next = std::max(next, 0.0f);
+        if (next_peak < n && peak[next_peak] > next) {
+          next = std::min(peak[next_peak++], t);
+          if (next >= t_out) continue;
+        }
+        t = next;
+        const float f = field_at(t);
+        if (f >= kIsoLevel) {
+          t_meta = refine(t, f, t_out, f_out);
+          break;
+        }
+        t_out = t;
+        f_out = f;
+      }
+    }
+    return std::max(t_meta, t_hard);
+  }
+
+  // Field and its derivative along the ray.
+  float field_and_slope(float t, float& slope) const {
+    float sum = 0, d = 0;
+    for (int k = 0; k < n; ++k) {
+      const float u = 1.0f - ((qa[k] * t + 2.0f * qb[k]) * t + qc[k]) * ir2[k];
+      if (u > 0.0f) {
+        sum += wn[k] * u * u * u;
+        d -= 3.0f * wn[k] * u * u * ir2[k] * 2.0f * (qa[k] * t + qb[k]);
+      }
+    }
+    slope = d;
+    return sum;
+  }
+
+  // Bracketed root of field − 1 on [lo, hi] (field(lo) ≥ 1 > field(hi)): Newton steps from
+  // the secant estimate, falling back to bisection whenever a step leaves the bracket.
+  float refine(float lo, float f_lo, float hi, float f_hi) const {
+    float flo = f_lo - kIsoLevel, fhi = f_hi - kIsoLevel;
+    float t = (lo * fhi - hi * flo) / (fhi - flo);
+    for (int it = 0; it < 32; ++it) {
+      float slope;
+      const float f = field_and_slope(t, slope) - kIsoLevel;
+      // |f| < 2e-4 is a few micrometres along the ray at the body's field gradients.
+      if (std::abs(f) < 2e-4f || hi - lo < 1e-5f) return t;
+      if (f >= 0.0f) lo = t, flo = f;
+      else hi = t, fhi = f;
+      float next = slope != 0.0f ? t - f / slope : 0.5f * (lo + hi);
+      if (!(next > lo && next < hi)) next = 0.5f * (lo + hi);
+      if (std::abs(next - t) < 2e-6f) return next;
+      t = next;
+    }
+    return t;
+  }
+};
+
+}  // namespace
+
+RayHit BodyField::cast_outermost(const glm::vec3& origin, const glm::vec3& dir,
+                                 std::span<const uint16_t> candidates) const {
+  RayTerms terms;
+  for (uint16_t idx : candidates) {
+    // Cheap reject: the ray must pass within the primitive's bounding sphere, ahead of the origin.
+    const glm::vec3 v = center_[idx] - origin;
+    const float along = glm::dot(v, dir), bound = bound_radius_[idx];
+    if (along < -bound || glm::dot(v, v) - along * along > bound * bound) continue;
+    const glm::mat3& m = unit_from_world_[idx];
+    const glm::vec3 q0 = m * (origin - center_[idx]);
+    const glm::vec3 q1 = m * dir;
+    const float a = glm::dot(q1, q1), b = glm::dot(q0, q1), c = glm::dot(q0, q0);
+    if (hard_[idx]) terms.add_hard(a, b, c);
+    else terms.add(a, b, c, r2_[idx], inv_r2_[idx], weight_norm_[idx], cbrt_inv_wn_[idx]);
+  }
+  return RayHit{terms.outermost()};
+}
+
+void BodyField::cast_star(const glm::vec3& origin, const glm::vec3& front, const glm::vec3& left,
+                          std::span<const float> angles_rad, std::span<const uint16_t> candidates,
+                          std::span<RayHit> hits) const {
+  // Everything that does not depend on the ray's angle is computed once per contour:
+  // q0 = M(o − c), M·front, M·left; then q1 = cos·Mf + sin·Ml per ray.
+  const int n = std::min<int>(static_cast<int>(candidates.size()), kMaxRayCandidates);
+  glm::vec3 q0[kMaxRayCandidates], mf[kMaxRayCandidates], ml[kMaxRayCandidates];
+  float cc[kMaxRayCandidates];
+  for (int k = 0; k < n; ++k) {
+    const uint16_t idx = candidates[k];
+    const glm::mat3& m = unit_from_world_[idx];
+    q0[k] = m * (origin - center_[idx]);
+    mf[k] = m * front;
+    ml[k] = m * left;
+    cc[k] = glm::dot(q0[k], q0[k]);
+  }
+  for (size_t j = 0; j < angles_rad.size(); ++j) {
+    const float ca = std::cos(angles_rad[j]), sa = std::sin(angles_rad[j]);
+    RayTerms terms;
+    for (int k = 0; k < n; ++k) {
+      const uint16_t idx = candidates[k];
+      const glm::vec3 q1 = ca * mf[k] + sa * ml[k];
+      const float a = glm::dot(q1, q1), b = glm::dot(q0[k], q1);
+      if (hard_[idx]) terms.add_hard(a, b, cc[k]);
+      else terms.add(a, b, cc[k], r2_[idx], inv_r2_[idx], weight_norm_[idx], cbrt_inv_wn_[idx]);
+    }
+    hits[j] = RayHit{terms.outermost()};
+  }
+}
+
+}  // namespace mimic::avatar

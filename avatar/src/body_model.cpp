@@ -1,0 +1,431 @@
+#include "mimic/avatar/body_model.h"
+
+#include <cmath>
+#include <set>
+
+#include <nlohmann/json.hpp>
+
+#include "mimic/core/file.h"
+
+namespace mimic::avatar {
+
+namespace {
+
+constexpr const char* kGroupNames[kGroupCount] = {
+    "upper_torso",     "lower_torso",     "hip",             "left_shoulder",  "right_shoulder",
+    "left_upper_arm",  "right_upper_arm", "left_lower_arm",  "right_lower_arm", "left_upper_leg",
+    "right_upper_leg", "left_lower_leg",  "right_lower_leg", "left_ankle",      "right_ankle"};
+
+constexpr const char* kPartNames[kRigidPartCount + 1] = {"none",      "head",      "left_hand",
+                                                         "right_hand", "left_foot", "right_foot"};
+
+constexpr int kFormatVersion = 1;
+
+using nlohmann::json;
+
+// Six decimals (micrometres, microdegrees) keep files readable and round trips exact.
+double rounded(float v) { return std::round(static_cast<double>(v) * 1e6) / 1e6; }
+
+json vec(const glm::vec3& v) { return json::array({rounded(v.x), rounded(v.y), rounded(v.z)}); }
+
+json state_json(const PrimitiveState& s) {
+  return json{{"semi_axes", vec(s.semi_axes_m)}, {"center", vec(s.center_m)},
+              {"orientation_deg", vec(glm::degrees(s.orientation_rad))}};
+}
+
+json dof_json(const DofDesc& d) {
+  return json{{"name", d.name},
+              {"axis", vec(d.axis)},
+              {"min_deg", rounded(glm::degrees(d.min_rad))},
+              {"max_deg", rounded(glm::degrees(d.max_rad))},
+              {"rest_deg", rounded(glm::degrees(d.rest_rad))}};
+}
+
+// Reads JSON with a running path so every error says where it is.
+class Reader {
+ public:
+  explicit Reader(std::string source) : source_(std::move(source)) {}
+
+  [[nodiscard]] bool ok() const { return error_.empty(); }
+  [[nodiscard]] const std::string& error() const { return error_; }
+
+  void fail_at(const std::string& path, const std::string& what) {
+    if (error_.empty()) error_ = source_ + ": " + path + ": " + what;
+  }
+
+  const json* member(const json& obj, const std::string& path, const char* key, bool required) {
+    if (!obj.is_object()) {
+      fail_at(path, "expected an object");
+      return nullptr;
+    }
+    auto it = obj.find(key);
+    if (it == obj.end()) {
+      if (required) fail_at(path, std::string("missing \"") + key + "\"");
+      return nullptr;
+    }
+    return &*it;
+  }
+
+  float number(const json& obj, const std::string& path, const char* key, float fallback,
+               bool required = false) {
+    const json* v = member(obj, path, key, required);
+    if (!v) return fallback;
+    if (!v->is_number()) {
+      fail_at(path + "." + key, "expected a number");
+      return fallback;
+    }
+    const double d = v->get<double>();
+    if (!std::isfinite(d)) fail_at(path + "." + key, "not a finite number");
+    return static_cast<float>(d);
+  }
+
+  int integer(const json& obj, const std::string& path, const char* key, int fallback) {
+    const json* v = member(obj, path, key, false);
+    if (!v) return fallback;
+    if (!v->is_number_integer()) {
+      fail_at(path + "." + key, "expected an integer");
+      return fallback;
+    }
+    return v->get<int>();
+  }
+
+  std::string string(const json& obj, const std::string& path, const char* key, bool required,
+                     const std::string& fallback = "") {
+    const json* v = member(obj, path, key, required);
+    if (!v) return fallback;
+    if (!v->is_string()) {
+      fail_at(path + "." + key, "expected a string");
+      return fallback;
+    }
+    return v->get<std::string>();
+  }
+
+  glm::vec3 vec3(const json& obj, const std::string& path, const char* key, glm::vec3 fallback,
+                 bool required = false) {
+    const json* v = member(obj, path, key, required);
+    if (!v) return fallback;
+    if (!v->is_array() || v->size() != 3) {
+      fail_at(path + "." + key, "expected an array of 3 numbers");
+      return fallback;
+    }
+    glm::vec3 out;
+    for (int i = 0; i < 3; ++i) {
+      if (!(*v)[i].is_number() || !std::isfinite((*v)[i].get<double>())) {
+        fail_at(path + "." + key + "[" + std::to_string(i) + "]", "expected a finite number");
+        return fallback;
+      }
+      out[i] = (*v)[i].get<float>();
+    }
+    return out;
+  }
+
+  PrimitiveState state(const json& obj, const std::string& path, const PrimitiveState& fallback) {
+    PrimitiveState s;
+    s.semi_axes_m = vec3(obj, path, "semi_axes", fallback.semi_axes_m, true);
+    s.center_m = vec3(obj, path, "center", fallback.center_m);
+    s.orientation_rad = glm::radians(vec3(obj, path, "orientation_deg", glm::degrees(fallback.orientation_rad)));
+    return s;
+  }
+
+ private:
+  std::string source_;
+  std::string error_;
+};
+
+}  // namespace
+
+const char* group_name(Group g) { return kGroupNames[static_cast<int>(g)]; }
+
+std::optional<Group> group_from_name(std::string_view name) {
+  for (int i = 0; i < kGroupCount; ++i)
+    if (name == kGroupNames[i]) return static_cast<Group>(i);
+  return std::nullopt;
+}
+
+const char* rigid_part_name(RigidPart p) { return kPartNames[static_cast<int>(p)]; }
+
+std::optional<RigidPart> rigid_part_from_name(std::string_view name) {
+  for (int i = 0; i <= kRigidPartCount; ++i)
+    if (name == kPartNames[i]) return static_cast<RigidPart>(i);
+  return std::nullopt;
+}
+
+const char* falloff_name(Falloff f) {
+  switch (f) {
+    case Falloff::linear: return "linear";
+    case Falloff::parabolic: return "parabolic";
+    case Falloff::hyperbolic: return "hyperbolic";
+  }
+  return "linear";
+}
+
+Status validate(const BodyModel& model) {
+  auto skel = Skeleton::build(model.skeleton);
+  if (!skel) return fail(Errc::invalid_argument, "skeleton: " + skel.error().message);
+  if (model.primitives.empty()) return fail(Errc::invalid_argument, "body has no primitives");
+  std::set<std::string> names;
+  GroupMask covered = 0;
+  for (size_t i = 0; i < model.primitives.size(); ++i) {
+    const Primitive& p = model.primitives[i];
+    const std::string where = "primitive " + std::to_string(i) + " ('" + p.name + "')";
+    if (p.name.empty()) return fail(Errc::invalid_argument, where + ": has no name");
+    if (!names.insert(p.name).second) return fail(Errc::invalid_argument, where + ": duplicate name");
+    const int j = skel->find_joint(p.joint);
+    if (j < 0) return fail(Errc::invalid_argument, where + ": unknown joint '" + p.joint + "'");
+    auto check_state = [&](const PrimitiveState& s, const char* which) -> Status {
+      for (int k = 0; k < 3; ++k)
+        if (!(s.semi_axes_m[k] > 1e-4f && s.semi_axes_m[k] < 2.0f))
+          return fail(Errc::invalid_argument, where + ": " + which + " semi-axes must be in (0.1 mm, 2 m)");
+      return {};
+    };
+    if (auto st = check_state(p.state, "G0"); !st) return st;
+    if (!(p.weight > 0.0f && p.weight < 100.0f))
+      return fail(Errc::invalid_argument, where + ": weight must be in (0, 100)");
+    if (!(p.influence > 1.05f && p.influence < 10.0f))
+      return fail(Errc::invalid_argument, where + ": influence must be in (1.05, 10)");
+    if (p.groups == 0 && p.part == RigidPart::none)
+      return fail(Errc::invalid_argument, where + ": belongs to no group and no rigid part");
+    if (p.groups >> kGroupCount) return fail(Errc::invalid_argument, where + ": unknown group bits");
+    covered |= p.groups;
+    if (p.deformation) {
+      const int d = skel->find_dof(p.deformation->dof);
+      if (d < 0) return fail(Errc::invalid_argument, where + ": unknown DOF '" + p.deformation->dof + "'");
+      if (auto st = check_state(p.deformation->at_min, "G_min"); !st) return st;
+      if (auto st = check_state(p.deformation->at_max, "G_max"); !st) return st;
+    }
+  }
+  for (int g = 0; g < kGroupCount; ++g)
+    if (!(covered & (1u << g)))
+      return fail(Errc::invalid_argument, std::string("group '") + kGroupNames[g] + "' has no primitive");
+  const SkinLayout& s = model.skin;
+  if (s.torso_points != 2 * s.chest_front_arc + 2 * s.chest_side_arc ||
+      s.chest_front_arc < 2 || s.chest_side_arc < 2)
+    return fail(Errc::invalid_argument,
+                "skin: torso_points must equal 2*chest_front_arc + 2*chest_side_arc (front and back "
+                "arcs have chest_front_arc segments each), both at least 2");
+  if (s.torso_points % 2 != 0 || s.torso_points < 8 || s.torso_points > 512)
+    return fail(Errc::invalid_argument, "skin: torso_points must be even and in [8, 512]");
+  if (s.shoulder_bridge < 2 || s.crotch_bridge < 1 || s.shoulder_bridge > 256 || s.crotch_bridge > 256)
+    return fail(Errc::invalid_argument, "skin: bridges need 2..256 (shoulder) and 1..256 (crotch) segments");
+  const int k = s.boundary_contours;
+  if (k < 0 || k > 32) return fail(Errc::invalid_argument, "skin: boundary_contours must be in [0, 32]");
+  for (auto [n, what] : {std::pair{s.lower_torso_contours, "lower_torso_contours"},
+                         {s.upper_torso_contours, "upper_torso_contours"},
+                         {s.neck_contours, "neck_contours"},
+                         {s.upper_arm_contours, "upper_arm_contours"},
+                         {s.lower_arm_contours, "lower_arm_contours"},
+                         {s.upper_leg_contours, "upper_leg_contours"},
+                         {s.lower_leg_contours, "lower_leg_contours"}})
+    if (n < 3 || n > 256) return fail(Errc::invalid_argument, std::string("skin: ") + what + " must be in [3, 256]");
+  for (auto [n, what] : {std::pair{s.neck_contours, "neck_contours"},
+                         {s.upper_arm_contours, "upper_arm_contours"},
+                         {s.upper_leg_contours, "upper_leg_contours"}})
+    if (n < k + 3)
+      return fail(Errc::invalid_argument, std::string("skin: ") + what + " must exceed boundary_contours + 2");
+  if (s.rigid_rings < 3 || s.rigid_points < 4 || s.rigid_rings > 256 || s.rigid_points > 256)
+    return fail(Errc::invalid_argument, "skin: rigid meshes need 3..256 rings and 4..256 points");
+  if (!(s.chest_ring >= 0.0f && s.chest_ring < 0.9f) || !(s.neck_start > 0.0f && s.neck_start < 1.0f) ||
+      !(s.crotch_drop_m >= 0.0f && s.crotch_drop_m < 0.5f))
+    return fail(Errc::invalid_argument, "skin: chest_ring, neck_start or crotch_drop_m out of range");
+  return {};
+}
+
+std::string to_json(const BodyModel& model, bool pretty) {
+  json j;
+  j["format"] = "mimic-body";
+  j["version"] = kFormatVersion;
+  j["name"] = model.name;
+  json joints = json::array();
+  for (const auto& jd : model.skeleton.joints) {
+    json dofs = json::array();
+    for (const auto& d : jd.dofs) dofs.push_back(dof_json(d));
+    joints.push_back(json{{"name", jd.name}, {"parent", jd.parent}, {"offset", vec(jd.offset_m)},
+                          {"tip", vec(jd.tip_m)}, {"dofs", dofs}});
+  }
+  j["skeleton"] = json{{"joints", joints}};
+  json prims = json::array();
+  for (const auto& p : model.primitives) {
+    json groups = json::array();
+    for (int g = 0; g < kGroupCount; ++g)
+      if (p.groups & (1u << g)) groups.push_back(kGroupNames[g]);
+    json pj{{"name", p.name},
+            {"joint", p.joint},
+            {"kind", p.kind == PrimitiveKind::metaball ? "metaball" : "ellipsoid"},
+            {"weight", rounded(p.weight)},
+            {"influence", rounded(p.influence)},
+            {"groups", groups},
+            {"state", state_json(p.state)}};
+    if (p.part != RigidPart::none) pj["part"] = rigid_part_name(p.part);
+    if (p.deformation) {
+      pj["deformation"] = json{{"dof", p.deformation->dof},
+                               {"falloff", falloff_name(p.deformation->falloff)},
+                               {"min", state_json(p.deformation->at_min)},
+                               {"max", state_json(p.deformation->at_max)}};
+    }
+    prims.push_back(std::move(pj));
+  }
+  j["primitives"] = prims;
+  const SkinLayout& s = model.skin;
+  j["skin"] = json{{"pieces", json::array({"neck", "upper_torso", "lower_torso", "left_upper_arm",
+                                           "right_upper_arm", "left_lower_arm", "right_lower_arm",
+                                           "left_upper_leg", "right_upper_leg", "left_lower_leg",
+                                           "right_lower_leg"})},
+                   {"torso_points", s.torso_points},
+                   {"chest_front_arc", s.chest_front_arc},
+                   {"chest_side_arc", s.chest_side_arc},
+                   {"shoulder_bridge", s.shoulder_bridge},
+                   {"crotch_bridge", s.crotch_bridge},
+                   {"lower_torso_contours", s.lower_torso_contours},
+                   {"upper_torso_contours", s.upper_torso_contours},
+                   {"neck_contours", s.neck_contours},
+                   {"upper_arm_contours", s.upper_arm_contours},
+                   {"lower_arm_contours", s.lower_arm_contours},
+                   {"upper_leg_contours", s.upper_leg_contours},
+                   {"lower_leg_contours", s.lower_leg_contours},
+                   {"boundary_contours", s.boundary_contours},
+                   {"rigid_rings", s.rigid_rings},
+                   {"rigid_points", s.rigid_points},
+                   {"crotch_drop_m", rounded(s.crotch_drop_m)},
+                   {"chest_ring", rounded(s.chest_ring)},
+                   {"neck_start", rounded(s.neck_start)}};
+  return j.dump(pretty ? 1 : -1, ' ');
+}
+
+Result<BodyModel> body_model_from_json(std::string_view text, std::string_view source_name) {
+  const std::string src(source_name);
+  json root;
+  try {
+    root = json::parse(text.begin(), text.end());
+  } catch (const json::parse_error& e) {
+    // nlohmann reports the byte offset; turn it into a line number for people.
+    size_t line = 1;
+    const size_t upto = std::min<size_t>(e.byte, text.size());
+    for (size_t i = 0; i < upto; ++i) line += text[i] == '\n';
+    return fail(Errc::parse_error, src + ":" + std::to_string(line) + ": invalid JSON (" + e.what() + ")");
+  }
+  Reader r(src);
+  BodyModel m;
+  const std::string format = r.string(root, "$", "format", true);
+  if (r.ok() && format != "mimic-body") r.fail_at("$.format", "expected \"mimic-body\", got \"" + format + "\"");
+  const int version = r.integer(root, "$", "version", -1);
+  if (r.ok() && version != kFormatVersion)
+    r.fail_at("$.version", "unsupported version " + std::to_string(version) + " (this build reads " +
+                               std::to_string(kFormatVersion) + ")");
+  m.name = r.string(root, "$", "name", false, "unnamed");
+
+  if (const json* sk = r.member(root, "$", "skeleton", true); sk && r.ok()) {
+    const json* joints = r.member(*sk, "$.skeleton", "joints", true);
+    if (joints && !joints->is_array()) r.fail_at("$.skeleton.joints", "expected an array");
+    if (joints && joints->is_array()) {
+      for (size_t i = 0; i < joints->size() && r.ok(); ++i) {
+        const json& jj = (*joints)[i];
+        const std::string path = "$.skeleton.joints[" + std::to_string(i) + "]";
+        JointDesc jd;
+        jd.name = r.string(jj, path, "name", true);
+        jd.parent = r.string(jj, path, "parent", false);
+        jd.offset_m = r.vec3(jj, path, "offset", {0, 0, 0});
+        jd.tip_m = r.vec3(jj, path, "tip", {0, 0, 0});
+        if (const json* dofs = r.member(jj, path, "dofs", false); dofs) {
+          if (!dofs->is_array()) r.fail_at(path + ".dofs", "expected an array");
+          for (size_t k = 0; r.ok() && dofs->is_array() && k < dofs->size(); ++k) {
+            const json& dj = (*dofs)[k];
+            const std::string dp = path + ".dofs[" + std::to_string(k) + "]";
+            DofDesc d;
+            d.name = r.string(dj, dp, "name", true);
+            d.axis = r.vec3(dj, dp, "axis", {1, 0, 0}, true);
+            d.min_rad = glm::radians(r.number(dj, dp, "min_deg", -180, true));
+            d.max_rad = glm::radians(r.number(dj, dp, "max_deg", 180, true));
+            d.rest_rad = glm::radians(r.number(dj, dp, "rest_deg", 0));
+            jd.dofs.push_back(std::move(d));
+          }
+        }
+        m.skeleton.joints.push_back(std::move(jd));
+      }
+    }
+  }
+
+  if (const json* prims = r.member(root, "$", "primitives", true); prims && r.ok()) {
+    if (!prims->is_array()) r.fail_at("$.primitives", "expected an array");
+    for (size_t i = 0; r.ok() && prims->is_array() && i < prims->size(); ++i) {
+      const json& pj = (*prims)[i];
+      const std::string path = "$.primitives[" + std::to_string(i) + "]";
+      Primitive p;
+      p.name = r.string(pj, path, "name", true);
+      p.joint = r.string(pj, path, "joint", true);
+      const std::string kind = r.string(pj, path, "kind", false, "metaball");
+      if (kind == "metaball") p.kind = PrimitiveKind::metaball;
+      else if (kind == "ellipsoid") p.kind = PrimitiveKind::ellipsoid;
+      else r.fail_at(path + ".kind", "expected \"metaball\" or \"ellipsoid\", got \"" + kind + "\"");
+      p.weight = r.number(pj, path, "weight", 1.0f);
+      p.influence = r.number(pj, path, "influence", 1.6f);
+      if (const json* groups = r.member(pj, path, "groups", false); groups) {
+        if (!groups->is_array()) r.fail_at(path + ".groups", "expected an array of group names");
+        for (size_t g = 0; r.ok() && groups->is_array() && g < groups->size(); ++g) {
+          const json& gj = (*groups)[g];
+          auto grp = gj.is_string() ? group_from_name(gj.get<std::string>()) : std::nullopt;
+          if (!grp) r.fail_at(path + ".groups[" + std::to_string(g) + "]", "unknown group " + gj.dump());
+          else p.groups |= group_bit(*grp);
+        }
+      }
+      const std::string part = r.string(pj, path, "part", false, "none");
+      if (auto rp = rigid_part_from_name(part)) p.part = *rp;
+      else r.fail_at(path + ".part", "unknown rigid part \"" + part + "\"");
+      if (const json* st = r.member(pj, path, "state", true); st && r.ok())
+        p.state = r.state(*st, path + ".state", PrimitiveState{});
+      if (const json* dj = r.member(pj, path, "deformation", false); dj && r.ok()) {
+        Deformation d;
+        d.dof = r.string(*dj, path + ".deformation", "dof", true);
+        const std::string f = r.string(*dj, path + ".deformation", "falloff", false, "linear");
+        if (f == "linear") d.falloff = Falloff::linear;
+        else if (f == "parabolic") d.falloff = Falloff::parabolic;
+        else if (f == "hyperbolic") d.falloff = Falloff::hyperbolic;
+        else r.fail_at(path + ".deformation.falloff", "expected linear, parabolic or hyperbolic");
+        if (const json* mn = r.member(*dj, path + ".deformation", "min", true); mn && r.ok())
+          d.at_min = r.state(*mn, path + ".deformation.min", p.state);
+        if (const json* mx = r.member(*dj, path + ".deformation", "max", true); mx && r.ok())
+          d.at_max = r.state(*mx, path + ".deformation.max", p.state);
+        p.deformation = d;
+      }
+      m.primitives.push_back(std::move(p));
+    }
+  }
+
+  if (const json* sj = r.member(root, "$", "skin", false); sj && r.ok()) {
+    SkinLayout& s = m.skin;
+    const std::string path = "$.skin";
+    s.torso_points = r.integer(*sj, path, "torso_points", s.torso_points);
+    s.chest_front_arc = r.integer(*sj, path, "chest_front_arc", s.chest_front_arc);
+    s.chest_side_arc = r.integer(*sj, path, "chest_side_arc", s.chest_side_arc);
+    s.shoulder_bridge = r.integer(*sj, path, "shoulder_bridge", s.shoulder_bridge);
+    s.crotch_bridge = r.integer(*sj, path, "crotch_bridge", s.crotch_bridge);
+    s.lower_torso_contours = r.integer(*sj, path, "lower_torso_contours", s.lower_torso_contours);
+    s.upper_torso_contours = r.integer(*sj, path, "upper_torso_contours", s.upper_torso_contours);
+    s.neck_contours = r.integer(*sj, path, "neck_contours", s.neck_contours);
+    s.upper_arm_contours = r.integer(*sj, path, "upper_arm_contours", s.upper_arm_contours);
+    s.lower_arm_contours = r.integer(*sj, path, "lower_arm_contours", s.lower_arm_contours);
+    s.upper_leg_contours = r.integer(*sj, path, "upper_leg_contours", s.upper_leg_contours);
+    s.lower_leg_contours = r.integer(*sj, path, "lower_leg_contours", s.lower_leg_contours);
+    s.boundary_contours = r.integer(*sj, path, "boundary_contours", s.boundary_contours);
+    s.rigid_rings = r.integer(*sj, path, "rigid_rings", s.rigid_rings);
+    s.rigid_points = r.integer(*sj, path, "rigid_points", s.rigid_points);
+    s.crotch_drop_m = r.number(*sj, path, "crotch_drop_m", s.crotch_drop_m);
+    s.chest_ring = r.number(*sj, path, "chest_ring", s.chest_ring);
+    s.neck_start = r.number(*sj, path, "neck_start", s.neck_start);
+  }
+  if (!r.ok()) return fail(Errc::parse_error, r.error());
+  if (auto st = validate(m); !st) return fail(Errc::parse_error, src + ": " + st.error().message);
+  return m;
+}
+
+Result<BodyModel> load_body_model(const std::string& path) {
+  auto text = read_file(path);
+  if (!text) return tl::unexpected(text.error());
+  return body_model_from_json(*text, path);
+}
+
+Status save_body_model(const BodyModel& model, const std::string& path) {
+  if (auto st = validate(model); !st) return st;
+  return write_file_atomic(path, to_json(model) + "\n");
+}
+
+}  // namespace mimic::avatar

@@ -1,0 +1,264 @@
+// Mimic's built-in adult body: about 1.67 m, average proportions, 90-odd primitives.
+//
+// Authored in world coordinates of the zero posture (T-pose, root 0.89 m above the floor) and
+// converted to joint frames, which are parallel to the world there. Left-side primitives are
+// mirrored to the right. Muscles (deltoid, biceps, triceps, forearm, pectoral, gluteal,
+// quadriceps, hamstring, calf) deform with their reference DOF.
+#include <glm/gtx/norm.hpp>
+
+#include "mimic/avatar/body_model.h"
+
+namespace mimic::avatar {
+
+namespace {
+
+constexpr float kRootHeight_m = 0.89f;
+
+struct Author {
+  BodyModel model;
+  Skeleton skeleton;
+  std::vector<RigidTransform> world;
+
+  explicit Author(SkeletonDesc desc) : skeleton(*Skeleton::build(desc)) {
+    model.skeleton = std::move(desc);
+    Pose p = skeleton.zero_pose();
+    p.root_position_m = {0, kRootHeight_m, 0};
+    world.resize(skeleton.joint_count());
+    forward_kinematics(skeleton, p, world);
+  }
+
+  glm::vec3 local(const std::string& joint, glm::vec3 world_point) const {
+    return world[skeleton.find_joint(joint)].inverse().apply(world_point);
+  }
+
+  Primitive& add(const std::string& name, const std::string& joint, glm::vec3 center_world, glm::vec3 axes,
+                 GroupMask groups, float influence = 1.5f, glm::vec3 orientation_deg = glm::vec3(0)) {
+    Primitive p;
+    p.name = name;
+    p.joint = joint;
+    p.state.center_m = local(joint, center_world);
+    p.state.semi_axes_m = axes;
+    p.state.orientation_rad = glm::radians(orientation_deg);
+    p.groups = groups;
+    p.influence = influence;
+    model.primitives.push_back(p);
+    return model.primitives.back();
+  }
+
+  Primitive& hard(const std::string& name, const std::string& joint, glm::vec3 center_world, glm::vec3 axes,
+                  GroupMask groups) {
+    Primitive& p = add(name, joint, center_world, axes, groups);
+    p.kind = PrimitiveKind::ellipsoid;
+    return p;
+  }
+
+  Primitive& rigid(const std::string& name, const std::string& joint, RigidPart part, glm::vec3 center_world,
+                   glm::vec3 axes, float influence = 1.5f, glm::vec3 orientation_deg = glm::vec3(0)) {
+    Primitive& p = add(name, joint, center_world, axes, 0, influence, orientation_deg);
+    p.part = part;
+    return p;
+  }
+
+  // Deformation given as world-space states of the zero posture, like the primitive itself.
+  void muscle(Primitive& p, const std::string& dof, glm::vec3 min_axes, glm::vec3 min_center_world,
+              glm::vec3 max_axes, glm::vec3 max_center_world, Falloff f = Falloff::linear) {
+    Deformation d;
+    d.dof = dof;
+    d.falloff = f;
+    d.at_min = p.state;
+    d.at_min.semi_axes_m = min_axes;
+    d.at_min.center_m = local(p.joint, min_center_world);
+    d.at_max = p.state;
+    d.at_max.semi_axes_m = max_axes;
+    d.at_max.center_m = local(p.joint, max_center_world);
+    p.deformation = d;
+  }
+};
+
+GroupMask G(std::initializer_list<Group> gs) {
+  GroupMask m = 0;
+  for (Group g : gs) m |= group_bit(g);
+  return m;
+}
+
+Group mirror(Group g) {
+  switch (g) {
+    case Group::left_shoulder: return Group::right_shoulder;
+    case Group::left_upper_arm: return Group::right_upper_arm;
+    case Group::left_lower_arm: return Group::right_lower_arm;
+    case Group::left_upper_leg: return Group::right_upper_leg;
+    case Group::left_lower_leg: return Group::right_lower_leg;
+    case Group::left_ankle: return Group::right_ankle;
+    default: return g;
+  }
+}
+
+GroupMask mirror_mask(GroupMask m) {
+  GroupMask out = 0;
+  for (int g = 0; g < kGroupCount; ++g)
+    if (m & (1u << g)) out |= group_bit(mirror(static_cast<Group>(g)));
+  return out;
+}
+
+std::string mirror_name(const std::string& s) { return s.rfind("l_", 0) == 0 ? "r_" + s.substr(2) : s; }
+
+PrimitiveState mirror_state(PrimitiveState s) {
+  s.center_m.x = -s.center_m.x;
+  // A reflection in x keeps the x rotation and negates the y and z rotations.
+  s.orientation_rad.y = -s.orientation_rad.y;
+  s.orientation_rad.z = -s.orientation_rad.z;
+  return s;
+}
+
+}  // namespace
+
+BodyModel default_body_model() {
+  using enum Group;
+  Author a(default_skeleton_desc());
+  a.model.name = "mimic-default";
+
+  // --- pelvis and hips -------------------------------------------------------------------
+  a.add("pelvis_core", "pelvis", {0, 0.905f, 0.025f}, {0.135f, 0.085f, 0.095f}, G({hip, lower_torso}));
+  a.add("lower_abdomen", "pelvis", {0, 0.95f, 0.07f}, {0.11f, 0.065f, 0.07f}, G({hip, lower_torso}));
+  a.add("pubis", "pelvis", {0, 0.835f, 0.045f}, {0.06f, 0.045f, 0.055f}, G({hip}));
+  {
+    Primitive& g = a.add("l_gluteal", "pelvis", {0.072f, 0.855f, -0.045f}, {0.08f, 0.09f, 0.07f},
+                         G({hip, lower_torso, left_upper_leg}));
+    // Extension (hip_flexion < 0) bunches the gluteus, flexion stretches it flat.
+    a.muscle(g, "l_hip_flexion", {0.08f, 0.095f, 0.078f}, {0.072f, 0.86f, -0.05f}, {0.085f, 0.08f, 0.06f},
+             {0.075f, 0.85f, -0.04f});
+  }
+  a.add("l_hip_side", "pelvis", {0.125f, 0.875f, 0.01f}, {0.055f, 0.075f, 0.075f}, G({hip, lower_torso, left_upper_leg}));
+
+  // --- abdomen and lower back ---------------------------------------------------------------
+  a.add("abdomen", "spine_lower", {0, 1.0f, 0.06f}, {0.115f, 0.085f, 0.08f}, G({lower_torso}));
+  a.add("lower_back", "spine_lower", {0, 1.0f, -0.005f}, {0.105f, 0.085f, 0.05f}, G({lower_torso}));
+  a.add("l_oblique", "spine_lower", {0.085f, 0.98f, 0.025f}, {0.05f, 0.08f, 0.065f}, G({lower_torso}));
+  a.add("waist", "spine_mid", {0, 1.095f, 0.05f}, {0.11f, 0.07f, 0.085f}, G({lower_torso, upper_torso}));
+  a.add("l_lat_lower", "spine_mid", {0.07f, 1.115f, -0.005f}, {0.055f, 0.075f, 0.045f}, G({lower_torso, upper_torso}));
+
+  // --- chest, back, shoulders -----------------------------------------------------------------
+  a.add("rib_cage", "spine_mid", {0, 1.19f, 0.05f}, {0.125f, 0.11f, 0.095f}, G({upper_torso}));
+  {
+    Primitive& p = a.add("l_pectoral", "spine_upper", {0.065f, 1.265f, 0.1f}, {0.075f, 0.06f, 0.04f},
+                         G({upper_torso, left_shoulder}));
+    // Horizontal flexion bunches the pectoral; pulling the arm back flattens it.
+    a.muscle(p, "l_shoulder_flexion", {0.08f, 0.055f, 0.03f}, {0.068f, 1.265f, 0.095f}, {0.065f, 0.065f, 0.05f},
+             {0.06f, 1.265f, 0.105f});
+  }
+  a.add("upper_chest", "spine_upper", {0, 1.31f, 0.05f}, {0.12f, 0.065f, 0.075f}, G({upper_torso}));
+  a.add("upper_back", "spine_upper", {0, 1.28f, -0.01f}, {0.115f, 0.09f, 0.05f}, G({upper_torso}));
+  a.add("l_scapula", "spine_upper", {0.08f, 1.3f, -0.03f}, {0.06f, 0.07f, 0.035f}, G({upper_torso, left_shoulder}));
+  a.add("l_lat", "spine_upper", {0.11f, 1.24f, -0.015f}, {0.05f, 0.07f, 0.05f}, G({upper_torso, left_shoulder}));
+  a.add("l_trapezius", "spine_upper", {0.07f, 1.37f, -0.01f}, {0.08f, 0.035f, 0.05f}, G({upper_torso, left_shoulder}),
+        1.5f, {0, 0, -18});
+  a.add("l_clavicle_ridge", "l_clavicle", {0.1f, 1.355f, 0.035f}, {0.07f, 0.025f, 0.03f}, G({upper_torso, left_shoulder}));
+
+  // --- neck -------------------------------------------------------------------------------------
+  a.add("neck_base", "neck", {0, 1.4f, 0.0f}, {0.07f, 0.05f, 0.06f}, G({upper_torso}));
+  a.add("neck_mid", "neck", {0, 1.45f, 0.01f}, {0.055f, 0.05f, 0.055f}, G({upper_torso}));
+  a.add("neck_top", "neck_upper", {0, 1.5f, 0.015f}, {0.05f, 0.04f, 0.05f}, G({upper_torso}));
+
+  // --- arm (left; mirrored below) -------------------------------------------------------------
+  a.add("l_shoulder_cap", "l_shoulder", {0.17f, 1.36f, 0.0f}, {0.05f, 0.045f, 0.05f}, G({left_shoulder, left_upper_arm}));
+  {
+    Primitive& p = a.add("l_deltoid", "l_shoulder", {0.2f, 1.345f, 0.0f}, {0.075f, 0.055f, 0.055f},
+                         G({left_shoulder, left_upper_arm}));
+    // Raising the arm shortens and thickens the deltoid; lowering it stretches it.
+    a.muscle(p, "l_shoulder_abduction", {0.08f, 0.05f, 0.05f}, {0.205f, 1.343f, 0.0f}, {0.06f, 0.066f, 0.062f},
+             {0.19f, 1.35f, 0.0f});
+  }
+  a.add("l_armpit", "l_shoulder", {0.16f, 1.305f, 0.0f}, {0.04f, 0.035f, 0.045f}, G({left_shoulder, left_upper_arm}));
+  a.add("l_humerus", "l_shoulder", {0.28f, 1.341f, 0.0f}, {0.11f, 0.031f, 0.031f}, G({left_upper_arm}));
+  {
+    Primitive& p = a.add("l_biceps", "l_shoulder", {0.29f, 1.341f, 0.018f}, {0.08f, 0.029f, 0.028f}, G({left_upper_arm}));
+    a.muscle(p, "l_elbow_flexion", {0.082f, 0.028f, 0.027f}, {0.29f, 1.341f, 0.018f}, {0.06f, 0.035f, 0.041f},
+             {0.28f, 1.341f, 0.03f}, Falloff::parabolic);
+  }
+  {
+    Primitive& p = a.add("l_triceps", "l_shoulder", {0.28f, 1.345f, -0.015f}, {0.09f, 0.031f, 0.029f}, G({left_upper_arm}));
+    a.muscle(p, "l_elbow_flexion", {0.085f, 0.033f, 0.032f}, {0.28f, 1.345f, -0.017f}, {0.1f, 0.028f, 0.025f},
+             {0.285f, 1.345f, -0.013f});
+  }
+  a.add("l_elbow", "l_elbow", {0.4f, 1.341f, 0.0f}, {0.035f, 0.031f, 0.031f}, G({left_upper_arm, left_lower_arm}));
+  {
+    Primitive& p = a.add("l_forearm_muscles", "l_elbow", {0.47f, 1.338f, 0.005f}, {0.075f, 0.034f, 0.037f},
+                         G({left_lower_arm}));
+    a.muscle(p, "l_elbow_flexion", {0.076f, 0.033f, 0.036f}, {0.47f, 1.338f, 0.005f}, {0.068f, 0.037f, 0.041f},
+             {0.465f, 1.338f, 0.008f});
+  }
+  a.add("l_forearm_lower", "l_elbow", {0.56f, 1.341f, 0.0f}, {0.065f, 0.02f, 0.029f}, G({left_lower_arm}));
+  a.add("l_wrist_pad", "l_wrist", {0.622f, 1.341f, 0.0f}, {0.025f, 0.017f, 0.026f}, G({left_lower_arm}));
+
+  // --- hand (rigid, a mitten: fingers together) --------------------------------------------------
+  a.rigid("l_palm", "l_wrist", RigidPart::left_hand, {0.675f, 1.341f, 0.0f}, {0.05f, 0.016f, 0.042f});
+  a.rigid("l_fingers", "l_wrist", RigidPart::left_hand, {0.75f, 1.339f, -0.005f}, {0.05f, 0.011f, 0.037f});
+  a.rigid("l_thumb", "l_wrist", RigidPart::left_hand, {0.665f, 1.334f, 0.047f}, {0.035f, 0.012f, 0.013f}, 1.5f,
+          {0, -40, 0});
+  a.rigid("l_hand_wrist", "l_wrist", RigidPart::left_hand, {0.628f, 1.341f, 0.0f}, {0.022f, 0.018f, 0.027f});
+
+  // --- leg (left; mirrored below) --------------------------------------------------------------
+  a.add("l_thigh_upper", "l_hip", {0.1f, 0.77f, 0.015f}, {0.085f, 0.1f, 0.085f}, G({left_upper_leg, hip}));
+  {
+    Primitive& p = a.add("l_quadriceps", "l_hip", {0.11f, 0.62f, 0.035f}, {0.063f, 0.15f, 0.058f}, G({left_upper_leg}));
+    a.muscle(p, "l_knee_flexion", {0.064f, 0.148f, 0.06f}, {0.11f, 0.62f, 0.036f}, {0.06f, 0.16f, 0.05f},
+             {0.11f, 0.615f, 0.03f});
+  }
+  {
+    Primitive& p = a.add("l_hamstring", "l_hip", {0.11f, 0.62f, -0.03f}, {0.058f, 0.14f, 0.052f}, G({left_upper_leg}));
+    a.muscle(p, "l_knee_flexion", {0.058f, 0.142f, 0.051f}, {0.11f, 0.62f, -0.03f}, {0.064f, 0.12f, 0.064f},
+             {0.11f, 0.6f, -0.036f}, Falloff::parabolic);
+  }
+  a.add("l_adductor", "l_hip", {0.07f, 0.7f, 0.0f}, {0.045f, 0.1f, 0.058f}, G({left_upper_leg}));
+  a.add("l_femur", "l_hip", {0.11f, 0.58f, 0.0f}, {0.052f, 0.2f, 0.052f}, G({left_upper_leg}));
+  a.add("l_knee", "l_knee", {0.11f, 0.455f, 0.01f}, {0.047f, 0.05f, 0.048f}, G({left_upper_leg, left_lower_leg}));
+  a.hard("l_kneecap", "l_knee", {0.11f, 0.46f, 0.043f}, {0.025f, 0.03f, 0.015f}, G({left_upper_leg, left_lower_leg}));
+  {
+    Primitive& p = a.add("l_calf", "l_knee", {0.11f, 0.34f, -0.028f}, {0.05f, 0.09f, 0.05f}, G({left_lower_leg}));
+    // Pointing the foot (ankle flexion < 0) contracts the gastrocnemius.
+    a.muscle(p, "l_ankle_flexion", {0.055f, 0.076f, 0.058f}, {0.11f, 0.35f, -0.034f}, {0.048f, 0.095f, 0.046f},
+             {0.11f, 0.335f, -0.026f});
+  }
+  a.add("l_shin", "l_knee", {0.11f, 0.3f, 0.01f}, {0.04f, 0.14f, 0.04f}, G({left_lower_leg}));
+  a.add("l_lower_calf", "l_knee", {0.11f, 0.2f, -0.01f}, {0.034f, 0.09f, 0.034f}, G({left_lower_leg}));
+  a.add("l_ankle", "l_ankle", {0.11f, 0.09f, 0.0f}, {0.03f, 0.045f, 0.034f}, G({left_lower_leg, left_ankle}));
+  a.hard("l_malleolus", "l_ankle", {0.11f, 0.075f, 0.0f}, {0.032f, 0.02f, 0.022f}, G({left_ankle}));
+
+  // --- foot (rigid) -------------------------------------------------------------------------------
+  a.rigid("l_heel", "l_ankle", RigidPart::left_foot, {0.11f, 0.04f, -0.02f}, {0.03f, 0.035f, 0.04f});
+  a.rigid("l_foot_arch", "l_ankle", RigidPart::left_foot, {0.11f, 0.038f, 0.06f}, {0.04f, 0.032f, 0.07f});
+  a.rigid("l_foot_ball", "l_ankle", RigidPart::left_foot, {0.115f, 0.025f, 0.15f}, {0.045f, 0.021f, 0.05f});
+  a.rigid("l_foot_ankle", "l_ankle", RigidPart::left_foot, {0.11f, 0.075f, 0.0f}, {0.03f, 0.03f, 0.034f});
+
+  // --- head (rigid) -------------------------------------------------------------------------------
+  a.rigid("cranium", "head", RigidPart::head, {0, 1.6f, 0.0f}, {0.075f, 0.085f, 0.095f});
+  a.rigid("face", "head", RigidPart::head, {0, 1.565f, 0.05f}, {0.065f, 0.075f, 0.06f});
+  a.rigid("jaw", "head", RigidPart::head, {0, 1.52f, 0.045f}, {0.055f, 0.035f, 0.055f});
+  a.rigid("nose", "head", RigidPart::head, {0, 1.57f, 0.11f}, {0.012f, 0.02f, 0.018f});
+  a.rigid("chin", "head", RigidPart::head, {0, 1.5f, 0.08f}, {0.025f, 0.02f, 0.02f});
+  a.rigid("l_ear", "head", RigidPart::head, {0.075f, 1.575f, 0.0f}, {0.012f, 0.03f, 0.02f});
+  a.rigid("skull_base", "head", RigidPart::head, {0, 1.515f, 0.0f}, {0.05f, 0.035f, 0.05f});
+
+  // Mirror every left primitive to the right.
+  std::vector<Primitive> right;
+  for (const Primitive& p : a.model.primitives) {
+    if (p.name.rfind("l_", 0) != 0) continue;
+    Primitive q = p;
+    q.name = mirror_name(p.name);
+    q.joint = mirror_name(p.joint);
+    q.groups = mirror_mask(p.groups);
+    if (p.part == RigidPart::left_hand) q.part = RigidPart::right_hand;
+    if (p.part == RigidPart::left_foot) q.part = RigidPart::right_foot;
+    q.state = mirror_state(p.state);
+    if (q.deformation) {
+      q.deformation->dof = mirror_name(p.deformation->dof);
+      q.deformation->at_min = mirror_state(p.deformation->at_min);
+      q.deformation->at_max = mirror_state(p.deformation->at_max);
+    }
+    right.push_back(std::move(q));
+  }
+  for (Primitive& p : right) a.model.primitives.push_back(std::move(p));
+  return a.model;
+}
+
+}  // namespace mimic::avatar

@@ -1,0 +1,162 @@
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include "mimic/avatar/body_field.h"
+
+namespace mimic::avatar {
+namespace {
+
+// A one-joint skeleton with one rotational DOF, enough to carry test primitives.
+SkeletonDesc tiny_skeleton() {
+  SkeletonDesc d;
+  d.joints.push_back({"root", "", {0, 0, 0}, {0, 1, 0}, {}});
+  d.joints.push_back({"arm", "root", {0, 0, 0}, {1, 0, 0}, {DofDesc{"arm_flexion", {0, 0, 1}, -1.0f, 2.0f, 0.0f}}});
+  return d;
+}
+
+BodyModel model_of(std::vector<Primitive> prims) {
+  BodyModel m;
+  m.skeleton = tiny_skeleton();
+  m.primitives = std::move(prims);
+  return m;
+}
+
+Primitive ball(const std::string& name, glm::vec3 c, glm::vec3 axes, GroupMask g = group_bit(Group::hip)) {
+  Primitive p;
+  p.name = name;
+  p.joint = "root";
+  p.state.center_m = c;
+  p.state.semi_axes_m = axes;
+  p.groups = g;
+  return p;
+}
+
+BodyField field_of(const BodyModel& m) {
+  auto s = Skeleton::build(m.skeleton);
+  EXPECT_TRUE(s);
+  auto f = BodyField::create(m, *s);
+  EXPECT_TRUE(f) << f.error().what();
+  return std::move(*f);
+}
+
+std::vector<uint16_t> all(const BodyField& f) {
+  std::vector<uint16_t> v;
+  for (int i = 0; i < f.size(); ++i) v.push_back(static_cast<uint16_t>(i));
+  return v;
+}
+
+TEST(DeformedState, InterpolatesWithEachFalloff) {
+  PrimitiveState g0, gmin, gmax;
+  g0.semi_axes_m = glm::vec3(1.0f);
+  gmin.semi_axes_m = glm::vec3(0.5f);
+  gmax.semi_axes_m = glm::vec3(3.0f);
+  // θ0 = 0, limits [−1, 2]; halfway up (θ = 1) t = 0.5.
+  EXPECT_NEAR(deformed_state(g0, gmin, gmax, Falloff::linear, 1.0f, 0, -1, 2).semi_axes_m.x, 2.0f, 1e-6);
+  EXPECT_NEAR(deformed_state(g0, gmin, gmax, Falloff::parabolic, 1.0f, 0, -1, 2).semi_axes_m.x, 1.5f, 1e-6);
+  EXPECT_NEAR(deformed_state(g0, gmin, gmax, Falloff::hyperbolic, 1.0f, 0, -1, 2).semi_axes_m.x,
+              1.0f + 2.0f * std::sqrt(0.5f), 1e-6);
+  EXPECT_NEAR(deformed_state(g0, gmin, gmax, Falloff::linear, -0.5f, 0, -1, 2).semi_axes_m.x, 0.75f, 1e-6);
+  EXPECT_EQ(deformed_state(g0, gmin, gmax, Falloff::linear, 0.0f, 0, -1, 2).semi_axes_m, g0.semi_axes_m);
+  EXPECT_EQ(deformed_state(g0, gmin, gmax, Falloff::linear, 2.0f, 0, -1, 2).semi_axes_m, gmax.semi_axes_m);
+  EXPECT_EQ(deformed_state(g0, gmin, gmax, Falloff::linear, 9.0f, 0, -1, 2).semi_axes_m, gmax.semi_axes_m)
+      << "beyond the limit the state saturates";
+}
+
+TEST(BodyField, LoneMetaballSurfaceIsItsEllipsoid) {
+  const BodyField f = field_of(model_of({ball("b", {0.1f, 0.2f, 0.3f}, {0.05f, 0.1f, 0.2f})}));
+  const auto cand = all(f);
+  std::mt19937_64 rng(1);
+  std::normal_distribution<float> n;
+  for (int i = 0; i < 200; ++i) {
+    const glm::vec3 d = glm::normalize(glm::vec3(n(rng), n(rng), n(rng)));
+    const RayHit h = f.cast_outermost({0.1f, 0.2f, 0.3f}, d, cand);
+    ASSERT_TRUE(h.hit());
+    const glm::vec3 q = (h.t * d) / glm::vec3(0.05f, 0.1f, 0.2f);
+    EXPECT_NEAR(glm::length(q), 1.0f, 1e-4f);
+    EXPECT_NEAR(f.field({0.1f + h.t * d.x, 0.2f + h.t * d.y, 0.3f + h.t * d.z}, group_bit(Group::hip)), 1.0f, 1e-4f);
+  }
+}
+
+TEST(BodyField, FindsAThinPartBeyondABigOne) {
+  // A big ball at the origin and a thin plate far along +x: the outermost crossing is the plate's.
+  const BodyField f = field_of(model_of({ball("big", {0, 0, 0}, glm::vec3(0.2f)),
+                                         ball("thin", {0.6f, 0, 0}, {0.004f, 0.1f, 0.1f})}));
+  const RayHit h = f.cast_outermost({0, 0, 0}, {1, 0, 0}, all(f));
+  ASSERT_TRUE(h.hit());
+  EXPECT_NEAR(h.t, 0.604f, 1e-4f);
+}
+
+TEST(BodyField, NothingBehindTheOriginIsHit) {
+  const BodyField f = field_of(model_of({ball("b", {0, 0, 0}, glm::vec3(0.1f))}));
+  EXPECT_FALSE(f.cast_outermost({0.5f, 0, 0}, {1, 0, 0}, all(f)).hit());
+  const RayHit h = f.cast_outermost({-0.5f, 0, 0}, {1, 0, 0}, all(f));
+  ASSERT_TRUE(h.hit());
+  EXPECT_NEAR(h.t, 0.6f, 1e-4f) << "the far side is the outermost crossing";
+}
+
+TEST(BodyField, BlendedNeighboursJoinAndHardEllipsoidsUnite) {
+  Primitive hard = ball("hard", {0, 0.3f, 0}, {0.05f, 0.05f, 0.05f});
+  hard.kind = PrimitiveKind::ellipsoid;
+  const BodyField f = field_of(model_of({ball("a", {-0.055f, 0, 0}, glm::vec3(0.05f)),
+                                         ball("b", {0.055f, 0, 0}, glm::vec3(0.05f)), hard}));
+  // Alone each ball ends 5 mm short of the midpoint; blended, the midpoint is inside.
+  EXPECT_LT(f.field({0, 0, 0}, group_bit(Group::hip)) * 0.5f, 1.0f);
+  EXPECT_TRUE(f.inside({0, 0, 0}, group_bit(Group::hip)));
+  EXPECT_TRUE(f.inside({0, 0.33f, 0}, group_bit(Group::hip)));
+  EXPECT_FALSE(f.inside({0, 0.36f, 0}, group_bit(Group::hip)));
+  const RayHit h = f.cast_outermost({0, 0.3f, 0}, {0, 1, 0}, all(f));
+  ASSERT_TRUE(h.hit());
+  EXPECT_NEAR(h.t, 0.05f, 1e-5f);
+}
+
+TEST(BodyField, GroupsIsolatePrimitives) {
+  const BodyField f = field_of(model_of({ball("left", {0.085f, 0, 0}, glm::vec3(0.08f), group_bit(Group::left_upper_leg)),
+                                         ball("right", {-0.085f, 0, 0}, glm::vec3(0.08f), group_bit(Group::right_upper_leg))}));
+  EXPECT_EQ(f.field({0.2f, 0, 0}, group_bit(Group::right_upper_leg)), 0.0f);
+  EXPECT_GT(f.field({0.085f, 0, 0}, group_bit(Group::left_upper_leg)), 1.0f);
+  // Between the two, each group alone is below the iso-level; together they would blend.
+  EXPECT_FALSE(f.inside({0, 0, 0}, group_bit(Group::left_upper_leg)));
+  EXPECT_FALSE(f.inside({0, 0, 0}, group_bit(Group::right_upper_leg)));
+  EXPECT_TRUE(f.inside({0, 0, 0}, group_bit(Group::left_upper_leg) | group_bit(Group::right_upper_leg)));
+}
+
+TEST(BodyField, DeformablePrimitiveFollowsItsDof) {
+  Primitive m = ball("muscle", {0.2f, 0, 0}, {0.1f, 0.03f, 0.03f});
+  m.joint = "arm";
+  Deformation d;
+  d.dof = "arm_flexion";
+  d.at_min = m.state;
+  d.at_max = m.state;
+  d.at_max.semi_axes_m = {0.08f, 0.05f, 0.05f};
+  m.deformation = d;
+  BodyModel model = model_of({m});
+  auto skel = Skeleton::build(model.skeleton);
+  auto f = BodyField::create(model, *skel);
+  ASSERT_TRUE(f);
+  Pose p = skel->zero_pose();
+  p.dof_rad[0] = 2.0f;  // the DOF's maximum: G = Gmax, and the joint has turned
+  std::vector<RigidTransform> w(skel->joint_count());
+  forward_kinematics(*skel, p, w);
+  f->update(w, p.dof_rad);
+  const glm::vec3 c = w[1].apply({0.2f, 0, 0});
+  const RayHit h = f->cast_outermost(c, {0, 0, 1}, all(*f));
+  ASSERT_TRUE(h.hit());
+  EXPECT_NEAR(h.t, 0.05f, 1e-4f);
+  EXPECT_NEAR(glm::distance(f->center(0), c), 0.0f, 1e-6f);
+}
+
+TEST(BodyField, BetweenTheThighsOfTheDefaultBodyIsNotSkin) {
+  const BodyModel m = default_body_model();
+  const BodyField f = field_of(m);
+  // Zero posture, root at the origin: the thighs hang at x = ±0.11 m; mid-thigh is 0.3 m down.
+  for (float y : {-0.2f, -0.3f, -0.4f}) {
+    const glm::vec3 between{0, y, 0.0f};
+    EXPECT_FALSE(f.inside(between, group_bit(Group::left_upper_leg))) << y;
+    EXPECT_FALSE(f.inside(between, group_bit(Group::right_upper_leg))) << y;
+    EXPECT_TRUE(f.inside({0.11f, y, 0}, group_bit(Group::left_upper_leg))) << y;
+  }
+}
+
+}  // namespace
+}  // namespace mimic::avatar
