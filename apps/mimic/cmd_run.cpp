@@ -207,6 +207,8 @@ int run(const std::vector<std::string>& argv) {
                      {"subscribers", st.subscribers},   {"frames_out", st.frames_out},
                      {"frames_dropped", st.frames_dropped}, {"bytes_out", st.bytes_out},
                      {"rejected", st.rejected_total()}, {"resumed", st.resumed}};
+      for (int r = 1; r < net::kRejectCount; ++r)
+        if (st.rejected[size_t(r)]) j["server"]["rejected_by_reason"][net::reject_name(net::Reject(r))] = st.rejected[size_t(r)];
     }
     return j;
   };
