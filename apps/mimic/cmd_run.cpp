@@ -24,7 +24,8 @@ extern "C" void on_signal(int) { g_stop = true; }
 extern "C" void on_report_signal(int) { g_report = true; }
 
 const char* kUsage =
-    "usage: mimic run [--source SPEC [--body FILE]]... [--listen ADDR:PORT] [--secret S]\n"
+    "usage: mimic run [--source SPEC [--body FILE] [--calibration FILE]]... [--listen ADDR:PORT]\n"
+    "                 [--secret S]\n"
     "                 [--publish HOST:PORT] [--vmc HOST:PORT] [--duration S] [--realtime PRIO]\n"
     "                 [--json] [--quiet]\n"
     "\n"
@@ -37,6 +38,9 @@ const char* kUsage =
     "                      (default sim:walk; e.g. sim:idle?rate=90&sensors=11&seed=2)\n"
     "  --body FILE         body model of the avatar of the preceding --source (default body\n"
     "                      otherwise); sent once to every subscriber as it joins\n"
+    "  --calibration FILE  sensor calibration of the preceding --source (from mimic calibrate):\n"
+    "                      the wearer's fitted skeleton and sensor offsets. Without it, simulated\n"
+    "                      sources use their exact mounts, trackers the standard layout's placements\n"
     "  --listen ADDR:PORT  where to serve (default 127.0.0.1:7777; port 0 picks one). Any\n"
     "                      non-loopback address requires --secret\n"
     "  --secret S          shared secret publishers must present (also MIMIC_SECRET)\n"
@@ -54,14 +58,18 @@ const char* kUsage =
     "status line (stderr) shows fps, subscribers, dropped and rejected frames and p50/p99 of each\n"
     "stage in microseconds. Ctrl-C stops cleanly.\n";
 
-// Splits repeated --source/--body pairs out of argv (the Args parser keeps one value per key).
-bool take_sources(std::vector<std::string>& args, std::vector<std::pair<std::string, std::string>>& out,
-                  std::string& error) {
+struct SourceArgs {
+  std::string spec, body, calibration;
+};
+
+// Splits repeated --source [--body] [--calibration] groups out of argv (the Args parser keeps
+// one value per key). --body and --calibration belong to the --source before them.
+bool take_sources(std::vector<std::string>& args, std::vector<SourceArgs>& out, std::string& error) {
   std::vector<std::string> rest;
   for (size_t i = 0; i < args.size(); ++i) {
-    std::string a = args[i], value;
-    std::string key;
-    for (const char* k : {"--source", "--body"}) {
+    const std::string a = args[i];
+    std::string key, value;
+    for (const char* k : {"--source", "--body", "--calibration"}) {
       if (a == k) {
         if (i + 1 >= args.size()) {
           error = std::string("option ") + k + " needs a value";
@@ -74,18 +82,21 @@ bool take_sources(std::vector<std::string>& args, std::vector<std::pair<std::str
         value = a.substr(std::string(k).size() + 1);
       }
     }
-    if (key == "--source") {
-      out.emplace_back(value, "");
-    } else if (key == "--body") {
-      if (out.empty()) out.emplace_back("sim:walk", "");
-      if (!out.back().second.empty()) {
-        error = "two --body options for one --source";
-        return false;
-      }
-      out.back().second = value;
-    } else {
+    if (key.empty()) {
       rest.push_back(a);
+      continue;
     }
+    if (key == "--source") {
+      out.push_back({value, "", ""});
+      continue;
+    }
+    if (out.empty()) out.push_back({"sim:walk", "", ""});
+    std::string& slot = key == "--body" ? out.back().body : out.back().calibration;
+    if (!slot.empty()) {
+      error = "two " + key + " options for one --source";
+      return false;
+    }
+    slot = value;
   }
   args = rest;
   return true;
@@ -93,7 +104,7 @@ bool take_sources(std::vector<std::string>& args, std::vector<std::pair<std::str
 
 int run(const std::vector<std::string>& argv) {
   std::vector<std::string> args = argv;
-  std::vector<std::pair<std::string, std::string>> sources;
+  std::vector<SourceArgs> sources;
   std::string error;
   if (!take_sources(args, sources, error)) return usage_error("run", error);
   Args a(args, {"listen", "secret", "publish", "vmc", "duration", "realtime"}, {"json", "quiet"});
@@ -107,7 +118,7 @@ int run(const std::vector<std::string>& argv) {
   long rt_priority = 0;
   if (!a.get_double("duration", duration_s) || !a.get_int("realtime", rt_priority)) return usage_error("run", a.error());
   if (rt_priority < 0 || rt_priority > 99) return usage_error("run", "--realtime takes a priority 1-99");
-  if (sources.empty()) sources.emplace_back("sim:walk", "");
+  if (sources.empty()) sources.push_back({"sim:walk", "", ""});
 
   std::string secret = a.get_or("secret", "");
   if (secret.empty())
@@ -139,8 +150,8 @@ int run(const std::vector<std::string>& argv) {
   // Setup: everything is allocated here, before the loop.
   std::vector<std::unique_ptr<PoseFeed>> feeds;
   std::vector<std::string> models;
-  for (const auto& [spec, body] : sources) {
-    auto feed = open_feed(spec);
+  for (const auto& [spec, body, calibration] : sources) {
+    auto feed = open_feed(spec, calibration);
     if (!feed) return failure("run", feed.error().what());
     auto model = load_body_model(body, (*feed)->skeleton());
     if (!model) return failure("run", model.error().what());
@@ -196,6 +207,8 @@ int run(const std::vector<std::string>& argv) {
                      {"subscribers", st.subscribers},   {"frames_out", st.frames_out},
                      {"frames_dropped", st.frames_dropped}, {"bytes_out", st.bytes_out},
                      {"rejected", st.rejected_total()}, {"resumed", st.resumed}};
+      for (int r = 1; r < net::kRejectCount; ++r)
+        if (st.rejected[size_t(r)]) j["server"]["rejected_by_reason"][net::reject_name(net::Reject(r))] = st.rejected[size_t(r)];
     }
     return j;
   };

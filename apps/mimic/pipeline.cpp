@@ -16,6 +16,8 @@
 #include "mimic/net/vmc.h"
 #include "mimic/sim/open_source.h"
 #include "mimic/solver/body_solver.h"
+#include "mimic/solver/calibration.h"
+#include "mimic/solver/filters.h"
 #include "mimic/solver/sensor_layout.h"
 
 namespace mimic::app {
@@ -71,7 +73,11 @@ class MotionFeed final : public PoseFeed {
 class SolverFeed final : public PoseFeed {
  public:
   SolverFeed(solver::SolverModel model, std::unique_ptr<devices::SensorSource> source, std::string description)
-      : model_(std::move(model)), context_(model_), source_(std::move(source)), description_(std::move(description)) {
+      : model_(std::move(model)),
+        context_(model_),
+        filters_(static_cast<int>(kMaxSensors) - 1),
+        source_(std::move(source)),
+        description_(std::move(description)) {
     latest_.resize(kMaxSensors);
     have_.assign(kMaxSensors, 0);
     packed_.reserve(kMaxSensors);
@@ -84,6 +90,8 @@ class SolverFeed final : public PoseFeed {
     size_t total = 0;
     for (;;) {
       const size_t n = source_->poll(samples_);
+      // Jitter and outliers out, dropouts bridged, before the solver sees anything.
+      filters_.process(std::span<devices::SensorSample>(samples_.data(), n));
       for (size_t i = 0; i < n; ++i) {
         const auto& smp = samples_[i];
         newest_host_s_ = std::max(newest_host_s_, smp.host_time_s);
@@ -122,6 +130,7 @@ class SolverFeed final : public PoseFeed {
   static constexpr size_t kMaxSensors = 64;
   solver::SolverModel model_;
   solver::SolverContext context_;
+  solver::SensorFilterBank filters_;
   std::unique_ptr<devices::SensorSource> source_;
   std::string description_;
   std::array<devices::SensorSample, 64> samples_{};
@@ -199,9 +208,21 @@ Result<std::unique_ptr<PoseFeed>> make_motion_feed(std::shared_ptr<const avatar:
   return std::unique_ptr<PoseFeed>(new MotionFeed(std::move(motion), std::move(source), std::move(description)));
 }
 
-Result<std::unique_ptr<PoseFeed>> open_feed(const std::string& spec_text) {
+Result<std::unique_ptr<PoseFeed>> open_feed(const std::string& spec_text, const std::string& calibration_path) {
   auto spec = devices::parse_source_spec(spec_text);
   if (!spec) return tl::unexpected(spec.error());
+  if (!calibration_path.empty()) {
+    auto cal = solver::load_calibration(calibration_path);
+    if (!cal) return tl::unexpected(cal.error());
+    auto model = solver::make_solver_model(*cal);
+    if (!model) return tl::unexpected(model.error());
+    auto source = sim::open_sensor_source(*spec);
+    if (!source) return tl::unexpected(source.error());
+    std::string desc = (*source)->status().description;
+    if (desc.empty()) desc = spec_text;
+    return std::unique_ptr<PoseFeed>(
+        new SolverFeed(std::move(*model), std::move(*source), desc + ", calibration " + calibration_path));
+  }
   auto skeleton = avatar::Skeleton::build(avatar::default_skeleton_desc());
   if (!skeleton) return tl::unexpected(skeleton.error());
   // Where the sensors sit: a simulated rig knows exactly; a real tracker uses the standard

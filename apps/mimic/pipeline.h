@@ -81,9 +81,11 @@ class Deformer {
 Result<std::unique_ptr<PoseFeed>> make_motion_feed(std::shared_ptr<const avatar::Motion> motion,
                                                    std::unique_ptr<devices::SensorSource> source,
                                                    std::string description);
-// Tracker source (sim:, bvh:, replay:, flock: — see sim/open_source.h) + body solver, on
-// Mimic's default skeleton.
-Result<std::unique_ptr<PoseFeed>> open_feed(const std::string& spec_text);
+// Tracker source (sim:, bvh:, replay:, flock: — see sim/open_source.h) + sensor filters + body
+// solver. With a calibration file (mimic calibrate), on the wearer's fitted skeleton with the
+// measured sensor offsets; otherwise on Mimic's default skeleton, with a simulated rig's exact
+// mounts or a tracker's standard-layout placements (sensors=3|6|11|all, default 6).
+Result<std::unique_ptr<PoseFeed>> open_feed(const std::string& spec_text, const std::string& calibration_path = "");
 
 // Built-in motion by name ("walk", "idle").
 Result<std::shared_ptr<const avatar::Motion>> builtin_motion(const std::string& name,

@@ -210,3 +210,28 @@ TEST(Bench, NetSectionReportsItsFigures) {
 }
 
 }  // namespace
+
+namespace {
+
+TEST(RunSubscribe, RunsWithACalibrationFromMimicCalibrate) {
+  const std::string cal = ::testing::TempDir() + "run_subscribe_cal.json";
+  Proc calibrate({"calibrate", "--source", "sim:idle?sensors=6", "--out", cal, "--countdown", "0", "--seconds", "1",
+                  "--max-motion-cm", "10", "--max-motion-deg", "30"});
+  ASSERT_EQ(calibrate.wait(30.0), 0) << calibrate.err();
+  Proc run({"run", "--listen", "127.0.0.1:0", "--source", "sim:walk", "--calibration", cal, "--duration", "6", "--quiet"});
+  const std::string ep = endpoint_of(run);
+  ASSERT_FALSE(ep.empty()) << run.err();
+  EXPECT_NE(run.err().find("calibration"), std::string::npos);
+  Proc sub({"subscribe", "--connect", ep, "--count", "20", "--json"});
+  ASSERT_EQ(sub.wait(15.0), 0) << sub.err();
+  const auto j = last_json(sub.out());
+  ASSERT_FALSE(j.is_discarded()) << sub.out();
+  EXPECT_EQ(j["frames"], 20);
+  EXPECT_EQ(j["avatars"], 1);
+
+  Proc missing({"run", "--listen", "127.0.0.1:0", "--calibration", "/nonexistent/cal.json", "--duration", "1"});
+  EXPECT_EQ(missing.wait(10.0), 1);
+  EXPECT_NE(missing.err().find("/nonexistent/cal.json"), std::string::npos) << missing.err();
+}
+
+}  // namespace

@@ -396,6 +396,36 @@ TEST(Server, HostileInputIsCountedAndHarmsNobody) {
   EXPECT_TRUE(pump({again.get()}, [&] { return again->avatars().size() >= 1; }));
 }
 
+// Connections that never say HELLO (a connection flood) are closed by the HELLO timeout; over
+// the session limit a newcomer is told the server is full; subscribers already in carry on.
+TEST(Server, ConnectionFloodAndServerFull) {
+  ServerOptions opt;
+  opt.max_sessions = 40;
+  opt.hello_timeout_s = 0.5;
+  ServerThread st(opt);
+  auto sub = subscriber(st);
+  auto pub = publisher(st);
+  auto slot = pub->add_avatar("gina", kDofs, "m");
+  ASSERT_TRUE(pump({sub.get(), pub.get()}, [&] { return sub->avatars().size() == 1; }));
+  std::vector<std::unique_ptr<RawPeer>> idle;
+  for (int i = 0; i < 38; ++i) idle.push_back(std::make_unique<RawPeer>(st.port()));
+  ASSERT_TRUE(pump({}, [&] { return st.stats().sessions_open == 40; }));
+  RawPeer extra(st.port());
+  RejectMsg r;
+  ASSERT_EQ(decode_reject(extra.read(2.0, 8), r), Reject::ok);
+  EXPECT_EQ(r.reason, Reject::server_full);
+  publish_range(*pub, *slot, 1, 50, {sub.get()});
+  EXPECT_EQ(sub->avatars().begin()->second.last.sequence, 50u);
+  EXPECT_EQ(sub->stats().lost, 0u);
+  for (auto& p : idle) EXPECT_TRUE(p->wait_closed(3.0));
+  const ServerStats s = st.stats();
+  EXPECT_EQ(s.rejected[size_t(Reject::timeout)], 38u);
+  EXPECT_EQ(s.rejected[size_t(Reject::server_full)], 1u);
+  auto later = subscriber(st);  // room again
+  ASSERT_TRUE(later);
+  EXPECT_TRUE(pump({later.get()}, [&] { return later->avatars().size() == 1; }));
+}
+
 TEST(Server, MeshFramesAtTheChosenLod) {
   ServerThread st;
   auto thin = subscriber(st, 1);
