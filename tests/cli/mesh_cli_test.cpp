@@ -1,0 +1,105 @@
+// End-to-end: `mimic mesh` and `mimic compare`, the built program on the shared data.
+#include <gtest/gtest.h>
+
+#include <sys/wait.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "mimic/avatar/mesh_check.h"
+#include "mimic/avatar/mesh_io.h"
+#include "test_data.h"
+
+namespace {
+
+struct Outcome {
+  int status = -1;
+  std::string output;  // stdout and stderr together
+};
+
+Outcome run_mimic(const std::string& args) {
+  Outcome r;
+  const std::string cmd = "'" + mimic::test::mimic_binary() + "' " + args + " 2>&1";
+  FILE* p = ::popen(cmd.c_str(), "r");
+  if (!p) return r;
+  char buf[4096];
+  size_t n;
+  while ((n = std::fread(buf, 1, sizeof buf, p)) > 0) r.output.append(buf, n);
+  const int st = ::pclose(p);
+  r.status = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+  return r;
+}
+
+std::string temp(const std::string& name) {
+  return (std::filesystem::temp_directory_path() / ("mimic_mesh_cli_" + name)).string();
+}
+
+void expect_closed_body(const std::string& path) {
+  auto mesh = mimic::avatar::read_mesh(path);
+  ASSERT_TRUE(mesh) << mesh.error().what();
+  const auto t = mimic::avatar::analyze_topology(*mesh);
+  EXPECT_TRUE(mimic::avatar::is_closed_oriented_manifold(t)) << path;
+  EXPECT_GT(t.signed_volume, 0.04) << path;
+  EXPECT_EQ(mesh->parts.size(), 16u) << path;
+}
+
+TEST(MeshCli, WritesEachFormatFromABvhFrame) {
+  for (const char* ext : {"obj", "ply", "glb"}) {
+    const std::string out = temp(std::string("07_01.") + ext);
+    const Outcome r = run_mimic("mesh --bvh '" + mimic::test::clip_path("07_01") + "' --frame 120 --out '" + out + "'");
+    ASSERT_EQ(r.status, 0) << r.output;
+    for (const char* stage : {"body", "skin", "pose", "contours", "B-spline", "stitch", "wrote"})
+      EXPECT_NE(r.output.find(stage), std::string::npos) << stage << "\n" << r.output;
+    EXPECT_NE(r.output.find("closed oriented manifold"), std::string::npos) << r.output;
+    expect_closed_body(out);
+    std::filesystem::remove(out);
+  }
+}
+
+TEST(MeshCli, BuiltInMotionsAndRealtimeMode) {
+  const std::string out = temp("walk.glb");
+  Outcome r = run_mimic("mesh --motion walk --time 0.37 --subdivision 0 --out '" + out + "'");
+  ASSERT_EQ(r.status, 0) << r.output;
+  expect_closed_body(out);
+  r = run_mimic("mesh --motion idle --time 3 --subdivision 2 --out '" + out + "'");
+  ASSERT_EQ(r.status, 0) << r.output;
+  expect_closed_body(out);
+  std::filesystem::remove(out);
+}
+
+TEST(MeshCli, BadRequestsGetClearErrors) {
+  Outcome r = run_mimic("mesh --bvh '" + mimic::test::clip_path("09_11") + "' --frame 166 --out /tmp/x.obj");
+  EXPECT_EQ(r.status, 1);
+  EXPECT_NE(r.output.find("frames 0..165"), std::string::npos) << r.output;
+  r = run_mimic("mesh --motion moonwalk --out /tmp/x.obj");
+  EXPECT_NE(r.status, 0);
+  EXPECT_NE(r.output.find("moonwalk"), std::string::npos) << r.output;
+  r = run_mimic("mesh --pose zero --out /tmp/x.stl");
+  EXPECT_EQ(r.status, 1);
+  EXPECT_NE(r.output.find(".stl"), std::string::npos) << r.output;
+  r = run_mimic("mesh --pose zero");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.output.find("--out"), std::string::npos) << r.output;
+  r = run_mimic("mesh --body /nonexistent/body.json --pose zero --out /tmp/x.obj");
+  EXPECT_EQ(r.status, 1);
+  EXPECT_NE(r.output.find("/nonexistent/body.json"), std::string::npos) << r.output;
+  r = run_mimic("mesh --help");
+  EXPECT_EQ(r.status, 0);
+  EXPECT_NE(r.output.find("--subdivision"), std::string::npos);
+}
+
+TEST(CompareCli, DefaultBodyMatchesTheReferenceWithinTenPercent) {
+  const Outcome r = run_mimic("compare --json --check");
+  ASSERT_EQ(r.status, 0) << r.output;
+  const auto j = nlohmann::json::parse(r.output);
+  EXPECT_EQ(j["pass"], true) << r.output;
+  std::vector<std::string> keys;
+  for (const auto& row : j["rows"]) keys.push_back(row["key"].get<std::string>());
+  for (const char* k : {"height", "chest_girth", "waist_girth", "hip_girth", "thigh_girth", "calf_girth", "upper_arm_girth"})
+    EXPECT_NE(std::find(keys.begin(), keys.end(), k), keys.end()) << k << "\n" << r.output;
+}
+
+}  // namespace
