@@ -124,4 +124,21 @@ Result<BodyModel> body_model_from_json(std::string_view text, std::string_view s
 Result<BodyModel> load_body_model(const std::string& path);
 Status save_body_model(const BodyModel& model, const std::string& path);
 
+// The paper's five scaling operators, normalised (1 keeps the body as it is).
+struct BodyScaling {
+  float total_height = 1.0f;          // uniform
+  float frontal_scaling = 1.0f;       // front–back depth (z)
+  float high_lateral_scaling = 1.0f;  // width (x) of the body above the hips: torso, arms, head
+  float low_lateral_scaling = 1.0f;   // width (x) of the hips and legs
+  float spine_origin_ratio = 1.0f;    // spine origin (pelvis) height / total height, relative to
+                                      // now; the total height is kept
+};
+
+// A new, editable body model. Every principal axis of every primitive is tagged lateral,
+// frontal or high by the dominant component of that axis in the zero posture (x lateral, z
+// frontal, y high); its length and the centre are scaled by the matching ratio of the region
+// (legs and hips below the spine origin, the rest above), orientations kept. Joint offsets and
+// link tips scale alike. Fails on a non-positive or non-finite factor.
+Result<BodyModel> scale_body(const BodyModel& model, const BodyScaling& scaling);
+
 }  // namespace mimic::avatar

@@ -1,0 +1,84 @@
+#include <cmath>
+#include <set>
+
+#include <glm/gtx/euler_angles.hpp>
+
+#include "mimic/avatar/body_model.h"
+
+namespace mimic::avatar {
+
+namespace {
+
+// Joints of the lower region: the pelvis and everything hanging from a hip.
+std::set<std::string> lower_region(const SkeletonDesc& d) {
+  std::set<std::string> lower{d.joints.empty() ? "" : d.joints.front().name};
+  bool grew = true;
+  while (grew) {
+    grew = false;
+    for (const auto& j : d.joints) {
+      const bool hip_chain = j.name.find("hip") != std::string::npos ||
+                             (lower.count(j.parent) && j.parent != d.joints.front().name);
+      if (!lower.count(j.name) && hip_chain) grew = lower.insert(j.name).second;
+    }
+  }
+  return lower;
+}
+
+}  // namespace
+
+Result<BodyModel> scale_body(const BodyModel& model, const BodyScaling& s) {
+  for (float f : {s.total_height, s.frontal_scaling, s.high_lateral_scaling, s.low_lateral_scaling, s.spine_origin_ratio})
+    if (!(f > 0.0f) || !std::isfinite(f) || f > 10.0f)
+      return fail(Errc::invalid_argument, "scaling factors must be finite and in (0, 10]");
+  auto skeleton = Skeleton::build(model.skeleton);
+  if (!skeleton) return tl::unexpected(skeleton.error());
+
+  // Heights of the zero posture standing on the floor: spine origin and top of the head.
+  const float origin_h = standing_root_height_m(*skeleton);
+  Pose p = skeleton->zero_pose();
+  p.root_position_m.y = origin_h;
+  std::vector<RigidTransform> w(skeleton->joint_count());
+  forward_kinematics(*skeleton, p, w);
+  float top_h = 0;
+  for (int j = 0; j < skeleton->joint_count(); ++j) top_h = std::max(top_h, w[j].apply(skeleton->tip_m(j)).y);
+  if (!(top_h > origin_h)) return fail(Errc::invalid_argument, "skeleton has no height above its root");
+  // Below the spine origin heights scale by the ratio; above, so that the total is kept.
+  const float low_v = s.total_height * s.spine_origin_ratio;
+  const float high_v = s.total_height * (top_h - s.spine_origin_ratio * origin_h) / (top_h - origin_h);
+  if (!(high_v > 0.0f)) return fail(Errc::invalid_argument, "spine_origin_ratio leaves no room for the upper body");
+  const glm::vec3 low_scale{s.total_height * s.low_lateral_scaling, low_v, s.total_height * s.frontal_scaling};
+  const glm::vec3 high_scale{s.total_height * s.high_lateral_scaling, high_v, s.total_height * s.frontal_scaling};
+
+  const std::set<std::string> lower = lower_region(model.skeleton);
+  auto scale_of = [&](const std::string& joint) { return lower.count(joint) ? low_scale : high_scale; };
+
+  BodyModel out = model;
+  for (auto& j : out.skeleton.joints) {
+    j.offset_m *= scale_of(j.name);
+    j.tip_m *= scale_of(j.name);
+  }
+  auto scale_state = [&](PrimitiveState& st, const glm::vec3& k) {
+    st.center_m *= k;
+    // Each principal axis takes the factor of its dominant world direction (the joint frame is
+    // parallel to the world in the zero posture).
+    const glm::mat3 r = glm::mat3(glm::eulerAngleZ(st.orientation_rad.z) * glm::eulerAngleY(st.orientation_rad.y) *
+                                  glm::eulerAngleX(st.orientation_rad.x));
+    for (int a = 0; a < 3; ++a) {
+      const glm::vec3 axis = glm::abs(r[a]);
+      const int tag = axis.x >= axis.y && axis.x >= axis.z ? 0 : axis.y >= axis.z ? 1 : 2;
+      st.semi_axes_m[a] *= k[tag];
+    }
+  };
+  for (auto& prim : out.primitives) {
+    const glm::vec3 k = scale_of(prim.joint);
+    scale_state(prim.state, k);
+    if (prim.deformation) {
+      scale_state(prim.deformation->at_min, k);
+      scale_state(prim.deformation->at_max, k);
+    }
+  }
+  if (auto st = validate(out); !st) return tl::unexpected(st.error());
+  return out;
+}
+
+}  // namespace mimic::avatar

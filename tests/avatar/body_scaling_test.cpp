@@ -1,0 +1,79 @@
+#include <gtest/gtest.h>
+
+#include "mimic/avatar/body_model.h"
+#include "mimic/avatar/mesh_check.h"
+#include "mimic/avatar/skin.h"
+
+namespace mimic::avatar {
+namespace {
+
+struct Figures {
+  float height, pelvis, shoulder_width, hip_width;
+  double volume;
+};
+
+Figures figures(const BodyModel& m) {
+  auto skin = BodySkin::create(m);
+  EXPECT_TRUE(skin) << skin.error().what();
+  const Skeleton& s = skin->skeleton();
+  Pose p = s.zero_pose();
+  p.root_position_m.y = standing_root_height_m(s);
+  skin->evaluate(p);
+  float top = 0;
+  for (const glm::vec3& v : skin->mesh().positions) top = std::max(top, v.y);
+  std::vector<RigidTransform> w(s.joint_count());
+  forward_kinematics(s, p, w);
+  auto x = [&](const char* j) { return w[s.find_joint(j)].translation.x; };
+  return {top, p.root_position_m.y, x("l_shoulder") - x("r_shoulder"), x("l_hip") - x("r_hip"),
+          analyze_topology(skin->mesh()).signed_volume};
+}
+
+TEST(BodyScaling, IdentityKeepsTheBody) {
+  const BodyModel m = default_body_model();
+  auto same = scale_body(m, {});
+  ASSERT_TRUE(same);
+  EXPECT_EQ(to_json(*same), to_json(m));
+}
+
+TEST(BodyScaling, TotalHeightScalesUniformly) {
+  const Figures a = figures(default_body_model());
+  auto tall = scale_body(default_body_model(), BodyScaling{.total_height = 1.1f});
+  ASSERT_TRUE(tall);
+  const Figures b = figures(*tall);
+  EXPECT_NEAR(b.height / a.height, 1.1f, 0.01f);
+  EXPECT_NEAR(b.shoulder_width / a.shoulder_width, 1.1f, 1e-3f);
+  EXPECT_NEAR(b.volume / a.volume, 1.331, 0.03);
+}
+
+TEST(BodyScaling, SpineOriginMovesThePelvisAndKeepsTheHeight) {
+  const Figures a = figures(default_body_model());
+  auto longer_legs = scale_body(default_body_model(), BodyScaling{.spine_origin_ratio = 1.06f});
+  ASSERT_TRUE(longer_legs);
+  const Figures b = figures(*longer_legs);
+  EXPECT_NEAR(b.pelvis / a.pelvis, 1.06f, 0.01f);
+  EXPECT_NEAR(b.height, a.height, 0.01f);
+}
+
+TEST(BodyScaling, LateralScalingsActAboveAndBelowTheSpineOrigin) {
+  const Figures a = figures(default_body_model());
+  auto broad = scale_body(default_body_model(), BodyScaling{.high_lateral_scaling = 1.2f});
+  ASSERT_TRUE(broad);
+  const Figures b = figures(*broad);
+  EXPECT_NEAR(b.shoulder_width / a.shoulder_width, 1.2f, 1e-3f);
+  EXPECT_NEAR(b.hip_width, a.hip_width, 1e-5f);
+  auto wide_hips = scale_body(default_body_model(), BodyScaling{.low_lateral_scaling = 1.2f});
+  ASSERT_TRUE(wide_hips);
+  const Figures c = figures(*wide_hips);
+  EXPECT_NEAR(c.hip_width / a.hip_width, 1.2f, 1e-3f);
+  EXPECT_NEAR(c.shoulder_width, a.shoulder_width, 1e-5f);
+  EXPECT_GT(c.volume, a.volume);
+}
+
+TEST(BodyScaling, RejectsNonsense) {
+  EXPECT_FALSE(scale_body(default_body_model(), BodyScaling{.total_height = 0.0f}));
+  EXPECT_FALSE(scale_body(default_body_model(), BodyScaling{.frontal_scaling = -1.0f}));
+  EXPECT_FALSE(scale_body(default_body_model(), BodyScaling{.spine_origin_ratio = 3.0f}));
+}
+
+}  // namespace
+}  // namespace mimic::avatar
