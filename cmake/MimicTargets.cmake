@@ -36,6 +36,8 @@ function(mimic_add_tests lib)
   target_link_libraries(mimic_${lib}_tests PRIVATE ${ARG_DEPS} mimic_test_support GTest::gtest_main GTest::gmock)
   mimic_warnings(mimic_${lib}_tests)
   gtest_discover_tests(mimic_${lib}_tests
-    PROPERTIES ENVIRONMENT "MIMIC_SHARED_DATA=${MIMIC_SHARED_DATA};MIMIC_BIN=${CMAKE_BINARY_DIR}/bin/mimic"
+    # One variable only: gtest_discover_tests splits a list here. Tests find the `mimic`
+    # program beside their own binary (tests/support/test_data.h).
+    PROPERTIES ENVIRONMENT "MIMIC_SHARED_DATA=${MIMIC_SHARED_DATA}"
     DISCOVERY_TIMEOUT 60)
 endfunction()

@@ -56,13 +56,16 @@ constexpr const char* kUsage =
     "  --rate HZ            sensor rate (default 120, the clip's frame rate)\n"
     "  --seed N             noise and mounting seed (default 1)\n"
     "  --frames N           evaluate at most N frames after the T-pose (default all)\n"
+    "  --latency MS         tracker latency; the filters predict that far ahead and the avatar is\n"
+    "                       judged against the body at arrival time (default 0)\n"
+    "  --dropout P          chance per sample that a sensor falls silent for 3 samples (default 0)\n"
     "  --no-filter          solve the raw samples (no One Euro filtering)\n"
     "  --joints             also print the position error of every joint (table output)\n"
     "  --json               one JSON object per layout on stdout instead of the table; keys: clip,\n"
     "                       sensors, frames, joints, mpjpe_cm, mpjre_deg, end_effector_mm,\n"
     "                       end_effector_max_mm, jitter, jitter_mm, jitter_truth_mm,\n"
     "                       jitter_definition, solve_us_p50, solve_us_p99, solve_us_max, noise_mm,\n"
-    "                       noise_deg, tilt_deg, rate_hz, seed, filter\n"
+    "                       noise_deg, tilt_deg, rate_hz, latency_ms, dropout, seed, filter\n"
     "  -h, --help           this text\n"
     "\n"
     "exit status: 0 done, 1 unreadable clip or failed calibration, 2 usage error\n";
@@ -99,6 +102,7 @@ class ShiftedMotion final : public avatar::Motion {
 
 struct Settings {
   double noise_mm = 1.0, noise_deg = 0.5, tilt_deg = 20.0, rate_hz = 120.0;
+  double latency_ms = 0.0, dropout = 0.0;
   uint64_t seed = 1;
   long max_frames = -1;
   bool filter = true;
@@ -149,6 +153,7 @@ Run evaluate(const std::shared_ptr<const avatar::Motion>& motion, double frame_t
   cfg.position_noise_mm = st.noise_mm;
   cfg.orientation_noise_deg = st.noise_deg;
   cfg.seed = st.seed;
+  cfg.latency_s = st.latency_ms / 1000.0;
 
   // Calibration: one second of the frame-0 T-pose.
   auto cal_rig = sim::SensorRig::create(std::make_shared<FrozenMotion>(motion, 0.0), cfg);
@@ -164,19 +169,24 @@ Run evaluate(const std::shared_ptr<const avatar::Motion>& motion, double frame_t
   auto model = solver::make_solver_model(*cal);
   if (!model) return {{}, model.error().message};
 
-  // The motion after the T-pose.
+  // The motion after the T-pose, with dropouts if asked for.
   cfg.seed = st.seed + 1;
+  cfg.dropout_probability = st.dropout;
+  cfg.dropout_burst = 3;
   auto motion_after = std::make_shared<ShiftedMotion>(motion, frame_time_s);
   auto rig = sim::SensorRig::create(motion_after, cfg);
   if (!rig) return {{}, rig.error().message};
   solver::SolverContext ctx(*model);
   solver::SensorFilterConfig fc;
   fc.enabled = st.filter;
+  fc.predict_s = static_cast<float>(st.latency_ms / 1000.0);  // the tracker's known latency
   solver::SensorFilterBank filters(static_cast<int>(mounts->size()), fc);
   const avatar::Skeleton& solved_skeleton = model->skeleton();
   avatar::Pose pose = solved_skeleton.zero_pose();
   std::vector<avatar::RigidTransform> solved_world(solved_skeleton.joint_count());
   solver::PoseErrorAccumulator acc(truth, solved_skeleton);
+  avatar::Pose truth_pose = truth.zero_pose();
+  std::vector<avatar::RigidTransform> truth_world(truth.joint_count());
   long ticks = static_cast<long>(std::floor(motion_after->duration_s() * st.rate_hz)) + 1;
   if (st.max_frames >= 0) ticks = std::min(ticks, st.max_frames);
   for (long k = 0; k < ticks; ++k) {
@@ -187,7 +197,15 @@ Run evaluate(const std::shared_ptr<const avatar::Motion>& motion, double frame_t
     job.Run();
     const auto t1 = std::chrono::steady_clock::now();
     avatar::forward_kinematics(solved_skeleton, pose, solved_world);
-    acc.add(rig->true_world_from_joint(), solved_world, std::chrono::duration<double, std::micro>(t1 - t0).count());
+    const double solve_us = std::chrono::duration<double, std::micro>(t1 - t0).count();
+    if (st.latency_ms > 0) {
+      // The samples left the body latency ago; the avatar is judged against the body now.
+      motion_after->sample(static_cast<double>(k) / st.rate_hz + st.latency_ms / 1000.0, truth_pose);
+      avatar::forward_kinematics(truth, truth_pose, truth_world);
+      acc.add(truth_world, solved_world, solve_us);
+    } else {
+      acc.add(rig->true_world_from_joint(), solved_world, solve_us);
+    }
   }
   return {acc.report(), {}};
 }
@@ -205,7 +223,8 @@ bool parse_noise(const std::string& text, double& mm, double& deg) {
 }
 
 int run_eval_solver(const std::vector<std::string>& argv) {
-  Args args(argv, {"bvh", "sensors", "noise", "tilt", "rate", "seed", "frames"}, {"json", "no-filter", "joints"});
+  Args args(argv, {"bvh", "sensors", "noise", "tilt", "rate", "seed", "frames", "latency", "dropout"},
+            {"json", "no-filter", "joints"});
   if (args.help()) {
     std::printf("%s", kUsage);
     return 0;
@@ -219,8 +238,11 @@ int run_eval_solver(const std::vector<std::string>& argv) {
     return usage_error(kName, "--noise expects MM,DEG (two non-negative numbers), got '" + *n + "'");
   long seed = 1, frames = -1;
   if (!args.get_double("tilt", st.tilt_deg) || !args.get_double("rate", st.rate_hz) || !args.get_int("seed", seed) ||
-      !args.get_int("frames", frames))
+      !args.get_int("frames", frames) || !args.get_double("latency", st.latency_ms) ||
+      !args.get_double("dropout", st.dropout))
     return usage_error(kName, args.error());
+  if (!(st.latency_ms >= 0 && st.latency_ms <= 1000)) return usage_error(kName, "--latency must be within 0..1000 ms");
+  if (!(st.dropout >= 0 && st.dropout <= 1)) return usage_error(kName, "--dropout must be a probability within 0..1");
   if (!(st.rate_hz > 0)) return usage_error(kName, "--rate must be positive");
   if (st.tilt_deg < 0 || st.tilt_deg > 180) return usage_error(kName, "--tilt must be within 0..180 degrees");
   if (seed < 0) return usage_error(kName, "--seed must be non-negative");
@@ -283,6 +305,8 @@ int run_eval_solver(const std::vector<std::string>& argv) {
                        {"noise_deg", st.noise_deg},
                        {"tilt_deg", st.tilt_deg},
                        {"rate_hz", st.rate_hz},
+                       {"latency_ms", st.latency_ms},
+                       {"dropout", st.dropout},
                        {"seed", st.seed},
                        {"filter", st.filter}};
       std::printf("%s\n", j.dump().c_str());

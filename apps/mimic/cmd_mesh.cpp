@@ -84,9 +84,9 @@ int run_mesh(const std::vector<std::string>& argv) {
   const avatar::SkinTimings& t = skin->timings();
   const avatar::SkinStats& st = skin->stats();
   std::printf("frame     FK %.3f, deform %.3f, contours %.3f (%d rings, %d rays, %d missed),\n"
-              "          B-spline %.3f, stitch %.3f: total %.3f ms\n",
+              "          B-spline %.3f, stitch %.3f, normals %.3f: total %.3f ms\n",
               t.fk_us / 1e3, t.deform_us / 1e3, t.contours_us / 1e3, st.contours, st.rays, st.missed_rays,
-              t.bspline_us / 1e3, t.stitch_us / 1e3, t.total_us() / 1e3);
+              t.bspline_us / 1e3, t.stitch_us / 1e3, t.normals_us / 1e3, t.total_us() / 1e3);
 
   const avatar::Mesh& mesh = skin->mesh();
   const avatar::MeshTopology topo = avatar::analyze_topology(mesh);

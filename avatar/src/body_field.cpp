@@ -179,7 +179,7 @@ struct RayTerms {
   float qa[kMaxRayCandidates], qb[kMaxRayCandidates], qc[kMaxRayCandidates];
   float ir2[kMaxRayCandidates], wn[kMaxRayCandidates], peak[kMaxRayCandidates];
   float t0[kMaxRayCandidates], t1[kMaxRayCandidates], chord[kMaxRayCandidates];
-  float cbrt_inv_wn[kMaxRayCandidates];
+  float cbrt_inv_wn[kMaxRayCandidates], inv_qa[kMaxRayCandidates];
   int n = 0;
   float t_far = -1.0f;
   float t_hard = -1.0f;
@@ -189,19 +189,21 @@ struct RayTerms {
     const float disc = b * b - a * (c - r2);
     if (disc <= 0.0f || n == kMaxRayCandidates) return;
     const float root = std::sqrt(disc);
-    const float end = (-b + root) / a;
+    const float inv_a = 1.0f / a;
+    const float end = (root - b) * inv_a;
     if (end <= 0.0f) return;
-    const float start = std::max(0.0f, (-b - root) / a);
+    const float start = std::max(0.0f, (-b - root) * inv_a);
     qa[n] = a;
     qb[n] = b;
     qc[n] = c;
     ir2[n] = inv_r2;
     wn[n] = weight_norm;
     cbrt_inv_wn[n] = cbrt_inv_weight_norm;
-    peak[n] = std::clamp(-b / a, start, end);
+    peak[n] = std::clamp(-b * inv_a, start, end);
     t0[n] = start;
     t1[n] = end;
-    chord[n] = 2.0f * root / a;  // whole support chord, also where the ray starts inside it
+    chord[n] = 2.0f * root * inv_a;  // whole support chord, also where the ray starts inside it
+    inv_qa[n] = inv_a;
     t_far = std::max(t_far, end);
     ++n;
   }
@@ -233,7 +235,7 @@ struct RayTerms {
       const float s_max = (1.0f - u_min) / ir2[k];
       const float disc = qb[k] * qb[k] - qa[k] * (qc[k] - s_max);
       if (disc <= 0.0f) continue;
-      start = std::max(start, (-qb[k] + std::sqrt(disc)) / qa[k]);
+      start = std::max(start, (std::sqrt(disc) - qb[k]) * inv_qa[k]);
     }
     return start;
   }
@@ -244,7 +246,9 @@ struct RayTerms {
     const float start = n > 0 ? start_bound() : -1.0f;
     if (start >= 0.0f) {
       t_far = start;
-      std::sort(peak, peak + n, [](float x, float y) { return x > y; });
+      // Peaks in decreasing order (insertion sort: a handful of terms).
+      for (int i = 1; i < n; ++i)
+        for (int j = i; j > 0 && peak[j] > peak[j - 1]; --j) std::swap(peak[j], peak[j - 1]);
       // March inwards from the far end of all supports with a step no longer than an eighth
       // of the shortest support chord around the current t, visiting every primitive's peak
       // too, so neither a thin primitive nor a blended bridge between two is stepped over.
@@ -301,8 +305,8 @@ struct RayTerms {
     for (int it = 0; it < 32; ++it) {
       float slope;
       const float f = field_and_slope(t, slope) - kIsoLevel;
-      // |f| < 2e-4 is a few micrometres along the ray at the body's field gradients.
-      if (std::abs(f) < 2e-4f || hi - lo < 1e-5f) return t;
+      // |f| < 5e-4 is about ten micrometres along the ray at the body's field gradients.
+      if (std::abs(f) < 5e-4f || hi - lo < 1e-5f) return t;
       if (f >= 0.0f) lo = t, flo = f;
       else hi = t, fhi = f;
       float next = slope != 0.0f ? t - f / slope : 0.5f * (lo + hi);

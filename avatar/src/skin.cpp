@@ -964,8 +964,12 @@ void BodySkin::stage_stitch() {
     const RigidTransform& w = m.world_from_joint[rm.joint];
     for (size_t i = 0; i < rm.local.size(); ++i) pos[rm.first_vertex + i] = w.apply(rm.local[i]);
   }
-  if (m.options.normals) m.update_normals();
   m.timings.stitch_us = micros_since(t0);
+  if (m.options.normals) {
+    const auto t1 = Clock::now();
+    m.update_normals();
+    m.timings.normals_us = micros_since(t1);
+  }
 }
 
 void BodySkin::evaluate(const Pose& pose) {

@@ -25,9 +25,10 @@ std::vector<Pose> poses(const Skeleton& s, int n) {
   return out;
 }
 
-BodySkin make(int subdivision) {
+BodySkin make(int subdivision, bool normals = false) {
   SkinOptions o;
   o.subdivision = subdivision;
+  o.normals = normals;
   return std::move(*BodySkin::create(default_body_model(), o));
 }
 
@@ -48,6 +49,19 @@ void BM_Frame(benchmark::State& state) {
   set_counters(state, skin);
 }
 BENCHMARK(BM_Frame)->Arg(0)->Arg(1)->Arg(2)->Unit(benchmark::kMicrosecond);
+
+// The same frame plus area-weighted vertex normals (what a renderer or a mesh file needs).
+void BM_FrameWithNormals(benchmark::State& state) {
+  BodySkin skin = make(static_cast<int>(state.range(0)), true);
+  const auto ps = poses(skin.skeleton(), 16);
+  size_t i = 0;
+  for (auto _ : state) {
+    skin.evaluate(ps[i++ % ps.size()]);
+    benchmark::DoNotOptimize(skin.mesh().normals.data());
+  }
+  set_counters(state, skin);
+}
+BENCHMARK(BM_FrameWithNormals)->Arg(1)->Unit(benchmark::kMicrosecond);
 
 enum Stage { kFk, kDeform, kContours, kBspline, kStitch };
 

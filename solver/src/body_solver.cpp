@@ -232,9 +232,9 @@ SolverContext::SolverContext(const SolverModel& model)
     : ls_(model.skeleton(),
           static_cast<int>(model.trunk_dofs_.size() + model.leg_dofs_.size() + model.arm_dofs_[0].size() +
                            model.arm_dofs_[1].size()),
-          static_cast<int>(model.trunk_joints_.size()) + 9) {
+          static_cast<int>(model.trunk_joints_.size()) + 10) {
   const int n = model.skeleton().joint_count();
-  targets_.reserve(model.trunk_joints_.size() + 9);
+  targets_.reserve(model.trunk_joints_.size() + 10);
   ls_dofs_.reserve(model.trunk_dofs_.size() + model.leg_dofs_.size() + model.arm_dofs_[0].size() +
                    model.arm_dofs_[1].size());
   segment_target_.resize(n);
@@ -320,6 +320,9 @@ bool SolveJob::Run() {
       feet = true;
     }
     if (feet) c.ls_dofs_.insert(c.ls_dofs_.end(), m.leg_dofs_.begin(), m.leg_dofs_.end());
+    if (!feet && std::isfinite(o.standing_root_y_m))
+      c.targets_.push_back(IkTarget{0, glm::vec3(p.root_position_m.x, o.standing_root_y_m, p.root_position_m.z),
+                                    glm::quat(1, 0, 0, 0), o.standing_weight, 0.0f});
   }
   // Hands: the arm DOFs (clavicle, shoulder, elbow bend) join the solve so that the trunk
   // leaves the hands within reach; the analytic chains below then place the arms exactly.

@@ -61,6 +61,7 @@ struct Fit {
   SkeletonDesc desc;
   Pose pose;
   float height_m = 0;
+  float floor_y_m = 0;
 };
 
 // One pass of the fit. `segment_rot` gives, per joint name, the rotation used to turn a sensor's
@@ -279,6 +280,7 @@ Fit fit_body(const SkeletonDesc& base, const std::vector<SensorStats>& stats, co
     floor = a.y - (wp[s.find_joint("l_ankle")].translation.y - (out.pose.root_position_m.y - avatar::standing_root_height_m(s)));
   }
   out.height_m = has("head") ? head_top - floor : 0.0f;
+  out.floor_y_m = floor;
   return out;
 }
 
@@ -394,6 +396,8 @@ Result<Calibration> calibrate(const SkeletonDesc& base, const SensorLayout& layo
   cal.skeleton = fit.desc;
   cal.pose = opt.pose;
   cal.height_m = fit.height_m;
+  cal.floor_y_m = fit.floor_y_m;
+  cal.standing_root_y_m = fit.pose.root_position_m.y;
   cal.heading_deg = glm::degrees(heading_rad);
   cal.samples = used;
   cal.duration_s = t1 - t0;
@@ -412,6 +416,8 @@ Result<Calibration> calibrate(const SkeletonDesc& base, const SensorLayout& layo
 Result<SolverModel> make_solver_model(const Calibration& cal, SolverOptions options) {
   auto s = Skeleton::build(cal.skeleton);
   if (!s) return tl::unexpected(s.error());
+  if (!std::isfinite(options.standing_root_y_m) && cal.standing_root_y_m != 0)
+    options.standing_root_y_m = cal.standing_root_y_m;
   std::vector<SensorMount> mounts;
   for (const auto& sc : cal.sensors) mounts.push_back(SensorMount{sc.sensor, sc.segment, sc.segment_from_sensor});
   return SolverModel::create(std::move(*s), std::move(mounts), options);
@@ -443,6 +449,8 @@ std::string calibration_to_json(const Calibration& cal) {
   j["pose"] = calibration_pose_name(cal.pose);
   j["height_m"] = cal.height_m;
   j["heading_deg"] = cal.heading_deg;
+  j["floor_y_m"] = cal.floor_y_m;
+  j["standing_root_y_m"] = cal.standing_root_y_m;
   j["capture"] = {{"samples", cal.samples}, {"duration_s", cal.duration_s},
                   {"max_motion_mm", cal.max_motion_mm}, {"max_motion_deg", cal.max_motion_deg}};
   json sensors = json::array();
@@ -478,6 +486,9 @@ Result<Calibration> calibration_from_json(std::string_view text) {
   cal.pose = *pose;
   if (j.contains("height_m") && j["height_m"].is_number()) cal.height_m = j["height_m"].get<float>();
   if (j.contains("heading_deg") && j["heading_deg"].is_number()) cal.heading_deg = j["heading_deg"].get<float>();
+  if (j.contains("floor_y_m") && j["floor_y_m"].is_number()) cal.floor_y_m = j["floor_y_m"].get<float>();
+  if (j.contains("standing_root_y_m") && j["standing_root_y_m"].is_number())
+    cal.standing_root_y_m = j["standing_root_y_m"].get<float>();
   if (j.contains("capture") && j["capture"].is_object()) {
     const json& c = j["capture"];
     if (c.contains("samples") && c["samples"].is_number()) cal.samples = c["samples"].get<int>();

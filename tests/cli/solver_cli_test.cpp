@@ -118,6 +118,13 @@ TEST(EvalSolverCli, TableNamesTheJointSetAndJitterAndRejectsBadOptions) {
   EXPECT_NE(r.all.find("joint set: every joint but the toes"), std::string::npos) << r.all;
   EXPECT_NE(r.all.find("jitter = mean |p[t+1]-2p[t]+p[t-1]|"), std::string::npos) << r.all;
   EXPECT_NE(r.all.find("noise 2.00 mm / 1.00 deg"), std::string::npos) << r.all;
+  // Latency (predicted away by the filters) and dropouts (bridged) still give a sane result.
+  const Outcome lat = run_mimic("eval-solver --bvh " + clip + " --sensors 6 --frames 120 --latency 20 --dropout 0.05 --json", true);
+  ASSERT_EQ(lat.status, 0) << lat.out;
+  const auto j = nlohmann::json::parse(lat.out);
+  EXPECT_EQ(j["latency_ms"], 20.0);
+  EXPECT_LT(j["mpjpe_cm"].get<double>(), 10.0);
+  EXPECT_EQ(run_mimic("eval-solver --bvh " + clip + " --dropout 2").status, 2);
   EXPECT_EQ(run_mimic("eval-solver --bvh " + clip + " --sensors 5").status, 2);
   EXPECT_EQ(run_mimic("eval-solver --bvh " + clip + " --noise 1").status, 2);
   EXPECT_EQ(run_mimic("eval-solver").status, 2);

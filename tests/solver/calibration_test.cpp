@@ -157,6 +157,9 @@ TEST(Calibration, JsonRoundTrip) {
     EXPECT_LT(glm::length(back->sensors[i].segment_from_sensor.translation - cal->sensors[i].segment_from_sensor.translation), 1e-6f);
     EXPECT_LT(angle_deg(back->sensors[i].segment_from_sensor.rotation, cal->sensors[i].segment_from_sensor.rotation), 1e-3f);
   }
+  EXPECT_FLOAT_EQ(back->standing_root_y_m, cal->standing_root_y_m);
+  EXPECT_FLOAT_EQ(back->floor_y_m, cal->floor_y_m);
+  EXPECT_NEAR(cal->standing_root_y_m, w.pose.root_position_m.y, 0.05f);
   EXPECT_TRUE(make_solver_model(*back));
 }
 

@@ -35,13 +35,15 @@ struct SkinOptions {
   // n ≥ 1: cubic B-spline smoothing, n samples per control span in both directions.
   int subdivision = 1;
   bool rigid_parts = true;  // head, hands, feet
-  bool normals = true;      // area-weighted vertex normals every frame
+  bool normals = true;      // area-weighted vertex normals every frame (files, renderers);
+                            // a server that streams joint values can leave them off
 };
 
 // Wall-clock time of each stage of the last evaluate(), microseconds.
 struct SkinTimings {
   double fk_us = 0, deform_us = 0, contours_us = 0, bspline_us = 0, stitch_us = 0;
-  double total_us() const { return fk_us + deform_us + contours_us + bspline_us + stitch_us; }
+  double normals_us = 0;  // vertex normals, when SkinOptions::normals (for renderers and files)
+  double total_us() const { return fk_us + deform_us + contours_us + bspline_us + stitch_us + normals_us; }
 };
 
 struct SkinStats {

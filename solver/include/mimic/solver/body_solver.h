@@ -25,6 +25,7 @@
 
 #include <array>
 #include <cstdint>
+#include <limits>
 #include <span>
 #include <string>
 #include <vector>
@@ -48,6 +49,11 @@ struct SolverOptions {
   float prior_weight = 0.3f;       // pull of the trunk towards the relaxed posture, per radian
   float damping = 0.05f;           // Levenberg–Marquardt λ
   int iterations = 4;              // least-squares steps per frame at most (warm starts carry on)
+  // Root height of the wearer standing (world y, from calibration; NaN = unknown). With neither
+  // pelvis nor foot sensors the root is held near it: a body bends at spine and hips rather
+  // than sinking with its head.
+  float standing_root_y_m = std::numeric_limits<float>::quiet_NaN();
+  float standing_weight = 3.0f;    // per metre: a gentle pull
 };
 
 class SolverModel {

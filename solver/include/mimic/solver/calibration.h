@@ -50,6 +50,8 @@ struct Calibration {
   CalibrationPose pose = CalibrationPose::t_pose;
   float height_m = 0;             // floor to top of the head, estimated
   float heading_deg = 0;          // which way the wearer faced (0 = +Z, turning left positive)
+  float floor_y_m = 0;            // floor height in tracker coordinates, estimated
+  float standing_root_y_m = 0;    // root (pelvis joint) height while standing, tracker coordinates
   // Capture statistics: how still the wearer stood.
   int samples = 0;
   double duration_s = 0;
