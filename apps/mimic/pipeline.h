@@ -15,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "mimic/avatar/body_model.h"
 #include "mimic/avatar/mesh.h"
 #include "mimic/avatar/motion.h"
 #include "mimic/avatar/skeleton.h"
@@ -93,8 +94,21 @@ Result<std::shared_ptr<const avatar::Motion>> builtin_motion(const std::string& 
 
 std::unique_ptr<Deformer> make_fk_deformer(const avatar::Skeleton& skeleton);
 
-// The body model bytes for an avatar: the file given with --body, or the default body.
-Result<std::string> load_body_model(const std::string& path, const avatar::Skeleton& skeleton);
+// The body model of an avatar (the file given with --body, or the default body) and the bytes
+// sent to subscribers on join (its compact JSON form, docs/body-model.md).
+struct BodyAsset {
+  avatar::BodyModel model;
+  std::string bytes;
+};
+Result<BodyAsset> load_body(const std::string& path);
+
+// Mesh levels of detail offered to thin clients: LOD 0 = B-spline skin with 2 samples per span,
+// 1 = one sample per span, 2 = the paper's realtime mode (contour points are the vertices).
+inline constexpr int kMeshLodCount = 3;
+// The skin deformer (avatar/skin.h) for `model` on the feed's `skeleton` at `lod`; fails when
+// the skeleton lacks the model's joints or DOFs.
+Result<std::unique_ptr<Deformer>> make_skin_deformer(const avatar::BodyModel& model,
+                                                     const avatar::Skeleton& skeleton, int lod);
 
 // Gives the calling thread SCHED_FIFO priority `priority` (1-99), or back to normal scheduling
 // with 0. False when the system refuses (no privilege).
