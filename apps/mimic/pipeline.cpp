@@ -368,6 +368,7 @@ void Pipeline::send_mesh(Avatar& a, uint64_t time_us) {
 void Pipeline::tick() {
   using C = std::chrono::steady_clock;
   auto us = [](C::time_point a, C::time_point b) { return std::chrono::duration<double, std::micro>(b - a).count(); };
+  // Pose frames first: receivers deform locally, so the pose stream does not wait for the skin.
   // One write per subscriber for all avatars of this pass.
   if (out_.server) out_.server->begin_batch();
   for (size_t i = 0; i < avatars_.size(); ++i) {
@@ -381,33 +382,30 @@ void Pipeline::tick() {
     bool stale = false;
     a.feed->solve(a.pose, capture_s, stale);
     const auto t2 = C::now();
-    a.deformer->deform(a.pose);
-    const auto t3 = C::now();
     const double age_s = std::max(0.0, now_s() - capture_s);
     net::PoseHeader h;
     h.avatar = a.server_id;
     h.sequence = ++a.sequence;
     h.flags = stale ? net::kPoseStale : 0;
     h.time_us = net::wall_clock_us() - static_cast<uint64_t>(age_s * 1e6);
+    a.time_us = h.time_us;
     const size_t bytes = net::encode_pose(h, a.pose, a.packet);
-    const auto t4 = C::now();
+    const auto t3 = C::now();
     if (out_.server && bytes && out_.server->publish_pose(a.server_id, std::span<const uint8_t>(a.packet.data(), bytes)) != net::Reject::ok)
       send_failures_++;
     if (out_.publisher && a.publisher_slot >= 0 &&
         !out_.publisher->publish_pose(static_cast<uint8_t>(a.publisher_slot), h, a.pose))
       send_failures_++;
     if (out_.vmc && i == 0 && out_.vmc->send(a.pose, double(h.time_us) * 1e-6) == 0) send_failures_++;
-    if (out_.server && a.deformer->mesh()) send_mesh(a, h.time_us);
-    const auto t5 = C::now();
+    const auto t4 = C::now();
     timers_[kStageSolve].add(us(t1, t2));
-    timers_[kStageDeform].add(us(t2, t3));
-    timers_[kStageEncode].add(us(t3, t4));
-    pending_send_us_[i] = us(t4, t5);
+    timers_[kStageEncode].add(us(t2, t3));
+    pending_send_us_[i] = us(t3, t4);
     pending_latency_[i] = capture_s;
     frames_++;
   }
-  // The frames leave the sockets here, in one write per subscriber: every avatar of this pass
-  // counts the flush in its send stage.
+  // The pose frames leave the sockets here: every avatar of this pass counts the flush in its
+  // send stage, and its latency (sensor record -> frame out) ends here.
   double flush_us = 0;
   if (out_.server) {
     const auto t0 = C::now();
@@ -415,12 +413,20 @@ void Pipeline::tick() {
     flush_us = us(t0, C::now());
   }
   const double now = now_s();
+  // Then the skin, and mesh frames for thin clients (batched the same way).
+  if (out_.server) out_.server->begin_batch();
   for (size_t i = 0; i < avatars_.size(); ++i) {
     if (pending_latency_[i] <= 0) continue;
     timers_[kStageSend].add(pending_send_us_[i] + flush_us);
     timers_[kStageLatency].add(std::max(0.0, now - pending_latency_[i]) * 1e6);
     pending_latency_[i] = 0;
+    Avatar& a = avatars_[i];
+    const auto t0 = C::now();
+    a.deformer->deform(a.pose);
+    timers_[kStageDeform].add(us(t0, C::now()));
+    if (out_.server && a.deformer->mesh()) send_mesh(a, a.time_us);
   }
+  if (out_.server) out_.server->end_batch();
 }
 
 }  // namespace mimic::app

@@ -1,7 +1,9 @@
 // The realtime pipeline of `mimic run`: for every avatar, read (poll its tracker source) →
-// solve (samples → Pose) → deform (Pose → skin) → encode (pose frame) → send (server fan-out,
-// remote publisher, VMC). Built at setup; Pipeline::tick() never allocates or throws: a source
-// with nothing new is skipped, a failed send is counted.
+// solve (samples → Pose) → encode (pose frame) → send (server fan-out, remote publisher, VMC),
+// then deform (Pose → skin) and send mesh frames to thin clients. The pose frames go first
+// because receivers deform locally: the pose stream never waits for the skin. Built at setup;
+// Pipeline::tick() never allocates or throws: a source with nothing new is skipped, a failed
+// send is counted.
 //
 // Seams (replaceable without touching the loop): PoseFeed does read + solve (tracker source +
 // body solver), Deformer does deform. Until the skin deformer is wired in, the deformer runs
@@ -149,6 +151,7 @@ class Pipeline {
     uint16_t server_id = 0;
     int publisher_slot = -1;
     uint32_t sequence = 0;
+    uint64_t time_us = 0;  // capture time of the current frame
     std::vector<uint8_t> packet;
     std::vector<uint8_t> mesh_packet;  // sized when the topology is announced
     bool topology_sent = false;
