@@ -198,6 +198,12 @@ int run(const std::vector<std::string>& argv) {
   if (rt_priority > 0 && !set_realtime_priority(int(rt_priority)))
     std::fprintf(stderr, "mimic run: SCHED_FIFO priority %ld refused (needs CAP_SYS_NICE); running unprioritised\n",
                  rt_priority);
+  // Handlers before announcing the endpoint: whoever reads that line may signal at once.
+  g_stop = false;
+  g_report = false;
+  std::signal(SIGINT, on_signal);
+  std::signal(SIGUSR1, on_report_signal);
+  std::signal(SIGTERM, on_signal);
   std::printf("%s\n", where.c_str());
   std::fflush(stdout);
 
@@ -230,11 +236,6 @@ int run(const std::vector<std::string>& argv) {
     }
     return j;
   };
-  g_stop = false;
-  g_report = false;
-  std::signal(SIGINT, on_signal);
-  std::signal(SIGUSR1, on_report_signal);
-  std::signal(SIGTERM, on_signal);
   const bool status_line = !a.has("quiet");
   using C = std::chrono::steady_clock;
   const auto start = C::now();
