@@ -63,10 +63,12 @@ Result<nlohmann::json> bench_net(const BenchOptions& opt) {
     if (!server) return tl::unexpected(server.error());
     auto feed = open_feed("sim:walk?rate=90");
     if (!feed) return tl::unexpected(feed.error());
-    auto model = load_body_model("", (*feed)->skeleton());
-    if (!model) return tl::unexpected(model.error());
+    auto body = load_body("");
+    if (!body) return tl::unexpected(body.error());
+    auto skin = make_skin_deformer(body->model, (*feed)->skeleton(), 2);
+    if (!skin) return tl::unexpected(skin.error());
     Pipeline pipeline({server->get(), nullptr, nullptr});
-    if (auto st = pipeline.add_avatar("bench", std::move(*feed), std::move(*model), nullptr); !st)
+    if (auto st = pipeline.add_avatar("bench", std::move(*feed), std::move(body->bytes), std::move(*skin)); !st)
       return tl::unexpected(st.error());
     std::atomic<bool> stop{false};
     const std::string ep = (*server)->endpoint();

@@ -46,6 +46,9 @@ const char* kUsage =
     "  --secret S          shared secret publishers must present (also MIMIC_SECRET)\n"
     "  --publish HOST:PORT do not host: publish the avatars into the scene served there\n"
     "  --vmc HOST:PORT     also send the first avatar as VMC (OSC over UDP), e.g. 127.0.0.1:39539\n"
+    "  --mesh-lod L        skin level of detail deformed every frame and offered as mesh frames\n"
+    "                      to thin clients (mimic subscribe --mesh-lod L): 0 finest (B-spline,\n"
+    "                      2 samples per span), 1, 2 = the paper's realtime contours (default)\n"
     "  --duration S        stop by itself after S seconds (default: run until Ctrl-C)\n"
     "  --realtime PRIO     run the loop at SCHED_FIFO priority PRIO (1-99; needs CAP_SYS_NICE),\n"
     "                      so a busy machine does not delay frames\n"
@@ -107,7 +110,7 @@ int run(const std::vector<std::string>& argv) {
   std::vector<SourceArgs> sources;
   std::string error;
   if (!take_sources(args, sources, error)) return usage_error("run", error);
-  Args a(args, {"listen", "secret", "publish", "vmc", "duration", "realtime"}, {"json", "quiet"});
+  Args a(args, {"listen", "secret", "publish", "vmc", "duration", "realtime", "mesh-lod"}, {"json", "quiet"});
   if (a.help()) {
     std::printf("%s", kUsage);
     return 0;
@@ -115,8 +118,10 @@ int run(const std::vector<std::string>& argv) {
   if (!a.ok()) return usage_error("run", a.error());
   if (!a.positionals().empty()) return usage_error("run", "unexpected argument '" + a.positionals()[0] + "'");
   double duration_s = 0;
-  long rt_priority = 0;
-  if (!a.get_double("duration", duration_s) || !a.get_int("realtime", rt_priority)) return usage_error("run", a.error());
+  long rt_priority = 0, mesh_lod = 2;
+  if (!a.get_double("duration", duration_s) || !a.get_int("realtime", rt_priority) || !a.get_int("mesh-lod", mesh_lod))
+    return usage_error("run", a.error());
+  if (mesh_lod < 0 || mesh_lod >= kMeshLodCount) return usage_error("run", "--mesh-lod must be 0, 1 or 2");
   if (rt_priority < 0 || rt_priority > 99) return usage_error("run", "--realtime takes a priority 1-99");
   if (sources.empty()) sources.push_back({"sim:walk", "", ""});
 
@@ -149,14 +154,20 @@ int run(const std::vector<std::string>& argv) {
 
   // Setup: everything is allocated here, before the loop.
   std::vector<std::unique_ptr<PoseFeed>> feeds;
-  std::vector<std::string> models;
+  std::vector<BodyAsset> bodies;
+  std::vector<std::unique_ptr<Deformer>> deformers;
   for (const auto& [spec, body, calibration] : sources) {
     auto feed = open_feed(spec, calibration);
     if (!feed) return failure("run", feed.error().what());
-    auto model = load_body_model(body, (*feed)->skeleton());
-    if (!model) return failure("run", model.error().what());
+    auto asset = load_body(body);
+    if (!asset) return failure("run", asset.error().what());
+    auto deformer = make_skin_deformer(asset->model, (*feed)->skeleton(), int(mesh_lod));
+    if (!deformer)
+      return failure("run", "body model " + (body.empty() ? std::string("(default)") : body) +
+                                " does not fit source " + spec + ": " + deformer.error().what());
     feeds.push_back(std::move(*feed));
-    models.push_back(std::move(*model));
+    bodies.push_back(std::move(*asset));
+    deformers.push_back(std::move(*deformer));
   }
   std::unique_ptr<net::VmcSender> vmc;
   if (a.has("vmc")) {
@@ -171,15 +182,28 @@ int run(const std::vector<std::string>& argv) {
   size_t model_bytes_total = 0;
   for (size_t i = 0; i < feeds.size(); ++i) {
     const uint16_t dofs = static_cast<uint16_t>(feeds[i]->skeleton().dof_count());
-    std::fprintf(stderr, "mimic run: avatar %zu: %s, body model %zu bytes, pose frame %zu bytes\n", i + 1,
-                 feeds[i]->describe().c_str(), models[i].size(), net::pose_packet_bytes(dofs));
-    model_bytes_total += models[i].size();
-    if (auto st = pipeline.add_avatar("avatar" + std::to_string(i + 1), std::move(feeds[i]), std::move(models[i]), nullptr); !st)
+    const auto* mesh = deformers[i]->mesh();
+    std::fprintf(stderr,
+                 "mimic run: avatar %zu: %s; body '%s', model %zu bytes; pose frame %zu bytes; mesh LOD %ld %zu "
+                 "vertices %zu triangles\n",
+                 i + 1, feeds[i]->describe().c_str(), bodies[i].model.name.c_str(), bodies[i].bytes.size(),
+                 net::pose_packet_bytes(dofs), mesh_lod, mesh ? mesh->positions.size() : 0,
+                 mesh ? mesh->triangle_count() : 0);
+    model_bytes_total += bodies[i].bytes.size();
+    if (auto st = pipeline.add_avatar("avatar" + std::to_string(i + 1), std::move(feeds[i]), std::move(bodies[i].bytes),
+                                      std::move(deformers[i]));
+        !st)
       return failure("run", st.error().what());
   }
   if (rt_priority > 0 && !set_realtime_priority(int(rt_priority)))
     std::fprintf(stderr, "mimic run: SCHED_FIFO priority %ld refused (needs CAP_SYS_NICE); running unprioritised\n",
                  rt_priority);
+  // Handlers before announcing the endpoint: whoever reads that line may signal at once.
+  g_stop = false;
+  g_report = false;
+  std::signal(SIGINT, on_signal);
+  std::signal(SIGUSR1, on_report_signal);
+  std::signal(SIGTERM, on_signal);
   std::printf("%s\n", where.c_str());
   std::fflush(stdout);
 
@@ -212,15 +236,10 @@ int run(const std::vector<std::string>& argv) {
     }
     return j;
   };
-  g_stop = false;
-  g_report = false;
-  std::signal(SIGINT, on_signal);
-  std::signal(SIGUSR1, on_report_signal);
-  std::signal(SIGTERM, on_signal);
   const bool status_line = !a.has("quiet");
   using C = std::chrono::steady_clock;
   const auto start = C::now();
-  auto next_status = start;
+  auto next_status = start + std::chrono::milliseconds(500);
   uint64_t last_frames = 0;
   auto last_status = start;
   char line[320];

@@ -7,8 +7,8 @@
 #include <chrono>
 #include <thread>
 #include <cmath>
-#include <nlohmann/json.hpp>
 
+#include "mimic/avatar/skin.h"
 #include "mimic/core/file.h"
 #include "mimic/net/client.h"
 #include "mimic/net/frame_codec.h"
@@ -256,23 +256,45 @@ std::unique_ptr<Deformer> make_fk_deformer(const avatar::Skeleton& skeleton) {
   return std::make_unique<FkDeformer>(skeleton);
 }
 
-Result<std::string> load_body_model(const std::string& path, const avatar::Skeleton& skeleton) {
-  if (!path.empty()) return read_file(path);
-  // Default body until the metaball body model is serialised here: the skeleton it hangs on.
-  nlohmann::json j;
-  j["format"] = "mimic-body";
-  j["version"] = 1;
-  for (const auto& joint : skeleton.desc().joints) {
-    nlohmann::json jj;
-    jj["name"] = joint.name;
-    jj["parent"] = joint.parent;
-    jj["offset_m"] = {joint.offset_m.x, joint.offset_m.y, joint.offset_m.z};
-    for (const auto& d : joint.dofs)
-      jj["dofs"].push_back({{"name", d.name}, {"axis", {d.axis.x, d.axis.y, d.axis.z}}, {"min_rad", d.min_rad},
-                            {"max_rad", d.max_rad}});
-    j["skeleton"].push_back(jj);
+Result<BodyAsset> load_body(const std::string& path) {
+  BodyAsset body;
+  if (path.empty()) {
+    body.model = avatar::default_body_model();
+  } else {
+    auto m = avatar::load_body_model(path);
+    if (!m) return tl::unexpected(m.error());
+    body.model = std::move(*m);
   }
-  return j.dump();
+  if (auto st = avatar::validate(body.model); !st) return tl::unexpected(st.error());
+  body.bytes = avatar::to_json(body.model, false);
+  return body;
+}
+
+namespace {
+
+class SkinDeformer final : public Deformer {
+ public:
+  SkinDeformer(avatar::BodySkin skin, uint8_t lod) : skin_(std::move(skin)), lod_(lod) {}
+  void deform(const avatar::Pose& pose) override { skin_.evaluate(pose); }
+  const avatar::Mesh* mesh() const override { return &skin_.mesh(); }
+  uint8_t lod() const override { return lod_; }
+
+ private:
+  avatar::BodySkin skin_;
+  uint8_t lod_;
+};
+
+}  // namespace
+
+Result<std::unique_ptr<Deformer>> make_skin_deformer(const avatar::BodyModel& model,
+                                                     const avatar::Skeleton& skeleton, int lod) {
+  if (lod < 0 || lod >= kMeshLodCount) return fail(Errc::out_of_range, "mesh LOD must be 0, 1 or 2");
+  avatar::SkinOptions o;
+  o.subdivision = 2 - lod;
+  o.normals = false;  // receivers that want normals compute them from the fixed topology
+  auto skin = avatar::BodySkin::create(model, skeleton, o);
+  if (!skin) return tl::unexpected(skin.error());
+  return std::unique_ptr<Deformer>(new SkinDeformer(std::move(*skin), static_cast<uint8_t>(lod)));
 }
 
 Status Pipeline::add_avatar(const std::string& name, std::unique_ptr<PoseFeed> feed, std::string model_bytes,
@@ -296,6 +318,22 @@ Status Pipeline::add_avatar(const std::string& name, std::unique_ptr<PoseFeed> f
   a.packet.resize(net::pose_packet_bytes(s.dof_count()));
   a.feed = std::move(feed);
   a.deformer = deformer ? std::move(deformer) : make_fk_deformer(s);
+  // The mesh topology is fixed: announce it (and size the frame buffer) now, not when the first
+  // thin client shows up in the middle of the loop.
+  a.deformer->deform(a.pose);
+  if (out_.server && a.deformer->mesh()) {
+    const avatar::Mesh& mesh = *a.deformer->mesh();
+    net::MeshTopology t;
+    t.avatar = a.server_id;
+    t.lod = a.deformer->lod();
+    t.vertex_count = static_cast<uint32_t>(mesh.positions.size());
+    t.indices = mesh.indices;
+    if (auto st = out_.server->set_mesh_topology(t); !st) return st;
+    a.mesh_packet.resize(net::mesh_packet_bytes(mesh.positions.size()));
+    a.topology_sent = true;
+    const size_t n = net::encode_mesh({a.server_id, t.lod, 0, 0}, mesh.positions, a.mesh_packet);
+    out_.server->publish_mesh(a.server_id, t.lod, std::span<const uint8_t>(a.mesh_packet.data(), n));
+  }
   avatars_.push_back(std::move(a));
   pending_latency_.assign(avatars_.size(), 0.0);
   pending_send_us_.assign(avatars_.size(), 0.0);
@@ -330,6 +368,7 @@ void Pipeline::send_mesh(Avatar& a, uint64_t time_us) {
 void Pipeline::tick() {
   using C = std::chrono::steady_clock;
   auto us = [](C::time_point a, C::time_point b) { return std::chrono::duration<double, std::micro>(b - a).count(); };
+  // Pose frames first: receivers deform locally, so the pose stream does not wait for the skin.
   // One write per subscriber for all avatars of this pass.
   if (out_.server) out_.server->begin_batch();
   for (size_t i = 0; i < avatars_.size(); ++i) {
@@ -343,33 +382,30 @@ void Pipeline::tick() {
     bool stale = false;
     a.feed->solve(a.pose, capture_s, stale);
     const auto t2 = C::now();
-    a.deformer->deform(a.pose);
-    const auto t3 = C::now();
     const double age_s = std::max(0.0, now_s() - capture_s);
     net::PoseHeader h;
     h.avatar = a.server_id;
     h.sequence = ++a.sequence;
     h.flags = stale ? net::kPoseStale : 0;
     h.time_us = net::wall_clock_us() - static_cast<uint64_t>(age_s * 1e6);
+    a.time_us = h.time_us;
     const size_t bytes = net::encode_pose(h, a.pose, a.packet);
-    const auto t4 = C::now();
+    const auto t3 = C::now();
     if (out_.server && bytes && out_.server->publish_pose(a.server_id, std::span<const uint8_t>(a.packet.data(), bytes)) != net::Reject::ok)
       send_failures_++;
     if (out_.publisher && a.publisher_slot >= 0 &&
         !out_.publisher->publish_pose(static_cast<uint8_t>(a.publisher_slot), h, a.pose))
       send_failures_++;
     if (out_.vmc && i == 0 && out_.vmc->send(a.pose, double(h.time_us) * 1e-6) == 0) send_failures_++;
-    if (out_.server && a.deformer->mesh()) send_mesh(a, h.time_us);
-    const auto t5 = C::now();
+    const auto t4 = C::now();
     timers_[kStageSolve].add(us(t1, t2));
-    timers_[kStageDeform].add(us(t2, t3));
-    timers_[kStageEncode].add(us(t3, t4));
-    pending_send_us_[i] = us(t4, t5);
+    timers_[kStageEncode].add(us(t2, t3));
+    pending_send_us_[i] = us(t3, t4);
     pending_latency_[i] = capture_s;
     frames_++;
   }
-  // The frames leave the sockets here, in one write per subscriber: every avatar of this pass
-  // counts the flush in its send stage.
+  // The pose frames leave the sockets here: every avatar of this pass counts the flush in its
+  // send stage, and its latency (sensor record -> frame out) ends here.
   double flush_us = 0;
   if (out_.server) {
     const auto t0 = C::now();
@@ -377,12 +413,20 @@ void Pipeline::tick() {
     flush_us = us(t0, C::now());
   }
   const double now = now_s();
+  // Then the skin, and mesh frames for thin clients (batched the same way).
+  if (out_.server) out_.server->begin_batch();
   for (size_t i = 0; i < avatars_.size(); ++i) {
     if (pending_latency_[i] <= 0) continue;
     timers_[kStageSend].add(pending_send_us_[i] + flush_us);
     timers_[kStageLatency].add(std::max(0.0, now - pending_latency_[i]) * 1e6);
     pending_latency_[i] = 0;
+    Avatar& a = avatars_[i];
+    const auto t0 = C::now();
+    a.deformer->deform(a.pose);
+    timers_[kStageDeform].add(us(t0, C::now()));
+    if (out_.server && a.deformer->mesh()) send_mesh(a, a.time_us);
   }
+  if (out_.server) out_.server->end_batch();
 }
 
 }  // namespace mimic::app

@@ -1,7 +1,9 @@
 // The realtime pipeline of `mimic run`: for every avatar, read (poll its tracker source) →
-// solve (samples → Pose) → deform (Pose → skin) → encode (pose frame) → send (server fan-out,
-// remote publisher, VMC). Built at setup; Pipeline::tick() never allocates or throws: a source
-// with nothing new is skipped, a failed send is counted.
+// solve (samples → Pose) → encode (pose frame) → send (server fan-out, remote publisher, VMC),
+// then deform (Pose → skin) and send mesh frames to thin clients. The pose frames go first
+// because receivers deform locally: the pose stream never waits for the skin. Built at setup;
+// Pipeline::tick() never allocates or throws: a source with nothing new is skipped, a failed
+// send is counted.
 //
 // Seams (replaceable without touching the loop): PoseFeed does read + solve (tracker source +
 // body solver), Deformer does deform. Until the skin deformer is wired in, the deformer runs
@@ -15,6 +17,7 @@
 #include <string>
 #include <vector>
 
+#include "mimic/avatar/body_model.h"
 #include "mimic/avatar/mesh.h"
 #include "mimic/avatar/motion.h"
 #include "mimic/avatar/skeleton.h"
@@ -93,8 +96,21 @@ Result<std::shared_ptr<const avatar::Motion>> builtin_motion(const std::string& 
 
 std::unique_ptr<Deformer> make_fk_deformer(const avatar::Skeleton& skeleton);
 
-// The body model bytes for an avatar: the file given with --body, or the default body.
-Result<std::string> load_body_model(const std::string& path, const avatar::Skeleton& skeleton);
+// The body model of an avatar (the file given with --body, or the default body) and the bytes
+// sent to subscribers on join (its compact JSON form, docs/body-model.md).
+struct BodyAsset {
+  avatar::BodyModel model;
+  std::string bytes;
+};
+Result<BodyAsset> load_body(const std::string& path);
+
+// Mesh levels of detail offered to thin clients: LOD 0 = B-spline skin with 2 samples per span,
+// 1 = one sample per span, 2 = the paper's realtime mode (contour points are the vertices).
+inline constexpr int kMeshLodCount = 3;
+// The skin deformer (avatar/skin.h) for `model` on the feed's `skeleton` at `lod`; fails when
+// the skeleton lacks the model's joints or DOFs.
+Result<std::unique_ptr<Deformer>> make_skin_deformer(const avatar::BodyModel& model,
+                                                     const avatar::Skeleton& skeleton, int lod);
 
 // Gives the calling thread SCHED_FIFO priority `priority` (1-99), or back to normal scheduling
 // with 0. False when the system refuses (no privilege).
@@ -135,6 +151,7 @@ class Pipeline {
     uint16_t server_id = 0;
     int publisher_slot = -1;
     uint32_t sequence = 0;
+    uint64_t time_us = 0;  // capture time of the current frame
     std::vector<uint8_t> packet;
     std::vector<uint8_t> mesh_packet;  // sized when the topology is announced
     bool topology_sent = false;

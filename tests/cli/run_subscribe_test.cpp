@@ -235,3 +235,25 @@ TEST(RunSubscribe, RunsWithACalibrationFromMimicCalibrate) {
 }
 
 }  // namespace
+
+namespace {
+
+// Thin clients: mesh frames of the deformed skin at the LOD mimic run offers; none at another.
+TEST(RunSubscribe, ThinClientGetsMeshFramesAtTheOfferedLod) {
+  Proc run({"run", "--listen", "127.0.0.1:0", "--mesh-lod", "2", "--duration", "8", "--quiet"});
+  const std::string ep = endpoint_of(run);
+  ASSERT_FALSE(ep.empty()) << run.err();
+  Proc thin({"subscribe", "--connect", ep, "--count", "30", "--mesh-lod", "2", "--json"});
+  ASSERT_EQ(thin.wait(15.0), 0) << thin.err();
+  const auto j = last_json(thin.out());
+  ASSERT_FALSE(j.is_discarded()) << thin.out();
+  EXPECT_GE(j["mesh_frames"].get<int>(), 20);
+  Proc other({"subscribe", "--connect", ep, "--count", "30", "--mesh-lod", "0", "--json"});
+  ASSERT_EQ(other.wait(15.0), 0) << other.err();
+  const auto k = last_json(other.out());
+  ASSERT_FALSE(k.is_discarded()) << other.out();
+  EXPECT_EQ(k["mesh_frames"], 0);
+  EXPECT_EQ(k["frames"], 30);
+}
+
+}  // namespace
