@@ -21,6 +21,36 @@ constexpr const char* kPartNames[kRigidPartCount + 1] = {"none",      "head",   
 
 constexpr int kFormatVersion = 1;
 
+Group mirror(Group g) {
+  switch (g) {
+    case Group::left_shoulder: return Group::right_shoulder;
+    case Group::left_upper_arm: return Group::right_upper_arm;
+    case Group::left_lower_arm: return Group::right_lower_arm;
+    case Group::left_upper_leg: return Group::right_upper_leg;
+    case Group::left_lower_leg: return Group::right_lower_leg;
+    case Group::left_ankle: return Group::right_ankle;
+    default: return g;
+  }
+}
+
+GroupMask mirror_mask(GroupMask m) {
+  GroupMask out = 0;
+  for (int g = 0; g < kGroupCount; ++g)
+    if (m & (1u << g)) out |= group_bit(mirror(static_cast<Group>(g)));
+  return out;
+}
+
+std::string mirror_name(const std::string& s) { return s.rfind("l_", 0) == 0 ? "r_" + s.substr(2) : s; }
+
+PrimitiveState mirror_state(PrimitiveState s) {
+  s.center_m.x = -s.center_m.x;
+  // A reflection in x keeps the x rotation and negates the y and z rotations.
+  s.orientation_rad.y = -s.orientation_rad.y;
+  s.orientation_rad.z = -s.orientation_rad.z;
+  return s;
+}
+
+
 using nlohmann::json;
 
 // Six decimals (micrometres, microdegrees) keep files readable and round trips exact.
@@ -28,9 +58,43 @@ double rounded(float v) { return std::round(static_cast<double>(v) * 1e6) / 1e6;
 
 json vec(const glm::vec3& v) { return json::array({rounded(v.x), rounded(v.y), rounded(v.z)}); }
 
-json state_json(const PrimitiveState& s) {
-  return json{{"semi_axes", vec(s.semi_axes_m)}, {"center", vec(s.center_m)},
-              {"orientation_deg", vec(glm::degrees(s.orientation_rad))}};
+
+// Defaults are left out: kind metaball, weight 1, zero orientation; a deformation state's centre
+// and orientation when they equal G0's.
+json state_json(const PrimitiveState& s, const PrimitiveState* base = nullptr) {
+  json j{{"semi_axes", vec(s.semi_axes_m)}};
+  if (!base || vec(s.center_m) != vec(base->center_m)) j["center"] = vec(s.center_m);
+  const json o = vec(glm::degrees(s.orientation_rad));
+  const json base_o = vec(base ? glm::degrees(base->orientation_rad) : glm::vec3(0));
+  if (o != base_o) j["orientation_deg"] = o;
+  return j;
+}
+
+json primitive_json(const Primitive& p) {
+  json groups = json::array();
+  for (int g = 0; g < kGroupCount; ++g)
+    if (p.groups & (1u << g)) groups.push_back(kGroupNames[g]);
+  json pj{{"name", p.name}, {"joint", p.joint}, {"influence", rounded(p.influence)}, {"groups", groups},
+          {"state", state_json(p.state)}};
+  if (p.kind != PrimitiveKind::metaball) pj["kind"] = "ellipsoid";
+  if (rounded(p.weight) != 1.0) pj["weight"] = rounded(p.weight);
+  if (p.part != RigidPart::none) pj["part"] = rigid_part_name(p.part);
+  if (p.deformation) {
+    pj["deformation"] = json{{"dof", p.deformation->dof},
+                             {"falloff", falloff_name(p.deformation->falloff)},
+                             {"min", state_json(p.deformation->at_min, &p.state)},
+                             {"max", state_json(p.deformation->at_max, &p.state)}};
+  }
+  return pj;
+}
+
+json dof_json(const DofDesc& d);
+
+json joint_json(const JointDesc& jd) {
+  json dofs = json::array();
+  for (const auto& d : jd.dofs) dofs.push_back(dof_json(d));
+  return json{{"name", jd.name}, {"parent", jd.parent}, {"offset", vec(jd.offset_m)}, {"tip", vec(jd.tip_m)},
+              {"dofs", dofs}};
 }
 
 json dof_json(const DofDesc& d) {
@@ -134,6 +198,35 @@ class Reader {
 
 }  // namespace
 
+JointDesc mirrored(const JointDesc& left) {
+  JointDesc j = left;
+  j.name = mirror_name(left.name);
+  j.parent = mirror_name(left.parent);
+  j.offset_m.x = -j.offset_m.x;
+  j.tip_m.x = -j.tip_m.x;
+  for (auto& d : j.dofs) {
+    d.name = mirror_name(d.name);
+    d.axis = {d.axis.x, -d.axis.y, -d.axis.z};
+  }
+  return j;
+}
+
+Primitive mirrored(const Primitive& p) {
+  Primitive q = p;
+  q.name = mirror_name(p.name);
+  q.joint = mirror_name(p.joint);
+  q.groups = mirror_mask(p.groups);
+  if (p.part == RigidPart::left_hand) q.part = RigidPart::right_hand;
+  if (p.part == RigidPart::left_foot) q.part = RigidPart::right_foot;
+  q.state = mirror_state(p.state);
+  if (q.deformation) {
+    q.deformation->dof = mirror_name(p.deformation->dof);
+    q.deformation->at_min = mirror_state(p.deformation->at_min);
+    q.deformation->at_max = mirror_state(p.deformation->at_max);
+  }
+  return q;
+}
+
 const char* group_name(Group g) { return kGroupNames[static_cast<int>(g)]; }
 
 std::optional<Group> group_from_name(std::string_view name) {
@@ -235,32 +328,35 @@ std::string to_json(const BodyModel& model, bool pretty) {
   j["format"] = "mimic-body";
   j["version"] = kFormatVersion;
   j["name"] = model.name;
+  // A right joint right after its exact mirror image on the left is written once, on the left,
+  // as "mirror": true (the reader puts the twin back in the same place).
   json joints = json::array();
-  for (const auto& jd : model.skeleton.joints) {
-    json dofs = json::array();
-    for (const auto& d : jd.dofs) dofs.push_back(dof_json(d));
-    joints.push_back(json{{"name", jd.name}, {"parent", jd.parent}, {"offset", vec(jd.offset_m)},
-                          {"tip", vec(jd.tip_m)}, {"dofs", dofs}});
+  const auto& js = model.skeleton.joints;
+  for (size_t i = 0; i < js.size(); ++i) {
+    json jj = joint_json(js[i]);
+    if (js[i].name.rfind("l_", 0) == 0 && i + 1 < js.size() && joint_json(js[i + 1]) == joint_json(mirrored(js[i]))) {
+      jj["mirror"] = true;
+      ++i;
+    }
+    joints.push_back(std::move(jj));
   }
   j["skeleton"] = json{{"joints", joints}};
+  // A right-side primitive that is the exact mirror image of its left twin is written once,
+  // on the left, as "mirror": true.
+  std::vector<char> written_as_mirror(model.primitives.size(), 0);
   json prims = json::array();
-  for (const auto& p : model.primitives) {
-    json groups = json::array();
-    for (int g = 0; g < kGroupCount; ++g)
-      if (p.groups & (1u << g)) groups.push_back(kGroupNames[g]);
-    json pj{{"name", p.name},
-            {"joint", p.joint},
-            {"kind", p.kind == PrimitiveKind::metaball ? "metaball" : "ellipsoid"},
-            {"weight", rounded(p.weight)},
-            {"influence", rounded(p.influence)},
-            {"groups", groups},
-            {"state", state_json(p.state)}};
-    if (p.part != RigidPart::none) pj["part"] = rigid_part_name(p.part);
-    if (p.deformation) {
-      pj["deformation"] = json{{"dof", p.deformation->dof},
-                               {"falloff", falloff_name(p.deformation->falloff)},
-                               {"min", state_json(p.deformation->at_min)},
-                               {"max", state_json(p.deformation->at_max)}};
+  for (size_t i = 0; i < model.primitives.size(); ++i) {
+    if (written_as_mirror[i]) continue;
+    const Primitive& p = model.primitives[i];
+    json pj = primitive_json(p);
+    if (p.name.rfind("l_", 0) == 0) {
+      const json twin = primitive_json(mirrored(p));
+      for (size_t k = 0; k < model.primitives.size(); ++k)
+        if (!written_as_mirror[k] && model.primitives[k].name == twin["name"] && primitive_json(model.primitives[k]) == twin) {
+          written_as_mirror[k] = 1;
+          pj["mirror"] = true;
+          break;
+        }
     }
     prims.push_back(std::move(pj));
   }
@@ -339,12 +435,22 @@ Result<BodyModel> body_model_from_json(std::string_view text, std::string_view s
             jd.dofs.push_back(std::move(d));
           }
         }
+        bool mirror = false;
+        if (const json* mj = r.member(jj, path, "mirror", false); mj) {
+          if (!mj->is_boolean()) r.fail_at(path + ".mirror", "expected true or false");
+          else if (mj->get<bool>() && jd.name.rfind("l_", 0) != 0)
+            r.fail_at(path + ".mirror", "only a left-side (\"l_…\") joint can be mirrored");
+          else mirror = mj->get<bool>();
+        }
+        JointDesc twin = mirror ? mirrored(jd) : JointDesc{};
         m.skeleton.joints.push_back(std::move(jd));
+        if (mirror) m.skeleton.joints.push_back(std::move(twin));
       }
     }
   }
 
   if (const json* prims = r.member(root, "$", "primitives", true); prims && r.ok()) {
+    std::vector<Primitive> mirrors;  // right-side twins of "mirror": true primitives, appended
     if (!prims->is_array()) r.fail_at("$.primitives", "expected an array");
     for (size_t i = 0; r.ok() && prims->is_array() && i < prims->size(); ++i) {
       const json& pj = (*prims)[i];
@@ -386,8 +492,15 @@ Result<BodyModel> body_model_from_json(std::string_view text, std::string_view s
           d.at_max = r.state(*mx, path + ".deformation.max", p.state);
         p.deformation = d;
       }
+      if (const json* mj = r.member(pj, path, "mirror", false); mj) {
+        if (!mj->is_boolean()) r.fail_at(path + ".mirror", "expected true or false");
+        else if (mj->get<bool>() && p.name.rfind("l_", 0) != 0)
+          r.fail_at(path + ".mirror", "only a left-side (\"l_…\") primitive can be mirrored");
+        else if (mj->get<bool>()) mirrors.push_back(mirrored(p));
+      }
       m.primitives.push_back(std::move(p));
     }
+    for (Primitive& q : mirrors) m.primitives.push_back(std::move(q));
   }
 
   if (const json* sj = r.member(root, "$", "skin", false); sj && r.ok()) {

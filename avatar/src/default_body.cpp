@@ -81,35 +81,6 @@ GroupMask G(std::initializer_list<Group> gs) {
   return m;
 }
 
-Group mirror(Group g) {
-  switch (g) {
-    case Group::left_shoulder: return Group::right_shoulder;
-    case Group::left_upper_arm: return Group::right_upper_arm;
-    case Group::left_lower_arm: return Group::right_lower_arm;
-    case Group::left_upper_leg: return Group::right_upper_leg;
-    case Group::left_lower_leg: return Group::right_lower_leg;
-    case Group::left_ankle: return Group::right_ankle;
-    default: return g;
-  }
-}
-
-GroupMask mirror_mask(GroupMask m) {
-  GroupMask out = 0;
-  for (int g = 0; g < kGroupCount; ++g)
-    if (m & (1u << g)) out |= group_bit(mirror(static_cast<Group>(g)));
-  return out;
-}
-
-std::string mirror_name(const std::string& s) { return s.rfind("l_", 0) == 0 ? "r_" + s.substr(2) : s; }
-
-PrimitiveState mirror_state(PrimitiveState s) {
-  s.center_m.x = -s.center_m.x;
-  // A reflection in x keeps the x rotation and negates the y and z rotations.
-  s.orientation_rad.y = -s.orientation_rad.y;
-  s.orientation_rad.z = -s.orientation_rad.z;
-  return s;
-}
-
 }  // namespace
 
 BodyModel default_body_model() {
@@ -241,22 +212,8 @@ BodyModel default_body_model() {
 
   // Mirror every left primitive to the right.
   std::vector<Primitive> right;
-  for (const Primitive& p : a.model.primitives) {
-    if (p.name.rfind("l_", 0) != 0) continue;
-    Primitive q = p;
-    q.name = mirror_name(p.name);
-    q.joint = mirror_name(p.joint);
-    q.groups = mirror_mask(p.groups);
-    if (p.part == RigidPart::left_hand) q.part = RigidPart::right_hand;
-    if (p.part == RigidPart::left_foot) q.part = RigidPart::right_foot;
-    q.state = mirror_state(p.state);
-    if (q.deformation) {
-      q.deformation->dof = mirror_name(p.deformation->dof);
-      q.deformation->at_min = mirror_state(p.deformation->at_min);
-      q.deformation->at_max = mirror_state(p.deformation->at_max);
-    }
-    right.push_back(std::move(q));
-  }
+  for (const Primitive& p : a.model.primitives)
+    if (p.name.rfind("l_", 0) == 0) right.push_back(mirrored(p));
   for (Primitive& p : right) a.model.primitives.push_back(std::move(p));
   return a.model;
 }

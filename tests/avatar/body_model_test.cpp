@@ -37,6 +37,28 @@ TEST(BodyModel, JsonRoundTripsExactly) {
   EXPECT_LT(to_json(m, false).size(), 80u * 1024u);
 }
 
+TEST(BodyModel, MirroredTwinsAreWrittenOnceAndComeBackInPlace) {
+  const BodyModel m = default_body_model();
+  const std::string text = to_json(m, false);
+  EXPECT_EQ(text.find("\"r_biceps\""), std::string::npos) << "written once, as the left twin";
+  EXPECT_NE(text.find("\"mirror\":true"), std::string::npos);
+  auto back = body_model_from_json(text);
+  ASSERT_TRUE(back) << back.error().what();
+  // Joints (and so DOF indices, which pose frames rely on) keep their order.
+  auto a = Skeleton::build(m.skeleton), b = Skeleton::build(back->skeleton);
+  ASSERT_TRUE(a && b);
+  ASSERT_EQ(a->dof_count(), b->dof_count());
+  for (int i = 0; i < a->dof_count(); ++i) {
+    EXPECT_EQ(a->dof(i).name, b->dof(i).name);
+    EXPECT_EQ(a->dof(i).axis, b->dof(i).axis);
+  }
+  auto r = std::find_if(back->primitives.begin(), back->primitives.end(), [](const Primitive& p) { return p.name == "r_biceps"; });
+  ASSERT_NE(r, back->primitives.end());
+  EXPECT_LT(r->state.center_m.x, 0.0f) << "the twin is on the right (-x)";
+  EXPECT_TRUE(r->deformation && r->deformation->dof == "r_elbow_flexion");
+  EXPECT_EQ(back->primitives.size(), m.primitives.size());
+}
+
 TEST(BodyModel, SaveAndLoadThroughAFile) {
   const auto path = (std::filesystem::temp_directory_path() / "mimic_body_test.json").string();
   ASSERT_TRUE(save_body_model(default_body_model(), path));
@@ -88,6 +110,17 @@ TEST(BodyModel, MalformedFilesAreRejectedWithAClearMessage) {
       {"bad influence", edited([](J& j) { j["primitives"][0]["influence"] = 0.5; }), "influence"},
       {"skeleton cycle", edited([](J& j) { j["skeleton"]["joints"][0]["parent"] = "head"; }), "skeleton"},
       {"wrong type", edited([](J& j) { j["primitives"] = 3; }), "$.primitives: expected an array"},
+      {"mirror of a centre primitive", edited([](J& j) { j["primitives"][0]["mirror"] = true; }), "only a left-side"},
+      {"mirror and explicit twin", edited([](J& j) {
+         for (auto& p : j["primitives"])
+           if (p.value("mirror", false)) {
+             J twin = p;
+             twin.erase("mirror");
+             twin["name"] = "r_" + p["name"].get<std::string>().substr(2);
+             j["primitives"].push_back(twin);
+             break;
+           }
+       }), "duplicate name"},
   };
   for (const Bad& b : cases) {
     auto r = body_model_from_json(b.text, "body.json");

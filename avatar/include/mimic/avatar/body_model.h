@@ -110,6 +110,13 @@ struct BodyModel {
   SkinLayout skin;
 };
 
+// The mirror image of a left-side primitive ("l_…" names, joints, DOFs; left groups and parts)
+// on the right side: x negated, y and z rotations negated.
+Primitive mirrored(const Primitive& left);
+// The same for a joint: name, parent and DOF names; offset and tip x negated; DOF axes
+// (x, y, z) → (x, −y, −z), so equal angles give mirror-image postures.
+JointDesc mirrored(const JointDesc& left);
+
 // The built-in adult body (about 1.67 m), written for Mimic; needs no data files.
 BodyModel default_body_model();
 
