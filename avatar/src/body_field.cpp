@@ -1,6 +1,9 @@
 #include "mimic/avatar/body_field.h"
 
 #include <algorithm>
+#if defined(__AVX__)
+#include <immintrin.h>
+#endif
 #include <array>
 #include <cmath>
 #include <limits>
@@ -338,6 +341,62 @@ RayHit BodyField::cast_outermost(const glm::vec3& origin, const glm::vec3& dir,
   return RayHit{terms.outermost()};
 }
 
+namespace {
+
+// Eight rays of one contour in lock step: the field and its slope are evaluated for all eight at
+// once (each at its own t) while each ray runs the same march and refinement as RayTerms.
+constexpr int kLanes = 8;
+typedef float v8f __attribute__((vector_size(32)));
+
+inline v8f splat(float x) { return v8f{x, x, x, x, x, x, x, x}; }
+inline v8f vsqrt(v8f x) {
+#if defined(__AVX__)
+  return _mm256_sqrt_ps(x);
+#else
+  v8f r;
+  for (int l = 0; l < kLanes; ++l) r[l] = std::sqrt(x[l]);
+  return r;
+#endif
+}
+inline v8f vmax(v8f a, v8f b) { return a > b ? a : b; }
+inline v8f vmin(v8f a, v8f b) { return a < b ? a : b; }
+
+struct StarBatch {
+  // Per metaball term k, per lane: s(t) = A t² + 2 B t + C on support [T0, T1]; WN = 0 where
+  // the lane's ray misses the support (the term then adds nothing).
+  v8f A[kMaxRayCandidates], B[kMaxRayCandidates], WN[kMaxRayCandidates];
+  v8f T0[kMaxRayCandidates], T1[kMaxRayCandidates], CH[kMaxRayCandidates], PK[kMaxRayCandidates];
+  v8f INV_A[kMaxRayCandidates];
+  float C[kMaxRayCandidates], IR2[kMaxRayCandidates], CBRT_INV_WN[kMaxRayCandidates];
+  int n = 0;
+
+  void eval(v8f t, v8f& f, v8f& slope) const {
+    v8f sum = splat(0), d = splat(0);
+    for (int k = 0; k < n; ++k) {
+      const v8f at = A[k] * t;
+      v8f u = splat(1.0f) - ((at + 2.0f * B[k]) * t + C[k]) * IR2[k];
+      u = u > 0.0f ? u : splat(0.0f);
+      const v8f wu2 = WN[k] * u * u;
+      sum += wu2 * u;
+      d -= (6.0f * IR2[k]) * wu2 * (at + B[k]);
+    }
+    f = sum;
+    slope = d;
+  }
+};
+
+struct LaneState {
+  int phase = 0;  // 0 evaluate the start, 1 march, 2 refine, 3 done
+  float t = 0, t_out = 0, f_out = 0;
+  float lo = 0, hi = 0, flo = 0, fhi = 0;
+  int it = 0;
+  int next_peak = 0, peaks = 0;
+  float peak[kMaxRayCandidates];
+  float result = -1.0f;
+};
+
+}  // namespace
+
 void BodyField::cast_star(const glm::vec3& origin, const glm::vec3& front, const glm::vec3& left,
                           std::span<const float> angles_rad, std::span<const uint16_t> candidates,
                           std::span<RayHit> hits) const {
@@ -354,17 +413,178 @@ void BodyField::cast_star(const glm::vec3& origin, const glm::vec3& front, const
     ml[k] = m * left;
     cc[k] = glm::dot(q0[k], q0[k]);
   }
-  for (size_t j = 0; j < angles_rad.size(); ++j) {
-    const float ca = std::cos(angles_rad[j]), sa = std::sin(angles_rad[j]);
-    RayTerms terms;
+  static const auto inv_n_cbrt = [] {
+    std::array<float, kMaxRayCandidates + 1> t{};
+    for (int i = 1; i <= kMaxRayCandidates; ++i) t[i] = std::cbrt(1.0f / static_cast<float>(i));
+    return t;
+  }();
+
+  StarBatch batch;
+  LaneState lanes[kLanes];
+  const size_t rays = angles_rad.size();
+  for (size_t first = 0; first < rays; first += kLanes) {
+    const int live = static_cast<int>(std::min<size_t>(kLanes, rays - first));
+    v8f ca, sa;
+    for (int l = 0; l < kLanes; ++l) {
+      const float ang = angles_rad[first + std::min(l, live - 1)];
+      ca[l] = std::cos(ang);
+      sa[l] = std::sin(ang);
+    }
+    // Terms of every lane; hard ellipsoids give their exit directly.
+    v8f t_hard = splat(-1.0f);
+    v8f count = splat(0.0f);
+    batch.n = 0;
     for (int k = 0; k < n; ++k) {
       const uint16_t idx = candidates[k];
-      const glm::vec3 q1 = ca * mf[k] + sa * ml[k];
-      const float a = glm::dot(q1, q1), b = glm::dot(q0[k], q1);
-      if (hard_[idx]) terms.add_hard(a, b, cc[k]);
-      else terms.add(a, b, cc[k], r2_[idx], inv_r2_[idx], weight_norm_[idx], cbrt_inv_wn_[idx]);
+      const v8f qx = ca * mf[k].x + sa * ml[k].x, qy = ca * mf[k].y + sa * ml[k].y, qz = ca * mf[k].z + sa * ml[k].z;
+      const v8f a = qx * qx + qy * qy + qz * qz;
+      const v8f b = q0[k].x * qx + q0[k].y * qy + q0[k].z * qz;
+      const v8f inv_a = 1.0f / a;
+      if (hard_[idx]) {
+        const v8f disc = b * b - a * (cc[k] - 1.0f);
+        const v8f exit_t = (vsqrt(vmax(disc, splat(0.0f))) - b) * inv_a;
+        t_hard = disc > 0.0f ? vmax(t_hard, exit_t) : t_hard;
+        continue;
+      }
+      const v8f disc = b * b - a * (cc[k] - r2_[idx]);
+      const v8f root = vsqrt(vmax(disc, splat(0.0f)));
+      const v8f end = (root - b) * inv_a;
+      const auto valid = (disc > 0.0f) & (end > 0.0f);
+      const int m = batch.n;
+      batch.A[m] = a;
+      batch.B[m] = b;
+      batch.INV_A[m] = inv_a;
+      batch.C[m] = cc[k];
+      batch.IR2[m] = inv_r2_[idx];
+      batch.CBRT_INV_WN[m] = cbrt_inv_wn_[idx];
+      batch.WN[m] = valid ? splat(weight_norm_[idx]) : splat(0.0f);
+      const v8f start = vmax(splat(0.0f), (-b - root) * inv_a);
+      batch.T0[m] = start;
+      batch.T1[m] = valid ? end : splat(-1.0f);
+      batch.CH[m] = 2.0f * root * inv_a;
+      batch.PK[m] = vmin(vmax(-b * inv_a, start), end);
+      count += valid ? splat(1.0f) : splat(0.0f);
+      ++batch.n;
     }
-    hits[j] = RayHit{terms.outermost()};
+    // Start bound per lane: beyond the last point where some term reaches 1/n, no crossing.
+    v8f inv_cbrt_n;
+    for (int l = 0; l < kLanes; ++l) inv_cbrt_n[l] = inv_n_cbrt[static_cast<int>(count[l])];
+    v8f start = splat(-1.0f);
+    for (int k = 0; k < batch.n; ++k) {
+      const v8f u_min = inv_cbrt_n * batch.CBRT_INV_WN[k];
+      const v8f s_max = (1.0f - u_min) / batch.IR2[k];
+      const v8f disc = batch.B[k] * batch.B[k] - batch.A[k] * (batch.C[k] - s_max);
+      const v8f exit_t = (vsqrt(vmax(disc, splat(0.0f))) - batch.B[k]) * batch.INV_A[k];
+      const auto ok = (batch.WN[k] > 0.0f) & (u_min < 1.0f) & (disc > 0.0f);
+      start = ok ? vmax(start, exit_t) : start;
+    }
+    v8f t_eval = splat(0.0f);
+    int pending = 0;
+    for (int l = 0; l < kLanes; ++l) {
+      LaneState& s = lanes[l];
+      s = LaneState{};
+      if (start[l] < 0.0f) {
+        s.phase = 3;
+        s.result = t_hard[l];
+        continue;
+      }
+      for (int k = 0; k < batch.n; ++k)
+        if (batch.WN[k][l] > 0.0f) {
+          // Peaks in decreasing order (insertion as they come).
+          int p = s.peaks++;
+          for (; p > 0 && s.peak[p - 1] < batch.PK[k][l]; --p) s.peak[p] = s.peak[p - 1];
+          s.peak[p] = batch.PK[k][l];
+        }
+      s.t = s.t_out = start[l];
+      t_eval[l] = s.t;
+      ++pending;
+    }
+    for (int guard = 0; pending > 0 && guard < 256; ++guard) {
+      v8f f, slope;
+      batch.eval(t_eval, f, slope);
+      pending = 0;
+      for (int l = 0; l < kLanes; ++l) {
+        LaneState& s = lanes[l];
+        if (s.phase == 3) continue;
+        const float fl = f[l];
+        const float th = t_hard[l];
+        if (s.phase == 0) {
+          s.f_out = fl;
+          if (fl >= kIsoLevel) {
+            s.phase = 3;
+            s.result = std::max(s.t, th);
+            continue;
+          }
+          s.phase = 1;
+        } else if (s.phase == 1) {
+          if (fl >= kIsoLevel) {
+            // Bracketed: start refining from the secant estimate.
+            s.lo = s.t;
+            s.flo = fl - kIsoLevel;
+            s.hi = s.t_out;
+            s.fhi = s.f_out - kIsoLevel;
+            s.phase = 2;
+            s.it = 0;
+            s.t = (s.lo * s.fhi - s.hi * s.flo) / (s.fhi - s.flo);
+            t_eval[l] = s.t;
+            ++pending;
+            continue;
+          }
+          s.t_out = s.t;
+          s.f_out = fl;
+        } else {
+          // Refinement step: Newton from the bracket, bisection when a step leaves it.
+          const float fr = fl - kIsoLevel;
+          if (std::abs(fr) < 5e-4f || s.hi - s.lo < 1e-5f || ++s.it >= 32) {
+            s.phase = 3;
+            s.result = std::max(s.t, th);
+            continue;
+          }
+          if (fr >= 0.0f) s.lo = s.t, s.flo = fr;
+          else s.hi = s.t, s.fhi = fr;
+          const float sl = slope[l];
+          float next = sl != 0.0f ? s.t - fr / sl : 0.5f * (s.lo + s.hi);
+          if (!(next > s.lo && next < s.hi)) next = 0.5f * (s.lo + s.hi);
+          if (std::abs(next - s.t) < 2e-6f) {
+            s.phase = 3;
+            s.result = std::max(next, th);
+            continue;
+          }
+          s.t = next;
+          t_eval[l] = s.t;
+          ++pending;
+          continue;
+        }
+        // March: the next sample inwards (same rule as RayTerms::outermost).
+        bool have = false;
+        while (s.t > 0.0f) {
+          float step = std::numeric_limits<float>::max(), below = -1.0f;
+          for (int k = 0; k < batch.n; ++k) {
+            if (!(batch.WN[k][l] > 0.0f)) continue;
+            const float t0 = batch.T0[k][l], t1 = batch.T1[k][l];
+            if (s.t <= t1 && s.t >= t0) step = std::min(step, batch.CH[k][l]);
+            else if (t1 < s.t) below = std::max(below, t1);
+          }
+          float next = step < std::numeric_limits<float>::max() ? s.t - std::max(step * 0.125f, kMinStep_m) : below;
+          next = std::max(next, 0.0f);
+          if (s.next_peak < s.peaks && s.peak[s.next_peak] > next) {
+            next = std::min(s.peak[s.next_peak++], s.t);
+            if (next >= s.t_out) continue;
+          }
+          s.t = next;
+          have = true;
+          break;
+        }
+        if (!have) {
+          s.phase = 3;
+          s.result = th;
+          continue;
+        }
+        t_eval[l] = s.t;
+        ++pending;
+      }
+    }
+    for (int l = 0; l < live; ++l) hits[first + l] = RayHit{lanes[l].phase == 3 ? lanes[l].result : t_hard[l]};
   }
 }
 

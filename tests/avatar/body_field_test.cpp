@@ -160,3 +160,50 @@ TEST(BodyField, BetweenTheThighsOfTheDefaultBodyIsNotSkin) {
 
 }  // namespace
 }  // namespace mimic::avatar
+
+namespace mimic::avatar {
+namespace {
+
+// The batched star caster (eight rays in lock step) finds what the one-ray caster finds.
+TEST(BodyField, StarCastingAgreesWithSingleRays) {
+  const BodyModel m = default_body_model();
+  auto skel = Skeleton::build(m.skeleton);
+  ASSERT_TRUE(skel);
+  auto f = BodyField::create(m, *skel);
+  ASSERT_TRUE(f);
+  std::mt19937_64 rng(99);
+  std::uniform_real_distribution<float> u(-1.0f, 1.0f);
+  std::vector<RigidTransform> w(skel->joint_count());
+  int compared = 0, hits = 0;
+  for (int trial = 0; trial < 60; ++trial) {
+    Pose p = skel->zero_pose();
+    for (int i = 0; i < skel->dof_count(); ++i) p.dof_rad[i] = 0.5f * u(rng);
+    forward_kinematics(*skel, p, w);
+    f->update(w, p.dof_rad);
+    const glm::vec3 origin = w[trial % skel->joint_count()].translation + 0.03f * glm::vec3(u(rng), u(rng), u(rng));
+    const glm::vec3 normal = glm::normalize(glm::vec3(u(rng), u(rng), u(rng)));
+    const glm::vec3 front = glm::normalize(glm::cross(normal, glm::vec3(0.3f, 1, 0.2f)));
+    const glm::vec3 left = glm::cross(normal, front);
+    const GroupMask mask = static_cast<GroupMask>(1u << (trial % kGroupCount));
+    std::vector<uint16_t> cand(256);
+    cand.resize(f->candidates_near_plane(origin, normal, mask, cand));
+    std::vector<float> angles;
+    for (int j = 0; j < 29; ++j) angles.push_back(6.2831853f * float(j) / 29.0f + 0.01f * u(rng));
+    std::vector<RayHit> star(angles.size());
+    f->cast_star(origin, front, left, angles, cand, star);
+    for (size_t j = 0; j < angles.size(); ++j) {
+      const glm::vec3 d = std::cos(angles[j]) * front + std::sin(angles[j]) * left;
+      const RayHit one = f->cast_outermost(origin, d, cand);
+      ASSERT_EQ(one.hit(), star[j].hit()) << "trial " << trial << " ray " << j;
+      if (one.hit()) {
+        EXPECT_NEAR(one.t, star[j].t, 1e-4f) << "trial " << trial << " ray " << j;
+        ++hits;
+      }
+      ++compared;
+    }
+  }
+  EXPECT_GT(hits, 100) << "of " << compared << " rays";
+}
+
+}  // namespace
+}  // namespace mimic::avatar
