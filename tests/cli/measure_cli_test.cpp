@@ -8,27 +8,13 @@
 
 #include <nlohmann/json.hpp>
 
+#include "run_mimic.h"
 #include "test_data.h"
 
 namespace {
 
-struct Outcome {
-  int status = -1;
-  std::string output;  // stdout and stderr together
-};
-
-Outcome run_mimic(const std::string& args) {
-  Outcome r;
-  const std::string cmd = "'" + mimic::test::mimic_binary() + "' " + args + " 2>&1";
-  FILE* p = ::popen(cmd.c_str(), "r");
-  if (!p) return r;
-  char buf[4096];
-  size_t n;
-  while ((n = std::fread(buf, 1, sizeof buf, p)) > 0) r.output.append(buf, n);
-  const int st = ::pclose(p);
-  r.status = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
-  return r;
-}
+using mimic::test::Outcome;
+using mimic::test::run_mimic;
 
 TEST(MeasureCli, MeasuresTheSharedMakeHumanMeshByDefault) {
   const Outcome r = run_mimic("measure");

@@ -11,27 +11,13 @@
 
 #include "mimic/avatar/mesh_check.h"
 #include "mimic/avatar/mesh_io.h"
+#include "run_mimic.h"
 #include "test_data.h"
 
 namespace {
 
-struct Outcome {
-  int status = -1;
-  std::string output;  // stdout and stderr together
-};
-
-Outcome run_mimic(const std::string& args) {
-  Outcome r;
-  const std::string cmd = "'" + mimic::test::mimic_binary() + "' " + args + " 2>&1";
-  FILE* p = ::popen(cmd.c_str(), "r");
-  if (!p) return r;
-  char buf[4096];
-  size_t n;
-  while ((n = std::fread(buf, 1, sizeof buf, p)) > 0) r.output.append(buf, n);
-  const int st = ::pclose(p);
-  r.status = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
-  return r;
-}
+using mimic::test::Outcome;
+using mimic::test::run_mimic;
 
 std::string temp(const std::string& name) {
   return (std::filesystem::temp_directory_path() / ("mimic_mesh_cli_" + name)).string();

@@ -12,30 +12,13 @@
 
 #include <nlohmann/json.hpp>
 
+#include "run_mimic.h"
 #include "test_data.h"
 
 namespace {
 
-struct Outcome {
-  int status = -1;
-  std::string out;  // stdout
-  std::string all;  // stdout and stderr
-};
-
-Outcome run_mimic(const std::string& args, bool split = false) {
-  Outcome r;
-  std::string cmd = "'";  // built by appending: GCC 12 warns falsely on chained + (-Wrestrict)
-  cmd.append(mimic::test::mimic_binary()).append("' ").append(args).append(split ? " 2>/dev/null" : " 2>&1");
-  FILE* p = ::popen(cmd.c_str(), "r");
-  if (!p) return r;
-  char buf[4096];
-  size_t n;
-  while ((n = std::fread(buf, 1, sizeof buf, p)) > 0) r.out.append(buf, n);
-  const int st = ::pclose(p);
-  r.status = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
-  r.all = r.out;
-  return r;
-}
+using mimic::test::Outcome;
+using mimic::test::run_mimic;
 
 std::string temp_path(const std::string& name) {
   return (std::filesystem::temp_directory_path() / (name + "." + std::to_string(::getpid()))).string();
@@ -47,10 +30,10 @@ TEST(CalibrateCli, StandingStillWritesACalibrationTheSolverLoads) {
   // The idle body sways a little: a tolerance wide enough for it.
   const Outcome r = run_mimic("calibrate --source 'sim:idle?sensors=6' --out " + out +
                               " --countdown 0 --seconds 0.5 --max-motion-deg 15");
-  ASSERT_EQ(r.status, 0) << r.all;
-  EXPECT_NE(r.all.find("stand still"), std::string::npos) << r.all;
-  EXPECT_NE(r.all.find("sensors 6/6"), std::string::npos) << r.all;
-  EXPECT_NE(r.all.find("wrote " + out), std::string::npos) << r.all;
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("stand still"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("sensors 6/6"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("wrote " + out), std::string::npos) << r.output;
   ASSERT_TRUE(std::filesystem::exists(out));
   std::ifstream in(out);
   const auto j = nlohmann::json::parse(in);
@@ -65,13 +48,13 @@ TEST(CalibrateCli, RefusesAMovingWearerAndAMissingSensorAndWritesNothing) {
   const std::string out = temp_path("calib_refused.json");
   std::filesystem::remove(out);
   Outcome r = run_mimic("calibrate --source 'sim:walk?sensors=6' --out " + out + " --countdown 0 --seconds 0.3");
-  EXPECT_EQ(r.status, 1) << r.all;
-  EXPECT_NE(r.all.find("wearer moved"), std::string::npos) << r.all;
+  EXPECT_EQ(r.status, 1) << r.output;
+  EXPECT_NE(r.output.find("wearer moved"), std::string::npos) << r.output;
   EXPECT_FALSE(std::filesystem::exists(out));
   // Layout 11 on a source with 6 sensors: the five others are missing, by name.
   r = run_mimic("calibrate --source 'sim:idle?sensors=6' --layout 11 --out " + out + " --countdown 0 --seconds 0.3");
-  EXPECT_EQ(r.status, 1) << r.all;
-  EXPECT_NE(r.all.find("no data from l_upper_arm"), std::string::npos) << r.all;
+  EXPECT_EQ(r.status, 1) << r.output;
+  EXPECT_NE(r.output.find("no data from l_upper_arm"), std::string::npos) << r.output;
   EXPECT_FALSE(std::filesystem::exists(out));
 }
 
@@ -84,15 +67,15 @@ TEST(CalibrateCli, UsageErrors) {
   EXPECT_EQ(help.status, 0);
   for (const char* word : {"--source", "--out", "--layout", "--pose", "--seconds", "--countdown", "--max-motion-cm",
                            "--max-motion-deg", "--floor-y", "T-pose", "refused"})
-    EXPECT_NE(help.out.find(word), std::string::npos) << word;
+    EXPECT_NE(help.output.find(word), std::string::npos) << word;
 }
 
 TEST(EvalSolverCli, PrintsOneJsonObjectPerLayoutWithTheRequiredKeys) {
   const std::string clip = mimic::test::clip_path("07_01");
   if (!std::filesystem::exists(clip)) GTEST_SKIP() << "shared data not found";
   const Outcome r = run_mimic("eval-solver --bvh " + clip + " --sensors 3,6 --frames 120 --json", true);
-  ASSERT_EQ(r.status, 0) << r.out;
-  std::istringstream lines(r.out);
+  ASSERT_EQ(r.status, 0) << r.output;
+  std::istringstream lines(r.output);
   std::string line;
   int objects = 0;
   while (std::getline(lines, line)) {
@@ -114,14 +97,14 @@ TEST(EvalSolverCli, TableNamesTheJointSetAndJitterAndRejectsBadOptions) {
   const std::string clip = mimic::test::clip_path("07_01");
   if (!std::filesystem::exists(clip)) GTEST_SKIP() << "shared data not found";
   const Outcome r = run_mimic("eval-solver --bvh " + clip + " --sensors 11 --frames 60 --noise 2,1");
-  ASSERT_EQ(r.status, 0) << r.all;
-  EXPECT_NE(r.all.find("joint set: every joint but the toes"), std::string::npos) << r.all;
-  EXPECT_NE(r.all.find("jitter = mean |p[t+1]-2p[t]+p[t-1]|"), std::string::npos) << r.all;
-  EXPECT_NE(r.all.find("noise 2.00 mm / 1.00 deg"), std::string::npos) << r.all;
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("joint set: every joint but the toes"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("jitter = mean |p[t+1]-2p[t]+p[t-1]|"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("noise 2.00 mm / 1.00 deg"), std::string::npos) << r.output;
   // Latency (predicted away by the filters) and dropouts (bridged) still give a sane result.
   const Outcome lat = run_mimic("eval-solver --bvh " + clip + " --sensors 6 --frames 120 --latency 20 --dropout 0.05 --json", true);
-  ASSERT_EQ(lat.status, 0) << lat.out;
-  const auto j = nlohmann::json::parse(lat.out);
+  ASSERT_EQ(lat.status, 0) << lat.output;
+  const auto j = nlohmann::json::parse(lat.output);
   EXPECT_EQ(j["latency_ms"], 20.0);
   EXPECT_LT(j["mpjpe_cm"].get<double>(), 10.0);
   EXPECT_EQ(run_mimic("eval-solver --bvh " + clip + " --dropout 2").status, 2);
