@@ -252,11 +252,15 @@ void solve_frame(const Plan& plan, const BvhClip& clip, int frame, Scratch& sc, 
         dist = std::clamp(dist, std::abs(l1 - l2) + 1e-9, l1 + l2 - 1e-9);
         const double ca = std::clamp((l1 * l1 + dist * dist - l2 * l2) / (2 * l1 * dist), -1.0, 1.0);
         const double sa = std::sqrt(1 - ca * ca);
-        glm::dvec3 nrm = (E_t - S) - glm::dot(E_t - S, dh) * dh;
-        if (glm::length(nrm) < 1e-7) {
-          const glm::dvec3 ref = g_target * glm::cross(h, a);
-          nrm = ref - glm::dot(ref, dh) * dh;
-        }
+        // Swivel: towards the clip's elbow/knee, plus a 5 mm pull towards where the clip's upper
+        // segment would bend it. A nearly straight limb leaves the clip's elbow/knee a few
+        // millimetres off the line, in a direction that is noise; the pull then keeps the
+        // upper segment's own twist instead of an arbitrary one the wrist/ankle must undo.
+        // It moves the joint by at most a few millimetres.
+        const glm::dvec3 bend_ref = g_target * glm::cross(a, h);
+        glm::dvec3 nrm = (E_t - S) + 0.005 * bend_ref;
+        nrm -= glm::dot(nrm, dh) * dh;
+        if (glm::length(nrm) < 1e-9) nrm = bend_ref - glm::dot(bend_ref, dh) * dh;
         nrm = glm::normalize(nrm);
         const glm::dvec3 E = S + l1 * (ca * dh + sa * nrm), W = S + dist * dh;
         const glm::dvec3 u = glm::normalize(E - S), v = glm::normalize(W - E);
