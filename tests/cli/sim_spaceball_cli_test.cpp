@@ -14,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "run_mimic.h"
 #include "test_data.h"
 
 extern char** environ;
@@ -21,52 +22,7 @@ extern char** environ;
 namespace {
 
 // A child process whose stdout we read line by line.
-struct Child {
-  pid_t pid = -1;
-  FILE* out = nullptr;
-
-  explicit Child(const std::vector<std::string>& args) {
-    int fds[2];
-    if (::pipe(fds) != 0) return;
-    posix_spawn_file_actions_t fa;
-    posix_spawn_file_actions_init(&fa);
-    posix_spawn_file_actions_adddup2(&fa, fds[1], 1);
-    posix_spawn_file_actions_addclose(&fa, fds[0]);
-    std::vector<char*> argv;
-    for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
-    argv.push_back(nullptr);
-    if (posix_spawn(&pid, argv[0], &fa, nullptr, argv.data(), environ) != 0) pid = -1;
-    posix_spawn_file_actions_destroy(&fa);
-    ::close(fds[1]);
-    out = ::fdopen(fds[0], "r");
-  }
-  std::string line() {
-    char buf[512];
-    if (!out || !std::fgets(buf, sizeof buf, out)) return {};
-    std::string s(buf);
-    if (!s.empty() && s.back() == '\n') s.pop_back();
-    return s;
-  }
-  std::string rest() {
-    std::string s;
-    char buf[512];
-    while (out && std::fgets(buf, sizeof buf, out)) s += buf;
-    return s;
-  }
-  int wait() {
-    int status = 0;
-    if (pid > 0) ::waitpid(pid, &status, 0);
-    pid = -1;
-    return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
-  }
-  ~Child() {
-    if (pid > 0) {
-      ::kill(pid, SIGKILL);
-      ::waitpid(pid, nullptr, 0);
-    }
-    if (out) std::fclose(out);
-  }
-};
+using mimic::test::Child;
 
 }  // namespace
 
