@@ -88,7 +88,7 @@ int run_calibrate(const std::vector<std::string>& argv) {
   auto spec = devices::parse_source_spec(*source_text);
   if (!spec) return usage_error(kName, spec.error().message);
   const std::string layout_name = args.get_or("layout", layout_from_spec(*spec));
-  const avatar::Skeleton base = *avatar::Skeleton::build(avatar::default_skeleton_desc());
+  const avatar::Skeleton base = *avatar::Skeleton::build(solver::tracking_skeleton_desc());
   auto layout = solver::standard_layout(layout_name, base);
   if (!layout) return usage_error(kName, layout.error().message);
 
@@ -154,7 +154,7 @@ int run_calibrate(const std::vector<std::string>& argv) {
   opt.max_motion_m = static_cast<float>(max_cm / 100.0);
   opt.max_motion_deg = static_cast<float>(max_deg);
   opt.floor_y_m = static_cast<float>(floor_y);
-  auto cal = solver::calibrate(avatar::default_skeleton_desc(), *layout, capture, opt);
+  auto cal = solver::calibrate(solver::tracking_skeleton_desc(), *layout, capture, opt);
   if (!cal) return failure(kName, cal.error().message);
   if (auto st = solver::save_calibration(*out, *cal); !st) return failure(kName, st.error().message);
   std::printf("calibrated: height %.2f m, facing %.0f deg, %d samples over %.2f s, stillness %.1f mm / %.1f deg\n",

@@ -135,7 +135,7 @@ Run evaluate(const std::shared_ptr<const avatar::Motion>& motion, double frame_t
   }
   // The solver's view of the layout: which sensor is on which segment, and where the wearer
   // was told to strap it (from its own layout table, matched by sensor name).
-  const avatar::Skeleton base = *avatar::Skeleton::build(avatar::default_skeleton_desc());
+  const avatar::Skeleton base = *avatar::Skeleton::build(solver::tracking_skeleton_desc());
   auto nominal = solver::standard_layout(layout_name, base);
   if (!nominal) return {{}, nominal.error().message};
   solver::SensorLayout layout;
@@ -164,7 +164,7 @@ Run evaluate(const std::shared_ptr<const avatar::Motion>& motion, double frame_t
     cal_rig->step(tick);
     capture.insert(capture.end(), tick.begin(), tick.end());
   }
-  auto cal = solver::calibrate(avatar::default_skeleton_desc(), layout, capture);
+  auto cal = solver::calibrate(solver::tracking_skeleton_desc(), layout, capture);
   if (!cal) return {{}, "calibration failed: " + cal.error().message};
   auto model = solver::make_solver_model(*cal);
   if (!model) return {{}, model.error().message};

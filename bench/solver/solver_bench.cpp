@@ -48,7 +48,7 @@ void BM_SolveFrame(benchmark::State& state) {
     solver::testing::sense(c->skeleton, c->poses[0], mounts, tick, &rng, 0.001f, glm::radians(0.5f), 0.01 * k);
     capture.insert(capture.end(), tick.begin(), tick.end());
   }
-  auto cal = *solver::calibrate(avatar::default_skeleton_desc(), layout, capture);
+  auto cal = *solver::calibrate(solver::tracking_skeleton_desc(), layout, capture);
   auto model = *solver::make_solver_model(cal);
   std::vector<std::vector<devices::SensorSample>> frames;
   for (size_t f = 1; f < c->poses.size(); ++f) {

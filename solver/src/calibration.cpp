@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <map>
 
+#include <glm/gtx/norm.hpp>
 #include <nlohmann/json.hpp>
 
 #include "mimic/core/file.h"
@@ -285,6 +286,59 @@ Fit fit_body(const SkeletonDesc& base, const std::vector<SensorStats>& stats, co
 }
 
 }  // namespace
+
+SkeletonDesc tracking_skeleton_desc(const SkeletonDesc& base) {
+  SkeletonDesc d = base;
+  auto find = [&](const std::string& name) -> avatar::JointDesc* {
+    for (auto& j : d.joints)
+      if (j.name == name) return &j;
+    return nullptr;
+  };
+  // Moves joint `name` onto its parent's origin; its children keep their positions.
+  auto collapse = [&](const std::string& name) {
+    avatar::JointDesc* j = find(name);
+    if (!j) return glm::vec3(0.0f);
+    const glm::vec3 o = j->offset_m;
+    j->offset_m = glm::vec3(0.0f);
+    for (auto& c : d.joints)
+      if (c.parent == name) c.offset_m += o;
+    if (avatar::JointDesc* p = find(j->parent); p && glm::length2(p->tip_m - o) < 1e-10f) p->tip_m = glm::vec3(0.0f);
+    return o;
+  };
+  collapse("spine_lower");
+  if (avatar::JointDesc* sl = find("spine_lower"); sl)
+    if (avatar::JointDesc* sm = find("spine_mid"); sm)
+      if (avatar::JointDesc* pv = find("pelvis"); pv) sl->tip_m = pv->tip_m = sm->offset_m;
+  for (const char* side : {"l_", "r_"}) {
+    const std::string s(side);
+    collapse(s + "clavicle");
+    if (avatar::JointDesc* c = find(s + "clavicle"); c)
+      if (avatar::JointDesc* sh = find(s + "shoulder"); sh) c->tip_m = sh->offset_m;
+  }
+  // The neck pivots at the top of the thorax; what lay between it and the head is shared
+  // evenly by the two neck links.
+  if (avatar::JointDesc* n = find("neck"); n) {
+    avatar::JointDesc* nu = find("neck_upper");
+    avatar::JointDesc* h = find("head");
+    avatar::JointDesc* su = find("spine_upper");
+    if (nu && h && su) {
+      const glm::vec3 span = n->offset_m + nu->offset_m + h->offset_m;
+      n->offset_m = glm::vec3(0.0f);
+      nu->offset_m = h->offset_m = 0.5f * span;
+      su->tip_m = n->tip_m = nu->offset_m;
+      nu->tip_m = h->offset_m;
+    }
+  }
+  // Hip centres a hand's width below the root and a little forward of it.
+  const float size = [&] {
+    const avatar::JointDesc* k = find("l_knee");
+    return k ? glm::length(k->offset_m) / 0.418f : 1.0f;
+  }();
+  for (const char* side : {"l_", "r_"})
+    if (avatar::JointDesc* hp = find(std::string(side) + "hip"); hp)
+      hp->offset_m = glm::vec3(hp->offset_m.x, -0.095f * size, 0.035f * size);
+  return d;
+}
 
 const char* calibration_pose_name(CalibrationPose pose) {
   return pose == CalibrationPose::n_pose ? "npose" : "tpose";

@@ -52,7 +52,7 @@ inline ClipEval evaluate_clip(const avatar::RetargetedClip& clip, const ClipEval
     sense(truth, clip.poses[0], mounts, tick, &rng, noise_m, noise_rad, 0.01 * k);
     capture.insert(capture.end(), tick.begin(), tick.end());
   }
-  auto cal = calibrate(avatar::default_skeleton_desc(), *layout, capture);
+  auto cal = calibrate(tracking_skeleton_desc(), *layout, capture);
   if (!cal) return {{}, cal.error().what()};
   auto model = cfg.oracle ? SolverModel::create(truth, mounts) : make_solver_model(*cal);
   if (!model) return {{}, model.error().what()};

@@ -59,7 +59,14 @@ struct Calibration {
   float max_motion_deg = 0;
 };
 
-// [in] base: the skeleton to fit (default_skeleton_desc() usually); layout: which sensor is
+// Mimic's skeleton as the solver fits it: the joints no sensor marks follow the common
+// motion-capture convention (BVH from MotionBuilder and the CMU database): the lower back rises
+// from the root, the neck and both clavicles branch from the top of the thoracic spine, the hip
+// centres sit a hand's width below the root. Same joints, DOFs and limits as `base`; the joint
+// positions of the zero posture change only where those conventions differ.
+avatar::SkeletonDesc tracking_skeleton_desc(const avatar::SkeletonDesc& base = avatar::default_skeleton_desc());
+
+// [in] base: the skeleton to fit (tracking_skeleton_desc() usually); layout: which sensor is
 // where; capture: every sample received during the stand-still (any order, any mix of sensors).
 Result<Calibration> calibrate(const avatar::SkeletonDesc& base, const SensorLayout& layout,
                               std::span<const devices::SensorSample> capture,
