@@ -16,6 +16,7 @@
 #include "command.h"
 #include "mimic/avatar/retarget.h"
 #include "mimic/sim/sensor_rig.h"
+#include "mimic/solver/limb_refinement.h"
 #include "mimic/solver/body_solver.h"
 #include "mimic/solver/calibration.h"
 #include "mimic/solver/filters.h"
@@ -35,7 +36,8 @@ constexpr const char* kUsage =
     "the layout, each strap turned by a random mounting rotation, Gaussian noise). The solver\n"
     "calibrates on one second of the clip's frame-0 T-pose, then solves every later frame from\n"
     "the sensor stream alone (it never sees the clip's skeleton or angles), through the input\n"
-    "filters unless --no-filter.\n"
+    "filters unless --no-filter. As the wearer moves, the arm and leg link lengths are refined\n"
+    "from the stream (functional calibration, solver/limb_refinement.h) unless --no-refine.\n"
     "\n"
     "Reported per layout, over every joint but the toes (Mimic's skeleton has no fingers), in world\n"
     "space without alignment:\n"
@@ -60,12 +62,14 @@ constexpr const char* kUsage =
     "                       judged against the body at arrival time (default 0)\n"
     "  --dropout P          chance per sample that a sensor falls silent for 3 samples (default 0)\n"
     "  --no-filter          solve the raw samples (no One Euro filtering)\n"
+    "  --no-refine          keep the stand-still calibration's limb lengths\n"
     "  --joints             also print the position error of every joint (table output)\n"
     "  --json               one JSON object per layout on stdout instead of the table; keys: clip,\n"
     "                       sensors, frames, joints, mpjpe_cm, mpjre_deg, end_effector_mm,\n"
     "                       end_effector_max_mm, jitter, jitter_mm, jitter_truth_mm,\n"
     "                       jitter_definition, solve_us_p50, solve_us_p99, solve_us_max, noise_mm,\n"
-    "                       noise_deg, tilt_deg, rate_hz, latency_ms, dropout, seed, filter\n"
+    "                       noise_deg, tilt_deg, rate_hz, latency_ms, dropout, seed, filter,\n"
+    "                       refine, refined_limbs\n"
     "  -h, --help           this text\n"
     "\n"
     "exit status: 0 done, 1 unreadable clip or failed calibration, 2 usage error\n";
@@ -106,6 +110,7 @@ struct Settings {
   uint64_t seed = 1;
   long max_frames = -1;
   bool filter = true;
+  bool refine = true;
 };
 
 std::string base_name(const std::string& path) {
@@ -118,6 +123,7 @@ std::string base_name(const std::string& path) {
 struct Run {
   solver::PoseErrorReport report;
   std::string error;
+  int refined_limbs = 0;  // chains whose lengths the stream refined
 };
 
 Run evaluate(const std::shared_ptr<const avatar::Motion>& motion, double frame_time_s, const std::string& layout_name,
@@ -168,6 +174,9 @@ Run evaluate(const std::shared_ptr<const avatar::Motion>& motion, double frame_t
   if (!cal) return {{}, "calibration failed: " + cal.error().message};
   auto model = solver::make_solver_model(*cal);
   if (!model) return {{}, model.error().message};
+  solver::LimbLengthEstimator limbs(*model);
+  const long refine_every = std::max(1L, std::lround(st.rate_hz / 2.0));  // twice a second
+  int refined_limbs = 0;
 
   // The motion after the T-pose, with dropouts if asked for.
   cfg.seed = st.seed + 1;
@@ -192,6 +201,11 @@ Run evaluate(const std::shared_ptr<const avatar::Motion>& motion, double frame_t
   for (long k = 0; k < ticks; ++k) {
     rig->step(tick);
     const auto t0 = std::chrono::steady_clock::now();
+    if (st.refine) {
+      // Raw samples: the filters' lag differs between a slow thigh and a fast foot.
+      limbs.add(tick, *model);
+      if ((k + 1) % refine_every == 0) refined_limbs = std::max(refined_limbs, limbs.refine(*model));
+    }
     filters.process(tick);
     solver::SolveJob job{&*model, tick, &ctx, &pose};
     job.Run();
@@ -207,7 +221,8 @@ Run evaluate(const std::shared_ptr<const avatar::Motion>& motion, double frame_t
       acc.add(rig->true_world_from_joint(), solved_world, solve_us);
     }
   }
-  return {acc.report(), {}};
+  if (getenv("MIMIC_DEBUG_LIMBS")) for (int c = 0; c < 4; ++c) { auto f = limbs.fit(c); std::fprintf(stderr, "chain %d n %d valid %d up %.3f lo %.3f spread %.3f off %.4f\n", c, f.samples, f.valid, f.upper_m, f.lower_m, f.arc_spread_m, f.off_plane_m); }
+  return {acc.report(), {}, refined_limbs};
 }
 
 bool parse_noise(const std::string& text, double& mm, double& deg) {
@@ -224,7 +239,7 @@ bool parse_noise(const std::string& text, double& mm, double& deg) {
 
 int run_eval_solver(const std::vector<std::string>& argv) {
   Args args(argv, {"bvh", "sensors", "noise", "tilt", "rate", "seed", "frames", "latency", "dropout"},
-            {"json", "no-filter", "joints"});
+            {"json", "no-filter", "no-refine", "joints"});
   if (args.help()) {
     std::printf("%s", kUsage);
     return 0;
@@ -249,6 +264,7 @@ int run_eval_solver(const std::vector<std::string>& argv) {
   st.seed = static_cast<uint64_t>(seed);
   st.max_frames = args.has("frames") ? frames : -1;
   st.filter = !args.has("no-filter");
+  st.refine = !args.has("no-refine");
   std::vector<std::string> layouts;
   {
     std::stringstream ss(args.get_or("sensors", "3,6,11,all"));
@@ -269,9 +285,9 @@ int run_eval_solver(const std::vector<std::string>& argv) {
   const std::string name = base_name(*clip_path);
   const bool json = args.has("json");
   if (!json) {
-    std::printf("clip %s: %.2f s at %.0f Hz; noise %.2f mm / %.2f deg; mounting tilt up to %.0f deg; filter %s; seed %llu\n",
+    std::printf("clip %s: %.2f s at %.0f Hz; noise %.2f mm / %.2f deg; mounting tilt up to %.0f deg; filter %s; limb refinement %s; seed %llu\n",
                 name.c_str(), shared->duration_s(), st.rate_hz, st.noise_mm, st.noise_deg, st.tilt_deg,
-                st.filter ? "on" : "off", static_cast<unsigned long long>(st.seed));
+                st.filter ? "on" : "off", st.refine ? "on" : "off", static_cast<unsigned long long>(st.seed));
     std::printf("joint set: every joint but the toes; world space, no alignment. jitter = mean |p[t+1]-2p[t]+p[t-1]|\n");
     std::printf("%-7s %7s %9s %10s %8s %11s %13s %11s %11s\n", "sensors", "frames", "mpjpe_cm", "mpjre_deg", "ee_mm",
                 "jitter_mm", "(truth_mm)", "solve_p50", "solve_p99");
@@ -308,7 +324,9 @@ int run_eval_solver(const std::vector<std::string>& argv) {
                        {"latency_ms", st.latency_ms},
                        {"dropout", st.dropout},
                        {"seed", st.seed},
-                       {"filter", st.filter}};
+                       {"filter", st.filter},
+                       {"refine", st.refine},
+                       {"refined_limbs", r.refined_limbs}};
       std::printf("%s\n", j.dump().c_str());
     } else {
       std::printf("%-7s %7d %9.2f %10.1f %8.1f %11.2f %13.2f %9.1fus %9.1fus\n", layout.c_str(), p.frames, p.mpjpe_cm,

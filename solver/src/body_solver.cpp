@@ -228,6 +228,21 @@ Result<SolverModel> SolverModel::create(Skeleton skeleton, std::vector<SensorMou
   return m;
 }
 
+bool SolverModel::set_chain_lengths(int chain, float upper_m, float lower_m) {
+  if (chain < 0 || chain >= 4 || !(upper_m > 0) || !(lower_m > 0) || !std::isfinite(upper_m) || !std::isfinite(lower_m))
+    return false;
+  Chain& ch = chains_[chain];
+  const glm::vec3 old_mid = skeleton_.offset_m(ch.mid), old_end = skeleton_.offset_m(ch.end);
+  const glm::vec3 mid = ch.upper_dir * upper_m, end = glm::normalize(old_end) * lower_m;
+  skeleton_.set_offset_m(ch.mid, mid);
+  skeleton_.set_offset_m(ch.end, end);
+  if (glm::length(skeleton_.tip_m(ch.upper) - old_mid) < 1e-6f) skeleton_.set_tip_m(ch.upper, mid);
+  if (glm::length(skeleton_.tip_m(ch.mid) - old_end) < 1e-6f) skeleton_.set_tip_m(ch.mid, end);
+  ch.upper_m = upper_m;
+  ch.lower_m = lower_m;
+  return true;
+}
+
 SolverContext::SolverContext(const SolverModel& model)
     : ls_(model.skeleton(),
           static_cast<int>(model.trunk_dofs_.size() + model.leg_dofs_.size() + model.arm_dofs_[0].size() +

@@ -84,6 +84,10 @@ class SolverModel {
  private:
   friend class SolverContext;
   friend struct SolveJob;
+  friend class LimbLengthEstimator;
+  // New link lengths of a two-bone chain (functional calibration): both offsets keep their
+  // direction. No allocation. False when a length is not positive and finite.
+  bool set_chain_lengths(int chain, float upper_m, float lower_m);
   avatar::Skeleton skeleton_;
   std::vector<SensorMount> mounts_;
   SolverOptions options_;
