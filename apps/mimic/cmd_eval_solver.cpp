@@ -16,6 +16,7 @@
 #include "command.h"
 #include "mimic/avatar/retarget.h"
 #include "mimic/sim/sensor_rig.h"
+#include "mimic/solver/joint_centres.h"
 #include "mimic/solver/limb_refinement.h"
 #include "mimic/solver/body_solver.h"
 #include "mimic/solver/calibration.h"
@@ -69,7 +70,7 @@ constexpr const char* kUsage =
     "                       end_effector_max_mm, jitter, jitter_mm, jitter_truth_mm,\n"
     "                       jitter_definition, solve_us_p50, solve_us_p99, solve_us_max, noise_mm,\n"
     "                       noise_deg, tilt_deg, rate_hz, latency_ms, dropout, seed, filter,\n"
-    "                       refine, refined_limbs\n"
+    "                       refine, refined_limbs, refined_joints\n"
     "  -h, --help           this text\n"
     "\n"
     "exit status: 0 done, 1 unreadable clip or failed calibration, 2 usage error\n";
@@ -123,7 +124,8 @@ std::string base_name(const std::string& path) {
 struct Run {
   solver::PoseErrorReport report;
   std::string error;
-  int refined_limbs = 0;  // chains whose lengths the stream refined
+  int refined_limbs = 0;   // chains whose lengths the stream refined
+  int refined_joints = 0;  // joint centres the stream refined
 };
 
 Run evaluate(const std::shared_ptr<const avatar::Motion>& motion, double frame_time_s, const std::string& layout_name,
@@ -172,11 +174,16 @@ Run evaluate(const std::shared_ptr<const avatar::Motion>& motion, double frame_t
   }
   auto cal = solver::calibrate(solver::tracking_skeleton_desc(), layout, capture);
   if (!cal) return {{}, "calibration failed: " + cal.error().message};
-  auto model = solver::make_solver_model(*cal);
-  if (!model) return {{}, model.error().message};
+  auto first_model = solver::make_solver_model(*cal);
+  if (!first_model) return {{}, first_model.error().message};
+  auto model = std::make_unique<solver::SolverModel>(std::move(*first_model));
+  // Functional calibration while the wearer moves: limb lengths twice a second (in place), joint
+  // centres between neighbouring sensors after 1, 2, 4, 8 … s (a new model).
   solver::LimbLengthEstimator limbs(*model);
-  const long refine_every = std::max(1L, std::lround(st.rate_hz / 2.0));  // twice a second
-  int refined_limbs = 0;
+  solver::JointCentreEstimator centres(*cal);
+  const long refine_every = std::max(1L, std::lround(st.rate_hz / 2.0));
+  long next_centres = std::max(1L, std::lround(st.rate_hz));
+  int refined_limbs = 0, refined_joints = 0;
 
   // The motion after the T-pose, with dropouts if asked for.
   cfg.seed = st.seed + 1;
@@ -185,15 +192,14 @@ Run evaluate(const std::shared_ptr<const avatar::Motion>& motion, double frame_t
   auto motion_after = std::make_shared<ShiftedMotion>(motion, frame_time_s);
   auto rig = sim::SensorRig::create(motion_after, cfg);
   if (!rig) return {{}, rig.error().message};
-  solver::SolverContext ctx(*model);
+  auto ctx = std::make_unique<solver::SolverContext>(*model);
   solver::SensorFilterConfig fc;
   fc.enabled = st.filter;
   fc.predict_s = static_cast<float>(st.latency_ms / 1000.0);  // the tracker's known latency
   solver::SensorFilterBank filters(static_cast<int>(mounts->size()), fc);
-  const avatar::Skeleton& solved_skeleton = model->skeleton();
-  avatar::Pose pose = solved_skeleton.zero_pose();
-  std::vector<avatar::RigidTransform> solved_world(solved_skeleton.joint_count());
-  solver::PoseErrorAccumulator acc(truth, solved_skeleton);
+  avatar::Pose pose = model->skeleton().zero_pose();
+  std::vector<avatar::RigidTransform> solved_world(model->skeleton().joint_count());
+  solver::PoseErrorAccumulator acc(truth, model->skeleton());
   avatar::Pose truth_pose = truth.zero_pose();
   std::vector<avatar::RigidTransform> truth_world(truth.joint_count());
   long ticks = static_cast<long>(std::floor(motion_after->duration_s() * st.rate_hz)) + 1;
@@ -204,13 +210,26 @@ Run evaluate(const std::shared_ptr<const avatar::Motion>& motion, double frame_t
     if (st.refine) {
       // Raw samples: the filters' lag differs between a slow thigh and a fast foot.
       limbs.add(tick, *model);
+      centres.add(tick);
+      if (centres.pair_count() > 0 && k + 1 == next_centres) {
+        next_centres *= 2;
+        int joints = 0;
+        auto refined = centres.refine(*cal, &joints);
+        auto next = refined ? solver::make_solver_model(*refined) : tl::unexpected(refined.error());
+        if (next && joints > 0) {  // a new model and its scratch; the pose carries over (same DOFs)
+          model = std::make_unique<solver::SolverModel>(std::move(*next));
+          ctx = std::make_unique<solver::SolverContext>(*model);
+          refined_joints = std::max(refined_joints, joints);
+          limbs.refine(*model);
+        }
+      }
       if ((k + 1) % refine_every == 0) refined_limbs = std::max(refined_limbs, limbs.refine(*model));
     }
     filters.process(tick);
-    solver::SolveJob job{&*model, tick, &ctx, &pose};
+    solver::SolveJob job{model.get(), tick, ctx.get(), &pose};
     job.Run();
     const auto t1 = std::chrono::steady_clock::now();
-    avatar::forward_kinematics(solved_skeleton, pose, solved_world);
+    avatar::forward_kinematics(model->skeleton(), pose, solved_world);
     const double solve_us = std::chrono::duration<double, std::micro>(t1 - t0).count();
     if (st.latency_ms > 0) {
       // The samples left the body latency ago; the avatar is judged against the body now.
@@ -221,8 +240,9 @@ Run evaluate(const std::shared_ptr<const avatar::Motion>& motion, double frame_t
       acc.add(rig->true_world_from_joint(), solved_world, solve_us);
     }
   }
-  if (getenv("MIMIC_DEBUG_LIMBS")) for (int c = 0; c < 4; ++c) { auto f = limbs.fit(c); std::fprintf(stderr, "chain %d n %d valid %d up %.3f lo %.3f spread %.3f off %.4f\n", c, f.samples, f.valid, f.upper_m, f.lower_m, f.arc_spread_m, f.off_plane_m); }
-  return {acc.report(), {}, refined_limbs};
+  if (getenv("MIMIC_DEBUG_LIMBS")) for (auto& f : centres.fits()) std::fprintf(stderr, "joint %-12s n %d rms %.4f exc %.4f p %.3f %.3f %.3f c %.3f %.3f %.3f\n", model->skeleton().joint_name(f.joint).c_str(), f.samples, f.rms_m, f.min_excitation, f.in_parent_sensor.x, f.in_parent_sensor.y, f.in_parent_sensor.z, f.in_child_sensor.x, f.in_child_sensor.y, f.in_child_sensor.z);
+  if (getenv("MIMIC_DEBUG_LIMBS")) for (int c = 0; c < 4; ++c) { auto f = limbs.fit(c, *model); std::fprintf(stderr, "chain %d n %d valid %d up %.3f lo %.3f spread %.3f off %.4f\n", c, f.samples, f.valid, f.upper_m, f.lower_m, f.arc_spread_m, f.off_plane_m); }
+  return {acc.report(), {}, refined_limbs, refined_joints};
 }
 
 bool parse_noise(const std::string& text, double& mm, double& deg) {
@@ -326,7 +346,8 @@ int run_eval_solver(const std::vector<std::string>& argv) {
                        {"seed", st.seed},
                        {"filter", st.filter},
                        {"refine", st.refine},
-                       {"refined_limbs", r.refined_limbs}};
+                       {"refined_limbs", r.refined_limbs},
+                       {"refined_joints", r.refined_joints}};
       std::printf("%s\n", j.dump().c_str());
     } else {
       std::printf("%-7s %7d %9.2f %10.1f %8.1f %11.2f %13.2f %9.1fus %9.1fus\n", layout.c_str(), p.frames, p.mpjpe_cm,

@@ -2,72 +2,13 @@
 
 #include <cmath>
 
+#include "small_linalg.h"
+
 namespace mimic::solver {
 
 namespace {
 
-using Mat3 = std::array<std::array<double, 3>, 3>;
-
-// Eigen-decomposition of a symmetric 3×3 matrix by cyclic Jacobi rotations; eigenvalues
-// descending, eigenvectors in the columns of `v`.
-void symmetric_eigen(Mat3 a, std::array<double, 3>& w, Mat3& v) {
-  v = {{{1, 0, 0}, {0, 1, 0}, {0, 0, 1}}};
-  for (int sweep = 0; sweep < 32; ++sweep) {
-    const double off = a[0][1] * a[0][1] + a[0][2] * a[0][2] + a[1][2] * a[1][2];
-    if (off < 1e-30) break;
-    for (int p = 0; p < 2; ++p)
-      for (int q = p + 1; q < 3; ++q) {
-        if (std::abs(a[p][q]) < 1e-300) continue;
-        const double theta = (a[q][q] - a[p][p]) / (2.0 * a[p][q]);
-        const double t = (theta >= 0 ? 1.0 : -1.0) / (std::abs(theta) + std::sqrt(theta * theta + 1.0));
-        const double c = 1.0 / std::sqrt(t * t + 1.0), s = t * c;
-        for (int k = 0; k < 3; ++k) {  // a ← a·J
-          const double akp = a[k][p], akq = a[k][q];
-          a[k][p] = c * akp - s * akq;
-          a[k][q] = s * akp + c * akq;
-        }
-        for (int k = 0; k < 3; ++k) {  // a ← Jᵀ·a
-          const double apk = a[p][k], aqk = a[q][k];
-          a[p][k] = c * apk - s * aqk;
-          a[q][k] = s * apk + c * aqk;
-        }
-        for (int k = 0; k < 3; ++k) {
-          const double vkp = v[k][p], vkq = v[k][q];
-          v[k][p] = c * vkp - s * vkq;
-          v[k][q] = s * vkp + c * vkq;
-        }
-      }
-  }
-  w = {a[0][0], a[1][1], a[2][2]};
-  for (int i = 0; i < 2; ++i)  // sort descending, columns along
-    for (int j = i + 1; j < 3; ++j)
-      if (w[j] > w[i]) {
-        std::swap(w[i], w[j]);
-        for (int k = 0; k < 3; ++k) std::swap(v[k][i], v[k][j]);
-      }
-}
-
-bool solve3(Mat3 m, std::array<double, 3> b, std::array<double, 3>& x) {
-  for (int c = 0; c < 3; ++c) {  // Gaussian elimination with partial pivoting
-    int piv = c;
-    for (int r = c + 1; r < 3; ++r)
-      if (std::abs(m[r][c]) > std::abs(m[piv][c])) piv = r;
-    if (std::abs(m[piv][c]) < 1e-15) return false;
-    std::swap(m[c], m[piv]);
-    std::swap(b[c], b[piv]);
-    for (int r = c + 1; r < 3; ++r) {
-      const double f = m[r][c] / m[c][c];
-      for (int k = c; k < 3; ++k) m[r][k] -= f * m[c][k];
-      b[r] -= f * b[c];
-    }
-  }
-  for (int c = 2; c >= 0; --c) {
-    double s = b[c];
-    for (int k = c + 1; k < 3; ++k) s -= m[c][k] * x[k];
-    x[c] = s / m[c][c];
-  }
-  return std::isfinite(x[0]) && std::isfinite(x[1]) && std::isfinite(x[2]);
-}
+using Mat3 = detail::SquareMatrix<3>;
 
 }  // namespace
 
@@ -75,12 +16,14 @@ LimbLengthEstimator::LimbLengthEstimator(const SolverModel& model, LimbRefinemen
     : options_(options) {
   for (int c = 0; c < 4; ++c) {
     const auto& ch = model.chains_[c];
-    int upper = -1, end = -1;
+    int upper = -1, mid = -1, end = -1;
     for (size_t i = 0; i < model.mount_joint_.size(); ++i) {
       if (model.mount_joint_[i] == ch.upper) upper = static_cast<int>(i);
+      if (model.mount_joint_[i] == ch.mid) mid = static_cast<int>(i);
       if (model.mount_joint_[i] == ch.end) end = static_cast<int>(i);
     }
-    if (upper >= 0 && end >= 0) chains_[c].upper_slot = upper, chains_[c].end_slot = end;
+    // With a sensor on the middle segment too, the joint centres (joint_centres.h) see more.
+    if (upper >= 0 && end >= 0 && mid < 0) chains_[c].upper_slot = upper, chains_[c].end_slot = end;
   }
 }
 
@@ -108,11 +51,11 @@ void LimbLengthEstimator::add(std::span<const devices::SensorSample> samples, co
     const devices::SensorSample* u = find(ch.upper_slot);
     const devices::SensorSample* e = find(ch.end_slot);
     if (!u || !e) continue;
-    const avatar::RigidTransform world_from_upper =
-        avatar::RigidTransform{u->orientation, u->position_m} * model.sensor_from_segment_[ch.upper_slot];
+    // In the upper sensor's frame, which no refinement of the model moves.
+    const avatar::RigidTransform world_from_upper_sensor{u->orientation, u->position_m};
     const glm::vec3 end_world =
         avatar::RigidTransform{e->orientation, e->position_m}.apply(model.sensor_from_segment_[ch.end_slot].translation);
-    const glm::vec3 xf = world_from_upper.inverse().apply(end_world);
+    const glm::vec3 xf = world_from_upper_sensor.inverse().apply(end_world);
     if (!std::isfinite(xf.x) || !std::isfinite(xf.y) || !std::isfinite(xf.z)) continue;
     const double x = xf.x, y = xf.y, z = xf.z, r2 = x * x + y * y + z * z;
     Moments& m = ch.m;
@@ -124,7 +67,7 @@ void LimbLengthEstimator::add(std::span<const devices::SensorSample> samples, co
   }
 }
 
-LimbFit LimbLengthEstimator::fit(int chain) const {
+LimbFit LimbLengthEstimator::fit(int chain, const SolverModel& model) const {
   LimbFit out;
   if (!observable(chain)) return out;
   const Moments& m = chains_[chain].m;
@@ -136,9 +79,9 @@ LimbFit LimbLengthEstimator::fit(int chain) const {
   Mat3 cov;
   for (int i = 0; i < 3; ++i)
     for (int j = 0; j < 3; ++j) cov[i][j] = s2[i][j] / n - mu[i] * mu[j];
-  std::array<double, 3> w;
+  detail::Vector<3> w;
   Mat3 v;
-  symmetric_eigen(cov, w, v);
+  detail::symmetric_eigen<3>(cov, w, v);
   out.arc_spread_m = static_cast<float>(std::sqrt(std::max(0.0, w[1])));
   out.off_plane_m = static_cast<float>(std::sqrt(std::max(0.0, w[2])));
   // Kåsa circle fit in the plane: centre k = μ + a·e1 + b·e2, rows (2 e1·x, 2 e2·x, 1) against
@@ -156,13 +99,16 @@ LimbFit LimbLengthEstimator::fit(int chain) const {
              {2 * dot3(e1, m.s1), 2 * dot3(e2, m.s1), n}}};
   const std::array<double, 3> b = {2 * dot3(e1, m.s3) - 4 * dot3(e1, s2mu), 2 * dot3(e2, m.s3) - 4 * dot3(e2, s2mu),
                                    m.s4 - 2 * dot3(m.s1, mu)};
-  std::array<double, 3> sol{};
-  if (!solve3(a, b, sol)) return out;
+  detail::Vector<3> sol{};
+  if (!detail::solve_linear<3>(a, b, sol)) return out;
   std::array<double, 3> k;
   for (int i = 0; i < 3; ++i) k[i] = mu[i] + sol[0] * e1[i] + sol[1] * e2[i];
   const double r2 = sol[2] + dot3(k, k);
   if (!(r2 > 0)) return out;
-  out.upper_m = static_cast<float>(std::sqrt(dot3(k, k)));
+  // The upper joint is the upper segment's origin.
+  const glm::vec3 o = model.sensor_from_segment_[chains_[chain].upper_slot].translation;
+  const std::array<double, 3> ko = {k[0] - o.x, k[1] - o.y, k[2] - o.z};
+  out.upper_m = static_cast<float>(std::sqrt(dot3(ko, ko)));
   out.lower_m = static_cast<float>(std::sqrt(r2));
   out.valid = out.arc_spread_m >= options_.min_arc_spread_m && out.off_plane_m <= options_.max_off_plane_m &&
               out.arc_spread_m >= options_.min_plane_ratio * out.off_plane_m &&
@@ -174,7 +120,7 @@ LimbFit LimbLengthEstimator::fit(int chain) const {
 int LimbLengthEstimator::refine(SolverModel& model) const {
   int changed = 0;
   for (int c = 0; c < 4; ++c) {
-    const LimbFit f = fit(c);
+    const LimbFit f = fit(c, model);
     if (f.valid && model.set_chain_lengths(c, f.upper_m, f.lower_m)) ++changed;
   }
   return changed;

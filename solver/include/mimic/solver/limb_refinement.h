@@ -7,8 +7,9 @@
 // keeps running moments of those positions — no sample is stored — and fits the plane and the
 // circle (Kåsa) from them: upper link = hinge centre to the upper joint, lower link = radius.
 //
-// Observable for a limb whose upper segment and end segment (hand, foot) both carry sensors
-// (layouts 11 and all). A fit is used only once the arc is wide enough and the points lie in a
+// Observable for a limb whose upper segment and end segment (hand, foot) carry sensors and the
+// middle one does not (layout 11; with a sensor on every segment joint_centres.h sees more).
+// Positions are kept in the upper sensor's frame, so a model refined meanwhile loses nothing. A fit is used only once the arc is wide enough and the points lie in a
 // plane; the lengths then replace the calibrated ones (`refine`), in place, without allocating.
 #pragma once
 
@@ -48,9 +49,8 @@ class LimbLengthEstimator {
   // One frame of samples (filtered or raw; invalid, stale and outlier samples are skipped).
   // No allocation.
   void add(std::span<const devices::SensorSample> samples, const SolverModel& model);
-  LimbFit fit(int chain) const;
-  // Writes the valid fits into `model` (both sides of a pair averaged when both are valid, so
-  // the skeleton stays symmetric as calibrated). Returns how many chains changed. No allocation.
+  LimbFit fit(int chain, const SolverModel& model) const;
+  // Writes the valid fits into `model`. Returns how many chains changed. No allocation.
   int refine(SolverModel& model) const;
   void reset();
 
