@@ -16,8 +16,7 @@
 #include "command.h"
 #include "mimic/avatar/retarget.h"
 #include "mimic/sim/sensor_rig.h"
-#include "mimic/solver/joint_centres.h"
-#include "mimic/solver/limb_refinement.h"
+#include "mimic/solver/model_refiner.h"
 #include "mimic/solver/body_solver.h"
 #include "mimic/solver/calibration.h"
 #include "mimic/solver/filters.h"
@@ -177,13 +176,7 @@ Run evaluate(const std::shared_ptr<const avatar::Motion>& motion, double frame_t
   auto first_model = solver::make_solver_model(*cal);
   if (!first_model) return {{}, first_model.error().message};
   auto model = std::make_unique<solver::SolverModel>(std::move(*first_model));
-  // Functional calibration while the wearer moves: limb lengths twice a second (in place), joint
-  // centres between neighbouring sensors after 1, 2, 4, 8 … s (a new model).
-  solver::LimbLengthEstimator limbs(*model);
-  solver::JointCentreEstimator centres(*cal);
-  const long refine_every = std::max(1L, std::lround(st.rate_hz / 2.0));
-  long next_centres = std::max(1L, std::lround(st.rate_hz));
-  int refined_limbs = 0, refined_joints = 0;
+  solver::ModelRefiner refiner(*cal, *model, st.rate_hz);
 
   // The motion after the T-pose, with dropouts if asked for.
   cfg.seed = st.seed + 1;
@@ -207,23 +200,11 @@ Run evaluate(const std::shared_ptr<const avatar::Motion>& motion, double frame_t
   for (long k = 0; k < ticks; ++k) {
     rig->step(tick);
     const auto t0 = std::chrono::steady_clock::now();
-    if (st.refine) {
-      // Raw samples: the filters' lag differs between a slow thigh and a fast foot.
-      limbs.add(tick, *model);
-      centres.add(tick);
-      if (centres.pair_count() > 0 && k + 1 == next_centres) {
-        next_centres *= 2;
-        int joints = 0;
-        auto refined = centres.refine(*cal, &joints);
-        auto next = refined ? solver::make_solver_model(*refined) : tl::unexpected(refined.error());
-        if (next && joints > 0) {  // a new model and its scratch; the pose carries over (same DOFs)
-          model = std::make_unique<solver::SolverModel>(std::move(*next));
-          ctx = std::make_unique<solver::SolverContext>(*model);
-          refined_joints = std::max(refined_joints, joints);
-          limbs.refine(*model);
-        }
+    if (st.refine && refiner.add(tick, *model)) {  // raw samples, before the filters
+      if (auto next = refiner.rebuild()) {  // a new model and its scratch; the pose carries over
+        model = std::move(*next);
+        ctx = std::make_unique<solver::SolverContext>(*model);
       }
-      if ((k + 1) % refine_every == 0) refined_limbs = std::max(refined_limbs, limbs.refine(*model));
     }
     filters.process(tick);
     solver::SolveJob job{model.get(), tick, ctx.get(), &pose};
@@ -240,9 +221,7 @@ Run evaluate(const std::shared_ptr<const avatar::Motion>& motion, double frame_t
       acc.add(rig->true_world_from_joint(), solved_world, solve_us);
     }
   }
-  if (getenv("MIMIC_DEBUG_LIMBS")) for (auto& f : centres.fits()) std::fprintf(stderr, "joint %-12s n %d rms %.4f exc %.4f p %.3f %.3f %.3f c %.3f %.3f %.3f\n", model->skeleton().joint_name(f.joint).c_str(), f.samples, f.rms_m, f.min_excitation, f.in_parent_sensor.x, f.in_parent_sensor.y, f.in_parent_sensor.z, f.in_child_sensor.x, f.in_child_sensor.y, f.in_child_sensor.z);
-  if (getenv("MIMIC_DEBUG_LIMBS")) for (int c = 0; c < 4; ++c) { auto f = limbs.fit(c, *model); std::fprintf(stderr, "chain %d n %d valid %d up %.3f lo %.3f spread %.3f off %.4f\n", c, f.samples, f.valid, f.upper_m, f.lower_m, f.arc_spread_m, f.off_plane_m); }
-  return {acc.report(), {}, refined_limbs, refined_joints};
+  return {acc.report(), {}, refiner.refined_limbs(), refiner.refined_joints()};
 }
 
 bool parse_noise(const std::string& text, double& mm, double& deg) {

@@ -14,6 +14,7 @@
 #include "mimic/solver/body_solver.h"
 #include "mimic/solver/calibration.h"
 #include "mimic/solver/filters.h"
+#include "mimic/solver/model_refiner.h"
 #include "mimic/solver/pose_error.h"
 #include "synthetic_sensors.h"
 
@@ -31,6 +32,8 @@ struct ClipEvalConfig {
   bool filter = true;
   SensorFilterConfig filter_config{};
   bool oracle = false;  // solve with the true skeleton and mounts (isolates calibration error)
+  bool refine = true;   // functional calibration from the stream (model_refiner.h)
+  double rate_hz = 120.0;
 };
 
 struct ClipEval {
@@ -54,27 +57,33 @@ inline ClipEval evaluate_clip(const avatar::RetargetedClip& clip, const ClipEval
   }
   auto cal = calibrate(tracking_skeleton_desc(), *layout, capture);
   if (!cal) return {{}, cal.error().what()};
-  auto model = cfg.oracle ? SolverModel::create(truth, mounts) : make_solver_model(*cal);
-  if (!model) return {{}, model.error().what()};
-  SolverContext ctx(*model);
+  auto first = cfg.oracle ? SolverModel::create(truth, mounts) : make_solver_model(*cal);
+  if (!first) return {{}, first.error().what()};
+  auto model = std::make_unique<SolverModel>(std::move(*first));
+  auto ctx = std::make_unique<SolverContext>(*model);
+  ModelRefiner refiner(*cal, *model, cfg.rate_hz / cfg.stride);
   SensorFilterConfig fc = cfg.filter_config;
   fc.enabled = cfg.filter;
   SensorFilterBank filters(static_cast<int>(mounts.size()), fc);
-  const avatar::Skeleton& solved_skeleton = model->skeleton();
-  avatar::Pose pose = solved_skeleton.zero_pose();
-  PoseErrorAccumulator acc(truth, solved_skeleton);
-  std::vector<avatar::RigidTransform> wt(truth.joint_count()), ws(solved_skeleton.joint_count());
+  avatar::Pose pose = model->skeleton().zero_pose();
+  PoseErrorAccumulator acc(truth, model->skeleton());
+  std::vector<avatar::RigidTransform> wt(truth.joint_count()), ws(model->skeleton().joint_count());
   const int last = cfg.max_frames < 0 ? static_cast<int>(clip.poses.size())
                                       : std::min<int>(static_cast<int>(clip.poses.size()), cfg.first_frame + cfg.max_frames * cfg.stride);
   for (int f = cfg.first_frame; f < last; f += cfg.stride) {
     sense(truth, clip.poses[f], mounts, tick, &rng, noise_m, noise_rad, f * clip.frame_time_s);
     const auto t0 = std::chrono::steady_clock::now();
+    if (cfg.refine && !cfg.oracle && refiner.add(tick, *model))
+      if (auto next = refiner.rebuild()) {
+        model = std::move(*next);
+        ctx = std::make_unique<SolverContext>(*model);
+      }
     filters.process(tick);
-    SolveJob job{&*model, tick, &ctx, &pose};
+    SolveJob job{model.get(), tick, ctx.get(), &pose};
     job.Run();
     const auto t1 = std::chrono::steady_clock::now();
     avatar::forward_kinematics(truth, clip.poses[f], wt);
-    avatar::forward_kinematics(solved_skeleton, pose, ws);
+    avatar::forward_kinematics(model->skeleton(), pose, ws);
     acc.add(wt, ws, std::chrono::duration<double, std::micro>(t1 - t0).count());
   }
   out.report = acc.report();

@@ -26,7 +26,7 @@
 namespace mimic::solver {
 
 struct JointCentreOptions {
-  double prior_weight = 50.0;  // pull towards the calibrated centres, in samples' worth
+  double prior_weight = 2.0;   // pull towards the calibrated centres, in samples' worth
   int min_samples = 120;       // per joint before it is used
 };
 
