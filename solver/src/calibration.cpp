@@ -9,6 +9,7 @@
 #include <nlohmann/json.hpp>
 
 #include "mimic/core/file.h"
+#include "mimic/solver/least_squares_ik.h"
 
 namespace mimic::solver {
 
@@ -58,6 +59,85 @@ void scale_desc(SkeletonDesc& d, float k) {
   }
 }
 
+// Sensors strapped at a known fraction f along their segment's link (layout "all": the middle)
+// mark both ends of it only together: s = near + f·(far − near). Walking up each leg from the
+// toes (whose own link is short) gives ankle, knee and hip; the root sits at the skeleton's
+// hip offset above the hips; from it every link's far end follows: lower back, thorax, neck,
+// head, clavicles, shoulders, elbows, wrists. An error at the start alternates in sign along a
+// chain instead of growing. Replaces the marks of every joint it reaches.
+void mark_by_link_fractions(const Skeleton& base, const std::vector<SensorStats>& stats, const glm::quat& heading,
+                            std::map<std::string, glm::vec3>& mark) {
+  const int n = base.joint_count();
+  std::vector<const SensorStats*> at(n, nullptr);
+  for (const auto& st : stats) {
+    const int j = base.find_joint(st.binding->segment);
+    if (j >= 0 && st.binding->link_fraction > 0.05f && st.binding->link_fraction < 0.95f) at[j] = &st;
+  }
+  auto is_zero = [](glm::vec3 v) { return glm::length(v) < 1e-4f; };
+  // The joint at the far end of each link (through children drawn at the segment's origin).
+  std::vector<int> far(n, -1);
+  for (int j = 0; j < n; ++j) {
+    const glm::vec3 tip = base.tip_m(j);
+    if (is_zero(tip)) continue;
+    for (int k = 1; k < n; ++k) {
+      if (base.parent(k) == j && glm::length(base.offset_m(k) - tip) < 1e-4f) far[j] = k;
+      if (base.parent(k) == j && is_zero(base.offset_m(k)))
+        for (int g = 1; g < n; ++g)
+          if (base.parent(g) == k && glm::length(base.offset_m(g) - tip) < 1e-4f) far[j] = g;
+    }
+  }
+  std::vector<glm::vec3> pos(n);
+  std::vector<uint8_t> known(n, 0);
+  // Legs, upwards from the toes.
+  int hips = 0;
+  glm::vec3 hip_sum(0.0f), hip_offset_sum(0.0f);
+  for (const char* side : {"l_", "r_"}) {
+    const std::string sd(side);
+    const int toes = base.find_joint(sd + "toes"), ankle = base.find_joint(sd + "ankle");
+    const int knee = base.find_joint(sd + "knee"), hip = base.find_joint(sd + "hip");
+    if (toes < 0 || ankle < 0 || knee < 0 || hip < 0 || !at[toes] || !at[ankle] || !at[knee] || !at[hip]) continue;
+    if (far[ankle] != toes || far[knee] != ankle || far[hip] != knee) continue;
+    glm::vec3 p = at[toes]->mean_pos - heading * at[toes]->binding->placement_m;
+    for (int j : {toes, ankle, knee, hip}) {
+      if (j != toes) {
+        const float f = at[j]->binding->link_fraction;
+        p = (at[j]->mean_pos - f * p) / (1.0f - f);
+      }
+      pos[j] = p;
+      known[j] = 1;
+    }
+    glm::vec3 off = base.offset_m(hip);
+    hip_offset_sum += sd == "l_" ? off : glm::vec3(-off.x, off.y, off.z);
+    hip_sum += p;
+    ++hips;
+  }
+  if (hips == 2) {
+    const glm::vec3 o = hip_offset_sum / 2.0f;
+    pos[0] = hip_sum / 2.0f - heading * glm::vec3(0.0f, o.y, o.z);
+    known[0] = 1;
+  }
+  if (!known[0]) return;
+  // Downwards through the tree: a joint drawn at its parent's origin is there; a link's far end
+  // follows from its near end and its sensor.
+  for (int j = 1; j < n; ++j)
+    if (!known[j] && known[base.parent(j)] && is_zero(base.offset_m(j))) pos[j] = pos[base.parent(j)], known[j] = 1;
+  for (int pass = 0; pass < n; ++pass) {
+    bool more = false;
+    for (int j = 0; j < n; ++j) {
+      if (!known[j] || !at[j] || far[j] < 0 || known[far[j]]) continue;
+      const float f = at[j]->binding->link_fraction;
+      pos[far[j]] = pos[j] + (at[j]->mean_pos - pos[j]) / f;
+      known[far[j]] = 1;
+      for (int k = 1; k < n; ++k)  // and what is drawn at its origin
+        if (!known[k] && base.parent(k) == far[j] && is_zero(base.offset_m(k))) pos[k] = pos[far[j]], known[k] = 1;
+      more = true;
+    }
+    if (!more) break;
+  }
+  for (int j = 0; j < n; ++j)
+    if (known[j]) mark[base.joint_name(j)] = pos[j];
+}
+
 struct Fit {
   SkeletonDesc desc;
   Pose pose;
@@ -80,6 +160,7 @@ Fit fit_body(const SkeletonDesc& base, const std::vector<SensorStats>& stats, co
     const glm::quat r = it != segment_rot.end() ? it->second : heading;
     mark[st.binding->segment] = st.mean_pos - r * st.binding->placement_m;
   }
+  mark_by_link_fractions(*Skeleton::build(base), stats, heading, mark);
   auto has = [&](const char* n) { return mark.count(n) > 0; };
   auto build = [&]() { return *Skeleton::build(out.desc); };
   auto zero_world = [&](const Skeleton& s) {
@@ -124,7 +205,15 @@ Fit fit_body(const SkeletonDesc& base, const std::vector<SensorStats>& stats, co
   // Spine and neck: pelvis to chest to head.
   if (has("pelvis") && has("head")) {
     const float want = glm::dot(mark["head"] - mark["pelvis"], up);
-    if (has("spine_upper")) {
+    if (has("spine_mid") && has("spine_upper")) {
+      // Every link of the spine marked (one sensor per segment): take each as measured.
+      const float mid_y = glm::dot(mark["spine_mid"] - mark["pelvis"], up);
+      const float upper_y = glm::dot(mark["spine_upper"] - mark["pelvis"], up);
+      prop.spine_lower_m = std::clamp(mid_y, 0.03f, 0.4f);
+      prop.spine_mid_m = std::clamp(upper_y - mid_y, 0.03f, 0.4f);
+      if (prop.spine_upper_m > 0) prop.spine_upper_m *= std::clamp((want - upper_y) / std::max(0.05f, prop.spine_upper_m + prop.neck_m), 0.3f, 2.5f);
+      prop.neck_m = std::clamp(want - upper_y - prop.spine_upper_m, 0.03f, 0.5f);
+    } else if (has("spine_upper")) {
       const float lower_want = glm::dot(mark["spine_upper"] - mark["pelvis"], up);
       const float lower_now = jpos(s, w, "spine_upper").y - w[0].translation.y;
       const float upper_now = jpos(s, w, "head").y - jpos(s, w, "spine_upper").y;
@@ -271,6 +360,44 @@ Fit fit_body(const SkeletonDesc& base, const std::vector<SensorStats>& stats, co
       const glm::vec3 d = glm::normalize(inv_heading * (mark[sd + "ankle"] - h));
       set(sd + "hip_abduction", std::asin(std::clamp(side_sign * d.x, -1.0f, 1.0f)));
       set(sd + "hip_flexion", std::atan2(d.z, -d.y));
+    }
+  }
+  // Where every link is marked (one sensor per segment), the posture itself: the joints as close
+  // to their marks as the fitted skeleton's links allow, the rest held nominal.
+  {
+    std::vector<IkTarget> targets;
+    std::vector<uint8_t> moves_a_mark(static_cast<size_t>(s.joint_count()), 0);
+    for (int j = 1; j < s.joint_count(); ++j) {
+      auto it = mark.find(s.joint_name(j));
+      if (it == mark.end() || s.dof_begin(s.parent(j)) == s.dof_end(s.parent(j))) continue;
+      targets.push_back(IkTarget{j, it->second, {1, 0, 0, 0}, 100.0f, 0.0f});
+      if (glm::length(s.offset_m(j)) > 1e-4f) moves_a_mark[static_cast<size_t>(s.parent(j))] = 1;
+    }
+    // A segment whose turning moves no mark (head, hands, feet, the thorax whose children start
+    // at its origin) keeps the stand-still's nominal orientation in the world, not its angles.
+    const size_t position_targets = targets.size();
+    for (int j = 1; j < s.joint_count() && position_targets >= 12; ++j)
+      if (!moves_a_mark[static_cast<size_t>(j)] && s.dof_begin(j) != s.dof_end(j))
+        targets.push_back(IkTarget{j, {}, heading, 0.0f, 3.0f});
+    if (position_targets >= 12) {
+      // Twists about a link move no mark on it; they stay nominal.
+      std::vector<int> dofs;
+      for (int d = 0; d < s.dof_count(); ++d) {
+        const std::string& name = s.dof(d).name;
+        if (name.find("twist") == std::string::npos && name.find("rotation") == std::string::npos) dofs.push_back(d);
+      }
+      const std::vector<float> prior = out.pose.dof_rad;
+      LeastSquaresIkContext ctx(s, s.dof_count(), static_cast<int>(targets.size()));
+      LeastSquaresIkJob job;
+      job.skeleton = &s;
+      job.dofs = dofs;
+      job.targets = targets;
+      job.prior_rad = prior;
+      job.prior_weight = 0.3f;
+      job.max_iterations = 30;
+      job.context = &ctx;
+      job.pose = &out.pose;
+      job.Run();
     }
   }
   const float head_top = has("head") ? mark["head"].y + 0.12f : 0.0f;
