@@ -316,9 +316,8 @@ Fit fit_body(const SkeletonDesc& base, const std::vector<SensorStats>& stats, co
     const float total = prop.upper_arm_m + prop.forearm_m;
     const float k = std::clamp((arm / static_cast<float>(n_arm)) / total, 0.6f, 1.5f);
     // Where the elbow is along the arm a stand-still shows only through a sensor at a known
-    // place on the upper arm's link; else shoulder–wrist is split as the anthropometric tables
-    // do (Winter: upper arm 0.186 H, forearm 0.146 H).
-    const float upper_share = n_arm_share > 0 ? arm_share / static_cast<float>(n_arm_share) : 0.186f / (0.186f + 0.146f);
+    // place on the upper arm's link; else shoulder–wrist is split as the skeleton fitted does.
+    const float upper_share = n_arm_share > 0 ? arm_share / static_cast<float>(n_arm_share) : prop.upper_arm_m / total;
     prop.upper_arm_m = k * total * upper_share;
     prop.forearm_m = k * total * (1.0f - upper_share);
   }
@@ -442,28 +441,46 @@ SkeletonDesc tracking_skeleton_desc(const SkeletonDesc& base) {
     if (avatar::JointDesc* c = find(s + "clavicle"); c)
       if (avatar::JointDesc* sh = find(s + "shoulder"); sh) c->tip_m = sh->offset_m;
   }
-  // The neck pivots at the top of the thorax; what lay between it and the head is shared
-  // evenly by the two neck links.
-  if (avatar::JointDesc* n = find("neck"); n) {
-    avatar::JointDesc* nu = find("neck_upper");
-    avatar::JointDesc* h = find("head");
-    avatar::JointDesc* su = find("spine_upper");
-    if (nu && h && su) {
-      const glm::vec3 span = n->offset_m + nu->offset_m + h->offset_m;
-      n->offset_m = glm::vec3(0.0f);
-      nu->offset_m = h->offset_m = 0.5f * span;
-      su->tip_m = n->tip_m = nu->offset_m;
-      nu->tip_m = h->offset_m;
-    }
-  }
-  // Hip centres a hand's width below the root and a little forward of it.
-  const float size = [&] {
+  // Proportions of what no sensor of a sparse layout marks, relative to the leg (hip centre to
+  // ankle): the means of the six CMU subjects of the reference clips (their skeletons put the
+  // thorax, neck and shoulders lower than anatomical tables do, and the upper arm longer).
+  const float leg = [&] {
     const avatar::JointDesc* k = find("l_knee");
-    return k ? glm::length(k->offset_m) / 0.418f : 1.0f;
+    const avatar::JointDesc* a = find("l_ankle");
+    return k && a ? glm::length(k->offset_m) + glm::length(a->offset_m) : 0.794f;
   }();
-  for (const char* side : {"l_", "r_"})
-    if (avatar::JointDesc* hp = find(std::string(side) + "hip"); hp)
-      hp->offset_m = glm::vec3(hp->offset_m.x, -0.095f * size, 0.035f * size);
+  auto set_offset = [&](const std::string& name, glm::vec3 offset) {
+    avatar::JointDesc* j = find(name);
+    if (!j) return;
+    if (avatar::JointDesc* p = find(j->parent); p && glm::length2(p->tip_m - j->offset_m) < 1e-10f) p->tip_m = offset;
+    j->offset_m = offset;
+  };
+  if (avatar::JointDesc* n = find("neck"); n && find("neck_upper") && find("head") && find("spine_upper")) {
+    set_offset("spine_mid", {0.0f, 0.149f * leg, 0.0f});
+    set_offset("spine_upper", {0.0f, 0.149f * leg, 0.0f});
+    // The neck pivots at the top of the thorax; two equal links up to the head joint.
+    n->offset_m = glm::vec3(0.0f);
+    set_offset("neck_upper", {0.0f, 0.100f * leg, 0.0f});
+    set_offset("head", {0.0f, 0.100f * leg, 0.0f});
+    find("spine_upper")->tip_m = n->tip_m = find("neck_upper")->offset_m;
+    find("neck_upper")->tip_m = find("head")->offset_m;
+    if (avatar::JointDesc* sl = find("spine_lower"); sl) sl->tip_m = find("spine_mid")->offset_m;
+    if (avatar::JointDesc* pv = find("pelvis"); pv) pv->tip_m = find("spine_mid")->offset_m;
+  }
+  for (const char* side : {"l_", "r_"}) {
+    const std::string sd(side);
+    const float x = sd == "l_" ? 1.0f : -1.0f;
+    set_offset(sd + "shoulder", {x * 0.218f * leg, 0.068f * leg, -0.016f * leg});
+    if (avatar::JointDesc* c = find(sd + "clavicle"); c) c->tip_m = find(sd + "shoulder")->offset_m;
+    avatar::JointDesc* e = find(sd + "elbow");
+    avatar::JointDesc* w = find(sd + "wrist");
+    if (e && w) {  // shoulder to wrist 0.569 of the leg, 61 % of it above the elbow
+      set_offset(sd + "elbow", glm::normalize(e->offset_m) * (0.611f * 0.569f * leg));
+      set_offset(sd + "wrist", glm::normalize(w->offset_m) * (0.389f * 0.569f * leg));
+    }
+    // Hip centres a hand's width below the root and a little forward of it.
+    if (avatar::JointDesc* hp = find(sd + "hip"); hp) hp->offset_m = glm::vec3(x * 0.112f * leg, -0.120f * leg, 0.045f * leg);
+  }
   return d;
 }
 
