@@ -44,9 +44,13 @@ struct ClipEval {
 inline ClipEval evaluate_clip(const avatar::RetargetedClip& clip, const ClipEvalConfig& cfg) {
   ClipEval out;
   const avatar::Skeleton& truth = clip.skeleton;
-  auto layout = standard_layout(cfg.layout, truth);
+  // Where the straps really are (the wearer's own links) and where the calibration is told they
+  // are (the instructions, drawn on the tracking skeleton).
+  auto worn = standard_layout(cfg.layout, truth);
+  if (!worn) return {{}, worn.error().what()};
+  const auto mounts = mounts_for(*worn, glm::radians(cfg.mount_tilt_deg), cfg.seed);
+  auto layout = standard_layout(cfg.layout, *avatar::Skeleton::build(tracking_skeleton_desc()));
   if (!layout) return {{}, layout.error().what()};
-  const auto mounts = mounts_for(*layout, glm::radians(cfg.mount_tilt_deg), cfg.seed);
   std::mt19937_64 rng(cfg.seed);
   const float noise_m = cfg.noise_mm / 1000.0f, noise_rad = glm::radians(cfg.noise_deg);
   // Calibration: one second standing in the frame-0 T-pose.
