@@ -361,8 +361,9 @@ Fit fit_body(const SkeletonDesc& base, const std::vector<SensorStats>& stats, co
       set(sd + "hip_flexion", std::atan2(d.z, -d.y));
     }
   }
-  // Where every link is marked (one sensor per segment), the posture itself: the joints as close
-  // to their marks as the fitted skeleton's links allow, the rest held nominal.
+  // The posture itself, where enough joints are marked (pelvis and feet, thighs, one sensor per
+  // segment): the joints as close to their marks as the fitted skeleton's links allow, the
+  // rest held nominal.
   {
     std::vector<IkTarget> targets;
     std::vector<uint8_t> moves_a_mark(static_cast<size_t>(s.joint_count()), 0);
@@ -375,10 +376,12 @@ Fit fit_body(const SkeletonDesc& base, const std::vector<SensorStats>& stats, co
     // A segment whose turning moves no mark (head, hands, feet, the thorax whose children start
     // at its origin) keeps the stand-still's nominal orientation in the world, not its angles.
     const size_t position_targets = targets.size();
-    for (int j = 1; j < s.joint_count() && position_targets >= 12; ++j)
+    // Head and hands alone leave the trunk's bend unknown: the nominal posture is the better guess.
+    constexpr size_t kMinMarks = 5;
+    for (int j = 1; j < s.joint_count() && position_targets >= kMinMarks; ++j)
       if (!moves_a_mark[static_cast<size_t>(j)] && s.dof_begin(j) != s.dof_end(j))
         targets.push_back(IkTarget{j, {}, heading, 0.0f, 3.0f});
-    if (position_targets >= 12) {
+    if (position_targets >= kMinMarks) {
       // Twists about a link move no mark on it; they stay nominal.
       std::vector<int> dofs;
       for (int d = 0; d < s.dof_count(); ++d) {
