@@ -363,7 +363,9 @@ Fit fit_body(const SkeletonDesc& base, const std::vector<SensorStats>& stats, co
   }
   // The posture itself, where enough joints are marked (pelvis and feet, thighs, one sensor per
   // segment): the joints as close to their marks as the fitted skeleton's links allow, the
-  // rest held nominal.
+  // rest held nominal. A segment whose turning moves no mark keeps the stand-still's nominal
+  // orientation: in the world (head up, feet flat, thorax upright), or, for the hands, in line
+  // with the forearm.
   {
     std::vector<IkTarget> targets;
     std::vector<uint8_t> moves_a_mark(static_cast<size_t>(s.joint_count()), 0);
@@ -373,20 +375,25 @@ Fit fit_body(const SkeletonDesc& base, const std::vector<SensorStats>& stats, co
       targets.push_back(IkTarget{j, it->second, {1, 0, 0, 0}, 100.0f, 0.0f});
       if (glm::length(s.offset_m(j)) > 1e-4f) moves_a_mark[static_cast<size_t>(s.parent(j))] = 1;
     }
-    // A segment whose turning moves no mark (head, hands, feet, the thorax whose children start
-    // at its origin) keeps the stand-still's nominal orientation in the world, not its angles.
     const size_t position_targets = targets.size();
     // Head and hands alone leave the trunk's bend unknown: the nominal posture is the better guess.
     constexpr size_t kMinMarks = 5;
-    for (int j = 1; j < s.joint_count() && position_targets >= kMinMarks; ++j)
-      if (!moves_a_mark[static_cast<size_t>(j)] && s.dof_begin(j) != s.dof_end(j))
+    std::vector<uint8_t> held(static_cast<size_t>(s.dof_count()), 0);
+    for (int j = 1; j < s.joint_count() && position_targets >= kMinMarks; ++j) {
+      if (moves_a_mark[static_cast<size_t>(j)] || s.dof_begin(j) == s.dof_end(j)) continue;
+      if (s.joint_name(j).find("wrist") != std::string::npos) {
+        for (int d = s.dof_begin(j); d < s.dof_end(j); ++d) held[static_cast<size_t>(d)] = 1;  // in line with the forearm
+      } else {
         targets.push_back(IkTarget{j, {}, heading, 0.0f, 3.0f});
+      }
+    }
     if (position_targets >= kMinMarks) {
       // Twists about a link move no mark on it; they stay nominal.
       std::vector<int> dofs;
       for (int d = 0; d < s.dof_count(); ++d) {
         const std::string& name = s.dof(d).name;
-        if (name.find("twist") == std::string::npos && name.find("rotation") == std::string::npos) dofs.push_back(d);
+        if (name.find("twist") == std::string::npos && name.find("rotation") == std::string::npos && !held[static_cast<size_t>(d)])
+          dofs.push_back(d);
       }
       const std::vector<float> prior = out.pose.dof_rad;
       LeastSquaresIkContext ctx(s, s.dof_count(), static_cast<int>(targets.size()));
