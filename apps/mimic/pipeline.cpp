@@ -5,6 +5,9 @@
 
 #include <algorithm>
 #include <chrono>
+#include <condition_variable>
+#include <cstdio>
+#include <mutex>
 #include <thread>
 #include <cmath>
 
@@ -18,6 +21,7 @@
 #include "mimic/solver/body_solver.h"
 #include "mimic/solver/calibration.h"
 #include "mimic/solver/filters.h"
+#include "mimic/solver/model_refiner.h"
 #include "mimic/solver/sensor_layout.h"
 
 namespace mimic::app {
@@ -72,24 +76,48 @@ class MotionFeed final : public PoseFeed {
 // solve stage runs the solver warm-started from the previous frame.
 class SolverFeed final : public PoseFeed {
  public:
-  SolverFeed(solver::SolverModel model, std::unique_ptr<devices::SensorSource> source, std::string description)
-      : model_(std::move(model)),
-        context_(model_),
+  // With a calibration, the model is refined from the stream as the wearer moves (functional
+  // calibration, solver/model_refiner.h): limb lengths in place, joint centres by a new model
+  // built on a worker thread and swapped in between frames.
+  SolverFeed(solver::SolverModel model, std::unique_ptr<devices::SensorSource> source, std::string description,
+             const solver::Calibration* calibration = nullptr)
+      : model_(std::make_unique<solver::SolverModel>(std::move(model))),
+        context_(std::make_unique<solver::SolverContext>(*model_)),
         filters_(static_cast<int>(kMaxSensors) - 1),
         source_(std::move(source)),
         description_(std::move(description)) {
     latest_.resize(kMaxSensors);
     have_.assign(kMaxSensors, 0);
     packed_.reserve(kMaxSensors);
-    warm_ = model_.skeleton().rest_pose();
+    warm_ = model_->skeleton().rest_pose();
+    if (calibration) {
+      refine_ = std::make_unique<Refinement>(solver::ModelRefiner(*calibration, *model_, 120.0));
+      refine_->thread = std::thread([r = refine_.get()] { r->run(); });
+    }
   }
-  const avatar::Skeleton& skeleton() const override { return model_.skeleton(); }
+  ~SolverFeed() override {
+    if (!refine_) return;
+    {
+      std::lock_guard lock(refine_->mutex);
+      refine_->stop = true;
+    }
+    refine_->cv.notify_one();
+    refine_->thread.join();
+  }
+  const avatar::Skeleton& skeleton() const override { return model_->skeleton(); }
   std::string describe() const override { return description_; }
   Status start() override { return source_->start(); }
   size_t read() override {
     size_t total = 0;
     for (;;) {
       const size_t n = source_->poll(samples_);
+      // The refinement sees the raw samples (never waiting: a busy worker costs it a tick).
+      if (refine_ && n > 0 && refine_->mutex.try_lock()) {
+        const bool due = refine_->refiner.add(std::span<const devices::SensorSample>(samples_.data(), n), *model_);
+        refine_->due = refine_->due || due;
+        refine_->mutex.unlock();
+        if (due) refine_->cv.notify_one();
+      }
       // Jitter and outliers out, dropouts bridged, before the solver sees anything.
       filters_.process(std::span<devices::SensorSample>(samples_.data(), n));
       for (size_t i = 0; i < n; ++i) {
@@ -112,10 +140,20 @@ class SolverFeed final : public PoseFeed {
       packed_.push_back(latest_[i]);
       if ((latest_[i].flags & devices::kSampleValid) == 0) stale = true;
     }
+    if (refine_ && refine_->mutex.try_lock()) {  // a refined model waiting: swap it in
+      const bool swapped = refine_->ready_model != nullptr && !refine_->retired;
+      if (swapped) {
+        std::swap(model_, refine_->ready_model);  // the old one goes back for the worker to free
+        std::swap(context_, refine_->ready_context);
+        refine_->retired = true;
+      }
+      refine_->mutex.unlock();
+      if (swapped) refine_->cv.notify_one();
+    }
     solver::SolveJob job;
-    job.model = &model_;
+    job.model = model_.get();
     job.samples = packed_;
-    job.context = &context_;
+    job.context = context_.get();
     job.pose = &warm_;
     if (!job.Run()) stale = true;
     // Copy into the caller's pose without reallocating (same DOF count).
@@ -128,8 +166,39 @@ class SolverFeed final : public PoseFeed {
 
  private:
   static constexpr size_t kMaxSensors = 64;
-  solver::SolverModel model_;
-  solver::SolverContext context_;
+  struct Refinement {
+    explicit Refinement(solver::ModelRefiner r) : refiner(std::move(r)) {}
+    solver::ModelRefiner refiner;
+    std::mutex mutex;  // guards everything below
+    std::condition_variable cv;
+    bool due = false, retired = false, stop = false;
+    std::unique_ptr<solver::SolverModel> ready_model;  // built, waiting to be swapped in; after a
+    std::unique_ptr<solver::SolverContext> ready_context;  // swap (retired), the old pair to free
+    std::thread thread;
+    void run() {
+      std::unique_lock lock(mutex);
+      for (;;) {
+        cv.wait(lock, [&] { return stop || due || retired; });
+        if (stop) return;
+        if (retired) {
+          retired = false;
+          ready_model.reset();
+          ready_context.reset();
+        }
+        if (!due || ready_model) continue;
+        due = false;
+        auto next = refiner.rebuild();
+        if (!next) continue;
+        ready_context = std::make_unique<solver::SolverContext>(**next);
+        ready_model = std::move(*next);
+        std::fprintf(stderr, "\nmimic: calibration refined from the motion: %d joint centres, %d limb lengths\n",
+                     refiner.refined_joints(), refiner.refined_limbs());
+      }
+    }
+  };
+  std::unique_ptr<solver::SolverModel> model_;
+  std::unique_ptr<solver::SolverContext> context_;
+  std::unique_ptr<Refinement> refine_;
   solver::SensorFilterBank filters_;
   std::unique_ptr<devices::SensorSource> source_;
   std::string description_;
@@ -221,7 +290,7 @@ Result<std::unique_ptr<PoseFeed>> open_feed(const std::string& spec_text, const 
     std::string desc = (*source)->status().description;
     if (desc.empty()) desc = spec_text;
     return std::unique_ptr<PoseFeed>(
-        new SolverFeed(std::move(*model), std::move(*source), desc + ", calibration " + calibration_path));
+        new SolverFeed(std::move(*model), std::move(*source), desc + ", calibration " + calibration_path, &*cal));
   }
   auto skeleton = avatar::Skeleton::build(avatar::default_skeleton_desc());
   if (!skeleton) return tl::unexpected(skeleton.error());

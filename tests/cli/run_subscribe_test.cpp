@@ -238,6 +238,27 @@ TEST(RunSubscribe, RunsWithACalibrationFromMimicCalibrate) {
 
 namespace {
 
+// Neighbouring sensors (pelvis and thighs): the joint centres found while the wearer walks are
+// swapped into the running solver, without an allocation in the loop.
+TEST(RunSubscribe, RefinesTheCalibrationFromTheMotion) {
+  const std::string cal = ::testing::TempDir() + "run_subscribe_cal11.json";
+  Proc calibrate({"calibrate", "--source", "sim:idle?sensors=11", "--out", cal, "--countdown", "0", "--seconds", "1",
+                  "--max-motion-cm", "10", "--max-motion-deg", "30"});
+  ASSERT_EQ(calibrate.wait(30.0), 0) << calibrate.err();
+  Proc run({"run", "--listen", "127.0.0.1:0", "--source", "sim:walk?sensors=11", "--calibration", cal, "--duration",
+            "4", "--quiet", "--json"});
+  ASSERT_EQ(run.wait(30.0), 0) << run.err();
+  EXPECT_NE(run.err().find("calibration refined from the motion: 2 joint centres"), std::string::npos) << run.err();
+  const auto j = last_json(run.out());
+  ASSERT_FALSE(j.is_discarded()) << run.out();
+  EXPECT_EQ(j["loop_allocations"], 0);
+  EXPECT_GT(j["frames"].get<int>(), 100);
+}
+
+}  // namespace
+
+namespace {
+
 // Thin clients: mesh frames of the deformed skin at the LOD mimic run offers; none at another.
 TEST(RunSubscribe, ThinClientGetsMeshFramesAtTheOfferedLod) {
   Proc run({"run", "--listen", "127.0.0.1:0", "--mesh-lod", "2", "--duration", "8", "--quiet"});
