@@ -80,6 +80,42 @@ void BM_SolveFrame(benchmark::State& state) {
 }
 BENCHMARK(BM_SolveFrame)->DenseRange(0, 3)->Unit(benchmark::kMicrosecond);
 
+// The functional calibration's per-tick cost (raw samples into the limb and joint-centre
+// estimators; the in-place limb refit twice a second included), 07_01, layouts 11 and all.
+void BM_RefinerAdd(benchmark::State& state) {
+  const char* layout_name = kLayouts[state.range(0)];
+  const auto* c = clip("07_01");
+  if (!c) {
+    state.SkipWithError("shared clip 07_01 not found (set MIMIC_SHARED_DATA)");
+    return;
+  }
+  auto layout = *solver::standard_layout(layout_name, c->skeleton);
+  const auto mounts = solver::testing::mounts_for(layout, glm::radians(20.0f), 1);
+  std::mt19937_64 rng(1);
+  std::vector<devices::SensorSample> capture, tick;
+  for (int k = 0; k < 100; ++k) {
+    solver::testing::sense(c->skeleton, c->poses[0], mounts, tick, &rng, 0.001f, glm::radians(0.5f), 0.01 * k);
+    capture.insert(capture.end(), tick.begin(), tick.end());
+  }
+  auto cal = *solver::calibrate(solver::tracking_skeleton_desc(), layout, capture);
+  auto model = *solver::make_solver_model(cal);
+  std::vector<std::vector<devices::SensorSample>> frames;
+  for (size_t f = 1; f < c->poses.size(); ++f) {
+    solver::testing::sense(c->skeleton, c->poses[f], mounts, tick, &rng, 0.001f, glm::radians(0.5f));
+    frames.push_back(tick);
+  }
+  solver::ModelRefiner refiner(cal, model, 1e9);  // no rebuild falls due while timing
+  size_t f = 0;
+  for (auto _ : state) {
+    benchmark::DoNotOptimize(refiner.add(frames[f], model));
+    if (++f == frames.size()) f = 0;
+  }
+  state.SetItemsProcessed(state.iterations());
+  state.SetLabel(std::string(layout_name) + " sensors, " + std::to_string(refiner.centres().pair_count()) +
+                 " joint pairs, " + std::to_string(refiner.limbs().observable_count()) + " limbs");
+}
+BENCHMARK(BM_RefinerAdd)->Arg(2)->Arg(3)->Unit(benchmark::kMicrosecond);
+
 void BM_TwoBoneIk(benchmark::State& state) {
   std::mt19937_64 rng(2);
   std::uniform_real_distribution<float> u(-0.4f, 0.4f);
