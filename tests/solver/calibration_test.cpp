@@ -180,3 +180,74 @@ TEST(Calibration, MalformedJsonGivesAClearError) {
 
 }  // namespace
 }  // namespace mimic::solver
+
+namespace mimic::solver {
+namespace {
+
+TEST(TrackingSkeleton, UnmarkedJointsFollowTheMotionCaptureConvention) {
+  const avatar::SkeletonDesc base = avatar::default_skeleton_desc();
+  const Skeleton s = *Skeleton::build(tracking_skeleton_desc(base));
+  const Skeleton d = *Skeleton::build(base);
+  ASSERT_EQ(s.joint_count(), d.joint_count());
+  ASSERT_EQ(s.dof_count(), d.dof_count());
+  for (int i = 0; i < s.dof_count(); ++i) EXPECT_EQ(s.dof(i).name, d.dof(i).name);
+  for (const char* at_parent : {"spine_lower", "neck", "l_clavicle", "r_clavicle"})
+    EXPECT_EQ(glm::length(s.offset_m(s.find_joint(at_parent))), 0.0f) << at_parent;
+  // Limbs untouched in length where a stand-still measures them, hips below the root.
+  const float leg = glm::length(s.offset_m(s.find_joint("l_knee"))) + glm::length(s.offset_m(s.find_joint("l_ankle")));
+  EXPECT_NEAR(leg, glm::length(d.offset_m(d.find_joint("l_knee"))) + glm::length(d.offset_m(d.find_joint("l_ankle"))), 1e-5f);
+  EXPECT_LT(s.offset_m(s.find_joint("l_hip")).y, -0.08f);
+  // The solver accepts it (straight limbs, bend axes across them).
+  EXPECT_TRUE(SolverModel::create(s, {}));
+}
+
+// One sensor per segment, each at the middle of the wearer's own link, the calibration told only
+// "the middle": the joints come out where the wearer's are, though every link differs from the
+// tracking skeleton's.
+TEST(Calibration, MidLinkSensorsMarkTheWearersJoints) {
+  auto desc = tracking_skeleton_desc();
+  for (auto& j : desc.joints) {  // a wearer 6 % taller, long-legged, with a short neck
+    const float k = j.name.find("knee") != std::string::npos || j.name.find("ankle") != std::string::npos ? 1.12f
+                    : j.name == "neck_upper" || j.name == "head"                                         ? 0.85f
+                                                                                                         : 1.06f;
+    j.offset_m *= k;
+    j.tip_m *= k;
+  }
+  for (auto& j : desc.joints)  // tips follow the links they lie along
+    for (const auto& c : desc.joints)
+      if (c.parent == j.name && glm::length(c.offset_m) > 1e-4f && std::abs(glm::dot(glm::normalize(c.offset_m), glm::normalize(j.tip_m)) - 1.0f) < 1e-3f)
+        j.tip_m = c.offset_m;
+  Wearer w(1.0f, 20.0f);
+  w.skeleton = *Skeleton::build(desc);
+  w.pose = w.skeleton.zero_pose();
+  w.pose.root_orientation = glm::angleAxis(glm::radians(20.0f), glm::vec3(0, 1, 0));
+  w.pose.root_position_m = {0.3f, avatar::standing_root_height_m(w.skeleton), 0.7f};
+  const auto worn = *standard_layout("all", w.skeleton);  // where the straps really are
+  const auto told = *standard_layout("all", *Skeleton::build(tracking_skeleton_desc()));
+  const auto mounts = testing::mounts_for(worn, glm::radians(15.0f), 5);
+  auto cal = calibrate(tracking_skeleton_desc(), told, capture(w, mounts, 60, 0.0005f, glm::radians(0.2f)));
+  ASSERT_TRUE(cal) << cal.error().what();
+  auto model = make_solver_model(*cal);
+  ASSERT_TRUE(model) << model.error().what();
+  SolverContext ctx(*model);
+  std::vector<devices::SensorSample> tick;
+  testing::sense(w.skeleton, w.pose, mounts, tick);
+  Pose solved = model->skeleton().zero_pose();
+  for (int k = 0; k < 8; ++k) {
+    SolveJob job{&*model, tick, &ctx, &solved};
+    ASSERT_TRUE(job.Run());
+  }
+  std::vector<RigidTransform> ws(model->skeleton().joint_count()), wt(w.skeleton.joint_count());
+  forward_kinematics(model->skeleton(), solved, ws);
+  forward_kinematics(w.skeleton, w.pose, wt);
+  for (int j = 0; j < w.skeleton.joint_count(); ++j) {
+    if (w.skeleton.joint_name(j).find("toes") != std::string::npos) continue;
+    // The root is placed from the hips with the skeleton's hip offset, and an error there
+    // alternates along the spine's mid-link recurrence: the neck's two links take it twice.
+    const bool neck = w.skeleton.joint_name(j) == "neck_upper" || w.skeleton.joint_name(j) == "head";
+    EXPECT_LT(glm::length(ws[j].translation - wt[j].translation), neck ? 0.025f : 0.01f) << w.skeleton.joint_name(j);
+  }
+}
+
+}  // namespace
+}  // namespace mimic::solver
