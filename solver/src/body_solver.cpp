@@ -225,6 +225,10 @@ Result<SolverModel> SolverModel::create(Skeleton skeleton, std::vector<SensorMou
   }
   m.prior_rad_.resize(s.dof_count());
   for (int d = 0; d < s.dof_count(); ++d) m.prior_rad_[d] = s.dof(d).rest_rad;
+  for (int leg = 2; leg < 4; ++leg) {
+    const int d = m.chains_[leg].flex_dof;
+    m.prior_rad_[d] = std::clamp(options.relaxed_knee_bend_rad, s.dof(d).min_rad, s.dof(d).max_rad);
+  }
   return m;
 }
 
@@ -336,7 +340,7 @@ bool SolveJob::Run() {
     }
     if (feet) c.ls_dofs_.insert(c.ls_dofs_.end(), m.leg_dofs_.begin(), m.leg_dofs_.end());
     if (!feet && std::isfinite(o.standing_root_y_m))
-      c.targets_.push_back(IkTarget{0, glm::vec3(p.root_position_m.x, o.standing_root_y_m, p.root_position_m.z),
+      c.targets_.push_back(IkTarget{0, glm::vec3(p.root_position_m.x, o.standing_root_y_m - o.relaxed_root_drop_m, p.root_position_m.z),
                                     glm::quat(1, 0, 0, 0), o.standing_weight, 0.0f});
   }
   // Hands: the arm DOFs (clavicle, shoulder, elbow bend) join the solve so that the trunk

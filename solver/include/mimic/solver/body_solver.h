@@ -54,6 +54,10 @@ struct SolverOptions {
   // than sinking with its head.
   float standing_root_y_m = std::numeric_limits<float>::quiet_NaN();
   float standing_weight = 3.0f;    // per metre: a gentle pull
+  // Legs nobody tracks: knees soft rather than locked, and the root held that much below the
+  // locked-knee height of the stand-still (people in motion rarely lock their knees).
+  float relaxed_knee_bend_rad = 0.17f;  // 10°
+  float relaxed_root_drop_m = 0.02f;
 };
 
 class SolverModel {
