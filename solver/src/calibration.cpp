@@ -118,9 +118,20 @@ void mark_by_link_fractions(const Skeleton& base, const std::vector<SensorStats>
   }
   if (!known[0]) return;
   // Downwards through the tree: a joint drawn at its parent's origin is there; a link's far end
-  // follows from its near end and its sensor.
-  for (int j = 1; j < n; ++j)
-    if (!known[j] && known[base.parent(j)] && is_zero(base.offset_m(j))) pos[j] = pos[base.parent(j)], known[j] = 1;
+  // follows from its near end and its sensor. Every joint reached is a·root + c (a = ±1 for
+  // mid-link sensors), so an error at the root zig-zags down each chain.
+  std::vector<float> a(n, 0.0f);
+  std::vector<uint8_t> from_root(n, 0);
+  const glm::vec3 root0 = pos[0];
+  a[0] = 1.0f, from_root[0] = 1;
+  auto reach_origin_children = [&](int j) {
+    for (int k = 1; k < n; ++k)
+      if (!known[k] && base.parent(k) == j && is_zero(base.offset_m(k)))
+        pos[k] = pos[j], known[k] = 1, a[k] = a[j], from_root[k] = from_root[j];
+  };
+  reach_origin_children(0);
+  struct Link { int near, far; };
+  std::vector<Link> links;
   for (int pass = 0; pass < n; ++pass) {
     bool more = false;
     for (int j = 0; j < n; ++j) {
@@ -128,11 +139,33 @@ void mark_by_link_fractions(const Skeleton& base, const std::vector<SensorStats>
       const float f = at[j]->binding->link_fraction;
       pos[far[j]] = pos[j] + (at[j]->mean_pos - pos[j]) / f;
       known[far[j]] = 1;
-      for (int k = 1; k < n; ++k)  // and what is drawn at its origin
-        if (!known[k] && base.parent(k) == far[j] && is_zero(base.offset_m(k))) pos[k] = pos[far[j]], known[k] = 1;
+      a[far[j]] = a[j] * (1.0f - 1.0f / f);
+      from_root[far[j]] = from_root[j];
+      if (from_root[j]) links.push_back({j, far[j]});
+      reach_origin_children(far[j]);
       more = true;
     }
     if (!more) break;
+  }
+  // The root that keeps those links nearest their stand-still directions (the skeleton's links
+  // turned to the heading, at the lengths found), held towards the hips' estimate: a least-squares
+  // fit in closed form, every link being linear in the root.
+  if (!links.empty()) {
+    constexpr float kAnchorWeight = 2.0f;
+    glm::vec3 num = kAnchorWeight * root0;
+    float den = kAnchorWeight;
+    for (const Link& l : links) {
+      const float g = a[l.far] - a[l.near];
+      if (std::abs(g) < 1e-4f || is_zero(base.tip_m(l.near))) continue;
+      const glm::vec3 v0 = pos[l.far] - pos[l.near];
+      const glm::vec3 want = glm::length(v0) * (heading * glm::normalize(base.tip_m(l.near)));
+      const glm::vec3 dc = v0 - g * root0;  // v = g·root + dc
+      num += g * (want - dc);
+      den += g * g;
+    }
+    const glm::vec3 root = num / den;
+    for (int j = 0; j < n; ++j)
+      if (known[j] && from_root[j]) pos[j] += a[j] * (root - root0);
   }
   for (int j = 0; j < n; ++j)
     if (known[j]) mark[base.joint_name(j)] = pos[j];
@@ -235,15 +268,18 @@ Fit fit_body(const SkeletonDesc& base, const std::vector<SensorStats>& stats, co
   // pelvis and the chest), averaged over both sides to keep the skeleton symmetric.
   const glm::quat inv_h = glm::conjugate(heading);
   auto mirror = [](glm::vec3 v) { return glm::vec3(-v.x, v.y, v.z); };
-  auto set_pair_offset = [&](const std::string& joint, const std::vector<glm::vec3>& left_offsets) {
-    if (left_offsets.empty()) return;
-    glm::vec3 o(0.0f);
-    for (const auto& v : left_offsets) o += v;
-    o /= static_cast<float>(left_offsets.size());
-    if (glm::length(o) > 0.4f) return;  // not a body
+  // Each side as its sensors show it (people are not symmetric); a side nobody measured mirrors
+  // the other. Offsets are given in the left side's mirror image.
+  auto set_pair_offset = [&](const std::string& joint, const std::vector<std::pair<bool, glm::vec3>>& measured) {
+    if (measured.empty()) return;
+    for (const auto& [is_left, v] : measured)
+      if (glm::length(v) > 0.4f) return;  // not a body
     for (auto& jd : out.desc.joints) {
       const bool left = jd.name == "l_" + joint, right = jd.name == "r_" + joint;
       if (!left && !right) continue;
+      glm::vec3 o = measured.front().second;
+      for (const auto& [is_left, v] : measured)
+        if (is_left == left) o = v;
       const glm::vec3 old = jd.offset_m;
       jd.offset_m = left ? o : mirror(o);
       for (auto& par : out.desc.joints)
@@ -251,9 +287,9 @@ Fit fit_body(const SkeletonDesc& base, const std::vector<SensorStats>& stats, co
     }
   };
   if (has("pelvis")) {
-    std::vector<glm::vec3> hips;
-    if (has("l_hip")) hips.push_back(inv_h * (mark["l_hip"] - mark["pelvis"]));
-    if (has("r_hip")) hips.push_back(mirror(inv_h * (mark["r_hip"] - mark["pelvis"])));
+    std::vector<std::pair<bool, glm::vec3>> hips;
+    if (has("l_hip")) hips.push_back({true, inv_h * (mark["l_hip"] - mark["pelvis"])});
+    if (has("r_hip")) hips.push_back({false, mirror(inv_h * (mark["r_hip"] - mark["pelvis"]))});
     set_pair_offset("hip", hips);
   }
   if (has("l_shoulder") || has("r_shoulder")) {
@@ -263,9 +299,9 @@ Fit fit_body(const SkeletonDesc& base, const std::vector<SensorStats>& stats, co
     auto placed_now = [&](const char* n) { return root_now + heading * (jpos(sk, wz, n) - wz[0].translation); };
     const glm::vec3 chest = has("spine_upper") ? mark["spine_upper"] : placed_now("spine_upper");
     const glm::vec3 clav = sk.offset_m(sk.find_joint("l_clavicle"));
-    std::vector<glm::vec3> shoulders;
-    if (has("l_shoulder")) shoulders.push_back(inv_h * (mark["l_shoulder"] - chest) - clav);
-    if (has("r_shoulder")) shoulders.push_back(mirror(inv_h * (mark["r_shoulder"] - chest)) - clav);
+    std::vector<std::pair<bool, glm::vec3>> shoulders;
+    if (has("l_shoulder")) shoulders.push_back({true, inv_h * (mark["l_shoulder"] - chest) - clav});
+    if (has("r_shoulder")) shoulders.push_back({false, mirror(inv_h * (mark["r_shoulder"] - chest)) - clav});
     set_pair_offset("shoulder", shoulders);
   }
   s = build();
@@ -329,6 +365,38 @@ Fit fit_body(const SkeletonDesc& base, const std::vector<SensorStats>& stats, co
     prop.shin_m = k * total * (1.0f - thigh_share);
   }
   avatar::apply_proportions(out.desc, prop);
+  // Then each side's own limb where both sides were measured (the mean above is for a side
+  // nobody measured, and for the split when no sensor shows it).
+  if (n_arm == 2 || n_leg == 2)
+    for (const char* side : {"l_", "r_"}) {
+      const std::string sd(side);
+      for (const auto& [upper, mid, end, both] :
+           {std::tuple{sd + "shoulder", sd + "elbow", sd + "wrist", n_arm == 2},
+            std::tuple{sd + "hip", sd + "knee", sd + "ankle", n_leg == 2}}) {
+        if (!both || !has(end.c_str())) continue;
+        const float total = std::clamp(limb_length(upper.c_str(), end.c_str()), 0.2f, 1.5f);
+        float share = has(mid.c_str()) && fraction_of(upper) && fraction_of(mid)
+                          ? glm::length(mark[mid] - placed(upper.c_str())) /
+                                std::max(0.1f, glm::length(mark[mid] - placed(upper.c_str())) + glm::length(mark[end] - mark[mid]))
+                          : -1.0f;
+        auto find_desc = [&](const std::string& n) -> avatar::JointDesc* {
+          for (auto& jd : out.desc.joints)
+            if (jd.name == n) return &jd;
+          return nullptr;
+        };
+        avatar::JointDesc* jm = find_desc(mid);
+        avatar::JointDesc* je = find_desc(end);
+        if (!jm || !je || glm::length(jm->offset_m) < 1e-4f || glm::length(je->offset_m) < 1e-4f) continue;
+        const float lm = glm::length(jm->offset_m), le = glm::length(je->offset_m);
+        const float sh = share > 0.25f && share < 0.8f ? share : lm / (lm + le);
+        for (auto [jd, want] : {std::pair{jm, total * sh}, std::pair{je, total * (1.0f - sh)}}) {
+          const glm::vec3 old = jd->offset_m;
+          jd->offset_m = old * (want / glm::length(old));
+          for (auto& par : out.desc.joints)
+            if (par.name == jd->parent && glm::length(par.tip_m - old) < 1e-5f) par.tip_m = jd->offset_m;
+        }
+      }
+    }
   s = build();
   w = zero_world(s);
   root = root_position(s, w);
