@@ -74,14 +74,16 @@ void mark_by_link_fractions(const Skeleton& base, const std::vector<SensorStats>
     if (j >= 0 && st.binding->link_fraction > 0.05f && st.binding->link_fraction < 0.95f) at[j] = &st;
   }
   auto is_zero = [](glm::vec3 v) { return glm::length(v) < 1e-4f; };
-  // The joint at the far end of each link (through children drawn at the segment's origin).
+  // The joint at the far end of each link, or through a child drawn at the segment's origin
+  // when that child carries no sensor of its own (with one, the child's turn would move the far
+  // end off this segment's axis, and its own sensor says where the end is).
   std::vector<int> far(n, -1);
   for (int j = 0; j < n; ++j) {
     const glm::vec3 tip = base.tip_m(j);
     if (is_zero(tip)) continue;
     for (int k = 1; k < n; ++k) {
       if (base.parent(k) == j && glm::length(base.offset_m(k) - tip) < 1e-4f) far[j] = k;
-      if (base.parent(k) == j && is_zero(base.offset_m(k)))
+      if (base.parent(k) == j && is_zero(base.offset_m(k)) && !at[k])
         for (int g = 1; g < n; ++g)
           if (base.parent(g) == k && glm::length(base.offset_m(g) - tip) < 1e-4f) far[j] = g;
     }
