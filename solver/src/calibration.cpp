@@ -195,7 +195,9 @@ Fit fit_body(const SkeletonDesc& base, const std::vector<SensorStats>& stats, co
     const glm::quat r = it != segment_rot.end() ? it->second : heading;
     mark[st.binding->segment] = st.mean_pos - r * st.binding->placement_m;
   }
-  mark_by_link_fractions(*Skeleton::build(base), stats, heading, mark);
+  std::map<std::string, glm::vec3> by_fraction;
+  mark_by_link_fractions(*Skeleton::build(base), stats, heading, by_fraction);
+  for (const auto& [name, at] : by_fraction) mark[name] = at;
   auto has = [&](const char* n) { return mark.count(n) > 0; };
   auto build = [&]() { return *Skeleton::build(out.desc); };
   auto zero_world = [&](const Skeleton& s) {
@@ -335,10 +337,14 @@ Fit fit_body(const SkeletonDesc& base, const std::vector<SensorStats>& stats, co
     const SensorStats* sm = fraction_of(mid);
     if (!su || !sm) return 0.0f;
     const glm::vec3 a = placed(upper.c_str());
-    const glm::vec3 e = a + (su->mean_pos - a) / su->binding->link_fraction;
-    const glm::vec3 wpos = e + (sm->mean_pos - e) / sm->binding->link_fraction;
-    mark[mid] = e;
-    mark[end] = wpos;
+    glm::vec3 e = a + (su->mean_pos - a) / su->binding->link_fraction;
+    glm::vec3 wpos = e + (sm->mean_pos - e) / sm->binding->link_fraction;
+    if (by_fraction.count(mid) && by_fraction.count(end)) {
+      e = mark[mid], wpos = mark[end];  // the whole tree's recurrence placed them already
+    } else {
+      mark[mid] = e;
+      mark[end] = wpos;
+    }
     const float lu = glm::length(e - a), ll = glm::length(wpos - e);
     return lu + ll > 0.1f ? std::clamp(lu / (lu + ll), 0.3f, 0.75f) : 0.0f;
   };
@@ -376,11 +382,14 @@ Fit fit_body(const SkeletonDesc& base, const std::vector<SensorStats>& stats, co
            {std::tuple{sd + "shoulder", sd + "elbow", sd + "wrist", n_arm == 2},
             std::tuple{sd + "hip", sd + "knee", sd + "ankle", n_leg == 2}}) {
         if (!both || !has(end.c_str())) continue;
-        const float total = std::clamp(limb_length(upper.c_str(), end.c_str()), 0.2f, 1.5f);
-        float share = has(mid.c_str()) && fraction_of(upper) && fraction_of(mid)
-                          ? glm::length(mark[mid] - placed(upper.c_str())) /
-                                std::max(0.1f, glm::length(mark[mid] - placed(upper.c_str())) + glm::length(mark[end] - mark[mid]))
-                          : -1.0f;
+        // With the middle joint marked too, each link as marked (a bent limb's links are longer
+        // than the straight line between its ends); else the straight line, split as before.
+        const bool mid_marked = has(mid.c_str()) && fraction_of(upper) && fraction_of(mid);
+        const float upper_m = mid_marked ? glm::length(mark[mid] - placed(upper.c_str())) : 0.0f;
+        const float lower_m = mid_marked ? glm::length(mark[end] - mark[mid]) : 0.0f;
+        const float total = mid_marked ? std::clamp(upper_m + lower_m, 0.2f, 1.5f)
+                                       : std::clamp(limb_length(upper.c_str(), end.c_str()), 0.2f, 1.5f);
+        const float share = mid_marked && upper_m + lower_m > 0.1f ? upper_m / (upper_m + lower_m) : -1.0f;
         auto find_desc = [&](const std::string& n) -> avatar::JointDesc* {
           for (auto& jd : out.desc.joints)
             if (jd.name == n) return &jd;
@@ -434,14 +443,17 @@ Fit fit_body(const SkeletonDesc& base, const std::vector<SensorStats>& stats, co
   // The posture itself, where enough joints are marked (pelvis and feet, thighs, one sensor per
   // segment): the joints as close to their marks as the fitted skeleton's links allow, the
   // rest held nominal. A segment whose turning moves no mark keeps the stand-still's nominal
-  // orientation: in the world (head up, feet flat, thorax upright), or, for the hands, in line
-  // with the forearm.
+  // orientation: in the world (head up, feet flat, thorax upright), or, for hands and toes, in
+  // line with the forearm and the foot (a world target there would pull the leg off its marks).
   {
     std::vector<IkTarget> targets;
     std::vector<uint8_t> moves_a_mark(static_cast<size_t>(s.joint_count()), 0);
     for (int j = 1; j < s.joint_count(); ++j) {
       auto it = mark.find(s.joint_name(j));
       if (it == mark.end() || s.dof_begin(s.parent(j)) == s.dof_end(s.parent(j))) continue;
+      // The toes: a foot turned beyond the ankle's limits (as stand-stills sometimes show) would
+      // pull the whole leg off its marks to reach them.
+      if (s.joint_name(j).find("toes") != std::string::npos) continue;
       targets.push_back(IkTarget{j, it->second, {1, 0, 0, 0}, 100.0f, 0.0f});
       if (glm::length(s.offset_m(j)) > 1e-4f) moves_a_mark[static_cast<size_t>(s.parent(j))] = 1;
     }
@@ -451,8 +463,9 @@ Fit fit_body(const SkeletonDesc& base, const std::vector<SensorStats>& stats, co
     std::vector<uint8_t> held(static_cast<size_t>(s.dof_count()), 0);
     for (int j = 1; j < s.joint_count() && position_targets >= kMinMarks; ++j) {
       if (moves_a_mark[static_cast<size_t>(j)] || s.dof_begin(j) == s.dof_end(j)) continue;
-      if (s.joint_name(j).find("wrist") != std::string::npos) {
-        for (int d = s.dof_begin(j); d < s.dof_end(j); ++d) held[static_cast<size_t>(d)] = 1;  // in line with the forearm
+      const std::string& name = s.joint_name(j);
+      if (name.find("wrist") != std::string::npos || name.find("toes") != std::string::npos) {
+        for (int d = s.dof_begin(j); d < s.dof_end(j); ++d) held[static_cast<size_t>(d)] = 1;  // in line with the forearm, foot
       } else {
         targets.push_back(IkTarget{j, {}, heading, 0.0f, 3.0f});
       }
@@ -462,7 +475,7 @@ Fit fit_body(const SkeletonDesc& base, const std::vector<SensorStats>& stats, co
       std::vector<int> dofs;
       for (int d = 0; d < s.dof_count(); ++d) {
         const std::string& name = s.dof(d).name;
-        if (name.find("twist") == std::string::npos && name.find("rotation") == std::string::npos && !held[static_cast<size_t>(d)])
+        if (name.find("twist") == std::string::npos && !held[static_cast<size_t>(d)])
           dofs.push_back(d);
       }
       const std::vector<float> prior = out.pose.dof_rad;
@@ -473,7 +486,8 @@ Fit fit_body(const SkeletonDesc& base, const std::vector<SensorStats>& stats, co
       job.targets = targets;
       job.prior_rad = prior;
       job.prior_weight = 0.3f;
-      job.max_iterations = 30;
+      job.max_iterations = 60;
+      job.step_tolerance = 1e-5f;
       job.context = &ctx;
       job.pose = &out.pose;
       job.Run();
