@@ -30,7 +30,7 @@ struct Bound {
 
 TEST(ClipAccuracy, SimulatedSensorsOnSharedClipsStayWithinBounds) {
   if (!std::filesystem::exists(test::clip_path("07_01"))) GTEST_SKIP() << "shared data not found";
-  const Bound bounds[] = {{"3", 12.0, 130.0}, {"6", 3.5, 22.0}, {"11", 2.2, 22.0}, {"all", 2.2, 30.0}};
+  const Bound bounds[] = {{"3", 11.0, 130.0}, {"6", 3.0, 17.0}, {"11", 2.0, 18.0}, {"all", 1.0, 9.0}};
   for (const char* id : {"07_01", "13_26"}) {
     const auto* clip = load(id);
     ASSERT_NE(clip, nullptr) << id;
