@@ -222,6 +222,8 @@ Result<SolverModel> SolverModel::create(Skeleton skeleton, std::vector<SensorMou
     std::vector<RigidTransform> w(s.joint_count());
     forward_kinematics(s, s.rest_pose(), w);
     m.head_from_root_rest_ = w[m.head_].translation - w[0].translation;
+    for (int leg = 0; leg < 2; ++leg)
+      m.ankle_below_root_rest_[leg] = w[0].translation.y - w[m.chains_[2 + leg].end].translation.y;
   }
   m.prior_rad_.resize(s.dof_count());
   for (int d = 0; d < s.dof_count(); ++d) m.prior_rad_[d] = s.dof(d).rest_rad;
@@ -387,6 +389,32 @@ bool SolveJob::Run() {
     ls.pose = &p;
     ls.Run();
     ls_iterations = ls.iterations;
+  }
+
+  // 3b. Legs nobody tracks: each foot under its hip, knee soft, on or above the floor, facing
+  // the heading (a walk's steps cannot be told from head and hands alone; standing, this is
+  // where feet are).
+  if (trunk_observed && !root_known && std::isfinite(o.standing_root_y_m)) {
+    bool tracked = false;
+    for (int leg = 2; leg < 4; ++leg) {
+      const auto& ch = m.chains_[leg];
+      tracked = tracked || c.has_target_[ch.upper] || c.has_target_[ch.mid] || c.has_target_[ch.end];
+    }
+    glm::vec3 fwd = p.root_orientation * glm::vec3(0, 0, 1);
+    fwd.y = 0;
+    if (!tracked && glm::length(fwd) > 1e-3f) {
+      const glm::quat facing = glm::angleAxis(std::atan2(fwd.x, fwd.z), glm::vec3(0, 1, 0));
+      const float bend = std::clamp(o.relaxed_knee_bend_rad, 0.0f, 1.5f);
+      for (int leg = 0; leg < 2; ++leg) {
+        const auto& ch = m.chains_[2 + leg];
+        const glm::vec3 hip = p.root_position_m + p.root_orientation * s.offset_m(ch.upper);
+        const float hang = std::sqrt(ch.upper_m * ch.upper_m + ch.lower_m * ch.lower_m +
+                                     2.0f * ch.upper_m * ch.lower_m * std::cos(bend));
+        const float floor_y = o.standing_root_y_m - m.ankle_below_root_rest_[leg];
+        c.segment_target_[ch.end] = RigidTransform{facing, glm::vec3(hip.x, std::max(floor_y, hip.y - hang), hip.z)};
+        c.has_target_[ch.end] = 1;
+      }
+    }
   }
 
   // 4. Limbs and the rest, parents first.

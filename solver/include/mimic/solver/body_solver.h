@@ -54,7 +54,8 @@ struct SolverOptions {
   // than sinking with its head.
   float standing_root_y_m = std::numeric_limits<float>::quiet_NaN();
   float standing_weight = 3.0f;    // per metre: a gentle pull
-  // Legs nobody tracks: knees soft rather than locked, and the root held that much below the
+  // Legs nobody tracks hang under the hips with the knees soft rather than locked, feet facing
+  // the heading and never below the floor, and the root is held that much below the
   // locked-knee height of the stand-still (people in motion rarely lock their knees).
   float relaxed_knee_bend_rad = 0.17f;  // 10°
   float relaxed_root_drop_m = 0.02f;
@@ -107,6 +108,7 @@ class SolverModel {
   std::vector<float> prior_rad_;                  // relaxed values
   int head_ = -1;
   glm::vec3 head_from_root_rest_{0.0f};  // head joint relative to the root, relaxed posture
+  std::array<float, 2> ankle_below_root_rest_{};  // root height above each ankle, zero posture
 };
 
 class SolverContext {
