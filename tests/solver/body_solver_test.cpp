@@ -125,6 +125,46 @@ TEST(BodySolver, ThreeSensorsEstimateTheRootAndReachHandsAndHead) {
   }
 }
 
+// Head and hands only: the legs hang under the hips with soft knees, feet on the floor or above
+// it, facing the heading — and a wearer who crouches bends the knees instead of sinking the
+// feet through the floor.
+TEST(BodySolver, LegsNobodyTracksHangUnderTheHipsAboveTheFloor) {
+  const Skeleton s = default_skeleton();
+  const auto mounts = testing::mounts_for(*standard_layout("3", s), 0.0f, 5);
+  SolverOptions options;
+  const float standing_root_y = avatar::standing_root_height_m(s);
+  options.standing_root_y_m = standing_root_y;
+  auto model = *SolverModel::create(s, mounts, options);
+  SolverContext ctx(model);
+  const float floor_ankle_y = standing_root_y - (fk(s, s.zero_pose())[0].translation.y -
+                                                fk(s, s.zero_pose())[s.find_joint("l_ankle")].translation.y);
+  for (const float drop_m : {0.0f, 0.25f}) {
+    Pose truth = s.zero_pose();
+    truth.root_orientation = glm::angleAxis(0.7f, glm::vec3(0, 1, 0));
+    truth.root_position_m = {0.3f, standing_root_y - drop_m, -0.4f};
+    std::vector<devices::SensorSample> samples;
+    testing::sense(s, truth, mounts, samples);
+    Pose solved = s.zero_pose();
+    ctx.reset();
+    for (int frame = 0; frame < 20; ++frame) {
+      SolveJob job{&model, samples, &ctx, &solved};
+      ASSERT_TRUE(job.Run());
+    }
+    const auto ws = fk(s, solved);
+    for (const char* side : {"l_", "r_"}) {
+      const glm::vec3 hip = ws[s.find_joint(std::string(side) + "hip")].translation;
+      const glm::vec3 ankle = ws[s.find_joint(std::string(side) + "ankle")].translation;
+      EXPECT_LT(glm::length(glm::vec2(ankle.x - hip.x, ankle.z - hip.z)), 0.06f) << side << " drop " << drop_m;
+      EXPECT_GT(ankle.y, floor_ankle_y - 0.01f) << side << " drop " << drop_m;
+      EXPECT_GT(solved.dof_rad[s.find_dof(std::string(side) + "knee_flexion")], glm::radians(5.0f)) << side;
+      if (drop_m > 0) {  // crouching: the knees bend well beyond the soft stance
+        EXPECT_GT(solved.dof_rad[s.find_dof(std::string(side) + "knee_flexion")], glm::radians(30.0f)) << side;
+      }
+    }
+    expect_inside_limits(s, solved);
+  }
+}
+
 // A hand sensor far out of reach: the arm points at it, fully stretched; nothing is NaN.
 TEST(BodySolver, UnreachableHandEndsAtTheNearestReach) {
   Fixture f("6", 0.0f);
