@@ -457,7 +457,9 @@ bool SolveJob::Run() {
         glm::vec3 pole;
         const glm::vec3 default_pole = p.root_orientation * ch.default_pole;
         if (c.has_target_[ch.mid]) {
-          pole = end_t.translation - ch.lower_m * (c.segment_target_[ch.mid].rotation * ch.upper_dir) - start;
+          // The middle segment's origin is the middle joint: its sensor's position says where (a
+          // shorter lever than the lower link turned by the sensor's orientation).
+          pole = c.segment_target_[ch.mid].translation - start;
         } else if (c.has_target_[ch.upper]) {
           pole = ch.upper_m * (c.segment_target_[ch.upper].rotation * ch.upper_dir);
         } else {
