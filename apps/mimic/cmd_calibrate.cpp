@@ -14,6 +14,7 @@
 #include "mimic/devices/source.h"
 #include "mimic/sim/open_source.h"
 #include "mimic/solver/calibration.h"
+#include "mimic/solver/model_refiner.h"
 #include "mimic/solver/sensor_layout.h"
 
 namespace mimic::app {
@@ -52,6 +53,11 @@ constexpr const char* kUsage =
     "  --max-motion-deg X   refuse if a sensor turns more than this (default 6)\n"
     "  --floor-y M          floor height in tracker coordinates when no foot sensor shows it\n"
     "                       (default 0)\n"
+    "  --move S             after the stand-still, S seconds of moving about (bend elbows and\n"
+    "                       knees, roll wrists and ankles, turn the head, take a few steps): the\n"
+    "                       joint centres between neighbouring sensors and the elbow and knee\n"
+    "                       are found from the motion and written too (layouts 11 and all;\n"
+    "                       default 0: stand-still only)\n"
     "  -h, --help           this text\n"
     "\n"
     "exit status: 0 written, 1 refused or source failure, 2 usage error\n";
@@ -62,7 +68,7 @@ std::string layout_from_spec(const devices::SourceSpec& spec) {
 }
 
 int run_calibrate(const std::vector<std::string>& argv) {
-  Args args(argv, {"source", "out", "layout", "pose", "seconds", "countdown", "max-motion-cm", "max-motion-deg", "floor-y"},
+  Args args(argv, {"source", "out", "layout", "pose", "seconds", "countdown", "max-motion-cm", "max-motion-deg", "floor-y", "move"},
             {});
   if (args.help()) {
     std::printf("%s", kUsage);
@@ -74,13 +80,14 @@ int run_calibrate(const std::vector<std::string>& argv) {
   const auto out = args.get("out");
   if (!source_text) return usage_error(kName, "--source SRC is required");
   if (!out) return usage_error(kName, "--out CALIB.json is required");
-  double seconds = 2.0, countdown = 3.0, max_cm = 3.0, max_deg = 6.0, floor_y = 0.0;
-  if (!args.get_double("seconds", seconds) || !args.get_double("countdown", countdown) ||
+  double seconds = 2.0, countdown = 3.0, max_cm = 3.0, max_deg = 6.0, floor_y = 0.0, move_s = 0.0;
+  if (!args.get_double("seconds", seconds) || !args.get_double("countdown", countdown) || !args.get_double("move", move_s) ||
       !args.get_double("max-motion-cm", max_cm) || !args.get_double("max-motion-deg", max_deg) ||
       !args.get_double("floor-y", floor_y))
     return usage_error(kName, args.error());
   if (!(seconds > 0 && seconds <= 60)) return usage_error(kName, "--seconds must be within (0, 60]");
   if (!(countdown >= 0 && countdown <= 60)) return usage_error(kName, "--countdown must be within [0, 60]");
+  if (!(move_s >= 0 && move_s <= 600)) return usage_error(kName, "--move must be within [0, 600] seconds");
   if (!(max_cm > 0) || !(max_deg > 0)) return usage_error(kName, "motion tolerances must be positive");
   auto pose = solver::parse_calibration_pose(args.get_or("pose", "tpose"));
   if (!pose) return usage_error(kName, pose.error().message);
@@ -146,7 +153,6 @@ int run_calibrate(const std::vector<std::string>& argv) {
     if (t >= seconds) break;
     std::this_thread::sleep_for(std::chrono::milliseconds(5));
   }
-  (*source)->stop();
   std::printf("\n");
 
   solver::CalibrationOptions opt;
@@ -155,7 +161,51 @@ int run_calibrate(const std::vector<std::string>& argv) {
   opt.max_motion_deg = static_cast<float>(max_deg);
   opt.floor_y_m = static_cast<float>(floor_y);
   auto cal = solver::calibrate(solver::tracking_skeleton_desc(), *layout, capture, opt);
-  if (!cal) return failure(kName, cal.error().message);
+  if (!cal) {
+    (*source)->stop();
+    return failure(kName, cal.error().message);
+  }
+  if (move_s > 0) {
+    // Functional calibration: what the motion shows that a stand-still cannot.
+    auto model = solver::make_solver_model(*cal);
+    if (!model) return failure(kName, model.error().message);
+    solver::ModelRefiner refiner(*cal, *model, 120.0);
+    if (refiner.centres().pair_count() == 0 && refiner.limbs().observable_count() == 0) {
+      std::printf("layout %s has no neighbouring sensors and no tracked elbow or knee to refine: --move skipped\n",
+                  layout_name.c_str());
+    } else {
+      std::printf("now move for %.0f s: bend the elbows and knees, roll the wrists and ankles, turn the head,\n"
+                  "take a few steps\n", move_s);
+      const auto move_start = clock::now();
+      double next_move_status = 0;
+      size_t moved = 0;
+      for (;;) {
+        const double t = std::chrono::duration<double>(clock::now() - move_start).count();
+        const size_t n = (*source)->poll(buffer);
+        if (n > 0) refiner.add(std::span<const devices::SensorSample>(buffer.data(), n), *model), moved += n;
+        if (t >= next_move_status || t >= move_s) {
+          int ready = 0;
+          for (const auto& f : refiner.centres().fits()) ready += f.samples > 0 ? 1 : 0;
+          std::printf("moving %.1f/%.1f s  samples %zu  joint centres seen %d/%d   %s", std::min(t, move_s), move_s, moved,
+                      ready, refiner.centres().pair_count(), end_status);
+          std::fflush(stdout);
+          next_move_status = t + 0.2;
+        }
+        if (t >= move_s) break;
+        std::this_thread::sleep_for(std::chrono::milliseconds(5));
+      }
+      std::printf("\n");
+      int joints = 0, limbs = 0;
+      auto refined = refiner.refined_calibration(&joints, &limbs);
+      if (!refined) {
+        (*source)->stop();
+        return failure(kName, refined.error().message);
+      }
+      std::printf("refined from the motion: %d joint centres, %d elbow/knee lengths\n", joints, limbs);
+      cal = std::move(refined);
+    }
+  }
+  (*source)->stop();
   if (auto st = solver::save_calibration(*out, *cal); !st) return failure(kName, st.error().message);
   std::printf("calibrated: height %.2f m, facing %.0f deg, %d samples over %.2f s, stillness %.1f mm / %.1f deg\n",
               cal->height_m, cal->heading_deg, cal->samples, cal->duration_s, cal->max_motion_mm, cal->max_motion_deg);

@@ -23,17 +23,35 @@ bool ModelRefiner::add(std::span<const devices::SensorSample> raw, SolverModel& 
   return true;
 }
 
+Result<Calibration> ModelRefiner::refined_calibration(int* joints, int* limbs) const {
+  int found_joints = 0;
+  auto refined = centres_.refine(calibration_, &found_joints);
+  if (!refined) return tl::unexpected(refined.error());
+  auto model = make_solver_model(*refined);
+  if (!model) return tl::unexpected(model.error());
+  const int found_limbs = limbs_.refine(*model);
+  // The limb lengths live in the model's skeleton now: back into the calibration's.
+  const avatar::Skeleton& s = model->skeleton();
+  for (auto& jd : refined->skeleton.joints) {
+    const int j = s.find_joint(jd.name);
+    if (j < 0) continue;
+    jd.offset_m = s.offset_m(j);
+    jd.tip_m = s.tip_m(j);
+  }
+  if (joints) *joints = found_joints;
+  if (limbs) *limbs = found_limbs;
+  return refined;
+}
+
 Result<std::unique_ptr<SolverModel>> ModelRefiner::rebuild() const {
   int joints = 0;
-  auto refined = centres_.refine(calibration_, &joints);
+  auto refined = refined_calibration(&joints);
   if (!refined) return tl::unexpected(refined.error());
   if (joints == 0) return fail(Errc::not_found, "no joint centre has enough samples yet");
   auto model = make_solver_model(*refined);
   if (!model) return tl::unexpected(model.error());
-  auto out = std::make_unique<SolverModel>(std::move(*model));
-  limbs_.refine(*out);
   refined_joints_ = std::max(refined_joints_, joints);
-  return out;
+  return std::make_unique<SolverModel>(std::move(*model));
 }
 
 }  // namespace mimic::solver

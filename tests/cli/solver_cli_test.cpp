@@ -58,6 +58,30 @@ TEST(CalibrateCli, RefusesAMovingWearerAndAMissingSensorAndWritesNothing) {
   EXPECT_FALSE(std::filesystem::exists(out));
 }
 
+// --move: after the stand-still, the motion's joint centres go into the file; a layout with no
+// neighbouring sensors says there is nothing to refine.
+TEST(CalibrateCli, MovingAfterTheStandStillRefinesTheJointCentres) {
+  const std::string out = temp_path("calib_move.json"), still = temp_path("calib_still.json");
+  const std::string common = " --countdown 0 --seconds 0.5 --max-motion-deg 15 --max-motion-cm 10";
+  Outcome r = run_mimic("calibrate --source 'sim:idle?sensors=all' --out " + still + common);
+  ASSERT_EQ(r.status, 0) << r.output;
+  r = run_mimic("calibrate --source 'sim:idle?sensors=all' --out " + out + common + " --move 2");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("now move"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("refined from the motion: 22 joint centres"), std::string::npos) << r.output;
+  // Both files load; the refined one differs (its joint offsets come from the motion).
+  std::ifstream a(still), b(out);
+  const auto ja = nlohmann::json::parse(a), jb = nlohmann::json::parse(b);
+  EXPECT_EQ(jb["format"], "mimic-calibration");
+  EXPECT_NE(ja["skeleton"], jb["skeleton"]);
+  r = run_mimic("calibrate --source 'sim:idle?sensors=6' --out " + out + common + " --move 1");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("--move skipped"), std::string::npos) << r.output;
+  EXPECT_EQ(run_mimic("calibrate --source sim:idle --out x.json --move -1").status, 2);
+  std::filesystem::remove(out);
+  std::filesystem::remove(still);
+}
+
 TEST(CalibrateCli, UsageErrors) {
   EXPECT_EQ(run_mimic("calibrate --out x.json").status, 2);
   EXPECT_EQ(run_mimic("calibrate --source sim:idle").status, 2);

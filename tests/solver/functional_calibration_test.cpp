@@ -210,5 +210,35 @@ TEST(ModelRefiner, RebuildsOnScheduleAndKeepsSolving) {
   EXPECT_EQ(refiner.refined_joints(), truth.joint_count() - 1);
 }
 
+// What the motion showed, written into a calibration that can be saved: the limb lengths of a
+// layout-11 wearer end up in the calibration's skeleton.
+TEST(ModelRefiner, RefinedCalibrationCarriesTheLimbLengths) {
+  const Skeleton truth = wearer_skeleton();
+  const auto mounts = testing::mounts_for(*standard_layout("11", truth), glm::radians(10.0f), 4);
+  Calibration cal;
+  cal.skeleton = avatar::default_skeleton_desc();
+  for (const auto& m : mounts) cal.sensors.push_back({m.sensor, m.segment, m.segment, m.segment_from_sensor});
+  auto model = *make_solver_model(cal);
+  ModelRefiner refiner(cal, model, 100.0);
+  std::mt19937_64 noise(5);
+  std::vector<devices::SensorSample> tick;
+  for (const Pose& p : moving(truth, 500, 9)) {
+    testing::sense(truth, p, mounts, tick, &noise, 0.001f, glm::radians(0.5f));
+    refiner.add(tick, model);
+  }
+  int joints = -1, limbs = -1;
+  auto refined = refiner.refined_calibration(&joints, &limbs);
+  ASSERT_TRUE(refined) << refined.error().what();
+  EXPECT_EQ(limbs, 4);
+  EXPECT_EQ(joints, 2);  // the hips: pelvis and thighs are neighbours
+  const Skeleton fitted = *Skeleton::build(refined->skeleton);
+  for (const char* j : {"l_knee", "r_knee", "l_ankle", "r_ankle", "l_elbow", "r_elbow", "l_wrist", "r_wrist"})
+    EXPECT_NEAR(length_of(fitted, j), length_of(truth, j), 0.006f) << j;
+  // And it round-trips through the file format.
+  auto back = calibration_from_json(calibration_to_json(*refined));
+  ASSERT_TRUE(back) << back.error().what();
+  EXPECT_NEAR(length_of(*Skeleton::build(back->skeleton), "l_knee"), length_of(truth, "l_knee"), 0.006f);
+}
+
 }  // namespace
 }  // namespace mimic::solver

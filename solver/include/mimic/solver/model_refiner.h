@@ -29,6 +29,9 @@ class ModelRefiner {
   // The model with the joint centres found so far (and the limb lengths), or an error when
   // nothing new was found. Allocates.
   Result<std::unique_ptr<SolverModel>> rebuild() const;
+  // The calibration with everything found so far (to save it: `mimic calibrate --move`);
+  // `joints` and `limbs` count what was refined. Allocates.
+  Result<Calibration> refined_calibration(int* joints = nullptr, int* limbs = nullptr) const;
 
   int refined_limbs() const { return refined_limbs_; }
   int refined_joints() const { return refined_joints_; }
