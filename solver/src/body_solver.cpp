@@ -283,6 +283,7 @@ bool SolveJob::Run() {
 
   // 1. Segment targets from the samples.
   std::fill(c.has_target_.begin(), c.has_target_.end(), uint8_t{0});
+  c.guessed_end_.fill(false);
   sensors_used = 0;
   for (const auto& smp : samples) {
     if (!(smp.flags & devices::kSampleValid) || smp.sensor >= m.slot_of_sensor_.size()) continue;
@@ -413,6 +414,7 @@ bool SolveJob::Run() {
         const float floor_y = o.standing_root_y_m - m.ankle_below_root_rest_[leg];
         c.segment_target_[ch.end] = RigidTransform{facing, glm::vec3(hip.x, std::max(floor_y, hip.y - hang), hip.z)};
         c.has_target_[ch.end] = 1;
+        c.guessed_end_[2 + leg] = true;
       }
     }
   }
@@ -487,7 +489,8 @@ bool SolveJob::Run() {
         e1 = glm::normalize(e1);
         const glm::vec3 e2 = glm::cross(n, e1);
         ChainSolution best = solve_chain(in, e1);
-        if (best.ok && best.violation > 1e-4f) {
+        // (A guessed foot is not worth a search for the swivel the limits allow.)
+        if (best.ok && best.violation > 1e-4f && !c.guessed_end_[ci]) {
           float best_phi = 0;
           float best_cost = chain_cost(best, 0.0f);
           constexpr int kSamples = 16;

@@ -124,6 +124,7 @@ class SolverContext {
   std::vector<float> prior_;
   std::vector<avatar::RigidTransform> segment_target_;  // per joint
   std::vector<uint8_t> has_target_;                      // per joint
+  std::array<bool, 4> guessed_end_{};                    // per chain: its end target is a guess
   std::vector<avatar::RigidTransform> world_;
   std::array<glm::vec3, 4> last_bend_world_{};
   bool have_previous_ = false;
