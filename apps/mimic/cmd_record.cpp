@@ -12,6 +12,7 @@
 #include "mimic/devices/source.h"
 #include "mimic/sim/log.h"
 #include "mimic/sim/open_source.h"
+#include "mimic/sim/raw_session.h"
 #include "mimic/sim/replay_source.h"
 
 namespace mimic::app {
@@ -19,7 +20,7 @@ namespace {
 
 constexpr const char* kName = "record";
 constexpr const char* kUsage =
-    "usage: mimic record --source SRC --out FILE [--duration S] [--seed N] [--quiet]\n"
+    "usage: mimic record --source SRC --out FILE [--duration S] [--seed N] [--raw] [--quiet]\n"
     "\n"
     "Records the samples of a tracker source into a Mimic log (docs/log-format.md) until\n"
     "--duration seconds have passed, the source ends (a replay), or Ctrl-C. The log is\n"
@@ -38,6 +39,9 @@ constexpr const char* kUsage =
     "  --out FILE      log to write (created as FILE.part, renamed once its header is on disk)\n"
     "  --duration S    stop after S seconds (default: until Ctrl-C or the source ends)\n"
     "  --seed N        seed of a simulated source (same as seed=N in --source)\n"
+    "  --raw           also keep every byte exchanged with a serial device (flock:), start-up\n"
+    "                  included, so that `mimic replay --through-driver` can play the session\n"
+    "                  back to the driver\n"
     "  --quiet         no live status line (a summary is still printed at the end)\n"
     "\n"
     "While recording, stderr shows a live status line when it is a terminal: elapsed time,\n"
@@ -77,7 +81,7 @@ std::string status_line(double elapsed_s, uint64_t samples, const std::vector<Se
 }
 
 int run(const std::vector<std::string>& argv) {
-  Args args(argv, {"source", "duration", "out", "seed"}, {"quiet"});
+  Args args(argv, {"source", "duration", "out", "seed"}, {"quiet", "raw"});
   if (!args.ok()) return usage_error(kName, args.error());
   if (args.help()) {
     std::printf("%s", kUsage);
@@ -104,7 +108,12 @@ int run(const std::vector<std::string>& argv) {
     spec->text += (spec->text.find('?') == std::string::npos ? "?seed=" : "&seed=") + std::to_string(seed);
   }
 
-  auto source = sim::open_sensor_source(*spec);
+  std::shared_ptr<sim::RawByteRecorder> raw;
+  if (args.has("raw")) {
+    if (spec->scheme != "flock") return usage_error(kName, "--raw needs a serial device source (flock:PATH)");
+    raw = std::make_shared<sim::RawByteRecorder>();
+  }
+  auto source = sim::open_sensor_source(*spec, nullptr, raw);
   if (!source) return failure(kName, source.error().what());
   if (auto st = (*source)->start(); !st) return failure(kName, st.error().what());
   const auto* replay = dynamic_cast<const sim::ReplaySource*>(source->get());
@@ -134,6 +143,8 @@ int run(const std::vector<std::string>& argv) {
   std::vector<devices::SensorSample> buf(1024);
   std::string error;
   auto drain = [&]() {
+    if (raw && error.empty())
+      if (auto r = raw->write_to(*writer); !r) error = r.error().what();
     size_t n;
     while (error.empty() && (n = (*source)->poll(buf)) > 0) {
       for (size_t i = 0; i < n; ++i) {
@@ -167,6 +178,8 @@ int run(const std::vector<std::string>& argv) {
   }
   if (!g_stop && error.empty()) drain();
   (*source)->stop();
+  if (raw && error.empty())  // the stop command the driver sent on the way out
+    if (auto r = raw->write_to(*writer); !r) error = r.error().what();
   const double elapsed = now_s() - start;
   if (auto st = writer->close(); !st && error.empty()) error = st.error().what();
   if (live) std::fprintf(stderr, "\r\033[K");
@@ -174,6 +187,8 @@ int run(const std::vector<std::string>& argv) {
   if (!error.empty()) return failure(kName, error + " (the log is valid up to the last flushed sample)");
   std::fprintf(stderr, "mimic record: %s%llu samples in %.2f s to %s (%s)\n", g_stop ? "interrupted; " : "",
                static_cast<unsigned long long>(total), elapsed, out_path->c_str(), header.source.c_str());
+  if (raw)
+    std::fprintf(stderr, "mimic record: %llu raw bytes kept\n", static_cast<unsigned long long>(raw->bytes_seen()));
   const auto status = (*source)->status();
   if (!status.last_error.empty()) std::fprintf(stderr, "mimic record: source reported: %s\n", status.last_error.c_str());
   return 0;

@@ -66,7 +66,8 @@ Result<std::unique_ptr<devices::SensorSource>> rig_source(const devices::SourceS
 }  // namespace
 
 Result<std::unique_ptr<devices::SensorSource>> open_sensor_source(const devices::SourceSpec& spec,
-                                                                  std::shared_ptr<const Clock> clock) {
+                                                                  std::shared_ptr<const Clock> clock,
+                                                                  std::shared_ptr<devices::ByteTap> tap) {
   if (!clock) clock = std::make_shared<SteadyClock>();
   if (spec.scheme == "sim") {
     auto skeleton = avatar::Skeleton::build(avatar::default_skeleton_desc());
@@ -102,8 +103,10 @@ Result<std::unique_ptr<devices::SensorSource>> open_sensor_source(const devices:
 #if MIMIC_SIM_HAVE_FLOCK
     auto config = devices::flock_config_from_spec(spec);
     if (!config) return tl::unexpected(config.error());
+    config->tap = std::move(tap);
     return std::unique_ptr<devices::SensorSource>(new devices::FlockSource(std::move(*config)));
 #else
+    (void)tap;
     return fail(Errc::unsupported, "source '" + spec.text + "': the Flock of Birds driver is not built into this version");
 #endif
   }

@@ -14,6 +14,8 @@
 
 #include <gtest/gtest.h>
 
+#include <nlohmann/json.hpp>
+
 #include "test_data.h"
 
 namespace {
@@ -191,6 +193,37 @@ TEST(CliRecordReplay, RecordsAVirtualFlockThroughTheDriver) {
   const ShellRun info = run_shell(mimic() + " replay '" + log + "' --speed 0");
   EXPECT_EQ(info.exit_code, 0) << info.err;
   EXPECT_NE(info.err.find(", 3 sensors"), std::string::npos) << info.err;
+}
+
+// --raw keeps the bytes of the session; --through-driver plays them to the driver again and
+// gets the recorded samples back, bit for bit.
+TEST(CliRecordReplay, RawFlockSessionReplaysThroughTheDriver) {
+  const std::string dir = work_dir();
+  const std::string log = dir + "/flock_raw.mlog", plain = dir + "/flock_plain.mlog", sim_out = dir + "/sim_raw.txt";
+  const ShellRun rec = run_shell(
+      "M=" + mimic() + "; $M sim flock --birds 2 --motion walk --seed 4 --busy 0.05 >'" + sim_out +
+      "' 2>&1 & S=$!; for i in $(seq 50); do [ -s '" + sim_out + "' ] && break; sleep 0.1; done; P=$(head -1 '" +
+      sim_out + "'); $M record --source \"flock:$P?birds=2\" --duration 1 --raw --out '" + log +
+      "' --quiet; R=$?; kill -INT $S; wait $S; exit $R");
+  ASSERT_EQ(rec.exit_code, 0) << rec.err;
+  EXPECT_NE(rec.err.find("raw bytes kept"), std::string::npos) << rec.err;
+  const ShellRun rep = run_shell(mimic() + " replay '" + log + "' --through-driver --json");
+  ASSERT_EQ(rep.exit_code, 0) << rep.out << rep.err;
+  const auto j = nlohmann::json::parse(rep.out);
+  EXPECT_GT(j["samples_recorded"].get<int>(), 100);
+  EXPECT_EQ(j["identical"], j["samples_recorded"]);
+  EXPECT_GE(j["samples_decoded"].get<int>(), j["samples_recorded"].get<int>());
+  EXPECT_TRUE(j["first_difference"].is_null());
+
+  // A log without raw bytes, and a simulated one, say why they cannot.
+  ShellRun r = run_shell(mimic() + " record --source sim:walk --duration 0.2 --quiet --out '" + plain + "'");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  r = run_shell(mimic() + " replay '" + plain + "' --through-driver");
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.err.find("no raw bytes"), std::string::npos) << r.err;
+  r = run_shell(mimic() + " record --source sim:walk --raw --out '" + plain + "'");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("--raw needs a serial device"), std::string::npos) << r.err;
 }
 
 TEST(CliRecordReplay, UsageErrorsAreClear) {

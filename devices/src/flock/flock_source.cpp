@@ -145,6 +145,7 @@ struct FlockSource::Impl {
     auto p = SerialPort::open(cfg.path, SerialOptions{cfg.baud, 1, false});
     if (!p) return tl::unexpected(p.error());
     port = std::move(*p);
+    port->set_tap(cfg.tap);
     return {};
   }
 

@@ -22,6 +22,13 @@ struct SerialPort::Impl {
   asio::io_context io;
   asio::serial_port port{io};
   std::string path;
+  std::shared_ptr<ByteTap> tap;
+
+  void tapped(bool from_device, const uint8_t* data, size_t n) {
+    if (!tap || n == 0) return;
+    const double t = std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+    tap->on_bytes(from_device, std::span<const uint8_t>(data, n), t);
+  }
 
   // Runs one async read until it completes or the deadline passes; returns bytes read.
   template <class Start>
@@ -104,7 +111,9 @@ Result<size_t> SerialPort::read_some(std::span<uint8_t> out, std::chrono::micros
       [&](auto handler) { impl_->port.async_read_some(asio::buffer(out.data(), out.size()), handler); },
       timeout, timed_out);
   if (!r) return r;
-  return timed_out ? size_t{0} : *r;
+  const size_t n = timed_out ? size_t{0} : *r;
+  impl_->tapped(true, out.data(), n);
+  return n;
 }
 
 Status SerialPort::read_exact(std::span<uint8_t> out, std::chrono::microseconds timeout) {
@@ -113,6 +122,7 @@ Status SerialPort::read_exact(std::span<uint8_t> out, std::chrono::microseconds 
       [&](auto handler) { asio::async_read(impl_->port, asio::buffer(out.data(), out.size()), handler); },
       timeout, timed_out);
   if (!r) return tl::unexpected(r.error());
+  impl_->tapped(true, out.data(), std::min(*r, out.size()));
   if (timed_out || *r < out.size()) {
     return fail(Errc::timeout, impl_->path + ": expected " + std::to_string(out.size()) +
                                    " bytes, got " + std::to_string(*r));
@@ -127,8 +137,11 @@ Status SerialPort::write(std::span<const uint8_t> bytes) {
     if (ec.value() == EIO || ec.value() == ENXIO) return fail(Errc::disconnected, impl_->path + ": " + ec.message());
     return fail(Errc::io_error, impl_->path + ": write: " + ec.message());
   }
+  impl_->tapped(false, bytes.data(), bytes.size());
   return {};
 }
+
+void SerialPort::set_tap(std::shared_ptr<ByteTap> tap) { impl_->tap = std::move(tap); }
 
 void SerialPort::flush_input() { ::tcflush(impl_->port.native_handle(), TCIFLUSH); }
 

@@ -20,6 +20,7 @@
 
 #include "mimic/core/result.h"
 #include "mimic/devices/flock_packet.h"
+#include "mimic/devices/serial.h"
 #include "mimic/devices/source.h"
 
 namespace mimic::devices {
@@ -54,6 +55,8 @@ struct FlockConfig {
   // the thread runs normally and info().realtime says so. The thread blocks in reads, so it
   // never starves the machine.
   int realtime_priority = 0;
+  // Sees every byte exchanged with the device (serial.h), e.g. to record a session raw.
+  std::shared_ptr<ByteTap> tap;
 };
 
 // From a "flock:<path>?birds=4&baud=115200&format=pos_quat&mode=stream&hemisphere=forward&

@@ -17,6 +17,15 @@
 
 namespace mimic::devices {
 
+// Sees every byte a port reads or writes, stamped on the host's steady clock (seconds) as the
+// call returns: `mimic record --raw` keeps them so a session can be replayed through the driver.
+// Called on the thread that uses the port; an implementation hands the bytes over itself.
+class ByteTap {
+ public:
+  virtual ~ByteTap() = default;
+  virtual void on_bytes(bool from_device, std::span<const uint8_t> bytes, double host_time_s) = 0;
+};
+
 struct SerialOptions {
   int baud = 115200;
   int stop_bits = 1;             // 1 or 2
@@ -49,6 +58,8 @@ class SerialPort {
   // (a pseudo-terminal, some USB adapters); errors other than that are Errc::io_error.
   Result<bool> set_rts(bool asserted);
   Result<bool> set_dtr(bool asserted);
+  // Every byte read or written from now on goes to `tap` too (nullptr: none).
+  void set_tap(std::shared_ptr<ByteTap> tap);
 
  private:
   struct Impl;

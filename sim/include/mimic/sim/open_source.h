@@ -19,6 +19,7 @@
 
 #include "mimic/avatar/skeleton.h"
 #include "mimic/core/result.h"
+#include "mimic/devices/serial.h"
 #include "mimic/devices/source.h"
 #include "mimic/sim/clock.h"
 #include "mimic/sim/log.h"
@@ -27,8 +28,10 @@
 
 namespace mimic::sim {
 
+// `tap`, when given, sees the raw bytes of a serial device (Flock); other sources ignore it.
 Result<std::unique_ptr<devices::SensorSource>> open_sensor_source(const devices::SourceSpec& spec,
-                                                                  std::shared_ptr<const Clock> clock = nullptr);
+                                                                  std::shared_ptr<const Clock> clock = nullptr,
+                                                                  std::shared_ptr<devices::ByteTap> tap = nullptr);
 
 // The rig parameters of a sim: or bvh: spec, with the layout resolved on `skeleton`.
 Result<RigConfig> rig_config_from_spec(const devices::SourceSpec& spec, const avatar::Skeleton& skeleton);
