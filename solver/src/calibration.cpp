@@ -66,7 +66,7 @@ void scale_desc(SkeletonDesc& d, float k) {
 // head, clavicles, shoulders, elbows, wrists. An error at the start alternates in sign along a
 // chain instead of growing. Replaces the marks of every joint it reaches.
 void mark_by_link_fractions(const Skeleton& base, const std::vector<SensorStats>& stats, const glm::quat& heading,
-                            std::map<std::string, glm::vec3>& mark) {
+                            bool arms_spread, std::map<std::string, glm::vec3>& mark) {
   const int n = base.joint_count();
   std::vector<const SensorStats*> at(n, nullptr);
   for (const auto& st : stats) {
@@ -150,8 +150,8 @@ void mark_by_link_fractions(const Skeleton& base, const std::vector<SensorStats>
     if (!more) break;
   }
   // The root that keeps those links nearest their stand-still directions (the skeleton's links
-  // turned to the heading, at the lengths found), held towards the hips' estimate: a least-squares
-  // fit in closed form, every link being linear in the root.
+  // turned to the heading, at the lengths found), held towards the hips' estimate: a
+  // least-squares fit in closed form, every link being linear in the root.
   if (!links.empty()) {
     constexpr float kAnchorWeight = 2.0f;
     glm::vec3 num = kAnchorWeight * root0;
@@ -159,6 +159,11 @@ void mark_by_link_fractions(const Skeleton& base, const std::vector<SensorStats>
     for (const Link& l : links) {
       const float g = a[l.far] - a[l.near];
       if (std::abs(g) < 1e-4f || is_zero(base.tip_m(l.near))) continue;
+      // In an N-pose the arms hang: only the trunk's and legs' links have their zero-pose direction.
+      const std::string& near_name = base.joint_name(l.near);
+      if (!arms_spread && (near_name.find("clavicle") != std::string::npos || near_name.find("shoulder") != std::string::npos ||
+                           near_name.find("elbow") != std::string::npos || near_name.find("wrist") != std::string::npos))
+        continue;
       const glm::vec3 v0 = pos[l.far] - pos[l.near];
       const glm::vec3 want = glm::length(v0) * (heading * glm::normalize(base.tip_m(l.near)));
       const glm::vec3 dc = v0 - g * root0;  // v = g·root + dc
@@ -196,7 +201,7 @@ Fit fit_body(const SkeletonDesc& base, const std::vector<SensorStats>& stats, co
     mark[st.binding->segment] = st.mean_pos - r * st.binding->placement_m;
   }
   std::map<std::string, glm::vec3> by_fraction;
-  mark_by_link_fractions(*Skeleton::build(base), stats, heading, by_fraction);
+  mark_by_link_fractions(*Skeleton::build(base), stats, heading, opt.pose == CalibrationPose::t_pose, by_fraction);
   for (const auto& [name, at] : by_fraction) mark[name] = at;
   auto has = [&](const char* n) { return mark.count(n) > 0; };
   auto build = [&]() { return *Skeleton::build(out.desc); };

@@ -204,7 +204,7 @@ TEST(TrackingSkeleton, UnmarkedJointsFollowTheMotionCaptureConvention) {
 // One sensor per segment, each at the middle of the wearer's own link, the calibration told only
 // "the middle": the joints come out where the wearer's are, though every link differs from the
 // tracking skeleton's.
-TEST(Calibration, MidLinkSensorsMarkTheWearersJoints) {
+void mid_link_calibration_places_the_wearers_joints(CalibrationPose calibration_pose) {
   auto desc = tracking_skeleton_desc();
   for (auto& j : desc.joints) {  // a wearer 6 % taller, long-legged, with a short neck
     const float k = j.name.find("knee") != std::string::npos || j.name.find("ankle") != std::string::npos ? 1.12f
@@ -222,10 +222,15 @@ TEST(Calibration, MidLinkSensorsMarkTheWearersJoints) {
   w.pose = w.skeleton.zero_pose();
   w.pose.root_orientation = glm::angleAxis(glm::radians(20.0f), glm::vec3(0, 1, 0));
   w.pose.root_position_m = {0.3f, avatar::standing_root_height_m(w.skeleton), 0.7f};
+  if (calibration_pose == CalibrationPose::n_pose)
+    for (const char* d : {"l_shoulder_abduction", "r_shoulder_abduction"})
+      w.pose.dof_rad[w.skeleton.find_dof(d)] = glm::radians(-80.0f);
   const auto worn = *standard_layout("all", w.skeleton);  // where the straps really are
   const auto told = *standard_layout("all", *Skeleton::build(tracking_skeleton_desc()));
   const auto mounts = testing::mounts_for(worn, glm::radians(15.0f), 5);
-  auto cal = calibrate(tracking_skeleton_desc(), told, capture(w, mounts, 60, 0.0005f, glm::radians(0.2f)));
+  CalibrationOptions opt;
+  opt.pose = calibration_pose;
+  auto cal = calibrate(tracking_skeleton_desc(), told, capture(w, mounts, 60, 0.0005f, glm::radians(0.2f)), opt);
   ASSERT_TRUE(cal) << cal.error().what();
   auto model = make_solver_model(*cal);
   ASSERT_TRUE(model) << model.error().what();
@@ -247,6 +252,14 @@ TEST(Calibration, MidLinkSensorsMarkTheWearersJoints) {
     const bool neck = w.skeleton.joint_name(j) == "neck_upper" || w.skeleton.joint_name(j) == "head";
     EXPECT_LT(glm::length(ws[j].translation - wt[j].translation), neck ? 0.025f : 0.01f) << w.skeleton.joint_name(j);
   }
+}
+
+TEST(Calibration, MidLinkSensorsMarkTheWearersJoints) {
+  mid_link_calibration_places_the_wearers_joints(CalibrationPose::t_pose);
+}
+
+TEST(Calibration, MidLinkSensorsMarkTheWearersJointsInAnNPose) {
+  mid_link_calibration_places_the_wearers_joints(CalibrationPose::n_pose);
 }
 
 }  // namespace
