@@ -366,8 +366,8 @@ struct StarBatch {
   // the lane's ray misses the support (the term then adds nothing).
   v8f A[kMaxRayCandidates], B[kMaxRayCandidates], WN[kMaxRayCandidates];
   v8f T0[kMaxRayCandidates], T1[kMaxRayCandidates], CH[kMaxRayCandidates], PK[kMaxRayCandidates];
-  v8f INV_A[kMaxRayCandidates];
-  float C[kMaxRayCandidates], IR2[kMaxRayCandidates], CBRT_INV_WN[kMaxRayCandidates];
+  v8f INV_A[kMaxRayCandidates], C[kMaxRayCandidates];
+  float IR2[kMaxRayCandidates], CBRT_INV_WN[kMaxRayCandidates];
   int n = 0;
 
   void eval(v8f t, v8f& f, v8f& slope) const {
@@ -397,64 +397,56 @@ struct LaneState {
 
 }  // namespace
 
-void BodyField::cast_star(const glm::vec3& origin, const glm::vec3& front, const glm::vec3& left,
-                          std::span<const float> angles_rad, std::span<const uint16_t> candidates,
-                          std::span<RayHit> hits) const {
-  // Everything that does not depend on the ray's angle is computed once per contour:
-  // q0 = M(o − c), M·front, M·left; then q1 = cos·Mf + sin·Ml per ray.
-  const int n = std::min<int>(static_cast<int>(candidates.size()), kMaxRayCandidates);
-  glm::vec3 q0[kMaxRayCandidates], mf[kMaxRayCandidates], ml[kMaxRayCandidates];
-  float cc[kMaxRayCandidates];
-  for (int k = 0; k < n; ++k) {
-    const uint16_t idx = candidates[k];
-    const glm::mat3& m = unit_from_world_[idx];
-    q0[k] = m * (origin - center_[idx]);
-    mf[k] = m * front;
-    ml[k] = m * left;
-    cc[k] = glm::dot(q0[k], q0[k]);
-  }
-  static const auto inv_n_cbrt = [] {
+namespace {
+
+const std::array<float, kMaxRayCandidates + 1>& inv_n_cbrt_table() {
+  static const auto table = [] {
     std::array<float, kMaxRayCandidates + 1> t{};
     for (int i = 1; i <= kMaxRayCandidates; ++i) t[i] = std::cbrt(1.0f / static_cast<float>(i));
     return t;
   }();
+  return table;
+}
 
+}  // namespace
+
+// Eight rays in lock-step (the same march and refinement as RayTerms::outermost per lane):
+// `quadratic(k, a, b, c)` gives, per lane, the metaball term k's quadratic along the ray in the
+// primitive's unit frame, |q0 + t·q1|² = a t² + 2 b t + c.
+template <class Quadratic>
+void BodyField::cast_lanes(std::span<const uint16_t> candidates, int n, Quadratic&& quadratic, std::span<RayHit> out) const {
+  const auto& inv_n_cbrt = inv_n_cbrt_table();
   StarBatch batch;
   LaneState lanes[kLanes];
-  const size_t rays = angles_rad.size();
-  for (size_t first = 0; first < rays; first += kLanes) {
-    const int live = static_cast<int>(std::min<size_t>(kLanes, rays - first));
-    v8f ca, sa;
-    for (int l = 0; l < kLanes; ++l) {
-      const float ang = angles_rad[first + std::min(l, live - 1)];
-      ca[l] = std::cos(ang);
-      sa[l] = std::sin(ang);
-    }
+  const int live = static_cast<int>(out.size());
+  {
     // Terms of every lane; hard ellipsoids give their exit directly.
     v8f t_hard = splat(-1.0f);
     v8f count = splat(0.0f);
     batch.n = 0;
     for (int k = 0; k < n; ++k) {
       const uint16_t idx = candidates[k];
-      const v8f qx = ca * mf[k].x + sa * ml[k].x, qy = ca * mf[k].y + sa * ml[k].y, qz = ca * mf[k].z + sa * ml[k].z;
-      const v8f a = qx * qx + qy * qy + qz * qz;
-      const v8f b = q0[k].x * qx + q0[k].y * qy + q0[k].z * qz;
+      v8f a, b, c;
+      quadratic(k, a, b, c);
       const v8f inv_a = 1.0f / a;
       if (hard_[idx]) {
-        const v8f disc = b * b - a * (cc[k] - 1.0f);
+        const v8f disc = b * b - a * (c - 1.0f);
         const v8f exit_t = (vsqrt(vmax(disc, splat(0.0f))) - b) * inv_a;
         t_hard = disc > 0.0f ? vmax(t_hard, exit_t) : t_hard;
         continue;
       }
-      const v8f disc = b * b - a * (cc[k] - r2_[idx]);
+      const v8f disc = b * b - a * (c - r2_[idx]);
       const v8f root = vsqrt(vmax(disc, splat(0.0f)));
       const v8f end = (root - b) * inv_a;
       const auto valid = (disc > 0.0f) & (end > 0.0f);
+      bool any = false;  // a term no lane's ray meets costs every march step nothing: leave it out
+      for (int l = 0; l < kLanes; ++l) any = any || valid[l];
+      if (!any) continue;
       const int m = batch.n;
       batch.A[m] = a;
       batch.B[m] = b;
       batch.INV_A[m] = inv_a;
-      batch.C[m] = cc[k];
+      batch.C[m] = c;
       batch.IR2[m] = inv_r2_[idx];
       batch.CBRT_INV_WN[m] = cbrt_inv_wn_[idx];
       batch.WN[m] = valid ? splat(weight_norm_[idx]) : splat(0.0f);
@@ -584,7 +576,78 @@ void BodyField::cast_star(const glm::vec3& origin, const glm::vec3& front, const
         ++pending;
       }
     }
-    for (int l = 0; l < live; ++l) hits[first + l] = RayHit{lanes[l].phase == 3 ? lanes[l].result : t_hard[l]};
+    for (int l = 0; l < live; ++l) out[l] = RayHit{lanes[l].phase == 3 ? lanes[l].result : t_hard[l]};
+  }
+}
+
+void BodyField::cast_star(const glm::vec3& origin, const glm::vec3& front, const glm::vec3& left,
+                          std::span<const float> angles_rad, std::span<const uint16_t> candidates,
+                          std::span<RayHit> hits) const {
+  // Everything that does not depend on the ray's angle is computed once per contour:
+  // q0 = M(o − c), M·front, M·left; then q1 = cos·Mf + sin·Ml per ray.
+  const int n = std::min<int>(static_cast<int>(candidates.size()), kMaxRayCandidates);
+  glm::vec3 q0[kMaxRayCandidates], mf[kMaxRayCandidates], ml[kMaxRayCandidates];
+  float cc[kMaxRayCandidates];
+  for (int k = 0; k < n; ++k) {
+    const uint16_t idx = candidates[k];
+    const glm::mat3& m = unit_from_world_[idx];
+    q0[k] = m * (origin - center_[idx]);
+    mf[k] = m * front;
+    ml[k] = m * left;
+    cc[k] = glm::dot(q0[k], q0[k]);
+  }
+
+  const size_t rays = angles_rad.size();
+  for (size_t first = 0; first < rays; first += kLanes) {
+    const int live = static_cast<int>(std::min<size_t>(kLanes, rays - first));
+    v8f ca, sa;
+    for (int l = 0; l < kLanes; ++l) {
+      const float ang = angles_rad[first + std::min(l, live - 1)];
+      ca[l] = std::cos(ang);
+      sa[l] = std::sin(ang);
+    }
+    cast_lanes(
+        candidates, n,
+        [&](int k, v8f& a, v8f& b, v8f& c) {
+          const v8f qx = ca * mf[k].x + sa * ml[k].x, qy = ca * mf[k].y + sa * ml[k].y, qz = ca * mf[k].z + sa * ml[k].z;
+          a = qx * qx + qy * qy + qz * qz;
+          b = q0[k].x * qx + q0[k].y * qy + q0[k].z * qz;
+          c = splat(cc[k]);
+        },
+        hits.subspan(first, static_cast<size_t>(live)));
+  }
+}
+
+void BodyField::cast_rays(std::span<const glm::vec3> origins, std::span<const glm::vec3> dirs,
+                          std::span<const uint16_t> candidates, std::span<RayHit> hits) const {
+  const int n = std::min<int>(static_cast<int>(candidates.size()), kMaxRayCandidates);
+  const size_t rays = std::min(origins.size(), dirs.size());
+  for (size_t first = 0; first < rays; first += kLanes) {
+    const int live = static_cast<int>(std::min<size_t>(kLanes, rays - first));
+    v8f ox, oy, oz, dx, dy, dz;
+    for (int l = 0; l < kLanes; ++l) {
+      const size_t r = first + static_cast<size_t>(std::min(l, live - 1));
+      ox[l] = origins[r].x, oy[l] = origins[r].y, oz[l] = origins[r].z;
+      dx[l] = dirs[r].x, dy[l] = dirs[r].y, dz[l] = dirs[r].z;
+    }
+    cast_lanes(
+        candidates, n,
+        [&](int k, v8f& a, v8f& b, v8f& c) {
+          const uint16_t idx = candidates[k];
+          const glm::mat3& m = unit_from_world_[idx];  // column-major: m[col][row]
+          const glm::vec3 ctr = center_[idx];
+          const v8f px = ox - ctr.x, py = oy - ctr.y, pz = oz - ctr.z;
+          const v8f q0x = m[0][0] * px + m[1][0] * py + m[2][0] * pz;
+          const v8f q0y = m[0][1] * px + m[1][1] * py + m[2][1] * pz;
+          const v8f q0z = m[0][2] * px + m[1][2] * py + m[2][2] * pz;
+          const v8f q1x = m[0][0] * dx + m[1][0] * dy + m[2][0] * dz;
+          const v8f q1y = m[0][1] * dx + m[1][1] * dy + m[2][1] * dz;
+          const v8f q1z = m[0][2] * dx + m[1][2] * dy + m[2][2] * dz;
+          a = q1x * q1x + q1y * q1y + q1z * q1z;
+          b = q0x * q1x + q0y * q1y + q0z * q1z;
+          c = q0x * q0x + q0y * q0y + q0z * q0z;
+        },
+        hits.subspan(first, static_cast<size_t>(live)));
   }
 }
 

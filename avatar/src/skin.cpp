@@ -161,6 +161,8 @@ struct BodySkin::Impl {
   std::vector<glm::vec3> scratch_grid, scratch_rows, scratch_poly;
   std::vector<uint16_t> candidates;
   std::vector<RayHit> star_hits;
+  std::vector<glm::vec3> ray_origins, ray_dirs, ray_fallbacks;  // a ring's rays, cast together
+  std::vector<float> ray_angles;
   SkinTimings timings;
   SkinStats stats;
 
@@ -245,14 +247,20 @@ void BodySkin::Impl::compute_ring(const Ring& r) {
       // S ring: in extreme postures (an arm swung across the chest) the bare projection can
       // land far down the limb, from where the ray would miss the junction.
       const float s_along = glm::dot(ctrl_origin[s.slots[0]] - a, axis);
-      for (size_t j = 0; j < r.slots.size(); ++j) {
+      const size_t m = r.slots.size();
+      for (size_t j = 0; j < m; ++j) {
         const glm::vec3 sj = ctrl[s.slots[j]];
         const glm::vec3 pj = sj + r.alpha * (ctrl[r.goal[j]] - sj);
         const glm::vec3 o = a + std::clamp(glm::dot(pj - a, axis), -0.05f, std::max(s_along, -0.05f)) * axis;
         const glm::vec3 so = a + glm::dot(sj - a, axis) * axis;
-        const glm::vec3 d = safe_normalize(pj - o, safe_normalize(sj - so, c.normal[0]));
-        cast_into(r.slots[j], o, d, cand, pj);
+        ray_origins[j] = o;
+        ray_dirs[j] = safe_normalize(pj - o, safe_normalize(sj - so, c.normal[0]));
+        ray_fallbacks[j] = pj;
       }
+      // Every ray of the ring at once, eight in lock-step.
+      const std::span<RayHit> hits(star_hits.data(), m);
+      field.cast_rays(std::span(ray_origins.data(), m), std::span(ray_dirs.data(), m), cand, hits);
+      for (size_t j = 0; j < m; ++j) store(r.slots[j], ray_origins[j], ray_dirs[j], hits[j], ray_fallbacks[j]);
       break;
     }
     case RingKind::arc: {
@@ -266,12 +274,17 @@ void BodySkin::Impl::compute_ring(const Ring& r) {
       up = safe_normalize(up - glm::dot(up, front) * front, {0, 1, 0});
       const int n = gather(r.mask);
       const std::span<const uint16_t> cand(candidates.data(), n);
+      // A half star from the chord's middle: one contour's worth of shared work.
       const int segs = static_cast<int>(r.slots.size()) + 1;
+      const size_t m = r.slots.size();
+      for (int k = 1; k < segs; ++k) ray_angles[static_cast<size_t>(k - 1)] = kPi * static_cast<float>(k) / static_cast<float>(segs);
+      const std::span<RayHit> hits(star_hits.data(), m);
+      field.cast_star(o, front, up, std::span(ray_angles.data(), m), cand, hits);
       for (int k = 1; k < segs; ++k) {
-        const float phi = kPi * static_cast<float>(k) / static_cast<float>(segs);
+        const float phi = ray_angles[static_cast<size_t>(k - 1)];
         const glm::vec3 d = std::cos(phi) * front + std::sin(phi) * up;
         const glm::vec3 chord = glm::mix(from, to, static_cast<float>(k) / static_cast<float>(segs));
-        cast_into(r.slots[k - 1], o, d, cand, chord);
+        store(r.slots[k - 1], o, d, hits[static_cast<size_t>(k - 1)], chord);
       }
       break;
     }
@@ -448,6 +461,13 @@ Status BodySkin::Impl::build(const BodyModel& model) {
   bridges.push_back(Bridge{r_bridge, 0, 0, {}, {}});
 
   // Compute what exists so far in the rest posture: the loops' geometry sets the limb angles.
+  size_t widest_so_far = star_hits.size();
+  for (const Ring& r : rings) widest_so_far = std::max(widest_so_far, r.slots.size());
+  star_hits.resize(widest_so_far);
+  ray_origins.resize(widest_so_far);
+  ray_dirs.resize(widest_so_far);
+  ray_fallbacks.resize(widest_so_far);
+  ray_angles.resize(widest_so_far);
   for (const Ring& r : rings) compute_ring(r);
 
   auto slots_of = [&](int ring) -> const std::vector<uint32_t>& { return rings[ring].slots; };
@@ -627,6 +647,10 @@ Status BodySkin::Impl::build(const BodyModel& model) {
   size_t widest = 0;
   for (const Ring& r : rings) widest = std::max(widest, r.slots.size());
   star_hits.resize(widest);
+  ray_origins.resize(widest);
+  ray_dirs.resize(widest);
+  ray_fallbacks.resize(widest);
+  ray_angles.resize(widest);
   build_output();
   return {};
 }

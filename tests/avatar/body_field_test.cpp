@@ -205,5 +205,51 @@ TEST(BodyField, StarCastingAgreesWithSingleRays) {
   EXPECT_GT(hits, 100) << "of " << compared << " rays";
 }
 
+// Rays of their own (each with its origin and direction), eight at a time: the same outermost
+// crossings as one ray at a time, misses included.
+TEST(BodyField, BatchedRaysAgreeWithSingleRays) {
+  const BodyModel m = default_body_model();
+  auto skel = Skeleton::build(m.skeleton);
+  ASSERT_TRUE(skel);
+  auto f = BodyField::create(m, *skel);
+  ASSERT_TRUE(f);
+  std::mt19937_64 rng(7);
+  std::uniform_real_distribution<float> u(-1.0f, 1.0f);
+  std::vector<RigidTransform> w(skel->joint_count());
+  int compared = 0, hits = 0, misses = 0;
+  for (int trial = 0; trial < 100; ++trial) {
+    Pose p = skel->zero_pose();
+    for (int i = 0; i < skel->dof_count(); ++i) p.dof_rad[i] = 0.5f * u(rng);
+    forward_kinematics(*skel, p, w);
+    f->update(w, p.dof_rad);
+    const GroupMask mask = static_cast<GroupMask>((1u << (trial % kGroupCount)) | (1u << ((trial + 3) % kGroupCount)));
+    std::vector<uint16_t> cand;
+    for (int i = 0; i < f->size(); ++i)
+      if (f->groups(i) & mask) cand.push_back(static_cast<uint16_t>(i));
+    // 1 to 21 rays (a partial last batch too), origins near joints, any direction.
+    const int rays = 1 + trial % 21;
+    std::vector<glm::vec3> origins, dirs;
+    for (int j = 0; j < rays; ++j) {
+      origins.push_back(w[(trial + j) % skel->joint_count()].translation + 0.05f * glm::vec3(u(rng), u(rng), u(rng)));
+      dirs.push_back(glm::normalize(glm::vec3(u(rng), u(rng), u(rng))));
+    }
+    std::vector<RayHit> batch(static_cast<size_t>(rays));
+    f->cast_rays(origins, dirs, cand, batch);
+    for (int j = 0; j < rays; ++j) {
+      const RayHit one = f->cast_outermost(origins[j], dirs[j], cand);
+      ASSERT_EQ(one.hit(), batch[j].hit()) << "trial " << trial << " ray " << j;
+      if (one.hit()) {
+        EXPECT_NEAR(one.t, batch[j].t, 1e-4f) << "trial " << trial << " ray " << j;
+        ++hits;
+      } else {
+        ++misses;
+      }
+      ++compared;
+    }
+  }
+  EXPECT_GT(hits, 100) << "of " << compared << " rays";
+  EXPECT_GT(misses, 0);
+}
+
 }  // namespace
 }  // namespace mimic::avatar

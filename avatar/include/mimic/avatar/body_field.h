@@ -75,8 +75,14 @@ class BodyField {
   void cast_star(const glm::vec3& origin, const glm::vec3& front, const glm::vec3& left,
                  std::span<const float> angles_rad, std::span<const uint16_t> candidates,
                  std::span<RayHit> hits) const;
+  // Rays of their own (origins[j] + t·dirs[j], unit dirs), eight at a time in lock-step: the
+  // same result as cast_outermost per ray.
+  void cast_rays(std::span<const glm::vec3> origins, std::span<const glm::vec3> dirs,
+                 std::span<const uint16_t> candidates, std::span<RayHit> hits) const;
 
  private:
+  template <class Quadratic>
+  void cast_lanes(std::span<const uint16_t> candidates, int n, Quadratic&& quadratic, std::span<RayHit> out) const;
   struct Source {
     int joint = -1;
     int dof = -1;  // reference DOF of a deformable primitive, -1 when rigid
