@@ -6,6 +6,7 @@
 
 #include <map>
 #include <memory>
+#include <optional>
 #include <random>
 #include <string>
 
@@ -32,30 +33,46 @@ const avatar::RetargetedClip* clip(const std::string& id) {
   return (cache[id] = std::make_unique<avatar::RetargetedClip>(std::move(*r))).get();
 }
 
-// Filtering + solving one frame of 07_01 (walk), frames cycled, warm-started as in a live run.
-void BM_SolveFrame(benchmark::State& state) {
-  const char* layout_name = kLayouts[state.range(0)];
+// 07_01 worn by a layout's sensors (straps askew by up to 20°, 1 mm / 0.5° noise), calibrated
+// on its frame-0 T-pose, with the sensor samples of every later frame.
+struct WornClip {
+  solver::Calibration calibration;
+  std::vector<solver::SensorMount> mounts;
+  std::vector<std::vector<devices::SensorSample>> frames;
+};
+
+std::optional<WornClip> wear_07_01(const char* layout_name) {
   const auto* c = clip("07_01");
-  if (!c) {
-    state.SkipWithError("shared clip 07_01 not found (set MIMIC_SHARED_DATA)");
-    return;
-  }
+  if (!c) return std::nullopt;
   auto layout = *solver::standard_layout(layout_name, c->skeleton);
-  const auto mounts = solver::testing::mounts_for(layout, glm::radians(20.0f), 1);
+  WornClip w;
+  w.mounts = solver::testing::mounts_for(layout, glm::radians(20.0f), 1);
   std::mt19937_64 rng(1);
   std::vector<devices::SensorSample> capture, tick;
   for (int k = 0; k < 100; ++k) {
-    solver::testing::sense(c->skeleton, c->poses[0], mounts, tick, &rng, 0.001f, glm::radians(0.5f), 0.01 * k);
+    solver::testing::sense(c->skeleton, c->poses[0], w.mounts, tick, &rng, 0.001f, glm::radians(0.5f), 0.01 * k);
     capture.insert(capture.end(), tick.begin(), tick.end());
   }
-  auto cal = *solver::calibrate(solver::tracking_skeleton_desc(), layout, capture);
-  auto model = *solver::make_solver_model(cal);
-  std::vector<std::vector<devices::SensorSample>> frames;
+  w.calibration = *solver::calibrate(solver::tracking_skeleton_desc(), layout, capture);
   for (size_t f = 1; f < c->poses.size(); ++f) {
-    solver::testing::sense(c->skeleton, c->poses[f], mounts, tick, &rng, 0.001f, glm::radians(0.5f),
+    solver::testing::sense(c->skeleton, c->poses[f], w.mounts, tick, &rng, 0.001f, glm::radians(0.5f),
                            static_cast<double>(f) * c->frame_time_s);
-    frames.push_back(tick);
+    w.frames.push_back(tick);
   }
+  return w;
+}
+
+// Filtering + solving one frame of 07_01 (walk), frames cycled, warm-started as in a live run.
+void BM_SolveFrame(benchmark::State& state) {
+  const char* layout_name = kLayouts[state.range(0)];
+  auto worn = wear_07_01(layout_name);
+  if (!worn) {
+    state.SkipWithError("shared clip 07_01 not found (set MIMIC_SHARED_DATA)");
+    return;
+  }
+  auto model = *solver::make_solver_model(worn->calibration);
+  const auto& mounts = worn->mounts;
+  const auto& frames = worn->frames;
   solver::SolverContext ctx(model);
   solver::SensorFilterBank filters(static_cast<int>(mounts.size()));
   avatar::Pose pose = model.skeleton().zero_pose();
@@ -84,26 +101,14 @@ BENCHMARK(BM_SolveFrame)->DenseRange(0, 3)->Unit(benchmark::kMicrosecond);
 // estimators; the in-place limb refit twice a second included), 07_01, layouts 11 and all.
 void BM_RefinerAdd(benchmark::State& state) {
   const char* layout_name = kLayouts[state.range(0)];
-  const auto* c = clip("07_01");
-  if (!c) {
+  auto worn = wear_07_01(layout_name);
+  if (!worn) {
     state.SkipWithError("shared clip 07_01 not found (set MIMIC_SHARED_DATA)");
     return;
   }
-  auto layout = *solver::standard_layout(layout_name, c->skeleton);
-  const auto mounts = solver::testing::mounts_for(layout, glm::radians(20.0f), 1);
-  std::mt19937_64 rng(1);
-  std::vector<devices::SensorSample> capture, tick;
-  for (int k = 0; k < 100; ++k) {
-    solver::testing::sense(c->skeleton, c->poses[0], mounts, tick, &rng, 0.001f, glm::radians(0.5f), 0.01 * k);
-    capture.insert(capture.end(), tick.begin(), tick.end());
-  }
-  auto cal = *solver::calibrate(solver::tracking_skeleton_desc(), layout, capture);
+  const auto& cal = worn->calibration;
+  const auto& frames = worn->frames;
   auto model = *solver::make_solver_model(cal);
-  std::vector<std::vector<devices::SensorSample>> frames;
-  for (size_t f = 1; f < c->poses.size(); ++f) {
-    solver::testing::sense(c->skeleton, c->poses[f], mounts, tick, &rng, 0.001f, glm::radians(0.5f));
-    frames.push_back(tick);
-  }
   solver::ModelRefiner refiner(cal, model, 1e9);  // no rebuild falls due while timing
   size_t f = 0;
   for (auto _ : state) {
