@@ -11,6 +11,7 @@
 #include <nlohmann/json.hpp>
 
 #include "command.h"
+#include "stop_signal.h"
 #include "mimic/devices/usb_discovery.h"
 #include "mimic/sim/open_input.h"
 
@@ -56,9 +57,6 @@ constexpr const char* kUsage =
     "                  toward the user; buttons as a bit mask (bit 0 = button 1).\n"
     "\n"
     "Exit status: 0 (also when nothing is connected), 2 on bad usage.\n";
-
-std::atomic<bool> g_stop{false};
-void on_signal(int) { g_stop.store(true); }
 
 nlohmann::json to_json(const devices::DeviceInventory& inv) {
   auto hex = [](uint16_t v) {
@@ -146,15 +144,14 @@ int read_source(const std::string& text, double duration_s) {
   auto src = open_input(text);
   if (!src) return usage_error(kName, src.error().what());
   if (auto r = (*src)->start(); !r) return failure(kName, r.error().what());
-  std::signal(SIGINT, on_signal);
-  std::signal(SIGTERM, on_signal);
+  install_stop_handler();
   using clock = std::chrono::steady_clock;
   const auto start = clock::now();
   auto next_print = start;
   uint64_t frames = 0;
   devices::InputFrame f;
   bool have = false;
-  while (!g_stop.load()) {
+  while (!stop_requested()) {
     const auto now = clock::now();
     if (duration_s > 0 && now - start >= std::chrono::duration<double>(duration_s)) break;
     devices::InputFrame g;
@@ -228,8 +225,7 @@ int run(const std::vector<std::string>& argv) {
   }
   if (!args.has("watch")) return 0;
 
-  std::signal(SIGINT, on_signal);
-  std::signal(SIGTERM, on_signal);
+  install_stop_handler();
   std::atomic<bool> usb_changed{false};
   auto hotplug = devices::UsbHotplug::start([&] { usb_changed.store(true); });
   if (!json) {
@@ -245,7 +241,7 @@ int run(const std::vector<std::string>& argv) {
   using clock = std::chrono::steady_clock;
   const auto start = clock::now();
   auto next_scan = start + std::chrono::duration<double>(interval_s);
-  while (!g_stop.load()) {
+  while (!stop_requested()) {
     if (duration_s > 0 && clock::now() - start >= std::chrono::duration<double>(duration_s)) break;
     std::this_thread::sleep_for(std::chrono::milliseconds(50));
     if (!usb_changed.exchange(false) && clock::now() < next_scan) continue;

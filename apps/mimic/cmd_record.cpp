@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "command.h"
+#include "stop_signal.h"
 #include "mimic/devices/source.h"
 #include "mimic/sim/log.h"
 #include "mimic/sim/open_source.h"
@@ -48,16 +49,6 @@ constexpr const char* kUsage =
     "samples, sample rate and, per sensor, how many samples were stale (dropped out).\n"
     "Exit status: 0 when the log was written, 1 on an I/O or source error, 2 on bad usage.\n";
 
-volatile std::sig_atomic_t g_stop = 0;
-void on_signal(int) { g_stop = 1; }
-
-void install_stop_handler() {
-  struct sigaction sa {};
-  sa.sa_handler = on_signal;
-  sigemptyset(&sa.sa_mask);
-  sigaction(SIGINT, &sa, nullptr);
-  sigaction(SIGTERM, &sa, nullptr);
-}
 
 double now_s() {
   return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
@@ -159,7 +150,7 @@ int run(const std::vector<std::string>& argv) {
       }
     }
   };
-  while (!g_stop && error.empty()) {
+  while (!stop_requested() && error.empty()) {
     drain();
     const double t = now_s();
     if (duration_s > 0 && t - start >= duration_s) break;
@@ -176,7 +167,7 @@ int run(const std::vector<std::string>& argv) {
     }
     std::this_thread::sleep_for(std::chrono::milliseconds(2));
   }
-  if (!g_stop && error.empty()) drain();
+  if (!stop_requested() && error.empty()) drain();
   (*source)->stop();
   if (raw && error.empty())  // the stop command the driver sent on the way out
     if (auto r = raw->write_to(*writer); !r) error = r.error().what();
@@ -185,7 +176,7 @@ int run(const std::vector<std::string>& argv) {
   if (live) std::fprintf(stderr, "\r\033[K");
   std::fprintf(stderr, "%s\n", status_line(elapsed, total, sensors).c_str());
   if (!error.empty()) return failure(kName, error + " (the log is valid up to the last flushed sample)");
-  std::fprintf(stderr, "mimic record: %s%llu samples in %.2f s to %s (%s)\n", g_stop ? "interrupted; " : "",
+  std::fprintf(stderr, "mimic record: %s%llu samples in %.2f s to %s (%s)\n", stop_requested() ? "interrupted; " : "",
                static_cast<unsigned long long>(total), elapsed, out_path->c_str(), header.source.c_str());
   if (raw)
     std::fprintf(stderr, "mimic record: %llu raw bytes kept\n", static_cast<unsigned long long>(raw->bytes_seen()));

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "command.h"
+#include "stop_signal.h"
 #include "mimic/sim/clock.h"
 #include "mimic/sim/log.h"
 #include "mimic/sim/replay_source.h"
@@ -54,17 +55,6 @@ constexpr const char* kUsage =
     "where it stopped are reported on stderr and the exit status is 1 (every good sample before\n"
     "it has been output). Exit status 2 on bad usage or when FILE is not a readable log.\n";
 
-volatile std::sig_atomic_t g_stop = 0;
-void on_signal(int) { g_stop = 1; }
-
-void install_stop_handler() {
-  struct sigaction sa {};
-  sa.sa_handler = on_signal;
-  sigemptyset(&sa.sa_mask);
-  sigaction(SIGINT, &sa, nullptr);
-  sigaction(SIGTERM, &sa, nullptr);
-  sigaction(SIGPIPE, &sa, nullptr);
-}
 
 // Same sensor, position and orientation, bit for bit (times differ: the host stamps them).
 bool same_sample(const devices::SensorSample& a, const devices::SensorSample& b) {
@@ -97,7 +87,7 @@ int replay_through_driver(const std::string& path, bool json) {
   if (!source) return failure(kName, source.error().what());
   if (!json) std::fprintf(stderr, "playing %zu raw chunks (%llu bytes) of %s to the Flock driver on %s\n", log->raw.size(),
                           static_cast<unsigned long long>(chunk_bytes), log->header.source.c_str(), spec->target.c_str());
-  install_stop_handler();
+  install_stop_handler(true);
   std::vector<devices::SensorSample> decoded, buf(1024);
   decoded.reserve(log->samples.size() + 64);
   std::string error;
@@ -106,7 +96,7 @@ int replay_through_driver(const std::string& path, bool json) {
   const double recorded_s = log->raw.back().host_time_s - log->raw.front().host_time_s;
   const auto deadline = clock::now() + std::chrono::duration<double>(recorded_s + 10.0);
   auto sent_at = clock::time_point::max();
-  while (error.empty() && !g_stop && clock::now() < deadline) {
+  while (error.empty() && !stop_requested() && clock::now() < deadline) {
     const size_t n = (*source)->poll(buf);
     decoded.insert(decoded.end(), buf.begin(), buf.begin() + static_cast<long>(n));
     if (sent_at == clock::time_point::max() && (*server)->stats().bytes_out >= to_send) sent_at = clock::now();
@@ -183,7 +173,7 @@ int run(const std::vector<std::string>& argv) {
                  log.samples.empty() ? 0.0 : log.samples.back().host_time_s - log.samples.front().host_time_s,
                  log.complete ? "" : " (damaged)");
 
-  install_stop_handler();
+  install_stop_handler(true);
   if (auto st = source.start(); !st) return failure(kName, st.error().what());
   const double start = clock->now_s();
   double next_status = start;
@@ -192,7 +182,7 @@ int run(const std::vector<std::string>& argv) {
   std::vector<char> out;
   out.reserve(buf.size() * 96);
   char line[160];
-  while (!g_stop) {
+  while (!stop_requested()) {
     const size_t n = source.poll(buf);
     total += n;
     if (csv && n > 0) {
@@ -218,7 +208,7 @@ int run(const std::vector<std::string>& argv) {
   if (live) std::fprintf(stderr, "\r\033[K");
   if (!csv && !args.has("quiet"))
     std::fprintf(stderr, "replayed %llu samples in %.2f s%s\n", static_cast<unsigned long long>(total),
-                 clock->now_s() - start, g_stop ? " (interrupted)" : "");
+                 clock->now_s() - start, stop_requested() ? " (interrupted)" : "");
   if (log.damage) {
     std::fprintf(stderr, "mimic replay: %s: damaged log, %s; %zu good samples before it\n", path.c_str(),
                  log.damage->what().c_str(), log.samples.size());

@@ -9,6 +9,7 @@
 #include <nlohmann/json.hpp>
 
 #include "command.h"
+#include "stop_signal.h"
 #include "mimic/net/client.h"
 #include "mimic/net/server.h"
 #include "mimic/net/vmc.h"
@@ -18,9 +19,7 @@
 namespace mimic::app {
 namespace {
 
-std::atomic<bool> g_stop{false};
 std::atomic<bool> g_report{false};
-extern "C" void on_signal(int) { g_stop = true; }
 extern "C" void on_report_signal(int) { g_report = true; }
 
 const char* kUsage =
@@ -199,11 +198,10 @@ int run(const std::vector<std::string>& argv) {
     std::fprintf(stderr, "mimic run: SCHED_FIFO priority %ld refused (needs CAP_SYS_NICE); running unprioritised\n",
                  rt_priority);
   // Handlers before announcing the endpoint: whoever reads that line may signal at once.
-  g_stop = false;
+  clear_stop_request();
   g_report = false;
-  std::signal(SIGINT, on_signal);
+  install_stop_handler();
   std::signal(SIGUSR1, on_report_signal);
-  std::signal(SIGTERM, on_signal);
   std::printf("%s\n", where.c_str());
   std::fflush(stdout);
 
@@ -243,7 +241,7 @@ int run(const std::vector<std::string>& argv) {
   uint64_t last_frames = 0;
   auto last_status = start;
   char line[320];
-  while (!g_stop) {
+  while (!stop_requested()) {
     const auto now = C::now();
     if (duration_s > 0 && now - start >= std::chrono::duration<double>(duration_s)) break;
     const uint64_t allocs_before = thread_allocation_count();

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "command.h"
+#include "stop_signal.h"
 #include "mimic/avatar/motion.h"
 #include "mimic/avatar/retarget.h"
 #include "mimic/devices/flock_packet.h"
@@ -61,9 +62,6 @@ constexpr const char* kUsage =
     "                (default 0.35)\n"
     "\n"
     "Try: mimic sim flock --birds 4 &   then open flock:<path>?birds=4\n";
-
-std::atomic<bool> g_stop{false};
-void on_signal(int) { g_stop = true; }
 
 // The rig on a motion, stepped as the simulator's clock advances: every record served for a
 // time t carries the rig's latest tick at or before t.
@@ -190,15 +188,14 @@ int run(const std::vector<std::string>& argv) {
 
   auto flock = sim::VirtualFlock::create(std::move(cfg));
   if (!flock) return failure(kName, flock.error().what());
-  std::signal(SIGINT, on_signal);
-  std::signal(SIGTERM, on_signal);
+  install_stop_handler();
   if (auto s = (*flock)->start(); !s) return failure(kName, s.error().what());
   std::printf("%s\n", (*flock)->slave_path().c_str());
   std::fflush(stdout);
   std::fprintf(stderr, "mimic sim flock: %ld %s at %ld baud%s, %s; open flock:%s?birds=%ld&baud=%ld%s\n", birds,
                birds == 1 ? "bird" : "birds", baud, ert ? " with ERC" : "", motion_what.c_str(),
                (*flock)->slave_path().c_str(), birds, baud, ert ? "&erc=1" : "");
-  while (!g_stop.load()) std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  while (!stop_requested()) std::this_thread::sleep_for(std::chrono::milliseconds(50));
   (*flock)->stop();
   const sim::VirtualFlockStats st = (*flock)->stats();
   std::fprintf(stderr, "mimic sim flock: %llu records, %llu commands (%llu invalid), %llu faults injected\n",

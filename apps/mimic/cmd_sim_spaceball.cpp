@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "command.h"
+#include "stop_signal.h"
 #include "mimic/sim/virtual_magellan.h"
 #include "mimic/sim/virtual_spaceball.h"
 #include "sim_command.h"
@@ -57,17 +58,13 @@ constexpr const char* kMagellanUsage =
     "  --log FILE      write every byte in and out: '<t_s> in|out <hex>' per chunk\n"
     "  --period S      shortest interval between d packets (default 0.02)\n";
 
-std::atomic<bool> g_stop{false};
-void on_signal(int) { g_stop.store(true); }
-
 int serve(const char* name, Result<std::unique_ptr<sim::PtyServer>> server) {
   if (!server) return failure(name, server.error().what());
-  std::signal(SIGINT, on_signal);
-  std::signal(SIGTERM, on_signal);
+  install_stop_handler();
   std::printf("%s\n", (*server)->path().c_str());
   std::fflush(stdout);
   std::fprintf(stderr, "mimic sim %s: serving on %s (Ctrl-C to stop)\n", name + 4, (*server)->path().c_str());
-  while (!g_stop.load()) std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  while (!stop_requested()) std::this_thread::sleep_for(std::chrono::milliseconds(50));
   const auto st = (*server)->stats();
   (*server)->stop();
   std::fprintf(stderr,
