@@ -3,25 +3,16 @@
 #include <algorithm>
 #include <cmath>
 
+#include "rotation_vector.h"
+
 namespace mimic::solver {
 
 namespace {
 
 constexpr float kTwoPi = 6.28318530718f;
 
-glm::vec3 rotation_vector(glm::quat q) {
-  if (q.w < 0) q = -q;
-  const glm::vec3 v(q.x, q.y, q.z);
-  const float s = glm::length(v);
-  if (s < 1e-9f) return 2.0f * v;
-  return v * (2.0f * std::atan2(s, q.w) / s);
-}
-
-glm::quat exp_rotation(const glm::vec3& rv) {
-  const float a = glm::length(rv);
-  if (a < 1e-9f) return glm::quat(1, 0, 0, 0);
-  return glm::angleAxis(a, rv / a);
-}
+using detail::exp_rotation;
+using detail::rotation_vector;
 
 bool finite(const devices::SensorSample& s) {
   return std::isfinite(s.position_m.x) && std::isfinite(s.position_m.y) && std::isfinite(s.position_m.z) &&

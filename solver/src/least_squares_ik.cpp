@@ -4,6 +4,8 @@
 #include <cassert>
 #include <cmath>
 
+#include "rotation_vector.h"
+
 namespace mimic::solver {
 
 using avatar::Pose;
@@ -14,20 +16,8 @@ namespace {
 
 constexpr int kRootUnknowns = 6;
 
-// Rotation vector (axis · angle, |angle| ≤ π) of a unit quaternion.
-glm::vec3 rotation_vector(glm::quat q) {
-  if (q.w < 0) q = -q;
-  const glm::vec3 v(q.x, q.y, q.z);
-  const float s = glm::length(v);
-  if (s < 1e-8f) return 2.0f * v;
-  return v * (2.0f * std::atan2(s, q.w) / s);
-}
-
-glm::quat exp_rotation(const glm::vec3& rv) {
-  const float angle = glm::length(rv);
-  if (angle < 1e-8f) return glm::normalize(glm::quat(1.0f, 0.5f * rv.x, 0.5f * rv.y, 0.5f * rv.z));
-  return glm::angleAxis(angle, rv / angle);
-}
+using detail::exp_rotation;
+using detail::rotation_vector;
 
 // FK that also records every DOF's rotation axis in world space.
 void evaluate(const Skeleton& s, const Pose& pose, std::span<RigidTransform> world,
