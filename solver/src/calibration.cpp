@@ -570,7 +570,8 @@ SkeletonDesc tracking_skeleton_desc(const SkeletonDesc& base) {
     const std::string sd(side);
     const float x = sd == "l_" ? 1.0f : -1.0f;
     set_offset(sd + "shoulder", {x * 0.218f * leg, 0.068f * leg, -0.016f * leg});
-    if (avatar::JointDesc* c = find(sd + "clavicle"); c) c->tip_m = find(sd + "shoulder")->offset_m;
+    if (avatar::JointDesc* c = find(sd + "clavicle"); c)
+      if (const avatar::JointDesc* sh = find(sd + "shoulder"); sh) c->tip_m = sh->offset_m;
     avatar::JointDesc* e = find(sd + "elbow");
     avatar::JointDesc* w = find(sd + "wrist");
     if (e && w) {  // shoulder to wrist 0.569 of the leg, 61 % of it above the elbow
