@@ -729,11 +729,26 @@ using nlohmann::json;
 
 json vec(const glm::vec3& v) { return json::array({v.x, v.y, v.z}); }
 
+// Numbers as floats without undefined conversions: a value beyond float's range is refused.
+bool read_float(const json& j, float& out) {
+  if (!j.is_number()) return false;
+  const double v = j.get<double>();
+  if (!std::isfinite(v) || std::abs(v) > 3.0e38) return false;
+  out = static_cast<float>(v);
+  return true;
+}
+
+// A member of the expected type, or the default: never an exception on a wrong type.
+std::string string_or(const json& j, const char* key, const std::string& fallback) {
+  const auto it = j.find(key);
+  return it != j.end() && it->is_string() ? it->get<std::string>() : fallback;
+}
+
 bool read_vec(const json& j, glm::vec3& out) {
   if (!j.is_array() || j.size() != 3) return false;
   for (int i = 0; i < 3; ++i) {
     if (!j[i].is_number()) return false;
-    out[i] = j[i].get<float>();
+    if (!read_float(j[i], out[i])) return false;
   }
   return std::isfinite(out.x) && std::isfinite(out.y) && std::isfinite(out.z);
 }
@@ -776,23 +791,27 @@ Result<Calibration> calibration_from_json(std::string_view text) {
   const json j = json::parse(text.begin(), text.end(), nullptr, false);
   if (j.is_discarded()) return fail(Errc::parse_error, "calibration: not valid JSON");
   auto bad = [](const std::string& what) { return fail(Errc::parse_error, "calibration: " + what); };
-  if (!j.is_object() || j.value("format", "") != "mimic-calibration") return bad("not a mimic-calibration file (\"format\")");
-  if (j.value("version", 0) != 1) return bad("unsupported version (expected 1)");
+  if (!j.is_object() || string_or(j, "format", "") != "mimic-calibration") return bad("not a mimic-calibration file (\"format\")");
+  if (!j.contains("version") || !j["version"].is_number_integer() || j["version"].get<int64_t>() != 1)
+    return bad("unsupported version (expected 1)");
   Calibration cal;
-  auto pose = parse_calibration_pose(j.value("pose", "tpose"));
+  if (j.contains("pose") && !j["pose"].is_string()) return bad("\"pose\" must be tpose or npose");
+  auto pose = parse_calibration_pose(string_or(j, "pose", "tpose"));
   if (!pose) return bad("\"pose\" must be tpose or npose");
   cal.pose = *pose;
-  if (j.contains("height_m") && j["height_m"].is_number()) cal.height_m = j["height_m"].get<float>();
-  if (j.contains("heading_deg") && j["heading_deg"].is_number()) cal.heading_deg = j["heading_deg"].get<float>();
-  if (j.contains("floor_y_m") && j["floor_y_m"].is_number()) cal.floor_y_m = j["floor_y_m"].get<float>();
-  if (j.contains("standing_root_y_m") && j["standing_root_y_m"].is_number())
-    cal.standing_root_y_m = j["standing_root_y_m"].get<float>();
+  if (j.contains("height_m")) read_float(j["height_m"], cal.height_m);
+  if (j.contains("heading_deg")) read_float(j["heading_deg"], cal.heading_deg);
+  if (j.contains("floor_y_m")) read_float(j["floor_y_m"], cal.floor_y_m);
+  if (j.contains("standing_root_y_m")) read_float(j["standing_root_y_m"], cal.standing_root_y_m);
   if (j.contains("capture") && j["capture"].is_object()) {
     const json& c = j["capture"];
-    if (c.contains("samples") && c["samples"].is_number()) cal.samples = c["samples"].get<int>();
+    if (c.contains("samples") && c["samples"].is_number_integer()) {
+      const int64_t n = c["samples"].get<int64_t>();
+      cal.samples = static_cast<int>(std::clamp<int64_t>(n, 0, INT32_MAX));
+    }
     if (c.contains("duration_s") && c["duration_s"].is_number()) cal.duration_s = c["duration_s"].get<double>();
-    if (c.contains("max_motion_mm") && c["max_motion_mm"].is_number()) cal.max_motion_mm = c["max_motion_mm"].get<float>();
-    if (c.contains("max_motion_deg") && c["max_motion_deg"].is_number()) cal.max_motion_deg = c["max_motion_deg"].get<float>();
+    if (c.contains("max_motion_mm")) read_float(c["max_motion_mm"], cal.max_motion_mm);
+    if (c.contains("max_motion_deg")) read_float(c["max_motion_deg"], cal.max_motion_deg);
   }
   if (!j.contains("skeleton") || !j["skeleton"].is_object() || !j["skeleton"].contains("joints") ||
       !j["skeleton"]["joints"].is_array())
@@ -815,9 +834,13 @@ Result<Calibration> calibration_from_json(std::string_view text) {
             !fj.contains("max_deg") || !fj["max_deg"].is_number())
           return bad(where + " (" + jd.name + "): a DOF needs name, axis, min_deg, max_deg");
         f.name = fj["name"].get<std::string>();
-        f.min_rad = glm::radians(fj["min_deg"].get<float>());
-        f.max_rad = glm::radians(fj["max_deg"].get<float>());
-        f.rest_rad = fj.contains("rest_deg") && fj["rest_deg"].is_number() ? glm::radians(fj["rest_deg"].get<float>()) : 0.0f;
+        float min_deg = 0, max_deg = 0, rest_deg = 0;
+        if (!read_float(fj["min_deg"], min_deg) || !read_float(fj["max_deg"], max_deg) ||
+            (fj.contains("rest_deg") && !read_float(fj["rest_deg"], rest_deg)))
+          return bad(where + " (" + jd.name + "): DOF '" + f.name + "' has a limit that is not a finite number");
+        f.min_rad = glm::radians(min_deg);
+        f.max_rad = glm::radians(max_deg);
+        f.rest_rad = glm::radians(rest_deg);
         jd.dofs.push_back(f);
       }
     }
@@ -834,13 +857,16 @@ Result<Calibration> calibration_from_json(std::string_view text) {
     sc.sensor = static_cast<uint16_t>(sj["sensor"].get<unsigned>());
     if (!sj.contains("segment") || !sj["segment"].is_string()) return bad(where + ": missing \"segment\"");
     sc.segment = sj["segment"].get<std::string>();
-    sc.name = sj.value("name", sc.segment);
+    sc.name = string_or(sj, "name", sc.segment);
     if (!sj.contains("translation_m") || !read_vec(sj["translation_m"], sc.segment_from_sensor.translation))
       return bad(where + ": bad \"translation_m\"");
     const json& q = sj.contains("rotation_wxyz") ? sj["rotation_wxyz"] : json();
     if (!q.is_array() || q.size() != 4 || !q[0].is_number() || !q[1].is_number() || !q[2].is_number() || !q[3].is_number())
       return bad(where + ": bad \"rotation_wxyz\"");
-    glm::quat r(q[0].get<float>(), q[1].get<float>(), q[2].get<float>(), q[3].get<float>());
+    float qw = 0, qx = 0, qy = 0, qz = 0;
+    if (!read_float(q[0], qw) || !read_float(q[1], qx) || !read_float(q[2], qy) || !read_float(q[3], qz))
+      return bad(where + ": \"rotation_wxyz\" is not four finite numbers");
+    glm::quat r(qw, qx, qy, qz);
     if (!(glm::dot(r, r) > 0.5f && glm::dot(r, r) < 2.0f)) return bad(where + ": \"rotation_wxyz\" is not a unit quaternion");
     sc.segment_from_sensor.rotation = glm::normalize(r);
     cal.sensors.push_back(sc);

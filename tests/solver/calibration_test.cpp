@@ -176,6 +176,24 @@ TEST(Calibration, MalformedJsonGivesAClearError) {
   auto bad = calibration_from_json(text);
   ASSERT_FALSE(bad);
   EXPECT_NE(bad.error().message.find("rotation_wxyz"), std::string::npos) << bad.error().message;
+
+  // Members of the wrong type or beyond a float's range are errors, never exceptions (found by
+  // fuzz/calibration_fuzz.cpp: a numeric "format" used to throw).
+  const std::string good = calibration_to_json(*cal);
+  auto with = [&](const std::string& from, const std::string& to) {
+    std::string t = good;
+    const auto pos = t.find(from);
+    EXPECT_NE(pos, std::string::npos) << from;
+    if (pos != std::string::npos) t.replace(pos, from.size(), to);
+    return calibration_from_json(t);
+  };
+  EXPECT_FALSE(with("\"format\": \"mimic-calibration\"", "\"format\": 13"));
+  EXPECT_FALSE(with("\"version\": 1", "\"version\": \"1\""));
+  EXPECT_FALSE(with("\"pose\": \"tpose\"", "\"pose\": []"));
+  auto huge = with("\"rotation_wxyz\": [", "\"rotation_wxyz\": [1e300, ");
+  ASSERT_FALSE(huge);
+  EXPECT_NE(huge.error().message.find("rotation_wxyz"), std::string::npos) << huge.error().message;
+  EXPECT_TRUE(with("\"samples\": ", "\"samples\": 1e30, \"ignored\": "));  // statistics only: ignored
 }
 
 }  // namespace
