@@ -139,7 +139,10 @@ class Reader {
       return fallback;
     }
     const double d = v->get<double>();
-    if (!std::isfinite(d)) fail_at(path + "." + key, "not a finite number");
+    if (!std::isfinite(d) || std::abs(d) > 3.0e38) {  // beyond a float: no undefined conversion
+      fail_at(path + "." + key, "not a finite number a float can hold");
+      return fallback;
+    }
     return static_cast<float>(d);
   }
 
@@ -150,7 +153,12 @@ class Reader {
       fail_at(path + "." + key, "expected an integer");
       return fallback;
     }
-    return v->get<int>();
+    const int64_t n = v->get<int64_t>();
+    if (n < INT32_MIN || n > INT32_MAX) {
+      fail_at(path + "." + key, "integer out of range");
+      return fallback;
+    }
+    return static_cast<int>(n);
   }
 
   std::string string(const json& obj, const std::string& path, const char* key, bool required,
@@ -174,11 +182,12 @@ class Reader {
     }
     glm::vec3 out;
     for (int i = 0; i < 3; ++i) {
-      if (!(*v)[i].is_number() || !std::isfinite((*v)[i].get<double>())) {
+      const double d = (*v)[i].is_number() ? (*v)[i].get<double>() : NAN;
+      if (!std::isfinite(d) || std::abs(d) > 3.0e38) {
         fail_at(path + "." + key + "[" + std::to_string(i) + "]", "expected a finite number");
         return fallback;
       }
-      out[i] = (*v)[i].get<float>();
+      out[i] = static_cast<float>(d);
     }
     return out;
   }
