@@ -97,6 +97,9 @@ TEST(BodyModel, MalformedFilesAreRejectedWithAClearMessage) {
        "$.primitives[2].state.semi_axes[1]: expected a finite number"},
       {"axes not a triple", edited([](J& j) { j["primitives"][2]["state"]["semi_axes"] = J::array({1, 2}); }),
        "expected an array of 3 numbers"},
+      {"axis beyond a float", edited([](J& j) { j["primitives"][2]["state"]["semi_axes"][0] = 1e300; }),
+       "$.primitives[2].state.semi_axes[0]: expected a finite number"},
+      {"torso points beyond an int", edited([](J& j) { j["skin"]["torso_points"] = 1LL << 40; }), "integer out of range"},
       {"bad falloff", edited([](J& j) {
          for (auto& p : j["primitives"])
            if (p.contains("deformation")) p["deformation"]["falloff"] = "cubic";
