@@ -112,7 +112,10 @@ std::string header_json(const LogHeader& h) {
 std::string parse_header_json(std::string_view text, LogHeader& h) {
   const auto j = nlohmann::json::parse(text.begin(), text.end(), nullptr, /*allow_exceptions=*/false);
   if (j.is_discarded()) return "header is not valid JSON";
-  if (!j.is_object() || j.value("format", std::string()) != "mimic-log") return "header is not a mimic-log header";
+  if (!j.is_object()) return "header is not a mimic-log header";
+  const auto format = j.find("format");  // (a non-string "format" must not throw)
+  if (format == j.end() || !format->is_string() || format->get<std::string>() != "mimic-log")
+    return "header is not a mimic-log header";
   auto str = [&](const char* key, std::string& out) {
     const auto it = j.find(key);
     if (it == j.end()) return true;

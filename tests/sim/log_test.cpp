@@ -318,6 +318,24 @@ TEST(LogReader, RejectsForeignAndFutureFiles) {
   EXPECT_NE(missing.error().message.find("missing.mlog"), std::string::npos);
 }
 
+// A header whose CRC is right but whose "format" is not a string: refused, never thrown.
+TEST(LogReader, HeaderOfTheWrongShapeIsRefusedWithAReason) {
+  for (const std::string text : {R"({"format": 1, "sensors": []})", R"({"format": ["mimic-log"]})", R"([1, 2])"}) {
+    std::vector<uint8_t> v{0x89, 'M', 'L', 'G', '\r', '\n', 0x1A, '\n', 1, 0, 0, 0};
+    const size_t start = v.size();
+    const uint32_t len = static_cast<uint32_t>(text.size());
+    for (int i = 0; i < 4; ++i) v.push_back(static_cast<uint8_t>(len >> (8 * i)));
+    v.push_back(1);  // header record
+    v.insert(v.end(), text.begin(), text.end());
+    const uint32_t crc = crc32(std::span<const uint8_t>(v.data() + start, v.size() - start));
+    for (int i = 0; i < 4; ++i) v.push_back(static_cast<uint8_t>(crc >> (8 * i)));
+    auto log = decode_log(v);
+    ASSERT_FALSE(log) << text;
+    EXPECT_EQ(log.error().code, Errc::parse_error) << text;
+    EXPECT_NE(log.error().message.find("not a mimic-log header"), std::string::npos) << log.error().message;
+  }
+}
+
 TEST(LogReader, EndRecordMustCountTheSamples) {
   SmallLog s = small_log();
   std::vector<uint8_t> v(s.bytes.begin(), s.bytes.begin() + static_cast<long>(s.record_ends[s.record_ends.size() - 2]));
