@@ -10,6 +10,7 @@
 #include <cerrno>
 #include <cstdio>
 #include <filesystem>
+#include <charconv>
 #include <fstream>
 #include <set>
 #include <sstream>
@@ -70,10 +71,13 @@ bool is_serial_node(const std::string& path) {
     unsigned maj = 0;
     if (!(in >> name >> node >> maj >> range >> type)) continue;
     if (maj != major || (type != "serial" && type != "pty:slave")) continue;
+    // "64-111" or "5": a line that is neither is skipped (never an exception).
     unsigned lo = 0, hi = 0;
     const auto dash = range.find('-');
-    lo = static_cast<unsigned>(std::stoul(range.substr(0, dash)));
-    hi = dash == std::string::npos ? lo : static_cast<unsigned>(std::stoul(range.substr(dash + 1)));
+    const std::string first = range.substr(0, dash), last = dash == std::string::npos ? first : range.substr(dash + 1);
+    const auto a = std::from_chars(first.data(), first.data() + first.size(), lo);
+    const auto b = std::from_chars(last.data(), last.data() + last.size(), hi);
+    if (a.ec != std::errc() || b.ec != std::errc()) continue;
     if (minor >= lo && minor <= hi) return true;
   }
   return false;
