@@ -1,5 +1,6 @@
 // mimic bench: measured figures on this machine. Each section is one function in the table
 // below; sections print a human summary, or with --json one object per section.
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <random>
@@ -13,6 +14,11 @@
 #include "mimic/net/loopback_bench.h"
 #include "mimic/net/server.h"
 #include "mimic/net/vmc.h"
+#include "mimic/avatar/lbs_baseline.h"
+#include "mimic/avatar/skin.h"
+#include "mimic/sim/sensor_rig.h"
+#include "mimic/solver/body_solver.h"
+#include "mimic/solver/filters.h"
 #include "pipeline.h"
 
 namespace mimic::app {
@@ -143,6 +149,115 @@ Result<nlohmann::json> bench_net(const BenchOptions& opt) {
   return j;
 }
 
+// ---- skin ---------------------------------------------------------------------------------------
+
+// Median and 99th percentile of a set of durations (microseconds); sorts in place.
+std::pair<double, double> p50_p99(std::vector<double>& us) {
+  if (us.empty()) return {0.0, 0.0};
+  std::sort(us.begin(), us.end());
+  return {us[us.size() / 2], us[std::min(us.size() - 1, us.size() * 99 / 100)]};
+}
+
+template <class F>
+std::vector<double> time_frames(double seconds, size_t max_frames, F&& frame) {
+  using clock = std::chrono::steady_clock;
+  std::vector<double> us;
+  us.reserve(max_frames);
+  const auto end = clock::now() + std::chrono::duration<double>(seconds);
+  for (size_t k = 0; k < max_frames && (k < 10 || clock::now() < end); ++k) {
+    const auto t0 = clock::now();
+    frame(k);
+    us.push_back(std::chrono::duration<double, std::micro>(clock::now() - t0).count());
+  }
+  return us;
+}
+
+// The metaball skin on the built-in walk at the realtime resolution and at subdivision 1, and a
+// linear blend skinning of the same vertices, in one run: their ratio is the figure to keep.
+Result<nlohmann::json> bench_skin(const BenchOptions& opt) {
+  nlohmann::json j;
+  const double seconds = opt.quick ? 0.3 : opt.seconds;
+  for (int subdivision : {0, 1}) {
+    avatar::SkinOptions o;
+    o.subdivision = subdivision;
+    o.normals = false;
+    auto skin = avatar::BodySkin::create(avatar::default_body_model(), o);
+    if (!skin) return tl::unexpected(skin.error());
+    const avatar::Skeleton& sk = skin->skeleton();
+    auto motion = avatar::make_builtin_motion("walk", sk);
+    if (!motion) return tl::unexpected(motion.error());
+    std::vector<avatar::Pose> poses(64, sk.zero_pose());
+    for (size_t k = 0; k < poses.size(); ++k) (*motion)->sample(0.02 * static_cast<double>(k), poses[k]);
+    skin->evaluate(sk.zero_pose());
+    const avatar::LinearBlendBaseline lbs(sk, skin->mesh().positions);
+    std::vector<avatar::RigidTransform> w(sk.joint_count());
+    std::vector<glm::vec3> out(lbs.vertex_count());
+    auto skin_us = time_frames(seconds, 200000, [&](size_t k) { skin->evaluate(poses[k % poses.size()]); });
+    auto lbs_us = time_frames(seconds, 2000000, [&](size_t k) {
+      avatar::forward_kinematics(sk, poses[k % poses.size()], w);
+      lbs.deform(w, out);
+    });
+    const auto [s50, s99] = p50_p99(skin_us);
+    const auto [l50, l99] = p50_p99(lbs_us);
+    const char* name = subdivision == 0 ? "realtime" : "subdivision_1";
+    j[name] = {{"vertices", skin->mesh().positions.size()}, {"rays", skin->stats().rays},
+               {"frame_us_p50", s50},  {"frame_us_p99", s99},
+               {"lbs_us_p50", l50},    {"ratio_to_lbs", l50 > 0 ? s50 / l50 : 0.0}};
+    std::fprintf(stderr, "skin %s: %zu vertices, %d rays: frame p50 %.0f us, p99 %.0f us; linear blend skinning of the "
+                 "same vertices %.1f us (%.1fx)\n",
+                 name, skin->mesh().positions.size(), skin->stats().rays, s50, s99, l50, l50 > 0 ? s50 / l50 : 0.0);
+  }
+  return j;
+}
+
+// ---- solver -------------------------------------------------------------------------------------
+
+// Filtering + solving one frame of the built-in walk worn by each standard layout (the rig's
+// exact mounts, 1 mm / 0.5° noise, 120 Hz).
+Result<nlohmann::json> bench_solver(const BenchOptions& opt) {
+  nlohmann::json j;
+  auto sk = avatar::Skeleton::build(avatar::default_skeleton_desc());
+  if (!sk) return tl::unexpected(sk.error());
+  auto motion = avatar::make_builtin_motion("walk", *sk);
+  if (!motion) return tl::unexpected(motion.error());
+  std::shared_ptr<const avatar::Motion> shared(std::move(*motion));
+  const double seconds = opt.quick ? 0.3 : opt.seconds;
+  for (const std::string layout : {"3", "6", "11", "all"}) {
+    auto mounts = sim::make_layout(layout, *sk);
+    if (!mounts) return tl::unexpected(mounts.error());
+    sim::RigConfig cfg;
+    cfg.sensors = *mounts;
+    cfg.rate_hz = 120.0;
+    cfg.position_noise_mm = 1.0;
+    cfg.orientation_noise_deg = 0.5;
+    auto rig = sim::SensorRig::create(shared, cfg);
+    if (!rig) return tl::unexpected(rig.error());
+    std::vector<solver::SensorMount> sm;
+    for (size_t i = 0; i < mounts->size(); ++i)
+      sm.push_back({static_cast<uint16_t>(i), (*mounts)[i].segment, (*mounts)[i].segment_from_sensor});
+    auto model = solver::SolverModel::create(*sk, sm);
+    if (!model) return tl::unexpected(model.error());
+    solver::SolverContext ctx(*model);
+    solver::SensorFilterBank filters(static_cast<int>(sm.size()));
+    avatar::Pose pose = sk->zero_pose();
+    std::vector<std::vector<devices::SensorSample>> ticks(240, std::vector<devices::SensorSample>(sm.size()));
+    for (auto& t : ticks) rig->step(t);
+    std::vector<devices::SensorSample> work(sm.size());
+    auto us = time_frames(seconds, 400000, [&](size_t k) {
+      const auto& t = ticks[k % ticks.size()];
+      if (k % ticks.size() == 0) filters.reset();  // the recording starts again: no jump
+      std::copy(t.begin(), t.end(), work.begin());
+      filters.process(work);
+      solver::SolveJob job{&*model, work, &ctx, &pose};
+      job.Run();
+    });
+    const auto [p50, p99] = p50_p99(us);
+    j[layout] = {{"solve_us_p50", p50}, {"solve_us_p99", p99}, {"frames", us.size()}};
+    std::fprintf(stderr, "solver, %s sensors: filter + solve p50 %.1f us, p99 %.1f us\n", layout.c_str(), p50, p99);
+  }
+  return j;
+}
+
 struct Section {
   const char* name;
   Result<nlohmann::json> (*run)(const BenchOptions&);
@@ -150,6 +265,8 @@ struct Section {
 
 const Section kSections[] = {
     {"net", bench_net},
+    {"skin", bench_skin},
+    {"solver", bench_solver},
 };
 
 const char* kUsage =
@@ -162,6 +279,11 @@ const char* kUsage =
     "        latency on loopback; sensor record -> frame leaving the socket through the mimic run\n"
     "        pipeline (p50/p99); subscribers x avatars the server holds at 90 Hz with no lost\n"
     "        latest frame\n"
+    "  skin  the metaball skin on the built-in walk (realtime resolution and subdivision 1):\n"
+    "        frame time p50/p99 and, in the same run, linear blend skinning of the same\n"
+    "        vertices, with the ratio\n"
+    "  solver  filter + solve per frame for the layouts 3, 6, 11 and all (built-in walk,\n"
+    "        1 mm / 0.5 deg noise, 120 Hz): p50/p99\n"
     "\n"
     "options:\n"
     "  --section NAME    run one section (default: all)\n"

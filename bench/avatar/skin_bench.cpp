@@ -4,6 +4,7 @@
 
 #include <random>
 
+#include "mimic/avatar/lbs_baseline.h"
 #include "mimic/avatar/skin.h"
 
 namespace mimic::avatar {
@@ -90,48 +91,21 @@ void BM_Stage(benchmark::State& state) {
 }
 BENCHMARK(BM_Stage)->ArgName("fk0_deform1_contours2_bspline3_stitch4")->DenseRange(0, 4)->Unit(benchmark::kMicrosecond);
 
-// Linear blend skinning of the same mesh: each vertex bound to its two nearest joints by
-// inverse-distance weights in the rest posture; per frame v' = Σ w M v.
+// Linear blend skinning of the same mesh (avatar/lbs_baseline.h): the yardstick.
 void BM_LinearBlendSkinningBaseline(benchmark::State& state) {
   BodySkin skin = make(1);
   const Skeleton& s = skin.skeleton();
-  const std::vector<glm::vec3> rest = skin.mesh().positions;
-  std::vector<RigidTransform> rest_w(s.joint_count()), w(s.joint_count());
-  forward_kinematics(s, s.zero_pose(), rest_w);
-  struct Bind {
-    int j0, j1;
-    float w0;
-    glm::vec3 l0, l1;
-  };
-  std::vector<Bind> binds;
-  for (const glm::vec3& v : rest) {
-    int best[2] = {0, 0};
-    float d[2] = {1e9f, 1e9f};
-    for (int j = 0; j < s.joint_count(); ++j) {
-      const glm::vec3 mid = rest_w[j].apply(0.5f * s.tip_m(j));
-      const float dd = glm::distance(v, mid);
-      if (dd < d[0]) {
-        d[1] = d[0], best[1] = best[0];
-        d[0] = dd, best[0] = j;
-      } else if (dd < d[1]) {
-        d[1] = dd, best[1] = j;
-      }
-    }
-    const float w0 = d[1] / (d[0] + d[1]);
-    binds.push_back({best[0], best[1], w0, rest_w[best[0]].inverse().apply(v), rest_w[best[1]].inverse().apply(v)});
-  }
-  std::vector<glm::vec3> out(rest.size()), nrm(rest.size());
+  const LinearBlendBaseline lbs(s, skin.mesh().positions);
+  std::vector<RigidTransform> w(s.joint_count());
+  std::vector<glm::vec3> out(lbs.vertex_count());
   const auto ps = poses(s, 16);
   size_t i = 0;
   for (auto _ : state) {
     forward_kinematics(s, ps[i++ % ps.size()], w);
-    for (size_t k = 0; k < binds.size(); ++k) {
-      const Bind& b = binds[k];
-      out[k] = b.w0 * w[b.j0].apply(b.l0) + (1.0f - b.w0) * w[b.j1].apply(b.l1);
-    }
+    lbs.deform(w, out);
     benchmark::DoNotOptimize(out.data());
   }
-  state.counters["vertices"] = static_cast<double>(rest.size());
+  state.counters["vertices"] = static_cast<double>(lbs.vertex_count());
   state.SetItemsProcessed(state.iterations());
 }
 BENCHMARK(BM_LinearBlendSkinningBaseline)->Unit(benchmark::kMicrosecond);

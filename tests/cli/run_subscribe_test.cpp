@@ -238,6 +238,30 @@ TEST(RunSubscribe, RunsWithACalibrationFromMimicCalibrate) {
 
 namespace {
 
+// mimic bench skin / solver: the metaball frame against linear blend skinning of the same
+// vertices measured in one run, and the solve time of every layout.
+TEST(Bench, SkinAndSolverSectionsReportTheirFigures) {
+  Proc bench({"bench", "--section", "skin", "--quick", "--json"});
+  ASSERT_EQ(bench.wait(120.0), 0) << bench.err();
+  const auto j = last_json(bench.out());
+  ASSERT_FALSE(j.is_discarded()) << bench.out();
+  for (const char* mode : {"realtime", "subdivision_1"}) {
+    const auto& m = j["skin"][mode];
+    EXPECT_GT(m["vertices"].get<int>(), 1000) << mode;
+    EXPECT_GT(m["frame_us_p50"].get<double>(), 0.0) << mode;
+    EXPECT_GT(m["lbs_us_p50"].get<double>(), 0.0) << mode;
+    EXPECT_NEAR(m["ratio_to_lbs"].get<double>(), m["frame_us_p50"].get<double>() / m["lbs_us_p50"].get<double>(), 1e-6);
+  }
+  Proc solver({"bench", "--section", "solver", "--quick", "--json"});
+  ASSERT_EQ(solver.wait(120.0), 0) << solver.err();
+  const auto k = last_json(solver.out());
+  ASSERT_FALSE(k.is_discarded()) << solver.out();
+  for (const char* layout : {"3", "6", "11", "all"}) {
+    EXPECT_GT(k["solver"][layout]["frames"].get<int>(), 10) << layout;
+    EXPECT_LE(k["solver"][layout]["solve_us_p50"].get<double>(), k["solver"][layout]["solve_us_p99"].get<double>());
+  }
+}
+
 // Neighbouring sensors (pelvis and thighs): the joint centres found while the wearer walks are
 // swapped into the running solver, without an allocation in the loop.
 TEST(RunSubscribe, RefinesTheCalibrationFromTheMotion) {
