@@ -62,11 +62,13 @@ constexpr const char* kUsage =
     "                       judged against the body at arrival time (default 0)\n"
     "  --dropout P          chance per sample that a sensor falls silent for 3 samples (default 0)\n"
     "  --no-filter          solve the raw samples (no One Euro filtering)\n"
-    "  --no-refine          keep the stand-still calibration's limb lengths\n"
+    "  --no-refine          keep the stand-still calibration (no refinement from the motion)\n"
     "  --joints             also print the position error of every joint (table output)\n"
     "  --json               one JSON object per layout on stdout instead of the table; keys: clip,\n"
     "                       sensors, frames, joints, mpjpe_cm, mpjre_deg, end_effector_mm,\n"
-    "                       end_effector_max_mm, jitter, jitter_mm, jitter_truth_mm,\n"
+    "                       end_effector_max_mm, end_effector_reach_mm (the solved end effectors'\n"
+    "                       distance from their own sensors' targets: the IK's share), jitter,\n"
+    "                       jitter_mm, jitter_truth_mm,\n"
     "                       jitter_definition, solve_us_p50, solve_us_p99, solve_us_max, noise_mm,\n"
     "                       noise_deg, tilt_deg, rate_hz, latency_ms, dropout, seed, filter,\n"
     "                       refine, refined_limbs, refined_joints\n"
@@ -120,11 +122,17 @@ std::string base_name(const std::string& path) {
   return b;
 }
 
+// The joints end_effector_mm is taken over (pose_error.h): head, wrists, ankles.
+bool is_end_effector(const std::string& joint) {
+  return joint == "head" || joint == "l_wrist" || joint == "r_wrist" || joint == "l_ankle" || joint == "r_ankle";
+}
+
 struct Run {
   solver::PoseErrorReport report;
   std::string error;
   int refined_limbs = 0;   // chains whose lengths the stream refined
   int refined_joints = 0;  // joint centres the stream refined
+  double reach_mm = 0;     // mean distance of the solved end effectors from their sensors' targets
 };
 
 Run evaluate(const std::shared_ptr<const avatar::Motion>& motion, double frame_time_s, const std::string& layout_name,
@@ -177,6 +185,8 @@ Run evaluate(const std::shared_ptr<const avatar::Motion>& motion, double frame_t
   if (!first_model) return {{}, first_model.error().message};
   auto model = std::make_unique<solver::SolverModel>(std::move(*first_model));
   solver::ModelRefiner refiner(*cal, *model, st.rate_hz);
+  double reach_sum_m = 0;
+  long reach_n = 0;
 
   // The motion after the T-pose, with dropouts if asked for.
   cfg.seed = st.seed + 1;
@@ -212,6 +222,18 @@ Run evaluate(const std::shared_ptr<const avatar::Motion>& motion, double frame_t
     const auto t1 = std::chrono::steady_clock::now();
     avatar::forward_kinematics(model->skeleton(), pose, solved_world);
     const double solve_us = std::chrono::duration<double, std::micro>(t1 - t0).count();
+    // Reach: how far the solved head, wrists and ankles are from where their own sensors (as
+    // calibrated, after the filters) put them — the IK's part of the end-effector error.
+    for (const auto& smp : tick) {
+      if (!(smp.flags & devices::kSampleValid) || smp.sensor >= model->mounts().size()) continue;
+      const auto& m = model->mounts()[smp.sensor];
+      if (m.sensor != smp.sensor || !is_end_effector(m.segment)) continue;
+      const int j = model->skeleton().find_joint(m.segment);
+      const glm::vec3 target =
+          avatar::RigidTransform{smp.orientation, smp.position_m}.apply(m.segment_from_sensor.inverse().translation);
+      reach_sum_m += glm::length(solved_world[j].translation - target);
+      ++reach_n;
+    }
     if (st.latency_ms > 0) {
       // The samples left the body latency ago; the avatar is judged against the body now.
       motion_after->sample(static_cast<double>(k) / st.rate_hz + st.latency_ms / 1000.0, truth_pose);
@@ -221,7 +243,8 @@ Run evaluate(const std::shared_ptr<const avatar::Motion>& motion, double frame_t
       acc.add(rig->true_world_from_joint(), solved_world, solve_us);
     }
   }
-  return {acc.report(), {}, refiner.refined_limbs(), refiner.refined_joints()};
+  return {acc.report(), {}, refiner.refined_limbs(), refiner.refined_joints(),
+          reach_n > 0 ? 1000.0 * reach_sum_m / static_cast<double>(reach_n) : 0.0};
 }
 
 bool parse_noise(const std::string& text, double& mm, double& deg) {
@@ -309,6 +332,7 @@ int run_eval_solver(const std::vector<std::string>& argv) {
                        {"mpjre_deg", p.mpjre_deg},
                        {"end_effector_mm", p.end_effector_mm},
                        {"end_effector_max_mm", p.end_effector_max_mm},
+                       {"end_effector_reach_mm", r.reach_mm},
                        {"jitter", p.jitter_mm},
                        {"jitter_mm", p.jitter_mm},
                        {"jitter_truth_mm", p.jitter_truth_mm},

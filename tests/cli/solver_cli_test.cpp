@@ -112,6 +112,11 @@ TEST(EvalSolverCli, PrintsOneJsonObjectPerLayoutWithTheRequiredKeys) {
     EXPECT_GT(j["mpjpe_cm"].get<double>(), 0.0);
     EXPECT_LT(j["mpjpe_cm"].get<double>(), objects == 0 ? 20.0 : 10.0);
     EXPECT_EQ(j["sensors"], objects == 0 ? "3" : "6");
+    // The IK reaches what its sensors say within a few millimetres; the rest of the
+    // end-effector error is the calibration's.
+    ASSERT_TRUE(j.contains("end_effector_reach_mm"));
+    EXPECT_LT(j["end_effector_reach_mm"].get<double>(), 5.0);
+    EXPECT_LT(j["end_effector_reach_mm"].get<double>(), j["end_effector_mm"].get<double>());
     ++objects;
   }
   EXPECT_EQ(objects, 2);
