@@ -122,11 +122,6 @@ std::string base_name(const std::string& path) {
   return b;
 }
 
-// The joints end_effector_mm is taken over (pose_error.h): head, wrists, ankles.
-bool is_end_effector(const std::string& joint) {
-  return joint == "head" || joint == "l_wrist" || joint == "r_wrist" || joint == "l_ankle" || joint == "r_ankle";
-}
-
 struct Run {
   solver::PoseErrorReport report;
   std::string error;
@@ -227,7 +222,7 @@ Run evaluate(const std::shared_ptr<const avatar::Motion>& motion, double frame_t
     for (const auto& smp : tick) {
       if (!(smp.flags & devices::kSampleValid) || smp.sensor >= model->mounts().size()) continue;
       const auto& m = model->mounts()[smp.sensor];
-      if (m.sensor != smp.sensor || !is_end_effector(m.segment)) continue;
+      if (m.sensor != smp.sensor || !solver::is_end_effector(m.segment)) continue;
       const int j = model->skeleton().find_joint(m.segment);
       const glm::vec3 target =
           avatar::RigidTransform{smp.orientation, smp.position_m}.apply(m.segment_from_sensor.inverse().translation);

@@ -183,6 +183,9 @@ struct BodySkin::Impl {
 
   Status build(const BodyModel& model);
   void compute_ring(const Ring& r);
+  // Per-ring scratch (hits, ray origins, directions, fallbacks, angles) for the widest ring so
+  // far: grown at build time, so compute_ring never allocates.
+  void size_ring_buffers();
   void cast_into(uint32_t slot, const glm::vec3& origin, const glm::vec3& dir,
                  std::span<const uint16_t> cand, const glm::vec3& fallback);
   void store(uint32_t slot, const glm::vec3& origin, const glm::vec3& dir, RayHit hit, const glm::vec3& fallback);
@@ -219,6 +222,16 @@ void BodySkin::Impl::store(uint32_t slot, const glm::vec3& origin, const glm::ve
     ctrl_hit[slot] = 0;
     ++stats.missed_rays;
   }
+}
+
+void BodySkin::Impl::size_ring_buffers() {
+  size_t widest = star_hits.size();
+  for (const Ring& r : rings) widest = std::max(widest, r.slots.size());
+  star_hits.resize(widest);
+  ray_origins.resize(widest);
+  ray_dirs.resize(widest);
+  ray_fallbacks.resize(widest);
+  ray_angles.resize(widest);
 }
 
 void BodySkin::Impl::compute_ring(const Ring& r) {
@@ -461,13 +474,7 @@ Status BodySkin::Impl::build(const BodyModel& model) {
   bridges.push_back(Bridge{r_bridge, 0, 0, {}, {}});
 
   // Compute what exists so far in the rest posture: the loops' geometry sets the limb angles.
-  size_t widest_so_far = star_hits.size();
-  for (const Ring& r : rings) widest_so_far = std::max(widest_so_far, r.slots.size());
-  star_hits.resize(widest_so_far);
-  ray_origins.resize(widest_so_far);
-  ray_dirs.resize(widest_so_far);
-  ray_fallbacks.resize(widest_so_far);
-  ray_angles.resize(widest_so_far);
+  size_ring_buffers();
   for (const Ring& r : rings) compute_ring(r);
 
   auto slots_of = [&](int ring) -> const std::vector<uint32_t>& { return rings[ring].slots; };
@@ -644,13 +651,7 @@ Status BodySkin::Impl::build(const BodyModel& model) {
       rigid.push_back(std::move(rm));
     }
   }
-  size_t widest = 0;
-  for (const Ring& r : rings) widest = std::max(widest, r.slots.size());
-  star_hits.resize(widest);
-  ray_origins.resize(widest);
-  ray_dirs.resize(widest);
-  ray_fallbacks.resize(widest);
-  ray_angles.resize(widest);
+  size_ring_buffers();
   build_output();
   return {};
 }

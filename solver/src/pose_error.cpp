@@ -5,13 +5,17 @@
 
 namespace mimic::solver {
 
+bool is_end_effector(std::string_view joint) {
+  return joint == "head" || joint == "l_wrist" || joint == "r_wrist" || joint == "l_ankle" || joint == "r_ankle";
+}
+
 PoseErrorAccumulator::PoseErrorAccumulator(const avatar::Skeleton& truth, const avatar::Skeleton& solved) {
   for (int j = 0; j < truth.joint_count(); ++j) {
     const std::string& name = truth.joint_name(j);
     if (name.find("toes") != std::string::npos) continue;
     const int k = solved.find_joint(name);
     if (k < 0) continue;
-    const bool ee = name == "head" || name == "l_wrist" || name == "r_wrist" || name == "l_ankle" || name == "r_ankle";
+    const bool ee = is_end_effector(name);
     pairs_.push_back(Pair{j, k, ee});
     names_.push_back(name);
     end_effectors_ += ee ? 1 : 0;

@@ -16,6 +16,7 @@
 
 #include <span>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "mimic/avatar/skeleton.h"
@@ -37,6 +38,9 @@ struct PoseErrorReport {
   std::vector<std::string> joint_names;
   std::vector<double> joint_mpjpe_cm;  // per joint of the set
 };
+
+// The joints end_effector_mm is taken over: head, wrists, ankles.
+bool is_end_effector(std::string_view joint);
 
 class PoseErrorAccumulator {
  public:
