@@ -21,6 +21,7 @@ using avatar::SkeletonDesc;
 namespace {
 
 constexpr float kPi = 3.14159265358979f;
+constexpr int kMaxFitPasses = 4;  // fits of the body to the stand-still, at most
 
 struct SensorStats {
   const SensorBinding* binding = nullptr;
@@ -183,6 +184,7 @@ struct Fit {
   Pose pose;
   float height_m = 0;
   float floor_y_m = 0;
+  std::map<std::string, glm::vec3> mark;  // joint positions the sensors marked
 };
 
 // One pass of the fit. `segment_rot` gives, per joint name, the rotation used to turn a sensor's
@@ -507,6 +509,7 @@ Fit fit_body(const SkeletonDesc& base, const std::vector<SensorStats>& stats, co
   }
   out.height_m = has("head") ? head_top - floor : 0.0f;
   out.floor_y_m = floor;
+  out.mark = mark;
   return out;
 }
 
@@ -679,15 +682,24 @@ Result<Calibration> calibrate(const SkeletonDesc& base, const SensorLayout& layo
   if (glm::length(glm::vec2(left.x, left.z)) > 0.05f) heading_rad = std::atan2(-left.z, left.x);
   const glm::quat heading = glm::angleAxis(heading_rad, glm::vec3(0, 1, 0));
 
-  // Two passes: the second places each sensor with its segment's fitted rotation.
+  // Passes until the marks agree with the posture fitted to them: each places the sensors with
+  // the segment rotations of the last (the heading alone on the first). Two were not enough —
+  // a hand's mark placed with the first pass's level hand sat millimetres from where the fitted,
+  // drooping arm put it, and the sensor's offset carried that difference.
   std::map<std::string, glm::quat> segment_rot;
   Fit fit = fit_body(base, stats, heading, segment_rot, opt);
-  {
+  for (int pass = 1; pass < kMaxFitPasses; ++pass) {
     const Skeleton s = *Skeleton::build(fit.desc);
     const auto w = pose_world(s, fit.pose);
-    for (int j = 0; j < s.joint_count(); ++j) segment_rot[s.joint_name(j)] = w[j].rotation;
+    float turned_deg = 0;
+    for (int j = 0; j < s.joint_count(); ++j) {
+      auto [it, fresh] = segment_rot.try_emplace(s.joint_name(j), heading);
+      turned_deg = std::max(turned_deg, angle_deg(it->second, w[j].rotation));
+      it->second = w[j].rotation;
+    }
+    if (pass > 1 && turned_deg < 0.05f) break;
+    fit = fit_body(base, stats, heading, segment_rot, opt);
   }
-  fit = fit_body(base, stats, heading, segment_rot, opt);
 
   const Skeleton s = *Skeleton::build(fit.desc);
   const auto w = pose_world(s, fit.pose);
