@@ -3,6 +3,7 @@
 
 #include <array>
 #include <cmath>
+#include <optional>
 
 #include <glm/gtx/quaternion.hpp>
 
@@ -40,6 +41,7 @@ struct Plan {
   Skeleton skeleton;
   std::vector<int> bvh;
   std::vector<glm::dquat> align;  // A_m
+  bool t_pose = false;            // aligned on the frame-0 T-pose
   std::vector<Solve> kind;
   std::vector<int> lower, end;    // for chain uppers
 };
@@ -60,6 +62,30 @@ glm::dquat local_rotation_d(const Skeleton& s, int j, std::span<const float> dof
 glm::dquat align_dirs(const glm::dvec3& from, const glm::dvec3& to) {
   if (glm::length(from) < 1e-12 || glm::length(to) < 1e-12) return glm::dquat(1, 0, 0, 0);
   return glm::rotation(glm::normalize(from), glm::normalize(to));
+}
+
+// The performer's heading when frame 0 is a T-pose (upper arms within 30° of level and out to
+// the sides, thighs within 20° of straight down, heading from the shoulders), else nothing.
+std::optional<glm::dquat> t_pose_heading(const BvhClip& clip, const Skeleton& t, const std::vector<int>& bvh,
+                                         const std::vector<glm::dvec3>& link) {
+  std::vector<RigidTransform> w0(clip.joints.size());
+  bvh_forward_kinematics(clip, 0, w0);
+  auto dir = [&](const char* name) {
+    const int m = t.find_joint(name);
+    const glm::dvec3 v = glm::dquat(w0[bvh[m]].rotation) * link[m];
+    return glm::length(v) > 1e-9 ? glm::normalize(v) : v;
+  };
+  auto at = [&](const char* name) { return glm::dvec3(w0[bvh[t.find_joint(name)]].translation); };
+  glm::dvec3 left = at("l_shoulder") - at("r_shoulder");
+  left.y = 0;
+  if (glm::length(left) < 1e-6) return std::nullopt;
+  left = glm::normalize(left);
+  const glm::dvec3 up(0, 1, 0);
+  const double cos30 = std::cos(glm::radians(30.0)), cos20 = std::cos(glm::radians(20.0));
+  if (glm::dot(dir("l_shoulder"), left) < cos30 || glm::dot(dir("r_shoulder"), -left) < cos30) return std::nullopt;
+  if (glm::dot(dir("l_hip"), -up) < cos20 || glm::dot(dir("r_hip"), -up) < cos20) return std::nullopt;
+  // Facing: +Z when the left is +X.
+  return glm::angleAxis(std::atan2(-left.z, left.x), up);
 }
 
 Result<Plan> make_plan(const BvhClip& clip) {
@@ -130,14 +156,38 @@ Result<Plan> make_plan(const BvhClip& clip) {
       if (glm::length(link[m]) < 1e-9) link[m] = link[c];
     }
   }
-  // Joints with fewer than three DOFs (clavicles, toes) keep their parent's alignment: a
+  // Joints with fewer than three DOFs (clavicles, wrists, toes) keep their parent's alignment: a
   // constant rotation between the two rest directions could not be absorbed by their DOFs, and
   // the difference is one of origin (a CMU clavicle starts at the thorax centre, lower than
   // Mimic's), not of posture. Their fitted links simply point where the performer's do.
+  //
+  // A clip whose frame 0 is a T-pose (the MotionBuilder-friendly CMU conversions) is
+  // characterised on it: there every segment takes the orientation it has in Mimic's own T-pose —
+  // limbs and spine turned by the shortest arc onto the performer's links, head level, feet
+  // flat, all from the performer's heading. Aligned at the rest pose instead (all channels
+  // zero, legs splayed), the feet that frame 0 turns down to stand on would stand 20° on their
+  // edges in every stance, and the head would tilt by whatever the neck's rest angles leave.
   plan.align.assign(n, glm::dquat(1, 0, 0, 0));
+  const std::optional<glm::dquat> heading = own ? std::nullopt : t_pose_heading(clip, t, plan.bvh, link);
+  std::vector<RigidTransform> w0(clip.joints.size());
+  if (heading) bvh_forward_kinematics(clip, 0, w0);
+  plan.t_pose = heading.has_value();
   for (int m = 1; m < n; ++m) {
     const int dofs = t.dof_end(m) - t.dof_begin(m);
-    plan.align[m] = (dofs >= 3 || dofs == 0) ? align_dirs(glm::dvec3(t.tip_m(m)), link[m]) : plan.align[t.parent(m)];
+    if (own) {
+      continue;  // Mimic's own frames: its rest pose is the zero posture
+    } else if (dofs > 0 && dofs < 3) {
+      plan.align[m] = plan.align[t.parent(m)];
+    } else if (!heading) {
+      plan.align[m] = align_dirs(glm::dvec3(t.tip_m(m)), link[m]);
+    } else {
+      const glm::dquat g0(w0[plan.bvh[m]].rotation);
+      const std::string& name = t.joint_name(m);
+      const bool level = name == "head" || name == "l_ankle" || name == "r_ankle";
+      const glm::dquat at_t_pose =
+          level ? *heading : *heading * align_dirs(glm::dvec3(t.tip_m(m)), glm::inverse(*heading) * (g0 * link[m]));
+      plan.align[m] = glm::inverse(g0) * at_t_pose;
+    }
   }
 
   SkeletonDesc desc = t.desc();  // packed order, so desc.joints[m] is joint m
@@ -320,7 +370,7 @@ Result<RetargetedClip> retarget_bvh(const BvhClip& clip) {
   auto plan = make_plan(clip);
   if (!plan) return tl::unexpected(plan.error());
   const Skeleton& s = plan->skeleton;
-  RetargetedClip out{s, {}, clip.frame_time_s, plan->bvh, clip.source_name};
+  RetargetedClip out{s, {}, clip.frame_time_s, plan->bvh, clip.source_name, plan->t_pose};
   Scratch sc{std::vector<RigidTransform>(clip.joints.size()), std::vector<glm::dquat>(s.joint_count()),
              std::vector<glm::dvec3>(s.joint_count())};
   out.poses.reserve(clip.frame_count);

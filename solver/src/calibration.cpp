@@ -482,6 +482,9 @@ Fit fit_body(const SkeletonDesc& base, const std::vector<SensorStats>& stats, co
       std::vector<int> dofs;
       for (int d = 0; d < s.dof_count(); ++d) {
         const std::string& name = s.dof(d).name;
+        // Elbows and knees straight, as the stand-still asks: free, they folded to take up
+        // what a leaning trunk left over and turned the hands' forearms off their arms.
+        if (name.find("elbow_flexion") != std::string::npos || name.find("knee_flexion") != std::string::npos) continue;
         if (name.find("twist") == std::string::npos && !held[static_cast<size_t>(d)])
           dofs.push_back(d);
       }

@@ -1,5 +1,6 @@
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 
@@ -80,6 +81,80 @@ TEST(Retarget, TPoseFrameGivesNearZeroLimbAngles) {
   // Arms 8° below horizontal in the T-pose.
   EXPECT_NEAR(glm::degrees(t.dof_rad[s.find_dof("l_shoulder_abduction")]), -8.0, 2.0);
   EXPECT_NEAR(glm::degrees(t.dof_rad[s.find_dof("r_shoulder_abduction")]), -8.0, 2.0);
+}
+
+// Angle between a segment's up axis and the world's.
+double tilt_deg(const RigidTransform& world_from_segment) {
+  const glm::vec3 up = world_from_segment.rotation * glm::vec3(0, 1, 0);
+  return glm::degrees(std::acos(std::clamp(double(up.y), -1.0, 1.0)));
+}
+
+TEST(Retarget, CmuClipsAreCharacterisedOnTheirFrameZeroTPose) {
+  for (const char* id : test::kShared_clips) {
+    auto clip = load_bvh(test::clip_path(id));
+    ASSERT_TRUE(clip);
+    auto r = retarget_bvh(*clip);
+    ASSERT_TRUE(r);
+    EXPECT_TRUE(r->characterised_on_t_pose) << id;
+    std::vector<RigidTransform> w(r->skeleton.joint_count());
+    forward_kinematics(r->skeleton, r->poses[0], w);
+    // Head level, feet flat, facing where the pelvis faces.
+    const glm::vec3 facing = w[0].rotation * glm::vec3(0, 0, 1);
+    for (const char* j : {"head", "l_ankle", "r_ankle"}) {
+      const RigidTransform& t = w[r->skeleton.find_joint(j)];
+      EXPECT_LT(tilt_deg(t), 0.5) << id << " " << j;
+      const glm::vec3 f = t.rotation * glm::vec3(0, 0, 1);
+      EXPECT_GT(glm::dot(glm::normalize(glm::vec2(f.x, f.z)), glm::normalize(glm::vec2(facing.x, facing.z))),
+                std::cos(glm::radians(3.0)))
+          << id << " " << j;
+    }
+  }
+}
+
+TEST(Retarget, PlantedFeetStandFlat) {
+  // Walking: where a foot rests on the floor (slower than 10 cm/s, within 3 cm of its lowest),
+  // its sole is level. Aligned at the clip's rest pose they stood 17–24° on their edges.
+  for (const char* id : {"02_04", "07_01"}) {
+    auto clip = load_bvh(test::clip_path(id));
+    ASSERT_TRUE(clip);
+    auto r = retarget_bvh(*clip);
+    ASSERT_TRUE(r);
+    const Skeleton& s = r->skeleton;
+    for (const char* foot : {"l_ankle", "r_ankle"}) {
+      const int j = s.find_joint(foot);
+      std::vector<RigidTransform> w(s.joint_count());
+      std::vector<RigidTransform> at(r->poses.size());
+      double lowest = 1e9;
+      for (size_t f = 0; f < r->poses.size(); ++f) {
+        forward_kinematics(s, r->poses[f], w);
+        at[f] = w[j];
+        if (f > 0) lowest = std::min(lowest, double(at[f].translation.y));  // frame 0: the T-pose
+      }
+      double sum = 0;
+      int planted = 0;
+      for (size_t f = 2; f < at.size(); ++f) {
+        const double speed = glm::length(at[f].translation - at[f - 1].translation) / r->frame_time_s;
+        if (speed > 0.1 || at[f].translation.y > lowest + 0.03) continue;
+        sum += tilt_deg(at[f]);
+        ++planted;
+      }
+      ASSERT_GT(planted, 5) << id << " " << foot;
+      std::printf("  %s %s: %.1f deg from level over %d planted frames\n", id, foot, sum / planted, planted);
+      EXPECT_LT(sum / planted, 8.0) << id << " " << foot << " over " << planted << " planted frames";
+    }
+  }
+}
+
+TEST(Retarget, ClipsWithoutATPoseAlignAtTheRestPose) {
+  auto clip = load_bvh(test::clip_path("02_04"));
+  ASSERT_TRUE(clip);
+  // The clip from its second frame: the performer is already moving, arms down.
+  clip->values.erase(clip->values.begin(), clip->values.begin() + clip->channel_count);
+  --clip->frame_count;
+  auto r = retarget_bvh(*clip);
+  ASSERT_TRUE(r);
+  EXPECT_FALSE(r->characterised_on_t_pose);
+  EXPECT_LT(max_joint_error(*clip, *r).max_m, 0.01);
 }
 
 TEST(Retarget, SequencesHaveNoJumps) {

@@ -8,13 +8,19 @@
 //    RHipJoint, fingers and thumbs are ignored.
 //  - Mimic's own names (a clip written by write_bvh): every joint maps to itself.
 //
-// Method. Each Mimic segment m gets a constant rest alignment A_m: the rotation taking Mimic's
-// rest link direction (the joint's tip in the default skeleton) onto the clip's rest link
-// direction (all channels zero). The fitted skeleton's offsets are the clip's bone vectors
-// expressed in Mimic's rest frames (offset_m = A_parent⁻¹ · bone), so Mimic's segment world
-// rotation G_m = G_bvh · A_m reproduces the clip's joint positions. Per frame, each joint's
-// local rotation G_actual(parent)⁻¹ · G_m is turned into DOF values (joint_angles.h), always
-// from the parent rotation the produced DOFs actually give, so errors never accumulate.
+// Method. Each Mimic segment m gets a constant alignment A_m, chosen so that where the clip
+// shows its T-pose Mimic's segments take their own T-pose orientations. A CMU clip whose frame 0
+// is a T-pose (upper arms within 30° of level, thighs within 20° of vertical: the
+// MotionBuilder-friendly conversions) is characterised on that frame: limbs and spine turned by
+// the shortest arc onto the performer's links there, head level and feet flat, all from the
+// performer's heading. Other CMU clips align at the rest pose (all channels zero): A_m takes
+// Mimic's rest link direction onto the clip's rest link direction. A clip in Mimic's own names
+// needs no alignment (its rest pose is Mimic's zero posture). The fitted skeleton's offsets
+// are the clip's bone vectors expressed in Mimic's frames (offset_m = A_parent⁻¹ · bone), so
+// Mimic's segment world rotation G_m = G_bvh · A_m reproduces the clip's joint positions
+// whatever A_m is. Per frame, each joint's local rotation G_actual(parent)⁻¹ · G_m is turned
+// into DOF values (joint_angles.h), always from the parent rotation the produced DOFs actually
+// give, so errors never accumulate.
 // Joints with fewer than three DOFs are solved so positions stay exact: clavicles aim their
 // link at the shoulder; shoulder(3) + elbow flexion and hip(3) + knee flexion are solved as
 // two-bone chains (elbow/knee and wrist/ankle on the clip's positions, the hinge side taken
@@ -39,6 +45,7 @@ struct RetargetedClip {
   double frame_time_s = 0;
   std::vector<int> bvh_joint;  // per Mimic joint: the clip joint it follows
   std::string source_name;
+  bool characterised_on_t_pose = false;  // frame 0 was the T-pose the segments are aligned on
 };
 
 // Fails (Errc::unsupported) when the clip uses neither naming convention, naming the first
