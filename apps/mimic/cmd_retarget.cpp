@@ -79,6 +79,8 @@ int run_retarget(const std::vector<std::string>& argv) {
               "upper arm %.3f m, forearm %.3f m\n",
               r->skeleton.joint_count(), r->skeleton.dof_count(), p.pelvis_height_m, p.thigh_m, p.shin_m,
               p.upper_arm_m, p.forearm_m);
+  std::printf("segments aligned %s\n", r->characterised_on_t_pose ? "on the clip's frame-0 T-pose (head level, feet flat)"
+                                                                   : "at the clip's rest pose (frame 0 is no T-pose)");
   std::printf("joint centres vs the clip: mean %.3f mm, max %.3f mm\n", count ? 1000 * sum / static_cast<double>(count) : 0.0, 1000 * worst);
 
   const avatar::Skeleton* skeleton = &r->skeleton;

@@ -31,6 +31,7 @@ TEST(RetargetCli, RetargetsACmuClipAndReadsItsOwnOutputBack) {
   ASSERT_EQ(r.status, 0) << r.output;
   EXPECT_NE(r.output.find("31 joints, 96 channels, 166 frames at 120.00 fps"), std::string::npos) << r.output;
   EXPECT_NE(r.output.find("joint centres vs the clip"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("segments aligned on the clip's frame-0 T-pose"), std::string::npos) << r.output;
   EXPECT_NE(r.output.find("wrote"), std::string::npos) << r.output;
   auto text = mimic::read_file(out);
   ASSERT_TRUE(text) << text.error().what();
