@@ -249,29 +249,26 @@ struct RayTerms {
     const float start = n > 0 ? start_bound() : -1.0f;
     if (start >= 0.0f) {
       t_far = start;
-      // Peaks in decreasing order (insertion sort: a handful of terms).
-      for (int i = 1; i < n; ++i)
-        for (int j = i; j > 0 && peak[j] > peak[j - 1]; --j) std::swap(peak[j], peak[j - 1]);
       // March inwards from the far end of all supports with a step no longer than an eighth
-      // of the shortest support chord around the current t, visiting every primitive's peak
-      // too, so neither a thin primitive nor a blended bridge between two is stepped over.
+      // of the shortest support chord around the current t, stopping at every primitive's peak
+      // on the way, so neither a thin primitive nor a blended bridge between two is stepped over.
       float t_out = t_far, f_out = field_at(t_far);
       float t = t_far;
-      int next_peak = 0;
       if (f_out >= kIsoLevel) return std::max(t_far, t_hard);
       while (t > 0.0f) {
         float step = std::numeric_limits<float>::max();
         float below = -1.0f;  // the next support end inside, when t is in no support
+        float peak_in = -1.0f;  // the next peak inside
         for (int k = 0; k < n; ++k) {
           if (t <= t1[k] && t >= t0[k]) step = std::min(step, chord[k]);
           else if (t1[k] < t) below = std::max(below, t1[k]);
+          if (peak[k] < t) peak_in = std::max(peak_in, peak[k]);
         }
-        float next = step < std::numeric_limits<float>::max() ? t - std::max(step * 0.125f, kMinStep_m)
-                                                            : below;
-        next = std::max(next, 0.0f);
-        if (next_peak < n && peak[next_peak] > next) {
-          next = std::min(peak[next_peak++], t);
-          if (next >= t_out) continue;
+        float next = step < std::numeric_limits<float>::max() ? t - std::max(step * 0.125f, kMinStep_m) : below;
+        next = std::max(next, peak_in);
+        if (next < 0.0f) {
+          if (step == std::numeric_limits<float>::max()) break;  // nothing further in
+          next = 0.0f;  // the last sample at the origin
         }
         t = next;
         const float f = field_at(t);
@@ -358,8 +355,15 @@ inline v8f vsqrt(v8f x) {
   return r;
 #endif
 }
+typedef int v8i __attribute__((vector_size(32)));
 inline v8f vmax(v8f a, v8f b) { return a > b ? a : b; }
 inline v8f vmin(v8f a, v8f b) { return a < b ? a : b; }
+inline v8f vabs(v8f a) { return a < 0.0f ? -a : a; }
+inline bool all_of(v8i m) {
+  int all = -1;
+  for (int l = 0; l < kLanes; ++l) all &= m[l];
+  return all != 0;
+}
 
 struct StarBatch {
   // Per metaball term k, per lane: s(t) = A t² + 2 B t + C on support [T0, T1]; WN = 0 where
@@ -370,8 +374,12 @@ struct StarBatch {
   float IR2[kMaxRayCandidates], CBRT_INV_WN[kMaxRayCandidates];
   int n = 0;
 
-  void eval(v8f t, v8f& f, v8f& slope) const {
+  // Field and slope at t, and what the march needs to step on from t: the shortest support
+  // chord containing t (+inf when none), the largest support end before t and the largest peak
+  // before t (−1 when none). Lanes whose ray misses term k have T1 = PK = −1 there.
+  void eval(v8f t, v8f& f, v8f& slope, v8f& step, v8f& below, v8f& peak) const {
     v8f sum = splat(0), d = splat(0);
+    v8f st = splat(std::numeric_limits<float>::infinity()), bl = splat(-1.0f), pk = splat(-1.0f);
     for (int k = 0; k < n; ++k) {
       const v8f at = A[k] * t;
       v8f u = splat(1.0f) - ((at + 2.0f * B[k]) * t + C[k]) * IR2[k];
@@ -379,21 +387,19 @@ struct StarBatch {
       const v8f wu2 = WN[k] * u * u;
       sum += wu2 * u;
       d -= (6.0f * IR2[k]) * wu2 * (at + B[k]);
+      const auto inside = (t <= T1[k]) & (t >= T0[k]);
+      st = inside ? vmin(st, CH[k]) : st;
+      bl = T1[k] < t ? vmax(bl, T1[k]) : bl;
+      pk = PK[k] < t ? vmax(pk, PK[k]) : pk;
     }
     f = sum;
     slope = d;
+    step = st;
+    below = bl;
+    peak = pk;
   }
 };
 
-struct LaneState {
-  int phase = 0;  // 0 evaluate the start, 1 march, 2 refine, 3 done
-  float t = 0, t_out = 0, f_out = 0;
-  float lo = 0, hi = 0, flo = 0, fhi = 0;
-  int it = 0;
-  int next_peak = 0, peaks = 0;
-  float peak[kMaxRayCandidates];
-  float result = -1.0f;
-};
 
 }  // namespace
 
@@ -417,7 +423,6 @@ template <class Quadratic>
 void BodyField::cast_lanes(std::span<const uint16_t> candidates, int n, Quadratic&& quadratic, std::span<RayHit> out) const {
   const auto& inv_n_cbrt = inv_n_cbrt_table();
   StarBatch batch;
-  LaneState lanes[kLanes];
   const int live = static_cast<int>(out.size());
   {
     // Terms of every lane; hard ellipsoids give their exit directly.
@@ -454,7 +459,7 @@ void BodyField::cast_lanes(std::span<const uint16_t> candidates, int n, Quadrati
       batch.T0[m] = start;
       batch.T1[m] = valid ? end : splat(-1.0f);
       batch.CH[m] = 2.0f * root * inv_a;
-      batch.PK[m] = vmin(vmax(-b * inv_a, start), end);
+      batch.PK[m] = valid ? vmin(vmax(-b * inv_a, start), end) : splat(-1.0f);
       count += valid ? splat(1.0f) : splat(0.0f);
       ++batch.n;
     }
@@ -470,113 +475,61 @@ void BodyField::cast_lanes(std::span<const uint16_t> candidates, int n, Quadrati
       const auto ok = (batch.WN[k] > 0.0f) & (u_min < 1.0f) & (disc > 0.0f);
       start = ok ? vmax(start, exit_t) : start;
     }
-    v8f t_eval = splat(0.0f);
-    int pending = 0;
-    for (int l = 0; l < kLanes; ++l) {
-      LaneState& s = lanes[l];
-      s = LaneState{};
-      if (start[l] < 0.0f) {
-        s.phase = 3;
-        s.result = t_hard[l];
-        continue;
-      }
-      for (int k = 0; k < batch.n; ++k)
-        if (batch.WN[k][l] > 0.0f) {
-          // Peaks in decreasing order (insertion as they come).
-          int p = s.peaks++;
-          for (; p > 0 && s.peak[p - 1] < batch.PK[k][l]; --p) s.peak[p] = s.peak[p - 1];
-          s.peak[p] = batch.PK[k][l];
-        }
-      s.t = s.t_out = start[l];
-      t_eval[l] = s.t;
-      ++pending;
+    // Every lane's march and refinement as masks over the eight lanes: a lane is starting
+    // (first sample, at the start bound), marching (field below the iso-level so far),
+    // refining (bracketed) or done; each pass evaluates all eight and moves each lane on.
+    const v8f iso = splat(kIsoLevel), zero = splat(0.0f), inf = splat(std::numeric_limits<float>::infinity());
+    v8i done = start < zero, starting = ~done, refining = v8i{} != v8i{};
+    v8f result = t_hard, t = vmax(start, zero), t_out = t, f_out = zero;
+    v8f lo = zero, hi = zero, flo = zero, fhi = zero, iters = zero;
+    for (int guard = 0; guard < 256 && !all_of(done); ++guard) {
+      v8f f, slope, step, below, peak;
+      batch.eval(t, f, slope, step, below, peak);
+      const v8i inside = f >= iso;
+      // The start already inside: nothing lies beyond it.
+      const v8i start_in = starting & inside;
+      result = start_in ? vmax(t, t_hard) : result;
+      // Marching into the surface: bracketed between this sample and the last one outside.
+      const v8i marching = ~done & ~refining;
+      const v8i bracketed = marching & ~starting & inside;
+      const v8f fr = f - iso;
+      lo = bracketed ? t : lo;
+      flo = bracketed ? fr : flo;
+      hi = bracketed ? t_out : hi;
+      fhi = bracketed ? f_out - iso : fhi;
+      // Still outside: the next sample inwards (same rule as RayTerms::outermost).
+      const v8i outside = marching & ~inside;
+      v8f next = step < inf ? t - vmax(step * 0.125f, splat(kMinStep_m)) : below;
+      next = vmax(next, peak);
+      next = (next < zero) & (step < inf) ? zero : next;  // the last sample at the origin
+      const v8i exhausted = outside & ((t <= zero) | (next < zero));
+      result = exhausted ? t_hard : result;
+      t_out = outside ? t : t_out;
+      f_out = outside ? f : f_out;
+      // Refining: Newton from the bracket, bisection whenever a step would leave it.
+      iters = refining ? iters + 1.0f : iters;
+      const v8i converged = refining & ((vabs(fr) < 5e-4f) | (hi - lo < 1e-5f) | (iters >= 32.0f));
+      result = converged ? vmax(t, t_hard) : result;
+      const v8i stepping = refining & ~converged;
+      const v8i above = fr >= zero;
+      lo = stepping & above ? t : lo;
+      flo = stepping & above ? fr : flo;
+      hi = stepping & ~above ? t : hi;
+      fhi = stepping & ~above ? fr : fhi;
+      const v8f mid = 0.5f * (lo + hi);
+      v8f newton = slope != zero ? t - fr / slope : mid;
+      newton = (newton > lo) & (newton < hi) ? newton : mid;
+      const v8i settled = stepping & (vabs(newton - t) < 2e-6f);
+      result = settled ? vmax(newton, t_hard) : result;
+      // New bracket: its first estimate is the secant between the two samples.
+      const v8f secant = (lo * fhi - hi * flo) / (fhi - flo);
+      t = bracketed ? secant : stepping ? newton : outside & ~exhausted ? next : t;
+      iters = bracketed ? zero : iters;
+      done = done | start_in | exhausted | converged | settled;
+      refining = (refining | bracketed) & ~done;
+      starting = v8i{} != v8i{};
     }
-    for (int guard = 0; pending > 0 && guard < 256; ++guard) {
-      v8f f, slope;
-      batch.eval(t_eval, f, slope);
-      pending = 0;
-      for (int l = 0; l < kLanes; ++l) {
-        LaneState& s = lanes[l];
-        if (s.phase == 3) continue;
-        const float fl = f[l];
-        const float th = t_hard[l];
-        if (s.phase == 0) {
-          s.f_out = fl;
-          if (fl >= kIsoLevel) {
-            s.phase = 3;
-            s.result = std::max(s.t, th);
-            continue;
-          }
-          s.phase = 1;
-        } else if (s.phase == 1) {
-          if (fl >= kIsoLevel) {
-            // Bracketed: start refining from the secant estimate.
-            s.lo = s.t;
-            s.flo = fl - kIsoLevel;
-            s.hi = s.t_out;
-            s.fhi = s.f_out - kIsoLevel;
-            s.phase = 2;
-            s.it = 0;
-            s.t = (s.lo * s.fhi - s.hi * s.flo) / (s.fhi - s.flo);
-            t_eval[l] = s.t;
-            ++pending;
-            continue;
-          }
-          s.t_out = s.t;
-          s.f_out = fl;
-        } else {
-          // Refinement step: Newton from the bracket, bisection when a step leaves it.
-          const float fr = fl - kIsoLevel;
-          if (std::abs(fr) < 5e-4f || s.hi - s.lo < 1e-5f || ++s.it >= 32) {
-            s.phase = 3;
-            s.result = std::max(s.t, th);
-            continue;
-          }
-          if (fr >= 0.0f) s.lo = s.t, s.flo = fr;
-          else s.hi = s.t, s.fhi = fr;
-          const float sl = slope[l];
-          float next = sl != 0.0f ? s.t - fr / sl : 0.5f * (s.lo + s.hi);
-          if (!(next > s.lo && next < s.hi)) next = 0.5f * (s.lo + s.hi);
-          if (std::abs(next - s.t) < 2e-6f) {
-            s.phase = 3;
-            s.result = std::max(next, th);
-            continue;
-          }
-          s.t = next;
-          t_eval[l] = s.t;
-          ++pending;
-          continue;
-        }
-        // March: the next sample inwards (same rule as RayTerms::outermost).
-        bool have = false;
-        while (s.t > 0.0f) {
-          float step = std::numeric_limits<float>::max(), below = -1.0f;
-          for (int k = 0; k < batch.n; ++k) {
-            if (!(batch.WN[k][l] > 0.0f)) continue;
-            const float t0 = batch.T0[k][l], t1 = batch.T1[k][l];
-            if (s.t <= t1 && s.t >= t0) step = std::min(step, batch.CH[k][l]);
-            else if (t1 < s.t) below = std::max(below, t1);
-          }
-          float next = step < std::numeric_limits<float>::max() ? s.t - std::max(step * 0.125f, kMinStep_m) : below;
-          next = std::max(next, 0.0f);
-          if (s.next_peak < s.peaks && s.peak[s.next_peak] > next) {
-            next = std::min(s.peak[s.next_peak++], s.t);
-            if (next >= s.t_out) continue;
-          }
-          s.t = next;
-          have = true;
-          break;
-        }
-        if (!have) {
-          s.phase = 3;
-          s.result = th;
-          continue;
-        }
-        t_eval[l] = s.t;
-        ++pending;
-      }
-    }
-    for (int l = 0; l < live; ++l) out[l] = RayHit{lanes[l].phase == 3 ? lanes[l].result : t_hard[l]};
+    for (int l = 0; l < live; ++l) out[l] = RayHit{done[l] ? result[l] : t_hard[l]};
   }
 }
 
