@@ -536,6 +536,22 @@ void BodyField::cast_lanes(std::span<const uint16_t> candidates, int n, Quadrati
 void BodyField::cast_star(const glm::vec3& origin, const glm::vec3& front, const glm::vec3& left,
                           std::span<const float> angles_rad, std::span<const uint16_t> candidates,
                           std::span<RayHit> hits) const {
+  constexpr size_t kChunk = 64;
+  float cos_a[kChunk], sin_a[kChunk];
+  for (size_t first = 0; first < angles_rad.size(); first += kChunk) {
+    const size_t m = std::min(kChunk, angles_rad.size() - first);
+    for (size_t j = 0; j < m; ++j) {
+      cos_a[j] = std::cos(angles_rad[first + j]);
+      sin_a[j] = std::sin(angles_rad[first + j]);
+    }
+    cast_star(origin, front, left, std::span<const float>(cos_a, m), std::span<const float>(sin_a, m), candidates,
+              hits.subspan(first, m));
+  }
+}
+
+void BodyField::cast_star(const glm::vec3& origin, const glm::vec3& front, const glm::vec3& left,
+                          std::span<const float> cos_a, std::span<const float> sin_a,
+                          std::span<const uint16_t> candidates, std::span<RayHit> hits) const {
   // Everything that does not depend on the ray's angle is computed once per contour:
   // q0 = M(o − c), M·front, M·left; then q1 = cos·Mf + sin·Ml per ray.
   const int n = std::min<int>(static_cast<int>(candidates.size()), kMaxRayCandidates);
@@ -550,14 +566,14 @@ void BodyField::cast_star(const glm::vec3& origin, const glm::vec3& front, const
     cc[k] = glm::dot(q0[k], q0[k]);
   }
 
-  const size_t rays = angles_rad.size();
+  const size_t rays = std::min(cos_a.size(), sin_a.size());
   for (size_t first = 0; first < rays; first += kLanes) {
     const int live = static_cast<int>(std::min<size_t>(kLanes, rays - first));
     v8f ca, sa;
     for (int l = 0; l < kLanes; ++l) {
-      const float ang = angles_rad[first + std::min(l, live - 1)];
-      ca[l] = std::cos(ang);
-      sa[l] = std::sin(ang);
+      const size_t r = first + static_cast<size_t>(std::min(l, live - 1));
+      ca[l] = cos_a[r];
+      sa[l] = sin_a[r];
     }
     cast_lanes(
         candidates, n,

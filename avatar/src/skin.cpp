@@ -98,7 +98,7 @@ struct Ring {
   // star
   int chain = -1, segment = 0;
   float u = 0;
-  int angles = -1;
+  int angles = -1;  // direction table (stars and arcs)
   // driven: P = S + alpha (G − S), ray from P's projection on the chain's first link
   int s_ring = -1;
   std::vector<uint32_t> goal;  // G's slots (a loop made of other rings' points)
@@ -147,7 +147,18 @@ struct BodySkin::Impl {
 
   std::vector<RigidTransform> world_from_joint;
   std::vector<Chain> chains;
-  std::vector<std::vector<float>> angle_tables;
+  // Ray directions of star and arc rings in their planes (fixed by the layout): cos and sin of
+  // each ray's angle from the plane's front towards its left (an arc's "up").
+  struct Directions {
+    std::vector<float> cos, sin;
+  };
+  std::vector<Directions> direction_tables;
+  int add_directions(std::span<const float> angles_rad) {
+    Directions d;
+    for (float a : angles_rad) d.cos.push_back(std::cos(a)), d.sin.push_back(std::sin(a));
+    direction_tables.push_back(std::move(d));
+    return static_cast<int>(direction_tables.size()) - 1;
+  }
   std::vector<Ring> rings;
   std::vector<Surface> surfaces;
   std::vector<Bridge> bridges;
@@ -162,7 +173,6 @@ struct BodySkin::Impl {
   std::vector<uint16_t> candidates;
   std::vector<RayHit> star_hits;
   std::vector<glm::vec3> ray_origins, ray_dirs, ray_fallbacks;  // a ring's rays, cast together
-  std::vector<float> ray_angles;
   SkinTimings timings;
   SkinStats stats;
 
@@ -183,7 +193,7 @@ struct BodySkin::Impl {
 
   Status build(const BodyModel& model);
   void compute_ring(const Ring& r);
-  // Per-ring scratch (hits, ray origins, directions, fallbacks, angles) for the widest ring so
+  // Per-ring scratch (hits, ray origins, directions, fallbacks) for the widest ring so
   // far: grown at build time, so compute_ring never allocates.
   void size_ring_buffers();
   void cast_into(uint32_t slot, const glm::vec3& origin, const glm::vec3& dir,
@@ -231,7 +241,6 @@ void BodySkin::Impl::size_ring_buffers() {
   ray_origins.resize(widest);
   ray_dirs.resize(widest);
   ray_fallbacks.resize(widest);
-  ray_angles.resize(widest);
 }
 
 void BodySkin::Impl::compute_ring(const Ring& r) {
@@ -240,11 +249,11 @@ void BodySkin::Impl::compute_ring(const Ring& r) {
       const Plane p = ring_plane(chains[r.chain], r.segment, r.u);
       const int n = field.candidates_near_plane(p.origin, p.normal, r.mask, candidates);
       const std::span<const uint16_t> cand(candidates.data(), n);
-      const std::vector<float>& ang = angle_tables[r.angles];
+      const Directions& dir = direction_tables[r.angles];
       const std::span<RayHit> hits(star_hits.data(), r.slots.size());
-      field.cast_star(p.origin, p.front, p.left, ang, cand, hits);
+      field.cast_star(p.origin, p.front, p.left, dir.cos, dir.sin, cand, hits);
       for (size_t j = 0; j < r.slots.size(); ++j) {
-        const glm::vec3 d = std::cos(ang[j]) * p.front + std::sin(ang[j]) * p.left;
+        const glm::vec3 d = dir.cos[j] * p.front + dir.sin[j] * p.left;
         store(r.slots[j], p.origin, d, hits[j], p.origin + kMissRadius_m * d);
       }
       break;
@@ -290,12 +299,11 @@ void BodySkin::Impl::compute_ring(const Ring& r) {
       // A half star from the chord's middle: one contour's worth of shared work.
       const int segs = static_cast<int>(r.slots.size()) + 1;
       const size_t m = r.slots.size();
-      for (int k = 1; k < segs; ++k) ray_angles[static_cast<size_t>(k - 1)] = kPi * static_cast<float>(k) / static_cast<float>(segs);
+      const Directions& dir = direction_tables[r.angles];
       const std::span<RayHit> hits(star_hits.data(), m);
-      field.cast_star(o, front, up, std::span(ray_angles.data(), m), cand, hits);
+      field.cast_star(o, front, up, dir.cos, dir.sin, cand, hits);
       for (int k = 1; k < segs; ++k) {
-        const float phi = ray_angles[static_cast<size_t>(k - 1)];
-        const glm::vec3 d = std::cos(phi) * front + std::sin(phi) * up;
+        const glm::vec3 d = dir.cos[static_cast<size_t>(k - 1)] * front + dir.sin[static_cast<size_t>(k - 1)] * up;
         const glm::vec3 chord = glm::mix(from, to, static_cast<float>(k) / static_cast<float>(segs));
         store(r.slots[k - 1], o, d, hits[static_cast<size_t>(k - 1)], chord);
       }
@@ -411,7 +419,7 @@ Status BodySkin::Impl::build(const BodyModel& model) {
 
   // Torso rings: crotch → waist (lower_torso), waist → chest (upper_torso), spaced by arc length.
   const int M = L.torso_points;
-  angle_tables.push_back(torso_angles(L));
+  const int torso_directions = add_directions(torso_angles(L));
   const Chain& tc = chains[0];
   std::vector<float> cum(tc.point.size(), 0.0f);
   for (size_t i = 1; i < cum.size(); ++i) cum[i] = cum[i - 1] + glm::length(tc.point[i] - tc.point[i - 1]);
@@ -434,7 +442,7 @@ Status BodySkin::Impl::build(const BodyModel& model) {
     r.kind = RingKind::star;
     r.chain = 0;
     at_length(s, r.segment, r.u);
-    r.angles = 0;
+    r.angles = torso_directions;
     // The waist ring is shared by both torso pieces: it sees both groups.
     r.mask = i < 2             ? group_bit(Group::hip)
              : i < lower_n - 1 ? group_bit(Group::lower_torso)
@@ -461,6 +469,10 @@ Status BodySkin::Impl::build(const BodyModel& model) {
     r.to = to;
     r.up_ring = up_ring;
     r.flip_up = flip;
+    // A half star from the chord's middle, the interior points at k·π/segs.
+    std::vector<float> arc_angles(static_cast<size_t>(std::max(segs - 1, 0)));
+    for (int k = 1; k < segs; ++k) arc_angles[static_cast<size_t>(k - 1)] = kPi * static_cast<float>(k) / static_cast<float>(segs);
+    r.angles = add_directions(arc_angles);
     return add_ring(std::move(r), segs - 1);
   };
   const int crotch_bridge =
@@ -567,8 +579,7 @@ Status BodySkin::Impl::build(const BodyModel& model) {
     // Angles facing the loop, measured on the S plane in the rest posture.
     std::vector<glm::vec3> goal_points;
     for (uint32_t s : loop) goal_points.push_back(ctrl[s]);
-    angle_tables.push_back(angles_facing(ring_plane(c, positions[0].first, positions[0].second), goal_points));
-    const int angles = static_cast<int>(angle_tables.size()) - 1;
+    const int angles = add_directions(angles_facing(ring_plane(c, positions[0].first, positions[0].second), goal_points));
 
     std::vector<int> star_ids;
     for (size_t i = 0; i < positions.size(); ++i) {

@@ -75,6 +75,10 @@ class BodyField {
   void cast_star(const glm::vec3& origin, const glm::vec3& front, const glm::vec3& left,
                  std::span<const float> angles_rad, std::span<const uint16_t> candidates,
                  std::span<RayHit> hits) const;
+  // The same with the rays' cosines and sines given (a contour's fixed angles, computed once).
+  void cast_star(const glm::vec3& origin, const glm::vec3& front, const glm::vec3& left,
+                 std::span<const float> cos_a, std::span<const float> sin_a,
+                 std::span<const uint16_t> candidates, std::span<RayHit> hits) const;
   // Rays of their own (origins[j] + t·dirs[j], unit dirs), eight at a time in lock-step: the
   // same result as cast_outermost per ray.
   void cast_rays(std::span<const glm::vec3> origins, std::span<const glm::vec3> dirs,
