@@ -172,6 +172,7 @@ struct BodySkin::Impl {
   std::vector<glm::vec3> scratch_grid, scratch_rows, scratch_poly;
   std::vector<uint16_t> candidates;
   std::vector<RayHit> star_hits;
+  std::vector<glm::vec4> normal_sums;  // per vertex, while the normals are summed
   std::vector<glm::vec3> ray_origins, ray_dirs, ray_fallbacks;  // a ring's rays, cast together
   SkinTimings timings;
   SkinStats stats;
@@ -859,7 +860,10 @@ void BodySkin::Impl::build_output() {
     for (uint32_t j = 0; j < pts; ++j) mesh.indices.insert(mesh.indices.end(), {last[j], last[(j + 1) % pts], north});
     end_part();
   }
-  if (options.normals) mesh.normals.assign(pos.size(), glm::vec3(0, 1, 0));
+  if (options.normals) {
+    mesh.normals.assign(pos.size(), glm::vec3(0, 1, 0));
+    normal_sums.assign(pos.size(), glm::vec4(0));
+  }
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -916,18 +920,21 @@ void BodySkin::Impl::evaluate_bspline() {
 }
 
 void BodySkin::Impl::update_normals() {
-  std::vector<glm::vec3>& nrm = mesh.normals;
-  std::fill(nrm.begin(), nrm.end(), glm::vec3(0));
+  // Summed in 16-byte slots: neighbouring triangles share vertices, and a 12-byte vec3 read
+  // back right after its two-part store cannot be forwarded (half the frame went there).
+  std::vector<glm::vec4>& acc = normal_sums;
+  std::fill(acc.begin(), acc.end(), glm::vec4(0));
   const auto& pos = mesh.positions;
   const auto& idx = mesh.indices;
   for (size_t t = 0; t + 2 < idx.size(); t += 3) {
     const glm::vec3 a = pos[idx[t]], b = pos[idx[t + 1]], c = pos[idx[t + 2]];
-    const glm::vec3 n = glm::cross(b - a, c - a);  // length = twice the area: area weighting
-    nrm[idx[t]] += n;
-    nrm[idx[t + 1]] += n;
-    nrm[idx[t + 2]] += n;
+    const glm::vec4 n(glm::cross(b - a, c - a), 0.0f);  // length = twice the area: area weighting
+    acc[idx[t]] += n;
+    acc[idx[t + 1]] += n;
+    acc[idx[t + 2]] += n;
   }
-  for (glm::vec3& n : nrm) n = safe_normalize(n, {0, 1, 0});
+  std::vector<glm::vec3>& nrm = mesh.normals;
+  for (size_t v = 0; v < nrm.size(); ++v) nrm[v] = safe_normalize(glm::vec3(acc[v]), {0, 1, 0});
 }
 
 // ---------------------------------------------------------------------------------------------
