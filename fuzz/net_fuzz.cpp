@@ -22,6 +22,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   MeshFrameHeader mesh_header;
   std::vector<glm::vec3> positions;
   uint16_t avatar = 0;
+  uint64_t token = 0;
   std::vector<SceneEntry> scene;
   for (const auto& piece : pieces) {
     const size_t n = piece[1] - piece[0];
@@ -38,6 +39,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
       (void)decode_reject(p, reject);
       (void)decode_avatar_model(p, model);
       (void)decode_avatar_removed(p, avatar);
+      (void)decode_udp_register(p, token);
       (void)decode_scene(p, scene);
       (void)decode_pose(p, pose_header, pose);
       (void)decode_mesh_topology(p, topology);
@@ -47,6 +49,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   // And the raw bytes as one whole packet.
   const std::span<const uint8_t> whole(data, size);
   (void)decode_pose(whole, pose_header, pose);
+  (void)decode_udp_register(whole, token);  // what arrives on the server's UDP socket
   (void)decode_hello(whole, hello);
   (void)decode_avatar_model(whole, model);
   return 0;

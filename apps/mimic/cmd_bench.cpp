@@ -59,6 +59,12 @@ Result<nlohmann::json> bench_net(const BenchOptions& opt) {
   j["loopback_latency_us"] = {{"p50", lat->p50_us}, {"p99", lat->p99_us}, {"max", lat->max_us}, {"samples", lat->samples}};
   std::fprintf(stderr, "server -> subscriber on loopback: p50 %.1f us, p99 %.1f us (%llu frames)\n", lat->p50_us,
                lat->p99_us, static_cast<unsigned long long>(lat->samples));
+  auto lat_udp = net::measure_loopback_latency(opt.quick ? 300 : 3000, uint16_t(sk->dof_count()), true);
+  if (!lat_udp) return tl::unexpected(lat_udp.error());
+  j["loopback_latency_udp_us"] = {{"p50", lat_udp->p50_us}, {"p99", lat_udp->p99_us}, {"max", lat_udp->max_us},
+                                  {"samples", lat_udp->samples}};
+  std::fprintf(stderr, "server -> subscriber on loopback, frames as UDP datagrams: p50 %.1f us, p99 %.1f us\n",
+               lat_udp->p50_us, lat_udp->p99_us);
 
   // Sensor record -> frame leaving the socket: the pipeline of `mimic run` on the simulated
   // walk (tracker sample through solver, deformer, encoder and server), one subscriber reading.
@@ -276,9 +282,9 @@ const char* kUsage =
     "\n"
     "sections:\n"
     "  net   bytes per avatar-frame (Mimic pose frame vs VMC vs raw floats); server -> subscriber\n"
-    "        latency on loopback; sensor record -> frame leaving the socket through the mimic run\n"
-    "        pipeline (p50/p99); subscribers x avatars the server holds at 90 Hz with no lost\n"
-    "        latest frame\n"
+    "        latency on loopback (TCP, and UDP datagrams); sensor record -> frame leaving the\n"
+    "        socket through the mimic run pipeline (p50/p99); subscribers x avatars the server\n"
+    "        holds at 90 Hz with no lost latest frame\n"
     "  skin  the metaball skin on the built-in walk (realtime resolution and subdivision 1):\n"
     "        frame time p50/p99 and, in the same run, linear blend skinning of the same\n"
     "        vertices, with the ratio\n"

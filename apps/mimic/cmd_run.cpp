@@ -41,7 +41,8 @@ const char* kUsage =
     "                      the wearer's fitted skeleton and sensor offsets. Without it, simulated\n"
     "                      sources use their exact mounts, trackers the standard layout's placements\n"
     "  --listen ADDR:PORT  where to serve (default 127.0.0.1:7777; port 0 picks one). Any\n"
-    "                      non-loopback address requires --secret\n"
+    "                      non-loopback address requires --secret. Subscribers may take their\n"
+    "                      pose frames as UDP datagrams from the same port (mimic subscribe --udp)\n"
     "  --secret S          shared secret publishers must present (also MIMIC_SECRET)\n"
     "  --publish HOST:PORT do not host: publish the avatars into the scene served there\n"
     "  --vmc HOST:PORT     also send the first avatar as VMC (OSC over UDP), e.g. 127.0.0.1:39539\n"
@@ -228,7 +229,9 @@ int run(const std::vector<std::string>& argv) {
       j["server"] = {{"endpoint", server->endpoint()},  {"sessions_accepted", st.sessions_accepted},
                      {"subscribers", st.subscribers},   {"frames_out", st.frames_out},
                      {"frames_dropped", st.frames_dropped}, {"bytes_out", st.bytes_out},
-                     {"rejected", st.rejected_total()}, {"resumed", st.resumed}};
+                     {"rejected", st.rejected_total()}, {"resumed", st.resumed},
+                     {"udp", server->udp()},            {"udp_registered", st.udp_registered},
+                     {"udp_frames_out", st.udp_frames_out}};
       for (int r = 1; r < net::kRejectCount; ++r)
         if (st.rejected[size_t(r)]) j["server"]["rejected_by_reason"][net::reject_name(net::Reject(r))] = st.rejected[size_t(r)];
     }

@@ -14,13 +14,13 @@ namespace mimic::app {
 namespace {
 
 const char* kUsage =
-    "usage: mimic subscribe [--connect HOST:PORT] [--count N] [--duration S] [--mesh-lod L] [--json]\n"
+    "usage: mimic subscribe [--connect HOST:PORT] [--count N] [--duration S] [--mesh-lod L] [--udp] [--json]\n"
     "\n"
     "Joins the scene served by 'mimic run' as a subscriber: receives every avatar's body model\n"
     "once, then its pose frames (latest wins). Prints one line per model and per frame, or with\n"
     "--json only a summary object at the end:\n"
     "  frames, avatars, fps, latency_ms_p50, latency_ms_p99, lost, out_of_order, model_bytes,\n"
-    "  frame_bytes_mean, mesh_frames, reconnects, duration_s\n"
+    "  frame_bytes_mean, mesh_frames, reconnects, duration_s, transport, udp_frames\n"
     "Latency is the frame's capture time (sender's clock) to its arrival here.\n"
     "\n"
     "options:\n"
@@ -28,6 +28,9 @@ const char* kUsage =
     "  --count N            stop after N pose frames\n"
     "  --duration S         stop after S seconds (default: until --count, or forever)\n"
     "  --mesh-lod L         also receive mesh frames at LOD L (0 = finest)\n"
+    "  --udp                pose frames as UDP datagrams (models stay on TCP; frames come over\n"
+    "                       TCP until the server has registered this address, or if it offers\n"
+    "                       no UDP)\n"
     "  --json               print only the JSON summary\n";
 
 double percentile(std::vector<double> v, double q) {
@@ -38,7 +41,7 @@ double percentile(std::vector<double> v, double q) {
 }
 
 int subscribe(const std::vector<std::string>& argv) {
-  Args a(argv, {"connect", "count", "duration", "mesh-lod"}, {"json"});
+  Args a(argv, {"connect", "count", "duration", "mesh-lod"}, {"json", "udp"});
   if (a.help()) {
     std::printf("%s", kUsage);
     return 0;
@@ -57,9 +60,12 @@ int subscribe(const std::vector<std::string>& argv) {
   o.role = net::Role::subscriber;
   o.name = "mimic subscribe";
   if (lod >= 0) o.mesh_lod = static_cast<uint8_t>(lod);
+  o.udp = a.has("udp");
   auto c = net::Client::connect(o);
   if (!c) return failure("subscribe", c.error().what());
   net::Client& client = **c;
+  if (o.udp && !(client.negotiated_capabilities() & net::kCapUdpPose))
+    std::fprintf(stderr, "subscribe: the server offers no UDP; pose frames come over TCP\n");
 
   using C = std::chrono::steady_clock;
   std::vector<double> latency_ms;
@@ -109,6 +115,8 @@ int subscribe(const std::vector<std::string>& argv) {
     j["mesh_frames"] = s.mesh_frames;
     j["reconnects"] = s.reconnects;
     j["duration_s"] = std::chrono::duration<double>(C::now() - start).count();
+    j["transport"] = s.udp_frames > 0 ? "udp" : "tcp";
+    j["udp_frames"] = s.udp_frames;
     std::printf("%s\n", j.dump().c_str());
   }
   client.close();

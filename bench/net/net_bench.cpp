@@ -73,9 +73,10 @@ void BM_BytesPerAvatarFrame(benchmark::State& state) {
 }
 BENCHMARK(BM_BytesPerAvatarFrame);
 
+// arg: 1 = pose frames as UDP datagrams.
 void BM_LoopbackLatency(benchmark::State& state) {
   for (auto _ : state) {
-    auto r = net::measure_loopback_latency(2000, 52);
+    auto r = net::measure_loopback_latency(2000, 52, state.range(0) != 0);
     if (!r) {
       state.SkipWithError(r.error().what().c_str());
       return;
@@ -85,7 +86,7 @@ void BM_LoopbackLatency(benchmark::State& state) {
     state.counters["max_us"] = r->max_us;
   }
 }
-BENCHMARK(BM_LoopbackLatency)->Iterations(1)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_LoopbackLatency)->Arg(0)->Arg(1)->Iterations(1)->Unit(benchmark::kMillisecond);
 
 // args: subscribers, avatars. 90 Hz for 2 s.
 void BM_Fanout90Hz(benchmark::State& state) {

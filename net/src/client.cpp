@@ -14,6 +14,7 @@ namespace mimic::net {
 
 namespace asio = boost::asio;
 using tcp = asio::ip::tcp;
+using udp = asio::ip::udp;
 using Clock = std::chrono::steady_clock;
 
 namespace {
@@ -56,6 +57,21 @@ struct Client::Impl {
 
   std::vector<uint8_t> out, control;
   bool writing = false;
+
+  // Pose frames as datagrams: one socket for the client's life, registered with the session
+  // token (again after every resume, and every second to keep NAT mappings open).
+  std::optional<udp::socket> usock;
+  std::array<uint8_t, kMaxDatagramBytes> uin{};
+  udp::endpoint ufrom;
+  bool udp_ready = false;
+  asio::steady_timer udp_timer{io};
+  // The latest datagram frame of each avatar whose model is still on its way (bounded).
+  std::map<uint16_t, std::vector<uint8_t>> early;
+  static constexpr size_t kMaxEarly = 64;
+  void start_udp();
+  void register_udp();
+  void udp_receive();
+  void on_pose(std::span<const uint8_t> p, uint64_t now_us, bool datagram);
 
   asio::steady_timer retry_timer{io};
   asio::steady_timer handshake_timer{io};
@@ -122,7 +138,8 @@ void Client::Impl::start_connection() {
     h.name = opt.name.substr(0, kMaxNameBytes);
     h.secret = opt.secret;
     h.mesh_lod = opt.mesh_lod;
-    h.capabilities = kCapPose | kCapResume | (opt.mesh_lod != kNoMesh ? uint32_t(kCapMesh) : 0u);
+    h.capabilities = kCapPose | kCapResume | (opt.mesh_lod != kNoMesh ? uint32_t(kCapMesh) : 0u) |
+                     (opt.udp && opt.role == Role::subscriber ? uint32_t(kCapUdpPose) : 0u);
     h.resume_token = token;
     std::array<uint8_t, kMaxHelloBytes> buf{};
     queue_control(std::span<const uint8_t>(buf.data(), encode_hello(h, buf)));
@@ -204,6 +221,8 @@ void Client::Impl::on_packet(std::span<const uint8_t> p) {
       for (auto& a : published)
         if (a.live && a.pose_size) a.pending = true;
       flush();
+      udp_ready = false;  // a new session (or a resumed one on a new server) learns the address anew
+      if (caps & kCapUdpPose) start_udp();
       return;
     }
     case MsgType::reject: {
@@ -230,6 +249,11 @@ void Client::Impl::on_packet(std::span<const uint8_t> p) {
       stats.models++;
       stats.model_bytes += p.size();
       if (owner->on_model) owner->on_model(a);
+      if (auto e = early.find(m.avatar); e != early.end()) {
+        const std::vector<uint8_t> frame = std::move(e->second);
+        early.erase(e);
+        on_pose(frame, now_us, true);
+      }
       return;
     }
     case MsgType::scene: {
@@ -254,30 +278,7 @@ void Client::Impl::on_packet(std::span<const uint8_t> p) {
       if (owner->on_removed) owner->on_removed(id);
       return;
     }
-    case MsgType::pose: {
-      PoseHeader h;
-      if (decode_pose(p, h, scratch_pose) != Reject::ok) break;
-      auto it = avatars.find(h.avatar);
-      if (it == avatars.end()) break;
-      auto& a = it->second;
-      if (a.has_pose) {
-        const int32_t step = static_cast<int32_t>(h.sequence - a.last.sequence);
-        if (step <= 0) {
-          stats.out_of_order++;
-          return;
-        }
-        a.lost += uint64_t(step - 1);
-        stats.lost += uint64_t(step - 1);
-      }
-      a.last = h;
-      std::swap(a.pose, scratch_pose);
-      a.has_pose = true;
-      a.frames++;
-      stats.frames++;
-      stats.frame_bytes += p.size();
-      if (owner->on_pose) owner->on_pose(a, now_us);
-      return;
-    }
+    case MsgType::pose: on_pose(p, now_us, false); return;
     case MsgType::mesh_topology: {
       if (decode_mesh_topology(p, scratch_topology) != Reject::ok) break;
       auto it = avatars.find(scratch_topology.avatar);
@@ -300,6 +301,99 @@ void Client::Impl::on_packet(std::span<const uint8_t> p) {
     default: break;
   }
   stats.rejected++;
+}
+
+void Client::Impl::on_pose(std::span<const uint8_t> p, uint64_t now_us, bool datagram) {
+  PoseHeader h;
+  if (decode_pose(p, h, scratch_pose) != Reject::ok) {
+    stats.rejected++;
+    return;
+  }
+  auto it = avatars.find(h.avatar);
+  if (it == avatars.end()) {
+    if (!datagram) {
+      stats.rejected++;
+      return;
+    }
+    // A datagram may overtake the model it belongs to: kept until the model arrives.
+    stats.udp_early++;
+    auto e = early.find(h.avatar);
+    if (e == early.end() && early.size() < kMaxEarly) e = early.emplace(h.avatar, std::vector<uint8_t>{}).first;
+    if (e != early.end() && (e->second.empty() || static_cast<int32_t>(h.sequence - pose_sequence(e->second)) > 0))
+      e->second.assign(p.begin(), p.end());
+    return;
+  }
+  auto& a = it->second;
+  if (a.has_pose) {
+    const int32_t step = static_cast<int32_t>(h.sequence - a.last.sequence);
+    if (step <= 0) {
+      stats.out_of_order++;
+      return;
+    }
+    a.lost += uint64_t(step - 1);
+    stats.lost += uint64_t(step - 1);
+  }
+  a.last = h;
+  std::swap(a.pose, scratch_pose);
+  a.has_pose = true;
+  a.frames++;
+  stats.frames++;
+  stats.frame_bytes += p.size();
+  if (datagram) stats.udp_frames++;
+  if (owner->on_pose) owner->on_pose(a, now_us);
+}
+
+void Client::Impl::start_udp() {
+  if (!usock) {
+    const udp::endpoint server(endpoint.address(), endpoint.port());
+    boost::system::error_code ec;
+    usock.emplace(io);
+    usock->open(server.protocol(), ec);
+    // Connected: the kernel passes up datagrams from the server's address and port only.
+    if (!ec) usock->connect(server, ec);
+    if (ec) {
+      usock.reset();
+      return;  // frames keep coming over TCP
+    }
+    udp_receive();
+  }
+  register_udp();
+}
+
+void Client::Impl::register_udp() {
+  if (!usock || token == 0 || fatal) return;
+  std::array<uint8_t, kUdpRegisterBytes> buf{};
+  boost::system::error_code ec;
+  usock->send(asio::buffer(buf.data(), encode_udp_register(token, buf)), 0, ec);
+  // Until the server answers, again in 250 ms; then once a second.
+  udp_timer.expires_after(udp_ready ? std::chrono::milliseconds(1000) : std::chrono::milliseconds(250));
+  udp_timer.async_wait([this](const boost::system::error_code& e) {
+    if (!e) register_udp();
+  });
+}
+
+void Client::Impl::udp_receive() {
+  usock->async_receive(asio::buffer(uin), [this](const boost::system::error_code& ec, size_t n) {
+    if (ec) {
+      if (ec == asio::error::operation_aborted || !usock || !usock->is_open()) return;
+      udp_receive();  // e.g. ICMP port unreachable while the server restarts
+      return;
+    }
+    stats.bytes_in += n;
+    const std::span<const uint8_t> d(uin.data(), n);
+    Header h;
+    uint64_t echoed = 0;
+    if (decode_header(d, h) != Reject::ok || n != kHeaderBytes + h.payload_bytes) {
+      stats.rejected++;
+    } else if (h.type == MsgType::pose) {
+      on_pose(d, wall_clock_us(), true);
+    } else if (h.type == MsgType::udp_register && decode_udp_register(d, echoed) == Reject::ok && echoed == token) {
+      udp_ready = true;
+    } else {
+      stats.rejected++;
+    }
+    udp_receive();
+  });
 }
 
 void Client::Impl::flush() {
@@ -335,6 +429,11 @@ Client::~Client() {
   if (!impl_->fatal) impl_->fatal = Error{Errc::disconnected, "closed"};  // no reconnection now
   impl_->lose_connection();
   impl_->retry_timer.cancel();
+  impl_->udp_timer.cancel();
+  if (impl_->usock) {
+    boost::system::error_code ec;
+    impl_->usock->close(ec);
+  }
   impl_->io.restart();
   impl_->io.poll();
 }
@@ -444,6 +543,7 @@ void Client::close() {
 }
 
 bool Client::connected() const { return impl_->connected; }
+bool Client::udp_active() const { return impl_->udp_ready && impl_->connected; }
 uint64_t Client::session_token() const { return impl_->token; }
 uint32_t Client::negotiated_capabilities() const { return impl_->caps; }
 const std::map<uint16_t, RemoteAvatar>& Client::avatars() const { return impl_->avatars; }

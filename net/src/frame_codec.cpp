@@ -172,6 +172,7 @@ size_t max_packet_bytes(uint8_t type) noexcept {
     case MsgType::reject:
     case MsgType::bye:
     case MsgType::avatar_removed: return kMaxHelloBytes;
+    case MsgType::udp_register: return kUdpRegisterBytes;
     case MsgType::avatar_model: return kHeaderBytes + 14 + 255 + kMaxModelBytes;
     case MsgType::scene: return kMaxSceneBytes;
     case MsgType::pose: return kMaxDatagramBytes;
@@ -255,6 +256,12 @@ size_t encode_avatar_model(const AvatarModel& m, std::span<uint8_t> out) noexcep
 size_t encode_avatar_removed(uint16_t avatar, std::span<uint8_t> out) noexcept {
   Writer w = begin(out, MsgType::avatar_removed);
   w.u16(avatar);
+  return finish(w);
+}
+
+size_t encode_udp_register(uint64_t session_token, std::span<uint8_t> out) noexcept {
+  Writer w = begin(out, MsgType::udp_register);
+  w.u64(session_token);
   return finish(w);
 }
 
@@ -413,6 +420,13 @@ Reject decode_avatar_removed(std::span<const uint8_t> packet, uint16_t& avatar) 
   Reader r;
   if (const Reject e = open(packet, MsgType::avatar_removed, r); e != Reject::ok) return e;
   avatar = r.u16();
+  return close(r);
+}
+
+Reject decode_udp_register(std::span<const uint8_t> packet, uint64_t& session_token) noexcept {
+  Reader r;
+  if (const Reject e = open(packet, MsgType::udp_register, r); e != Reject::ok) return e;
+  session_token = r.u64();
   return close(r);
 }
 

@@ -43,7 +43,7 @@ avatar::Pose test_pose(uint16_t dofs, uint32_t k) {
 
 }  // namespace
 
-Result<LatencyResult> measure_loopback_latency(int frames, uint16_t dof_count) {
+Result<LatencyResult> measure_loopback_latency(int frames, uint16_t dof_count, bool udp) {
   auto server = Server::create({});
   if (!server) return tl::unexpected(server.error());
   Server& srv = **server;
@@ -57,11 +57,20 @@ Result<LatencyResult> measure_loopback_latency(int frames, uint16_t dof_count) {
   });
   ClientOptions o;
   o.connect = srv.endpoint();
+  o.udp = udp;
   auto client = Client::connect(o);
   connecting = false;
   helper.join();
   if (!client) return tl::unexpected(client.error());
   Client& c = **client;
+  if (udp) {
+    const auto give_up = Clock::now() + std::chrono::seconds(2);
+    while (!c.udp_active() && Clock::now() < give_up) {
+      srv.poll();
+      (void)c.poll();
+    }
+    if (!c.udp_active()) return fail(Errc::timeout, "the server did not register the UDP address");
+  }
   uint32_t got_seq = 0;
   Clock::time_point got_at;
   c.on_pose = [&](const RemoteAvatar& a, uint64_t) {

@@ -14,6 +14,7 @@ namespace mimic::net {
 
 namespace asio = boost::asio;
 using tcp = asio::ip::tcp;
+using udp = asio::ip::udp;
 using Clock = std::chrono::steady_clock;
 
 uint64_t wall_clock_us() {
@@ -91,6 +92,12 @@ struct ServerImpl {
   tcp::acceptor acceptor{io};
   asio::steady_timer housekeeping{io};
   bool loopback = true;
+  // Pose frames as datagrams: subscribers register their address with their session token.
+  udp::socket udp_sock{io};
+  bool udp_on = false;
+  std::array<uint8_t, kMaxDatagramBytes> udp_in{};
+  udp::endpoint udp_from;
+  std::unordered_map<uint64_t, Session*> udp_sessions;  // session token -> subscriber asking for UDP
   ServerStats stats;
   std::vector<Avatar> avatars;  // index = avatar id; 0 unused
   std::vector<std::shared_ptr<Session>> sessions;
@@ -103,6 +110,9 @@ struct ServerImpl {
   std::array<uint8_t, 512> scratch{};
 
   void start_accept();
+  void start_udp_receive();
+  void on_datagram(std::span<const uint8_t> datagram);
+  uint32_t capabilities() const { return udp_on ? kServerCapabilities : kServerCapabilities & ~uint32_t(kCapUdpPose); }
   void schedule_housekeeping();
   void remove_session(Session* s);
   Avatar* avatar(uint16_t id) {
@@ -136,6 +146,8 @@ struct Session : std::enable_shared_from_this<Session> {
   uint32_t caps = 0;
   uint8_t mesh_lod = kNoMesh;
   uint64_t token = 0;
+  bool udp_ready = false;  // pose frames go to udp_peer
+  udp::endpoint udp_peer;
 
   // Outgoing: one write in flight (out), control packets queued behind it (control, never
   // dropped), and one pending frame slot per avatar (latest wins).
@@ -296,7 +308,8 @@ struct Session : std::enable_shared_from_this<Session> {
     hello_timer.cancel();
     role = h.role;
     name = h.name;
-    caps = h.capabilities & kServerCapabilities;
+    caps = h.capabilities & srv.capabilities();
+    if (h.role != Role::subscriber) caps &= ~uint32_t(kCapUdpPose);
     mesh_lod = (caps & kCapMesh) && h.mesh_lod < kMaxLods ? h.mesh_lod : kNoMesh;
     active = true;
     bool resumed = false;
@@ -311,7 +324,9 @@ struct Session : std::enable_shared_from_this<Session> {
         srv.stats.resumed++;
       }
     }
-    if (!resumed) token = (caps & kCapResume) ? srv.new_token() : 0;
+    // The token also authenticates the UDP address a subscriber registers.
+    if (!resumed) token = (caps & (kCapResume | kCapUdpPose)) ? srv.new_token() : 0;
+    if (caps & kCapUdpPose) srv.udp_sessions[token] = this;
     // Any larger packet is a model or mesh, which only publishers send.
     reader.set_max_packet_bytes(role == Role::publisher ? kMaxPacketBytes : kMaxHelloBytes);
     if (role == Role::publisher) srv.stats.publishers++;
@@ -361,6 +376,13 @@ struct Session : std::enable_shared_from_this<Session> {
     queue_control(a.model_packet);
     models_known[a.id] = a.revision;
     srv.stats.model_bytes_out += a.model_packet.size();
+    // Datagrams may overtake the stream: the pose the model is waiting for follows it on TCP,
+    // and the client drops datagrams of avatars whose model has not arrived.
+    if (udp_ready && a.has_pose) {
+      queue_control(std::span<const uint8_t>(a.pose.data(), a.pose_size));
+      frames_out++;
+      srv.stats.frames_out++;
+    }
   }
 
   Reject on_model(std::span<const uint8_t> packet) {
@@ -472,7 +494,20 @@ struct Session : std::enable_shared_from_this<Session> {
       pending_flag[aid] = 0;
       const Avatar* a = srv.avatar(aid);
       if (!a || !a->has_pose) continue;
-      out.insert(out.end(), a->pose.begin(), a->pose.begin() + static_cast<long>(a->pose_size));
+      if (udp_ready) {
+        // One datagram per frame; a full socket buffer drops it (latest wins anyway).
+        boost::system::error_code ec;
+        srv.udp_sock.send_to(asio::buffer(a->pose.data(), a->pose_size), udp_peer, 0, ec);
+        if (ec) {
+          frames_dropped++;
+          srv.stats.frames_dropped++;
+          continue;
+        }
+        srv.stats.udp_frames_out++;
+        srv.stats.bytes_out += a->pose_size;
+      } else {
+        out.insert(out.end(), a->pose.begin(), a->pose.begin() + static_cast<long>(a->pose_size));
+      }
       frames_out++;
       srv.stats.frames_out++;
     }
@@ -548,7 +583,9 @@ struct Session : std::enable_shared_from_this<Session> {
     const auto now = Clock::now();
     const auto grace = std::chrono::duration_cast<Clock::duration>(
         std::chrono::duration<double>(srv.opt.resume_grace_s));
-    if (active && !clean && token != 0) {
+    if (auto it = srv.udp_sessions.find(token); token != 0 && it != srv.udp_sessions.end() && it->second == this)
+      srv.udp_sessions.erase(it);
+    if (active && !clean && token != 0 && (caps & kCapResume)) {
       ResumeRecord r;
       r.role = role;
       r.expires = now + grace;
@@ -597,6 +634,45 @@ void ServerImpl::start_accept() {
     }
     start_accept();
   });
+}
+
+void ServerImpl::start_udp_receive() {
+  udp_sock.async_receive_from(asio::buffer(udp_in), udp_from, [this](const boost::system::error_code& ec, size_t n) {
+    if (ec) {
+      if (ec != asio::error::operation_aborted && udp_sock.is_open()) start_udp_receive();
+      return;
+    }
+    on_datagram(std::span<const uint8_t>(udp_in.data(), n));
+    start_udp_receive();
+  });
+}
+
+// The only datagram a client sends: its session token, from the address its pose frames should
+// go to. Anything else is counted and dropped; only a known token gets an answer (the same 16
+// bytes), so the socket cannot be used to reflect traffic at a third party.
+void ServerImpl::on_datagram(std::span<const uint8_t> datagram) {
+  stats.udp_datagrams_in++;
+  stats.bytes_in += datagram.size();
+  uint64_t token = 0;
+  Reject e = decode_udp_register(datagram, token);
+  Session* s = nullptr;
+  if (e == Reject::ok) {
+    auto it = udp_sessions.find(token);
+    if (it == udp_sessions.end() || it->second->closed) e = Reject::unauthorized;
+    else s = it->second;
+  }
+  if (e != Reject::ok) {
+    stats.rejected[static_cast<size_t>(e)]++;
+    return;
+  }
+  if (!s->udp_ready || s->udp_peer != udp_from) {
+    if (!s->udp_ready) stats.udp_registered++;
+    s->udp_ready = true;
+    s->udp_peer = udp_from;  // also after a NAT rebinding
+  }
+  std::array<uint8_t, kUdpRegisterBytes> ack{};
+  boost::system::error_code ignore;
+  udp_sock.send_to(asio::buffer(ack.data(), encode_udp_register(token, ack)), udp_from, 0, ignore);
 }
 
 void ServerImpl::schedule_housekeeping() {
@@ -731,6 +807,7 @@ Server::~Server() {
   if (!impl_) return;
   boost::system::error_code ec;
   impl_->acceptor.close(ec);
+  impl_->udp_sock.close(ec);
   for (auto& s : std::vector<std::shared_ptr<Session>>(impl_->sessions)) s->close(true);
   impl_->housekeeping.cancel();
   impl_->io.restart();
@@ -757,14 +834,27 @@ Result<std::unique_ptr<Server>> Server::create(const ServerOptions& options) {
   if (!ec) impl->acceptor.bind(ep, ec);
   if (!ec) impl->acceptor.listen(asio::socket_base::max_listen_connections, ec);
   if (ec) return fail(Errc::io_error, "cannot listen on " + options.listen + ": " + ec.message());
+  if (options.udp) {
+    // Same address and port as the listener. If another program holds the UDP port, the server
+    // runs without it and does not offer the capability.
+    const udp::endpoint uep(addr, impl->acceptor.local_endpoint().port());
+    boost::system::error_code uec;
+    impl->udp_sock.open(uep.protocol(), uec);
+    if (!uec) impl->udp_sock.bind(uep, uec);
+    if (!uec) impl->udp_sock.non_blocking(true, uec);
+    impl->udp_on = !uec;
+    if (uec) impl->udp_sock.close(uec);
+  }
   impl->rng.seed(std::random_device{}() ^ (uint64_t(std::random_device{}()) << 32));
   impl->avatars.emplace_back();  // id 0 is never used
   impl->start_accept();
+  if (impl->udp_on) impl->start_udp_receive();
   impl->schedule_housekeeping();
   return std::unique_ptr<Server>(new Server(std::move(impl)));
 }
 
 uint16_t Server::port() const { return impl_->acceptor.local_endpoint().port(); }
+bool Server::udp() const { return impl_->udp_on; }
 
 std::string Server::endpoint() const {
   const auto ep = impl_->acceptor.local_endpoint();

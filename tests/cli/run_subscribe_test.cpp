@@ -154,6 +154,30 @@ TEST(RunSubscribe, SubscriberGetsModelAndFramesFromMimicRun) {
     EXPECT_TRUE(r["stages"].contains(s)) << s;
 }
 
+TEST(RunSubscribe, SubscriberTakesPoseFramesAsDatagrams) {
+  Proc run({"run", "--listen", "127.0.0.1:0", "--duration", "8", "--quiet", "--json"});
+  const std::string ep = endpoint_of(run);
+  ASSERT_FALSE(ep.empty()) << run.err();
+  Proc sub({"subscribe", "--connect", ep, "--udp", "--count", "90", "--json"});
+  ASSERT_EQ(sub.wait(15.0), 0) << sub.err();
+  const auto j = last_json(sub.out());
+  ASSERT_FALSE(j.is_discarded()) << sub.out();
+  EXPECT_EQ(j["frames"], 90);
+  EXPECT_EQ(j["transport"], "udp");
+  // The first frames may come on the stream while the address is being registered.
+  EXPECT_GE(j["udp_frames"].get<int>(), 80);
+  EXPECT_EQ(j["lost"], 0);
+  EXPECT_LE(j["frame_bytes_mean"].get<double>(), 200.0);
+  run.signal(SIGINT);
+  EXPECT_EQ(run.wait(10.0), 0) << run.err();
+  const auto r = last_json(run.out());
+  ASSERT_FALSE(r.is_discarded()) << run.out();
+  EXPECT_EQ(r["loop_allocations"], 0);
+  EXPECT_EQ(r["server"]["udp"], true);
+  EXPECT_EQ(r["server"]["udp_registered"], 1);
+  EXPECT_GE(r["server"]["udp_frames_out"].get<int>(), 80);
+}
+
 TEST(RunSubscribe, SeveralAvatarsAndARemotePublisher) {
   Proc host({"run", "--listen", "127.0.0.1:0", "--source", "sim:walk", "--source", "sim:idle?seed=2",
              "--duration", "12", "--quiet"});
@@ -201,7 +225,8 @@ TEST(Bench, NetSectionReportsItsFigures) {
   EXPECT_EQ(n["bytes_per_avatar_frame"]["mimic"], 150);
   EXPECT_GT(n["bytes_per_avatar_frame"]["vmc"].get<int>(), n["bytes_per_avatar_frame"]["raw_float"].get<int>());
   EXPECT_GT(n["bytes_per_avatar_frame"]["raw_float"].get<int>(), 150);
-  for (const char* k : {"loopback_latency_us", "record_to_socket_us", "fanout_90hz", "max_streams_kept_up"})
+  for (const char* k :
+       {"loopback_latency_us", "loopback_latency_udp_us", "record_to_socket_us", "fanout_90hz", "max_streams_kept_up"})
     EXPECT_TRUE(n.contains(k)) << k;
   EXPECT_GT(n["record_to_socket_us"]["frames"].get<int>(), 0);
   // Every fan-out point delivered what it could account for: received + lost = expected.

@@ -26,6 +26,9 @@ struct ClientOptions {
   std::string name = "mimic";
   std::string secret;              // publishers, when the server asks for one
   uint8_t mesh_lod = kNoMesh;      // subscribers: also receive mesh frames at this LOD
+  // Subscribers: pose frames as UDP datagrams when the server offers them (models, meshes and
+  // control stay on TCP; until the address is registered, frames keep coming over TCP).
+  bool udp = false;
   bool reconnect = true;           // reconnect and resume after a dropped connection
   double connect_timeout_s = 3.0;
 };
@@ -61,6 +64,8 @@ struct ClientStats {
   uint64_t reconnects = 0;
   uint64_t resumed = 0;
   uint64_t rejected = 0;          // malformed packets from the server
+  uint64_t udp_frames = 0;        // pose frames that came as datagrams (also in frames)
+  uint64_t udp_early = 0;         // datagram frames of an avatar whose model had not arrived
 };
 
 class Client {
@@ -97,6 +102,7 @@ class Client {
   void close();
 
   bool connected() const;
+  bool udp_active() const;  // the server has registered our UDP address
   uint64_t session_token() const;
   uint32_t negotiated_capabilities() const;
   const std::map<uint16_t, RemoteAvatar>& avatars() const;

@@ -46,6 +46,8 @@ enum class MsgType : uint8_t {
   welcome = 2,         // server -> client: chosen version, agreed capabilities, session token
   reject = 3,          // server -> client: why the session was refused (then the server closes)
   bye = 4,             // either way: clean leave (the session cannot be resumed)
+  udp_register = 5,    // over UDP, client -> server: the session token (pose frames to this
+                       // address); server -> client: the same, once the address is registered
   avatar_model = 10,   // publisher -> server (avatar = publisher's slot) and server -> subscriber
   avatar_removed = 11, // server -> subscriber
   scene = 12,          // server -> subscriber after WELCOME: every live avatar (id, revision)
@@ -60,8 +62,10 @@ enum Capability : uint32_t {
   kCapPose = 1u << 0,    // pose frames (always on in v1)
   kCapMesh = 1u << 1,    // mesh topology + mesh frames at a chosen LOD
   kCapResume = 1u << 2,  // the session token may be presented again after a disconnect
+  kCapUdpPose = 1u << 3, // subscribers: pose frames as UDP datagrams (docs/protocol.md)
 };
-inline constexpr uint32_t kServerCapabilities = kCapPose | kCapMesh | kCapResume;
+inline constexpr uint32_t kServerCapabilities = kCapPose | kCapMesh | kCapResume | kCapUdpPose;
+inline constexpr size_t kUdpRegisterBytes = kHeaderBytes + 8;
 
 // Why a packet or a session was refused. Numeric values are on the wire (REJECT) and stable.
 enum class Reject : uint16_t {
@@ -180,6 +184,7 @@ size_t encode_reject(const RejectMsg& m, std::span<uint8_t> out) noexcept;
 size_t encode_bye(std::span<uint8_t> out) noexcept;
 size_t encode_avatar_model(const AvatarModel& m, std::span<uint8_t> out) noexcept;
 size_t encode_avatar_removed(uint16_t avatar, std::span<uint8_t> out) noexcept;
+size_t encode_udp_register(uint64_t session_token, std::span<uint8_t> out) noexcept;
 size_t encode_scene(std::span<const SceneEntry> entries, std::span<uint8_t> out) noexcept;
 // Also 0 when pose.dof_rad.size() > kMaxPoseDofs.
 size_t encode_pose(const PoseHeader& h, const avatar::Pose& pose, std::span<uint8_t> out) noexcept;
@@ -201,6 +206,7 @@ Reject decode_welcome(std::span<const uint8_t> packet, Welcome& out);
 Reject decode_reject(std::span<const uint8_t> packet, RejectMsg& out);
 Reject decode_avatar_model(std::span<const uint8_t> packet, AvatarModel& out);
 Reject decode_avatar_removed(std::span<const uint8_t> packet, uint16_t& avatar) noexcept;
+Reject decode_udp_register(std::span<const uint8_t> packet, uint64_t& session_token) noexcept;
 Reject decode_scene(std::span<const uint8_t> packet, std::vector<SceneEntry>& out);
 // `out.dof_rad` is resized to the packet's DOF count (no allocation when it already fits).
 Reject decode_pose(std::span<const uint8_t> packet, PoseHeader& header, avatar::Pose& out);

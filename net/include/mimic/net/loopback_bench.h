@@ -13,10 +13,11 @@ struct LatencyResult {
   uint64_t samples = 0;
 };
 
-// A local avatar published through a Server to one subscribing Client over loopback TCP, both
-// driven by the calling thread: time from handing the encoded frame to the server until the
-// subscriber has decoded it (encode excluded; the send, kernel loopback and decode included).
-Result<LatencyResult> measure_loopback_latency(int frames, uint16_t dof_count);
+// A local avatar published through a Server to one subscribing Client over loopback TCP (or, with
+// `udp`, as datagrams once the subscriber's address is registered), both driven by the calling
+// thread: time from handing the encoded frame to the server until the subscriber has decoded it
+// (encode excluded; the send, kernel loopback and decode included).
+Result<LatencyResult> measure_loopback_latency(int frames, uint16_t dof_count, bool udp = false);
 
 struct FanoutResult {
   int subscribers = 0, avatars = 0;

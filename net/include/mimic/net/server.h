@@ -1,6 +1,7 @@
 // The scene server: publishers bring avatars (body model once, then pose frames), subscribers
 // receive every avatar's model on join and its latest frames after. One TCP connection per
-// client carries everything (docs/protocol.md explains why).
+// client carries everything; a subscriber may ask for its pose frames as UDP datagrams instead,
+// sent from the same port (docs/protocol.md explains both).
 //
 // Frames are latest-wins: each subscriber has one write in flight and one pending slot per
 // avatar, so a slow or stalled subscriber overwrites (and counts) its own old frames and never
@@ -37,6 +38,7 @@ struct ServerOptions {
   double max_packets_per_s = 1000;    // per session, with one second of burst
   int send_buffer_bytes = 32 * 1024;  // kernel send buffer per session (bounds staleness)
   size_t max_control_backlog_bytes = 8u << 20;  // models/meshes queued for a stalled client
+  bool udp = true;  // offer pose frames as UDP datagrams (a UDP socket on the same address and port)
 };
 
 struct ServerStats {
@@ -56,6 +58,9 @@ struct ServerStats {
   uint64_t model_bytes_out = 0;
   uint64_t sessions_closed_for_input = 0;  // ended because of what the peer sent
   uint64_t sessions_closed_slow = 0;       // control backlog overflow
+  uint64_t udp_datagrams_in = 0;           // received on the UDP socket, valid or not
+  uint64_t udp_registered = 0;             // subscribers whose poses went to a UDP address
+  uint64_t udp_frames_out = 0;             // pose frames sent as datagrams (also in frames_out)
   std::array<uint64_t, kRejectCount> rejected{};  // by Reject code
 
   uint64_t rejected_total() const {
@@ -84,6 +89,7 @@ class Server {
   Server& operator=(const Server&) = delete;
 
   uint16_t port() const;
+  bool udp() const;  // pose frames offered as UDP datagrams (ServerOptions::udp and the port was free)
   std::string endpoint() const;  // "127.0.0.1:7777"
 
   // Avatars published from this process. `model_bytes` is the serialised body model (opaque
