@@ -66,10 +66,9 @@ glm::dquat align_dirs(const glm::dvec3& from, const glm::dvec3& to) {
 
 // The performer's heading when frame 0 is a T-pose (upper arms within 30° of level and out to
 // the sides, thighs within 20° of straight down, heading from the shoulders), else nothing.
-std::optional<glm::dquat> t_pose_heading(const BvhClip& clip, const Skeleton& t, const std::vector<int>& bvh,
-                                         const std::vector<glm::dvec3>& link) {
-  std::vector<RigidTransform> w0(clip.joints.size());
-  bvh_forward_kinematics(clip, 0, w0);
+// `w0`: the clip's joints at frame 0.
+std::optional<glm::dquat> t_pose_heading(std::span<const RigidTransform> w0, const Skeleton& t,
+                                         const std::vector<int>& bvh, const std::vector<glm::dvec3>& link) {
   auto dir = [&](const char* name) {
     const int m = t.find_joint(name);
     const glm::dvec3 v = glm::dquat(w0[bvh[m]].rotation) * link[m];
@@ -156,10 +155,11 @@ Result<Plan> make_plan(const BvhClip& clip) {
       if (glm::length(link[m]) < 1e-9) link[m] = link[c];
     }
   }
-  // Joints with fewer than three DOFs (clavicles, wrists, toes) keep their parent's alignment: a
-  // constant rotation between the two rest directions could not be absorbed by their DOFs, and
-  // the difference is one of origin (a CMU clavicle starts at the thorax centre, lower than
-  // Mimic's), not of posture. Their fitted links simply point where the performer's do.
+  // Joints with fewer than three DOFs (clavicles, elbows, wrists, knees, toes) keep their
+  // parent's alignment: a constant rotation between the two rest directions could not be
+  // absorbed by their DOFs, and the difference is one of origin (a CMU clavicle starts at the
+  // thorax centre, lower than Mimic's), not of posture. Their fitted links simply point where
+  // the performer's do.
   //
   // A clip whose frame 0 is a T-pose (the MotionBuilder-friendly CMU conversions) is
   // characterised on it: there every segment takes the orientation it has in Mimic's own T-pose —
@@ -168,9 +168,9 @@ Result<Plan> make_plan(const BvhClip& clip) {
   // zero, legs splayed), the feet that frame 0 turns down to stand on would stand 20° on their
   // edges in every stance, and the head would tilt by whatever the neck's rest angles leave.
   plan.align.assign(n, glm::dquat(1, 0, 0, 0));
-  const std::optional<glm::dquat> heading = own ? std::nullopt : t_pose_heading(clip, t, plan.bvh, link);
   std::vector<RigidTransform> w0(clip.joints.size());
-  if (heading) bvh_forward_kinematics(clip, 0, w0);
+  if (!own) bvh_forward_kinematics(clip, 0, w0);
+  const std::optional<glm::dquat> heading = own ? std::nullopt : t_pose_heading(w0, t, plan.bvh, link);
   plan.t_pose = heading.has_value();
   for (int m = 1; m < n; ++m) {
     const int dofs = t.dof_end(m) - t.dof_begin(m);
