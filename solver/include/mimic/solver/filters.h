@@ -77,7 +77,7 @@ class OneEuroQuat {
 
 struct SensorFilterConfig {
   OneEuroParams position{3.0f, 40.0f, 1.0f};  // beta per m/s
-  OneEuroParams rotation{3.0f, 4.0f, 1.0f};   // beta per rad/s
+  OneEuroParams rotation{3.0f, 8.0f, 1.0f};   // beta per rad/s
   float predict_s = 0.0f;                     // extrapolation horizon beyond the filter lag
   bool compensate_lag = true;                 // extrapolate by each filter's own lag
   float max_speed_m_s = 12.0f;                // faster than any limb moves
