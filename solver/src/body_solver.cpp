@@ -342,9 +342,21 @@ bool SolveJob::Run() {
       feet = true;
     }
     if (feet) c.ls_dofs_.insert(c.ls_dofs_.end(), m.leg_dofs_.begin(), m.leg_dofs_.end());
-    if (!feet && std::isfinite(o.standing_root_y_m))
-      c.targets_.push_back(IkTarget{0, glm::vec3(p.root_position_m.x, o.standing_root_y_m - o.relaxed_root_drop_m, p.root_position_m.z),
+    if (!feet && std::isfinite(o.standing_root_y_m)) {
+      // The root's height nobody tracks: standing, unless the head has come down while staying
+      // upright — a squat or a seat, where the hips go down with it. (Bending over tilts the
+      // head too, and there the hips stay up; a head bob of a few centimetres is no crouch.)
+      float root_y = o.standing_root_y_m - o.relaxed_root_drop_m;
+      if (c.has_target_[m.head_]) {
+        const float head_standing_y = o.standing_root_y_m + m.head_from_root_rest_.y;
+        const float drop_m = head_standing_y - c.segment_target_[m.head_].translation.y;
+        const float up = (c.segment_target_[m.head_].rotation * glm::vec3(0, 1, 0)).y;
+        const float upright = std::clamp((up - 0.5f) / 0.4f, 0.0f, 1.0f);  // 1 within 26° of vertical, 0 past 60°
+        root_y -= std::max(0.0f, drop_m - o.crouch_allowance_m) * upright;
+      }
+      c.targets_.push_back(IkTarget{0, glm::vec3(p.root_position_m.x, root_y, p.root_position_m.z),
                                     glm::quat(1, 0, 0, 0), o.standing_weight, 0.0f});
+    }
   }
   // Hands: the arm DOFs (clavicle, shoulder, elbow bend) join the solve so that the trunk
   // leaves the hands within reach; the analytic chains below then place the arms exactly.

@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <cstdio>
+
 #include <cmath>
 #include <random>
 
@@ -163,6 +165,40 @@ TEST(BodySolver, LegsNobodyTracksHangUnderTheHipsAboveTheFloor) {
     }
     expect_inside_limits(s, solved);
   }
+}
+
+// Three sensors and a deep squat (trunk upright, hips 40 cm down): the hips go down with the
+// head rather than staying at standing height under a trunk folded to reach it.
+TEST(BodySolver, UprightHeadComingDownIsASquatNotAFold) {
+  const Skeleton s = default_skeleton();
+  const auto mounts = testing::mounts_for(*standard_layout("3", s), 0.0f, 5);
+  SolverOptions options;
+  const float standing_root_y = avatar::standing_root_height_m(s);
+  options.standing_root_y_m = standing_root_y;
+  auto model = *SolverModel::create(s, mounts, options);
+  SolverContext ctx(model);
+  Pose solved = s.zero_pose();
+  Pose truth = s.zero_pose();
+  std::vector<devices::SensorSample> samples;
+  // Standing, then going down over half a second (90 Hz), then holding the squat.
+  for (int frame = 0; frame < 120; ++frame) {
+    const float down = std::clamp(static_cast<float>(frame - 20) / 45.0f, 0.0f, 1.0f);
+    truth.root_position_m = {0.0f, standing_root_y - 0.40f * down, 0.0f};
+    testing::sense(s, truth, mounts, samples);
+    SolveJob job{&model, samples, &ctx, &solved};
+    ASSERT_TRUE(job.Run());
+  }
+  const auto ws = fk(s, solved), wt = fk(s, truth);
+  const int pelvis = s.find_joint("pelvis");
+  std::printf("  squat: solved pelvis %.3f m, true %.3f m\n", ws[pelvis].translation.y, wt[pelvis].translation.y);
+  EXPECT_LT(std::abs(ws[pelvis].translation.y - wt[pelvis].translation.y), 0.08f);
+  // The trunk stays nearly upright (the last 10 cm of the drop are taken as a lean: a head that
+  // low could be a bow); folded, it leaned 45°.
+  const glm::vec3 trunk = ws[s.find_joint("spine_upper")].translation - ws[pelvis].translation;
+  EXPECT_GT(glm::normalize(trunk).y, std::cos(glm::radians(25.0f)));
+  for (const char* side : {"l_", "r_"})
+    EXPECT_GT(solved.dof_rad[s.find_dof(std::string(side) + "knee_flexion")], glm::radians(60.0f)) << side;
+  expect_inside_limits(s, solved);
 }
 
 // A hand sensor far out of reach: the arm points at it, fully stretched; nothing is NaN.

@@ -50,8 +50,9 @@ struct SolverOptions {
   float damping = 0.05f;           // Levenberg–Marquardt λ
   int iterations = 4;              // least-squares steps per frame at most (warm starts carry on)
   // Root height of the wearer standing (world y, from calibration; NaN = unknown). With neither
-  // pelvis nor foot sensors the root is held near it: a body bends at spine and hips rather
-  // than sinking with its head.
+  // pelvis nor foot sensors the root is held near it — a body bends at spine and hips rather
+  // than sinking with its head — unless the head comes down while staying upright (a squat, a
+  // seat): then the root comes down with it, less `crouch_allowance_m`.
   float standing_root_y_m = std::numeric_limits<float>::quiet_NaN();
   float standing_weight = 3.0f;    // per metre: a gentle pull
   // Legs nobody tracks hang under the hips with the knees soft rather than locked, feet facing
@@ -59,6 +60,7 @@ struct SolverOptions {
   // locked-knee height of the stand-still (people in motion rarely lock their knees).
   float relaxed_knee_bend_rad = 0.17f;  // 10°
   float relaxed_root_drop_m = 0.02f;
+  float crouch_allowance_m = 0.10f;
 };
 
 class SolverModel {
