@@ -91,6 +91,7 @@ struct Client::Impl {
     connected = false;
     connecting = false;
     dropped = true;
+    udp_ready = false;  // the server forgets the address with the session; registered again after WELCOME
     ++generation;
     boost::system::error_code ec;
     if (sock) sock->close(ec);
