@@ -7,8 +7,9 @@ function(mimic_warnings target)
     target_compile_options(${target} PRIVATE -march=native)
   endif()
   if(MIMIC_SANITIZE)
-    target_compile_options(${target} PRIVATE -fsanitize=address,undefined -fno-omit-frame-pointer)
-    target_link_options(${target} PRIVATE -fsanitize=address,undefined)
+    # UBSan stops the test at the first report, so no undefined behaviour passes for a pass.
+    target_compile_options(${target} PRIVATE -fsanitize=address,undefined -fno-sanitize-recover=undefined -fno-omit-frame-pointer)
+    target_link_options(${target} PRIVATE -fsanitize=address,undefined -fno-sanitize-recover=undefined)
   endif()
 endfunction()
 

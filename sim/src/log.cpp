@@ -220,6 +220,7 @@ void encode_end_record(uint64_t sample_count, std::vector<uint8_t>& out) {
 Result<LogContents> decode_log(std::span<const uint8_t> bytes) {
   const size_t n = bytes.size();
   const uint8_t* d = bytes.data();
+  if (n == 0) return fail(Errc::parse_error, "not a Mimic log: the file is empty");
   if (n < kMagic.size() || std::memcmp(d, kMagic.data(), kMagic.size()) != 0)
     return fail(Errc::parse_error, n < kMagic.size() && std::memcmp(d, kMagic.data(), n) == 0
                                        ? "not a complete Mimic log: it ends inside the magic number (" + std::to_string(n) + " bytes)"
