@@ -485,8 +485,32 @@ struct Session : std::enable_shared_from_this<Session> {
     pending_mesh.push_back(avatar_id);
   }
 
+  // Pose frames as datagrams: one per frame, at once, even while a model is still being
+  // written on the stream; a full socket buffer drops the frame (latest wins anyway).
+  void send_poses_udp() {
+    for (uint16_t aid : pending) {
+      pending_flag[aid] = 0;
+      const Avatar* a = srv.avatar(aid);
+      if (!a || !a->has_pose) continue;
+      boost::system::error_code ec;
+      srv.udp_sock.send_to(asio::buffer(a->pose.data(), a->pose_size), udp_peer, 0, ec);
+      if (ec) {
+        frames_dropped++;
+        srv.stats.frames_dropped++;
+        continue;
+      }
+      srv.stats.udp_frames_out++;
+      srv.stats.bytes_out += a->pose_size;
+      frames_out++;
+      srv.stats.frames_out++;
+    }
+    pending.clear();
+  }
+
   void flush() {
-    if (writing || closed || !active) return;
+    if (closed || !active) return;
+    if (udp_ready) send_poses_udp();
+    if (writing) return;
     out.clear();
     out.insert(out.end(), control.begin(), control.end());
     control.clear();
@@ -494,20 +518,7 @@ struct Session : std::enable_shared_from_this<Session> {
       pending_flag[aid] = 0;
       const Avatar* a = srv.avatar(aid);
       if (!a || !a->has_pose) continue;
-      if (udp_ready) {
-        // One datagram per frame; a full socket buffer drops it (latest wins anyway).
-        boost::system::error_code ec;
-        srv.udp_sock.send_to(asio::buffer(a->pose.data(), a->pose_size), udp_peer, 0, ec);
-        if (ec) {
-          frames_dropped++;
-          srv.stats.frames_dropped++;
-          continue;
-        }
-        srv.stats.udp_frames_out++;
-        srv.stats.bytes_out += a->pose_size;
-      } else {
-        out.insert(out.end(), a->pose.begin(), a->pose.begin() + static_cast<long>(a->pose_size));
-      }
+      out.insert(out.end(), a->pose.begin(), a->pose.begin() + static_cast<long>(a->pose_size));
       frames_out++;
       srv.stats.frames_out++;
     }

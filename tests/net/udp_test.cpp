@@ -139,6 +139,55 @@ TEST(UdpPoses, ModelsStillComeFirstForLateJoinersAndNewAvatars) {
   EXPECT_GE(late->stats().udp_frames, 1u);
 }
 
+// Datagrams do not queue behind the stream: a subscriber whose TCP side is stalled under a
+// large model (it reads nothing there) still gets every pose frame on its UDP address.
+TEST(UdpPoses, AStalledStreamDoesNotHoldBackDatagrams) {
+  ServerThread st;
+  RawPeer stream(st.port(), 4096);
+  Hello h;
+  h.role = Role::subscriber;
+  h.capabilities = kCapPose | kCapResume | kCapUdpPose;
+  h.name = "stalled";
+  Bytes hello(kMaxHelloBytes);
+  hello.resize(encode_hello(h, hello));
+  ASSERT_TRUE(stream.send(hello));
+  Bytes got = stream.read(2.0, kHeaderBytes);
+  Header wh;
+  ASSERT_EQ(decode_header(got, wh), Reject::ok);
+  if (got.size() < kHeaderBytes + wh.payload_bytes) {
+    const Bytes more = stream.read(2.0, kHeaderBytes + wh.payload_bytes - got.size());
+    got.insert(got.end(), more.begin(), more.end());
+  }
+  got.resize(kHeaderBytes + wh.payload_bytes);
+  Welcome w;
+  ASSERT_EQ(decode_welcome(got, w), Reject::ok);
+  ASSERT_TRUE(w.capabilities & kCapUdpPose);
+  RawUdp udp(st.port());
+  udp.send(register_packet(w.session_token));
+  uint64_t echoed = 0;
+  ASSERT_EQ(decode_udp_register(udp.receive(2.0), echoed), Reject::ok);
+
+  // From now on the stream is never read: a 900 kB model stalls it.
+  auto pub = connect_as(st, Role::publisher, false);
+  auto slot = pub->add_avatar("big", kDofs, std::string(900000, 'b'));
+  ASSERT_TRUE(slot);
+  ASSERT_TRUE(pump({pub.get()}, [&] { return st.stats().avatars == 1; }));
+  pump_for({pub.get()}, 0.1);
+  uint32_t last = 0;
+  for (uint32_t seq = 1; seq <= 10; ++seq) {
+    ASSERT_TRUE(pub->publish_pose(*slot, {0, 0, seq, wall_clock_us()}, pose_with(0.01f)));
+    pump_for({pub.get()}, 0.01);
+    const Bytes d = udp.receive(1.0);
+    PoseHeader ph;
+    avatar::Pose p;
+    ASSERT_EQ(decode_pose(d, ph, p), Reject::ok) << "frame " << seq << " did not come as a datagram";
+    EXPECT_GT(ph.sequence, last);
+    last = ph.sequence;
+  }
+  EXPECT_EQ(last, 10u);
+  EXPECT_FALSE(stream.closed());
+}
+
 TEST(UdpPoses, ResumedSubscriberRegistersItsAddressAgain) {
   ServerThread st;
   auto pub = connect_as(st, Role::publisher, false);
