@@ -43,6 +43,8 @@ const char* kUsage =
     "  --listen ADDR:PORT  where to serve (default 127.0.0.1:7777; port 0 picks one). Any\n"
     "                      non-loopback address requires --secret. Subscribers may take their\n"
     "                      pose frames as UDP datagrams from the same port (mimic subscribe --udp)\n"
+    "  --no-udp            frames over TCP only (no UDP socket; subscribers asking for UDP are\n"
+    "                      told so in the handshake and get their frames on the stream)\n"
     "  --secret S          shared secret publishers must present (also MIMIC_SECRET)\n"
     "  --publish HOST:PORT do not host: publish the avatars into the scene served there\n"
     "  --vmc HOST:PORT     also send the first avatar as VMC (OSC over UDP), e.g. 127.0.0.1:39539\n"
@@ -110,7 +112,7 @@ int run(const std::vector<std::string>& argv) {
   std::vector<SourceArgs> sources;
   std::string error;
   if (!take_sources(args, sources, error)) return usage_error("run", error);
-  Args a(args, {"listen", "secret", "publish", "vmc", "duration", "realtime", "mesh-lod"}, {"json", "quiet"});
+  Args a(args, {"listen", "secret", "publish", "vmc", "duration", "realtime", "mesh-lod"}, {"json", "quiet", "no-udp"});
   if (a.help()) {
     std::printf("%s", kUsage);
     return 0;
@@ -146,6 +148,7 @@ int run(const std::vector<std::string>& argv) {
     net::ServerOptions o;
     o.listen = a.get_or("listen", "127.0.0.1:7777");
     o.secret = secret;
+    o.udp = !a.has("no-udp");
     auto s = net::Server::create(o);
     if (!s) return failure("run", s.error().what());
     server = std::move(*s);

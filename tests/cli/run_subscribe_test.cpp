@@ -178,6 +178,25 @@ TEST(RunSubscribe, SubscriberTakesPoseFramesAsDatagrams) {
   EXPECT_GE(r["server"]["udp_frames_out"].get<int>(), 80);
 }
 
+TEST(RunSubscribe, WithoutUdpTheSubscriberIsToldAndFramesComeOnTheStream) {
+  Proc run({"run", "--listen", "127.0.0.1:0", "--no-udp", "--duration", "8", "--quiet", "--json"});
+  const std::string ep = endpoint_of(run);
+  ASSERT_FALSE(ep.empty()) << run.err();
+  Proc sub({"subscribe", "--connect", ep, "--udp", "--count", "30", "--json"});
+  ASSERT_EQ(sub.wait(15.0), 0) << sub.err();
+  EXPECT_NE(sub.err().find("offers no UDP"), std::string::npos) << sub.err();
+  const auto j = last_json(sub.out());
+  ASSERT_FALSE(j.is_discarded()) << sub.out();
+  EXPECT_EQ(j["frames"], 30);
+  EXPECT_EQ(j["transport"], "tcp");
+  EXPECT_EQ(j["udp_frames"], 0);
+  run.signal(SIGINT);
+  EXPECT_EQ(run.wait(10.0), 0) << run.err();
+  const auto r = last_json(run.out());
+  ASSERT_FALSE(r.is_discarded()) << run.out();
+  EXPECT_EQ(r["server"]["udp"], false);
+}
+
 TEST(RunSubscribe, SeveralAvatarsAndARemotePublisher) {
   Proc host({"run", "--listen", "127.0.0.1:0", "--source", "sim:walk", "--source", "sim:idle?seed=2",
              "--duration", "12", "--quiet"});
