@@ -534,22 +534,6 @@ void BodyField::cast_lanes(std::span<const uint16_t> candidates, int n, Quadrati
 }
 
 void BodyField::cast_star(const glm::vec3& origin, const glm::vec3& front, const glm::vec3& left,
-                          std::span<const float> angles_rad, std::span<const uint16_t> candidates,
-                          std::span<RayHit> hits) const {
-  constexpr size_t kChunk = 64;
-  float cos_a[kChunk], sin_a[kChunk];
-  for (size_t first = 0; first < angles_rad.size(); first += kChunk) {
-    const size_t m = std::min(kChunk, angles_rad.size() - first);
-    for (size_t j = 0; j < m; ++j) {
-      cos_a[j] = std::cos(angles_rad[first + j]);
-      sin_a[j] = std::sin(angles_rad[first + j]);
-    }
-    cast_star(origin, front, left, std::span<const float>(cos_a, m), std::span<const float>(sin_a, m), candidates,
-              hits.subspan(first, m));
-  }
-}
-
-void BodyField::cast_star(const glm::vec3& origin, const glm::vec3& front, const glm::vec3& left,
                           std::span<const float> cos_a, std::span<const float> sin_a,
                           std::span<const uint16_t> candidates, std::span<RayHit> hits) const {
   // Everything that does not depend on the ray's angle is computed once per contour:

@@ -187,10 +187,11 @@ TEST(BodyField, StarCastingAgreesWithSingleRays) {
     const GroupMask mask = static_cast<GroupMask>(1u << (trial % kGroupCount));
     std::vector<uint16_t> cand(256);
     cand.resize(f->candidates_near_plane(origin, normal, mask, cand));
-    std::vector<float> angles;
+    std::vector<float> angles, cos_a, sin_a;
     for (int j = 0; j < 29; ++j) angles.push_back(6.2831853f * float(j) / 29.0f + 0.01f * u(rng));
+    for (float a : angles) cos_a.push_back(std::cos(a)), sin_a.push_back(std::sin(a));
     std::vector<RayHit> star(angles.size());
-    f->cast_star(origin, front, left, angles, cand, star);
+    f->cast_star(origin, front, left, cos_a, sin_a, cand, star);
     for (size_t j = 0; j < angles.size(); ++j) {
       const glm::vec3 d = std::cos(angles[j]) * front + std::sin(angles[j]) * left;
       const RayHit one = f->cast_outermost(origin, d, cand);

@@ -69,13 +69,9 @@ class BodyField {
   RayHit cast_outermost(const glm::vec3& origin, const glm::vec3& dir,
                         std::span<const uint16_t> candidates) const;
 
-  // A star of rays from one origin within a plane: ray j runs along
-  // cos(angles_rad[j])·front + sin(angles_rad[j])·left (front, left orthonormal). Same result as
-  // cast_outermost per ray, with the per-primitive work shared by the whole contour.
-  void cast_star(const glm::vec3& origin, const glm::vec3& front, const glm::vec3& left,
-                 std::span<const float> angles_rad, std::span<const uint16_t> candidates,
-                 std::span<RayHit> hits) const;
-  // The same with the rays' cosines and sines given (a contour's fixed angles, computed once).
+  // A star of rays from one origin within a plane: ray j runs along cos_a[j]·front + sin_a[j]·left
+  // (front, left orthonormal; a contour's angles are fixed, so their cosines and sines are kept).
+  // Same result as cast_outermost per ray, with the per-primitive work shared by the contour.
   void cast_star(const glm::vec3& origin, const glm::vec3& front, const glm::vec3& left,
                  std::span<const float> cos_a, std::span<const float> sin_a,
                  std::span<const uint16_t> candidates, std::span<RayHit> hits) const;
