@@ -127,17 +127,31 @@ TEST(BodySolver, ThreeSensorsEstimateTheRootAndReachHandsAndHead) {
   }
 }
 
+// Head and hands only (layout 3, straps square), the wearer's standing root height known.
+struct HeadAndHands {
+  Skeleton s = default_skeleton();
+  std::vector<SensorMount> mounts = testing::mounts_for(*standard_layout("3", s), 0.0f, 5);
+  float standing_root_y = avatar::standing_root_height_m(s);
+  SolverModel model = make_model();
+  SolverContext ctx{model};
+
+  SolverModel make_model() const {
+    SolverOptions options;
+    options.standing_root_y_m = standing_root_y;
+    return *SolverModel::create(s, mounts, options);
+  }
+};
+
 // Head and hands only: the legs hang under the hips with soft knees, feet on the floor or above
 // it, facing the heading — and a wearer who crouches bends the knees instead of sinking the
 // feet through the floor.
 TEST(BodySolver, LegsNobodyTracksHangUnderTheHipsAboveTheFloor) {
-  const Skeleton s = default_skeleton();
-  const auto mounts = testing::mounts_for(*standard_layout("3", s), 0.0f, 5);
-  SolverOptions options;
-  const float standing_root_y = avatar::standing_root_height_m(s);
-  options.standing_root_y_m = standing_root_y;
-  auto model = *SolverModel::create(s, mounts, options);
-  SolverContext ctx(model);
+  HeadAndHands h;
+  const Skeleton& s = h.s;
+  const auto& mounts = h.mounts;
+  const float standing_root_y = h.standing_root_y;
+  auto& model = h.model;
+  auto& ctx = h.ctx;
   const float floor_ankle_y = standing_root_y - (fk(s, s.zero_pose())[0].translation.y -
                                                 fk(s, s.zero_pose())[s.find_joint("l_ankle")].translation.y);
   for (const float drop_m : {0.0f, 0.25f}) {
@@ -170,13 +184,12 @@ TEST(BodySolver, LegsNobodyTracksHangUnderTheHipsAboveTheFloor) {
 // Three sensors and a deep squat (trunk upright, hips 40 cm down): the hips go down with the
 // head rather than staying at standing height under a trunk folded to reach it.
 TEST(BodySolver, UprightHeadComingDownIsASquatNotAFold) {
-  const Skeleton s = default_skeleton();
-  const auto mounts = testing::mounts_for(*standard_layout("3", s), 0.0f, 5);
-  SolverOptions options;
-  const float standing_root_y = avatar::standing_root_height_m(s);
-  options.standing_root_y_m = standing_root_y;
-  auto model = *SolverModel::create(s, mounts, options);
-  SolverContext ctx(model);
+  HeadAndHands h;
+  const Skeleton& s = h.s;
+  const auto& mounts = h.mounts;
+  const float standing_root_y = h.standing_root_y;
+  auto& model = h.model;
+  auto& ctx = h.ctx;
   Pose solved = s.zero_pose();
   Pose truth = s.zero_pose();
   std::vector<devices::SensorSample> samples;
