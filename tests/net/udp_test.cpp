@@ -2,6 +2,8 @@
 // frames on the datagram path, what overtakes what, resume, hostile datagrams.
 #include <gtest/gtest.h>
 
+#include <optional>
+
 #include "net_test_support.h"
 
 namespace mimic::net {
@@ -70,6 +72,25 @@ Bytes register_packet(uint64_t token) {
   Bytes b(kUdpRegisterBytes);
   b.resize(encode_udp_register(token, b));
   return b;
+}
+
+// A publisher with one avatar ("alice") and a UDP subscriber that holds its model and whose
+// address the server has registered; empty pointers (and a failure) if that does not happen.
+struct RegisteredPair {
+  std::unique_ptr<Client> pub, sub;
+  std::optional<uint8_t> slot;
+};
+
+RegisteredPair registered_pair(ServerThread& st) {
+  RegisteredPair r{connect_as(st, Role::publisher, false), connect_as(st, Role::subscriber, true), {}};
+  if (!r.pub || !r.sub) return {};
+  auto slot = r.pub->add_avatar("alice", kDofs, std::string(100, 'a'));
+  if (!slot || !pump({r.pub.get(), r.sub.get()}, [&] { return r.sub->udp_active() && r.sub->avatars().size() == 1; })) {
+    ADD_FAILURE() << "the subscriber never got the model and a registered address";
+    return {};
+  }
+  r.slot = *slot;
+  return r;
 }
 
 TEST(UdpPoses, SubscriberGetsPoseFramesAsDatagrams) {
@@ -190,11 +211,8 @@ TEST(UdpPoses, AStalledStreamDoesNotHoldBackDatagrams) {
 
 TEST(UdpPoses, ResumedSubscriberRegistersItsAddressAgain) {
   ServerThread st;
-  auto pub = connect_as(st, Role::publisher, false);
-  auto sub = connect_as(st, Role::subscriber, true);
-  auto slot = pub->add_avatar("alice", kDofs, std::string(100, 'a'));
-  ASSERT_TRUE(slot);
-  ASSERT_TRUE(pump({pub.get(), sub.get()}, [&] { return sub->udp_active() && sub->avatars().size() == 1; }));
+  auto [pub, sub, slot] = registered_pair(st);
+  ASSERT_TRUE(pub && sub && slot);
   publish_range(*pub, *slot, 1, 10, {sub.get()});
   sub->drop_connection();
   EXPECT_FALSE(sub->udp_active());
@@ -225,11 +243,8 @@ TEST(UdpPoses, WithoutUdpOnTheServerFramesStayOnTcp) {
 
 TEST(UdpPoses, HostileDatagramsAreCountedAndOnlyKnownTokensAnswered) {
   ServerThread st;
-  auto pub = connect_as(st, Role::publisher, false);
-  auto sub = connect_as(st, Role::subscriber, true);
-  auto slot = pub->add_avatar("alice", kDofs, std::string(100, 'a'));
-  ASSERT_TRUE(slot);
-  ASSERT_TRUE(pump({pub.get(), sub.get()}, [&] { return sub->udp_active() && sub->avatars().size() == 1; }));
+  auto [pub, sub, slot] = registered_pair(st);
+  ASSERT_TRUE(pub && sub && slot);
   const uint64_t before = st.stats().udp_datagrams_in;
 
   RawUdp raw(st.port());
