@@ -376,13 +376,6 @@ struct Session : std::enable_shared_from_this<Session> {
     queue_control(a.model_packet);
     models_known[a.id] = a.revision;
     srv.stats.model_bytes_out += a.model_packet.size();
-    // Datagrams may overtake the stream: the pose the model is waiting for follows it on TCP,
-    // and the client drops datagrams of avatars whose model has not arrived.
-    if (udp_ready && a.has_pose) {
-      queue_control(std::span<const uint8_t>(a.pose.data(), a.pose_size));
-      frames_out++;
-      srv.stats.frames_out++;
-    }
   }
 
   Reject on_model(std::span<const uint8_t> packet) {
