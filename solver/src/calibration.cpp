@@ -696,7 +696,7 @@ Result<Calibration> calibrate(const SkeletonDesc& base, const SensorLayout& layo
     const auto w = pose_world(s, fit.pose);
     float turned_deg = 0;
     for (int j = 0; j < s.joint_count(); ++j) {
-      auto [it, fresh] = segment_rot.try_emplace(s.joint_name(j), heading);
+      const auto it = segment_rot.try_emplace(s.joint_name(j), heading).first;
       turned_deg = std::max(turned_deg, angle_deg(it->second, w[j].rotation));
       it->second = w[j].rotation;
     }
