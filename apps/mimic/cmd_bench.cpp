@@ -19,9 +19,10 @@
 #include "mimic/sim/sensor_rig.h"
 #include "mimic/solver/body_solver.h"
 #include "mimic/solver/filters.h"
-#include "pipeline.h"
+#include "mimic/service/pipeline.h"
 
 namespace mimic::app {
+using namespace ::mimic::service;
 namespace {
 
 struct BenchOptions {

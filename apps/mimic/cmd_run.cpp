@@ -14,9 +14,10 @@
 #include "mimic/net/server.h"
 #include "mimic/net/vmc.h"
 #include "alloc_count.h"
-#include "pipeline.h"
+#include "mimic/service/pipeline.h"
 
 namespace mimic::app {
+using namespace ::mimic::service;
 namespace {
 
 std::atomic<bool> g_report{false};

@@ -1,4 +1,4 @@
-#include "pipeline.h"
+#include "mimic/service/pipeline.h"
 
 #include <pthread.h>
 #include <sched.h>
@@ -24,7 +24,7 @@
 #include "mimic/solver/model_refiner.h"
 #include "mimic/solver/sensor_layout.h"
 
-namespace mimic::app {
+namespace mimic::service {
 
 namespace {
 
@@ -498,4 +498,4 @@ void Pipeline::tick() {
   if (out_.server) out_.server->end_batch();
 }
 
-}  // namespace mimic::app
+}  // namespace mimic::service

@@ -1,4 +1,4 @@
-// The realtime pipeline of `mimic run`: for every avatar, read (poll its tracker source) →
+// The realtime pipeline of Mimic: for every avatar, read (poll its tracker source) →
 // solve (samples → Pose) → encode (pose frame) → send (server fan-out, remote publisher, VMC),
 // then deform (Pose → skin) and send mesh frames to thin clients. The pose frames go first
 // because receivers deform locally: the pose stream never waits for the skin. Built at setup;
@@ -6,8 +6,9 @@
 // send is counted.
 //
 // Seams (replaceable without touching the loop): PoseFeed does read + solve (tracker source +
-// body solver), Deformer does deform. Until the skin deformer is wired in, the deformer runs
-// forward kinematics (the joint frames the skin starts from).
+// body solver), Deformer does deform (the skin at a mesh LOD, or forward kinematics alone when
+// nobody asked for meshes). A library of its own so that every front end (`mimic run`, the
+// viewer, the tests) runs the same loop.
 #pragma once
 
 #include <array>
@@ -31,7 +32,7 @@ class Client;
 class VmcSender;
 }  // namespace mimic::net
 
-namespace mimic::app {
+namespace mimic::service {
 
 enum Stage { kStageRead, kStageSolve, kStageDeform, kStageEncode, kStageSend, kStageLatency, kStageCount };
 const char* stage_name(int stage);
@@ -166,4 +167,4 @@ class Pipeline {
   uint64_t send_failures_ = 0;
 };
 
-}  // namespace mimic::app
+}  // namespace mimic::service
