@@ -13,7 +13,7 @@ namespace {
 
 // Hand-written edge-case files live beside the tests (tests/data/bvh).
 std::string local_data(const std::string& name) {
-  return (std::filesystem::path(__FILE__).parent_path() / ".." / "data" / "bvh" / name).string();
+  return mimic::test::repo_test_data("bvh/" + name).string();
 }
 
 BvhClip load_ok(const std::string& path, double metres_per_unit = kCmuMetresPerUnit) {

@@ -15,6 +15,7 @@
 #include "alloc_counter.h"
 #include "mimic/core/file.h"
 #include "mimic/sim/sensor_rig.h"
+#include "test_data.h"
 #include "test_motion.h"
 
 namespace mimic::sim {
@@ -368,7 +369,7 @@ TEST(SampleCsv, OneLinePerSampleWithSixDecimals) {
 //   MIMIC_REGENERATE_GOLDEN=1 ./build/bin/mimic_sim_tests --gtest_filter='GoldenLog.*'
 // and review the diff (git diff --stat tests/data/logs; the CSV is human-readable).
 
-fs::path golden_dir() { return fs::path(__FILE__).parent_path().parent_path() / "data" / "logs"; }
+fs::path golden_dir() { return mimic::test::repo_test_data("logs"); }
 
 std::vector<uint8_t> make_golden_log() {
   const auto motion = test::swing_motion();

@@ -23,6 +23,12 @@ inline std::string mimic_binary() {
   return !ec && std::filesystem::exists(beside, ec) ? beside.string() : "mimic";
 }
 
+// The repository's own test data (tests/data: golden logs, malformed BVH files).
+inline std::filesystem::path repo_test_data(const std::string& relative = "") {
+  const std::filesystem::path root = MIMIC_TEST_DATA_DIR;
+  return relative.empty() ? root : root / relative;
+}
+
 inline const char* kShared_clips[] = {"02_04", "02_05", "02_06", "05_02",
                                       "06_04", "07_01", "09_11", "13_26"};
 
