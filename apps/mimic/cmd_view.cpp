@@ -41,8 +41,9 @@ constexpr const char* kUsage =
     "  --empty               no avatar: the floor alone\n"
     "\n"
     "interactive sources (default: sim:walk?sensors=11, the built-in walk on simulated trackers):\n"
-    "  --source SPEC         any source `mimic run` takes: sim:walk?sensors=11, replay:FILE.mlog,\n"
-    "                        bvh:CLIP, flock:/dev/ttyUSB0?birds=4 ...; repeat for more avatars\n"
+    "  --source SPECS        any source `mimic run` takes: sim:walk?sensors=11, replay:FILE.mlog,\n"
+    "                        bvh:CLIP, flock:/dev/ttyUSB0?birds=4 ...; several, separated by ';',\n"
+    "                        stand side by side\n"
     "  --calibration FILE    calibration of the wearer (mimic calibrate) for a tracker source\n"
     "  --connect HOST:PORT   view the scene a `mimic run` serves: body models once, then pose\n"
     "                        frames, every avatar deformed here\n"
@@ -56,6 +57,10 @@ constexpr const char* kUsage =
     "  --body FILE           body model (JSON, docs/body-model.md); default: the built-in body\n"
     "  --see-through         draw the body translucent (to see overlays inside it)\n"
     "  --no-grid             leave out the floor grid\n"
+    "  --frames N            interactive: quit after N frames (and print the mean frame time)\n"
+    "  --capture FILE.png    interactive: save the window's last frame (with --frames)\n"
+    "  --no-vsync            interactive: do not wait for the display's refresh\n"
+    "  --help-overlay        interactive: start with the help overlay shown\n"
     "  -h, --help            this text\n"
     "\n"
     "interactive keys: H or F1 help, 1-5 overlays, L cycle LOD (auto, 0, 1, 2), T translucent,\n"
@@ -191,8 +196,8 @@ int screenshot(Args& args, const ViewOptions& view) {
 int run_view(const std::vector<std::string>& argv) {
   Args args(argv,
             {"screenshot", "bvh", "frame", "scale", "motion", "time", "pose", "set", "camera", "size", "lod", "overlay",
-             "ray-ring", "body", "source", "calibration", "connect"},
-            {"empty", "no-grid", "see-through"});
+             "ray-ring", "body", "source", "calibration", "connect", "frames", "capture"},
+            {"empty", "no-grid", "see-through", "no-vsync", "help-overlay"});
   if (args.help()) {
     std::printf("%s", kUsage);
     return 0;

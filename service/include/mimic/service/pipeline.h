@@ -142,6 +142,8 @@ class Pipeline {
   uint64_t send_failures() const { return send_failures_; }
   StageTimer& timer(int stage) { return timers_[stage]; }
   const PoseFeed& feed(size_t i) const { return *avatars_[i].feed; }
+  // The pose avatar i was last solved to (what a local viewer draws).
+  const avatar::Pose& pose(size_t i) const { return avatars_[i].pose; }
 
  private:
   struct Avatar {

@@ -1,0 +1,147 @@
+// End-to-end: the interactive `mimic view` in a real GLFW window on a virtual X display (Xvfb,
+// started here on a free display number), from the local pipeline and connected to a running
+// `mimic run`; the window's last frame is captured and checked.
+#include <gtest/gtest.h>
+
+#include <signal.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <fcntl.h>
+
+#include <chrono>
+#include <cstdlib>
+#include <filesystem>
+#include <string>
+#include <thread>
+
+#include "mimic/render/image.h"
+#include "run_mimic.h"
+#include "test_data.h"
+
+namespace {
+
+using mimic::test::Outcome;
+using mimic::test::run_mimic;
+
+// An Xvfb server on the first free display number from 90 on; stopped at the end of the test.
+class VirtualDisplay {
+ public:
+  VirtualDisplay() {
+    for (int n = 90; n < 200; ++n) {
+      // Built by appending: GCC 12 warns falsely on "literal" + std::string (-Wrestrict).
+      const std::string number = std::to_string(n);
+      std::string lock = "/tmp/.X", socket = "/tmp/.X11-unix/X", display = ":";
+      lock.append(number).append("-lock");
+      socket.append(number);
+      display.append(number);
+      if (std::filesystem::exists(socket) || std::filesystem::exists(lock)) continue;
+      std::vector<std::string> args = {"Xvfb", display, "-screen", "0", "1024x768x24", "-nolisten", "tcp"};
+      std::vector<char*> argv;
+      for (auto& a : args) argv.push_back(a.data());
+      argv.push_back(nullptr);
+      posix_spawn_file_actions_t fa;
+      posix_spawn_file_actions_init(&fa);
+      posix_spawn_file_actions_addopen(&fa, 1, "/dev/null", O_WRONLY, 0);
+      posix_spawn_file_actions_addopen(&fa, 2, "/dev/null", O_WRONLY, 0);
+      const bool spawned = posix_spawnp(&pid_, "Xvfb", &fa, nullptr, argv.data(), environ) == 0;
+      posix_spawn_file_actions_destroy(&fa);
+      if (!spawned) return;
+      for (int i = 0; i < 100; ++i) {  // up to 5 s for its socket
+        if (std::filesystem::exists(socket)) {
+          display_ = display;
+          return;
+        }
+        std::this_thread::sleep_for(std::chrono::milliseconds(50));
+      }
+      stop();
+      return;
+    }
+  }
+  ~VirtualDisplay() { stop(); }
+  const std::string& display() const { return display_; }
+
+ private:
+  void stop() {
+    if (pid_ > 0) {
+      ::kill(pid_, SIGTERM);
+      int status = 0;
+      ::waitpid(pid_, &status, 0);
+      pid_ = -1;
+    }
+  }
+  pid_t pid_ = -1;
+  std::string display_;
+};
+
+std::string temp(const std::string& name) {
+  return (std::filesystem::temp_directory_path() / ("mimic_view_window_" + name)).string();
+}
+
+// Pixels of the avatar's shirt (blue) and of the ImGui panel (dark, top-left corner).
+int shirt_pixels(const mimic::render::Image& image) {
+  int n = 0;
+  for (int y = 0; y < image.height; ++y)
+    for (int x = 0; x < image.width; ++x) {
+      const uint8_t* p = image.pixel(x, y);
+      n += p[2] > p[0] + 40 && p[2] > 90;
+    }
+  return n;
+}
+int dark_pixels_top_left(const mimic::render::Image& image) {
+  int n = 0;
+  for (int y = 0; y < 60; ++y)
+    for (int x = 0; x < 120; ++x) {
+      const uint8_t* p = image.pixel(x, y);
+      n += p[0] < 110 && p[1] < 110 && p[2] < 120;  // the panel: dark grey, 75% opaque
+    }
+  return n;
+}
+
+TEST(ViewWindow, DrawsTheLocalPipelineWithItsPanel) {
+  VirtualDisplay x;
+  ASSERT_FALSE(x.display().empty()) << "Xvfb did not start (scripts/setup.sh installs it)";
+  ::setenv("DISPLAY", x.display().c_str(), 1);  // for the program run below
+  const std::string out = temp("local.png");
+  const Outcome r = run_mimic("view --source 'sim:walk?sensors=11' --frames 15 --no-vsync --size 400x300 --capture '" +
+                              out + "' --overlay skeleton");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("15 frames"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("avatar1: sim:walk?sensors=11"), std::string::npos) << r.output;
+  auto image = mimic::render::read_png(out);
+  ASSERT_TRUE(image) << r.output;
+  EXPECT_EQ(image->width, 400);
+  EXPECT_EQ(image->height, 300);
+  EXPECT_GT(shirt_pixels(*image), 800);
+  EXPECT_GT(dark_pixels_top_left(*image), 2000);  // the ImGui status panel
+  std::filesystem::remove(out);
+}
+
+TEST(ViewWindow, ConnectsToMimicRunAndDrawsEveryAvatarItServes) {
+  VirtualDisplay x;
+  ASSERT_FALSE(x.display().empty()) << "Xvfb did not start (scripts/setup.sh installs it)";
+  ::setenv("DISPLAY", x.display().c_str(), 1);
+  mimic::test::Child host({mimic::test::mimic_binary(), "run", "--listen", "127.0.0.1:0", "--source", "sim:walk",
+                           "--source", "sim:idle?seed=2", "--duration", "20", "--quiet"});
+  const std::string line = host.line();
+  ASSERT_EQ(line.rfind("serving on ", 0), 0u) << line;
+  const std::string endpoint = line.substr(std::string("serving on ").size());
+  const std::string out = temp("connected.png");
+  const Outcome r = run_mimic("view --connect " + endpoint + " --frames 40 --no-vsync --size 400x300 --capture '" + out + "'");
+  ASSERT_EQ(r.status, 0) << r.output;
+  // Both avatars arrived as body models and are deformed here from pose frames.
+  EXPECT_NE(r.output.find("avatar1#"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("avatar2#"), std::string::npos) << r.output;
+  EXPECT_EQ(r.output.find(" 0 frames,"), std::string::npos) << r.output;
+  auto image = mimic::render::read_png(out);
+  ASSERT_TRUE(image) << r.output;
+  EXPECT_GT(shirt_pixels(*image), 800);
+  std::filesystem::remove(out);
+  // A server that is not there: a clear error, exit 1.
+  const Outcome none = run_mimic("view --connect 127.0.0.1:1 --frames 1");
+  EXPECT_EQ(none.status, 1);
+  EXPECT_NE(none.output.find("cannot connect"), std::string::npos) << none.output;
+}
+
+}  // namespace
