@@ -31,7 +31,8 @@ const char* kUsage =
     "\n"
     "Runs the realtime pipeline (read -> solve -> deform -> encode -> send) and serves the avatars\n"
     "to subscribers (mimic subscribe, VR scenes). With no arguments: simulated trackers on the\n"
-    "built-in walk, the default body, serving on 127.0.0.1:7777.\n"
+    "built-in walk, the default body, serving on 127.0.0.1:7777. Watch it with\n"
+    "`mimic view --connect 127.0.0.1:7777` (every avatar, deformed in the viewer).\n"
     "\n"
     "options:\n"
     "  --source SPEC       tracker source of one avatar; repeat for several avatars\n"
@@ -209,6 +210,7 @@ int run(const std::vector<std::string>& argv) {
   std::signal(SIGUSR1, on_report_signal);
   std::printf("%s\n", where.c_str());
   std::fflush(stdout);
+  if (server) std::fprintf(stderr, "mimic run: watch it with: mimic view --connect %s\n", server->endpoint().c_str());
 
   // Allocations inside the frame work (read → send), counted once the first frames have warmed
   // every buffer up; the network servicing between frames (joins, leaves) may allocate.
