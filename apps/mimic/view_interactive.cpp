@@ -131,9 +131,8 @@ int run_interactive(Args& args, const ViewOptions& view) {
 
   render::Camera camera = render::preset_camera(view.camera, {0, 0, 0}, 1.75f,
                                                 float(view.width) / float(view.height));
-  // Back far enough for the row of avatars side by side.
-  camera.zoom(std::max(1.0f, 0.6f * static_cast<float>(avatars.size())));
-  const render::Camera home = camera;
+  render::Camera home = camera;
+  bool framed = false;  // the camera has been fitted to the scene once its avatars stood somewhere
   unsigned overlays = view.overlays;
   int lod_mode = view.lod;  // -1 auto
   bool grid = view.grid, see_through = view.see_through, help = false;
@@ -166,7 +165,7 @@ int run_interactive(Args& args, const ViewOptions& view) {
         case 'T': see_through = !see_through; break;
         case 'G': grid = !grid; break;
         case 'L': lod_mode = lod_mode + 1 >= render::kLodCount ? -1 : lod_mode + 1; break;
-        case 'R': camera = home; first_person = -1; break;
+        case 'R': camera = home; first_person = -1; camera.first_person_eye.reset(); break;
         case 'F':
           first_person = first_person + 1 >= static_cast<int>(avatars.size()) ? -1 : first_person + 1;
           if (first_person < 0) camera.first_person_eye.reset();
@@ -208,6 +207,22 @@ int run_interactive(Args& args, const ViewOptions& view) {
         it->status = std::to_string(remote.frames) + " frames, " + std::to_string(remote.lost) + " lost";
       }
       connection = "connected, " + std::to_string(client->stats().frames) + " pose frames";
+    }
+
+    // Once the avatars have poses (a few frames in), fit the orbit camera to the whole scene.
+    if (!framed && frames >= 5 && !avatars.empty()) {
+      glm::vec3 lo(1e9f), hi(-1e9f);
+      for (const ViewAvatar& a : avatars) {
+        const glm::vec3 p = glm::vec3(a.world_from_body * glm::vec4(a.pose.root_position_m, 1.0f));
+        lo = glm::min(lo, p);
+        hi = glm::max(hi, p);
+      }
+      const float spread_m = std::max(hi.x - lo.x, hi.z - lo.z);
+      camera.target = {0.5f * (lo.x + hi.x), 0.9f, 0.5f * (lo.z + hi.z)};
+      camera.distance_m = std::max(camera.distance_m, 0.55f * spread_m / std::tan(0.5f * camera.fov_y_rad) + 1.5f);
+      if (avatars.size() > 1) camera.pitch_rad = std::max(camera.pitch_rad, 0.35f);
+      home = camera;
+      framed = true;
     }
 
     // Deform each avatar at the LOD its distance calls for, gather overlays.

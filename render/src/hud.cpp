@@ -15,14 +15,16 @@ void draw_hud(const HudState& s) {
   ImGui::Text("camera %s", s.camera.c_str());
   ImGui::Text("overlays %s", s.overlays.empty() ? "none" : s.overlays.c_str());
   ImGui::TextUnformatted(s.connection.c_str());
+  if (!s.avatars.empty()) ImGui::Separator();
   for (const HudAvatar& a : s.avatars) {
-    ImGui::Separator();
-    ImGui::Text("%s  (%s)", a.name.c_str(), a.source.c_str());
-    ImGui::Text("  LOD %d, %zu triangles, deform %.3f ms, %.1f m away", a.lod, a.triangles, a.deform_ms, a.distance_m);
+    // One line per avatar, so a crowded scene keeps the panel small; the source on hover.
+    ImGui::Text("%-10s LOD %d %6zu tris %.2f ms %4.1f m", a.name.c_str(), a.lod, a.triangles, a.deform_ms, a.distance_m);
+    if (ImGui::IsItemHovered()) ImGui::SetTooltip("%s", a.source.c_str());
+    ImGui::SameLine();
     if (a.stale)
-      ImGui::TextColored(ImVec4(1.0f, 0.3f, 1.0f, 1.0f), "  sensors: %s", a.sensor_status.c_str());
+      ImGui::TextColored(ImVec4(1.0f, 0.3f, 1.0f, 1.0f), " STALE %s", a.sensor_status.c_str());
     else
-      ImGui::Text("  sensors: %s", a.sensor_status.c_str());
+      ImGui::Text(" %s", a.sensor_status.c_str());
   }
   ImGui::Separator();
   ImGui::TextUnformatted("H or F1: help");
