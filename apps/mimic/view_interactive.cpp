@@ -69,6 +69,7 @@ struct ViewAvatar {
   uint32_t revision = 0;
   int lod = 0;
   double deform_ms = 0;
+  std::vector<render::SensorMark> sensors;  // local pipeline only: the protocol carries poses
 };
 
 std::string overlay_names(unsigned mask) {
@@ -182,6 +183,15 @@ int run_interactive(Args& args, const ViewOptions& view) {
         const devices::DeviceStatus st = pipeline->feed(i).status();
         avatars[i].stale = st.state != devices::DeviceState::streaming;
         avatars[i].status = std::string(state_name(st.state)) + ", " + std::to_string(st.records) + " records";
+        // The sensors as the solver last saw them; stale when flagged so or older than 250 ms.
+        avatars[i].sensors.clear();
+        const double now = std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+        for (const devices::SensorSample& smp : pipeline->feed(i).latest_samples()) {
+          const bool stale = (smp.flags & devices::kSampleValid) == 0 || (smp.flags & devices::kSampleStale) != 0 ||
+                             now - smp.host_time_s > 0.25;
+          avatars[i].sensors.push_back({glm::vec3(avatars[i].world_from_body * glm::vec4(smp.position_m, 1.0f)),
+                                        glm::quat_cast(glm::mat3(avatars[i].world_from_body)) * smp.orientation, stale});
+        }
       }
     } else {
       if (auto st = client->poll(); !st) return failure(kName, "connection ended: " + st.error().message);
@@ -245,6 +255,7 @@ int run_interactive(Args& args, const ViewOptions& view) {
         render::append_primitives(skin, a.lods->model(), a.pose, a.world_from_body, see_through ? lines : xray);
       if (overlays & render::kOverlaySkeleton) render::append_skeleton(skin.skeleton(), a.pose, a.world_from_body, xray);
       if (overlays & render::kOverlayRays) render::append_rays(skin, ray_ring, a.world_from_body, xray);
+      if (overlays & render::kOverlaySensors) render::append_sensors(a.sensors, xray);
       if (static_cast<int>(i) == first_person) {
         // The eyes of this avatar: a little in front of its face, looking where its head looks.
         joints.resize(skin.skeleton().joint_count());

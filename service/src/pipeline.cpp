@@ -132,6 +132,7 @@ class SolverFeed final : public PoseFeed {
     }
     return total;
   }
+  std::span<const devices::SensorSample> latest_samples() const override { return packed_; }
   void solve(avatar::Pose& pose, double& capture_s, bool& stale) override {
     packed_.clear();  // capacity kept: no allocation
     stale = false;

@@ -124,7 +124,9 @@ class PlacedFeed final : public PoseFeed {
   PlacedFeed(std::unique_ptr<PoseFeed> inner, Placement place, std::shared_ptr<SceneRoster> roster, int slot,
              std::unique_ptr<devices::InputSource> navigator, NavigationOptions navigation)
       : inner_(std::move(inner)), place_(place), roster_(std::move(roster)), slot_(slot),
-        navigator_(std::move(navigator)), navigation_(navigation) {}
+        navigator_(std::move(navigator)), navigation_(navigation) {
+    placed_.reserve(64);
+  }
 
   const avatar::Skeleton& skeleton() const override { return inner_->skeleton(); }
   std::string describe() const override {
@@ -151,8 +153,18 @@ class PlacedFeed final : public PoseFeed {
     }
     apply_placement(place_, pose);
     roster_->set(slot_, pose.root_position_m, place_.heading_rad);
+    // The sensors move with the avatar (capacity reserved at setup: no allocation).
+    const auto samples = inner_->latest_samples();
+    placed_.resize(std::min(samples.size(), placed_.capacity()));
+    const glm::quat turn = glm::angleAxis(place_.heading_rad, glm::vec3(0, 1, 0));
+    for (size_t i = 0; i < placed_.size(); ++i) {
+      placed_[i] = samples[i];
+      placed_[i].position_m = place_.position_m + turn * samples[i].position_m;
+      placed_[i].orientation = turn * samples[i].orientation;
+    }
   }
   devices::DeviceStatus status() const override { return inner_->status(); }
+  std::span<const devices::SensorSample> latest_samples() const override { return placed_; }
 
  private:
   std::unique_ptr<PoseFeed> inner_;
@@ -163,6 +175,7 @@ class PlacedFeed final : public PoseFeed {
   NavigationOptions navigation_;
   devices::InputFrame input_;
   double last_s_ = 0;
+  std::vector<devices::SensorSample> placed_;
 };
 
 }  // namespace

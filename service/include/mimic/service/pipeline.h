@@ -67,6 +67,9 @@ class PoseFeed {
   // at the newest sample's last byte.
   virtual void solve(avatar::Pose& pose, double& capture_s, bool& stale) = 0;
   virtual devices::DeviceStatus status() const = 0;
+  // The newest sample of each sensor the last solve used (the source's reference frame), for
+  // viewers to draw; empty for feeds without sensors.
+  virtual std::span<const devices::SensorSample> latest_samples() const { return {}; }
 };
 
 // Pose → skin. The stand-in computes joint frames (what the skin deformer starts from). A
