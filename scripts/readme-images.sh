@@ -25,4 +25,21 @@ done
 shot method-primitives --pose rest --set l_elbow_flexion=1.8,r_shoulder_abduction=-1.2 --overlay skeleton,primitives --see-through --camera three-quarter --size 300x340
 shot method-contours --pose rest --overlay contours --lod 2 --camera front --size 300x340
 shot method-rays --pose rest --overlay rays --ray-ring 5 --see-through --camera three-quarter --size 300x340
+# The shared scene: two tracked participants and three actors in one `mimic run`, watched by
+# `mimic view --connect` in a window on a virtual display.
+if command -v xvfb-run >/dev/null; then
+  log=$(mktemp)
+  "$mimic" run --listen 127.0.0.1:0 --source sim:walk --source 'sim:idle?seed=2' --source 'actor:wander?seed=3' \
+    --source 'actor:follow?target=3' --source 'actor:greet?seed=5' --duration 25 --quiet >"$log" 2>/dev/null &
+  run_pid=$!
+  for _ in $(seq 50); do grep -q '^serving on ' "$log" && break; sleep 0.1; done
+  endpoint=$(sed -n 's/^serving on //p' "$log" | head -1)
+  sleep 8  # let the actors walk off
+  xvfb-run -a -s "-screen 0 1024x768x24" "$mimic" view --connect "$endpoint" --frames 30 --no-vsync --no-panel \
+    --size 640x360 --capture "$out/scene.png" >/dev/null
+  kill "$run_pid" 2>/dev/null || true
+  wait "$run_pid" 2>/dev/null || true
+  rm -f "$log"
+  echo "wrote $out/scene.png"
+fi
 du -ch "$out"/*.png | tail -1

@@ -61,6 +61,7 @@ constexpr const char* kUsage =
     "  --capture FILE.png    interactive: save the window's last frame (with --frames)\n"
     "  --no-vsync            interactive: do not wait for the display's refresh\n"
     "  --help-overlay        interactive: start with the help overlay shown\n"
+    "  --no-panel            interactive: no status panel (clean captures)\n"
     "  -h, --help            this text\n"
     "\n"
     "interactive keys: H or F1 help, 1-5 overlays, L cycle LOD (auto, 0, 1, 2), T translucent,\n"
@@ -197,7 +198,7 @@ int run_view(const std::vector<std::string>& argv) {
   Args args(argv,
             {"screenshot", "bvh", "frame", "scale", "motion", "time", "pose", "set", "camera", "size", "lod", "overlay",
              "ray-ring", "body", "source", "calibration", "connect", "frames", "capture"},
-            {"empty", "no-grid", "see-through", "no-vsync", "help-overlay"});
+            {"empty", "no-grid", "see-through", "no-vsync", "help-overlay", "no-panel"});
   if (args.help()) {
     std::printf("%s", kUsage);
     return 0;

@@ -229,8 +229,8 @@ int run_interactive(Args& args, const ViewOptions& view) {
       }
       const float spread_m = std::max(hi.x - lo.x, hi.z - lo.z);
       camera.target = {0.5f * (lo.x + hi.x), 0.9f, 0.5f * (lo.z + hi.z)};
-      camera.distance_m = std::max(camera.distance_m, 0.55f * spread_m / std::tan(0.5f * camera.fov_y_rad) + 1.5f);
-      if (avatars.size() > 1) camera.pitch_rad = std::max(camera.pitch_rad, 0.35f);
+      camera.distance_m = std::max(camera.distance_m, 0.4f * spread_m / std::tan(0.5f * camera.fov_y_rad) + 1.5f);
+      if (avatars.size() > 1) camera.pitch_rad = std::max(camera.pitch_rad, 0.3f);
       home = camera;
       framed = true;
     }
@@ -291,7 +291,7 @@ int run_interactive(Args& args, const ViewOptions& view) {
     for (const ViewAvatar& a : avatars)
       hud.avatars.push_back({a.name, a.source, a.status, a.stale, a.lod, a.lods->triangle_count(a.lod), a.deform_ms,
                              glm::length(camera.eye() - glm::vec3(a.world_from_body * glm::vec4(a.pose.root_position_m, 1.0f)))});
-    render::draw_hud(hud);
+    if (!args.has("no-panel")) render::draw_hud(hud);
     window->render_ui();
     ++frames;
     if (capture && frames == frames_limit) {
