@@ -67,6 +67,7 @@ struct ViewAvatar {
   std::string status;
   // Remote avatars: the model revision the skins were built for.
   uint32_t revision = 0;
+  uint16_t remote_id = 0;
   int lod = 0;
   double deform_ms = 0;
   std::vector<render::SensorMark> sensors;  // local pipeline only: the protocol carries poses
@@ -196,7 +197,7 @@ int run_interactive(Args& args, const ViewOptions& view) {
     } else {
       if (auto st = client->poll(); !st) return failure(kName, "connection ended: " + st.error().message);
       for (const auto& [id, remote] : client->avatars()) {
-        auto it = std::find_if(avatars.begin(), avatars.end(), [&](const ViewAvatar& a) { return a.name == remote.name + "#" + std::to_string(id); });
+        auto it = std::find_if(avatars.begin(), avatars.end(), [&](const ViewAvatar& a) { return a.remote_id == id; });
         if (it == avatars.end() || it->revision != remote.revision) {
           auto body = avatar::body_model_from_json(remote.model_bytes, remote.name);
           if (!body) continue;  // a model we cannot read: skip the avatar, keep viewing the rest
@@ -206,6 +207,7 @@ int run_interactive(Args& args, const ViewOptions& view) {
             avatars.emplace_back();
             it = avatars.end() - 1;
             it->name = remote.name + "#" + std::to_string(id);
+            it->remote_id = id;
             it->source = "remote avatar " + std::to_string(id);
           }
           it->lods.emplace(std::move(*lods));
@@ -215,6 +217,12 @@ int run_interactive(Args& args, const ViewOptions& view) {
         if (remote.has_pose && remote.pose.dof_rad.size() == it->pose.dof_rad.size()) it->pose = remote.pose;
         it->stale = !remote.has_pose;
         it->status = std::to_string(remote.frames) + " frames, " + std::to_string(remote.lost) + " lost";
+      }
+      // Avatars that left the scene go from the view too.
+      std::erase_if(avatars, [&](const ViewAvatar& a) { return client->avatars().count(a.remote_id) == 0; });
+      if (first_person >= static_cast<int>(avatars.size())) {
+        first_person = -1;
+        camera.first_person_eye.reset();
       }
       connection = "connected, " + std::to_string(client->stats().frames) + " pose frames";
     }

@@ -182,12 +182,11 @@ struct Renderer::Impl {
         cx = {0.80f, 0.45f, 0.45f, 1};  // the X axis (the avatars' left) in red
         cz = {0.45f, 0.52f, 0.82f, 1};  // the Z axis (where they face) in blue
       }
-      v.push_back({{-half_m, 0, s}, i == 0 ? cx : cx});
+      v.push_back({{-half_m, 0, s}, cx});  // along X, at z = s
       v.push_back({{half_m, 0, s}, cx});
-      v.push_back({{s, 0, -half_m}, i == 0 ? cz : cz});
+      v.push_back({{s, 0, -half_m}, cz});  // along Z, at x = s
       v.push_back({{s, 0, half_m}, cz});
     }
-    // Lines along X at z = s use the X-axis colour only at s = 0; same for Z.
     grid_vertices = static_cast<GLsizei>(v.size());
     glGenVertexArrays(1, &grid_vao);
     glBindVertexArray(grid_vao);
