@@ -196,7 +196,9 @@ int run_interactive(Args& args, const ViewOptions& view) {
       }
     } else {
       if (auto st = client->poll(); !st) return failure(kName, "connection ended: " + st.error().message);
-      for (const auto& [id, remote] : client->avatars()) {
+      for (const auto& entry : client->avatars()) {
+        const uint16_t id = entry.first;  // not a structured binding: Clang 14 cannot capture those
+        const net::RemoteAvatar& remote = entry.second;
         auto it = std::find_if(avatars.begin(), avatars.end(), [&](const ViewAvatar& a) { return a.remote_id == id; });
         if (it == avatars.end() || it->revision != remote.revision) {
           auto body = avatar::body_model_from_json(remote.model_bytes, remote.name);
