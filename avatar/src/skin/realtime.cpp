@@ -3,6 +3,7 @@
 #include "mimic/avatar/realtime_skin.h"
 
 #include "mimic/avatar/skin_lod.h"
+#include "mimic/avatar/texture_layout.h"
 #include "skin_impl.h"
 
 namespace mimic::avatar {
@@ -139,6 +140,7 @@ struct RealtimeBody::Data {
   std::vector<glm::vec3> rigid_local;
   Mesh rest_mesh;
   std::vector<JointInfluences> weights;
+  TextureLayout texture;
 };
 
 namespace {
@@ -255,6 +257,7 @@ Result<std::shared_ptr<const RealtimeBody>> RealtimeBody::create(const BodyModel
   auto weights = contour_skin_weights(*skin);
   if (!weights) return tl::unexpected(weights.error());
   d->weights = std::move(*weights);
+  d->texture = ::mimic::avatar::texture_layout(*skin);
 
   // Muscles: the contours with the primitives of every DOF that deforms one at θ0, θmin and
   // θmax; what moves in the rings' frames is what the muscles do there.
@@ -309,6 +312,7 @@ const Skeleton& RealtimeBody::skeleton() const { return data_->skeleton; }
 const Mesh& RealtimeBody::rest_mesh() const { return data_->rest_mesh; }
 std::span<const JointInfluences> RealtimeBody::weights() const { return data_->weights; }
 int RealtimeBody::lod() const { return data_->lod; }
+const TextureLayout& RealtimeBody::texture_layout() const { return data_->texture; }
 size_t RealtimeBody::muscle_points() const { return data_->muscle_points; }
 size_t RealtimeBody::muscle_terms() const { return data_->terms.size(); }
 int RealtimeBody::missed_rays() const { return data_->missed_rays; }
@@ -317,7 +321,8 @@ size_t RealtimeBody::shared_bytes() const {
   const Data& d = *data_;
   size_t b = sizeof(Data) + d.rings.capacity() * sizeof(Data::RingOp) + d.goals.capacity() * 4 +
              d.local.capacity() * sizeof(glm::vec3) + d.terms.capacity() * sizeof(Data::MuscleTerm) +
-             d.rigid_local.capacity() * sizeof(glm::vec3) + d.weights.capacity() * sizeof(JointInfluences);
+             d.rigid_local.capacity() * sizeof(glm::vec3) + d.weights.capacity() * sizeof(JointInfluences) +
+             d.texture.source.capacity() * 4 + d.texture.uv.capacity() * sizeof(glm::vec2) + d.texture.indices.capacity() * 4;
   b += d.rest_mesh.positions.capacity() * sizeof(glm::vec3) + d.rest_mesh.normals.capacity() * sizeof(glm::vec3) +
        d.rest_mesh.indices.capacity() * 4;
   return b;

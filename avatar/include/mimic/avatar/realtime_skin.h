@@ -33,6 +33,7 @@
 #include "mimic/avatar/mesh.h"
 #include "mimic/avatar/skeleton.h"
 #include "mimic/avatar/skin_weights.h"
+#include "mimic/avatar/texture_layout.h"
 
 namespace mimic::avatar {
 
@@ -62,6 +63,8 @@ class RealtimeBody {
   // contour_skin_weights() of the rest mesh, one per vertex.
   std::span<const JointInfluences> weights() const;
   int lod() const;
+  // Per-part texture coordinates of the rest mesh (textured_mesh() splits a frame's seams).
+  const TextureLayout& texture_layout() const;
   size_t vertex_count() const { return rest_mesh().positions.size(); }
   // Points moved by muscle terms, and the terms (a point can follow several DOFs).
   size_t muscle_points() const;
