@@ -17,7 +17,7 @@ shot pose-walk --motion walk --time 0.9 --camera side --size 240x300
 shot pose-wave --pose rest --set l_shoulder_abduction=1.2,l_elbow_flexion=1.3,r_shoulder_abduction=-1.2 --size 240x300
 [ -f "$data/bvh/07_01.bvh" ] && shot pose-bvh --bvh "$data/bvh/07_01.bvh" --frame 120 --camera three-quarter --size 240x300
 # Levels of detail, with the contour rings drawn so the sampling shows.
-for lod in 0 1 2; do
+for lod in 0 1 2 3; do
   shot lod$lod --pose rest --lod $lod --overlay contours --camera three-quarter --size 240x300
 done
 # The method: skeleton and primitives (muscles by f(t)) inside the translucent body; the rays

@@ -51,7 +51,7 @@ constexpr const char* kUsage =
     "options:\n"
     "  --camera NAME         front, side (from the body's left), back, three-quarter (default front)\n"
     "  --size WxH            image or window size in pixels (default 640x720)\n"
-    "  --lod N               0 (finest) .. 2 (the paper's realtime mode); default: by distance\n"
+    "  --lod N               skin level of detail, 0 (finest) .. 3; default: by distance\n"
     "  --overlay LIST        skeleton,primitives,contours,rays,sensors | all | none (default none)\n"
     "  --ray-ring N          the ring whose rays the rays overlay shows (default 40)\n"
     "  --body FILE           body model (JSON, docs/body-model.md); default: the built-in body\n"
@@ -164,7 +164,7 @@ int screenshot(Args& args, const ViewOptions& view) {
     frame.camera = render::preset_camera(view.camera, floor_center, height_m, aspect);
     const int lod = view.lod >= 0 ? view.lod
                                   : render::choose_lod(frame.camera.distance_m, height_m, frame.camera.fov_y_rad,
-                                                       view.height, lods->count());
+                                                       view.height);
     t0 = std::chrono::steady_clock::now();
     const render::MeshId mesh = lods->update(lod, request->pose, *renderer);
     const double deform_ms = ms_since(t0);

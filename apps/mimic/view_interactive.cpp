@@ -254,7 +254,7 @@ int run_interactive(Args& args, const ViewOptions& view) {
       ViewAvatar& a = avatars[i];
       const glm::vec3 root = glm::vec3(a.world_from_body * glm::vec4(a.pose.root_position_m, 1.0f));
       const float distance_m = glm::length(camera.eye() - root);
-      a.lod = lod_mode >= 0 ? lod_mode : render::choose_lod(distance_m, 1.75f, camera.fov_y_rad, fb_h, a.lods->count());
+      a.lod = lod_mode >= 0 ? lod_mode : render::choose_lod(distance_m, 1.75f, camera.fov_y_rad, fb_h, a.lod);
       const auto d0 = std::chrono::steady_clock::now();
       const render::MeshId mesh = a.lods->update(a.lod, a.pose, *renderer);
       a.deform_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - d0).count();

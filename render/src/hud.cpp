@@ -43,7 +43,7 @@ void draw_hud(const HudState& s) {
       {"4", "rays of one ring (origin -> outermost hit); [ ] other ring"},
       {"5", "sensors: axes, magenta box when stale"},
       {"T", "translucent body (see overlays inside)"},
-      {"L", "LOD: auto by distance, 0, 1, 2"},
+      {"L", "LOD: auto by distance, 0, 1, 2, 3"},
       {"G", "floor grid"},
       {"F", "first person at the next avatar's head (again: back to orbit)"},
       {"R", "reset the camera"},

@@ -73,15 +73,25 @@ TEST(Camera, ParsesPresetNames) {
 }
 
 TEST(Lod, FinerAsTheBodyComesCloser) {
-  int previous = mimic::render::kLodCount - 1;
+  int previous = -1;
   for (float d = 60.0f; d > 0.5f; d *= 0.8f) {
-    const int lod = mimic::render::choose_lod(d, 1.7f, 0.6f, 720);
-    EXPECT_LE(lod, previous) << d;
+    const int lod = mimic::render::choose_lod(d, 1.7f, 0.6f, 720, previous);
+    if (previous >= 0) {
+      EXPECT_LE(lod, previous) << d;
+    }
     previous = lod;
   }
+  EXPECT_EQ(previous, 0);
   EXPECT_EQ(mimic::render::choose_lod(1.0f, 1.7f, 0.6f, 720), 0);
   EXPECT_EQ(mimic::render::choose_lod(50.0f, 1.7f, 0.6f, 720), mimic::render::kLodCount - 1);
-  EXPECT_EQ(mimic::render::choose_lod(50.0f, 1.7f, 0.6f, 720, 1), 0);
+  // Hysteresis: just past a threshold, the level in use is kept.
+  int lod = -1;
+  float switch_d = 0;
+  for (float d = 1.0f; d < 60.0f && lod <= 0; d *= 1.01f) {
+    lod = mimic::render::choose_lod(d, 1.7f, 0.6f, 720, 0);
+    switch_d = d;
+  }
+  EXPECT_EQ(mimic::render::choose_lod(switch_d * 0.97f, 1.7f, 0.6f, 720, lod), lod);
 }
 
 }  // namespace

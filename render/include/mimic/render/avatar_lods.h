@@ -1,11 +1,12 @@
-// One avatar at every level of detail the skin offers, for drawing: a skin per LOD built at
-// setup with its mesh uploaded to the renderer; a frame evaluates only the LOD in use and
-// uploads its new positions. LOD 0 is the finest: 0 = B-spline skin with 2 samples per span,
-// 1 = one sample per span, 2 = the paper's realtime mode (contour points are the vertices) —
-// the same levels `mimic run` streams to thin clients.
+// One avatar at every level of detail of the skin (avatar/skin_lod.h: LOD 0 the body's own
+// layout, each next one fewer contours and fewer points per contour, down to a few hundred
+// triangles), for drawing: a skin per LOD built at setup with its mesh uploaded to the
+// renderer; a frame evaluates only the LOD in use and uploads its new positions. The skins are
+// the full method (ray-cast contours, B-spline smoothing), so the method's overlays (contours,
+// rays, primitives) can be drawn at any LOD.
 //
-// choose_lod() is the one place that maps viewing distance to a level, so a finer LOD table
-// (more levels, a realtime contour deformer) plugs in here without touching the viewer.
+// choose_lod() maps viewing distance to a level (the avatar library's rule, with hysteresis),
+// the one place a viewer asks.
 #pragma once
 
 #include <memory>
@@ -13,18 +14,18 @@
 
 #include "mimic/avatar/body_model.h"
 #include "mimic/avatar/skin.h"
+#include "mimic/avatar/skin_lod.h"
 #include "mimic/core/result.h"
 #include "mimic/render/renderer.h"
 
 namespace mimic::render {
 
-inline constexpr int kLodCount = 3;
-int lod_subdivision(int lod);  // B-spline samples per span of a LOD
+inline constexpr int kLodCount = avatar::kSkinLodCount;
 
 // The level for a body of `height_m` seen at `distance_m` through a vertical field of view of
-// `fov_y_rad` on a viewport `viewport_height_px` tall: finer the more pixels the body covers
-// (≥ 400 px: 0, ≥ 150 px: 1, else 2), clamped to [0, lod_count).
-int choose_lod(float distance_m, float height_m, float fov_y_rad, int viewport_height_px, int lod_count = kLodCount);
+// `fov_y_rad` on a viewport `viewport_height_px` tall, given the level in use (`current`, −1:
+// none yet): finer the more pixels the body covers, with hysteresis so it does not flicker.
+int choose_lod(float distance_m, float height_m, float fov_y_rad, int viewport_height_px, int current = -1);
 
 class AvatarLods {
  public:
