@@ -62,6 +62,7 @@ constexpr const char* kUsage =
     "  --no-vsync            interactive: do not wait for the display's refresh\n"
     "  --help-overlay        interactive: start with the help overlay shown\n"
     "  --no-panel            interactive: no status panel (clean captures)\n"
+    "  --eyes K              interactive: start in first person, at avatar K's head (from 1)\n"
     "  -h, --help            this text\n"
     "\n"
     "interactive keys: H or F1 help, 1-5 overlays, L cycle LOD (auto, 0, 1, 2), T translucent,\n"
@@ -197,7 +198,7 @@ int screenshot(Args& args, const ViewOptions& view) {
 int run_view(const std::vector<std::string>& argv) {
   Args args(argv,
             {"screenshot", "bvh", "frame", "scale", "motion", "time", "pose", "set", "camera", "size", "lod", "overlay",
-             "ray-ring", "body", "source", "calibration", "connect", "frames", "capture"},
+             "ray-ring", "body", "source", "calibration", "connect", "frames", "capture", "eyes"},
             {"empty", "no-grid", "see-through", "no-vsync", "help-overlay", "no-panel"});
   if (args.help()) {
     std::printf("%s", kUsage);

@@ -140,6 +140,8 @@ int run_interactive(Args& args, const ViewOptions& view) {
   bool grid = view.grid, see_through = view.see_through, help = false;
   int ray_ring = view.ray_ring;
   int first_person = -1;  // avatar index, or -1: orbit
+  long eyes = 0;          // --eyes K: start looking through avatar K's eyes (once it is there)
+  if (!args.get_int("eyes", eyes) || eyes < 0) return usage_error(kName, "--eyes takes an avatar number from 1");
   render::Lines lines, xray;
   std::vector<render::MeshDraw> draws;
   std::vector<avatar::RigidTransform> joints;
@@ -229,6 +231,7 @@ int run_interactive(Args& args, const ViewOptions& view) {
       connection = "connected, " + std::to_string(client->stats().frames) + " pose frames";
     }
 
+    if (eyes > 0 && first_person < 0 && static_cast<long>(avatars.size()) >= eyes) first_person = static_cast<int>(eyes - 1);
     // Once the avatars have poses (a few frames in), fit the orbit camera to the whole scene.
     if (!framed && frames >= 5 && !avatars.empty()) {
       glm::vec3 lo(1e9f), hi(-1e9f);

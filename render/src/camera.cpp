@@ -31,7 +31,7 @@ glm::mat4 Camera::view_from_world() const {
 }
 
 glm::mat4 Camera::clip_from_view(float aspect) const {
-  return glm::perspective(fov_y_rad, std::max(aspect, 1e-3f), near_m, far_m);
+  return glm::perspective(first_person_eye ? first_person_fov_y_rad : fov_y_rad, std::max(aspect, 1e-3f), near_m, far_m);
 }
 
 void Camera::orbit(float dyaw_rad, float dpitch_rad) {

@@ -144,4 +144,40 @@ TEST(ViewWindow, ConnectsToMimicRunAndDrawsEveryAvatarItServes) {
   EXPECT_NE(none.output.find("cannot connect"), std::string::npos) << none.output;
 }
 
+TEST(ViewWindow, FirstPersonSeesTheAvatarOppositeAndNotItself) {
+  VirtualDisplay x;
+  ASSERT_FALSE(x.display().empty()) << "Xvfb did not start (scripts/setup.sh installs it)";
+  ::setenv("DISPLAY", x.display().c_str(), 1);
+  // Two avatars 3 m apart facing each other, and a third one behind the first.
+  mimic::test::Child host({mimic::test::mimic_binary(), "run", "--listen", "127.0.0.1:0", "--source", "sim:idle",
+                           "--place", "0,0", "--source", "sim:idle?seed=2", "--place", "0,3,180", "--source",
+                           "sim:idle?seed=3", "--place", "0,-2", "--duration", "20", "--quiet"});
+  const std::string line = host.line();
+  ASSERT_EQ(line.rfind("serving on ", 0), 0u) << line;
+  const std::string endpoint = line.substr(std::string("serving on ").size());
+  auto look = [&](int avatar) {
+    const std::string out = temp("eyes.png");
+    const Outcome r = run_mimic("view --connect " + endpoint + " --eyes " + std::to_string(avatar) +
+                                " --frames 20 --no-vsync --no-panel --size 320x240 --capture '" + out + "'");
+    EXPECT_EQ(r.status, 0) << r.output;
+    auto image = mimic::render::read_png(out);
+    std::filesystem::remove(out);
+    return image ? *image : mimic::render::Image{};
+  };
+  // From the first avatar's eyes: the second one fills the middle of the view (3 m ahead),
+  // the one behind does not show, nor do our own arms.
+  const mimic::render::Image first = look(1);
+  ASSERT_GT(first.width, 0);
+  EXPECT_GT(shirt_pixels(first), 1500);
+  // From the third avatar's eyes (2 m behind the first, facing the same way): the first one's
+  // back blocks the middle of the view.
+  const mimic::render::Image third = look(3);
+  EXPECT_GT(shirt_pixels(third), shirt_pixels(first));
+  // From the second avatar's eyes, looking back along −Z: both others are in front.
+  const mimic::render::Image second = look(2);
+  EXPECT_GT(shirt_pixels(second), 800);
+  // An orbit view of the same scene is not what any of them sees.
+  EXPECT_NE(first.rgba, second.rgba);
+}
+
 }  // namespace

@@ -29,6 +29,7 @@ struct Camera {
   // First person: when set, the eye sits here looking along `first_person_forward`.
   std::optional<glm::vec3> first_person_eye;
   glm::vec3 first_person_forward{0.0f, 0.0f, 1.0f};
+  float first_person_fov_y_rad = 1.1f;  // wider, as eyes see: the floor a few steps ahead shows
 
   glm::vec3 eye() const;
   glm::mat4 view_from_world() const;
