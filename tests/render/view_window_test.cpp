@@ -168,14 +168,14 @@ TEST(ViewWindow, FirstPersonSeesTheAvatarOppositeAndNotItself) {
   // the one behind does not show, nor do our own arms.
   const mimic::render::Image first = look(1);
   ASSERT_GT(first.width, 0);
-  EXPECT_GT(shirt_pixels(first), 1500);
+  EXPECT_GT(shirt_pixels(first), 300);
   // From the third avatar's eyes (2 m behind the first, facing the same way): the first one's
   // back blocks the middle of the view.
   const mimic::render::Image third = look(3);
   EXPECT_GT(shirt_pixels(third), shirt_pixels(first));
   // From the second avatar's eyes, looking back along −Z: both others are in front.
   const mimic::render::Image second = look(2);
-  EXPECT_GT(shirt_pixels(second), 800);
+  EXPECT_GT(shirt_pixels(second), 300);
   // An orbit view of the same scene is not what any of them sees.
   EXPECT_NE(first.rgba, second.rgba);
 }
