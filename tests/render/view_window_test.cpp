@@ -164,8 +164,7 @@ TEST(ViewWindow, FirstPersonSeesTheAvatarOppositeAndNotItself) {
     std::filesystem::remove(out);
     return image ? *image : mimic::render::Image{};
   };
-  // From the first avatar's eyes: the second one fills the middle of the view (3 m ahead),
-  // the one behind does not show, nor do our own arms.
+  // From the first avatar's eyes: the second one, 3 m ahead and facing us, is in view.
   const mimic::render::Image first = look(1);
   ASSERT_GT(first.width, 0);
   EXPECT_GT(shirt_pixels(first), 300);
