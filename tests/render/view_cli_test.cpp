@@ -1,6 +1,9 @@
 // End-to-end: `mimic view --screenshot`, the built program, its PNGs read back and checked.
 #include <gtest/gtest.h>
 
+#include <sys/wait.h>
+
+#include <cstdio>
 #include <filesystem>
 #include <string>
 
@@ -122,6 +125,22 @@ TEST(ViewCli, BadRequestsGetClearErrors) {
   EXPECT_EQ(r.status, 2);
   r = run_mimic("view --screenshot /nonexistent-dir/x.png --pose rest");
   EXPECT_EQ(r.status, 1);
+  r = run_mimic("view --screenshot /tmp/x.png --source sim:walk");
+  EXPECT_EQ(r.status, 2);
+}
+
+TEST(ViewCli, WithoutADisplayTheWindowSaysSoAndPointsToScreenshots) {
+  // run_mimic runs a shell fragment: `env -u` takes the display away from the program only.
+  const std::string mimic = mimic::test::mimic_binary();
+  const std::string cmd = "env -u DISPLAY -u WAYLAND_DISPLAY '" + mimic + "' view --frames 1 2>&1";
+  FILE* p = ::popen(cmd.c_str(), "r");
+  ASSERT_NE(p, nullptr);
+  std::string out;
+  char buf[512];
+  while (std::fgets(buf, sizeof buf, p)) out += buf;
+  const int st = ::pclose(p);
+  EXPECT_EQ(WEXITSTATUS(st), 1) << out;
+  EXPECT_NE(out.find("--screenshot"), std::string::npos) << out;
 }
 
 }  // namespace
