@@ -10,11 +10,9 @@
 
 #include <fcntl.h>
 
-#include <chrono>
 #include <cstdlib>
 #include <filesystem>
 #include <string>
-#include <thread>
 
 #include "mimic/render/image.h"
 #include "run_mimic.h"
@@ -25,39 +23,37 @@ namespace {
 using mimic::test::Outcome;
 using mimic::test::run_mimic;
 
-// An Xvfb server on the first free display number from 90 on; stopped at the end of the test.
+// An Xvfb server on a display number it picks itself (-displayfd: no race between tests run in
+// parallel); stopped at the end of the test.
 class VirtualDisplay {
  public:
   VirtualDisplay() {
-    for (int n = 90; n < 200; ++n) {
-      // Built by appending: GCC 12 warns falsely on "literal" + std::string (-Wrestrict).
-      const std::string number = std::to_string(n);
-      std::string lock = "/tmp/.X", socket = "/tmp/.X11-unix/X", display = ":";
-      lock.append(number).append("-lock");
-      socket.append(number);
-      display.append(number);
-      if (std::filesystem::exists(socket) || std::filesystem::exists(lock)) continue;
-      std::vector<std::string> args = {"Xvfb", display, "-screen", "0", "1024x768x24", "-nolisten", "tcp"};
-      std::vector<char*> argv;
-      for (auto& a : args) argv.push_back(a.data());
-      argv.push_back(nullptr);
-      posix_spawn_file_actions_t fa;
-      posix_spawn_file_actions_init(&fa);
-      posix_spawn_file_actions_addopen(&fa, 1, "/dev/null", O_WRONLY, 0);
-      posix_spawn_file_actions_addopen(&fa, 2, "/dev/null", O_WRONLY, 0);
-      const bool spawned = posix_spawnp(&pid_, "Xvfb", &fa, nullptr, argv.data(), environ) == 0;
-      posix_spawn_file_actions_destroy(&fa);
-      if (!spawned) return;
-      for (int i = 0; i < 100; ++i) {  // up to 5 s for its socket
-        if (std::filesystem::exists(socket)) {
-          display_ = display;
-          return;
-        }
-        std::this_thread::sleep_for(std::chrono::milliseconds(50));
-      }
-      stop();
+    int fds[2];
+    if (::pipe(fds) != 0) return;
+    const std::string fd = std::to_string(fds[1]);
+    std::vector<std::string> args = {"Xvfb", "-displayfd", fd, "-screen", "0", "1024x768x24", "-nolisten", "tcp"};
+    std::vector<char*> argv;
+    for (auto& a : args) argv.push_back(a.data());
+    argv.push_back(nullptr);
+    posix_spawn_file_actions_t fa;
+    posix_spawn_file_actions_init(&fa);
+    posix_spawn_file_actions_addclose(&fa, fds[0]);
+    posix_spawn_file_actions_addopen(&fa, 1, "/dev/null", O_WRONLY, 0);
+    posix_spawn_file_actions_addopen(&fa, 2, "/dev/null", O_WRONLY, 0);
+    const bool spawned = posix_spawnp(&pid_, "Xvfb", &fa, nullptr, argv.data(), environ) == 0;
+    posix_spawn_file_actions_destroy(&fa);
+    ::close(fds[1]);
+    if (!spawned) {
+      pid_ = -1;
+      ::close(fds[0]);
       return;
     }
+    // Xvfb writes the display number once it accepts connections (EOF if it dies first).
+    std::string number;
+    char c = 0;
+    while (::read(fds[0], &c, 1) == 1 && c != '\n') number += c;
+    ::close(fds[0]);
+    if (!number.empty()) display_ = ":" + number;
   }
   ~VirtualDisplay() { stop(); }
   const std::string& display() const { return display_; }
