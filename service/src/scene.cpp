@@ -142,11 +142,16 @@ class PlacedFeed final : public PoseFeed {
   void solve(avatar::Pose& pose, double& capture_s, bool& stale) override {
     inner_->solve(pose, capture_s, stale);
     if (navigator_) {
-      devices::InputFrame frame;
-      while (navigator_->poll(frame)) input_ = frame;
-      // A device that stopped talking must not keep the avatar drifting.
-      if (navigator_->status().state != devices::DeviceState::streaming) input_ = {};
       const double t = now_s();
+      devices::InputFrame frame;
+      while (navigator_->poll(frame)) {
+        input_ = frame;
+        last_input_s_ = t;
+      }
+      // A device that stopped talking must not keep the avatar drifting: a deflected cap keeps
+      // reporting (every few tens of milliseconds), so half a second of silence means released
+      // or gone. (Asking status() here would copy strings: the loop does not allocate.)
+      if (t - last_input_s_ > 0.5) input_ = {};
       const float dt_s = last_s_ > 0 ? static_cast<float>(std::clamp(t - last_s_, 0.0, 0.1)) : 0.0f;
       last_s_ = t;
       navigate(input_, navigation_, dt_s, roster_->room(), place_);
@@ -174,7 +179,7 @@ class PlacedFeed final : public PoseFeed {
   std::unique_ptr<devices::InputSource> navigator_;
   NavigationOptions navigation_;
   devices::InputFrame input_;
-  double last_s_ = 0;
+  double last_s_ = 0, last_input_s_ = 0;
   std::vector<devices::SensorSample> placed_;
 };
 

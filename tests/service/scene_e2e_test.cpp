@@ -95,6 +95,18 @@ TEST(SceneE2e, ASpaceballMovesTheAvatarThroughTheRoom) {
   EXPECT_LT(glm::length(standing.back() - standing.front()), 0.2f);
 }
 
+TEST(SceneE2e, TheLoopStaysAllocationFreeWithActorsAndNavigation) {
+  const mimic::test::Outcome r = mimic::test::run_mimic(
+      "run --listen 127.0.0.1:0 --source sim:idle --navigate spacemouse:sim --source actor:wander "
+      "--source 'actor:follow?target=1' --source actor:greet --duration 3 --quiet --json",
+      true);
+  ASSERT_EQ(r.status, 0) << r.output;
+  const size_t at = r.output.find("\"loop_allocations\":");
+  ASSERT_NE(at, std::string::npos) << r.output;
+  EXPECT_EQ(std::stoul(r.output.substr(at + std::string("\"loop_allocations\":").size())), 0u)
+      << r.output.substr(at, 40);
+}
+
 TEST(SceneE2e, BadSceneOptionsGetClearErrors) {
   mimic::test::Outcome r = mimic::test::run_mimic("run --source actor:dance --duration 1");
   EXPECT_EQ(r.status, 2);
