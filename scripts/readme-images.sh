@@ -10,11 +10,11 @@ mkdir -p "$out"
 shot() { local name=$1; shift; "$mimic" view --screenshot "$out/$name.png" "$@" >/dev/null; echo "wrote $out/$name.png"; }
 
 # The first picture: the body mid-stride.
-shot hero --motion walk --time 0.4 --camera three-quarter --size 420x480
+shot hero --motion walk --time 0.4 --camera three-quarter --size 420x480 --lod 0
 # Poses.
-shot pose-rest --pose rest --size 240x300
-shot pose-walk --motion walk --time 0.9 --camera side --size 240x300
-shot pose-wave --pose rest --set l_shoulder_abduction=1.2,l_elbow_flexion=1.3,r_shoulder_abduction=-1.2 --size 240x300
+shot pose-rest --pose rest --size 240x300 --lod 0
+shot pose-walk --motion walk --time 0.9 --camera side --size 240x300 --lod 0
+shot pose-wave --pose rest --set l_shoulder_abduction=1.2,l_elbow_flexion=1.3,r_shoulder_abduction=-1.2 --size 240x300 --lod 0
 [ -f "$data/bvh/07_01.bvh" ] && shot pose-bvh --bvh "$data/bvh/07_01.bvh" --frame 120 --camera three-quarter --size 240x300
 # Levels of detail, with the contour rings drawn so the sampling shows.
 for lod in 0 1 2 3; do
