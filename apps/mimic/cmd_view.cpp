@@ -65,7 +65,7 @@ constexpr const char* kUsage =
     "  --eyes K              interactive: start in first person, at avatar K's head (from 1)\n"
     "  -h, --help            this text\n"
     "\n"
-    "interactive keys: H or F1 help, 1-5 overlays, L cycle LOD (auto, 0, 1, 2), T translucent,\n"
+    "interactive keys: H or F1 help, 1-5 overlays, L cycle LOD (auto, 0..3), T translucent,\n"
     "G grid, F first-person at the next avatar's head, R reset camera, Esc quit; left drag\n"
     "orbit, right or middle drag pan, wheel zoom.\n"
     "\n"
