@@ -10,7 +10,10 @@ packages=(
   libexpected-dev                  # Result<T> = tl::expected
   nlohmann-json3-dev               # body model / calibration files
   libhidapi-dev libusb-1.0-0-dev   # USB devices
-  libglfw3-dev libgl-dev           # viewer
+  libglfw3-dev libgl-dev           # viewer: window and input, OpenGL
+  libegl-dev libegl-mesa0 libglx-mesa0 libgl1-mesa-dri  # viewer: offscreen rendering (EGL
+                                   # surfaceless) and windows, both on Mesa llvmpipe
+  libimgui-dev libpng-dev          # viewer: overlays and panels (Dear ImGui), screenshots (PNG)
   libgtest-dev libgmock-dev googletest libbenchmark-dev
   xvfb liblo-tools                 # viewer under a virtual display; OSC peer for interop tests
 )

@@ -1,6 +1,7 @@
 // mimic run: the realtime service. Reads trackers, solves, deforms, and serves the avatars.
 #include <atomic>
 #include <chrono>
+#include <cmath>
 #include <csignal>
 #include <cstdio>
 #include <cstdlib>
@@ -15,6 +16,8 @@
 #include "mimic/net/vmc.h"
 #include "alloc_count.h"
 #include "mimic/service/pipeline.h"
+#include "mimic/service/scene.h"
+#include "mimic/sim/open_input.h"
 
 namespace mimic::app {
 using namespace ::mimic::service;
@@ -31,13 +34,22 @@ const char* kUsage =
     "\n"
     "Runs the realtime pipeline (read -> solve -> deform -> encode -> send) and serves the avatars\n"
     "to subscribers (mimic subscribe, VR scenes). With no arguments: simulated trackers on the\n"
-    "built-in walk, the default body, serving on 127.0.0.1:7777.\n"
+    "built-in walk, the default body, serving on 127.0.0.1:7777. Watch it with\n"
+    "`mimic view --connect 127.0.0.1:7777` (every avatar, deformed in the viewer).\n"
     "\n"
     "options:\n"
     "  --source SPEC       tracker source of one avatar; repeat for several avatars\n"
     "                      (default sim:walk; e.g. sim:idle?rate=90&sensors=11&seed=2)\n"
+    "                      or actor:wander | actor:follow?target=K | actor:greet: an autonomous\n"
+    "                      actor walking the room (avoids the others, stays inside; seed=N)\n"
     "  --body FILE         body model of the avatar of the preceding --source (default body\n"
     "                      otherwise); sent once to every subscriber as it joins\n"
+    "  --place X,Z[,DEG]   where the preceding --source stands in the room (metres, heading in\n"
+    "                      degrees; default: the avatars side by side along X, 1.5 m apart)\n"
+    "  --navigate SPEC     move the preceding --source's avatar through the room with a 6-DOF\n"
+    "                      device: spaceball:PATH, magellan:PATH, spacemouse[:sim] (?speed=M/S\n"
+    "                      at full push, default 1.2; turn=RAD/S, 1.6; dead=dead zone, 0.08)\n"
+    "  --room WxD          the room's size in metres (default 8x8), centred on the origin\n"
     "  --calibration FILE  sensor calibration of the preceding --source (from mimic calibrate):\n"
     "                      the wearer's fitted skeleton and sensor offsets. Without it, simulated\n"
     "                      sources use their exact mounts, trackers the standard layout's placements\n"
@@ -50,8 +62,10 @@ const char* kUsage =
     "  --publish HOST:PORT do not host: publish the avatars into the scene served there\n"
     "  --vmc HOST:PORT     also send the first avatar as VMC (OSC over UDP), e.g. 127.0.0.1:39539\n"
     "  --mesh-lod L        skin level of detail deformed every frame and offered as mesh frames\n"
-    "                      to thin clients (mimic subscribe --mesh-lod L): 0 finest (B-spline,\n"
-    "                      2 samples per span), 1, 2 = the paper's realtime contours (default)\n"
+    "                      to thin clients (mimic subscribe --mesh-lod L): 0 the body's own\n"
+    "                      contours (finest, default) to 3 (about 300 triangles)\n"
+    "  --mesh-method M     realtime (default): contours measured once, moved with the joints\n"
+    "                      (muscles kept); full: every contour ray-cast every frame\n"
     "  --duration S        stop by itself after S seconds (default: run until Ctrl-C)\n"
     "  --realtime PRIO     run the loop at SCHED_FIFO priority PRIO (1-99; needs CAP_SYS_NICE),\n"
     "                      so a busy machine does not delay frames\n"
@@ -64,8 +78,31 @@ const char* kUsage =
     "status line (stderr) shows fps, subscribers, dropped and rejected frames and p50/p99 of each\n"
     "stage in microseconds. Ctrl-C stops cleanly.\n";
 
+// "8x6": the room's width (x) and depth (z) in metres.
+bool parse_room(const std::string& text, Room& room) {
+  float w = 0, d = 0;
+  char x = 0, extra = 0;
+  if (std::sscanf(text.c_str(), "%f%c%f%c", &w, &x, &d, &extra) != 3 || x != 'x') return false;
+  if (!(w >= 2 && w <= 100 && d >= 2 && d <= 100)) return false;
+  room.half_width_m = 0.5f * w;
+  room.half_depth_m = 0.5f * d;
+  return true;
+}
+
+// "X,Z" or "X,Z,HEADING_DEG".
+bool parse_place(const std::string& text, Placement& place) {
+  float x = 0, z = 0, deg = 0;
+  char extra = 0;
+  const int n = std::sscanf(text.c_str(), "%f,%f,%f%c", &x, &z, &deg, &extra);
+  if (n != 2 && n != 3) return false;
+  if (!std::isfinite(x) || !std::isfinite(z) || !std::isfinite(deg)) return false;
+  place.position_m = {x, 0.0f, z};
+  place.heading_rad = deg * 3.14159265f / 180.0f;
+  return true;
+}
+
 struct SourceArgs {
-  std::string spec, body, calibration;
+  std::string spec, body, calibration, place, navigate;
 };
 
 // Splits repeated --source [--body] [--calibration] groups out of argv (the Args parser keeps
@@ -75,7 +112,7 @@ bool take_sources(std::vector<std::string>& args, std::vector<SourceArgs>& out, 
   for (size_t i = 0; i < args.size(); ++i) {
     const std::string a = args[i];
     std::string key, value;
-    for (const char* k : {"--source", "--body", "--calibration"}) {
+    for (const char* k : {"--source", "--body", "--calibration", "--place", "--navigate"}) {
       if (a == k) {
         if (i + 1 >= args.size()) {
           error = std::string("option ") + k + " needs a value";
@@ -93,11 +130,14 @@ bool take_sources(std::vector<std::string>& args, std::vector<SourceArgs>& out, 
       continue;
     }
     if (key == "--source") {
-      out.push_back({value, "", ""});
+      out.push_back({value, "", "", "", ""});
       continue;
     }
-    if (out.empty()) out.push_back({"sim:walk", "", ""});
-    std::string& slot = key == "--body" ? out.back().body : out.back().calibration;
+    if (out.empty()) out.push_back({"sim:walk", "", "", "", ""});
+    std::string& slot = key == "--body"        ? out.back().body
+                        : key == "--calibration" ? out.back().calibration
+                        : key == "--place"       ? out.back().place
+                                                 : out.back().navigate;
     if (!slot.empty()) {
       error = "two " + key + " options for one --source";
       return false;
@@ -113,7 +153,8 @@ int run(const std::vector<std::string>& argv) {
   std::vector<SourceArgs> sources;
   std::string error;
   if (!take_sources(args, sources, error)) return usage_error("run", error);
-  Args a(args, {"listen", "secret", "publish", "vmc", "duration", "realtime", "mesh-lod"}, {"json", "quiet", "no-udp"});
+  Args a(args, {"listen", "secret", "publish", "vmc", "duration", "realtime", "mesh-lod", "mesh-method", "room"},
+         {"json", "quiet", "no-udp"});
   if (a.help()) {
     std::printf("%s", kUsage);
     return 0;
@@ -121,12 +162,18 @@ int run(const std::vector<std::string>& argv) {
   if (!a.ok()) return usage_error("run", a.error());
   if (!a.positionals().empty()) return usage_error("run", "unexpected argument '" + a.positionals()[0] + "'");
   double duration_s = 0;
-  long rt_priority = 0, mesh_lod = 2;
+  long rt_priority = 0, mesh_lod = 0;
   if (!a.get_double("duration", duration_s) || !a.get_int("realtime", rt_priority) || !a.get_int("mesh-lod", mesh_lod))
     return usage_error("run", a.error());
-  if (mesh_lod < 0 || mesh_lod >= kMeshLodCount) return usage_error("run", "--mesh-lod must be 0, 1 or 2");
+  if (mesh_lod < 0 || mesh_lod >= kMeshLodCount)
+    return usage_error("run", "--mesh-lod must be in 0.." + std::to_string(kMeshLodCount - 1));
+  const auto mesh_method = avatar::parse_skin_method(a.get_or("mesh-method", "realtime"));
+  if (!mesh_method) return usage_error("run", "--mesh-method: " + mesh_method.error().message);
   if (rt_priority < 0 || rt_priority > 99) return usage_error("run", "--realtime takes a priority 1-99");
-  if (sources.empty()) sources.push_back({"sim:walk", "", ""});
+  if (sources.empty()) sources.push_back({"sim:walk", "", "", "", ""});
+  Room room;
+  if (auto r = a.get("room"); r && !parse_room(*r, room))
+    return usage_error("run", "--room must be WxD in metres (2..100 each), got '" + *r + "'");
 
   std::string secret = a.get_or("secret", "");
   if (secret.empty())
@@ -160,12 +207,48 @@ int run(const std::vector<std::string>& argv) {
   std::vector<std::unique_ptr<PoseFeed>> feeds;
   std::vector<BodyAsset> bodies;
   std::vector<std::unique_ptr<Deformer>> deformers;
-  for (const auto& [spec, body, calibration] : sources) {
-    auto feed = open_feed(spec, calibration);
-    if (!feed) return failure("run", feed.error().what());
+  // One scene: every avatar placed in the room (side by side along X unless --place says where),
+  // its place in the roster the actors read.
+  auto roster = std::make_shared<SceneRoster>(room);
+  for (size_t i = 0; i < sources.size(); ++i) roster->join();
+  for (size_t index = 0; index < sources.size(); ++index) {
+    const auto& [spec, body, calibration, place_text, navigate_text] = sources[index];
+    const int slot = static_cast<int>(index);
+    Placement place;
+    place.position_m.x = (static_cast<float>(index) - 0.5f * static_cast<float>(sources.size() - 1)) * 1.5f;
+    if (!place_text.empty() && !parse_place(place_text, place))
+      return usage_error("run", "--place must be X,Z[,HEADING_DEG] in metres, got '" + place_text + "'");
+    Result<std::unique_ptr<PoseFeed>> feed = tl::unexpected(Error{});
+    if (spec.rfind("actor:", 0) == 0) {
+      std::string actor_spec = spec;
+      if (!place_text.empty() && spec.find("x=") == std::string::npos) {
+        actor_spec.append(spec.find('?') == std::string::npos ? "?" : "&").append("x=").append(std::to_string(place.position_m.x));
+        actor_spec.append("&z=").append(std::to_string(place.position_m.z));
+      } else if (spec.find("x=") == std::string::npos) {
+        // Actors start spread over the room's back half, away from the participants' row.
+        actor_spec.append(spec.find('?') == std::string::npos ? "?" : "&").append("x=").append(std::to_string(place.position_m.x));
+        actor_spec.append("&z=").append(std::to_string(-0.4f * room.half_depth_m));
+      }
+      feed = make_actor_feed(actor_spec, roster, slot);
+      if (!feed) return usage_error("run", feed.error().message);
+    } else {
+      feed = open_feed(spec, calibration);
+      if (!feed) return failure("run", feed.error().what());
+      std::unique_ptr<devices::InputSource> navigator;
+      NavigationOptions navigation;
+      if (!navigate_text.empty()) {
+        auto nav = parse_navigation(navigate_text);
+        if (!nav) return usage_error("run", "--navigate: " + nav.error().message);
+        navigation = nav->options;
+        auto input = sim::open_input_source(nav->device);
+        if (!input) return usage_error("run", "--navigate: " + input.error().message);
+        navigator = std::move(*input);
+      }
+      feed = place_in_scene(std::move(*feed), place, roster, slot, std::move(navigator), navigation);
+    }
     auto asset = load_body(body);
     if (!asset) return failure("run", asset.error().what());
-    auto deformer = make_skin_deformer(asset->model, (*feed)->skeleton(), int(mesh_lod));
+    auto deformer = make_skin_deformer(asset->model, (*feed)->skeleton(), int(mesh_lod), *mesh_method);
     if (!deformer)
       return failure("run", "body model " + (body.empty() ? std::string("(default)") : body) +
                                 " does not fit source " + spec + ": " + deformer.error().what());
@@ -209,6 +292,7 @@ int run(const std::vector<std::string>& argv) {
   std::signal(SIGUSR1, on_report_signal);
   std::printf("%s\n", where.c_str());
   std::fflush(stdout);
+  if (server) std::fprintf(stderr, "mimic run: watch it with: mimic view --connect %s\n", server->endpoint().c_str());
 
   // Allocations inside the frame work (read → send), counted once the first frames have warmed
   // every buffer up; the network servicing between frames (joins, leaves) may allocate.

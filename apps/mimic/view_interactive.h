@@ -1,0 +1,23 @@
+// The interactive side of `mimic view` (a GLFW window with Dear ImGui panels), apart from the
+// screenshot path in cmd_view.cpp.
+#pragma once
+
+#include "command.h"
+#include "mimic/render/camera.h"
+#include "mimic/render/overlays.h"
+
+namespace mimic::app {
+
+struct ViewOptions {
+  render::CameraPreset camera = render::CameraPreset::kFront;
+  int width = 640, height = 720;
+  int lod = -1;  // -1: chosen by distance
+  unsigned overlays = 0;
+  int ray_ring = 40;
+  bool grid = true;
+  bool see_through = false;
+};
+
+int run_interactive(Args& args, const ViewOptions& view);
+
+}  // namespace mimic::app

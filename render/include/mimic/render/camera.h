@@ -1,0 +1,50 @@
+// The viewer's camera: an orbit camera around a target point (yaw about +Y, pitch, distance),
+// with pan and zoom for the mouse, named presets for screenshots, and a first-person mode that
+// looks from a given eye along a given direction. Pure math, no GL: tests project with it.
+//
+// World frame: metres, +Y up, avatars face +Z, their left is +X. yaw_rad = 0 puts the eye on
+// +Z looking towards −Z, i.e. at the avatar's front.
+#pragma once
+
+#include <optional>
+#include <string_view>
+
+#include <glm/glm.hpp>
+
+namespace mimic::render {
+
+enum class CameraPreset { kFront, kSide, kBack, kThreeQuarter };
+
+// "front", "side", "back", "three-quarter"; nullopt otherwise.
+std::optional<CameraPreset> parse_camera_preset(std::string_view name);
+
+struct Camera {
+  glm::vec3 target{0.0f, 0.9f, 0.0f};  // world point the orbit turns around (metres)
+  float yaw_rad = 0.0f;                // about +Y; 0: eye on +Z
+  float pitch_rad = 0.1f;              // up from the horizontal plane, clamped to ±1.5
+  float distance_m = 3.5f;
+  float fov_y_rad = 0.6f;
+  float near_m = 0.05f, far_m = 100.0f;
+
+  // First person: when set, the eye sits here looking along `first_person_forward`.
+  std::optional<glm::vec3> first_person_eye;
+  glm::vec3 first_person_forward{0.0f, 0.0f, 1.0f};
+  float first_person_fov_y_rad = 1.1f;  // wider, as eyes see: the floor a few steps ahead shows
+
+  glm::vec3 eye() const;
+  glm::mat4 view_from_world() const;
+  glm::mat4 clip_from_view(float aspect) const;
+  glm::mat4 clip_from_world(float aspect) const { return clip_from_view(aspect) * view_from_world(); }
+
+  // Mouse gestures. Angles in radians, pan in fractions of the view height, zoom as a factor
+  // (< 1 comes closer).
+  void orbit(float dyaw_rad, float dpitch_rad);
+  void pan(float dx_view, float dy_view);
+  void zoom(float factor);
+};
+
+// A camera that frames a standing body of `height_m` whose feet are at `floor_center` from the
+// preset's direction, with some margin, for an image of the given aspect.
+Camera preset_camera(CameraPreset preset, const glm::vec3& floor_center, float height_m, float aspect);
+
+}  // namespace mimic::render

@@ -1,0 +1,45 @@
+#!/usr/bin/env bash
+# Renders the README's pictures of the default body with `mimic view --screenshot` (offscreen,
+# no display needed) into docs/images/. Run after building; the BVH frame needs ../shared/data.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+mimic=${MIMIC_BIN:-build/bin/mimic}
+out=docs/images
+data=${MIMIC_SHARED_DATA:-../shared/data}
+mkdir -p "$out"
+shot() { local name=$1; shift; "$mimic" view --screenshot "$out/$name.png" "$@" >/dev/null; echo "wrote $out/$name.png"; }
+
+# The first picture: the body mid-stride.
+shot hero --motion walk --time 0.4 --camera three-quarter --size 420x480 --lod 0
+# Poses.
+shot pose-rest --pose rest --size 240x300 --lod 0
+shot pose-walk --motion walk --time 0.9 --camera side --size 240x300 --lod 0
+shot pose-wave --pose rest --set l_shoulder_abduction=1.2,l_elbow_flexion=1.3,r_shoulder_abduction=-1.2 --size 240x300 --lod 0
+[ -f "$data/bvh/07_01.bvh" ] && shot pose-bvh --bvh "$data/bvh/07_01.bvh" --frame 120 --camera three-quarter --size 240x300
+# Levels of detail, with the contour rings drawn so the sampling shows.
+for lod in 0 1 2 3; do
+  shot lod$lod --pose rest --lod $lod --overlay contours --camera three-quarter --size 240x300
+done
+# The method: skeleton and primitives (muscles by f(t)) inside the translucent body; the rays
+# cast for one ring; the contours.
+shot method-primitives --pose rest --set l_elbow_flexion=1.8,r_shoulder_abduction=-1.2 --overlay skeleton,primitives --see-through --camera three-quarter --size 300x340
+shot method-contours --pose rest --overlay contours --lod 2 --camera front --size 300x340
+shot method-rays --pose rest --overlay rays --ray-ring 5 --see-through --camera three-quarter --size 300x340
+# The shared scene: two tracked participants and three actors in one `mimic run`, watched by
+# `mimic view --connect` in a window on a virtual display.
+if command -v xvfb-run >/dev/null; then
+  log=$(mktemp)
+  "$mimic" run --listen 127.0.0.1:0 --source sim:walk --source 'sim:idle?seed=2' --source 'actor:wander?seed=3' \
+    --source 'actor:follow?target=3' --source 'actor:greet?seed=5' --duration 25 --quiet >"$log" 2>/dev/null &
+  run_pid=$!
+  for _ in $(seq 50); do grep -q '^serving on ' "$log" && break; sleep 0.1; done
+  endpoint=$(sed -n 's/^serving on //p' "$log" | head -1)
+  sleep 8  # let the actors walk off
+  xvfb-run -a -s "-screen 0 1024x768x24" "$mimic" view --connect "$endpoint" --frames 30 --no-vsync --no-panel \
+    --size 640x360 --capture "$out/scene.png" >/dev/null
+  kill "$run_pid" 2>/dev/null || true
+  wait "$run_pid" 2>/dev/null || true
+  rm -f "$log"
+  echo "wrote $out/scene.png"
+fi
+du -ch "$out"/*.png | tail -1

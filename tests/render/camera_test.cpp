@@ -1,0 +1,97 @@
+// The camera's conventions, which every screenshot test relies on: a front camera sees the
+// body's left (+X) on the image's right, a back camera on its left; presets frame the body.
+#include <gtest/gtest.h>
+
+#include "mimic/render/avatar_lods.h"
+#include "mimic/render/camera.h"
+
+namespace {
+
+using mimic::render::Camera;
+using mimic::render::CameraPreset;
+
+glm::vec2 project(const Camera& c, const glm::vec3& p, float aspect) {
+  const glm::vec4 clip = c.clip_from_world(aspect) * glm::vec4(p, 1.0f);
+  return glm::vec2(clip) / clip.w;  // NDC: x right, y up
+}
+
+TEST(Camera, FrontSeesTheLeftOnTheRightAndBackTheOpposite) {
+  const glm::vec3 left_hand(0.8f, 1.4f, 0.0f), right_hand(-0.8f, 1.4f, 0.0f);
+  const Camera front = mimic::render::preset_camera(CameraPreset::kFront, {0, 0, 0}, 1.7f, 1.0f);
+  EXPECT_GT(project(front, left_hand, 1).x, 0.2f);
+  EXPECT_LT(project(front, right_hand, 1).x, -0.2f);
+  const Camera back = mimic::render::preset_camera(CameraPreset::kBack, {0, 0, 0}, 1.7f, 1.0f);
+  EXPECT_LT(project(back, left_hand, 1).x, -0.2f);
+  EXPECT_GT(project(back, right_hand, 1).x, 0.2f);
+  // The side camera looks at the body's left side: its front (+Z) is on the image's left.
+  const Camera side = mimic::render::preset_camera(CameraPreset::kSide, {0, 0, 0}, 1.7f, 1.0f);
+  EXPECT_LT(project(side, {0, 1, 0.3f}, 1).x, -0.01f);
+}
+
+TEST(Camera, PresetsFrameTheWholeBodyAtAnyAspect) {
+  for (float aspect : {0.5f, 0.9f, 1.0f, 1.78f})
+    for (auto preset : {CameraPreset::kFront, CameraPreset::kSide, CameraPreset::kBack, CameraPreset::kThreeQuarter}) {
+      const Camera c = mimic::render::preset_camera(preset, {1.0f, 0, -2.0f}, 1.7f, aspect);
+      for (const glm::vec3 p : {glm::vec3(1.0f, 0, -2.0f), glm::vec3(1.0f, 1.7f, -2.0f), glm::vec3(1.8f, 1.4f, -2.0f),
+                                glm::vec3(0.2f, 1.4f, -2.0f)}) {
+        const glm::vec2 ndc = project(c, p, aspect);
+        EXPECT_LT(std::abs(ndc.x), 1.0f) << aspect;
+        EXPECT_LT(std::abs(ndc.y), 1.0f) << aspect;
+      }
+      // ... and fill a good part of the height (NDC spans 2).
+      EXPECT_GT(project(c, {1.0f, 1.7f, -2.0f}, aspect).y - project(c, {1.0f, 0, -2.0f}, aspect).y, 0.7f);
+    }
+}
+
+TEST(Camera, OrbitClampsPitchZoomClampsDistancePanMovesTheTarget) {
+  Camera c;
+  c.orbit(0.0f, 10.0f);
+  EXPECT_FLOAT_EQ(c.pitch_rad, 1.5f);
+  c.zoom(1e-6f);
+  EXPECT_FLOAT_EQ(c.distance_m, 0.2f);
+  Camera d;
+  const glm::vec3 before = d.target;
+  d.pan(0.5f, 0.0f);  // half a view height to the right: the target moves along −X (yaw 0)
+  EXPECT_LT(d.target.x, before.x - 0.1f);
+  EXPECT_NEAR(d.target.y, before.y, 1e-5f);
+}
+
+TEST(Camera, FirstPersonLooksAlongItsForward) {
+  Camera c;
+  c.first_person_eye = glm::vec3(0, 1.6f, 0);
+  c.first_person_forward = {0, 0, 1};
+  const glm::vec4 ahead = c.clip_from_world(1.0f) * glm::vec4(0, 1.6f, 3.0f, 1.0f);
+  EXPECT_GT(ahead.w, 0.0f);  // in front of the eye
+  EXPECT_NEAR(ahead.x / ahead.w, 0.0f, 1e-4f);
+  const glm::vec4 behind = c.clip_from_world(1.0f) * glm::vec4(0, 1.6f, -3.0f, 1.0f);
+  EXPECT_LT(behind.w, 0.0f);
+}
+
+TEST(Camera, ParsesPresetNames) {
+  EXPECT_EQ(mimic::render::parse_camera_preset("three-quarter"), CameraPreset::kThreeQuarter);
+  EXPECT_FALSE(mimic::render::parse_camera_preset("top"));
+}
+
+TEST(Lod, FinerAsTheBodyComesCloser) {
+  int previous = -1;
+  for (float d = 60.0f; d > 0.5f; d *= 0.8f) {
+    const int lod = mimic::render::choose_lod(d, 1.7f, 0.6f, 720, previous);
+    if (previous >= 0) {
+      EXPECT_LE(lod, previous) << d;
+    }
+    previous = lod;
+  }
+  EXPECT_EQ(previous, 0);
+  EXPECT_EQ(mimic::render::choose_lod(1.0f, 1.7f, 0.6f, 720), 0);
+  EXPECT_EQ(mimic::render::choose_lod(50.0f, 1.7f, 0.6f, 720), mimic::render::kLodCount - 1);
+  // Hysteresis: just past a threshold, the level in use is kept.
+  int lod = -1;
+  float switch_d = 0;
+  for (float d = 1.0f; d < 60.0f && lod <= 0; d *= 1.01f) {
+    lod = mimic::render::choose_lod(d, 1.7f, 0.6f, 720, 0);
+    switch_d = d;
+  }
+  EXPECT_EQ(mimic::render::choose_lod(switch_d * 0.97f, 1.7f, 0.6f, 720, lod), lod);
+}
+
+}  // namespace

@@ -1,0 +1,146 @@
+// End-to-end: `mimic view --screenshot`, the built program, its PNGs read back and checked.
+#include <gtest/gtest.h>
+
+#include <sys/wait.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <string>
+
+#include "mimic/avatar/body_model.h"
+#include "mimic/render/image.h"
+#include "run_mimic.h"
+#include "test_data.h"
+
+namespace {
+
+using mimic::test::Outcome;
+using mimic::test::run_mimic;
+
+constexpr uint8_t kBackground[3] = {237, 240, 245};  // FrameDesc's default background
+
+std::string temp(const std::string& name) {
+  return (std::filesystem::temp_directory_path() / ("mimic_view_cli_" + name)).string();
+}
+
+mimic::render::Image shoot(const std::string& name, const std::string& options) {
+  const std::string out = temp(name);
+  const Outcome r = run_mimic("view --screenshot '" + out + "' " + options);
+  EXPECT_EQ(r.status, 0) << r.output;
+  auto image = mimic::render::read_png(out);
+  EXPECT_TRUE(image) << r.output;
+  std::filesystem::remove(out);
+  return image ? *image : mimic::render::Image{};
+}
+
+// Mean column of the non-background pixels in the top `rows` rows of the figure.
+double top_column(const mimic::render::Image& image, int rows) {
+  const mimic::render::Coverage c = mimic::render::coverage(image, kBackground);
+  double sum = 0;
+  int n = 0;
+  for (int y = c.min_y; y < c.min_y + rows && y < image.height; ++y)
+    for (int x = 0; x < image.width; ++x) {
+      const uint8_t* p = image.pixel(x, y);
+      if (std::abs(p[0] - kBackground[0]) + std::abs(p[1] - kBackground[1]) + std::abs(p[2] - kBackground[2]) > 24) {
+        sum += x;
+        ++n;
+      }
+    }
+  return n ? sum / n : -1;
+}
+
+TEST(ViewCli, ScreenshotOfTheBodyFillsTheFrameItIsPlacedIn) {
+  const mimic::render::Image image = shoot("rest.png", "--pose rest --size 300x400 --no-grid");
+  ASSERT_EQ(image.width, 300);
+  ASSERT_EQ(image.height, 400);
+  const mimic::render::Coverage c = mimic::render::coverage(image, kBackground);
+  // Framed from the front: the T-posed body spans most of the width and height, centred,
+  // feet near the bottom margin, head below the top margin.
+  EXPECT_GT(c.max_y - c.min_y, 0.6 * image.height);
+  EXPECT_GT(c.max_x - c.min_x, 0.5 * image.width);
+  EXPECT_NEAR(0.5 * (c.min_x + c.max_x), 0.5 * image.width, 0.05 * image.width);
+  EXPECT_GT(c.min_y, 0.05 * image.height);
+  EXPECT_LT(c.max_y, 0.95 * image.height);
+  // A solid body: far more pixels than its outline.
+  EXPECT_GT(c.count, 8000);
+}
+
+TEST(ViewCli, TheRaisedLeftArmShowsOnTheBodysLeft) {
+  // T-pose with the left arm raised 70° above the horizontal: its hand is the highest point.
+  const std::string pose = "--pose rest --set l_shoulder_abduction=1.2 --size 320x360 --no-grid ";
+  const mimic::render::Image front = shoot("left_front.png", pose + "--camera front");
+  const mimic::render::Image back = shoot("left_back.png", pose + "--camera back");
+  // Facing the camera, the body's left is on the image's right; seen from behind, on its left.
+  EXPECT_GT(top_column(front, 12), 0.6 * front.width);
+  EXPECT_LT(top_column(back, 12), 0.4 * back.width);
+  // The right arm instead: mirrored.
+  const mimic::render::Image right = shoot("right_front.png", "--pose rest --set r_shoulder_abduction=1.2 --size 320x360 --no-grid --camera front");
+  EXPECT_LT(top_column(right, 12), 0.4 * right.width);
+}
+
+TEST(ViewCli, AnEmptySceneIsEmpty) {
+  const mimic::render::Image none = shoot("empty.png", "--empty --no-grid --size 200x200");
+  EXPECT_EQ(mimic::render::coverage(none, kBackground, 1).count, 0);
+  // With the floor grid: lines below the horizon only.
+  const mimic::render::Image grid = shoot("empty_grid.png", "--empty --size 200x200");
+  const mimic::render::Coverage c = mimic::render::coverage(grid, kBackground, 1);
+  EXPECT_GT(c.count, 100);
+  EXPECT_GT(c.min_y, 0.4 * grid.height);
+}
+
+TEST(ViewCli, EveryLodEveryCameraAndTheOverlaysRender) {
+  for (const char* camera : {"front", "side", "back", "three-quarter"})
+    for (int lod = 0; lod < 4; ++lod) {  // the skin's four levels
+      const mimic::render::Image image =
+          shoot("walk.png", std::string("--motion walk --time 0.4 --size 160x180 --camera ") + camera + " --lod " +
+                                std::to_string(lod) + " --no-grid");
+      EXPECT_GT(mimic::render::coverage(image, kBackground).count, 1500) << camera << " LOD " << lod;
+    }
+  // Overlays add pixels that the bare body does not have (lines beyond its silhouette).
+  const std::string base = "--pose rest --size 240x270 --no-grid --see-through ";
+  const int bare = mimic::render::coverage(shoot("bare.png", base), kBackground).count;
+  const int with = mimic::render::coverage(shoot("overlays.png", base + "--overlay all"), kBackground).count;
+  EXPECT_GT(with, bare);
+}
+
+TEST(ViewCli, AClipFrameRenders) {
+  const mimic::render::Image image =
+      shoot("bvh.png", "--bvh '" + mimic::test::clip_path("07_01") + "' --frame 120 --size 200x240 --camera three-quarter");
+  EXPECT_GT(mimic::render::coverage(image, kBackground).count, 3000);
+}
+
+TEST(ViewCli, BadRequestsGetClearErrors) {
+  Outcome r = run_mimic("view --screenshot /tmp/x.png --camera top");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.output.find("--camera"), std::string::npos) << r.output;
+  r = run_mimic("view --screenshot /tmp/x.png --size 10");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.output.find("--size"), std::string::npos) << r.output;
+  r = run_mimic("view --screenshot /tmp/x.png --lod 4");
+  EXPECT_EQ(r.status, 2);
+  r = run_mimic("view --screenshot /tmp/x.png --set l_nose_twist=1");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.output.find("l_nose_twist"), std::string::npos) << r.output;
+  r = run_mimic("view --screenshot /tmp/x.png --overlay bones");
+  EXPECT_EQ(r.status, 2);
+  r = run_mimic("view --screenshot /nonexistent-dir/x.png --pose rest");
+  EXPECT_EQ(r.status, 1);
+  r = run_mimic("view --screenshot /tmp/x.png --source sim:walk");
+  EXPECT_EQ(r.status, 2);
+}
+
+TEST(ViewCli, WithoutADisplayTheWindowSaysSoAndPointsToScreenshots) {
+  // run_mimic runs a shell fragment: `env -u` takes the display away from the program only.
+  const std::string mimic = mimic::test::mimic_binary();
+  const std::string cmd = "env -u DISPLAY -u WAYLAND_DISPLAY '" + mimic + "' view --frames 1 2>&1";
+  FILE* p = ::popen(cmd.c_str(), "r");
+  ASSERT_NE(p, nullptr);
+  std::string out;
+  char buf[512];
+  while (std::fgets(buf, sizeof buf, p)) out += buf;
+  const int st = ::pclose(p);
+  EXPECT_EQ(WEXITSTATUS(st), 1) << out;
+  EXPECT_NE(out.find("--screenshot"), std::string::npos) << out;
+}
+
+}  // namespace

@@ -1,0 +1,178 @@
+// End-to-end: the interactive `mimic view` in a real GLFW window on a virtual X display (Xvfb,
+// started here on a free display number), from the local pipeline and connected to a running
+// `mimic run`; the window's last frame is captured and checked.
+#include <gtest/gtest.h>
+
+#include <signal.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <fcntl.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <string>
+
+#include "mimic/render/image.h"
+#include "run_mimic.h"
+#include "test_data.h"
+
+namespace {
+
+using mimic::test::Outcome;
+using mimic::test::run_mimic;
+
+// An Xvfb server on a display number it picks itself (-displayfd: no race between tests run in
+// parallel); stopped at the end of the test.
+class VirtualDisplay {
+ public:
+  VirtualDisplay() {
+    int fds[2];
+    if (::pipe(fds) != 0) return;
+    const std::string fd = std::to_string(fds[1]);
+    std::vector<std::string> args = {"Xvfb", "-displayfd", fd, "-screen", "0", "1024x768x24", "-nolisten", "tcp"};
+    std::vector<char*> argv;
+    for (auto& a : args) argv.push_back(a.data());
+    argv.push_back(nullptr);
+    posix_spawn_file_actions_t fa;
+    posix_spawn_file_actions_init(&fa);
+    posix_spawn_file_actions_addclose(&fa, fds[0]);
+    posix_spawn_file_actions_addopen(&fa, 1, "/dev/null", O_WRONLY, 0);
+    posix_spawn_file_actions_addopen(&fa, 2, "/dev/null", O_WRONLY, 0);
+    const bool spawned = posix_spawnp(&pid_, "Xvfb", &fa, nullptr, argv.data(), environ) == 0;
+    posix_spawn_file_actions_destroy(&fa);
+    ::close(fds[1]);
+    if (!spawned) {
+      pid_ = -1;
+      ::close(fds[0]);
+      return;
+    }
+    // Xvfb writes the display number once it accepts connections (EOF if it dies first).
+    std::string number;
+    char c = 0;
+    while (::read(fds[0], &c, 1) == 1 && c != '\n') number += c;
+    ::close(fds[0]);
+    if (!number.empty()) display_ = ":" + number;
+  }
+  ~VirtualDisplay() { stop(); }
+  const std::string& display() const { return display_; }
+
+ private:
+  void stop() {
+    if (pid_ > 0) {
+      ::kill(pid_, SIGTERM);
+      int status = 0;
+      ::waitpid(pid_, &status, 0);
+      pid_ = -1;
+    }
+  }
+  pid_t pid_ = -1;
+  std::string display_;
+};
+
+std::string temp(const std::string& name) {
+  return (std::filesystem::temp_directory_path() / ("mimic_view_window_" + name)).string();
+}
+
+// Pixels of the avatar's shirt (blue) and of the ImGui panel (dark, top-left corner).
+int shirt_pixels(const mimic::render::Image& image) {
+  int n = 0;
+  for (int y = 0; y < image.height; ++y)
+    for (int x = 0; x < image.width; ++x) {
+      const uint8_t* p = image.pixel(x, y);
+      n += p[2] > p[0] + 40 && p[2] > 90;
+    }
+  return n;
+}
+int dark_pixels_top_left(const mimic::render::Image& image) {
+  int n = 0;
+  for (int y = 0; y < 60; ++y)
+    for (int x = 0; x < 120; ++x) {
+      const uint8_t* p = image.pixel(x, y);
+      n += p[0] < 110 && p[1] < 110 && p[2] < 120;  // the panel: dark grey, 75% opaque
+    }
+  return n;
+}
+
+TEST(ViewWindow, DrawsTheLocalPipelineWithItsPanel) {
+  VirtualDisplay x;
+  ASSERT_FALSE(x.display().empty()) << "Xvfb did not start (scripts/setup.sh installs it)";
+  ::setenv("DISPLAY", x.display().c_str(), 1);  // for the program run below
+  const std::string out = temp("local.png");
+  const Outcome r = run_mimic("view --source 'sim:walk?sensors=11' --frames 15 --no-vsync --size 400x300 --capture '" +
+                              out + "' --overlay skeleton");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("15 frames"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("avatar1: sim:walk?sensors=11"), std::string::npos) << r.output;
+  auto image = mimic::render::read_png(out);
+  ASSERT_TRUE(image) << r.output;
+  EXPECT_EQ(image->width, 400);
+  EXPECT_EQ(image->height, 300);
+  EXPECT_GT(shirt_pixels(*image), 800);
+  EXPECT_GT(dark_pixels_top_left(*image), 2000);  // the ImGui status panel
+  std::filesystem::remove(out);
+}
+
+TEST(ViewWindow, ConnectsToMimicRunAndDrawsEveryAvatarItServes) {
+  VirtualDisplay x;
+  ASSERT_FALSE(x.display().empty()) << "Xvfb did not start (scripts/setup.sh installs it)";
+  ::setenv("DISPLAY", x.display().c_str(), 1);
+  mimic::test::Child host({mimic::test::mimic_binary(), "run", "--listen", "127.0.0.1:0", "--source", "sim:walk",
+                           "--source", "sim:idle?seed=2", "--duration", "20", "--quiet"});
+  const std::string line = host.line();
+  ASSERT_EQ(line.rfind("serving on ", 0), 0u) << line;
+  const std::string endpoint = line.substr(std::string("serving on ").size());
+  const std::string out = temp("connected.png");
+  const Outcome r = run_mimic("view --connect " + endpoint + " --frames 40 --no-vsync --size 400x300 --capture '" + out + "'");
+  ASSERT_EQ(r.status, 0) << r.output;
+  // Both avatars arrived as body models and are deformed here from pose frames.
+  EXPECT_NE(r.output.find("avatar1#"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("avatar2#"), std::string::npos) << r.output;
+  EXPECT_EQ(r.output.find(" 0 frames,"), std::string::npos) << r.output;
+  auto image = mimic::render::read_png(out);
+  ASSERT_TRUE(image) << r.output;
+  EXPECT_GT(shirt_pixels(*image), 800);
+  std::filesystem::remove(out);
+  // A server that is not there: a clear error, exit 1.
+  const Outcome none = run_mimic("view --connect 127.0.0.1:1 --frames 1");
+  EXPECT_EQ(none.status, 1);
+  EXPECT_NE(none.output.find("cannot connect"), std::string::npos) << none.output;
+}
+
+TEST(ViewWindow, FirstPersonSeesTheAvatarOppositeAndNotItself) {
+  VirtualDisplay x;
+  ASSERT_FALSE(x.display().empty()) << "Xvfb did not start (scripts/setup.sh installs it)";
+  ::setenv("DISPLAY", x.display().c_str(), 1);
+  // Two avatars 3 m apart facing each other, and a third one behind the first.
+  mimic::test::Child host({mimic::test::mimic_binary(), "run", "--listen", "127.0.0.1:0", "--source", "sim:idle",
+                           "--place", "0,0", "--source", "sim:idle?seed=2", "--place", "0,3,180", "--source",
+                           "sim:idle?seed=3", "--place", "0,-2", "--duration", "20", "--quiet"});
+  const std::string line = host.line();
+  ASSERT_EQ(line.rfind("serving on ", 0), 0u) << line;
+  const std::string endpoint = line.substr(std::string("serving on ").size());
+  auto look = [&](int avatar) {
+    const std::string out = temp("eyes.png");
+    const Outcome r = run_mimic("view --connect " + endpoint + " --eyes " + std::to_string(avatar) +
+                                " --frames 20 --no-vsync --no-panel --size 320x240 --capture '" + out + "'");
+    EXPECT_EQ(r.status, 0) << r.output;
+    auto image = mimic::render::read_png(out);
+    std::filesystem::remove(out);
+    return image ? *image : mimic::render::Image{};
+  };
+  // From the first avatar's eyes: the second one, 3 m ahead and facing us, is in view.
+  const mimic::render::Image first = look(1);
+  ASSERT_GT(first.width, 0);
+  EXPECT_GT(shirt_pixels(first), 300);
+  // From the third avatar's eyes (2 m behind the first, facing the same way): the first one's
+  // back blocks the middle of the view.
+  const mimic::render::Image third = look(3);
+  EXPECT_GT(shirt_pixels(third), shirt_pixels(first));
+  // From the second avatar's eyes, looking back along −Z: both others are in front.
+  const mimic::render::Image second = look(2);
+  EXPECT_GT(shirt_pixels(second), 300);
+  // An orbit view of the same scene is not what any of them sees.
+  EXPECT_NE(first.rgba, second.rgba);
+}
+
+}  // namespace
