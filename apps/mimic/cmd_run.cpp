@@ -48,7 +48,8 @@ const char* kUsage =
     "                      told so in the handshake and get their frames on the stream)\n"
     "  --secret S          shared secret publishers must present (also MIMIC_SECRET)\n"
     "  --publish HOST:PORT do not host: publish the avatars into the scene served there\n"
-    "  --vmc HOST:PORT     also send the first avatar as VMC (OSC over UDP), e.g. 127.0.0.1:39539\n"
+    "  --vmc HOST:PORT     also send every avatar as VMC (OSC over UDP), e.g. 127.0.0.1:39539;\n"
+    "                      avatar i (counting from 0) goes to PORT + i\n"
     "  --mesh-lod L        skin level of detail deformed every frame and offered as mesh frames\n"
     "                      to thin clients (mimic subscribe --mesh-lod L): 0 finest (B-spline,\n"
     "                      2 samples per span), 1, 2 = the paper's realtime contours (default)\n"
@@ -175,9 +176,11 @@ int run(const std::vector<std::string>& argv) {
   }
   std::unique_ptr<net::VmcSender> vmc;
   if (a.has("vmc")) {
-    auto v = net::VmcSender::open(*a.get("vmc"), feeds[0]->skeleton());
+    auto v = net::VmcSender::open(*a.get("vmc"));
     if (!v) return failure("run", v.error().what());
     vmc = std::move(*v);
+    for (const auto& f : feeds)
+      if (auto st = vmc->add_avatar(f->skeleton()); !st) return failure("run", st.error().what());
   }
   const PipelineOutputs outputs{server.get(), publisher.get(), vmc.get()};
   Pipeline pipeline(outputs);

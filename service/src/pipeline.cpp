@@ -465,7 +465,8 @@ void Pipeline::tick() {
     if (out_.publisher && a.publisher_slot >= 0 &&
         !out_.publisher->publish_pose(static_cast<uint8_t>(a.publisher_slot), h, a.pose))
       send_failures_++;
-    if (out_.vmc && i == 0 && out_.vmc->send(a.pose, double(h.time_us) * 1e-6) == 0) send_failures_++;
+    if (out_.vmc && i < out_.vmc->avatar_count() && out_.vmc->send(i, a.pose, double(h.time_us) * 1e-6) == 0)
+      send_failures_++;
     const auto t4 = C::now();
     timers_[kStageSolve].add(us(t1, t2));
     timers_[kStageEncode].add(us(t2, t3));

@@ -120,7 +120,7 @@ bool set_realtime_priority(int priority);
 struct PipelineOutputs {
   net::Server* server = nullptr;     // host the scene here
   net::Client* publisher = nullptr;  // publish into a scene hosted elsewhere
-  net::VmcSender* vmc = nullptr;     // VMC/OSC output of the first avatar
+  net::VmcSender* vmc = nullptr;     // VMC/OSC output: avatar i to the sender's avatar i
 };
 
 // Between passes of the loop: handles what the network has for us without blocking, then sleeps
