@@ -28,13 +28,17 @@ exported=$(nm -D --defined-only "$lib" | c++filt)
 echo "$exported" | grep -q 'mimic::client::Subscriber::connect' || fail "Subscriber::connect not exported"
 if echo "$exported" | grep -E 'mimic::(net|avatar|core)::' | head -3 | grep .; then fail "internal symbols exported"; fi
 
+# A library built with the sanitizers (MIMIC_SANITIZE) needs its runtime in the program too.
+san=
+if readelf -d "$lib" | grep -q 'libasan'; then san="-fsanitize=address,undefined"; fi
+
 # find_package(Mimic), out of tree.
 cmake -S "$src/examples/subscribe_print" -B "$work/example" -DCMAKE_PREFIX_PATH="$prefix" -DCMAKE_BUILD_TYPE=Release \
-  > "$work/configure.log" || { cat "$work/configure.log"; fail "configure against the installed package"; }
+  -DCMAKE_CXX_FLAGS="$san" > "$work/configure.log" || { cat "$work/configure.log"; fail "configure against the installed package"; }
 cmake --build "$work/example" > "$work/build.log" || { cat "$work/build.log"; fail "build the example"; }
 # pkg-config, with a plain compiler call.
 flags=$(PKG_CONFIG_PATH=$(dirname "$pc") pkg-config --cflags --libs mimic)
-c++ -std=c++17 "$src/examples/subscribe_print/main.cpp" $flags -Wl,-rpath,"$(dirname "$lib")" -o "$work/subscribe_print_pc" \
+c++ -std=c++17 $san "$src/examples/subscribe_print/main.cpp" $flags -Wl,-rpath,"$(dirname "$lib")" -o "$work/subscribe_print_pc" \
   || fail "build with pkg-config flags: $flags"
 
 # A live scene.
