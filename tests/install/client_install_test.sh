@@ -2,9 +2,10 @@
 # The client library as another program sees it: install into a temporary prefix, build
 # examples/subscribe_print out of tree with find_package(Mimic) and again with pkg-config, and
 # run both against a live `mimic run`: each must print posed joints of the walking avatar.
-# usage: client_install_test.sh BUILD_DIR SOURCE_DIR MIMIC_BINARY
+# usage: client_install_test.sh BUILD_DIR SOURCE_DIR MIMIC_BINARY [CXX [SANITIZE]]
+# (the example is built with the compiler of the build, and its sanitizers when it has them)
 set -euo pipefail
-build=$1 src=$2 mimic=$3
+build=$1 src=$2 mimic=$3 cxx=${4:-c++} sanitize=${5:-0}
 work=$(mktemp -d)
 run_pid=
 cleanup() { [ -n "$run_pid" ] && kill "$run_pid" 2>/dev/null; wait 2>/dev/null; rm -rf "$work"; }
@@ -28,17 +29,17 @@ exported=$(nm -D --defined-only "$lib" | c++filt)
 echo "$exported" | grep -q 'mimic::client::Subscriber::connect' || fail "Subscriber::connect not exported"
 if echo "$exported" | grep -E 'mimic::(net|avatar|core)::' | head -3 | grep .; then fail "internal symbols exported"; fi
 
-# A library built with the sanitizers (MIMIC_SANITIZE) needs its runtime in the program too.
+# A library built with the sanitizers (MIMIC_SANITIZE) needs their runtime in the program too.
 san=
-if readelf -d "$lib" | grep -q 'libasan'; then san="-fsanitize=address,undefined"; fi
+if [ "$sanitize" = 1 ]; then san="-fsanitize=address,undefined"; fi
 
 # find_package(Mimic), out of tree.
 cmake -S "$src/examples/subscribe_print" -B "$work/example" -DCMAKE_PREFIX_PATH="$prefix" -DCMAKE_BUILD_TYPE=Release \
-  -DCMAKE_CXX_FLAGS="$san" > "$work/configure.log" || { cat "$work/configure.log"; fail "configure against the installed package"; }
+  -DCMAKE_CXX_COMPILER="$cxx" -DCMAKE_CXX_FLAGS="$san" > "$work/configure.log" || { cat "$work/configure.log"; fail "configure against the installed package"; }
 cmake --build "$work/example" > "$work/build.log" || { cat "$work/build.log"; fail "build the example"; }
 # pkg-config, with a plain compiler call.
 flags=$(PKG_CONFIG_PATH=$(dirname "$pc") pkg-config --cflags --libs mimic)
-c++ -std=c++17 $san "$src/examples/subscribe_print/main.cpp" $flags -Wl,-rpath,"$(dirname "$lib")" -o "$work/subscribe_print_pc" \
+"$cxx" -std=c++17 $san "$src/examples/subscribe_print/main.cpp" $flags -Wl,-rpath,"$(dirname "$lib")" -o "$work/subscribe_print_pc" \
   || fail "build with pkg-config flags: $flags"
 
 # A live scene.
