@@ -14,6 +14,7 @@
 #include "mimic/net/client.h"
 #include "mimic/net/server.h"
 #include "mimic/net/vmc.h"
+#include "mimic/net/vrpn_server.h"
 #include "alloc_count.h"
 #include "mimic/service/pipeline.h"
 #include "mimic/service/scene.h"
@@ -29,7 +30,8 @@ extern "C" void on_report_signal(int) { g_report = true; }
 const char* kUsage =
     "usage: mimic run [--source SPEC [--body FILE] [--calibration FILE]]... [--listen ADDR:PORT]\n"
     "                 [--secret S]\n"
-    "                 [--publish HOST:PORT] [--vmc HOST:PORT] [--duration S] [--realtime PRIO]\n"
+    "                 [--publish HOST:PORT] [--vmc HOST:PORT] [--vrpn [HOST:]PORT]\n"
+    "                 [--duration S] [--realtime PRIO]\n"
     "                 [--json] [--quiet]\n"
     "\n"
     "Runs the realtime pipeline (read -> solve -> deform -> encode -> send) and serves the avatars\n"
@@ -60,7 +62,12 @@ const char* kUsage =
     "                      told so in the handshake and get their frames on the stream)\n"
     "  --secret S          shared secret publishers must present (also MIMIC_SECRET)\n"
     "  --publish HOST:PORT do not host: publish the avatars into the scene served there\n"
-    "  --vmc HOST:PORT     also send the first avatar as VMC (OSC over UDP), e.g. 127.0.0.1:39539\n"
+    "  --vmc HOST:PORT     also send every avatar as VMC (OSC over UDP), e.g. 127.0.0.1:39539;\n"
+    "                      avatar i (counting from 0) goes to PORT + i\n"
+    "  --vrpn [HOST:]PORT  also serve every avatar as VRPN trackers (VRPN 07.35 over TCP + UDP;\n"
+    "                      docs/vrpn.md): Avatar<i>, one sensor per joint, and Sensors<i>, its\n"
+    "                      tracker samples; e.g. vrpn_print_devices Avatar0@localhost:3883.\n"
+    "                      HOST defaults to 127.0.0.1\n"
     "  --mesh-lod L        skin level of detail deformed every frame and offered as mesh frames\n"
     "                      to thin clients (mimic subscribe --mesh-lod L): 0 the body's own\n"
     "                      contours (finest, default) to 3 (about 300 triangles)\n"
@@ -153,7 +160,7 @@ int run(const std::vector<std::string>& argv) {
   std::vector<SourceArgs> sources;
   std::string error;
   if (!take_sources(args, sources, error)) return usage_error("run", error);
-  Args a(args, {"listen", "secret", "publish", "vmc", "duration", "realtime", "mesh-lod", "mesh-method", "room"},
+  Args a(args, {"listen", "secret", "publish", "vmc", "vrpn", "duration", "realtime", "mesh-lod", "mesh-method", "room"},
          {"json", "quiet", "no-udp"});
   if (a.help()) {
     std::printf("%s", kUsage);
@@ -258,11 +265,24 @@ int run(const std::vector<std::string>& argv) {
   }
   std::unique_ptr<net::VmcSender> vmc;
   if (a.has("vmc")) {
-    auto v = net::VmcSender::open(*a.get("vmc"), feeds[0]->skeleton());
+    auto v = net::VmcSender::open(*a.get("vmc"));
     if (!v) return failure("run", v.error().what());
     vmc = std::move(*v);
+    for (const auto& f : feeds)
+      if (auto st = vmc->add_avatar(f->skeleton()); !st) return failure("run", st.error().what());
   }
-  const PipelineOutputs outputs{server.get(), publisher.get(), vmc.get()};
+  std::unique_ptr<net::VrpnServer> vrpn;
+  if (a.has("vrpn")) {
+    auto v = net::VrpnServer::create(*a.get("vrpn"));
+    if (!v) return failure("run", v.error().what());
+    vrpn = std::move(*v);
+    for (const auto& f : feeds)
+      if (auto st = vrpn->add_avatar(f->skeleton()); !st) return failure("run", st.error().what());
+    std::fprintf(stderr, "mimic run: VRPN trackers Avatar0..%zu and Sensors0..%zu on %s\n", feeds.size() - 1,
+                 feeds.size() - 1, vrpn->endpoint().c_str());
+  }
+  PipelineOutputs outputs{server.get(), publisher.get(), vmc.get()};
+  outputs.vrpn = vrpn.get();
   Pipeline pipeline(outputs);
   // Sleep between passes: new samples wait at most about this long (plus the timer slack).
   constexpr int kIdleUs = 100;
@@ -311,6 +331,12 @@ int run(const std::vector<std::string>& argv) {
       const auto sum = pipeline.timer(s).summary();
       j["stages"][stage_name(s)] = {{"p50_us", sum.p50_us}, {"p99_us", sum.p99_us}, {"max_us", sum.max_us},
                                     {"count", sum.count}};
+    }
+    if (vrpn) {
+      const auto st = vrpn->stats();
+      j["vrpn"] = {{"endpoint", vrpn->endpoint()}, {"connections", st.connections}, {"clients", st.clients},
+                   {"reports", st.reports}, {"udp_datagrams", st.udp_datagrams}, {"frames_dropped", st.frames_dropped},
+                   {"pongs", st.pongs}, {"refused", st.refused}};
     }
     if (server) {
       const auto& st = server->stats();

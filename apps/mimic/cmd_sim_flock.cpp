@@ -15,6 +15,7 @@
 #include "mimic/avatar/motion.h"
 #include "mimic/avatar/retarget.h"
 #include "mimic/devices/flock_packet.h"
+#include "mimic/sim/flock_placement.h"
 #include "mimic/sim/log.h"
 #include "mimic/sim/sensor_rig.h"
 #include "mimic/sim/virtual_flock.h"
@@ -24,7 +25,7 @@ namespace mimic::app {
 namespace {
 
 constexpr const char* kUsage =
-    "usage: mimic sim flock [--birds N] [--motion NAME | --bvh CLIP] [--baud B] [--ert]\n"
+    "usage: mimic sim flock [--birds N] [--motion NAME | --bvh CLIP] [--baud B] [--ert | --no-ert]\n"
     "                       [--seed S] [--log FILE] [--rate HZ] [--faults P] [--busy S]\n"
     "\n"
     "Serves a virtual Ascension Flock of Birds on a new pseudo-terminal and prints its path as\n"
@@ -37,9 +38,14 @@ constexpr const char* kUsage =
     "driver can open the path: flock:<path>?birds=N&baud=B for Mimic's own.\n"
     "Runs until Ctrl-C or SIGTERM.\n"
     "\n"
-    "Sensors ride on a virtual body seen from a transmitter 0.5 m behind the pelvis at 1 m\n"
-    "height facing the body's forward (the Flock's forward hemisphere). Positions beyond the\n"
-    "range (36 in; 144 in with --ert) saturate as on the real unit.\n"
+    "Sensors ride on a virtual body. Without --motion or --bvh the transmitter stands 0.5 m\n"
+    "behind the pelvis at 1 m height facing the body's forward (the Flock's forward\n"
+    "hemisphere). With a motion it is placed where the whole motion stays in front of it:\n"
+    "centred on the sensors' extent across and up, 0.1 m behind the rearmost one, and an\n"
+    "extended range controller is added when the motion does not fit the standard 36 in range\n"
+    "(the built-in walk, a 1.2 m circle, needs one). Positions beyond the range saturate and\n"
+    "positions behind the hemisphere come out mirrored, as on the real unit; a warning on\n"
+    "stderr says when that happens.\n"
     "\n"
     "options:\n"
     "  --birds N     sensors, 1-14 (13 with --ert); 1 without --ert is a standalone unit\n"
@@ -50,7 +56,8 @@ constexpr const char* kUsage =
     "  --baud B      2400, 4800, 9600, 19200, 38400, 57600 or 115200 (default 115200); the\n"
     "                driver must use the same\n"
     "  --ert         an extended range controller at FBB address 1 (144 in full scale); the\n"
-    "                birds follow at addresses 2..N+1\n"
+    "                birds follow at addresses 2..N+1. Default: only when the motion needs it\n"
+    "  --no-ert      standard range (36 in) even when the motion needs more\n"
     "  --seed S      seed of the motion and of line faults (default 1)\n"
     "  --log FILE    write a Mimic log (*.mlog): the poses served (ground truth, one sample\n"
     "                per bird per record, on the simulator's clock) and every byte that\n"
@@ -70,9 +77,27 @@ struct RigProvider {
   std::vector<devices::SensorSample> tick;
 };
 
+// Samples the sensors' true world positions over the motion (at most 10 minutes of it, at
+// 20 Hz) and places the transmitter where all of them stay in front of it.
+Result<sim::FlockPlacement> place_for_motion(const std::shared_ptr<const avatar::Motion>& motion, const sim::RigConfig& rc) {
+  sim::RigConfig survey;
+  survey.sensors = rc.sensors;
+  survey.rate_hz = 20.0;
+  auto rig = sim::SensorRig::create(motion, std::move(survey));
+  if (!rig) return tl::unexpected(rig.error());
+  std::vector<devices::SensorSample> tick(static_cast<size_t>(rig->sensor_count()));
+  std::vector<glm::vec3> positions;
+  const double span_s = std::min(motion->duration_s(), 600.0);
+  while (rig->next_device_time_s() <= span_s) {
+    rig->step(tick);
+    for (int i = 0; i < rig->sensor_count(); ++i) positions.push_back(rig->true_world_from_sensor(i).translation);
+  }
+  return sim::place_flock_transmitter(positions);
+}
+
 int run(const std::vector<std::string>& argv) {
   constexpr const char* kName = "sim flock";
-  Args args(argv, {"birds", "motion", "bvh", "baud", "seed", "log", "rate", "faults", "busy"}, {"ert"});
+  Args args(argv, {"birds", "motion", "bvh", "baud", "seed", "log", "rate", "faults", "busy"}, {"ert", "no-ert"});
   if (!args.ok()) return usage_error(kName, args.error());
   if (!args.positionals().empty()) return usage_error(kName, "unexpected argument '" + args.positionals()[0] + "'");
   long birds = 1, baud = 115200, seed = 1;
@@ -80,7 +105,8 @@ int run(const std::vector<std::string>& argv) {
   if (!args.get_int("birds", birds) || !args.get_int("baud", baud) || !args.get_int("seed", seed) ||
       !args.get_double("rate", rate) || !args.get_double("faults", faults) || !args.get_double("busy", busy))
     return usage_error(kName, args.error());
-  const bool ert = args.has("ert");
+  if (args.has("ert") && args.has("no-ert")) return usage_error(kName, "give --ert or --no-ert, not both");
+  bool ert = args.has("ert");
   if (birds < 1 || birds + (ert ? 1 : 0) > 14) return usage_error(kName, "--birds must be 1-14 (1-13 with --ert)");
   const long bauds[] = {2400, 4800, 9600, 19200, 38400, 57600, 115200};
   if (std::find(std::begin(bauds), std::end(bauds), baud) == std::end(bauds))
@@ -92,7 +118,6 @@ int run(const std::vector<std::string>& argv) {
 
   sim::VirtualFlockConfig cfg;
   cfg.birds = static_cast<int>(birds);
-  cfg.erc = ert;
   cfg.baud = static_cast<int>(baud);
   cfg.seed = static_cast<uint64_t>(seed);
   cfg.measurement_rate_hz = rate;
@@ -135,6 +160,21 @@ int run(const std::vector<std::string>& argv) {
     rc.sensors = std::move(mounts);
     rc.rate_hz = rate;
     rc.seed = static_cast<uint64_t>(seed);
+    auto placement = place_for_motion(motion, rc);
+    if (!placement) return failure(kName, placement.error().what());
+    world_from_transmitter = placement->world_from_transmitter;
+    if (!placement->fits_standard() && !args.has("ert") && !args.has("no-ert")) {
+      if (birds + 1 > 14) return usage_error(kName, "this motion needs --ert, which leaves room for 13 birds");
+      ert = true;
+      std::fprintf(stderr, "mimic sim flock: the motion spans %.2f m from the transmitter, beyond the standard\n"
+                           "  36 in range: serving with an extended range controller (--no-ert to refuse)\n",
+                   placement->needed_range_m);
+    }
+    if (!(ert ? placement->fits_extended() : placement->fits_standard()))
+      std::fprintf(stderr, "mimic sim flock: warning: the motion spans %.2f m from the transmitter, beyond the %s\n"
+                           "  range (%.2f m): some positions will saturate\n",
+                   placement->needed_range_m, ert ? "144 in" : "36 in",
+                   ert ? sim::kFlockExtendedRange_m : sim::kFlockStandardRange_m);
     rc.world_from_reference = world_from_transmitter;
     auto rig = sim::SensorRig::create(motion, std::move(rc));
     if (!rig) return failure(kName, rig.error().what());
@@ -149,6 +189,7 @@ int run(const std::vector<std::string>& argv) {
   } else {
     cfg.provider = sim::make_builtin_flock_motion(cfg.seed);
   }
+  cfg.erc = ert;
 
   // --log: every pose served, as the ground truth a driver's output can be compared with.
   std::unique_ptr<sim::LogWriter> log;
@@ -195,9 +236,23 @@ int run(const std::vector<std::string>& argv) {
   std::fprintf(stderr, "mimic sim flock: %ld %s at %ld baud%s, %s; open flock:%s?birds=%ld&baud=%ld%s\n", birds,
                birds == 1 ? "bird" : "birds", baud, ert ? " with ERC" : "", motion_what.c_str(),
                (*flock)->slave_path().c_str(), birds, baud, ert ? "&erc=1" : "");
-  while (!stop_requested()) std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  bool warned = false;
+  while (!stop_requested()) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    const sim::VirtualFlockStats st = (*flock)->stats();
+    if (!warned && (st.saturated_records > 0 || st.mirrored_records > 0)) {
+      warned = true;
+      std::fprintf(stderr, "mimic sim flock: warning: %s: a driver reads wrong positions (counts at exit)\n",
+                   st.saturated_records > 0 ? "sensors beyond the transmitter's range, positions pinned at full scale"
+                                            : "sensors behind the selected hemisphere, positions mirrored");
+    }
+  }
   (*flock)->stop();
   const sim::VirtualFlockStats st = (*flock)->stats();
+  if (st.saturated_records > 0 || st.mirrored_records > 0)
+    std::fprintf(stderr, "mimic sim flock: warning: %llu of %llu records saturated, %llu mirrored by the hemisphere\n",
+                 static_cast<unsigned long long>(st.saturated_records), static_cast<unsigned long long>(st.records_sent),
+                 static_cast<unsigned long long>(st.mirrored_records));
   std::fprintf(stderr, "mimic sim flock: %llu records, %llu commands (%llu invalid), %llu faults injected\n",
                static_cast<unsigned long long>(st.records_sent), static_cast<unsigned long long>(st.commands),
                static_cast<unsigned long long>(st.invalid_commands), static_cast<unsigned long long>(st.faults_injected));

@@ -22,9 +22,11 @@ constexpr const char* kSpaceballUsage =
     "                           [--faults P]\n"
     "\n"
     "Serves a virtual serial Spaceball on a new pseudo-terminal and prints its path as the\n"
-    "first line of stdout. It speaks the real protocol (docs/devices-spaceball.md): when a\n"
-    "program opens the port it powers up and, after --power-up seconds, sends XON and the\n"
-    "'@1 Spaceball alive and well' / '@2 Firmware version' banner; it answers @ (reset), hm,\n"
+    "first line of stdout. It speaks the real protocol (docs/devices-spaceball.md): it is a\n"
+    "device already plugged in and running, so a program that opens the port is answered at\n"
+    "once (with --power-up S, a cold start on every open: after S seconds it sends XON and the\n"
+    "'@1 Spaceball alive and well' / '@2 Firmware version' banner, ignoring commands until\n"
+    "then; @ resets it the same way after 1 s); it answers @ (reset), hm,\n"
     "\" (4000 FLX), k and %, echoes configuration commands, replies ?cmd to unknown ones, and\n"
     "sends D packets once enabled (MSS... on a 2003/3003, M on a 4000 FLX) and K / '.' packets\n"
     "when buttons change, paced at 9600 baud. The ball follows a smooth pattern set by --seed.\n"
@@ -36,7 +38,8 @@ constexpr const char* kSpaceballUsage =
     "  --log FILE      write every byte in and out: '<t_s> in|out <hex>' per chunk\n"
     "  --firmware V    firmware version to report, e.g. 2.42 (default per model)\n"
     "  --left-handed   4000 FLX handedness bit and descriptor say left-handed\n"
-    "  --power-up S    delay from port open to banner (default 2, as the hardware)\n"
+    "  --power-up S    cold start: power up on every open of the port, banner after S\n"
+    "                  seconds (the hardware takes about 2)\n"
     "  --period S      interval between D packets while the ball moves (default 0.03)\n"
     "  --faults P      probability per D packet of a line fault drawn from the seed: noise\n"
     "                  before it, a lost byte, or a corrupt ^ escape (default 0)\n"
@@ -104,6 +107,7 @@ int run_spaceball(const std::vector<std::string>& argv) {
     return usage_error(name, "--power-up must be >= 0 and --period > 0");
   }
   if (cfg.fault_rate < 0 || cfg.fault_rate > 1) return usage_error(name, "--faults must be in 0..1");
+  cfg.power_up_on_open = args.has("power-up");
   return serve(name, sim::start_virtual_spaceball(cfg, args.get_or("log", "")));
 }
 

@@ -118,11 +118,31 @@ void bone_message(OscWriter& w, std::string_view address, std::string_view name,
   w.end_message();
 }
 
+// Bytes a message takes inside a bundle: its size word, the padded address and type tags
+// (with the leading ','), and the arguments.
+size_t osc_string_bytes(size_t len) { return (len + 4) & ~size_t(3); }
+size_t message_bytes(std::string_view address, size_t tag_count, size_t args_bytes) {
+  return 4 + osc_string_bytes(address.size()) + osc_string_bytes(1 + tag_count) + args_bytes;
+}
+size_t bone_message_bytes(std::string_view address, std::string_view name) {
+  return message_bytes(address, 8, osc_string_bytes(name.size()) + 7 * 4);
+}
+
 }  // namespace
 
-void VmcEncoder::encode(const avatar::Pose& pose, double time_s, std::vector<uint8_t>& out) const {
+VmcBundles VmcEncoder::encode(const avatar::Pose& pose, double stream_time_s, std::vector<uint8_t>& out,
+                              size_t max_bundle_bytes) const {
   out.clear();
   OscWriter w(out);
+  VmcBundles bundles;
+  size_t bundle_start = 0;
+  // Closes the bundle in progress when `next` more bytes would take it over the limit.
+  auto room_for = [&](size_t next) {
+    if (out.size() - bundle_start + next <= max_bundle_bytes || bundles.count + 1 >= kVmcMaxBundles) return;
+    bundles.end[bundles.count++] = static_cast<uint32_t>(out.size());
+    bundle_start = out.size();
+    w.begin_bundle();
+  };
   w.begin_bundle();
   bone_message(w, "/VMC/Ext/Root/Pos", "root", glm::vec3(0), glm::quat(1, 0, 0, 0));
   const std::span<const float> dofs(pose.dof_rad);
@@ -139,28 +159,40 @@ void VmcEncoder::encode(const avatar::Pose& pose, double time_s, std::vector<uin
       const int nu = skeleton_.parent(b.joint);
       p = skeleton_.offset_m(nu) + skeleton_.offset_m(b.joint);
     }
+    room_for(bone_message_bytes("/VMC/Ext/Bone/Pos", b.unity_name));
     bone_message(w, "/VMC/Ext/Bone/Pos", b.unity_name, to_unity(p), to_unity(q));
   }
+  // OK and T together close the frame.
+  room_for(message_bytes("/VMC/Ext/OK", 1, 4) + message_bytes("/VMC/Ext/T", 1, 4));
   w.begin_message("/VMC/Ext/OK", "i");
   w.arg_int(1);
   w.end_message();
   w.begin_message("/VMC/Ext/T", "f");
-  w.arg_float(static_cast<float>(time_s));
+  w.arg_float(static_cast<float>(stream_time_s));
   w.end_message();
+  bundles.end[bundles.count++] = static_cast<uint32_t>(out.size());
+  return bundles;
 }
 
 struct VmcSender::Impl {
+  struct Avatar {
+    std::unique_ptr<VmcEncoder> encoder;
+    asio::ip::udp::endpoint dest;
+    double first_time_s = 0;
+    bool started = false;
+  };
   asio::io_context io{1};
   asio::ip::udp::socket sock{io};
-  asio::ip::udp::endpoint dest;
-  std::unique_ptr<VmcEncoder> encoder;
+  asio::ip::address addr;
+  uint16_t base_port = 0;
+  std::vector<Avatar> avatars;
   std::vector<uint8_t> buf;
 };
 
 VmcSender::VmcSender(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
 VmcSender::~VmcSender() = default;
 
-Result<std::unique_ptr<VmcSender>> VmcSender::open(const std::string& host_port, const avatar::Skeleton& skeleton) {
+Result<std::unique_ptr<VmcSender>> VmcSender::open(const std::string& host_port) {
   auto hp = split_host_port(host_port);
   if (!hp) return tl::unexpected(hp.error());
   auto impl = std::make_unique<Impl>();
@@ -172,20 +204,48 @@ Result<std::unique_ptr<VmcSender>> VmcSender::open(const std::string& host_port,
     if (ec || results.empty()) return fail(Errc::not_found, "cannot resolve '" + hp->first + "'");
     addr = results.begin()->endpoint().address();
   }
-  impl->dest = asio::ip::udp::endpoint(addr, hp->second);
-  impl->sock.open(impl->dest.protocol(), ec);
+  impl->addr = addr;
+  impl->base_port = hp->second;
+  impl->sock.open(addr.is_v4() ? asio::ip::udp::v4() : asio::ip::udp::v6(), ec);
   if (ec) return fail(Errc::io_error, "cannot open a UDP socket: " + ec.message());
   impl->sock.non_blocking(true, ec);
-  impl->encoder = std::make_unique<VmcEncoder>(skeleton);
   impl->buf.reserve(4096);
+  impl->avatars.reserve(64);
   return std::unique_ptr<VmcSender>(new VmcSender(std::move(impl)));
 }
 
-size_t VmcSender::send(const avatar::Pose& pose, double time_s) {
-  impl_->encoder->encode(pose, time_s, impl_->buf);
-  boost::system::error_code ec;
-  const size_t n = impl_->sock.send_to(asio::buffer(impl_->buf), impl_->dest, 0, ec);
-  return ec ? 0 : n;
+Status VmcSender::add_avatar(const avatar::Skeleton& skeleton) {
+  const size_t i = impl_->avatars.size();
+  if (i >= 64) return fail(Errc::out_of_range, "VMC: at most 64 avatars");
+  if (impl_->base_port + i > 65535)
+    return fail(Errc::out_of_range, "VMC: avatar " + std::to_string(i) + " would need port " +
+                                        std::to_string(impl_->base_port + i) + " (avatar i goes to port + i)");
+  Impl::Avatar a;
+  a.encoder = std::make_unique<VmcEncoder>(skeleton);
+  a.dest = asio::ip::udp::endpoint(impl_->addr, static_cast<uint16_t>(impl_->base_port + i));
+  impl_->avatars.push_back(std::move(a));
+  return {};
+}
+
+size_t VmcSender::avatar_count() const { return impl_->avatars.size(); }
+
+size_t VmcSender::send(size_t avatar, const avatar::Pose& pose, double capture_time_s) {
+  if (avatar >= impl_->avatars.size()) return 0;
+  Impl::Avatar& a = impl_->avatars[avatar];
+  if (!a.started) {
+    a.started = true;
+    a.first_time_s = capture_time_s;
+  }
+  const VmcBundles b = a.encoder->encode(pose, capture_time_s - a.first_time_s, impl_->buf);
+  size_t sent = 0, begin = 0;
+  for (size_t i = 0; i < b.count; ++i) {
+    boost::system::error_code ec;
+    const size_t n = impl_->sock.send_to(asio::buffer(impl_->buf.data() + begin, b.end[i] - begin), a.dest, 0, ec);
+    if (ec) return 0;
+    sent += n;
+    begin = b.end[i];
+  }
+  return sent;
 }
 
 }  // namespace mimic::net

@@ -18,6 +18,7 @@
 #include "mimic/net/frame_codec.h"
 #include "mimic/net/server.h"
 #include "mimic/net/vmc.h"
+#include "mimic/net/vrpn_server.h"
 #include "mimic/sim/open_source.h"
 #include "mimic/solver/body_solver.h"
 #include "mimic/solver/calibration.h"
@@ -225,6 +226,7 @@ class FkDeformer final : public Deformer {
 
 Status service_network(const PipelineOutputs& out, int idle_us) {
   if (out.server) out.server->poll();
+  if (out.vrpn) out.vrpn->poll();
   if (out.publisher)
     if (auto st = out.publisher->poll(); !st) return st;
   if (idle_us > 0) std::this_thread::sleep_for(std::chrono::microseconds(idle_us));
@@ -493,7 +495,14 @@ void Pipeline::tick() {
     if (out_.publisher && a.publisher_slot >= 0 &&
         !out_.publisher->publish_pose(static_cast<uint8_t>(a.publisher_slot), h, a.pose))
       send_failures_++;
-    if (out_.vmc && i == 0 && out_.vmc->send(a.pose, double(h.time_us) * 1e-6) == 0) send_failures_++;
+    if (out_.vmc && i < out_.vmc->avatar_count() && out_.vmc->send(i, a.pose, double(h.time_us) * 1e-6) == 0)
+      send_failures_++;
+    if (out_.vrpn && i < out_.vrpn->avatar_count()) {
+      const double t_s = double(h.time_us) * 1e-6;
+      out_.vrpn->send_pose(i, a.pose, t_s);
+      for (const auto& s : a.feed->latest_samples()) out_.vrpn->send_sample(i, s.sensor, s.position_m, s.orientation, t_s);
+      out_.vrpn->flush();
+    }
     const auto t4 = C::now();
     timers_[kStageSolve].add(us(t1, t2));
     timers_[kStageEncode].add(us(t2, t3));

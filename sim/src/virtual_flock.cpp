@@ -167,7 +167,12 @@ struct VirtualFlock::Impl {
     fl::Measurement m = fl::measurement_from_sample(s);
     // A magnetic tracker cannot tell a position from its mirror image: it reports the one in
     // the selected hemisphere.
-    if (!fl::in_hemisphere(u.hemisphere, m.position_in)) m.position_in = -m.position_in;
+    const bool mirrored = !fl::in_hemisphere(u.hemisphere, m.position_in);
+    if (mirrored) m.position_in = -m.position_in;
+    // Beyond full scale the position words pin at their limit (to_raw saturates them).
+    const double full_scale = fl::full_scale_in(range_of(u)) * (32764.0 / 32768.0);
+    const bool saturated = std::abs(m.position_in.x) > full_scale || std::abs(m.position_in.y) > full_scale ||
+                           std::abs(m.position_in.z) > full_scale;
     m.address = static_cast<uint8_t>(address);
     m.button = u.button_mode ? static_cast<uint8_t>(s.buttons & 0x70) : 0;
     const fl::RecordLayout layout{u.format, u.button_mode, group_mode && !standalone};
@@ -177,6 +182,8 @@ struct VirtualFlock::Impl {
     apply_faults(bytes);
     std::lock_guard lock(mu);
     ++stats.records_sent;
+    if (saturated) ++stats.saturated_records;
+    if (mirrored) ++stats.mirrored_records;
     return bytes;
   }
 

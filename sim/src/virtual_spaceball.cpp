@@ -51,9 +51,14 @@ SpaceballDevice::SpaceballDevice(VirtualSpaceballConfig config)
   if (cfg_.model == sb::Model::unknown) cfg_.model = sb::Model::sb2003;
   firmware_ = cfg_.firmware.empty() ? default_spaceball_firmware(cfg_.model) : cfg_.firmware;
   if (!cfg_.input) cfg_.input = default_input_pattern(cfg_.seed);
+  // Already plugged in: it powered up long before, and its banner went to a closed port.
+  if (!cfg_.power_up_on_open) {
+    power_up(0.0);
+    banner_pending_ = false;
+  }
 }
 
-void SpaceballDevice::host_opened(double now_s) {
+void SpaceballDevice::power_up(double now_s) {
   // Power-up: the firmware zeroes the ball, waits, then announces itself.
   enabled_ = false;
   line_.clear();
@@ -62,6 +67,14 @@ void SpaceballDevice::host_opened(double now_s) {
   banner_word_ = "poweron";
   power_on_s_ = now_s;
   buttons_ = 0;
+}
+
+void SpaceballDevice::host_opened(double now_s) {
+  if (cfg_.power_up_on_open) return power_up(now_s);
+  // A device that stays plugged in keeps running between opens: a banner that fell due while
+  // nobody had the port open (after a reset) was lost on the line.
+  line_.clear();
+  if (banner_pending_ && banner_at_s_ < now_s) banner_pending_ = false;
 }
 
 void SpaceballDevice::receive(std::span<const uint8_t> bytes, double now_s) {

@@ -165,30 +165,32 @@ TEST(CliRecordReplay, CtrlCLeavesACompleteLog) {
 }
 
 TEST(CliRecordReplay, RecordsAVirtualFlockThroughTheDriver) {
-  // `mimic sim flock` serves three birds on a pty (its first output line is the path);
-  // `mimic record --source flock:PATH` reads them with the real driver.
+  // `mimic sim flock` serves three birds on a pty (its first output line is the path; the walk
+  // needs the extended range controller, which it adds and announces on stderr);
+  // `mimic record --source flock:PATH?erc=1` reads them with the real driver.
   const std::string dir = work_dir();
   const std::string log = dir + "/flock.mlog", sim_out = dir + "/sim.txt";
   const ShellRun rec = run_shell(
       "M=" + mimic() + "; $M sim flock --birds 3 --motion walk --seed 2 --busy 0.05 >'" + sim_out +
-      "' 2>&1 & S=$!; for i in $(seq 50); do [ -s '" + sim_out + "' ] && break; sleep 0.1; done; P=$(head -1 '" +
-      sim_out + "'); $M record --source \"flock:$P?birds=3\" --duration 2 --out '" + log +
+      "' 2>/dev/null & S=$!; for i in $(seq 50); do [ -s '" + sim_out + "' ] && break; sleep 0.1; done; P=$(head -1 '" +
+      sim_out + "'); $M record --source \"flock:$P?birds=3&erc=1\" --duration 2 --out '" + log +
       "' --quiet; R=$?; kill -INT $S; wait $S; exit $R");
   ASSERT_EQ(rec.exit_code, 0) << rec.err;
   const ShellRun rep = run_shell(mimic() + " replay '" + log + "' --csv --speed 0");
   ASSERT_EQ(rep.exit_code, 0) << rep.err;
   const auto rows = parse_csv(rep.out);
-  int counts[4] = {};
+  int counts[5] = {};
   for (const auto& r : rows) {
-    ASSERT_GE(r.sensor, 1) << "FBB addresses start at 1";
-    ASSERT_LE(r.sensor, 3);
+    ASSERT_GE(r.sensor, 2) << "the ERC holds FBB address 1";
+    ASSERT_LE(r.sensor, 4);
     ++counts[r.sensor];
     const double qn = std::sqrt(r.v[3] * r.v[3] + r.v[4] * r.v[4] + r.v[5] * r.v[5] + r.v[6] * r.v[6]);
     EXPECT_NEAR(qn, 1.0, 1e-3);
-    for (int k = 0; k < 3; ++k) EXPECT_LE(std::abs(r.v[k]), 0.915) << "beyond the 36-inch range";
+    for (int k = 0; k < 3; ++k) EXPECT_LT(std::abs(r.v[k]), 3.65) << "pinned at the 144-inch range";
+    EXPECT_GE(r.v[2], 0.0) << "behind the transmitter (mirrored by the hemisphere)";
   }
   // About 103 records per second per bird once the driver has configured the flock.
-  for (int b = 1; b <= 3; ++b) EXPECT_GE(counts[b], 60) << "bird " << b;
+  for (int b = 2; b <= 4; ++b) EXPECT_GE(counts[b], 60) << "bird " << b;
   // The header names the birds the driver found.
   const ShellRun info = run_shell(mimic() + " replay '" + log + "' --speed 0");
   EXPECT_EQ(info.exit_code, 0) << info.err;
@@ -202,8 +204,8 @@ TEST(CliRecordReplay, RawFlockSessionReplaysThroughTheDriver) {
   const std::string log = dir + "/flock_raw.mlog", plain = dir + "/flock_plain.mlog", sim_out = dir + "/sim_raw.txt";
   const ShellRun rec = run_shell(
       "M=" + mimic() + "; $M sim flock --birds 2 --motion walk --seed 4 --busy 0.05 >'" + sim_out +
-      "' 2>&1 & S=$!; for i in $(seq 50); do [ -s '" + sim_out + "' ] && break; sleep 0.1; done; P=$(head -1 '" +
-      sim_out + "'); $M record --source \"flock:$P?birds=2\" --duration 1 --raw --out '" + log +
+      "' 2>/dev/null & S=$!; for i in $(seq 50); do [ -s '" + sim_out + "' ] && break; sleep 0.1; done; P=$(head -1 '" +
+      sim_out + "'); $M record --source \"flock:$P?birds=2&erc=1\" --duration 1 --raw --out '" + log +
       "' --quiet; R=$?; kill -INT $S; wait $S; exit $R");
   ASSERT_EQ(rec.exit_code, 0) << rec.err;
   EXPECT_NE(rec.err.find("raw bytes kept"), std::string::npos) << rec.err;

@@ -6,6 +6,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cmath>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
@@ -126,6 +127,76 @@ TEST(SimFlockCli, ExtendedRangeWithMotionAndLog) {
   decoder.feed(from_device, [&](const mimic::devices::flock::RawRecord&, size_t) { ++records; });
   EXPECT_GE(records, got.size());
   std::filesystem::remove(log);
+}
+
+// The documented walk travels a 1.2 m circle: the simulator places the transmitter behind it
+// and adds the extended range controller, so a driver reads every sensor in range and in the
+// forward hemisphere. Refusing the ERC (--no-ert) gets the saturation warning instead.
+TEST(SimFlockCli, WalkDefaultsKeepSensorsInRange) {
+  const std::string mimic = mimic::test::mimic_binary();
+  const auto log = std::filesystem::temp_directory_path() / ("mimic-flock-walk-" + std::to_string(::getpid()) + ".mlog");
+  Child sim({mimic, "sim", "flock", "--birds", "6", "--motion", "walk", "--busy", "0.05", "--log", log.string()}, true);
+  ASSERT_GT(sim.pid, 0);
+  std::string path, notes;
+  for (int i = 0; i < 10 && path.empty(); ++i) {
+    const std::string l = sim.line();
+    if (l.rfind("/dev/pts/", 0) == 0) path = l;
+    else notes += l + "\n";
+  }
+  ASSERT_FALSE(path.empty()) << notes;
+  EXPECT_NE(notes.find("extended range controller"), std::string::npos) << notes;
+  mimic::devices::FlockConfig cfg;
+  cfg.path = path;
+  cfg.birds = 6;
+  cfg.erc = true;
+  cfg.auto_config_wait = 150ms;
+  cfg.settle = 30ms;
+  mimic::devices::FlockSource flock(cfg);
+  auto started = flock.start();
+  ASSERT_TRUE(started) << started.error().what();
+  const auto got = collect(flock, 600);
+  ASSERT_GE(got.size(), 600u);
+  const double pinned_m = 144 * 0.0254 * 0.999;
+  for (const auto& s : got) {
+    EXPECT_GE(s.position_m.z, 0.0f);  // forward hemisphere: in front of the transmitter
+    for (int a = 0; a < 3; ++a) EXPECT_LT(std::abs(s.position_m[a]), pinned_m);
+  }
+  flock.stop();
+  ::kill(sim.pid, SIGINT);
+  const std::string rest = sim.rest();
+  EXPECT_EQ(sim.wait(), 0);
+  EXPECT_EQ(rest.find("warning"), std::string::npos) << rest;
+  // The ground truth served agrees: every pose within the 144 in range, in front.
+  auto contents = mimic::sim::read_log(log.string());
+  ASSERT_TRUE(contents) << contents.error().what();
+  ASSERT_FALSE(contents->samples.empty());
+  for (const auto& s : contents->samples) {
+    EXPECT_GE(s.position_m.z, 0.0f);
+    for (int a = 0; a < 3; ++a) EXPECT_LT(std::abs(s.position_m[a]), pinned_m);
+  }
+  std::filesystem::remove(log);
+
+  Child standard({mimic, "sim", "flock", "--birds", "6", "--motion", "walk", "--no-ert", "--busy", "0.05"}, true);
+  path.clear();
+  notes.clear();
+  for (int i = 0; i < 10 && path.empty(); ++i) {
+    const std::string l = standard.line();
+    if (l.rfind("/dev/pts/", 0) == 0) path = l;
+    else notes += l + "\n";
+  }
+  ASSERT_FALSE(path.empty()) << notes;
+  EXPECT_NE(notes.find("warning: the motion spans"), std::string::npos) << notes;
+  cfg.path = path;
+  cfg.erc = false;
+  mimic::devices::FlockSource flock36(cfg);
+  started = flock36.start();
+  ASSERT_TRUE(started) << started.error().what();
+  EXPECT_GE(collect(flock36, 300).size(), 300u);
+  flock36.stop();
+  ::kill(standard.pid, SIGINT);
+  const std::string summary = standard.rest();
+  EXPECT_EQ(standard.wait(), 0);
+  EXPECT_NE(summary.find("records saturated"), std::string::npos) << summary;
 }
 
 TEST(SimFlockCli, HelpAndBadOptions) {

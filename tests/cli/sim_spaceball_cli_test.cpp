@@ -1,12 +1,16 @@
 // End to end: `mimic sim spaceball` serves a virtual Spaceball on a pty; `mimic devices --read`
 // drives it with the real driver; `mimic devices` lists what is connected.
+#include <fcntl.h>
+#include <poll.h>
 #include <signal.h>
+#include <termios.h>
 #include <spawn.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -60,6 +64,46 @@ TEST(SimSpaceballCli, DriverReadsTheVirtualSpaceballEndToEnd) {
   EXPECT_EQ(sent.rfind(" 11 0d 40 31", 0), 0u) << sent.substr(0, 40);
   EXPECT_NE(sent.find(" 0d 44"), std::string::npos);
   std::filesystem::remove(log);
+}
+
+// By default the virtual Spaceball is a device that was already plugged in: a program that
+// opens the port (as spacenavd does, which gives up on a silent device) is answered at once,
+// on the first and on every later open.
+TEST(SimSpaceballCli, PluggedInByDefaultAnswersEveryOpenAtOnce) {
+  const std::string mimic = mimic::test::mimic_binary();
+  Child sim({mimic, "sim", "spaceball"});
+  ASSERT_GT(sim.pid, 0);
+  const std::string path = sim.line();
+  ASSERT_EQ(path.rfind("/dev/pts/", 0), 0u) << path;
+  for (int open_count = 0; open_count < 2; ++open_count) {
+    const int fd = ::open(path.c_str(), O_RDWR | O_NOCTTY);
+    ASSERT_GE(fd, 0);
+    termios tio{};
+    ASSERT_EQ(::tcgetattr(fd, &tio), 0);
+    ::cfmakeraw(&tio);
+    ::cfsetispeed(&tio, B9600);
+    ::cfsetospeed(&tio, B9600);
+    ASSERT_EQ(::tcsetattr(fd, TCSANOW, &tio), 0);
+    const auto opened = std::chrono::steady_clock::now();
+    ASSERT_EQ(::write(fd, "\"\r", 2), 2);
+    std::string got;
+    while (got.find("\"2") == std::string::npos &&
+           std::chrono::steady_clock::now() - opened < std::chrono::milliseconds(1500)) {
+      pollfd p{fd, POLLIN, 0};
+      if (::poll(&p, 1, 50) > 0) {
+        char buf[256];
+        const ssize_t n = ::read(fd, buf, sizeof buf);
+        if (n > 0) got.append(buf, static_cast<size_t>(n));
+      }
+    }
+    const double waited_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - opened).count();
+    ::close(fd);
+    EXPECT_NE(got.find("\"1 Spaceball 4000 FLX"), std::string::npos) << "open " << open_count << ": " << got;
+    EXPECT_EQ(got.find("alive and well"), std::string::npos) << got;  // no power-up banner
+    EXPECT_LT(waited_s, 1.0);  // not the 2 s of a cold start
+  }
+  ASSERT_EQ(::kill(sim.pid, SIGTERM), 0);
+  EXPECT_EQ(sim.wait(), 0);
 }
 
 TEST(SimSpaceballCli, UsageErrorsAndHelp) {

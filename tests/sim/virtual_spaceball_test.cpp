@@ -76,6 +76,7 @@ bool wait_until(const std::function<bool()>& pred, double timeout_s) {
 VirtualSpaceballConfig fast_config(sb::Model model) {
   VirtualSpaceballConfig c;
   c.model = model;
+  c.power_up_on_open = true;  // the byte-level tests start from a cold start
   c.power_up_delay_s = 0.1;
   c.reset_delay_s = 0.05;
   c.data_period_s = 0.02;
@@ -114,6 +115,52 @@ TEST(VirtualSpaceball, PowerUpBannerAfterDelay) {
   const std::string text(c.raw.begin(), c.raw.end());
   EXPECT_NE(text.find("@1 Spaceball alive and well after a poweron reset.\r\n@2 Firmware version 2.63"),
             std::string::npos);
+}
+
+// The default device was plugged in before the simulator started: a host that opens the port
+// is answered at once (spacenavd gives up on a device that ignores it for 2 s), there is no
+// banner, and reopening the port finds it as the last host left it.
+TEST(VirtualSpaceball, PluggedInDeviceAnswersAtOnceAndKeepsItsStateAcrossOpens) {
+  VirtualSpaceballConfig cfg;  // defaults: 4000 FLX, power_up_delay_s 2
+  cfg.input = [](double) { return constant_frame(); };
+  SpaceballDevice d(cfg);
+  Capture c;
+  c.t = 5.0;
+  d.host_opened(c.t);
+  host_sends(d, c, "\"\r");
+  run_to(d, c, 5.1);
+  EXPECT_TRUE(decoded(c, sb::PacketKind::banner).empty());
+  const std::string text(c.raw.begin(), c.raw.end());
+  EXPECT_NE(text.find("\"1 Spaceball"), std::string::npos) << text;  // the '"' reply, within 0.1 s
+  host_sends(d, c, "M\r");
+  run_to(d, c, 5.3);
+  EXPECT_TRUE(d.data_enabled());
+  EXPECT_FALSE(decoded(c, sb::PacketKind::displacement).empty());
+  d.host_closed(c.t);
+  d.host_opened(c.t + 1.0);
+  c.t += 1.0;
+  EXPECT_TRUE(d.data_enabled());  // still streaming: no power-up on open
+  const size_t before = decoded(c, sb::PacketKind::displacement).size();
+  run_to(d, c, c.t + 0.2);
+  EXPECT_GT(decoded(c, sb::PacketKind::displacement).size(), before);
+  EXPECT_TRUE(decoded(c, sb::PacketKind::banner).empty());
+}
+
+// --power-up: every open is a cold start, commands are ignored until the banner.
+TEST(VirtualSpaceball, ColdStartIgnoresCommandsUntilTheBanner) {
+  VirtualSpaceballConfig cfg;
+  cfg.power_up_on_open = true;
+  cfg.power_up_delay_s = 0.5;
+  SpaceballDevice d(cfg);
+  Capture c;
+  d.host_opened(0.0);
+  host_sends(d, c, "\"\r");
+  run_to(d, c, 0.4);
+  EXPECT_TRUE(c.raw.empty());
+  run_to(d, c, 0.9);
+  ASSERT_EQ(decoded(c, sb::PacketKind::banner).size(), 2u);
+  const std::string text(c.raw.begin(), c.raw.end());
+  EXPECT_EQ(text.find("\"1 Spaceball"), std::string::npos);  // the early command was ignored
 }
 
 TEST(VirtualSpaceball, NoDataUntilEnabledThenTrueIntervals) {

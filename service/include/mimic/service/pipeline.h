@@ -32,6 +32,7 @@ namespace mimic::net {
 class Server;
 class Client;
 class VmcSender;
+class VrpnServer;
 }  // namespace mimic::net
 
 namespace mimic::service {
@@ -69,8 +70,9 @@ class PoseFeed {
   // at the newest sample's last byte.
   virtual void solve(avatar::Pose& pose, double& capture_s, bool& stale) = 0;
   virtual devices::DeviceStatus status() const = 0;
-  // The newest sample of each sensor the last solve used (the source's reference frame), for
-  // viewers to draw; empty for feeds without sensors.
+  // The newest sample of every sensor as the last solve() used them (after the filters, in the
+  // source's reference frame), for viewers to draw and outputs that pass the trackers on; empty
+  // for feeds that do not solve from samples.
   virtual std::span<const devices::SensorSample> latest_samples() const { return {}; }
 };
 
@@ -127,7 +129,8 @@ bool set_realtime_priority(int priority);
 struct PipelineOutputs {
   net::Server* server = nullptr;     // host the scene here
   net::Client* publisher = nullptr;  // publish into a scene hosted elsewhere
-  net::VmcSender* vmc = nullptr;     // VMC/OSC output of the first avatar
+  net::VmcSender* vmc = nullptr;     // VMC/OSC output: avatar i to the sender's avatar i
+  net::VrpnServer* vrpn = nullptr;   // VRPN trackers: avatar i's joints and samples
 };
 
 // Between passes of the loop: handles what the network has for us without blocking, then sleeps

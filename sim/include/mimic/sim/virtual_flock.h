@@ -67,6 +67,12 @@ struct VirtualFlockConfig {
 
 struct VirtualFlockStats {
   uint64_t records_sent = 0;
+  // Records whose position lay beyond the range's full scale on some axis: the words pinned at
+  // the limit, as a real unit's do. A sensor too far from its transmitter.
+  uint64_t saturated_records = 0;
+  // Records whose position lay outside the selected hemisphere and went out mirrored through
+  // the transmitter (the Flock cannot tell the two apart).
+  uint64_t mirrored_records = 0;
   uint64_t commands = 0;
   uint64_t invalid_commands = 0;      // set error 6
   uint64_t dropped_while_busy = 0;    // bytes ignored during auto-configuration

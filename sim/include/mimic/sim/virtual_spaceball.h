@@ -1,5 +1,5 @@
 // A virtual serial Spaceball (2003, 3003 or 4000 FLX) speaking the real byte protocol
-// (docs/device-protocols.md §2, §5.6): power-up banner after the host opens the port, replies
+// (docs/device-protocols.md §2, §5.6): power-up banner (once, or on every open of the port), replies
 // to `@` reset, `hm`, `"`, `k` and `%` echo, echoes of configuration commands, `?cmd` for
 // unknown ones, D packets only once enabled (MSS… / M…) with the true interval in 1/16 ms, and
 // K / '.' packets on button changes. Commands that arrive while it boots (before the banner)
@@ -21,7 +21,13 @@ struct VirtualSpaceballConfig {
   devices::spaceball::Model model = devices::spaceball::Model::sb4000flx;
   std::string firmware;        // "2.42" style; empty: the model's usual version
   bool right_handed = true;    // 4000 FLX handedness bit and descriptor
-  double power_up_delay_s = 2.0;  // host opens the port → XON + banner
+  // false: a device that was already plugged in and running when the simulator started (its
+  // power-up banner went to a closed port long ago): a host that opens the port is answered at
+  // once, and finds it in whatever state the last host left it. true: a cold start on every
+  // open: the host opening the port powers it up and it ignores commands until its banner,
+  // power_up_delay_s later, as when the computer and the device are switched on together.
+  bool power_up_on_open = false;
+  double power_up_delay_s = 2.0;  // power-up → XON + banner
   double reset_delay_s = 1.0;     // `@` reset → banner
   double reply_delay_s = 0.003;   // command → reply
   double data_period_s = 0.03;    // D packets while enabled and the ball is deflected [?]
@@ -49,6 +55,7 @@ class SpaceballDevice final : public SerialDevice {
   uint64_t faults() const { return faults_; }
 
  private:
+  void power_up(double now_s);
   void command(std::string_view cmd, double now_s);
   void banner(const char* reset_word, double at_s);
   void reply(std::span<const uint8_t> body, double at_s);

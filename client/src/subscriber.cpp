@@ -1,0 +1,149 @@
+// The client library over net::Client: body model bytes → skeleton once per model, pose frames →
+// forward kinematics into the Avatar the callbacks see.
+#include <chrono>
+#include <map>
+#include <thread>
+
+#include "mimic/avatar/body_model.h"
+#include "mimic/avatar/skeleton.h"
+#include "mimic/client.h"
+#include "mimic/net/client.h"
+
+namespace mimic::client {
+
+namespace {
+
+Vec3 to_vec3(const glm::vec3& v) { return {v.x, v.y, v.z}; }
+Quat to_quat(const glm::quat& q) { return {q.x, q.y, q.z, q.w}; }
+
+// The skeleton the model describes; Mimic's default skeleton when the model is not a Mimic body
+// model but the DOF count fits it; none otherwise (the avatar then carries angles only).
+std::optional<avatar::Skeleton> skeleton_of(const net::RemoteAvatar& r) {
+  if (auto model = avatar::body_model_from_json(r.model_bytes, r.name))
+    if (auto s = avatar::Skeleton::build(model->skeleton); s && s->dof_count() == r.dof_count) return std::move(*s);
+  if (auto s = avatar::Skeleton::build(avatar::default_skeleton_desc()); s && s->dof_count() == r.dof_count)
+    return std::move(*s);
+  return std::nullopt;
+}
+
+}  // namespace
+
+struct Subscriber::Impl {
+  struct Entry {
+    Avatar view;
+    std::optional<avatar::Skeleton> skeleton;
+    std::vector<avatar::RigidTransform> world_from_joint;
+    uint32_t revision = 0;
+  };
+  std::unique_ptr<net::Client> client;
+  std::map<uint16_t, Entry> avatars;
+
+  Entry& model(const net::RemoteAvatar& r) {
+    Entry& e = avatars[r.id];
+    if (e.revision == r.revision && e.view.id == r.id && e.revision != 0) return e;
+    e.revision = r.revision;
+    e.skeleton = skeleton_of(r);
+    e.view = Avatar{};
+    e.view.id = r.id;
+    e.view.name = r.name;
+    e.view.dof_rad.assign(r.dof_count, 0.0f);
+    if (e.skeleton) {
+      const avatar::Skeleton& s = *e.skeleton;
+      for (int d = 0; d < s.dof_count(); ++d) e.view.dof_names.push_back(s.dof(d).name);
+      e.world_from_joint.resize(size_t(s.joint_count()));
+      avatar::forward_kinematics(s, s.rest_pose(), e.world_from_joint);
+      for (int j = 0; j < s.joint_count(); ++j)
+        e.view.joints.push_back({s.joint_name(j), s.parent(j), to_vec3(e.world_from_joint[size_t(j)].translation),
+                                 to_quat(e.world_from_joint[size_t(j)].rotation)});
+    }
+    return e;
+  }
+
+  void pose(const net::RemoteAvatar& r) {
+    Entry& e = model(r);
+    Avatar& v = e.view;
+    v.dof_rad.assign(r.pose.dof_rad.begin(), r.pose.dof_rad.end());
+    v.root_position_m = to_vec3(r.pose.root_position_m);
+    v.root_orientation = to_quat(r.pose.root_orientation);
+    v.sequence = r.last.sequence;
+    v.time_us = r.last.time_us;
+    v.stale = (r.last.flags & net::kPoseStale) != 0;
+    v.has_pose = true;
+    v.frames = r.frames;
+    v.lost = r.lost;
+    if (!e.skeleton || r.pose.dof_rad.size() != size_t(e.skeleton->dof_count())) return;
+    avatar::forward_kinematics(*e.skeleton, r.pose, e.world_from_joint);
+    for (size_t j = 0; j < v.joints.size(); ++j) {
+      v.joints[j].position_m = to_vec3(e.world_from_joint[j].translation);
+      v.joints[j].orientation = to_quat(e.world_from_joint[j].rotation);
+    }
+  }
+};
+
+Subscriber::Subscriber(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+Subscriber::~Subscriber() = default;
+
+std::unique_ptr<Subscriber> Subscriber::connect(const Options& options, std::string* error) {
+  net::ClientOptions o;
+  o.connect = options.server;
+  o.role = net::Role::subscriber;
+  o.name = options.name;
+  o.udp = options.udp;
+  o.connect_timeout_s = options.connect_timeout_s;
+  auto c = net::Client::connect(o);
+  if (!c) {
+    if (error) *error = c.error().what();
+    return nullptr;
+  }
+  auto impl = std::make_unique<Impl>();
+  impl->client = std::move(*c);
+  std::unique_ptr<Subscriber> s(new Subscriber(std::move(impl)));
+  Subscriber* self = s.get();
+  self->impl_->client->on_model = [self](const net::RemoteAvatar& r) {
+    self->impl_->avatars.erase(r.id);  // a new revision: rebuild
+    const auto& e = self->impl_->model(r);
+    if (self->on_avatar) self->on_avatar(e.view);
+  };
+  self->impl_->client->on_pose = [self](const net::RemoteAvatar& r, uint64_t) {
+    self->impl_->pose(r);
+    if (self->on_frame) self->on_frame(self->impl_->avatars[r.id].view);
+  };
+  self->impl_->client->on_removed = [self](uint16_t id) {
+    self->impl_->avatars.erase(id);
+    if (self->on_removed) self->on_removed(id);
+  };
+  return s;
+}
+
+bool Subscriber::poll(std::string* error) {
+  if (auto st = impl_->client->poll(); !st) {
+    if (error) *error = st.error().what();
+    return false;
+  }
+  return true;
+}
+
+bool Subscriber::run_for(double seconds, std::string* error) {
+  const auto until = std::chrono::steady_clock::now() + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                                                            std::chrono::duration<double>(seconds));
+  if (auto st = impl_->client->run_until(until); !st) {
+    if (error) *error = st.error().what();
+    return false;
+  }
+  return true;
+}
+
+std::vector<uint16_t> Subscriber::avatar_ids() const {
+  std::vector<uint16_t> ids;
+  for (const auto& [id, e] : impl_->avatars) ids.push_back(id);
+  return ids;
+}
+
+const Avatar* Subscriber::avatar(uint16_t id) const {
+  auto it = impl_->avatars.find(id);
+  return it == impl_->avatars.end() ? nullptr : &it->second.view;
+}
+
+const char* version() { return MIMIC_VERSION; }
+
+}  // namespace mimic::client
