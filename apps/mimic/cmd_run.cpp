@@ -41,12 +41,15 @@ const char* kUsage =
     "  --calibration FILE  sensor calibration of the preceding --source (from mimic calibrate):\n"
     "                      the wearer's fitted skeleton and sensor offsets. Without it, simulated\n"
     "                      sources use their exact mounts, trackers the standard layout's placements\n"
-    "  --listen ADDR:PORT  where to serve (default 127.0.0.1:7777; port 0 picks one). Any\n"
+    "  --listen ADDR:PORT  where to serve (default 127.0.0.1:7777; port 0 picks one; localhost\n"
+    "                      is 127.0.0.1). Any\n"
     "                      non-loopback address requires --secret. Subscribers may take their\n"
     "                      pose frames as UDP datagrams from the same port (mimic subscribe --udp)\n"
     "  --no-udp            frames over TCP only (no UDP socket; subscribers asking for UDP are\n"
     "                      told so in the handshake and get their frames on the stream)\n"
-    "  --secret S          shared secret publishers must present (also MIMIC_SECRET)\n"
+    "  --secret S          shared secret publishers must present. On the command line it shows\n"
+    "                      in 'ps' to every user of this machine: prefer the MIMIC_SECRET\n"
+    "                      environment variable\n"
     "  --publish HOST:PORT do not host: publish the avatars into the scene served there\n"
     "  --vmc HOST:PORT     also send the first avatar as VMC (OSC over UDP), e.g. 127.0.0.1:39539\n"
     "  --mesh-lod L        skin level of detail deformed every frame and offered as mesh frames\n"
@@ -235,7 +238,11 @@ int run(const std::vector<std::string>& argv) {
                      {"frames_dropped", st.frames_dropped}, {"bytes_out", st.bytes_out},
                      {"rejected", st.rejected_total()}, {"resumed", st.resumed},
                      {"udp", server->udp()},            {"udp_registered", st.udp_registered},
-                     {"udp_frames_out", st.udp_frames_out}};
+                     {"udp_frames_out", st.udp_frames_out}, {"udp_challenges", st.udp_challenges},
+                     {"udp_wrong_address", st.udp_wrong_address}, {"udp_expired", st.udp_expired},
+                     {"sessions_open", st.sessions_open}, {"sessions_timed_out", st.sessions_timed_out},
+                     {"sessions_refused_per_address", st.sessions_refused_per_address},
+                     {"sessions_closed_slow", st.sessions_closed_slow}, {"model_bytes_held", st.model_bytes_held}};
       for (int r = 1; r < net::kRejectCount; ++r)
         if (st.rejected[size_t(r)]) j["server"]["rejected_by_reason"][net::reject_name(net::Reject(r))] = st.rejected[size_t(r)];
     }

@@ -21,7 +21,9 @@ const char* kUsage =
     "--json only a summary object at the end:\n"
     "  frames, avatars, fps, latency_ms_p50, latency_ms_p99, lost, out_of_order, model_bytes,\n"
     "  frame_bytes_mean, mesh_frames, reconnects, duration_s, transport, udp_frames\n"
-    "Latency is the frame's capture time (sender's clock) to its arrival here.\n"
+    "Latency is the frame's capture time (sender's clock) to its arrival here; fps is the rate\n"
+    "frames were captured at (their timestamps), not how fast they happened to arrive.\n"
+    "Names and server messages are printed with control characters escaped (\\xNN).\n"
     "\n"
     "options:\n"
     "  --connect HOST:PORT  the scene (default 127.0.0.1:7777)\n"
@@ -62,7 +64,7 @@ int subscribe(const std::vector<std::string>& argv) {
   if (lod >= 0) o.mesh_lod = static_cast<uint8_t>(lod);
   o.udp = a.has("udp");
   auto c = net::Client::connect(o);
-  if (!c) return failure("subscribe", c.error().what());
+  if (!c) return failure("subscribe", net::printable(c.error().what()));
   net::Client& client = **c;
   if (o.udp && !(client.negotiated_capabilities() & net::kCapUdpPose))
     std::fprintf(stderr, "subscribe: the server offers no UDP; pose frames come over TCP\n");
@@ -70,11 +72,12 @@ int subscribe(const std::vector<std::string>& argv) {
   using C = std::chrono::steady_clock;
   std::vector<double> latency_ms;
   latency_ms.reserve(1 << 16);
-  C::time_point first{}, last{};
   uint64_t frames = 0;
+  uint64_t first_capture_us = 0, last_capture_us = 0;  // sender's clock
   client.on_model = [&](const net::RemoteAvatar& m) {
     if (!json)
-      std::printf("model avatar=%u name=%s dofs=%u revision=%u bytes=%zu\n", m.id, m.name.c_str(), m.dof_count,
+      // Names come from other peers: escaped, they cannot drive this terminal.
+      std::printf("model avatar=%u name=%s dofs=%u revision=%u bytes=%zu\n", m.id, net::printable(m.name).c_str(), m.dof_count,
                   m.revision, m.model_bytes.size());
   };
   client.on_removed = [&](uint16_t id) {
@@ -83,8 +86,8 @@ int subscribe(const std::vector<std::string>& argv) {
   client.on_pose = [&](const net::RemoteAvatar& m, uint64_t now_us) {
     const double lat = (double(now_us) - double(m.last.time_us)) * 1e-3;
     latency_ms.push_back(lat);
-    last = C::now();
-    if (frames++ == 0) first = last;
+    last_capture_us = m.last.time_us;
+    if (frames++ == 0) first_capture_us = m.last.time_us;
     if (!json)
       std::printf("pose avatar=%u seq=%u latency_ms=%.3f root=(%.3f %.3f %.3f)%s\n", m.id, m.last.sequence, lat,
                   m.pose.root_position_m.x, m.pose.root_position_m.y, m.pose.root_position_m.z,
@@ -99,7 +102,9 @@ int subscribe(const std::vector<std::string>& argv) {
     if (!st) break;
   }
   const auto& s = client.stats();
-  const double span = std::chrono::duration<double>(last - first).count();
+  // The rate frames were captured at, by their own timestamps: frames that arrive in a burst
+  // (a backlog after a stall, a resume) do not make it look faster than the source.
+  const double span = last_capture_us > first_capture_us ? double(last_capture_us - first_capture_us) * 1e-6 : 0.0;
   if (json) {
     nlohmann::json j;
     j["frames"] = frames;
@@ -120,7 +125,7 @@ int subscribe(const std::vector<std::string>& argv) {
     std::printf("%s\n", j.dump().c_str());
   }
   client.close();
-  if (!st) return failure("subscribe", st.error().what());
+  if (!st) return failure("subscribe", net::printable(st.error().what()));
   return 0;
 }
 

@@ -225,6 +225,10 @@ TEST(RunSubscribe, HelpIsComplete) {
   ASSERT_EQ(run.wait(10.0), 0);
   for (const char* opt : {"--source", "--body", "--listen", "--secret", "--publish", "--vmc", "--duration", "--json"})
     EXPECT_NE(run.out().find(opt), std::string::npos) << opt;
+  // A secret on the command line is visible to every user: the help says so and names the
+  // environment variable to use instead.
+  EXPECT_NE(run.out().find("'ps'"), std::string::npos);
+  EXPECT_NE(run.out().find("prefer the MIMIC_SECRET"), std::string::npos);
   Proc sub({"subscribe", "--help"});
   ASSERT_EQ(sub.wait(10.0), 0);
   for (const char* opt : {"--connect", "--count", "--json", "latency_ms_p99", "frame_bytes_mean"})
