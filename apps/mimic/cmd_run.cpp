@@ -166,6 +166,10 @@ int run(const std::vector<std::string>& argv) {
   for (const auto& [spec, body, calibration] : sources) {
     auto feed = open_feed(spec, calibration);
     if (!feed) return failure("run", feed.error().what());
+    // A source that opened with a problem (e.g. a replayed log with damage) says so up front:
+    // otherwise it would play what it can and then fall silent without a word.
+    if (const std::string problem = (*feed)->status().last_error; !problem.empty())
+      std::fprintf(stderr, "mimic run: source %s: %s\n", spec.c_str(), problem.c_str());
     auto asset = load_body(body);
     if (!asset) return failure("run", asset.error().what());
     auto deformer = make_skin_deformer(asset->model, (*feed)->skeleton(), int(mesh_lod));
