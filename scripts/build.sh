@@ -5,6 +5,8 @@ cd "$(dirname "$0")/.."
 type=${MIMIC_BUILD_TYPE:-Release}
 gen=()
 command -v ninja >/dev/null && gen=(-G Ninja)
+# ccache, when installed, makes rebuilds from a clean checkout cheap (not a dependency).
+command -v ccache >/dev/null && gen+=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache)
 if [ ! -f build/CMakeCache.txt ]; then
   cmake -S . -B build "${gen[@]}" -DCMAKE_BUILD_TYPE="$type" "$@"
 else

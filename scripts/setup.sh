@@ -13,6 +13,7 @@ packages=(
   libglfw3-dev libgl-dev           # viewer
   libgtest-dev libgmock-dev googletest libbenchmark-dev
   xvfb liblo-tools                 # viewer under a virtual display; OSC peer for interop tests
+  clang libclang-rt-14-dev         # the second compiler CI builds with; libFuzzer and sanitizers
 )
 
 missing=()

@@ -228,6 +228,8 @@ int run(const std::vector<std::string>& argv) {
     j["frames"] = pipeline.frames();
     j["fps"] = double(pipeline.frames()) / std::max(elapsed, 1e-9) / double(std::max<size_t>(1, pipeline.avatar_count()));
     j["send_failures"] = pipeline.send_failures();
+    j["silent_sources"] = pipeline.silent_sources();  // their last pose repeats, flagged stale
+    j["stale_frames"] = pipeline.stale_frames();
     j["loop_allocations"] = loop_allocations;
     j["model_bytes"] = model_bytes_total;
     for (int s = 0; s < kStageCount; ++s) {
@@ -282,6 +284,9 @@ int run(const std::vector<std::string>& argv) {
       last_status = C::now();
       next_status = last_status + std::chrono::milliseconds(500);
       int n = std::snprintf(line, sizeof line, "\r%zu avatar(s) %6.1f fps", pipeline.avatar_count(), fps);
+      if (pipeline.silent_sources() > 0)
+        n += std::snprintf(line + n, sizeof line - size_t(n), " | %zu source(s) SILENT: sending stale",
+                           pipeline.silent_sources());
       if (server) {
         const auto& st = server->stats();
         n += std::snprintf(line + n, sizeof line - size_t(n), " | subs %llu drop %llu rej %llu",

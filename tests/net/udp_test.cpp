@@ -227,7 +227,12 @@ TEST(UdpPoses, AStalledStreamDoesNotHoldBackDatagrams) {
 
 TEST(UdpPoses, ResumedSubscriberRegistersItsAddressAgain) {
   ServerThread st;
-  auto [pub, sub, slot] = registered_pair(st);
+  // Named references, not a structured binding: lambdas below capture them (Clang 14 cannot
+  // capture structured bindings).
+  RegisteredPair pair = registered_pair(st);
+  auto& pub = pair.pub;
+  auto& sub = pair.sub;
+  auto& slot = pair.slot;
   ASSERT_TRUE(pub && sub && slot);
   publish_range(*pub, *slot, 1, 10, {sub.get()});
   sub->drop_connection();
@@ -259,7 +264,12 @@ TEST(UdpPoses, WithoutUdpOnTheServerFramesStayOnTcp) {
 
 TEST(UdpPoses, HostileDatagramsAreCountedAndOnlyKnownTokensAnswered) {
   ServerThread st;
-  auto [pub, sub, slot] = registered_pair(st);
+  // Named references, not a structured binding: lambdas below capture them (Clang 14 cannot
+  // capture structured bindings).
+  RegisteredPair pair = registered_pair(st);
+  auto& pub = pair.pub;
+  auto& sub = pair.sub;
+  auto& slot = pair.slot;
   ASSERT_TRUE(pub && sub && slot);
   const uint64_t before = st.stats().udp_datagrams_in;
 
