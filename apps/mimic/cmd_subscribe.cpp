@@ -1,5 +1,6 @@
 // mimic subscribe: joins a scene as a viewer and prints what arrives.
 #include <algorithm>
+#include <map>
 #include <chrono>
 #include <cstdio>
 #include <vector>
@@ -21,8 +22,8 @@ const char* kUsage =
     "--json only a summary object at the end:\n"
     "  frames, avatars, fps, latency_ms_p50, latency_ms_p99, lost, out_of_order, model_bytes,\n"
     "  frame_bytes_mean, mesh_frames, reconnects, duration_s, transport, udp_frames\n"
-    "Latency is the frame's capture time (sender's clock) to its arrival here; fps is the rate\n"
-    "frames were captured at (their timestamps), not how fast they happened to arrive.\n"
+    "Latency is the frame's capture time (sender's clock) to its arrival here; fps is per avatar,\n"
+    "the rate its frames were captured at (their timestamps), not how fast they happened to arrive.\n"
     "Names and server messages are printed with control characters escaped (\\xNN).\n"
     "\n"
     "options:\n"
@@ -73,7 +74,11 @@ int subscribe(const std::vector<std::string>& argv) {
   std::vector<double> latency_ms;
   latency_ms.reserve(1 << 16);
   uint64_t frames = 0;
-  uint64_t first_capture_us = 0, last_capture_us = 0;  // sender's clock
+  // Per avatar: frames and the capture times (sender's clock) of the first and the last.
+  struct Rate {
+    uint64_t frames = 0, first_us = 0, last_us = 0;
+  };
+  std::map<uint16_t, Rate> rates;
   client.on_model = [&](const net::RemoteAvatar& m) {
     if (!json)
       // Names come from other peers: escaped, they cannot drive this terminal.
@@ -86,8 +91,10 @@ int subscribe(const std::vector<std::string>& argv) {
   client.on_pose = [&](const net::RemoteAvatar& m, uint64_t now_us) {
     const double lat = (double(now_us) - double(m.last.time_us)) * 1e-3;
     latency_ms.push_back(lat);
-    last_capture_us = m.last.time_us;
-    if (frames++ == 0) first_capture_us = m.last.time_us;
+    frames++;
+    Rate& r = rates[m.id];
+    if (r.frames++ == 0) r.first_us = m.last.time_us;
+    r.last_us = m.last.time_us;
     if (!json)
       std::printf("pose avatar=%u seq=%u latency_ms=%.3f root=(%.3f %.3f %.3f)%s\n", m.id, m.last.sequence, lat,
                   m.pose.root_position_m.x, m.pose.root_position_m.y, m.pose.root_position_m.z,
@@ -104,12 +111,22 @@ int subscribe(const std::vector<std::string>& argv) {
   const auto& s = client.stats();
   // The rate frames were captured at, by their own timestamps: frames that arrive in a burst
   // (a backlog after a stall, a resume) do not make it look faster than the source.
-  const double span = last_capture_us > first_capture_us ? double(last_capture_us - first_capture_us) * 1e-6 : 0.0;
+  // Frames per second per avatar, at the rate they were captured (their timestamps), averaged
+  // over the avatars: frames that arrive in a burst (the latest pose of every avatar on joining,
+  // a backlog after a stall) do not make the source look faster than it is.
+  double fps = 0;
+  size_t timed = 0;
+  for (const auto& [id, r] : rates) {
+    if (r.frames < 2 || r.last_us <= r.first_us) continue;
+    fps += double(r.frames - 1) / (double(r.last_us - r.first_us) * 1e-6);
+    timed++;
+  }
+  if (timed > 0) fps /= double(timed);
   if (json) {
     nlohmann::json j;
     j["frames"] = frames;
     j["avatars"] = client.avatars().size();
-    j["fps"] = frames > 1 && span > 0 ? double(frames - 1) / span : 0.0;
+    j["fps"] = fps;
     j["latency_ms_p50"] = percentile(latency_ms, 0.50);
     j["latency_ms_p99"] = percentile(latency_ms, 0.99);
     j["lost"] = s.lost;

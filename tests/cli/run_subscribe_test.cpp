@@ -213,6 +213,16 @@ TEST(RunSubscribe, SeveralAvatarsAndARemotePublisher) {
   EXPECT_EQ(j["avatars"], 3);  // two hosted, one published from the second process
   EXPECT_EQ(j["models"], 3);
   EXPECT_EQ(j["lost"], 0);
+  // fps is per avatar and by capture time: the sources' rate, whatever the arrival pattern.
+  EXPECT_GT(j["fps"].get<double>(), 20.0);
+  EXPECT_LT(j["fps"].get<double>(), 200.0);
+  // A subscriber that stops after the burst on joining (the latest pose of every avatar, all
+  // at once) does not report millions of frames per second.
+  Proc burst({"subscribe", "--connect", ep, "--count", "3", "--json"});
+  ASSERT_EQ(burst.wait(15.0), 0) << burst.err();
+  const auto b = last_json(burst.out());
+  ASSERT_FALSE(b.is_discarded()) << burst.out();
+  EXPECT_LT(b["fps"].get<double>(), 200.0) << burst.out();
 }
 
 TEST(RunSubscribe, RefusesToExposeTheSceneWithoutASecret) {
