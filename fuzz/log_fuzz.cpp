@@ -21,7 +21,8 @@ void check(const std::uint8_t* data, std::size_t size) {
     if (log.error().message.empty()) std::abort();
     return;
   }
-  if (log->complete == log->damage.has_value()) std::abort();
+  if (!log->complete && !log->damage) std::abort();  // (a complete log may have resynchronised damage)
+  if (log->damage.has_value() != !log->damages.empty()) std::abort();
   if (log->damage && log->damage->byte_offset > size) std::abort();
 
   std::vector<std::uint8_t> again;

@@ -22,7 +22,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   MeshFrameHeader mesh_header;
   std::vector<glm::vec3> positions;
   uint16_t avatar = 0;
-  uint64_t token = 0;
+  UdpRegister token;
   std::vector<SceneEntry> scene;
   for (const auto& piece : pieces) {
     const size_t n = piece[1] - piece[0];

@@ -16,6 +16,7 @@ packages=(
   libimgui-dev libpng-dev          # viewer: overlays and panels (Dear ImGui), screenshots (PNG)
   libgtest-dev libgmock-dev googletest libbenchmark-dev
   xvfb liblo-tools                 # viewer under a virtual display; OSC peer for interop tests
+  clang libclang-rt-14-dev         # the second compiler CI builds with; libFuzzer and sanitizers
 )
 
 missing=()

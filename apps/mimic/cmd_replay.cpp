@@ -49,14 +49,24 @@ constexpr const char* kUsage =
     "              then the stream, at the recorded pace) and check that it decodes the\n"
     "              recorded samples again; prints the comparison (--json: one JSON object with\n"
     "              chunks, bytes, samples_recorded, samples_decoded, identical, first_difference).\n"
-    "              Exit status 1 when the samples differ\n"
+    "              Exit status 1 when the samples differ, or when the log is damaged\n"
     "\n"
-    "A damaged or truncated log is replayed up to the damage; then the byte offset and record\n"
-    "where it stopped are reported on stderr and the exit status is 1 (every good sample before\n"
-    "it has been output). Exit status 2 on bad usage or when FILE is not a readable log.\n";
+    "A damaged or truncated log is replayed around the damage: the reader skips to the next good\n"
+    "record, so every good sample before and after is output. Each damaged stretch (byte offset,\n"
+    "record, bytes skipped) and the samples lost are reported on stderr and the exit status is 1.\n"
+    "Exit status 2 on bad usage or when FILE is not a readable log.\n";
 
 
 // Same sensor, position and orientation, bit for bit (times differ: the host stamps them).
+// Every damaged stretch of `log`, one line each, and what it cost; nothing for a sound log.
+void report_damage(const std::string& path, const sim::LogContents& log) {
+  for (const auto& d : log.damages) std::fprintf(stderr, "mimic replay: %s: damaged log, %s\n", path.c_str(), d.what().c_str());
+  if (log.damage)
+    std::fprintf(stderr, "mimic replay: %s: %zu good samples kept, %llu bytes skipped%s\n", path.c_str(), log.samples.size(),
+                 static_cast<unsigned long long>(log.bytes_skipped),
+                 log.complete ? (", " + std::to_string(log.samples_lost) + " samples lost").c_str() : "");
+}
+
 bool same_sample(const devices::SensorSample& a, const devices::SensorSample& b) {
   return a.sensor == b.sensor && a.position_m == b.position_m && a.orientation.w == b.orientation.w &&
          a.orientation.x == b.orientation.x && a.orientation.y == b.orientation.y && a.orientation.z == b.orientation.z;
@@ -121,7 +131,9 @@ int replay_through_driver(const std::string& path, bool json) {
                      {"samples_decoded", decoded.size()},
                      {"identical", identical},
                      {"first_difference", first_difference == SIZE_MAX ? nlohmann::json(nullptr) : nlohmann::json(first_difference)},
-                     {"error", error}};
+                     {"error", error},
+                     {"damaged", log->damage.has_value()}};
+    if (log->damage) j["damage"] = log->damage->what();
     std::printf("%s\n", j.dump().c_str());
   } else {
     std::fprintf(stderr, "the driver decoded %zu samples; the recording has %zu; %zu identical%s\n", decoded.size(),
@@ -130,7 +142,9 @@ int replay_through_driver(const std::string& path, bool json) {
       std::fprintf(stderr, "first difference at sample %zu (sensor %u)\n", first_difference, log->samples[first_difference].sensor);
     if (!error.empty()) std::fprintf(stderr, "mimic replay: %s\n", error.c_str());
   }
-  return all_same ? 0 : 1;
+  // A damaged recording cannot vouch for the driver, whatever matched.
+  report_damage(path, *log);
+  return all_same && !log->damage ? 0 : 1;
 }
 
 int run(const std::vector<std::string>& argv) {
@@ -209,12 +223,8 @@ int run(const std::vector<std::string>& argv) {
   if (!csv && !args.has("quiet"))
     std::fprintf(stderr, "replayed %llu samples in %.2f s%s\n", static_cast<unsigned long long>(total),
                  clock->now_s() - start, stop_requested() ? " (interrupted)" : "");
-  if (log.damage) {
-    std::fprintf(stderr, "mimic replay: %s: damaged log, %s; %zu good samples before it\n", path.c_str(),
-                 log.damage->what().c_str(), log.samples.size());
-    return 1;
-  }
-  return 0;
+  report_damage(path, log);
+  return log.damage ? 1 : 0;
 }
 
 }  // namespace

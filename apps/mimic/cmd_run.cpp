@@ -55,12 +55,15 @@ const char* kUsage =
     "  --calibration FILE  sensor calibration of the preceding --source (from mimic calibrate):\n"
     "                      the wearer's fitted skeleton and sensor offsets. Without it, simulated\n"
     "                      sources use their exact mounts, trackers the standard layout's placements\n"
-    "  --listen ADDR:PORT  where to serve (default 127.0.0.1:7777; port 0 picks one). Any\n"
+    "  --listen ADDR:PORT  where to serve (default 127.0.0.1:7777; port 0 picks one; localhost\n"
+    "                      is 127.0.0.1). Any\n"
     "                      non-loopback address requires --secret. Subscribers may take their\n"
     "                      pose frames as UDP datagrams from the same port (mimic subscribe --udp)\n"
     "  --no-udp            frames over TCP only (no UDP socket; subscribers asking for UDP are\n"
     "                      told so in the handshake and get their frames on the stream)\n"
-    "  --secret S          shared secret publishers must present (also MIMIC_SECRET)\n"
+    "  --secret S          shared secret publishers must present. On the command line it shows\n"
+    "                      in 'ps' to every user of this machine: prefer the MIMIC_SECRET\n"
+    "                      environment variable\n"
     "  --publish HOST:PORT do not host: publish the avatars into the scene served there\n"
     "  --vmc HOST:PORT     also send every avatar as VMC (OSC over UDP), e.g. 127.0.0.1:39539;\n"
     "                      avatar i (counting from 0) goes to PORT + i\n"
@@ -241,6 +244,10 @@ int run(const std::vector<std::string>& argv) {
     } else {
       feed = open_feed(spec, calibration);
       if (!feed) return failure("run", feed.error().what());
+      // A source that opened with a problem (e.g. a replayed log with damage) says so up front:
+      // otherwise it would play what it can and then fall silent without a word.
+      if (const std::string problem = (*feed)->status().last_error; !problem.empty())
+        std::fprintf(stderr, "mimic run: source %s: %s\n", spec.c_str(), problem.c_str());
       std::unique_ptr<devices::InputSource> navigator;
       NavigationOptions navigation;
       if (!navigate_text.empty()) {
@@ -325,6 +332,8 @@ int run(const std::vector<std::string>& argv) {
     j["frames"] = pipeline.frames();
     j["fps"] = double(pipeline.frames()) / std::max(elapsed, 1e-9) / double(std::max<size_t>(1, pipeline.avatar_count()));
     j["send_failures"] = pipeline.send_failures();
+    j["silent_sources"] = pipeline.silent_sources();  // their last pose repeats, flagged stale
+    j["stale_frames"] = pipeline.stale_frames();
     j["loop_allocations"] = loop_allocations;
     j["model_bytes"] = model_bytes_total;
     for (int s = 0; s < kStageCount; ++s) {
@@ -345,7 +354,11 @@ int run(const std::vector<std::string>& argv) {
                      {"frames_dropped", st.frames_dropped}, {"bytes_out", st.bytes_out},
                      {"rejected", st.rejected_total()}, {"resumed", st.resumed},
                      {"udp", server->udp()},            {"udp_registered", st.udp_registered},
-                     {"udp_frames_out", st.udp_frames_out}};
+                     {"udp_frames_out", st.udp_frames_out}, {"udp_challenges", st.udp_challenges},
+                     {"udp_wrong_address", st.udp_wrong_address}, {"udp_expired", st.udp_expired},
+                     {"sessions_open", st.sessions_open}, {"sessions_timed_out", st.sessions_timed_out},
+                     {"sessions_refused_per_address", st.sessions_refused_per_address},
+                     {"sessions_closed_slow", st.sessions_closed_slow}, {"model_bytes_held", st.model_bytes_held}};
       for (int r = 1; r < net::kRejectCount; ++r)
         if (st.rejected[size_t(r)]) j["server"]["rejected_by_reason"][net::reject_name(net::Reject(r))] = st.rejected[size_t(r)];
     }
@@ -381,6 +394,9 @@ int run(const std::vector<std::string>& argv) {
       last_status = C::now();
       next_status = last_status + std::chrono::milliseconds(500);
       int n = std::snprintf(line, sizeof line, "\r%zu avatar(s) %6.1f fps", pipeline.avatar_count(), fps);
+      if (pipeline.silent_sources() > 0)
+        n += std::snprintf(line + n, sizeof line - size_t(n), " | %zu source(s) SILENT: sending stale",
+                           pipeline.silent_sources());
       if (server) {
         const auto& st = server->stats();
         n += std::snprintf(line + n, sizeof line - size_t(n), " | subs %llu drop %llu rej %llu",

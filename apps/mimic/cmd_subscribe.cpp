@@ -1,5 +1,6 @@
 // mimic subscribe: joins a scene as a viewer and prints what arrives.
 #include <algorithm>
+#include <map>
 #include <chrono>
 #include <cstdio>
 #include <vector>
@@ -21,7 +22,9 @@ const char* kUsage =
     "--json only a summary object at the end:\n"
     "  frames, avatars, fps, latency_ms_p50, latency_ms_p99, lost, out_of_order, model_bytes,\n"
     "  frame_bytes_mean, mesh_frames, reconnects, duration_s, transport, udp_frames\n"
-    "Latency is the frame's capture time (sender's clock) to its arrival here.\n"
+    "Latency is the frame's capture time (sender's clock) to its arrival here; fps is per avatar,\n"
+    "the rate its frames were captured at (their timestamps), not how fast they happened to arrive.\n"
+    "Names and server messages are printed with control characters escaped (\\xNN).\n"
     "\n"
     "options:\n"
     "  --connect HOST:PORT  the scene (default 127.0.0.1:7777)\n"
@@ -62,7 +65,7 @@ int subscribe(const std::vector<std::string>& argv) {
   if (lod >= 0) o.mesh_lod = static_cast<uint8_t>(lod);
   o.udp = a.has("udp");
   auto c = net::Client::connect(o);
-  if (!c) return failure("subscribe", c.error().what());
+  if (!c) return failure("subscribe", net::printable(c.error().what()));
   net::Client& client = **c;
   if (o.udp && !(client.negotiated_capabilities() & net::kCapUdpPose))
     std::fprintf(stderr, "subscribe: the server offers no UDP; pose frames come over TCP\n");
@@ -70,11 +73,16 @@ int subscribe(const std::vector<std::string>& argv) {
   using C = std::chrono::steady_clock;
   std::vector<double> latency_ms;
   latency_ms.reserve(1 << 16);
-  C::time_point first{}, last{};
   uint64_t frames = 0;
+  // Per avatar: frames and the capture times (sender's clock) of the first and the last.
+  struct Rate {
+    uint64_t frames = 0, first_us = 0, last_us = 0;
+  };
+  std::map<uint16_t, Rate> rates;
   client.on_model = [&](const net::RemoteAvatar& m) {
     if (!json)
-      std::printf("model avatar=%u name=%s dofs=%u revision=%u bytes=%zu\n", m.id, m.name.c_str(), m.dof_count,
+      // Names come from other peers: escaped, they cannot drive this terminal.
+      std::printf("model avatar=%u name=%s dofs=%u revision=%u bytes=%zu\n", m.id, net::printable(m.name).c_str(), m.dof_count,
                   m.revision, m.model_bytes.size());
   };
   client.on_removed = [&](uint16_t id) {
@@ -83,8 +91,10 @@ int subscribe(const std::vector<std::string>& argv) {
   client.on_pose = [&](const net::RemoteAvatar& m, uint64_t now_us) {
     const double lat = (double(now_us) - double(m.last.time_us)) * 1e-3;
     latency_ms.push_back(lat);
-    last = C::now();
-    if (frames++ == 0) first = last;
+    frames++;
+    Rate& r = rates[m.id];
+    if (r.frames++ == 0) r.first_us = m.last.time_us;
+    r.last_us = m.last.time_us;
     if (!json)
       std::printf("pose avatar=%u seq=%u latency_ms=%.3f root=(%.3f %.3f %.3f)%s\n", m.id, m.last.sequence, lat,
                   m.pose.root_position_m.x, m.pose.root_position_m.y, m.pose.root_position_m.z,
@@ -99,12 +109,24 @@ int subscribe(const std::vector<std::string>& argv) {
     if (!st) break;
   }
   const auto& s = client.stats();
-  const double span = std::chrono::duration<double>(last - first).count();
+  // The rate frames were captured at, by their own timestamps: frames that arrive in a burst
+  // (a backlog after a stall, a resume) do not make it look faster than the source.
+  // Frames per second per avatar, at the rate they were captured (their timestamps), averaged
+  // over the avatars: frames that arrive in a burst (the latest pose of every avatar on joining,
+  // a backlog after a stall) do not make the source look faster than it is.
+  double fps = 0;
+  size_t timed = 0;
+  for (const auto& [id, r] : rates) {
+    if (r.frames < 2 || r.last_us <= r.first_us) continue;
+    fps += double(r.frames - 1) / (double(r.last_us - r.first_us) * 1e-6);
+    timed++;
+  }
+  if (timed > 0) fps /= double(timed);
   if (json) {
     nlohmann::json j;
     j["frames"] = frames;
     j["avatars"] = client.avatars().size();
-    j["fps"] = frames > 1 && span > 0 ? double(frames - 1) / span : 0.0;
+    j["fps"] = fps;
     j["latency_ms_p50"] = percentile(latency_ms, 0.50);
     j["latency_ms_p99"] = percentile(latency_ms, 0.99);
     j["lost"] = s.lost;
@@ -120,7 +142,7 @@ int subscribe(const std::vector<std::string>& argv) {
     std::printf("%s\n", j.dump().c_str());
   }
   client.close();
-  if (!st) return failure("subscribe", st.error().what());
+  if (!st) return failure("subscribe", net::printable(st.error().what()));
   return 0;
 }
 

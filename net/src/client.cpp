@@ -46,7 +46,7 @@ struct Client::Impl {
   bool handshake_done = false;
   std::optional<Error> fatal;   // the session is over for good
   bool dropped = false;         // connection lost; may resume
-  uint64_t token = 0;
+  SessionToken token;
   uint32_t caps = 0;
   uint64_t generation = 0;      // handlers of an old socket ignore themselves
   ClientStats stats;
@@ -64,7 +64,12 @@ struct Client::Impl {
   std::array<uint8_t, kMaxDatagramBytes> uin{};
   udp::endpoint ufrom;
   bool udp_ready = false;
+  uint64_t udp_nonce = 0;  // the server's last answer: echoed to prove we receive at this address
   asio::steady_timer udp_timer{io};
+  // A session that says nothing is closed by the server's idle timeout; a PING every 2 s keeps a
+  // quiet subscriber (or a publisher whose source is silent) alive.
+  asio::steady_timer keepalive_timer{io};
+  void keepalive();
   // The latest datagram frame of each avatar whose model is still on its way (bounded).
   std::map<uint16_t, std::vector<uint8_t>> early;
   static constexpr size_t kMaxEarly = 64;
@@ -157,7 +162,7 @@ void Client::Impl::connect_failed(Errc code, std::string message) {
 }
 
 void Client::Impl::schedule_retry() {
-  if (!opt.reconnect || token == 0 || fatal) return;
+  if (!opt.reconnect || token.empty() || fatal) return;
   // The first retry at once (a dropped connection usually comes straight back), then backing off.
   retry_timer.expires_after(failures == 0 ? std::chrono::milliseconds(0) : std::chrono::milliseconds(250));
   retry_timer.async_wait([this](const boost::system::error_code& ec) {
@@ -202,7 +207,7 @@ void Client::Impl::on_packet(std::span<const uint8_t> p) {
     case MsgType::welcome: {
       Welcome w;
       if (decode_welcome(p, w) != Reject::ok) break;
-      const bool was_resume = token != 0;
+      const bool was_resume = !token.empty();
       token = w.session_token;
       caps = w.capabilities;
       handshake_done = true;
@@ -223,14 +228,17 @@ void Client::Impl::on_packet(std::span<const uint8_t> p) {
         if (a.live && a.pose_size) a.pending = true;
       flush();
       udp_ready = false;  // a new session (or a resumed one on a new server) learns the address anew
+      udp_nonce = 0;
       if (caps & kCapUdpPose) start_udp();
+      keepalive();
       return;
     }
     case MsgType::reject: {
       RejectMsg r;
       if (decode_reject(p, r) == Reject::ok) {
+        // The message is the server's text: shown escaped, it cannot drive the terminal.
         end(Errc::disconnected, std::string("server refused the session: ") + reject_name(r.reason) + " (" +
-                                    r.message + ")");
+                                    printable(r.message) + ")");
         return;
       }
       break;
@@ -325,6 +333,12 @@ void Client::Impl::on_pose(std::span<const uint8_t> p, uint64_t now_us, bool dat
     return;
   }
   auto& a = it->second;
+  // A frame that does not fit the model would animate the wrong joints (docs/protocol.md).
+  if (scratch_pose.dof_rad.size() != a.dof_count) {
+    stats.rejected++;
+    stats.wrong_dof_count++;
+    return;
+  }
   if (a.has_pose) {
     const int32_t step = static_cast<int32_t>(h.sequence - a.last.sequence);
     if (step <= 0) {
@@ -362,14 +376,26 @@ void Client::Impl::start_udp() {
 }
 
 void Client::Impl::register_udp() {
-  if (!usock || token == 0 || fatal) return;
+  if (!usock || token.empty() || fatal) return;
   std::array<uint8_t, kUdpRegisterBytes> buf{};
   boost::system::error_code ec;
-  usock->send(asio::buffer(buf.data(), encode_udp_register(token, buf)), 0, ec);
+  usock->send(asio::buffer(buf.data(), encode_udp_register({token, udp_nonce}, buf)), 0, ec);
   // Until the server answers, again in 250 ms; then once a second.
   udp_timer.expires_after(udp_ready ? std::chrono::milliseconds(1000) : std::chrono::milliseconds(250));
   udp_timer.async_wait([this](const boost::system::error_code& e) {
     if (!e) register_udp();
+  });
+}
+
+void Client::Impl::keepalive() {
+  keepalive_timer.expires_after(std::chrono::seconds(2));
+  const uint64_t gen = generation;
+  keepalive_timer.async_wait([this, gen](const boost::system::error_code& ec) {
+    if (ec || gen != generation || !connected || fatal) return;
+    std::array<uint8_t, kHeaderBytes> buf{};
+    queue_control(std::span<const uint8_t>(buf.data(), encode_ping(buf)));
+    flush();
+    keepalive();
   });
 }
 
@@ -383,13 +409,22 @@ void Client::Impl::udp_receive() {
     stats.bytes_in += n;
     const std::span<const uint8_t> d(uin.data(), n);
     Header h;
-    uint64_t echoed = 0;
+    UdpRegister echoed;
     if (decode_header(d, h) != Reject::ok || n != kHeaderBytes + h.payload_bytes) {
       stats.rejected++;
     } else if (h.type == MsgType::pose) {
       on_pose(d, wall_clock_us(), true);
-    } else if (h.type == MsgType::udp_register && decode_udp_register(d, echoed) == Reject::ok && echoed == token) {
-      udp_ready = true;
+    } else if (h.type == MsgType::udp_register && decode_udp_register(d, echoed) == Reject::ok && echoed.token == token) {
+      if (echoed.nonce != 0 && echoed.nonce == udp_nonce) {
+        udp_ready = true;  // the server has seen us echo its nonce from this address
+      } else {
+        // A challenge: echo the nonce at once (the server sends frames here only after that).
+        udp_ready = false;
+        udp_nonce = echoed.nonce;
+        std::array<uint8_t, kUdpRegisterBytes> buf{};
+        boost::system::error_code ignore;
+        usock->send(asio::buffer(buf.data(), encode_udp_register({token, udp_nonce}, buf)), 0, ignore);
+      }
     } else {
       stats.rejected++;
     }
@@ -431,6 +466,7 @@ Client::~Client() {
   impl_->lose_connection();
   impl_->retry_timer.cancel();
   impl_->udp_timer.cancel();
+  impl_->keepalive_timer.cancel();
   if (impl_->usock) {
     boost::system::error_code ec;
     impl_->usock->close(ec);
@@ -510,7 +546,7 @@ Status Client::publish_pose(uint8_t slot, const PoseHeader& header, const avatar
 Status Client::run_until(Clock::time_point deadline) {
   auto& d = *impl_;
   if (d.fatal) return d.status();
-  if (d.dropped && !d.connecting && (!d.opt.reconnect || d.token == 0))
+  if (d.dropped && !d.connecting && (!d.opt.reconnect || d.token.empty()))
     return fail(Errc::disconnected, "connection to " + d.opt.connect + " lost");
   while (Clock::now() < deadline && !d.fatal) {
     if (d.io.stopped()) d.io.restart();
@@ -537,7 +573,7 @@ void Client::close() {
   // Whatever is still queued goes first; BYE is the last thing on the stream.
   asio::write(*d.sock, asio::buffer(d.control), ec);
   asio::write(*d.sock, asio::buffer(buf.data(), n), ec);
-  d.token = 0;
+  d.token = SessionToken{};
   d.lose_connection();
   d.dropped = false;
   d.fatal = Error{Errc::disconnected, "closed"};
@@ -545,7 +581,7 @@ void Client::close() {
 
 bool Client::connected() const { return impl_->connected; }
 bool Client::udp_active() const { return impl_->udp_ready && impl_->connected; }
-uint64_t Client::session_token() const { return impl_->token; }
+SessionToken Client::session_token() const { return impl_->token; }
 uint32_t Client::negotiated_capabilities() const { return impl_->caps; }
 const std::map<uint16_t, RemoteAvatar>& Client::avatars() const { return impl_->avatars; }
 const ClientStats& Client::stats() const { return impl_->stats; }

@@ -87,6 +87,11 @@ struct Reader {
     return true;
   }
   size_t left() const { return in.size() - pos; }
+  void token(SessionToken& t) {
+    if (!need(kTokenBytes)) return;
+    std::memcpy(t.bytes.data(), in.data() + pos, kTokenBytes);
+    pos += kTokenBytes;
+  }
 };
 
 // Writes the header with a placeholder length; finish() patches it.
@@ -145,6 +150,59 @@ float wrap_angle(float a) {
 
 }  // namespace
 
+bool SessionToken::empty() const noexcept {
+  uint8_t any = 0;
+  for (uint8_t b : bytes) any |= b;
+  return any == 0;
+}
+
+bool operator==(const SessionToken& a, const SessionToken& b) noexcept {
+  // Every byte is looked at whatever the first difference: no early exit to time.
+  unsigned diff = 0;
+  for (size_t i = 0; i < kTokenBytes; ++i) diff |= unsigned(a.bytes[i] ^ b.bytes[i]);
+  return diff == 0;
+}
+
+size_t SessionTokenHash::operator()(const SessionToken& t) const noexcept {
+  // The bytes are uniformly random already.
+  uint64_t h = 0;
+  std::memcpy(&h, t.bytes.data(), sizeof h);
+  return static_cast<size_t>(h);
+}
+
+bool name_is_printable(std::string_view name) noexcept {
+  for (size_t i = 0; i < name.size(); ++i) {
+    const auto c = static_cast<uint8_t>(name[i]);
+    if (c < 0x20 || c == 0x7F) return false;
+    // U+0080..U+009F (C1 controls, e.g. CSI) are 0xC2 0x80..0x9F in UTF-8.
+    if (c == 0xC2 && i + 1 < name.size() && static_cast<uint8_t>(name[i + 1]) < 0xA0) return false;
+  }
+  return true;
+}
+
+std::string printable(std::string_view text) {
+  static constexpr char kHex[] = "0123456789abcdef";
+  std::string out;
+  out.reserve(text.size());
+  for (size_t i = 0; i < text.size(); ++i) {
+    const auto c = static_cast<uint8_t>(text[i]);
+    const bool c1 = c == 0xC2 && i + 1 < text.size() && static_cast<uint8_t>(text[i + 1]) < 0xA0;
+    if (c >= 0x20 && c != 0x7F && c != '\\' && !c1) {
+      out += static_cast<char>(c);
+      continue;
+    }
+    // A C1 control is escaped whole (both bytes), so no terminal reads its second byte as one.
+    for (size_t k = 0; k < (c1 ? 2u : 1u); ++k) {
+      const auto e = static_cast<uint8_t>(text[i + k]);
+      out += "\\x";
+      out += kHex[e >> 4];
+      out += kHex[e & 15];
+    }
+    if (c1) ++i;
+  }
+  return out;
+}
+
 const char* reject_name(Reject r) noexcept {
   switch (r) {
     case Reject::ok: return "ok";
@@ -161,6 +219,7 @@ const char* reject_name(Reject r) noexcept {
     case Reject::flood: return "flood";
     case Reject::server_full: return "server_full";
     case Reject::timeout: return "timeout";
+    case Reject::too_many_sessions: return "too_many_sessions";
   }
   return "unknown";
 }
@@ -171,6 +230,7 @@ size_t max_packet_bytes(uint8_t type) noexcept {
     case MsgType::welcome:
     case MsgType::reject:
     case MsgType::bye:
+    case MsgType::ping:
     case MsgType::avatar_removed: return kMaxHelloBytes;
     case MsgType::udp_register: return kUdpRegisterBytes;
     case MsgType::avatar_model: return kHeaderBytes + 14 + 255 + kMaxModelBytes;
@@ -207,7 +267,7 @@ size_t encode_hello(const Hello& m, std::span<uint8_t> out) noexcept {
   w.u8(static_cast<uint8_t>(m.role));
   w.u8(static_cast<uint8_t>(m.mesh_lod));
   w.u32(m.capabilities);
-  w.u64(m.resume_token);
+  w.bytes(m.resume_token.bytes.data(), kTokenBytes);
   w.str8(m.name);
   w.str8(m.secret);
   return finish(w);
@@ -219,7 +279,7 @@ size_t encode_welcome(const Welcome& m, std::span<uint8_t> out) noexcept {
   w.u8(m.resumed ? 1 : 0);
   w.u16(0);
   w.u32(m.capabilities);
-  w.u64(m.session_token);
+  w.bytes(m.session_token.bytes.data(), kTokenBytes);
   w.u32(m.client_id);
   return finish(w);
 }
@@ -259,9 +319,15 @@ size_t encode_avatar_removed(uint16_t avatar, std::span<uint8_t> out) noexcept {
   return finish(w);
 }
 
-size_t encode_udp_register(uint64_t session_token, std::span<uint8_t> out) noexcept {
+size_t encode_udp_register(const UdpRegister& m, std::span<uint8_t> out) noexcept {
   Writer w = begin(out, MsgType::udp_register);
-  w.u64(session_token);
+  w.bytes(m.token.bytes.data(), kTokenBytes);
+  w.u64(m.nonce);
+  return finish(w);
+}
+
+size_t encode_ping(std::span<uint8_t> out) noexcept {
+  Writer w = begin(out, MsgType::ping);
   return finish(w);
 }
 
@@ -355,7 +421,7 @@ Reject decode_hello(std::span<const uint8_t> packet, Hello& out) {
   const uint8_t role = r.u8();
   out.mesh_lod = r.u8();
   out.capabilities = r.u32();
-  out.resume_token = r.u64();
+  r.token(out.resume_token);
   const uint8_t name_len = r.u8();
   if (name_len > kMaxNameBytes) return Reject::malformed;
   r.str(name_len, out.name);
@@ -365,6 +431,7 @@ Reject decode_hello(std::span<const uint8_t> packet, Hello& out) {
   if (const Reject e = close(r); e != Reject::ok) return e;
   if (role != uint8_t(Role::publisher) && role != uint8_t(Role::subscriber)) return Reject::malformed;
   if (out.min_version == 0 || out.min_version > out.max_version) return Reject::malformed;
+  if (!name_is_printable(out.name)) return Reject::malformed;
   out.role = static_cast<Role>(role);
   return Reject::ok;
 }
@@ -376,7 +443,7 @@ Reject decode_welcome(std::span<const uint8_t> packet, Welcome& out) {
   const uint8_t resumed = r.u8();
   r.u16();
   out.capabilities = r.u32();
-  out.session_token = r.u64();
+  r.token(out.session_token);
   out.client_id = r.u32();
   if (const Reject e = close(r); e != Reject::ok) return e;
   if (resumed > 1 || out.version == 0) return Reject::malformed;
@@ -413,6 +480,7 @@ Reject decode_avatar_model(std::span<const uint8_t> packet, AvatarModel& out) {
   r.str(model_len, out.model_bytes);
   if (const Reject e = close(r); e != Reject::ok) return e;
   if (out.dof_count > kMaxPoseDofs) return Reject::malformed;
+  if (!name_is_printable(out.name)) return Reject::malformed;
   return Reject::ok;
 }
 
@@ -423,10 +491,11 @@ Reject decode_avatar_removed(std::span<const uint8_t> packet, uint16_t& avatar) 
   return close(r);
 }
 
-Reject decode_udp_register(std::span<const uint8_t> packet, uint64_t& session_token) noexcept {
+Reject decode_udp_register(std::span<const uint8_t> packet, UdpRegister& out) noexcept {
   Reader r;
   if (const Reject e = open(packet, MsgType::udp_register, r); e != Reject::ok) return e;
-  session_token = r.u64();
+  r.token(out.token);
+  out.nonce = r.u64();
   return close(r);
 }
 

@@ -104,6 +104,7 @@ Result<LatencyResult> measure_loopback_latency(int frames, uint16_t dof_count, b
 Result<FanoutResult> measure_fanout(int subscribers, int avatars, double rate_hz, double seconds) {
   ServerOptions opt;
   opt.max_sessions = size_t(subscribers) + 16;
+  opt.max_sessions_per_address = opt.max_sessions;  // every subscriber is on this host
   opt.max_packets_per_s = 1e9;
   auto server = Server::create(opt);
   if (!server) return tl::unexpected(server.error());

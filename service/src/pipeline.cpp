@@ -90,6 +90,7 @@ class SolverFeed final : public PoseFeed {
         description_(std::move(description)) {
     latest_.resize(kMaxSensors);
     have_.assign(kMaxSensors, 0);
+    fresh_.assign(kMaxSensors, 0);
     packed_.reserve(kMaxSensors);
     warm_ = model_->skeleton().rest_pose();
     if (calibration) {
@@ -128,11 +129,29 @@ class SolverFeed final : public PoseFeed {
         if (smp.sensor >= kMaxSensors) continue;
         latest_[smp.sensor] = smp;
         have_[smp.sensor] = 1;
+        if (!fresh_[smp.sensor]) {
+          fresh_[smp.sensor] = 1;
+          if (first_fresh_s_ < 0) first_fresh_s_ = smp.host_time_s;
+        }
       }
       total += n;
       if (n < samples_.size()) break;
     }
-    return total;
+    // One pose per measurement cycle, not per sensor record: a tracker in group mode (a Flock's
+    // birds) delivers a cycle's records one by one, and solving after each would send the same
+    // cycle several times over. Solve when every sensor seen so far has a new sample, or when
+    // the first new one has waited long enough that a sensor must be missing.
+    unsolved_ += total;
+    if (unsolved_ == 0) return 0;
+    bool cycle_complete = true;
+    for (size_t i = 0; i < kMaxSensors; ++i)
+      if (have_[i] && !fresh_[i]) cycle_complete = false;
+    if (!cycle_complete && newest_host_s_ - first_fresh_s_ < kCycleWait_s) return 0;
+    std::fill(fresh_.begin(), fresh_.end(), uint8_t{0});
+    first_fresh_s_ = -1;
+    const size_t ready = unsolved_;
+    unsolved_ = 0;
+    return ready;
   }
   std::span<const devices::SensorSample> latest_samples() const override { return packed_; }
   void solve(avatar::Pose& pose, double& capture_s, bool& stale) override {
@@ -169,6 +188,7 @@ class SolverFeed final : public PoseFeed {
 
  private:
   static constexpr size_t kMaxSensors = 64;
+  static constexpr double kCycleWait_s = 0.025;  // longer than any tracker's cycle (Flock: ~10 ms)
   struct Refinement {
     explicit Refinement(solver::ModelRefiner r) : refiner(std::move(r)) {}
     solver::ModelRefiner refiner;
@@ -208,6 +228,9 @@ class SolverFeed final : public PoseFeed {
   std::array<devices::SensorSample, 64> samples_{};
   std::vector<devices::SensorSample> latest_, packed_;
   std::vector<uint8_t> have_;
+  std::vector<uint8_t> fresh_;  // a sample arrived since the last solve
+  double first_fresh_s_ = -1;   // host time of the first of those
+  size_t unsolved_ = 0;         // samples read since the last solve
   avatar::Pose warm_;
   double newest_host_s_ = 0;
 };
@@ -476,7 +499,33 @@ void Pipeline::tick() {
     const size_t n = a.feed->read();
     const auto t1 = C::now();
     timers_[kStageRead].add(us(t0, t1));
-    if (n == 0) continue;
+    if (n == 0) {
+      // The source is silent. Once it has been for a while, the last pose goes out again flagged
+      // stale, at a lower rate: subscribers can tell a dead source from a quiet one.
+      const double t = now_s();
+      if (a.sequence > 0 && t - a.last_send_s >= kStaleRepeat_s) {
+        if (!a.silent) silent_sources_++;
+        a.silent = true;
+        a.last_send_s = t;
+        net::PoseHeader h;
+        h.avatar = a.server_id;
+        h.sequence = ++a.sequence;
+        h.flags = net::kPoseStale;
+        h.time_us = a.time_us;  // still the capture time of the data it shows
+        const size_t bytes = net::encode_pose(h, a.pose, a.packet);
+        if (out_.server && bytes &&
+            out_.server->publish_pose(a.server_id, std::span<const uint8_t>(a.packet.data(), bytes)) != net::Reject::ok)
+          send_failures_++;
+        if (out_.publisher && a.publisher_slot >= 0 &&
+            !out_.publisher->publish_pose(static_cast<uint8_t>(a.publisher_slot), h, a.pose))
+          send_failures_++;
+        stale_frames_++;
+      }
+      continue;
+    }
+    if (a.silent) silent_sources_--;
+    a.silent = false;
+    a.last_send_s = now_s();
     double capture_s = 0;
     bool stale = false;
     a.feed->solve(a.pose, capture_s, stale);

@@ -169,7 +169,12 @@ uint32_t crc32(std::span<const uint8_t> bytes, uint32_t crc) {
 }
 
 std::string LogDamage::what() const {
-  return "stopped at byte " + std::to_string(byte_offset) + " (record " + std::to_string(record_index) + "): " + reason;
+  std::string text = "damage at byte " + std::to_string(byte_offset) + " (record " + std::to_string(record_index) +
+                     "): " + reason;
+  if (bytes_skipped > 0) text += "; " + std::to_string(bytes_skipped) + " bytes skipped";
+  if (resumed) text += ", reading resumed at byte " + std::to_string(resumed_at_byte);
+  else if (bytes_skipped > 0) text += " to the end";
+  return text;
 }
 
 void encode_log_prefix(const LogHeader& header, std::vector<uint8_t>& out) {
@@ -234,88 +239,134 @@ Result<LogContents> decode_log(std::span<const uint8_t> bytes) {
   LogContents log;
   size_t pos = kPrefixBytes;
   uint64_t index = 0;
-  auto stop = [&](std::string reason) { log.damage = LogDamage{pos, index, std::move(reason)}; };
+  // A well-framed record (length in range, whole, CRC good) of a type that can follow the
+  // header, at `q`: where reading resumes after damage. A false match needs a 32-bit CRC to
+  // agree by chance.
+  auto frame_ok_at = [&](size_t q) {
+    if (n - q < kFrameBytes) return false;
+    const uint32_t len = get<uint32_t>(d + q);
+    const uint8_t type = d[q + 4];
+    if (len > n - q - kFrameBytes) return false;
+    if (type == kSample ? len != kSamplePayload : type == kEnd ? len != 8 : type == kRaw ? (len < 9 || d[q + 5] > 1) : true)
+      return false;
+    return crc32(bytes.subspan(q, 5 + len)) == get<uint32_t>(d + q + 5 + len);
+  };
+  // Damage at `pos`: note it, then scan for the next good record; everything from there on is
+  // read as usual. False when nothing good follows (the rest of the file is skipped).
+  auto resync = [&](std::string reason) {
+    LogDamage dmg{pos, index, std::move(reason)};
+    const uint64_t samples_before = log.samples.size();
+    size_t q = pos + 1;
+    while (q < n && !frame_ok_at(q)) ++q;
+    dmg.bytes_skipped = (q < n ? q : n) - pos;
+    dmg.resumed_at_byte = q < n ? q : n;
+    dmg.samples_before = samples_before;
+    dmg.resumed = q < n;
+    log.bytes_skipped += dmg.bytes_skipped;
+    if (!log.damage) log.damage = dmg;
+    log.damages.push_back(std::move(dmg));
+    pos = q < n ? q : n;
+    return q < n;
+  };
 
   while (true) {
     if (pos == n) {
       if (index == 0) return fail(Errc::parse_error, "Mimic log ends before its header record (byte 12)");
-      stop("log ends without an end record (recording interrupted)");
+      LogDamage dmg{pos, index, "log ends without an end record (recording interrupted)"};
+      dmg.resumed_at_byte = n;
+      dmg.samples_before = log.samples.size();
+      if (!log.damage) log.damage = dmg;
+      log.damages.push_back(std::move(dmg));
       break;
     }
     if (n - pos < kFrameBytes) {
       if (index == 0) return fail(Errc::parse_error, "Mimic log header record truncated at byte 12");
-      stop("truncated record frame (" + std::to_string(n - pos) + " bytes left)");
-      break;
+      if (!resync("truncated record frame (" + std::to_string(n - pos) + " bytes left)")) break;
+      continue;
     }
     const uint32_t len = get<uint32_t>(d + pos);
     const uint8_t type = d[pos + 4];
     if (len > kMaxPayload) {
       if (index == 0) return fail(Errc::parse_error, "Mimic log header record has an implausible length at byte 12");
-      stop("implausible record length " + std::to_string(len));
-      break;
+      if (!resync("implausible record length " + std::to_string(len))) break;
+      continue;
     }
     const size_t total = kFrameBytes + len;
     if (n - pos < total) {
       if (index == 0)
         return fail(Errc::parse_error, "Mimic log header record truncated at byte 12 (needs " + std::to_string(total) +
                                            " bytes, " + std::to_string(n - pos) + " left)");
-      stop("truncated record (needs " + std::to_string(total) + " bytes, " + std::to_string(n - pos) + " left)");
-      break;
+      if (!resync("truncated record (needs " + std::to_string(total) + " bytes, " + std::to_string(n - pos) + " left)"))
+        break;
+      continue;
     }
     const uint32_t stored = get<uint32_t>(d + pos + 5 + len);
     if (crc32(bytes.subspan(pos, 5 + len)) != stored) {
       if (index == 0) return fail(Errc::parse_error, "Mimic log header record is corrupted (CRC mismatch at byte 12)");
-      stop("CRC mismatch");
-      break;
+      if (!resync("CRC mismatch")) break;
+      continue;
     }
     const uint8_t* p = d + pos + 5;
+    // A record whose frame and CRC are good but whose content is not: skipped whole.
+    auto skip_record = [&](std::string reason) {
+      LogDamage dmg{pos, index, std::move(reason)};
+      dmg.bytes_skipped = total;
+      dmg.resumed_at_byte = pos + total;
+      dmg.resumed = true;
+      dmg.samples_before = log.samples.size();
+      log.bytes_skipped += total;
+      if (!log.damage) log.damage = dmg;
+      log.damages.push_back(std::move(dmg));
+    };
     if (index == 0) {
       if (type != kHeader) return fail(Errc::parse_error, "Mimic log: the first record (byte 12) is not a header");
       const std::string err = parse_header_json(std::string_view(reinterpret_cast<const char*>(p), len), log.header);
       if (!err.empty()) return fail(Errc::parse_error, "Mimic log " + err + " (record at byte 12)");
     } else if (type == kHeader) {
-      stop("a second header record");
-      break;
+      skip_record("a second header record");
     } else if (type == kSample) {
       if (len != kSamplePayload) {
-        stop("sample record of " + std::to_string(len) + " bytes (expected " + std::to_string(kSamplePayload) + ")");
-        break;
+        skip_record("sample record of " + std::to_string(len) + " bytes (expected " + std::to_string(kSamplePayload) + ")");
+      } else {
+        devices::SensorSample s;
+        s.sensor = get<uint16_t>(p);
+        s.flags = get<uint32_t>(p + 2);
+        s.buttons = get<uint32_t>(p + 6);
+        s.device_time_s = get<double>(p + 10);
+        s.host_time_s = get<double>(p + 18);
+        s.position_m = {get<float>(p + 26), get<float>(p + 30), get<float>(p + 34)};
+        s.orientation = glm::quat(get<float>(p + 38), get<float>(p + 42), get<float>(p + 46), get<float>(p + 50));
+        log.samples.push_back(s);
       }
-      devices::SensorSample s;
-      s.sensor = get<uint16_t>(p);
-      s.flags = get<uint32_t>(p + 2);
-      s.buttons = get<uint32_t>(p + 6);
-      s.device_time_s = get<double>(p + 10);
-      s.host_time_s = get<double>(p + 18);
-      s.position_m = {get<float>(p + 26), get<float>(p + 30), get<float>(p + 34)};
-      s.orientation = glm::quat(get<float>(p + 38), get<float>(p + 42), get<float>(p + 46), get<float>(p + 50));
-      log.samples.push_back(s);
     } else if (type == kRaw) {
       if (len < 9 || p[0] > 1) {
-        stop("malformed raw-bytes record");
-        break;
+        skip_record("malformed raw-bytes record");
+      } else {
+        RawChunk c;
+        c.direction = static_cast<RawDirection>(p[0]);
+        c.host_time_s = get<double>(p + 1);
+        c.samples_before = log.samples.size();
+        c.bytes.assign(p + 9, p + len);
+        log.raw.push_back(std::move(c));
       }
-      RawChunk c;
-      c.direction = static_cast<RawDirection>(p[0]);
-      c.host_time_s = get<double>(p + 1);
-      c.samples_before = log.samples.size();
-      c.bytes.assign(p + 9, p + len);
-      log.raw.push_back(std::move(c));
     } else if (type == kEnd) {
+      const uint64_t count = len == 8 ? get<uint64_t>(p) : 0;
       if (len != 8) {
-        stop("malformed end record");
+        skip_record("malformed end record");
+      } else if (count != log.samples.size() && log.damages.empty()) {
+        skip_record("end record counts " + std::to_string(count) + " samples but " + std::to_string(log.samples.size()) +
+                    " were read");
+        ++index;
+        pos += total;
         break;
+      } else {
+        // After damage the writer's count says how many samples it cost.
+        if (count > log.samples.size()) log.samples_lost = count - log.samples.size();
+        log.complete = true;
+        ++index;
+        pos += total;
+        break;  // anything after the end record is ignored
       }
-      const uint64_t count = get<uint64_t>(p);
-      if (count != log.samples.size()) {
-        stop("end record counts " + std::to_string(count) + " samples but " + std::to_string(log.samples.size()) +
-             " were read");
-        break;
-      }
-      log.complete = true;
-      ++index;
-      pos += total;
-      break;  // anything after the end record is ignored
     }
     // Unknown record types with a good CRC are skipped: later versions may add some.
     ++index;

@@ -8,6 +8,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -84,6 +85,16 @@ std::vector<CsvSample> parse_csv(const std::string& text) {
   return rows;
 }
 
+// Copies `from` to `to` with one bit flipped halfway through the file.
+void flip_bit_in_the_middle(const std::string& from, const std::string& to) {
+  std::ifstream in(from, std::ios::binary);
+  std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  ASSERT_GT(bytes.size(), 1000u);
+  bytes[bytes.size() / 2] = char(bytes[bytes.size() / 2] ^ 0x04);
+  std::ofstream out(to, std::ios::binary | std::ios::trunc);
+  out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+}
+
 TEST(CliRecordReplay, RecordsASimulatedWalkAndReplaysItAsCsv) {
   const std::string log = work_dir() + "/walk.mlog";
   const ShellRun rec = run_shell(mimic() + " record --source 'sim:walk?sensors=6&rate=100' --duration 1 --seed 7 --out '" +
@@ -149,8 +160,32 @@ TEST(CliRecordReplay, DamagedLogReplaysTheGoodPartAndSaysWhereItStopped) {
   const auto rows = parse_csv(rep.out);
   EXPECT_EQ(rows.size(), whole.size() - 5);
   const auto stop_at = size - 17 - 5 * 63;
-  EXPECT_NE(rep.err.find("stopped at byte " + std::to_string(stop_at)), std::string::npos) << rep.err;
+  EXPECT_NE(rep.err.find("damage at byte " + std::to_string(stop_at)), std::string::npos) << rep.err;
   for (size_t i = 0; i < rows.size(); ++i) EXPECT_EQ(rows[i].v[0], whole[i].v[0]);
+}
+
+// One flipped bit in the middle of a recording costs one sample: replay skips to the next good
+// record, reports where and how much, and exits 1; `run --source replay:` says so too.
+TEST(CliRecordReplay, FlippedBitInTheMiddleKeepsTheRest) {
+  const std::string dir = work_dir();
+  const std::string log = dir + "/long.mlog", flipped = dir + "/long_flipped.mlog";
+  ASSERT_EQ(run_shell(mimic() + " record --source 'sim:idle?sensors=3' --duration 1 --out '" + log + "' --quiet")
+                .exit_code,
+            0);
+  const auto whole = parse_csv(run_shell(mimic() + " replay '" + log + "' --csv --speed 0").out);
+  ASSERT_GT(whole.size(), 200u);
+  flip_bit_in_the_middle(log, flipped);
+  const ShellRun rep = run_shell(mimic() + " replay '" + flipped + "' --csv --speed 0");
+  EXPECT_EQ(rep.exit_code, 1);
+  const auto rows = parse_csv(rep.out);
+  EXPECT_GE(rows.size() * 100, whole.size() * 99);
+  EXPECT_EQ(rows.size(), whole.size() - 1);
+  EXPECT_EQ(rows.back().v[0], whole.back().v[0]);
+  EXPECT_NE(rep.err.find("63 bytes skipped, reading resumed at byte"), std::string::npos) << rep.err;
+  EXPECT_NE(rep.err.find("1 samples lost"), std::string::npos) << rep.err;
+  const ShellRun run = run_shell(mimic() + " run --source 'replay:" + flipped + "' --duration 0.3 --quiet --listen 127.0.0.1:0");
+  EXPECT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_NE(run.err.find("damage at byte"), std::string::npos) << run.err;
 }
 
 TEST(CliRecordReplay, CtrlCLeavesACompleteLog) {
@@ -216,6 +251,15 @@ TEST(CliRecordReplay, RawFlockSessionReplaysThroughTheDriver) {
   EXPECT_EQ(j["identical"], j["samples_recorded"]);
   EXPECT_GE(j["samples_decoded"].get<int>(), j["samples_recorded"].get<int>());
   EXPECT_TRUE(j["first_difference"].is_null());
+  EXPECT_EQ(j["damaged"], false);
+
+  // The same session with one flipped bit in the middle: the driver run cannot vouch for it,
+  // and the command says why with exit status 1 (its --help promises so).
+  const std::string flipped = dir + "/flock_raw_flipped.mlog";
+  flip_bit_in_the_middle(log, flipped);
+  const ShellRun bad = run_shell(mimic() + " replay '" + flipped + "' --through-driver");
+  EXPECT_EQ(bad.exit_code, 1) << bad.err;
+  EXPECT_NE(bad.err.find("damaged log, damage at byte"), std::string::npos) << bad.err;
 
   // A log without raw bytes, and a simulated one, say why they cannot.
   ShellRun r = run_shell(mimic() + " record --source sim:walk --duration 0.2 --quiet --out '" + plain + "'");

@@ -10,6 +10,7 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <cstdio>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
@@ -147,6 +148,12 @@ TEST(RunSubscribe, SubscriberGetsModelAndFramesFromMimicRun) {
   ASSERT_FALSE(r.is_discarded()) << run.out();
   EXPECT_GT(r["frames"].get<int>(), 0);
   EXPECT_EQ(r["server"]["frames_dropped"], 0);
+  // The limits and what they did, for whoever watches the service.
+  for (const char* k : {"sessions_open", "sessions_timed_out", "sessions_refused_per_address", "sessions_closed_slow",
+                        "model_bytes_held", "udp_challenges", "udp_wrong_address", "udp_expired"})
+    EXPECT_TRUE(r["server"].contains(k)) << k;
+  EXPECT_GT(r["server"]["model_bytes_held"].get<double>(), 100.0);  // the avatar's one model packet
+  EXPECT_EQ(r["silent_sources"], 0);
   // The realtime loop allocated nothing per frame, although a subscriber joined and left.
   EXPECT_EQ(r["loop_allocations"], 0);
   EXPECT_EQ(r["send_failures"], 0);
@@ -212,6 +219,16 @@ TEST(RunSubscribe, SeveralAvatarsAndARemotePublisher) {
   EXPECT_EQ(j["avatars"], 3);  // two hosted, one published from the second process
   EXPECT_EQ(j["models"], 3);
   EXPECT_EQ(j["lost"], 0);
+  // fps is per avatar and by capture time: the sources' rate, whatever the arrival pattern.
+  EXPECT_GT(j["fps"].get<double>(), 20.0);
+  EXPECT_LT(j["fps"].get<double>(), 200.0);
+  // A subscriber that stops after the burst on joining (the latest pose of every avatar, all
+  // at once) does not report millions of frames per second.
+  Proc burst({"subscribe", "--connect", ep, "--count", "3", "--json"});
+  ASSERT_EQ(burst.wait(15.0), 0) << burst.err();
+  const auto b = last_json(burst.out());
+  ASSERT_FALSE(b.is_discarded()) << burst.out();
+  EXPECT_LT(b["fps"].get<double>(), 200.0) << burst.out();
 }
 
 TEST(RunSubscribe, RefusesToExposeTheSceneWithoutASecret) {
@@ -220,11 +237,61 @@ TEST(RunSubscribe, RefusesToExposeTheSceneWithoutASecret) {
   EXPECT_NE(run.err().find("secret"), std::string::npos) << run.err();
 }
 
+// While the tracker is gone (a replayed log that has ended), `mimic run` keeps sending the last
+// pose flagged stale at a lower rate (10 Hz), and says so in its JSON.
+TEST(RunSubscribe, AnOutageSendsTheLastPoseFlaggedStale) {
+  const std::string log = "/tmp/mimic_outage_" + std::to_string(::getpid()) + ".mlog";
+  Proc rec({"record", "--source", "sim:idle?sensors=6", "--duration", "0.5", "--out", log, "--quiet"});
+  ASSERT_EQ(rec.wait(20.0), 0) << rec.err();
+  Proc run({"run", "--source", "replay:" + log, "--listen", "127.0.0.1:0", "--duration", "3", "--quiet", "--json"});
+  const std::string ep = endpoint_of(run);
+  ASSERT_FALSE(ep.empty()) << run.err();
+  Proc sub({"subscribe", "--connect", ep, "--duration", "2.5"});
+  EXPECT_EQ(sub.wait(15.0), 0) << sub.err();
+  size_t stale = 0, fresh = 0;
+  for (size_t p = sub.out().find("pose "); p != std::string::npos; p = sub.out().find("pose ", p + 1)) {
+    const size_t end = sub.out().find('\n', p);
+    const std::string line = sub.out().substr(p, end - p);
+    (line.find(" stale") != std::string::npos ? stale : fresh)++;
+  }
+  EXPECT_GE(stale, 10u) << sub.out();
+  EXPECT_LE(stale, 30u);  // about 10 Hz over the 2 s after the log ended, not the source's 100 Hz
+  ASSERT_EQ(run.wait(10.0), 0) << run.err();
+  const auto r = last_json(run.out());
+  ASSERT_FALSE(r.is_discarded()) << run.out();
+  EXPECT_EQ(r["silent_sources"], 1);
+  EXPECT_GE(r["stale_frames"].get<int>(), 15);
+  EXPECT_LE(r["stale_frames"].get<int>(), 32);
+  EXPECT_LE(r["frames"].get<int>(), 60);  // the log's 0.5 s at 100 Hz: one frame per cycle
+  std::remove(log.c_str());
+}
+
+// Four birds in group mode deliver one record per bird per measurement cycle; `mimic run` solves
+// and sends one frame per cycle, not one per record.
+TEST(RunSubscribe, GroupModeBirdsMakeOneFramePerCycle) {
+  Proc sim({"sim", "flock", "--birds", "4", "--seed", "3", "--busy", "0.05"});
+  const std::string pty = sim.first_line(10.0);
+  ASSERT_EQ(pty.rfind("/dev/", 0), 0u) << pty << sim.err();
+  Proc run({"run", "--source", "flock:" + pty + "?birds=4", "--listen", "127.0.0.1:0", "--duration", "3", "--quiet",
+            "--json"});
+  ASSERT_EQ(run.wait(20.0), 0) << run.err();
+  sim.signal(SIGINT);
+  const auto r = last_json(run.out());
+  ASSERT_FALSE(r.is_discarded()) << run.out() << run.err();
+  // The virtual Flock measures about 100 cycles a second (four records each).
+  EXPECT_GT(r["fps"].get<double>(), 40.0) << run.out();
+  EXPECT_LT(r["fps"].get<double>(), 150.0) << run.out();
+}
+
 TEST(RunSubscribe, HelpIsComplete) {
   Proc run({"run", "--help"});
   ASSERT_EQ(run.wait(10.0), 0);
   for (const char* opt : {"--source", "--body", "--listen", "--secret", "--publish", "--vmc", "--duration", "--json"})
     EXPECT_NE(run.out().find(opt), std::string::npos) << opt;
+  // A secret on the command line is visible to every user: the help says so and names the
+  // environment variable to use instead.
+  EXPECT_NE(run.out().find("'ps'"), std::string::npos);
+  EXPECT_NE(run.out().find("prefer the MIMIC_SECRET"), std::string::npos);
   Proc sub({"subscribe", "--help"});
   ASSERT_EQ(sub.wait(10.0), 0);
   for (const char* opt : {"--connect", "--count", "--json", "latency_ms_p99", "frame_bytes_mean"})

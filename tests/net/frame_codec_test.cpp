@@ -110,7 +110,7 @@ TEST(FrameCodec, HandshakeRoundTrips) {
   h.role = Role::publisher;
   h.mesh_lod = 2;
   h.capabilities = kCapPose | kCapMesh;
-  h.resume_token = 0x1122334455667788ull;
+  for (uint8_t i = 0; i < kTokenBytes; ++i) h.resume_token.bytes[i] = uint8_t(0x11 * (i + 1));
   h.name = "studio-a";
   h.secret = "s3cret";
   Hello hd;
@@ -123,10 +123,12 @@ TEST(FrameCodec, HandshakeRoundTrips) {
   EXPECT_EQ(hd.name, h.name);
   EXPECT_EQ(hd.secret, h.secret);
 
-  Welcome w{1, kCapPose | kCapResume, 42, 7, true}, wd;
+  SessionToken t;
+  t.bytes[15] = 42;
+  Welcome w{2, kCapPose | kCapResume, t, 7, true}, wd;
   round_trip(w, encode_welcome, decode_welcome, wd);
   EXPECT_EQ(wd.capabilities, w.capabilities);
-  EXPECT_EQ(wd.session_token, 42u);
+  EXPECT_EQ(wd.session_token, t);
   EXPECT_EQ(wd.client_id, 7u);
   EXPECT_TRUE(wd.resumed);
 
@@ -226,7 +228,9 @@ TEST(FrameCodec, HeaderChecks) {
   b[0] = 'X';
   EXPECT_EQ(decode_header(b, h), Reject::bad_magic);
   b = pose;
-  b[1] = 2;
+  b[1] = 3;
+  EXPECT_EQ(decode_header(b, h), Reject::unknown_version);
+  b[1] = 1;  // version 1 (64-bit tokens) is no longer spoken
   EXPECT_EQ(decode_header(b, h), Reject::unknown_version);
   b[1] = 0;
   EXPECT_EQ(decode_header(b, h), Reject::unknown_version);

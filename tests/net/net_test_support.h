@@ -8,6 +8,7 @@
 #include <sys/socket.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <functional>
 #include <future>
@@ -84,9 +85,16 @@ inline void pump_for(std::vector<Client*> clients, double seconds) {
 // A raw TCP peer on loopback.
 class RawPeer {
  public:
-  explicit RawPeer(uint16_t port, int rcvbuf_bytes = 0) {
+  // `from`: the local address to connect from (any 127.x.y.z is this host too).
+  explicit RawPeer(uint16_t port, int rcvbuf_bytes = 0, const char* from = nullptr) {
     fd_ = ::socket(AF_INET, SOCK_STREAM, 0);
     if (rcvbuf_bytes > 0) ::setsockopt(fd_, SOL_SOCKET, SO_RCVBUF, &rcvbuf_bytes, sizeof rcvbuf_bytes);
+    if (from) {
+      sockaddr_in l{};
+      l.sin_family = AF_INET;
+      ::inet_pton(AF_INET, from, &l.sin_addr);
+      ::bind(fd_, reinterpret_cast<sockaddr*>(&l), sizeof l);
+    }
     sockaddr_in a{};
     a.sin_family = AF_INET;
     a.sin_port = htons(port);
@@ -133,7 +141,8 @@ class RawPeer {
   bool closed_ = false;
 };
 
-inline Bytes hello_packet(Role role, const std::string& secret = "", uint8_t min_v = 1, uint8_t max_v = 1) {
+inline Bytes hello_packet(Role role, const std::string& secret = "", uint8_t min_v = kMinProtocolVersion,
+                          uint8_t max_v = kProtocolVersion) {
   Hello h;
   h.role = role;
   h.min_version = min_v;
@@ -143,6 +152,19 @@ inline Bytes hello_packet(Role role, const std::string& secret = "", uint8_t min
   Bytes b(kMaxHelloBytes);
   b.resize(encode_hello(h, b));
   return b;
+}
+
+// Reads one whole packet from `peer` (empty if none came within `timeout_s`).
+inline Bytes read_packet(RawPeer& peer, double timeout_s = 2.0) {
+  Bytes got = peer.read(timeout_s, kHeaderBytes);
+  Header h;
+  if (got.size() < kHeaderBytes || decode_header(got, h) != Reject::ok) return {};
+  if (got.size() < kHeaderBytes + h.payload_bytes) {
+    const Bytes more = peer.read(timeout_s, kHeaderBytes + h.payload_bytes - got.size());
+    got.insert(got.end(), more.begin(), more.end());
+  }
+  got.resize(std::min(got.size(), size_t(kHeaderBytes + h.payload_bytes)));
+  return got;
 }
 
 inline Bytes model_packet(uint16_t slot, uint16_t dofs, size_t model_bytes) {

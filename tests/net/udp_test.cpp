@@ -68,10 +68,28 @@ struct RawUdp {
   }
 };
 
-Bytes register_packet(uint64_t token) {
+Bytes register_packet(const SessionToken& token, uint64_t nonce = 0) {
   Bytes b(kUdpRegisterBytes);
-  b.resize(encode_udp_register(token, b));
+  b.resize(encode_udp_register({token, nonce}, b));
   return b;
+}
+
+SessionToken token_of(uint8_t fill) {
+  SessionToken t;
+  t.bytes.fill(fill);
+  return t;
+}
+
+// Registers `udp` for the session `token` the way the client does: the first request is
+// answered with a nonce, echoing it registers. The nonce, or 0 when the server did not answer.
+uint64_t register_by_echo(const RawUdp& udp, const SessionToken& token) {
+  udp.send(register_packet(token));
+  UdpRegister challenge;
+  if (decode_udp_register(udp.receive(2.0), challenge) != Reject::ok || challenge.nonce == 0) return 0;
+  udp.send(register_packet(token, challenge.nonce));
+  UdpRegister ack;
+  if (decode_udp_register(udp.receive(2.0), ack) != Reject::ok || ack.nonce != challenge.nonce) return 0;
+  return ack.nonce;
 }
 
 // A publisher with one avatar ("alice") and a UDP subscriber that holds its model and whose
@@ -184,9 +202,7 @@ TEST(UdpPoses, AStalledStreamDoesNotHoldBackDatagrams) {
   ASSERT_EQ(decode_welcome(got, w), Reject::ok);
   ASSERT_TRUE(w.capabilities & kCapUdpPose);
   RawUdp udp(st.port());
-  udp.send(register_packet(w.session_token));
-  uint64_t echoed = 0;
-  ASSERT_EQ(decode_udp_register(udp.receive(2.0), echoed), Reject::ok);
+  ASSERT_NE(register_by_echo(udp, w.session_token), 0u);
 
   // From now on the stream is never read: a 900 kB model stalls it.
   auto pub = connect_as(st, Role::publisher, false);
@@ -211,7 +227,12 @@ TEST(UdpPoses, AStalledStreamDoesNotHoldBackDatagrams) {
 
 TEST(UdpPoses, ResumedSubscriberRegistersItsAddressAgain) {
   ServerThread st;
-  auto [pub, sub, slot] = registered_pair(st);
+  // Named references, not a structured binding: lambdas below capture them (Clang 14 cannot
+  // capture structured bindings).
+  RegisteredPair pair = registered_pair(st);
+  auto& pub = pair.pub;
+  auto& sub = pair.sub;
+  auto& slot = pair.slot;
   ASSERT_TRUE(pub && sub && slot);
   publish_range(*pub, *slot, 1, 10, {sub.get()});
   sub->drop_connection();
@@ -243,7 +264,12 @@ TEST(UdpPoses, WithoutUdpOnTheServerFramesStayOnTcp) {
 
 TEST(UdpPoses, HostileDatagramsAreCountedAndOnlyKnownTokensAnswered) {
   ServerThread st;
-  auto [pub, sub, slot] = registered_pair(st);
+  // Named references, not a structured binding: lambdas below capture them (Clang 14 cannot
+  // capture structured bindings).
+  RegisteredPair pair = registered_pair(st);
+  auto& pub = pair.pub;
+  auto& sub = pair.sub;
+  auto& slot = pair.slot;
   ASSERT_TRUE(pub && sub && slot);
   const uint64_t before = st.stats().udp_datagrams_in;
 
@@ -252,14 +278,14 @@ TEST(UdpPoses, HostileDatagramsAreCountedAndOnlyKnownTokensAnswered) {
   Bytes wrong_magic = register_packet(sub->session_token());
   wrong_magic[0] = 'X';
   raw.send(wrong_magic);
-  Bytes long_register = register_packet(42);
+  Bytes long_register = register_packet(token_of(42));
   long_register.resize(40, 0);
   long_register[4] = 32;                           // a payload longer than the type allows
   raw.send(long_register);
   Bytes bye(16);
   bye.resize(encode_bye(bye));
   raw.send(bye);                                   // a TCP message on the UDP socket
-  raw.send(register_packet(0x1234567890abcdefull));  // nobody's token
+  raw.send(register_packet(token_of(0x5a)));         // nobody's token
   raw.send(register_packet(pub->session_token()));   // a publisher's token: no UDP for publishers
   EXPECT_TRUE(raw.receive(0.3).empty()) << "the server answered a datagram it should not have";
   ASSERT_TRUE(pump({pub.get(), sub.get()}, [&] { return st.stats().udp_datagrams_in >= before + 6; }));
@@ -271,13 +297,19 @@ TEST(UdpPoses, HostileDatagramsAreCountedAndOnlyKnownTokensAnswered) {
   EXPECT_EQ(s.rejected[size_t(Reject::unauthorized)], 2u);
   EXPECT_EQ(s.udp_registered, 1u);
 
-  // The real subscriber's token from another socket moves its frames there (as a NAT rebinding
-  // would) and is answered with the same 16 bytes.
+  // The real subscriber's token from another socket moves its frames there once that socket
+  // echoed the server's nonce (as after a NAT rebinding); each answer is the request's size.
   raw.send(register_packet(sub->session_token()));
-  const Bytes ack = raw.receive(2.0);
-  uint64_t echoed = 0;
-  ASSERT_EQ(decode_udp_register(ack, echoed), Reject::ok);
-  EXPECT_EQ(echoed, sub->session_token());
+  const Bytes challenge = raw.receive(2.0);
+  EXPECT_EQ(challenge.size(), kUdpRegisterBytes);
+  UdpRegister echoed;
+  ASSERT_EQ(decode_udp_register(challenge, echoed), Reject::ok);
+  EXPECT_EQ(echoed.token, sub->session_token());
+  ASSERT_NE(echoed.nonce, 0u);
+  raw.send(register_packet(sub->session_token(), echoed.nonce));
+  UdpRegister ack;
+  ASSERT_EQ(decode_udp_register(raw.receive(2.0), ack), Reject::ok);
+  EXPECT_EQ(ack.nonce, echoed.nonce);
   ASSERT_TRUE(pub->publish_pose(*slot, {0, 0, 1, wall_clock_us()}, pose_with(0.25f)));
   pump_for({pub.get()}, 0.05);
   const Bytes frame = raw.receive(2.0);

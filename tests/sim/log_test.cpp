@@ -280,8 +280,9 @@ TEST(LogReader, TruncationAtEveryByteKeepsTheCompletePrefix) {
   }
 }
 
-TEST(LogReader, CorruptedByteIsCaughtByTheCrcAndEarlierRecordsSurvive) {
+TEST(LogReader, CorruptedByteIsCaughtByTheCrcAndEveryOtherRecordSurvives) {
   const SmallLog s = small_log();
+  const size_t last = s.record_ends.size() - 1;  // the end record
   for (size_t at = 0; at < s.bytes.size(); ++at) {
     for (uint8_t mask : {uint8_t{0x01}, uint8_t{0x80}}) {
       std::vector<uint8_t> bad = s.bytes;
@@ -294,13 +295,85 @@ TEST(LogReader, CorruptedByteIsCaughtByTheCrcAndEarlierRecordsSurvive) {
       ASSERT_TRUE(log) << at;
       size_t rec = 0;
       while (s.record_ends[rec] <= at) ++rec;  // the record holding the bad byte
-      EXPECT_FALSE(log->complete) << at;
       ASSERT_TRUE(log->damage) << at;
       EXPECT_EQ(log->damage->byte_offset, s.record_ends[rec - 1]) << at;
       EXPECT_EQ(log->damage->record_index, rec) << at;
-      EXPECT_EQ(log->samples.size(), static_cast<size_t>(s.samples_after[rec - 1])) << at;
+      ASSERT_EQ(log->damages.size(), 1u) << at << ": " << log->damage->what();
+      // Exactly the damaged record is skipped; reading resumes at the next one.
+      EXPECT_EQ(log->damage->bytes_skipped, s.record_ends[rec] - s.record_ends[rec - 1]) << at;
+      const bool was_sample = s.samples_after[rec] != s.samples_after[rec - 1];
+      EXPECT_EQ(log->samples.size(), s.samples.size() - (was_sample ? 1 : 0)) << at;
+      EXPECT_EQ(log->complete, rec != last) << at;
+      if (rec != last) {
+        EXPECT_TRUE(log->damage->resumed) << at;
+        EXPECT_EQ(log->damage->resumed_at_byte, s.record_ends[rec]) << at;
+        EXPECT_EQ(log->samples_lost, was_sample ? 1u : 0u) << at;
+      }
+      size_t k = 0;
+      for (size_t i = 0; i < s.samples.size(); ++i) {
+        if (was_sample && i == size_t(s.samples_after[rec - 1])) continue;  // the lost one
+        ASSERT_LT(k, log->samples.size());
+        EXPECT_TRUE(same_bits(log->samples[k++], s.samples[i])) << at << " sample " << i;
+      }
     }
   }
+}
+
+// A long recording with one flipped bit in the middle keeps everything but the one record, and a
+// stretch of garbage costs only the records it covers; both are reported with where and how much.
+TEST(LogReader, ResynchronisesAfterDamageInTheMiddle) {
+  LogHeader h;
+  h.source = "sim:x";
+  h.sensors = {{0, "a", "head", {}}};
+  std::vector<uint8_t> bytes;
+  encode_log_prefix(h, bytes);
+  const size_t first_sample = bytes.size();
+  constexpr size_t kSamples = 10000;
+  for (size_t i = 0; i < kSamples; ++i) {
+    SensorSample x;
+    x.host_time_s = double(i) * 0.01;
+    x.position_m = {float(i), 1, 2};
+    encode_sample_record(x, bytes);
+  }
+  encode_end_record(kSamples, bytes);
+  constexpr size_t kRecord = 63;
+
+  std::vector<uint8_t> flipped = bytes;
+  const size_t mid = first_sample + kSamples / 2 * kRecord + 30;
+  flipped[mid] ^= 0x10;
+  auto one = decode_log(flipped);
+  ASSERT_TRUE(one);
+  EXPECT_TRUE(one->complete);
+  EXPECT_GE(one->samples.size(), kSamples * 99 / 100);
+  EXPECT_EQ(one->samples.size(), kSamples - 1);
+  EXPECT_EQ(one->samples_lost, 1u);
+  ASSERT_EQ(one->damages.size(), 1u);
+  EXPECT_EQ(one->damages[0].byte_offset, first_sample + kSamples / 2 * kRecord);
+  EXPECT_EQ(one->damages[0].bytes_skipped, kRecord);
+  EXPECT_EQ(one->damages[0].samples_before, kSamples / 2);
+  EXPECT_NE(one->damages[0].what().find("63 bytes skipped, reading resumed at byte " +
+                                        std::to_string(first_sample + (kSamples / 2 + 1) * kRecord)),
+            std::string::npos)
+      << one->damages[0].what();
+  EXPECT_EQ(one->samples.back().position_m.x, float(kSamples - 1));
+
+  // Two damaged stretches: 1,000 bytes of garbage, and a length field made implausible.
+  std::vector<uint8_t> garbage = bytes;
+  const size_t g = first_sample + 1000 * kRecord + 17;
+  for (size_t i = 0; i < 1000; ++i) garbage[g + i] = uint8_t(i * 37 + 11);
+  const size_t l = first_sample + 7000 * kRecord;
+  garbage[l + 3] = 0x7F;
+  auto two = decode_log(garbage);
+  ASSERT_TRUE(two);
+  EXPECT_TRUE(two->complete);
+  ASSERT_EQ(two->damages.size(), 2u);
+  EXPECT_EQ(two->damages[0].byte_offset, first_sample + 1000 * kRecord);
+  EXPECT_EQ(two->damages[1].byte_offset, l);
+  EXPECT_EQ(two->damages[1].bytes_skipped, kRecord);
+  const size_t lost = (1000 + 17 + kRecord - 1) / kRecord + 1;  // records the garbage touched, and one
+  EXPECT_EQ(two->samples_lost, lost);
+  EXPECT_EQ(two->samples.size(), kSamples - lost);
+  EXPECT_EQ(two->bytes_skipped, two->damages[0].bytes_skipped + kRecord);
 }
 
 TEST(LogReader, RejectsForeignAndFutureFiles) {

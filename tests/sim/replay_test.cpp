@@ -190,7 +190,7 @@ TEST(ReplaySource, DamagedLogReplaysUpToTheDamageAndSaysWhere) {
   std::vector<SensorSample> out(16);
   ASSERT_TRUE((*src)->start());
   EXPECT_EQ((*src)->poll(out), 4u);
-  EXPECT_NE((*src)->status().last_error.find("stopped at byte " + std::to_string(bytes.size() - 63)), std::string::npos)
+  EXPECT_NE((*src)->status().last_error.find("damage at byte " + std::to_string(bytes.size() - 63)), std::string::npos)
       << (*src)->status().last_error;
   EXPECT_FALSE(ReplaySource::open((dir / "nope.mlog").string(), o, clock));
 }

@@ -64,6 +64,7 @@ struct ClientStats {
   uint64_t reconnects = 0;
   uint64_t resumed = 0;
   uint64_t rejected = 0;          // malformed packets from the server
+  uint64_t wrong_dof_count = 0;   // pose frames whose DOF count is not their model's (refused)
   uint64_t udp_frames = 0;        // pose frames that came as datagrams (also in frames)
   uint64_t udp_early = 0;         // datagram frames of an avatar whose model had not arrived
 };
@@ -103,7 +104,7 @@ class Client {
 
   bool connected() const;
   bool udp_active() const;  // the server has registered our UDP address
-  uint64_t session_token() const;
+  SessionToken session_token() const;
   uint32_t negotiated_capabilities() const;
   const std::map<uint16_t, RemoteAvatar>& avatars() const;
   const ClientStats& stats() const;

@@ -1,4 +1,4 @@
-// The Mimic wire protocol, version 1 (docs/protocol.md): pure encoders and decoders, no I/O.
+// The Mimic wire protocol, version 2 (docs/protocol.md): pure encoders and decoders, no I/O.
 //
 // Every packet is an 8-byte header (magic 'M', version, type, flags, u32 little-endian payload
 // length) followed by its payload. Encoders write into caller-owned buffers and return the
@@ -10,6 +10,7 @@
 // Units: metres, radians, microseconds. Frames: +Y up, the body faces +Z, left is +X.
 #pragma once
 
+#include <array>
 #include <cstddef>
 #include <cstdint>
 #include <span>
@@ -25,8 +26,10 @@
 namespace mimic::net {
 
 inline constexpr uint8_t kMagic = 'M';
-inline constexpr uint8_t kProtocolVersion = 1;      // the only version this build speaks
-inline constexpr uint8_t kMinProtocolVersion = 1;
+// Version 2: 128-bit session tokens and UDP registration by echoed nonce (version 1 had 64-bit
+// tokens and registered any address that presented one).
+inline constexpr uint8_t kProtocolVersion = 2;      // the only version this build speaks
+inline constexpr uint8_t kMinProtocolVersion = 2;
 inline constexpr size_t kHeaderBytes = 8;
 
 // Size limits (whole packet, header included).
@@ -46,8 +49,9 @@ enum class MsgType : uint8_t {
   welcome = 2,         // server -> client: chosen version, agreed capabilities, session token
   reject = 3,          // server -> client: why the session was refused (then the server closes)
   bye = 4,             // either way: clean leave (the session cannot be resumed)
-  udp_register = 5,    // over UDP, client -> server: the session token (pose frames to this
-                       // address); server -> client: the same, once the address is registered
+  udp_register = 5,    // over UDP, client -> server: session token and the last nonce it got;
+                       // server -> client: the same token and the nonce to echo (docs/protocol.md)
+  ping = 6,            // client -> server: keep-alive of an otherwise silent session
   avatar_model = 10,   // publisher -> server (avatar = publisher's slot) and server -> subscriber
   avatar_removed = 11, // server -> subscriber
   scene = 12,          // server -> subscriber after WELCOME: every live avatar (id, revision)
@@ -65,7 +69,27 @@ enum Capability : uint32_t {
   kCapUdpPose = 1u << 3, // subscribers: pose frames as UDP datagrams (docs/protocol.md)
 };
 inline constexpr uint32_t kServerCapabilities = kCapPose | kCapMesh | kCapResume | kCapUdpPose;
-inline constexpr size_t kUdpRegisterBytes = kHeaderBytes + 8;
+
+// A session token: 128 bits from the OS's CSPRNG, all zero for "none". Equality takes the same
+// time whatever the bytes, so a guess learns nothing from how fast it was refused.
+inline constexpr size_t kTokenBytes = 16;
+struct SessionToken {
+  std::array<uint8_t, kTokenBytes> bytes{};
+  bool empty() const noexcept;
+  friend bool operator==(const SessionToken& a, const SessionToken& b) noexcept;
+};
+struct SessionTokenHash {
+  size_t operator()(const SessionToken& t) const noexcept;
+};
+
+// UDP_REGISTER in both directions: the client sends its token and the nonce it last received
+// (0 at first); the server answers with the token and the nonce the address must echo. Equal
+// nonces in the answer mean the address is registered.
+struct UdpRegister {
+  SessionToken token;
+  uint64_t nonce = 0;
+};
+inline constexpr size_t kUdpRegisterBytes = kHeaderBytes + kTokenBytes + 8;
 
 // Why a packet or a session was refused. Numeric values are on the wire (REJECT) and stable.
 enum class Reject : uint16_t {
@@ -82,9 +106,10 @@ enum class Reject : uint16_t {
   unexpected = 10,       // valid packet in the wrong state or role
   flood = 11,            // over the session's packet rate
   server_full = 12,
-  timeout = 13,          // no HELLO in time
+  timeout = 13,          // no HELLO in time, or silent for longer than the idle timeout
+  too_many_sessions = 14,  // over the per-address session limit
 };
-inline constexpr int kRejectCount = 14;
+inline constexpr int kRejectCount = 15;
 const char* reject_name(Reject r) noexcept;
 
 struct Header {
@@ -108,15 +133,15 @@ struct Hello {
   Role role = Role::subscriber;
   uint8_t mesh_lod = kNoMesh;     // subscribers: mesh frames at this LOD, or kNoMesh
   uint32_t capabilities = kCapPose | kCapResume;
-  uint64_t resume_token = 0;      // 0: a new session
-  std::string name;               // for logs, ≤ kMaxNameBytes
+  SessionToken resume_token;      // empty: a new session
+  std::string name;               // for logs, ≤ kMaxNameBytes, no control characters
   std::string secret;             // publishers on a non-loopback server, ≤ kMaxSecretBytes
 };
 
 struct Welcome {
   uint8_t version = kProtocolVersion;
   uint32_t capabilities = 0;  // client's ∩ server's
-  uint64_t session_token = 0;
+  SessionToken session_token;
   uint32_t client_id = 0;
   bool resumed = false;
 };
@@ -184,7 +209,8 @@ size_t encode_reject(const RejectMsg& m, std::span<uint8_t> out) noexcept;
 size_t encode_bye(std::span<uint8_t> out) noexcept;
 size_t encode_avatar_model(const AvatarModel& m, std::span<uint8_t> out) noexcept;
 size_t encode_avatar_removed(uint16_t avatar, std::span<uint8_t> out) noexcept;
-size_t encode_udp_register(uint64_t session_token, std::span<uint8_t> out) noexcept;
+size_t encode_udp_register(const UdpRegister& m, std::span<uint8_t> out) noexcept;
+size_t encode_ping(std::span<uint8_t> out) noexcept;
 size_t encode_scene(std::span<const SceneEntry> entries, std::span<uint8_t> out) noexcept;
 // Also 0 when pose.dof_rad.size() > kMaxPoseDofs.
 size_t encode_pose(const PoseHeader& h, const avatar::Pose& pose, std::span<uint8_t> out) noexcept;
@@ -206,13 +232,20 @@ Reject decode_welcome(std::span<const uint8_t> packet, Welcome& out);
 Reject decode_reject(std::span<const uint8_t> packet, RejectMsg& out);
 Reject decode_avatar_model(std::span<const uint8_t> packet, AvatarModel& out);
 Reject decode_avatar_removed(std::span<const uint8_t> packet, uint16_t& avatar) noexcept;
-Reject decode_udp_register(std::span<const uint8_t> packet, uint64_t& session_token) noexcept;
+Reject decode_udp_register(std::span<const uint8_t> packet, UdpRegister& out) noexcept;
 Reject decode_scene(std::span<const uint8_t> packet, std::vector<SceneEntry>& out);
 // `out.dof_rad` is resized to the packet's DOF count (no allocation when it already fits).
 Reject decode_pose(std::span<const uint8_t> packet, PoseHeader& header, avatar::Pose& out);
 Reject decode_mesh_topology(std::span<const uint8_t> packet, MeshTopology& out);
 Reject decode_mesh(std::span<const uint8_t> packet, MeshFrameHeader& header,
                    std::vector<glm::vec3>& positions_m);
+
+// Names (publishers', avatars') are shown in terminals and logs: any control character (C0,
+// DEL, C1 as UTF-8) makes the HELLO or model carrying it malformed.
+bool name_is_printable(std::string_view name) noexcept;
+// `text` with every control character (and backslash) written as \xNN: safe to print whatever a
+// peer sent.
+std::string printable(std::string_view text);
 
 // Reads the avatar id of a pose packet and rewrites it in place (the server re-stamps a
 // publisher's slot with the scene-wide avatar id without re-encoding).

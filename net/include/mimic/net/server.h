@@ -5,7 +5,8 @@
 //
 // Frames are latest-wins: each subscriber has one write in flight and one pending slot per
 // avatar, so a slow or stalled subscriber overwrites (and counts) its own old frames and never
-// delays anyone else. Hostile input (malformed, truncated, oversized, out-of-order packets,
+// delays anyone else. Models are latest-wins too: one shared packet per revision, only the
+// newest per avatar queued for a subscriber, and a cap on what old revisions may pin. Hostile input (malformed, truncated, oversized, out-of-order packets,
 // unknown versions, floods) is refused, counted in ServerStats and, where it breaks the stream,
 // ends only that session.
 //
@@ -33,12 +34,22 @@ struct ServerOptions {
   // Publishers must present it. Required when `listen` is not a loopback address.
   std::string secret;
   size_t max_sessions = 4096;
+  size_t max_sessions_per_address = 256;  // from one peer IP address (idle floods stop there)
   double hello_timeout_s = 2.0;       // a connection that does not say HELLO in time is closed
+  double idle_timeout_s = 10.0;       // a session that sends nothing (not even PING) is closed; 0: never
   double resume_grace_s = 10.0;       // how long a dropped session's token (and avatars) live
   double max_packets_per_s = 1000;    // per session, with one second of burst
   int send_buffer_bytes = 32 * 1024;  // kernel send buffer per session (bounds staleness)
   size_t max_control_backlog_bytes = 8u << 20;  // models/meshes queued for a stalled client
+  // Model packets held in memory, all avatars and revisions; over it, subscribers whose stalled
+  // writes pin old revisions are disconnected.
+  uint64_t max_model_bytes_held = 64u << 20;
   bool udp = true;  // offer pose frames as UDP datagrams (a UDP socket on the same address and port)
+  // UDP registrations must come from the TCP peer's IP address unless this is set (e.g. a
+  // client whose UDP leaves through another interface or NAT than its TCP connection).
+  bool udp_from_any_address = false;
+  double udp_registration_timeout_s = 5.0;  // not refreshed for this long: frames back on TCP
+  int housekeeping_period_ms = 250;         // timeouts are checked this often
 };
 
 struct ServerStats {
@@ -57,9 +68,15 @@ struct ServerStats {
   uint64_t mesh_frames_out = 0;
   uint64_t model_bytes_out = 0;
   uint64_t sessions_closed_for_input = 0;  // ended because of what the peer sent
-  uint64_t sessions_closed_slow = 0;       // control backlog overflow
+  uint64_t sessions_closed_slow = 0;       // control backlog overflow, or pinning old models over the cap
+  uint64_t sessions_timed_out = 0;         // no HELLO in time, or idle past the idle timeout
+  uint64_t sessions_refused_per_address = 0;  // over max_sessions_per_address
+  uint64_t model_bytes_held = 0;           // model packets in memory (shared by all sessions)
   uint64_t udp_datagrams_in = 0;           // received on the UDP socket, valid or not
-  uint64_t udp_registered = 0;             // subscribers whose poses went to a UDP address
+  uint64_t udp_registered = 0;             // registrations completed (the address echoed its nonce)
+  uint64_t udp_challenges = 0;             // nonces sent to addresses not (yet) registered
+  uint64_t udp_wrong_address = 0;          // registrations from another IP than the TCP peer's
+  uint64_t udp_expired = 0;                // registrations not refreshed in time
   uint64_t udp_frames_out = 0;             // pose frames sent as datagrams (also in frames_out)
   std::array<uint64_t, kRejectCount> rejected{};  // by Reject code
 
@@ -79,6 +96,7 @@ struct SessionInfo {
   uint64_t frames_out = 0;
   uint64_t frames_dropped = 0;
   uint64_t rejected = 0;
+  bool udp = false;  // pose frames go to a registered UDP address
 };
 
 class Server {

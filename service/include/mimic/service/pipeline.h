@@ -64,7 +64,8 @@ class PoseFeed {
   virtual const avatar::Skeleton& skeleton() const = 0;
   virtual std::string describe() const = 0;
   virtual Status start() = 0;
-  // Polls the source; the number of new samples (0: nothing new this tick).
+  // Polls the source; the number of new samples ready for a pose (0: nothing new this tick, or
+  // a measurement cycle not complete yet).
   virtual size_t read() = 0;
   // The pose from the samples read last. `capture_s` is the host time (steady clock, seconds)
   // at the newest sample's last byte.
@@ -150,6 +151,11 @@ class Pipeline {
   size_t avatar_count() const { return avatars_.size(); }
   uint64_t frames() const { return frames_; }
   uint64_t send_failures() const { return send_failures_; }
+  // Avatars whose source is silent (their last pose repeated, flagged stale, kStaleRepeat_s
+  // apart), and how many such repeats went out.
+  size_t silent_sources() const { return silent_sources_; }
+  uint64_t stale_frames() const { return stale_frames_; }
+  static constexpr double kStaleRepeat_s = 0.1;
   StageTimer& timer(int stage) { return timers_[stage]; }
   const PoseFeed& feed(size_t i) const { return *avatars_[i].feed; }
   // The pose avatar i was last solved to (what a local viewer draws).
@@ -168,6 +174,8 @@ class Pipeline {
     std::vector<uint8_t> packet;
     std::vector<uint8_t> mesh_packet;  // sized when the topology is announced
     bool topology_sent = false;
+    double last_send_s = 0;  // now_s() of the last frame sent
+    bool silent = false;     // the source has gone quiet: stale repeats
   };
   void send_mesh(Avatar& a, uint64_t time_us);
   PipelineOutputs out_;
@@ -177,6 +185,8 @@ class Pipeline {
   std::array<StageTimer, kStageCount> timers_;
   uint64_t frames_ = 0;
   uint64_t send_failures_ = 0;
+  uint64_t stale_frames_ = 0;
+  size_t silent_sources_ = 0;
 };
 
 }  // namespace mimic::service

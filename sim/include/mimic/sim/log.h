@@ -3,7 +3,8 @@
 // driver run can be replayed exactly. The byte layout is specified in docs/log-format.md.
 //
 // Every record is framed with its length and a CRC-32, so a truncated or corrupted log still
-// yields every record before the damage, and says where it stopped (byte offset, record index).
+// yields every record before the damage and, resynchronising on the next well-framed record,
+// every record after it; it says where the damage was and how many bytes it skipped.
 // The decoder takes any bytes (it is a fuzz target) and never reads out of bounds.
 #pragma once
 
@@ -50,12 +51,17 @@ struct RawChunk {
   std::vector<uint8_t> bytes;
 };
 
-// Where and why decoding stopped early.
+// One damaged stretch of a log: where, why, and how much was skipped to the next good record.
 struct LogDamage {
   uint64_t byte_offset = 0;   // start of the first record that could not be read
-  uint64_t record_index = 0;  // its index (the header is record 0)
+  uint64_t record_index = 0;  // records read before it (the header is record 0)
   std::string reason;         // e.g. "CRC mismatch", "truncated record (needs 63 bytes, 20 left)"
-  std::string what() const;   // "stopped at byte 1234 (record 17): CRC mismatch"
+  uint64_t bytes_skipped = 0;    // from byte_offset to where reading resumed (or the end)
+  uint64_t resumed_at_byte = 0;  // the next good record, or the file size if none
+  uint64_t samples_before = 0;   // samples read before the damage
+  bool resumed = false;          // a good record followed
+  // "damage at byte 1234 (record 17): CRC mismatch; 70 bytes skipped, reading resumed at byte 1304"
+  std::string what() const;
 };
 
 struct LogContents {
@@ -63,13 +69,18 @@ struct LogContents {
   std::vector<devices::SensorSample> samples;  // in file order
   std::vector<RawChunk> raw;
   bool complete = false;           // the end record was present (the writer closed the log)
-  std::optional<LogDamage> damage; // set when the bytes end or go bad before the end record
+  std::optional<LogDamage> damage; // the first damage (or a missing end record), if any
+  std::vector<LogDamage> damages;  // every damaged stretch, in file order
+  uint64_t bytes_skipped = 0;      // over all damages
+  uint64_t samples_lost = 0;       // end record's count minus samples read, when it survived
   uint64_t records = 0;            // records read, header included
 };
 
 // Decodes a whole log. Fails (parse_error, naming the offset) only when no valid header can be
-// read: wrong magic, unsupported version, damaged or missing header record. Anything after a
-// good header is kept up to the first damage, which is reported in `damage`.
+// read: wrong magic, unsupported version, damaged or missing header record. After a good header,
+// damage (bad CRC, bad length, cut-short record) is skipped by scanning for the next well-framed
+// record with a good CRC; every good record before and after is kept, and each damaged stretch is
+// reported in `damages` (the first also in `damage`).
 Result<LogContents> decode_log(std::span<const uint8_t> bytes);
 Result<LogContents> read_log(const std::string& path);
 

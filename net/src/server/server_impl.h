@@ -1,0 +1,227 @@
+// The scene server's internals, shared by its parts (one idea per file):
+//   session.cpp          a connection's life: read loop, rate limit, dispatch, refusal, close
+//   handshake.cpp        HELLO: versions, secret, tokens, resume, the scene for a joiner
+//   publishing.cpp       what publishers bring: avatars, model revisions, pose and mesh frames
+//   fan_out.cpp          what subscribers get: control queue (latest model wins), frame slots, writes
+//   udp_registration.cpp pose frames as datagrams: echoed-nonce registration, expiry
+//   limits.cpp           accepting connections: per-address limits, deadlines, housekeeping
+//   secure_random.cpp    tokens and nonces from the OS's CSPRNG
+//   ../server.cpp        the public Server API
+#pragma once
+
+#include <utility>  // before Asio, which uses std::exchange without including it
+
+#include <array>
+#include <boost/asio.hpp>
+#include <chrono>
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <span>
+#include <string>
+#include <unordered_map>
+#include <vector>
+
+#include "mimic/net/frame_codec.h"
+#include "mimic/net/server.h"
+
+namespace mimic::net {
+
+namespace asio = boost::asio;
+using tcp = asio::ip::tcp;
+using udp = asio::ip::udp;
+using Clock = std::chrono::steady_clock;
+
+inline constexpr int kMaxLods = 8;
+inline constexpr size_t kMaxAvatarsPerPublisher = 16;
+inline constexpr size_t kMaxAvatars = 4096;
+
+inline Clock::duration seconds(double s) {
+  return std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(s));
+}
+
+struct Session;
+
+// An encoded packet shared by every session that queues it (a model revision is encoded once and
+// never copied per subscriber).
+using SharedBytes = std::shared_ptr<const std::vector<uint8_t>>;
+
+struct MeshSlot {
+  std::vector<uint8_t> topology;  // encoded packet
+  std::vector<uint8_t> frame;     // latest encoded mesh frame
+  size_t frame_size = 0;
+  uint32_t sequence = 0;
+};
+
+struct Avatar {
+  bool live = false;
+  uint16_t id = 0;
+  std::string name;
+  uint16_t dof_count = 0;
+  uint32_t revision = 0;
+  SharedBytes model_packet;  // this revision, encoded once
+  std::array<uint8_t, kMaxDatagramBytes> pose{};
+  size_t pose_size = 0;
+  uint32_t sequence = 0;
+  bool has_pose = false;
+  Session* owner = nullptr;     // remote publisher, or nullptr for a local avatar
+  SessionToken owner_token;     // to re-attach on resume
+  Clock::time_point orphaned_at{};
+  bool orphaned = false;
+  std::array<MeshSlot, kMaxLods> mesh;
+};
+
+struct ResumeRecord {
+  Role role = Role::subscriber;
+  Clock::time_point expires;
+  std::map<uint16_t, uint32_t> models_known;  // subscriber: avatar -> revision delivered
+  std::map<uint8_t, uint16_t> slots;          // publisher: slot -> avatar
+};
+
+// A queued control packet. `model_of` names the avatar of a model packet: a newer revision of the
+// same avatar replaces it in the queue (latest wins), a removal drops it.
+struct ControlItem {
+  SharedBytes bytes;
+  uint16_t model_of = 0;
+};
+
+struct ServerImpl {
+  ServerOptions opt;
+  asio::io_context io{1};
+  tcp::acceptor acceptor{io};
+  asio::steady_timer housekeeping{io};
+  bool loopback = true;
+  // Pose frames as datagrams: subscribers register an address with their session token.
+  udp::socket udp_sock{io};
+  bool udp_on = false;
+  std::array<uint8_t, kMaxDatagramBytes> udp_in{};
+  udp::endpoint udp_from;
+  std::unordered_map<SessionToken, Session*, SessionTokenHash> udp_sessions;  // subscribers asking for UDP
+  ServerStats stats;
+  // Bytes of model packets alive (current revisions, and older ones still being written); the
+  // deleter of every SharedBytes made by make_model_packet counts them down.
+  std::shared_ptr<uint64_t> model_bytes_held = std::make_shared<uint64_t>(0);
+  std::vector<Avatar> avatars;  // index = avatar id; 0 unused
+  std::vector<std::shared_ptr<Session>> sessions;
+  std::map<asio::ip::address, size_t> sessions_per_address;
+  std::unordered_map<SessionToken, ResumeRecord, SessionTokenHash> resume;
+  uint32_t next_session_id = 1;
+  // Model revisions are unique across the server's life, so an avatar id reused after a removal
+  // never looks like a model a resuming subscriber already holds.
+  uint32_t next_revision = 1;
+  bool batching = false;  // between begin_batch and end_batch: mark, flush once at the end
+
+  // limits.cpp
+  void start_accept();
+  void on_accept(tcp::socket sock);
+  void schedule_housekeeping();
+  void remove_session(Session* s);
+  // udp_registration.cpp
+  void start_udp_receive();
+  void on_datagram(std::span<const uint8_t> datagram);
+  void expire_udp_registrations(Clock::time_point now);
+  // handshake.cpp
+  uint32_t capabilities() const { return udp_on ? kServerCapabilities : kServerCapabilities & ~uint32_t(kCapUdpPose); }
+  SessionToken new_token() const;
+  // publishing.cpp
+  Avatar* avatar(uint16_t id) { return id < avatars.size() && avatars[id].live ? &avatars[id] : nullptr; }
+  Result<uint16_t> new_avatar(const std::string& name, uint16_t dof_count, std::string model_bytes,
+                              Session* owner);
+  void update_model(Avatar& a, const AvatarModel& m);
+  void drop_avatar(uint16_t id);
+  Reject accept_pose(Avatar& a, std::span<const uint8_t> packet);
+  Reject accept_mesh(Avatar& a, uint8_t lod, std::span<const uint8_t> packet);
+  SharedBytes make_model_packet(const AvatarModel& m);
+  // fan_out.cpp
+  void fan_out_pose(uint16_t id);
+  void enforce_model_memory_cap();
+};
+
+struct Session : std::enable_shared_from_this<Session> {
+  ServerImpl& srv;
+  tcp::socket sock;
+  asio::ip::address peer_address;  // of the TCP connection
+  asio::steady_timer hello_timer;
+  PacketReader reader{kMaxHelloBytes};
+  uint32_t id = 0;
+  bool active = false;  // HELLO accepted
+  bool closed = false;
+  bool counted_per_address = false;
+  Role role = Role::subscriber;
+  std::string name;
+  uint32_t caps = 0;
+  uint8_t mesh_lod = kNoMesh;
+  SessionToken token;
+  Clock::time_point last_heard;  // any packet from the peer (idle timeout)
+
+  // UDP: pose frames go to udp_peer once it echoed udp_nonce, until not refreshed in time. A
+  // candidate address gets its own nonce (pending_*) and replaces udp_peer only when it echoes.
+  bool udp_ready = false;
+  udp::endpoint udp_peer;
+  uint64_t udp_nonce = 0;
+  Clock::time_point udp_refreshed;
+  udp::endpoint pending_peer;
+  uint64_t pending_nonce = 0;
+
+  // Outgoing: one write in flight (out + shared model packets, as one gather write), control
+  // packets queued behind it (never dropped, but a newer model replaces an older one of the same
+  // avatar), and one pending frame slot per avatar (latest wins).
+  std::vector<uint8_t> out;
+  std::vector<SharedBytes> out_shared;  // model packets of the write in flight, kept alive
+  std::vector<asio::const_buffer> out_buffers;
+  std::vector<ControlItem> control;
+  size_t control_bytes = 0;
+  std::vector<uint16_t> pending;        // avatars with a pose frame waiting
+  std::vector<uint8_t> pending_flag;    // by avatar id
+  std::vector<uint16_t> pending_mesh;
+  std::vector<uint8_t> pending_mesh_flag;
+  std::vector<uint8_t> topology_sent;   // by avatar id, for mesh subscribers
+  bool writing = false;
+
+  // Inbound
+  std::map<uint8_t, uint16_t> slots;     // publisher slot -> avatar id
+  std::map<uint16_t, uint32_t> models_known;  // subscriber: avatar -> revision delivered
+  double tokens = 0;
+  Clock::time_point last_refill;
+  avatar::Pose scratch_pose;
+  std::vector<glm::vec3> scratch_mesh;
+  MeshTopology scratch_topology;
+
+  uint64_t frames_out = 0, frames_dropped = 0, rejected = 0;
+
+  Session(ServerImpl& s, tcp::socket socket);
+
+  // session.cpp
+  void start();
+  void read();
+  void on_read(const boost::system::error_code& ec, size_t n);
+  bool rate_ok();
+  void count(Reject e);
+  void handle(std::span<const uint8_t> packet);
+  void refuse(Reject reason, const char* message);
+  void forget_token();
+  void close(bool clean);
+  // handshake.cpp
+  void on_hello(std::span<const uint8_t> packet);
+  void reattach(const std::map<uint8_t, uint16_t>& old_slots);
+  // publishing.cpp
+  Reject on_model(std::span<const uint8_t> packet);
+  Avatar* slot_avatar(uint16_t slot);
+  Reject on_pose(std::span<const uint8_t> packet);
+  Reject on_mesh_topology(std::span<const uint8_t> packet);
+  Reject on_mesh(std::span<const uint8_t> packet);
+  // fan_out.cpp
+  void send_model(Avatar& a);
+  void queue_control(std::span<const uint8_t> bytes);
+  void queue_model(uint16_t avatar_id, const SharedBytes& packet);
+  void drop_queued_model(uint16_t avatar_id);
+  void ensure_slot(uint16_t avatar_id);
+  void mark_pose(uint16_t avatar_id);
+  void topology_changed(uint16_t avatar_id, uint8_t lod);
+  void mark_mesh(uint16_t avatar_id);
+  void send_poses_udp();
+  void flush();
+  bool pins_stale_model() const;
+};
+
+}  // namespace mimic::net
