@@ -14,7 +14,7 @@
 #include "mimic/net/loopback_bench.h"
 #include "mimic/net/server.h"
 #include "mimic/net/vmc.h"
-#include "mimic/avatar/lbs_baseline.h"
+#include "mimic/avatar/baselines/baseline_skinner.h"
 #include "mimic/avatar/skin.h"
 #include "mimic/sim/sensor_rig.h"
 #include "mimic/solver/body_solver.h"
@@ -196,23 +196,38 @@ Result<nlohmann::json> bench_skin(const BenchOptions& opt) {
     std::vector<avatar::Pose> poses(64, sk.zero_pose());
     for (size_t k = 0; k < poses.size(); ++k) (*motion)->sample(0.02 * static_cast<double>(k), poses[k]);
     skin->evaluate(sk.zero_pose());
-    const avatar::LinearBlendBaseline lbs(sk, skin->mesh().positions);
+    auto baselines = avatar::baselines::bind_to_links(sk, sk.zero_pose(), skin->mesh());
+    if (!baselines) return tl::unexpected(baselines.error());
     std::vector<avatar::RigidTransform> w(sk.joint_count());
-    std::vector<glm::vec3> out(lbs.vertex_count());
+    std::vector<glm::vec3> out(baselines->vertex_count());
     auto skin_us = time_frames(seconds, 200000, [&](size_t k) { skin->evaluate(poses[k % poses.size()]); });
-    auto lbs_us = time_frames(seconds, 2000000, [&](size_t k) {
-      avatar::forward_kinematics(sk, poses[k % poses.size()], w);
-      lbs.deform(w, out);
+    // Each baseline frame: FK, the joints' skinning transforms, then the vertices.
+    auto baseline_us = [&](avatar::baselines::SkinningMethod m) {
+      return time_frames(seconds, 2000000, [&](size_t k) {
+        avatar::forward_kinematics(sk, poses[k % poses.size()], w);
+        baselines->set_pose(w);
+        baselines->deform(m, out);
+      });
+    };
+    auto lbs_us = baseline_us(avatar::baselines::SkinningMethod::lbs);
+    auto dqs_us = baseline_us(avatar::baselines::SkinningMethod::dqs);
+    auto cor_us = baseline_us(avatar::baselines::SkinningMethod::cor);
+    // The vertex loop alone, for the per-vertex figure (no FK, no per-joint conversion).
+    auto lbs_vertices_us = time_frames(seconds, 2000000, [&](size_t) {
+      baselines->deform(avatar::baselines::SkinningMethod::lbs, out);
     });
     const auto [s50, s99] = p50_p99(skin_us);
-    const auto [l50, l99] = p50_p99(lbs_us);
+    const double l50 = p50_p99(lbs_us).first, d50 = p50_p99(dqs_us).first, c50 = p50_p99(cor_us).first;
+    const double lbs_ns_per_vertex = 1000.0 * p50_p99(lbs_vertices_us).first / static_cast<double>(out.size());
     const char* name = subdivision == 0 ? "realtime" : "subdivision_1";
     j[name] = {{"vertices", skin->mesh().positions.size()}, {"rays", skin->stats().rays},
                {"frame_us_p50", s50},  {"frame_us_p99", s99},
-               {"lbs_us_p50", l50},    {"ratio_to_lbs", l50 > 0 ? s50 / l50 : 0.0}};
-    std::fprintf(stderr, "skin %s: %zu vertices, %d rays: frame p50 %.0f us, p99 %.0f us; linear blend skinning of the "
-                 "same vertices %.1f us (%.1fx)\n",
-                 name, skin->mesh().positions.size(), skin->stats().rays, s50, s99, l50, l50 > 0 ? s50 / l50 : 0.0);
+               {"lbs_us_p50", l50},    {"ratio_to_lbs", l50 > 0 ? s50 / l50 : 0.0},
+               {"lbs_us", l50},        {"dqs_us", d50}, {"cor_us", c50}, {"lbs_ns_per_vertex", lbs_ns_per_vertex}};
+    std::fprintf(stderr, "skin %s: %zu vertices, %d rays: frame p50 %.0f us, p99 %.0f us; the same vertices by linear blend "
+                 "skinning %.1f us (%.1fx; %.2f ns/vertex), dual quaternion %.1f us, centres of rotation %.1f us\n",
+                 name, skin->mesh().positions.size(), skin->stats().rays, s50, s99, l50, l50 > 0 ? s50 / l50 : 0.0,
+                 lbs_ns_per_vertex, d50, c50);
   }
   return j;
 }
@@ -287,8 +302,9 @@ const char* kUsage =
     "        socket through the mimic run pipeline (p50/p99); subscribers x avatars the server\n"
     "        holds at 90 Hz with no lost latest frame\n"
     "  skin  the metaball skin on the built-in walk (realtime resolution and subdivision 1):\n"
-    "        frame time p50/p99 and, in the same run, linear blend skinning of the same\n"
-    "        vertices, with the ratio\n"
+    "        frame time p50/p99 and, in the same run, the baselines on the same vertices:\n"
+    "        linear blend (lbs_us, lbs_ns_per_vertex), dual quaternion (dqs_us) and optimized\n"
+    "        centres of rotation (cor_us) skinning, with the ratio to lbs\n"
     "  solver  filter + solve per frame for the layouts 3, 6, 11 and all (built-in walk,\n"
     "        1 mm / 0.5 deg noise, 120 Hz): p50/p99\n"
     "\n"
