@@ -30,6 +30,8 @@
 
 namespace mimic::avatar {
 
+struct JointInfluences;  // skin_weights.h
+
 struct SkinOptions {
   // 0: the paper's realtime mode — contour points are the vertices, no smoothing.
   // n ≥ 1: cubic B-spline smoothing, n samples per control span in both directions.
@@ -94,6 +96,8 @@ class BodySkin {
   void stage_stitch();
 
  private:
+  friend Result<std::vector<JointInfluences>> contour_skin_weights(const BodySkin& skin);
+  friend class RealtimeBody;  // measures its contours once from this skin's layout
   struct Impl;
   explicit BodySkin(std::unique_ptr<Impl> impl);
   std::unique_ptr<Impl> impl_;

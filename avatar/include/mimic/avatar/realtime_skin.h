@@ -1,0 +1,112 @@
+// The paper's realtime skin (§4.1): contours are ray-cast once, in an initial pose; afterwards a
+// frame only moves each contour point with the configuration of its ring. No ray, no field
+// evaluation, no B-spline per frame:
+//
+//   star rings      p = o + x·front + y·left + z·normal, the ring's plane from the current pose
+//                   (joint-angle driven: bisector normals at the joints, interpolated along links)
+//   driven rings    p = S + α(G − S) + residual, S and G the moved start ring and loop
+//   bridges         p = o + x·(half chord)·front + y·up + z·side, from their moved end points
+//   caps, rigid     the ring's centroid; head, hands and feet moved rigidly with their joint
+//
+// (x, y, z) are each point's coordinates measured in the initial pose, so that pose comes out
+// exactly as the full method (BodySkin, subdivision 0) draws it, vertex for vertex.
+//
+// Muscles, beyond the paper: for every DOF that deforms a primitive (the biceps' elbow flexion,
+// the calf's knee flexion…), the contours are also ray-cast in the initial posture with that
+// DOF's primitives shaped as at θ0, θmin and θmax; at run time each point's local coordinates move by the same f(t) as the primitive
+// (t = (θ − θ0)/(θmax − θ0), or towards θmin), so the biceps still bulges without a ray.
+//
+// Sharing: RealtimeBody is immutable and built once per body, skeleton and LOD (the contour
+// coordinates, the muscle table, the mesh topology, the skinning weights); every avatar with that
+// body holds a shared_ptr to it and a RealtimeSkin of a few kilobytes (joint transforms, chain
+// nodes, ring frames), plus its own vertex buffer.
+#pragma once
+
+#include <cstddef>
+#include <memory>
+#include <optional>
+#include <span>
+#include <string_view>
+#include <vector>
+
+#include "mimic/avatar/body_model.h"
+#include "mimic/avatar/mesh.h"
+#include "mimic/avatar/skeleton.h"
+#include "mimic/avatar/skin_weights.h"
+
+namespace mimic::avatar {
+
+// How a skin is made each frame: `full` ray-casts every contour (BodySkin), `realtime` moves the
+// contours measured once (RealtimeSkin).
+enum class SkinMethod : uint8_t { full, realtime };
+const char* skin_method_name(SkinMethod m);
+Result<SkinMethod> parse_skin_method(std::string_view name);  // "full" or "realtime"
+
+struct RealtimeOptions {
+  int lod = 0;                        // skin_lod.h: 0 finest … kSkinLodCount − 1 coarsest
+  std::optional<Pose> initial_pose;   // where the contours are ray-cast; default the zero posture
+  bool rigid_parts = true;            // head, hands, feet
+};
+
+class RealtimeBody {
+ public:
+  // Ray-casts the contours once (initial pose, and θ0/θmin/θmax of every muscle DOF). Allocates.
+  static Result<std::shared_ptr<const RealtimeBody>> create(const BodyModel& model, const Skeleton& skeleton,
+                                                            const RealtimeOptions& options = {});
+  static Result<std::shared_ptr<const RealtimeBody>> create(const BodyModel& model,
+                                                            const RealtimeOptions& options = {});
+
+  const Skeleton& skeleton() const;
+  // Topology (indices, parts) and the positions of the initial pose; shared by every avatar.
+  const Mesh& rest_mesh() const;
+  // contour_skin_weights() of the rest mesh, one per vertex.
+  std::span<const JointInfluences> weights() const;
+  int lod() const;
+  size_t vertex_count() const { return rest_mesh().positions.size(); }
+  // Points moved by muscle terms, and the terms (a point can follow several DOFs).
+  size_t muscle_points() const;
+  size_t muscle_terms() const;
+  // Heap bytes of this shared body (the cost of the first avatar, paid once).
+  size_t shared_bytes() const;
+
+  struct Data;
+  const Data& data() const { return *data_; }
+  explicit RealtimeBody(std::unique_ptr<Data> data);
+  ~RealtimeBody();
+
+ private:
+  std::unique_ptr<Data> data_;
+};
+
+struct RealtimeTimings {
+  double joints_us = 0;  // forward kinematics, chain nodes, ring frames, muscle weights
+  double points_us = 0;  // contour points, caps, rigid parts
+  double normals_us = 0;
+  double total_us() const { return joints_us + points_us + normals_us; }
+};
+
+class RealtimeSkin {
+ public:
+  explicit RealtimeSkin(std::shared_ptr<const RealtimeBody> body);
+  RealtimeSkin(RealtimeSkin&&) noexcept;
+  RealtimeSkin& operator=(RealtimeSkin&&) noexcept;
+  ~RealtimeSkin();
+
+  // Writes body().vertex_count() positions (and, when `normals_out` is not empty, area-weighted
+  // unit normals) for the pose. With `muscles` false, the contours keep their initial shape
+  // (the paper's method alone). Never allocates, never throws.
+  void evaluate(const Pose& pose, std::span<glm::vec3> positions_out, std::span<glm::vec3> normals_out = {},
+                bool muscles = true);
+
+  const RealtimeBody& body() const { return *body_; }
+  const RealtimeTimings& timings() const;
+  // Heap bytes this avatar holds beyond the shared body and its vertex buffer.
+  size_t instance_bytes() const;
+
+ private:
+  std::shared_ptr<const RealtimeBody> body_;
+  struct State;
+  std::unique_ptr<State> state_;
+};
+
+}  // namespace mimic::avatar

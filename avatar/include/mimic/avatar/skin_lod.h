@@ -1,0 +1,31 @@
+// Levels of detail of the skin (the paper's §4.3): fewer contours per link and fewer points per
+// contour, for every piece at once (the torso, bridges, limbs, neck and rigid parts all scale
+// together, so the loops where pieces meet stay shared points and no LOD can crack). LOD 0 is
+// the body's own layout (about 10,000 triangles for the default body), LOD 3 about 300.
+#pragma once
+
+#include "mimic/avatar/body_model.h"
+
+namespace mimic::avatar {
+
+inline constexpr int kSkinLodCount = 4;
+
+// The layout of `base` at `lod` (clamped to 0..kSkinLodCount − 1). Valid whenever base is.
+SkinLayout skin_layout_for_lod(const SkinLayout& base, int lod);
+// The model with its skin layout at `lod`.
+BodyModel with_skin_lod(BodyModel model, int lod);
+
+// Picks the LOD for the avatar's height on screen, in pixels: thresholds 500, 200 and 80 px
+// (LOD 0 above 500 px), with ±10% hysteresis around each so an avatar hovering at a threshold
+// does not flip every frame; `current` is the LOD in use (−1: none yet).
+int choose_lod(float projected_height_px, int current = -1);
+
+struct LodView {
+  float viewport_height_px = 1080.0f;
+  float vertical_fov_rad = 1.0471976f;  // 60°
+  float body_height_m = 1.7f;
+};
+// The same from the camera distance (metres), through a pinhole view.
+int choose_lod_at_distance(float distance_m, int current = -1, const LodView& view = {});
+
+}  // namespace mimic::avatar

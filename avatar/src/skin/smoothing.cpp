@@ -1,0 +1,78 @@
+// Per frame after the contours: cubic B-spline smoothing of the control rows (or a copy in the
+// realtime resolution) and area-weighted vertex normals.
+#include "skin_impl.h"
+
+namespace mimic::avatar {
+
+// ---------------------------------------------------------------------------------------------
+// Per frame
+
+void BodySkin::Impl::evaluate_bspline() {
+  std::vector<glm::vec3>& pos = mesh.positions;
+  if (options.subdivision == 0) {
+    std::copy(ctrl.begin(), ctrl.end(), pos.begin());
+    return;
+  }
+  const int sub = options.subdivision;
+  for (size_t si = 0; si < surfaces.size(); ++si) {
+    const Surface& s = surfaces[si];
+    const size_t rows = s.rows.size();
+    const std::vector<uint32_t>& row0 = s.rows[0] < 0 ? s.first_row : rings[s.rows[0]].slots;
+    const size_t n = row0.size();
+    const size_t cols = n * sub;
+    // Around: each control row → cols samples (closed curve).
+    for (size_t r = 0; r < rows; ++r) {
+      const std::vector<uint32_t>& slots = s.rows[r] < 0 ? s.first_row : rings[s.rows[r]].slots;
+      glm::vec3* dst = &scratch_rows[r * cols];
+      for (size_t c = 0; c < cols; ++c) {
+        const BsplineTap& t = s.around[c];
+        dst[c] = t.weight[0] * ctrl[slots[t.index[0]]] + t.weight[1] * ctrl[slots[t.index[1]]] +
+                 t.weight[2] * ctrl[slots[t.index[2]]] + t.weight[3] * ctrl[slots[t.index[3]]];
+      }
+    }
+    // Along: clamped; limbs keep their first row from the torso/bridges (shared vertices).
+    const size_t first_out = s.loop_start ? 1 : 0;
+    for (size_t o = first_out; o < s.out_rows.size(); ++o) {
+      const BsplineTap& t = s.along[o];
+      const glm::vec3* r0 = &scratch_rows[t.index[0] * cols];
+      const glm::vec3* r1 = &scratch_rows[t.index[1] * cols];
+      const glm::vec3* r2 = &scratch_rows[t.index[2] * cols];
+      const glm::vec3* r3 = &scratch_rows[t.index[3] * cols];
+      const std::vector<uint32_t>& out = s.out_rows[o];
+      for (size_t c = 0; c < cols; ++c)
+        pos[out[c]] = t.weight[0] * r0[c] + t.weight[1] * r1[c] + t.weight[2] * r2[c] + t.weight[3] * r3[c];
+    }
+    if (si == 0) {
+      // Bridges hang between torso vertices: polygon [end, interior…, end], clamped.
+      for (const Bridge& b : bridges) {
+        const std::vector<uint32_t>& interior = rings[b.ring].slots;
+        const size_t np = interior.size() + 2;
+        scratch_poly[0] = pos[b.out_from];
+        for (size_t i = 0; i < interior.size(); ++i) scratch_poly[i + 1] = ctrl[interior[i]];
+        scratch_poly[np - 1] = pos[b.out_to];
+        for (size_t i = 0; i < b.out_interior.size(); ++i)
+          pos[b.out_interior[i]] = apply_tap(b.taps[i + 1], scratch_poly);
+      }
+    }
+  }
+}
+
+void BodySkin::Impl::update_normals() {
+  // Summed in 16-byte slots: neighbouring triangles share vertices, and a 12-byte vec3 read
+  // back right after its two-part store cannot be forwarded (half the frame went there).
+  std::vector<glm::vec4>& acc = normal_sums;
+  std::fill(acc.begin(), acc.end(), glm::vec4(0));
+  const auto& pos = mesh.positions;
+  const auto& idx = mesh.indices;
+  for (size_t t = 0; t + 2 < idx.size(); t += 3) {
+    const glm::vec3 a = pos[idx[t]], b = pos[idx[t + 1]], c = pos[idx[t + 2]];
+    const glm::vec4 n(glm::cross(b - a, c - a), 0.0f);  // length = twice the area: area weighting
+    acc[idx[t]] += n;
+    acc[idx[t + 1]] += n;
+    acc[idx[t + 2]] += n;
+  }
+  std::vector<glm::vec3>& nrm = mesh.normals;
+  for (size_t v = 0; v < nrm.size(); ++v) nrm[v] = safe_normalize(glm::vec3(acc[v]), {0, 1, 0});
+}
+
+}  // namespace mimic::avatar

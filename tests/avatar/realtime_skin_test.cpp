@@ -1,0 +1,207 @@
+#include "mimic/avatar/realtime_skin.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <array>
+#include <random>
+
+#include "mimic/avatar/bvh.h"
+#include "mimic/avatar/mesh_check.h"
+#include "mimic/avatar/retarget.h"
+#include "mimic/avatar/skin.h"
+#include "mimic/avatar/skin_lod.h"
+#include "test_data.h"
+
+namespace mimic::avatar {
+namespace {
+
+std::shared_ptr<const RealtimeBody> make_body(int lod = 0) {
+  RealtimeOptions o;
+  o.lod = lod;
+  auto b = RealtimeBody::create(default_body_model(), o);
+  EXPECT_TRUE(b) << b.error().what();
+  return *b;
+}
+
+BodySkin full_skin(int lod = 0) {
+  SkinOptions o;
+  o.subdivision = 0;
+  o.normals = false;
+  auto s = BodySkin::create(with_skin_lod(default_body_model(), lod), o);
+  EXPECT_TRUE(s) << s.error().what();
+  return std::move(*s);
+}
+
+void expect_closed_outward(const Mesh& m, const std::string& what) {
+  const MeshTopology t = analyze_topology(m);
+  EXPECT_TRUE(is_closed_oriented_manifold(t)) << what;
+  EXPECT_EQ(t.components, 6u) << what;
+  EXPECT_GT(t.signed_volume, 0.0) << what << ": faces must wind outward";
+  for (const glm::vec3& p : m.positions) ASSERT_TRUE(std::isfinite(p.x + p.y + p.z)) << what;
+}
+
+TEST(RealtimeSkin, TheInitialPoseIsTheFullMethodVertexForVertex) {
+  auto body = make_body();
+  RealtimeSkin skin(body);
+  BodySkin full = full_skin();
+  Mesh m = body->rest_mesh();
+  ASSERT_EQ(m.positions.size(), full.mesh().positions.size());
+  skin.evaluate(full.skeleton().zero_pose(), m.positions);
+  float worst = 0;
+  for (size_t v = 0; v < m.positions.size(); ++v) worst = std::max(worst, glm::distance(m.positions[v], full.mesh().positions[v]));
+  EXPECT_LT(worst, 1e-5f);
+  EXPECT_EQ(m.indices, full.mesh().indices);
+}
+
+TEST(RealtimeSkin, FollowsThePoseRigidlyWhereNothingBends) {
+  // A whole-body translation and turn moves every vertex with the root.
+  auto body = make_body(1);
+  RealtimeSkin skin(body);
+  const Skeleton& sk = body->skeleton();
+  Mesh a = body->rest_mesh(), b = body->rest_mesh();
+  Pose p = sk.zero_pose();
+  skin.evaluate(p, a.positions);
+  p.root_position_m = {0.3f, 0.2f, -1.0f};
+  p.root_orientation = glm::angleAxis(1.0f, glm::vec3(0, 1, 0));
+  skin.evaluate(p, b.positions);
+  for (size_t v = 0; v < a.positions.size(); ++v) {
+    const glm::vec3 want = p.root_orientation * (a.positions[v] - sk.zero_pose().root_position_m) + p.root_position_m;
+    ASSERT_LT(glm::distance(b.positions[v], want), 1e-4f) << v;
+  }
+}
+
+TEST(RealtimeSkin, MusclesBulgeWithoutRays) {
+  auto body = make_body();
+  RealtimeSkin skin(body);
+  const Skeleton& sk = body->skeleton();
+  EXPECT_GT(body->muscle_points(), 100u);
+  Mesh m = body->rest_mesh();
+  // The biceps: the front of the mid upper arm (chosen in the zero posture) moves away from the
+  // upper arm's axis as the elbow flexes, with muscles on; without them it keeps its distance.
+  std::vector<size_t> front;
+  for (size_t v = 0; v < m.positions.size(); ++v)
+    if (std::abs(m.positions[v].x - 0.29f) < 0.02f && m.positions[v].z > 0.02f) front.push_back(v);
+  ASSERT_GT(front.size(), 2u);
+  std::vector<RigidTransform> w(sk.joint_count());
+  BodySkin full = full_skin();
+  // How far the chosen vertices reach from the upper arm's axis: the realtime skin's, with or
+  // without muscles, or the full method's (muscles < 0).
+  auto bulge = [&](float flex, int muscles) {
+    Pose p = sk.zero_pose();
+    p.dof_rad[sk.find_dof("l_elbow_flexion")] = flex;
+    full.evaluate(p);
+    skin.evaluate(p, m.positions, {}, muscles > 0);
+    const std::vector<glm::vec3>& pos = muscles < 0 ? full.mesh().positions : m.positions;
+    forward_kinematics(sk, p, w);
+    const glm::vec3 a = w[sk.find_joint("l_shoulder")].translation, b = w[sk.find_joint("l_elbow")].translation;
+    const glm::vec3 axis = glm::normalize(b - a);
+    float best = 0;
+    for (size_t v : front) {
+      const glm::vec3 d = pos[v] - a;
+      best = std::max(best, glm::length(d - glm::dot(d, axis) * axis));
+    }
+    return best;
+  };
+  const float flexed = glm::radians(140.0f);
+  EXPECT_GT(bulge(flexed, 1), bulge(flexed, 0) + 0.004f);
+  EXPECT_NEAR(bulge(flexed, 1), bulge(flexed, -1), 0.008f) << "as the full method bulges";
+}
+
+// Over every shared clip: the realtime envelope stays closed and outward, and its vertices stay
+// near the full method's (the same vertices, ray-cast every frame). The largest distances are on
+// the first boundary-driven ring of a shoulder or hip, where in some postures the full method's
+// ray from the link leaves the limb and lands on the chest (its outermost crossing); the
+// realtime ring keeps to its S + α(G − S) path there.
+TEST(RealtimeSkin, ClosedOutwardAndNearTheFullMethodThroughEverySharedClip) {
+  auto body = make_body();
+  RealtimeSkin skin(body);
+  BodySkin full = full_skin();
+  Mesh m = body->rest_mesh();
+  const Mesh& fm = full.mesh();
+  std::vector<float> with, without;
+  double sum_muscle_with = 0, sum_muscle_without = 0;
+  size_t muscle_n = 0;
+  std::vector<glm::vec3> plain(m.positions.size());
+  int poses = 0;
+  for (const char* id : test::kShared_clips) {
+    auto clip = load_bvh(test::clip_path(id));
+    ASSERT_TRUE(clip) << clip.error().what();
+    auto r = retarget_bvh(*clip);
+    ASSERT_TRUE(r) << r.error().what();
+    for (size_t f = 0; f < r->poses.size(); f += 40) {
+      const Pose p = transfer_pose(r->skeleton, r->poses[f], full.skeleton());
+      full.evaluate(p);
+      skin.evaluate(p, plain, {}, false);
+      skin.evaluate(p, m.positions, {}, true);
+      const std::string what = std::string(id) + " frame " + std::to_string(f);
+      expect_closed_outward(m, what);
+      for (size_t v = 0; v < m.positions.size(); ++v) {
+        with.push_back(glm::distance(m.positions[v], fm.positions[v]));
+        without.push_back(glm::distance(plain[v], fm.positions[v]));
+        if (glm::distance(plain[v], m.positions[v]) > 1e-3f) {  // where the muscles moved a point
+          sum_muscle_with += with.back();
+          sum_muscle_without += without.back();
+          ++muscle_n;
+        }
+      }
+      ++poses;
+    }
+  }
+  EXPECT_GT(poses, 200);
+  auto stats = [](std::vector<float>& d) {
+    double sum = 0;
+    for (float x : d) sum += x;
+    std::sort(d.begin(), d.end());
+    return std::array<double, 3>{1000 * sum / static_cast<double>(d.size()), 1000.0 * d[d.size() * 99 / 100], 1000.0 * d.back()};
+  };
+  const auto w = stats(with), wo = stats(without);
+  std::printf("realtime vs full, %d clip poses x %zu vertices: mean / p99 / max %.2f / %.1f / %.0f mm with muscles, "
+              "%.2f / %.1f / %.0f mm without; where muscles act (%zu samples): %.2f vs %.2f mm\n",
+              poses, m.positions.size(), w[0], w[1], w[2], wo[0], wo[1], wo[2], muscle_n,
+              1000 * sum_muscle_with / static_cast<double>(muscle_n), 1000 * sum_muscle_without / static_cast<double>(muscle_n));
+  EXPECT_LT(w[0], 4.0) << "mean, mm";
+  EXPECT_LT(w[1], 50.0) << "99th percentile, mm";
+  EXPECT_LT(w[2], 450.0) << "max, mm";
+  EXPECT_LT(sum_muscle_with, sum_muscle_without) << "the muscle terms bring the contours closer to the full method";
+}
+
+TEST(RealtimeSkin, AvatarsShareOneBodyAndHoldLittleEach) {
+  auto body = make_body();
+  std::vector<RealtimeSkin> avatars;
+  for (int i = 0; i < 4; ++i) avatars.emplace_back(body);
+  EXPECT_EQ(body.use_count(), 5);
+  EXPECT_LE(avatars[1].instance_bytes(), 64u * 1024u);
+  EXPECT_GT(body->shared_bytes(), 4 * avatars[1].instance_bytes());
+}
+
+TEST(RealtimeSkin, RejectsABadLodAndAShortInitialPose) {
+  RealtimeOptions o;
+  o.lod = kSkinLodCount;
+  EXPECT_FALSE(RealtimeBody::create(default_body_model(), o));
+  o.lod = 0;
+  o.initial_pose = Pose{};
+  EXPECT_FALSE(RealtimeBody::create(default_body_model(), o));
+}
+
+TEST(RealtimeSkin, AnInitialPoseOfTheCallersIsExactToo) {
+  auto sk = Skeleton::build(default_body_model().skeleton);
+  ASSERT_TRUE(sk);
+  Pose p = sk->zero_pose();
+  p.dof_rad[sk->find_dof("l_elbow_flexion")] = 0.8f;
+  p.dof_rad[sk->find_dof("r_knee_flexion")] = 0.5f;
+  RealtimeOptions o;
+  o.lod = 1;
+  o.initial_pose = p;
+  auto body = RealtimeBody::create(default_body_model(), o);
+  ASSERT_TRUE(body) << body.error().what();
+  RealtimeSkin skin(*body);
+  BodySkin full = full_skin(1);
+  full.evaluate(p);
+  Mesh m = (*body)->rest_mesh();
+  skin.evaluate(p, m.positions);
+  for (size_t v = 0; v < m.positions.size(); ++v) ASSERT_LT(glm::distance(m.positions[v], full.mesh().positions[v]), 1e-4f) << v;
+}
+
+}  // namespace
+}  // namespace mimic::avatar
