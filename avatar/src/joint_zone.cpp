@@ -16,6 +16,28 @@ std::vector<uint32_t> part_triangles(const Mesh& mesh, std::span<const std::stri
 
 namespace {
 
+// The zone's half-space normals and a unit e perpendicular to both (taken exactly antiparallel
+// when the joint is straight).
+struct ZoneFrame {
+  glm::dvec3 c, u, d, e;
+  bool straight;
+};
+
+ZoneFrame zone_frame(const JointZone& zone) {
+  ZoneFrame f{glm::dvec3(zone.center_m), glm::normalize(glm::dvec3(zone.proximal_dir)),
+              glm::normalize(glm::dvec3(zone.distal_dir)), {}, false};
+  const glm::dvec3 e = glm::cross(f.u, f.d);
+  if (glm::length(e) > 1e-3) {
+    f.e = glm::normalize(e);
+  } else {
+    f.straight = true;
+    f.u = -f.d;
+    const glm::dvec3 any = std::abs(f.d.x) < 0.9 ? glm::dvec3(1, 0, 0) : glm::dvec3(0, 1, 0);
+    f.e = glm::normalize(glm::cross(f.d, any));
+  }
+  return f;
+}
+
 // A convex polygon of at most 3 + 2 vertices (a triangle clipped by two planes).
 struct Polygon {
   glm::dvec3 p[8];
@@ -39,17 +61,8 @@ Polygon clip(const Polygon& in, const glm::dvec3& origin, const glm::dvec3& norm
 
 double joint_zone_volume(std::span<const glm::vec3> positions, std::span<const uint32_t> indices,
                          std::span<const uint32_t> triangles, const JointZone& zone) {
-  const glm::dvec3 c(zone.center_m), d = glm::normalize(glm::dvec3(zone.distal_dir));
-  glm::dvec3 u = glm::normalize(glm::dvec3(zone.proximal_dir));
-  glm::dvec3 e = glm::cross(u, d);
-  if (glm::length(e) > 1e-3) {
-    e = glm::normalize(e);
-  } else {
-    // A straight joint: the two planes are parallel (taken exactly so), any e across the link.
-    u = -d;
-    const glm::dvec3 any = std::abs(d.x) < 0.9 ? glm::dvec3(1, 0, 0) : glm::dvec3(0, 1, 0);
-    e = glm::normalize(glm::cross(d, any));
-  }
+  const ZoneFrame f = zone_frame(zone);
+  const glm::dvec3 c = f.c, u = f.u, d = f.d, e = f.e;
   const double half = zone.half_length_m;
   double volume = 0;
   for (uint32_t t : triangles) {
@@ -142,6 +155,48 @@ std::optional<double> section_area(std::span<const glm::vec3> positions, std::sp
     if (inside) best = std::max(best.value_or(0.0), 0.5 * std::abs(area2));
   }
   return best;
+}
+
+double joint_zone_section_area(std::span<const glm::vec3> positions, std::span<const uint32_t> indices,
+                               std::span<const uint32_t> triangles, const JointZone& zone, const glm::vec3& point_f,
+                               const glm::vec3& normal_f) {
+  ZoneFrame f = zone_frame(zone);
+  const glm::dvec3 point(point_f), n = glm::normalize(glm::dvec3(normal_f));
+  // The in-plane field G = e (e·(x − c)) has divergence 1 in the plane; e must run along the
+  // lines where the zone's planes cut the station plane so they add no flux.
+  if (f.straight) {
+    const glm::dvec3 along = glm::cross(n, f.d);
+    if (glm::length(along) > 1e-6) f.e = glm::normalize(along);
+  }
+  const double half = zone.half_length_m;
+  double area = 0;
+  for (uint32_t t : triangles) {
+    const glm::dvec3 v[3] = {glm::dvec3(positions[indices[3 * t]]), glm::dvec3(positions[indices[3 * t + 1]]),
+                             glm::dvec3(positions[indices[3 * t + 2]])};
+    glm::dvec3 hit[2];
+    int k = 0;
+    for (int i = 0; i < 3 && k < 2; ++i) {
+      const glm::dvec3 a = v[i], b = v[(i + 1) % 3];
+      const double sa = glm::dot(a - point, n), sb = glm::dot(b - point, n);
+      if ((sa >= 0) != (sb >= 0)) hit[k++] = a + (b - a) * (sa / (sa - sb));
+    }
+    if (k != 2) continue;
+    // Clip the segment to the zone: u·(x − c) ≤ L and d·(x − c) ≤ L.
+    double t0 = 0, t1 = 1;
+    for (const glm::dvec3& h : {f.u, f.d}) {
+      const double s0 = glm::dot(h, hit[0] - f.c) - half, s1 = glm::dot(h, hit[1] - f.c) - half;
+      if (s0 > 0 && s1 > 0) t0 = 1, t1 = 0;
+      else if (s0 > 0) t0 = std::max(t0, s0 / (s0 - s1));
+      else if (s1 > 0) t1 = std::min(t1, s0 / (s0 - s1));
+    }
+    if (t1 <= t0) continue;
+    const glm::dvec3 p = hit[0] + t0 * (hit[1] - hit[0]), q = hit[0] + t1 * (hit[1] - hit[0]);
+    // Outward in-plane normal (length = segment length): the triangle's normal, projected.
+    glm::dvec3 m = glm::cross(n, q - p);
+    if (glm::dot(m, glm::cross(v[1] - v[0], v[2] - v[0])) < 0) m = -m;
+    area += glm::dot(f.e, 0.5 * (p + q) - f.c) * glm::dot(f.e, m);
+  }
+  return area;
 }
 
 std::array<std::pair<glm::vec3, glm::vec3>, 5> joint_zone_stations(const JointZone& z) {

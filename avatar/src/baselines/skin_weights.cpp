@@ -87,4 +87,16 @@ SkinWeights weights_from_links(const Skeleton& s, std::span<const RigidTransform
   return out;
 }
 
+SkinWeights from_influences(std::span<const JointInfluences> influences) {
+  static_assert(JointInfluences::kMax == kInfluences);
+  SkinWeights out;
+  out.joints.reserve(influences.size() * kInfluences);
+  out.weights.reserve(influences.size() * kInfluences);
+  for (const JointInfluences& v : influences) {
+    out.joints.insert(out.joints.end(), v.joint.begin(), v.joint.end());
+    out.weights.insert(out.weights.end(), v.weight.begin(), v.weight.end());
+  }
+  return out;
+}
+
 }  // namespace mimic::avatar::baselines

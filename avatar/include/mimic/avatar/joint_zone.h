@@ -16,9 +16,12 @@
 // for a closed triangulated surface; regions where the skin passes through itself count twice,
 // as they would in any mesh volume.
 //
-// Cross-sections: the area enclosed by the loop in which a plane cuts the subset around a given
-// centre point: of the closed loops that contain it once projected, the largest. Stations are the joint's bisector
-// plane (through c, normal d − u) and planes perpendicular to each link at L/3 and 2L/3 from c.
+// Cross-sections: the area of the zone's interior cut by a station plane — the region of the
+// plane inside the skin and inside both half-spaces — by the same theorem in the plane, with
+// G(x) = e (e·(x − c)) along the lines where the zone's planes cut the station plane, so only
+// the skin's section curve (clipped to the zone) contributes. Where the limbs fold over each
+// other the section holds both. Stations: the joint's bisector plane (through c, normal d − u)
+// and planes perpendicular to each link at L/3 and 2L/3 from c.
 #pragma once
 
 #include <array>
@@ -47,8 +50,15 @@ std::vector<uint32_t> part_triangles(const Mesh& mesh, std::span<const std::stri
 double joint_zone_volume(std::span<const glm::vec3> positions, std::span<const uint32_t> indices,
                          std::span<const uint32_t> triangles, const JointZone& zone);
 
-// Area (m²) of the loop where the plane (point, normal) cuts the triangles, around `point`;
-// nullopt when no closed loop there encloses it.
+// Area (m²) of the zone's section by the plane (point, normal), whose normal lies in the plane
+// of the two link directions (as every station's does).
+double joint_zone_section_area(std::span<const glm::vec3> positions, std::span<const uint32_t> indices,
+                               std::span<const uint32_t> triangles, const JointZone& zone, const glm::vec3& point,
+                               const glm::vec3& normal);
+
+// Area (m²) of the loop where the plane (point, normal) cuts the triangles around `point`: of the
+// closed loops that contain it once projected, the largest; nullopt when none does. Not limited
+// to a zone.
 std::optional<double> section_area(std::span<const glm::vec3> positions, std::span<const uint32_t> indices,
                                    std::span<const uint32_t> triangles, const glm::vec3& point, const glm::vec3& normal);
 

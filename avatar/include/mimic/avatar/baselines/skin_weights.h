@@ -11,6 +11,7 @@
 #include <glm/glm.hpp>
 
 #include "mimic/avatar/skeleton.h"
+#include "mimic/avatar/skin_weights.h"
 #include "mimic/core/result.h"
 
 namespace mimic::avatar::baselines {
@@ -38,5 +39,9 @@ Status validate_weights(const SkinWeights& weights, int joint_count, float toler
 // Allocates.
 SkinWeights weights_from_links(const Skeleton& skeleton, std::span<const RigidTransform> world_from_joint_rest,
                                std::span<const glm::vec3> rest_positions_m, float blend_band_m = 0.06f);
+
+// The contour-derived influences of a skin (contour_skin_weights, RealtimeBody::weights) in the
+// jobs' layout. Allocates.
+SkinWeights from_influences(std::span<const JointInfluences> influences);
 
 }  // namespace mimic::avatar::baselines
