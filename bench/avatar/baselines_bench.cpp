@@ -22,7 +22,7 @@ struct Scene {
   std::vector<glm::vec3> positions, normals, centers;
   std::vector<uint16_t> joints;
   std::vector<float> weights;
-  std::vector<Affine3x4> matrices;
+  std::vector<SkinningMatrix> matrices;
   std::vector<DualQuat> dual_quats;
   std::vector<glm::quat> rotations;
   std::vector<glm::vec3> out_p, out_n;

@@ -192,7 +192,7 @@ TEST(BaselineSkinning, NormalsFollowTheRotation) {
 }
 
 TEST(BaselineSkinning, JobsRejectMismatchedSpans) {
-  std::vector<Affine3x4> mats(1, to_affine({}));
+  std::vector<SkinningMatrix> mats(1, to_skinning_matrix({}));
   std::vector<glm::quat> rots(1);
   std::vector<DualQuat> dqs(1, to_dual_quat({}));
   std::vector<uint16_t> j(8, 0);

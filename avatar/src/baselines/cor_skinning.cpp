@@ -6,6 +6,8 @@
 #include <unordered_map>
 #include <vector>
 
+#include "simd.h"
+
 namespace mimic::avatar::baselines {
 
 namespace {
@@ -106,42 +108,44 @@ bool CorSkinningJob::Validate() const {
 namespace {
 
 template <bool kNormals>
-void skin(const Affine3x4* __restrict mats, const glm::quat* __restrict rots, const uint16_t* __restrict ji,
+void skin(const SkinningMatrix* __restrict mats, const glm::quat* __restrict rots, const uint16_t* __restrict ji,
           const float* __restrict wi, const glm::vec3* __restrict cor, const glm::vec3* __restrict in_p,
           const glm::vec3* __restrict in_n, glm::vec3* __restrict out_p, glm::vec3* __restrict out_n, size_t n) {
+  static_assert(sizeof(glm::quat) == 16, "quaternions are four floats x, y, z, w");
   for (size_t v = 0; v < n; ++v, ji += kInfluences, wi += kInfluences) {
     const glm::quat q0 = rots[ji[0]], q1 = rots[ji[1]], q2 = rots[ji[2]], q3 = rots[ji[3]];
     const float w0 = wi[0];
     const float w1 = glm::dot(q0, q1) < 0 ? -wi[1] : wi[1];
     const float w2 = glm::dot(q0, q2) < 0 ? -wi[2] : wi[2];
     const float w3 = glm::dot(q0, q3) < 0 ? -wi[3] : wi[3];
-    float qx = w0 * q0.x + w1 * q1.x + w2 * q2.x + w3 * q3.x;
-    float qy = w0 * q0.y + w1 * q1.y + w2 * q2.y + w3 * q3.y;
-    float qz = w0 * q0.z + w1 * q1.z + w2 * q2.z + w3 * q3.z;
-    float qw = w0 * q0.w + w1 * q1.w + w2 * q2.w + w3 * q3.w;
-    const float inv = 1.0f / std::sqrt(qx * qx + qy * qy + qz * qz + qw * qw);
-    qx *= inv, qy *= inv, qz *= inv, qw *= inv;
-    const float* __restrict m0 = mats[ji[0]].m;
-    const float* __restrict m1 = mats[ji[1]].m;
-    const float* __restrict m2 = mats[ji[2]].m;
-    const float* __restrict m3 = mats[ji[3]].m;
-    alignas(16) float m[12];
-    for (int k = 0; k < 12; ++k) m[k] = wi[0] * m0[k] + wi[1] * m1[k] + wi[2] * m2[k] + wi[3] * m3[k];
+#ifdef MIMIC_BASELINES_AVX2
+    __m128 q = _mm_mul_ps(_mm_set1_ps(w0), _mm_loadu_ps(&q0.x));
+    q = _mm_fmadd_ps(_mm_set1_ps(w1), _mm_loadu_ps(&q1.x), q);
+    q = _mm_fmadd_ps(_mm_set1_ps(w2), _mm_loadu_ps(&q2.x), q);
+    q = _mm_fmadd_ps(_mm_set1_ps(w3), _mm_loadu_ps(&q3.x), q);
+    q = _mm_mul_ps(q, _mm_div_ps(_mm_set1_ps(1.0f), _mm_sqrt_ps(_mm_dp_ps(q, q, 0xFF))));
+    // t = the LBS-blended matrix applied to the centre; v' = R (v − p*) + t.
+    const simd::Blend b = simd::blend(&mats[ji[0]].cols[0][0], &mats[ji[1]].cols[0][0], &mats[ji[2]].cols[0][0],
+                                      &mats[ji[3]].cols[0][0], wi);
+    const __m128 c = simd::load3(cor[v]);
+    const __m128 t = simd::apply(b, c, 1.0f);
+    simd::store3(out_p[v], _mm_add_ps(simd::rotate(q, _mm_sub_ps(simd::load3(in_p[v]), c)), t));
+    if constexpr (kNormals) simd::store3(out_n[v], simd::rotate(q, simd::load3(in_n[v])));
+#else
+    glm::quat q{w0 * q0.w + w1 * q1.w + w2 * q2.w + w3 * q3.w, w0 * q0.x + w1 * q1.x + w2 * q2.x + w3 * q3.x,
+                w0 * q0.y + w1 * q1.y + w2 * q2.y + w3 * q3.y, w0 * q0.z + w1 * q1.z + w2 * q2.z + w3 * q3.z};
+    q = q * (1.0f / std::sqrt(glm::dot(q, q)));
+    float m[4][3];
+    for (int col = 0; col < 4; ++col)
+      for (int r = 0; r < 3; ++r)
+        m[col][r] = wi[0] * mats[ji[0]].cols[col][r] + wi[1] * mats[ji[1]].cols[col][r] +
+                    wi[2] * mats[ji[2]].cols[col][r] + wi[3] * mats[ji[3]].cols[col][r];
     const glm::vec3 c = cor[v];
-    const glm::vec3 t{m[0] * c.x + m[1] * c.y + m[2] * c.z + m[3], m[4] * c.x + m[5] * c.y + m[6] * c.z + m[7],
-                      m[8] * c.x + m[9] * c.y + m[10] * c.z + m[11]};
-    // The rotation matrix of the blended quaternion, rows.
-    const float xx = qx * qx, yy = qy * qy, zz = qz * qz, xy = qx * qy, xz = qx * qz, yz = qy * qz;
-    const float wx = qw * qx, wy = qw * qy, wz = qw * qz;
-    const glm::vec3 r0{1 - 2 * (yy + zz), 2 * (xy - wz), 2 * (xz + wy)};
-    const glm::vec3 r1{2 * (xy + wz), 1 - 2 * (xx + zz), 2 * (yz - wx)};
-    const glm::vec3 r2{2 * (xz - wy), 2 * (yz + wx), 1 - 2 * (xx + yy)};
-    const glm::vec3 d = in_p[v] - c;
-    out_p[v] = glm::vec3{glm::dot(r0, d), glm::dot(r1, d), glm::dot(r2, d)} + t;
-    if constexpr (kNormals) {
-      const glm::vec3 q = in_n[v];
-      out_n[v] = {glm::dot(r0, q), glm::dot(r1, q), glm::dot(r2, q)};
-    }
+    glm::vec3 t;
+    for (int r = 0; r < 3; ++r) t[r] = m[0][r] * c.x + m[1][r] * c.y + m[2][r] * c.z + m[3][r];
+    out_p[v] = q * (in_p[v] - c) + t;
+    if constexpr (kNormals) out_n[v] = q * in_n[v];
+#endif
   }
 }
 

@@ -1,6 +1,7 @@
 #include "mimic/avatar/baselines/linear_blend_skinning.h"
 
 #include "mimic/avatar/baselines/skin_weights.h"
+#include "simd.h"
 
 namespace mimic::avatar::baselines {
 
@@ -13,27 +14,31 @@ bool LinearBlendSkinningJob::Validate() const {
 
 namespace {
 
-// The blended matrix is twelve independent multiply-adds per influence: the compiler keeps it in
-// vector registers (one 8-wide and one 4-wide with AVX), as ozz's SIMD matrix columns do.
+// Per vertex: the four matrices blended by weight (eight fused multiply-adds on two columns per
+// 256-bit register, as ozz's SIMD Float4x4 does), then applied to the rest position (and normal).
 template <bool kNormals>
-void skin(const Affine3x4* __restrict mats, const uint16_t* __restrict ji, const float* __restrict wi,
+void skin(const SkinningMatrix* __restrict mats, const uint16_t* __restrict ji, const float* __restrict wi,
           const glm::vec3* __restrict in_p, const glm::vec3* __restrict in_n, glm::vec3* __restrict out_p,
           glm::vec3* __restrict out_n, size_t n) {
   for (size_t v = 0; v < n; ++v, ji += kInfluences, wi += kInfluences) {
-    const float* __restrict m0 = mats[ji[0]].m;
-    const float* __restrict m1 = mats[ji[1]].m;
-    const float* __restrict m2 = mats[ji[2]].m;
-    const float* __restrict m3 = mats[ji[3]].m;
-    alignas(16) float m[12];
-    for (int k = 0; k < 12; ++k) m[k] = wi[0] * m0[k] + wi[1] * m1[k] + wi[2] * m2[k] + wi[3] * m3[k];
+#ifdef MIMIC_BASELINES_AVX2
+    const simd::Blend b = simd::blend(&mats[ji[0]].cols[0][0], &mats[ji[1]].cols[0][0], &mats[ji[2]].cols[0][0],
+                                      &mats[ji[3]].cols[0][0], wi);
+    simd::store3(out_p[v], simd::apply(b, simd::load3(in_p[v]), 1.0f));
+    if constexpr (kNormals) simd::store3(out_n[v], simd::apply(b, simd::load3(in_n[v]), 0.0f));
+#else
+    float m[4][3];
+    for (int c = 0; c < 4; ++c)
+      for (int r = 0; r < 3; ++r)
+        m[c][r] = wi[0] * mats[ji[0]].cols[c][r] + wi[1] * mats[ji[1]].cols[c][r] + wi[2] * mats[ji[2]].cols[c][r] +
+                  wi[3] * mats[ji[3]].cols[c][r];
     const glm::vec3 p = in_p[v];
-    out_p[v] = {m[0] * p.x + m[1] * p.y + m[2] * p.z + m[3], m[4] * p.x + m[5] * p.y + m[6] * p.z + m[7],
-                m[8] * p.x + m[9] * p.y + m[10] * p.z + m[11]};
+    for (int r = 0; r < 3; ++r) out_p[v][r] = m[0][r] * p.x + m[1][r] * p.y + m[2][r] * p.z + m[3][r];
     if constexpr (kNormals) {
       const glm::vec3 q = in_n[v];
-      out_n[v] = {m[0] * q.x + m[1] * q.y + m[2] * q.z, m[4] * q.x + m[5] * q.y + m[6] * q.z,
-                  m[8] * q.x + m[9] * q.y + m[10] * q.z};
+      for (int r = 0; r < 3; ++r) out_n[v][r] = m[0][r] * q.x + m[1][r] * q.y + m[2][r] * q.z;
     }
+#endif
   }
 }
 

@@ -4,15 +4,11 @@
 
 namespace mimic::avatar::baselines {
 
-Affine3x4 to_affine(const RigidTransform& t) {
+SkinningMatrix to_skinning_matrix(const RigidTransform& t) {
   const glm::mat3 r = glm::mat3_cast(t.rotation);  // column-major: r[column][row]
-  Affine3x4 a;
-  for (int row = 0; row < 3; ++row) {
-    a.m[row * 4 + 0] = r[0][row];
-    a.m[row * 4 + 1] = r[1][row];
-    a.m[row * 4 + 2] = r[2][row];
-    a.m[row * 4 + 3] = t.translation[row];
-  }
+  SkinningMatrix a;
+  for (int c = 0; c < 3; ++c) a.cols[c][0] = r[c][0], a.cols[c][1] = r[c][1], a.cols[c][2] = r[c][2], a.cols[c][3] = 0;
+  a.cols[3][0] = t.translation.x, a.cols[3][1] = t.translation.y, a.cols[3][2] = t.translation.z, a.cols[3][3] = 0;
   return a;
 }
 
@@ -30,7 +26,7 @@ void invert_transforms(std::span<const RigidTransform> world_from_joint_rest, st
 }
 
 void skinning_transforms(std::span<const RigidTransform> world_from_joint, std::span<const RigidTransform> joint_from_rest,
-                         std::span<Affine3x4> matrices, std::span<DualQuat> dual_quats, std::span<glm::quat> rotations) {
+                         std::span<SkinningMatrix> matrices, std::span<DualQuat> dual_quats, std::span<glm::quat> rotations) {
   const size_t n = std::min(world_from_joint.size(), joint_from_rest.size());
   assert(matrices.empty() || matrices.size() == n);
   assert(dual_quats.empty() || dual_quats.size() == n);
@@ -38,7 +34,7 @@ void skinning_transforms(std::span<const RigidTransform> world_from_joint, std::
   for (size_t j = 0; j < n; ++j) {
     RigidTransform world_from_rest = world_from_joint[j] * joint_from_rest[j];
     world_from_rest.rotation = glm::normalize(world_from_rest.rotation);
-    if (j < matrices.size()) matrices[j] = to_affine(world_from_rest);
+    if (j < matrices.size()) matrices[j] = to_skinning_matrix(world_from_rest);
     if (j < dual_quats.size()) dual_quats[j] = to_dual_quat(world_from_rest);
     if (j < rotations.size()) rotations[j] = world_from_rest.rotation;
   }

@@ -46,7 +46,7 @@ class BaselineSkinner {
   std::vector<glm::vec3> rest_positions_, rest_normals_, centers_;
   SkinWeights weights_;
   std::vector<RigidTransform> joint_from_rest_;
-  std::vector<Affine3x4> matrices_;
+  std::vector<SkinningMatrix> matrices_;
   std::vector<DualQuat> dual_quats_;
   std::vector<glm::quat> rotations_;
 };

@@ -30,7 +30,7 @@ void compute_centers_of_rotation(std::span<const glm::vec3> rest_positions_m, st
                                  const SkinWeights& weights, std::span<glm::vec3> out_centers_m, float sigma = 0.1f);
 
 struct CorSkinningJob {
-  std::span<const Affine3x4> skinning_matrices;  // [in] world_from_rest, one per joint
+  std::span<const SkinningMatrix> skinning_matrices;  // [in] world_from_rest, one per joint
   std::span<const glm::quat> skinning_rotations;  // [in] the same transforms' rotations
   std::span<const uint16_t> joint_indices;        // [in] kInfluences per vertex
   std::span<const float> joint_weights;           // [in] kInfluences per vertex

@@ -16,7 +16,7 @@
 namespace mimic::avatar::baselines {
 
 struct LinearBlendSkinningJob {
-  std::span<const Affine3x4> skinning_matrices;  // [in] world_from_rest, one per joint
+  std::span<const SkinningMatrix> skinning_matrices;  // [in] world_from_rest, one per joint
   std::span<const uint16_t> joint_indices;       // [in] kInfluences per vertex
   std::span<const float> joint_weights;          // [in] kInfluences per vertex, summing to 1
   std::span<const glm::vec3> in_positions;       // [in] rest positions (m), one per vertex

@@ -1,0 +1,73 @@
+// Internal: the few AVX/FMA helpers the baseline skinning kernels share. Where the target lacks
+// AVX2 and FMA (a build without -march=native), the kernels take their portable scalar loops.
+#pragma once
+
+#if defined(__AVX2__) && defined(__FMA__)
+#define MIMIC_BASELINES_AVX2 1
+#include <immintrin.h>
+
+#include <glm/glm.hpp>
+
+namespace mimic::avatar::baselines::simd {
+
+// (a | b): a in the low 128 bits, b in the high.
+inline __m256 pair(__m128 lo, __m128 hi) { return _mm256_insertf128_ps(_mm256_castps128_ps256(lo), hi, 1); }
+
+inline __m128 load3(const glm::vec3& v) {  // (x, y, z, 0) without reading past the vector
+  const __m128 xy = _mm_castpd_ps(_mm_load_sd(reinterpret_cast<const double*>(&v.x)));
+  return _mm_movelh_ps(xy, _mm_load_ss(&v.z));
+}
+
+inline void store3(glm::vec3& out, __m128 v) {
+  _mm_storel_pi(reinterpret_cast<__m64*>(&out.x), v);
+  _mm_store_ss(&out.z, _mm_movehl_ps(v, v));
+}
+
+template <int i>
+inline __m128 splat(__m128 v) {
+  return _mm_shuffle_ps(v, v, _MM_SHUFFLE(i, i, i, i));
+}
+
+// a × b in the x, y, z lanes (w lane: 0 when both w are finite).
+inline __m128 cross(__m128 a, __m128 b) {
+  const __m128 a_yzx = _mm_shuffle_ps(a, a, _MM_SHUFFLE(3, 0, 2, 1));
+  const __m128 b_yzx = _mm_shuffle_ps(b, b, _MM_SHUFFLE(3, 0, 2, 1));
+  const __m128 c = _mm_fmsub_ps(a, b_yzx, _mm_mul_ps(a_yzx, b));
+  return _mm_shuffle_ps(c, c, _MM_SHUFFLE(3, 0, 2, 1));
+}
+
+// Rotation of v (w lane 0) by the unit quaternion q = (x, y, z, w): v + 2 q×(q×v + w v).
+inline __m128 rotate(__m128 q, __m128 v) {
+  const __m128 t = _mm_fmadd_ps(splat<3>(q), v, cross(q, v));
+  const __m128 u = cross(q, t);
+  return _mm_fmadd_ps(_mm_set1_ps(2.0f), u, v);
+}
+
+// Σ w_k M_k over four column-major matrices, as (col0 | col1) and (col2 | col3).
+struct Blend {
+  __m256 c01, c23;
+};
+inline Blend blend(const float* m0, const float* m1, const float* m2, const float* m3, const float* w) {
+  const __m256 w0 = _mm256_broadcast_ss(w), w1 = _mm256_broadcast_ss(w + 1);
+  const __m256 w2 = _mm256_broadcast_ss(w + 2), w3 = _mm256_broadcast_ss(w + 3);
+  __m256 c01 = _mm256_mul_ps(w0, _mm256_load_ps(m0));
+  __m256 c23 = _mm256_mul_ps(w0, _mm256_load_ps(m0 + 8));
+  c01 = _mm256_fmadd_ps(w1, _mm256_load_ps(m1), c01);
+  c23 = _mm256_fmadd_ps(w1, _mm256_load_ps(m1 + 8), c23);
+  c01 = _mm256_fmadd_ps(w2, _mm256_load_ps(m2), c01);
+  c23 = _mm256_fmadd_ps(w2, _mm256_load_ps(m2 + 8), c23);
+  c01 = _mm256_fmadd_ps(w3, _mm256_load_ps(m3), c01);
+  c23 = _mm256_fmadd_ps(w3, _mm256_load_ps(m3 + 8), c23);
+  return {c01, c23};
+}
+
+// The blended matrix applied to a point (x, y, z, _) or, with `translate` 0, to a direction.
+inline __m128 apply(const Blend& b, __m128 p, float translate) {
+  const __m256 xy = pair(splat<0>(p), splat<1>(p));
+  const __m256 z1 = pair(splat<2>(p), _mm_set1_ps(translate));
+  const __m256 r = _mm256_fmadd_ps(b.c01, xy, _mm256_mul_ps(b.c23, z1));
+  return _mm_add_ps(_mm256_castps256_ps128(r), _mm256_extractf128_ps(r, 1));
+}
+
+}  // namespace mimic::avatar::baselines::simd
+#endif
