@@ -15,7 +15,9 @@
 #include "mimic/net/server.h"
 #include "mimic/net/vmc.h"
 #include "mimic/avatar/baselines/baseline_skinner.h"
+#include "mimic/avatar/realtime_skin.h"
 #include "mimic/avatar/skin.h"
+#include "mimic/avatar/skin_lod.h"
 #include "mimic/sim/sensor_rig.h"
 #include "mimic/solver/body_solver.h"
 #include "mimic/solver/filters.h"
@@ -179,57 +181,92 @@ std::vector<double> time_frames(double seconds, size_t max_frames, F&& frame) {
   return us;
 }
 
-// The metaball skin on the built-in walk at the realtime resolution and at subdivision 1, and a
-// linear blend skinning of the same vertices, in one run: their ratio is the figure to keep.
+// The skin at every LOD on the built-in walk, in one run: the full method (every contour
+// ray-cast, contour points as vertices), the realtime method without and with its muscle terms,
+// and the baseline skinnings (LBS, DQS, CoR) of the same vertices; one row per LOD.
+struct SkinBenchCase {
+  int lod = 0;
+  avatar::BodySkin full;
+  std::shared_ptr<const avatar::RealtimeBody> body;
+  std::vector<avatar::Pose> poses;
+};
+
+nlohmann::json skin_row(SkinBenchCase& c, double seconds) {
+  const avatar::Skeleton& sk = c.full.skeleton();
+  const avatar::Mesh& rest = c.body->rest_mesh();
+  const size_t np = c.poses.size();
+  auto median = [](std::vector<double> us) { return p50_p99(us).first; };
+  const double full_us = median(time_frames(seconds, 200000, [&](size_t k) { c.full.evaluate(c.poses[k % np]); }));
+  avatar::RealtimeSkin rt(c.body);
+  std::vector<glm::vec3> out(rest.positions.size());
+  const double rt_us = median(time_frames(seconds, 2000000, [&](size_t k) { rt.evaluate(c.poses[k % np], out, {}, false); }));
+  const double rtm_us = median(time_frames(seconds, 2000000, [&](size_t k) { rt.evaluate(c.poses[k % np], out, {}, true); }));
+  // The baselines on the same rest mesh, bound with the contour-derived weights; a frame is FK,
+  // the joints' skinning transforms, then the vertices.
+  std::vector<avatar::RigidTransform> w(sk.joint_count());
+  avatar::forward_kinematics(sk, sk.zero_pose(), w);
+  auto baselines = avatar::baselines::BaselineSkinner::create(sk, w, rest, avatar::baselines::from_influences(c.body->weights()));
+  if (!baselines) return {{"lod", c.lod}, {"error", baselines.error().what()}};
+  auto baseline_us = [&](avatar::baselines::SkinningMethod m) {
+    return median(time_frames(seconds, 2000000, [&](size_t k) {
+      avatar::forward_kinematics(sk, c.poses[k % np], w);
+      baselines->set_pose(w);
+      baselines->deform(m, out);
+    }));
+  };
+  const double lbs_us = baseline_us(avatar::baselines::SkinningMethod::lbs);
+  const double dqs_us = baseline_us(avatar::baselines::SkinningMethod::dqs);
+  const double cor_us = baseline_us(avatar::baselines::SkinningMethod::cor);
+  // The vertex loop alone (no FK, no per-joint conversion), per vertex.
+  const double lbs_vertices_us = median(
+      time_frames(seconds, 2000000, [&](size_t) { baselines->deform(avatar::baselines::SkinningMethod::lbs, out); }));
+  return {{"lod", c.lod},
+          {"vertices", rest.positions.size()},
+          {"triangles", rest.triangle_count()},
+          {"full_us", full_us},
+          {"realtime_us", rt_us},
+          {"realtime_muscles_us", rtm_us},
+          {"lbs_us", lbs_us},
+          {"dqs_us", dqs_us},
+          {"cor_us", cor_us},
+          {"lbs_ns_per_vertex", 1000.0 * lbs_vertices_us / static_cast<double>(rest.positions.size())},
+          {"muscle_points", c.body->muscle_points()},
+          {"shared_bytes", c.body->shared_bytes()},
+          {"avatar_bytes", rt.instance_bytes()}};
+}
+
 Result<nlohmann::json> bench_skin(const BenchOptions& opt) {
-  nlohmann::json j;
-  const double seconds = opt.quick ? 0.3 : opt.seconds;
-  for (int subdivision : {0, 1}) {
+  nlohmann::json rows = nlohmann::json::array();
+  const double seconds = opt.quick ? 0.15 : opt.seconds / 4;
+  for (int lod = 0; lod < avatar::kSkinLodCount; ++lod) {
+    const avatar::BodyModel model = avatar::with_skin_lod(avatar::default_body_model(), lod);
     avatar::SkinOptions o;
-    o.subdivision = subdivision;
+    o.subdivision = 0;
     o.normals = false;
-    auto skin = avatar::BodySkin::create(avatar::default_body_model(), o);
-    if (!skin) return tl::unexpected(skin.error());
-    const avatar::Skeleton& sk = skin->skeleton();
+    auto full = avatar::BodySkin::create(model, o);
+    if (!full) return tl::unexpected(full.error());
+    avatar::RealtimeOptions ro;
+    ro.lod = lod;
+    auto body = avatar::RealtimeBody::create(avatar::default_body_model(), full->skeleton(), ro);
+    if (!body) return tl::unexpected(body.error());
+    SkinBenchCase c{lod, std::move(*full), *body, {}};
+    const avatar::Skeleton& sk = c.full.skeleton();
     auto motion = avatar::make_builtin_motion("walk", sk);
     if (!motion) return tl::unexpected(motion.error());
-    std::vector<avatar::Pose> poses(64, sk.zero_pose());
-    for (size_t k = 0; k < poses.size(); ++k) (*motion)->sample(0.02 * static_cast<double>(k), poses[k]);
-    skin->evaluate(sk.zero_pose());
-    auto baselines = avatar::baselines::bind_to_links(sk, sk.zero_pose(), skin->mesh());
-    if (!baselines) return tl::unexpected(baselines.error());
-    std::vector<avatar::RigidTransform> w(sk.joint_count());
-    std::vector<glm::vec3> out(baselines->vertex_count());
-    auto skin_us = time_frames(seconds, 200000, [&](size_t k) { skin->evaluate(poses[k % poses.size()]); });
-    // Each baseline frame: FK, the joints' skinning transforms, then the vertices.
-    auto baseline_us = [&](avatar::baselines::SkinningMethod m) {
-      return time_frames(seconds, 2000000, [&](size_t k) {
-        avatar::forward_kinematics(sk, poses[k % poses.size()], w);
-        baselines->set_pose(w);
-        baselines->deform(m, out);
-      });
-    };
-    auto lbs_us = baseline_us(avatar::baselines::SkinningMethod::lbs);
-    auto dqs_us = baseline_us(avatar::baselines::SkinningMethod::dqs);
-    auto cor_us = baseline_us(avatar::baselines::SkinningMethod::cor);
-    // The vertex loop alone, for the per-vertex figure (no FK, no per-joint conversion).
-    auto lbs_vertices_us = time_frames(seconds, 2000000, [&](size_t) {
-      baselines->deform(avatar::baselines::SkinningMethod::lbs, out);
-    });
-    const auto [s50, s99] = p50_p99(skin_us);
-    const double l50 = p50_p99(lbs_us).first, d50 = p50_p99(dqs_us).first, c50 = p50_p99(cor_us).first;
-    const double lbs_ns_per_vertex = 1000.0 * p50_p99(lbs_vertices_us).first / static_cast<double>(out.size());
-    const char* name = subdivision == 0 ? "realtime" : "subdivision_1";
-    j[name] = {{"vertices", skin->mesh().positions.size()}, {"rays", skin->stats().rays},
-               {"frame_us_p50", s50},  {"frame_us_p99", s99},
-               {"lbs_us_p50", l50},    {"ratio_to_lbs", l50 > 0 ? s50 / l50 : 0.0},
-               {"lbs_us", l50},        {"dqs_us", d50}, {"cor_us", c50}, {"lbs_ns_per_vertex", lbs_ns_per_vertex}};
-    std::fprintf(stderr, "skin %s: %zu vertices, %d rays: frame p50 %.0f us, p99 %.0f us; the same vertices by linear blend "
-                 "skinning %.1f us (%.1fx; %.2f ns/vertex), dual quaternion %.1f us, centres of rotation %.1f us\n",
-                 name, skin->mesh().positions.size(), skin->stats().rays, s50, s99, l50, l50 > 0 ? s50 / l50 : 0.0,
-                 lbs_ns_per_vertex, d50, c50);
+    c.poses.assign(64, sk.zero_pose());
+    for (size_t k = 0; k < c.poses.size(); ++k) (*motion)->sample(0.02 * static_cast<double>(k), c.poses[k]);
+    nlohmann::json row = skin_row(c, seconds);
+    std::fprintf(stderr,
+                 "skin LOD %d: %zu vertices, %zu triangles: full %.1f us, realtime %.1f us, with muscles %.1f us, "
+                 "linear blend skinning %.1f us (realtime with muscles / LBS %.2fx; LBS %.2f ns/vertex), dual "
+                 "quaternion %.1f us, centres of rotation %.1f us\n",
+                 lod, row["vertices"].get<size_t>(), row["triangles"].get<size_t>(), row["full_us"].get<double>(),
+                 row["realtime_us"].get<double>(), row["realtime_muscles_us"].get<double>(), row["lbs_us"].get<double>(),
+                 row["realtime_muscles_us"].get<double>() / std::max(row["lbs_us"].get<double>(), 1e-9),
+                 row["lbs_ns_per_vertex"].get<double>(), row["dqs_us"].get<double>(), row["cor_us"].get<double>());
+    rows.push_back(std::move(row));
   }
-  return j;
+  return rows;
 }
 
 // ---- solver -------------------------------------------------------------------------------------
@@ -301,10 +338,12 @@ const char* kUsage =
     "        latency on loopback (TCP, and UDP datagrams); sensor record -> frame leaving the\n"
     "        socket through the mimic run pipeline (p50/p99); subscribers x avatars the server\n"
     "        holds at 90 Hz with no lost latest frame\n"
-    "  skin  the metaball skin on the built-in walk (realtime resolution and subdivision 1):\n"
-    "        frame time p50/p99 and, in the same run, the baselines on the same vertices:\n"
-    "        linear blend (lbs_us, lbs_ns_per_vertex), dual quaternion (dqs_us) and optimized\n"
-    "        centres of rotation (cor_us) skinning, with the ratio to lbs\n"
+    "  skin  the skin on the built-in walk at every LOD, one row each: the full method\n"
+    "        (contours ray-cast), the realtime method without and with muscles, and the\n"
+    "        baselines on the same vertices with the contour-derived weights: linear blend\n"
+    "        (lbs_us, and lbs_ns_per_vertex for the vertex loop alone), dual quaternion\n"
+    "        (dqs_us) and optimized centres of rotation (cor_us) skinning (medians,\n"
+    "        microseconds, one run)\n"
     "  solver  filter + solve per frame for the layouts 3, 6, 11 and all (built-in walk,\n"
     "        1 mm / 0.5 deg noise, 120 Hz): p50/p99\n"
     "\n"

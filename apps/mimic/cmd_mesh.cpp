@@ -6,7 +6,9 @@
 #include "command.h"
 #include "mimic/avatar/mesh_check.h"
 #include "mimic/avatar/mesh_io.h"
+#include "mimic/avatar/realtime_skin.h"
 #include "mimic/avatar/skin.h"
+#include "mimic/avatar/skin_lod.h"
 
 namespace mimic::app {
 namespace {
@@ -33,8 +35,14 @@ constexpr const char* kUsage =
     "options:\n"
     "  --out FILE            .obj, .ply (binary) or .glb (glTF 2.0); written atomically (required)\n"
     "  --body FILE           body model (JSON, see docs/body-model.md); default: the built-in body\n"
-    "  --subdivision N       B-spline samples per contour span, 1..16 (default 1); 0 = realtime mode:\n"
-    "                        contour points are the vertices, no smoothing\n"
+    "  --method full|realtime  full (default): contours ray-cast in the pose; realtime: contours\n"
+    "                        ray-cast once in the zero posture and moved with their rings (the\n"
+    "                        paper's realtime method, muscles kept; contour points are the vertices)\n"
+    "  --no-muscles          realtime: the contours keep their measured shape\n"
+    "  --lod N               contours per link and points per contour: 0 the body's own (default)\n"
+    "                        to 3 (about 300 triangles)\n"
+    "  --subdivision N       full: B-spline samples per contour span, 1..16 (default 1); 0 = contour\n"
+    "                        points are the vertices, no smoothing\n"
     "  --no-rigid            leave out the head, hands and feet\n"
     "  -h, --help            this text\n"
     "\n"
@@ -44,8 +52,46 @@ double ms_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
 }
 
+int write_out(const avatar::Mesh& mesh, const std::string& out) {
+  const avatar::MeshTopology topo = avatar::analyze_topology(mesh);
+  std::printf("mesh      %zu vertices, %zu triangles, %zu parts, %zu closed components, volume %.1f dm3, %s\n",
+              mesh.positions.size(), mesh.triangle_count(), mesh.parts.size(), topo.components,
+              topo.signed_volume * 1e3, avatar::is_closed_oriented_manifold(topo) ? "closed oriented manifold" : "NOT CLOSED");
+  const auto t0 = std::chrono::steady_clock::now();
+  if (auto w = avatar::write_mesh(mesh, out); !w) return failure(kName, w.error().message);
+  std::printf("wrote     %-52s %8.2f ms\n", out.c_str(), ms_since(t0));
+  return 0;
+}
+
+int report_pose_error(const Error& e) {
+  return e.code == Errc::invalid_argument ? usage_error(kName, e.message) : failure(kName, e.message);
+}
+
+// The realtime method: the shared body (contours ray-cast once, muscle terms), then one frame.
+int realtime_mesh(const Args& args, const avatar::BodyModel& body, int lod, const std::string& out) {
+  auto t0 = std::chrono::steady_clock::now();
+  avatar::RealtimeOptions o;
+  o.lod = lod;
+  o.rigid_parts = !args.has("no-rigid");
+  auto shared = avatar::RealtimeBody::create(body, o);
+  if (!shared) return failure(kName, shared.error().message);
+  std::printf("skin      contours measured once, %4zu muscle points           %8.2f ms\n", (*shared)->muscle_points(),
+              ms_since(t0));
+  auto request = pose_from_args(args, (*shared)->skeleton());
+  if (!request) return report_pose_error(request.error());
+  std::printf("pose      %-52s %8.2f ms\n", request->description.c_str(), request->load_ms);
+  avatar::RealtimeSkin skin(*shared);
+  avatar::Mesh mesh = (*shared)->rest_mesh();
+  skin.evaluate(request->pose, mesh.positions, mesh.normals, !args.has("no-muscles"));
+  const avatar::RealtimeTimings& t = skin.timings();
+  std::printf("frame     realtime: joints and rings %.3f, contour points %.3f, normals %.3f: total %.3f ms\n",
+              t.joints_us / 1e3, t.points_us / 1e3, t.normals_us / 1e3, t.total_us() / 1e3);
+  return write_out(mesh, out);
+}
+
 int run_mesh(const std::vector<std::string>& argv) {
-  Args args(argv, {"bvh", "frame", "scale", "motion", "time", "pose", "out", "body", "subdivision"}, {"no-rigid"});
+  Args args(argv, {"bvh", "frame", "scale", "motion", "time", "pose", "out", "body", "subdivision", "method", "lod"},
+            {"no-rigid", "no-muscles"});
   if (args.help()) {
     std::printf("%s", kUsage);
     return 0;
@@ -54,9 +100,15 @@ int run_mesh(const std::vector<std::string>& argv) {
   if (!args.positionals().empty()) return usage_error(kName, "unexpected argument '" + args.positionals()[0] + "'");
   const auto out = args.get("out");
   if (!out) return usage_error(kName, "--out FILE.{obj,ply,glb} is required");
-  long subdivision = 1;
-  if (!args.get_int("subdivision", subdivision)) return usage_error(kName, args.error());
+  long subdivision = 1, lod = 0;
+  if (!args.get_int("subdivision", subdivision) || !args.get_int("lod", lod)) return usage_error(kName, args.error());
   if (subdivision < 0 || subdivision > 16) return usage_error(kName, "--subdivision must be in 0..16");
+  if (lod < 0 || lod >= avatar::kSkinLodCount)
+    return usage_error(kName, "--lod must be in 0.." + std::to_string(avatar::kSkinLodCount - 1));
+  auto method = avatar::parse_skin_method(args.get_or("method", "full"));
+  if (!method) return usage_error(kName, method.error().message);
+  if (*method == avatar::SkinMethod::realtime && args.has("subdivision"))
+    return usage_error(kName, "--subdivision is for --method full (the realtime method's vertices are its contour points)");
 
   auto t0 = std::chrono::steady_clock::now();
   auto body = body_from_args(args);
@@ -64,20 +116,18 @@ int run_mesh(const std::vector<std::string>& argv) {
   const double body_ms = ms_since(t0);
   std::printf("body      %-40s %4zu primitives   %8.2f ms\n", args.get_or("body", "built-in default").c_str(),
               body->primitives.size(), body_ms);
+  if (*method == avatar::SkinMethod::realtime) return realtime_mesh(args, *body, static_cast<int>(lod), *out);
 
   t0 = std::chrono::steady_clock::now();
   avatar::SkinOptions options;
   options.subdivision = static_cast<int>(subdivision);
   options.rigid_parts = !args.has("no-rigid");
-  auto skin = avatar::BodySkin::create(*body, options);
+  auto skin = avatar::BodySkin::create(avatar::with_skin_lod(*body, static_cast<int>(lod)), options);
   if (!skin) return failure(kName, skin.error().message);
   std::printf("skin      topology and rigid parts built                       %8.2f ms\n", ms_since(t0));
 
   auto request = pose_from_args(args, skin->skeleton());
-  if (!request) {
-    const bool usage = request.error().code == Errc::invalid_argument;
-    return usage ? usage_error(kName, request.error().message) : failure(kName, request.error().message);
-  }
+  if (!request) return report_pose_error(request.error());
   std::printf("pose      %-52s %8.2f ms\n", request->description.c_str(), request->load_ms);
 
   skin->evaluate(request->pose);
@@ -87,17 +137,7 @@ int run_mesh(const std::vector<std::string>& argv) {
               "          B-spline %.3f, stitch %.3f, normals %.3f: total %.3f ms\n",
               t.fk_us / 1e3, t.deform_us / 1e3, t.contours_us / 1e3, st.contours, st.rays, st.missed_rays,
               t.bspline_us / 1e3, t.stitch_us / 1e3, t.normals_us / 1e3, t.total_us() / 1e3);
-
-  const avatar::Mesh& mesh = skin->mesh();
-  const avatar::MeshTopology topo = avatar::analyze_topology(mesh);
-  std::printf("mesh      %zu vertices, %zu triangles, %zu parts, %zu closed components, volume %.1f dm3, %s\n",
-              mesh.positions.size(), mesh.triangle_count(), mesh.parts.size(), topo.components,
-              topo.signed_volume * 1e3, avatar::is_closed_oriented_manifold(topo) ? "closed oriented manifold" : "NOT CLOSED");
-
-  t0 = std::chrono::steady_clock::now();
-  if (auto w = avatar::write_mesh(mesh, *out); !w) return failure(kName, w.error().message);
-  std::printf("wrote     %-52s %8.2f ms\n", out->c_str(), ms_since(t0));
-  return 0;
+  return write_out(skin->mesh(), *out);
 }
 
 }  // namespace

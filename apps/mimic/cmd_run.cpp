@@ -50,8 +50,10 @@ const char* kUsage =
     "  --publish HOST:PORT do not host: publish the avatars into the scene served there\n"
     "  --vmc HOST:PORT     also send the first avatar as VMC (OSC over UDP), e.g. 127.0.0.1:39539\n"
     "  --mesh-lod L        skin level of detail deformed every frame and offered as mesh frames\n"
-    "                      to thin clients (mimic subscribe --mesh-lod L): 0 finest (B-spline,\n"
-    "                      2 samples per span), 1, 2 = the paper's realtime contours (default)\n"
+    "                      to thin clients (mimic subscribe --mesh-lod L): 0 the body's own\n"
+    "                      contours (finest, default) to 3 (about 300 triangles)\n"
+    "  --mesh-method M     realtime (default): contours measured once, moved with the joints\n"
+    "                      (muscles kept); full: every contour ray-cast every frame\n"
     "  --duration S        stop by itself after S seconds (default: run until Ctrl-C)\n"
     "  --realtime PRIO     run the loop at SCHED_FIFO priority PRIO (1-99; needs CAP_SYS_NICE),\n"
     "                      so a busy machine does not delay frames\n"
@@ -113,7 +115,8 @@ int run(const std::vector<std::string>& argv) {
   std::vector<SourceArgs> sources;
   std::string error;
   if (!take_sources(args, sources, error)) return usage_error("run", error);
-  Args a(args, {"listen", "secret", "publish", "vmc", "duration", "realtime", "mesh-lod"}, {"json", "quiet", "no-udp"});
+  Args a(args, {"listen", "secret", "publish", "vmc", "duration", "realtime", "mesh-lod", "mesh-method"},
+         {"json", "quiet", "no-udp"});
   if (a.help()) {
     std::printf("%s", kUsage);
     return 0;
@@ -121,10 +124,13 @@ int run(const std::vector<std::string>& argv) {
   if (!a.ok()) return usage_error("run", a.error());
   if (!a.positionals().empty()) return usage_error("run", "unexpected argument '" + a.positionals()[0] + "'");
   double duration_s = 0;
-  long rt_priority = 0, mesh_lod = 2;
+  long rt_priority = 0, mesh_lod = 0;
   if (!a.get_double("duration", duration_s) || !a.get_int("realtime", rt_priority) || !a.get_int("mesh-lod", mesh_lod))
     return usage_error("run", a.error());
-  if (mesh_lod < 0 || mesh_lod >= kMeshLodCount) return usage_error("run", "--mesh-lod must be 0, 1 or 2");
+  if (mesh_lod < 0 || mesh_lod >= kMeshLodCount)
+    return usage_error("run", "--mesh-lod must be in 0.." + std::to_string(kMeshLodCount - 1));
+  const auto mesh_method = avatar::parse_skin_method(a.get_or("mesh-method", "realtime"));
+  if (!mesh_method) return usage_error("run", "--mesh-method: " + mesh_method.error().message);
   if (rt_priority < 0 || rt_priority > 99) return usage_error("run", "--realtime takes a priority 1-99");
   if (sources.empty()) sources.push_back({"sim:walk", "", ""});
 
@@ -165,7 +171,7 @@ int run(const std::vector<std::string>& argv) {
     if (!feed) return failure("run", feed.error().what());
     auto asset = load_body(body);
     if (!asset) return failure("run", asset.error().what());
-    auto deformer = make_skin_deformer(asset->model, (*feed)->skeleton(), int(mesh_lod));
+    auto deformer = make_skin_deformer(asset->model, (*feed)->skeleton(), int(mesh_lod), *mesh_method);
     if (!deformer)
       return failure("run", "body model " + (body.empty() ? std::string("(default)") : body) +
                                 " does not fit source " + spec + ": " + deformer.error().what());

@@ -11,6 +11,7 @@
 #include <thread>
 #include <cmath>
 
+#include "mimic/avatar/realtime_skin.h"
 #include "mimic/avatar/skin.h"
 #include "mimic/core/file.h"
 #include "mimic/net/client.h"
@@ -353,15 +354,41 @@ class SkinDeformer final : public Deformer {
   uint8_t lod_;
 };
 
+// The realtime method: the contours measured once in the shared body, moved every frame.
+class RealtimeDeformer final : public Deformer {
+ public:
+  explicit RealtimeDeformer(std::shared_ptr<const avatar::RealtimeBody> body)
+      : skin_(body), mesh_(body->rest_mesh()), lod_(static_cast<uint8_t>(body->lod())) {
+    mesh_.normals.clear();  // receivers that want normals compute them from the fixed topology
+  }
+  void deform(const avatar::Pose& pose) override { skin_.evaluate(pose, mesh_.positions); }
+  const avatar::Mesh* mesh() const override { return &mesh_; }
+  uint8_t lod() const override { return lod_; }
+
+ private:
+  avatar::RealtimeSkin skin_;
+  avatar::Mesh mesh_;
+  uint8_t lod_;
+};
+
 }  // namespace
 
 Result<std::unique_ptr<Deformer>> make_skin_deformer(const avatar::BodyModel& model,
-                                                     const avatar::Skeleton& skeleton, int lod) {
-  if (lod < 0 || lod >= kMeshLodCount) return fail(Errc::out_of_range, "mesh LOD must be 0, 1 or 2");
+                                                     const avatar::Skeleton& skeleton, int lod,
+                                                     avatar::SkinMethod method) {
+  if (lod < 0 || lod >= kMeshLodCount)
+    return fail(Errc::out_of_range, "mesh LOD must be in 0.." + std::to_string(kMeshLodCount - 1));
+  if (method == avatar::SkinMethod::realtime) {
+    avatar::RealtimeOptions o;
+    o.lod = lod;
+    auto body = avatar::RealtimeBody::create(model, skeleton, o);
+    if (!body) return tl::unexpected(body.error());
+    return std::unique_ptr<Deformer>(new RealtimeDeformer(*body));
+  }
   avatar::SkinOptions o;
-  o.subdivision = 2 - lod;
+  o.subdivision = 0;
   o.normals = false;  // receivers that want normals compute them from the fixed topology
-  auto skin = avatar::BodySkin::create(model, skeleton, o);
+  auto skin = avatar::BodySkin::create(avatar::with_skin_lod(model, lod), skeleton, o);
   if (!skin) return tl::unexpected(skin.error());
   return std::unique_ptr<Deformer>(new SkinDeformer(std::move(*skin), static_cast<uint8_t>(lod)));
 }

@@ -56,7 +56,38 @@ TEST(MeshCli, BuiltInMotionsAndRealtimeMode) {
   std::filesystem::remove(out);
 }
 
+// The realtime method at every LOD from a clip frame: closed, 16 parts, fewer triangles as the
+// LOD coarsens; and the full method at a coarse LOD.
+TEST(MeshCli, RealtimeMethodAtEveryLod) {
+  const std::string out = temp("rt.ply");
+  size_t previous = SIZE_MAX;
+  for (int lod = 0; lod < 4; ++lod) {
+    const Outcome r = run_mimic("mesh --bvh '" + mimic::test::clip_path("02_05") + "' --frame 200 --method realtime --lod " +
+                                std::to_string(lod) + " --out '" + out + "'");
+    ASSERT_EQ(r.status, 0) << r.output;
+    EXPECT_NE(r.output.find("realtime"), std::string::npos) << r.output;
+    EXPECT_EQ(r.output.find("rays"), std::string::npos) << "no ray per frame\n" << r.output;
+    expect_closed_body(out);
+    auto mesh = mimic::avatar::read_mesh(out);
+    ASSERT_TRUE(mesh);
+    EXPECT_LT(mesh->triangle_count(), previous);
+    previous = mesh->triangle_count();
+  }
+  const Outcome r = run_mimic("mesh --motion walk --time 0.2 --method full --lod 2 --out '" + out + "'");
+  ASSERT_EQ(r.status, 0) << r.output;
+  expect_closed_body(out);
+  std::filesystem::remove(out);
+}
+
 TEST(MeshCli, BadRequestsGetClearErrors) {
+  Outcome m = run_mimic("mesh --pose zero --method fast --out /tmp/x.obj");
+  EXPECT_EQ(m.status, 2);
+  EXPECT_NE(m.output.find("full or realtime"), std::string::npos) << m.output;
+  m = run_mimic("mesh --pose zero --lod 4 --out /tmp/x.obj");
+  EXPECT_EQ(m.status, 2);
+  EXPECT_NE(m.output.find("--lod"), std::string::npos) << m.output;
+  m = run_mimic("mesh --pose zero --method realtime --subdivision 2 --out /tmp/x.obj");
+  EXPECT_EQ(m.status, 2);
   Outcome r = run_mimic("mesh --bvh '" + mimic::test::clip_path("09_11") + "' --frame 166 --out /tmp/x.obj");
   EXPECT_EQ(r.status, 1);
   EXPECT_NE(r.output.find("frames 0..165"), std::string::npos) << r.output;

@@ -123,7 +123,7 @@ void skin(const SkinningMatrix* __restrict mats, const glm::quat* __restrict rot
     q = _mm_fmadd_ps(_mm_set1_ps(w1), _mm_loadu_ps(&q1.x), q);
     q = _mm_fmadd_ps(_mm_set1_ps(w2), _mm_loadu_ps(&q2.x), q);
     q = _mm_fmadd_ps(_mm_set1_ps(w3), _mm_loadu_ps(&q3.x), q);
-    q = _mm_mul_ps(q, _mm_div_ps(_mm_set1_ps(1.0f), _mm_sqrt_ps(_mm_dp_ps(q, q, 0xFF))));
+    q = _mm_mul_ps(q, simd::rsqrt(simd::dot4(q, q)));
     // t = the LBS-blended matrix applied to the centre; v' = R (v − p*) + t.
     const simd::Blend b = simd::blend(&mats[ji[0]].cols[0][0], &mats[ji[1]].cols[0][0], &mats[ji[2]].cols[0][0],
                                       &mats[ji[3]].cols[0][0], wi);

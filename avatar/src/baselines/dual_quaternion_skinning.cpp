@@ -45,8 +45,7 @@ void skin(const DualQuat* __restrict dqs, const uint16_t* __restrict ji, const f
     b = _mm256_fmadd_ps(_mm256_set1_ps(w2), _mm256_load_ps(q2), b);
     b = _mm256_fmadd_ps(_mm256_set1_ps(w3), _mm256_load_ps(q3), b);
     __m128 r = _mm256_castps256_ps128(b), d = _mm256_extractf128_ps(b, 1);
-    const __m128 len2 = _mm_dp_ps(r, r, 0xFF);
-    const __m128 inv = _mm_div_ps(_mm_set1_ps(1.0f), _mm_sqrt_ps(len2));
+    const __m128 inv = simd::rsqrt(simd::dot4(r, r));
     r = _mm_mul_ps(r, inv), d = _mm_mul_ps(d, inv);
     // Translation 2 (r_w d − d_w r + r × d); rotation p + 2 r × (r × p + r_w p).
     const __m128 t = _mm_mul_ps(_mm_set1_ps(2.0f),

@@ -36,6 +36,20 @@ inline __m128 cross(__m128 a, __m128 b) {
   return _mm_shuffle_ps(c, c, _MM_SHUFFLE(3, 0, 2, 1));
 }
 
+// (a·a) in every lane, from four lanes.
+inline __m128 dot4(__m128 a, __m128 b) {
+  const __m128 m = _mm_mul_ps(a, b);
+  const __m128 s = _mm_add_ps(m, _mm_shuffle_ps(m, m, _MM_SHUFFLE(2, 3, 0, 1)));  // (x+y, x+y, z+w, z+w)
+  return _mm_add_ps(s, _mm_shuffle_ps(s, s, _MM_SHUFFLE(1, 0, 3, 2)));
+}
+
+// 1 / sqrt(x) to float precision: the hardware estimate and one Newton step.
+inline __m128 rsqrt(__m128 x) {
+  const __m128 y = _mm_rsqrt_ps(x);
+  const __m128 half_x_yy = _mm_mul_ps(_mm_mul_ps(_mm_set1_ps(0.5f), x), _mm_mul_ps(y, y));
+  return _mm_mul_ps(y, _mm_sub_ps(_mm_set1_ps(1.5f), half_x_yy));
+}
+
 // Rotation of v (w lane 0) by the unit quaternion q = (x, y, z, w): v + 2 q×(q×v + w v).
 inline __m128 rotate(__m128 q, __m128 v) {
   const __m128 t = _mm_fmadd_ps(splat<3>(q), v, cross(q, v));

@@ -13,7 +13,7 @@ namespace {
 struct LodScale {
   float points, contours;
 };
-constexpr LodScale kScale[kSkinLodCount] = {{1.0f, 1.0f}, {0.55f, 0.6f}, {0.32f, 0.4f}, {0.17f, 0.26f}};
+constexpr LodScale kScale[kSkinLodCount] = {{1.0f, 1.0f}, {0.55f, 0.6f}, {0.32f, 0.4f}, {0.14f, 0.2f}};
 // Screen-height thresholds (pixels) between LOD i and i + 1.
 constexpr float kThreshold_px[kSkinLodCount - 1] = {500.0f, 200.0f, 80.0f};
 constexpr float kHysteresis = 0.1f;

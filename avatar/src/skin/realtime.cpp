@@ -69,13 +69,6 @@ Frame arc_frame(const glm::vec3& from, const glm::vec3& to, const glm::vec3& bas
   return f;
 }
 
-// A driven point's offset from S + α(G − S) turns with S's ring and the loop's torso ring in the
-// same proportion as the point lies between them.
-glm::mat3 driven_basis(const Frame& s, const Frame& loop, float alpha) {
-  const glm::mat3 rs(s.x, s.y, s.z), rl(loop.x, loop.y, loop.z);
-  return (1.0f - alpha) * rs + alpha * rl;
-}
-
 float falloff_of(Falloff f, float t) {
   switch (f) {
     case Falloff::linear: return t;
@@ -111,7 +104,6 @@ struct RealtimeBody::Data {
     int chain = -1, segment = 0;    // star
     float u = 0;
     int s_ring = -1;                // driven
-    int loop_ring = -1;             // driven: the torso ring its loop starts on
     float alpha = 0;
     uint32_t goal_first = 0;        // driven: offset in `goals`
     uint32_t from = 0, to = 0;      // arc
@@ -134,6 +126,7 @@ struct RealtimeBody::Data {
   };
   std::vector<MuscleTerm> terms;  // sorted by slot
   size_t muscle_points = 0;
+  int missed_rays = 0;
   struct Cap {
     uint32_t vertex = 0, first = 0, count = 0;
   };
@@ -171,11 +164,10 @@ void measure_local(const std::vector<Chain>& chains, const std::vector<Ring>& ri
       case RingKind::driven: {
         const auto& s = d.rings[r.s_ring];
         f = frames[r.s_ring];
-        const glm::mat3 from_local = glm::inverse(driven_basis(frames[r.s_ring], frames[r.loop_ring], r.alpha));
         for (uint32_t k = 0; k < r.count; ++k) {
           const glm::vec3 sp = ctrl[s.first + k], g = ctrl[d.goals[r.goal_first + k]];
-          const glm::vec3 base = sp + r.alpha * (g - sp);
-          local[r.first + k] = from_local * (ctrl[r.first + k] - base);
+          const glm::vec3 res = ctrl[r.first + k] - (sp + r.alpha * (g - sp));
+          local[r.first + k] = {glm::dot(res, f.x), glm::dot(res, f.y), glm::dot(res, f.z)};
         }
         break;
       }
@@ -219,13 +211,13 @@ Result<std::shared_ptr<const RealtimeBody>> RealtimeBody::create(const BodyModel
                                             " DOF values, the skeleton " + std::to_string(skeleton.dof_count()));
   skin->evaluate(base);
   const BodySkin::Impl& m = *skin->impl_;
-  if (m.stats.missed_rays > 0)
-    return fail(Errc::invalid_argument, "the initial pose leaves " + std::to_string(m.stats.missed_rays) +
-                                            " contour rays without a surface");
 
   auto d = std::make_unique<Data>();
   d->skeleton = skeleton;
   d->lod = options.lod;
+  // A skeleton fitted to a performer may not fill the body's primitives everywhere: rays that
+  // miss are placed as the full method places them, and counted.
+  d->missed_rays = m.stats.missed_rays;
   d->chains = m.chains;
   for (const Ring& r : m.rings) {
     Data::RingOp op;
@@ -238,14 +230,6 @@ Result<std::shared_ptr<const RealtimeBody>> RealtimeBody::create(const BodyModel
     op.segment = r.segment;
     op.u = r.u;
     op.s_ring = r.s_ring;
-    if (r.kind == RingKind::driven) {
-      for (size_t q = 0; q < m.rings.size() && op.loop_ring < 0; ++q) {
-        const Ring& t = m.rings[q];
-        if (t.kind == RingKind::star && !t.slots.empty() && r.goal[0] >= t.slots.front() && r.goal[0] <= t.slots.back())
-          op.loop_ring = static_cast<int>(q);
-      }
-      if (op.loop_ring < 0) return fail(Errc::unsupported, "ring '" + r.name + "': its loop starts on no star ring");
-    }
     op.alpha = r.alpha;
     op.goal_first = static_cast<uint32_t>(d->goals.size());
     d->goals.insert(d->goals.end(), r.goal.begin(), r.goal.end());
@@ -327,6 +311,7 @@ std::span<const JointInfluences> RealtimeBody::weights() const { return data_->w
 int RealtimeBody::lod() const { return data_->lod; }
 size_t RealtimeBody::muscle_points() const { return data_->muscle_points; }
 size_t RealtimeBody::muscle_terms() const { return data_->terms.size(); }
+int RealtimeBody::missed_rays() const { return data_->missed_rays; }
 
 size_t RealtimeBody::shared_bytes() const {
   const Data& d = *data_;
@@ -417,12 +402,12 @@ void RealtimeSkin::evaluate(const Pose& pose, std::span<glm::vec3> pos, std::spa
       }
       case RingKind::driven: {
         f = st.frames[r.s_ring];
-        const glm::mat3 basis = driven_basis(st.frames[r.s_ring], st.frames[r.loop_ring], r.alpha);
         const uint32_t s_first = d.rings[r.s_ring].first;
         const uint32_t* goal = d.goals.data() + r.goal_first;
         for (uint32_t j = 0; j < r.count; ++j) {
           const glm::vec3 s = pos[s_first + j], g = pos[goal[j]];
-          pos[r.first + j] = s + r.alpha * (g - s) + basis * local_of(r.first + j);
+          const glm::vec3 l = local_of(r.first + j);
+          pos[r.first + j] = s + r.alpha * (g - s) + l.x * f.x + l.y * f.y + l.z * f.z;
         }
         break;
       }

@@ -66,6 +66,9 @@ class RealtimeBody {
   // Points moved by muscle terms, and the terms (a point can follow several DOFs).
   size_t muscle_points() const;
   size_t muscle_terms() const;
+  // Contour rays of the initial pose that found no surface (a skeleton other than the model's
+  // can leave gaps); their points are placed as the full method places them.
+  int missed_rays() const;
   // Heap bytes of this shared body (the cost of the first avatar, paid once).
   size_t shared_bytes() const;
 

@@ -22,6 +22,8 @@
 #include "mimic/avatar/mesh.h"
 #include "mimic/avatar/motion.h"
 #include "mimic/avatar/skeleton.h"
+#include "mimic/avatar/realtime_skin.h"
+#include "mimic/avatar/skin_lod.h"
 #include "mimic/core/result.h"
 #include "mimic/devices/sample.h"
 #include "mimic/devices/source.h"
@@ -105,13 +107,15 @@ struct BodyAsset {
 };
 Result<BodyAsset> load_body(const std::string& path);
 
-// Mesh levels of detail offered to thin clients: LOD 0 = B-spline skin with 2 samples per span,
-// 1 = one sample per span, 2 = the paper's realtime mode (contour points are the vertices).
-inline constexpr int kMeshLodCount = 3;
-// The skin deformer (avatar/skin.h) for `model` on the feed's `skeleton` at `lod`; fails when
-// the skeleton lacks the model's joints or DOFs.
+// Mesh levels of detail offered to thin clients: the skin's LODs (avatar/skin_lod.h), 0 the
+// body's own contour layout (finest) to 3 (about 300 triangles); contour points are the vertices.
+inline constexpr int kMeshLodCount = avatar::kSkinLodCount;
+// The skin deformer for `model` on the feed's `skeleton` at `lod`: the realtime method
+// (avatar/realtime_skin.h, contours moved) or the full one (avatar/skin.h, contours ray-cast every
+// frame); fails when the skeleton lacks the model's joints or DOFs.
 Result<std::unique_ptr<Deformer>> make_skin_deformer(const avatar::BodyModel& model,
-                                                     const avatar::Skeleton& skeleton, int lod);
+                                                     const avatar::Skeleton& skeleton, int lod,
+                                                     avatar::SkinMethod method = avatar::SkinMethod::realtime);
 
 // Gives the calling thread SCHED_FIFO priority `priority` (1-99), or back to normal scheduling
 // with 0. False when the system refuses (no privilege).
