@@ -191,6 +191,41 @@ TEST(BaselineSkinning, NormalsFollowTheRotation) {
   }
 }
 
+TEST(BaselineSkinning, AntipodalQuaternionsAreTheSameRotation) {
+  // Two joints with the same transform, one written with the negated quaternion (the same
+  // rotation): any blend of them must be that transform, in the eight-wide blocks and the tail.
+  const RigidTransform t{glm::normalize(glm::quat(0.2f, 0.9f, -0.3f, 0.4f)), {0.1f, -0.2f, 0.3f}};
+  DualQuat flipped = to_dual_quat(t);
+  for (float& f : flipped.real) f = -f;
+  for (float& f : flipped.dual) f = -f;
+  const std::vector<DualQuat> dqs{to_dual_quat(t), flipped};
+  const std::vector<SkinningMatrix> mats(2, to_skinning_matrix(t));
+  const std::vector<glm::quat> rots{t.rotation, -t.rotation};
+  std::vector<uint16_t> joints;
+  std::vector<float> weights;
+  std::vector<glm::vec3> in, normals, centers;
+  for (int v = 0; v < 21; ++v) {
+    const float w = 0.05f * float(v);
+    // Alternate which slot holds the flipped joint, so each slot's sign test is exercised.
+    if (v % 2) joints.insert(joints.end(), {0, 1, 0, 0}); else joints.insert(joints.end(), {1, 0, 0, 0});
+    weights.insert(weights.end(), {w, 1 - w, 0, 0});
+    in.push_back({0.01f * float(v), 0.2f, -0.1f});
+    normals.push_back(glm::normalize(glm::vec3{1, float(v), 2}));
+    centers.push_back({0, 0.05f * float(v), 0});
+  }
+  std::vector<glm::vec3> out_p(in.size()), out_n(in.size());
+  ASSERT_TRUE((DualQuaternionSkinningJob{dqs, joints, weights, in, normals, out_p, out_n}.Run()));
+  for (size_t v = 0; v < in.size(); ++v) {
+    EXPECT_NEAR(glm::distance(out_p[v], t.apply(in[v])), 0.0f, 2e-6f) << "dqs " << v;
+    EXPECT_NEAR(glm::distance(out_n[v], t.rotation * normals[v]), 0.0f, 2e-6f) << "dqs " << v;
+  }
+  ASSERT_TRUE((CorSkinningJob{mats, rots, joints, weights, centers, in, normals, out_p, out_n}.Run()));
+  for (size_t v = 0; v < in.size(); ++v) {
+    EXPECT_NEAR(glm::distance(out_p[v], t.apply(in[v])), 0.0f, 2e-6f) << "cor " << v;
+    EXPECT_NEAR(glm::distance(out_n[v], t.rotation * normals[v]), 0.0f, 2e-6f) << "cor " << v;
+  }
+}
+
 TEST(BaselineSkinning, JobsRejectMismatchedSpans) {
   std::vector<SkinningMatrix> mats(1, to_skinning_matrix({}));
   std::vector<glm::quat> rots(1);

@@ -73,6 +73,29 @@ void skin(const DualQuat* __restrict dqs, const uint16_t* __restrict ji, const f
 }
 
 #ifdef MIMIC_BASELINES_AVX2
+// Eight packed (x, y, z) triples ⇄ three registers of x, y and z, by shuffles (the usual
+// "AoS3 to SoA" permutation: lanes gathered with two blends, then put in order by one permute).
+inline void load8(const float* p, __m256& x, __m256& y, __m256& z) {
+  const __m256 a = _mm256_loadu_ps(p), b = _mm256_loadu_ps(p + 8), c = _mm256_loadu_ps(p + 16);
+  // a = x0 y0 z0 x1 y1 z1 x2 y2 | b = z2 x3 y3 z3 x4 y4 z4 x5 | c = y5 z5 x6 y6 z6 x7 y7 z7
+  const __m256 xs = _mm256_blend_ps(_mm256_blend_ps(a, b, 0b10010010), c, 0b00100100);
+  const __m256 ys = _mm256_blend_ps(_mm256_blend_ps(a, b, 0b00100100), c, 0b01001001);
+  const __m256 zs = _mm256_blend_ps(_mm256_blend_ps(a, b, 0b01001001), c, 0b10010010);
+  x = _mm256_permutevar8x32_ps(xs, _mm256_setr_epi32(0, 3, 6, 1, 4, 7, 2, 5));
+  y = _mm256_permutevar8x32_ps(ys, _mm256_setr_epi32(1, 4, 7, 2, 5, 0, 3, 6));
+  z = _mm256_permutevar8x32_ps(zs, _mm256_setr_epi32(2, 5, 0, 3, 6, 1, 4, 7));
+}
+
+inline void store8(float* p, __m256 x, __m256 y, __m256 z) {
+  // The inverse permutations, then the same blends.
+  const __m256 xs = _mm256_permutevar8x32_ps(x, _mm256_setr_epi32(0, 3, 6, 1, 4, 7, 2, 5));
+  const __m256 ys = _mm256_permutevar8x32_ps(y, _mm256_setr_epi32(5, 0, 3, 6, 1, 4, 7, 2));
+  const __m256 zs = _mm256_permutevar8x32_ps(z, _mm256_setr_epi32(2, 5, 0, 3, 6, 1, 4, 7));
+  _mm256_storeu_ps(p, _mm256_blend_ps(_mm256_blend_ps(xs, ys, 0b10010010), zs, 0b00100100));
+  _mm256_storeu_ps(p + 8, _mm256_blend_ps(_mm256_blend_ps(xs, ys, 0b00100100), zs, 0b01001001));
+  _mm256_storeu_ps(p + 16, _mm256_blend_ps(_mm256_blend_ps(xs, ys, 0b01001001), zs, 0b10010010));
+}
+
 // Eight vertices at once: each vertex's dual quaternions are blended in its own register (signs
 // from the three real-part dot products at once), the eight blends are transposed so each
 // register holds one component of eight vertices, and normalisation and the transform run
@@ -81,8 +104,7 @@ template <bool kNormals>
 size_t skin_blocks(const DualQuat* __restrict dqs, const uint16_t* __restrict ji, const float* __restrict wi,
                    const glm::vec3* __restrict in_p, const glm::vec3* __restrict in_n, glm::vec3* __restrict out_p,
                    glm::vec3* __restrict out_n, size_t n) {
-  const __m128 sign_mask = _mm_castsi128_ps(_mm_set1_epi32(int(0x80000000u)));
-  const __m256i xyz_stride = _mm256_setr_epi32(0, 3, 6, 9, 12, 15, 18, 21);
+  const __m256 sign_mask = _mm256_castsi256_ps(_mm256_set1_epi32(int(0x80000000u)));
   size_t v = 0;
   for (; v + 8 <= n; v += 8) {
     __m256 b[8];
@@ -90,16 +112,19 @@ size_t skin_blocks(const DualQuat* __restrict dqs, const uint16_t* __restrict ji
       const uint16_t* j = ji + (v + i) * kInfluences;
       const __m256 d0 = _mm256_load_ps(dqs[j[0]].real), d1 = _mm256_load_ps(dqs[j[1]].real);
       const __m256 d2 = _mm256_load_ps(dqs[j[2]].real), d3 = _mm256_load_ps(dqs[j[3]].real);
-      const __m128 r0 = _mm256_castps256_ps128(d0);
-      const __m128 m1 = _mm_mul_ps(r0, _mm256_castps256_ps128(d1)), m2 = _mm_mul_ps(r0, _mm256_castps256_ps128(d2)),
-                   m3 = _mm_mul_ps(r0, _mm256_castps256_ps128(d3));
-      // (0, r0·r1, r0·r2, r0·r3); a negative dot flips that weight's sign.
-      const __m128 dots = _mm_hadd_ps(_mm_hadd_ps(_mm_setzero_ps(), m1), _mm_hadd_ps(m2, m3));
-      const __m128 w = _mm_xor_ps(_mm_loadu_ps(wi + (v + i) * kInfluences), _mm_and_ps(dots, sign_mask));
-      __m256 acc = _mm256_mul_ps(_mm256_broadcastss_ps(w), d0);
-      acc = _mm256_fmadd_ps(_mm256_broadcastss_ps(simd::splat<1>(w)), d1, acc);
-      acc = _mm256_fmadd_ps(_mm256_broadcastss_ps(simd::splat<2>(w)), d2, acc);
-      b[i] = _mm256_fmadd_ps(_mm256_broadcastss_ps(simd::splat<3>(w)), d3, acc);
+      // r0·r1 and r0·r2 side by side, r0·r3 alone, each summed across its four lanes; a
+      // negative dot flips that dual quaternion (its weight's sign, in effect).
+      const __m256 m12 = _mm256_mul_ps(_mm256_permute2f128_ps(d0, d0, 0x00), _mm256_permute2f128_ps(d1, d2, 0x20));
+      const __m128 m3 = _mm_mul_ps(_mm256_castps256_ps128(d0), _mm256_castps256_ps128(d3));
+      __m256 s12 = _mm256_add_ps(m12, _mm256_permute_ps(m12, _MM_SHUFFLE(2, 3, 0, 1)));
+      s12 = _mm256_and_ps(_mm256_add_ps(s12, _mm256_permute_ps(s12, _MM_SHUFFLE(1, 0, 3, 2))), sign_mask);
+      __m128 s3 = _mm_add_ps(m3, _mm_permute_ps(m3, _MM_SHUFFLE(2, 3, 0, 1)));
+      s3 = _mm_and_ps(_mm_add_ps(s3, _mm_permute_ps(s3, _MM_SHUFFLE(1, 0, 3, 2))), _mm256_castps256_ps128(sign_mask));
+      const float* w = wi + (v + i) * kInfluences;
+      __m256 acc = _mm256_mul_ps(_mm256_broadcast_ss(w), d0);
+      acc = _mm256_fmadd_ps(_mm256_broadcast_ss(w + 1), _mm256_xor_ps(d1, _mm256_permute2f128_ps(s12, s12, 0x00)), acc);
+      acc = _mm256_fmadd_ps(_mm256_broadcast_ss(w + 2), _mm256_xor_ps(d2, _mm256_permute2f128_ps(s12, s12, 0x11)), acc);
+      b[i] = _mm256_fmadd_ps(_mm256_broadcast_ss(w + 3), _mm256_xor_ps(d3, simd::pair(s3, s3)), acc);
     }
     // 8×8 transpose: c[k] holds component k (rx ry rz rw dx dy dz dw) of the eight vertices.
     const __m256 t0 = _mm256_unpacklo_ps(b[0], b[1]), t1 = _mm256_unpackhi_ps(b[0], b[1]);
@@ -138,23 +163,14 @@ size_t skin_blocks(const DualQuat* __restrict dqs, const uint16_t* __restrict ji
                                                        _mm256_fmsub_ps(rz, dx, _mm256_mul_ps(rx, dz))));
     const __m256 tz = _mm256_mul_ps(two, _mm256_add_ps(_mm256_fmsub_ps(rw, dz, _mm256_mul_ps(dw, rz)),
                                                        _mm256_fmsub_ps(rx, dy, _mm256_mul_ps(ry, dx))));
-    const float* p = &in_p[v].x;
-    __m256 ox, oy, oz;
-    rotate(_mm256_i32gather_ps(p, xyz_stride, 4), _mm256_i32gather_ps(p + 1, xyz_stride, 4),
-           _mm256_i32gather_ps(p + 2, xyz_stride, 4), ox, oy, oz);
-    alignas(32) float soa[3][8];
-    _mm256_store_ps(soa[0], _mm256_add_ps(ox, tx));
-    _mm256_store_ps(soa[1], _mm256_add_ps(oy, ty));
-    _mm256_store_ps(soa[2], _mm256_add_ps(oz, tz));
-    for (int i = 0; i < 8; ++i) out_p[v + i] = {soa[0][i], soa[1][i], soa[2][i]};
+    __m256 ox, oy, oz, px, py, pz;
+    load8(&in_p[v].x, px, py, pz);
+    rotate(px, py, pz, ox, oy, oz);
+    store8(&out_p[v].x, _mm256_add_ps(ox, tx), _mm256_add_ps(oy, ty), _mm256_add_ps(oz, tz));
     if constexpr (kNormals) {
-      const float* q = &in_n[v].x;
-      rotate(_mm256_i32gather_ps(q, xyz_stride, 4), _mm256_i32gather_ps(q + 1, xyz_stride, 4),
-             _mm256_i32gather_ps(q + 2, xyz_stride, 4), ox, oy, oz);
-      _mm256_store_ps(soa[0], ox);
-      _mm256_store_ps(soa[1], oy);
-      _mm256_store_ps(soa[2], oz);
-      for (int i = 0; i < 8; ++i) out_n[v + i] = {soa[0][i], soa[1][i], soa[2][i]};
+      load8(&in_n[v].x, px, py, pz);
+      rotate(px, py, pz, ox, oy, oz);
+      store8(&out_n[v].x, ox, oy, oz);
     }
   }
   return v;
