@@ -9,6 +9,7 @@
 #include "mimic/avatar/realtime_skin.h"
 #include "mimic/avatar/skin.h"
 #include "mimic/avatar/skin_lod.h"
+#include "mimic/avatar/texture_layout.h"
 
 namespace mimic::app {
 namespace {
@@ -44,6 +45,9 @@ constexpr const char* kUsage =
     "  --subdivision N       full: B-spline samples per contour span, 1..16 (default 1); 0 = contour\n"
     "                        points are the vertices, no smoothing\n"
     "  --no-rigid            leave out the head, hands and feet\n"
+    "  --uv                  texture coordinates per part (u around each contour, v along each\n"
+    "                        piece), the seams split so the file's vertices are not welded there;\n"
+    "                        a .glb gets one material per part (a checker in the part's colour)\n"
     "  -h, --help            this text\n"
     "\n"
     "exit status: 0 written, 1 bad input or write failure, 2 usage error\n";
@@ -52,13 +56,17 @@ double ms_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
 }
 
-int write_out(const avatar::Mesh& mesh, const std::string& out) {
-  const avatar::MeshTopology topo = avatar::analyze_topology(mesh);
+// `uv`: the texture layout to split the seams with, or null for the welded mesh.
+int write_out(const avatar::Mesh& welded, const avatar::TextureLayout* uv, const std::string& out) {
+  const avatar::MeshTopology topo = avatar::analyze_topology(welded);
+  const avatar::Mesh mesh = uv ? avatar::textured_mesh(welded, *uv) : avatar::Mesh{};
+  const avatar::Mesh& written = uv ? mesh : welded;
   std::printf("mesh      %zu vertices, %zu triangles, %zu parts, %zu closed components, volume %.1f dm3, %s\n",
-              mesh.positions.size(), mesh.triangle_count(), mesh.parts.size(), topo.components,
+              welded.positions.size(), welded.triangle_count(), welded.parts.size(), topo.components,
               topo.signed_volume * 1e3, avatar::is_closed_oriented_manifold(topo) ? "closed oriented manifold" : "NOT CLOSED");
+  if (uv) std::printf("uv        per-part texture coordinates, %zu vertices with the seams split\n", written.positions.size());
   const auto t0 = std::chrono::steady_clock::now();
-  if (auto w = avatar::write_mesh(mesh, out); !w) return failure(kName, w.error().message);
+  if (auto w = avatar::write_mesh(written, out); !w) return failure(kName, w.error().message);
   std::printf("wrote     %-52s %8.2f ms\n", out.c_str(), ms_since(t0));
   return 0;
 }
@@ -86,12 +94,12 @@ int realtime_mesh(const Args& args, const avatar::BodyModel& body, int lod, cons
   const avatar::RealtimeTimings& t = skin.timings();
   std::printf("frame     realtime: joints and rings %.3f, contour points %.3f, normals %.3f: total %.3f ms\n",
               t.joints_us / 1e3, t.points_us / 1e3, t.normals_us / 1e3, t.total_us() / 1e3);
-  return write_out(mesh, out);
+  return write_out(mesh, args.has("uv") ? &(*shared)->texture_layout() : nullptr, out);
 }
 
 int run_mesh(const std::vector<std::string>& argv) {
   Args args(argv, {"bvh", "frame", "scale", "motion", "time", "pose", "out", "body", "subdivision", "method", "lod"},
-            {"no-rigid", "no-muscles"});
+            {"no-rigid", "no-muscles", "uv"});
   if (args.help()) {
     std::printf("%s", kUsage);
     return 0;
@@ -137,7 +145,8 @@ int run_mesh(const std::vector<std::string>& argv) {
               "          B-spline %.3f, stitch %.3f, normals %.3f: total %.3f ms\n",
               t.fk_us / 1e3, t.deform_us / 1e3, t.contours_us / 1e3, st.contours, st.rays, st.missed_rays,
               t.bspline_us / 1e3, t.stitch_us / 1e3, t.normals_us / 1e3, t.total_us() / 1e3);
-  return write_out(skin->mesh(), *out);
+  const avatar::TextureLayout layout = args.has("uv") ? avatar::texture_layout(*skin) : avatar::TextureLayout{};
+  return write_out(skin->mesh(), args.has("uv") ? &layout : nullptr, *out);
 }
 
 }  // namespace

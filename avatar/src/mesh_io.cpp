@@ -87,6 +87,10 @@ Status validate_mesh(const Mesh& mesh) {
     return fail(Errc::invalid_argument, "mesh has " + std::to_string(mesh.normals.size()) +
                                             " normals for " + std::to_string(mesh.positions.size()) +
                                             " positions");
+  if (!mesh.uvs.empty() && mesh.uvs.size() != mesh.positions.size())
+    return fail(Errc::invalid_argument, "mesh has " + std::to_string(mesh.uvs.size()) +
+                                            " texture coordinates for " + std::to_string(mesh.positions.size()) +
+                                            " positions");
   for (size_t i = 0; i < mesh.indices.size(); ++i)
     if (mesh.indices[i] >= mesh.positions.size())
       return fail(Errc::invalid_argument, "mesh index " + std::to_string(i) + " = " +

@@ -55,6 +55,13 @@ Result<std::string> encode_glb(const Mesh& mesh) {
       const glm::vec3 u = detail::unit_or_up(n);
       bin.append(reinterpret_cast<const char*>(&u), sizeof u);
     }
+  const bool uvs = !mesh.uvs.empty();
+  const size_t uv_offset = bin.size();
+  // glTF puts the texture origin at the image's top-left: t = 1 − v.
+  for (const auto& t : mesh.uvs) {
+    const glm::vec2 st(t.x, 1.0f - t.y);
+    bin.append(reinterpret_cast<const char*>(&st), sizeof st);
+  }
   const size_t index_offset = bin.size();
   bin.append(reinterpret_cast<const char*>(mesh.indices.data()), mesh.indices.size() * 4);
 
@@ -66,6 +73,15 @@ Result<std::string> encode_glb(const Mesh& mesh) {
   accessors.push_back({{"bufferView", 0}, {"componentType", kFloat}, {"count", nv}, {"type", "VEC3"},
                        {"min", {lo.x, lo.y, lo.z}}, {"max", {hi.x, hi.y, hi.z}}});
   if (normals) accessors.push_back({{"bufferView", 1}, {"componentType", kFloat}, {"count", nv}, {"type", "VEC3"}});
+  int uv_accessor = -1;
+  if (uvs) {
+    uv_accessor = static_cast<int>(accessors.size());
+    accessors.push_back({{"bufferView", views.size()}, {"componentType", kFloat}, {"count", nv}, {"type", "VEC2"}});
+    views.push_back({{"buffer", 0}, {"byteOffset", uv_offset}, {"byteLength", nv * 8}, {"target", kArrayBuffer}});
+  }
+  // With texture coordinates, one material per part: a checker in the part's own colour, so
+  // each part's (u, v) square shows on the body.
+  json materials = json::array(), textures = json::array(), images = json::array();
   json primitives = json::array();
   const auto parts = detail::covering_parts(mesh);
   const bool has_triangles = !mesh.indices.empty();
@@ -77,8 +93,26 @@ Result<std::string> encode_glb(const Mesh& mesh) {
       if (part.triangle_count == 0) continue;
       json attributes = {{"POSITION", 0}};
       if (normals) attributes["NORMAL"] = 1;
-      primitives.push_back({{"attributes", attributes}, {"indices", accessors.size()}, {"mode", kTriangles},
-                            {"extras", {{"name", part.name}}}});
+      json prim = {{"attributes", attributes}, {"indices", accessors.size()}, {"mode", kTriangles},
+                   {"extras", {{"name", part.name}}}};
+      if (uvs) {
+        prim["attributes"]["TEXCOORD_0"] = uv_accessor;
+        const size_t k = materials.size();
+        const float hue = std::fmod(0.618034f * static_cast<float>(k), 1.0f);
+        const glm::vec3 rgb = glm::clamp(glm::abs(glm::mod(hue * 6.0f + glm::vec3(0, 4, 2), 6.0f) - 3.0f) - 1.0f, 0.0f, 1.0f);
+        const glm::u8vec3 strong(glm::vec3(60) + rgb * 180.0f), light(glm::vec3(215) + rgb * 40.0f);
+        const std::string png = detail::checker_png(64, 8, strong, light);
+        while (bin.size() % 4) bin += '\0';
+        views.push_back({{"buffer", 0}, {"byteOffset", bin.size()}, {"byteLength", png.size()}});
+        bin += png;
+        images.push_back({{"bufferView", views.size() - 1}, {"mimeType", "image/png"}, {"name", part.name}});
+        textures.push_back({{"source", k}, {"sampler", 0}});
+        materials.push_back({{"name", part.name},
+                             {"pbrMetallicRoughness",
+                              {{"baseColorTexture", {{"index", k}}}, {"metallicFactor", 0.0}, {"roughnessFactor", 0.8}}}});
+        prim["material"] = k;
+      }
+      primitives.push_back(prim);
       accessors.push_back({{"bufferView", index_view}, {"byteOffset", size_t{part.first_triangle} * 12},
                            {"componentType", kUInt}, {"count", size_t{part.triangle_count} * 3}, {"type", "SCALAR"}});
     }
@@ -96,6 +130,12 @@ Result<std::string> encode_glb(const Mesh& mesh) {
               {"accessors", accessors},
               {"bufferViews", views},
               {"buffers", {{{"byteLength", bin.size()}}}}};
+  if (!materials.empty()) {
+    doc["materials"] = materials;
+    doc["textures"] = textures;
+    doc["images"] = images;
+    doc["samplers"] = {{{"magFilter", 9728}, {"minFilter", 9728}, {"wrapS", 10497}, {"wrapT", 10497}}};
+  }
   // Part names are bytes from files; JSON must be UTF-8, so invalid sequences become U+FFFD.
   std::string text = doc.dump(-1, ' ', false, json::error_handler_t::replace);
   while (text.size() % 4) text += ' ';
@@ -208,8 +248,9 @@ Result<Mesh> decode_glb(const Glb& g, const std::string& src) {
   std::map<std::pair<size_t, long long>, std::pair<uint32_t, size_t>> base_of;
   std::vector<uint32_t> tri_group;
   std::vector<std::string> names;
-  bool want_normals = true;
+  bool want_normals = true, want_uvs = true;
   std::vector<glm::vec3> normals;
+  std::vector<glm::vec2> uvs;
   for (size_t pi = 0; pi < prims.size(); ++pi) {
     const json& prim = prims.at(pi);
     const int mode = prim.value("mode", kTriangles);
@@ -233,6 +274,17 @@ Result<Mesh> decode_glb(const Glb& g, const std::string& src) {
         const glm::vec3 p(r.component(*pv, i, 0), r.component(*pv, i, 1), r.component(*pv, i, 2));
         if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z)) return r.error("POSITION is not finite");
         mesh.positions.push_back(p);
+      }
+      if (attrs.contains("TEXCOORD_0")) {
+        auto tv = r.accessor(attrs.at("TEXCOORD_0").get<size_t>());
+        if (!tv) return tl::unexpected(tv.error());
+        if (tv->component != kFloat || tv->components != 2 || tv->count != pv->count)
+          return r.error("TEXCOORD_0 must be float VEC2 with one per POSITION");
+        for (size_t i = 0; i < tv->count; ++i)
+          uvs.emplace_back(r.component(*tv, i, 0), 1.0 - r.component(*tv, i, 1));
+      } else {
+        want_uvs = false;
+        uvs.resize(mesh.positions.size(), glm::vec2(0.0f));
       }
       if (nrm_acc >= 0) {
         auto nv = r.accessor(static_cast<size_t>(nrm_acc));
@@ -273,6 +325,7 @@ Result<Mesh> decode_glb(const Glb& g, const std::string& src) {
     tri_group.insert(tri_group.end(), local.size() / 3, group);
   }
   if (want_normals && !mesh.positions.empty()) mesh.normals = std::move(normals);
+  if (want_uvs && !mesh.positions.empty() && uvs.size() == mesh.positions.size()) mesh.uvs = std::move(uvs);
   detail::gather_parts(mesh, tri_group, names);
   return mesh;
 }

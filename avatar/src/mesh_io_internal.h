@@ -29,4 +29,7 @@ glm::vec3 unit_or_up(glm::vec3 n);
 
 std::string lower_extension(const std::string& path);
 
+// A size_px × size_px checker of `squares` × `squares` cells in colours a and b, as PNG bytes.
+std::string checker_png(int size_px, int squares, glm::u8vec3 a, glm::u8vec3 b);
+
 }  // namespace mimic::avatar::detail

@@ -72,6 +72,7 @@ std::string_view trim(std::string_view s) {
 struct Corner {
   long long v = 0;   // as written (1-based, or negative = relative)
   long long vn = 0;  // 0 = none
+  long long vt = 0;  // 0 = none
 };
 
 }  // namespace
@@ -86,14 +87,24 @@ Result<std::string> encode_obj(const Mesh& mesh) {
   for (const auto& p : mesh.positions) append_vec(out, "v", p);
   if (normals)
     for (const auto& n : mesh.normals) append_vec(out, "vn", detail::unit_or_up(n));
-  char buf[80];
+  const bool uvs = !mesh.uvs.empty();
+  for (const auto& t : mesh.uvs) {
+    out += "vt ";
+    append_float(out, t.x);
+    out += ' ';
+    append_float(out, t.y);
+    out += '\n';
+  }
+  char buf[96];
   for (const auto& part : detail::covering_parts(mesh)) {
     out += "g " + part.name + "\n";
     for (uint32_t t = part.first_triangle; t < part.first_triangle + part.triangle_count; ++t) {
       const uint32_t a = mesh.indices[3 * t] + 1, b = mesh.indices[3 * t + 1] + 1,
                      c = mesh.indices[3 * t + 2] + 1;
-      const int n = normals ? std::snprintf(buf, sizeof buf, "f %u//%u %u//%u %u//%u\n", a, a, b, b, c, c)
-                            : std::snprintf(buf, sizeof buf, "f %u %u %u\n", a, b, c);
+      const int n = normals && uvs ? std::snprintf(buf, sizeof buf, "f %u/%u/%u %u/%u/%u %u/%u/%u\n", a, a, a, b, b, b, c, c, c)
+                    : normals    ? std::snprintf(buf, sizeof buf, "f %u//%u %u//%u %u//%u\n", a, a, b, b, c, c)
+                    : uvs        ? std::snprintf(buf, sizeof buf, "f %u/%u %u/%u %u/%u\n", a, a, b, b, c, c)
+                                 : std::snprintf(buf, sizeof buf, "f %u %u %u\n", a, b, c);
       out.append(buf, static_cast<size_t>(n));
     }
   }
@@ -103,14 +114,15 @@ Result<std::string> encode_obj(const Mesh& mesh) {
 Result<Mesh> parse_obj(std::string_view text, std::string_view source) {
   Mesh mesh;
   std::vector<glm::vec3> vn;
+  std::vector<glm::vec2> vt;
   std::vector<uint32_t> tri_group;
   std::vector<std::string> names{"mesh"};
   std::unordered_map<std::string, uint32_t> group_of{{"mesh", 0}};
   uint32_t group = 0;
   // Per triangle corner: the 1-based normal index it named (0 = none), resolved at the end.
-  std::vector<long long> corner_vn;
+  std::vector<long long> corner_vn, corner_vt;
   std::vector<size_t> pending_line;  // source line of each corner, for late range errors
-  bool any_normal_ref = false;
+  bool any_normal_ref = false, any_uv_ref = false;
 
   auto error = [&](size_t line, const std::string& what) {
     return fail(Errc::parse_error, std::string(source) + ":" + std::to_string(line) + ": " + what);
@@ -137,6 +149,13 @@ Result<Mesh> parse_obj(std::string_view text, std::string_view source) {
         if (!parse_float(tok[1 + k], p[k]))
           return error(line_no, "bad number '" + std::string(tok[1 + k]) + "' in " + std::string(key));
       (key == "v" ? mesh.positions : vn).push_back(p);
+    } else if (key == "vt") {
+      glm::vec2 t(0.0f);
+      if (n < 2) return error(line_no, "vt needs at least 1 number");
+      for (int k = 0; k < std::min(n - 1, 2); ++k)
+        if (!parse_float(tok[1 + k], t[k]))
+          return error(line_no, "bad number '" + std::string(tok[1 + k]) + "' in vt");
+      vt.push_back(t);
     } else if (key == "f") {
       // Re-split without a token limit: polygons may have many corners.
       corners.clear();
@@ -162,9 +181,12 @@ Result<Mesh> parse_obj(std::string_view text, std::string_view source) {
         Corner c;
         if (!parse_int(fields[0], c.v) || c.v == 0)
           return error(line_no, "bad vertex index '" + std::string(item) + "' in f");
-        long long vt = 0;
-        if (nf >= 2 && !fields[1].empty() && (!parse_int(fields[1], vt) || vt == 0))
+        if (nf >= 2 && !fields[1].empty() && (!parse_int(fields[1], c.vt) || c.vt == 0))
           return error(line_no, "bad texture index '" + std::string(item) + "' in f");
+        if (c.vt < 0) {
+          c.vt += static_cast<long long>(vt.size()) + 1;
+          if (c.vt <= 0) return error(line_no, "relative texture index '" + std::string(item) + "' points before the first vt");
+        }
         if (nf == 3 && (!parse_int(fields[2], c.vn) || c.vn == 0))
           return error(line_no, "bad normal index '" + std::string(item) + "' in f");
         // Relative indices count back from the vertices read so far.
@@ -185,8 +207,10 @@ Result<Mesh> parse_obj(std::string_view text, std::string_view source) {
         for (const Corner& c : {corners[0], corners[k], corners[k + 1]}) {
           mesh.indices.push_back(static_cast<uint32_t>(c.v - 1));
           corner_vn.push_back(c.vn);
+          corner_vt.push_back(c.vt);
           pending_line.push_back(line_no);
           any_normal_ref |= c.vn != 0;
+          any_uv_ref |= c.vt != 0;
         }
         tri_group.push_back(group);
       }
@@ -196,7 +220,7 @@ Result<Mesh> parse_obj(std::string_view text, std::string_view source) {
       if (inserted) names.push_back(name);
       group = it->second;
     }
-    // vt, vp, s, l, p, usemtl, mtllib, cstype ... carry nothing a Mesh holds.
+    // vp, s, l, p, usemtl, mtllib, cstype ... carry nothing a Mesh holds.
   }
 
   // Positive indices may name vertices that come later in the file, so check them at the end.
@@ -205,6 +229,9 @@ Result<Mesh> parse_obj(std::string_view text, std::string_view source) {
       return error(pending_line[i], "vertex index " + std::to_string(uint64_t{mesh.indices[i]} + 1) +
                                         " is out of range (" + std::to_string(mesh.positions.size()) +
                                         " vertices)");
+    if (corner_vt[i] > static_cast<long long>(vt.size()))
+      return error(pending_line[i], "texture index " + std::to_string(corner_vt[i]) + " is out of range (" +
+                                        std::to_string(vt.size()) + " texture coordinates)");
     if (corner_vn[i] > static_cast<long long>(vn.size()))
       return error(pending_line[i], "normal index " + std::to_string(corner_vn[i]) + " is out of range (" +
                                         std::to_string(vn.size()) + " normals)");
@@ -226,6 +253,16 @@ Result<Mesh> parse_obj(std::string_view text, std::string_view source) {
     }
     for (auto& nn : normal) nn = detail::unit_or_up(nn);
     mesh.normals = std::move(normal);
+  }
+  if (any_uv_ref) {
+    // First reference wins at a shared vertex, as for normals; unreferenced vertices get (0, 0).
+    mesh.uvs.assign(mesh.positions.size(), glm::vec2(0.0f));
+    std::vector<char> has(mesh.positions.size(), 0);
+    for (size_t i = 0; i < mesh.indices.size(); ++i)
+      if (corner_vt[i] > 0 && !has[mesh.indices[i]]) {
+        mesh.uvs[mesh.indices[i]] = vt[static_cast<size_t>(corner_vt[i] - 1)];
+        has[mesh.indices[i]] = 1;
+      }
   }
   detail::gather_parts(mesh, tri_group, names);
   return mesh;

@@ -135,6 +135,8 @@ Result<std::string> encode_ply(const Mesh& mesh) {
   out += "element vertex " + std::to_string(mesh.positions.size()) + "\n";
   out += "property float x\nproperty float y\nproperty float z\n";
   if (normals) out += "property float nx\nproperty float ny\nproperty float nz\n";
+  const bool uvs = !mesh.uvs.empty();
+  if (uvs) out += "property float s\nproperty float t\n";
   out += "element face " + std::to_string(mesh.triangle_count()) + "\n";
   out += "property list uchar int vertex_indices\nproperty ushort part\nend_header\n";
   out.reserve(out.size() + mesh.positions.size() * (normals ? 24 : 12) + mesh.triangle_count() * 15);
@@ -144,6 +146,7 @@ Result<std::string> encode_ply(const Mesh& mesh) {
       const glm::vec3 n = detail::unit_or_up(mesh.normals[i]);
       for (int k = 0; k < 3; ++k) put(out, n[k]);
     }
+    if (uvs) put(out, mesh.uvs[i].x), put(out, mesh.uvs[i].y);
   }
   for (size_t p = 0; p < parts.size(); ++p)
     for (uint32_t t = parts[p].first_triangle; t < parts[p].first_triangle + parts[p].triangle_count; ++t) {
@@ -245,13 +248,15 @@ Result<Mesh> parse_ply(std::string_view bytes, std::string_view source) {
   bool saw_vertex = false;
   for (const Element& el : elements) {
     const bool is_vertex = el.name == "vertex", is_face = el.name == "face";
-    int ix = -1, iy = -1, iz = -1, inx = -1, iny = -1, inz = -1, iidx = -1, ipart = -1;
+    int ix = -1, iy = -1, iz = -1, inx = -1, iny = -1, inz = -1, iidx = -1, ipart = -1, is = -1, itc = -1;
     for (int i = 0; i < static_cast<int>(el.props.size()); ++i) {
       const auto& n = el.props[i].name;
       const bool list = el.props[i].is_list;
       if (is_vertex && !list) {
         if (n == "x") ix = i; else if (n == "y") iy = i; else if (n == "z") iz = i;
         else if (n == "nx") inx = i; else if (n == "ny") iny = i; else if (n == "nz") inz = i;
+        else if (n == "s" || n == "u" || n == "texture_u") is = i;
+        else if (n == "t" || n == "v" || n == "texture_v") itc = i;
       }
       if (is_face && list && (n == "vertex_indices" || n == "vertex_index")) iidx = i;
       if (is_face && !list && n == "part") ipart = i;
@@ -262,6 +267,7 @@ Result<Mesh> parse_ply(std::string_view bytes, std::string_view source) {
     }
     if (is_face && iidx < 0) return error("face element lacks a vertex_indices list");
     const bool has_normals = inx >= 0 && iny >= 0 && inz >= 0;
+    const bool has_uvs = is >= 0 && itc >= 0;
     // Never trust a header count for allocation beyond what the bytes could hold.
     if (is_vertex) mesh.positions.reserve(std::min<uint64_t>(el.count, in.remaining() / 3 + 1));
     std::vector<double> vals(el.props.size());
@@ -287,12 +293,13 @@ Result<Mesh> parse_ply(std::string_view bytes, std::string_view source) {
         }
       }
       if (is_vertex) {
-        for (int i : {ix, iy, iz, inx, iny, inz})
+        for (int i : {ix, iy, iz, inx, iny, inz, is, itc})
           if (i >= 0 && !(std::abs(vals[i]) <= 3.0e38))
             return error("vertex " + std::to_string(e) + " has a value that is not a finite float");
         mesh.positions.emplace_back(vals[ix], vals[iy], vals[iz]);
         if (has_normals)
           mesh.normals.push_back(detail::unit_or_up(glm::vec3(vals[inx], vals[iny], vals[inz])));
+        if (has_uvs) mesh.uvs.emplace_back(vals[is], vals[itc]);
       } else if (is_face) {
         if (poly.size() < 3) return error("face " + std::to_string(e) + " has fewer than 3 vertices");
         long long id = 0;

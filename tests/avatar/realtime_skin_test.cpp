@@ -136,6 +136,10 @@ TEST(RealtimeSkin, ClosedOutwardAndNearTheFullMethodThroughEverySharedClip) {
       skin.evaluate(p, m.positions, {}, true);
       const std::string what = std::string(id) + " frame " + std::to_string(f);
       expect_closed_outward(m, what);
+      const ContourOrder order = check_contour_order(m.positions, body->contour_rows());
+      EXPECT_EQ(order.crossing, 0u) << what << ": adjacent contours cross by " << 1000 * order.worst_m << " mm at "
+                                    << order.worst_piece;
+      EXPECT_GT(order.pairs, 80u);
       for (size_t v = 0; v < m.positions.size(); ++v) {
         with.push_back(glm::distance(m.positions[v], fm.positions[v]));
         without.push_back(glm::distance(plain[v], fm.positions[v]));
@@ -164,6 +168,48 @@ TEST(RealtimeSkin, ClosedOutwardAndNearTheFullMethodThroughEverySharedClip) {
   EXPECT_LT(w[1], 50.0) << "99th percentile, mm";
   EXPECT_LT(w[2], 450.0) << "max, mm";
   EXPECT_LT(sum_muscle_with, sum_muscle_without) << "the muscle terms bring the contours closer to the full method";
+}
+
+// At the limits of the bending DOFs, one at a time, the contours meet in a crease on the inner
+// side of the joint and never cross (the full method's rays, by contrast, can cross there).
+TEST(RealtimeSkin, ContoursDoNotCrossAtTheJointLimits) {
+  auto body = make_body();
+  RealtimeSkin skin(body);
+  const Skeleton& sk = body->skeleton();
+  Mesh m = body->rest_mesh();
+  for (const char* name : {"l_elbow_flexion", "r_knee_flexion", "l_hip_flexion", "r_shoulder_abduction", "l_forearm_twist",
+                           "spine_lower_flexion"}) {
+    const int dof = sk.find_dof(name);
+    if (dof < 0) continue;
+    for (float theta : {sk.dof(dof).min_rad, sk.dof(dof).max_rad}) {
+      Pose p = sk.zero_pose();
+      p.dof_rad[dof] = theta;
+      skin.evaluate(p, m.positions);
+      const ContourOrder order = check_contour_order(m.positions, body->contour_rows());
+      EXPECT_EQ(order.crossing, 0u) << name << " " << theta << ": " << 1000 * order.worst_m << " mm at " << order.worst_piece;
+      expect_closed_outward(m, name);
+    }
+  }
+}
+
+// The check itself: two rings pushed through each other are found.
+TEST(RealtimeSkin, TheContourCheckFindsCrossingRings) {
+  std::vector<glm::vec3> pts;
+  ContourRows piece{"test", {{}, {}}};
+  for (int ring = 0; ring < 2; ++ring)
+    for (int j = 0; j < 12; ++j) {
+      const float a = 6.2831853f * static_cast<float>(j) / 12.0f;
+      // The second ring tilted 60° about x and only 1 cm further along: it cuts the first.
+      const glm::vec3 p(0.05f * std::cos(a), 0.05f * std::sin(a), 0.0f);
+      const glm::vec3 q = ring == 0 ? p : glm::vec3(p.x, p.y * 0.5f, 0.01f + p.y * 0.866f);
+      piece.rows[ring].push_back(static_cast<uint32_t>(pts.size()));
+      pts.push_back(q);
+    }
+  const ContourOrder bad = check_contour_order(pts, std::span(&piece, 1));
+  EXPECT_EQ(bad.crossing, 1u);
+  EXPECT_GT(bad.worst_m, 0.001f);
+  for (size_t k = 12; k < 24; ++k) pts[k] = pts[k - 12] + glm::vec3(0, 0, 0.01f);  // parallel: fine
+  EXPECT_EQ(check_contour_order(pts, std::span(&piece, 1)).crossing, 0u);
 }
 
 TEST(RealtimeSkin, AvatarsShareOneBodyAndHoldLittleEach) {

@@ -79,6 +79,23 @@ TEST(MeshCli, RealtimeMethodAtEveryLod) {
   std::filesystem::remove(out);
 }
 
+// --uv: texture coordinates per part, seams split, one material per part in glTF.
+TEST(MeshCli, UvWritesPerPartTextureCoordinates) {
+  for (const char* method : {"realtime", "full"}) {
+    const std::string out = temp(std::string("uv_") + method + ".glb");
+    const Outcome r = run_mimic("mesh --motion walk --time 0.5 --uv --method " + std::string(method) + " --out '" + out + "'");
+    ASSERT_EQ(r.status, 0) << r.output;
+    auto mesh = mimic::avatar::read_mesh(out);
+    ASSERT_TRUE(mesh) << mesh.error().what();
+    EXPECT_EQ(mesh->uvs.size(), mesh->positions.size()) << method;
+    EXPECT_EQ(mesh->parts.size(), 16u);
+    auto bytes = mimic::avatar::encode_glb(*mesh);
+    ASSERT_TRUE(bytes);
+    EXPECT_NE(bytes->find("\"materials\""), std::string::npos);
+    std::filesystem::remove(out);
+  }
+}
+
 TEST(MeshCli, BadRequestsGetClearErrors) {
   Outcome m = run_mimic("mesh --pose zero --method fast --out /tmp/x.obj");
   EXPECT_EQ(m.status, 2);

@@ -31,8 +31,10 @@
 
 #include "mimic/avatar/body_model.h"
 #include "mimic/avatar/mesh.h"
+#include "mimic/avatar/mesh_check.h"
 #include "mimic/avatar/skeleton.h"
 #include "mimic/avatar/skin_weights.h"
+#include "mimic/avatar/texture_layout.h"
 
 namespace mimic::avatar {
 
@@ -62,6 +64,11 @@ class RealtimeBody {
   // contour_skin_weights() of the rest mesh, one per vertex.
   std::span<const JointInfluences> weights() const;
   int lod() const;
+  // Per-part texture coordinates of the rest mesh (textured_mesh() splits a frame's seams).
+  const TextureLayout& texture_layout() const;
+  // The planar contours (star rings) of each surface (torso, neck, arms, legs) in order, as
+  // vertex indices, for check_contour_order (mesh_check.h).
+  std::span<const ContourRows> contour_rows() const;
   size_t vertex_count() const { return rest_mesh().positions.size(); }
   // Points moved by muscle terms, and the terms (a point can follow several DOFs).
   size_t muscle_points() const;

@@ -31,6 +31,7 @@
 namespace mimic::avatar {
 
 struct JointInfluences;  // skin_weights.h
+struct TextureLayout;    // texture_layout.h
 
 struct SkinOptions {
   // 0: the paper's realtime mode — contour points are the vertices, no smoothing.
@@ -97,6 +98,7 @@ class BodySkin {
 
  private:
   friend Result<std::vector<JointInfluences>> contour_skin_weights(const BodySkin& skin);
+  friend TextureLayout texture_layout(const BodySkin& skin);
   friend class RealtimeBody;  // measures its contours once from this skin's layout
   struct Impl;
   explicit BodySkin(std::unique_ptr<Impl> impl);
