@@ -14,12 +14,13 @@ namespace mimic::avatar::baselines::simd {
 inline __m256 pair(__m128 lo, __m128 hi) { return _mm256_insertf128_ps(_mm256_castps128_ps256(lo), hi, 1); }
 
 inline __m128 load3(const glm::vec3& v) {  // (x, y, z, 0) without reading past the vector
-  const __m128 xy = _mm_castpd_ps(_mm_load_sd(reinterpret_cast<const double*>(&v.x)));
+  // 64-bit loads and stores through the unaligned-integer forms: a vec3 is only 4-byte aligned.
+  const __m128 xy = _mm_castsi128_ps(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(&v.x)));
   return _mm_movelh_ps(xy, _mm_load_ss(&v.z));
 }
 
 inline void store3(glm::vec3& out, __m128 v) {
-  _mm_storel_pi(reinterpret_cast<__m64*>(&out.x), v);
+  _mm_storel_epi64(reinterpret_cast<__m128i*>(&out.x), _mm_castps_si128(v));
   _mm_store_ss(&out.z, _mm_movehl_ps(v, v));
 }
 
