@@ -149,18 +149,84 @@ void skin(const SkinningMatrix* __restrict mats, const glm::quat* __restrict rot
   }
 }
 
+#ifdef MIMIC_BASELINES_AVX2
+// Eight vertices at once: per vertex the quaternion blend (hemisphere signs by in-register dot
+// products) and t, the LBS-blended matrix applied to the centre; then the eight quaternions and
+// translations are transposed and normalisation and rotation run eight-wide. Returns the number
+// of vertices done (a multiple of eight).
+template <bool kNormals>
+size_t skin_blocks(const SkinningMatrix* __restrict mats, const glm::quat* __restrict rots, const uint16_t* __restrict ji,
+                   const float* __restrict wi, const glm::vec3* __restrict cor, const glm::vec3* __restrict in_p,
+                   const glm::vec3* __restrict in_n, glm::vec3* __restrict out_p, glm::vec3* __restrict out_n, size_t n) {
+  const __m256 sign_mask = _mm256_castsi256_ps(_mm256_set1_epi32(int(0x80000000u)));
+  size_t v = 0;
+  for (; v + 8 <= n; v += 8) {
+    __m128 qa[8], ta[8];
+    for (int i = 0; i < 8; ++i) {
+      const uint16_t* j = ji + (v + i) * kInfluences;
+      const float* w = wi + (v + i) * kInfluences;
+      const __m128 q0 = _mm_loadu_ps(&rots[j[0]].x), q1 = _mm_loadu_ps(&rots[j[1]].x);
+      const __m128 q2 = _mm_loadu_ps(&rots[j[2]].x), q3 = _mm_loadu_ps(&rots[j[3]].x);
+      const __m256 m12 = _mm256_mul_ps(simd::pair(q0, q0), simd::pair(q1, q2));
+      const __m128 m3 = _mm_mul_ps(q0, q3);
+      __m256 s12 = _mm256_add_ps(m12, _mm256_permute_ps(m12, _MM_SHUFFLE(2, 3, 0, 1)));
+      s12 = _mm256_and_ps(_mm256_add_ps(s12, _mm256_permute_ps(s12, _MM_SHUFFLE(1, 0, 3, 2))), sign_mask);
+      __m128 s3 = _mm_add_ps(m3, _mm_permute_ps(m3, _MM_SHUFFLE(2, 3, 0, 1)));
+      s3 = _mm_and_ps(_mm_add_ps(s3, _mm_permute_ps(s3, _MM_SHUFFLE(1, 0, 3, 2))), _mm256_castps256_ps128(sign_mask));
+      __m128 q = _mm_mul_ps(_mm_broadcast_ss(w), q0);
+      q = _mm_fmadd_ps(_mm_broadcast_ss(w + 1), _mm_xor_ps(q1, _mm256_castps256_ps128(s12)), q);
+      q = _mm_fmadd_ps(_mm_broadcast_ss(w + 2), _mm_xor_ps(q2, _mm256_extractf128_ps(s12, 1)), q);
+      qa[i] = _mm_fmadd_ps(_mm_broadcast_ss(w + 3), _mm_xor_ps(q3, s3), q);
+      const simd::Blend b = simd::blend(&mats[j[0]].cols[0][0], &mats[j[1]].cols[0][0], &mats[j[2]].cols[0][0],
+                                        &mats[j[3]].cols[0][0], w);
+      ta[i] = simd::apply(b, simd::load3(cor[v + i]), 1.0f);
+    }
+    __m256 qx, qy, qz, qw, tx, ty, tz, unused;
+    simd::transpose8x4(qa, qx, qy, qz, qw);
+    simd::transpose8x4(ta, tx, ty, tz, unused);
+    const __m256 inv = simd::rsqrt8(
+        _mm256_fmadd_ps(qx, qx, _mm256_fmadd_ps(qy, qy, _mm256_fmadd_ps(qz, qz, _mm256_mul_ps(qw, qw)))));
+    qx = _mm256_mul_ps(qx, inv), qy = _mm256_mul_ps(qy, inv), qz = _mm256_mul_ps(qz, inv), qw = _mm256_mul_ps(qw, inv);
+    __m256 px, py, pz, cx, cy, cz, ox, oy, oz;
+    simd::load8(&in_p[v].x, px, py, pz);
+    simd::load8(&cor[v].x, cx, cy, cz);
+    simd::rotate8(qx, qy, qz, qw, _mm256_sub_ps(px, cx), _mm256_sub_ps(py, cy), _mm256_sub_ps(pz, cz), ox, oy, oz);
+    simd::store8(&out_p[v].x, _mm256_add_ps(ox, tx), _mm256_add_ps(oy, ty), _mm256_add_ps(oz, tz));
+    if constexpr (kNormals) {
+      simd::load8(&in_n[v].x, px, py, pz);
+      simd::rotate8(qx, qy, qz, qw, px, py, pz, ox, oy, oz);
+      simd::store8(&out_n[v].x, ox, oy, oz);
+    }
+  }
+  return v;
+}
+#endif
+
 }  // namespace
 
 bool CorSkinningJob::Run() const {
   if (!Validate()) return false;
-  if (in_normals.empty())
-    skin<false>(skinning_matrices.data(), skinning_rotations.data(), joint_indices.data(), joint_weights.data(),
-                centers_of_rotation.data(), in_positions.data(), nullptr, out_positions.data(), nullptr,
-                in_positions.size());
-  else
-    skin<true>(skinning_matrices.data(), skinning_rotations.data(), joint_indices.data(), joint_weights.data(),
-               centers_of_rotation.data(), in_positions.data(), in_normals.data(), out_positions.data(),
-               out_normals.data(), in_positions.size());
+  const size_t n = in_positions.size();
+  size_t done = 0;  // vertices the eight-wide kernel took; the rest one by one
+  if (in_normals.empty()) {
+#ifdef MIMIC_BASELINES_AVX2
+    done = skin_blocks<false>(skinning_matrices.data(), skinning_rotations.data(), joint_indices.data(),
+                              joint_weights.data(), centers_of_rotation.data(), in_positions.data(), nullptr,
+                              out_positions.data(), nullptr, n);
+#endif
+    skin<false>(skinning_matrices.data(), skinning_rotations.data(), joint_indices.data() + done * kInfluences,
+                joint_weights.data() + done * kInfluences, centers_of_rotation.data() + done, in_positions.data() + done,
+                nullptr, out_positions.data() + done, nullptr, n - done);
+  } else {
+#ifdef MIMIC_BASELINES_AVX2
+    done = skin_blocks<true>(skinning_matrices.data(), skinning_rotations.data(), joint_indices.data(),
+                             joint_weights.data(), centers_of_rotation.data(), in_positions.data(), in_normals.data(),
+                             out_positions.data(), out_normals.data(), n);
+#endif
+    skin<true>(skinning_matrices.data(), skinning_rotations.data(), joint_indices.data() + done * kInfluences,
+               joint_weights.data() + done * kInfluences, centers_of_rotation.data() + done, in_positions.data() + done,
+               in_normals.data() + done, out_positions.data() + done, out_normals.data() + done, n - done);
+  }
   return true;
 }
 

@@ -73,29 +73,6 @@ void skin(const DualQuat* __restrict dqs, const uint16_t* __restrict ji, const f
 }
 
 #ifdef MIMIC_BASELINES_AVX2
-// Eight packed (x, y, z) triples ⇄ three registers of x, y and z, by shuffles (the usual
-// "AoS3 to SoA" permutation: lanes gathered with two blends, then put in order by one permute).
-inline void load8(const float* p, __m256& x, __m256& y, __m256& z) {
-  const __m256 a = _mm256_loadu_ps(p), b = _mm256_loadu_ps(p + 8), c = _mm256_loadu_ps(p + 16);
-  // a = x0 y0 z0 x1 y1 z1 x2 y2 | b = z2 x3 y3 z3 x4 y4 z4 x5 | c = y5 z5 x6 y6 z6 x7 y7 z7
-  const __m256 xs = _mm256_blend_ps(_mm256_blend_ps(a, b, 0b10010010), c, 0b00100100);
-  const __m256 ys = _mm256_blend_ps(_mm256_blend_ps(a, b, 0b00100100), c, 0b01001001);
-  const __m256 zs = _mm256_blend_ps(_mm256_blend_ps(a, b, 0b01001001), c, 0b10010010);
-  x = _mm256_permutevar8x32_ps(xs, _mm256_setr_epi32(0, 3, 6, 1, 4, 7, 2, 5));
-  y = _mm256_permutevar8x32_ps(ys, _mm256_setr_epi32(1, 4, 7, 2, 5, 0, 3, 6));
-  z = _mm256_permutevar8x32_ps(zs, _mm256_setr_epi32(2, 5, 0, 3, 6, 1, 4, 7));
-}
-
-inline void store8(float* p, __m256 x, __m256 y, __m256 z) {
-  // The inverse permutations, then the same blends.
-  const __m256 xs = _mm256_permutevar8x32_ps(x, _mm256_setr_epi32(0, 3, 6, 1, 4, 7, 2, 5));
-  const __m256 ys = _mm256_permutevar8x32_ps(y, _mm256_setr_epi32(5, 0, 3, 6, 1, 4, 7, 2));
-  const __m256 zs = _mm256_permutevar8x32_ps(z, _mm256_setr_epi32(2, 5, 0, 3, 6, 1, 4, 7));
-  _mm256_storeu_ps(p, _mm256_blend_ps(_mm256_blend_ps(xs, ys, 0b10010010), zs, 0b00100100));
-  _mm256_storeu_ps(p + 8, _mm256_blend_ps(_mm256_blend_ps(xs, ys, 0b00100100), zs, 0b01001001));
-  _mm256_storeu_ps(p + 16, _mm256_blend_ps(_mm256_blend_ps(xs, ys, 0b01001001), zs, 0b10010010));
-}
-
 // Eight vertices at once: each vertex's dual quaternions are blended in its own register (signs
 // from the three real-part dot products at once), the eight blends are transposed so each
 // register holds one component of eight vertices, and normalisation and the transform run
@@ -164,13 +141,13 @@ size_t skin_blocks(const DualQuat* __restrict dqs, const uint16_t* __restrict ji
     const __m256 tz = _mm256_mul_ps(two, _mm256_add_ps(_mm256_fmsub_ps(rw, dz, _mm256_mul_ps(dw, rz)),
                                                        _mm256_fmsub_ps(rx, dy, _mm256_mul_ps(ry, dx))));
     __m256 ox, oy, oz, px, py, pz;
-    load8(&in_p[v].x, px, py, pz);
+    simd::load8(&in_p[v].x, px, py, pz);
     rotate(px, py, pz, ox, oy, oz);
-    store8(&out_p[v].x, _mm256_add_ps(ox, tx), _mm256_add_ps(oy, ty), _mm256_add_ps(oz, tz));
+    simd::store8(&out_p[v].x, _mm256_add_ps(ox, tx), _mm256_add_ps(oy, ty), _mm256_add_ps(oz, tz));
     if constexpr (kNormals) {
-      load8(&in_n[v].x, px, py, pz);
+      simd::load8(&in_n[v].x, px, py, pz);
       rotate(px, py, pz, ox, oy, oz);
-      store8(&out_n[v].x, ox, oy, oz);
+      simd::store8(&out_n[v].x, ox, oy, oz);
     }
   }
   return v;
