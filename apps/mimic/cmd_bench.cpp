@@ -208,6 +208,20 @@ nlohmann::json skin_row(SkinBenchCase& c, double seconds) {
     avatar::forward_kinematics(sk, c.poses[k % np], w);
     lbs.deform(w, out);
   }));
+  // Accuracy against the full method on the same poses (same vertices, in order).
+  double sum[2] = {0, 0}, worst[2] = {0, 0};
+  for (const avatar::Pose& p : c.poses) {
+    c.full.evaluate(p);
+    for (int muscles = 0; muscles < 2; ++muscles) {
+      rt.evaluate(p, out, {}, muscles == 1);
+      for (size_t v = 0; v < out.size(); ++v) {
+        const double d = glm::distance(out[v], c.full.mesh().positions[v]);
+        sum[muscles] += d;
+        worst[muscles] = std::max(worst[muscles], d);
+      }
+    }
+  }
+  const double samples = static_cast<double>(c.poses.size() * out.size());
   return {{"lod", c.lod},
           {"vertices", rest.positions.size()},
           {"triangles", rest.triangle_count()},
@@ -217,7 +231,11 @@ nlohmann::json skin_row(SkinBenchCase& c, double seconds) {
           {"lbs_us", lbs_us},
           {"muscle_points", c.body->muscle_points()},
           {"shared_bytes", c.body->shared_bytes()},
-          {"avatar_bytes", rt.instance_bytes()}};
+          {"avatar_bytes", rt.instance_bytes()},
+          {"error_mean_mm", 1000 * sum[1] / samples},
+          {"error_max_mm", 1000 * worst[1]},
+          {"error_mean_mm_no_muscles", 1000 * sum[0] / samples},
+          {"error_max_mm_no_muscles", 1000 * worst[0]}};
 }
 
 Result<nlohmann::json> bench_skin(const BenchOptions& opt) {
@@ -243,10 +261,13 @@ Result<nlohmann::json> bench_skin(const BenchOptions& opt) {
     nlohmann::json row = skin_row(c, seconds);
     std::fprintf(stderr,
                  "skin LOD %d: %zu vertices, %zu triangles: full %.1f us, realtime %.1f us, with muscles %.1f us, "
-                 "linear blend skinning %.1f us (realtime with muscles / LBS %.2fx)\n",
+                 "linear blend skinning %.1f us (realtime with muscles / LBS %.2fx); realtime vs full: mean %.2f mm "
+                 "(%.2f mm without muscles), max %.0f mm\n",
                  lod, row["vertices"].get<size_t>(), row["triangles"].get<size_t>(), row["full_us"].get<double>(),
                  row["realtime_us"].get<double>(), row["realtime_muscles_us"].get<double>(), row["lbs_us"].get<double>(),
-                 row["realtime_muscles_us"].get<double>() / std::max(row["lbs_us"].get<double>(), 1e-9));
+                 row["realtime_muscles_us"].get<double>() / std::max(row["lbs_us"].get<double>(), 1e-9),
+                 row["error_mean_mm"].get<double>(), row["error_mean_mm_no_muscles"].get<double>(),
+                 row["error_max_mm"].get<double>());
     rows.push_back(std::move(row));
   }
   return rows;
@@ -323,7 +344,8 @@ const char* kUsage =
     "        holds at 90 Hz with no lost latest frame\n"
     "  skin  the skin on the built-in walk at every LOD, one row each: the full method\n"
     "        (contours ray-cast), the realtime method without and with muscles, and linear\n"
-    "        blend skinning of the same vertices (medians, microseconds, one run)\n"
+    "        blend skinning of the same vertices (medians, microseconds, one run); and the\n"
+    "        realtime vertices' distance from the full method's on the same poses (mm)\n"
     "  solver  filter + solve per frame for the layouts 3, 6, 11 and all (built-in walk,\n"
     "        1 mm / 0.5 deg noise, 120 Hz): p50/p99\n"
     "\n"
