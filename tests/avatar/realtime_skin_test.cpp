@@ -242,6 +242,25 @@ TEST(RealtimeSkin, AvatarsShareOneBodyAndHoldLittleEach) {
   EXPECT_EQ(body.use_count(), 5);
   EXPECT_LE(avatars[1].instance_bytes(), 64u * 1024u);
   EXPECT_GT(body->shared_bytes(), 4 * avatars[1].instance_bytes());
+
+  // RealtimeBody::shared hands the same body to every avatar of an equal model and skeleton.
+  const BodyModel model = default_body_model();
+  auto sk = Skeleton::build(model.skeleton);
+  ASSERT_TRUE(sk);
+  auto a = RealtimeBody::shared(model, *sk, {});
+  auto b = RealtimeBody::shared(model, *sk, {});
+  ASSERT_TRUE(a && b);
+  EXPECT_EQ(a->get(), b->get());
+  RealtimeOptions coarse;
+  coarse.lod = 2;
+  auto c = RealtimeBody::shared(model, *sk, coarse);
+  ASSERT_TRUE(c);
+  EXPECT_NE(c->get(), a->get());
+  Skeleton longer = *sk;
+  longer.set_offset_m(longer.find_joint("l_elbow"), longer.offset_m(longer.find_joint("l_elbow")) * 1.1f);
+  auto d = RealtimeBody::shared(model, longer, {});
+  ASSERT_TRUE(d);
+  EXPECT_NE(d->get(), a->get()) << "another skeleton, another body";
 }
 
 TEST(RealtimeSkin, RejectsABadLodAndAShortInitialPose) {

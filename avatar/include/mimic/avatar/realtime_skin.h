@@ -57,6 +57,10 @@ class RealtimeBody {
                                                             const RealtimeOptions& options = {});
   static Result<std::shared_ptr<const RealtimeBody>> create(const BodyModel& model,
                                                             const RealtimeOptions& options = {});
+  // The same, but a body already built for an equal model, skeleton and options and still held
+  // by some avatar is returned instead of a new one (thread-safe): avatars of one body share it.
+  static Result<std::shared_ptr<const RealtimeBody>> shared(const BodyModel& model, const Skeleton& skeleton,
+                                                            const RealtimeOptions& options = {});
 
   const Skeleton& skeleton() const;
   // Topology (indices, parts) and the positions of the initial pose; shared by every avatar.
