@@ -220,6 +220,20 @@ nlohmann::json skin_row(SkinBenchCase& c, double seconds) {
   // The vertex loop alone (no FK, no per-joint conversion), per vertex.
   const double lbs_vertices_us = median(
       time_frames(seconds, 2000000, [&](size_t) { baselines->deform(avatar::baselines::SkinningMethod::lbs, out); }));
+  // Accuracy against the full method on the same poses (same vertices, in order).
+  double sum[2] = {0, 0}, worst[2] = {0, 0};
+  for (const avatar::Pose& p : c.poses) {
+    c.full.evaluate(p);
+    for (int muscles = 0; muscles < 2; ++muscles) {
+      rt.evaluate(p, out, {}, muscles == 1);
+      for (size_t v = 0; v < out.size(); ++v) {
+        const double d = glm::distance(out[v], c.full.mesh().positions[v]);
+        sum[muscles] += d;
+        worst[muscles] = std::max(worst[muscles], d);
+      }
+    }
+  }
+  const double samples = static_cast<double>(c.poses.size() * out.size());
   return {{"lod", c.lod},
           {"vertices", rest.positions.size()},
           {"triangles", rest.triangle_count()},
@@ -232,7 +246,11 @@ nlohmann::json skin_row(SkinBenchCase& c, double seconds) {
           {"lbs_ns_per_vertex", 1000.0 * lbs_vertices_us / static_cast<double>(rest.positions.size())},
           {"muscle_points", c.body->muscle_points()},
           {"shared_bytes", c.body->shared_bytes()},
-          {"avatar_bytes", rt.instance_bytes()}};
+          {"avatar_bytes", rt.instance_bytes()},
+          {"error_mean_mm", 1000 * sum[1] / samples},
+          {"error_max_mm", 1000 * worst[1]},
+          {"error_mean_mm_no_muscles", 1000 * sum[0] / samples},
+          {"error_max_mm_no_muscles", 1000 * worst[0]}};
 }
 
 Result<nlohmann::json> bench_skin(const BenchOptions& opt) {
@@ -259,11 +277,14 @@ Result<nlohmann::json> bench_skin(const BenchOptions& opt) {
     std::fprintf(stderr,
                  "skin LOD %d: %zu vertices, %zu triangles: full %.1f us, realtime %.1f us, with muscles %.1f us, "
                  "linear blend skinning %.1f us (realtime with muscles / LBS %.2fx; LBS %.2f ns/vertex), dual "
-                 "quaternion %.1f us, centres of rotation %.1f us\n",
+                 "quaternion %.1f us, centres of rotation %.1f us; realtime vs full: mean %.2f mm (%.2f mm without "
+                 "muscles), max %.0f mm\n",
                  lod, row["vertices"].get<size_t>(), row["triangles"].get<size_t>(), row["full_us"].get<double>(),
                  row["realtime_us"].get<double>(), row["realtime_muscles_us"].get<double>(), row["lbs_us"].get<double>(),
                  row["realtime_muscles_us"].get<double>() / std::max(row["lbs_us"].get<double>(), 1e-9),
-                 row["lbs_ns_per_vertex"].get<double>(), row["dqs_us"].get<double>(), row["cor_us"].get<double>());
+                 row["lbs_ns_per_vertex"].get<double>(), row["dqs_us"].get<double>(), row["cor_us"].get<double>(),
+                 row["error_mean_mm"].get<double>(), row["error_mean_mm_no_muscles"].get<double>(),
+                 row["error_max_mm"].get<double>());
     rows.push_back(std::move(row));
   }
   return rows;
@@ -343,7 +364,8 @@ const char* kUsage =
     "        baselines on the same vertices with the contour-derived weights: linear blend\n"
     "        (lbs_us, and lbs_ns_per_vertex for the vertex loop alone), dual quaternion\n"
     "        (dqs_us) and optimized centres of rotation (cor_us) skinning (medians,\n"
-    "        microseconds, one run)\n"
+    "        microseconds, one run); and the realtime vertices' distance from the full\n"
+    "        method's on the same poses (mm)\n"
     "  solver  filter + solve per frame for the layouts 3, 6, 11 and all (built-in walk,\n"
     "        1 mm / 0.5 deg noise, 120 Hz): p50/p99\n"
     "\n"

@@ -501,7 +501,7 @@ void BodyField::cast_lanes(std::span<const uint16_t> candidates, int n, Quadrati
       const v8i outside = marching & ~inside;
       v8f next = step < inf ? t - vmax(step * 0.125f, splat(kMinStep_m)) : below;
       next = vmax(next, peak);
-      next = (next < zero) & (step < inf) ? zero : next;  // the last sample at the origin
+      next = ((next < zero) & (step < inf)) ? zero : next;  // the last sample at the origin
       const v8i exhausted = outside & ((t <= zero) | (next < zero));
       result = exhausted ? t_hard : result;
       t_out = outside ? t : t_out;
@@ -518,7 +518,7 @@ void BodyField::cast_lanes(std::span<const uint16_t> candidates, int n, Quadrati
       fhi = stepping & ~above ? fr : fhi;
       const v8f mid = 0.5f * (lo + hi);
       v8f newton = slope != zero ? t - fr / slope : mid;
-      newton = (newton > lo) & (newton < hi) ? newton : mid;
+      newton = ((newton > lo) & (newton < hi)) ? newton : mid;
       const v8i settled = stepping & (vabs(newton - t) < 2e-6f);
       result = settled ? vmax(newton, t_hard) : result;
       // New bracket: its first estimate is the secant between the two samples.

@@ -1,10 +1,12 @@
-// Per-stage cost of one avatar frame at the default resolution, and the baseline skinnings
-// (LBS, DQS, CoR) deforming the same mesh (same vertex count) for the ratio.
+// Per-stage cost of one avatar frame at the default resolution (the full method), the realtime
+// method at every LOD, and the baseline skinnings (LBS, DQS, CoR) deforming the same mesh (same
+// vertex count) for the ratio.
 #include <benchmark/benchmark.h>
 
 #include <random>
 
 #include "mimic/avatar/baselines/baseline_skinner.h"
+#include "mimic/avatar/realtime_skin.h"
 #include "mimic/avatar/skin.h"
 
 namespace mimic::avatar {
@@ -113,6 +115,29 @@ void BM_BaselineSkinning(benchmark::State& state) {
   state.SetItemsProcessed(state.iterations());
 }
 BENCHMARK(BM_BaselineSkinning)->ArgName("lbs0_dqs1_cor2")->DenseRange(0, 2)->Unit(benchmark::kMicrosecond);
+
+// The realtime method (realtime_skin.h) at LOD range(0), muscles on when range(1) is 1.
+void BM_Realtime(benchmark::State& state) {
+  RealtimeOptions o;
+  o.lod = static_cast<int>(state.range(0));
+  auto body = RealtimeBody::create(default_body_model(), o);
+  if (!body) {
+    state.SkipWithError(body.error().what().c_str());
+    return;
+  }
+  RealtimeSkin skin(*body);
+  std::vector<glm::vec3> out((*body)->vertex_count());
+  const auto ps = poses((*body)->skeleton(), 16);
+  const bool muscles = state.range(1) != 0;
+  size_t i = 0;
+  for (auto _ : state) {
+    skin.evaluate(ps[i++ % ps.size()], out, {}, muscles);
+    benchmark::DoNotOptimize(out.data());
+  }
+  state.counters["vertices"] = static_cast<double>(out.size());
+  state.SetItemsProcessed(state.iterations());
+}
+BENCHMARK(BM_Realtime)->ArgNames({"lod", "muscles"})->ArgsProduct({{0, 1, 2, 3}, {0, 1}})->Unit(benchmark::kMicrosecond);
 
 }  // namespace
 }  // namespace mimic::avatar

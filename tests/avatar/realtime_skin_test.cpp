@@ -192,6 +192,29 @@ TEST(RealtimeSkin, ContoursDoNotCrossAtTheJointLimits) {
   }
 }
 
+// Random postures within the joint limits (scaled towards relaxed by 0.6, as for the full
+// method): closed, outward, finite, at every LOD.
+TEST(RealtimeSkin, StaysClosedInRandomPostures) {
+  std::mt19937_64 rng(42);
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  for (int lod = 0; lod < kSkinLodCount; ++lod) {
+    auto body = make_body(lod);
+    RealtimeSkin skin(body);
+    const Skeleton& sk = body->skeleton();
+    Mesh m = body->rest_mesh();
+    for (int i = 0; i < 20; ++i) {
+      Pose p = sk.rest_pose();
+      for (int k = 0; k < sk.dof_count(); ++k) {
+        const Dof& d = sk.dof(k);
+        p.dof_rad[k] = d.rest_rad + 0.6f * (d.min_rad + u(rng) * (d.max_rad - d.min_rad) - d.rest_rad);
+      }
+      skin.evaluate(p, m.positions, m.normals);
+      expect_closed_outward(m, "LOD " + std::to_string(lod) + " pose " + std::to_string(i));
+      for (const glm::vec3& n : m.normals) ASSERT_NEAR(glm::length(n), 1.0f, 1e-3f);
+    }
+  }
+}
+
 // The check itself: two rings pushed through each other are found.
 TEST(RealtimeSkin, TheContourCheckFindsCrossingRings) {
   std::vector<glm::vec3> pts;
@@ -219,6 +242,25 @@ TEST(RealtimeSkin, AvatarsShareOneBodyAndHoldLittleEach) {
   EXPECT_EQ(body.use_count(), 5);
   EXPECT_LE(avatars[1].instance_bytes(), 64u * 1024u);
   EXPECT_GT(body->shared_bytes(), 4 * avatars[1].instance_bytes());
+
+  // RealtimeBody::shared hands the same body to every avatar of an equal model and skeleton.
+  const BodyModel model = default_body_model();
+  auto sk = Skeleton::build(model.skeleton);
+  ASSERT_TRUE(sk);
+  auto a = RealtimeBody::shared(model, *sk, {});
+  auto b = RealtimeBody::shared(model, *sk, {});
+  ASSERT_TRUE(a && b);
+  EXPECT_EQ(a->get(), b->get());
+  RealtimeOptions coarse;
+  coarse.lod = 2;
+  auto c = RealtimeBody::shared(model, *sk, coarse);
+  ASSERT_TRUE(c);
+  EXPECT_NE(c->get(), a->get());
+  Skeleton longer = *sk;
+  longer.set_offset_m(longer.find_joint("l_elbow"), longer.offset_m(longer.find_joint("l_elbow")) * 1.1f);
+  auto d = RealtimeBody::shared(model, longer, {});
+  ASSERT_TRUE(d);
+  EXPECT_NE(d->get(), a->get()) << "another skeleton, another body";
 }
 
 TEST(RealtimeSkin, RejectsABadLodAndAShortInitialPose) {

@@ -40,9 +40,10 @@ struct Frame {
   }
 };
 
-// Most a ring's section is stretched along its tilt (1/cos 60°): beyond, a sharply bent joint
-// would push its outer side far out (the full method's rays find the real crease there).
-constexpr float kMinLinkCos = 0.5f;
+// Most a ring's section is stretched along its tilt (1/0.3, a ring tilted 72.5° against its
+// link): beyond, a sharply bent joint would push its outer side far out. The inner side is held
+// by the crease (below); 0.3 keeps the volume of an elbow flexed 150° within 0.1% of the body's.
+constexpr float kMinLinkCos = 0.3f;
 constexpr int kTorsoChain = 0;  // layout.cpp builds the torso chain first
 
 // `along_link`: limbs and neck, round their links; the torso is no cylinder round its short
