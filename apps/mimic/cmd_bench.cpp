@@ -14,7 +14,7 @@
 #include "mimic/net/loopback_bench.h"
 #include "mimic/net/server.h"
 #include "mimic/net/vmc.h"
-#include "mimic/avatar/lbs_baseline.h"
+#include "mimic/avatar/baselines/baseline_skinner.h"
 #include "mimic/avatar/realtime_skin.h"
 #include "mimic/avatar/skin.h"
 #include "mimic/avatar/skin_lod.h"
@@ -183,8 +183,7 @@ std::vector<double> time_frames(double seconds, size_t max_frames, F&& frame) {
 
 // The skin at every LOD on the built-in walk, in one run: the full method (every contour
 // ray-cast, contour points as vertices), the realtime method without and with its muscle terms,
-// and linear blend skinning of the same vertices; one row per LOD. Each row is built by
-// skin_row() so further baselines add their columns there.
+// and the baseline skinnings (LBS, DQS, CoR) of the same vertices; one row per LOD.
 struct SkinBenchCase {
   int lod = 0;
   avatar::BodySkin full;
@@ -202,12 +201,39 @@ nlohmann::json skin_row(SkinBenchCase& c, double seconds) {
   std::vector<glm::vec3> out(rest.positions.size());
   const double rt_us = median(time_frames(seconds, 2000000, [&](size_t k) { rt.evaluate(c.poses[k % np], out, {}, false); }));
   const double rtm_us = median(time_frames(seconds, 2000000, [&](size_t k) { rt.evaluate(c.poses[k % np], out, {}, true); }));
-  const avatar::LinearBlendBaseline lbs(sk, rest.positions);
+  // The baselines on the same rest mesh, bound with the contour-derived weights; a frame is FK,
+  // the joints' skinning transforms, then the vertices.
   std::vector<avatar::RigidTransform> w(sk.joint_count());
-  const double lbs_us = median(time_frames(seconds, 2000000, [&](size_t k) {
-    avatar::forward_kinematics(sk, c.poses[k % np], w);
-    lbs.deform(w, out);
-  }));
+  avatar::forward_kinematics(sk, sk.zero_pose(), w);
+  auto baselines = avatar::baselines::BaselineSkinner::create(sk, w, rest, avatar::baselines::from_influences(c.body->weights()));
+  if (!baselines) return {{"lod", c.lod}, {"error", baselines.error().what()}};
+  auto baseline_us = [&](avatar::baselines::SkinningMethod m) {
+    return median(time_frames(seconds, 2000000, [&](size_t k) {
+      avatar::forward_kinematics(sk, c.poses[k % np], w);
+      baselines->set_pose(w);
+      baselines->deform(m, out);
+    }));
+  };
+  const double lbs_us = baseline_us(avatar::baselines::SkinningMethod::lbs);
+  const double dqs_us = baseline_us(avatar::baselines::SkinningMethod::dqs);
+  const double cor_us = baseline_us(avatar::baselines::SkinningMethod::cor);
+  // The vertex loop alone (no FK, no per-joint conversion), per vertex.
+  const double lbs_vertices_us = median(
+      time_frames(seconds, 2000000, [&](size_t) { baselines->deform(avatar::baselines::SkinningMethod::lbs, out); }));
+  // Accuracy against the full method on the same poses (same vertices, in order).
+  double sum[2] = {0, 0}, worst[2] = {0, 0};
+  for (const avatar::Pose& p : c.poses) {
+    c.full.evaluate(p);
+    for (int muscles = 0; muscles < 2; ++muscles) {
+      rt.evaluate(p, out, {}, muscles == 1);
+      for (size_t v = 0; v < out.size(); ++v) {
+        const double d = glm::distance(out[v], c.full.mesh().positions[v]);
+        sum[muscles] += d;
+        worst[muscles] = std::max(worst[muscles], d);
+      }
+    }
+  }
+  const double samples = static_cast<double>(c.poses.size() * out.size());
   return {{"lod", c.lod},
           {"vertices", rest.positions.size()},
           {"triangles", rest.triangle_count()},
@@ -215,9 +241,16 @@ nlohmann::json skin_row(SkinBenchCase& c, double seconds) {
           {"realtime_us", rt_us},
           {"realtime_muscles_us", rtm_us},
           {"lbs_us", lbs_us},
+          {"dqs_us", dqs_us},
+          {"cor_us", cor_us},
+          {"lbs_ns_per_vertex", 1000.0 * lbs_vertices_us / static_cast<double>(rest.positions.size())},
           {"muscle_points", c.body->muscle_points()},
           {"shared_bytes", c.body->shared_bytes()},
-          {"avatar_bytes", rt.instance_bytes()}};
+          {"avatar_bytes", rt.instance_bytes()},
+          {"error_mean_mm", 1000 * sum[1] / samples},
+          {"error_max_mm", 1000 * worst[1]},
+          {"error_mean_mm_no_muscles", 1000 * sum[0] / samples},
+          {"error_max_mm_no_muscles", 1000 * worst[0]}};
 }
 
 Result<nlohmann::json> bench_skin(const BenchOptions& opt) {
@@ -243,10 +276,15 @@ Result<nlohmann::json> bench_skin(const BenchOptions& opt) {
     nlohmann::json row = skin_row(c, seconds);
     std::fprintf(stderr,
                  "skin LOD %d: %zu vertices, %zu triangles: full %.1f us, realtime %.1f us, with muscles %.1f us, "
-                 "linear blend skinning %.1f us (realtime with muscles / LBS %.2fx)\n",
+                 "linear blend skinning %.1f us (realtime with muscles / LBS %.2fx; LBS %.2f ns/vertex), dual "
+                 "quaternion %.1f us, centres of rotation %.1f us; realtime vs full: mean %.2f mm (%.2f mm without "
+                 "muscles), max %.0f mm\n",
                  lod, row["vertices"].get<size_t>(), row["triangles"].get<size_t>(), row["full_us"].get<double>(),
                  row["realtime_us"].get<double>(), row["realtime_muscles_us"].get<double>(), row["lbs_us"].get<double>(),
-                 row["realtime_muscles_us"].get<double>() / std::max(row["lbs_us"].get<double>(), 1e-9));
+                 row["realtime_muscles_us"].get<double>() / std::max(row["lbs_us"].get<double>(), 1e-9),
+                 row["lbs_ns_per_vertex"].get<double>(), row["dqs_us"].get<double>(), row["cor_us"].get<double>(),
+                 row["error_mean_mm"].get<double>(), row["error_mean_mm_no_muscles"].get<double>(),
+                 row["error_max_mm"].get<double>());
     rows.push_back(std::move(row));
   }
   return rows;
@@ -322,8 +360,12 @@ const char* kUsage =
     "        socket through the mimic run pipeline (p50/p99); subscribers x avatars the server\n"
     "        holds at 90 Hz with no lost latest frame\n"
     "  skin  the skin on the built-in walk at every LOD, one row each: the full method\n"
-    "        (contours ray-cast), the realtime method without and with muscles, and linear\n"
-    "        blend skinning of the same vertices (medians, microseconds, one run)\n"
+    "        (contours ray-cast), the realtime method without and with muscles, and the\n"
+    "        baselines on the same vertices with the contour-derived weights: linear blend\n"
+    "        (lbs_us, and lbs_ns_per_vertex for the vertex loop alone), dual quaternion\n"
+    "        (dqs_us) and optimized centres of rotation (cor_us) skinning (medians,\n"
+    "        microseconds, one run); and the realtime vertices' distance from the full\n"
+    "        method's on the same poses (mm)\n"
     "  solver  filter + solve per frame for the layouts 3, 6, 11 and all (built-in walk,\n"
     "        1 mm / 0.5 deg noise, 120 Hz): p50/p99\n"
     "\n"

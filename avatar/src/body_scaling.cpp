@@ -26,6 +26,31 @@ std::set<std::string> lower_region(const SkeletonDesc& d) {
 
 }  // namespace
 
+int scaling_tag(const glm::vec3& axis_world) {
+  const glm::vec3 a = glm::abs(axis_world);
+  return a.x >= a.y && a.x >= a.z ? 0 : a.y >= a.z ? 1 : 2;
+}
+
+Pose standing_posture(const Skeleton& skeleton) {
+  Pose p = skeleton.zero_pose();
+  std::vector<RigidTransform> w(skeleton.joint_count());
+  for (const char* side : {"l_", "r_"}) {
+    const std::string s = side;
+    const int dof = skeleton.find_dof(s + "shoulder_abduction");
+    const int shoulder = skeleton.find_joint(s + "shoulder");
+    if (dof < 0 || shoulder < 0) continue;
+    // Whichever quarter turn lowers the upper arm's tip below the shoulder.
+    for (float a : {-1.5707964f, 1.5707964f}) {
+      p.dof_rad[dof] = a;
+      forward_kinematics(skeleton, p, w);
+      if (w[shoulder].apply(skeleton.tip_m(shoulder)).y < w[shoulder].translation.y - 0.5f * glm::length(skeleton.tip_m(shoulder)))
+        break;
+      p.dof_rad[dof] = 0;
+    }
+  }
+  return p;
+}
+
 Result<BodyModel> scale_body(const BodyModel& model, const BodyScaling& s) {
   for (float f : {s.total_height, s.frontal_scaling, s.high_lateral_scaling, s.low_lateral_scaling, s.spine_origin_ratio})
     if (!(f > 0.0f) || !std::isfinite(f) || f > 10.0f)
@@ -52,29 +77,39 @@ Result<BodyModel> scale_body(const BodyModel& model, const BodyScaling& s) {
   const std::set<std::string> lower = lower_region(model.skeleton);
   auto scale_of = [&](const std::string& joint) { return lower.count(joint) ? low_scale : high_scale; };
 
+  // The operators act in the world frame of the standing posture, arms at the sides (the zero
+  // posture is a T-pose: scaling it laterally would lengthen the arms, not widen the body).
+  std::vector<RigidTransform> standing(static_cast<size_t>(skeleton->joint_count()));
+  forward_kinematics(*skeleton, standing_posture(*skeleton), standing);
+  auto world_rotation = [&](const std::string& joint) {
+    const int j = skeleton->find_joint(joint);
+    return j < 0 ? glm::mat3(1.0f) : glm::mat3_cast(standing[j].rotation);
+  };
+  // A vector of a joint's frame, scaled per world axis: W^T diag(k) W v.
+  auto scaled = [](const glm::mat3& rot, const glm::vec3& k, const glm::vec3& v) {
+    return glm::transpose(rot) * (k * (rot * v));
+  };
+
   BodyModel out = model;
   for (auto& j : out.skeleton.joints) {
-    j.offset_m *= scale_of(j.name);
-    j.tip_m *= scale_of(j.name);
+    const glm::vec3 k = scale_of(j.name);
+    if (!j.parent.empty()) j.offset_m = scaled(world_rotation(j.parent), k, j.offset_m);
+    j.tip_m = scaled(world_rotation(j.name), k, j.tip_m);
   }
-  auto scale_state = [&](PrimitiveState& st, const glm::vec3& k) {
-    st.center_m *= k;
-    // Each principal axis takes the factor of its dominant world direction (the joint frame is
-    // parallel to the world in the zero posture).
+  auto scale_state = [&](PrimitiveState& st, const glm::mat3& rot, const glm::vec3& k) {
+    st.center_m = scaled(rot, k, st.center_m);
+    // Each principal axis takes the factor of its dominant world direction.
     const glm::mat3 r = glm::mat3(glm::eulerAngleZ(st.orientation_rad.z) * glm::eulerAngleY(st.orientation_rad.y) *
                                   glm::eulerAngleX(st.orientation_rad.x));
-    for (int a = 0; a < 3; ++a) {
-      const glm::vec3 axis = glm::abs(r[a]);
-      const int tag = axis.x >= axis.y && axis.x >= axis.z ? 0 : axis.y >= axis.z ? 1 : 2;
-      st.semi_axes_m[a] *= k[tag];
-    }
+    for (int a = 0; a < 3; ++a) st.semi_axes_m[a] *= k[scaling_tag(rot * r[a])];
   };
   for (auto& prim : out.primitives) {
     const glm::vec3 k = scale_of(prim.joint);
-    scale_state(prim.state, k);
+    const glm::mat3 rot = world_rotation(prim.joint);
+    scale_state(prim.state, rot, k);
     if (prim.deformation) {
-      scale_state(prim.deformation->at_min, k);
-      scale_state(prim.deformation->at_max, k);
+      scale_state(prim.deformation->at_min, rot, k);
+      scale_state(prim.deformation->at_max, rot, k);
     }
   }
   if (auto st = validate(out); !st) return tl::unexpected(st.error());

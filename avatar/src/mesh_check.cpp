@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numeric>
 #include <unordered_map>
 
@@ -249,6 +250,89 @@ Mesh weld_by_position(const Mesh& mesh, float tolerance) {
     out.parts.push_back(np);
   }
   if (mesh.parts.empty()) out.parts.clear();
+  return out;
+}
+
+}  // namespace mimic::avatar
+
+namespace mimic::avatar {
+
+namespace {
+
+// The disc a contour spans: its Newell plane through its centroid and the polygon in that
+// plane's coordinates.
+struct Disc {
+  glm::vec3 centre{0.0f}, normal{0.0f}, e1{0.0f}, e2{0.0f};
+  std::vector<glm::vec2> polygon;
+  bool valid = false;
+};
+
+Disc disc_of(std::span<const glm::vec3> positions, const std::vector<uint32_t>& row) {
+  Disc d;
+  glm::vec3 n(0.0f);
+  for (size_t i = 0; i < row.size(); ++i) {
+    const glm::vec3 a = positions[row[i]], b = positions[row[(i + 1) % row.size()]];
+    n += glm::vec3((a.y - b.y) * (a.z + b.z), (a.z - b.z) * (a.x + b.x), (a.x - b.x) * (a.y + b.y));
+    d.centre += a;
+  }
+  const float len = glm::length(n);
+  if (row.size() < 3 || !(len > 0.0f)) return d;
+  d.centre /= static_cast<float>(row.size());
+  d.normal = n / len;
+  d.e1 = glm::normalize(positions[row[0]] - d.centre - glm::dot(positions[row[0]] - d.centre, d.normal) * d.normal);
+  d.e2 = glm::cross(d.normal, d.e1);
+  for (uint32_t v : row) d.polygon.emplace_back(glm::dot(positions[v] - d.centre, d.e1), glm::dot(positions[v] - d.centre, d.e2));
+  d.valid = std::isfinite(d.e1.x + d.e2.x);
+  return d;
+}
+
+// Distance of p inside the polygon (0 when outside): winding number, then the nearest edge.
+float depth_inside(const std::vector<glm::vec2>& poly, glm::vec2 p) {
+  int winding = 0;
+  float nearest = std::numeric_limits<float>::max();
+  for (size_t i = 0; i < poly.size(); ++i) {
+    const glm::vec2 a = poly[i], b = poly[(i + 1) % poly.size()];
+    const float cross = (b.x - a.x) * (p.y - a.y) - (p.x - a.x) * (b.y - a.y);
+    if (a.y <= p.y && b.y > p.y && cross > 0) ++winding;
+    if (a.y > p.y && b.y <= p.y && cross < 0) --winding;
+    const glm::vec2 ab = b - a;
+    const float t = glm::dot(ab, ab) > 0 ? std::clamp(glm::dot(p - a, ab) / glm::dot(ab, ab), 0.0f, 1.0f) : 0.0f;
+    nearest = std::min(nearest, glm::length(p - (a + t * ab)));
+  }
+  return winding != 0 ? nearest : 0.0f;
+}
+
+// How deep inside disc `d` the closed polyline `row` passes through it.
+float piercing(std::span<const glm::vec3> positions, const Disc& d, const std::vector<uint32_t>& row) {
+  float worst = 0.0f;
+  for (size_t i = 0; i < row.size(); ++i) {
+    const glm::vec3 a = positions[row[i]], b = positions[row[(i + 1) % row.size()]];
+    const float sa = glm::dot(a - d.centre, d.normal), sb = glm::dot(b - d.centre, d.normal);
+    if ((sa > 0) == (sb > 0) || sa == sb) continue;
+    const glm::vec3 x = a + (sa / (sa - sb)) * (b - a);
+    worst = std::max(worst, depth_inside(d.polygon, {glm::dot(x - d.centre, d.e1), glm::dot(x - d.centre, d.e2)}));
+  }
+  return worst;
+}
+
+}  // namespace
+
+ContourOrder check_contour_order(std::span<const glm::vec3> positions, std::span<const ContourRows> pieces,
+                                 float tolerance_m) {
+  ContourOrder out;
+  for (const ContourRows& piece : pieces) {
+    for (size_t r = 0; r + 1 < piece.rows.size(); ++r) {
+      const Disc a = disc_of(positions, piece.rows[r]), b = disc_of(positions, piece.rows[r + 1]);
+      if (!a.valid || !b.valid) continue;
+      const float worst = std::max(piercing(positions, a, piece.rows[r + 1]), piercing(positions, b, piece.rows[r]));
+      ++out.pairs;
+      if (worst > tolerance_m) ++out.crossing;
+      if (worst > out.worst_m) {
+        out.worst_m = worst;
+        out.worst_piece = piece.piece + " row " + std::to_string(r);
+      }
+    }
+  }
   return out;
 }
 

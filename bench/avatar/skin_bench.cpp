@@ -1,10 +1,12 @@
-// Per-stage cost of one avatar frame at the default resolution, and a linear blend skinning
-// baseline deforming the same mesh (same vertex count) for the ratio.
+// Per-stage cost of one avatar frame at the default resolution (the full method), the realtime
+// method at every LOD, and the baseline skinnings (LBS, DQS, CoR) deforming the same mesh (same
+// vertex count) for the ratio.
 #include <benchmark/benchmark.h>
 
 #include <random>
 
-#include "mimic/avatar/lbs_baseline.h"
+#include "mimic/avatar/baselines/baseline_skinner.h"
+#include "mimic/avatar/realtime_skin.h"
 #include "mimic/avatar/skin.h"
 
 namespace mimic::avatar {
@@ -91,24 +93,51 @@ void BM_Stage(benchmark::State& state) {
 }
 BENCHMARK(BM_Stage)->ArgName("fk0_deform1_contours2_bspline3_stitch4")->DenseRange(0, 4)->Unit(benchmark::kMicrosecond);
 
-// Linear blend skinning of the same mesh (avatar/lbs_baseline.h): the yardstick.
-void BM_LinearBlendSkinningBaseline(benchmark::State& state) {
+// The baseline skinnings of the same mesh (avatar/baselines/): FK, skinning transforms and the
+// vertices per iteration, as a frame would run them. Per-vertex figures: baselines_bench.cpp.
+void BM_BaselineSkinning(benchmark::State& state) {
   BodySkin skin = make(1);
   const Skeleton& s = skin.skeleton();
-  const LinearBlendBaseline lbs(s, skin.mesh().positions);
+  skin.evaluate(s.zero_pose());
+  auto skinner = baselines::bind_to_links(s, s.zero_pose(), skin.mesh());
+  const auto method = static_cast<baselines::SkinningMethod>(state.range(0));
   std::vector<RigidTransform> w(s.joint_count());
-  std::vector<glm::vec3> out(lbs.vertex_count());
+  std::vector<glm::vec3> out(skinner->vertex_count());
   const auto ps = poses(s, 16);
   size_t i = 0;
   for (auto _ : state) {
     forward_kinematics(s, ps[i++ % ps.size()], w);
-    lbs.deform(w, out);
+    skinner->set_pose(w);
+    skinner->deform(method, out);
     benchmark::DoNotOptimize(out.data());
   }
-  state.counters["vertices"] = static_cast<double>(lbs.vertex_count());
+  state.counters["vertices"] = static_cast<double>(skinner->vertex_count());
   state.SetItemsProcessed(state.iterations());
 }
-BENCHMARK(BM_LinearBlendSkinningBaseline)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_BaselineSkinning)->ArgName("lbs0_dqs1_cor2")->DenseRange(0, 2)->Unit(benchmark::kMicrosecond);
+
+// The realtime method (realtime_skin.h) at LOD range(0), muscles on when range(1) is 1.
+void BM_Realtime(benchmark::State& state) {
+  RealtimeOptions o;
+  o.lod = static_cast<int>(state.range(0));
+  auto body = RealtimeBody::create(default_body_model(), o);
+  if (!body) {
+    state.SkipWithError(body.error().what().c_str());
+    return;
+  }
+  RealtimeSkin skin(*body);
+  std::vector<glm::vec3> out((*body)->vertex_count());
+  const auto ps = poses((*body)->skeleton(), 16);
+  const bool muscles = state.range(1) != 0;
+  size_t i = 0;
+  for (auto _ : state) {
+    skin.evaluate(ps[i++ % ps.size()], out, {}, muscles);
+    benchmark::DoNotOptimize(out.data());
+  }
+  state.counters["vertices"] = static_cast<double>(out.size());
+  state.SetItemsProcessed(state.iterations());
+}
+BENCHMARK(BM_Realtime)->ArgNames({"lod", "muscles"})->ArgsProduct({{0, 1, 2, 3}, {0, 1}})->Unit(benchmark::kMicrosecond);
 
 }  // namespace
 }  // namespace mimic::avatar

@@ -407,7 +407,7 @@ Result<std::unique_ptr<Deformer>> make_skin_deformer(const avatar::BodyModel& mo
   if (method == avatar::SkinMethod::realtime) {
     avatar::RealtimeOptions o;
     o.lod = lod;
-    auto body = avatar::RealtimeBody::create(model, skeleton, o);
+    auto body = avatar::RealtimeBody::shared(model, skeleton, o);  // avatars of one body share it
     if (!body) return tl::unexpected(body.error());
     return std::unique_ptr<Deformer>(new RealtimeDeformer(*body));
   }

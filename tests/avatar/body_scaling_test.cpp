@@ -1,5 +1,7 @@
 #include <gtest/gtest.h>
 
+#include <algorithm>
+
 #include "mimic/avatar/body_model.h"
 #include "mimic/avatar/mesh_check.h"
 #include "mimic/avatar/skin.h"
@@ -67,6 +69,49 @@ TEST(BodyScaling, LateralScalingsActAboveAndBelowTheSpineOrigin) {
   EXPECT_NEAR(c.hip_width / a.hip_width, 1.2f, 1e-3f);
   EXPECT_NEAR(c.shoulder_width, a.shoulder_width, 1e-5f);
   EXPECT_GT(c.volume, a.volume);
+}
+
+TEST(BodyScaling, LateralScalingWidensTheArmsWithoutLengtheningThem) {
+  // The operators act with the arms at the sides, so a wider body keeps its arm length.
+  const BodyModel m = default_body_model();
+  auto broad = scale_body(m, BodyScaling{.frontal_scaling = 1.2f, .high_lateral_scaling = 1.3f});
+  ASSERT_TRUE(broad);
+  auto joint = [](const BodyModel& b, const char* name) {
+    for (const auto& j : b.skeleton.joints)
+      if (j.name == name) return j;
+    return JointDesc{};
+  };
+  EXPECT_NEAR(glm::length(joint(*broad, "l_elbow").offset_m), glm::length(joint(m, "l_elbow").offset_m), 1e-5f);
+  EXPECT_NEAR(glm::length(joint(*broad, "l_wrist").offset_m), glm::length(joint(m, "l_wrist").offset_m), 1e-5f);
+  // The upper arm's primitives: the axis along the arm kept, the two across it scaled by the
+  // lateral (x once lowered: the arm's z stays z, its y turns to x) and frontal ratios.
+  int checked = 0;
+  for (size_t i = 0; i < m.primitives.size(); ++i) {
+    if (m.primitives[i].joint != "l_shoulder") continue;
+    const glm::vec3 a = m.primitives[i].state.semi_axes_m, b = broad->primitives[i].state.semi_axes_m;
+    const glm::vec3 ratio = b / a;
+    std::vector<float> r{ratio.x, ratio.y, ratio.z};
+    std::sort(r.begin(), r.end());
+    EXPECT_NEAR(r[0], 1.0f, 1e-5f) << m.primitives[i].name;
+    EXPECT_NEAR(r[2], 1.3f, 1e-5f) << m.primitives[i].name;
+    ++checked;
+  }
+  EXPECT_GT(checked, 0);
+}
+
+TEST(BodyScaling, StandingPostureLowersTheArms) {
+  auto s = Skeleton::build(default_skeleton_desc());
+  ASSERT_TRUE(s);
+  std::vector<RigidTransform> w(s->joint_count());
+  forward_kinematics(*s, standing_posture(*s), w);
+  for (const char* side : {"l_", "r_"}) {
+    const int shoulder = s->find_joint(std::string(side) + "shoulder"), wrist = s->find_joint(std::string(side) + "wrist");
+    const glm::vec3 down = glm::normalize(w[wrist].translation - w[shoulder].translation);
+    EXPECT_LT(down.y, -0.99f) << side;
+  }
+  EXPECT_EQ(scaling_tag({0.2f, -0.9f, 0.3f}), 1);
+  EXPECT_EQ(scaling_tag({-0.7f, 0.1f, 0.69f}), 0);
+  EXPECT_EQ(scaling_tag({0, 0.1f, -0.5f}), 2);
 }
 
 TEST(BodyScaling, RejectsNonsense) {

@@ -136,6 +136,10 @@ TEST(RealtimeSkin, ClosedOutwardAndNearTheFullMethodThroughEverySharedClip) {
       skin.evaluate(p, m.positions, {}, true);
       const std::string what = std::string(id) + " frame " + std::to_string(f);
       expect_closed_outward(m, what);
+      const ContourOrder order = check_contour_order(m.positions, body->contour_rows());
+      EXPECT_EQ(order.crossing, 0u) << what << ": adjacent contours cross by " << 1000 * order.worst_m << " mm at "
+                                    << order.worst_piece;
+      EXPECT_GT(order.pairs, 80u);
       for (size_t v = 0; v < m.positions.size(); ++v) {
         with.push_back(glm::distance(m.positions[v], fm.positions[v]));
         without.push_back(glm::distance(plain[v], fm.positions[v]));
@@ -166,6 +170,71 @@ TEST(RealtimeSkin, ClosedOutwardAndNearTheFullMethodThroughEverySharedClip) {
   EXPECT_LT(sum_muscle_with, sum_muscle_without) << "the muscle terms bring the contours closer to the full method";
 }
 
+// At the limits of the bending DOFs, one at a time, the contours meet in a crease on the inner
+// side of the joint and never cross (the full method's rays, by contrast, can cross there).
+TEST(RealtimeSkin, ContoursDoNotCrossAtTheJointLimits) {
+  auto body = make_body();
+  RealtimeSkin skin(body);
+  const Skeleton& sk = body->skeleton();
+  Mesh m = body->rest_mesh();
+  for (const char* name : {"l_elbow_flexion", "r_knee_flexion", "l_hip_flexion", "r_shoulder_abduction", "l_forearm_twist",
+                           "spine_lower_flexion"}) {
+    const int dof = sk.find_dof(name);
+    if (dof < 0) continue;
+    for (float theta : {sk.dof(dof).min_rad, sk.dof(dof).max_rad}) {
+      Pose p = sk.zero_pose();
+      p.dof_rad[dof] = theta;
+      skin.evaluate(p, m.positions);
+      const ContourOrder order = check_contour_order(m.positions, body->contour_rows());
+      EXPECT_EQ(order.crossing, 0u) << name << " " << theta << ": " << 1000 * order.worst_m << " mm at " << order.worst_piece;
+      expect_closed_outward(m, name);
+    }
+  }
+}
+
+// Random postures within the joint limits (scaled towards relaxed by 0.6, as for the full
+// method): closed, outward, finite, at every LOD.
+TEST(RealtimeSkin, StaysClosedInRandomPostures) {
+  std::mt19937_64 rng(42);
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  for (int lod = 0; lod < kSkinLodCount; ++lod) {
+    auto body = make_body(lod);
+    RealtimeSkin skin(body);
+    const Skeleton& sk = body->skeleton();
+    Mesh m = body->rest_mesh();
+    for (int i = 0; i < 20; ++i) {
+      Pose p = sk.rest_pose();
+      for (int k = 0; k < sk.dof_count(); ++k) {
+        const Dof& d = sk.dof(k);
+        p.dof_rad[k] = d.rest_rad + 0.6f * (d.min_rad + u(rng) * (d.max_rad - d.min_rad) - d.rest_rad);
+      }
+      skin.evaluate(p, m.positions, m.normals);
+      expect_closed_outward(m, "LOD " + std::to_string(lod) + " pose " + std::to_string(i));
+      for (const glm::vec3& n : m.normals) ASSERT_NEAR(glm::length(n), 1.0f, 1e-3f);
+    }
+  }
+}
+
+// The check itself: two rings pushed through each other are found.
+TEST(RealtimeSkin, TheContourCheckFindsCrossingRings) {
+  std::vector<glm::vec3> pts;
+  ContourRows piece{"test", {{}, {}}};
+  for (int ring = 0; ring < 2; ++ring)
+    for (int j = 0; j < 12; ++j) {
+      const float a = 6.2831853f * static_cast<float>(j) / 12.0f;
+      // The second ring tilted 60° about x and only 1 cm further along: it cuts the first.
+      const glm::vec3 p(0.05f * std::cos(a), 0.05f * std::sin(a), 0.0f);
+      const glm::vec3 q = ring == 0 ? p : glm::vec3(p.x, p.y * 0.5f, 0.01f + p.y * 0.866f);
+      piece.rows[ring].push_back(static_cast<uint32_t>(pts.size()));
+      pts.push_back(q);
+    }
+  const ContourOrder bad = check_contour_order(pts, std::span(&piece, 1));
+  EXPECT_EQ(bad.crossing, 1u);
+  EXPECT_GT(bad.worst_m, 0.001f);
+  for (size_t k = 12; k < 24; ++k) pts[k] = pts[k - 12] + glm::vec3(0, 0, 0.01f);  // parallel: fine
+  EXPECT_EQ(check_contour_order(pts, std::span(&piece, 1)).crossing, 0u);
+}
+
 TEST(RealtimeSkin, AvatarsShareOneBodyAndHoldLittleEach) {
   auto body = make_body();
   std::vector<RealtimeSkin> avatars;
@@ -173,6 +242,25 @@ TEST(RealtimeSkin, AvatarsShareOneBodyAndHoldLittleEach) {
   EXPECT_EQ(body.use_count(), 5);
   EXPECT_LE(avatars[1].instance_bytes(), 64u * 1024u);
   EXPECT_GT(body->shared_bytes(), 4 * avatars[1].instance_bytes());
+
+  // RealtimeBody::shared hands the same body to every avatar of an equal model and skeleton.
+  const BodyModel model = default_body_model();
+  auto sk = Skeleton::build(model.skeleton);
+  ASSERT_TRUE(sk);
+  auto a = RealtimeBody::shared(model, *sk, {});
+  auto b = RealtimeBody::shared(model, *sk, {});
+  ASSERT_TRUE(a && b);
+  EXPECT_EQ(a->get(), b->get());
+  RealtimeOptions coarse;
+  coarse.lod = 2;
+  auto c = RealtimeBody::shared(model, *sk, coarse);
+  ASSERT_TRUE(c);
+  EXPECT_NE(c->get(), a->get());
+  Skeleton longer = *sk;
+  longer.set_offset_m(longer.find_joint("l_elbow"), longer.offset_m(longer.find_joint("l_elbow")) * 1.1f);
+  auto d = RealtimeBody::shared(model, longer, {});
+  ASSERT_TRUE(d);
+  EXPECT_NE(d->get(), a->get()) << "another skeleton, another body";
 }
 
 TEST(RealtimeSkin, RejectsABadLodAndAShortInitialPose) {

@@ -51,6 +51,42 @@ TEST(SkinLod, FewerContoursPerLinkAndFewerPointsPerContour) {
   EXPECT_EQ(skin_layout_for_lod(base, 99).torso_points, coarse.torso_points) << "clamped";
 }
 
+// Pieces at different contour LODs (fine arms, coarse legs and torso) still make one closed
+// envelope, and the counts move per piece.
+TEST(SkinLod, PiecesAtTheirOwnLodsStillClose) {
+  const SkinLayout base = default_body_model().skin;
+  SkinPieceLods lods;
+  lods.points = 1;
+  lods.arms = 0;
+  lods.legs = 3;
+  lods.torso = 2;
+  lods.neck = 1;
+  lods.rigid = 2;
+  const SkinLayout l = skin_layout_for_lods(base, lods);
+  EXPECT_EQ(l.upper_arm_contours, base.upper_arm_contours);
+  EXPECT_LT(l.upper_leg_contours, skin_layout_for_lod(base, 1).upper_leg_contours);
+  EXPECT_EQ(l.torso_points, skin_layout_for_lod(base, 1).torso_points);
+  BodyModel model = default_body_model();
+  model.skin = l;
+  ASSERT_TRUE(validate(model));
+  SkinOptions o;
+  o.subdivision = 0;
+  auto skin = BodySkin::create(model, o);
+  ASSERT_TRUE(skin) << skin.error().what();
+  const MeshTopology t = analyze_topology(skin->mesh());
+  EXPECT_TRUE(is_closed_oriented_manifold(t));
+  EXPECT_EQ(t.components, 6u);
+  RealtimeOptions ro;
+  auto body = RealtimeBody::create(model, ro);
+  ASSERT_TRUE(body);
+  EXPECT_EQ((*body)->vertex_count(), skin->mesh().positions.size());
+  for (int lod = 0; lod < kSkinLodCount; ++lod) {
+    const SkinLayout same = skin_layout_for_lods(base, {lod, lod, lod, lod, lod, lod});
+    EXPECT_EQ(same.torso_points, skin_layout_for_lod(base, lod).torso_points);
+    EXPECT_EQ(same.lower_leg_contours, skin_layout_for_lod(base, lod).lower_leg_contours);
+  }
+}
+
 // The realtime method at every LOD through the shared clips: one closed, outward envelope and
 // the same rigid parts in every frame.
 TEST(SkinLod, RealtimeEveryLodStaysClosedThroughTheSharedClips) {

@@ -22,28 +22,40 @@ int scaled(int n, float f, int at_least) { return std::max(at_least, static_cast
 
 }  // namespace
 
+SkinLayout skin_layout_for_lods(const SkinLayout& base, const SkinPieceLods& lods) {
+  auto scale = [](int lod) { return kScale[std::clamp(lod, 0, kSkinLodCount - 1)]; };
+  SkinLayout l = base;
+  const float p = scale(lods.points).points;
+  if (p < 1.0f) {
+    l.chest_front_arc = scaled(base.chest_front_arc, p, 2);
+    l.chest_side_arc = scaled(base.chest_side_arc, p, 2);
+    l.torso_points = 2 * (l.chest_front_arc + l.chest_side_arc);
+    l.shoulder_bridge = scaled(base.shoulder_bridge, p, 2);
+    l.crotch_bridge = scaled(base.crotch_bridge, p, 1);
+  }
+  // Boundary-driven rings belong to every limb and the neck: they follow the finest of them.
+  const float k = scale(std::min({lods.neck, lods.arms, lods.legs})).contours;
+  l.boundary_contours = k < 1.0f ? scaled(base.boundary_contours, k, 1) : base.boundary_contours;
+  const int limb_min = l.boundary_contours + 3;
+  auto contours = [](int n, float f, int at_least) { return f < 1.0f ? scaled(n, f, at_least) : std::max(n, at_least); };
+  l.lower_torso_contours = contours(base.lower_torso_contours, scale(lods.torso).contours, 3);
+  l.upper_torso_contours = contours(base.upper_torso_contours, scale(lods.torso).contours, 3);
+  l.neck_contours = contours(base.neck_contours, scale(lods.neck).contours, limb_min);
+  l.upper_arm_contours = contours(base.upper_arm_contours, scale(lods.arms).contours, limb_min);
+  l.lower_arm_contours = contours(base.lower_arm_contours, scale(lods.arms).contours, 3);
+  l.upper_leg_contours = contours(base.upper_leg_contours, scale(lods.legs).contours, limb_min);
+  l.lower_leg_contours = contours(base.lower_leg_contours, scale(lods.legs).contours, 3);
+  const float r = scale(lods.rigid).points;
+  if (r < 1.0f) {
+    l.rigid_rings = scaled(base.rigid_rings, r, 3);
+    l.rigid_points = scaled(base.rigid_points, r, 4);
+  }
+  return l;
+}
+
 SkinLayout skin_layout_for_lod(const SkinLayout& base, int lod) {
   lod = std::clamp(lod, 0, kSkinLodCount - 1);
-  if (lod == 0) return base;
-  const LodScale s = kScale[lod];
-  SkinLayout l = base;
-  l.chest_front_arc = scaled(base.chest_front_arc, s.points, 2);
-  l.chest_side_arc = scaled(base.chest_side_arc, s.points, 2);
-  l.torso_points = 2 * (l.chest_front_arc + l.chest_side_arc);
-  l.shoulder_bridge = scaled(base.shoulder_bridge, s.points, 2);
-  l.crotch_bridge = scaled(base.crotch_bridge, s.points, 1);
-  l.boundary_contours = scaled(base.boundary_contours, s.contours, 1);
-  const int limb_min = l.boundary_contours + 3;
-  l.lower_torso_contours = scaled(base.lower_torso_contours, s.contours, 3);
-  l.upper_torso_contours = scaled(base.upper_torso_contours, s.contours, 3);
-  l.neck_contours = scaled(base.neck_contours, s.contours, limb_min);
-  l.upper_arm_contours = scaled(base.upper_arm_contours, s.contours, limb_min);
-  l.lower_arm_contours = scaled(base.lower_arm_contours, s.contours, 3);
-  l.upper_leg_contours = scaled(base.upper_leg_contours, s.contours, limb_min);
-  l.lower_leg_contours = scaled(base.lower_leg_contours, s.contours, 3);
-  l.rigid_rings = scaled(base.rigid_rings, s.points, 3);
-  l.rigid_points = scaled(base.rigid_points, s.points, 4);
-  return l;
+  return skin_layout_for_lods(base, {lod, lod, lod, lod, lod, lod});
 }
 
 BodyModel with_skin_lod(BodyModel model, int lod) {

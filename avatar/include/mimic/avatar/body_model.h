@@ -141,11 +141,20 @@ struct BodyScaling {
                                       // now; the total height is kept
 };
 
-// A new, editable body model. Every principal axis of every primitive is tagged lateral,
-// frontal or high by the dominant component of that axis in the zero posture (x lateral, z
-// frontal, y high); its length and the centre are scaled by the matching ratio of the region
-// (legs and hips below the spine origin, the rest above), orientations kept. Joint offsets and
-// link tips scale alike. Fails on a non-positive or non-finite factor.
+// A new, editable body model. The operators act in the world frame of the standing posture
+// (standing_posture: x lateral, y high, z frontal): every joint offset and link tip, and every
+// primitive's centre, is scaled per world axis by the ratios of its region (legs and hips below
+// the spine origin, the rest above); every principal axis of every primitive is tagged lateral,
+// high or frontal by its dominant world component (scaling_tag) and its length scaled by that
+// ratio; orientations kept. Fails on a non-positive or non-finite factor.
 Result<BodyModel> scale_body(const BodyModel& model, const BodyScaling& scaling);
+
+// The posture the scaling operators are defined in: the zero posture (a T-pose) with the upper
+// arms lowered to the sides by a quarter turn of shoulder abduction, so arms scale in length
+// with the height and in girth with the lateral and frontal ratios.
+Pose standing_posture(const Skeleton& skeleton);
+
+// 0 lateral (x), 1 high (y), 2 frontal (z): the largest |component| of a world direction.
+int scaling_tag(const glm::vec3& axis_world);
 
 }  // namespace mimic::avatar

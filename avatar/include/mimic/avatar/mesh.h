@@ -21,9 +21,9 @@ struct MeshPart {
 struct Mesh {
   std::vector<glm::vec3> positions;  // metres
   std::vector<glm::vec3> normals;    // empty, or one unit normal per position
-  std::vector<glm::vec2> uvs;        // empty, or one texture coordinate per position (texture_layout.h)
   std::vector<uint32_t> indices;     // 3 per triangle
   std::vector<MeshPart> parts;       // cover the triangles in order, without overlap
+  std::vector<glm::vec2> uvs;        // empty, or one texture coordinate per position (texture_layout.h)
 
   size_t triangle_count() const { return indices.size() / 3; }
 };

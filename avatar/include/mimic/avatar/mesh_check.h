@@ -4,6 +4,9 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <span>
+#include <string>
+#include <vector>
 
 #include "mimic/avatar/mesh.h"
 
@@ -40,5 +43,24 @@ bool is_closed_oriented_manifold(const MeshTopology& topology);
 // e.g. seam vertices duplicated for UVs. Triangles that collapse (repeated index) are dropped
 // and part ranges shrink to match; normals of merged vertices are averaged.
 Mesh weld_by_position(const Mesh& mesh, float tolerance);
+
+// Rows of contour points (vertex indices) of one skin piece, in order along it.
+struct ContourRows {
+  std::string piece;
+  std::vector<std::vector<uint32_t>> rows;
+};
+
+// Adjacent contours of a piece must not cross inside the skin: neither may pass through the
+// disc the other spans (its polygon in its Newell plane through its centroid). A pair crosses
+// when an edge of one pierces the other's disc more than `tolerance_m` inside its polygon; a
+// contour may still pass beside the other's plane outside the skin (the outer side of a bend).
+struct ContourOrder {
+  size_t pairs = 0;         // adjacent row pairs checked
+  size_t crossing = 0;      // pairs that cross
+  float worst_m = 0;        // deepest piercing, from the pierced polygon's edge
+  std::string worst_piece;  // where (piece name and row index)
+};
+ContourOrder check_contour_order(std::span<const glm::vec3> positions, std::span<const ContourRows> pieces,
+                                 float tolerance_m = 0.001f);
 
 }  // namespace mimic::avatar

@@ -2,24 +2,30 @@
 // frame only moves each contour point with the configuration of its ring. No ray, no field
 // evaluation, no B-spline per frame:
 //
-//   star rings      p = o + x·front + y·left + z·normal, the ring's plane from the current pose
-//                   (joint-angle driven: bisector normals at the joints, interpolated along links)
+//   star rings      on the ring's plane of the current pose (joint-angle driven: bisector
+//                   normals at the joints, interpolated along links); a limb ring keeps its
+//                   point's projection across the link and puts it back on the plane along the
+//                   link, so a tilted plane cuts the limb obliquely as the limb itself would
+//   the crease      where a bend tilts a ring's plane through its neighbour's, the points of
+//                   both stop on the line the planes share: adjacent contours never cross
 //   driven rings    p = S + α(G − S) + residual, S and G the moved start ring and loop
 //   bridges         p = o + x·(half chord)·front + y·up + z·side, from their moved end points
 //   caps, rigid     the ring's centroid; head, hands and feet moved rigidly with their joint
 //
-// (x, y, z) are each point's coordinates measured in the initial pose, so that pose comes out
-// exactly as the full method (BodySkin, subdivision 0) draws it, vertex for vertex.
+// Each point's coordinates are measured in the initial pose, so that pose comes out exactly as
+// the full method (BodySkin, subdivision 0) draws it, vertex for vertex.
 //
 // Muscles, beyond the paper: for every DOF that deforms a primitive (the biceps' elbow flexion,
 // the calf's knee flexion…), the contours are also ray-cast in the initial posture with that
-// DOF's primitives shaped as at θ0, θmin and θmax; at run time each point's local coordinates move by the same f(t) as the primitive
-// (t = (θ − θ0)/(θmax − θ0), or towards θmin), so the biceps still bulges without a ray.
+// DOF's primitives shaped as at θ0, θmin and θmax; at run time each star ring point's
+// coordinates move by the same f(t) as the primitive (t = (θ − θ0)/(θmax − θ0), or towards
+// θmin), so the biceps still bulges without a ray.
 //
 // Sharing: RealtimeBody is immutable and built once per body, skeleton and LOD (the contour
-// coordinates, the muscle table, the mesh topology, the skinning weights); every avatar with that
-// body holds a shared_ptr to it and a RealtimeSkin of a few kilobytes (joint transforms, chain
-// nodes, ring frames), plus its own vertex buffer.
+// coordinates, the muscle table, the mesh topology, the skinning weights, the texture layout);
+// every avatar with that body holds a shared_ptr to it (RealtimeBody::shared finds it) and a
+// RealtimeSkin of a few kilobytes (joint transforms, chain nodes, ring frames), plus its own
+// vertex buffer. docs/skin.md has the figures.
 #pragma once
 
 #include <cstddef>
@@ -31,6 +37,7 @@
 
 #include "mimic/avatar/body_model.h"
 #include "mimic/avatar/mesh.h"
+#include "mimic/avatar/mesh_check.h"
 #include "mimic/avatar/skeleton.h"
 #include "mimic/avatar/skin_weights.h"
 #include "mimic/avatar/texture_layout.h"
@@ -56,6 +63,10 @@ class RealtimeBody {
                                                             const RealtimeOptions& options = {});
   static Result<std::shared_ptr<const RealtimeBody>> create(const BodyModel& model,
                                                             const RealtimeOptions& options = {});
+  // The same, but a body already built for an equal model, skeleton and options and still held
+  // by some avatar is returned instead of a new one (thread-safe): avatars of one body share it.
+  static Result<std::shared_ptr<const RealtimeBody>> shared(const BodyModel& model, const Skeleton& skeleton,
+                                                            const RealtimeOptions& options = {});
 
   const Skeleton& skeleton() const;
   // Topology (indices, parts) and the positions of the initial pose; shared by every avatar.
@@ -65,6 +76,9 @@ class RealtimeBody {
   int lod() const;
   // Per-part texture coordinates of the rest mesh (textured_mesh() splits a frame's seams).
   const TextureLayout& texture_layout() const;
+  // The planar contours (star rings) of each surface (torso, neck, arms, legs) in order, as
+  // vertex indices, for check_contour_order (mesh_check.h).
+  std::span<const ContourRows> contour_rows() const;
   size_t vertex_count() const { return rest_mesh().positions.size(); }
   // Points moved by muscle terms, and the terms (a point can follow several DOFs).
   size_t muscle_points() const;

@@ -34,7 +34,8 @@ struct JointInfluences;  // skin_weights.h
 struct TextureLayout;    // texture_layout.h
 
 struct SkinOptions {
-  // 0: the paper's realtime mode — contour points are the vertices, no smoothing.
+  // 0: contour points are the vertices, no smoothing (the mesh the realtime method moves,
+  // realtime_skin.h, without ray casting).
   // n ≥ 1: cubic B-spline smoothing, n samples per control span in both directions.
   int subdivision = 1;
   bool rigid_parts = true;  // head, hands, feet

@@ -12,6 +12,16 @@ inline constexpr int kSkinLodCount = 4;
 
 // The layout of `base` at `lod` (clamped to 0..kSkinLodCount − 1). Valid whenever base is.
 SkinLayout skin_layout_for_lod(const SkinLayout& base, int lod);
+
+// Per piece: the contours per link of each piece at its own LOD. Points per contour are one
+// LOD for the whole envelope (the torso's rings, the bridges and every limb share the points of
+// the loops where they meet, so pieces at different contour LODs still close without a crack).
+struct SkinPieceLods {
+  int points = 0;  // points per contour (torso, bridges, so every limb's loop)
+  int torso = 0, neck = 0, arms = 0, legs = 0;  // contours per link
+  int rigid = 0;   // head, hands, feet
+};
+SkinLayout skin_layout_for_lods(const SkinLayout& base, const SkinPieceLods& lods);
 // The model with its skin layout at `lod`.
 BodyModel with_skin_lod(BodyModel model, int lod);
 

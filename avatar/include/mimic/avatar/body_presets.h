@@ -1,0 +1,24 @@
+// Named settings of the five scaling operators (body_model.h, BodyScaling) that turn the built-in
+// adult into bodies across human variety. Factors are relative to the built-in body (about
+// 1.67 m); lateral and frontal factors act on top of total_height, as in scale_body.
+#pragma once
+
+#include <span>
+#include <string_view>
+
+#include "mimic/avatar/body_model.h"
+
+namespace mimic::avatar {
+
+struct BodyPreset {
+  std::string_view name;         // e.g. "child", "adult_female"
+  std::string_view description;  // one line for listings
+  BodyScaling scaling;
+};
+
+// child, adult_female, adult_male, tall, heavy, in that order.
+std::span<const BodyPreset> body_presets();
+// nullptr when no preset has that name.
+const BodyPreset* find_body_preset(std::string_view name);
+
+}  // namespace mimic::avatar
