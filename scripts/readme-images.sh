@@ -16,6 +16,14 @@ shot pose-rest --pose rest --size 240x300 --lod 0
 shot pose-walk --motion walk --time 0.9 --camera side --size 240x300 --lod 0
 shot pose-wave --pose rest --set l_shoulder_abduction=1.2,l_elbow_flexion=1.3,r_shoulder_abduction=-1.2 --size 240x300 --lod 0
 [ -f "$data/bvh/07_01.bvh" ] && shot pose-bvh --bvh "$data/bvh/07_01.bvh" --frame 120 --camera three-quarter --size 240x300
+# The five scaling presets (mimic scale --preset), framed at one scale so their sizes compare.
+presets=$(mktemp -d)
+for preset in child adult_female adult_male tall heavy; do
+  "$mimic" scale --preset "$preset" --out "$presets/$preset.json" 2>/dev/null
+  shot "preset-$preset" --body "$presets/$preset.json" --pose rest --set l_shoulder_abduction=-1.2,r_shoulder_abduction=-1.2 \
+    --frame-height 1.5 --size 200x300 --lod 0
+done
+rm -rf "$presets"
 # Levels of detail, with the contour rings drawn so the sampling shows.
 for lod in 0 1 2 3; do
   shot lod$lod --pose rest --lod $lod --overlay contours --camera three-quarter --size 240x300

@@ -56,6 +56,8 @@ constexpr const char* kUsage =
     "  --ray-ring N          the ring whose rays the rays overlay shows (default 40)\n"
     "  --body FILE           body model (JSON, docs/body-model.md); default: the built-in body\n"
     "  --see-through         draw the body translucent (to see overlays inside it)\n"
+    "  --frame-height M      screenshots: frame M metres of height around the origin instead of\n"
+    "                        fitting the body, so bodies of different sizes share one scale\n"
     "  --no-grid             leave out the floor grid\n"
     "  --frames N            interactive: quit after N frames (and print the mean frame time)\n"
     "  --capture FILE.png    interactive: save the window's last frame (with --frames)\n"
@@ -162,6 +164,10 @@ int screenshot(Args& args, const ViewOptions& view) {
     }
     floor_center = {0.5f * (lo.x + hi.x), 0.0f, 0.5f * (lo.z + hi.z)};
     height_m = std::max(hi.y, 0.5f);
+    if (view.frame_height_m > 0) {  // one scale for every body: a fixed frame about the origin
+      floor_center = glm::vec3(0.0f);
+      height_m = view.frame_height_m;
+    }
     frame.camera = render::preset_camera(view.camera, floor_center, height_m, aspect);
     const int lod = view.lod >= 0 ? view.lod
                                   : render::choose_lod(frame.camera.distance_m, height_m, frame.camera.fov_y_rad,
@@ -198,7 +204,8 @@ int screenshot(Args& args, const ViewOptions& view) {
 int run_view(const std::vector<std::string>& argv) {
   Args args(argv,
             {"screenshot", "bvh", "frame", "scale", "motion", "time", "pose", "set", "camera", "size", "lod", "overlay",
-             "ray-ring", "body", "source", "calibration", "connect", "frames", "capture", "eyes"},
+             "ray-ring", "body", "source", "calibration", "connect", "frames", "capture", "eyes",
+             "frame-height"},
             {"empty", "no-grid", "see-through", "no-vsync", "help-overlay", "no-panel"});
   if (args.help()) {
     std::printf("%s", kUsage);
@@ -225,6 +232,11 @@ int run_view(const std::vector<std::string>& argv) {
     return usage_error(kName, "--overlay takes skeleton,primitives,contours,rays,sensors, all or none; got '" + *list + "'");
   view.grid = !args.has("no-grid");
   view.see_through = args.has("see-through");
+  double frame_height_m = 0;
+  if (!args.get_double("frame-height", frame_height_m)) return usage_error(kName, args.error());
+  if (args.has("frame-height") && !(frame_height_m >= 0.5 && frame_height_m <= 20))
+    return usage_error(kName, "--frame-height must be 0.5..20 metres");
+  view.frame_height_m = static_cast<float>(frame_height_m);
 
   if (args.has("screenshot")) {
     if (args.has("source") || args.has("connect")) return usage_error(kName, "--screenshot draws a posed body: give --bvh, --motion or --pose, not --source or --connect");

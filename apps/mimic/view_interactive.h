@@ -16,6 +16,7 @@ struct ViewOptions {
   int ray_ring = 40;
   bool grid = true;
   bool see_through = false;
+  float frame_height_m = 0;  // screenshots: > 0 frames this height about the origin
 };
 
 int run_interactive(Args& args, const ViewOptions& view);

@@ -78,6 +78,28 @@ TEST(ViewCli, TheRaisedLeftArmShowsOnTheBodysLeft) {
   EXPECT_LT(top_column(right, 12), 0.4 * right.width);
 }
 
+TEST(ViewCli, BodiesShotAtOneFrameHeightShowTheirSizes) {
+  // The child and tall presets framed at one scale: their silhouettes stand in the ratio of
+  // their heights (1.25 m and 1.90 m), where fitting each body would make them equally tall.
+  int pixels_tall[2] = {0, 0};
+  const char* presets[2] = {"child", "tall"};
+  for (int i = 0; i < 2; ++i) {
+    const std::string body = temp(std::string(presets[i]) + ".json");
+    const Outcome made = run_mimic(std::string("scale --preset ") + presets[i] + " --out '" + body + "'");
+    ASSERT_EQ(made.status, 0) << made.output;
+    const mimic::render::Image image =
+        shoot(std::string(presets[i]) + ".png", "--body '" + body + "' --pose rest --frame-height 2.2 --size 200x400 --no-grid");
+    const mimic::render::Coverage c = mimic::render::coverage(image, kBackground);
+    pixels_tall[i] = c.max_y - c.min_y;
+    std::filesystem::remove(body);
+  }
+  ASSERT_GT(pixels_tall[0], 50);
+  EXPECT_NEAR(static_cast<double>(pixels_tall[0]) / pixels_tall[1], 1.25 / 1.90, 0.06);
+  // A frame height out of range is a usage error.
+  const Outcome bad = run_mimic("view --screenshot x.png --pose rest --frame-height 0.1");
+  EXPECT_EQ(bad.status, 2) << bad.output;
+}
+
 TEST(ViewCli, AnEmptySceneIsEmpty) {
   const mimic::render::Image none = shoot("empty.png", "--empty --no-grid --size 200x200");
   EXPECT_EQ(mimic::render::coverage(none, kBackground, 1).count, 0);
