@@ -2,6 +2,7 @@
 
 #include <chrono>
 
+#include "mimic/avatar/body_presets.h"
 #include "mimic/avatar/bvh.h"
 #include "mimic/avatar/motion.h"
 #include "mimic/avatar/retarget.h"
@@ -9,7 +10,7 @@
 namespace mimic::app {
 
 Result<avatar::BodyModel> body_from_args(const Args& args) {
-  if (auto path = args.get("body")) return avatar::load_body_model(*path);
+  if (auto path = args.get("body")) return avatar::load_body_or_preset(*path);
   return avatar::default_body_model();
 }
 

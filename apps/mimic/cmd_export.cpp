@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "body_posing.h"
 #include "command.h"
 #include "mimic/avatar/body_model.h"
 #include "mimic/avatar/gltf_animation.h"
@@ -51,7 +52,7 @@ int run(const std::vector<std::string>& argv) {
   if (!(fps > 0 && fps <= 240)) return usage_error(kName, "--fps must be in (0, 240]");
   if (seconds < 0) return usage_error(kName, "--seconds must be >= 0");
 
-  auto body = args.has("body") ? avatar::load_body_model(*args.get("body")) : avatar::default_body_model();
+  auto body = body_from_args(args);
   if (!body) return failure(kName, body.error().what());
   auto skeleton = avatar::Skeleton::build(body->skeleton);
   if (!skeleton) return failure(kName, skeleton.error().what());

@@ -45,7 +45,8 @@ const char* kUsage =
     "                      or actor:wander | actor:follow?target=K | actor:greet: an autonomous\n"
     "                      actor walking the room (avoids the others, stays inside; seed=N)\n"
     "  --body FILE         body model of the avatar of the preceding --source (default body\n"
-    "                      otherwise); sent once to every subscriber as it joins\n"
+    "                      otherwise), or preset:NAME (mimic scale --list); sent once to every\n"
+    "                      subscriber as it joins. Its source is solved on the body's skeleton\n"
     "  --place X,Z[,DEG]   where the preceding --source stands in the room (metres, heading in\n"
     "                      degrees; default: the avatars side by side along X, 1.5 m apart)\n"
     "  --navigate SPEC     move the preceding --source's avatar through the room with a 6-DOF\n"
@@ -228,6 +229,12 @@ int run(const std::vector<std::string>& argv) {
     place.position_m.x = (static_cast<float>(index) - 0.5f * static_cast<float>(sources.size() - 1)) * 1.5f;
     if (!place_text.empty() && !parse_place(place_text, place))
       return usage_error("run", "--place must be X,Z[,HEADING_DEG] in metres, got '" + place_text + "'");
+    // The body first: its skeleton is the one the avatar's source is solved on.
+    auto asset = load_body(body);
+    if (!asset) return failure("run", asset.error().what());
+    auto built_skeleton = avatar::Skeleton::build(asset->model.skeleton);
+    if (!built_skeleton) return failure("run", "body model " + body + ": " + built_skeleton.error().what());
+    const avatar::Skeleton body_skeleton = std::move(*built_skeleton);
     Result<std::unique_ptr<PoseFeed>> feed = tl::unexpected(Error{});
     if (spec.rfind("actor:", 0) == 0) {
       std::string actor_spec = spec;
@@ -239,10 +246,10 @@ int run(const std::vector<std::string>& argv) {
         actor_spec.append(spec.find('?') == std::string::npos ? "?" : "&").append("x=").append(std::to_string(place.position_m.x));
         actor_spec.append("&z=").append(std::to_string(-0.4f * room.half_depth_m));
       }
-      feed = make_actor_feed(actor_spec, roster, slot);
+      feed = make_actor_feed(actor_spec, roster, slot, &body_skeleton);
       if (!feed) return usage_error("run", feed.error().message);
     } else {
-      feed = open_feed(spec, calibration);
+      feed = open_feed(spec, calibration, &body_skeleton);
       if (!feed) return failure("run", feed.error().what());
       // A source that opened with a problem (e.g. a replayed log with damage) says so up front:
       // otherwise it would play what it can and then fall silent without a word.
@@ -260,8 +267,6 @@ int run(const std::vector<std::string>& argv) {
       }
       feed = place_in_scene(std::move(*feed), place, roster, slot, std::move(navigator), navigation);
     }
-    auto asset = load_body(body);
-    if (!asset) return failure("run", asset.error().what());
     auto deformer = make_skin_deformer(asset->model, (*feed)->skeleton(), int(mesh_lod), *mesh_method);
     if (!deformer)
       return failure("run", "body model " + (body.empty() ? std::string("(default)") : body) +

@@ -111,8 +111,10 @@ int run_interactive(Args& args, const ViewOptions& view) {
   } else {
     pipeline = std::make_unique<service::Pipeline>(service::PipelineOutputs{});
     const auto specs = split_sources(args.get_or("source", "sim:walk?sensors=11"));
+    auto body_skeleton = avatar::Skeleton::build(model->skeleton);
+    if (!body_skeleton) return failure(kName, "body model: " + body_skeleton.error().message);
     for (size_t i = 0; i < specs.size(); ++i) {
-      auto feed = service::open_feed(specs[i], args.get_or("calibration", ""));
+      auto feed = service::open_feed(specs[i], args.get_or("calibration", ""), &*body_skeleton);
       if (!feed) return failure(kName, feed.error().what());
       ViewAvatar a;
       a.name = "avatar" + std::to_string(i + 1);

@@ -1,6 +1,7 @@
 #include "mimic/avatar/body_presets.h"
 
 #include <array>
+#include <string>
 
 namespace mimic::avatar {
 
@@ -35,6 +36,21 @@ const BodyPreset* find_body_preset(std::string_view name) {
   for (const BodyPreset& p : kPresets)
     if (p.name == name) return &p;
   return nullptr;
+}
+
+Result<BodyModel> load_body_or_preset(const std::string& spec) {
+  constexpr std::string_view kPrefix = "preset:";
+  if (spec.rfind(kPrefix, 0) != 0) return load_body_model(spec);
+  const std::string_view name = std::string_view(spec).substr(kPrefix.size());
+  const BodyPreset* preset = find_body_preset(name);
+  if (!preset) {
+    std::string known;
+    for (const BodyPreset& p : kPresets) known += (known.empty() ? "" : ", ") + std::string(p.name);
+    return fail(Errc::invalid_argument, "unknown body preset '" + std::string(name) + "' (presets: " + known + ")");
+  }
+  auto body = scale_body(default_body_model(), preset->scaling);
+  if (body) body->name = std::string(preset->name);
+  return body;
 }
 
 }  // namespace mimic::avatar

@@ -11,6 +11,7 @@
 #include <thread>
 #include <cmath>
 
+#include "mimic/avatar/body_presets.h"
 #include "mimic/avatar/realtime_skin.h"
 #include "mimic/avatar/skin.h"
 #include "mimic/core/file.h"
@@ -304,7 +305,8 @@ Result<std::unique_ptr<PoseFeed>> make_motion_feed(std::shared_ptr<const avatar:
   return std::unique_ptr<PoseFeed>(new MotionFeed(std::move(motion), std::move(source), std::move(description)));
 }
 
-Result<std::unique_ptr<PoseFeed>> open_feed(const std::string& spec_text, const std::string& calibration_path) {
+Result<std::unique_ptr<PoseFeed>> open_feed(const std::string& spec_text, const std::string& calibration_path,
+                                            const avatar::Skeleton* body) {
   auto spec = devices::parse_source_spec(spec_text);
   if (!spec) return tl::unexpected(spec.error());
   if (!calibration_path.empty()) {
@@ -319,7 +321,7 @@ Result<std::unique_ptr<PoseFeed>> open_feed(const std::string& spec_text, const 
     return std::unique_ptr<PoseFeed>(
         new SolverFeed(std::move(*model), std::move(*source), desc + ", calibration " + calibration_path, &*cal));
   }
-  auto skeleton = avatar::Skeleton::build(avatar::default_skeleton_desc());
+  auto skeleton = body ? Result<avatar::Skeleton>(*body) : avatar::Skeleton::build(avatar::default_skeleton_desc());
   if (!skeleton) return tl::unexpected(skeleton.error());
   // Where the sensors sit: a simulated rig knows exactly; a real tracker uses the standard
   // layout's instructed placements until a calibration is given.
@@ -341,7 +343,7 @@ Result<std::unique_ptr<PoseFeed>> open_feed(const std::string& spec_text, const 
   }
   auto model = solver::SolverModel::create(*skeleton, std::move(mounts));
   if (!model) return tl::unexpected(model.error());
-  auto source = sim::open_sensor_source(*spec);
+  auto source = sim::open_sensor_source(*spec, nullptr, nullptr, body);
   if (!source) return tl::unexpected(source.error());
   std::string desc = (*source)->status().description;
   if (desc.empty()) desc = spec_text;
@@ -357,7 +359,7 @@ Result<BodyAsset> load_body(const std::string& path) {
   if (path.empty()) {
     body.model = avatar::default_body_model();
   } else {
-    auto m = avatar::load_body_model(path);
+    auto m = avatar::load_body_or_preset(path);
     if (!m) return tl::unexpected(m.error());
     body.model = std::move(*m);
   }

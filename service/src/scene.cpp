@@ -437,10 +437,10 @@ float walk_speed(const avatar::Motion& walk) {
 }  // namespace
 
 Result<std::unique_ptr<PoseFeed>> make_actor_feed(const std::string& spec_text, std::shared_ptr<SceneRoster> roster,
-                                                  int slot) {
+                                                  int slot, const avatar::Skeleton* body) {
   auto options = actor_options(spec_text, roster->size());
   if (!options) return tl::unexpected(options.error());
-  auto skeleton = avatar::Skeleton::build(avatar::default_skeleton_desc());
+  auto skeleton = body ? Result<avatar::Skeleton>(*body) : avatar::Skeleton::build(avatar::default_skeleton_desc());
   if (!skeleton) return tl::unexpected(skeleton.error());
   auto walk = avatar::make_builtin_motion("walk", *skeleton);
   if (!walk) return tl::unexpected(walk.error());

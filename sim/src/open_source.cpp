@@ -67,10 +67,11 @@ Result<std::unique_ptr<devices::SensorSource>> rig_source(const devices::SourceS
 
 Result<std::unique_ptr<devices::SensorSource>> open_sensor_source(const devices::SourceSpec& spec,
                                                                   std::shared_ptr<const Clock> clock,
-                                                                  std::shared_ptr<devices::ByteTap> tap) {
+                                                                  std::shared_ptr<devices::ByteTap> tap,
+                                                                  const avatar::Skeleton* performer) {
   if (!clock) clock = std::make_shared<SteadyClock>();
   if (spec.scheme == "sim") {
-    auto skeleton = avatar::Skeleton::build(avatar::default_skeleton_desc());
+    auto skeleton = performer ? Result<avatar::Skeleton>(*performer) : avatar::Skeleton::build(avatar::default_skeleton_desc());
     if (!skeleton) return tl::unexpected(skeleton.error());
     auto motion = avatar::make_builtin_motion(spec.target.empty() ? "walk" : spec.target, *skeleton);
     if (!motion) return tl::unexpected(motion.error());
@@ -78,7 +79,9 @@ Result<std::unique_ptr<devices::SensorSource>> open_sensor_source(const devices:
   }
   if (spec.scheme == "bvh") {
 #if MIMIC_SIM_HAVE_BVH_MOTION
-    auto motion = avatar::load_bvh_motion(spec.target);
+    avatar::BvhMotionOptions options;
+    options.body = performer;
+    auto motion = avatar::load_bvh_motion(spec.target, options);
     if (!motion) return tl::unexpected(motion.error());
     std::shared_ptr<const avatar::Motion> shared;
     const auto loop = spec.params.find("loop");

@@ -118,5 +118,21 @@ TEST(BodyPresets, HeavyIsWiderThanTheAdultMaleByItsRatios) {
   EXPECT_GT(heavy.volume_m3, 1.4 * male.volume_m3);
 }
 
+TEST(BodyPresets, APresetOrAFileByName) {
+  auto tall = load_body_or_preset("preset:tall");
+  ASSERT_TRUE(tall) << tall.error().what();
+  EXPECT_EQ(tall->name, "tall");
+  auto direct = scale_body(default_body_model(), find_body_preset("tall")->scaling);
+  ASSERT_TRUE(direct);
+  direct->name = "tall";
+  EXPECT_EQ(to_json(*tall, false), to_json(*direct, false));
+  auto unknown = load_body_or_preset("preset:giant");
+  ASSERT_FALSE(unknown);
+  EXPECT_NE(unknown.error().message.find("adult_female"), std::string::npos) << unknown.error().message;
+  // Anything else is a file path.
+  auto missing = load_body_or_preset("/nonexistent/body.json");
+  EXPECT_FALSE(missing);
+}
+
 }  // namespace
 }  // namespace mimic::avatar

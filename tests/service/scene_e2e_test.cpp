@@ -7,6 +7,8 @@
 #include <string>
 #include <vector>
 
+#include "mimic/avatar/body_model.h"
+#include "mimic/avatar/skin.h"
 #include "mimic/net/client.h"
 #include "run_mimic.h"
 #include "test_data.h"
@@ -93,6 +95,41 @@ TEST(SceneE2e, ASpaceballMovesTheAvatarThroughTheRoom) {
   // The navigated avatar travels; the other one, on the same idle motion, stays put.
   EXPECT_GT(path_m(navigated), 0.5f);
   EXPECT_LT(glm::length(standing.back() - standing.front()), 0.2f);
+}
+
+TEST(SceneE2e, BodiesOfEverySizeStandOnTheFloor) {
+  // Each avatar's source is solved on its own body's skeleton: a viewer deforming the body it
+  // was sent with the poses it gets finds the soles on the floor, tall or small, standing or
+  // walking (solved on the default skeleton instead, the tall body sank ~0.2 m, the child floated).
+  mimic::test::Child run({mimic::test::mimic_binary(), "run", "--listen", "127.0.0.1:0", "--source", "sim:idle",
+                          "--body", "preset:tall", "--source", "sim:idle?seed=2", "--body", "preset:child",
+                          "--source", "actor:wander", "--body", "preset:heavy", "--duration", "20", "--quiet"});
+  const std::string ep = endpoint_of(run);
+  ASSERT_FALSE(ep.empty());
+  mimic::net::ClientOptions o;
+  o.connect = ep;
+  o.name = "floor-test";
+  auto client = mimic::net::Client::connect(o);
+  ASSERT_TRUE(client) << client.error().what();
+  std::map<uint16_t, mimic::net::RemoteAvatar> latest;
+  (*client)->on_pose = [&](const mimic::net::RemoteAvatar& a, uint64_t) { latest[a.id] = a; };
+  (*client)->run_until(Clock::now() + std::chrono::seconds(3));
+  ASSERT_EQ(latest.size(), 3u);
+  std::vector<std::string> names;
+  for (const auto& [id, a] : latest) {
+    auto model = mimic::avatar::body_model_from_json(a.model_bytes);
+    ASSERT_TRUE(model) << model.error().what();
+    names.push_back(model->name);
+    auto skeleton = mimic::avatar::Skeleton::build(model->skeleton);
+    ASSERT_TRUE(skeleton);
+    auto skin = mimic::avatar::BodySkin::create(*model, *skeleton);
+    ASSERT_TRUE(skin) << skin.error().what();
+    skin->evaluate(a.pose);
+    float sole_m = 1e9f;
+    for (const glm::vec3& p : skin->mesh().positions) sole_m = std::min(sole_m, p.y);
+    EXPECT_NEAR(sole_m, 0.0f, 0.04f) << model->name;
+  }
+  EXPECT_EQ(names, (std::vector<std::string>{"tall", "child", "heavy"}));
 }
 
 TEST(SceneE2e, TheLoopStaysAllocationFreeWithActorsAndNavigation) {

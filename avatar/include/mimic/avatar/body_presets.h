@@ -21,4 +21,9 @@ std::span<const BodyPreset> body_presets();
 // nullptr when no preset has that name.
 const BodyPreset* find_body_preset(std::string_view name);
 
+// A body named on a command line: "preset:NAME" (the built-in body scaled by that preset) or
+// the path of a body model file (docs/body-model.md). Fails naming the presets on an unknown
+// name, or as load_body_model does.
+Result<BodyModel> load_body_or_preset(const std::string& spec);
+
 }  // namespace mimic::avatar

@@ -97,7 +97,11 @@ Result<std::unique_ptr<PoseFeed>> make_motion_feed(std::shared_ptr<const avatar:
 // solver. With a calibration file (mimic calibrate), on the wearer's fitted skeleton with the
 // measured sensor offsets; otherwise on Mimic's default skeleton, with a simulated rig's exact
 // mounts or a tracker's standard-layout placements (sensors=3|6|11|all, default 6).
-Result<std::unique_ptr<PoseFeed>> open_feed(const std::string& spec_text, const std::string& calibration_path = "");
+// `body`, when given (the skeleton of the avatar's body model), replaces the default skeleton:
+// simulated sensors ride a performer of that size and the solver solves on it, so a body of
+// another size stands on the floor. A calibration's fitted skeleton takes precedence.
+Result<std::unique_ptr<PoseFeed>> open_feed(const std::string& spec_text, const std::string& calibration_path = "",
+                                            const avatar::Skeleton* body = nullptr);
 
 // Built-in motion by name ("walk", "idle").
 Result<std::shared_ptr<const avatar::Motion>> builtin_motion(const std::string& name,

@@ -113,7 +113,8 @@ class ActorBrain {
   float phase_[3];
 };
 
+// `body`, when given, is the skeleton the actor walks with (its body model's); else the default.
 Result<std::unique_ptr<PoseFeed>> make_actor_feed(const std::string& spec_text, std::shared_ptr<SceneRoster> roster,
-                                                  int slot);
+                                                  int slot, const avatar::Skeleton* body = nullptr);
 
 }  // namespace mimic::service

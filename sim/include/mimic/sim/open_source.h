@@ -29,9 +29,12 @@
 namespace mimic::sim {
 
 // `tap`, when given, sees the raw bytes of a serial device (Flock); other sources ignore it.
+// `performer`, when given, is the body the simulated sensors ride on (sim: motions are made on
+// it, bvh: clips drive it); otherwise Mimic's default skeleton (sim:) or the clip's performer.
 Result<std::unique_ptr<devices::SensorSource>> open_sensor_source(const devices::SourceSpec& spec,
                                                                   std::shared_ptr<const Clock> clock = nullptr,
-                                                                  std::shared_ptr<devices::ByteTap> tap = nullptr);
+                                                                  std::shared_ptr<devices::ByteTap> tap = nullptr,
+                                                                  const avatar::Skeleton* performer = nullptr);
 
 // The rig parameters of a sim: or bvh: spec, with the layout resolved on `skeleton`.
 Result<RigConfig> rig_config_from_spec(const devices::SourceSpec& spec, const avatar::Skeleton& skeleton);
