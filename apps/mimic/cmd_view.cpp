@@ -57,6 +57,8 @@ constexpr const char* kUsage =
     "  --body FILE           body model (JSON, docs/body-model.md) or preset:NAME (mimic scale\n"
     "                        --list); default: the built-in body\n"
     "  --see-through         draw the body translucent (to see overlays inside it)\n"
+    "  --method M            realtime (default): contours measured once and moved with the joints,\n"
+    "                        muscles kept; full: every contour ray-cast and smoothed each frame\n"
     "  --frame-height M      screenshots: frame M metres of height around the origin instead of\n"
     "                        fitting the body, so bodies of different sizes share one scale\n"
     "  --no-grid             leave out the floor grid\n"
@@ -138,7 +140,7 @@ int screenshot(Args& args, const ViewOptions& view) {
     auto body = body_from_args(args);
     if (!body) return failure(kName, body.error().message);
     t0 = std::chrono::steady_clock::now();
-    auto lods = render::AvatarLods::create(*body, nullptr, *renderer);
+    auto lods = render::AvatarLods::create(*body, nullptr, *renderer, view.method);
     if (!lods) return failure(kName, lods.error().message);
     std::printf("skin      %d LODs built                                            %8.2f ms\n", lods->count(),
                 ms_since(t0));
@@ -159,7 +161,7 @@ int screenshot(Args& args, const ViewOptions& view) {
     const int probe_lod = view.lod >= 0 ? view.lod : 0;
     lods->update(probe_lod, request->pose, *renderer);
     glm::vec3 lo(1e9f), hi(-1e9f);
-    for (const glm::vec3& p : lods->skin(probe_lod).mesh().positions) {
+    for (const glm::vec3& p : lods->mesh(probe_lod).positions) {
       lo = glm::min(lo, p);
       hi = glm::max(hi, p);
     }
@@ -179,12 +181,15 @@ int screenshot(Args& args, const ViewOptions& view) {
     draws.push_back({mesh, glm::mat4(1.0f), view.see_through ? 0.35f : 1.0f});
     std::printf("pose      %-52s %8.2f ms\n", request->description.c_str(), request->load_ms);
     std::printf("frame     LOD %d, %zu triangles, deformed in %.3f ms\n", lod, lods->triangle_count(lod), deform_ms);
-    const avatar::BodySkin& skin = lods->skin(lod);
-    if (view.overlays & render::kOverlayContours) render::append_contours(skin, glm::mat4(1.0f), lines);
-    if (view.overlays & render::kOverlayPrimitives)
-      render::append_primitives(skin, lods->model(), request->pose, glm::mat4(1.0f), view.see_through ? lines : xray);
-    if (view.overlays & render::kOverlaySkeleton) render::append_skeleton(skin.skeleton(), request->pose, glm::mat4(1.0f), xray);
-    if (view.overlays & render::kOverlayRays) render::append_rays(skin, view.ray_ring, glm::mat4(1.0f), xray);
+    if (view.overlays & (render::kOverlayContours | render::kOverlayPrimitives | render::kOverlayRays)) {
+      const avatar::BodySkin& skin = lods->overlay_skin(lod, request->pose);
+      if (view.overlays & render::kOverlayContours) render::append_contours(skin, glm::mat4(1.0f), lines);
+      if (view.overlays & render::kOverlayPrimitives)
+        render::append_primitives(skin, lods->model(), request->pose, glm::mat4(1.0f), view.see_through ? lines : xray);
+      if (view.overlays & render::kOverlayRays) render::append_rays(skin, view.ray_ring, glm::mat4(1.0f), xray);
+    }
+    if (view.overlays & render::kOverlaySkeleton)
+      render::append_skeleton(lods->skeleton(), request->pose, glm::mat4(1.0f), xray);
   } else {
     frame.camera = render::preset_camera(view.camera, floor_center, height_m, aspect);
     std::printf("scene     empty\n");
@@ -206,7 +211,7 @@ int run_view(const std::vector<std::string>& argv) {
   Args args(argv,
             {"screenshot", "bvh", "frame", "scale", "motion", "time", "pose", "set", "camera", "size", "lod", "overlay",
              "ray-ring", "body", "source", "calibration", "connect", "frames", "capture", "eyes",
-             "frame-height"},
+             "frame-height", "method"},
             {"empty", "no-grid", "see-through", "no-vsync", "help-overlay", "no-panel"});
   if (args.help()) {
     std::printf("%s", kUsage);
@@ -238,6 +243,11 @@ int run_view(const std::vector<std::string>& argv) {
   if (args.has("frame-height") && !(frame_height_m >= 0.5 && frame_height_m <= 20))
     return usage_error(kName, "--frame-height must be 0.5..20 metres");
   view.frame_height_m = static_cast<float>(frame_height_m);
+  if (auto method = args.get("method")) {
+    auto m = avatar::parse_skin_method(*method);
+    if (!m) return usage_error(kName, "--method: " + m.error().message);
+    view.method = *m;
+  }
 
   if (args.has("screenshot")) {
     if (args.has("source") || args.has("connect")) return usage_error(kName, "--screenshot draws a posed body: give --bvh, --motion or --pose, not --source or --connect");

@@ -119,7 +119,7 @@ int run_interactive(Args& args, const ViewOptions& view) {
       ViewAvatar a;
       a.name = "avatar" + std::to_string(i + 1);
       a.source = specs[i];
-      auto lods = render::AvatarLods::create(*model, &(*feed)->skeleton(), *renderer);
+      auto lods = render::AvatarLods::create(*model, &(*feed)->skeleton(), *renderer, view.method);
       if (!lods) return failure(kName, "body model does not fit source " + specs[i] + ": " + lods.error().message);
       a.lods.emplace(std::move(*lods));
       a.pose = a.lods->skeleton().rest_pose();
@@ -207,7 +207,7 @@ int run_interactive(Args& args, const ViewOptions& view) {
         if (it == avatars.end() || it->revision != remote.revision) {
           auto body = avatar::body_model_from_json(remote.model_bytes, remote.name);
           if (!body) continue;  // a model we cannot read: skip the avatar, keep viewing the rest
-          auto lods = render::AvatarLods::create(*body, nullptr, *renderer);
+          auto lods = render::AvatarLods::create(*body, nullptr, *renderer, view.method);
           if (!lods) continue;
           if (it == avatars.end()) {
             avatars.emplace_back();
@@ -264,18 +264,20 @@ int run_interactive(Args& args, const ViewOptions& view) {
       const render::MeshId mesh = a.lods->update(a.lod, a.pose, *renderer);
       a.deform_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - d0).count();
       draws.push_back({mesh, a.world_from_body, see_through ? 0.35f : 1.0f});
-      const avatar::BodySkin& skin = a.lods->skin(a.lod);
-      if (overlays & render::kOverlayContours) render::append_contours(skin, a.world_from_body, lines);
-      if (overlays & render::kOverlayPrimitives)
-        render::append_primitives(skin, a.lods->model(), a.pose, a.world_from_body, see_through ? lines : xray);
-      if (overlays & render::kOverlaySkeleton) render::append_skeleton(skin.skeleton(), a.pose, a.world_from_body, xray);
-      if (overlays & render::kOverlayRays) render::append_rays(skin, ray_ring, a.world_from_body, xray);
+      if (overlays & (render::kOverlayContours | render::kOverlayPrimitives | render::kOverlayRays)) {
+        const avatar::BodySkin& skin = a.lods->overlay_skin(a.lod, a.pose);
+        if (overlays & render::kOverlayContours) render::append_contours(skin, a.world_from_body, lines);
+        if (overlays & render::kOverlayPrimitives)
+          render::append_primitives(skin, a.lods->model(), a.pose, a.world_from_body, see_through ? lines : xray);
+        if (overlays & render::kOverlayRays) render::append_rays(skin, ray_ring, a.world_from_body, xray);
+      }
+      if (overlays & render::kOverlaySkeleton) render::append_skeleton(a.lods->skeleton(), a.pose, a.world_from_body, xray);
       if (overlays & render::kOverlaySensors) render::append_sensors(a.sensors, xray);
       if (static_cast<int>(i) == first_person) {
         // The eyes of this avatar: a little in front of its face, looking where its head looks.
-        joints.resize(skin.skeleton().joint_count());
-        avatar::forward_kinematics(skin.skeleton(), a.pose, joints);
-        const int head = skin.skeleton().find_joint("head");
+        joints.resize(a.lods->skeleton().joint_count());
+        avatar::forward_kinematics(a.lods->skeleton(), a.pose, joints);
+        const int head = a.lods->skeleton().find_joint("head");
         if (head >= 0) {
           const avatar::RigidTransform& h = joints[head];
           const glm::vec3 forward = h.apply_vector({0, 0, 1});

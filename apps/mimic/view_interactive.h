@@ -2,6 +2,8 @@
 // screenshot path in cmd_view.cpp.
 #pragma once
 
+#include "mimic/avatar/realtime_skin.h"
+
 #include "command.h"
 #include "mimic/render/camera.h"
 #include "mimic/render/overlays.h"
@@ -17,6 +19,7 @@ struct ViewOptions {
   bool grid = true;
   bool see_through = false;
   float frame_height_m = 0;  // screenshots: > 0 frames this height about the origin
+  avatar::SkinMethod method = avatar::SkinMethod::realtime;  // how the drawn skin is made
 };
 
 int run_interactive(Args& args, const ViewOptions& view);

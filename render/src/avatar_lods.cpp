@@ -14,16 +14,30 @@ int choose_lod(float distance_m, float height_m, float fov_y_rad, int viewport_h
 }
 
 Result<AvatarLods> AvatarLods::create(const avatar::BodyModel& model, const avatar::Skeleton* skeleton,
-                                      Renderer& renderer) {
+                                      Renderer& renderer, avatar::SkinMethod method) {
   AvatarLods lods;
   lods.model_ = model;
+  lods.method_ = method;
   for (int lod = 0; lod < kLodCount; ++lod) {
     avatar::SkinOptions options;  // B-spline smoothing, one sample per span
     const avatar::BodyModel at_lod = avatar::with_skin_lod(model, lod);
     auto skin = skeleton ? avatar::BodySkin::create(at_lod, *skeleton, options) : avatar::BodySkin::create(at_lod, options);
     if (!skin) return tl::unexpected(skin.error());
     skin->evaluate(skin->skeleton().rest_pose());
-    lods.meshes_.push_back(renderer.add_mesh(skin->mesh()));
+    if (method == avatar::SkinMethod::realtime) {
+      avatar::RealtimeOptions ro;
+      ro.lod = lod;
+      auto body = avatar::RealtimeBody::shared(model, skin->skeleton(), ro);
+      if (!body) return tl::unexpected(body.error());
+      avatar::Mesh mesh = (*body)->rest_mesh();
+      mesh.normals.resize(mesh.positions.size());
+      lods.realtime_.emplace_back(std::move(*body));
+      lods.realtime_.back().evaluate(skin->skeleton().rest_pose(), mesh.positions, mesh.normals);
+      lods.meshes_.push_back(renderer.add_mesh(mesh));
+      lods.realtime_meshes_.push_back(std::move(mesh));
+    } else {
+      lods.meshes_.push_back(renderer.add_mesh(skin->mesh()));
+    }
     lods.skins_.push_back(std::move(*skin));
   }
   return lods;
@@ -31,9 +45,26 @@ Result<AvatarLods> AvatarLods::create(const avatar::BodyModel& model, const avat
 
 MeshId AvatarLods::update(int lod, const avatar::Pose& pose, Renderer& renderer) {
   lod = std::clamp(lod, 0, count() - 1);
-  skins_[lod].evaluate(pose);
-  renderer.update_mesh(meshes_[lod], skins_[lod].mesh());
+  if (method_ == avatar::SkinMethod::realtime) {
+    avatar::Mesh& mesh = realtime_meshes_[lod];
+    realtime_[lod].evaluate(pose, mesh.positions, mesh.normals);
+    renderer.update_mesh(meshes_[lod], mesh);
+  } else {
+    skins_[lod].evaluate(pose);
+    renderer.update_mesh(meshes_[lod], skins_[lod].mesh());
+  }
   return meshes_[lod];
+}
+
+const avatar::Mesh& AvatarLods::mesh(int lod) const {
+  lod = std::clamp(lod, 0, count() - 1);
+  return method_ == avatar::SkinMethod::realtime ? realtime_meshes_[lod] : skins_[lod].mesh();
+}
+
+const avatar::BodySkin& AvatarLods::overlay_skin(int lod, const avatar::Pose& pose) {
+  lod = std::clamp(lod, 0, count() - 1);
+  if (method_ == avatar::SkinMethod::realtime) skins_[lod].evaluate(pose);
+  return skins_[lod];
 }
 
 }  // namespace mimic::render

@@ -86,7 +86,7 @@ TEST_F(RendererTest, TheBodyCoversItsProjectionAndNothingElse) {
     // Where the vertices project, in pixels (row 0 at the top).
     const glm::mat4 clip_from_world = frame.camera.clip_from_world(float(kW) / kH);
     glm::vec2 lo(1e9f), hi(-1e9f);
-    for (const glm::vec3& p : lods->skin(lod).mesh().positions) {
+    for (const glm::vec3& p : lods->mesh(lod).positions) {
       const glm::vec4 clip = clip_from_world * glm::vec4(p, 1.0f);
       const glm::vec2 px((clip.x / clip.w * 0.5f + 0.5f) * kW, (0.5f - clip.y / clip.w * 0.5f) * kH);
       lo = glm::min(lo, px);
