@@ -186,7 +186,9 @@ TEST(PoseStream, LostDatagramIsRefusedUntilAKeyFrameRecoversExactly) {
       ++refused;
     } else {
       ASSERT_EQ(e, Reject::ok) << k;
-      if (k + 1 == 90) EXPECT_TRUE(lean_pose_is_key(p));
+      if (k + 1 == 90) {
+        EXPECT_TRUE(lean_pose_is_key(p));
+      }
       expect_within_bound(got, frames[k], kDefaultPoseShift, "after periodic key " + std::to_string(k));
     }
   }

@@ -32,8 +32,8 @@ struct ClientOptions {
   bool udp = false;
   bool reconnect = true;           // reconnect and resume after a dropped connection
   // Subscribers: the lean pose stream (key and delta frames, ~60 bytes instead of ~150) when the
-  // server offers it; its precision is the server's (docs/protocol.md).
-  bool lean = true;
+  // server offers it, at the server's precision (coarser than POSE frames: docs/protocol.md).
+  bool lean = false;
   double connect_timeout_s = 3.0;
 };
 

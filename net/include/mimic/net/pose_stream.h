@@ -56,7 +56,8 @@ class LeanPoseEncoder {
  public:
   // `key_interval`: every frame whose sequence is a multiple of it goes as a key to everyone
   // (recovery for receivers that lost a datagram and cannot ask); 0: never.
-  explicit LeanPoseEncoder(uint8_t shift = kDefaultPoseShift, uint32_t key_interval = 90);
+  LeanPoseEncoder() : LeanPoseEncoder(kDefaultPoseShift, 90) {}
+  explicit LeanPoseEncoder(uint8_t shift, uint32_t key_interval = 90);
 
   // A validated POSE packet (decode_pose accepted it). False when its skeleton is too large for
   // the lean stream (subscribers then get the POSE packet itself).
