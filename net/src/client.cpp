@@ -452,10 +452,25 @@ void Client::Impl::udp_receive() {
     const std::span<const uint8_t> d(uin.data(), n);
     Header h;
     UdpRegister echoed;
-    if (decode_header(d, h) != Reject::ok || n != kHeaderBytes + h.payload_bytes) {
+    if (decode_header(d, h) != Reject::ok || n < kHeaderBytes + h.payload_bytes ||
+        (n != kHeaderBytes + h.payload_bytes && h.type != MsgType::pose_delta)) {
       stats.rejected++;
-    } else if (h.type == MsgType::pose || h.type == MsgType::pose_delta) {
+    } else if (h.type == MsgType::pose) {
       on_pose(d, wall_clock_us(), true);
+    } else if (h.type == MsgType::pose_delta) {
+      // Lean frames of several avatars may share a datagram, back to back.
+      const uint64_t now = wall_clock_us();
+      for (size_t at = 0; at < n;) {
+        const auto rest = d.subspan(at);
+        Header ph;
+        if (decode_header(rest, ph) != Reject::ok || ph.type != MsgType::pose_delta ||
+            rest.size() < kHeaderBytes + ph.payload_bytes) {
+          stats.rejected++;
+          break;
+        }
+        on_pose(rest.first(kHeaderBytes + ph.payload_bytes), now, true);
+        at += kHeaderBytes + ph.payload_bytes;
+      }
     } else if (h.type == MsgType::udp_register && decode_udp_register(d, echoed) == Reject::ok && echoed.token == token) {
       if (echoed.nonce != 0 && echoed.nonce == udp_nonce) {
         udp_ready = true;  // the server has seen us echo its nonce from this address

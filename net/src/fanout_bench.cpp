@@ -133,7 +133,14 @@ void drain_udp(Sub& s, Counts& c) {
       }
       continue;
     }
-    count_frame(s, d, c);
+    // Lean frames of several avatars share a datagram, back to back.
+    for (size_t at = 0; at < d.size();) {
+      const auto rest = d.subspan(at);
+      Header ph;
+      if (decode_header(rest, ph) != Reject::ok || rest.size() < kHeaderBytes + ph.payload_bytes) break;
+      count_frame(s, rest.first(kHeaderBytes + ph.payload_bytes), c);
+      at += kHeaderBytes + ph.payload_bytes;
+    }
   }
 }
 

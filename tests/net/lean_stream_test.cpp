@@ -193,5 +193,43 @@ TEST(LeanStream, KeyRequestMakesTheNextFrameAKey) {
   EXPECT_FALSE(lean_pose_is_key(f5));
 }
 
+// Over UDP a lean subscriber gets one datagram per tick holding every avatar's frame.
+TEST(LeanStream, UdpDatagramsCarryEveryAvatarOfATick) {
+  ServerThread st;
+  const Walk walk = Walk::make();
+  const uint16_t dofs = uint16_t(walk.skeleton.dof_count());
+  std::vector<uint16_t> ids;
+  for (int i = 0; i < 5; ++i)
+    ids.push_back(st.call([&] { return *st.server().add_avatar("w" + std::to_string(i), dofs, "m"); }));
+  ClientOptions o;
+  o.connect = st.endpoint();
+  o.udp = true;
+  o.lean = true;
+  auto c = Client::connect(o);
+  ASSERT_TRUE(c);
+  Client& sub = **c;
+  ASSERT_TRUE(pump({&sub}, [&] { return sub.udp_active() && sub.avatars().size() == ids.size(); }));
+  const uint32_t ticks = 60;
+  const auto calls_before = st.stats().udp_send_calls;
+  for (uint32_t k = 1; k <= ticks; ++k) {
+    st.call([&] {
+      std::vector<uint8_t> packet(pose_packet_bytes(dofs));
+      st.server().begin_batch();
+      for (size_t i = 0; i < ids.size(); ++i) {
+        encode_pose({ids[i], 0, k, wall_clock_us()}, walk.at(k + 40 * uint32_t(i)), packet);
+        st.server().publish_pose(ids[i], packet);
+      }
+      st.server().end_batch();
+    });
+    ASSERT_TRUE(pump({&sub}, [&] { return sub.stats().udp_frames >= uint64_t(k) * ids.size(); })) << k;
+  }
+  EXPECT_EQ(sub.stats().udp_frames, ticks * ids.size());
+  EXPECT_EQ(sub.stats().lost, 0u);
+  EXPECT_EQ(sub.stats().lean_unreferenced, 0u);
+  EXPECT_EQ(st.stats().udp_send_calls - calls_before, ticks);  // one sendmmsg per tick...
+  EXPECT_EQ(st.stats().udp_frames_out, ticks * ids.size());     // ... of one datagram with 5 frames
+  for (const auto& [id, a] : sub.avatars()) EXPECT_EQ(a.last.sequence, ticks) << id;
+}
+
 }  // namespace
 }  // namespace mimic::net

@@ -120,7 +120,16 @@ void Session::send_poses_udp() {
     Avatar* a = srv.avatar(aid);
     if (!a || !a->has_pose) continue;
     const auto bytes = frame_bytes(*a);
-    srv.udp_batch.push_back({bytes.data(), bytes.size(), udp_peer});
+    // Lean receivers take several frames per datagram (up to its size limit); others one.
+    auto& batch = srv.udp_batch;
+    const bool join = (caps & kCapLeanPose) && !batch.empty() && batch.back().to == udp_peer &&
+                      batch.back().size + bytes.size() <= kMaxDatagramBytes &&
+                      batch.back().first_piece + batch.back().pieces == srv.udp_pieces.size();
+    if (!join) batch.push_back({srv.udp_pieces.size(), 0, 0, 0, udp_peer});
+    srv.udp_pieces.push_back({bytes.data(), bytes.size()});
+    batch.back().pieces++;
+    batch.back().size += bytes.size();
+    batch.back().frames++;
     frames_out++;
   }
   pending.clear();
@@ -130,36 +139,39 @@ void ServerImpl::send_udp_batch() {
   if (udp_batch.empty()) return;
   constexpr size_t kChunk = 1024;
   const size_t n = std::min(udp_batch.size(), kChunk);
-  udp_scratch.resize(n * (sizeof(mmsghdr) + sizeof(iovec)));
+  udp_scratch.resize(n * sizeof(mmsghdr) + udp_pieces.size() * sizeof(iovec));
   auto* msgs = reinterpret_cast<mmsghdr*>(udp_scratch.data());
   auto* iov = reinterpret_cast<iovec*>(udp_scratch.data() + n * sizeof(mmsghdr));
+  for (size_t i = 0; i < udp_pieces.size(); ++i) {
+    iov[i].iov_base = const_cast<uint8_t*>(udp_pieces[i].bytes);
+    iov[i].iov_len = udp_pieces[i].size;
+  }
   const int fd = udp_sock.native_handle();
   for (size_t begin = 0; begin < udp_batch.size();) {
     const size_t m = std::min(kChunk, udp_batch.size() - begin);
     for (size_t i = 0; i < m; ++i) {
       UdpOut& d = udp_batch[begin + i];
-      iov[i].iov_base = const_cast<uint8_t*>(d.bytes);
-      iov[i].iov_len = d.size;
       std::memset(&msgs[i], 0, sizeof(mmsghdr));
       msgs[i].msg_hdr.msg_name = d.to.data();
       msgs[i].msg_hdr.msg_namelen = socklen_t(d.to.size());
-      msgs[i].msg_hdr.msg_iov = &iov[i];
-      msgs[i].msg_hdr.msg_iovlen = 1;
+      msgs[i].msg_hdr.msg_iov = &iov[d.first_piece];
+      msgs[i].msg_hdr.msg_iovlen = d.pieces;
     }
     const int sent = ::sendmmsg(fd, msgs, unsigned(m), MSG_DONTWAIT);
     stats.udp_send_calls++;
     const size_t ok = sent > 0 ? size_t(sent) : 0;
     for (size_t i = 0; i < ok; ++i) {
-      stats.udp_frames_out++;
-      stats.frames_out++;
+      stats.udp_frames_out += udp_batch[begin + i].frames;
+      stats.frames_out += udp_batch[begin + i].frames;
       stats.bytes_out += udp_batch[begin + i].size;
     }
     // The datagram after the last one sent failed (full buffer, unreachable): dropped.
     const size_t skip = ok < m ? 1 : 0;
-    stats.frames_dropped += skip;
+    if (skip) stats.frames_dropped += udp_batch[begin + ok].frames;
     begin += ok + skip;
   }
   udp_batch.clear();
+  udp_pieces.clear();
 }
 
 void Session::flush() {

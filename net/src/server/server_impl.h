@@ -117,12 +117,18 @@ struct ServerImpl {
   bool batching = false;  // between begin_batch and end_batch: mark, flush once at the end
   // Datagrams of one fan-out, sent with sendmmsg when it ends. They point into the avatars'
   // frame buffers, so the batch goes out before any of those is overwritten (accept_pose).
-  struct UdpOut {
+  // A datagram is one or more frames (several only for lean subscribers: one datagram per
+  // subscriber per tick), each a piece pointing at the shared frame buffer.
+  struct UdpPiece {
     const uint8_t* bytes = nullptr;
     size_t size = 0;
+  };
+  struct UdpOut {
+    size_t first_piece = 0, pieces = 0, size = 0, frames = 0;
     udp::endpoint to;
   };
   std::vector<UdpOut> udp_batch;
+  std::vector<UdpPiece> udp_pieces;
   bool fanning_out = false;
   std::vector<uint8_t> udp_scratch;  // mmsghdr and iovec arrays (reused)
 
