@@ -5,6 +5,7 @@
 #include <cstring>
 
 #include "mimic/net/frame_codec.h"
+#include "mimic/net/pose_stream.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   using namespace mimic::net;
@@ -24,6 +25,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   uint16_t avatar = 0;
   UdpRegister token;
   std::vector<SceneEntry> scene;
+  static LeanPoseState lean;  // large: not on the stack
+  lean = LeanPoseState{};
   for (const auto& piece : pieces) {
     const size_t n = piece[1] - piece[0];
     if (n) {
@@ -42,6 +45,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
       (void)decode_udp_register(p, token);
       (void)decode_scene(p, scene);
       (void)decode_pose(p, pose_header, pose);
+      (void)decode_key_request(p, avatar);
+      (void)decode_lean_pose(p, lean, pose_header, pose);  // on top of whatever state came before
       (void)decode_mesh_topology(p, topology);
       (void)decode_mesh(p, mesh_header, positions);
     }
@@ -49,6 +54,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   // And the raw bytes as one whole packet.
   const std::span<const uint8_t> whole(data, size);
   (void)decode_pose(whole, pose_header, pose);
+  (void)decode_lean_pose(whole, lean, pose_header, pose);  // a datagram on the subscriber's socket
   (void)decode_udp_register(whole, token);  // what arrives on the server's UDP socket
   (void)decode_hello(whole, hello);
   (void)decode_avatar_model(whole, model);

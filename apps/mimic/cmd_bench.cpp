@@ -32,6 +32,10 @@ struct BenchOptions {
   long subscribers = 1000;
   long avatars = 1;
   double seconds = 3.0;
+  bool fanout_point = false;  // --subscribers or --avatars given: the fan-out section runs only that point
+  std::string transport;      // fan-out: "tcp", "udp" or empty for every transport
+  long realtime = 0;          // fan-out: SCHED_FIFO priority of the server and receiving threads
+  bool json_lines = false;    // fan-out alone with --json: one object per configuration per line
 };
 
 // ---- network -----------------------------------------------------------------------------------
@@ -338,6 +342,68 @@ Result<nlohmann::json> bench_solver(const BenchOptions& opt) {
   return j;
 }
 
+// ---- fan-out capacity ---------------------------------------------------------------------------
+
+// One row per (transport, subscribers, avatars). Transports measured by other modules (a broker
+// relay) add their rows to this table the same way: the same columns, one JSON object each.
+nlohmann::json fanout_row(const net::FanoutCapacity& c) {
+  const auto& r = c.result;
+  return {{"transport", net::fanout_transport_name(c.options.transport)},
+          {"streams", c.streams},
+          {"subscribers", c.options.subscribers},
+          {"avatars", c.options.avatars},
+          {"hz", c.options.rate_hz},
+          {"lean", c.options.lean},
+          {"realtime", c.realtime},
+          {"tick_us_p50", r.tick_p50_us},
+          {"tick_us_p99", r.tick_p99_us},
+          {"bytes_per_avatar_frame", c.bytes_per_avatar_frame},
+          {"cpu_percent", c.cpu_percent},
+          {"cpu_us_per_tick", c.cpu_us_per_tick},
+          {"process_cpu_percent", c.process_cpu_percent},
+          {"lost", r.lost},
+          {"dropped", r.frames_dropped},
+          {"expected", r.frames_expected},
+          {"received", r.frames_received},
+          {"achieved_hz", r.achieved_rate_hz},
+          {"late_ticks", r.late_ticks},
+          {"kept_up", r.kept_up},
+          {"load_average_1m", c.load_average_1m}};
+}
+
+Result<nlohmann::json> bench_fanout(const BenchOptions& opt) {
+  std::vector<net::FanoutTransport> transports;
+  for (auto t : {net::FanoutTransport::tcp, net::FanoutTransport::udp})
+    if (opt.transport.empty() || opt.transport == net::fanout_transport_name(t)) transports.push_back(t);
+  std::vector<std::pair<long, long>> points;
+  if (opt.fanout_point) points = {{opt.subscribers, opt.avatars}};
+  else if (opt.quick) points = {{50, 2}};
+  else points = {{1000, 1}, {2500, 4}, {1250, 8}};
+  nlohmann::json rows = nlohmann::json::array();
+  for (auto t : transports)
+    for (const auto& [subs, avs] : points) {
+      net::FanoutOptions o;
+      o.subscribers = int(subs);
+      o.avatars = int(avs);
+      o.seconds = opt.quick ? 0.5 : opt.seconds;
+      o.transport = t;
+      o.realtime_priority = int(opt.realtime);
+      auto c = net::measure_fanout_capacity(o);
+      if (!c) return tl::unexpected(c.error());
+      const auto row = fanout_row(*c);
+      std::fprintf(stderr,
+                   "fan-out %s 90 Hz: %ld subscribers x %ld avatars = %llu streams: %s (tick p50 %.0f us, p99 %.0f us, "
+                   "%.1f bytes/avatar-frame, lost %llu, dropped %llu, server thread %.0f%% CPU = %.0f us per tick, load %.1f)\n",
+                   net::fanout_transport_name(t), subs, avs, static_cast<unsigned long long>(c->streams),
+                   c->result.kept_up ? "kept up" : "FELL BEHIND", c->result.tick_p50_us, c->result.tick_p99_us,
+                   c->bytes_per_avatar_frame, static_cast<unsigned long long>(c->result.lost),
+                   static_cast<unsigned long long>(c->result.frames_dropped), c->cpu_percent, c->cpu_us_per_tick, c->load_average_1m);
+      if (opt.json_lines) std::printf("%s\n", row.dump().c_str());
+      rows.push_back(row);
+    }
+  return rows;
+}
+
 struct Section {
   const char* name;
   Result<nlohmann::json> (*run)(const BenchOptions&);
@@ -347,10 +413,12 @@ const Section kSections[] = {
     {"net", bench_net},
     {"skin", bench_skin},
     {"solver", bench_solver},
+    {"fanout", bench_fanout},
 };
 
 const char* kUsage =
-    "usage: mimic bench [--section NAME] [--quick] [--subscribers N] [--avatars A] [--seconds S] [--json]\n"
+    "usage: mimic bench [--section NAME] [--quick] [--subscribers N] [--avatars A] [--seconds S]\n"
+    "                   [--transport tcp|udp] [--realtime P] [--json]\n"
     "\n"
     "Measures this machine (figures, not pass/fail; a loaded machine measures worse).\n"
     "\n"
@@ -368,6 +436,9 @@ const char* kUsage =
     "        method's on the same poses (mm)\n"
     "  solver  filter + solve per frame for the layouts 3, 6, 11 and all (built-in walk,\n"
     "        1 mm / 0.5 deg noise, 120 Hz): p50/p99\n"
+    "  fanout  subscriber streams one process serves at 90 Hz over loopback (TCP and UDP, lean\n"
+    "        stream): tick p50/p99, bytes per avatar-frame, CPU, lost (from sequence numbers);\n"
+    "        with --json alone, one JSON object per configuration per line\n"
     "\n"
     "options:\n"
     "  --section NAME    run one section (default: all)\n"
@@ -375,10 +446,12 @@ const char* kUsage =
     "  --subscribers N   largest fan-out point: subscribers (default 1000)\n"
     "  --avatars A       largest fan-out point: avatars (default 1)\n"
     "  --seconds S       duration of each timed run (default 3)\n"
+    "  --transport T     fanout: tcp or udp only\n"
+    "  --realtime P      fanout: server and receiving threads SCHED_FIFO at priority P\n"
     "  --json            print one JSON object {section: figures} on stdout\n";
 
 int bench(const std::vector<std::string>& argv) {
-  Args a(argv, {"section", "subscribers", "avatars", "seconds"}, {"quick", "json"});
+  Args a(argv, {"section", "subscribers", "avatars", "seconds", "transport", "realtime"}, {"quick", "json"});
   if (a.help()) {
     std::printf("%s", kUsage);
     return 0;
@@ -392,6 +465,13 @@ int bench(const std::vector<std::string>& argv) {
   if (opt.subscribers < 1 || opt.avatars < 1 || opt.seconds <= 0)
     return usage_error("bench", "--subscribers, --avatars and --seconds must be positive");
   const std::string only = a.get_or("section", "");
+  opt.fanout_point = a.has("subscribers") || a.has("avatars");
+  opt.transport = a.get_or("transport", "");
+  if (!a.get_int("realtime", opt.realtime) || opt.realtime < 0 || opt.realtime > 99)
+    return usage_error("bench", "--realtime takes a priority 1..99");
+  if (!opt.transport.empty() && opt.transport != "tcp" && opt.transport != "udp")
+    return usage_error("bench", "--transport must be tcp or udp");
+  opt.json_lines = only == "fanout" && a.has("json");
   nlohmann::json all;
   bool found = false;
   for (const auto& s : kSections) {
@@ -403,7 +483,7 @@ int bench(const std::vector<std::string>& argv) {
     all[s.name] = *r;
   }
   if (!found) return usage_error("bench", "unknown section '" + only + "'");
-  if (a.has("json")) std::printf("%s\n", all.dump().c_str());
+  if (a.has("json") && !opt.json_lines) std::printf("%s\n", all.dump().c_str());
   return 0;
 }
 

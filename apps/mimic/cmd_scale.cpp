@@ -19,7 +19,7 @@ constexpr const char* kUsage =
     "       mimic scale --list\n"
     "\n"
     "Writes a new body model (JSON, docs/body-model.md) scaled by the five operators of\n"
-    "docs/scaling.md, all ratios relative to the input body (1 keeps it):\n"
+    "docs/body-scaling.md, all ratios relative to the input body (1 keeps it):\n"
     "  --total-height M        uniform scale of the whole body\n"
     "  --frontal F             front-to-back depth (z)\n"
     "  --high-lateral H        width (x) above the spine origin: torso, arms, head\n"

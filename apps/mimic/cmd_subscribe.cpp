@@ -15,13 +15,15 @@ namespace mimic::app {
 namespace {
 
 const char* kUsage =
-    "usage: mimic subscribe [--connect HOST:PORT] [--count N] [--duration S] [--mesh-lod L] [--udp] [--json]\n"
+    "usage: mimic subscribe [--connect HOST:PORT] [--count N] [--duration S] [--mesh-lod L] [--udp] [--lean]\n"
+    "                      [--json]\n"
     "\n"
     "Joins the scene served by 'mimic run' as a subscriber: receives every avatar's body model\n"
     "once, then its pose frames (latest wins). Prints one line per model and per frame, or with\n"
     "--json only a summary object at the end:\n"
     "  frames, avatars, fps, latency_ms_p50, latency_ms_p99, lost, out_of_order, model_bytes,\n"
-    "  frame_bytes_mean, mesh_frames, reconnects, duration_s, transport, udp_frames\n"
+    "  frame_bytes_mean, mesh_frames, reconnects, duration_s, transport, udp_frames, lean_keys,\n"
+    "  lean_unreferenced, key_requests\n"
     "Latency is the frame's capture time (sender's clock) to its arrival here; fps is per avatar,\n"
     "the rate its frames were captured at (their timestamps), not how fast they happened to arrive.\n"
     "Names and server messages are printed with control characters escaped (\\xNN).\n"
@@ -34,6 +36,8 @@ const char* kUsage =
     "  --udp                pose frames as UDP datagrams (models stay on TCP; frames come over\n"
     "                       TCP until the server has registered this address, or if it offers\n"
     "                       no UDP)\n"
+    "  --lean               the lean pose stream (key and delta frames, about 60 bytes instead of\n"
+    "                       150, at the server's coarser precision: docs/protocol.md)\n"
     "  --json               print only the JSON summary\n";
 
 double percentile(std::vector<double> v, double q) {
@@ -44,7 +48,7 @@ double percentile(std::vector<double> v, double q) {
 }
 
 int subscribe(const std::vector<std::string>& argv) {
-  Args a(argv, {"connect", "count", "duration", "mesh-lod"}, {"json", "udp"});
+  Args a(argv, {"connect", "count", "duration", "mesh-lod"}, {"json", "udp", "lean"});
   if (a.help()) {
     std::printf("%s", kUsage);
     return 0;
@@ -64,6 +68,7 @@ int subscribe(const std::vector<std::string>& argv) {
   o.name = "mimic subscribe";
   if (lod >= 0) o.mesh_lod = static_cast<uint8_t>(lod);
   o.udp = a.has("udp");
+  o.lean = a.has("lean");
   auto c = net::Client::connect(o);
   if (!c) return failure("subscribe", net::printable(c.error().what()));
   net::Client& client = **c;
@@ -139,6 +144,9 @@ int subscribe(const std::vector<std::string>& argv) {
     j["duration_s"] = std::chrono::duration<double>(C::now() - start).count();
     j["transport"] = s.udp_frames > 0 ? "udp" : "tcp";
     j["udp_frames"] = s.udp_frames;
+    j["lean_keys"] = s.lean_keys;
+    j["lean_unreferenced"] = s.lean_unreferenced;
+    j["key_requests"] = s.key_requests;
     std::printf("%s\n", j.dump().c_str());
   }
   client.close();

@@ -145,7 +145,8 @@ void Client::Impl::start_connection() {
     h.secret = opt.secret;
     h.mesh_lod = opt.mesh_lod;
     h.capabilities = kCapPose | kCapResume | (opt.mesh_lod != kNoMesh ? uint32_t(kCapMesh) : 0u) |
-                     (opt.udp && opt.role == Role::subscriber ? uint32_t(kCapUdpPose) : 0u);
+                     (opt.udp && opt.role == Role::subscriber ? uint32_t(kCapUdpPose) : 0u) |
+                     (opt.lean && opt.role == Role::subscriber ? uint32_t(kCapLeanPose) : 0u);
     h.resume_token = token;
     std::array<uint8_t, kMaxHelloBytes> buf{};
     queue_control(std::span<const uint8_t>(buf.data(), encode_hello(h, buf)));
@@ -254,7 +255,11 @@ void Client::Impl::on_packet(std::span<const uint8_t> p) {
       a.dof_count = m.dof_count;
       a.revision = m.revision;
       a.model_bytes = std::move(m.model_bytes);
-      if (!same) a.has_pose = false;
+      if (!same) {
+        a.has_pose = false;
+        a.lean.valid = false;  // frames after a new model start from a key frame
+        a.key_requested = false;
+      }
       stats.models++;
       stats.model_bytes += p.size();
       if (owner->on_model) owner->on_model(a);
@@ -287,7 +292,8 @@ void Client::Impl::on_packet(std::span<const uint8_t> p) {
       if (owner->on_removed) owner->on_removed(id);
       return;
     }
-    case MsgType::pose: on_pose(p, now_us, false); return;
+    case MsgType::pose:
+    case MsgType::pose_delta: on_pose(p, now_us, false); return;
     case MsgType::mesh_topology: {
       if (decode_mesh_topology(p, scratch_topology) != Reject::ok) break;
       auto it = avatars.find(scratch_topology.avatar);
@@ -314,9 +320,14 @@ void Client::Impl::on_packet(std::span<const uint8_t> p) {
 
 void Client::Impl::on_pose(std::span<const uint8_t> p, uint64_t now_us, bool datagram) {
   PoseHeader h;
-  if (decode_pose(p, h, scratch_pose) != Reject::ok) {
+  const bool lean = p[2] == uint8_t(MsgType::pose_delta);
+  if (!lean && decode_pose(p, h, scratch_pose) != Reject::ok) {
     stats.rejected++;
     return;
+  }
+  if (lean) {
+    h.avatar = pose_avatar(p);
+    h.sequence = lean_pose_sequence(p);
   }
   auto it = avatars.find(h.avatar);
   if (it == avatars.end()) {
@@ -328,11 +339,42 @@ void Client::Impl::on_pose(std::span<const uint8_t> p, uint64_t now_us, bool dat
     stats.udp_early++;
     auto e = early.find(h.avatar);
     if (e == early.end() && early.size() < kMaxEarly) e = early.emplace(h.avatar, std::vector<uint8_t>{}).first;
-    if (e != early.end() && (e->second.empty() || static_cast<int32_t>(h.sequence - pose_sequence(e->second)) > 0))
+    auto sequence_of = [](std::span<const uint8_t> q) {
+      return q[2] == uint8_t(MsgType::pose_delta) ? lean_pose_sequence(q) : pose_sequence(q);
+    };
+    if (e != early.end() && (e->second.empty() || static_cast<int32_t>(h.sequence - sequence_of(e->second)) > 0))
       e->second.assign(p.begin(), p.end());
     return;
   }
   auto& a = it->second;
+  if (lean) {
+    // The reference rule: a delta applies only on top of the frame right before it; without
+    // it, drop the delta and ask once for a key frame (docs/protocol.md).
+    const Reject e = decode_lean_pose(p, a.lean, h, scratch_pose);
+    if (e == Reject::unexpected) {
+      stats.lean_unreferenced++;
+      if (!a.key_requested && (caps & kCapLeanPose)) {
+        std::array<uint8_t, 16> buf{};
+        queue_control(std::span<const uint8_t>(buf.data(), encode_key_request(a.id, buf)));
+        flush();
+        a.key_requested = true;
+        stats.key_requests++;
+      }
+      return;
+    }
+    if (e == Reject::out_of_order) {
+      stats.out_of_order++;
+      return;
+    }
+    if (e != Reject::ok) {
+      stats.rejected++;
+      return;
+    }
+    if (lean_pose_is_key(p)) {
+      stats.lean_keys++;
+      a.key_requested = false;
+    }
+  }
   // A frame that does not fit the model would animate the wrong joints (docs/protocol.md).
   if (scratch_pose.dof_rad.size() != a.dof_count) {
     stats.rejected++;
@@ -410,10 +452,25 @@ void Client::Impl::udp_receive() {
     const std::span<const uint8_t> d(uin.data(), n);
     Header h;
     UdpRegister echoed;
-    if (decode_header(d, h) != Reject::ok || n != kHeaderBytes + h.payload_bytes) {
+    if (decode_header(d, h) != Reject::ok || n < kHeaderBytes + h.payload_bytes ||
+        (n != kHeaderBytes + h.payload_bytes && h.type != MsgType::pose_delta)) {
       stats.rejected++;
     } else if (h.type == MsgType::pose) {
       on_pose(d, wall_clock_us(), true);
+    } else if (h.type == MsgType::pose_delta) {
+      // Lean frames of several avatars may share a datagram, back to back.
+      const uint64_t now = wall_clock_us();
+      for (size_t at = 0; at < n;) {
+        const auto rest = d.subspan(at);
+        Header ph;
+        if (decode_header(rest, ph) != Reject::ok || ph.type != MsgType::pose_delta ||
+            rest.size() < kHeaderBytes + ph.payload_bytes) {
+          stats.rejected++;
+          break;
+        }
+        on_pose(rest.first(kHeaderBytes + ph.payload_bytes), now, true);
+        at += kHeaderBytes + ph.payload_bytes;
+      }
     } else if (h.type == MsgType::udp_register && decode_udp_register(d, echoed) == Reject::ok && echoed.token == token) {
       if (echoed.nonce != 0 && echoed.nonce == udp_nonce) {
         udp_ready = true;  // the server has seen us echo its nonce from this address

@@ -231,11 +231,13 @@ size_t max_packet_bytes(uint8_t type) noexcept {
     case MsgType::reject:
     case MsgType::bye:
     case MsgType::ping:
+    case MsgType::key_request:
     case MsgType::avatar_removed: return kMaxHelloBytes;
     case MsgType::udp_register: return kUdpRegisterBytes;
     case MsgType::avatar_model: return kHeaderBytes + 14 + 255 + kMaxModelBytes;
     case MsgType::scene: return kMaxSceneBytes;
-    case MsgType::pose: return kMaxDatagramBytes;
+    case MsgType::pose:
+    case MsgType::pose_delta: return kMaxDatagramBytes;
     case MsgType::mesh_topology:
     case MsgType::mesh: return kMaxMeshBytes;
   }
@@ -328,6 +330,12 @@ size_t encode_udp_register(const UdpRegister& m, std::span<uint8_t> out) noexcep
 
 size_t encode_ping(std::span<uint8_t> out) noexcept {
   Writer w = begin(out, MsgType::ping);
+  return finish(w);
+}
+
+size_t encode_key_request(uint16_t avatar, std::span<uint8_t> out) noexcept {
+  Writer w = begin(out, MsgType::key_request);
+  w.u16(avatar);
   return finish(w);
 }
 
@@ -496,6 +504,13 @@ Reject decode_udp_register(std::span<const uint8_t> packet, UdpRegister& out) no
   if (const Reject e = open(packet, MsgType::udp_register, r); e != Reject::ok) return e;
   r.token(out.token);
   out.nonce = r.u64();
+  return close(r);
+}
+
+Reject decode_key_request(std::span<const uint8_t> packet, uint16_t& avatar) noexcept {
+  Reader r;
+  if (const Reject e = open(packet, MsgType::key_request, r); e != Reject::ok) return e;
+  avatar = r.u16();
   return close(r);
 }
 

@@ -155,6 +155,7 @@ void Server::begin_batch() { impl_->batching = true; }
 void Server::end_batch() {
   impl_->batching = false;
   for (auto& s : impl_->sessions) s->flush();
+  impl_->send_udp_batch();
 }
 
 void Server::dispatch(std::function<void()> fn) { asio::post(impl_->io, std::move(fn)); }

@@ -2,7 +2,10 @@
 // older one still waiting (models are shared between sessions, never copied per subscriber), one
 // pending frame slot per avatar (latest wins), one write in flight per session, datagrams for
 // registered UDP subscribers.
+#include <sys/socket.h>
+
 #include <algorithm>
+#include <cstring>
 
 #include "server/server_impl.h"
 
@@ -13,6 +16,8 @@ void Session::send_model(Avatar& a) {
   if (it != models_known.end() && it->second == a.revision) return;
   queue_model(a.id, a.model_packet);
   models_known[a.id] = a.revision;
+  // Frames after a new model start from a key frame.
+  if (a.id < lean_sent.size()) lean_sent[a.id] = 0;
   srv.stats.model_bytes_out += a.model_packet->size();
 }
 
@@ -59,7 +64,27 @@ void Session::ensure_slot(uint16_t avatar_id) {
     pending_flag.resize(avatar_id + 1u, 0);
     pending_mesh_flag.resize(avatar_id + 1u, 0);
     topology_sent.resize(avatar_id + 1u, 0);
+    lean_sent.resize(avatar_id + 1u, 0);
   }
+}
+
+std::span<const uint8_t> Session::frame_bytes(Avatar& a) {
+  if (!(caps & kCapLeanPose) || !a.lean_ok || a.id >= lean_sent.size()) return {a.pose.data(), a.pose_size};
+  // The reference rule (docs/protocol.md): a delta only to a receiver that was sent the frame
+  // right before; anyone else (joined, skipped frames, asked for a key) gets the key frame.
+  uint32_t& sent = lean_sent[a.id];
+  const auto p = a.lean.packet_for(sent);
+  sent = a.sequence;
+  if (lean_pose_is_key(p)) srv.stats.lean_keys_out++;
+  else srv.stats.lean_deltas_out++;
+  return p;
+}
+
+void Session::on_key_request(std::span<const uint8_t> packet) {
+  uint16_t avatar_id = 0;
+  if (decode_key_request(packet, avatar_id) != Reject::ok) return;
+  srv.stats.key_requests++;
+  if (avatar_id < lean_sent.size()) lean_sent[avatar_id] = 0;
 }
 
 void Session::mark_pose(uint16_t avatar_id) {
@@ -87,36 +112,82 @@ void Session::mark_mesh(uint16_t avatar_id) {
 }
 
 // Pose frames as datagrams: one per frame, at once, even while a model is still being written on
-// the stream; a full socket buffer drops the frame (latest wins anyway).
+// the stream; queued for one sendmmsg per fan-out. A full socket buffer drops the frame (latest
+// wins anyway; a lean receiver asks for a key).
 void Session::send_poses_udp() {
   for (uint16_t aid : pending) {
     pending_flag[aid] = 0;
-    const Avatar* a = srv.avatar(aid);
+    Avatar* a = srv.avatar(aid);
     if (!a || !a->has_pose) continue;
-    boost::system::error_code ec;
-    srv.udp_sock.send_to(asio::buffer(a->pose.data(), a->pose_size), udp_peer, 0, ec);
-    if (ec) {
-      frames_dropped++;
-      srv.stats.frames_dropped++;
-      continue;
-    }
-    srv.stats.udp_frames_out++;
-    srv.stats.bytes_out += a->pose_size;
+    const auto bytes = frame_bytes(*a);
+    // Lean receivers take several frames per datagram (up to its size limit); others one.
+    auto& batch = srv.udp_batch;
+    const bool join = (caps & kCapLeanPose) && !batch.empty() && batch.back().to == udp_peer &&
+                      batch.back().size + bytes.size() <= kMaxDatagramBytes &&
+                      batch.back().first_piece + batch.back().pieces == srv.udp_pieces.size();
+    if (!join) batch.push_back({srv.udp_pieces.size(), 0, 0, 0, udp_peer});
+    srv.udp_pieces.push_back({bytes.data(), bytes.size()});
+    batch.back().pieces++;
+    batch.back().size += bytes.size();
+    batch.back().frames++;
     frames_out++;
-    srv.stats.frames_out++;
   }
   pending.clear();
 }
 
+void ServerImpl::send_udp_batch() {
+  if (udp_batch.empty()) return;
+  constexpr size_t kChunk = 1024;
+  const size_t n = std::min(udp_batch.size(), kChunk);
+  udp_scratch.resize(n * sizeof(mmsghdr) + udp_pieces.size() * sizeof(iovec));
+  auto* msgs = reinterpret_cast<mmsghdr*>(udp_scratch.data());
+  auto* iov = reinterpret_cast<iovec*>(udp_scratch.data() + n * sizeof(mmsghdr));
+  for (size_t i = 0; i < udp_pieces.size(); ++i) {
+    iov[i].iov_base = const_cast<uint8_t*>(udp_pieces[i].bytes);
+    iov[i].iov_len = udp_pieces[i].size;
+  }
+  const int fd = udp_sock.native_handle();
+  for (size_t begin = 0; begin < udp_batch.size();) {
+    const size_t m = std::min(kChunk, udp_batch.size() - begin);
+    for (size_t i = 0; i < m; ++i) {
+      UdpOut& d = udp_batch[begin + i];
+      std::memset(&msgs[i], 0, sizeof(mmsghdr));
+      msgs[i].msg_hdr.msg_name = d.to.data();
+      msgs[i].msg_hdr.msg_namelen = socklen_t(d.to.size());
+      msgs[i].msg_hdr.msg_iov = &iov[d.first_piece];
+      msgs[i].msg_hdr.msg_iovlen = d.pieces;
+    }
+    const int sent = ::sendmmsg(fd, msgs, unsigned(m), MSG_DONTWAIT);
+    stats.udp_send_calls++;
+    const size_t ok = sent > 0 ? size_t(sent) : 0;
+    for (size_t i = 0; i < ok; ++i) {
+      stats.udp_frames_out += udp_batch[begin + i].frames;
+      stats.frames_out += udp_batch[begin + i].frames;
+      stats.bytes_out += udp_batch[begin + i].size;
+    }
+    // The datagram after the last one sent failed (full buffer, unreachable): dropped.
+    const size_t skip = ok < m ? 1 : 0;
+    if (skip) stats.frames_dropped += udp_batch[begin + ok].frames;
+    begin += ok + skip;
+  }
+  udp_batch.clear();
+  udp_pieces.clear();
+}
+
 void Session::flush() {
   if (closed || !active) return;
-  if (udp_ready) send_poses_udp();
+  if (udp_ready) {
+    send_poses_udp();
+    // One sendmmsg per fan-out (sent when it ends); any other flush sends its datagrams now.
+    if (!srv.batching && !srv.fanning_out) srv.send_udp_batch();
+  }
   if (writing) return;
   // One gather write: small packets and frames are copied into `out`, model packets are written
   // from the shared buffer itself. Segments record where each piece goes, in order.
   struct Segment {
     const uint8_t* shared = nullptr;  // nullptr: out[begin, begin + size)
     size_t begin = 0, size = 0;
+    bool transient = false;  // in an avatar's frame buffer, valid until its next frame
   };
   std::array<Segment, 64> segs_inline;
   std::vector<Segment> segs_more;
@@ -131,13 +202,13 @@ void Session::flush() {
     const size_t begin = out.size();
     out.insert(out.end(), p, p + n);
     if (nsegs > 0 && segment(nsegs - 1).shared == nullptr) segment(nsegs - 1).size += n;
-    else add_segment({nullptr, begin, n});
+    else add_segment({nullptr, begin, n, false});
   };
   out.clear();
   out_shared.clear();
   for (const auto& c : control) {
     if (c.model_of != 0) {
-      add_segment({c.bytes->data(), 0, c.bytes->size()});
+      add_segment({c.bytes->data(), 0, c.bytes->size(), false});
       out_shared.push_back(c.bytes);
     } else {
       add_out(c.bytes->data(), c.bytes->size());
@@ -145,11 +216,14 @@ void Session::flush() {
   }
   control.clear();
   control_bytes = 0;
+  // Frames are written from the avatar's own buffer (encoded once for every subscriber), not
+  // copied; only if the write goes asynchronous is the rest copied (below).
   for (uint16_t aid : pending) {
     pending_flag[aid] = 0;
-    const Avatar* a = srv.avatar(aid);
+    Avatar* a = srv.avatar(aid);
     if (!a || !a->has_pose) continue;
-    add_out(a->pose.data(), a->pose_size);
+    const auto bytes = frame_bytes(*a);
+    add_segment({bytes.data(), 0, bytes.size(), true});
     frames_out++;
     srv.stats.frames_out++;
   }
@@ -171,10 +245,12 @@ void Session::flush() {
   if (nsegs == 0) return;
   // `out` no longer grows: its pointers are stable for the write.
   out_buffers.clear();
+  out_transient.clear();
   size_t total = 0;
   for (size_t i = 0; i < nsegs; ++i) {
     const Segment& s = segment(i);
     out_buffers.emplace_back(s.shared ? s.shared : out.data() + s.begin, s.size);
+    out_transient.push_back(s.transient ? 1 : 0);
     total += s.size;
   }
   srv.stats.bytes_out += total;
@@ -195,7 +271,21 @@ void Session::flush() {
   size_t first = 0;
   while (first < out_buffers.size() && done >= out_buffers[first].size()) done -= out_buffers[first++].size();
   out_buffers.erase(out_buffers.begin(), out_buffers.begin() + static_cast<long>(first));
+  out_transient.erase(out_transient.begin(), out_transient.begin() + static_cast<long>(first));
   if (!out_buffers.empty()) out_buffers.front() += done;
+  // Frames still unwritten point into avatar buffers the next tick overwrites: copy them.
+  out_tail.clear();
+  for (size_t i = 0; i < out_buffers.size(); ++i)
+    if (out_transient[i]) {
+      const auto* p = static_cast<const uint8_t*>(out_buffers[i].data());
+      out_tail.insert(out_tail.end(), p, p + out_buffers[i].size());
+    }
+  for (size_t i = 0, at = 0; i < out_buffers.size(); ++i)
+    if (out_transient[i]) {
+      const size_t n = out_buffers[i].size();
+      out_buffers[i] = asio::const_buffer(out_tail.data() + at, n);
+      at += n;
+    }
   writing = true;
   asio::async_write(sock, out_buffers, [self = shared_from_this()](const boost::system::error_code& ec, size_t) {
     self->writing = false;
@@ -234,11 +324,14 @@ void ServerImpl::enforce_model_memory_cap() {
 }
 
 void ServerImpl::fan_out_pose(uint16_t id) {
+  fanning_out = true;
   for (auto& s : sessions) {
     if (!s->active || s->role != Role::subscriber) continue;
     s->mark_pose(id);
     if (!batching) s->flush();
   }
+  fanning_out = false;
+  if (!batching) send_udp_batch();
 }
 
 }  // namespace mimic::net

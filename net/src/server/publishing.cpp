@@ -87,6 +87,7 @@ Result<uint16_t> ServerImpl::new_avatar(const std::string& name, uint16_t dof_co
   a.name = name.substr(0, kMaxNameBytes);
   a.dof_count = dof_count;
   a.owner = owner;
+  a.lean = LeanPoseEncoder(opt.lean_pose_shift, opt.lean_key_interval);
   AvatarModel m;
   m.avatar = id;
   m.dof_count = dof_count;
@@ -117,6 +118,8 @@ void ServerImpl::update_model(Avatar& a, const AvatarModel& m) {
   a.dof_count = m.dof_count;
   a.model_packet = make_model_packet(copy);
   a.has_pose = false;  // old frames may not match the new model
+  a.lean.reset();
+  a.lean_ok = false;
   for (auto& s : sessions) {
     if (!s->active || s->role != Role::subscriber) continue;
     s->ensure_slot(a.id);
@@ -137,6 +140,7 @@ void ServerImpl::drop_avatar(uint16_t id) {
   for (auto& s : sessions) {
     if (!s->active || s->role != Role::subscriber) continue;
     s->models_known.erase(id);
+    if (id < s->lean_sent.size()) s->lean_sent[id] = 0;
     s->drop_queued_model(id);
     s->queue_control(std::span<const uint8_t>(buf.data(), n));
     s->flush();
@@ -148,11 +152,13 @@ Reject ServerImpl::accept_pose(Avatar& a, std::span<const uint8_t> packet) {
   if (packet.size() > a.pose.size()) return Reject::oversized;
   const uint32_t seq = pose_sequence(packet);
   if (a.has_pose && static_cast<int32_t>(seq - a.sequence) <= 0) return Reject::out_of_order;
+  send_udp_batch();  // queued datagrams may point into this avatar's buffers
   std::memcpy(a.pose.data(), packet.data(), packet.size());
   a.pose_size = packet.size();
   set_pose_avatar(std::span<uint8_t>(a.pose.data(), a.pose_size), a.id);
   a.sequence = seq;
   a.has_pose = true;
+  a.lean_ok = a.lean.update(std::span<const uint8_t>(a.pose.data(), a.pose_size));
   stats.frames_in++;
   fan_out_pose(a.id);
   return Reject::ok;

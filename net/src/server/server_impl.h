@@ -23,6 +23,7 @@
 #include <vector>
 
 #include "mimic/net/frame_codec.h"
+#include "mimic/net/pose_stream.h"
 #include "mimic/net/server.h"
 
 namespace mimic::net {
@@ -64,6 +65,10 @@ struct Avatar {
   size_t pose_size = 0;
   uint32_t sequence = 0;
   bool has_pose = false;
+  // The lean stream of this avatar: its delta frame encoded once per frame, its key frame at
+  // most once, both shared by every subscriber (lean_ok: the skeleton fits the lean stream).
+  LeanPoseEncoder lean;
+  bool lean_ok = false;
   Session* owner = nullptr;     // remote publisher, or nullptr for a local avatar
   SessionToken owner_token;     // to re-attach on resume
   Clock::time_point orphaned_at{};
@@ -110,6 +115,22 @@ struct ServerImpl {
   // never looks like a model a resuming subscriber already holds.
   uint32_t next_revision = 1;
   bool batching = false;  // between begin_batch and end_batch: mark, flush once at the end
+  // Datagrams of one fan-out, sent with sendmmsg when it ends. They point into the avatars'
+  // frame buffers, so the batch goes out before any of those is overwritten (accept_pose).
+  // A datagram is one or more frames (several only for lean subscribers: one datagram per
+  // subscriber per tick), each a piece pointing at the shared frame buffer.
+  struct UdpPiece {
+    const uint8_t* bytes = nullptr;
+    size_t size = 0;
+  };
+  struct UdpOut {
+    size_t first_piece = 0, pieces = 0, size = 0, frames = 0;
+    udp::endpoint to;
+  };
+  std::vector<UdpOut> udp_batch;
+  std::vector<UdpPiece> udp_pieces;
+  bool fanning_out = false;
+  std::vector<uint8_t> udp_scratch;  // mmsghdr and iovec arrays (reused)
 
   // limits.cpp
   void start_accept();
@@ -134,6 +155,7 @@ struct ServerImpl {
   SharedBytes make_model_packet(const AvatarModel& m);
   // fan_out.cpp
   void fan_out_pose(uint16_t id);
+  void send_udp_batch();
   void enforce_model_memory_cap();
 };
 
@@ -176,6 +198,11 @@ struct Session : std::enable_shared_from_this<Session> {
   std::vector<uint16_t> pending_mesh;
   std::vector<uint8_t> pending_mesh_flag;
   std::vector<uint8_t> topology_sent;   // by avatar id, for mesh subscribers
+  // Lean stream: by avatar id, the sequence of the last frame this subscriber was sent (its
+  // receiver's reference; 0: none, so the next frame goes as a key).
+  std::vector<uint32_t> lean_sent;
+  std::vector<uint8_t> out_tail;        // frames of a write that went asynchronous, copied
+  std::vector<uint8_t> out_transient;   // by out_buffers entry: points into an avatar's buffer
   bool writing = false;
 
   // Inbound
@@ -217,6 +244,9 @@ struct Session : std::enable_shared_from_this<Session> {
   void drop_queued_model(uint16_t avatar_id);
   void ensure_slot(uint16_t avatar_id);
   void mark_pose(uint16_t avatar_id);
+  // The bytes of an avatar's current frame for this subscriber (lean key or delta, or POSE).
+  std::span<const uint8_t> frame_bytes(Avatar& a);
+  void on_key_request(std::span<const uint8_t> packet);
   void topology_changed(uint16_t avatar_id, uint8_t lod);
   void mark_mesh(uint16_t avatar_id);
   void send_poses_udp();

@@ -110,6 +110,13 @@ void Session::handle(std::span<const uint8_t> packet) {
       close(true);
       return;
     case MsgType::ping: return;  // last_heard is all it is for
+    case MsgType::key_request:
+      if (role != Role::subscriber || !(caps & kCapLeanPose)) {
+        e = Reject::unexpected;
+        break;
+      }
+      on_key_request(packet);
+      return;
     case MsgType::avatar_model: e = role == Role::publisher ? on_model(packet) : Reject::unexpected; break;
     case MsgType::pose: e = role == Role::publisher ? on_pose(packet) : Reject::unexpected; break;
     case MsgType::mesh_topology:

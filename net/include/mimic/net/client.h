@@ -17,6 +17,7 @@
 
 #include "mimic/core/result.h"
 #include "mimic/net/frame_codec.h"
+#include "mimic/net/pose_stream.h"
 
 namespace mimic::net {
 
@@ -30,6 +31,9 @@ struct ClientOptions {
   // control stay on TCP; until the address is registered, frames keep coming over TCP).
   bool udp = false;
   bool reconnect = true;           // reconnect and resume after a dropped connection
+  // Subscribers: the lean pose stream (key and delta frames, ~60 bytes instead of ~150) when the
+  // server offers it, at the server's precision (coarser than POSE frames: docs/protocol.md).
+  bool lean = false;
   double connect_timeout_s = 3.0;
 };
 
@@ -49,6 +53,8 @@ struct RemoteAvatar {
   std::vector<glm::vec3> mesh_positions_m;
   uint32_t mesh_vertex_count = 0;
   uint64_t mesh_frames = 0;
+  LeanPoseState lean;              // the lean stream's reference frames of this avatar
+  bool key_requested = false;      // a KEY_REQUEST is out and no key has come yet
 };
 
 struct ClientStats {
@@ -67,6 +73,9 @@ struct ClientStats {
   uint64_t wrong_dof_count = 0;   // pose frames whose DOF count is not their model's (refused)
   uint64_t udp_frames = 0;        // pose frames that came as datagrams (also in frames)
   uint64_t udp_early = 0;         // datagram frames of an avatar whose model had not arrived
+  uint64_t lean_keys = 0;         // lean stream: key frames applied (also in frames)
+  uint64_t lean_unreferenced = 0; // lean stream: deltas whose reference frame we lack (dropped)
+  uint64_t key_requests = 0;      // KEY_REQUESTs sent after such a delta
 };
 
 class Client {

@@ -52,10 +52,12 @@ enum class MsgType : uint8_t {
   udp_register = 5,    // over UDP, client -> server: session token and the last nonce it got;
                        // server -> client: the same token and the nonce to echo (docs/protocol.md)
   ping = 6,            // client -> server: keep-alive of an otherwise silent session
+  key_request = 7,     // subscriber -> server (kCapLeanPose): u16 avatar; its next frame goes as a key
   avatar_model = 10,   // publisher -> server (avatar = publisher's slot) and server -> subscriber
   avatar_removed = 11, // server -> subscriber
   scene = 12,          // server -> subscriber after WELCOME: every live avatar (id, revision)
   pose = 20,           // quantised joint values; one datagram
+  pose_delta = 21,     // server -> subscriber with kCapLeanPose: key or delta frame (pose_stream.h)
   mesh_topology = 30,  // fixed index array of one avatar at one LOD
   mesh = 31,           // vertex positions at that LOD
 };
@@ -67,8 +69,9 @@ enum Capability : uint32_t {
   kCapMesh = 1u << 1,    // mesh topology + mesh frames at a chosen LOD
   kCapResume = 1u << 2,  // the session token may be presented again after a disconnect
   kCapUdpPose = 1u << 3, // subscribers: pose frames as UDP datagrams (docs/protocol.md)
+  kCapLeanPose = 1u << 4,  // subscribers: POSE_DELTA key and delta frames instead of POSE
 };
-inline constexpr uint32_t kServerCapabilities = kCapPose | kCapMesh | kCapResume | kCapUdpPose;
+inline constexpr uint32_t kServerCapabilities = kCapPose | kCapMesh | kCapResume | kCapUdpPose | kCapLeanPose;
 
 // A session token: 128 bits from the OS's CSPRNG, all zero for "none". Equality takes the same
 // time whatever the bytes, so a guess learns nothing from how fast it was refused.
@@ -211,6 +214,7 @@ size_t encode_avatar_model(const AvatarModel& m, std::span<uint8_t> out) noexcep
 size_t encode_avatar_removed(uint16_t avatar, std::span<uint8_t> out) noexcept;
 size_t encode_udp_register(const UdpRegister& m, std::span<uint8_t> out) noexcept;
 size_t encode_ping(std::span<uint8_t> out) noexcept;
+size_t encode_key_request(uint16_t avatar, std::span<uint8_t> out) noexcept;
 size_t encode_scene(std::span<const SceneEntry> entries, std::span<uint8_t> out) noexcept;
 // Also 0 when pose.dof_rad.size() > kMaxPoseDofs.
 size_t encode_pose(const PoseHeader& h, const avatar::Pose& pose, std::span<uint8_t> out) noexcept;
@@ -233,6 +237,7 @@ Reject decode_reject(std::span<const uint8_t> packet, RejectMsg& out);
 Reject decode_avatar_model(std::span<const uint8_t> packet, AvatarModel& out);
 Reject decode_avatar_removed(std::span<const uint8_t> packet, uint16_t& avatar) noexcept;
 Reject decode_udp_register(std::span<const uint8_t> packet, UdpRegister& out) noexcept;
+Reject decode_key_request(std::span<const uint8_t> packet, uint16_t& avatar) noexcept;
 Reject decode_scene(std::span<const uint8_t> packet, std::vector<SceneEntry>& out);
 // `out.dof_rad` is resized to the packet's DOF count (no allocation when it already fits).
 Reject decode_pose(std::span<const uint8_t> packet, PoseHeader& header, avatar::Pose& out);

@@ -36,4 +36,38 @@ struct FanoutResult {
 // published at `rate_hz` for `seconds`.
 Result<FanoutResult> measure_fanout(int subscribers, int avatars, double rate_hz, double seconds);
 
+// The fan-out capacity of one server process (`mimic bench --section fanout`): `subscribers`
+// real subscriber sockets over loopback (TCP streams, or TCP sessions whose pose frames come as
+// UDP datagrams), all read by one receiving thread with epoll, and `avatars` local avatars
+// walking (the built-in walk on the default skeleton, phases apart) at `rate_hz`.
+enum class FanoutTransport { tcp, udp };
+const char* fanout_transport_name(FanoutTransport t);
+
+struct FanoutOptions {
+  int subscribers = 1000;
+  int avatars = 1;
+  double rate_hz = 90;
+  double seconds = 3;
+  FanoutTransport transport = FanoutTransport::tcp;
+  bool lean = true;  // subscribers ask for the lean stream (kCapLeanPose)
+  // > 0: the server thread and the receiving thread run SCHED_FIFO at this priority while
+  // publishing (as `mimic run --realtime` does), so a loaded machine's other processes do not
+  // preempt them. Needs the privilege; without it the run goes on at normal priority.
+  int realtime_priority = 0;
+};
+
+struct FanoutCapacity {
+  FanoutOptions options;
+  uint64_t streams = 0;            // subscribers × avatars
+  FanoutResult result;             // frames, drops, lost (from sequence numbers), tick times
+  double bytes_per_avatar_frame = 0;  // mean pose packet size the subscribers received
+  double cpu_percent = 0;          // the server thread's CPU time / wall time while publishing
+  double cpu_us_per_tick = 0;      // the server thread's CPU time per tick (less load-dependent than wall time)
+  double process_cpu_percent = 0;  // the whole process (server and receiving thread), of one core
+  double load_average_1m = 0;      // the machine's, when the run ended
+  bool realtime = false;           // the server thread did run SCHED_FIFO
+};
+
+Result<FanoutCapacity> measure_fanout_capacity(const FanoutOptions& options);
+
 }  // namespace mimic::net

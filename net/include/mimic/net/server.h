@@ -50,6 +50,11 @@ struct ServerOptions {
   bool udp_from_any_address = false;
   double udp_registration_timeout_s = 5.0;  // not refreshed for this long: frames back on TCP
   int housekeeping_period_ms = 250;         // timeouts are checked this often
+  // The lean pose stream (subscribers with kCapLeanPose, docs/protocol.md): precision as a
+  // power-of-two coarsening of the POSE frame's steps, and a key frame to everyone every this
+  // many frames (0: only to joiners, after skipped frames and on request).
+  uint8_t lean_pose_shift = 3;  // kDefaultPoseShift
+  uint32_t lean_key_interval = 90;
 };
 
 struct ServerStats {
@@ -78,6 +83,10 @@ struct ServerStats {
   uint64_t udp_wrong_address = 0;          // registrations from another IP than the TCP peer's
   uint64_t udp_expired = 0;                // registrations not refreshed in time
   uint64_t udp_frames_out = 0;             // pose frames sent as datagrams (also in frames_out)
+  uint64_t lean_keys_out = 0;              // lean stream: key frames sent (also in frames_out)
+  uint64_t lean_deltas_out = 0;            // lean stream: delta frames sent (also in frames_out)
+  uint64_t key_requests = 0;               // KEY_REQUESTs from subscribers
+  uint64_t udp_send_calls = 0;             // sendmmsg calls (each sends a batch of datagrams)
   std::array<uint64_t, kRejectCount> rejected{};  // by Reject code
 
   uint64_t rejected_total() const {
