@@ -30,6 +30,7 @@ namespace mimic::net {
 class Server;
 class Client;
 class VmcSender;
+class NatsPublisher;
 }  // namespace mimic::net
 
 namespace mimic::service {
@@ -122,6 +123,7 @@ struct PipelineOutputs {
   net::Server* server = nullptr;     // host the scene here
   net::Client* publisher = nullptr;  // publish into a scene hosted elsewhere
   net::VmcSender* vmc = nullptr;     // VMC/OSC output of the first avatar
+  net::NatsPublisher* nats = nullptr;  // also publish every avatar through a NATS broker
 };
 
 // Between passes of the loop: handles what the network has for us without blocking, then sleeps
@@ -157,6 +159,7 @@ class Pipeline {
     avatar::Pose pose;
     uint16_t server_id = 0;
     int publisher_slot = -1;
+    int nats_index = -1;
     uint32_t sequence = 0;
     uint64_t time_us = 0;  // capture time of the current frame
     std::vector<uint8_t> packet;
