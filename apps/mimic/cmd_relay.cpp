@@ -93,6 +93,7 @@ int relay(const std::vector<std::string>& argv) {
     j["scene"] = no.scene;
     j["nats"] = {{"connected", ns.connected}, {"frames_in", ns.frames},    {"frames_dropped", ns.frames_dropped},
                  {"models", ns.models},       {"avatars", ns.avatars},     {"rejected", ns.rejected}, {"early_frames", ns.early_frames},
+                 {"latency_ms_p50", ns.latency_ms_p50}, {"latency_ms_p99", ns.latency_ms_p99},
                  {"disconnects", ns.disconnects}, {"reconnects", ns.reconnects}, {"last_error", ns.last_error}};
     j["server"] = {{"subscribers", st.subscribers}, {"frames_out", st.frames_out}, {"frames_dropped", st.frames_dropped},
                    {"bytes_out", st.bytes_out}, {"rejected", st.rejected_total()}, {"udp_frames_out", st.udp_frames_out},

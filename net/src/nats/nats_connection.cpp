@@ -84,6 +84,8 @@ Status Connection::open(const NatsOptions& options) {
   // state first); this only bounds what a publish racing a disconnect may hold.
   if (s == NATS_OK) s = natsOptions_SetReconnectBufSize(o, 256 * 1024);
   if (s == NATS_OK && !options.randomize) s = natsOptions_SetNoRandomize(o, true);
+  // Each publish goes out at once rather than waiting for the client's flusher: latency first.
+  if (s == NATS_OK) s = natsOptions_SetSendAsap(o, true);
   if (s == NATS_OK) s = natsOptions_SetPingInterval(o, 2000);
   if (s == NATS_OK) s = natsOptions_SetMaxPingsOut(o, 2);
   if (s == NATS_OK && !options.token.empty()) s = natsOptions_SetToken(o, options.token.c_str());

@@ -33,7 +33,11 @@ struct NatsSceneFeed::Impl {
   struct Frame {
     std::string key;
     std::vector<uint8_t> packet;
+    uint64_t arrival_us = 0;  // wall clock as the client handed it over
   };
+  mutable std::mutex latency_mutex;
+  std::vector<float> latency_ms = std::vector<float>(4096);
+  uint64_t latency_next = 0;
   std::mutex queue_mutex;
   std::vector<ModelEvent> models_in;
   std::vector<Frame> frames_in;
@@ -84,7 +88,8 @@ struct NatsSceneFeed::Impl {
       const auto* data = reinterpret_cast<const uint8_t*>(natsMsg_GetData(msg));
       std::lock_guard lock(f->queue_mutex);
       if (f->frames_in.size() < kMaxQueuedFrames) {
-        f->frames_in.push_back({subject.substr(a, b - a), std::vector<uint8_t>(data, data + natsMsg_GetDataLength(msg))});
+        f->frames_in.push_back(
+            {subject.substr(a, b - a), std::vector<uint8_t>(data, data + natsMsg_GetDataLength(msg)), wall_clock_us()});
         f->schedule_pump_locked();
       } else {
         f->dropped++;
@@ -175,8 +180,11 @@ struct NatsSceneFeed::Impl {
       rejected++;
       return;
     }
-    if (server->publish_pose(it->second.id, f.packet) == Reject::ok)
+    if (server->publish_pose(it->second.id, f.packet) == Reject::ok) {
       frames++;
+      std::lock_guard lock(latency_mutex);
+      latency_ms[latency_next++ % latency_ms.size()] = float(double(int64_t(f.arrival_us - h.time_us)) * 1e-3);
+    }
     else
       rejected++;
   }
@@ -310,6 +318,20 @@ NatsLinkStats NatsSceneFeed::stats() const {
   s.model_failures = impl_->model_failures;
   s.rejected = impl_->rejected;
   s.early_frames = impl_->early;
+  {
+    std::lock_guard lock(impl_->latency_mutex);
+    std::vector<float> v(impl_->latency_ms.begin(),
+                         impl_->latency_ms.begin() + long(std::min<uint64_t>(impl_->latency_next, impl_->latency_ms.size())));
+    if (!v.empty()) {
+      auto at = [&v](double q) {
+        const size_t k = std::min(v.size() - 1, size_t(q * double(v.size() - 1) + 0.5));
+        std::nth_element(v.begin(), v.begin() + long(k), v.end());
+        return double(v[k]);
+      };
+      s.latency_ms_p50 = at(0.5);
+      s.latency_ms_p99 = at(0.99);
+    }
+  }
   s.avatars = impl_->avatar_count;
   std::lock_guard lock(impl_->error_mutex);
   s.last_error = impl_->last_error.empty() ? impl_->conn.last_error() : impl_->last_error;

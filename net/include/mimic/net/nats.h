@@ -72,6 +72,10 @@ struct NatsLinkStats {
   uint64_t rejected = 0;        // relay: malformed or unknown frames and models from the broker
   uint64_t avatars = 0;         // relay: avatars of the scene being served
   uint64_t early_frames = 0;    // relay: frames of an avatar whose model had not arrived
+  // Relay: the frame's time stamp (capture time, publisher's wall clock) to its arrival at the
+  // relay, over the last 4096 frames. With clocks in step (one host, or NTP), this is
+  // publish-to-relay plus whatever the publisher spent between capture and publish.
+  double latency_ms_p50 = 0, latency_ms_p99 = 0;
   std::string last_error;
 };
 
