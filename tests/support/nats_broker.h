@@ -15,6 +15,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <sstream>
 #include <string>
 #include <thread>
 #include <vector>
@@ -115,6 +116,21 @@ class NatsBroker {
     pid_ = -1;
   }
   bool running() const { return pid_ > 0; }
+  // CPU time the broker process has used (user + system), for figures.
+  double cpu_seconds() const {
+    std::ifstream f("/proc/" + std::to_string(pid_) + "/stat");
+    std::string text((std::istreambuf_iterator<char>(f)), {});
+    const size_t close = text.rfind(')');
+    if (close == std::string::npos) return 0;
+    std::istringstream rest(text.substr(close + 2));
+    std::string field;
+    unsigned long long utime = 0, stime = 0;
+    for (int i = 3; i <= 15 && rest >> field; ++i) {
+      if (i == 14) utime = std::stoull(field);
+      if (i == 15) stime = std::stoull(field);
+    }
+    return double(utime + stime) / double(::sysconf(_SC_CLK_TCK));
+  }
   std::string url() const { return "nats://127.0.0.1:" + std::to_string(port); }
   std::string log() const {
     std::ifstream f(dir_ + "/nats.log");
