@@ -17,7 +17,10 @@ seconds=${MIMIC_FUZZ_SECONDS:-20}
 jobs=$(nproc)
 
 launcher=()
-command -v ccache >/dev/null && launcher=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache)
+if command -v ccache >/dev/null; then
+  launcher=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache)
+  export CCACHE_BASEDIR=  # absolute paths: tests find their data from __FILE__
+fi
 gen=()
 command -v ninja >/dev/null && gen=(-G Ninja)
 if [ ! -f "$dir/CMakeCache.txt" ]; then
@@ -43,22 +46,37 @@ if [ -z "${MIMIC_SKIP_FUZZ:-}" ]; then
   artifacts="$dir/fuzz-artifacts"
   rm -rf "$work"
   mkdir -p "$work" "$artifacts"
-  failed=0
-  for bin in "$dir"/bin/*_fuzz; do
+  # One target per core at a time; each reports its executions and coverage.
+  fuzz_one() {
+    local bin=$1 name
     name=$(basename "$bin" _fuzz)
     mkdir -p "$work/$name"
     [ -d "fuzz/corpus/$name" ] && cp -r "fuzz/corpus/$name/." "$work/$name/"
-    log="$work/$name.log"
+    local log="$work/$name.log"
     if ! ASAN_OPTIONS=detect_leaks=1 "$bin" "$work/$name" -max_total_time="$seconds" -timeout=10 -rss_limit_mb=2048 \
         -artifact_prefix="$artifacts/${name}-" -print_final_stats=1 >"$log" 2>&1; then
       echo "sanitize_and_fuzz: $name FAILED (see $log and $artifacts)"
       tail -40 "$log"
-      failed=1
-      continue
+      return 1
     fi
+    local execs cov
     execs=$(grep -o 'stat::number_of_executed_units: *[0-9]*' "$log" | grep -o '[0-9]*$' || echo '?')
     cov=$(grep -o 'cov: [0-9]*' "$log" | tail -1 | grep -o '[0-9]*' || echo '?')
     echo "sanitize_and_fuzz: $name ok: $execs runs, coverage $cov, corpus $(ls "$work/$name" | wc -l) inputs"
+  }
+  failed=0
+  running=0
+  for bin in "$dir"/bin/*_fuzz; do
+    fuzz_one "$bin" &
+    running=$((running + 1))
+    if [ "$running" -ge "$jobs" ]; then
+      wait -n || failed=1
+      running=$((running - 1))
+    fi
+  done
+  while [ "$running" -gt 0 ]; do
+    wait -n || failed=1
+    running=$((running - 1))
   done
   echo "sanitize_and_fuzz: fuzzing $(( $(date +%s) - start )) s"
   [ "$failed" -eq 0 ]

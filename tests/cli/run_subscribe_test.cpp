@@ -148,6 +148,12 @@ TEST(RunSubscribe, SubscriberGetsModelAndFramesFromMimicRun) {
   ASSERT_FALSE(r.is_discarded()) << run.out();
   EXPECT_GT(r["frames"].get<int>(), 0);
   EXPECT_EQ(r["server"]["frames_dropped"], 0);
+  // The limits and what they did, for whoever watches the service.
+  for (const char* k : {"sessions_open", "sessions_timed_out", "sessions_refused_per_address", "sessions_closed_slow",
+                        "model_bytes_held", "udp_challenges", "udp_wrong_address", "udp_expired"})
+    EXPECT_TRUE(r["server"].contains(k)) << k;
+  EXPECT_GT(r["server"]["model_bytes_held"].get<double>(), 100.0);  // the avatar's one model packet
+  EXPECT_EQ(r["silent_sources"], 0);
   // The realtime loop allocated nothing per frame, although a subscriber joined and left.
   EXPECT_EQ(r["loop_allocations"], 0);
   EXPECT_EQ(r["send_failures"], 0);
