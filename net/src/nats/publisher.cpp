@@ -121,7 +121,9 @@ struct NatsPublisher::Impl {
 
   void put_models() {
     if (!ensure_bucket()) {
+      // E.g. a cluster still electing its JetStream leader: try again on the next round.
       model_failures++;
+      models_dirty = true;
       return;
     }
     std::lock_guard lock(slots_mutex);

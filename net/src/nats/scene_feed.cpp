@@ -272,7 +272,11 @@ struct NatsSceneFeed::Impl {
     stopping = true;
     if (watcher.joinable()) watcher.join();
     if (sub) {
-      natsSubscription_Unsubscribe(sub);
+      // Drain: the callbacks in progress finish before this object goes away.
+      if (natsSubscription_Drain(sub) == NATS_OK)
+        natsSubscription_WaitForDrainCompletion(sub, 2000);
+      else
+        natsSubscription_Unsubscribe(sub);
       natsSubscription_Destroy(sub);
     }
     conn.close();

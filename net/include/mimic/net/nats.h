@@ -108,7 +108,8 @@ class NatsPublisher {
 };
 
 // The relay side: subscribes once to a scene and feeds `server` (add_avatar, publish_pose,
-// update_avatar_model, remove_avatar) on the server's own thread. `server` must outlive it.
+// update_avatar_model, remove_avatar) on the server's own thread. `server` must outlive it, and
+// the feed is destroyed while the server is not running (or from the server's thread).
 class NatsSceneFeed {
  public:
   static Result<std::unique_ptr<NatsSceneFeed>> create(const NatsOptions& options, Server& server);
