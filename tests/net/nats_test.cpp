@@ -327,6 +327,28 @@ TEST(Nats, RelayRestartedViewersReconnectAndResume) {
   EXPECT_GE(v->stats().reconnects, 1u);
 }
 
+TEST(Nats, PublisherRestartKeepsItsAvatarKeys) {
+  REQUIRE_NATS();
+  NatsBroker broker;
+  broker.configure("solo");
+  ASSERT_TRUE(broker.start());
+  TestRelay relay(options(broker.url(), "relay"));
+  auto v = viewer(relay.endpoint());
+  std::string key_before;
+  {
+    TestPublisher pub(options(broker.url(), "hostA"), 1);
+    key_before = pub.get().key(0);
+    ASSERT_TRUE(test::pump({v.get()}, [&] { return sees_all(*v, 1, 20); }, 15));
+  }
+  // A clean stop takes the avatar out of the scene.
+  ASSERT_TRUE(test::pump({v.get()}, [&] { return v->avatars().empty(); }, 10));
+  TestPublisher again(options(broker.url(), "hostA"), 1);
+  EXPECT_EQ(again.get().key(0), key_before);
+  ASSERT_TRUE(test::pump({v.get()}, [&] { return sees_all(*v, 1, 20); }, 15));
+  EXPECT_EQ(v->avatars().begin()->second.name, "hostA/avatar1");
+  EXPECT_EQ(relay.feed().stats().rejected, 0u) << "sequence numbers starting again are accepted";
+}
+
 TEST(Nats, OneBrokerThreeRelaysTwoPublishersManyViewers) {
   REQUIRE_NATS();
   NatsBroker broker;
