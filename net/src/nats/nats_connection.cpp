@@ -2,6 +2,7 @@
 // Broker connection setup shared by the publisher and the relay feed.
 #include "nats/nats_connection.h"
 
+#include <chrono>
 #include <cstdio>
 #include <vector>
 
@@ -30,6 +31,13 @@ void Connection::reconnected_cb(natsConnection*, void* self) {
 
 void Connection::error_cb(natsConnection*, natsSubscription*, natsStatus s, void* self) {
   static_cast<Connection*>(self)->set_error(natsStatus_GetText(s));
+}
+
+void Connection::closed_cb(natsConnection*, void* self) {
+  auto* c = static_cast<Connection*>(self);
+  std::lock_guard lock(c->closed_mutex_);
+  c->closed_ = true;
+  c->closed_cv_.notify_all();
 }
 
 void Connection::set_error(std::string e) {
@@ -94,6 +102,7 @@ Status Connection::open(const NatsOptions& options) {
   if (s == NATS_OK) s = natsOptions_SetDisconnectedCB(o, disconnected_cb, this);
   if (s == NATS_OK) s = natsOptions_SetReconnectedCB(o, reconnected_cb, this);
   if (s == NATS_OK) s = natsOptions_SetErrorHandler(o, error_cb, this);
+  if (s == NATS_OK) s = natsOptions_SetClosedCB(o, closed_cb, this);
   if (s != NATS_OK) return fail(Errc::invalid_argument, "nats options: " + describe(s));
 
   s = natsConnection_Connect(&nc_, o);
@@ -118,7 +127,13 @@ Status Connection::open(const NatsOptions& options) {
 
 void Connection::close() {
   if (!nc_) return;
-  natsConnection_Destroy(nc_);  // closes (flushing what was published) and frees
+  natsConnection_Close(nc_);  // flushes what was published
+  {
+    // Callbacks (disconnected, closed) still queued refer to this object.
+    std::unique_lock lock(closed_mutex_);
+    closed_cv_.wait_for(lock, std::chrono::seconds(2), [this] { return closed_; });
+  }
+  natsConnection_Destroy(nc_);
   nc_ = nullptr;
 }
 

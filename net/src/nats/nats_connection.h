@@ -3,6 +3,7 @@
 #pragma once
 
 #include <atomic>
+#include <condition_variable>
 #include <functional>
 #include <mutex>
 #include <string>
@@ -36,9 +37,15 @@ class Connection {
   static void disconnected_cb(natsConnection*, void* self);
   static void reconnected_cb(natsConnection*, void* self);
   static void error_cb(natsConnection*, natsSubscription*, natsStatus, void* self);
+  static void closed_cb(natsConnection*, void* self);
   void set_error(std::string e);
   natsConnection* nc_ = nullptr;
   std::atomic<uint64_t> disconnects_{0}, reconnects_{0};
+  // The client runs callbacks on a thread of its own, the closed callback last: this object
+  // waits for it before going away.
+  std::mutex closed_mutex_;
+  std::condition_variable closed_cv_;
+  bool closed_ = false;
   mutable std::mutex error_mutex_;
   std::string last_error_;
 };
