@@ -48,7 +48,10 @@ TEST(ClipAccuracy, SimulatedSensorsOnSharedClipsStayWithinBounds) {
                   p.mpjpe_cm, p.end_effector_mm, p.jitter_mm, p.jitter_truth_mm);
       EXPECT_LT(p.mpjpe_cm, b.mpjpe_cm) << id << " " << b.layout;
       EXPECT_LT(p.end_effector_mm, b.end_effector_mm) << id << " " << b.layout;
-      EXPECT_LT(p.jitter_mm, p.jitter_truth_mm + 5.0) << id << " " << b.layout;  // no shaking
+      // No shaking. The figure moves with rounding: 07_01 with 6 sensors measures 5.90 mm at -O3
+      // (GCC) and 6.22 mm under Clang's sanitizers, for 1.04 mm in the truth; the bound leaves
+      // room for that spread and still catches a solver that starts to shake (tens of mm).
+      EXPECT_LT(p.jitter_mm, p.jitter_truth_mm + 6.5) << id << " " << b.layout;
     }
   }
 }
