@@ -17,6 +17,7 @@ packages=(
   libgtest-dev libgmock-dev googletest libbenchmark-dev
   xvfb liblo-tools                 # viewer under a virtual display; OSC peer for interop tests
   clang libclang-rt-14-dev         # the second compiler CI builds with; libFuzzer and sanitizers
+  libnats-dev nats-server          # broker transport (mimic run --nats, mimic relay); tests start brokers
 )
 
 missing=()

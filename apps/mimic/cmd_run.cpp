@@ -11,7 +11,10 @@
 
 #include "command.h"
 #include "stop_signal.h"
+#include <unistd.h>
+
 #include "mimic/net/client.h"
+#include "mimic/net/nats.h"
 #include "mimic/net/server.h"
 #include "mimic/net/vmc.h"
 #include "mimic/net/vrpn_server.h"
@@ -30,8 +33,8 @@ extern "C" void on_report_signal(int) { g_report = true; }
 const char* kUsage =
     "usage: mimic run [--source SPEC [--body FILE] [--calibration FILE]]... [--listen ADDR:PORT]\n"
     "                 [--secret S]\n"
-    "                 [--publish HOST:PORT] [--vmc HOST:PORT] [--vrpn [HOST:]PORT]\n"
-    "                 [--duration S] [--realtime PRIO]\n"
+    "                 [--publish HOST:PORT] [--nats URL[,URL...] [--scene NAME] [--nats-name N]]\n"
+    "                 [--vmc HOST:PORT] [--vrpn [HOST:]PORT] [--duration S] [--realtime PRIO]\n"
     "                 [--json] [--quiet]\n"
     "\n"
     "Runs the realtime pipeline (read -> solve -> deform -> encode -> send) and serves the avatars\n"
@@ -66,6 +69,15 @@ const char* kUsage =
     "                      in 'ps' to every user of this machine: prefer the MIMIC_SECRET\n"
     "                      environment variable\n"
     "  --publish HOST:PORT do not host: publish the avatars into the scene served there\n"
+    "  --nats URL[,URL]    also publish every avatar through the NATS broker(s) nats://HOST:PORT\n"
+    "                      (docs/scaling.md): models latest-wins in the scene's key-value bucket,\n"
+    "                      pose frames on mimic.SCENE.KEY.pose. Local listeners are served as\n"
+    "                      usual; a broker that is down is joined when it comes up. Credentials\n"
+    "                      from MIMIC_NATS_USER + MIMIC_NATS_PASSWORD, or MIMIC_NATS_TOKEN\n"
+    "  --scene NAME        the scene on the broker (default 'default'; A-Z a-z 0-9 _ -)\n"
+    "  --nats-name N       this publisher's name (default: the host name); with the avatar's\n"
+    "                      name it makes the avatar's key, the same on every restart. Two\n"
+    "                      processes on one host publishing into one scene need different names\n"
     "  --vmc HOST:PORT     also send every avatar as VMC (OSC over UDP), e.g. 127.0.0.1:39539;\n"
     "                      avatar i (counting from 0) goes to PORT + i\n"
     "  --vrpn [HOST:]PORT  also serve every avatar as VRPN trackers (VRPN 07.35 over TCP + UDP;\n"
@@ -164,7 +176,8 @@ int run(const std::vector<std::string>& argv) {
   std::vector<SourceArgs> sources;
   std::string error;
   if (!take_sources(args, sources, error)) return usage_error("run", error);
-  Args a(args, {"listen", "secret", "publish", "vmc", "vrpn", "duration", "realtime", "mesh-lod", "mesh-method", "room"},
+  Args a(args, {"listen", "secret", "publish", "vmc", "vrpn", "duration", "realtime", "mesh-lod", "mesh-method", "room",
+                 "nats", "scene", "nats-name"},
          {"json", "quiet", "no-udp"});
   if (a.help()) {
     std::printf("%s", kUsage);
@@ -190,8 +203,11 @@ int run(const std::vector<std::string>& argv) {
   if (secret.empty())
     if (const char* env = std::getenv("MIMIC_SECRET")) secret = env;
 
+  if (a.has("nats") && a.has("publish")) return usage_error("run", "--nats and --publish do not go together");
+  if ((a.has("scene") || a.has("nats-name")) && !a.has("nats")) return usage_error("run", "--scene and --nats-name need --nats");
   std::unique_ptr<net::Server> server;
   std::unique_ptr<net::Client> publisher;
+  std::unique_ptr<net::NatsPublisher> nats;
   std::string where;
   if (a.has("publish")) {
     net::ClientOptions o;
@@ -275,6 +291,21 @@ int run(const std::vector<std::string>& argv) {
     bodies.push_back(std::move(*asset));
     deformers.push_back(std::move(*deformer));
   }
+  if (a.has("nats")) {
+    net::NatsOptions o;
+    o.servers = *a.get("nats");
+    o.scene = a.get_or("scene", "default");
+    char host[256] = {};
+    o.name = a.get_or("nats-name", ::gethostname(host, sizeof host - 1) == 0 && host[0] ? host : "mimic");
+    net::nats_credentials_from_env(o);
+    auto p = net::NatsPublisher::create(o);
+    if (!p) return failure("run", p.error().what());
+    nats = std::move(*p);
+    where += "; publishing scene '" + o.scene + "' as '" + o.name + "' through " + o.servers;
+    if (!nats->connected())
+      std::fprintf(stderr, "mimic run: NATS broker %s not reachable: serving the local listeners, joining it when it comes up\n",
+                   o.servers.c_str());
+  }
   std::unique_ptr<net::VmcSender> vmc;
   if (a.has("vmc")) {
     auto v = net::VmcSender::open(*a.get("vmc"));
@@ -295,6 +326,7 @@ int run(const std::vector<std::string>& argv) {
   }
   PipelineOutputs outputs{server.get(), publisher.get(), vmc.get()};
   outputs.vrpn = vrpn.get();
+  outputs.nats = nats.get();
   Pipeline pipeline(outputs);
   // Sleep between passes: new samples wait at most about this long (plus the timer slack).
   constexpr int kIdleUs = 100;
@@ -367,6 +399,12 @@ int run(const std::vector<std::string>& argv) {
       for (int r = 1; r < net::kRejectCount; ++r)
         if (st.rejected[size_t(r)]) j["server"]["rejected_by_reason"][net::reject_name(net::Reject(r))] = st.rejected[size_t(r)];
     }
+    if (nats) {
+      const auto ns = nats->stats();
+      j["nats"] = {{"connected", ns.connected}, {"frames", ns.frames}, {"frames_dropped", ns.frames_dropped},
+                   {"models", ns.models}, {"model_failures", ns.model_failures}, {"disconnects", ns.disconnects},
+                   {"reconnects", ns.reconnects}, {"last_error", ns.last_error}};
+    }
     return j;
   };
   const bool status_line = !a.has("quiet");
@@ -408,6 +446,9 @@ int run(const std::vector<std::string>& argv) {
                            static_cast<unsigned long long>(st.subscribers), static_cast<unsigned long long>(st.frames_dropped),
                            static_cast<unsigned long long>(st.rejected_total()));
       }
+      if (nats)
+        n += std::snprintf(line + n, sizeof line - size_t(n), "%s",
+                           nats->connected() ? " | nats up" : " | nats DOWN: local only");
       n += std::snprintf(line + n, sizeof line - size_t(n), " | p50/p99 us");
       for (int s = 0; s < kStageCount && n < int(sizeof line) - 32; ++s) {
         const auto sum = pipeline.timer(s).summary();
@@ -426,6 +467,7 @@ int run(const std::vector<std::string>& argv) {
   std::fprintf(stderr, "mimic run: stopped after %.1f s, %llu frames\n", elapsed, static_cast<unsigned long long>(pipeline.frames()));
   if (a.has("json")) std::printf("%s\n", summary(elapsed).dump().c_str());
   if (publisher) publisher->close();
+  nats.reset();  // a clean leave: this publisher's avatars leave the scene
   return 0;
 }
 

@@ -8,7 +8,9 @@
 #include <cstring>
 #include <optional>
 
+#include "mimic/net/nats.h"
 #include "mimic/net/server.h"
+#include "nats/embedded_relay.h"
 
 namespace mimic::net {
 
@@ -36,6 +38,9 @@ struct PublishedAvatar {
 };
 
 struct Client::Impl {
+  // A scene on a NATS broker is served to this client by a relay of its own (destroyed after
+  // everything below it).
+  std::shared_ptr<nats_detail::EmbeddedRelay> embedded_relay;
   Client* owner = nullptr;
   ClientOptions opt;
   asio::io_context io{1};
@@ -533,6 +538,17 @@ Client::~Client() {
 }
 
 Result<std::unique_ptr<Client>> Client::connect(const ClientOptions& options) {
+  if (is_nats_url(options.connect)) {
+    if (options.role != Role::subscriber)
+      return fail(Errc::invalid_argument, "publishing into a NATS scene is mimic run --nats, not a client");
+    auto relay = nats_detail::EmbeddedRelay::start(options.connect, options.udp);
+    if (!relay) return tl::unexpected(relay.error());
+    ClientOptions local = options;
+    local.connect = (*relay)->endpoint();
+    auto c = connect(local);
+    if (c) (*c)->impl_->embedded_relay = std::move(*relay);
+    return c;
+  }
   auto hp = split_host_port(options.connect);
   if (!hp) return tl::unexpected(hp.error());
   auto impl = std::make_unique<Impl>();

@@ -96,6 +96,18 @@ Result<uint16_t> Server::add_avatar(const std::string& name, uint16_t dof_count,
 
 void Server::remove_avatar(uint16_t avatar) { impl_->drop_avatar(avatar); }
 
+Status Server::update_avatar_model(uint16_t avatar, uint16_t dof_count, std::string model_bytes) {
+  Avatar* a = impl_->avatar(avatar);
+  if (!a || a->owner) return fail(Errc::not_found, "no local avatar " + std::to_string(avatar));
+  if (dof_count > kMaxPoseDofs) return fail(Errc::out_of_range, "too many DOFs for a pose frame");
+  if (model_bytes.size() > kMaxModelBytes) return fail(Errc::out_of_range, "body model too large");
+  AvatarModel m;
+  m.dof_count = dof_count;
+  m.model_bytes = std::move(model_bytes);
+  impl_->update_model(*a, m);
+  return {};
+}
+
 Reject Server::publish_pose(uint16_t avatar, std::span<const uint8_t> packet) {
   Avatar* a = impl_->avatar(avatar);
   if (!a) return Reject::unexpected;

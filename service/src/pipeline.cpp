@@ -17,6 +17,7 @@
 #include "mimic/core/file.h"
 #include "mimic/net/client.h"
 #include "mimic/net/frame_codec.h"
+#include "mimic/net/nats.h"
 #include "mimic/net/server.h"
 #include "mimic/net/vmc.h"
 #include "mimic/net/vrpn_server.h"
@@ -437,6 +438,11 @@ Status Pipeline::add_avatar(const std::string& name, std::unique_ptr<PoseFeed> f
     if (!slot) return tl::unexpected(slot.error());
     a.publisher_slot = *slot;
   }
+  if (out_.nats) {
+    auto index = out_.nats->add_avatar(name, dofs, model_bytes);
+    if (!index) return tl::unexpected(index.error());
+    a.nats_index = *index;
+  }
   if (auto st = feed->start(); !st) return st;
   a.pose = s.rest_pose();
   a.packet.resize(net::pose_packet_bytes(s.dof_count()));
@@ -521,6 +527,7 @@ void Pipeline::tick() {
         if (out_.publisher && a.publisher_slot >= 0 &&
             !out_.publisher->publish_pose(static_cast<uint8_t>(a.publisher_slot), h, a.pose))
           send_failures_++;
+        if (out_.nats && bytes) out_.nats->publish_pose(a.nats_index, std::span<const uint8_t>(a.packet.data(), bytes));
         stale_frames_++;
       }
       continue;
@@ -546,6 +553,7 @@ void Pipeline::tick() {
     if (out_.publisher && a.publisher_slot >= 0 &&
         !out_.publisher->publish_pose(static_cast<uint8_t>(a.publisher_slot), h, a.pose))
       send_failures_++;
+    if (out_.nats && bytes) out_.nats->publish_pose(a.nats_index, std::span<const uint8_t>(a.packet.data(), bytes));
     if (out_.vmc && i < out_.vmc->avatar_count() && out_.vmc->send(i, a.pose, double(h.time_us) * 1e-6) == 0)
       send_failures_++;
     if (out_.vrpn && i < out_.vrpn->avatar_count()) {

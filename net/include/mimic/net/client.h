@@ -22,7 +22,9 @@
 namespace mimic::net {
 
 struct ClientOptions {
-  std::string connect = "127.0.0.1:7777";  // HOST:PORT
+  // HOST:PORT, or a scene on a NATS broker: nats://HOST:PORT[,nats://HOST:PORT...][/SCENE]
+  // (served to this client by a relay inside its process; docs/scaling.md)
+  std::string connect = "127.0.0.1:7777";
   Role role = Role::subscriber;
   std::string name = "mimic";
   std::string secret;              // publishers, when the server asks for one

@@ -123,6 +123,10 @@ class Server {
   // here); pose frames must carry `dof_count` values.
   Result<uint16_t> add_avatar(const std::string& name, uint16_t dof_count, std::string model_bytes);
   void remove_avatar(uint16_t avatar);
+  // A new body model (or DOF count) for a local avatar: subscribers get it at once, and its
+  // pose frames start over (the next one is accepted whatever its sequence number), as when
+  // the avatar's publisher restarted.
+  Status update_avatar_model(uint16_t avatar, uint16_t dof_count, std::string model_bytes);
   // `packet` is an encoded pose frame (encode_pose); its avatar field is set to `avatar`. Packets
   // not newer than the last one are refused (out_of_order). Never allocates or throws.
   Reject publish_pose(uint16_t avatar, std::span<const uint8_t> packet);

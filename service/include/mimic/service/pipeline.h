@@ -32,6 +32,7 @@ namespace mimic::net {
 class Server;
 class Client;
 class VmcSender;
+class NatsPublisher;
 class VrpnServer;
 }  // namespace mimic::net
 
@@ -136,6 +137,7 @@ struct PipelineOutputs {
   net::Client* publisher = nullptr;  // publish into a scene hosted elsewhere
   net::VmcSender* vmc = nullptr;     // VMC/OSC output: avatar i to the sender's avatar i
   net::VrpnServer* vrpn = nullptr;   // VRPN trackers: avatar i's joints and samples
+  net::NatsPublisher* nats = nullptr;  // also publish every avatar through a NATS broker
 };
 
 // Between passes of the loop: handles what the network has for us without blocking, then sleeps
@@ -173,6 +175,7 @@ class Pipeline {
     avatar::Pose pose;
     uint16_t server_id = 0;
     int publisher_slot = -1;
+    int nats_index = -1;
     uint32_t sequence = 0;
     uint64_t time_us = 0;  // capture time of the current frame
     std::vector<uint8_t> packet;

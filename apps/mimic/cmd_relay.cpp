@@ -1,0 +1,135 @@
+// mimic relay: an edge relay. Takes one scene from a NATS broker once and serves it to local
+// viewers with Mimic's own protocol (the same server, handshake and limits as mimic run).
+#include <chrono>
+#include <csignal>
+#include <cstdio>
+#include <cstdlib>
+
+#include <nlohmann/json.hpp>
+
+#include "command.h"
+#include "stop_signal.h"
+#include "mimic/net/nats.h"
+#include "mimic/net/server.h"
+
+namespace mimic::app {
+namespace {
+
+const char* kUsage =
+    "usage: mimic relay --nats URL[,URL...] [--scene NAME] [--listen ADDR:PORT] [--secret S] [--no-udp]\n"
+    "                   [--duration S] [--json] [--quiet]\n"
+    "\n"
+    "Subscribes once to a scene on the NATS broker(s) (every publisher's models from the scene's\n"
+    "key-value bucket, their pose frames from core NATS) and serves it to local viewers (mimic\n"
+    "subscribe, VR scenes) exactly as mimic run serves its own avatars: same handshake, limits,\n"
+    "checks, UDP option. Viewers behind different relays see the same avatars. The relay\n"
+    "reconnects to the broker (or another node of its cluster) on its own. docs/scaling.md.\n"
+    "\n"
+    "options:\n"
+    "  --nats URL[,URL]    broker address(es), nats://HOST:PORT. Credentials from MIMIC_NATS_USER\n"
+    "                      + MIMIC_NATS_PASSWORD, or MIMIC_NATS_TOKEN\n"
+    "  --scene NAME        the scene (default 'default')\n"
+    "  --listen ADDR:PORT  where viewers connect (default 127.0.0.1:7778; port 0 picks one)\n"
+    "  --secret S          shared secret for publishers (prefer MIMIC_SECRET); needed on a\n"
+    "                      non-loopback address, as for mimic run\n"
+    "  --no-udp            pose frames over TCP only\n"
+    "  --duration S        stop by itself after S seconds\n"
+    "  --json              a JSON summary on stdout at exit (and on SIGUSR1)\n"
+    "  --quiet             no live status line on stderr\n"
+    "\n"
+    "The first line on stdout is 'serving on ADDR:PORT'.\n";
+
+volatile std::sig_atomic_t g_report = 0;
+extern "C" void on_relay_report(int) { g_report = 1; }
+
+int relay(const std::vector<std::string>& argv) {
+  Args a(argv, {"nats", "scene", "listen", "secret", "duration"}, {"json", "quiet", "no-udp"});
+  if (a.help()) {
+    std::printf("%s", kUsage);
+    return 0;
+  }
+  if (!a.ok()) return usage_error("relay", a.error());
+  if (!a.positionals().empty()) return usage_error("relay", "unexpected argument '" + a.positionals()[0] + "'");
+  if (!a.has("nats")) return usage_error("relay", "--nats URL is required");
+  double duration_s = 0;
+  if (!a.get_double("duration", duration_s)) return usage_error("relay", a.error());
+
+  net::ServerOptions so;
+  so.listen = a.get_or("listen", "127.0.0.1:7778");
+  so.secret = a.get_or("secret", "");
+  if (so.secret.empty())
+    if (const char* env = std::getenv("MIMIC_SECRET")) so.secret = env;
+  so.udp = !a.has("no-udp");
+  auto s = net::Server::create(so);
+  if (!s) return failure("relay", s.error().what());
+  net::Server& server = **s;
+
+  net::NatsOptions no;
+  no.servers = *a.get("nats");
+  no.scene = a.get_or("scene", "default");
+  no.name = "mimic relay " + server.endpoint();
+  net::nats_credentials_from_env(no);
+  auto f = net::NatsSceneFeed::create(no, server);
+  if (!f) return failure("relay", f.error().what());
+  std::unique_ptr<net::NatsSceneFeed> feed = std::move(*f);
+  if (!feed->connected())
+    std::fprintf(stderr, "mimic relay: NATS broker %s not reachable yet: serving, joining it when it comes up\n",
+                 no.servers.c_str());
+
+  clear_stop_request();
+  install_stop_handler();
+  std::signal(SIGUSR1, on_relay_report);
+  std::printf("serving on %s\n", server.endpoint().c_str());
+  std::fflush(stdout);
+
+  using C = std::chrono::steady_clock;
+  const auto start = C::now();
+  auto summary = [&] {
+    const auto& st = server.stats();
+    const auto ns = feed->stats();
+    nlohmann::json j;
+    j["duration_s"] = std::chrono::duration<double>(C::now() - start).count();
+    j["endpoint"] = server.endpoint();
+    j["scene"] = no.scene;
+    j["nats"] = {{"connected", ns.connected}, {"frames_in", ns.frames},    {"frames_dropped", ns.frames_dropped},
+                 {"models", ns.models},       {"avatars", ns.avatars},     {"rejected", ns.rejected}, {"early_frames", ns.early_frames},
+                 {"latency_ms_p50", ns.latency_ms_p50}, {"latency_ms_p99", ns.latency_ms_p99},
+                 {"disconnects", ns.disconnects}, {"reconnects", ns.reconnects}, {"last_error", ns.last_error}};
+    j["server"] = {{"subscribers", st.subscribers}, {"frames_out", st.frames_out}, {"frames_dropped", st.frames_dropped},
+                   {"bytes_out", st.bytes_out}, {"rejected", st.rejected_total()}, {"udp_frames_out", st.udp_frames_out},
+                   {"sessions_accepted", st.sessions_accepted}};
+    return j;
+  };
+  const bool status_line = !a.has("quiet");
+  while (!stop_requested()) {
+    if (duration_s > 0 && C::now() - start >= std::chrono::duration<double>(duration_s)) break;
+    // The feed wakes the server as frames arrive (Server::dispatch): no polling delay here.
+    server.run_until(C::now() + std::chrono::milliseconds(250));
+    if (g_report) {
+      g_report = 0;
+      std::printf("%s\n", summary().dump().c_str());
+      std::fflush(stdout);
+    }
+    if (status_line) {
+      const auto ns = feed->stats();
+      const auto& st = server.stats();
+      std::fprintf(stderr, "\rrelay %s | nats %s | avatars %llu | in %llu | subs %llu out %llu drop %llu rej %llu   ",
+                   no.scene.c_str(), ns.connected ? "up" : "DOWN", static_cast<unsigned long long>(ns.avatars),
+                   static_cast<unsigned long long>(ns.frames), static_cast<unsigned long long>(st.subscribers),
+                   static_cast<unsigned long long>(st.frames_out), static_cast<unsigned long long>(st.frames_dropped),
+                   static_cast<unsigned long long>(ns.rejected + st.rejected_total()));
+      std::fflush(stderr);
+    }
+  }
+  std::signal(SIGUSR1, SIG_DFL);
+  if (status_line) std::fputs("\n", stderr);
+  if (a.has("json")) std::printf("%s\n", summary().dump().c_str());
+  feed.reset();  // before the server it feeds
+  return 0;
+}
+
+}  // namespace
+
+MIMIC_COMMAND(relay, "relay", "serve a scene from a NATS broker to local viewers (an edge relay)", kUsage, relay);
+
+}  // namespace mimic::app

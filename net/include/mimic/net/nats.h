@@ -1,0 +1,131 @@
+// Scale-out through a NATS broker (docs/scaling.md): publishers put every avatar of a scene on
+// the broker, edge relays take the scene from it once and serve their local viewers with
+// Mimic's own protocol (a net::Server fed from the broker as the pipeline feeds it local
+// avatars).
+//
+// Subjects and keys of scene S (a name of [A-Za-z0-9_-], at most 64 bytes):
+//   mimic.S.<key>.pose        pose frames, core NATS (no persistence), the wire format of
+//                             frame_codec.h (encode_pose), one frame per message
+//   mimic.S.status.<pub>      a publisher's status, JSON, once a second
+//   KV bucket mimic_S, key <key>: the avatar's model packet (encode_avatar_model: name, DOF
+//                             count, body model bytes), latest wins, history 1
+// <key> is nats_avatar_key(publisher, avatar): 16 hex digits of a 64-bit hash, the same on
+// every start of a publisher with the same names. Two different (publisher, avatar) pairs with
+// the same key would overwrite each other's model: the odds are about n²/2⁶⁵ for n avatars in
+// a scene; give every publishing host its own --nats-name.
+//
+// Threading: the broker's client runs its own threads. NatsPublisher::publish_pose (the
+// realtime loop) copies the frame into a per-avatar slot and wakes a sender thread: it never
+// waits for the broker. NatsSceneFeed hands what arrives to its Server through
+// Server::dispatch, so the Server stays driven by one thread.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <span>
+#include <string>
+#include <string_view>
+
+#include "mimic/core/result.h"
+
+namespace mimic::net {
+
+class Server;
+
+struct NatsOptions {
+  std::string servers;            // "nats://HOST:PORT[,nats://HOST:PORT...]"
+  std::string scene = "default";
+  std::string name = "mimic";     // publisher name (part of every avatar key) and connection name
+  // Credentials: user + password, or a token. From the environment (nats_credentials_from_env),
+  // never from the command line.
+  std::string user, password, token;
+  double connect_timeout_s = 2.0;
+  int reconnect_wait_ms = 250;    // between attempts; reconnecting never gives up
+  bool randomize = true;          // try the servers in random order (spreads clients over a cluster)
+  int kv_replicas = 0;            // copies of the model bucket; 0: 3 when 3+ servers are given, else 1
+};
+
+// Fills user/password/token from MIMIC_NATS_USER, MIMIC_NATS_PASSWORD, MIMIC_NATS_TOKEN.
+void nats_credentials_from_env(NatsOptions& options);
+
+// "nats://..." (or "tls://..."): a broker address rather than HOST:PORT.
+bool is_nats_url(std::string_view text);
+// A viewer's target "nats://HOST:PORT[,nats://HOST:PORT...][/SCENE]" -> servers and scene
+// ("default" when absent).
+struct NatsTarget {
+  std::string servers, scene;
+};
+Result<NatsTarget> parse_nats_target(std::string_view text);
+Status check_scene_name(std::string_view scene);
+
+// Stable avatar key: 16 lowercase hex digits of FNV-1a 64 over "publisher/avatar".
+std::string nats_avatar_key(std::string_view publisher, std::string_view avatar);
+
+struct NatsLinkStats {
+  bool connected = false;
+  uint64_t disconnects = 0;
+  uint64_t reconnects = 0;
+  uint64_t frames = 0;          // pose frames published / received
+  uint64_t frames_dropped = 0;  // publisher: not connected, or overwritten before sending
+  uint64_t models = 0;          // model puts (publisher) / model updates applied (relay)
+  uint64_t model_failures = 0;  // puts or watches that failed (retried)
+  uint64_t rejected = 0;        // relay: malformed or unknown frames and models from the broker
+  uint64_t avatars = 0;         // relay: avatars of the scene being served
+  uint64_t early_frames = 0;    // relay: frames of an avatar whose model had not arrived
+  // Relay: the frame's time stamp (capture time, publisher's wall clock) to its arrival at the
+  // relay, over the last 4096 frames. With clocks in step (one host, or NTP), this is
+  // publish-to-relay plus whatever the publisher spent between capture and publish.
+  double latency_ms_p50 = 0, latency_ms_p99 = 0;
+  std::string last_error;
+};
+
+class NatsPublisher {
+ public:
+  // Fails on a bad address or scene, or when the broker refuses the credentials. A broker
+  // that cannot be reached is not an error: the publisher connects when it comes up.
+  static Result<std::unique_ptr<NatsPublisher>> create(const NatsOptions& options);
+  ~NatsPublisher();  // removes this publisher's models from the bucket, then closes
+  NatsPublisher(const NatsPublisher&) = delete;
+  NatsPublisher& operator=(const NatsPublisher&) = delete;
+
+  // Setup, before the loop: an avatar and its model packet bytes are put in the bucket (now
+  // or once connected). Returns the index publish_pose takes.
+  Result<int> add_avatar(const std::string& avatar_name, uint16_t dof_count, std::string model_bytes);
+  // Realtime: an encoded pose frame of avatar `index` (copied; latest wins). Never allocates,
+  // throws or waits for the broker.
+  void publish_pose(int index, std::span<const uint8_t> packet) noexcept;
+
+  bool connected() const;
+  std::string connected_url() const;  // the broker node in use, empty when not connected
+  NatsLinkStats stats() const;
+  std::string key(int index) const;
+
+  struct Impl;
+
+ private:
+  explicit NatsPublisher(std::unique_ptr<Impl> impl);
+  std::unique_ptr<Impl> impl_;
+};
+
+// The relay side: subscribes once to a scene and feeds `server` (add_avatar, publish_pose,
+// update_avatar_model, remove_avatar) on the server's own thread. `server` must outlive it, and
+// the feed is destroyed while the server is not running (or from the server's thread).
+class NatsSceneFeed {
+ public:
+  static Result<std::unique_ptr<NatsSceneFeed>> create(const NatsOptions& options, Server& server);
+  ~NatsSceneFeed();
+  NatsSceneFeed(const NatsSceneFeed&) = delete;
+  NatsSceneFeed& operator=(const NatsSceneFeed&) = delete;
+
+  bool connected() const;
+  std::string connected_url() const;
+  NatsLinkStats stats() const;
+
+  struct Impl;
+
+ private:
+  explicit NatsSceneFeed(std::unique_ptr<Impl> impl);
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace mimic::net
