@@ -1,5 +1,7 @@
 #include "mimic/service/pipeline.h"
 
+#include "feed_on_clock.h"
+
 #include <pthread.h>
 #include <sched.h>
 
@@ -8,6 +10,7 @@
 #include <condition_variable>
 #include <cstdio>
 #include <mutex>
+#include <optional>
 #include <thread>
 #include <cmath>
 
@@ -21,6 +24,7 @@
 #include "mimic/net/server.h"
 #include "mimic/net/vmc.h"
 #include "mimic/net/vrpn_server.h"
+#include "mimic/sim/log.h"
 #include "mimic/sim/open_source.h"
 #include "mimic/solver/body_solver.h"
 #include "mimic/solver/calibration.h"
@@ -306,8 +310,32 @@ Result<std::unique_ptr<PoseFeed>> make_motion_feed(std::shared_ptr<const avatar:
   return std::unique_ptr<PoseFeed>(new MotionFeed(std::move(motion), std::move(source), std::move(description)));
 }
 
+namespace {
+
+// The mounts a log recorded with its sensors (a simulated rig writes its exact ones), when every
+// sensor names a segment of `skeleton`; otherwise none, and the standard layout is assumed.
+std::optional<std::vector<solver::SensorMount>> recorded_mounts(const std::string& log_path,
+                                                                const avatar::Skeleton& skeleton) {
+  auto log = sim::read_log(log_path);
+  if (!log || log->header.sensors.empty()) return std::nullopt;
+  std::vector<solver::SensorMount> mounts;
+  for (const sim::LogSensor& s : log->header.sensors) {
+    if (s.segment.empty() || skeleton.find_joint(s.segment) < 0) return std::nullopt;
+    mounts.push_back({s.id, s.segment, s.segment_from_sensor});
+  }
+  return mounts;
+}
+
+}  // namespace
+
 Result<std::unique_ptr<PoseFeed>> open_feed(const std::string& spec_text, const std::string& calibration_path,
                                             const avatar::Skeleton* body) {
+  return open_feed_on_clock(spec_text, calibration_path, body, nullptr);
+}
+
+Result<std::unique_ptr<PoseFeed>> open_feed_on_clock(const std::string& spec_text, const std::string& calibration_path,
+                                                     const avatar::Skeleton* body,
+                                                     std::shared_ptr<const sim::Clock> clock) {
   auto spec = devices::parse_source_spec(spec_text);
   if (!spec) return tl::unexpected(spec.error());
   if (!calibration_path.empty()) {
@@ -315,7 +343,7 @@ Result<std::unique_ptr<PoseFeed>> open_feed(const std::string& spec_text, const 
     if (!cal) return tl::unexpected(cal.error());
     auto model = solver::make_solver_model(*cal);
     if (!model) return tl::unexpected(model.error());
-    auto source = sim::open_sensor_source(*spec);
+    auto source = sim::open_sensor_source(*spec, clock);
     if (!source) return tl::unexpected(source.error());
     std::string desc = (*source)->status().description;
     if (desc.empty()) desc = spec_text;
@@ -327,11 +355,16 @@ Result<std::unique_ptr<PoseFeed>> open_feed(const std::string& spec_text, const 
   // Where the sensors sit: a simulated rig knows exactly; a real tracker uses the standard
   // layout's instructed placements until a calibration is given.
   std::vector<solver::SensorMount> mounts;
+  std::optional<std::vector<solver::SensorMount>> recorded;
+  if (spec->scheme == "replay" && spec->params.find("sensors") == spec->params.end())
+    recorded = recorded_mounts(spec->target, *skeleton);
   if (spec->scheme == "sim" || spec->scheme == "bvh") {
     auto rig = sim::rig_config_from_spec(*spec, *skeleton);
     if (!rig) return tl::unexpected(rig.error());
     for (size_t i = 0; i < rig->sensors.size(); ++i)
       mounts.push_back({static_cast<uint16_t>(i), rig->sensors[i].segment, rig->sensors[i].segment_from_sensor});
+  } else if (recorded) {
+    mounts = std::move(*recorded);
   } else {
     auto it = spec->params.find("sensors");
     auto layout = solver::standard_layout(it == spec->params.end() ? "6" : it->second, *skeleton);
@@ -344,7 +377,7 @@ Result<std::unique_ptr<PoseFeed>> open_feed(const std::string& spec_text, const 
   }
   auto model = solver::SolverModel::create(*skeleton, std::move(mounts));
   if (!model) return tl::unexpected(model.error());
-  auto source = sim::open_sensor_source(*spec, nullptr, nullptr, body);
+  auto source = sim::open_sensor_source(*spec, std::move(clock), nullptr, body);
   if (!source) return tl::unexpected(source.error());
   std::string desc = (*source)->status().description;
   if (desc.empty()) desc = spec_text;

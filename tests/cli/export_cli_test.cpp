@@ -51,6 +51,28 @@ TEST(ExportCli, WalkAndClipBecomeSkinnedAnimations) {
   std::filesystem::remove_all(dir);
 }
 
+TEST(ExportCli, ARecordedSessionBecomesAnAnimation) {
+  const auto dir = std::filesystem::temp_directory_path() / ("mimic-export-log-" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  const std::string log = (dir / "walk.mlog").string(), out = (dir / "walk.glb").string();
+  auto r = mimic::test::run_mimic("record --source 'sim:walk?sensors=11' --duration 1.5 --out '" + log + "'");
+  ASSERT_EQ(r.status, 0) << r.output;
+  r = mimic::test::run_mimic("export --log '" + log + "' --fps 20 --lod 3 --body preset:tall --out '" + out + "'");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("samples solved"), std::string::npos) << r.output;
+  const auto j = glb_json(out);
+  ASSERT_TRUE(j.contains("skins"));
+  EXPECT_EQ(j["skins"][0]["joints"].size(), 23u);
+  ASSERT_EQ(j["animations"].size(), 1u);
+  const auto& input = j["accessors"][j["animations"][0]["samplers"][0]["input"].get<size_t>()];
+  EXPECT_NEAR(input["max"][0].get<double>(), 1.5, 0.06);  // the session's length, 20 keys a second
+  EXPECT_NEAR(input["count"].get<int>(), 31, 1);
+  EXPECT_EQ(mimic::test::run_mimic("export --motion walk --calibration c.json --out /tmp/x.glb").status, 2);
+  EXPECT_EQ(mimic::test::run_mimic("export --log '" + log + "' --motion walk --out /tmp/x.glb").status, 2);
+  EXPECT_EQ(mimic::test::run_mimic("export --log /nonexistent.mlog --out /tmp/x.glb").status, 1);
+  std::filesystem::remove_all(dir);
+}
+
 TEST(ExportCli, UsageErrors) {
   EXPECT_EQ(mimic::test::run_mimic("export --out /tmp/x.glb").status, 2);
   EXPECT_EQ(mimic::test::run_mimic("export --motion walk --bvh x.bvh --out /tmp/x.glb").status, 2);
