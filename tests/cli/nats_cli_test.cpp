@@ -65,6 +65,15 @@ class Proc {
     }
     return "";
   }
+  // Collects output until stderr holds `text` (true) or the timeout passes (false).
+  bool wait_for_err(const std::string& text, double timeout_s) {
+    const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
+    while (err_text_.find(text) == std::string::npos) {
+      if (std::chrono::steady_clock::now() >= end) return false;
+      drain(20);
+    }
+    return true;
+  }
   // Waits for exit (collecting output); the exit code, or -1 on timeout.
   int wait(double timeout_s) {
     const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
@@ -160,6 +169,8 @@ TEST(NatsCli, RunServesLocallyWhileTheBrokerIsDownThenJoinsItRelayAndSubscribeSe
   Proc local({"subscribe", "--connect", ep, "--count", "30", "--json"});
   ASSERT_EQ(local.wait(15.0), 0) << local.err();
   EXPECT_EQ(last_json(local.out())["frames"], 30);
+  // The status line says the broker is away before it comes (it is redrawn twice a second).
+  ASSERT_TRUE(run.wait_for_err("nats DOWN: local only", 5.0)) << run.err();
 
   ASSERT_TRUE(broker.start());
   Proc relay({"relay", "--nats", broker.url(), "--scene", "stage", "--listen", "127.0.0.1:0", "--duration", "10",
