@@ -14,6 +14,9 @@ constexpr unsigned kWideBits = 20;  // width code 15: any residual of i16-range 
 
 uint64_t zigzag(int64_t v) { return (uint64_t(v) << 1) ^ uint64_t(v >> 63); }
 int64_t unzigzag(uint64_t u) { return int64_t(u >> 1) ^ -int64_t(u & 1); }
+// Residuals from the wire are arbitrary 64-bit values: sums wrap (defined) instead of overflowing,
+// and values_in_range() refuses whatever lands outside the quantised ranges.
+int64_t wrapping_add(int64_t a, int64_t b) { return int64_t(uint64_t(a) + uint64_t(b)); }
 
 unsigned width_of(uint64_t u) { return u == 0 ? 0u : unsigned(64 - std::countl_zero(u)); }
 
@@ -296,12 +299,12 @@ Reject decode_lean_pose(std::span<const uint8_t> packet, LeanPoseState& state, P
       return Reject::out_of_order;
     const size_t n = next.value_count();
     for (int i = 0; i < 3; ++i) next.current[size_t(i)] = unzigzag(r.varint());
-    for (int i = 0; i < 3; ++i) next.previous[size_t(i)] = next.current[size_t(i)] + unzigzag(r.varint());
+    for (int i = 0; i < 3; ++i) next.previous[size_t(i)] = wrapping_add(next.current[size_t(i)], unzigzag(r.varint()));
     if (!r.ok) return Reject::truncated;
     BitIn bits{r};
     if (!get_groups(bits, next.current.data() + 3, n - 3)) return Reject::truncated;
     if (!get_groups(bits, next.previous.data() + 3, n - 3)) return Reject::truncated;
-    for (size_t i = 3; i < n; ++i) next.previous[i] += next.current[i];
+    for (size_t i = 3; i < n; ++i) next.previous[i] = wrapping_add(next.previous[i], next.current[i]);
   } else {
     if (!state.valid || state.avatar != avatar || seq != state.sequence + 1) return Reject::unexpected;
     next.shift = state.shift;
@@ -309,11 +312,11 @@ Reject decode_lean_pose(std::span<const uint8_t> packet, LeanPoseState& state, P
     next.time_us = state.time_us + uint64_t(unzigzag(r.varint()));
     const size_t n = next.value_count();
     for (int i = 0; i < 3; ++i)
-      next.current[size_t(i)] = 2 * state.current[size_t(i)] - state.previous[size_t(i)] + unzigzag(r.varint());
+      next.current[size_t(i)] = wrapping_add(2 * state.current[size_t(i)] - state.previous[size_t(i)], unzigzag(r.varint()));
     if (!r.ok) return Reject::truncated;
     BitIn bits{r};
     if (!get_groups(bits, next.current.data() + 3, n - 3)) return Reject::truncated;
-    for (size_t i = 3; i < n; ++i) next.current[i] += 2 * state.current[i] - state.previous[i];
+    for (size_t i = 3; i < n; ++i) next.current[i] = wrapping_add(next.current[i], 2 * state.current[i] - state.previous[i]);
     std::copy_n(state.current.begin(), n, next.previous.begin());
   }
   // Nothing may follow the last value.

@@ -2,6 +2,8 @@
 // nonce, from the TCP peer's host, for as long as it keeps refreshing.
 #include <gtest/gtest.h>
 
+#include <thread>
+
 #include "net_test_support.h"
 
 namespace mimic::net {
@@ -183,6 +185,33 @@ TEST(UdpRegistration, RegistrationsExpireUnlessRefreshed) {
     }
   // The real client refreshes every second and so never expires at a 5 s timeout; here it
   // re-registers by itself after the expiry of a short one.
+}
+
+// A subscriber that leaves with BYE gives up its token for UDP too: a registration with it
+// afterwards is refused and never reaches the session (the server once kept the token's UDP
+// entry after BYE cleared the token, and a datagram then read the freed session: ASan finds it).
+TEST(UdpRegistration, ATokenIsGoneForUdpAfterBye) {
+  ServerThread st;
+  Bytes bye(kHeaderBytes);
+  SessionToken token;
+  {
+    RawPeer stream(st.port());
+    const Welcome w = raw_udp_subscriber(stream);
+    token = w.session_token;
+    Udp udp(st.port());
+    EXPECT_NE(udp.register_by_echo(token), 0u);
+    bye.resize(encode_bye(bye));
+    ASSERT_TRUE(stream.send(bye));
+    // The server ends the session on BYE.
+    const auto until = Clock::now() + std::chrono::seconds(2);
+    while (st.stats().subscribers != 0 && Clock::now() < until) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    ASSERT_EQ(st.stats().subscribers, 0u);
+  }
+  const uint64_t unauthorized_before = st.stats().rejected[static_cast<size_t>(Reject::unauthorized)];
+  Udp again(st.port());
+  again.send(token, 0);
+  EXPECT_TRUE(again.receive(0.3).empty()) << "a token given up with BYE was answered";
+  EXPECT_GT(st.stats().rejected[static_cast<size_t>(Reject::unauthorized)], unauthorized_before);
 }
 
 }  // namespace

@@ -59,7 +59,10 @@ void Session::on_read(const boost::system::error_code& ec, size_t n) {
     if (packet.empty()) break;
     srv.stats.packets_in++;
     last_heard = Clock::now();
-    if (!rate_ok()) continue;
+    if (!rate_ok()) {
+      if (closed) return;  // a flood ends the session: nothing after it may be handled
+      continue;
+    }
     handle(packet);
     if (closed) return;
   }
@@ -92,6 +95,9 @@ void Session::count(Reject e) {
 }
 
 void Session::handle(std::span<const uint8_t> packet) {
+  // A closed session handles nothing: a HELLO here would register its token for UDP again after
+  // close() took it out, and the session is freed right after.
+  if (closed) return;
   const auto type = static_cast<MsgType>(packet[2]);
   if (!active) {
     if (type != MsgType::hello) {
@@ -149,7 +155,12 @@ void Session::refuse(Reject reason, const char* message) {
 }
 
 void Session::forget_token() {
-  if (!token.empty()) srv.resume.erase(token);
+  if (token.empty()) return;
+  srv.resume.erase(token);
+  // The token also keys this session's UDP registration: with the token gone, close() could no
+  // longer find it, and a datagram would reach the freed session.
+  if (auto it = srv.udp_sessions.find(token); it != srv.udp_sessions.end() && it->second == this)
+    srv.udp_sessions.erase(it);
   token = SessionToken{};
 }
 
