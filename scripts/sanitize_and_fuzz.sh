@@ -6,6 +6,7 @@
 #
 #   scripts/sanitize_and_fuzz.sh            # build, ctest, fuzz each target for 20 s
 #   MIMIC_FUZZ_SECONDS=60 scripts/sanitize_and_fuzz.sh
+#   MIMIC_FUZZ_SEED=N                      # libFuzzer's seed (default 1)
 #   MIMIC_SKIP_TESTS=1 / MIMIC_SKIP_FUZZ=1  # one half only
 #
 # Fuzzing works on a copy of fuzz/corpus (the committed seeds stay small); a crash leaves its
@@ -14,6 +15,8 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 dir=${MIMIC_ASAN_DIR:-build-asan}
 seconds=${MIMIC_FUZZ_SECONDS:-20}
+# One seed, printed with the results: a finding reproduces with the same seed and corpus.
+seed=${MIMIC_FUZZ_SEED:-1}
 jobs=$(nproc)
 
 launcher=()
@@ -53,7 +56,7 @@ if [ -z "${MIMIC_SKIP_FUZZ:-}" ]; then
     mkdir -p "$work/$name"
     [ -d "fuzz/corpus/$name" ] && cp -r "fuzz/corpus/$name/." "$work/$name/"
     local log="$work/$name.log"
-    if ! ASAN_OPTIONS=detect_leaks=1 "$bin" "$work/$name" -max_total_time="$seconds" -timeout=10 -rss_limit_mb=2048 \
+    if ! ASAN_OPTIONS=detect_leaks=1 "$bin" "$work/$name" -seed="$seed" -max_total_time="$seconds" -timeout=10 -rss_limit_mb=2048 \
         -artifact_prefix="$artifacts/${name}-" -print_final_stats=1 >"$log" 2>&1; then
       echo "sanitize_and_fuzz: $name FAILED (see $log and $artifacts)"
       tail -40 "$log"
@@ -78,6 +81,6 @@ if [ -z "${MIMIC_SKIP_FUZZ:-}" ]; then
     wait -n || failed=1
     running=$((running - 1))
   done
-  echo "sanitize_and_fuzz: fuzzing $(( $(date +%s) - start )) s"
+  echo "sanitize_and_fuzz: fuzzing $(( $(date +%s) - start )) s (seed $seed)"
   [ "$failed" -eq 0 ]
 fi
