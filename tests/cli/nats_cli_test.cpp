@@ -17,100 +17,13 @@
 #include <string>
 #include <vector>
 
+#include "mimic_proc.h"
 #include "nats_broker.h"
 #include "test_data.h"
 
 namespace {
 
-class Proc {
- public:
-  explicit Proc(const std::vector<std::string>& rest) {
-    std::vector<std::string> args{mimic::test::mimic_binary()};
-    for (const auto& a : rest) args.push_back(a);
-    int out[2], err[2];
-    if (::pipe(out) != 0 || ::pipe(err) != 0) return;
-    posix_spawn_file_actions_t fa;
-    posix_spawn_file_actions_init(&fa);
-    posix_spawn_file_actions_adddup2(&fa, out[1], 1);
-    posix_spawn_file_actions_adddup2(&fa, err[1], 2);
-    posix_spawn_file_actions_addclose(&fa, out[0]);
-    posix_spawn_file_actions_addclose(&fa, err[0]);
-    std::vector<char*> argv;
-    for (auto& a : args) argv.push_back(a.data());
-    argv.push_back(nullptr);
-    ok_ = posix_spawn(&pid_, argv[0], &fa, nullptr, argv.data(), environ) == 0;
-    posix_spawn_file_actions_destroy(&fa);
-    ::close(out[1]);
-    ::close(err[1]);
-    out_ = out[0];
-    err_ = err[0];
-  }
-  ~Proc() {
-    if (ok_ && !exited_) {
-      ::kill(pid_, SIGKILL);
-      ::waitpid(pid_, nullptr, 0);
-    }
-    ::close(out_);
-    ::close(err_);
-  }
-  bool ok() const { return ok_; }
-  void signal(int sig) { ::kill(pid_, sig); }
-
-  // First stdout line (up to timeout).
-  std::string first_line(double timeout_s) {
-    const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
-    while (std::chrono::steady_clock::now() < end) {
-      if (auto nl = out_text_.find('\n'); nl != std::string::npos) return out_text_.substr(0, nl);
-      drain(50);
-    }
-    return "";
-  }
-  // Collects output until stderr holds `text` (true) or the timeout passes (false).
-  bool wait_for_err(const std::string& text, double timeout_s) {
-    const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
-    while (err_text_.find(text) == std::string::npos) {
-      if (std::chrono::steady_clock::now() >= end) return false;
-      drain(20);
-    }
-    return true;
-  }
-  // Waits for exit (collecting output); the exit code, or -1 on timeout.
-  int wait(double timeout_s) {
-    const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
-    while (std::chrono::steady_clock::now() < end) {
-      drain(20);
-      int status = 0;
-      if (::waitpid(pid_, &status, WNOHANG) == pid_) {
-        exited_ = true;
-        drain(0);
-        drain(0);
-        return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
-      }
-    }
-    return -1;
-  }
-  const std::string& out() const { return out_text_; }
-  const std::string& err() const { return err_text_; }
-
- private:
-  void drain(int timeout_ms) {
-    pollfd p[2] = {{out_, POLLIN, 0}, {err_, POLLIN, 0}};
-    if (::poll(p, 2, timeout_ms) <= 0) return;
-    char buf[8192];
-    if (p[0].revents & POLLIN) {
-      const ssize_t n = ::read(out_, buf, sizeof buf);
-      if (n > 0) out_text_.append(buf, size_t(n));
-    }
-    if (p[1].revents & POLLIN) {
-      const ssize_t n = ::read(err_, buf, sizeof buf);
-      if (n > 0) err_text_.append(buf, size_t(n));
-    }
-  }
-  pid_t pid_ = -1;
-  bool ok_ = false, exited_ = false;
-  int out_ = -1, err_ = -1;
-  std::string out_text_, err_text_;
-};
+using mimic::test::Proc;
 
 std::string endpoint_of(Proc& p) {
   const std::string line = p.first_line(10.0);
