@@ -528,6 +528,15 @@ void Pipeline::send_mesh(Avatar& a, uint64_t time_us) {
     send_failures_++;
 }
 
+void Pipeline::publish_pose_frame(Avatar& a, const net::PoseHeader& h, size_t bytes) {
+  const std::span<const uint8_t> packet(a.packet.data(), bytes);
+  if (out_.server && bytes && out_.server->publish_pose(a.server_id, packet) != net::Reject::ok) send_failures_++;
+  if (out_.publisher && a.publisher_slot >= 0 &&
+      !out_.publisher->publish_pose(static_cast<uint8_t>(a.publisher_slot), h, a.pose))
+    send_failures_++;
+  if (out_.nats && bytes) out_.nats->publish_pose(a.nats_index, packet);
+}
+
 void Pipeline::tick() {
   using C = std::chrono::steady_clock;
   auto us = [](C::time_point a, C::time_point b) { return std::chrono::duration<double, std::micro>(b - a).count(); };
@@ -553,14 +562,7 @@ void Pipeline::tick() {
         h.sequence = ++a.sequence;
         h.flags = net::kPoseStale;
         h.time_us = a.time_us;  // still the capture time of the data it shows
-        const size_t bytes = net::encode_pose(h, a.pose, a.packet);
-        if (out_.server && bytes &&
-            out_.server->publish_pose(a.server_id, std::span<const uint8_t>(a.packet.data(), bytes)) != net::Reject::ok)
-          send_failures_++;
-        if (out_.publisher && a.publisher_slot >= 0 &&
-            !out_.publisher->publish_pose(static_cast<uint8_t>(a.publisher_slot), h, a.pose))
-          send_failures_++;
-        if (out_.nats && bytes) out_.nats->publish_pose(a.nats_index, std::span<const uint8_t>(a.packet.data(), bytes));
+        publish_pose_frame(a, h, net::encode_pose(h, a.pose, a.packet));
         stale_frames_++;
       }
       continue;
@@ -581,12 +583,7 @@ void Pipeline::tick() {
     a.time_us = h.time_us;
     const size_t bytes = net::encode_pose(h, a.pose, a.packet);
     const auto t3 = C::now();
-    if (out_.server && bytes && out_.server->publish_pose(a.server_id, std::span<const uint8_t>(a.packet.data(), bytes)) != net::Reject::ok)
-      send_failures_++;
-    if (out_.publisher && a.publisher_slot >= 0 &&
-        !out_.publisher->publish_pose(static_cast<uint8_t>(a.publisher_slot), h, a.pose))
-      send_failures_++;
-    if (out_.nats && bytes) out_.nats->publish_pose(a.nats_index, std::span<const uint8_t>(a.packet.data(), bytes));
+    publish_pose_frame(a, h, bytes);
     if (out_.vmc && i < out_.vmc->avatar_count() && out_.vmc->send(i, a.pose, double(h.time_us) * 1e-6) == 0)
       send_failures_++;
     if (out_.vrpn && i < out_.vrpn->avatar_count()) {

@@ -33,6 +33,7 @@ class Server;
 class Client;
 class VmcSender;
 class NatsPublisher;
+struct PoseHeader;
 class VrpnServer;
 }  // namespace mimic::net
 
@@ -185,6 +186,9 @@ class Pipeline {
     bool silent = false;     // the source has gone quiet: stale repeats
   };
   void send_mesh(Avatar& a, uint64_t time_us);
+  // The pose frame encoded in a.packet (`bytes` long, 0 if the encoder refused it) to every
+  // stream output: the scene served here, a remote scene, the broker.
+  void publish_pose_frame(Avatar& a, const net::PoseHeader& h, size_t bytes);
   PipelineOutputs out_;
   std::vector<Avatar> avatars_;
   std::vector<double> pending_latency_;  // capture time of each avatar's frame this pass, or 0
