@@ -320,9 +320,14 @@ int run_interactive(Args& args, const ViewOptions& view) {
     total_ms += ms;
     frame_ms_sum += ms;
     ++frames_in_window;
-    if (window->time_s() - window_start >= 1.0) {
+    // Figures over the last second; during the first one, over the frames so far (a short run or
+    // a capture would otherwise show 0 ms and 0 fps).
+    const double window_s = window->time_s() - window_start;
+    if (window_s >= 1.0 || fps_shown == 0) {
       frame_ms_shown = frame_ms_sum / frames_in_window;
-      fps_shown = frames_in_window / (window->time_s() - window_start);
+      fps_shown = window_s > 0 ? frames_in_window / window_s : 0;
+    }
+    if (window_s >= 1.0) {
       frame_ms_sum = 0;
       frames_in_window = 0;
       window_start = window->time_s();
