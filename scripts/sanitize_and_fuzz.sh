@@ -22,7 +22,6 @@ jobs=$(nproc)
 launcher=()
 if command -v ccache >/dev/null; then
   launcher=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache)
-  export CCACHE_BASEDIR=  # absolute paths: tests find their data from __FILE__
 fi
 gen=()
 command -v ninja >/dev/null && gen=(-G Ninja)

@@ -35,7 +35,9 @@ struct BenchOptions {
   bool fanout_point = false;  // --subscribers or --avatars given: the fan-out section runs only that point
   std::string transport;      // fan-out: "tcp", "udp" or empty for every transport
   long realtime = 0;          // fan-out: SCHED_FIFO priority of the server and receiving threads
-  bool json_lines = false;    // fan-out alone with --json: one object per configuration per line
+  long threads = 0;           // fan-out: the server's threads sharing a tick's writes (0: its default)
+  long receivers = 2;         // fan-out: threads reading the subscribers
+  bool json_lines = false;    // skin or fan-out alone with --json: one object per LOD or configuration per line
 };
 
 // ---- network -----------------------------------------------------------------------------------
@@ -221,9 +223,14 @@ nlohmann::json skin_row(SkinBenchCase& c, double seconds) {
   const double lbs_us = baseline_us(avatar::baselines::SkinningMethod::lbs);
   const double dqs_us = baseline_us(avatar::baselines::SkinningMethod::dqs);
   const double cor_us = baseline_us(avatar::baselines::SkinningMethod::cor);
-  // The vertex loop alone (no FK, no per-joint conversion), per vertex.
-  const double lbs_vertices_us = median(
-      time_frames(seconds, 2000000, [&](size_t) { baselines->deform(avatar::baselines::SkinningMethod::lbs, out); }));
+  // The vertex loops alone (no FK, no per-joint conversion), per vertex.
+  auto vertices_ns = [&](avatar::baselines::SkinningMethod m) {
+    return 1000.0 * median(time_frames(seconds, 2000000, [&](size_t) { baselines->deform(m, out); })) /
+           static_cast<double>(rest.positions.size());
+  };
+  const double lbs_ns = vertices_ns(avatar::baselines::SkinningMethod::lbs);
+  const double dqs_ns = vertices_ns(avatar::baselines::SkinningMethod::dqs);
+  const double cor_ns = vertices_ns(avatar::baselines::SkinningMethod::cor);
   // Accuracy against the full method on the same poses (same vertices, in order).
   double sum[2] = {0, 0}, worst[2] = {0, 0};
   for (const avatar::Pose& p : c.poses) {
@@ -247,7 +254,9 @@ nlohmann::json skin_row(SkinBenchCase& c, double seconds) {
           {"lbs_us", lbs_us},
           {"dqs_us", dqs_us},
           {"cor_us", cor_us},
-          {"lbs_ns_per_vertex", 1000.0 * lbs_vertices_us / static_cast<double>(rest.positions.size())},
+          {"lbs_ns_per_vertex", lbs_ns},
+          {"dqs_ns_per_vertex", dqs_ns},
+          {"cor_ns_per_vertex", cor_ns},
           {"muscle_points", c.body->muscle_points()},
           {"shared_bytes", c.body->shared_bytes()},
           {"avatar_bytes", rt.instance_bytes()},
@@ -280,15 +289,17 @@ Result<nlohmann::json> bench_skin(const BenchOptions& opt) {
     nlohmann::json row = skin_row(c, seconds);
     std::fprintf(stderr,
                  "skin LOD %d: %zu vertices, %zu triangles: full %.1f us, realtime %.1f us, with muscles %.1f us, "
-                 "linear blend skinning %.1f us (realtime with muscles / LBS %.2fx; LBS %.2f ns/vertex), dual "
-                 "quaternion %.1f us, centres of rotation %.1f us; realtime vs full: mean %.2f mm (%.2f mm without "
-                 "muscles), max %.0f mm\n",
+                 "linear blend skinning %.1f us (realtime with muscles / LBS %.2fx), dual quaternion %.1f us, "
+                 "centres of rotation %.1f us (vertex loops: LBS %.2f, DQS %.2f, CoR %.2f ns/vertex); realtime vs "
+                 "full: mean %.2f mm (%.2f mm without muscles), max %.0f mm\n",
                  lod, row["vertices"].get<size_t>(), row["triangles"].get<size_t>(), row["full_us"].get<double>(),
                  row["realtime_us"].get<double>(), row["realtime_muscles_us"].get<double>(), row["lbs_us"].get<double>(),
                  row["realtime_muscles_us"].get<double>() / std::max(row["lbs_us"].get<double>(), 1e-9),
-                 row["lbs_ns_per_vertex"].get<double>(), row["dqs_us"].get<double>(), row["cor_us"].get<double>(),
+                 row["dqs_us"].get<double>(), row["cor_us"].get<double>(), row["lbs_ns_per_vertex"].get<double>(),
+                 row["dqs_ns_per_vertex"].get<double>(), row["cor_ns_per_vertex"].get<double>(),
                  row["error_mean_mm"].get<double>(), row["error_mean_mm_no_muscles"].get<double>(),
                  row["error_max_mm"].get<double>());
+    if (opt.json_lines) std::printf("%s\n", row.dump().c_str());
     rows.push_back(std::move(row));
   }
   return rows;
@@ -348,7 +359,7 @@ Result<nlohmann::json> bench_solver(const BenchOptions& opt) {
 // relay) add their rows to this table the same way: the same columns, one JSON object each.
 nlohmann::json fanout_row(const net::FanoutCapacity& c) {
   const auto& r = c.result;
-  return {{"transport", net::fanout_transport_name(c.options.transport)},
+  nlohmann::json row = {{"transport", net::fanout_transport_name(c.options.transport)},
           {"streams", c.streams},
           {"subscribers", c.options.subscribers},
           {"avatars", c.options.avatars},
@@ -360,6 +371,9 @@ nlohmann::json fanout_row(const net::FanoutCapacity& c) {
           {"bytes_per_avatar_frame", c.bytes_per_avatar_frame},
           {"cpu_percent", c.cpu_percent},
           {"cpu_us_per_tick", c.cpu_us_per_tick},
+          {"receiver_cpu_us_per_tick", c.receiver_cpu_us_per_tick},
+          {"sender_threads", c.sender_threads},
+          {"receiver_threads", c.receiver_threads},
           {"process_cpu_percent", c.process_cpu_percent},
           {"lost", r.lost},
           {"dropped", r.frames_dropped},
@@ -369,18 +383,35 @@ nlohmann::json fanout_row(const net::FanoutCapacity& c) {
           {"late_ticks", r.late_ticks},
           {"kept_up", r.kept_up},
           {"load_average_1m", c.load_average_1m}};
+  if (c.options.transport == net::FanoutTransport::nats) {
+    row["publish_to_relay_ms_p50"] = c.publish_to_relay_ms_p50;
+    row["publish_to_relay_ms_p99"] = c.publish_to_relay_ms_p99;
+    row["broker_cpu_percent"] = c.broker_cpu_percent;
+    row["relay_fanouts_per_tick"] = c.fanouts_per_tick;
+  }
+  return row;
 }
 
 Result<nlohmann::json> bench_fanout(const BenchOptions& opt) {
   std::vector<net::FanoutTransport> transports;
-  for (auto t : {net::FanoutTransport::tcp, net::FanoutTransport::udp})
+  for (auto t : {net::FanoutTransport::tcp, net::FanoutTransport::udp, net::FanoutTransport::nats})
     if (opt.transport.empty() || opt.transport == net::fanout_transport_name(t)) transports.push_back(t);
   std::vector<std::pair<long, long>> points;
   if (opt.fanout_point) points = {{opt.subscribers, opt.avatars}};
   else if (opt.quick) points = {{50, 2}};
   else points = {{1000, 1}, {2500, 4}, {1250, 8}};
   nlohmann::json rows = nlohmann::json::array();
-  for (auto t : transports)
+  for (auto t : transports) {
+    if (t == net::FanoutTransport::nats) {
+      if (auto ready = net::fanout_nats_available(); !ready) {
+        // A row saying why, so that a reader of the JSON lines sees the transport was skipped.
+        std::fprintf(stderr, "fan-out nats: skipped: %s\n", ready.error().message.c_str());
+        const nlohmann::json row = {{"transport", "nats"}, {"skipped", ready.error().message}};
+        if (opt.json_lines) std::printf("%s\n", row.dump().c_str());
+        rows.push_back(row);
+        continue;
+      }
+    }
     for (const auto& [subs, avs] : points) {
       net::FanoutOptions o;
       o.subscribers = int(subs);
@@ -388,19 +419,27 @@ Result<nlohmann::json> bench_fanout(const BenchOptions& opt) {
       o.seconds = opt.quick ? 0.5 : opt.seconds;
       o.transport = t;
       o.realtime_priority = int(opt.realtime);
+      o.sender_threads = int(opt.threads);
+      o.receiver_threads = int(opt.receivers);
       auto c = net::measure_fanout_capacity(o);
       if (!c) return tl::unexpected(c.error());
       const auto row = fanout_row(*c);
       std::fprintf(stderr,
                    "fan-out %s 90 Hz: %ld subscribers x %ld avatars = %llu streams: %s (tick p50 %.0f us, p99 %.0f us, "
-                   "%.1f bytes/avatar-frame, lost %llu, dropped %llu, server thread %.0f%% CPU = %.0f us per tick, load %.1f)\n",
+                   "%.1f bytes/avatar-frame, lost %llu, dropped %llu, server %d threads %.0f%% CPU = %.0f us per tick, "
+                   "receivers %.0f us per tick, load %.1f)\n",
                    net::fanout_transport_name(t), subs, avs, static_cast<unsigned long long>(c->streams),
                    c->result.kept_up ? "kept up" : "FELL BEHIND", c->result.tick_p50_us, c->result.tick_p99_us,
                    c->bytes_per_avatar_frame, static_cast<unsigned long long>(c->result.lost),
-                   static_cast<unsigned long long>(c->result.frames_dropped), c->cpu_percent, c->cpu_us_per_tick, c->load_average_1m);
+                   static_cast<unsigned long long>(c->result.frames_dropped), c->sender_threads, c->cpu_percent,
+                   c->cpu_us_per_tick, c->receiver_cpu_us_per_tick, c->load_average_1m);
+      if (t == net::FanoutTransport::nats)
+        std::fprintf(stderr, "  publish -> nats-server -> relay: p50 %.2f ms, p99 %.2f ms; nats-server %.0f%% CPU; %.2f relay fan-outs per tick\n",
+                     c->publish_to_relay_ms_p50, c->publish_to_relay_ms_p99, c->broker_cpu_percent, c->fanouts_per_tick);
       if (opt.json_lines) std::printf("%s\n", row.dump().c_str());
       rows.push_back(row);
     }
+  }
   return rows;
 }
 
@@ -418,7 +457,7 @@ const Section kSections[] = {
 
 const char* kUsage =
     "usage: mimic bench [--section NAME] [--quick] [--subscribers N] [--avatars A] [--seconds S]\n"
-    "                   [--transport tcp|udp] [--realtime P] [--json]\n"
+    "                   [--transport tcp|udp|nats] [--realtime P] [--threads N] [--receivers R] [--json]\n"
     "\n"
     "Measures this machine (figures, not pass/fail; a loaded machine measures worse).\n"
     "\n"
@@ -430,15 +469,19 @@ const char* kUsage =
     "  skin  the skin on the built-in walk at every LOD, one row each: the full method\n"
     "        (contours ray-cast), the realtime method without and with muscles, and the\n"
     "        baselines on the same vertices with the contour-derived weights: linear blend\n"
-    "        (lbs_us, and lbs_ns_per_vertex for the vertex loop alone), dual quaternion\n"
-    "        (dqs_us) and optimized centres of rotation (cor_us) skinning (medians,\n"
-    "        microseconds, one run); and the realtime vertices' distance from the full\n"
-    "        method's on the same poses (mm)\n"
+    "        (lbs_us), dual quaternion (dqs_us) and optimized centres of rotation (cor_us)\n"
+    "        skinning (medians, microseconds, one run; lbs/dqs/cor_ns_per_vertex for their\n"
+    "        vertex loops alone); and the realtime vertices' distance from the full\n"
+    "        method's on the same poses (mm); with --json alone, one JSON object per LOD\n"
+    "        per line\n"
     "  solver  filter + solve per frame for the layouts 3, 6, 11 and all (built-in walk,\n"
     "        1 mm / 0.5 deg noise, 120 Hz): p50/p99\n"
     "  fanout  subscriber streams one process serves at 90 Hz over loopback (TCP and UDP, lean\n"
     "        stream): tick p50/p99, bytes per avatar-frame, CPU, lost (from sequence numbers);\n"
-    "        with --json alone, one JSON object per configuration per line\n"
+    "        and through a broker (nats): the bench starts nats-server on a free loopback port,\n"
+    "        publishes into it and a relay in-process serves the subscribers (tick = the relay's\n"
+    "        fan-out; publish-to-relay latency p50/p99); skipped, saying why, without NATS or\n"
+    "        nats-server; with --json alone, one JSON object per configuration per line\n"
     "\n"
     "options:\n"
     "  --section NAME    run one section (default: all)\n"
@@ -446,12 +489,18 @@ const char* kUsage =
     "  --subscribers N   largest fan-out point: subscribers (default 1000)\n"
     "  --avatars A       largest fan-out point: avatars (default 1)\n"
     "  --seconds S       duration of each timed run (default 3)\n"
-    "  --transport T     fanout: tcp or udp only\n"
-    "  --realtime P      fanout: server and receiving threads SCHED_FIFO at priority P\n"
-    "  --json            print one JSON object {section: figures} on stdout\n";
+    "  --transport T     fanout: tcp, udp or nats only\n"
+    "  --realtime P      fanout: the server's threads SCHED_FIFO at priority P, the receiving\n"
+    "                    threads at P - 1\n"
+    "  --threads N       fanout: the server's threads sharing a tick's writes (default: one per\n"
+    "                    core, at most 4)\n"
+    "  --receivers R     fanout: threads reading the subscribers' sockets (default 2)\n"
+    "  --json            print one JSON object {section: figures} on stdout (skin or fanout\n"
+    "                    alone: one object per row and line)\n";
 
 int bench(const std::vector<std::string>& argv) {
-  Args a(argv, {"section", "subscribers", "avatars", "seconds", "transport", "realtime"}, {"quick", "json"});
+  Args a(argv, {"section", "subscribers", "avatars", "seconds", "transport", "realtime", "threads", "receivers"},
+         {"quick", "json"});
   if (a.help()) {
     std::printf("%s", kUsage);
     return 0;
@@ -469,9 +518,13 @@ int bench(const std::vector<std::string>& argv) {
   opt.transport = a.get_or("transport", "");
   if (!a.get_int("realtime", opt.realtime) || opt.realtime < 0 || opt.realtime > 99)
     return usage_error("bench", "--realtime takes a priority 1..99");
-  if (!opt.transport.empty() && opt.transport != "tcp" && opt.transport != "udp")
-    return usage_error("bench", "--transport must be tcp or udp");
-  opt.json_lines = only == "fanout" && a.has("json");
+  if (!a.get_int("threads", opt.threads) || opt.threads < 0 || opt.threads > 64)
+    return usage_error("bench", "--threads takes 0..64 (0: one per core, at most 4)");
+  if (!a.get_int("receivers", opt.receivers) || opt.receivers < 1 || opt.receivers > 64)
+    return usage_error("bench", "--receivers takes 1..64");
+  if (!opt.transport.empty() && opt.transport != "tcp" && opt.transport != "udp" && opt.transport != "nats")
+    return usage_error("bench", "--transport must be tcp, udp or nats");
+  opt.json_lines = (only == "fanout" || only == "skin") && a.has("json");
   nlohmann::json all;
   bool found = false;
   for (const auto& s : kSections) {

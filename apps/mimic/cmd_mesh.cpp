@@ -40,8 +40,9 @@ constexpr const char* kUsage =
     "                        ray-cast once in the zero posture and moved with their rings (the\n"
     "                        paper's realtime method, muscles kept; contour points are the vertices)\n"
     "  --no-muscles          realtime: the contours keep their measured shape\n"
-    "  --lod N               contours per link and points per contour: 0 the body's own (default)\n"
-    "                        to 3 (about 300 triangles)\n"
+    "  --lod N|PIECE=N,...   contours per link and points per contour: 0 the body's own (default)\n"
+    "                        to 3 (about 300 triangles), for the whole body or per piece, e.g.\n"
+    "                        torso=0,neck=1,arms=2,legs=1,rigid=0 (pieces not named: all=N, else 0)\n"
     "  --subdivision N       full: B-spline samples per contour span, 1..16 (default 1); 0 = contour\n"
     "                        points are the vertices, no smoothing\n"
     "  --no-rigid            leave out the head, hands and feet\n"
@@ -76,10 +77,10 @@ int report_pose_error(const Error& e) {
 }
 
 // The realtime method: the shared body (contours ray-cast once, muscle terms), then one frame.
-int realtime_mesh(const Args& args, const avatar::BodyModel& body, int lod, const std::string& out) {
+// `body` is already at its LOD (with_skin_lods), so the realtime body takes it as it is (LOD 0).
+int realtime_mesh(const Args& args, const avatar::BodyModel& body, const std::string& out) {
   auto t0 = std::chrono::steady_clock::now();
   avatar::RealtimeOptions o;
-  o.lod = lod;
   o.rigid_parts = !args.has("no-rigid");
   auto shared = avatar::RealtimeBody::create(body, o);
   if (!shared) return failure(kName, shared.error().message);
@@ -108,11 +109,11 @@ int run_mesh(const std::vector<std::string>& argv) {
   if (!args.positionals().empty()) return usage_error(kName, "unexpected argument '" + args.positionals()[0] + "'");
   const auto out = args.get("out");
   if (!out) return usage_error(kName, "--out FILE.{obj,ply,glb} is required");
-  long subdivision = 1, lod = 0;
-  if (!args.get_int("subdivision", subdivision) || !args.get_int("lod", lod)) return usage_error(kName, args.error());
+  long subdivision = 1;
+  if (!args.get_int("subdivision", subdivision)) return usage_error(kName, args.error());
   if (subdivision < 0 || subdivision > 16) return usage_error(kName, "--subdivision must be in 0..16");
-  if (lod < 0 || lod >= avatar::kSkinLodCount)
-    return usage_error(kName, "--lod must be in 0.." + std::to_string(avatar::kSkinLodCount - 1));
+  const auto lods = avatar::parse_skin_lods(args.get_or("lod", "0"));
+  if (!lods) return usage_error(kName, "--lod: " + lods.error().message);
   auto method = avatar::parse_skin_method(args.get_or("method", "full"));
   if (!method) return usage_error(kName, method.error().message);
   if (*method == avatar::SkinMethod::realtime && args.has("subdivision"))
@@ -124,13 +125,15 @@ int run_mesh(const std::vector<std::string>& argv) {
   const double body_ms = ms_since(t0);
   std::printf("body      %-40s %4zu primitives   %8.2f ms\n", args.get_or("body", "built-in default").c_str(),
               body->primitives.size(), body_ms);
-  if (*method == avatar::SkinMethod::realtime) return realtime_mesh(args, *body, static_cast<int>(lod), *out);
+  const avatar::BodyModel at_lod = avatar::with_skin_lods(*body, *lods);
+  std::printf("lod       %s\n", avatar::skin_lods_name(*lods).c_str());
+  if (*method == avatar::SkinMethod::realtime) return realtime_mesh(args, at_lod, *out);
 
   t0 = std::chrono::steady_clock::now();
   avatar::SkinOptions options;
   options.subdivision = static_cast<int>(subdivision);
   options.rigid_parts = !args.has("no-rigid");
-  auto skin = avatar::BodySkin::create(avatar::with_skin_lod(*body, static_cast<int>(lod)), options);
+  auto skin = avatar::BodySkin::create(at_lod, options);
   if (!skin) return failure(kName, skin.error().message);
   std::printf("skin      topology and rigid parts built                       %8.2f ms\n", ms_since(t0));
 

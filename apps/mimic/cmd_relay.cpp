@@ -8,6 +8,7 @@
 #include <nlohmann/json.hpp>
 
 #include "command.h"
+#include "lean_flags.h"
 #include "stop_signal.h"
 #include "mimic/net/nats.h"
 #include "mimic/net/server.h"
@@ -17,13 +18,17 @@ namespace {
 
 const char* kUsage =
     "usage: mimic relay --nats URL[,URL...] [--scene NAME] [--listen ADDR:PORT] [--secret S] [--no-udp]\n"
-    "                   [--duration S] [--json] [--quiet]\n"
+    "                   [--lean-shift N] [--lean-key-interval N] [--duration S] [--json] [--quiet]\n"
     "\n"
     "Subscribes once to a scene on the NATS broker(s) (every publisher's models from the scene's\n"
     "key-value bucket, their pose frames from core NATS) and serves it to local viewers (mimic\n"
     "subscribe, VR scenes) exactly as mimic run serves its own avatars: same handshake, limits,\n"
     "checks, UDP option. Viewers behind different relays see the same avatars. The relay\n"
     "reconnects to the broker (or another node of its cluster) on its own. docs/scaling.md.\n"
+    "An avatar is served once its publisher shows life (its heartbeat, once a second, or a\n"
+    "frame) and leaves when the publisher misses 3 heartbeats (a crashed mimic run). Mesh\n"
+    "viewers (mimic subscribe --mesh-lod L) get mesh frames of LOD L from the publishers that\n"
+    "deform at L: the relay asks for them while such a viewer is connected.\n"
     "\n"
     "options:\n"
     "  --nats URL[,URL]    broker address(es), nats://HOST:PORT. Credentials from MIMIC_NATS_USER\n"
@@ -33,6 +38,7 @@ const char* kUsage =
     "  --secret S          shared secret for publishers (prefer MIMIC_SECRET); needed on a\n"
     "                      non-loopback address, as for mimic run\n"
     "  --no-udp            pose frames over TCP only\n"
+    MIMIC_LEAN_FLAGS_USAGE
     "  --duration S        stop by itself after S seconds\n"
     "  --json              a JSON summary on stdout at exit (and on SIGUSR1)\n"
     "  --quiet             no live status line on stderr\n"
@@ -43,7 +49,8 @@ volatile std::sig_atomic_t g_report = 0;
 extern "C" void on_relay_report(int) { g_report = 1; }
 
 int relay(const std::vector<std::string>& argv) {
-  Args a(argv, {"nats", "scene", "listen", "secret", "duration"}, {"json", "quiet", "no-udp"});
+  Args a(argv, {"nats", "scene", "listen", "secret", "duration", "lean-shift", "lean-key-interval"},
+         {"json", "quiet", "no-udp"});
   if (a.help()) {
     std::printf("%s", kUsage);
     return 0;
@@ -60,6 +67,7 @@ int relay(const std::vector<std::string>& argv) {
   if (so.secret.empty())
     if (const char* env = std::getenv("MIMIC_SECRET")) so.secret = env;
   so.udp = !a.has("no-udp");
+  if (const std::string e = take_lean_flags(a, so); !e.empty()) return usage_error("relay", e);
   auto s = net::Server::create(so);
   if (!s) return failure("relay", s.error().what());
   net::Server& server = **s;
@@ -93,11 +101,13 @@ int relay(const std::vector<std::string>& argv) {
     j["scene"] = no.scene;
     j["nats"] = {{"connected", ns.connected}, {"frames_in", ns.frames},    {"frames_dropped", ns.frames_dropped},
                  {"models", ns.models},       {"avatars", ns.avatars},     {"rejected", ns.rejected}, {"early_frames", ns.early_frames},
+                 {"held", ns.held},           {"expired", ns.expired},     {"mesh_frames", ns.mesh_frames},
+                 {"mesh_requests", ns.mesh_requests},
                  {"latency_ms_p50", ns.latency_ms_p50}, {"latency_ms_p99", ns.latency_ms_p99},
                  {"disconnects", ns.disconnects}, {"reconnects", ns.reconnects}, {"last_error", ns.last_error}};
     j["server"] = {{"subscribers", st.subscribers}, {"frames_out", st.frames_out}, {"frames_dropped", st.frames_dropped},
                    {"bytes_out", st.bytes_out}, {"rejected", st.rejected_total()}, {"udp_frames_out", st.udp_frames_out},
-                   {"sessions_accepted", st.sessions_accepted}};
+                   {"mesh_frames_out", st.mesh_frames_out}, {"sessions_accepted", st.sessions_accepted}};
     return j;
   };
   const bool status_line = !a.has("quiet");

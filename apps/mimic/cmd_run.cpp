@@ -19,6 +19,7 @@
 #include "mimic/net/vmc.h"
 #include "mimic/net/vrpn_server.h"
 #include "alloc_count.h"
+#include "lean_flags.h"
 #include "mimic/service/pipeline.h"
 #include "mimic/service/scene.h"
 #include "mimic/sim/open_input.h"
@@ -32,8 +33,9 @@ extern "C" void on_report_signal(int) { g_report = true; }
 
 const char* kUsage =
     "usage: mimic run [--source SPEC [--body FILE] [--calibration FILE]]... [--listen ADDR:PORT]\n"
-    "                 [--secret S]\n"
-    "                 [--publish HOST:PORT] [--nats URL[,URL...] [--scene NAME] [--nats-name N]]\n"
+    "                 [--secret S] [--lean-shift N] [--lean-key-interval N]\n"
+    "                 [--publish HOST:PORT] [--nats URL[,URL...] [--scene NAME] [--nats-name N]\n"
+    "                 [--nats-model-ttl S] [--nats-mesh-hz HZ]]\n"
     "                 [--vmc HOST:PORT] [--vrpn [HOST:]PORT] [--duration S] [--realtime PRIO]\n"
     "                 [--json] [--quiet]\n"
     "\n"
@@ -65,19 +67,29 @@ const char* kUsage =
     "                      pose frames as UDP datagrams from the same port (mimic subscribe --udp)\n"
     "  --no-udp            frames over TCP only (no UDP socket; subscribers asking for UDP are\n"
     "                      told so in the handshake and get their frames on the stream)\n"
+    MIMIC_LEAN_FLAGS_USAGE
     "  --secret S          shared secret publishers must present. On the command line it shows\n"
     "                      in 'ps' to every user of this machine: prefer the MIMIC_SECRET\n"
     "                      environment variable\n"
     "  --publish HOST:PORT do not host: publish the avatars into the scene served there\n"
     "  --nats URL[,URL]    also publish every avatar through the NATS broker(s) nats://HOST:PORT\n"
     "                      (docs/scaling.md): models latest-wins in the scene's key-value bucket,\n"
-    "                      pose frames on mimic.SCENE.KEY.pose. Local listeners are served as\n"
-    "                      usual; a broker that is down is joined when it comes up. Credentials\n"
+    "                      each pass's pose frames in one message on mimic.SCENE.poses.NAME.\n"
+    "                      Local listeners are served as usual; a broker that is down is\n"
+    "                      joined when it comes up. Credentials\n"
     "                      from MIMIC_NATS_USER + MIMIC_NATS_PASSWORD, or MIMIC_NATS_TOKEN\n"
     "  --scene NAME        the scene on the broker (default 'default'; A-Z a-z 0-9 _ -)\n"
     "  --nats-name N       this publisher's name (default: the host name); with the avatar's\n"
     "                      name it makes the avatar's key, the same on every restart. Two\n"
     "                      processes on one host publishing into one scene need different names\n"
+    "  --nats-model-ttl S  when this publisher creates the scene's bucket: a model not put again\n"
+    "                      for S seconds leaves it (3-86400, default 60; 0: never). A live\n"
+    "                      publisher puts its models again every S/3 s, so only a crashed one's\n"
+    "                      expire; relays drop a crashed publisher's avatars after 3 missed\n"
+    "                      heartbeats (one a second) anyway\n"
+    "  --nats-mesh-hz HZ   mesh frames per avatar per second at most (1-240, default 30), sent\n"
+    "                      at the --mesh-lod only while a relay with mesh viewers at that LOD\n"
+    "                      asks for them\n"
     "  --vmc HOST:PORT     also send every avatar as VMC (OSC over UDP), e.g. 127.0.0.1:39539;\n"
     "                      avatar i (counting from 0) goes to PORT + i\n"
     "  --vrpn [HOST:]PORT  also serve every avatar as VRPN trackers (VRPN 07.35 over TCP + UDP;\n"
@@ -177,7 +189,7 @@ int run(const std::vector<std::string>& argv) {
   std::string error;
   if (!take_sources(args, sources, error)) return usage_error("run", error);
   Args a(args, {"listen", "secret", "publish", "vmc", "vrpn", "duration", "realtime", "mesh-lod", "mesh-method", "room",
-                 "nats", "scene", "nats-name"},
+                 "nats", "scene", "nats-name", "nats-model-ttl", "nats-mesh-hz", "lean-shift", "lean-key-interval"},
          {"json", "quiet", "no-udp"});
   if (a.help()) {
     std::printf("%s", kUsage);
@@ -204,11 +216,22 @@ int run(const std::vector<std::string>& argv) {
     if (const char* env = std::getenv("MIMIC_SECRET")) secret = env;
 
   if (a.has("nats") && a.has("publish")) return usage_error("run", "--nats and --publish do not go together");
-  if ((a.has("scene") || a.has("nats-name")) && !a.has("nats")) return usage_error("run", "--scene and --nats-name need --nats");
+  if ((a.has("scene") || a.has("nats-name") || a.has("nats-model-ttl") || a.has("nats-mesh-hz")) && !a.has("nats"))
+    return usage_error("run", "--scene, --nats-name, --nats-model-ttl and --nats-mesh-hz need --nats");
+  net::NatsOptions nats_options;
+  if (!a.get_double("nats-model-ttl", nats_options.model_ttl_s) || !a.get_double("nats-mesh-hz", nats_options.mesh_max_hz))
+    return usage_error("run", a.error());
+  if (!(nats_options.model_ttl_s == 0 ||
+        (nats_options.model_ttl_s >= net::kMinModelTtl_s && nats_options.model_ttl_s <= net::kMaxModelTtl_s)))
+    return usage_error("run", "--nats-model-ttl must be 0 (never) or 3 to 86400 seconds");
+  if (!(nats_options.mesh_max_hz >= net::kMinMeshHz && nats_options.mesh_max_hz <= net::kMaxMeshHz))
+    return usage_error("run", "--nats-mesh-hz must be 1 to 240");
   std::unique_ptr<net::Server> server;
   std::unique_ptr<net::Client> publisher;
   std::unique_ptr<net::NatsPublisher> nats;
   std::string where;
+  if (a.has("publish") && (a.has("lean-shift") || a.has("lean-key-interval")))
+    return usage_error("run", "--lean-shift and --lean-key-interval set what this process serves: not with --publish");
   if (a.has("publish")) {
     net::ClientOptions o;
     o.connect = *a.get("publish");
@@ -224,6 +247,7 @@ int run(const std::vector<std::string>& argv) {
     o.listen = a.get_or("listen", "127.0.0.1:7777");
     o.secret = secret;
     o.udp = !a.has("no-udp");
+    if (const std::string e = take_lean_flags(a, o); !e.empty()) return usage_error("run", e);
     auto s = net::Server::create(o);
     if (!s) return failure("run", s.error().what());
     server = std::move(*s);
@@ -292,7 +316,7 @@ int run(const std::vector<std::string>& argv) {
     deformers.push_back(std::move(*deformer));
   }
   if (a.has("nats")) {
-    net::NatsOptions o;
+    net::NatsOptions o = nats_options;
     o.servers = *a.get("nats");
     o.scene = a.get_or("scene", "default");
     char host[256] = {};
@@ -395,14 +419,16 @@ int run(const std::vector<std::string>& argv) {
                      {"udp_wrong_address", st.udp_wrong_address}, {"udp_expired", st.udp_expired},
                      {"sessions_open", st.sessions_open}, {"sessions_timed_out", st.sessions_timed_out},
                      {"sessions_refused_per_address", st.sessions_refused_per_address},
-                     {"sessions_closed_slow", st.sessions_closed_slow}, {"model_bytes_held", st.model_bytes_held}};
+                     {"sessions_closed_slow", st.sessions_closed_slow}, {"model_bytes_held", st.model_bytes_held},
+                     {"key_requests", st.key_requests}, {"mesh_frames_out", st.mesh_frames_out}};
       for (int r = 1; r < net::kRejectCount; ++r)
         if (st.rejected[size_t(r)]) j["server"]["rejected_by_reason"][net::reject_name(net::Reject(r))] = st.rejected[size_t(r)];
     }
     if (nats) {
       const auto ns = nats->stats();
       j["nats"] = {{"connected", ns.connected}, {"frames", ns.frames}, {"frames_dropped", ns.frames_dropped},
-                   {"models", ns.models}, {"model_failures", ns.model_failures}, {"disconnects", ns.disconnects},
+                   {"models", ns.models}, {"model_failures", ns.model_failures}, {"mesh_frames", ns.mesh_frames},
+                   {"mesh_requests", ns.mesh_requests}, {"disconnects", ns.disconnects},
                    {"reconnects", ns.reconnects}, {"last_error", ns.last_error}};
     }
     return j;

@@ -15,7 +15,7 @@ namespace mimic::app {
 namespace {
 
 const char* kUsage =
-    "usage: mimic subscribe [--connect HOST:PORT] [--count N] [--duration S] [--mesh-lod L] [--udp] [--lean]\n"
+    "usage: mimic subscribe [--connect HOST:PORT] [--count N] [--duration S] [--mesh-lod L] [--udp] [--no-lean]\n"
     "                      [--json]\n"
     "\n"
     "Joins the scene served by 'mimic run' as a subscriber: receives every avatar's body model\n"
@@ -23,7 +23,7 @@ const char* kUsage =
     "--json only a summary object at the end:\n"
     "  frames, avatars, fps, latency_ms_p50, latency_ms_p99, lost, out_of_order, model_bytes,\n"
     "  frame_bytes_mean, mesh_frames, reconnects, duration_s, transport, udp_frames, lean_keys,\n"
-    "  lean_unreferenced, key_requests\n"
+    "  lean, lean_shift, lean_unreferenced, key_requests\n"
     "Latency is the frame's capture time (sender's clock) to its arrival here; fps is per avatar,\n"
     "the rate its frames were captured at (their timestamps), not how fast they happened to arrive.\n"
     "Names and server messages are printed with control characters escaped (\\xNN).\n"
@@ -38,8 +38,10 @@ const char* kUsage =
     "  --udp                pose frames as UDP datagrams (models stay on TCP; frames come over\n"
     "                       TCP until the server has registered this address, or if it offers\n"
     "                       no UDP)\n"
-    "  --lean               the lean pose stream (key and delta frames, about 60 bytes instead of\n"
-    "                       150, at the server's coarser precision: docs/protocol.md)\n"
+    "  --no-lean            POSE frames (150 bytes, angles in pi/32767 rad steps) instead of the\n"
+    "                       lean pose stream taken by default: key and delta frames of about 60\n"
+    "                       bytes at the server's precision (mimic run --lean-shift;\n"
+    "                       docs/protocol.md). --lean asks for the default\n"
     "  --json               print only the JSON summary\n";
 
 double percentile(std::vector<double> v, double q) {
@@ -50,7 +52,7 @@ double percentile(std::vector<double> v, double q) {
 }
 
 int subscribe(const std::vector<std::string>& argv) {
-  Args a(argv, {"connect", "count", "duration", "mesh-lod"}, {"json", "udp", "lean"});
+  Args a(argv, {"connect", "count", "duration", "mesh-lod"}, {"json", "udp", "lean", "no-lean"});
   if (a.help()) {
     std::printf("%s", kUsage);
     return 0;
@@ -70,7 +72,8 @@ int subscribe(const std::vector<std::string>& argv) {
   o.name = "mimic subscribe";
   if (lod >= 0) o.mesh_lod = static_cast<uint8_t>(lod);
   o.udp = a.has("udp");
-  o.lean = a.has("lean");
+  if (a.has("lean") && a.has("no-lean")) return usage_error("subscribe", "--lean and --no-lean contradict each other");
+  o.lean = !a.has("no-lean");
   auto c = net::Client::connect(o);
   if (!c) return failure("subscribe", net::printable(c.error().what()));
   net::Client& client = **c;
@@ -96,6 +99,9 @@ int subscribe(const std::vector<std::string>& argv) {
     if (!json) std::printf("removed avatar=%u\n", id);
   };
   client.on_pose = [&](const net::RemoteAvatar& m, uint64_t now_us) {
+    // Several frames come in one read (every avatar of a tick): the ones past the count are not
+    // this run's.
+    if (count > 0 && frames >= uint64_t(count)) return;
     const double lat = (double(now_us) - double(m.last.time_us)) * 1e-3;
     latency_ms.push_back(lat);
     frames++;
@@ -146,6 +152,11 @@ int subscribe(const std::vector<std::string>& argv) {
     j["duration_s"] = std::chrono::duration<double>(C::now() - start).count();
     j["transport"] = s.udp_frames > 0 ? "udp" : "tcp";
     j["udp_frames"] = s.udp_frames;
+    j["lean"] = (client.negotiated_capabilities() & net::kCapLeanPose) != 0;
+    // The precision the server streams at (its key frames carry it); null before any key.
+    j["lean_shift"] = nullptr;
+    for (const auto& [id, m] : client.avatars())
+      if (m.lean.valid) j["lean_shift"] = m.lean.shift;
     j["lean_keys"] = s.lean_keys;
     j["lean_unreferenced"] = s.lean_unreferenced;
     j["key_requests"] = s.key_requests;

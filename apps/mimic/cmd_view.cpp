@@ -24,7 +24,8 @@ constexpr const char* kName = "view";
 
 constexpr const char* kUsage =
     "usage: mimic view --screenshot OUT.png [pose] [options]   one frame offscreen, as a PNG\n"
-    "       mimic view [--source SPEC | --connect HOST:PORT] [options]   the interactive viewer\n"
+    "       mimic view [--source SPEC | --connect HOST:PORT | --connect nats://HOST:PORT/SCENE] [options]\n"
+    "                                                              the interactive viewer\n"
     "\n"
     "Draws the deformed body: smooth shading with one colour per skin piece, a floor grid (1 m\n"
     "squares, the X axis red, the Z axis — where the body faces — blue), and overlays that show\n"
@@ -45,12 +46,20 @@ constexpr const char* kUsage =
     "                        bvh:CLIP, flock:/dev/ttyUSB0?birds=4 ...; several, separated by ';',\n"
     "                        stand side by side\n"
     "  --calibration FILE    calibration of the wearer (mimic calibrate) for a tracker source\n"
-    "  --connect HOST:PORT   view the scene a `mimic run` serves: body models once, then pose\n"
-    "                        frames, every avatar deformed here\n"
+    "  --connect HOST:PORT   view the scene a `mimic run` (or `mimic relay`) serves: body models\n"
+    "                        once, then pose frames, every avatar deformed here\n"
+    "  --connect nats://HOST:PORT[,nats://HOST:PORT...]/SCENE\n"
+    "                        view a scene published through a NATS broker (mimic run --nats):\n"
+    "                        a relay inside this process takes it from the broker (credentials\n"
+    "                        from MIMIC_NATS_USER + MIMIC_NATS_PASSWORD, or MIMIC_NATS_TOKEN);\n"
+    "                        avatars appear as their models arrive, also if the broker comes\n"
+    "                        up later\n"
+    "  --no-lean             with --connect: POSE frames instead of the lean pose stream asked\n"
+    "                        for by default (key and delta frames at the server's precision)\n"
     "\n"
     "options:\n"
     "  --camera NAME         front, side (from the body's left), back, three-quarter (default front)\n"
-    "  --size WxH            image or window size in pixels (default 640x720)\n"
+    "  --size WxH            image or window size in pixels (default 640x720, window 960x720)\n"
     "  --lod N               skin level of detail, 0 (finest) .. 3; default: by distance\n"
     "  --overlay LIST        skeleton,primitives,contours,rays,sensors | all | none (default none)\n"
     "  --ray-ring N          the ring whose rays the rays overlay shows (default 40)\n"
@@ -212,7 +221,7 @@ int run_view(const std::vector<std::string>& argv) {
             {"screenshot", "bvh", "frame", "scale", "motion", "time", "pose", "set", "camera", "size", "lod", "overlay",
              "ray-ring", "body", "source", "calibration", "connect", "frames", "capture", "eyes",
              "frame-height", "method"},
-            {"empty", "no-grid", "see-through", "no-vsync", "help-overlay", "no-panel"});
+            {"empty", "no-grid", "see-through", "no-vsync", "help-overlay", "no-panel", "no-lean"});
   if (args.help()) {
     std::printf("%s", kUsage);
     return 0;
@@ -254,6 +263,8 @@ int run_view(const std::vector<std::string>& argv) {
     return screenshot(args, view);
   }
   if (args.has("source") && args.has("connect")) return usage_error(kName, "give --source or --connect, not both");
+  // A window is wider than a portrait screenshot: room for the status panel beside the body.
+  if (!args.has("size")) view.width = 960;
   return run_interactive(args, view);
 }
 

@@ -1,8 +1,9 @@
 // The interactive `mimic view`: a window that draws every avatar of the scene, deformed here.
 // Local mode runs the service's pipeline (the same read → solve loop as `mimic run`, no network
 // outputs) and deforms each avatar's pose at the LOD its distance calls for; --connect mode
-// receives body models once and pose frames from a running `mimic run`, as the protocol
-// intends, and deforms them the same way.
+// receives body models once and pose frames from a running `mimic run` or `mimic relay`, or from
+// a scene on a NATS broker (nats://HOST:PORT/SCENE: net::Client runs a relay in this process),
+// as the protocol intends, and deforms them the same way.
 #if MIMIC_HAVE_RENDER  // built with MIMIC_WITH_VIEWER
 #include "view_interactive.h"
 
@@ -104,6 +105,7 @@ int run_interactive(Args& args, const ViewOptions& view) {
     net::ClientOptions options;
     options.connect = *where;
     options.name = "mimic-view";
+    options.lean = !args.has("no-lean");  // ~60 bytes a frame instead of 150: docs/protocol.md
     auto c = net::Client::connect(options);
     if (!c) return failure(kName, "cannot connect to " + *where + ": " + c.error().message);
     client = std::move(*c);
@@ -137,6 +139,11 @@ int run_interactive(Args& args, const ViewOptions& view) {
                                                 float(view.width) / float(view.height));
   render::Camera home = camera;
   bool framed = false;  // the camera has been fitted to the scene once its avatars stood somewhere
+  // The orbit camera keeps the avatars in view as they walk (the built-in walk leaves the first
+  // framing within seconds); panning by hand stops that until R or C.
+  bool follow = true;
+  double last_frame_s = window->time_s();
+  render::CameraFollow follower;
   unsigned overlays = view.overlays;
   int lod_mode = view.lod;  // -1 auto
   bool grid = view.grid, see_through = view.see_through, help = false;
@@ -155,6 +162,7 @@ int run_interactive(Args& args, const ViewOptions& view) {
 
   while (!window->should_close() && !stop_requested() && (frames_limit < 0 || frames < frames_limit)) {
     const auto t0 = std::chrono::steady_clock::now();
+    const glm::vec3 target_before = camera.target;
     for (int key : window->begin_frame(camera)) {
       switch (key) {
         case render::kKeyEscape:
@@ -171,7 +179,8 @@ int run_interactive(Args& args, const ViewOptions& view) {
         case 'T': see_through = !see_through; break;
         case 'G': grid = !grid; break;
         case 'L': lod_mode = lod_mode + 1 >= render::kLodCount ? -1 : lod_mode + 1; break;
-        case 'R': camera = home; first_person = -1; camera.first_person_eye.reset(); break;
+        case 'R': camera = home; first_person = -1; camera.first_person_eye.reset(); follow = true; break;
+        case 'C': follow = !follow; break;
         case 'F':
           first_person = first_person + 1 >= static_cast<int>(avatars.size()) ? -1 : first_person + 1;
           if (first_person < 0) camera.first_person_eye.reset();
@@ -179,6 +188,11 @@ int run_interactive(Args& args, const ViewOptions& view) {
         default: break;
       }
     }
+    if (camera.target != target_before) follow = false;  // the user panned
+    if (!follow) follower.reset();
+    const double now_s = window->time_s();
+    const float dt_s = static_cast<float>(std::clamp(now_s - last_frame_s, 0.0, 0.25));
+    last_frame_s = now_s;
 
     // New poses: the local pipeline's pass, or what the network brought.
     if (pipeline) {
@@ -230,7 +244,10 @@ int run_interactive(Args& args, const ViewOptions& view) {
         first_person = -1;
         camera.first_person_eye.reset();
       }
-      connection = "connected, " + std::to_string(client->stats().frames) + " pose frames";
+      // Where the scene comes from (a mimic run, a relay, or a broker's scene through the relay
+      // the client runs in this process) and what has come.
+      connection = args.get_or("connect", "") + ": " + std::to_string(client->stats().frames) + " pose frames" +
+                   ((client->negotiated_capabilities() & net::kCapLeanPose) ? " (lean)" : "");
     }
 
     if (eyes > 0 && first_person < 0 && static_cast<long>(avatars.size()) >= eyes) first_person = static_cast<int>(eyes - 1);
@@ -248,6 +265,10 @@ int run_interactive(Args& args, const ViewOptions& view) {
       if (avatars.size() > 1) camera.pitch_rad = std::max(camera.pitch_rad, 0.3f);
       home = camera;
       framed = true;
+    } else if (framed && follow && first_person < 0 && !avatars.empty()) {
+      glm::vec3 centre(0.0f);
+      for (const ViewAvatar& a : avatars) centre += glm::vec3(a.world_from_body * glm::vec4(a.pose.root_position_m, 1.0f));
+      follower.update(camera, centre / static_cast<float>(avatars.size()), dt_s);
     }
 
     // Deform each avatar at the LOD its distance calls for, gather overlays.
@@ -301,7 +322,7 @@ int run_interactive(Args& args, const ViewOptions& view) {
     hud.frame_ms = frame_ms_shown;
     hud.fps = fps_shown;
     hud.lod_mode = lod_mode < 0 ? "auto (by distance)" : "fixed " + std::to_string(lod_mode);
-    hud.camera = first_person < 0 ? "orbit" : "first person: " + avatars[first_person].name;
+    hud.camera = first_person >= 0 ? "first person: " + avatars[first_person].name : follow ? "orbit, following" : "orbit";
     hud.overlays = overlay_names(overlays);
     hud.connection = connection;
     hud.help = help || args.has("help-overlay");
@@ -335,6 +356,7 @@ int run_interactive(Args& args, const ViewOptions& view) {
   }
   std::printf("view      %ld frames, %.2f ms per frame (mean, work before the buffer swap)\n", frames,
               frames ? total_ms / static_cast<double>(frames) : 0.0);
+  if (client) std::printf("scene     %s\n", connection.c_str());
   for (const ViewAvatar& a : avatars)
     std::printf("avatar    %s: %s; LOD %d, %zu triangles; %s\n", a.name.c_str(), a.source.c_str(), a.lod,
                 a.lods->triangle_count(a.lod), a.status.c_str());

@@ -24,14 +24,6 @@ glm::mat3 rotation_xyz(const glm::vec3& angles_rad) {
                    glm::eulerAngleX(angles_rad.x));
 }
 
-float falloff_value(Falloff f, float t) {
-  switch (f) {
-    case Falloff::linear: return t;
-    case Falloff::parabolic: return t * t;
-    case Falloff::hyperbolic: return std::sqrt(t);
-  }
-  return t;
-}
 
 PrimitiveState lerp_state(const PrimitiveState& a, const PrimitiveState& b, float u) {
   return {a.semi_axes_m + u * (b.semi_axes_m - a.semi_axes_m), a.center_m + u * (b.center_m - a.center_m),
@@ -297,17 +289,19 @@ struct RayTerms {
     return sum;
   }
 
-  // Bracketed root of field − 1 on [lo, hi] (field(lo) ≥ 1 > field(hi)): Newton steps from
-  // the secant estimate, falling back to bisection whenever a step leaves the bracket.
+  // Bracketed root of field − 1 on [lo, hi] (lo < hi, one end inside and the other outside):
+  // Newton steps from the secant estimate, falling back to bisection whenever a step leaves the
+  // bracket.
   float refine(float lo, float f_lo, float hi, float f_hi) const {
     float flo = f_lo - kIsoLevel, fhi = f_hi - kIsoLevel;
+    const bool lo_inside = flo >= 0.0f;
     float t = (lo * fhi - hi * flo) / (fhi - flo);
     for (int it = 0; it < 32; ++it) {
       float slope;
       const float f = field_and_slope(t, slope) - kIsoLevel;
       // |f| < 5e-4 is about ten micrometres along the ray at the body's field gradients.
       if (std::abs(f) < 5e-4f || hi - lo < 1e-5f) return t;
-      if (f >= 0.0f) lo = t, flo = f;
+      if ((f >= 0.0f) == lo_inside) lo = t, flo = f;
       else hi = t, fhi = f;
       float next = slope != 0.0f ? t - f / slope : 0.5f * (lo + hi);
       if (!(next > lo && next < hi)) next = 0.5f * (lo + hi);
@@ -316,26 +310,97 @@ struct RayTerms {
     }
     return t;
   }
+
+  // Where the solid around t_near ends along the ray, within the window: from a point outside,
+  // the first crossing inwards (the surface beneath it); from a point inside, the first one
+  // outwards (t_max when the window is inside throughout). −1 when a point outside has no solid
+  // beneath it within the window. The march of outermost(), run from t_near.
+  float nearest(const RayNear& w) const {
+    constexpr float inf = std::numeric_limits<float>::infinity();
+    const float tn = std::clamp(w.t_near, w.t_min, w.t_max);
+    float t = tn, f = field_at(tn);
+    const bool in0 = f >= kIsoLevel, up = in0;
+    const float limit = up ? w.t_max : w.t_min;
+    while (up ? t < limit : t > limit) {
+      float step = inf, gap = up ? inf : -1.0f, pk = up ? inf : -1.0f;
+      for (int k = 0; k < n; ++k) {
+        if (t <= t1[k] && t >= t0[k]) step = std::min(step, chord[k]);
+        else if (!up && t1[k] < t) gap = std::max(gap, t1[k]);
+        else if (up && t0[k] > t) gap = std::min(gap, t0[k]);
+        if (!up && peak[k] < t) pk = std::max(pk, peak[k]);
+        if (up && peak[k] > t) pk = std::min(pk, peak[k]);
+      }
+      float next = step < inf ? t + (up ? 1.0f : -1.0f) * std::max(step * 0.125f, kMinStep_m) : gap;
+      next = up ? std::min(next, pk) : std::max(next, pk);
+      if (up ? next > limit : next < limit) {
+        if (step == inf) break;  // nothing more before the limit
+        next = limit;
+      }
+      const float fn = field_at(next);
+      if ((fn >= kIsoLevel) != in0) return up ? refine(t, f, next, fn) : refine(next, fn, t, f);
+      t = next;
+      f = fn;
+    }
+    return in0 ? w.t_max : -1.0f;
+  }
 };
 
+// A hard ellipsoid's exit along the ray within the window (clamped to t_max), as a crossing for
+// the nearest search: replaces `best` when nearer to t_near.
+inline void nearest_hard_exit(float entry, float exit, const RayNear& w, float tn, float& best) {
+  if (entry > w.t_max || exit < w.t_min) return;
+  const float e = std::min(exit, w.t_max);
+  if (best < 0.0f || std::abs(e - tn) < std::abs(best - tn)) best = e;
+}
+
 }  // namespace
+
+bool BodyField::ray_quadratic(uint16_t idx, const glm::vec3& origin, const glm::vec3& dir, float& a, float& b,
+                              float& c) const {
+  // Cheap reject: the ray must pass within the primitive's bounding sphere, ahead of the origin.
+  const glm::vec3 v = center_[idx] - origin;
+  const float along = glm::dot(v, dir), bound = bound_radius_[idx];
+  if (along < -bound || glm::dot(v, v) - along * along > bound * bound) return false;
+  const glm::mat3& m = unit_from_world_[idx];
+  const glm::vec3 q0 = m * (origin - center_[idx]);
+  const glm::vec3 q1 = m * dir;
+  a = glm::dot(q1, q1), b = glm::dot(q0, q1), c = glm::dot(q0, q0);
+  return true;
+}
 
 RayHit BodyField::cast_outermost(const glm::vec3& origin, const glm::vec3& dir,
                                  std::span<const uint16_t> candidates) const {
   RayTerms terms;
   for (uint16_t idx : candidates) {
-    // Cheap reject: the ray must pass within the primitive's bounding sphere, ahead of the origin.
-    const glm::vec3 v = center_[idx] - origin;
-    const float along = glm::dot(v, dir), bound = bound_radius_[idx];
-    if (along < -bound || glm::dot(v, v) - along * along > bound * bound) continue;
-    const glm::mat3& m = unit_from_world_[idx];
-    const glm::vec3 q0 = m * (origin - center_[idx]);
-    const glm::vec3 q1 = m * dir;
-    const float a = glm::dot(q1, q1), b = glm::dot(q0, q1), c = glm::dot(q0, q0);
+    float a, b, c;
+    if (!ray_quadratic(idx, origin, dir, a, b, c)) continue;
     if (hard_[idx]) terms.add_hard(a, b, c);
     else terms.add(a, b, c, r2_[idx], inv_r2_[idx], weight_norm_[idx], cbrt_inv_wn_[idx]);
   }
   return RayHit{terms.outermost()};
+}
+
+RayHit BodyField::cast_nearest(const glm::vec3& origin, const glm::vec3& dir, std::span<const uint16_t> candidates,
+                               RayNear near) const {
+  RayTerms terms;
+  float hard_best = -1.0f;
+  const float tn = std::clamp(near.t_near, near.t_min, near.t_max);
+  for (uint16_t idx : candidates) {
+    float a, b, c;
+    if (!ray_quadratic(idx, origin, dir, a, b, c)) continue;
+    if (hard_[idx]) {
+      const float disc = b * b - a * (c - 1.0f);
+      if (disc > 0.0f) {
+        const float root = std::sqrt(disc), inv_a = 1.0f / a;
+        nearest_hard_exit((-b - root) * inv_a, (root - b) * inv_a, near, tn, hard_best);
+      }
+    } else {
+      terms.add(a, b, c, r2_[idx], inv_r2_[idx], weight_norm_[idx], cbrt_inv_wn_[idx]);
+    }
+  }
+  float t = terms.nearest(near);
+  if (hard_best >= 0.0f && (t < 0.0f || std::abs(hard_best - tn) < std::abs(t - tn))) t = hard_best;
+  return RayHit{t};
 }
 
 namespace {
@@ -376,10 +441,14 @@ struct StarBatch {
 
   // Field and slope at t, and what the march needs to step on from t: the shortest support
   // chord containing t (+inf when none), the largest support end before t and the largest peak
-  // before t (−1 when none). Lanes whose ray misses term k have T1 = PK = −1 there.
-  void eval(v8f t, v8f& f, v8f& slope, v8f& step, v8f& below, v8f& peak) const {
+  // before t (−1 when none). Lanes whose ray misses term k have T1 = PK = −1 there. Marching
+  // outwards (Up), `gap` and `peak` are the smallest support start and peak after t (+inf when
+  // none).
+  template <bool Up = false>
+  void eval(v8f t, v8f& f, v8f& slope, v8f& step, v8f& gap, v8f& peak) const {
+    constexpr float inf = std::numeric_limits<float>::infinity();
     v8f sum = splat(0), d = splat(0);
-    v8f st = splat(std::numeric_limits<float>::infinity()), bl = splat(-1.0f), pk = splat(-1.0f);
+    v8f st = splat(inf), bl = splat(Up ? inf : -1.0f), pk = splat(Up ? inf : -1.0f);
     for (int k = 0; k < n; ++k) {
       const v8f at = A[k] * t;
       v8f u = splat(1.0f) - ((at + 2.0f * B[k]) * t + C[k]) * IR2[k];
@@ -389,13 +458,18 @@ struct StarBatch {
       d -= (6.0f * IR2[k]) * wu2 * (at + B[k]);
       const auto inside = (t <= T1[k]) & (t >= T0[k]);
       st = inside ? vmin(st, CH[k]) : st;
-      bl = T1[k] < t ? vmax(bl, T1[k]) : bl;
-      pk = PK[k] < t ? vmax(pk, PK[k]) : pk;
+      if constexpr (Up) {
+        bl = ((T1[k] >= 0.0f) & (T0[k] > t)) ? vmin(bl, T0[k]) : bl;
+        pk = PK[k] > t ? vmin(pk, PK[k]) : pk;
+      } else {
+        bl = T1[k] < t ? vmax(bl, T1[k]) : bl;
+        pk = PK[k] < t ? vmax(pk, PK[k]) : pk;
+      }
     }
     f = sum;
     slope = d;
     step = st;
-    below = bl;
+    gap = bl;
     peak = pk;
   }
 };
@@ -414,18 +488,103 @@ const std::array<float, kMaxRayCandidates + 1>& inv_n_cbrt_table() {
   return table;
 }
 
+// The search of RayTerms::nearest for eight lanes: each lane marches from its point, inwards
+// where the point is outside (first pass) or outwards where it is inside (second pass), to the
+// first sample across the surface; per pass a lane is marching, refining (bracketed) or done.
+void march_nearest(const StarBatch& batch, v8f t_near, v8f t_lo, v8f t_hi, v8f t_hard, std::span<RayHit> out) {
+  const v8f iso = splat(kIsoLevel), zero = splat(0.0f), inf = splat(std::numeric_limits<float>::infinity());
+  const v8i none = v8i{} != v8i{};
+  v8f best = splat(-1.0f);
+  v8i in0 = none;
+  for (int pass = 0; pass < 2; ++pass) {
+    const bool up = pass == 1;
+    const v8f limit = up ? t_hi : t_lo;
+    v8i done = up ? ~in0 | ~(t_near < limit) : ~(t_near > limit), refining = none;
+    v8f t = t_near, t_prev = t_near, f_prev = zero;
+    v8f lo = zero, hi = zero, flo = zero, fhi = zero, iters = zero;
+    // The first pass's first sample is taken by every lane: it tells each point's side.
+    for (int guard = 0; guard < 256 && ((!up && guard == 0) || !all_of(done)); ++guard) {
+      v8f f, slope, step, gap, peak;
+      if (up) batch.eval<true>(t, f, slope, step, gap, peak);
+      else batch.eval<false>(t, f, slope, step, gap, peak);
+      const v8i inside = f >= iso;
+      if (!up && guard == 0) {
+        in0 = inside;
+        done = done | in0;  // points inside search outwards, in the second pass
+      }
+      const v8f fr = f - iso;
+      // Marching: a sample across the surface brackets the crossing with the last one.
+      const v8i marching = ~done & ~refining;
+      const v8i bracketed = marching & (inside != in0);
+      lo = bracketed ? (up ? t_prev : t) : lo;
+      hi = bracketed ? (up ? t : t_prev) : hi;
+      flo = bracketed ? (up ? f_prev - iso : fr) : flo;
+      fhi = bracketed ? (up ? fr : f_prev - iso) : fhi;
+      // Same side: the next sample (same rule as RayTerms::nearest).
+      const v8i same = marching & ~bracketed;
+      v8f next = step < inf ? t + (up ? 1.0f : -1.0f) * vmax(step * 0.125f, splat(kMinStep_m)) : gap;
+      next = up ? vmin(next, peak) : vmax(next, peak);
+      const v8i past = up ? next > limit : next < limit;
+      const v8i exhausted = same & ((up ? t >= limit : t <= limit) | (past & ~(step < inf)));
+      next = past ? limit : next;
+      t_prev = same ? t : t_prev;
+      f_prev = same ? f : f_prev;
+      // Refining: Newton from the bracket, bisection whenever a step would leave it.
+      const v8i lo_inside = flo >= zero;
+      iters = refining ? iters + 1.0f : iters;
+      const v8i converged = refining & ((vabs(fr) < 5e-4f) | (hi - lo < 1e-5f) | (iters >= 32.0f));
+      best = converged ? t : best;
+      const v8i stepping = refining & ~converged;
+      const v8i to_lo = stepping & ((fr >= zero) == lo_inside);
+      const v8i to_hi = stepping & ~to_lo;
+      lo = to_lo ? t : lo;
+      flo = to_lo ? fr : flo;
+      hi = to_hi ? t : hi;
+      fhi = to_hi ? fr : fhi;
+      const v8f mid = 0.5f * (lo + hi);
+      v8f newton = slope != zero ? t - fr / slope : mid;
+      newton = ((newton > lo) & (newton < hi)) ? newton : mid;
+      const v8i settled = stepping & (vabs(newton - t) < 2e-6f);
+      best = settled ? newton : best;
+      const v8f secant = (lo * fhi - hi * flo) / (fhi - flo);
+      t = bracketed ? secant : stepping ? newton : (same & ~exhausted) ? next : t;
+      iters = bracketed ? zero : iters;
+      done = done | exhausted | converged | settled;
+      refining = (refining | bracketed) & ~done;
+    }
+  }
+  // Inside throughout: the surface lies beyond the window. Then a hard ellipsoid's exit nearer.
+  best = ((best < 0.0f) & in0) ? t_hi : best;
+  const auto hard_nearer = (t_hard >= 0.0f) & ((best < 0.0f) | (vabs(t_hard - t_near) < vabs(best - t_near)));
+  best = hard_nearer ? t_hard : best;
+  for (size_t l = 0; l < out.size(); ++l) out[l] = RayHit{best[l]};
+}
+
 }  // namespace
 
-// Eight rays in lock-step (the same march and refinement as RayTerms::outermost per lane):
-// `quadratic(k, a, b, c)` gives, per lane, the metaball term k's quadratic along the ray in the
-// primitive's unit frame, |q0 + t·q1|² = a t² + 2 b t + c.
+// Eight rays in lock-step (the same march and refinement as RayTerms::outermost, or with
+// `nears` RayTerms::nearest, per lane): `quadratic(k, a, b, c)` gives, per lane, the metaball
+// term k's quadratic along the ray in the primitive's unit frame, |q0 + t·q1|² = a t² + 2 b t + c.
 template <class Quadratic>
-void BodyField::cast_lanes(std::span<const uint16_t> candidates, int n, Quadratic&& quadratic, std::span<RayHit> out) const {
+void BodyField::cast_lanes(std::span<const uint16_t> candidates, int n, Quadratic&& quadratic,
+                           std::span<const RayNear> nears, std::span<RayHit> out) const {
   const auto& inv_n_cbrt = inv_n_cbrt_table();
   StarBatch batch;
   const int live = static_cast<int>(out.size());
+  const bool near = !nears.empty();
+  // Nearest search: each lane's point and window.
+  v8f t_near = splat(0.0f), t_lo = splat(0.0f), t_hi = splat(std::numeric_limits<float>::infinity());
+  if (near) {
+    for (int l = 0; l < kLanes; ++l) {
+      const RayNear& w = nears[static_cast<size_t>(std::min(l, live - 1))];
+      t_lo[l] = w.t_min;
+      t_hi[l] = w.t_max;
+      t_near[l] = std::clamp(w.t_near, w.t_min, w.t_max);
+    }
+  }
   {
-    // Terms of every lane; hard ellipsoids give their exit directly.
+    // Terms of every lane; hard ellipsoids give their exit directly (for the nearest search the
+    // exit within the window nearest each lane's point, clamped to the window's end).
     v8f t_hard = splat(-1.0f);
     v8f count = splat(0.0f);
     batch.n = 0;
@@ -436,8 +595,15 @@ void BodyField::cast_lanes(std::span<const uint16_t> candidates, int n, Quadrati
       const v8f inv_a = 1.0f / a;
       if (hard_[idx]) {
         const v8f disc = b * b - a * (c - 1.0f);
-        const v8f exit_t = (vsqrt(vmax(disc, splat(0.0f))) - b) * inv_a;
-        t_hard = disc > 0.0f ? vmax(t_hard, exit_t) : t_hard;
+        const v8f root = vsqrt(vmax(disc, splat(0.0f)));
+        const v8f exit_t = (root - b) * inv_a;
+        if (near) {
+          const v8f entry_t = (-b - root) * inv_a, e = vmin(exit_t, t_hi);
+          const auto nearer = (t_hard < 0.0f) | (vabs(e - t_near) < vabs(t_hard - t_near));
+          t_hard = ((disc > 0.0f) & (entry_t <= t_hi) & (exit_t >= t_lo) & nearer) ? e : t_hard;
+        } else {
+          t_hard = disc > 0.0f ? vmax(t_hard, exit_t) : t_hard;
+        }
         continue;
       }
       const v8f disc = b * b - a * (c - r2_[idx]);
@@ -462,6 +628,10 @@ void BodyField::cast_lanes(std::span<const uint16_t> candidates, int n, Quadrati
       batch.PK[m] = valid ? vmin(vmax(-b * inv_a, start), end) : splat(-1.0f);
       count += valid ? splat(1.0f) : splat(0.0f);
       ++batch.n;
+    }
+    if (near) {
+      march_nearest(batch, t_near, t_lo, t_hi, t_hard, out);
+      return;
     }
     // Start bound per lane: beyond the last point where some term reaches 1/n, no crossing.
     v8f inv_cbrt_n;
@@ -567,12 +737,13 @@ void BodyField::cast_star(const glm::vec3& origin, const glm::vec3& front, const
           b = q0[k].x * qx + q0[k].y * qy + q0[k].z * qz;
           c = splat(cc[k]);
         },
-        hits.subspan(first, static_cast<size_t>(live)));
+        {}, hits.subspan(first, static_cast<size_t>(live)));
   }
 }
 
-void BodyField::cast_rays(std::span<const glm::vec3> origins, std::span<const glm::vec3> dirs,
-                          std::span<const uint16_t> candidates, std::span<RayHit> hits) const {
+void BodyField::cast_rays_lanes(std::span<const glm::vec3> origins, std::span<const glm::vec3> dirs,
+                                std::span<const uint16_t> candidates, std::span<const RayNear> nears,
+                                std::span<RayHit> hits) const {
   const int n = std::min<int>(static_cast<int>(candidates.size()), kMaxRayCandidates);
   const size_t rays = std::min(origins.size(), dirs.size());
   for (size_t first = 0; first < rays; first += kLanes) {
@@ -600,8 +771,19 @@ void BodyField::cast_rays(std::span<const glm::vec3> origins, std::span<const gl
           b = q0x * q1x + q0y * q1y + q0z * q1z;
           c = q0x * q0x + q0y * q0y + q0z * q0z;
         },
-        hits.subspan(first, static_cast<size_t>(live)));
+        nears.empty() ? nears : nears.subspan(first, static_cast<size_t>(live)), hits.subspan(first, static_cast<size_t>(live)));
   }
+}
+
+void BodyField::cast_rays(std::span<const glm::vec3> origins, std::span<const glm::vec3> dirs,
+                          std::span<const uint16_t> candidates, std::span<RayHit> hits) const {
+  cast_rays_lanes(origins, dirs, candidates, {}, hits);
+}
+
+void BodyField::cast_rays_nearest(std::span<const glm::vec3> origins, std::span<const glm::vec3> dirs,
+                                  std::span<const RayNear> nears, std::span<const uint16_t> candidates,
+                                  std::span<RayHit> hits) const {
+  cast_rays_lanes(origins, dirs, candidates, nears.first(std::min(origins.size(), dirs.size())), hits);
 }
 
 }  // namespace mimic::avatar

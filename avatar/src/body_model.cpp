@@ -261,6 +261,15 @@ const char* falloff_name(Falloff f) {
   return "linear";
 }
 
+float falloff_value(Falloff f, float t) {
+  switch (f) {
+    case Falloff::linear: return t;
+    case Falloff::parabolic: return t * t;
+    case Falloff::hyperbolic: return std::sqrt(t);
+  }
+  return t;
+}
+
 Status validate(const BodyModel& model) {
   auto skel = Skeleton::build(model.skeleton);
   if (!skel) return fail(Errc::invalid_argument, "skeleton: " + skel.error().message);
@@ -324,6 +333,9 @@ Status validate(const BodyModel& model) {
                          {s.upper_leg_contours, "upper_leg_contours"}})
     if (n < k + 3)
       return fail(Errc::invalid_argument, std::string("skin: ") + what + " must exceed boundary_contours + 2");
+  for (auto [n, what] : {std::pair{s.neck_points, "neck_points"}, {s.arm_points, "arm_points"}, {s.leg_points, "leg_points"}})
+    if (n != 0 && (n < 3 || n > 512))
+      return fail(Errc::invalid_argument, std::string("skin: ") + what + " must be 0 (the loop's) or in [3, 512]");
   if (s.rigid_rings < 3 || s.rigid_points < 4 || s.rigid_rings > 256 || s.rigid_points > 256)
     return fail(Errc::invalid_argument, "skin: rigid meshes need 3..256 rings and 4..256 points");
   if (!(s.chest_ring >= 0.0f && s.chest_ring < 0.9f) || !(s.neck_start > 0.0f && s.neck_start < 1.0f) ||
@@ -393,6 +405,10 @@ std::string to_json(const BodyModel& model, bool pretty) {
                    {"crotch_drop_m", rounded(s.crotch_drop_m)},
                    {"chest_ring", rounded(s.chest_ring)},
                    {"neck_start", rounded(s.neck_start)}};
+  // Per-limb point counts only when set (a layout made by skin_layout_for_lods), so files of
+  // ordinary bodies stay as they were.
+  for (auto [n, key] : {std::pair{s.neck_points, "neck_points"}, {s.arm_points, "arm_points"}, {s.leg_points, "leg_points"}})
+    if (n != 0) j["skin"][key] = n;
   return j.dump(pretty ? 1 : -1, ' ');
 }
 
@@ -528,6 +544,9 @@ Result<BodyModel> body_model_from_json(std::string_view text, std::string_view s
     s.upper_leg_contours = r.integer(*sj, path, "upper_leg_contours", s.upper_leg_contours);
     s.lower_leg_contours = r.integer(*sj, path, "lower_leg_contours", s.lower_leg_contours);
     s.boundary_contours = r.integer(*sj, path, "boundary_contours", s.boundary_contours);
+    s.neck_points = r.integer(*sj, path, "neck_points", s.neck_points);
+    s.arm_points = r.integer(*sj, path, "arm_points", s.arm_points);
+    s.leg_points = r.integer(*sj, path, "leg_points", s.leg_points);
     s.rigid_rings = r.integer(*sj, path, "rigid_rings", s.rigid_rings);
     s.rigid_points = r.integer(*sj, path, "rigid_points", s.rigid_points);
     s.crotch_drop_m = r.number(*sj, path, "crotch_drop_m", s.crotch_drop_m);

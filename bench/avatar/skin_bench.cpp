@@ -136,8 +136,36 @@ void BM_Realtime(benchmark::State& state) {
   }
   state.counters["vertices"] = static_cast<double>(out.size());
   state.SetItemsProcessed(state.iterations());
+  // What bounds it (docs/skin.md): the point loops' traffic and arithmetic per frame, and the
+  // rates they run at (bytes and flops per second of the whole frame).
+  const RealtimeBody::FrameWork w = (*body)->work_per_frame(muscles);
+  state.counters["bytes_per_vertex"] = (w.bytes_read + w.bytes_written) / static_cast<double>(out.size());
+  state.counters["flops_per_vertex"] = w.flops / static_cast<double>(out.size());
+  state.counters["bytes"] = benchmark::Counter(w.bytes_read + w.bytes_written, benchmark::Counter::kIsIterationInvariantRate);
+  state.counters["flops"] = benchmark::Counter(w.flops, benchmark::Counter::kIsIterationInvariantRate);
+  state.counters["vectorised"] = RealtimeSkin::vectorised_kernel() ? 1 : 0;
 }
 BENCHMARK(BM_Realtime)->ArgNames({"lod", "muscles"})->ArgsProduct({{0, 1, 2, 3}, {0, 1}})->Unit(benchmark::kMicrosecond);
+
+// The same with the scalar reference loops (what the eight-wide kernels gain).
+void BM_RealtimeScalar(benchmark::State& state) {
+  auto body = RealtimeBody::create(default_body_model(), RealtimeOptions{});
+  if (!body) {
+    state.SkipWithError(body.error().what().c_str());
+    return;
+  }
+  RealtimeSkin skin(*body);
+  skin.use_scalar_reference(true);
+  std::vector<glm::vec3> out((*body)->vertex_count());
+  const auto ps = poses((*body)->skeleton(), 16);
+  size_t i = 0;
+  for (auto _ : state) {
+    skin.evaluate(ps[i++ % ps.size()], out, {}, true);
+    benchmark::DoNotOptimize(out.data());
+  }
+  state.counters["vertices"] = static_cast<double>(out.size());
+}
+BENCHMARK(BM_RealtimeScalar)->Unit(benchmark::kMicrosecond);
 
 }  // namespace
 }  // namespace mimic::avatar

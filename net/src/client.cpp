@@ -308,10 +308,9 @@ void Client::Impl::on_packet(std::span<const uint8_t> p) {
       return;
     }
     case MsgType::mesh: {
-      MeshFrameHeader h;
       auto it = avatars.find(pose_avatar(p));
       if (it == avatars.end()) break;
-      if (decode_mesh(p, h, it->second.mesh_positions_m) != Reject::ok) break;
+      if (decode_mesh(p, it->second.mesh_last, it->second.mesh_positions_m) != Reject::ok) break;
       it->second.mesh_frames++;
       stats.mesh_frames++;
       stats.mesh_bytes += p.size();

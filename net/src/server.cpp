@@ -1,6 +1,8 @@
 // The public Server API over ServerImpl; the server's parts live in server/ (server_impl.h lists them).
 #include "mimic/net/server.h"
 
+#include <algorithm>
+#include <thread>
 #include <utility>
 
 #include "server/server_impl.h"
@@ -36,6 +38,7 @@ Server::~Server() {
   boost::system::error_code ec;
   impl_->acceptor.close(ec);
   impl_->udp_sock.close(ec);
+  impl_->deferred.clear();
   for (auto& s : std::vector<std::shared_ptr<Session>>(impl_->sessions)) s->close(true);
   impl_->housekeeping.cancel();
   impl_->io.restart();
@@ -75,7 +78,12 @@ Result<std::unique_ptr<Server>> Server::create(const ServerOptions& options) {
     impl->udp_on = !uec;
     if (uec) impl->udp_sock.close(uec);
   }
+  impl->fanout_threads = options.fanout_threads > 0
+                             ? options.fanout_threads
+                             : int(std::clamp(std::thread::hardware_concurrency(), 1u, 4u));
   impl->avatars.emplace_back();  // id 0 is never used
+  impl->lanes.resize(size_t(impl->fanout_threads));
+  impl->reserve_fanout();
   impl->start_accept();
   if (impl->udp_on) impl->start_udp_receive();
   impl->schedule_housekeeping();
@@ -84,6 +92,7 @@ Result<std::unique_ptr<Server>> Server::create(const ServerOptions& options) {
 
 uint16_t Server::port() const { return impl_->acceptor.local_endpoint().port(); }
 bool Server::udp() const { return impl_->udp_on; }
+int Server::fanout_threads() const { return impl_->fanout_threads; }
 
 std::string Server::endpoint() const {
   const auto ep = impl_->acceptor.local_endpoint();
@@ -130,11 +139,7 @@ Status Server::set_mesh_topology(const MeshTopology& topology) {
   Avatar* a = impl_->avatar(topology.avatar);
   if (!a) return fail(Errc::not_found, "no avatar " + std::to_string(topology.avatar));
   if (topology.lod >= kMaxLods) return fail(Errc::out_of_range, "LOD must be below 8");
-  auto& slot = a->mesh[topology.lod];
-  slot.topology.resize(mesh_topology_packet_bytes(topology.indices.size()));
-  if (encode_mesh_topology(topology, slot.topology) == 0) return fail(Errc::out_of_range, "mesh too large");
-  slot.frame_size = 0;
-  for (auto& s : impl_->sessions) s->topology_changed(a->id, topology.lod);
+  if (!impl_->set_topology(*a, topology)) return fail(Errc::out_of_range, "mesh too large");
   return {};
 }
 
@@ -146,16 +151,19 @@ Reject Server::publish_mesh(uint16_t avatar, uint8_t lod, std::span<const uint8_
 
 void Server::run_until(std::chrono::steady_clock::time_point deadline) {
   if (impl_->io.stopped()) impl_->io.restart();
+  impl_->start_deferred();
   impl_->io.run_until(deadline);
 }
 
 void Server::poll() {
   if (impl_->io.stopped()) impl_->io.restart();
+  impl_->start_deferred();
   impl_->io.poll();
 }
 
 void Server::run() {
   if (impl_->io.stopped()) impl_->io.restart();
+  impl_->start_deferred();
   auto guard = asio::make_work_guard(impl_->io);
   impl_->io.run();
 }
@@ -166,8 +174,7 @@ void Server::begin_batch() { impl_->batching = true; }
 
 void Server::end_batch() {
   impl_->batching = false;
-  for (auto& s : impl_->sessions) s->flush();
-  impl_->send_udp_batch();
+  impl_->flush_subscribers();
 }
 
 void Server::dispatch(std::function<void()> fn) { asio::post(impl_->io, std::move(fn)); }
@@ -175,7 +182,24 @@ void Server::dispatch(std::function<void()> fn) { asio::post(impl_->io, std::mov
 const ServerStats& Server::stats() const {
   // Counted down by the packets' deleters, whenever the last write holding one lets go.
   impl_->stats.model_bytes_held = *impl_->model_bytes_held;
+  impl_->fold_lanes();
   return impl_->stats;
+}
+
+Server::FanoutTimes Server::fanout_times() const {
+  FanoutTimes t;
+  t.count = impl_->fanouts;
+  const size_t n = std::min<uint64_t>(impl_->fanouts, impl_->fanout_us.size());
+  if (n == 0) return t;
+  std::vector<float> v(impl_->fanout_us.begin(), impl_->fanout_us.begin() + long(n));
+  auto at = [&](double q) {
+    const size_t k = std::min(n - 1, size_t(q * double(n - 1) + 0.5));
+    std::nth_element(v.begin(), v.begin() + long(k), v.end());
+    return double(v[k]);
+  };
+  t.p50_us = at(0.50);
+  t.p99_us = at(0.99);
+  return t;
 }
 
 std::vector<SessionInfo> Server::sessions() const {

@@ -50,6 +50,17 @@ void Camera::pan(float dx_view, float dy_view) {
 
 void Camera::zoom(float factor) { distance_m = std::clamp(distance_m * factor, 0.2f, 80.0f); }
 
+void CameraFollow::update(Camera& camera, const glm::vec3& centre, float dt_s) {
+  if (!(dt_s > 0.0f)) return;
+  if (primed_) velocity_ += (1.0f - std::exp(-dt_s / velocity_s_)) * ((centre - last_centre_) / dt_s - velocity_);
+  last_centre_ = centre;
+  primed_ = true;
+  const glm::vec3 aim = centre + follow_s_ * velocity_;
+  const float k = 1.0f - std::exp(-dt_s / follow_s_);
+  camera.target.x += k * (aim.x - camera.target.x);
+  camera.target.z += k * (aim.z - camera.target.z);
+}
+
 Camera preset_camera(CameraPreset preset, const glm::vec3& floor_center, float height_m, float aspect) {
   Camera c;
   c.target = floor_center + glm::vec3(0.0f, 0.5f * height_m, 0.0f);

@@ -17,14 +17,14 @@ void draw_hud(const HudState& s) {
   ImGui::TextUnformatted(s.connection.c_str());
   if (!s.avatars.empty()) ImGui::Separator();
   for (const HudAvatar& a : s.avatars) {
-    // One line per avatar, so a crowded scene keeps the panel small; the source on hover.
-    ImGui::Text("%-10s LOD %d %6zu tris %.2f ms %4.1f m", a.name.c_str(), a.lod, a.triangles, a.deform_ms, a.distance_m);
-    if (ImGui::IsItemHovered()) ImGui::SetTooltip("%s", a.source.c_str());
-    ImGui::SameLine();
+    // Two short lines per avatar: the panel stays narrow enough to leave the head of a body in
+    // the middle of the window uncovered. The source on hover.
     if (a.stale)
-      ImGui::TextColored(ImVec4(1.0f, 0.3f, 1.0f, 1.0f), " STALE %s", a.sensor_status.c_str());
+      ImGui::TextColored(ImVec4(1.0f, 0.3f, 1.0f, 1.0f), "%s  STALE %s", a.name.c_str(), a.sensor_status.c_str());
     else
-      ImGui::Text(" %s", a.sensor_status.c_str());
+      ImGui::Text("%s  %s", a.name.c_str(), a.sensor_status.c_str());
+    if (ImGui::IsItemHovered()) ImGui::SetTooltip("%s", a.source.c_str());
+    ImGui::Text("  LOD %d, %zu tris, %.2f ms, %.1f m", a.lod, a.triangles, a.deform_ms, a.distance_m);
   }
   ImGui::Separator();
   ImGui::TextUnformatted("H or F1: help");
@@ -46,7 +46,8 @@ void draw_hud(const HudState& s) {
       {"L", "LOD: auto by distance, 0, 1, 2, 3"},
       {"G", "floor grid"},
       {"F", "first person at the next avatar's head (again: back to orbit)"},
-      {"R", "reset the camera"},
+      {"C", "follow the avatars (on at start; panning stops it)"},
+      {"R", "reset the camera (and follow again)"},
       {"mouse", "left drag orbit, right/middle drag pan, wheel zoom"},
       {"Esc, Q", "quit"},
   };

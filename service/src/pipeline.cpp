@@ -482,20 +482,24 @@ Status Pipeline::add_avatar(const std::string& name, std::unique_ptr<PoseFeed> f
   a.feed = std::move(feed);
   a.deformer = deformer ? std::move(deformer) : make_fk_deformer(s);
   // The mesh topology is fixed: announce it (and size the frame buffer) now, not when the first
-  // thin client shows up in the middle of the loop.
+  // thin client (or a relay asking through the broker) shows up in the middle of the loop.
   a.deformer->deform(a.pose);
-  if (out_.server && a.deformer->mesh()) {
+  if ((out_.server || out_.nats) && a.deformer->mesh()) {
     const avatar::Mesh& mesh = *a.deformer->mesh();
     net::MeshTopology t;
     t.avatar = a.server_id;
     t.lod = a.deformer->lod();
     t.vertex_count = static_cast<uint32_t>(mesh.positions.size());
     t.indices = mesh.indices;
-    if (auto st = out_.server->set_mesh_topology(t); !st) return st;
     a.mesh_packet.resize(net::mesh_packet_bytes(mesh.positions.size()));
-    a.topology_sent = true;
-    const size_t n = net::encode_mesh({a.server_id, t.lod, 0, 0}, mesh.positions, a.mesh_packet);
-    out_.server->publish_mesh(a.server_id, t.lod, std::span<const uint8_t>(a.mesh_packet.data(), n));
+    if (out_.nats)
+      if (auto st = out_.nats->add_mesh(a.nats_index, t); !st) return st;
+    if (out_.server) {
+      if (auto st = out_.server->set_mesh_topology(t); !st) return st;
+      a.topology_sent = true;
+      const size_t n = net::encode_mesh({a.server_id, t.lod, 0, 0}, mesh.positions, a.mesh_packet);
+      out_.server->publish_mesh(a.server_id, t.lod, std::span<const uint8_t>(a.mesh_packet.data(), n));
+    }
   }
   avatars_.push_back(std::move(a));
   pending_latency_.assign(avatars_.size(), 0.0);
@@ -503,13 +507,16 @@ Status Pipeline::add_avatar(const std::string& name, std::unique_ptr<PoseFeed> f
   return {};
 }
 
-// Mesh frames only while some subscriber wants this LOD. Announcing the topology allocates once
-// (the first time a thin client shows up); frames after that reuse the buffer.
+// Mesh frames only while some subscriber (or, through the broker, some relay) wants this LOD:
+// encoded once for both. Announcing the topology allocates once (the first time a thin client
+// shows up); frames after that reuse the buffer.
 void Pipeline::send_mesh(Avatar& a, uint64_t time_us) {
   const avatar::Mesh& mesh = *a.deformer->mesh();
   const uint8_t lod = a.deformer->lod();
-  if (lod >= 8 || !(out_.server->mesh_lods_wanted(a.server_id) & (1u << lod))) return;
-  if (!a.topology_sent) {
+  const bool to_server = out_.server && lod < 8 && (out_.server->mesh_lods_wanted(a.server_id) & (1u << lod));
+  const bool to_broker = out_.nats && out_.nats->mesh_wanted(a.nats_index);
+  if (!to_server && !to_broker) return;
+  if (to_server && !a.topology_sent) {
     net::MeshTopology t;
     t.avatar = a.server_id;
     t.lod = lod;
@@ -523,9 +530,10 @@ void Pipeline::send_mesh(Avatar& a, uint64_t time_us) {
     a.topology_sent = true;
   }
   const size_t n = net::encode_mesh({a.server_id, lod, a.sequence, time_us}, mesh.positions, a.mesh_packet);
-  if (n == 0 || out_.server->publish_mesh(a.server_id, lod, std::span<const uint8_t>(a.mesh_packet.data(), n)) !=
-                    net::Reject::ok)
+  const std::span<const uint8_t> packet(a.mesh_packet.data(), n);
+  if (n == 0 || (to_server && out_.server->publish_mesh(a.server_id, lod, packet) != net::Reject::ok))
     send_failures_++;
+  if (n && to_broker) out_.nats->publish_mesh(a.nats_index, packet);
 }
 
 void Pipeline::publish_pose_frame(Avatar& a, const net::PoseHeader& h, size_t bytes) {
@@ -541,8 +549,9 @@ void Pipeline::tick() {
   using C = std::chrono::steady_clock;
   auto us = [](C::time_point a, C::time_point b) { return std::chrono::duration<double, std::micro>(b - a).count(); };
   // Pose frames first: receivers deform locally, so the pose stream does not wait for the skin.
-  // One write per subscriber for all avatars of this pass.
+  // One write per subscriber for all avatars of this pass, and one broker message.
   if (out_.server) out_.server->begin_batch();
+  if (out_.nats) out_.nats->begin_tick();
   for (size_t i = 0; i < avatars_.size(); ++i) {
     Avatar& a = avatars_[i];
     const auto t0 = C::now();
@@ -602,6 +611,7 @@ void Pipeline::tick() {
   // The pose frames leave the sockets here: every avatar of this pass counts the flush in its
   // send stage, and its latency (sensor record -> frame out) ends here.
   double flush_us = 0;
+  if (out_.nats) out_.nats->end_tick();  // only wakes the sender: first, so both go out together
   if (out_.server) {
     const auto t0 = C::now();
     out_.server->end_batch();
@@ -619,7 +629,7 @@ void Pipeline::tick() {
     const auto t0 = C::now();
     a.deformer->deform(a.pose);
     timers_[kStageDeform].add(us(t0, C::now()));
-    if (out_.server && a.deformer->mesh()) send_mesh(a, a.time_us);
+    if ((out_.server || out_.nats) && a.deformer->mesh()) send_mesh(a, a.time_us);
   }
   if (out_.server) out_.server->end_batch();
 }

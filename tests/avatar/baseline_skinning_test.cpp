@@ -5,6 +5,8 @@
 #include <algorithm>
 #include <cmath>
 #include <numbers>
+#include <random>
+#include <string>
 
 #include "mimic/avatar/baselines/baseline_skinner.h"
 #include "mimic/avatar/baselines/cor_skinning.h"
@@ -223,6 +225,88 @@ TEST(BaselineSkinning, AntipodalQuaternionsAreTheSameRotation) {
   for (size_t v = 0; v < in.size(); ++v) {
     EXPECT_NEAR(glm::distance(out_p[v], t.apply(in[v])), 0.0f, 2e-6f) << "cor " << v;
     EXPECT_NEAR(glm::distance(out_n[v], t.rotation * normals[v]), 0.0f, 2e-6f) << "cor " << v;
+  }
+}
+
+// The jobs against a plain per-vertex reference written here with glm (blend, hemisphere test,
+// normalise, transform), on random rotations (so flips are common), four non-zero weights per
+// vertex and a vertex count that leaves a tail after the eight-wide blocks. Skeletons of 32
+// joints take the per-frame flip table, of 80 the in-register dot products, of 300 CoR's
+// per-vertex path: each must give the reference's vertices.
+TEST(BaselineSkinning, EveryKernelPathEqualsThePlainReference) {
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<float> u(-1.0f, 1.0f);
+  for (const size_t joint_count : {size_t{32}, size_t{80}, size_t{300}}) {
+    std::vector<RigidTransform> world(joint_count), inv(joint_count);
+    for (auto& t : world) t = {glm::normalize(glm::quat(u(rng), u(rng), u(rng), u(rng))), {u(rng), u(rng), u(rng)}};
+    std::vector<SkinningMatrix> mats(joint_count);
+    std::vector<DualQuat> dqs(joint_count);
+    std::vector<glm::quat> rots(joint_count);
+    skinning_transforms(world, inv, mats, dqs, rots);
+    const size_t n = 1003;
+    std::vector<uint16_t> joints;
+    std::vector<float> weights;
+    std::vector<glm::vec3> in, normals, centers;
+    std::uniform_int_distribution<int> pick(0, static_cast<int>(joint_count) - 1);
+    for (size_t v = 0; v < n; ++v) {
+      float w[4], sum = 0;
+      for (float& x : w) sum += (x = 0.1f + std::abs(u(rng)));
+      for (int k = 0; k < 4; ++k) joints.push_back(static_cast<uint16_t>(pick(rng))), weights.push_back(w[k] / sum);
+      in.push_back({u(rng), u(rng), u(rng)});
+      normals.push_back(glm::normalize(glm::vec3{u(rng), u(rng), u(rng)}));
+      centers.push_back(in.back() + 0.2f * glm::vec3{u(rng), u(rng), u(rng)});
+    }
+    std::vector<glm::vec3> p(n), nr(n);
+    const std::string what = std::to_string(joint_count) + " joints";
+    ASSERT_TRUE((DualQuaternionSkinningJob{dqs, joints, weights, in, normals, p, nr}.Run()));
+    size_t compared = 0;
+    for (size_t v = 0; v < n; ++v) {
+      const uint16_t* j = &joints[4 * v];
+      const float* w = &weights[4 * v];
+      glm::quat r(0, 0, 0, 0), d(0, 0, 0, 0);
+      bool ambiguous = false;
+      for (int k = 0; k < 4; ++k) {
+        const glm::quat rk(dqs[j[k]].real[3], dqs[j[k]].real[0], dqs[j[k]].real[1], dqs[j[k]].real[2]);
+        const glm::quat dk(dqs[j[k]].dual[3], dqs[j[k]].dual[0], dqs[j[k]].dual[1], dqs[j[k]].dual[2]);
+        const glm::quat r0(dqs[j[0]].real[3], dqs[j[0]].real[0], dqs[j[0]].real[1], dqs[j[0]].real[2]);
+        const float dot = glm::dot(r0, rk);
+        ambiguous |= std::abs(dot) < 1e-3f;
+        const float s = dot < 0 ? -w[k] : w[k];
+        r = r + s * rk, d = d + s * dk;
+      }
+      if (ambiguous) continue;  // either hemisphere is right at a dot of zero
+      ++compared;
+      const float len = glm::length(r);
+      r = r / len, d = d / len;
+      const glm::quat t = 2.0f * d * glm::conjugate(r);  // translation of the normalised dual quaternion
+      ASSERT_LT(glm::distance(p[v], r * in[v] + glm::vec3(t.x, t.y, t.z)), 2e-5f) << what << " dqs vertex " << v;
+      ASSERT_LT(glm::distance(nr[v], r * normals[v]), 2e-5f) << what << " dqs normal " << v;
+    }
+    EXPECT_GT(compared, n * 9 / 10) << what;
+    ASSERT_TRUE((CorSkinningJob{mats, rots, joints, weights, centers, in, normals, p, nr}.Run()));
+    std::vector<glm::vec3> lp(n), ln(n);
+    ASSERT_TRUE((LinearBlendSkinningJob{mats, joints, weights, in, normals, lp, ln}.Run()));
+    for (size_t v = 0; v < n; ++v) {
+      const uint16_t* j = &joints[4 * v];
+      const float* w = &weights[4 * v];
+      glm::quat q(0, 0, 0, 0);
+      glm::mat4 m(0.0f);
+      bool ambiguous = false;
+      for (int k = 0; k < 4; ++k) {
+        const float dot = glm::dot(rots[j[0]], rots[j[k]]);
+        ambiguous |= std::abs(dot) < 1e-3f;
+        q = q + (dot < 0 ? -w[k] : w[k]) * rots[j[k]];
+        for (int c = 0; c < 4; ++c)
+          m[c] += w[k] * glm::vec4(mats[j[k]].cols[c][0], mats[j[k]].cols[c][1], mats[j[k]].cols[c][2], c == 3 ? 1.0f : 0.0f);
+      }
+      ASSERT_LT(glm::distance(lp[v], glm::vec3(m * glm::vec4(in[v], 1.0f))), 2e-5f) << what << " lbs vertex " << v;
+      ASSERT_LT(glm::distance(ln[v], glm::vec3(m * glm::vec4(normals[v], 0.0f))), 2e-5f) << what << " lbs normal " << v;
+      if (ambiguous) continue;
+      q = glm::normalize(q);
+      ASSERT_LT(glm::distance(p[v], q * (in[v] - centers[v]) + glm::vec3(m * glm::vec4(centers[v], 1.0f))), 2e-5f)
+          << what << " cor vertex " << v;
+      ASSERT_LT(glm::distance(nr[v], q * normals[v]), 2e-5f) << what << " cor normal " << v;
+    }
   }
 }
 

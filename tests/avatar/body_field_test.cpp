@@ -158,29 +158,76 @@ TEST(BodyField, BetweenTheThighsOfTheDefaultBodyIsNotSkin) {
   }
 }
 
+// A ray from the left thigh's axis towards the crotch, in the hip group (both thighs): the
+// outermost crossing is the far side of the right thigh, the nearest one to a point just
+// outside the left thigh is the left thigh's own inner side.
+TEST(BodyField, NearestCrossingStaysOnItsOwnThigh) {
+  const BodyModel m = default_body_model();
+  const BodyField f = field_of(m);
+  std::vector<uint16_t> cand;
+  for (int i = 0; i < f.size(); ++i)
+    if (f.groups(i) & group_bit(Group::hip)) cand.push_back(static_cast<uint16_t>(i));
+  const glm::vec3 o{0.11f, -0.2f, 0.0f}, d{-1, 0, 0};  // the left thigh's axis, 0.2 m down
+  const RayHit outer = f.cast_outermost(o, d, cand);
+  ASSERT_TRUE(outer.hit());
+  EXPECT_GT(outer.t, 0.2f) << "the outermost crossing lies on the other thigh";
+  // A point in the gap, nearer the left thigh; the window reaches into the right one.
+  const RayHit near = f.cast_nearest(o, d, cand, RayNear{0.09f, 0.03f, 0.2f});
+  ASSERT_TRUE(near.hit());
+  EXPECT_GT(near.t, 0.03f);
+  EXPECT_LT(near.t, 0.09f) << "the left thigh's inner side";
+  EXPECT_TRUE(f.inside(o + (near.t - 0.002f) * d, group_bit(Group::hip)));
+  EXPECT_FALSE(f.inside(o + (near.t + 0.002f) * d, group_bit(Group::hip)));
+}
+
 }  // namespace
 }  // namespace mimic::avatar
 
 namespace mimic::avatar {
 namespace {
 
+// The default body's field in random postures (every DOF within ±0.5 rad), for comparing one
+// caster with another.
+struct RandomPostures {
+  BodyModel model = default_body_model();
+  Skeleton skel = *Skeleton::build(model.skeleton);
+  BodyField field = *BodyField::create(model, skel);
+  std::vector<RigidTransform> w = std::vector<RigidTransform>(skel.joint_count());
+  std::mt19937_64 rng;
+  std::uniform_real_distribution<float> u{-1.0f, 1.0f};
+  explicit RandomPostures(uint64_t seed) : rng(seed) {}
+  void next() {
+    Pose p = skel.zero_pose();
+    for (int i = 0; i < skel.dof_count(); ++i) p.dof_rad[i] = 0.5f * u(rng);
+    forward_kinematics(skel, p, w);
+    field.update(w, p.dof_rad);
+  }
+  // The primitives of two groups, picked by the trial's number.
+  std::vector<uint16_t> two_groups(int trial, GroupMask& mask) const {
+    mask = static_cast<GroupMask>((1u << (trial % kGroupCount)) | (1u << ((trial + 3) % kGroupCount)));
+    std::vector<uint16_t> cand;
+    for (int i = 0; i < field.size(); ++i)
+      if (field.groups(i) & mask) cand.push_back(static_cast<uint16_t>(i));
+    return cand;
+  }
+  // A ray from near a joint (picked by the trial's and the ray's numbers), in any direction.
+  void add_ray(int trial, int j, std::vector<glm::vec3>& origins, std::vector<glm::vec3>& dirs) {
+    origins.push_back(w[(trial + j) % skel.joint_count()].translation + 0.05f * glm::vec3(u(rng), u(rng), u(rng)));
+    dirs.push_back(glm::normalize(glm::vec3(u(rng), u(rng), u(rng))));
+  }
+};
+
 // The batched star caster (eight rays in lock step) finds what the one-ray caster finds.
 TEST(BodyField, StarCastingAgreesWithSingleRays) {
-  const BodyModel m = default_body_model();
-  auto skel = Skeleton::build(m.skeleton);
-  ASSERT_TRUE(skel);
-  auto f = BodyField::create(m, *skel);
-  ASSERT_TRUE(f);
-  std::mt19937_64 rng(99);
-  std::uniform_real_distribution<float> u(-1.0f, 1.0f);
-  std::vector<RigidTransform> w(skel->joint_count());
+  RandomPostures r(99);
+  const BodyField* f = &r.field;
+  auto& u = r.u;
+  auto& rng = r.rng;
+  const auto& w = r.w;
   int compared = 0, hits = 0;
   for (int trial = 0; trial < 60; ++trial) {
-    Pose p = skel->zero_pose();
-    for (int i = 0; i < skel->dof_count(); ++i) p.dof_rad[i] = 0.5f * u(rng);
-    forward_kinematics(*skel, p, w);
-    f->update(w, p.dof_rad);
-    const glm::vec3 origin = w[trial % skel->joint_count()].translation + 0.03f * glm::vec3(u(rng), u(rng), u(rng));
+    r.next();
+    const glm::vec3 origin = w[trial % r.skel.joint_count()].translation + 0.03f * glm::vec3(u(rng), u(rng), u(rng));
     const glm::vec3 normal = glm::normalize(glm::vec3(u(rng), u(rng), u(rng)));
     const glm::vec3 front = glm::normalize(glm::cross(normal, glm::vec3(0.3f, 1, 0.2f)));
     const glm::vec3 left = glm::cross(normal, front);
@@ -209,31 +256,17 @@ TEST(BodyField, StarCastingAgreesWithSingleRays) {
 // Rays of their own (each with its origin and direction), eight at a time: the same outermost
 // crossings as one ray at a time, misses included.
 TEST(BodyField, BatchedRaysAgreeWithSingleRays) {
-  const BodyModel m = default_body_model();
-  auto skel = Skeleton::build(m.skeleton);
-  ASSERT_TRUE(skel);
-  auto f = BodyField::create(m, *skel);
-  ASSERT_TRUE(f);
-  std::mt19937_64 rng(7);
-  std::uniform_real_distribution<float> u(-1.0f, 1.0f);
-  std::vector<RigidTransform> w(skel->joint_count());
+  RandomPostures r(7);
+  const BodyField* f = &r.field;
   int compared = 0, hits = 0, misses = 0;
   for (int trial = 0; trial < 100; ++trial) {
-    Pose p = skel->zero_pose();
-    for (int i = 0; i < skel->dof_count(); ++i) p.dof_rad[i] = 0.5f * u(rng);
-    forward_kinematics(*skel, p, w);
-    f->update(w, p.dof_rad);
-    const GroupMask mask = static_cast<GroupMask>((1u << (trial % kGroupCount)) | (1u << ((trial + 3) % kGroupCount)));
-    std::vector<uint16_t> cand;
-    for (int i = 0; i < f->size(); ++i)
-      if (f->groups(i) & mask) cand.push_back(static_cast<uint16_t>(i));
+    r.next();
+    GroupMask mask;
+    const std::vector<uint16_t> cand = r.two_groups(trial, mask);
     // 1 to 21 rays (a partial last batch too), origins near joints, any direction.
     const int rays = 1 + trial % 21;
     std::vector<glm::vec3> origins, dirs;
-    for (int j = 0; j < rays; ++j) {
-      origins.push_back(w[(trial + j) % skel->joint_count()].translation + 0.05f * glm::vec3(u(rng), u(rng), u(rng)));
-      dirs.push_back(glm::normalize(glm::vec3(u(rng), u(rng), u(rng))));
-    }
+    for (int j = 0; j < rays; ++j) r.add_ray(trial, j, origins, dirs);
     std::vector<RayHit> batch(static_cast<size_t>(rays));
     f->cast_rays(origins, dirs, cand, batch);
     for (int j = 0; j < rays; ++j) {
@@ -249,6 +282,76 @@ TEST(BodyField, BatchedRaysAgreeWithSingleRays) {
     }
   }
   EXPECT_GT(hits, 100) << "of " << compared << " rays";
+  EXPECT_GT(misses, 0);
+}
+
+// The search near a point (boundary-driven rings): batched rays agree with single rays, and
+// the single ray's answer is where the solid around the point ends (checked by dense sampling):
+// from a point outside the first crossing inwards, from a point inside the first one outwards.
+TEST(BodyField, NearestCrossingBatchedAgreesWithSingleAndEndsTheSolidAroundThePoint) {
+  RandomPostures r(11);
+  const BodyField* f = &r.field;
+  auto& u = r.u;
+  auto& rng = r.rng;
+  int inwards = 0, outwards = 0, beyond = 0, misses = 0;
+  for (int trial = 0; trial < 100; ++trial) {
+    r.next();
+    GroupMask mask;
+    const std::vector<uint16_t> cand = r.two_groups(trial, mask);
+    bool any_hard = false;
+    for (uint16_t i : cand) any_hard = any_hard || f->hard(i);
+    const int rays = 1 + trial % 21;
+    std::vector<glm::vec3> origins, dirs;
+    std::vector<RayNear> nears;
+    for (int j = 0; j < rays; ++j) {
+      r.add_ray(trial, j, origins, dirs);
+      // Points around the outermost crossing, most windows holding one or more crossings.
+      const RayHit out = f->cast_outermost(origins.back(), dirs.back(), cand);
+      const float tn = (out.hit() ? out.t : 0.1f) * (0.9f + 0.4f * u(rng)) + 0.005f;
+      const float reach = (0.2f + 0.3f * (0.5f + 0.5f * u(rng))) * tn;
+      nears.push_back({tn, tn - reach, tn + reach});
+    }
+    std::vector<RayHit> batch(static_cast<size_t>(rays));
+    f->cast_rays_nearest(origins, dirs, nears, cand, batch);
+    for (int j = 0; j < rays; ++j) {
+      const RayHit one = f->cast_nearest(origins[j], dirs[j], cand, nears[j]);
+      const std::string what = "trial " + std::to_string(trial) + " ray " + std::to_string(j);
+      ASSERT_EQ(one.hit(), batch[j].hit()) << what;
+      if (one.hit()) {
+        EXPECT_NEAR(one.t, batch[j].t, 1e-4f) << what;
+      }
+      if (any_hard) continue;  // a hard ellipsoid's exit competes by distance alone
+      // Sampled every 0.2 mm from the point: the first change of side, inwards or outwards.
+      const RayNear& n = nears[j];
+      auto inside = [&](float t) { return f->inside(origins[j] + t * dirs[j], mask); };
+      const bool in0 = inside(n.t_near);
+      float first = -1.0f;
+      for (float t = n.t_near; in0 ? t <= n.t_max : t >= n.t_min; t += in0 ? 2e-4f : -2e-4f) {
+        if (inside(t) != in0) {
+          first = t;
+          break;
+        }
+      }
+      if (first < 0.0f) {
+        if (in0) {
+          EXPECT_EQ(one.t, n.t_max) << what;
+          ++beyond;
+        } else {
+          EXPECT_FALSE(one.hit()) << what;
+          ++misses;
+        }
+        continue;
+      }
+      ASSERT_TRUE(one.hit()) << what;
+      EXPECT_NEAR(one.t, first, 5e-4f) << what;
+      ++(in0 ? outwards : inwards);
+    }
+  }
+  std::printf("near a point: %d crossings inwards, %d outwards, %d beyond the window, %d misses\n", inwards, outwards,
+              beyond, misses);
+  EXPECT_GT(inwards, 20);
+  EXPECT_GT(outwards, 20);
+  EXPECT_GT(beyond, 0);
   EXPECT_GT(misses, 0);
 }
 

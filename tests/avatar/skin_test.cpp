@@ -84,14 +84,15 @@ TEST(Skin, StaysClosedAndOutwardInRandomPostures) {
 }
 
 // Every contour point produced by a ray lies on its group's surface and is the outermost
-// crossing along that ray.
+// crossing along that ray; on a boundary-driven ring, where the solid around the point P its ray
+// aims at ends (searched within 30% of |P − O| of P and half the rings' spacing).
 TEST(Skin, ContourPointsLieOnTheIsoSurfaceAndAreOutermost) {
   BodySkin s = make_skin(1);
   std::mt19937_64 rng(7);
   for (int pose = 0; pose < 4; ++pose) {
     if (pose > 0) s.evaluate(random_pose(s.skeleton(), rng, 0.5f));
     const BodyField& f = s.field();
-    int checked = 0;
+    int checked = 0, driven = 0;
     for (const auto& c : s.contours()) {
       for (size_t j = 0; j < c.points.size(); ++j) {
         if (!c.from_ray[j]) continue;
@@ -101,6 +102,23 @@ TEST(Skin, ContourPointsLieOnTheIsoSurfaceAndAreOutermost) {
         // outside just after, and the metaball field at most the iso-level.
         EXPECT_LE(f.field(p, c.mask), 1.0f + 2e-3f) << c.name << " point " << j;
         EXPECT_TRUE(f.inside(p - 1e-4f * d, c.mask)) << c.name << " point " << j;
+        ++checked;
+        if (!c.targets.empty()) {
+          // Where the solid around P ends: no change of side between P and the point, which lies
+          // inwards of P when P is outside, outwards when inside (dense sampling).
+          const float tp = glm::length(c.targets[j] - c.ray_origins[j]), th = glm::length(p - c.ray_origins[j]);
+          const bool in0 = f.inside(c.ray_origins[j] + tp * d, c.mask);
+          EXPECT_EQ(in0, th > tp) << c.name << " point " << j;
+          const float step = th > tp ? 2e-4f : -2e-4f;
+          for (float t = tp; std::abs(th - t) > 1e-3f; t += step) {
+            if (f.inside(c.ray_origins[j] + t * d, c.mask) != in0) {
+              ADD_FAILURE() << c.name << " point " << j << " crosses the surface at " << t << ", before " << th;
+              break;
+            }
+          }
+          ++driven;
+          continue;
+        }
         // Outermost: nothing further along the ray is inside (dense sampling to 0.6 m).
         for (float t = 2e-4f; t < 0.6f; t += 1e-3f) {
           if (f.inside(p + t * d, c.mask)) {
@@ -108,10 +126,10 @@ TEST(Skin, ContourPointsLieOnTheIsoSurfaceAndAreOutermost) {
             break;
           }
         }
-        ++checked;
       }
     }
     EXPECT_GT(checked, 2500);
+    EXPECT_GT(driven, 200);
   }
 }
 

@@ -14,12 +14,20 @@
 #include <cstdio>
 #include <cstdlib>
 #include <nlohmann/json.hpp>
+#include <functional>
+#include <map>
+#include <memory>
 #include <string>
 #include <vector>
 
+#include "mimic/net/client.h"
+#include "mimic/net/nats.h"
 #include "mimic_proc.h"
 #include "nats_broker.h"
 #include "test_data.h"
+#if MIMIC_WITH_NATS
+#include "nats_kv.h"
+#endif
 
 namespace {
 
@@ -44,6 +52,38 @@ bool built_with_nats() {
   Proc probe({"run", "--listen", "127.0.0.1:0", "--nats", "nats://127.0.0.1:1", "--duration", "0.1", "--quiet"});
   probe.wait(10.0);
   return probe.err().find("no NATS support") == std::string::npos;
+}
+
+// `mimic relay` of `scene` on a port of its own, for a minute at most.
+std::vector<std::string> relay_args(const std::string& url, const std::string& scene) {
+  return {"relay", "--nats", url, "--scene", scene, "--listen", "127.0.0.1:0", "--duration", "60", "--json", "--quiet"};
+}
+
+// The JSON summary a running mimic prints on SIGUSR1.
+nlohmann::json json_now(Proc& p) {
+  const size_t mark = p.out().size();
+  p.signal(SIGUSR1);
+  if (!p.wait_for_out("\n", 10.0, mark)) return nlohmann::json();
+  return last_json(p.out());
+}
+
+// A viewer of `endpoint` (mesh frames at `mesh_lod` when given).
+std::unique_ptr<mimic::net::Client> viewer(const std::string& endpoint, uint8_t mesh_lod = mimic::net::kNoMesh) {
+  mimic::net::ClientOptions o;
+  o.connect = endpoint;
+  o.mesh_lod = mesh_lod;
+  auto c = mimic::net::Client::connect(o);
+  return c ? std::move(*c) : nullptr;
+}
+
+// Drives the clients until `done` or the timeout.
+bool pump(const std::vector<mimic::net::Client*>& clients, const std::function<bool()>& done, double timeout_s) {
+  const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
+  while (std::chrono::steady_clock::now() < end) {
+    for (auto* c : clients) (void)c->run_until(std::chrono::steady_clock::now() + std::chrono::milliseconds(2));
+    if (done()) return true;
+  }
+  return done();
 }
 
 #define REQUIRE_NATS_SERVER()                                                                        \
@@ -116,5 +156,138 @@ TEST(NatsCli, RunServesLocallyWhileTheBrokerIsDownThenJoinsItRelayAndSubscribeSe
   EXPECT_EQ(rj["nats"]["avatars"], 0) << relay.out();
   EXPECT_EQ(rj["nats"]["rejected"], 0);
 }
+
+// Mesh frames through the broker: a viewer behind a relay asking for the LOD `mimic run`
+// deforms at gets the same mesh as a viewer of that mimic run, frame for frame.
+TEST(NatsCli, AMeshViewerBehindARelayGetsTheDirectServersMeshFrames) {
+  REQUIRE_NATS_SERVER();
+  mimic::test::NatsBroker broker;
+  broker.configure("mesh");
+  ASSERT_TRUE(broker.start());
+  Proc run({"run", "--listen", "127.0.0.1:0", "--nats", broker.url(), "--scene", "mesh", "--nats-name", "hostM",
+            "--mesh-lod", "2", "--duration", "60", "--json", "--quiet"});
+  const std::string ep = endpoint_of(run);
+  ASSERT_FALSE(ep.empty()) << run.err();
+  Proc relay(relay_args(broker.url(), "mesh"));
+  const std::string relay_ep = endpoint_of(relay);
+  ASSERT_FALSE(relay_ep.empty()) << relay.err();
+
+  // Pose viewers only, so far: nothing asks for mesh frames, none crosses the broker.
+  auto poses = viewer(relay_ep);
+  ASSERT_TRUE(poses);
+  ASSERT_TRUE(pump({poses.get()}, [&] { return poses->stats().frames >= 90; }, 20));
+  const auto before = json_now(run);
+  EXPECT_EQ(before["nats"]["mesh_requests"], 0) << run.out();
+  EXPECT_EQ(before["nats"]["mesh_frames"], 0);
+
+  auto via_relay = viewer(relay_ep, 2), other_lod = viewer(relay_ep, 1);
+  ASSERT_TRUE(via_relay && other_lod);
+  // Every mesh frame by sequence number, as each viewer decoded it.
+  std::map<uint32_t, std::vector<glm::vec3>> from_direct, from_relay;
+  uint64_t wrong_lod = 0;
+  via_relay->on_mesh = [&](const mimic::net::RemoteAvatar& a) {
+    from_relay[a.mesh_last.sequence] = a.mesh_positions_m;
+    wrong_lod += a.mesh_last.lod != 2;
+  };
+  ASSERT_TRUE(pump({poses.get(), via_relay.get(), other_lod.get()}, [&] { return from_relay.size() >= 20; }, 30))
+      << relay.err();
+  // Mesh frames for the broker cost the loop no allocation, nor does a direct mesh viewer
+  // joining (below).
+  const auto during = json_now(run);
+  EXPECT_EQ(during["loop_allocations"], 0);
+  EXPECT_GT(during["nats"]["mesh_frames"].get<int>(), 0);
+
+  auto direct = viewer(ep, 2);
+  ASSERT_TRUE(direct);
+  direct->on_mesh = [&](const mimic::net::RemoteAvatar& a) { from_direct[a.mesh_last.sequence] = a.mesh_positions_m; };
+  auto common = [&] {
+    size_t n = 0;
+    for (const auto& [seq, p] : from_relay) n += from_direct.count(seq);
+    return n;
+  };
+  const std::vector<mimic::net::Client*> all = {poses.get(), direct.get(), via_relay.get(), other_lod.get()};
+  ASSERT_TRUE(pump(all, [&] { return common() >= 30; }, 30))
+      << "relay " << from_relay.size() << " direct " << from_direct.size() << "\n" << relay.err();
+  size_t equal = 0;
+  for (const auto& [seq, p] : from_relay)
+    if (auto it = from_direct.find(seq); it != from_direct.end()) equal += it->second == p;
+  EXPECT_EQ(equal, common()) << "the same vertices for the same frame, bit for bit";
+  EXPECT_EQ(wrong_lod, 0u);
+  const auto& r = via_relay->avatars().begin()->second;
+  const auto& d = direct->avatars().begin()->second;
+  EXPECT_EQ(r.mesh_indices, d.mesh_indices) << "the same topology";
+  EXPECT_GT(r.mesh_vertex_count, 0u);
+  EXPECT_EQ(r.mesh_vertex_count, d.mesh_vertex_count);
+  // The direct server has no mesh at LOD 1 either (mimic run deforms at --mesh-lod 2).
+  EXPECT_EQ(other_lod->stats().mesh_frames, 0u);
+  EXPECT_EQ(poses->stats().mesh_frames, 0u);
+  EXPECT_EQ(json_now(run)["loop_allocations"], 0) << "a direct mesh viewer joined";
+
+  run.signal(SIGINT);
+  ASSERT_EQ(run.wait(15.0), 0) << run.err();
+  relay.signal(SIGINT);
+  ASSERT_EQ(relay.wait(15.0), 0) << relay.err();
+  const auto rj = last_json(relay.out());
+  const auto pj = last_json(run.out());
+  std::printf("[ figure ] mesh LOD 2 through the broker: %llu vertices, %.0f bytes a frame; publisher sent %d mesh "
+              "frames (mesh_want received %d), relay served %d; the direct viewer got %zu, the relay's %zu\n",
+              static_cast<unsigned long long>(r.mesh_vertex_count), double(mimic::net::mesh_packet_bytes(r.mesh_vertex_count)),
+              pj["nats"]["mesh_frames"].get<int>(), pj["nats"]["mesh_requests"].get<int>(),
+              rj["nats"]["mesh_frames"].get<int>(), from_direct.size(), from_relay.size());
+  EXPECT_EQ(rj["nats"]["rejected"], 0);
+  EXPECT_GT(rj["server"]["mesh_frames_out"].get<int>(), 0);
+}
+
+#if MIMIC_WITH_NATS
+// A publisher killed without a clean stop: the relay's viewers see its avatar leave after its
+// missed heartbeats, its model ages out of the bucket, and the restarted publisher (same name,
+// same avatar key) comes back.
+TEST(NatsCli, ASigkilledPublishersAvatarLeavesAndItsRestartBringsItBack) {
+  REQUIRE_NATS_SERVER();
+  mimic::test::NatsBroker broker;
+  broker.configure("crash");
+  ASSERT_TRUE(broker.start());
+  const std::vector<std::string> run_args = {"run", "--listen", "127.0.0.1:0", "--nats", broker.url(), "--scene",
+                                             "crash", "--nats-name", "hostK", "--nats-model-ttl", "3",
+                                             "--duration", "60", "--quiet"};
+  auto run = std::make_unique<Proc>(run_args);
+  ASSERT_FALSE(endpoint_of(*run).empty()) << run->err();
+  Proc relay(relay_args(broker.url(), "crash"));
+  const std::string relay_ep = endpoint_of(relay);
+  ASSERT_FALSE(relay_ep.empty()) << relay.err();
+  auto v = viewer(relay_ep);
+  ASSERT_TRUE(v);
+  ASSERT_TRUE(pump({v.get()}, [&] { return v->avatars().size() == 1 && v->stats().frames >= 30; }, 20));
+  const std::string key = mimic::net::nats_avatar_key("hostK", "avatar1");
+  mimic::test::NatsProbe probe(broker.url());
+  ASSERT_TRUE(probe.ok());
+  ASSERT_TRUE(probe.open_bucket("mimic_crash"));
+  EXPECT_TRUE(probe.holds(key));
+
+  run->signal(SIGKILL);
+  EXPECT_EQ(run->wait(10.0), 128 + SIGKILL);
+  const auto killed = std::chrono::steady_clock::now();
+  ASSERT_TRUE(pump({v.get()}, [&] { return v->avatars().empty(); }, 20)) << "the dead publisher's avatar stayed";
+  const double gone_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - killed).count();
+  ASSERT_TRUE(pump({v.get()}, [&] { return !probe.holds(key); }, 20)) << "its model stayed in the bucket";
+  const double expired_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - killed).count();
+  std::printf("[ figure ] SIGKILLed publisher: its avatar left the relay's viewer %.1f s later, its model the bucket "
+              "%.1f s later (heartbeat 1 s, 3 missed; TTL 3 s)\n", gone_s, expired_s);
+
+  run = std::make_unique<Proc>(run_args);
+  ASSERT_FALSE(endpoint_of(*run).empty()) << run->err();
+  const uint64_t frames_before = v->stats().frames;
+  ASSERT_TRUE(pump({v.get()}, [&] { return v->avatars().size() == 1 && v->stats().frames >= frames_before + 30; }, 20));
+  EXPECT_EQ(v->avatars().begin()->second.name, "hostK/avatar1");
+  EXPECT_TRUE(probe.holds(key)) << "the same key again";
+  run->signal(SIGINT);
+  ASSERT_EQ(run->wait(15.0), 0) << run->err();
+  relay.signal(SIGINT);
+  ASSERT_EQ(relay.wait(15.0), 0);
+  const auto rj = last_json(relay.out());
+  EXPECT_EQ(rj["nats"]["expired"], 1) << relay.out();
+  EXPECT_EQ(rj["nats"]["rejected"], 0);
+}
+#endif
 
 }  // namespace

@@ -2,19 +2,27 @@
 // --publish`) join; Ctrl-C stops the service cleanly.
 #include <gtest/gtest.h>
 
+#include <arpa/inet.h>
 #include <fcntl.h>
+#include <netinet/in.h>
 #include <poll.h>
 #include <signal.h>
 #include <spawn.h>
 #include <sys/wait.h>
+#include <sys/socket.h>
 #include <unistd.h>
 
+#include <array>
 #include <chrono>
 #include <cstdio>
 #include <nlohmann/json.hpp>
+#include <memory>
+#include <sstream>
 #include <string>
+#include <tuple>
 #include <vector>
 
+#include "mimic/net/frame_codec.h"
 #include "mimic_proc.h"
 #include "test_data.h"
 
@@ -104,6 +112,23 @@ TEST(RunSubscribe, SubscriberTakesPoseFramesAsDatagrams) {
   EXPECT_EQ(r["server"]["udp"], true);
   EXPECT_EQ(r["server"]["udp_registered"], 1);
   EXPECT_GE(r["server"]["udp_frames_out"].get<int>(), 80);
+}
+
+// Two avatars' frames of a tick arrive in one read: --count stops at the count, not at the end
+// of the read (an odd count would otherwise always come out one over).
+TEST(RunSubscribe, CountStopsAtTheCountWhenFramesArriveTogether) {
+  Proc run({"run", "--listen", "127.0.0.1:0", "--source", "sim:walk", "--source", "sim:idle?seed=2", "--duration", "8",
+            "--quiet"});
+  const std::string ep = endpoint_of(run);
+  ASSERT_FALSE(ep.empty()) << run.err();
+  for (const char* count : {"31", "45"}) {
+    Proc sub({"subscribe", "--connect", ep, "--count", count, "--json"});
+    ASSERT_EQ(sub.wait(15.0), 0) << sub.err();
+    const auto j = last_json(sub.out());
+    ASSERT_FALSE(j.is_discarded()) << sub.out();
+    EXPECT_EQ(j["frames"], std::stoi(count));
+    EXPECT_EQ(j["avatars"], 2);
+  }
 }
 
 TEST(RunSubscribe, WithoutUdpTheSubscriberIsToldAndFramesComeOnTheStream) {
@@ -219,6 +244,66 @@ TEST(RunSubscribe, HelpIsComplete) {
     EXPECT_NE(sub.out().find(opt), std::string::npos) << opt;
 }
 
+// mimic subscribe takes the lean stream unless told not to; mimic run's --lean-shift and
+// --lean-key-interval set its precision and key frames, as the subscriber sees them.
+TEST(RunSubscribe, LeanStreamByDefaultAtThePrecisionAndKeyIntervalMimicRunServes) {
+  struct Seen {
+    nlohmann::json lean, pose;
+  };
+  auto watch = [](const std::vector<std::string>& flags) {
+    std::vector<std::string> args = {"run", "--listen", "127.0.0.1:0", "--duration", "20", "--quiet"};
+    args.insert(args.end(), flags.begin(), flags.end());
+    Proc run(args);
+    const std::string ep = endpoint_of(run);
+    EXPECT_FALSE(ep.empty()) << run.err();
+    Proc lean({"subscribe", "--connect", ep, "--count", "360", "--json"});
+    Proc pose({"subscribe", "--connect", ep, "--count", "360", "--json", "--no-lean"});
+    EXPECT_EQ(lean.wait(30.0), 0) << lean.err();
+    EXPECT_EQ(pose.wait(30.0), 0) << pose.err();
+    run.signal(SIGINT);
+    EXPECT_EQ(run.wait(10.0), 0) << run.err();
+    return Seen{last_json(lean.out()), last_json(pose.out())};
+  };
+  const Seen plain = watch({});
+  ASSERT_FALSE(plain.lean.is_discarded() || plain.pose.is_discarded());
+  EXPECT_EQ(plain.lean["lean"], true);
+  EXPECT_EQ(plain.lean["lean_shift"], 3);
+  EXPECT_EQ(plain.lean["lost"], 0);
+  // One key on joining, then one every 90 frames: 360 frames hold 4 or 5.
+  EXPECT_GE(plain.lean["lean_keys"].get<int>(), 4);
+  EXPECT_LE(plain.lean["lean_keys"].get<int>(), 6);
+  EXPECT_EQ(plain.pose["lean"], false);
+  EXPECT_TRUE(plain.pose["lean_shift"].is_null());
+  EXPECT_EQ(plain.pose["lean_keys"], 0);
+  EXPECT_EQ(plain.pose["frame_bytes_mean"], 150);
+  EXPECT_LT(plain.lean["frame_bytes_mean"].get<double>(), 100.0);  // against 150
+
+  const Seen fine = watch({"--lean-shift", "0", "--lean-key-interval", "10"});
+  EXPECT_EQ(fine.lean["lean_shift"], 0);
+  EXPECT_GE(fine.lean["lean_keys"].get<int>(), 35);  // 360 / 10, and the first
+  EXPECT_LE(fine.lean["lean_keys"].get<int>(), 39);
+  const Seen coarse = watch({"--lean-shift", "8", "--lean-key-interval", "0"});
+  EXPECT_EQ(coarse.lean["lean_shift"], 8);
+  EXPECT_LE(coarse.lean["lean_keys"].get<int>(), 2) << "no periodic keys: the first, and one after a loss at most";
+  std::printf("[ figure ] built-in walk, lean stream bytes per avatar-frame: shift 0 with a key every 10: %.1f, "
+              "shift 3 (default, key every 90): %.1f, shift 8 without periodic keys: %.1f; POSE: %.0f\n",
+              fine.lean["frame_bytes_mean"].get<double>(), plain.lean["frame_bytes_mean"].get<double>(),
+              coarse.lean["frame_bytes_mean"].get<double>(), plain.pose["frame_bytes_mean"].get<double>());
+  EXPECT_GT(fine.lean["frame_bytes_mean"].get<double>(), plain.lean["frame_bytes_mean"].get<double>());
+  EXPECT_LT(coarse.lean["frame_bytes_mean"].get<double>(), plain.lean["frame_bytes_mean"].get<double>());
+
+  // Out of bounds: a usage error naming the flag and its bounds.
+  for (const auto& [flag, value, says] : std::vector<std::tuple<std::string, std::string, std::string>>{
+           {"--lean-shift", "9", "--lean-shift must be 0 to 8"},
+           {"--lean-shift", "-1", "--lean-shift must be 0 to 8"},
+           {"--lean-key-interval", "3601", "--lean-key-interval must be 0 (no periodic key frames) to 3600"},
+           {"--lean-key-interval", "often", "--lean-key-interval expects an integer"}}) {
+    Proc bad({"run", "--listen", "127.0.0.1:0", flag, value, "--duration", "1", "--quiet"});
+    EXPECT_EQ(bad.wait(10.0), 2) << flag << " " << value;
+    EXPECT_NE(bad.err().find(says), std::string::npos) << bad.err();
+  }
+}
+
 }  // namespace
 
 namespace {
@@ -239,6 +324,46 @@ TEST(Bench, NetSectionReportsItsFigures) {
   // Every fan-out point delivered what it could account for: received + lost = expected.
   for (const auto& f : n["fanout_90hz"])
     EXPECT_EQ(f["received"].get<uint64_t>() + f["lost"].get<uint64_t>(), f["expected"].get<uint64_t>());
+}
+
+// One JSON object per configuration and line: direct TCP and UDP, and through a broker (or a
+// row saying why the broker rows were skipped).
+TEST(Bench, FanoutSectionPrintsOneRowPerTransport) {
+  Proc bench({"bench", "--section", "fanout", "--quick", "--json"});
+  ASSERT_EQ(bench.wait(120.0), 0) << bench.err();
+  std::vector<nlohmann::json> rows;
+  size_t at = 0;
+  const std::string out = bench.out();
+  while (at < out.size()) {
+    const size_t end = out.find('\n', at);
+    const std::string line = out.substr(at, end == std::string::npos ? std::string::npos : end - at);
+    at = end == std::string::npos ? out.size() : end + 1;
+    if (line.empty()) continue;
+    rows.push_back(nlohmann::json::parse(line, nullptr, false));
+    ASSERT_FALSE(rows.back().is_discarded()) << line;
+  }
+  ASSERT_EQ(rows.size(), 3u) << out;
+  const char* transports[] = {"tcp", "udp", "nats"};
+  for (size_t i = 0; i < rows.size(); ++i) {
+    const auto& r = rows[i];
+    EXPECT_EQ(r["transport"], transports[i]);
+    if (r.contains("skipped")) {
+      EXPECT_EQ(r["transport"], "nats");
+      EXPECT_FALSE(r["skipped"].get<std::string>().empty());
+      continue;
+    }
+    for (const char* k : {"streams", "avatars", "hz", "tick_us_p50", "tick_us_p99", "bytes_per_avatar_frame",
+                          "cpu_percent", "lost", "sender_threads"})
+      EXPECT_TRUE(r.contains(k)) << r["transport"] << " " << k;
+    EXPECT_EQ(r["streams"].get<uint64_t>(), 100u);
+    EXPECT_EQ(r["received"].get<uint64_t>() + r["lost"].get<uint64_t>(), r["expected"].get<uint64_t>());
+    EXPECT_LT(r["bytes_per_avatar_frame"].get<double>(), 64.0);
+    if (r["transport"] == "nats") {
+      EXPECT_GT(r["publish_to_relay_ms_p50"].get<double>(), 0.0);
+      EXPECT_GE(r["publish_to_relay_ms_p99"].get<double>(), r["publish_to_relay_ms_p50"].get<double>());
+      EXPECT_GE(r["relay_fanouts_per_tick"].get<double>(), 0.5);
+    }
+  }
 }
 
 }  // namespace
@@ -275,13 +400,21 @@ namespace {
 TEST(Bench, SkinAndSolverSectionsReportTheirFigures) {
   Proc bench({"bench", "--section", "skin", "--quick", "--json"});
   ASSERT_EQ(bench.wait(120.0), 0) << bench.err();
-  const auto j = last_json(bench.out());
-  ASSERT_FALSE(j.is_discarded()) << bench.out();
-  ASSERT_TRUE(j["skin"].is_array()) << bench.out();
-  ASSERT_EQ(j["skin"].size(), 4u);
+  // One JSON object per LOD, one per line, finest first.
+  std::vector<nlohmann::json> rows;
+  std::istringstream lines(bench.out());
+  for (std::string line; std::getline(lines, line);) {
+    if (line.empty()) continue;
+    rows.push_back(nlohmann::json::parse(line, nullptr, false));
+    ASSERT_FALSE(rows.back().is_discarded()) << line;
+  }
+  ASSERT_EQ(rows.size(), 4u) << bench.out();
   int previous_vertices = 1 << 30;
-  for (const auto& row : j["skin"]) {
-    for (const char* key : {"full_us", "realtime_us", "realtime_muscles_us", "lbs_us"})
+  for (size_t lod = 0; lod < rows.size(); ++lod) {
+    const auto& row = rows[lod];
+    EXPECT_EQ(row["lod"], lod);
+    for (const char* key : {"full_us", "realtime_us", "realtime_muscles_us", "lbs_us", "dqs_us", "cor_us",
+                            "lbs_ns_per_vertex", "dqs_ns_per_vertex", "cor_ns_per_vertex"})
       EXPECT_GT(row[key].get<double>(), 0.0) << key;
     EXPECT_LT(row["vertices"].get<int>(), previous_vertices) << "LODs coarsen";
     previous_vertices = row["vertices"].get<int>();
@@ -336,6 +469,95 @@ TEST(RunSubscribe, ThinClientGetsMeshFramesAtTheOfferedLod) {
     ASSERT_FALSE(k.is_discarded()) << other.out();
     EXPECT_EQ(k["mesh_frames"], 0) << method;
     EXPECT_EQ(k["frames"], 30);
+  }
+}
+
+}  // namespace
+
+namespace {
+
+// The JSON summary a running mimic prints on SIGUSR1.
+nlohmann::json json_now(Proc& p) {
+  const size_t mark = p.out().size();
+  p.signal(SIGUSR1);
+  if (!p.wait_for_out("\n", 10.0, mark)) return nlohmann::json();
+  return last_json(p.out());
+}
+
+// A subscriber on a raw socket that asks for a key frame of `avatar` over and over, reading
+// (and dropping) what it is sent, then says BYE.
+bool request_keys(const std::string& endpoint, uint16_t avatar, int requests) {
+  const size_t colon = endpoint.rfind(':');
+  sockaddr_in addr{};
+  addr.sin_family = AF_INET;
+  addr.sin_port = htons(uint16_t(std::stoi(endpoint.substr(colon + 1))));
+  if (::inet_pton(AF_INET, endpoint.substr(0, colon).c_str(), &addr.sin_addr) != 1) return false;
+  const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
+  if (fd < 0) return false;
+  bool ok = ::connect(fd, reinterpret_cast<const sockaddr*>(&addr), sizeof addr) == 0;
+  std::array<uint8_t, 512> out{};
+  std::vector<uint8_t> in(1 << 16);
+  auto send_all = [&](size_t n) { return n > 0 && ::send(fd, out.data(), n, MSG_NOSIGNAL) == ssize_t(n); };
+  mimic::net::Hello hello;
+  hello.capabilities = mimic::net::kCapPose | mimic::net::kCapLeanPose;
+  hello.name = "key-requester";
+  ok = ok && send_all(mimic::net::encode_hello(hello, out));
+  for (int i = 0; ok && i < requests; ++i) {
+    ok = send_all(mimic::net::encode_key_request(avatar, out));
+    pollfd p{fd, POLLIN, 0};
+    for (int k = 0; ok && k < 4 && ::poll(&p, 1, 5) > 0; ++k) ok = ::recv(fd, in.data(), in.size(), 0) > 0;
+  }
+  ok = ok && send_all(mimic::net::encode_bye(out));
+  ::close(fd);
+  return ok;
+}
+
+// The realtime loop never allocates (`loop_allocations`, counted once it has warmed up): not
+// when a subscriber of any kind joins or leaves it afterwards — a mesh subscriber (at the
+// finest LOD too, whose topology and frames the kernel cannot take at once), a UDP subscriber
+// registering its address, lean and POSE subscribers, several at once, a key request.
+TEST(RunSubscribe, SubscribersJoiningAndLeavingCostTheLoopNoAllocation) {
+  for (const char* lod : {"2", "0"}) {
+    Proc run({"run", "--listen", "127.0.0.1:0", "--mesh-lod", lod, "--duration", "90", "--quiet", "--json"});
+    const std::string ep = endpoint_of(run);
+    ASSERT_FALSE(ep.empty()) << run.err();
+    // Past the warm-up (100 frames) before anyone joins: joins during it would not count.
+    nlohmann::json j;
+    for (int i = 0; i < 200 && !(j = json_now(run)).is_discarded() && j.value("frames", 0) < 120; ++i)
+      ::usleep(20000);
+    ASSERT_GE(j.value("frames", 0), 120) << run.err();
+    ASSERT_EQ(j["loop_allocations"], 0);
+    auto joined = [&](const std::vector<std::string>& args, const char* who) {
+      Proc sub(args);
+      EXPECT_EQ(sub.wait(30.0), 0) << who << ": " << sub.err();
+      const auto s = last_json(sub.out());
+      EXPECT_FALSE(s.is_discarded()) << who << ": " << sub.out();
+      const auto r = json_now(run);
+      EXPECT_EQ(r["loop_allocations"], 0) << who << " joined and left, at LOD " << lod;
+      return s;
+    };
+    const auto mesh = joined({"subscribe", "--connect", ep, "--mesh-lod", lod, "--count", "60", "--json"}, "a mesh subscriber");
+    EXPECT_GE(mesh["mesh_frames"].get<int>(), 30) << lod;
+    const auto udp = joined({"subscribe", "--connect", ep, "--udp", "--count", "60", "--json"}, "a UDP subscriber");
+    EXPECT_GE(udp["udp_frames"].get<int>(), 30);
+    joined({"subscribe", "--connect", ep, "--no-lean", "--count", "60", "--json"}, "a POSE subscriber");
+    {
+      std::vector<std::unique_ptr<Proc>> many;
+      for (int i = 0; i < 6; ++i)
+        many.push_back(std::make_unique<Proc>(std::vector<std::string>{
+            "subscribe", "--connect", ep, "--count", "90", i % 2 ? "--udp" : "--no-lean", "--json"}));
+      joined({"subscribe", "--connect", ep, "--mesh-lod", lod, "--count", "90", "--json"}, "seven subscribers");
+      for (auto& p : many) EXPECT_EQ(p->wait(30.0), 0) << p->err();
+    }
+    ASSERT_TRUE(request_keys(ep, 1, 30));
+    // The last requests may still be in the socket when request_keys returns (a loaded machine).
+    for (int i = 0; i < 250 && !(j = json_now(run)).is_discarded() && j["server"].value("key_requests", 0) < 30; ++i)
+      ::usleep(20000);
+    run.signal(SIGINT);
+    ASSERT_EQ(run.wait(15.0), 0) << run.err();
+    const auto r = last_json(run.out());
+    EXPECT_EQ(r["loop_allocations"], 0) << "after key requests, at LOD " << lod;
+    EXPECT_GE(r["server"]["key_requests"].get<int>(), 30);
   }
 }
 

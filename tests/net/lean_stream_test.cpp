@@ -114,16 +114,8 @@ TEST(LeanStream, StalledSubscriberNeverGetsADeltaWithoutItsReference) {
     pump_for({pub.get()}, 0.0005);
   }
   ASSERT_TRUE(pump({pub.get()}, [&] { return st.stats().frames_in == n; }));
-  Bytes all;
-  for (;;) {
-    Bytes b = stalled.read(0.3, 1 << 20);
-    if (b.empty()) break;
-    all.insert(all.end(), b.begin(), b.end());
-  }
   PacketReader r;
-  auto space = r.write_space(all.size());
-  std::copy(all.begin(), all.end(), space.begin());
-  r.commit(all.size());
+  feed(r, stalled.read_until_quiet(0.3));
   LeanPoseState state;
   avatar::Pose pose;
   PoseHeader h;

@@ -7,11 +7,16 @@
 #include <atomic>
 #include <cmath>
 #include <cstdio>
+#include <future>
+#include <set>
 #include <thread>
 
 #include "mimic/net/nats.h"
 #include "nats_broker.h"
 #include "net_test_support.h"
+#if MIMIC_WITH_NATS
+#include "nats_kv.h"
+#endif
 
 namespace mimic::net {
 namespace {
@@ -30,24 +35,42 @@ constexpr uint16_t kDofs = 12;
   } while (0)
 
 // Publishes `avatars` avatars at `hz` from a thread, as mimic run --nats does: encoded pose
-// frames stamped with the wall clock at publish time.
+// frames stamped with the wall clock at publish time, a tick of them at a time.
+// A square of two triangles whose corners move with the sequence number: the mesh of an
+// avatar deformed at `lod` (mesh_lod < 0: none), sent as the pipeline sends it, only while
+// mesh_wanted() says a relay asks.
+MeshTopology test_topology(uint8_t lod) {
+  MeshTopology t;
+  t.lod = lod;
+  t.vertex_count = 4;
+  t.indices = {0, 1, 2, 0, 2, 3};
+  return t;
+}
+std::vector<glm::vec3> test_positions(uint32_t sequence) {
+  const float x = float(sequence % 100) * 0.01f;
+  return {{x, 0, 0}, {x + 1, 0, 0}, {x + 1, 1, 0}, {x, 1, 0}};
+}
+
 class TestPublisher {
  public:
-  TestPublisher(const NatsOptions& o, int avatars, double hz = 90) {
+  TestPublisher(const NatsOptions& o, int avatars, double hz = 90, int mesh_lod = -1) {
     auto p = NatsPublisher::create(o);
     if (!p) throw std::runtime_error(p.error().what());
     pub_ = std::move(*p);
     for (int i = 0; i < avatars; ++i) {
       auto idx = pub_->add_avatar("avatar" + std::to_string(i + 1), kDofs, "model of " + o.name + " " + std::to_string(i));
       if (!idx) throw std::runtime_error(idx.error().what());
+      if (mesh_lod >= 0)
+        if (auto st = pub_->add_mesh(*idx, test_topology(uint8_t(mesh_lod))); !st) throw std::runtime_error(st.error().what());
     }
-    thread_ = std::thread([this, avatars, hz] {
+    thread_ = std::thread([this, avatars, hz, mesh_lod] {
       avatar::Pose pose;
       pose.dof_rad.assign(kDofs, 0.1f);
-      std::vector<uint8_t> buf(pose_packet_bytes(kDofs));
+      std::vector<uint8_t> buf(pose_packet_bytes(kDofs)), mesh(mesh_packet_bytes(4));
       std::vector<uint32_t> seq(size_t(avatars), 0);
       auto next = Clock::now();
       while (!stop_) {
+        pub_->begin_tick();
         for (int i = 0; i < avatars; ++i) {
           PoseHeader h;
           h.avatar = uint16_t(i);
@@ -56,7 +79,14 @@ class TestPublisher {
           pose.root_position_m.x = float(h.sequence) * 1e-3f;
           const size_t n = encode_pose(h, pose, buf);
           pub_->publish_pose(i, std::span<const uint8_t>(buf.data(), n));
+          if (mesh_lod >= 0 && pub_->mesh_wanted(i)) {
+            const size_t m = encode_mesh({0, uint8_t(mesh_lod), h.sequence, h.time_us}, test_positions(h.sequence), mesh);
+            pub_->publish_mesh(i, std::span<const uint8_t>(mesh.data(), m));
+            mesh_sent_++;
+          }
         }
+        pub_->end_tick();
+        ticks_++;
         next += std::chrono::microseconds(int64_t(1e6 / hz));
         std::this_thread::sleep_until(next);
       }
@@ -67,9 +97,12 @@ class TestPublisher {
     thread_.join();
   }
   NatsPublisher& get() { return *pub_; }
+  uint64_t mesh_sent() const { return mesh_sent_; }
+  uint64_t ticks() const { return ticks_; }
 
  private:
   std::unique_ptr<NatsPublisher> pub_;
+  std::atomic<uint64_t> mesh_sent_{0}, ticks_{0};
   std::atomic<bool> stop_{false};
   std::thread thread_;
 };
@@ -95,6 +128,12 @@ class TestRelay {
   }
   std::string endpoint() const { return server_->endpoint(); }
   uint16_t port() const { return server_->port(); }
+  // Fan-outs to the relay's viewers so far (asked on the server's own thread).
+  uint64_t fanouts() {
+    std::promise<uint64_t> p;
+    server_->dispatch([&] { p.set_value(server_->fanout_times().count); });
+    return p.get_future().get();
+  }
   NatsSceneFeed& feed() { return *feed_; }
 
  private:
@@ -103,10 +142,11 @@ class TestRelay {
   std::thread thread_;
 };
 
-std::unique_ptr<Client> viewer(const std::string& endpoint) {
+std::unique_ptr<Client> viewer(const std::string& endpoint, uint8_t mesh_lod = kNoMesh) {
   ClientOptions o;
   o.connect = endpoint;
   o.name = "viewer";
+  o.mesh_lod = mesh_lod;
   auto c = Client::connect(o);
   if (!c) throw std::runtime_error(c.error().what());
   return std::move(*c);
@@ -393,6 +433,177 @@ TEST(Nats, OneBrokerThreeRelaysTwoPublishersManyViewers) {
               int(all.size()));
   EXPECT_GT(got, 0.9 * p * double(all.size()));
 }
+
+// Mesh frames cross the broker only while a relay has a viewer that wants the LOD the
+// publisher deforms at: the relay asks (mesh_want, with the topology until it has it), the
+// publisher sends at most mesh_max_hz, and stops a few seconds after the last ask.
+TEST(Nats, MeshFramesFlowOnlyWhileARelayViewerAsksForTheirLod) {
+  REQUIRE_NATS();
+  NatsBroker broker;
+  broker.configure("solo");
+  ASSERT_TRUE(broker.start());
+  auto po = options(broker.url(), "hostM");
+  po.mesh_max_hz = 15;
+  TestPublisher pub(po, 1, 90, /*mesh_lod=*/1);
+  TestRelay relay(options(broker.url(), "relay"));
+  auto poses = viewer(relay.endpoint());
+  ASSERT_TRUE(test::pump({poses.get()}, [&] { return sees_all(*poses, 1, 90); }, 15));
+  EXPECT_EQ(pub.get().stats().mesh_requests, 0u) << "nobody asked";
+  EXPECT_EQ(pub.mesh_sent(), 0u);
+  EXPECT_EQ(pub.get().stats().mesh_frames, 0u);
+
+  // A viewer of another LOD: the publisher's heartbeat says it offers LOD 1 only, so the relay
+  // does not ask.
+  auto other = viewer(relay.endpoint(), 2);
+  test::pump_for({poses.get(), other.get()}, 1.5);
+  EXPECT_EQ(relay.feed().stats().mesh_requests, 0u);
+  EXPECT_EQ(pub.mesh_sent(), 0u);
+
+  auto mesh = viewer(relay.endpoint(), 1);
+  uint64_t wrong_lod = 0;
+  mesh->on_mesh = [&](const RemoteAvatar& a) {
+    const auto sent = test_positions(a.mesh_last.sequence);
+    bool same = a.mesh_last.lod == 1 && a.mesh_positions_m.size() == sent.size();
+    for (size_t i = 0; same && i < sent.size(); ++i) same = glm::length(a.mesh_positions_m[i] - sent[i]) < 1e-4f;  // 16-bit steps
+    wrong_lod += !same;
+  };
+  auto mesh_frames = [&] { return mesh->avatars().empty() ? 0 : mesh->avatars().begin()->second.mesh_frames; };
+  ASSERT_TRUE(test::pump({poses.get(), other.get(), mesh.get()}, [&] { return mesh_frames() >= 20; }, 15))
+      << "publisher: " << pub.get().stats().last_error << " relay: " << relay.feed().stats().last_error;
+  const RemoteAvatar& a = mesh->avatars().begin()->second;
+  EXPECT_EQ(a.mesh_indices, test_topology(1).indices);
+  EXPECT_EQ(a.mesh_vertex_count, 4u);
+  EXPECT_EQ(wrong_lod, 0u) << "every frame at the LOD asked, with the positions its sequence was sent with";
+  EXPECT_EQ(other->stats().mesh_frames, 0u);
+  EXPECT_EQ(poses->stats().mesh_frames, 0u);
+  // The rate bound: 15 mesh frames a second against 90 pose frames.
+  const uint64_t poses0 = pub.get().stats().frames, meshes0 = pub.mesh_sent();
+  test::pump_for({poses.get(), other.get(), mesh.get()}, 2.0);
+  const double ratio = double(pub.mesh_sent() - meshes0) / double(pub.get().stats().frames - poses0);
+  std::printf("[ figure ] mesh frames per pose frame at mesh_max_hz 15 and 90 Hz poses: %.3f\n", ratio);
+  EXPECT_LE(ratio, 15.0 / 90.0 * 1.2);
+  EXPECT_GT(ratio, 0.0);
+
+  // The mesh viewer leaves: the relay stops asking, the publisher stops sending.
+  mesh.reset();
+  ASSERT_TRUE(test::pump({poses.get(), other.get()}, [&] {
+    const uint64_t before = pub.mesh_sent();
+    test::pump_for({poses.get(), other.get()}, 0.5);
+    return pub.mesh_sent() == before;
+  }, 15));
+  EXPECT_EQ(relay.feed().stats().rejected, 0u);
+}
+
+#if MIMIC_WITH_NATS
+// A model in the bucket whose publisher shows no life (what a crashed publisher leaves until the
+// bucket's TTL takes it) is not served; a heartbeat naming it brings it in, and missed heartbeats
+// take it out again.
+// A publisher's tick of frames crosses the broker as one message (every avatar's frame of
+// that tick), so a relay takes it in one piece and fans it out to its viewers once, whenever
+// its thread wakes; a message that cannot be framed is refused.
+TEST(Nats, APublishersTickIsOneMessageAndOneRelayFanOut) {
+  REQUIRE_NATS();
+  NatsBroker broker;
+  broker.configure("solo");
+  ASSERT_TRUE(broker.start());
+  ::mimic::test::NatsProbe probe(broker.url());
+  ASSERT_TRUE(probe.ok());
+  ASSERT_TRUE(probe.subscribe("mimic.lobby.poses.*"));
+  TestRelay relay(options(broker.url(), "relay"));
+  constexpr int kAvatars = 8;
+  TestPublisher pub(options(broker.url(), "hostT"), kAvatars);
+  std::set<std::string> keys;
+  for (int i = 0; i < kAvatars; ++i) keys.insert(pub.get().key(i));
+  auto v = viewer(relay.endpoint());
+  ASSERT_TRUE(test::pump({v.get()}, [&] { return sees_all(*v, kAvatars, 20); }, 20));
+
+  // On the wire: each message holds one frame of every avatar, all of the same tick.
+  std::vector<uint8_t> m;
+  for (int i = 0; i < 30; ++i) {
+    ASSERT_TRUE(probe.next(m));
+    std::set<std::string> seen;
+    std::set<uint32_t> sequences;
+    for (size_t at = 0; at < m.size();) {
+      ASSERT_LE(at + 8 + kHeaderBytes, m.size());
+      uint64_t key = 0;
+      for (size_t b = 0; b < 8; ++b) key |= uint64_t(m[at + b]) << (8 * b);
+      char text[17];
+      std::snprintf(text, sizeof text, "%016llx", static_cast<unsigned long long>(key));
+      seen.insert(text);
+      const std::span<const uint8_t> packet(m.data() + at + 8, pose_packet_bytes(kDofs));
+      ASSERT_LE(at + 8 + packet.size(), m.size());
+      PoseHeader h;
+      avatar::Pose pose;
+      ASSERT_EQ(decode_pose(packet, h, pose), Reject::ok);
+      sequences.insert(h.sequence);
+      at += 8 + packet.size();
+    }
+    EXPECT_EQ(seen, keys) << "message " << i;
+    EXPECT_EQ(sequences.size(), 1u) << "one tick per message";
+  }
+
+  // At the relay: no more fan-outs than ticks (the frames of a tick never straddle two).
+  const uint64_t f0 = relay.fanouts(), t0 = pub.ticks(), in0 = relay.feed().stats().frames;
+  test::pump_for({v.get()}, 2.0);
+  const uint64_t fanouts = relay.fanouts() - f0, ticks = pub.ticks() - t0;
+  const uint64_t frames = relay.feed().stats().frames - in0;
+  std::printf("[ figure ] %d avatars at 90 Hz: %llu ticks published, %llu frames into the relay, %llu relay fan-outs "
+              "(%.2f per tick)\n",
+              kAvatars, static_cast<unsigned long long>(ticks), static_cast<unsigned long long>(frames),
+              static_cast<unsigned long long>(fanouts), double(fanouts) / double(std::max<uint64_t>(ticks, 1)));
+  EXPECT_GT(ticks, 90u);
+  EXPECT_GE(frames, (ticks - 2) * kAvatars);
+  EXPECT_LE(fanouts, ticks + 2);  // the two ends of the window may each catch a tick in flight
+
+  // A message that cannot be framed is counted and changes nothing.
+  const uint64_t rejected = relay.feed().stats().rejected;
+  ASSERT_TRUE(probe.publish("mimic.lobby.poses.hostX", std::string(40, 'x')));
+  ASSERT_TRUE(test::pump({v.get()}, [&] { return relay.feed().stats().rejected > rejected; }, 10));
+  EXPECT_EQ(v->avatars().size(), size_t(kAvatars));
+}
+
+TEST(Nats, AnAvatarIsServedWhileItsPublisherHeartbeatsAndLeavesAfterMissedOnes) {
+  REQUIRE_NATS();
+  NatsBroker broker;
+  broker.configure("solo");
+  ASSERT_TRUE(broker.start());
+  ::mimic::test::NatsProbe probe(broker.url());
+  ASSERT_TRUE(probe.ok());
+  ASSERT_TRUE(probe.open_bucket("mimic_lobby", /*create=*/true));
+  const std::string key = nats_avatar_key("ghost", "avatar1");
+  AvatarModel m;
+  m.revision = 7;
+  m.dof_count = kDofs;
+  m.name = "ghost/avatar1";
+  m.model_bytes = "model of a publisher that died";
+  std::vector<uint8_t> packet(avatar_model_packet_bytes(m));
+  ASSERT_GT(encode_avatar_model(m, packet), 0u);
+  ASSERT_TRUE(probe.put(key, packet));
+
+  TestRelay relay(options(broker.url(), "relay"));
+  auto v = viewer(relay.endpoint());
+  ASSERT_TRUE(test::pump({v.get()}, [&] { return relay.feed().stats().held == 1; }, 10)) << relay.feed().stats().last_error;
+  test::pump_for({v.get()}, 4.0);  // longer than three missed heartbeats
+  EXPECT_TRUE(v->avatars().empty()) << "a model without a living publisher is not shown";
+
+  const std::string beat = R"({"publisher":"ghost","period_ms":300,"avatars":[")" + key + R"("]})";
+  ASSERT_TRUE(probe.publish("mimic.lobby.status.ghost", beat));
+  ASSERT_TRUE(test::pump({v.get()}, [&] { return v->avatars().size() == 1; }, 10));
+  EXPECT_EQ(v->avatars().begin()->second.name, "ghost/avatar1");
+  // Heartbeats keep it (300 ms apart, for 2 s: well past three periods of 300 ms).
+  for (int i = 0; i < 8; ++i) {
+    test::pump_for({v.get()}, 0.25);
+    ASSERT_TRUE(probe.publish("mimic.lobby.status.ghost", beat));
+  }
+  EXPECT_EQ(v->avatars().size(), 1u);
+  EXPECT_EQ(relay.feed().stats().expired, 0u);
+  // They stop: three periods later it is gone, and counted.
+  ASSERT_TRUE(test::pump({v.get()}, [&] { return v->avatars().empty(); }, 10));
+  EXPECT_TRUE(test::pump({v.get()}, [&] { return relay.feed().stats().held == 1; }, 5))
+      << "still in the bucket, held until its publisher speaks again";
+  EXPECT_EQ(relay.feed().stats().expired, 1u);
+}
+#endif
 
 }  // namespace
 }  // namespace mimic::net

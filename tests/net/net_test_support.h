@@ -134,12 +134,28 @@ class RawPeer {
     return true;
   }
   bool closed() const { return closed_; }
+  // Everything that comes until nothing more does for `quiet_s` (a stalled peer reading at last).
+  Bytes read_until_quiet(double quiet_s) {
+    Bytes all;
+    for (;;) {
+      const Bytes b = read(quiet_s, 1 << 20);
+      if (b.empty()) return all;
+      all.insert(all.end(), b.begin(), b.end());
+    }
+  }
 
  private:
   int fd_ = -1;
   bool connected_ = false;
   bool closed_ = false;
 };
+
+// A received byte stream into a reader, whose next() then gives its packets one by one.
+inline void feed(PacketReader& r, const Bytes& bytes) {
+  auto space = r.write_space(bytes.size());
+  std::copy(bytes.begin(), bytes.end(), space.begin());
+  r.commit(bytes.size());
+}
 
 inline Bytes hello_packet(Role role, const std::string& secret = "", uint8_t min_v = kMinProtocolVersion,
                           uint8_t max_v = kProtocolVersion) {

@@ -67,6 +67,38 @@ TEST(Camera, FirstPersonLooksAlongItsForward) {
   EXPECT_LT(behind.w, 0.0f);
 }
 
+TEST(CameraFollow, KeepsASteadyWalkerInTheMiddleWithoutSwayingWithItsSteps) {
+  // A walker at 1.3 m/s along a diagonal whose hips sway ±4 cm sideways twice a second, seen at
+  // 60 Hz for 10 s: after the first seconds the target stays on the walker's path, not behind.
+  Camera camera = mimic::render::preset_camera(CameraPreset::kFront, {0, 0, 0}, 1.7f, 1.0f);
+  const float height = camera.target.y;
+  mimic::render::CameraFollow follow;
+  const glm::vec3 dir = glm::normalize(glm::vec3(1, 0, -0.5f));
+  const glm::vec3 side(-dir.z, 0, dir.x);
+  float worst_after_3s = 0, worst_sway = 0;
+  for (int k = 1; k <= 600; ++k) {
+    const float t = static_cast<float>(k) / 60.0f;
+    const glm::vec3 path = 1.3f * t * dir;
+    const glm::vec3 hips = path + 0.04f * std::sin(2.0f * 3.14159265f * 2.0f * t) * side;
+    follow.update(camera, hips, 1.0f / 60.0f);
+    if (t > 3.0f) {
+      worst_after_3s = std::max(worst_after_3s, glm::length(glm::vec2(camera.target.x - path.x, camera.target.z - path.z)));
+      worst_sway = std::max(worst_sway, std::abs(glm::dot(camera.target - path, side)));
+    }
+  }
+  EXPECT_LT(worst_after_3s, 0.05f);  // without the aim ahead it trails by 0.52 m
+  EXPECT_LT(worst_sway, 0.02f);      // half the hips' sway or less
+  EXPECT_EQ(camera.target.y, height);
+  // A standing avatar: the target settles on it.
+  for (int k = 0; k < 600; ++k) follow.update(camera, {2, 0, 3}, 1.0f / 60.0f);
+  EXPECT_NEAR(camera.target.x, 2.0f, 1e-3f);
+  EXPECT_NEAR(camera.target.z, 3.0f, 1e-3f);
+  // No time step, no move.
+  const glm::vec3 before = camera.target;
+  follow.update(camera, {9, 0, 9}, 0.0f);
+  EXPECT_EQ(camera.target, before);
+}
+
 TEST(Camera, ParsesPresetNames) {
   EXPECT_EQ(mimic::render::parse_camera_preset("three-quarter"), CameraPreset::kThreeQuarter);
   EXPECT_FALSE(mimic::render::parse_camera_preset("top"));

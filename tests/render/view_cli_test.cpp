@@ -1,6 +1,8 @@
 // End-to-end: `mimic view --screenshot`, the built program, its PNGs read back and checked.
 #include <gtest/gtest.h>
 
+#include <unistd.h>
+
 #include <sys/wait.h>
 
 #include <cstdio>
@@ -20,7 +22,7 @@ using mimic::test::run_mimic;
 constexpr uint8_t kBackground[3] = {237, 240, 245};  // FrameDesc's default background
 
 std::string temp(const std::string& name) {
-  return (std::filesystem::temp_directory_path() / ("mimic_view_cli_" + name)).string();
+  return (std::filesystem::temp_directory_path() / ("mimic_view_cli_" + std::to_string(::getpid()) + "_" + name)).string();
 }
 
 mimic::render::Image shoot(const std::string& name, const std::string& options) {

@@ -15,6 +15,7 @@
 #include <string>
 
 #include "mimic/render/image.h"
+#include "nats_broker.h"
 #include "run_mimic.h"
 #include "test_data.h"
 
@@ -72,7 +73,7 @@ class VirtualDisplay {
 };
 
 std::string temp(const std::string& name) {
-  return (std::filesystem::temp_directory_path() / ("mimic_view_window_" + name)).string();
+  return (std::filesystem::temp_directory_path() / ("mimic_view_window_" + std::to_string(::getpid()) + "_" + name)).string();
 }
 
 // Pixels of the avatar's shirt (blue) and of the ImGui panel (dark, top-left corner).
@@ -111,6 +112,37 @@ TEST(ViewWindow, DrawsTheLocalPipelineWithItsPanel) {
   EXPECT_EQ(image->height, 300);
   EXPECT_GT(shirt_pixels(*image), 800);
   EXPECT_GT(dark_pixels_top_left(*image), 2000);  // the ImGui status panel
+  std::filesystem::remove(out);
+}
+
+// Column of the shirt's pixels' centre, −1 when there are none.
+double shirt_centre_x(const mimic::render::Image& image) {
+  double sum = 0;
+  int n = 0;
+  for (int y = 0; y < image.height; ++y)
+    for (int x = 0; x < image.width; ++x) {
+      const uint8_t* p = image.pixel(x, y);
+      if (p[2] > p[0] + 40 && p[2] > 90) sum += x, ++n;
+    }
+  return n > 0 ? sum / n : -1.0;
+}
+
+TEST(ViewWindow, TheOrbitCameraKeepsAWalkerInTheMiddle) {
+  // The built-in walk leaves the first framing within about three seconds; 500 frames take
+  // longer than that on any machine, so without following the capture shows an empty floor.
+  VirtualDisplay x;
+  ASSERT_FALSE(x.display().empty()) << "Xvfb did not start (scripts/setup.sh installs it)";
+  ::setenv("DISPLAY", x.display().c_str(), 1);
+  const std::string out = temp("follow.png");
+  const Outcome r = run_mimic("view --source 'sim:walk?sensors=11' --frames 500 --lod 3 --size 400x300 --no-panel --capture '" +
+                              out + "'");
+  ASSERT_EQ(r.status, 0) << r.output;
+  auto image = mimic::render::read_png(out);
+  ASSERT_TRUE(image) << r.output;
+  EXPECT_GT(shirt_pixels(*image), 800);
+  const double cx = shirt_centre_x(*image);
+  EXPECT_GT(cx, 0.3 * image->width);
+  EXPECT_LT(cx, 0.7 * image->width);
   std::filesystem::remove(out);
 }
 
@@ -173,6 +205,44 @@ TEST(ViewWindow, FirstPersonSeesTheAvatarOppositeAndNotItself) {
   EXPECT_GT(shirt_pixels(second), 300);
   // An orbit view of the same scene is not what any of them sees.
   EXPECT_NE(first.rgba, second.rgba);
+}
+
+// A scene published through a NATS broker: `mimic view --connect nats://HOST:PORT/SCENE` takes
+// it from the broker (a relay inside the viewer) and draws every avatar of it.
+TEST(ViewWindow, ConnectsToASceneOnANatsBroker) {
+  const Outcome probe = run_mimic("run --listen 127.0.0.1:0 --nats nats://127.0.0.1:1 --duration 0.1 --quiet");
+  if (probe.output.find("no NATS support") != std::string::npos) GTEST_SKIP() << "built without NATS";
+  ASSERT_FALSE(mimic::test::nats_server_binary().empty()) << "nats-server missing: run scripts/setup.sh";
+  mimic::test::NatsBroker broker;
+  broker.configure("view");
+  ASSERT_TRUE(broker.start());
+  VirtualDisplay x;
+  ASSERT_FALSE(x.display().empty()) << "Xvfb did not start (scripts/setup.sh installs it)";
+  ::setenv("DISPLAY", x.display().c_str(), 1);
+  mimic::test::Child host({mimic::test::mimic_binary(), "run", "--listen", "127.0.0.1:0", "--nats", broker.url(),
+                           "--scene", "stage", "--nats-name", "hostV", "--source", "sim:walk", "--source",
+                           "sim:idle?seed=2", "--duration", "30", "--quiet"});
+  const std::string line = host.line();
+  ASSERT_NE(line.find("publishing scene 'stage'"), std::string::npos) << line;
+  const std::string out = temp("nats.png");
+  const std::string target = broker.url() + "/stage";
+  const Outcome r = run_mimic("view --connect " + target + " --frames 120 --no-vsync --size 400x300 --capture '" + out + "'");
+  ASSERT_EQ(r.status, 0) << r.output;
+  // Both avatars came through the broker, under their publisher's names, deformed here from
+  // pose frames of the lean stream.
+  EXPECT_NE(r.output.find("hostV/avatar1#"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("hostV/avatar2#"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("scene     " + target + ": "), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("pose frames (lean)"), std::string::npos) << r.output;
+  EXPECT_EQ(r.output.find(" 0 frames,"), std::string::npos) << r.output;
+  auto image = mimic::render::read_png(out);
+  ASSERT_TRUE(image) << r.output;
+  EXPECT_GT(shirt_pixels(*image), 800);
+  std::filesystem::remove(out);
+  // A scene name that cannot be a subject: a clear error, exit 1.
+  const Outcome bad = run_mimic("view --connect " + broker.url() + "/a.b --frames 1");
+  EXPECT_EQ(bad.status, 1);
+  EXPECT_NE(bad.output.find("may only hold A-Z a-z 0-9 _ -"), std::string::npos) << bad.output;
 }
 
 }  // namespace

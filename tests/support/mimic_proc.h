@@ -71,6 +71,15 @@ class Proc {
     }
     return true;
   }
+  // Collects output until stdout holds `text` after byte `from` (true) or the timeout passes.
+  bool wait_for_out(const std::string& text, double timeout_s, size_t from = 0) {
+    const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
+    while (out_text_.find(text, from) == std::string::npos) {
+      if (std::chrono::steady_clock::now() >= end) return false;
+      drain(20);
+    }
+    return true;
+  }
   // Waits for exit (collecting output); the exit code, or -1 on timeout.
   int wait(double timeout_s) {
     const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);

@@ -150,51 +150,69 @@ void skin(const SkinningMatrix* __restrict mats, const glm::quat* __restrict rot
 }
 
 #ifdef MIMIC_BASELINES_AVX2
-// Eight vertices at once: per vertex the quaternion blend (hemisphere signs by in-register dot
-// products) and t, the LBS-blended matrix applied to the centre; then the eight quaternions and
-// translations are transposed and normalisation and rotation run eight-wide. Returns the number
-// of vertices done (a multiple of eight).
+// Per frame, for the eight-wide kernel: each joint's matrix with its rotation quaternion in the
+// columns' unused fourth lanes (x, y, z, w in columns 0..3), so one blend of two registers per
+// influence gives both the blended matrix and the blended quaternion.
+constexpr size_t kMaxPackedJoints = 256;  // 16 KB on the stack
+struct PackedJoints {
+  SkinningMatrix joint[kMaxPackedJoints];
+};
+
+void pack(std::span<const SkinningMatrix> mats, std::span<const glm::quat> rots, PackedJoints& out) {
+  for (size_t j = 0; j < mats.size(); ++j) {
+    out.joint[j] = mats[j];
+    out.joint[j].cols[0][3] = rots[j].x, out.joint[j].cols[1][3] = rots[j].y;
+    out.joint[j].cols[2][3] = rots[j].z, out.joint[j].cols[3][3] = rots[j].w;
+  }
+}
+
+// Eight vertices at once. Per vertex one blend of the packed joints, the quaternion lanes'
+// weights flipped into the first joint's hemisphere (masks from the per-frame table `flips`, or
+// from in-register dot products without one). The sixteen blended registers of the eight
+// vertices are transposed, so every matrix entry and quaternion component of the eight is one
+// register: t = M c and the rotation about the centre run eight-wide, with k = 2 / |q|² in
+// place of normalising q. Returns the number of vertices done (a multiple of eight).
 template <bool kNormals>
-size_t skin_blocks(const SkinningMatrix* __restrict mats, const glm::quat* __restrict rots, const uint16_t* __restrict ji,
-                   const float* __restrict wi, const glm::vec3* __restrict cor, const glm::vec3* __restrict in_p,
-                   const glm::vec3* __restrict in_n, glm::vec3* __restrict out_p, glm::vec3* __restrict out_n, size_t n) {
-  const __m256 sign_mask = _mm256_castsi256_ps(_mm256_set1_epi32(int(0x80000000u)));
+size_t skin_blocks(const PackedJoints& packed, const glm::quat* __restrict rots, const simd::HemisphereFlips* flips,
+                   const uint16_t* __restrict ji, const float* __restrict wi, const glm::vec3* __restrict cor,
+                   const glm::vec3* __restrict in_p, const glm::vec3* __restrict in_n, glm::vec3* __restrict out_p,
+                   glm::vec3* __restrict out_n, size_t n) {
+  const __m256 q_lanes = _mm256_castsi256_ps(_mm256_setr_epi32(0, 0, 0, -1, 0, 0, 0, -1));
   size_t v = 0;
   for (; v + 8 <= n; v += 8) {
-    __m128 qa[8], ta[8];
+    __m256 c01[8], c23[8];
+#pragma GCC unroll 8
     for (int i = 0; i < 8; ++i) {
       const uint16_t* j = ji + (v + i) * kInfluences;
       const float* w = wi + (v + i) * kInfluences;
-      const __m128 q0 = _mm_loadu_ps(&rots[j[0]].x), q1 = _mm_loadu_ps(&rots[j[1]].x);
-      const __m128 q2 = _mm_loadu_ps(&rots[j[2]].x), q3 = _mm_loadu_ps(&rots[j[3]].x);
-      const __m256 m12 = _mm256_mul_ps(simd::pair(q0, q0), simd::pair(q1, q2));
-      const __m128 m3 = _mm_mul_ps(q0, q3);
-      __m256 s12 = _mm256_add_ps(m12, _mm256_permute_ps(m12, _MM_SHUFFLE(2, 3, 0, 1)));
-      s12 = _mm256_and_ps(_mm256_add_ps(s12, _mm256_permute_ps(s12, _MM_SHUFFLE(1, 0, 3, 2))), sign_mask);
-      __m128 s3 = _mm_add_ps(m3, _mm_permute_ps(m3, _MM_SHUFFLE(2, 3, 0, 1)));
-      s3 = _mm_and_ps(_mm_add_ps(s3, _mm_permute_ps(s3, _MM_SHUFFLE(1, 0, 3, 2))), _mm256_castps256_ps128(sign_mask));
-      __m128 q = _mm_mul_ps(_mm_broadcast_ss(w), q0);
-      q = _mm_fmadd_ps(_mm_broadcast_ss(w + 1), _mm_xor_ps(q1, _mm256_castps256_ps128(s12)), q);
-      q = _mm_fmadd_ps(_mm_broadcast_ss(w + 2), _mm_xor_ps(q2, _mm256_extractf128_ps(s12, 1)), q);
-      qa[i] = _mm_fmadd_ps(_mm_broadcast_ss(w + 3), _mm_xor_ps(q3, s3), q);
-      const simd::Blend b = simd::blend(&mats[j[0]].cols[0][0], &mats[j[1]].cols[0][0], &mats[j[2]].cols[0][0],
-                                        &mats[j[3]].cols[0][0], w);
-      ta[i] = simd::apply(b, simd::load3(cor[v + i]), 1.0f);
+      __m256 f1, f2, f3;
+      simd::flips_of(flips, j, [&](int k) { return _mm_loadu_ps(&rots[j[k]].x); }, f1, f2, f3);
+      // A flip negates the weight in the quaternion lanes only: the matrices blend as LBS's.
+      const __m256 w0 = _mm256_broadcast_ss(w);
+      const __m256 w1 = _mm256_xor_ps(_mm256_broadcast_ss(w + 1), _mm256_and_ps(f1, q_lanes));
+      const __m256 w2 = _mm256_xor_ps(_mm256_broadcast_ss(w + 2), _mm256_and_ps(f2, q_lanes));
+      const __m256 w3 = _mm256_xor_ps(_mm256_broadcast_ss(w + 3), _mm256_and_ps(f3, q_lanes));
+      const simd::Blend b = simd::blend(&packed.joint[j[0]].cols[0][0], &packed.joint[j[1]].cols[0][0],
+                                        &packed.joint[j[2]].cols[0][0], &packed.joint[j[3]].cols[0][0], w0, w1, w2, w3);
+      c01[i] = b.c01, c23[i] = b.c23;
     }
-    __m256 qx, qy, qz, qw, tx, ty, tz, unused;
-    simd::transpose8x4(qa, qx, qy, qz, qw);
-    simd::transpose8x4(ta, tx, ty, tz, unused);
-    const __m256 inv = simd::rsqrt8(
-        _mm256_fmadd_ps(qx, qx, _mm256_fmadd_ps(qy, qy, _mm256_fmadd_ps(qz, qz, _mm256_mul_ps(qw, qw)))));
-    qx = _mm256_mul_ps(qx, inv), qy = _mm256_mul_ps(qy, inv), qz = _mm256_mul_ps(qz, inv), qw = _mm256_mul_ps(qw, inv);
+    // a[k]: column 0 (x, y, z), qx, column 1, qy; b[k]: column 2, qz, column 3 (translation), qw.
+    __m256 a[8], b[8];
+    simd::transpose8x8(c01, a);
+    simd::transpose8x8(c23, b);
     __m256 px, py, pz, cx, cy, cz, ox, oy, oz;
-    simd::load8(&in_p[v].x, px, py, pz);
     simd::load8(&cor[v].x, cx, cy, cz);
-    simd::rotate8(qx, qy, qz, qw, _mm256_sub_ps(px, cx), _mm256_sub_ps(py, cy), _mm256_sub_ps(pz, cz), ox, oy, oz);
+    const __m256 tx = _mm256_fmadd_ps(a[0], cx, _mm256_fmadd_ps(a[4], cy, _mm256_fmadd_ps(b[0], cz, b[4])));
+    const __m256 ty = _mm256_fmadd_ps(a[1], cx, _mm256_fmadd_ps(a[5], cy, _mm256_fmadd_ps(b[1], cz, b[5])));
+    const __m256 tz = _mm256_fmadd_ps(a[2], cx, _mm256_fmadd_ps(a[6], cy, _mm256_fmadd_ps(b[2], cz, b[6])));
+    const __m256 qx = a[3], qy = a[7], qz = b[3], qw = b[7];
+    const __m256 k = simd::two_over_norm2(qx, qy, qz, qw);
+    simd::load8(&in_p[v].x, px, py, pz);
+    simd::rotate8(qx, qy, qz, qw, k, _mm256_sub_ps(px, cx), _mm256_sub_ps(py, cy), _mm256_sub_ps(pz, cz), ox, oy, oz);
     simd::store8(&out_p[v].x, _mm256_add_ps(ox, tx), _mm256_add_ps(oy, ty), _mm256_add_ps(oz, tz));
     if constexpr (kNormals) {
       simd::load8(&in_n[v].x, px, py, pz);
-      simd::rotate8(qx, qy, qz, qw, px, py, pz, ox, oy, oz);
+      simd::rotate8(qx, qy, qz, qw, k, px, py, pz, ox, oy, oz);
       simd::store8(&out_n[v].x, ox, oy, oz);
     }
   }
@@ -208,25 +226,29 @@ bool CorSkinningJob::Run() const {
   if (!Validate()) return false;
   const size_t n = in_positions.size();
   size_t done = 0;  // vertices the eight-wide kernel took; the rest one by one
-  if (in_normals.empty()) {
 #ifdef MIMIC_BASELINES_AVX2
-    done = skin_blocks<false>(skinning_matrices.data(), skinning_rotations.data(), joint_indices.data(),
-                              joint_weights.data(), centers_of_rotation.data(), in_positions.data(), nullptr,
-                              out_positions.data(), nullptr, n);
-#endif
-    skin<false>(skinning_matrices.data(), skinning_rotations.data(), joint_indices.data() + done * kInfluences,
-                joint_weights.data() + done * kInfluences, centers_of_rotation.data() + done, in_positions.data() + done,
-                nullptr, out_positions.data() + done, nullptr, n - done);
-  } else {
-#ifdef MIMIC_BASELINES_AVX2
-    done = skin_blocks<true>(skinning_matrices.data(), skinning_rotations.data(), joint_indices.data(),
-                             joint_weights.data(), centers_of_rotation.data(), in_positions.data(), in_normals.data(),
-                             out_positions.data(), out_normals.data(), n);
-#endif
-    skin<true>(skinning_matrices.data(), skinning_rotations.data(), joint_indices.data() + done * kInfluences,
-               joint_weights.data() + done * kInfluences, centers_of_rotation.data() + done, in_positions.data() + done,
-               in_normals.data() + done, out_positions.data() + done, out_normals.data() + done, n - done);
+  if (n >= 8 && skinning_matrices.size() <= kMaxPackedJoints) {
+    PackedJoints packed;
+    pack(skinning_matrices, skinning_rotations, packed);
+    simd::HemisphereFlips table;
+    const simd::HemisphereFlips* flips = table.fill(&skinning_rotations[0].x, 4, skinning_rotations.size()) ? &table : nullptr;
+    done = in_normals.empty()
+               ? skin_blocks<false>(packed, skinning_rotations.data(), flips, joint_indices.data(), joint_weights.data(),
+                                    centers_of_rotation.data(), in_positions.data(), nullptr, out_positions.data(), nullptr, n)
+               : skin_blocks<true>(packed, skinning_rotations.data(), flips, joint_indices.data(), joint_weights.data(),
+                                   centers_of_rotation.data(), in_positions.data(), in_normals.data(), out_positions.data(),
+                                   out_normals.data(), n);
   }
+#endif
+  const uint16_t* ji = joint_indices.data() + done * kInfluences;
+  const float* wi = joint_weights.data() + done * kInfluences;
+  if (in_normals.empty())
+    skin<false>(skinning_matrices.data(), skinning_rotations.data(), ji, wi, centers_of_rotation.data() + done,
+                in_positions.data() + done, nullptr, out_positions.data() + done, nullptr, n - done);
+  else
+    skin<true>(skinning_matrices.data(), skinning_rotations.data(), ji, wi, centers_of_rotation.data() + done,
+               in_positions.data() + done, in_normals.data() + done, out_positions.data() + done,
+               out_normals.data() + done, n - done);
   return true;
 }
 

@@ -73,80 +73,52 @@ void skin(const DualQuat* __restrict dqs, const uint16_t* __restrict ji, const f
 }
 
 #ifdef MIMIC_BASELINES_AVX2
-// Eight vertices at once: each vertex's dual quaternions are blended in its own register (signs
-// from the three real-part dot products at once), the eight blends are transposed so each
-// register holds one component of eight vertices, and normalisation and the transform run
-// eight-wide. Returns the number of vertices done (a multiple of eight).
+// Eight vertices at once: each vertex's four dual quaternions are blended in its own register,
+// each flipped into the first one's hemisphere by xor-ing in its flip mask (from the per-frame
+// table `flips`, or from in-register dot products without one); the eight blends are transposed
+// so each register holds one component of eight vertices, and the transform runs eight-wide.
+// The blend is not normalised: with k = 2 / |r|², rotation p + k r×(r×p + r_w p) and
+// translation k (r_w d − d_w r + r × d) are those of the normalised dual quaternion.
+// Returns the number of vertices done (a multiple of eight).
 template <bool kNormals>
-size_t skin_blocks(const DualQuat* __restrict dqs, const uint16_t* __restrict ji, const float* __restrict wi,
-                   const glm::vec3* __restrict in_p, const glm::vec3* __restrict in_n, glm::vec3* __restrict out_p,
-                   glm::vec3* __restrict out_n, size_t n) {
-  const __m256 sign_mask = _mm256_castsi256_ps(_mm256_set1_epi32(int(0x80000000u)));
+size_t skin_blocks(const DualQuat* __restrict dqs, const simd::HemisphereFlips* flips, const uint16_t* __restrict ji,
+                   const float* __restrict wi, const glm::vec3* __restrict in_p, const glm::vec3* __restrict in_n,
+                   glm::vec3* __restrict out_p, glm::vec3* __restrict out_n, size_t n) {
   size_t v = 0;
   for (; v + 8 <= n; v += 8) {
     __m256 b[8];
+#pragma GCC unroll 8
     for (int i = 0; i < 8; ++i) {
       const uint16_t* j = ji + (v + i) * kInfluences;
-      const __m256 d0 = _mm256_load_ps(dqs[j[0]].real), d1 = _mm256_load_ps(dqs[j[1]].real);
-      const __m256 d2 = _mm256_load_ps(dqs[j[2]].real), d3 = _mm256_load_ps(dqs[j[3]].real);
-      // r0·r1 and r0·r2 side by side, r0·r3 alone, each summed across its four lanes; a
-      // negative dot flips that dual quaternion (its weight's sign, in effect).
-      const __m256 m12 = _mm256_mul_ps(_mm256_permute2f128_ps(d0, d0, 0x00), _mm256_permute2f128_ps(d1, d2, 0x20));
-      const __m128 m3 = _mm_mul_ps(_mm256_castps256_ps128(d0), _mm256_castps256_ps128(d3));
-      __m256 s12 = _mm256_add_ps(m12, _mm256_permute_ps(m12, _MM_SHUFFLE(2, 3, 0, 1)));
-      s12 = _mm256_and_ps(_mm256_add_ps(s12, _mm256_permute_ps(s12, _MM_SHUFFLE(1, 0, 3, 2))), sign_mask);
-      __m128 s3 = _mm_add_ps(m3, _mm_permute_ps(m3, _MM_SHUFFLE(2, 3, 0, 1)));
-      s3 = _mm_and_ps(_mm_add_ps(s3, _mm_permute_ps(s3, _MM_SHUFFLE(1, 0, 3, 2))), _mm256_castps256_ps128(sign_mask));
       const float* w = wi + (v + i) * kInfluences;
-      __m256 acc = _mm256_mul_ps(_mm256_broadcast_ss(w), d0);
-      acc = _mm256_fmadd_ps(_mm256_broadcast_ss(w + 1), _mm256_xor_ps(d1, _mm256_permute2f128_ps(s12, s12, 0x00)), acc);
-      acc = _mm256_fmadd_ps(_mm256_broadcast_ss(w + 2), _mm256_xor_ps(d2, _mm256_permute2f128_ps(s12, s12, 0x11)), acc);
-      b[i] = _mm256_fmadd_ps(_mm256_broadcast_ss(w + 3), _mm256_xor_ps(d3, simd::pair(s3, s3)), acc);
+      const __m256 d[4] = {_mm256_load_ps(dqs[j[0]].real), _mm256_load_ps(dqs[j[1]].real),
+                           _mm256_load_ps(dqs[j[2]].real), _mm256_load_ps(dqs[j[3]].real)};
+      __m256 f1, f2, f3;
+      simd::flips_of(flips, j, [&](int k) { return _mm256_castps256_ps128(d[k]); }, f1, f2, f3);
+      __m256 acc = _mm256_mul_ps(_mm256_broadcast_ss(w), d[0]);
+      acc = _mm256_fmadd_ps(_mm256_broadcast_ss(w + 1), _mm256_xor_ps(d[1], f1), acc);
+      acc = _mm256_fmadd_ps(_mm256_broadcast_ss(w + 2), _mm256_xor_ps(d[2], f2), acc);
+      b[i] = _mm256_fmadd_ps(_mm256_broadcast_ss(w + 3), _mm256_xor_ps(d[3], f3), acc);
     }
-    // 8×8 transpose: c[k] holds component k (rx ry rz rw dx dy dz dw) of the eight vertices.
-    const __m256 t0 = _mm256_unpacklo_ps(b[0], b[1]), t1 = _mm256_unpackhi_ps(b[0], b[1]);
-    const __m256 t2 = _mm256_unpacklo_ps(b[2], b[3]), t3 = _mm256_unpackhi_ps(b[2], b[3]);
-    const __m256 t4 = _mm256_unpacklo_ps(b[4], b[5]), t5 = _mm256_unpackhi_ps(b[4], b[5]);
-    const __m256 t6 = _mm256_unpacklo_ps(b[6], b[7]), t7 = _mm256_unpackhi_ps(b[6], b[7]);
-    const __m256 u0 = _mm256_shuffle_ps(t0, t2, _MM_SHUFFLE(1, 0, 1, 0)), u1 = _mm256_shuffle_ps(t0, t2, _MM_SHUFFLE(3, 2, 3, 2));
-    const __m256 u2 = _mm256_shuffle_ps(t1, t3, _MM_SHUFFLE(1, 0, 1, 0)), u3 = _mm256_shuffle_ps(t1, t3, _MM_SHUFFLE(3, 2, 3, 2));
-    const __m256 u4 = _mm256_shuffle_ps(t4, t6, _MM_SHUFFLE(1, 0, 1, 0)), u5 = _mm256_shuffle_ps(t4, t6, _MM_SHUFFLE(3, 2, 3, 2));
-    const __m256 u6 = _mm256_shuffle_ps(t5, t7, _MM_SHUFFLE(1, 0, 1, 0)), u7 = _mm256_shuffle_ps(t5, t7, _MM_SHUFFLE(3, 2, 3, 2));
-    __m256 rx = _mm256_permute2f128_ps(u0, u4, 0x20), ry = _mm256_permute2f128_ps(u1, u5, 0x20);
-    __m256 rz = _mm256_permute2f128_ps(u2, u6, 0x20), rw = _mm256_permute2f128_ps(u3, u7, 0x20);
-    __m256 dx = _mm256_permute2f128_ps(u0, u4, 0x31), dy = _mm256_permute2f128_ps(u1, u5, 0x31);
-    __m256 dz = _mm256_permute2f128_ps(u2, u6, 0x31), dw = _mm256_permute2f128_ps(u3, u7, 0x31);
-    // Normalise by the real part's length (estimate and one Newton step).
-    const __m256 len2 = _mm256_fmadd_ps(rx, rx, _mm256_fmadd_ps(ry, ry, _mm256_fmadd_ps(rz, rz, _mm256_mul_ps(rw, rw))));
-    const __m256 y = _mm256_rsqrt_ps(len2);
-    const __m256 inv = _mm256_mul_ps(y, _mm256_fnmadd_ps(_mm256_mul_ps(_mm256_set1_ps(0.5f), len2), _mm256_mul_ps(y, y),
-                                                         _mm256_set1_ps(1.5f)));
-    rx = _mm256_mul_ps(rx, inv), ry = _mm256_mul_ps(ry, inv), rz = _mm256_mul_ps(rz, inv), rw = _mm256_mul_ps(rw, inv);
-    dx = _mm256_mul_ps(dx, inv), dy = _mm256_mul_ps(dy, inv), dz = _mm256_mul_ps(dz, inv), dw = _mm256_mul_ps(dw, inv);
-    const __m256 two = _mm256_set1_ps(2.0f);
-    // Rotation of (x, y, z) by r: p + 2 r×(r×p + w p).
-    auto rotate = [&](__m256 x, __m256 yy, __m256 z, __m256& ox, __m256& oy, __m256& oz) {
-      const __m256 cx = _mm256_fmadd_ps(rw, x, _mm256_fmsub_ps(ry, z, _mm256_mul_ps(rz, yy)));
-      const __m256 cy = _mm256_fmadd_ps(rw, yy, _mm256_fmsub_ps(rz, x, _mm256_mul_ps(rx, z)));
-      const __m256 cz = _mm256_fmadd_ps(rw, z, _mm256_fmsub_ps(rx, yy, _mm256_mul_ps(ry, x)));
-      ox = _mm256_fmadd_ps(two, _mm256_fmsub_ps(ry, cz, _mm256_mul_ps(rz, cy)), x);
-      oy = _mm256_fmadd_ps(two, _mm256_fmsub_ps(rz, cx, _mm256_mul_ps(rx, cz)), yy);
-      oz = _mm256_fmadd_ps(two, _mm256_fmsub_ps(rx, cy, _mm256_mul_ps(ry, cx)), z);
-    };
-    // Translation 2 (r_w d − d_w r + r × d).
-    const __m256 tx = _mm256_mul_ps(two, _mm256_add_ps(_mm256_fmsub_ps(rw, dx, _mm256_mul_ps(dw, rx)),
-                                                       _mm256_fmsub_ps(ry, dz, _mm256_mul_ps(rz, dy))));
-    const __m256 ty = _mm256_mul_ps(two, _mm256_add_ps(_mm256_fmsub_ps(rw, dy, _mm256_mul_ps(dw, ry)),
-                                                       _mm256_fmsub_ps(rz, dx, _mm256_mul_ps(rx, dz))));
-    const __m256 tz = _mm256_mul_ps(two, _mm256_add_ps(_mm256_fmsub_ps(rw, dz, _mm256_mul_ps(dw, rz)),
-                                                       _mm256_fmsub_ps(rx, dy, _mm256_mul_ps(ry, dx))));
+    // Component k (rx ry rz rw dx dy dz dw) of the eight vertices.
+    __m256 c[8];
+    simd::transpose8x8(b, c);
+    const __m256 rx = c[0], ry = c[1], rz = c[2], rw = c[3], dx = c[4], dy = c[5], dz = c[6], dw = c[7];
+    const __m256 k = simd::two_over_norm2(rx, ry, rz, rw);
+    // Translation k (r_w d − d_w r + r × d).
+    const __m256 tx = _mm256_mul_ps(k, _mm256_add_ps(_mm256_fmsub_ps(rw, dx, _mm256_mul_ps(dw, rx)),
+                                                     _mm256_fmsub_ps(ry, dz, _mm256_mul_ps(rz, dy))));
+    const __m256 ty = _mm256_mul_ps(k, _mm256_add_ps(_mm256_fmsub_ps(rw, dy, _mm256_mul_ps(dw, ry)),
+                                                     _mm256_fmsub_ps(rz, dx, _mm256_mul_ps(rx, dz))));
+    const __m256 tz = _mm256_mul_ps(k, _mm256_add_ps(_mm256_fmsub_ps(rw, dz, _mm256_mul_ps(dw, rz)),
+                                                     _mm256_fmsub_ps(rx, dy, _mm256_mul_ps(ry, dx))));
     __m256 ox, oy, oz, px, py, pz;
     simd::load8(&in_p[v].x, px, py, pz);
-    rotate(px, py, pz, ox, oy, oz);
+    simd::rotate8(rx, ry, rz, rw, k, px, py, pz, ox, oy, oz);
     simd::store8(&out_p[v].x, _mm256_add_ps(ox, tx), _mm256_add_ps(oy, ty), _mm256_add_ps(oz, tz));
     if constexpr (kNormals) {
       simd::load8(&in_n[v].x, px, py, pz);
-      rotate(px, py, pz, ox, oy, oz);
+      simd::rotate8(rx, ry, rz, rw, k, px, py, pz, ox, oy, oz);
       simd::store8(&out_n[v].x, ox, oy, oz);
     }
   }
@@ -160,23 +132,25 @@ bool DualQuaternionSkinningJob::Run() const {
   if (!Validate()) return false;
   const size_t n = in_positions.size();
   size_t done = 0;  // vertices the eight-wide kernel took; the rest one by one
-  if (in_normals.empty()) {
 #ifdef MIMIC_BASELINES_AVX2
-    done = skin_blocks<false>(skinning_dual_quats.data(), joint_indices.data(), joint_weights.data(), in_positions.data(),
-                              nullptr, out_positions.data(), nullptr, n);
+  simd::HemisphereFlips table;
+  const simd::HemisphereFlips* flips =
+      n >= 8 && table.fill(skinning_dual_quats[0].real, sizeof(DualQuat) / sizeof(float), skinning_dual_quats.size()) ? &table
+                                                                                                                      : nullptr;
+  done = in_normals.empty()
+             ? skin_blocks<false>(skinning_dual_quats.data(), flips, joint_indices.data(), joint_weights.data(),
+                                  in_positions.data(), nullptr, out_positions.data(), nullptr, n)
+             : skin_blocks<true>(skinning_dual_quats.data(), flips, joint_indices.data(), joint_weights.data(),
+                                 in_positions.data(), in_normals.data(), out_positions.data(), out_normals.data(), n);
 #endif
-    skin<false>(skinning_dual_quats.data(), joint_indices.data() + done * kInfluences,
-                joint_weights.data() + done * kInfluences, in_positions.data() + done, nullptr,
-                out_positions.data() + done, nullptr, n - done);
-  } else {
-#ifdef MIMIC_BASELINES_AVX2
-    done = skin_blocks<true>(skinning_dual_quats.data(), joint_indices.data(), joint_weights.data(), in_positions.data(),
-                             in_normals.data(), out_positions.data(), out_normals.data(), n);
-#endif
-    skin<true>(skinning_dual_quats.data(), joint_indices.data() + done * kInfluences,
-               joint_weights.data() + done * kInfluences, in_positions.data() + done, in_normals.data() + done,
+  const uint16_t* ji = joint_indices.data() + done * kInfluences;
+  const float* wi = joint_weights.data() + done * kInfluences;
+  if (in_normals.empty())
+    skin<false>(skinning_dual_quats.data(), ji, wi, in_positions.data() + done, nullptr, out_positions.data() + done, nullptr,
+                n - done);
+  else
+    skin<true>(skinning_dual_quats.data(), ji, wi, in_positions.data() + done, in_normals.data() + done,
                out_positions.data() + done, out_normals.data() + done, n - done);
-  }
   return true;
 }
 

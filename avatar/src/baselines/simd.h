@@ -62,9 +62,8 @@ inline __m128 rotate(__m128 q, __m128 v) {
 struct Blend {
   __m256 c01, c23;
 };
-inline Blend blend(const float* m0, const float* m1, const float* m2, const float* m3, const float* w) {
-  const __m256 w0 = _mm256_broadcast_ss(w), w1 = _mm256_broadcast_ss(w + 1);
-  const __m256 w2 = _mm256_broadcast_ss(w + 2), w3 = _mm256_broadcast_ss(w + 3);
+inline Blend blend(const float* m0, const float* m1, const float* m2, const float* m3, __m256 w0, __m256 w1, __m256 w2,
+                   __m256 w3) {
   __m256 c01 = _mm256_mul_ps(w0, _mm256_load_ps(m0));
   __m256 c23 = _mm256_mul_ps(w0, _mm256_load_ps(m0 + 8));
   c01 = _mm256_fmadd_ps(w1, _mm256_load_ps(m1), c01);
@@ -74,6 +73,10 @@ inline Blend blend(const float* m0, const float* m1, const float* m2, const floa
   c01 = _mm256_fmadd_ps(w3, _mm256_load_ps(m3), c01);
   c23 = _mm256_fmadd_ps(w3, _mm256_load_ps(m3 + 8), c23);
   return {c01, c23};
+}
+inline Blend blend(const float* m0, const float* m1, const float* m2, const float* m3, const float* w) {
+  return blend(m0, m1, m2, m3, _mm256_broadcast_ss(w), _mm256_broadcast_ss(w + 1), _mm256_broadcast_ss(w + 2),
+               _mm256_broadcast_ss(w + 3));
 }
 
 // The blended matrix applied to a point (x, y, z, _) or, with `translate` 0, to a direction.
@@ -118,17 +121,103 @@ inline void transpose8x4(const __m128* in, __m256& x, __m256& y, __m256& z, __m2
   w = _mm256_shuffle_ps(t1, t3, _MM_SHUFFLE(3, 2, 3, 2));
 }
 
-// Eight rotations at once: (x, y, z) by the unit quaternions (qx, qy, qz, qw):
-// p + 2 q×(q×p + w p).
-inline void rotate8(__m256 qx, __m256 qy, __m256 qz, __m256 qw, __m256 x, __m256 y, __m256 z, __m256& ox, __m256& oy,
-                    __m256& oz) {
-  const __m256 two = _mm256_set1_ps(2.0f);
+// Transposes eight registers of eight: out[k] holds lane k of in[0..7].
+inline void transpose8x8(const __m256* in, __m256* out) {
+  const __m256 t0 = _mm256_unpacklo_ps(in[0], in[1]), t1 = _mm256_unpackhi_ps(in[0], in[1]);
+  const __m256 t2 = _mm256_unpacklo_ps(in[2], in[3]), t3 = _mm256_unpackhi_ps(in[2], in[3]);
+  const __m256 t4 = _mm256_unpacklo_ps(in[4], in[5]), t5 = _mm256_unpackhi_ps(in[4], in[5]);
+  const __m256 t6 = _mm256_unpacklo_ps(in[6], in[7]), t7 = _mm256_unpackhi_ps(in[6], in[7]);
+  const __m256 u0 = _mm256_shuffle_ps(t0, t2, _MM_SHUFFLE(1, 0, 1, 0)), u1 = _mm256_shuffle_ps(t0, t2, _MM_SHUFFLE(3, 2, 3, 2));
+  const __m256 u2 = _mm256_shuffle_ps(t1, t3, _MM_SHUFFLE(1, 0, 1, 0)), u3 = _mm256_shuffle_ps(t1, t3, _MM_SHUFFLE(3, 2, 3, 2));
+  const __m256 u4 = _mm256_shuffle_ps(t4, t6, _MM_SHUFFLE(1, 0, 1, 0)), u5 = _mm256_shuffle_ps(t4, t6, _MM_SHUFFLE(3, 2, 3, 2));
+  const __m256 u6 = _mm256_shuffle_ps(t5, t7, _MM_SHUFFLE(1, 0, 1, 0)), u7 = _mm256_shuffle_ps(t5, t7, _MM_SHUFFLE(3, 2, 3, 2));
+  out[0] = _mm256_permute2f128_ps(u0, u4, 0x20), out[1] = _mm256_permute2f128_ps(u1, u5, 0x20);
+  out[2] = _mm256_permute2f128_ps(u2, u6, 0x20), out[3] = _mm256_permute2f128_ps(u3, u7, 0x20);
+  out[4] = _mm256_permute2f128_ps(u0, u4, 0x31), out[5] = _mm256_permute2f128_ps(u1, u5, 0x31);
+  out[6] = _mm256_permute2f128_ps(u2, u6, 0x31), out[7] = _mm256_permute2f128_ps(u3, u7, 0x31);
+}
+
+// Eight rotations at once by quaternions q = (qx, qy, qz, qw) that need not be unit:
+// p + k q×(q×p + w p) with k = 2 / |q|² (two_over_norm2) is the rotation by q/|q|, so a
+// blended quaternion needs no normalisation, only that one factor.
+inline void rotate8(__m256 qx, __m256 qy, __m256 qz, __m256 qw, __m256 two_over_norm2, __m256 x, __m256 y, __m256 z,
+                    __m256& ox, __m256& oy, __m256& oz) {
   const __m256 cx = _mm256_fmadd_ps(qw, x, _mm256_fmsub_ps(qy, z, _mm256_mul_ps(qz, y)));
   const __m256 cy = _mm256_fmadd_ps(qw, y, _mm256_fmsub_ps(qz, x, _mm256_mul_ps(qx, z)));
   const __m256 cz = _mm256_fmadd_ps(qw, z, _mm256_fmsub_ps(qx, y, _mm256_mul_ps(qy, x)));
-  ox = _mm256_fmadd_ps(two, _mm256_fmsub_ps(qy, cz, _mm256_mul_ps(qz, cy)), x);
-  oy = _mm256_fmadd_ps(two, _mm256_fmsub_ps(qz, cx, _mm256_mul_ps(qx, cz)), y);
-  oz = _mm256_fmadd_ps(two, _mm256_fmsub_ps(qx, cy, _mm256_mul_ps(qy, cx)), z);
+  ox = _mm256_fmadd_ps(two_over_norm2, _mm256_fmsub_ps(qy, cz, _mm256_mul_ps(qz, cy)), x);
+  oy = _mm256_fmadd_ps(two_over_norm2, _mm256_fmsub_ps(qz, cx, _mm256_mul_ps(qx, cz)), y);
+  oz = _mm256_fmadd_ps(two_over_norm2, _mm256_fmsub_ps(qx, cy, _mm256_mul_ps(qy, cx)), z);
+}
+
+// 2 / |q|², eight lanes.
+inline __m256 two_over_norm2(__m256 qx, __m256 qy, __m256 qz, __m256 qw) {
+  const __m256 n2 = _mm256_add_ps(_mm256_fmadd_ps(qx, qx, _mm256_mul_ps(qy, qy)), _mm256_fmadd_ps(qz, qz, _mm256_mul_ps(qw, qw)));
+  return _mm256_div_ps(_mm256_set1_ps(2.0f), n2);
+}
+
+// The hemisphere test of quaternion blending (flip q_k when q_0 · q_k < 0), per frame for every
+// pair of joints instead of per vertex: a vertex then reads its three flips from its first
+// joint's row (broadcast loads) instead of taking three dot products across lanes. The same
+// test, for skeletons of up to kMaxJoints joints (16 KB on the stack).
+struct HemisphereFlips {
+  static constexpr size_t kMaxJoints = 64;
+  // −0.0f where q_a · q_b < 0, else +0.0f: xor-ing it into q_b's lanes flips q_b.
+  alignas(32) float mask[kMaxJoints * kMaxJoints];
+
+  const float* row(uint16_t a) const { return mask + size_t{a} * kMaxJoints; }
+
+  // `q`: joint 0's quaternion (x, y, z, w), each next joint's `stride` floats further. False
+  // (and nothing filled) for more than kMaxJoints joints.
+  bool fill(const float* q, size_t stride, size_t joints) {
+    if (joints > kMaxJoints) return false;
+    alignas(32) float x[kMaxJoints], y[kMaxJoints], z[kMaxJoints], w[kMaxJoints];
+    const size_t padded = (joints + 7) & ~size_t{7};
+    for (size_t j = 0; j < padded; ++j) {
+      const bool in = j < joints;
+      x[j] = in ? q[j * stride] : 0.0f, y[j] = in ? q[j * stride + 1] : 0.0f;
+      z[j] = in ? q[j * stride + 2] : 0.0f, w[j] = in ? q[j * stride + 3] : 0.0f;
+    }
+    const __m256 sign = _mm256_set1_ps(-0.0f);
+    for (size_t a = 0; a < joints; ++a) {
+      const __m256 ax = _mm256_set1_ps(x[a]), ay = _mm256_set1_ps(y[a]), az = _mm256_set1_ps(z[a]), aw = _mm256_set1_ps(w[a]);
+      for (size_t b = 0; b < padded; b += 8) {
+        const __m256 dot = _mm256_fmadd_ps(ax, _mm256_load_ps(x + b),
+                                           _mm256_fmadd_ps(ay, _mm256_load_ps(y + b),
+                                                           _mm256_fmadd_ps(az, _mm256_load_ps(z + b),
+                                                                           _mm256_mul_ps(aw, _mm256_load_ps(w + b)))));
+        _mm256_store_ps(mask + a * kMaxJoints + b, _mm256_and_ps(dot, sign));  // as flips_by_dots
+      }
+    }
+    return true;
+  }
+};
+
+// The flip masks of q1, q2, q3 against q0 from in-register dot products (skeletons past
+// HemisphereFlips::kMaxJoints): each mask −0.0f in every lane where the dot is negative.
+inline void flips_by_dots(__m128 q0, __m128 q1, __m128 q2, __m128 q3, __m128& f1, __m128& f2, __m128& f3) {
+  const __m128 sign = _mm_set1_ps(-0.0f);
+  const __m256 m12 = _mm256_mul_ps(pair(q0, q0), pair(q1, q2));
+  const __m128 m3 = _mm_mul_ps(q0, q3);
+  __m256 s12 = _mm256_add_ps(m12, _mm256_permute_ps(m12, _MM_SHUFFLE(2, 3, 0, 1)));
+  s12 = _mm256_and_ps(_mm256_add_ps(s12, _mm256_permute_ps(s12, _MM_SHUFFLE(1, 0, 3, 2))), pair(sign, sign));
+  __m128 s3 = _mm_add_ps(m3, _mm_permute_ps(m3, _MM_SHUFFLE(2, 3, 0, 1)));
+  f3 = _mm_and_ps(_mm_add_ps(s3, _mm_permute_ps(s3, _MM_SHUFFLE(1, 0, 3, 2))), sign);
+  f1 = _mm256_castps256_ps128(s12), f2 = _mm256_extractf128_ps(s12, 1);
+}
+
+// A vertex's flip masks (every lane) of its joints j[1..3] against j[0]: from the per-frame
+// table, or, without one, from the dot products of the quaternions quat(0..3) (each __m128).
+template <class Quat>
+inline void flips_of(const HemisphereFlips* table, const uint16_t* j, Quat&& quat, __m256& f1, __m256& f2, __m256& f3) {
+  if (table) {
+    const float* row = table->row(j[0]);
+    f1 = _mm256_broadcast_ss(row + j[1]), f2 = _mm256_broadcast_ss(row + j[2]), f3 = _mm256_broadcast_ss(row + j[3]);
+  } else {
+    __m128 g1, g2, g3;
+    flips_by_dots(quat(0), quat(1), quat(2), quat(3), g1, g2, g3);
+    f1 = pair(g1, g1), f2 = pair(g2, g2), f3 = pair(g3, g3);
+  }
 }
 
 // 1 / sqrt(x), eight lanes: the estimate and one Newton step.

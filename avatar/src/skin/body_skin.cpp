@@ -106,6 +106,10 @@ std::vector<BodySkin::ContourView> BodySkin::contours() const {
       v.ray_origins.push_back(impl_->ctrl_origin[s]);
       v.from_ray.push_back(impl_->ctrl_hit[s]);
     }
+    if (r.kind == RingKind::driven) {
+      const std::vector<uint32_t>& s_slots = impl_->rings[r.s_ring].slots;
+      for (size_t j = 0; j < r.slots.size(); ++j) v.targets.push_back(impl_->driven_target(r, s_slots[j], r.goal[j]));
+    }
     out.push_back(std::move(v));
   }
   return out;

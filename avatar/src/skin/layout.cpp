@@ -1,6 +1,8 @@
 // The contour layout of a body, built once: chains along the skeleton, torso rings, bridges,
 // the loops where limbs meet the torso, limb rings (star and boundary-driven) and the rigid parts
 // sampled in the rest posture.
+#include <cassert>
+
 #include "skin_impl.h"
 
 namespace mimic::avatar {
@@ -51,6 +53,21 @@ std::vector<float> angles_facing(const Plane& p, std::span<const glm::vec3> goal
     for (size_t j = 1; j < n; ++j) a[j] = a[0] + kTwoPi * static_cast<float>(j) / static_cast<float>(n);
   }
   return a;
+}
+
+// The angles of a ring of m points spread as `a` (n increasing angles within one turn) spreads
+// its n: point i at a's fractional index i·n/m. A limb's own rings keep the columns of its first
+// ring at their normalised index, which is how the zipper between them pairs points.
+std::vector<float> resampled_angles(std::span<const float> a, int m) {
+  const size_t n = a.size();
+  std::vector<float> out(static_cast<size_t>(m));
+  for (int i = 0; i < m; ++i) {
+    const float t = static_cast<float>(i) * static_cast<float>(n) / static_cast<float>(m);
+    const size_t j = std::min(static_cast<size_t>(t), n - 1);
+    const float next = j + 1 < n ? a[j + 1] : a[0] + kTwoPi;
+    out[static_cast<size_t>(i)] = a[j] + (t - static_cast<float>(j)) * (next - a[j]);
+  }
+  return out;
 }
 
 }  // namespace
@@ -203,11 +220,25 @@ Status BodySkin::Impl::build(const BodyModel& model) {
     for (uint32_t s : rb) r_arm_loop.push_back(s);
     for (int j = kr; j < fr; ++j) r_arm_loop.push_back(chest_slots[j]);
 
-    for (int j = 0; j <= fl; ++j) neck_loop.push_back(chest_slots[j]);
-    for (uint32_t s : lb) neck_loop.push_back(s);
-    for (int j = kl; j <= kr; ++j) neck_loop.push_back(chest_slots[j]);
-    for (auto it = rb.rbegin(); it != rb.rend(); ++it) neck_loop.push_back(*it);
-    for (int j = fr; j < M; ++j) neck_loop.push_back(chest_slots[j]);
+    // The neck's loop, cut short of the armpits (neck_corner): from `a` chest points before each
+    // armpit point straight to the bridge's point `c`, so that seen along the neck's link it goes
+    // round the link without climbing; the four corners left are flat patches of the neck.
+    std::vector<uint32_t> full;
+    for (int j = 0; j <= fl; ++j) full.push_back(chest_slots[j]);
+    for (uint32_t s : lb) full.push_back(s);
+    for (int j = kl; j <= kr; ++j) full.push_back(chest_slots[j]);
+    for (auto it = rb.rbegin(); it != rb.rend(); ++it) full.push_back(*it);
+    for (int j = fr; j < M; ++j) full.push_back(chest_slots[j]);
+    const NeckCorner cut = neck_corner(L);
+    if (cut.chest > 0) {
+      const int a = cut.chest, c = cut.bridge, nb = static_cast<int>(lb.size());
+      const int lb0 = fl + 1, back_l = lb0 + nb, rb0 = back_l + (kr - kl + 1), front_r = rb0 + nb;
+      neck_cuts = {{fl - a, lb0 + c, false},
+                   {lb0 + nb - 1 - c, back_l + a, true},
+                   {back_l + (kr - kl) - a, rb0 + c, false},
+                   {rb0 + nb - 1 - c, front_r + a, true}};
+    }
+    cut_neck_loop(full, neck_cuts, 1, neck_loop, corners);
   }
 
   // Torso surface.
@@ -230,25 +261,32 @@ Status BodySkin::Impl::build(const BodyModel& model) {
     float start_u;               // S ring position along the first link
     const char* upper_part;
     const char* lower_part;
+    int points;                  // of the rings after S; 0: the loop's
   };
   const LimbSpec limbs[] = {
       {"neck", 1, &neck_loop, group_bit(Group::upper_torso), 0, group_bit(Group::upper_torso), L.neck_contours, 0,
-       L.neck_start, "neck", nullptr},
+       L.neck_start, "neck", nullptr, L.neck_points},
       {"l_arm", 2, &l_arm_loop, group_bit(Group::left_upper_arm), group_bit(Group::left_lower_arm),
        group_bit(Group::left_shoulder), L.upper_arm_contours, L.lower_arm_contours, 0.3f, "left_upper_arm",
-       "left_lower_arm"},
+       "left_lower_arm", L.arm_points},
       {"r_arm", 3, &r_arm_loop, group_bit(Group::right_upper_arm), group_bit(Group::right_lower_arm),
        group_bit(Group::right_shoulder), L.upper_arm_contours, L.lower_arm_contours, 0.3f, "right_upper_arm",
-       "right_lower_arm"},
+       "right_lower_arm", L.arm_points},
       {"l_leg", 4, &l_leg_loop, group_bit(Group::left_upper_leg), group_bit(Group::left_lower_leg), group_bit(Group::hip),
-       L.upper_leg_contours, L.lower_leg_contours, 0.25f, "left_upper_leg", "left_lower_leg"},
+       L.upper_leg_contours, L.lower_leg_contours, 0.25f, "left_upper_leg", "left_lower_leg", L.leg_points},
       {"r_leg", 5, &r_leg_loop, group_bit(Group::right_upper_leg), group_bit(Group::right_lower_leg), group_bit(Group::hip),
-       L.upper_leg_contours, L.lower_leg_contours, 0.25f, "right_upper_leg", "right_lower_leg"},
+       L.upper_leg_contours, L.lower_leg_contours, 0.25f, "right_upper_leg", "right_lower_leg", L.leg_points},
   };
+  assert(static_cast<int>(neck_loop.size()) == loop_points(L).neck && static_cast<int>(l_arm_loop.size()) == loop_points(L).arm &&
+         static_cast<int>(r_leg_loop.size()) == loop_points(L).leg);
   const int k = L.boundary_contours;
   for (const LimbSpec& spec : limbs) {
     const std::vector<uint32_t>& loop = *spec.loop;
     const int n = static_cast<int>(loop.size());
+    // The limb's own points per contour (its LOD): the loop, the boundary-driven rings and S
+    // keep the loop's count (the driven rings blend S with the loop point for point), the rings
+    // after S take the limb's own.
+    const int own = spec.points > 0 ? spec.points : n;
     const Chain& c = chains[spec.chain];
     const bool single = spec.lower_rows == 0;
     // Star rings: S at start_u of the first link, to the chain's end (neck: over both links).
@@ -271,7 +309,9 @@ Status BodySkin::Impl::build(const BodyModel& model) {
     // Angles facing the loop, measured on the S plane in the rest posture.
     std::vector<glm::vec3> goal_points;
     for (uint32_t s : loop) goal_points.push_back(ctrl[s]);
-    const int angles = add_directions(angles_facing(ring_plane(c, positions[0].first, positions[0].second), goal_points));
+    const std::vector<float> facing = angles_facing(ring_plane(c, positions[0].first, positions[0].second), goal_points);
+    const int angles = add_directions(facing);
+    const int own_angles = own == n ? angles : add_directions(resampled_angles(facing, own));
 
     std::vector<int> star_ids;
     for (size_t i = 0; i < positions.size(); ++i) {
@@ -281,13 +321,13 @@ Status BodySkin::Impl::build(const BodyModel& model) {
       r.chain = spec.chain;
       r.segment = positions[i].first;
       r.u = positions[i].second;
-      r.angles = angles;
+      r.angles = i == 0 ? angles : own_angles;
       // The joint ring (elbow, knee) is shared by both pieces: it sees both groups.
       const int ii = static_cast<int>(i);
       r.mask = (single || ii < star_upper - 1) ? spec.upper
                : ii == star_upper - 1          ? GroupMask(spec.upper | spec.lower)
                                                : spec.lower;
-      star_ids.push_back(add_ring(std::move(r), n));
+      star_ids.push_back(add_ring(std::move(r), i == 0 ? n : own));
     }
     std::vector<int> driven_ids;
     for (int i = 1; i <= k; ++i) {
@@ -300,6 +340,7 @@ Status BodySkin::Impl::build(const BodyModel& model) {
       r.s_ring = star_ids[0];
       r.goal = loop;
       r.alpha = 1.0f - static_cast<float>(i) / static_cast<float>(k + 1);
+      r.alpha_step = 1.0f / static_cast<float>(k + 1);
       driven_ids.push_back(add_ring(std::move(r), n));
     }
     Surface s;

@@ -5,6 +5,12 @@
 
 namespace mimic::avatar {
 
+namespace {
+// A boundary-driven ray searches the surface around P no further than this fraction of |P − O|
+// and half the spacing of consecutive rings, so the rings keep their order from S to G.
+constexpr float kDrivenReach = 0.3f;
+}  // namespace
+
 // ---------------------------------------------------------------------------------------------
 // Contours
 
@@ -34,6 +40,35 @@ void BodySkin::Impl::store(uint32_t slot, const glm::vec3& origin, const glm::ve
   }
 }
 
+// A bridge's radii arc_r[0 … m+1] along directions at increasing angles from 0 (its first end)
+// to π (its other end) in its plane: a point further out than both its neighbours is brought
+// back to the further of them (a ray grazing a bulge of the next part, such as the pectoral's
+// edge beside the front armpit), and points inside the convex hull of the others (a hollow such
+// as the one between pectoral and deltoid) are pushed out onto it along their ray, as skin
+// spans a hollow. The loops the arc closes then go round their limb without folding back.
+void BodySkin::Impl::span_arc(size_t m, const Directions& dir) {
+  const size_t np = m + 2;
+  auto cos_of = [&](size_t i) { return i == 0 ? 1.0f : i == np - 1 ? -1.0f : dir.cos[i - 1]; };
+  auto sin_of = [&](size_t i) { return i == 0 || i == np - 1 ? 0.0f : dir.sin[i - 1]; };
+  for (size_t i = 1; i + 1 < np; ++i) arc_spike[i] = std::max(arc_r[i - 1], arc_r[i + 1]);
+  for (size_t i = 1; i + 1 < np; ++i) arc_r[i] = std::min(arc_r[i], arc_spike[i]);
+  auto point = [&](size_t i) { return glm::vec2(cos_of(i), sin_of(i)) * arc_r[i]; };
+  auto cross = [](glm::vec2 a, glm::vec2 b) { return a.x * b.y - a.y * b.x; };
+  // Upper hull, monotone in angle: a vertex that does not turn left lies in a hollow.
+  size_t h = 0;
+  for (size_t i = 0; i < np; ++i) {
+    while (h >= 2 && cross(point(arc_hull[h - 1]) - point(arc_hull[h - 2]), point(i) - point(arc_hull[h - 1])) <= 0.0f) --h;
+    arc_hull[h++] = static_cast<uint32_t>(i);
+  }
+  for (size_t e = 0; e + 1 < h; ++e) {
+    const glm::vec2 a = point(arc_hull[e]), edge = point(arc_hull[e + 1]) - a;
+    for (size_t i = arc_hull[e] + 1; i < arc_hull[e + 1]; ++i) {
+      const float denom = cross(glm::vec2(cos_of(i), sin_of(i)), edge);
+      if (denom > 1e-12f) arc_r[i] = std::max(arc_r[i], cross(a, edge) / denom);
+    }
+  }
+}
+
 void BodySkin::Impl::size_ring_buffers() {
   size_t widest = star_hits.size();
   for (const Ring& r : rings) widest = std::max(widest, r.slots.size());
@@ -41,6 +76,10 @@ void BodySkin::Impl::size_ring_buffers() {
   ray_origins.resize(widest);
   ray_dirs.resize(widest);
   ray_fallbacks.resize(widest);
+  ray_nears.resize(widest);
+  arc_r.resize(widest + 2);
+  arc_spike.resize(widest + 2);
+  arc_hull.resize(widest + 2);
 }
 
 void BodySkin::Impl::compute_ring(const Ring& r) {
@@ -72,17 +111,39 @@ void BodySkin::Impl::compute_ring(const Ring& r) {
       const size_t m = r.slots.size();
       for (size_t j = 0; j < m; ++j) {
         const glm::vec3 sj = ctrl[s.slots[j]];
-        const glm::vec3 pj = sj + r.alpha * (ctrl[r.goal[j]] - sj);
+        const glm::vec3 pj = driven_target(r, s.slots[j], r.goal[j]);
         const glm::vec3 o = a + std::clamp(glm::dot(pj - a, axis), -0.05f, std::max(s_along, -0.05f)) * axis;
         const glm::vec3 so = a + glm::dot(sj - a, axis) * axis;
         ray_origins[j] = o;
         ray_dirs[j] = safe_normalize(pj - o, safe_normalize(sj - so, c.normal[0]));
-        ray_fallbacks[j] = pj;
+        // The surface is searched only around P, where the solid around P ends (inwards from P
+        // outside the body, outwards from P inside it): the outermost crossing along the whole
+        // ray is, at a junction, often another part of the body (the other thigh across the
+        // crotch, the chest under a hanging arm, the shoulder's top beyond the neck's loop).
+        const float tp = glm::length(pj - o);
+        const float spacing = r.alpha_step * glm::length(ctrl[r.goal[j]] - sj);
+        const float reach = std::min(kDrivenReach * tp, 0.5f * spacing);
+        ray_nears[j] = RayNear{tp, std::max(tp - reach, 0.0f), tp + reach};
+        ray_fallbacks[j] = o + ray_nears[j].t_min * ray_dirs[j];
       }
       // Every ray of the ring at once, eight in lock-step.
       const std::span<RayHit> hits(star_hits.data(), m);
-      field.cast_rays(std::span(ray_origins.data(), m), std::span(ray_dirs.data(), m), cand, hits);
-      for (size_t j = 0; j < m; ++j) store(r.slots[j], ray_origins[j], ray_dirs[j], hits[j], ray_fallbacks[j]);
+      field.cast_rays_nearest(std::span(ray_origins.data(), m), std::span(ray_dirs.data(), m),
+                              std::span(ray_nears.data(), m), cand, hits);
+      for (size_t j = 0; j < m; ++j) {
+        // No crossing within the window: the point stays at the window's end nearer the surface
+        // (its outer end where the solid goes on past it, else its inner end).
+        const bool beyond = hits[j].hit() && hits[j].t >= ray_nears[j].t_max;
+        if (beyond || !hits[j].hit()) {
+          ++stats.rays;
+          ++stats.windowed_rays;
+          ctrl_origin[r.slots[j]] = ray_origins[j];
+          ctrl[r.slots[j]] = beyond ? ray_origins[j] + ray_nears[j].t_max * ray_dirs[j] : ray_fallbacks[j];
+          ctrl_hit[r.slots[j]] = 0;
+        } else {
+          store(r.slots[j], ray_origins[j], ray_dirs[j], hits[j], ray_fallbacks[j]);
+        }
+      }
       break;
     }
     case RingKind::arc: {
@@ -106,6 +167,19 @@ void BodySkin::Impl::compute_ring(const Ring& r) {
         const glm::vec3 d = dir.cos[static_cast<size_t>(k - 1)] * front + dir.sin[static_cast<size_t>(k - 1)] * up;
         const glm::vec3 chord = glm::mix(from, to, static_cast<float>(k) / static_cast<float>(segs));
         store(r.slots[k - 1], o, d, hits[static_cast<size_t>(k - 1)], chord);
+      }
+      // The arc as skin spans it, from its two ends on the ring it leaves: radii along the rays
+      // (a miss counts as 0), one end at angle 0 and the other at π.
+      const float half = glm::length(from - o);
+      arc_r[0] = half;
+      for (size_t k = 0; k < m; ++k) arc_r[k + 1] = hits[k].hit() ? hits[k].t : 0.0f;
+      arc_r[m + 1] = half;
+      span_arc(m, dir);
+      for (size_t k = 0; k < m; ++k) {
+        if (arc_r[k + 1] == (hits[k].hit() ? hits[k].t : 0.0f)) continue;
+        const glm::vec3 d = dir.cos[k] * front + dir.sin[k] * up;
+        ctrl[r.slots[k]] = o + arc_r[k + 1] * d;
+        ctrl_hit[r.slots[k]] = 0;
       }
       break;
     }

@@ -1,167 +1,34 @@
-// The realtime skin (realtime_skin.h): contours measured once in each ring's own frame, moved
-// every frame by the ring configurations of the current pose.
-#include "mimic/avatar/realtime_skin.h"
+// The realtime skin (realtime_skin.h), built once: contours ray-cast in the initial pose and
+// measured in each ring's own frame, the columns of the rest surface along each limb, the muscle
+// blocks and the joint bands' scales. realtime_deform.cpp moves them every frame.
+#include <cstdio>
 
+#include "mimic/avatar/joint_zone.h"
+#include "mimic/avatar/realtime_skin.h"
 #include "mimic/avatar/skin_lod.h"
 #include "mimic/avatar/texture_layout.h"
-#include "skin_impl.h"
+#include "realtime_data.h"
 
 namespace mimic::avatar {
 
-namespace {
-
-// The frame a ring's points are measured in this frame: the ring plane's orthonormal axes
-// (front, left, normal) and, for star rings, the link the ring cuts.
-struct Frame {
-  glm::vec3 origin{0.0f}, x{1, 0, 0}, y{0, 1, 0}, z{0, 0, 1};
-  float x_scale = 1.0f;  // bridges: the half chord, so the arc stretches with its ends
-  // Star rings: a point is kept as its projection along the link onto the plane across the link
-  // (px, py), and put back on the ring plane along the link. A plane tilted against its link
-  // (a bisector plane at a bent joint) then cuts the limb obliquely, stretched by 1/cos of the
-  // tilt as the limb's own section would be, instead of carrying the straight section over.
-  glm::vec3 axis{0, 0, 1}, px{1, 0, 0}, py{0, 1, 0};
-  float along_per_normal = 1.0f;  // 1 / cos(link, normal), bounded
-
-  glm::vec3 to_world(const glm::vec3& l) const { return origin + (l.x * x_scale) * x + l.y * y + l.z * z; }
-  glm::vec3 to_local(const glm::vec3& p) const {
-    const glm::vec3 d = p - origin;
-    return {glm::dot(d, x) / x_scale, glm::dot(d, y), glm::dot(d, z)};
-  }
-  // (px, py, height) ↔ point: p = o + q + (height − q·n)·along_per_normal·axis, q = x·px + y·py.
-  glm::vec3 star_to_world(const glm::vec3& l) const {
-    const glm::vec3 q = l.x * px + l.y * py;
-    return origin + q + ((l.z - glm::dot(q, z)) * along_per_normal) * axis;
-  }
-  glm::vec3 star_to_local(const glm::vec3& p) const {
-    const glm::vec3 d = p - origin;
-    const float h = glm::dot(d, axis);
-    const glm::vec3 q = d - h * axis;
-    return {glm::dot(q, px), glm::dot(q, py), h / along_per_normal + glm::dot(q, z)};
-  }
-};
-
-// Most a ring's section is stretched along its tilt (1/0.3, a ring tilted 72.5° against its
-// link): beyond, a sharply bent joint would push its outer side far out. The inner side is held
-// by the crease (below); 0.3 keeps the volume of an elbow flexed 150° within 0.1% of the body's.
-constexpr float kMinLinkCos = 0.3f;
-constexpr int kTorsoChain = 0;  // layout.cpp builds the torso chain first
-
-// `along_link`: limbs and neck, round their links; the torso is no cylinder round its short
-// spine links, so its rings keep their section in their plane (axis = normal).
-Frame star_frame(const Chain& c, int segment, float u, bool along_link) {
-  const Plane p = ring_plane(c, segment, u);
-  Frame f{p.origin, p.front, p.left, p.normal, 1.0f};
-  const int a = segment, b = std::min<int>(segment + 1, static_cast<int>(c.point.size()) - 1);
-  f.axis = along_link ? safe_normalize(c.point[b] - c.point[a], p.normal) : p.normal;
-  if (glm::dot(f.axis, p.normal) < 0.0f) f.axis = -f.axis;
-  const float cos_tilt = glm::dot(f.axis, p.normal);
-  if (cos_tilt < kMinLinkCos) {
-    // Tilted past the bound: project along an axis turned towards the normal until it is at
-    // the bound, so the points still land on the ring's plane.
-    const glm::vec3 tilt = safe_normalize(f.axis - cos_tilt * p.normal, p.front);
-    f.axis = kMinLinkCos * p.normal + std::sqrt(1.0f - kMinLinkCos * kMinLinkCos) * tilt;
-  }
-  f.along_per_normal = 1.0f / glm::dot(f.axis, p.normal);
-  f.px = safe_normalize(p.front - glm::dot(p.front, f.axis) * f.axis, p.left);
-  f.py = glm::cross(f.axis, f.px);
-  return f;
-}
-
-// A bridge's frame from its end points and the normal of the ring it leaves (as ray_contours.cpp
-// sets up its half star).
-Frame arc_frame(const glm::vec3& from, const glm::vec3& to, const glm::vec3& base_normal, bool flip_up) {
-  Frame f;
-  f.origin = 0.5f * (from + to);
-  const glm::vec3 half = from - f.origin;
-  f.x_scale = std::max(glm::length(half), 1e-6f);
-  f.x = safe_normalize(half, {0, 0, 1});
-  glm::vec3 up = flip_up ? -base_normal : base_normal;
-  f.y = safe_normalize(up - glm::dot(up, f.x) * f.x, {0, 1, 0});
-  f.z = glm::cross(f.x, f.y);
-  return f;
-}
-
-float falloff_of(Falloff f, float t) {
-  switch (f) {
-    case Falloff::linear: return t;
-    case Falloff::parabolic: return t * t;
-    case Falloff::hyperbolic: return std::sqrt(t);
-  }
-  return t;
-}
-
-// (weight towards θmin, weight towards θmax) of a DOF value, as the primitives interpolate.
-glm::vec2 muscle_weights(float theta, float theta0, float theta_min, float theta_max, Falloff falloff) {
-  if (theta >= theta0) {
-    const float span = theta_max - theta0;
-    const float t = span > 1e-6f ? std::clamp((theta - theta0) / span, 0.0f, 1.0f) : 0.0f;
-    return {0.0f, falloff_of(falloff, t)};
-  }
-  const float span = theta0 - theta_min;
-  const float t = span > 1e-6f ? std::clamp((theta0 - theta) / span, 0.0f, 1.0f) : 0.0f;
-  return {falloff_of(falloff, t), 0.0f};
-}
-
-using Clock = std::chrono::steady_clock;
-
-}  // namespace
-
-struct RealtimeBody::Data {
-  Skeleton skeleton;
-  int lod = 0;
-  std::vector<Chain> chains;  // nodes; the per-frame members are each avatar's
-  struct RingOp {
-    RingKind kind = RingKind::star;
-    uint32_t first = 0, count = 0;  // the ring's slots (contiguous) = its vertices
-    int chain = -1, segment = 0;    // star
-    float u = 0;
-    int prev_star = -1;             // star: the star ring before it on its surface
-    int s_ring = -1;                // driven
-    float alpha = 0;
-    uint32_t goal_first = 0;        // driven: offset in `goals`
-    uint32_t from = 0, to = 0;      // arc
-    int up_ring = -1;
-    bool flip_up = false;
-  };
-  std::vector<RingOp> rings;
-  std::vector<uint32_t> goals;
-  std::vector<glm::vec3> local;  // per slot, in its ring's frame
-  struct MuscleDof {
-    int dof = -1;
-    float theta0 = 0, theta_min = 0, theta_max = 0;
-    Falloff falloff = Falloff::linear;
-  };
-  std::vector<MuscleDof> muscle_dofs;
-  struct MuscleTerm {
-    uint32_t slot = 0;
-    uint32_t dof = 0;  // index in muscle_dofs
-    glm::vec3 offset{0.0f}, to_min{0.0f}, to_max{0.0f};  // local += offset + w.x·to_min + w.y·to_max
-  };
-  std::vector<MuscleTerm> terms;  // sorted by slot
-  size_t muscle_points = 0;
-  int missed_rays = 0;
-  struct Cap {
-    uint32_t vertex = 0, first = 0, count = 0;
-  };
-  std::vector<Cap> caps;
-  struct Rigid {
-    int joint = -1;
-    uint32_t first_vertex = 0, first_local = 0, count = 0;
-  };
-  std::vector<Rigid> rigid;
-  std::vector<glm::vec3> rigid_local;
-  Mesh rest_mesh;
-  std::vector<JointInfluences> weights;
-  TextureLayout texture;
-  std::vector<ContourRows> contour_rows;
-};
+using namespace realtime_detail;
 
 namespace {
+
+using Data = RealtimeBody::Data;
+
+// What the build reads of the full method's layout (BodySkin::Impl is the skin's own).
+struct LayoutView {
+  const std::vector<Surface>& surfaces;
+  const std::vector<Ring>& rings;
+  const std::vector<Chain>& chains;  // at the initial pose
+  const std::vector<glm::vec3>& ctrl;
+};
 
 // Each slot's coordinates in its ring's frame, for the skin's current contours (the inverse of
-// what RealtimeSkin::evaluate does).
+// what realtime_detail::deform does with the columns at rest).
 void measure_local(const std::vector<Chain>& chains, const std::vector<Ring>& rings, const std::vector<glm::vec3>& ctrl,
-                   const RealtimeBody::Data& d, std::vector<glm::vec3>& local) {
+                   const Data& d, std::vector<glm::vec3>& local) {
   std::vector<Frame> frames(d.rings.size());
   for (size_t ri = 0; ri < d.rings.size(); ++ri) {
     const auto& r = d.rings[ri];
@@ -189,6 +56,171 @@ void measure_local(const std::vector<Chain>& chains, const std::vector<Ring>& ri
     }
     frames[ri] = f;
   }
+}
+
+// The limbs' star rings, surface by surface, in order along the limb.
+std::vector<std::vector<int>> limb_star_rings(const LayoutView& m) {
+  std::vector<std::vector<int>> out;
+  for (const Surface& s : m.surfaces) {
+    std::vector<int> stars;
+    for (int id : s.rows)
+      if (id >= 0 && m.rings[id].kind == RingKind::star && m.rings[id].chain != kTorsoChain) stars.push_back(id);
+    if (!stars.empty()) out.push_back(std::move(stars));
+  }
+  return out;
+}
+
+// The columns (Data::lo_x …): in the initial pose, each limb point's neighbours on the previous
+// and next star ring of the same link, in the point's own ring frame.
+void measure_columns(const LayoutView& m, Data& d) {
+  const size_t n = m.ctrl.size();
+  d.lo_x.assign(n, 0.0f), d.lo_y.assign(n, 0.0f), d.hi_x.assign(n, 0.0f), d.hi_y.assign(n, 0.0f);
+  d.dh_lo.assign(n, -1e3f), d.dh_hi.assign(n, 1e3f);
+  for (const std::vector<int>& stars : limb_star_rings(m))
+    for (size_t i = 0; i < stars.size(); ++i) {
+      Data::RingOp& r = d.rings[stars[i]];
+      const Frame f = star_frame(m.chains[r.chain], r.segment, r.u, true);
+      r.rest_rise = f.rise();
+      r.rest_a = f.along_per_normal;
+      auto coords = [&](const glm::vec3& p) {  // (across x, across y, along the link)
+        const glm::vec3 v = p - f.origin;
+        return glm::vec3(glm::dot(v, f.px), glm::dot(v, f.py), glm::dot(v, f.axis));
+      };
+      for (const int step : {-1, 1}) {
+        const int j = static_cast<int>(i) + step;
+        if (j < 0 || j >= static_cast<int>(stars.size())) continue;
+        const Data::RingOp& o = d.rings[stars[j]];
+        // The joint ring cuts the first link; beyond it the next link's rings follow another
+        // axis, so the first link's column runs straight on (the two links meet as a mitre).
+        if (o.segment != r.segment || o.count != r.count) continue;
+        for (uint32_t k = 0; k < r.count; ++k) {
+          const glm::vec3 a = coords(m.ctrl[r.first + k]), b = coords(m.ctrl[o.first + k]);
+          const float dh = b.z - a.z;
+          if (step < 0 ? dh > -1e-4f : dh < 1e-4f) continue;
+          const glm::vec2 slope = (glm::vec2(b) - glm::vec2(a)) / dh;
+          const uint32_t s = r.first + k;
+          if (step < 0) d.lo_x[s] = slope.x, d.lo_y[s] = slope.y, d.dh_lo[s] = dh;
+          else d.hi_x[s] = slope.x, d.hi_y[s] = slope.y, d.dh_hi[s] = dh;
+        }
+      }
+    }
+}
+
+// The bending DOF of a joint: of its DOFs, the one that bends the chain most over its range.
+int bending_dof(const Skeleton& skeleton, const Chain& chain_template, int joint, const Pose& base) {
+  Chain c = chain_template;
+  std::vector<RigidTransform> w(skeleton.joint_count());
+  int best = -1;
+  float best_bend = 0.05f;
+  for (int i = 0; i < skeleton.dof_count(); ++i) {
+    const Dof& dof = skeleton.dof(i);
+    if (dof.joint != joint) continue;
+    for (float theta : {dof.min_rad, dof.max_rad}) {
+      Pose p = base;
+      p.dof_rad[i] = theta;
+      forward_kinematics(skeleton, p, w);
+      c.update(w);
+      const float bend = chain_bend(c);
+      if (bend > best_bend) best_bend = bend, best = i;
+    }
+  }
+  return best;
+}
+
+// Joint bands at the elbows and knees: the star rings within 1.5 zone half-lengths of the joint
+// (35% of the shorter link, as `mimic inspect` measures the zone) take the band's scale, fully
+// within half a half-length and fading out beyond. Then, for bends sampled over the joint's
+// range, the scale that gives the joint zone (joint_zone.h) the volume it has in the initial
+// pose, found by the secant method on the realtime skin itself.
+Status calibrate_bands(const LayoutView& m, const Pose& base, Data& d) {
+  const Skeleton& sk = d.skeleton;
+  for (const std::vector<int>& stars : limb_star_rings(m)) {
+    const int chain = d.rings[stars.front()].chain;
+    const Chain& c = m.chains[chain];
+    if (c.nodes.size() != 3) continue;  // the neck has no bending middle joint of its own
+    const int joint = c.nodes[1].joint, parent = sk.parent(joint);
+    if (parent < 0) continue;
+    const float len0 = glm::length(c.point[1] - c.point[0]), len1 = glm::length(c.point[2] - c.point[1]);
+    const float half = 0.35f * std::min(len0, len1);
+    const int band = static_cast<int>(d.bands.size());
+    for (int id : stars) {
+      Data::RingOp& r = d.rings[id];
+      const float dist = r.segment == 0 ? (1.0f - r.u) * len0 : r.u * len1;
+      const float t = std::clamp((dist - 0.5f * half) / half, 0.0f, 1.0f);
+      if (t >= 1.0f) continue;
+      r.band = band;
+      r.band_weight = 0.5f * (1.0f + std::cos(kPi * t));
+    }
+    Data::Band b;
+    b.chain = chain;
+    d.bands.push_back(b);
+
+    const int dof = bending_dof(sk, c, joint, base);
+    if (dof < 0) continue;  // scale 1 throughout
+    const Dof& dd = sk.dof(dof);
+    const float theta_b = base.dof_rad[dof];
+    const float theta_end = std::abs(dd.max_rad - theta_b) >= std::abs(dd.min_rad - theta_b) ? dd.max_rad : dd.min_rad;
+    // The zone's two pieces, named as the surface's parts.
+    std::vector<std::string> parts;
+    for (const Surface& s : m.surfaces)
+      if (std::find(s.rows.begin(), s.rows.end(), stars.front()) != s.rows.end())
+        for (const auto& [name, row] : s.parts) parts.push_back(name);
+    const std::vector<uint32_t> tris = part_triangles(d.rest_mesh, parts);
+    if (tris.empty()) continue;
+
+    State st(d);
+    st.band_scale_forced.assign(d.bands.size(), 1.0f);
+    std::vector<glm::vec3> pos(d.rest_mesh.positions.size());
+    constexpr int kSamples = 12;
+    for (int muscles = 0; muscles < 2; ++muscles) {
+      std::vector<float> bends, scales;
+      double v_rest = 0;
+      float k = 1.0f;
+      for (int i = 0; i < kSamples; ++i) {
+        Pose p = base;
+        p.dof_rad[dof] = theta_b + (theta_end - theta_b) * static_cast<float>(i) / (kSamples - 1);
+        auto volume_at = [&](float scale) {
+          st.band_scale_forced[band] = scale;
+          deform(d, st, p, pos, muscles == 1);
+          const glm::vec3 centre = st.world_from_joint[joint].translation;
+          const JointZone zone{centre, safe_normalize(st.world_from_joint[parent].translation - centre, {0, 1, 0}),
+                               safe_normalize(st.world_from_joint[joint].apply(sk.tip_m(joint)) - centre, {0, -1, 0}),
+                               half};
+          return joint_zone_volume(pos, d.rest_mesh.indices, tris, zone);
+        };
+        if (i == 0) {
+          v_rest = volume_at(1.0f);
+          k = 1.0f;
+        } else {
+          // V grows about as k²: start from the last sample's k, then secant steps.
+          float k0 = k, k1 = k;
+          double v0 = volume_at(k0);
+          k1 = k0 * static_cast<float>(std::sqrt(v_rest / std::max(v0, 1e-12)));
+          for (int it = 0; it < 8; ++it) {
+            const double v1 = volume_at(k1);
+            if (std::abs(v1 / v_rest - 1.0) < 1e-5 || std::abs(v1 - v0) < 1e-15) break;
+            const float k2 = k1 + static_cast<float>((v_rest - v1) * (k1 - k0) / (v1 - v0));
+            k0 = k1, v0 = v1, k1 = std::clamp(k2, 0.5f, 2.0f);
+          }
+          k = k1;
+        }
+        bends.push_back(chain_bend(st.chains[chain]));
+        scales.push_back(k);
+      }
+      // Sorted by bend, and exactly 1 from the initial pose's bend down.
+      std::vector<size_t> order(bends.size());
+      for (size_t i = 0; i < order.size(); ++i) order[i] = i;
+      std::sort(order.begin(), order.end(), [&](size_t a, size_t b2) { return bends[a] < bends[b2]; });
+      Data::Band& out = d.bands[band];
+      out.bend_rad.clear();
+      out.scale[muscles].clear();
+      for (size_t i : order) {
+        out.bend_rad.push_back(bends[i]);
+        out.scale[muscles].push_back(i == 0 ? 1.0f : scales[i]);
+      }
+    }
+  }
+  return {};
 }
 
 }  // namespace
@@ -262,8 +294,38 @@ Result<std::shared_ptr<const RealtimeBody>> RealtimeBody::create(const BodyModel
       prev = id;
     }
   }
-  d->local.resize(m.ctrl.size());
-  measure_local(m.chains, m.rings, m.ctrl, *d, d->local);
+  std::vector<glm::vec3> local(m.ctrl.size());
+  measure_local(m.chains, m.rings, m.ctrl, *d, local);
+  d->lx.resize(local.size()), d->ly.resize(local.size()), d->lz.resize(local.size());
+  for (size_t k = 0; k < local.size(); ++k) d->lx[k] = local[k].x, d->ly[k] = local[k].y, d->lz[k] = local[k].z;
+  measure_columns(LayoutView{m.surfaces, m.rings, m.chains, m.ctrl}, *d);
+  for (size_t ri = 0; ri < d->rings.size(); ++ri) {
+    const Data::RingOp& r = d->rings[ri];
+    if (r.kind != RingKind::star) continue;
+    const bool along = r.chain != kTorsoChain;
+    auto& runs = d->frame_runs;
+    if (runs.empty() || runs.back().chain != r.chain || runs.back().segment != r.segment) {
+      Data::FrameRun run;
+      run.chain = r.chain, run.segment = r.segment, run.along_link = along;
+      run.first = static_cast<uint32_t>(d->run_rings.size());
+      runs.push_back(run);
+    }
+    d->run_rings.push_back(static_cast<uint32_t>(ri));
+    d->run_u.push_back(r.u);
+    ++runs.back().count;
+  }
+  d->run_u.resize(d->run_u.size() + 8, 0.0f);
+  for (Data::RingOp& r : d->rings) {
+    if (r.kind != RingKind::star || r.count < 3) continue;
+    // The ring's rest centroid across the link (the band scale's centre).
+    double a2 = 0, cx = 0, cy = 0;
+    for (uint32_t k = 0; k < r.count; ++k) {
+      const uint32_t i = r.first + k, j = r.first + (k + 1) % r.count;
+      const double cr = double(d->lx[i]) * d->ly[j] - double(d->lx[j]) * d->ly[i];
+      a2 += cr, cx += (d->lx[i] + d->lx[j]) * cr, cy += (d->ly[i] + d->ly[j]) * cr;
+    }
+    if (std::abs(a2) > 1e-12) r.centre = glm::vec2(static_cast<float>(cx / (3 * a2)), static_cast<float>(cy / (3 * a2)));
+  }
   for (const Surface& s : m.surfaces)
     if (s.cap) {
       const auto& last = s.out_rows.back();
@@ -299,7 +361,8 @@ Result<std::shared_ptr<const RealtimeBody>> RealtimeBody::create(const BodyModel
     muscle_dof_of_dof[dof] = static_cast<int>(d->muscle_dofs.size());
     d->muscle_dofs.push_back({dof, sd.rest_rad, sd.min_rad, sd.max_rad, p.deformation->falloff});
   }
-  std::vector<glm::vec3> at0(m.ctrl.size()), at_min(m.ctrl.size()), at_max(m.ctrl.size());
+  const size_t n = m.ctrl.size();
+  std::vector<glm::vec3> at0(n), at_min(n), at_max(n);
   // The posture stays the initial one (the rings' configuration moves the points with the
   // joints at run time); only the primitives take their shape at θ, so a term is the muscle's
   // own change of shape, which superposes over DOFs and postures.
@@ -314,11 +377,13 @@ Result<std::shared_ptr<const RealtimeBody>> RealtimeBody::create(const BodyModel
   constexpr float kMinMove_m = 1e-4f;  // smaller moves are not worth a term
   // Muscles shape the planar contours; boundary-driven rings and bridges follow them through
   // their S, G and end points (their own rays jump between surfaces at a junction, which a
-  // term would carry into every pose).
-  std::vector<uint8_t> is_star_slot(m.ctrl.size(), 0);
-  for (const Ring& r : m.rings)
-    if (r.kind == RingKind::star)
-      for (uint32_t k : r.slots) is_star_slot[k] = 1;
+  // term would carry into every pose). Per star ring and DOF, one dense block over the ring's
+  // points (zero where a point does not move), applied eight lanes at a time.
+  struct Term {
+    glm::vec3 offset, to_min, to_max;
+  };
+  std::vector<std::vector<Term>> ring_terms(d->rings.size() * d->muscle_dofs.size());
+  std::vector<uint8_t> moved_slot(n, 0);
   for (size_t md = 0; md < d->muscle_dofs.size(); ++md) {
     const Data::MuscleDof& dof = d->muscle_dofs[md];
     measure_at(dof.dof, dof.theta0, at0);
@@ -326,21 +391,55 @@ Result<std::shared_ptr<const RealtimeBody>> RealtimeBody::create(const BodyModel
     measure_at(dof.dof, dof.theta_max, at_max);
     // Exact in the initial pose: the term is zero at the base value of the DOF.
     const glm::vec2 wb = muscle_weights(base.dof_rad[dof.dof], dof.theta0, dof.theta_min, dof.theta_max, dof.falloff);
-    for (size_t k = 0; k < m.ctrl.size(); ++k) {
-      Data::MuscleTerm t;
-      t.slot = static_cast<uint32_t>(k);
-      t.dof = static_cast<uint32_t>(md);
-      t.to_min = at_min[k] - at0[k];
-      t.to_max = at_max[k] - at0[k];
-      t.offset = -(wb.x * t.to_min + wb.y * t.to_max);
-      const float moved = std::max({std::abs(t.to_min.x), std::abs(t.to_min.y), std::abs(t.to_min.z),
-                                    std::abs(t.to_max.x), std::abs(t.to_max.y), std::abs(t.to_max.z)});
-      if (moved > kMinMove_m && is_star_slot[k]) d->terms.push_back(t);
+    for (size_t ri = 0; ri < d->rings.size(); ++ri) {
+      const Data::RingOp& r = d->rings[ri];
+      if (r.kind != RingKind::star) continue;
+      std::vector<Term> terms(r.count, Term{glm::vec3(0.0f), glm::vec3(0.0f), glm::vec3(0.0f)});
+      bool any = false;
+      for (uint32_t j = 0; j < r.count; ++j) {
+        const uint32_t k = r.first + j;
+        Term t;
+        t.to_min = at_min[k] - at0[k];
+        t.to_max = at_max[k] - at0[k];
+        t.offset = -(wb.x * t.to_min + wb.y * t.to_max);
+        const float moved = std::max({std::abs(t.to_min.x), std::abs(t.to_min.y), std::abs(t.to_min.z),
+                                      std::abs(t.to_max.x), std::abs(t.to_max.y), std::abs(t.to_max.z)});
+        if (moved <= kMinMove_m) continue;
+        terms[j] = t;
+        any = true;
+        moved_slot[k] = 1;
+        ++d->muscle_terms;
+      }
+      if (any) ring_terms[ri * d->muscle_dofs.size() + md] = std::move(terms);
     }
   }
-  std::stable_sort(d->terms.begin(), d->terms.end(), [](const auto& a, const auto& b) { return a.slot < b.slot; });
-  for (size_t i = 0; i < d->terms.size(); ++i)
-    if (i == 0 || d->terms[i].slot != d->terms[i - 1].slot) ++d->muscle_points;
+  for (size_t ri = 0; ri < d->rings.size(); ++ri) {
+    Data::RingOp& r = d->rings[ri];
+    r.muscle_first = static_cast<uint32_t>(d->muscle_blocks.size());
+    for (size_t md = 0; md < d->muscle_dofs.size(); ++md) {
+      const std::vector<Term>& terms = ring_terms[ri * d->muscle_dofs.size() + md];
+      if (terms.empty()) continue;
+      d->muscle_blocks.push_back({static_cast<uint32_t>(md), static_cast<uint32_t>(d->muscle_data.size())});
+      const size_t at = d->muscle_data.size();
+      d->muscle_data.resize(at + 9 * size_t(r.count));
+      float* out = d->muscle_data.data() + at;
+      for (uint32_t j = 0; j < r.count; ++j) {
+        const Term& t = terms[j];
+        const float v[9] = {t.offset.x, t.offset.y, t.offset.z, t.to_min.x, t.to_min.y, t.to_min.z, t.to_max.x, t.to_max.y, t.to_max.z};
+        for (int c = 0; c < 9; ++c) out[size_t(c) * r.count + j] = v[c];
+      }
+    }
+    r.muscle_count = static_cast<uint32_t>(d->muscle_blocks.size()) - r.muscle_first;
+  }
+  for (uint8_t s : moved_slot) d->muscle_points += s;
+  // The eight-wide kernels read a ring's last chunk whole: eight entries of padding at the end.
+  for (std::vector<float>* v : {&d->lx, &d->ly, &d->lz, &d->lo_x, &d->lo_y, &d->hi_x, &d->hi_y, &d->muscle_data})
+    v->resize(v->size() + 8, 0.0f);
+  d->dh_lo.resize(d->dh_lo.size() + 8, -1e3f);
+  d->dh_hi.resize(d->dh_hi.size() + 8, 1e3f);
+  // The contour stages above left the skin at the base pose's chains; the bands need them.
+  skin->stage_fk(base);
+  if (auto st = calibrate_bands(LayoutView{m.surfaces, m.rings, m.chains, m.ctrl}, base, *d); !st) return tl::unexpected(st.error());
   return std::shared_ptr<const RealtimeBody>(new RealtimeBody(std::move(d)));
 }
 
@@ -351,15 +450,48 @@ int RealtimeBody::lod() const { return data_->lod; }
 const TextureLayout& RealtimeBody::texture_layout() const { return data_->texture; }
 std::span<const ContourRows> RealtimeBody::contour_rows() const { return data_->contour_rows; }
 size_t RealtimeBody::muscle_points() const { return data_->muscle_points; }
-size_t RealtimeBody::muscle_terms() const { return data_->terms.size(); }
+size_t RealtimeBody::muscle_terms() const { return data_->muscle_terms; }
 int RealtimeBody::missed_rays() const { return data_->missed_rays; }
+
+RealtimeBody::FrameWork RealtimeBody::work_per_frame(bool muscles) const {
+  // Per point, as realtime_points.cpp does it (eight lanes or one, the same operations).
+  constexpr double kStarRead = 9 * 4, kStarFlops = 55;    // coordinates, columns; scale … plane
+  constexpr double kMuscleRead = 9 * 4, kMuscleFlops = 15;  // one block: offset, to_min, to_max
+  constexpr double kDrivenRead = 3 * 12 + 4, kDrivenFlops = 27;  // S, G (gathered), offset, index
+  constexpr double kArcRead = 12, kArcFlops = 21;
+  constexpr double kRigidRead = 12, kRigidFlops = 18;
+  const Data& d = *data_;
+  FrameWork w;
+  for (const Data::RingOp& r : d.rings) {
+    const double n = r.count;
+    switch (r.kind) {
+      case RingKind::star:
+        w.bytes_read += n * kStarRead;
+        w.flops += n * kStarFlops;
+        if (muscles) w.bytes_read += n * r.muscle_count * kMuscleRead, w.flops += n * r.muscle_count * kMuscleFlops;
+        break;
+      case RingKind::driven: w.bytes_read += n * kDrivenRead, w.flops += n * kDrivenFlops; break;
+      case RingKind::arc: w.bytes_read += n * kArcRead, w.flops += n * kArcFlops; break;
+    }
+    w.bytes_written += n * 12;
+  }
+  for (const Data::Cap& c : d.caps) w.bytes_read += c.count * 12.0, w.flops += c.count * 3.0, w.bytes_written += 12;
+  for (const Data::Rigid& rg : d.rigid) w.bytes_read += rg.count * kRigidRead, w.flops += rg.count * kRigidFlops, w.bytes_written += rg.count * 12.0;
+  return w;
+}
 
 size_t RealtimeBody::shared_bytes() const {
   const Data& d = *data_;
   size_t b = sizeof(Data) + d.rings.capacity() * sizeof(Data::RingOp) + d.goals.capacity() * 4 +
-             d.local.capacity() * sizeof(glm::vec3) + d.terms.capacity() * sizeof(Data::MuscleTerm) +
+             (d.lx.capacity() + d.ly.capacity() + d.lz.capacity()) * 4 +
+             (d.lo_x.capacity() + d.lo_y.capacity() + d.hi_x.capacity() + d.hi_y.capacity() + d.dh_lo.capacity() +
+              d.dh_hi.capacity()) * 4 +
+             d.muscle_blocks.capacity() * sizeof(Data::MuscleBlock) + d.muscle_data.capacity() * 4 +
+             d.frame_runs.capacity() * sizeof(Data::FrameRun) + (d.run_rings.capacity() + d.run_u.capacity()) * 4 +
              d.rigid_local.capacity() * sizeof(glm::vec3) + d.weights.capacity() * sizeof(JointInfluences) +
              d.texture.source.capacity() * 4 + d.texture.uv.capacity() * sizeof(glm::vec2) + d.texture.indices.capacity() * 4;
+  for (const Data::Band& band : d.bands)
+    b += sizeof(Data::Band) + (band.bend_rad.capacity() + band.scale[0].capacity() + band.scale[1].capacity()) * 4;
   b += d.rest_mesh.positions.capacity() * sizeof(glm::vec3) + d.rest_mesh.normals.capacity() * sizeof(glm::vec3) +
        d.rest_mesh.indices.capacity() * 4;
   return b;
@@ -368,126 +500,28 @@ size_t RealtimeBody::shared_bytes() const {
 // ---------------------------------------------------------------------------------------------
 // Per avatar
 
-struct RealtimeSkin::State {
-  std::vector<RigidTransform> world_from_joint;
-  std::vector<Chain> chains;
-  std::vector<Frame> frames;        // per ring, this frame
-  std::vector<glm::vec2> muscle_w;  // per muscle DOF: (towards θmin, towards θmax)
-  RealtimeTimings timings;
+struct RealtimeSkin::State : realtime_detail::State {
+  using realtime_detail::State::State;
 };
 
-RealtimeSkin::RealtimeSkin(std::shared_ptr<const RealtimeBody> body) : body_(std::move(body)), state_(std::make_unique<State>()) {
-  const RealtimeBody::Data& d = body_->data();
-  state_->world_from_joint.resize(d.skeleton.joint_count());
-  state_->chains = d.chains;
-  state_->frames.resize(d.rings.size());
-  state_->muscle_w.resize(d.muscle_dofs.size());
-}
+RealtimeSkin::RealtimeSkin(std::shared_ptr<const RealtimeBody> body)
+    : body_(std::move(body)), state_(std::make_unique<State>(body_->data())) {}
 RealtimeSkin::RealtimeSkin(RealtimeSkin&&) noexcept = default;
 RealtimeSkin& RealtimeSkin::operator=(RealtimeSkin&&) noexcept = default;
 RealtimeSkin::~RealtimeSkin() = default;
 
 const RealtimeTimings& RealtimeSkin::timings() const { return state_->timings; }
 
-size_t RealtimeSkin::instance_bytes() const {
-  const State& s = *state_;
-  size_t b = sizeof(*this) + sizeof(State) + s.world_from_joint.capacity() * sizeof(RigidTransform) +
-             s.frames.capacity() * sizeof(Frame) + s.muscle_w.capacity() * sizeof(glm::vec2) +
-             s.chains.capacity() * sizeof(Chain);
-  for (const Chain& c : s.chains)
-    b += c.nodes.capacity() * sizeof(Chain::Node) + (c.point.capacity() + c.normal.capacity() + c.ref.capacity()) * sizeof(glm::vec3);
-  return b;
-}
+size_t RealtimeSkin::instance_bytes() const { return sizeof(*this) + sizeof(State) + state_->heap_bytes(); }
+
+void RealtimeSkin::use_scalar_reference(bool scalar) { state_->vectorised = !scalar; }
 
 void RealtimeSkin::evaluate(const Pose& pose, std::span<glm::vec3> pos, std::span<glm::vec3> normals, bool muscles) {
   const RealtimeBody::Data& d = body_->data();
-  State& st = *state_;
   if (pos.size() < d.rest_mesh.positions.size() || pose.dof_rad.size() != static_cast<size_t>(d.skeleton.dof_count()))
     return;  // a caller's sizing error; documented sizes
-  const auto t0 = Clock::now();
-  forward_kinematics(d.skeleton, pose, st.world_from_joint);
-  for (Chain& c : st.chains) c.update(st.world_from_joint);
-  for (size_t i = 0; i < d.muscle_dofs.size(); ++i) {
-    const auto& md = d.muscle_dofs[i];
-    st.muscle_w[i] = muscles ? muscle_weights(pose.dof_rad[md.dof], md.theta0, md.theta_min, md.theta_max, md.falloff)
-                             : glm::vec2(0.0f);
-  }
-  const auto t1 = Clock::now();
-
-  const RealtimeBody::Data::MuscleTerm* term = d.terms.data();
-  const RealtimeBody::Data::MuscleTerm* const terms_end = muscles ? term + d.terms.size() : term;
-  const glm::vec2* mw = st.muscle_w.data();
-  // The local coordinates of slot k with its muscle terms (terms are sorted by slot, and rings
-  // are visited in slot order).
-  auto local_of = [&](uint32_t k) {
-    glm::vec3 l = d.local[k];
-    while (term != terms_end && term->slot == k) {
-      const glm::vec2 w = mw[term->dof];
-      l += term->offset + w.x * term->to_min + w.y * term->to_max;
-      ++term;
-    }
-    return l;
-  };
-  for (size_t ri = 0; ri < d.rings.size(); ++ri) {
-    const auto& r = d.rings[ri];
-    Frame& f = st.frames[ri];
-    switch (r.kind) {
-      case RingKind::star: {
-        f = star_frame(st.chains[r.chain], r.segment, r.u, r.chain != kTorsoChain);
-        for (uint32_t k = r.first; k < r.first + r.count; ++k) pos[k] = f.star_to_world(local_of(k));
-        if (r.prev_star >= 0) {
-          // Where a bend tilts this ring's plane through the previous one's (the inner side of
-          // the joint), its points stop on the line the two planes share: the contours meet in
-          // a crease there and never cross.
-          const Frame& prev = st.frames[r.prev_star];
-          const float origin_height = glm::dot(f.origin - prev.origin, prev.z);
-          if (origin_height > 0.0f)
-            for (uint32_t k = r.first; k < r.first + r.count; ++k) {
-              const glm::vec3 v = pos[k] - f.origin;
-              const float rise = glm::dot(v, prev.z);
-              if (origin_height + rise < 0.0f) pos[k] = f.origin + (-origin_height / rise) * v;
-            }
-          // And the previous ring's points stop on that line from their side.
-          const auto& pr = d.rings[r.prev_star];
-          const float back = glm::dot(prev.origin - f.origin, f.z);
-          if (back < 0.0f)
-            for (uint32_t k = pr.first; k < pr.first + pr.count; ++k) {
-              const glm::vec3 v = pos[k] - prev.origin;
-              const float rise = glm::dot(v, f.z);
-              if (back + rise > 0.0f) pos[k] = prev.origin + (-back / rise) * v;
-            }
-        }
-        break;
-      }
-      case RingKind::arc: {
-        f = arc_frame(pos[r.from], pos[r.to], st.frames[r.up_ring].z, r.flip_up);
-        for (uint32_t k = r.first; k < r.first + r.count; ++k) pos[k] = f.to_world(local_of(k));
-        break;
-      }
-      case RingKind::driven: {
-        f = st.frames[r.s_ring];
-        const uint32_t s_first = d.rings[r.s_ring].first;
-        const uint32_t* goal = d.goals.data() + r.goal_first;
-        for (uint32_t j = 0; j < r.count; ++j) {
-          const glm::vec3 s = pos[s_first + j], g = pos[goal[j]];
-          const glm::vec3 l = local_of(r.first + j);
-          pos[r.first + j] = s + r.alpha * (g - s) + l.x * f.x + l.y * f.y + l.z * f.z;
-        }
-        break;
-      }
-    }
-  }
-  for (const auto& c : d.caps) {
-    glm::vec3 sum(0.0f);
-    for (uint32_t k = c.first; k < c.first + c.count; ++k) sum += pos[k];
-    pos[c.vertex] = sum / static_cast<float>(c.count);
-  }
-  for (const auto& rg : d.rigid) {
-    const RigidTransform& w = st.world_from_joint[rg.joint];
-    const glm::mat3 r = glm::mat3_cast(w.rotation);
-    for (uint32_t i = 0; i < rg.count; ++i) pos[rg.first_vertex + i] = r * d.rigid_local[rg.first_local + i] + w.translation;
-  }
-  const auto t2 = Clock::now();
+  deform(d, *state_, pose, pos, muscles);
+  const auto t2 = std::chrono::steady_clock::now();
   if (normals.size() >= pos.size()) {
     std::fill(normals.begin(), normals.end(), glm::vec3(0.0f));
     const auto& idx = d.rest_mesh.indices;
@@ -500,10 +534,8 @@ void RealtimeSkin::evaluate(const Pose& pose, std::span<glm::vec3> pos, std::spa
     }
     for (size_t v = 0; v < d.rest_mesh.positions.size(); ++v) normals[v] = safe_normalize(normals[v], {0, 1, 0});
   }
-  const auto t3 = Clock::now();
-  st.timings.joints_us = std::chrono::duration<double, std::micro>(t1 - t0).count();
-  st.timings.points_us = std::chrono::duration<double, std::micro>(t2 - t1).count();
-  st.timings.normals_us = std::chrono::duration<double, std::micro>(t3 - t2).count();
+  state_->timings.normals_us =
+      normals.size() >= pos.size() ? std::chrono::duration<double, std::micro>(std::chrono::steady_clock::now() - t2).count() : 0.0;
 }
 
 }  // namespace mimic::avatar

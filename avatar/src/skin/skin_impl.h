@@ -9,6 +9,7 @@
 #include <cmath>
 #include <memory>
 #include <numbers>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -111,6 +112,7 @@ struct Ring {
   int s_ring = -1;
   std::vector<uint32_t> goal;  // G's slots (a loop made of other rings' points)
   float alpha = 0;
+  float alpha_step = 0;  // between consecutive driven rings of the junction, 1/(k+1)
   // arc (bridge): interior points on a half circle from `from` through `up` to `to`
   uint32_t from = 0, to = 0;
   int up_ring = -1;    // ring whose normal gives "up" (arc bulges towards −normal if flip_up)
@@ -127,9 +129,125 @@ struct Surface {
   // Output.
   std::vector<std::vector<uint32_t>> out_rows;
   uint32_t cap_vertex = 0;
-  std::vector<BsplineTap> around, along;
+  // B-spline smoothing: consecutive control rows of one point count are smoothed together
+  // (clamped along, so a run ends exactly on its last row); where the count changes (a limb
+  // at its own LOD) a zipper band joins the runs' end rows.
+  struct Run {
+    int first_row = 0, rows = 0;  // control rows
+    int first_out = 0;            // output row of the first control row
+    std::vector<BsplineTap> around, along;
+  };
+  std::vector<Run> runs;
   std::vector<int> out_row_of_control;  // output row index where each control row lands
+
+  const std::vector<uint32_t>& control_row(const std::vector<Ring>& rings, size_t r) const {
+    return this->rows[r] < 0 ? first_row : rings[static_cast<size_t>(this->rows[r])].slots;
+  }
 };
+
+// The triangles of the band between two closed rows of n and m points, wound outward like every
+// band of the skin (row a before row b along the piece). Each corner is (row: 0 a, 1 b; column),
+// a column equal to the row's size being its point 0 again (u = 1 at the seam). Equal counts give
+// quads split on the same diagonal; different counts a zipper that advances, each step, the row
+// whose next point comes first in normalised index (both rows' points spread alike around the
+// limb), so every point of both rows is a corner and no T-junction is left: n + m triangles.
+struct BandCorner {
+  uint32_t row, col;
+};
+template <class Emit>
+void for_each_band_triangle(uint32_t n, uint32_t m, Emit&& emit) {
+  if (n == m) {
+    for (uint32_t j = 0; j < n; ++j) {
+      emit(BandCorner{0, j}, BandCorner{0, j + 1}, BandCorner{1, j + 1});
+      emit(BandCorner{0, j}, BandCorner{1, j + 1}, BandCorner{1, j});
+    }
+    return;
+  }
+  uint32_t i = 0, j = 0;
+  while (i < n || j < m) {
+    const bool advance_b = j < m && (i == n || uint64_t{j + 1} * n <= uint64_t{i + 1} * m);
+    if (advance_b) {
+      emit(BandCorner{0, i}, BandCorner{1, j + 1}, BandCorner{1, j});
+      ++j;
+    } else {
+      emit(BandCorner{0, i}, BandCorner{0, i + 1}, BandCorner{1, j});
+      ++i;
+    }
+  }
+}
+
+// Points of the loops a limb starts from, as build() makes them from the torso's chest and
+// crotch rings and the bridges: what every ring of the limb has unless it takes its own count.
+struct LoopPoints {
+  int neck = 0, arm = 0, leg = 0;
+};
+// Where the neck's loop cuts each armpit's corner: from the chest ring's point `chest` points
+// before the armpit point to the shoulder bridge's interior point `bridge` (0: its first),
+// leaving the points between to a flat patch, the corner ({0, 0}: no cut). The uncut loop climbs
+// the front and back of each armpit along the bridge, a stretch that, seen along the neck's link,
+// is edge-on: the neck's boundary-driven rings ran along it and folded.
+struct NeckCorner {
+  int chest = 0, bridge = 0;
+};
+inline NeckCorner neck_corner(const SkinLayout& l) {
+  // The front and back arcs keep at least one segment between their two cuts (a torso of eight
+  // points, two segments across the front, is not cut).
+  if (l.chest_front_arc < 3) return {};
+  // A bridge is a half circle of rays from its chord's middle: from the armpit it climbs, and
+  // about 60° round it turns over the shoulder. The cut ends on its last point within 60° (56° of
+  // the default body's 16 segments; 60° at LOD 1, 36° at LOD 2).
+  return {1, std::clamp(l.shoulder_bridge / 3 - 1, 0, l.shoulder_bridge / 2 - 1)};
+}
+inline LoopPoints loop_points(const SkinLayout& l) {
+  const int fl = l.chest_front_arc / 2, kl = fl + l.chest_side_arc;
+  const int kr = kl + l.chest_front_arc, fr = kr + l.chest_side_arc;
+  const NeckCorner cut = neck_corner(l);
+  LoopPoints p;
+  // Each of the four cuts leaves its `chest` + `bridge` points between its ends to its corner.
+  p.neck = (fl + 1) + (l.shoulder_bridge - 1) + (kr - kl + 1) + (l.shoulder_bridge - 1) + (l.torso_points - fr) -
+           4 * (cut.chest + cut.bridge);
+  p.arm = (kl - fl + 1) + (l.shoulder_bridge - 1);
+  p.leg = l.torso_points / 2 + l.crotch_bridge;
+  return p;
+}
+
+// An armpit corner the neck's loop cuts: its points in the uncut loop's order, from one end to
+// the other (both ends stay in the loop), triangulated as a fan from its end on the chest ring.
+struct Corner {
+  std::vector<uint32_t> points;
+  bool apex_last = false;  // the chest end is the last point (else the first)
+  size_t apex() const { return apex_last ? points.size() - 1 : 0; }
+  // Fan triangles (apex, i, i + 1) over the corner's other points, in the loop's winding.
+  template <class Emit>
+  void for_each_triangle(Emit&& emit) const {
+    const size_t n = points.size(), a = apex();
+    for (size_t i = 1; i + 1 < n; ++i) emit(a, (a + i) % n, (a + i + 1) % n);
+  }
+};
+struct NeckCut {
+  int from = 0, to = 0;  // positions in the uncut loop
+  bool apex_last = false;
+};
+
+// The neck's loop without the armpit corners: `full` is the uncut loop (chest front arc, left
+// bridge, back arc, right bridge), each cut's points between its ends left to its corner.
+// Positions are control positions times `step` (B-spline samples per span; the loop's rows are
+// sampled so).
+inline void cut_neck_loop(const std::vector<uint32_t>& full, std::span<const NeckCut> cuts, int step,
+                          std::vector<uint32_t>& loop, std::vector<Corner>& corners) {
+  std::vector<bool> drop(full.size(), false);
+  corners.clear();
+  for (const NeckCut& cut : cuts) {
+    Corner c;
+    c.apex_last = cut.apex_last;
+    for (int i = cut.from * step; i <= cut.to * step; ++i) c.points.push_back(full[static_cast<size_t>(i)]);
+    for (int i = cut.from * step + 1; i < cut.to * step; ++i) drop[static_cast<size_t>(i)] = true;
+    corners.push_back(std::move(c));
+  }
+  loop.clear();
+  for (size_t i = 0; i < full.size(); ++i)
+    if (!drop[i]) loop.push_back(full[i]);
+}
 
 struct Bridge {
   int ring = -1;                 // the arc ring (interior control points)
@@ -172,6 +290,10 @@ struct BodySkin::Impl {
   std::vector<Ring> rings;
   std::vector<Surface> surfaces;
   std::vector<Bridge> bridges;
+  // The armpit corners the neck's loop cuts (neck_corner): where in the uncut loop, and each
+  // corner's output vertices (part of the neck's piece).
+  std::vector<NeckCut> neck_cuts;
+  std::vector<Corner> corners;
   std::vector<RigidMesh> rigid;
 
   // Control points and, per point, the origin of the ray that produced it.
@@ -184,6 +306,9 @@ struct BodySkin::Impl {
   std::vector<RayHit> star_hits;
   std::vector<glm::vec4> normal_sums;  // per vertex, while the normals are summed
   std::vector<glm::vec3> ray_origins, ray_dirs, ray_fallbacks;  // a ring's rays, cast together
+  std::vector<RayNear> ray_nears;
+  std::vector<float> arc_r, arc_spike;  // a bridge's radii, while it spans hollows (span_arc)
+  std::vector<uint32_t> arc_hull;
   SkinTimings timings;
   SkinStats stats;
 
@@ -211,6 +336,11 @@ struct BodySkin::Impl {
                  std::span<const uint16_t> cand, const glm::vec3& fallback);
   void store(uint32_t slot, const glm::vec3& origin, const glm::vec3& dir, RayHit hit, const glm::vec3& fallback);
   int gather(GroupMask mask);
+  void span_arc(size_t m, const Directions& dir);
+  // A boundary-driven ring's point P = S + α(G − S) from its S point and its loop's point.
+  glm::vec3 driven_target(const Ring& r, uint32_t s_slot, uint32_t goal_slot) const {
+    return ctrl[s_slot] + r.alpha * (ctrl[goal_slot] - ctrl[s_slot]);
+  }
   void build_output();
   void evaluate_bspline();
   void update_normals();

@@ -13,34 +13,36 @@ void BodySkin::Impl::evaluate_bspline() {
     std::copy(ctrl.begin(), ctrl.end(), pos.begin());
     return;
   }
-  const int sub = options.subdivision;
+  const size_t sub = static_cast<size_t>(options.subdivision);
   for (size_t si = 0; si < surfaces.size(); ++si) {
     const Surface& s = surfaces[si];
-    const size_t rows = s.rows.size();
-    const std::vector<uint32_t>& row0 = s.rows[0] < 0 ? s.first_row : rings[s.rows[0]].slots;
-    const size_t n = row0.size();
-    const size_t cols = n * sub;
-    // Around: each control row → cols samples (closed curve).
-    for (size_t r = 0; r < rows; ++r) {
-      const std::vector<uint32_t>& slots = s.rows[r] < 0 ? s.first_row : rings[s.rows[r]].slots;
-      glm::vec3* dst = &scratch_rows[r * cols];
-      for (size_t c = 0; c < cols; ++c) {
-        const BsplineTap& t = s.around[c];
-        dst[c] = t.weight[0] * ctrl[slots[t.index[0]]] + t.weight[1] * ctrl[slots[t.index[1]]] +
-                 t.weight[2] * ctrl[slots[t.index[2]]] + t.weight[3] * ctrl[slots[t.index[3]]];
+    for (const Surface::Run& run : s.runs) {
+      const size_t first = static_cast<size_t>(run.first_row), rows = static_cast<size_t>(run.rows);
+      const size_t cols = s.control_row(rings, first).size() * sub;
+      // Around: each control row → cols samples (closed curve).
+      for (size_t r = 0; r < rows; ++r) {
+        const std::vector<uint32_t>& slots = s.control_row(rings, first + r);
+        glm::vec3* dst = &scratch_rows[r * cols];
+        for (size_t c = 0; c < cols; ++c) {
+          const BsplineTap& t = run.around[c];
+          dst[c] = t.weight[0] * ctrl[slots[t.index[0]]] + t.weight[1] * ctrl[slots[t.index[1]]] +
+                   t.weight[2] * ctrl[slots[t.index[2]]] + t.weight[3] * ctrl[slots[t.index[3]]];
+        }
       }
-    }
-    // Along: clamped; limbs keep their first row from the torso/bridges (shared vertices).
-    const size_t first_out = s.loop_start ? 1 : 0;
-    for (size_t o = first_out; o < s.out_rows.size(); ++o) {
-      const BsplineTap& t = s.along[o];
-      const glm::vec3* r0 = &scratch_rows[t.index[0] * cols];
-      const glm::vec3* r1 = &scratch_rows[t.index[1] * cols];
-      const glm::vec3* r2 = &scratch_rows[t.index[2] * cols];
-      const glm::vec3* r3 = &scratch_rows[t.index[3] * cols];
-      const std::vector<uint32_t>& out = s.out_rows[o];
-      for (size_t c = 0; c < cols; ++c)
-        pos[out[c]] = t.weight[0] * r0[c] + t.weight[1] * r1[c] + t.weight[2] * r2[c] + t.weight[3] * r3[c];
+      // Along: clamped within the run; limbs keep their first row from the torso/bridges
+      // (shared vertices).
+      for (size_t o = 0; o < run.along.size(); ++o) {
+        const size_t out_row = static_cast<size_t>(run.first_out) + o;
+        if (s.loop_start && out_row == 0) continue;
+        const BsplineTap& t = run.along[o];
+        const glm::vec3* r0 = &scratch_rows[t.index[0] * cols];
+        const glm::vec3* r1 = &scratch_rows[t.index[1] * cols];
+        const glm::vec3* r2 = &scratch_rows[t.index[2] * cols];
+        const glm::vec3* r3 = &scratch_rows[t.index[3] * cols];
+        const std::vector<uint32_t>& out = s.out_rows[out_row];
+        for (size_t c = 0; c < cols; ++c)
+          pos[out[c]] = t.weight[0] * r0[c] + t.weight[1] * r1[c] + t.weight[2] * r2[c] + t.weight[3] * r3[c];
+      }
     }
     if (si == 0) {
       // Bridges hang between torso vertices: polygon [end, interior…, end], clamped.

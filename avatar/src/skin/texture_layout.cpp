@@ -3,6 +3,7 @@
 // (vertex, u, v) corners share one textured vertex, so seams split and nothing else does.
 #include "mimic/avatar/texture_layout.h"
 
+#include <algorithm>
 #include <map>
 #include <tuple>
 
@@ -44,19 +45,41 @@ TextureLayout texture_layout(const BodySkin& skin) {
       const int row_to = p + 1 < s.parts.size() ? s.out_row_of_control[s.parts[p + 1].second]
                                                 : static_cast<int>(s.out_rows.size()) - 1;
       const bool capped = s.cap && p + 1 == s.parts.size();
+      // The neck's armpit corners take the first step of its square, below its loop: their ends
+      // at the loop's u, the points between spread along v = 0.
+      const bool corners = &s == &m.surfaces[1] && p == 0 && !m.corners.empty();
       // Rows spread over v ∈ [0, 1]; a capped piece keeps its last step for the cap.
-      const size_t steps = static_cast<size_t>(row_to - row_from) + (capped ? 1 : 0);
-      for (int r = row_from; r < row_to; ++r) {
-        const auto& a = s.out_rows[r];
-        const auto& c = s.out_rows[r + 1];
-        const size_t n = a.size();
-        const float v0 = frac(static_cast<size_t>(r - row_from), steps), v1 = frac(static_cast<size_t>(r + 1 - row_from), steps);
-        for (size_t j = 0; j < n; ++j) {
-          const size_t j1 = (j + 1) % n;
-          const float u0 = frac(j, n), u1 = frac(j + 1, n);  // u1 = 1 where the ring wraps
-          b.corner(a[j], u0, v0), b.corner(a[j1], u1, v0), b.corner(c[j1], u1, v1);
-          b.corner(a[j], u0, v0), b.corner(c[j1], u1, v1), b.corner(c[j], u0, v1);
+      const size_t steps = static_cast<size_t>(row_to - row_from) + (capped ? 1 : 0) + (corners ? 1 : 0);
+      const size_t first_step = corners ? 1 : 0;
+      if (corners) {
+        const std::vector<uint32_t>& loop = s.out_rows[static_cast<size_t>(row_from)];
+        const float v_loop = frac(1, steps);
+        auto u_of = [&](uint32_t vertex) {
+          return frac(static_cast<size_t>(std::find(loop.begin(), loop.end(), vertex) - loop.begin()), loop.size());
+        };
+        for (const Corner& c : m.corners) {
+          const size_t n = c.points.size();
+          const float u0 = u_of(c.points.front()), u1 = u_of(c.points.back());
+          c.for_each_triangle([&](size_t i0, size_t i1, size_t i2) {
+            for (size_t i : {i0, i1, i2}) {
+              const bool end = i == 0 || i + 1 == n;
+              b.corner(c.points[i], u0 + (u1 - u0) * frac(i, n - 1), end ? v_loop : 0.0f);
+            }
+          });
         }
+      }
+      for (int r = row_from; r < row_to; ++r) {
+        const std::vector<uint32_t>* rows[2] = {&s.out_rows[r], &s.out_rows[r + 1]};
+        const float v[2] = {frac(static_cast<size_t>(r - row_from) + first_step, steps),
+                            frac(static_cast<size_t>(r + 1 - row_from) + first_step, steps)};
+        // The mesh's own band triangles (a zipper where the rows' counts differ), each corner at
+        // its column's u on its own row: column n is point 0 again at u = 1, where the ring wraps.
+        auto corner = [&](BandCorner k) {
+          const std::vector<uint32_t>& row = *rows[k.row];
+          b.corner(row[k.col % row.size()], frac(k.col, row.size()), v[k.row]);
+        };
+        for_each_band_triangle(static_cast<uint32_t>(rows[0]->size()), static_cast<uint32_t>(rows[1]->size()),
+                               [&](BandCorner c0, BandCorner c1, BandCorner c2) { corner(c0), corner(c1), corner(c2); });
       }
       if (capped) {
         const auto& last = s.out_rows.back();

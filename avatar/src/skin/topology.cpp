@@ -10,12 +10,40 @@ namespace mimic::avatar {
 namespace {
 
 void append_band(std::vector<uint32_t>& idx, const std::vector<uint32_t>& a, const std::vector<uint32_t>& b) {
-  const size_t n = a.size();
-  for (size_t j = 0; j < n; ++j) {
-    const size_t j1 = (j + 1) % n;
-    idx.insert(idx.end(), {a[j], a[j1], b[j1]});
-    idx.insert(idx.end(), {a[j], b[j1], b[j]});
+  auto vertex = [&](BandCorner c) {
+    const std::vector<uint32_t>& row = c.row ? b : a;
+    return row[c.col % row.size()];
+  };
+  for_each_band_triangle(static_cast<uint32_t>(a.size()), static_cast<uint32_t>(b.size()),
+                         [&](BandCorner c0, BandCorner c1, BandCorner c2) {
+                           idx.insert(idx.end(), {vertex(c0), vertex(c1), vertex(c2)});
+                         });
+}
+
+// Splits a surface's control rows into runs of one point count and plans their B-spline
+// samples: `sub` per span around, clamped along (a run of one row is copied). Returns the
+// number of output rows.
+int plan_runs(Surface& s, const std::vector<Ring>& rings, int sub) {
+  s.runs.clear();
+  s.out_row_of_control.assign(s.rows.size(), 0);
+  int out = 0;
+  for (size_t r = 0; r < s.rows.size();) {
+    const size_t n = s.control_row(rings, r).size();
+    size_t e = r + 1;
+    while (e < s.rows.size() && s.control_row(rings, e).size() == n) ++e;
+    Surface::Run run;
+    run.first_row = static_cast<int>(r);
+    run.rows = static_cast<int>(e - r);
+    run.first_out = out;
+    const int outs = (run.rows - 1) * sub + 1;
+    run.around = periodic_cubic_taps(static_cast<int>(n), sub);
+    run.along = run.rows > 1 ? clamped_cubic_taps(run.rows, outs) : std::vector<BsplineTap>{BsplineTap{{0, 0, 0, 0}, {1, 0, 0, 0}}};
+    for (int i = 0; i < run.rows; ++i) s.out_row_of_control[r + static_cast<size_t>(i)] = out + i * sub;
+    out += outs;
+    s.runs.push_back(std::move(run));
+    r = e;
   }
+  return out;
 }
 
 }  // namespace
@@ -48,14 +76,20 @@ void BodySkin::Impl::build_output() {
     }
   } else {
     // Torso first (its first and last output rows carry the loops), then bridges, then limbs.
+    // Output rows of each surface, run by run (first_out → the row's columns).
+    auto add_out_rows = [&](Surface& s, const std::vector<uint32_t>* first) {
+      s.out_rows.clear();
+      plan_runs(s, rings, sub);
+      for (const Surface::Run& run : s.runs) {
+        const size_t c = s.control_row(rings, static_cast<size_t>(run.first_row)).size() * static_cast<size_t>(sub);
+        for (size_t o = 0; o < run.along.size(); ++o)
+          s.out_rows.push_back(first && s.out_rows.empty() ? *first : range(new_vertices(c), c));
+      }
+    };
     Surface& torso = surfaces[0];
     const int m = static_cast<int>(rings[torso.rows[0]].slots.size());
     const int cols = m * sub;
-    const int out_n = (static_cast<int>(torso.rows.size()) - 1) * sub + 1;
-    torso.around = periodic_cubic_taps(m, sub);
-    torso.along = clamped_cubic_taps(static_cast<int>(torso.rows.size()), out_n);
-    for (int o = 0; o < out_n; ++o) torso.out_rows.push_back(range(new_vertices(cols), cols));
-    for (size_t r = 0; r < torso.rows.size(); ++r) torso.out_row_of_control.push_back(static_cast<int>(r) * sub);
+    add_out_rows(torso, nullptr);
     const std::vector<uint32_t>& bottom = torso.out_rows.front();
     const std::vector<uint32_t>& top = torso.out_rows.back();
     const int half = m / 2;
@@ -89,7 +123,7 @@ void BodySkin::Impl::build_output() {
     std::vector<std::vector<uint32_t>> loops(5);
     {
       // Same orders as the control loops (see build()).
-      auto& nl = loops[0];
+      std::vector<uint32_t> nl;
       auto a = top_range(0, fl * sub);
       nl.insert(nl.end(), a.begin(), a.end());
       auto lb = bridge_out(1, false);
@@ -100,6 +134,7 @@ void BodySkin::Impl::build_output() {
       nl.insert(nl.end(), rb.begin(), rb.end());
       a = top_range(fr * sub, cols - 1);
       nl.insert(nl.end(), a.begin(), a.end());
+      cut_neck_loop(nl, neck_cuts, sub, loops[0], corners);
 
       auto& la = loops[1];
       a = top_range(fl * sub, kl * sub);
@@ -126,22 +161,12 @@ void BodySkin::Impl::build_output() {
       cb = bridge_out(0, true);
       rl.insert(rl.end(), cb.begin(), cb.end());
     }
-    for (size_t si = 1; si < surfaces.size(); ++si) {
-      Surface& s = surfaces[si];
-      const int n = static_cast<int>(s.first_row.size());
-      const int c = n * sub;
-      const int rows_out = (static_cast<int>(s.rows.size()) - 1) * sub + 1;
-      s.around = periodic_cubic_taps(n, sub);
-      s.along = clamped_cubic_taps(static_cast<int>(s.rows.size()), rows_out);
-      s.out_rows.push_back(loops[si - 1]);
-      for (int o = 1; o < rows_out; ++o) s.out_rows.push_back(range(new_vertices(c), c));
-      for (size_t r = 0; r < s.rows.size(); ++r) s.out_row_of_control.push_back(static_cast<int>(r) * sub);
-    }
+    for (size_t si = 1; si < surfaces.size(); ++si) add_out_rows(surfaces[si], &loops[si - 1]);
     size_t cells = 0;
-    for (const Surface& s : surfaces) {
-      const size_t n = s.rows[0] < 0 ? s.first_row.size() : rings[s.rows[0]].slots.size();
-      cells = std::max(cells, n * s.rows.size() * sub);
-    }
+    for (const Surface& s : surfaces)
+      for (const Surface::Run& run : s.runs)
+        cells = std::max(cells, s.control_row(rings, static_cast<size_t>(run.first_row)).size() *
+                                    static_cast<size_t>(run.rows * sub));
     scratch_rows.resize(cells);
     scratch_grid.resize(cells);
     scratch_poly.resize(1024);
@@ -170,6 +195,12 @@ void BodySkin::Impl::build_output() {
       const int row_to = p + 1 < s.parts.size() ? s.out_row_of_control[s.parts[p + 1].second]
                                                 : static_cast<int>(s.out_rows.size()) - 1;
       begin_part(s.parts[p].first);
+      // The armpit corners the neck's loop cuts, ahead of the neck's bands.
+      if (&s == &surfaces[1] && p == 0)
+        for (const Corner& c : corners)
+          c.for_each_triangle([&](size_t a, size_t b, size_t d) {
+            mesh.indices.insert(mesh.indices.end(), {c.points[a], c.points[b], c.points[d]});
+          });
       for (int r = row_from; r < row_to; ++r) append_band(mesh.indices, s.out_rows[r], s.out_rows[r + 1]);
       if (s.cap && p + 1 == s.parts.size()) {
         const auto& last = s.out_rows.back();

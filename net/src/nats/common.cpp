@@ -2,6 +2,7 @@
 #include <cstdlib>
 
 #include "mimic/net/nats.h"
+#include "nats/avatar_key.h"
 
 namespace mimic::net {
 
@@ -47,7 +48,21 @@ Result<NatsTarget> parse_nats_target(std::string_view text) {
   return t;
 }
 
-std::string nats_avatar_key(std::string_view publisher, std::string_view avatar) {
+Status check_nats_options(const NatsOptions& o) {
+  if (o.heartbeat_ms < 100 || o.heartbeat_ms > 60000)
+    return fail(Errc::invalid_argument, "the heartbeat period must be 100 to 60000 ms");
+  if (o.missed_heartbeats < 1 || o.missed_heartbeats > 100)
+    return fail(Errc::invalid_argument, "missed heartbeats must be 1 to 100");
+  if (!(o.model_ttl_s == 0 || (o.model_ttl_s >= kMinModelTtl_s && o.model_ttl_s <= kMaxModelTtl_s)))
+    return fail(Errc::invalid_argument, "the model TTL must be 0 (models never expire) or 3 to 86400 seconds");
+  if (!(o.mesh_max_hz >= kMinMeshHz && o.mesh_max_hz <= kMaxMeshHz))
+    return fail(Errc::invalid_argument, "the mesh frame rate must be 1 to 240 per second");
+  return {};
+}
+
+namespace nats_detail {
+
+uint64_t avatar_key_value(std::string_view publisher, std::string_view avatar) {
   uint64_t h = 14695981039346656037ull;  // FNV-1a 64
   auto mix = [&h](std::string_view s) {
     for (unsigned char c : s) {
@@ -58,10 +73,20 @@ std::string nats_avatar_key(std::string_view publisher, std::string_view avatar)
   mix(publisher);
   mix("/");
   mix(avatar);
+  return h;
+}
+
+std::string avatar_key_text(uint64_t key) {
   static const char* hex = "0123456789abcdef";
   std::string out(16, '0');
-  for (int i = 15; i >= 0; --i, h >>= 4) out[size_t(i)] = hex[h & 15];
+  for (int i = 15; i >= 0; --i, key >>= 4) out[size_t(i)] = hex[key & 15];
   return out;
+}
+
+}  // namespace nats_detail
+
+std::string nats_avatar_key(std::string_view publisher, std::string_view avatar) {
+  return nats_detail::avatar_key_text(nats_detail::avatar_key_value(publisher, avatar));
 }
 
 }  // namespace mimic::net

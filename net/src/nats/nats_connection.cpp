@@ -17,7 +17,29 @@ std::string describe(natsStatus s) {
 }
 
 std::string bucket_name(const std::string& scene) { return "mimic_" + scene; }
-std::string pose_subject(const std::string& scene, const std::string& key) { return "mimic." + scene + "." + key + ".pose"; }
+std::string poses_subject(const std::string& scene, const std::string& publisher_token) {
+  return "mimic." + scene + ".poses." + publisher_token;
+}
+std::string subject_token(const std::string& name) {
+  std::string s = name.empty() ? "mimic" : name.substr(0, 64);
+  for (char& c : s)
+    if (!((c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_' || c == '-')) c = '_';
+  return s;
+}
+std::string mesh_subject(const std::string& scene, const std::string& key, unsigned lod) {
+  return "mimic." + scene + "." + key + ".mesh." + std::to_string(lod);
+}
+std::string mesh_want_subject(const std::string& scene, const std::string& key) {
+  return "mimic." + scene + "." + key + ".mesh_want";
+}
+std::string status_subject(const std::string& scene, const std::string& publisher_token) {
+  return "mimic." + scene + ".status." + publisher_token;
+}
+
+int64_t monotonic_us() noexcept {
+  return std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::steady_clock::now().time_since_epoch())
+      .count();
+}
 
 void Connection::disconnected_cb(natsConnection*, void* self) {
   static_cast<Connection*>(self)->disconnects_++;

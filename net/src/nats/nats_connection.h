@@ -12,6 +12,7 @@
 
 #include "mimic/core/result.h"
 #include "mimic/net/nats.h"
+#include "nats/avatar_key.h"
 
 namespace mimic::net::nats_detail {
 
@@ -53,6 +54,24 @@ class Connection {
 // "nats: <status text> (<last error detail>)".
 std::string describe(natsStatus s);
 std::string bucket_name(const std::string& scene);
-std::string pose_subject(const std::string& scene, const std::string& key);
+// The pose frames of one publisher's tick: mimic.S.poses.<publisher token>.
+std::string poses_subject(const std::string& scene, const std::string& publisher_token);
+std::string mesh_subject(const std::string& scene, const std::string& key, unsigned lod);
+std::string mesh_want_subject(const std::string& scene, const std::string& key);
+std::string status_subject(const std::string& scene, const std::string& publisher_token);
+
+// A relay's mesh_want message: the LOD, and whether it needs the topology too.
+inline constexpr size_t kMeshWantBytes = 2;
+inline constexpr uint8_t kMeshWantTopology = 1u << 0;
+// Relays repeat their mesh_want this often; a publisher stops sending mesh frames when none has
+// come for three periods.
+inline constexpr int kMeshWantPeriod_ms = 1000;
+inline constexpr int64_t kMeshWantTimeout_us = 3 * kMeshWantPeriod_ms * 1000;
+
+// A publisher name as a subject token: anything but [A-Za-z0-9_-] becomes '_'.
+std::string subject_token(const std::string& name);
+
+// Monotonic microseconds (rate bounds and timeouts; never the wall clock).
+int64_t monotonic_us() noexcept;
 
 }  // namespace mimic::net::nats_detail

@@ -1,6 +1,9 @@
 #if MIMIC_WITH_NATS
-// NatsPublisher: pose frames on core NATS from a sender thread, models latest-wins in the
-// scene's KV bucket from a housekeeping thread (put again after every reconnect).
+// NatsPublisher: pose frames (a tick of them per message) and mesh frames on core NATS from a
+// sender thread; models latest-wins in
+// the scene's KV bucket and the status heartbeat from a housekeeping thread (models put again
+// after every reconnect and every third of the bucket's TTL); relays' mesh requests arrive on
+// the client's own thread.
 #include <algorithm>
 #include <array>
 #include <atomic>
@@ -18,16 +21,14 @@
 namespace mimic::net {
 
 using nats_detail::describe;
+using nats_detail::monotonic_us;
+
+using nats_detail::subject_token;
 
 namespace {
 
-// A token for subjects: the publisher name with anything but [A-Za-z0-9_-] as '_'.
-std::string subject_token(const std::string& name) {
-  std::string s = name.empty() ? "mimic" : name.substr(0, 64);
-  for (char& c : s)
-    if (!((c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_' || c == '-')) c = '_';
-  return s;
-}
+// A topology is sent at most this often per avatar, however many relays ask.
+constexpr int64_t kTopologyMinGap_us = 250'000;
 
 }  // namespace
 
@@ -36,21 +37,51 @@ struct NatsPublisher::Impl {
   nats_detail::Connection conn;
   uint32_t incarnation = 0;  // model revision field: tells relays a publisher restarted
 
-  struct Slot {
-    std::string key, subject, avatar_name;
-    std::vector<uint8_t> model_packet;
+  // Mesh frames of one avatar at the LOD it is deformed at, sent only while relays ask.
+  struct Mesh {
+    Impl* owner = nullptr;
+    uint8_t lod = 0;
+    std::string subject, want_subject;
+    std::vector<uint8_t> topology;  // encoded once at setup
     std::mutex m;
+    std::vector<uint8_t> frame;     // sized at setup: publish_mesh never allocates
+    size_t size = 0;
+    bool dirty = false;
+    std::atomic<int64_t> wanted_until_us{0};
+    std::atomic<int64_t> next_due_us{0};
+    std::atomic<bool> topology_asked{false};
+    int64_t topology_sent_us = -kTopologyMinGap_us;  // sender thread
+    natsSubscription* want_sub = nullptr;
+  };
+  struct Slot {
+    std::string key, avatar_name;
+    uint64_t key_value = 0;
+    std::vector<uint8_t> model_packet;
+    // The frame of the tick in progress (the publishing thread's alone until end_tick).
+    std::array<uint8_t, kMaxDatagramBytes> staged{};
+    size_t staged_size = 0;
+    bool is_staged = false;
+    // The newest committed frame, waiting for the sender (guarded by frames_mutex).
     std::array<uint8_t, kMaxDatagramBytes> frame{};
     size_t size = 0;
     bool dirty = false;
+    std::unique_ptr<Mesh> mesh;
   };
   std::vector<std::unique_ptr<Slot>> slots;
   std::mutex slots_mutex;  // the vector itself (grows at setup while the threads run)
+  std::vector<uint8_t> mesh_scratch;  // sender thread; sized at setup under slots_mutex
+  // A tick's frames are committed together and taken together, so one message carries them
+  // all: held for memcpy by either side, never across I/O.
+  std::mutex frames_mutex;
+  bool in_tick = false;             // publishing thread: between begin_tick and end_tick
+  std::vector<Slot*> staged;        // publishing thread; capacity reserved by add_avatar
+  std::vector<uint8_t> batch;       // sender thread; sized by add_avatar for every avatar
+  std::string poses_subject;
 
   std::atomic<uint32_t> wake{0};
   std::atomic<bool> stopping{false};
   std::atomic<bool> models_dirty{true};
-  std::atomic<uint64_t> frames{0}, dropped{0}, models{0}, model_failures{0};
+  std::atomic<uint64_t> frames{0}, dropped{0}, models{0}, model_failures{0}, mesh_frames{0}, mesh_requests{0};
   std::thread sender, housekeeper;
   std::mutex hk_mutex;
   std::condition_variable hk_cv;
@@ -65,28 +96,110 @@ struct NatsPublisher::Impl {
     last_error = std::move(e);
   }
 
+  void wake_sender() {
+    wake.store(1, std::memory_order_release);
+    wake.notify_one();
+  }
+
+  // A relay wants this avatar's mesh (client thread).
+  static void on_mesh_want(natsConnection*, natsSubscription*, natsMsg* msg, void* closure) {
+    auto* mesh = static_cast<Mesh*>(closure);
+    const auto* d = reinterpret_cast<const uint8_t*>(natsMsg_GetData(msg));
+    if (natsMsg_GetDataLength(msg) == int(nats_detail::kMeshWantBytes) && d[0] == mesh->lod) {
+      mesh->owner->mesh_requests++;
+      mesh->wanted_until_us.store(monotonic_us() + nats_detail::kMeshWantTimeout_us, std::memory_order_relaxed);
+      if (d[1] & nats_detail::kMeshWantTopology) {
+        mesh->topology_asked = true;
+        mesh->owner->wake_sender();
+      }
+    }
+    natsMsg_Destroy(msg);
+  }
+
+  void send_mesh(Mesh& mesh) {
+    if (mesh.topology_asked.load(std::memory_order_relaxed)) {
+      const int64_t now = monotonic_us();
+      if (now - mesh.topology_sent_us >= kTopologyMinGap_us) {
+        mesh.topology_asked = false;
+        mesh.topology_sent_us = now;
+        if (conn.connected())
+          if (natsStatus s = natsConnection_Publish(conn.get(), mesh.subject.c_str(), mesh.topology.data(),
+                                                    int(mesh.topology.size()));
+              s != NATS_OK)
+            set_error("mesh topology: " + describe(s));
+      }
+    }
+    size_t n = 0;
+    {
+      std::lock_guard lock(mesh.m);
+      if (!mesh.dirty) return;
+      n = mesh.size;
+      std::memcpy(mesh_scratch.data(), mesh.frame.data(), n);
+      mesh.dirty = false;
+    }
+    if (conn.connected() && natsConnection_Publish(conn.get(), mesh.subject.c_str(), mesh_scratch.data(), int(n)) == NATS_OK)
+      mesh_frames++;
+  }
+
+  // Publishing thread: a frame becomes the slot's newest for the sender (latest wins).
+  void commit_locked(Slot& s, const uint8_t* bytes, size_t n) {
+    if (s.dirty) dropped++;
+    std::memcpy(s.frame.data(), bytes, n);
+    s.size = n;
+    s.dirty = true;
+  }
+
+  // Every avatar's newest frame, in one message (or more, each within the broker's payload
+  // limit, for a publisher of thousands of avatars): a relay takes a tick in one piece, and
+  // fans it out to its viewers once.
+  void send_poses() {
+    size_t n = 0, count = 0;
+    {
+      std::lock_guard lock(frames_mutex);
+      for (auto& s : slots) {
+        if (!s->dirty) continue;
+        for (size_t b = 0; b < nats_detail::kPosesKeyBytes; ++b) batch[n + b] = uint8_t(s->key_value >> (8 * b));
+        std::memcpy(batch.data() + n + nats_detail::kPosesKeyBytes, s->frame.data(), s->size);
+        n += nats_detail::kPosesKeyBytes + s->size;
+        s->dirty = false;
+        count++;
+      }
+    }
+    if (count == 0) return;
+    // Not connected: the frames are dropped, not queued; after an outage viewers get the
+    // newest frames, not a backlog.
+    if (!conn.connected()) {
+      dropped += count;
+      return;
+    }
+    const auto limit = size_t(std::clamp<int64_t>(natsConnection_GetMaxPayload(conn.get()), 4096, 1 << 20));
+    for (size_t begin = 0; begin < n;) {
+      // Whole entries up to the limit.
+      size_t end = begin, entries = 0;
+      while (end < n) {
+        const size_t entry = nats_detail::kPosesKeyBytes + kHeaderBytes +
+                             (size_t(batch[end + 12]) | size_t(batch[end + 13]) << 8 | size_t(batch[end + 14]) << 16 |
+                              size_t(batch[end + 15]) << 24);
+        if (end > begin && end + entry - begin > limit) break;
+        end += entry;
+        entries++;
+      }
+      if (natsConnection_Publish(conn.get(), poses_subject.c_str(), batch.data() + begin, int(end - begin)) == NATS_OK)
+        frames += entries;
+      else
+        dropped += entries;
+      begin = end;
+    }
+  }
+
   void send_loop() {
-    std::array<uint8_t, kMaxDatagramBytes> buf{};
     while (!stopping) {
       wake.wait(0, std::memory_order_acquire);
       wake.store(0, std::memory_order_release);
       std::lock_guard slots_lock(slots_mutex);
-      for (auto& s : slots) {
-        size_t n = 0;
-        {
-          std::lock_guard lock(s->m);
-          if (!s->dirty) continue;
-          n = s->size;
-          std::memcpy(buf.data(), s->frame.data(), n);
-          s->dirty = false;
-        }
-        // Not connected: the frame is dropped, not queued; after an outage viewers get the
-        // newest frames, not a backlog.
-        if (conn.connected() && natsConnection_Publish(conn.get(), s->subject.c_str(), buf.data(), int(n)) == NATS_OK)
-          frames++;
-        else
-          dropped++;
-      }
+      send_poses();
+      for (auto& s : slots)
+        if (s->mesh) send_mesh(*s->mesh);
     }
   }
 
@@ -107,6 +220,8 @@ struct NatsPublisher::Impl {
     kvConfig_Init(&cfg);
     cfg.Bucket = bucket.c_str();
     cfg.History = 1;  // latest wins
+    // A dead publisher's models age out; live ones are put again well before (put_models).
+    cfg.TTL = int64_t(opt.model_ttl_s * 1e9);  // nanoseconds, the stream's max_age
     // Copies on three nodes when a cluster is given, so losing one node loses no model.
     int replicas = opt.kv_replicas;
     if (replicas <= 0) replicas = std::count(opt.servers.begin(), opt.servers.end(), ',') >= 2 ? 3 : 1;
@@ -140,31 +255,48 @@ struct NatsPublisher::Impl {
     }
   }
 
+  // The heartbeat: relays keep this publisher's avatars while it comes (docs/scaling.md).
   void publish_status() {
-    std::string json = "{\"publisher\":\"" + subject_token(opt.name) + "\",\"frames\":" + std::to_string(frames.load()) +
-                       ",\"dropped\":" + std::to_string(dropped.load()) + ",\"avatars\":[";
+    // Appended piece by piece: GCC 12 warns falsely on "literal" + std::string (-Wrestrict).
+    std::string json = "{\"publisher\":\"";
+    json.append(subject_token(opt.name)).append("\",\"incarnation\":").append(std::to_string(incarnation));
+    json.append(",\"period_ms\":").append(std::to_string(opt.heartbeat_ms));
+    json.append(",\"frames\":").append(std::to_string(frames.load()));
+    json.append(",\"dropped\":").append(std::to_string(dropped.load()));
+    json.append(",\"mesh_frames\":").append(std::to_string(mesh_frames.load())).append(",\"avatars\":[");
+    std::string lods;
     {
       std::lock_guard lock(slots_mutex);
-      for (size_t i = 0; i < slots.size(); ++i)
-        json += (i ? ",\"" : "\"") + slots[i]->key + "\"";
+      for (size_t i = 0; i < slots.size(); ++i) {
+        json.append(i ? ",\"" : "\"").append(slots[i]->key).append("\"");
+        lods.append(i ? "," : "").append(std::to_string(slots[i]->mesh ? int(slots[i]->mesh->lod) : -1));
+      }
     }
-    json += "]}";
-    const std::string subject = "mimic." + opt.scene + ".status." + subject_token(opt.name);
+    json.append("],\"mesh_lods\":[").append(lods).append("]}");
+    const std::string subject = nats_detail::status_subject(opt.scene, subject_token(opt.name));
     natsConnection_PublishString(conn.get(), subject.c_str(), json.c_str());
   }
 
   void housekeeping_loop() {
-    auto next_status = std::chrono::steady_clock::now();
+    using C = std::chrono::steady_clock;
+    auto next_status = C::now();
+    // Models are put again every third of their TTL, so only a dead publisher's expire.
+    const auto refresh = std::chrono::duration_cast<C::duration>(std::chrono::duration<double>(opt.model_ttl_s / 3));
+    auto next_refresh = C::now() + refresh;
     std::unique_lock lock(hk_mutex);
     while (!stopping) {
-      hk_cv.wait_for(lock, std::chrono::milliseconds(100));
+      hk_cv.wait_for(lock, std::chrono::milliseconds(50));
       if (stopping) break;
       if (!conn.connected()) continue;
       lock.unlock();
+      if (opt.model_ttl_s > 0 && C::now() >= next_refresh) {
+        models_dirty = true;
+        next_refresh = C::now() + refresh;
+      }
       if (models_dirty.exchange(false)) put_models();
-      if (std::chrono::steady_clock::now() >= next_status) {
+      if (C::now() >= next_status) {
         publish_status();
-        next_status = std::chrono::steady_clock::now() + std::chrono::seconds(1);
+        next_status = C::now() + std::chrono::milliseconds(opt.heartbeat_ms);
       }
       lock.lock();
     }
@@ -172,8 +304,7 @@ struct NatsPublisher::Impl {
 
   void stop_threads() {
     stopping = true;
-    wake.store(1);
-    wake.notify_one();
+    wake_sender();
     hk_cv.notify_all();
     if (sender.joinable()) sender.join();
     if (housekeeper.joinable()) housekeeper.join();
@@ -181,6 +312,13 @@ struct NatsPublisher::Impl {
 
   ~Impl() {
     stop_threads();
+    // Requests in delivery finish before the slots they point at go away.
+    for (auto& s : slots) {
+      if (!s->mesh || !s->mesh->want_sub) continue;
+      natsSubscription* sub = s->mesh->want_sub;
+      if (natsSubscription_Drain(sub) == NATS_OK) natsSubscription_WaitForDrainCompletion(sub, 2000);
+      else natsSubscription_Unsubscribe(sub);
+    }
     // A clean leave removes this publisher's avatars from the scene.
     if (conn.connected() && kv) {
       for (auto& s : slots) kvStore_Delete(kv, s->key.c_str());
@@ -189,12 +327,16 @@ struct NatsPublisher::Impl {
     if (kv) kvStore_Destroy(kv);
     if (js) jsCtx_Destroy(js);
     conn.close();
+    for (auto& s : slots)
+      if (s->mesh && s->mesh->want_sub) natsSubscription_Destroy(s->mesh->want_sub);
   }
 };
 
 Result<std::unique_ptr<NatsPublisher>> NatsPublisher::create(const NatsOptions& options) {
+  if (auto st = check_nats_options(options); !st) return tl::unexpected(st.error());
   auto impl = std::make_unique<Impl>();
   impl->opt = options;
+  impl->poses_subject = nats_detail::poses_subject(options.scene, subject_token(options.name));
   std::random_device rd;
   impl->incarnation = rd() | 1u;
   Impl* p = impl.get();
@@ -217,8 +359,8 @@ Result<int> NatsPublisher::add_avatar(const std::string& avatar_name, uint16_t d
   if (dof_count > kMaxPoseDofs) return fail(Errc::out_of_range, "too many DOFs for a pose frame");
   auto slot = std::make_unique<Impl::Slot>();
   slot->avatar_name = avatar_name;
-  slot->key = nats_avatar_key(impl_->opt.name, avatar_name);
-  slot->subject = nats_detail::pose_subject(impl_->opt.scene, slot->key);
+  slot->key_value = nats_detail::avatar_key_value(impl_->opt.name, avatar_name);
+  slot->key = nats_detail::avatar_key_text(slot->key_value);
   AvatarModel m;
   m.revision = impl_->incarnation;
   m.dof_count = dof_count;
@@ -230,24 +372,101 @@ Result<int> NatsPublisher::add_avatar(const std::string& avatar_name, uint16_t d
   if (encode_avatar_model(m, slot->model_packet) == 0) return fail(Errc::invalid_argument, "cannot encode the model");
   std::lock_guard lock(impl_->slots_mutex);
   impl_->slots.push_back(std::move(slot));
+  // Room for a frame of every avatar: neither publish_pose nor the sender ever allocates.
+  impl_->staged.reserve(impl_->slots.size());
+  impl_->batch.resize(impl_->slots.size() * (nats_detail::kPosesKeyBytes + kMaxDatagramBytes));
   impl_->models_dirty = true;
   impl_->hk_cv.notify_all();
   return int(impl_->slots.size() - 1);
 }
 
+Status NatsPublisher::add_mesh(int index, const MeshTopology& topology) {
+  std::lock_guard lock(impl_->slots_mutex);
+  if (index < 0 || size_t(index) >= impl_->slots.size()) return fail(Errc::not_found, "no avatar " + std::to_string(index));
+  Impl::Slot& slot = *impl_->slots[size_t(index)];
+  if (slot.mesh) return fail(Errc::invalid_argument, "the avatar's mesh is set already");
+  if (topology.lod >= 8) return fail(Errc::out_of_range, "LOD must be below 8");
+  auto mesh = std::make_unique<Impl::Mesh>();
+  mesh->owner = impl_.get();
+  mesh->lod = topology.lod;
+  mesh->subject = nats_detail::mesh_subject(impl_->opt.scene, slot.key, topology.lod);
+  mesh->want_subject = nats_detail::mesh_want_subject(impl_->opt.scene, slot.key);
+  MeshTopology t = topology;
+  t.avatar = 0;  // relays put their own id in
+  mesh->topology.resize(mesh_topology_packet_bytes(t.indices.size()));
+  if (encode_mesh_topology(t, mesh->topology) == 0) return fail(Errc::out_of_range, "mesh topology too large");
+  mesh->frame.resize(mesh_packet_bytes(topology.vertex_count));
+  if (impl_->mesh_scratch.size() < mesh->frame.size()) impl_->mesh_scratch.resize(mesh->frame.size());
+  // Kept by the client across reconnects (and set up on the first connect after a failed start).
+  if (natsStatus s = natsConnection_Subscribe(&mesh->want_sub, impl_->conn.get(), mesh->want_subject.c_str(),
+                                              Impl::on_mesh_want, mesh.get());
+      s != NATS_OK)
+    return fail(Errc::io_error, "subscribe " + mesh->want_subject + ": " + describe(s));
+  slot.mesh = std::move(mesh);
+  return {};
+}
+
 void NatsPublisher::publish_pose(int index, std::span<const uint8_t> packet) noexcept {
   // The slots vector only grows at setup, before the loop publishes.
   if (index < 0 || size_t(index) >= impl_->slots.size() || packet.size() > kMaxDatagramBytes) return;
+  Header h;
+  if (decode_header(packet, h) != Reject::ok || h.type != MsgType::pose || kHeaderBytes + h.payload_bytes != packet.size())
+    return;
   Impl::Slot& s = *impl_->slots[size_t(index)];
-  {
-    std::lock_guard lock(s.m);  // held for a memcpy by either side, never across I/O
-    if (s.dirty) impl_->dropped++;
-    std::memcpy(s.frame.data(), packet.data(), packet.size());
-    s.size = packet.size();
-    s.dirty = true;
+  if (impl_->in_tick) {
+    std::memcpy(s.staged.data(), packet.data(), packet.size());
+    s.staged_size = packet.size();
+    if (!s.is_staged) impl_->staged.push_back(&s);
+    s.is_staged = true;
+    return;
   }
-  impl_->wake.store(1, std::memory_order_release);
-  impl_->wake.notify_one();
+  {
+    std::lock_guard lock(impl_->frames_mutex);
+    impl_->commit_locked(s, packet.data(), packet.size());
+  }
+  impl_->wake_sender();
+}
+
+void NatsPublisher::begin_tick() noexcept { impl_->in_tick = true; }
+
+void NatsPublisher::end_tick() noexcept {
+  impl_->in_tick = false;
+  if (impl_->staged.empty()) return;
+  {
+    std::lock_guard lock(impl_->frames_mutex);
+    for (Impl::Slot* s : impl_->staged) {
+      impl_->commit_locked(*s, s->staged.data(), s->staged_size);
+      s->is_staged = false;
+    }
+  }
+  impl_->staged.clear();
+  impl_->wake_sender();
+}
+
+bool NatsPublisher::mesh_wanted(int index) const noexcept {
+  if (index < 0 || size_t(index) >= impl_->slots.size()) return false;
+  const Impl::Mesh* m = impl_->slots[size_t(index)]->mesh.get();
+  if (!m) return false;
+  const int64_t now = monotonic_us();
+  return now < m->wanted_until_us.load(std::memory_order_relaxed) && now >= m->next_due_us.load(std::memory_order_relaxed);
+}
+
+void NatsPublisher::publish_mesh(int index, std::span<const uint8_t> packet) noexcept {
+  if (index < 0 || size_t(index) >= impl_->slots.size()) return;
+  Impl::Mesh* m = impl_->slots[size_t(index)]->mesh.get();
+  if (!m || packet.size() > m->frame.size()) return;
+  {
+    std::lock_guard lock(m->m);
+    std::memcpy(m->frame.data(), packet.data(), packet.size());
+    m->size = packet.size();
+    m->dirty = true;
+  }
+  // The next frame is due one period after this one's due time (so a loop faster than the
+  // bound averages the bound), or a period from now after a pause.
+  const auto period_us = int64_t(1e6 / impl_->opt.mesh_max_hz);
+  const int64_t now = monotonic_us(), due = m->next_due_us.load(std::memory_order_relaxed);
+  m->next_due_us.store(now - due > period_us ? now + period_us : due + period_us, std::memory_order_relaxed);
+  impl_->wake_sender();
 }
 
 bool NatsPublisher::connected() const { return impl_->conn.connected(); }
@@ -267,6 +486,8 @@ NatsLinkStats NatsPublisher::stats() const {
   s.frames_dropped = impl_->dropped;
   s.models = impl_->models;
   s.model_failures = impl_->model_failures;
+  s.mesh_frames = impl_->mesh_frames;
+  s.mesh_requests = impl_->mesh_requests;
   std::lock_guard lock(impl_->error_mutex);
   s.last_error = impl_->last_error.empty() ? impl_->conn.last_error() : impl_->last_error;
   return s;

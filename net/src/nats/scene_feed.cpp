@@ -1,290 +1,294 @@
 #if MIMIC_WITH_NATS
-// NatsSceneFeed: one subscription to a scene's pose frames and one watcher of its model
-// bucket; what arrives is validated and handed to the Server on its own thread.
-#include <algorithm>
-#include <atomic>
+// NatsSceneFeed: one subscription to a scene's pose frames, one to its publishers' heartbeats,
+// one watcher of its model bucket, and a subscription per mesh LOD some viewer wants; what
+// arrives is validated and handed to the Server on its own thread (scene_feed_serve.cpp).
 #include <chrono>
-#include <condition_variable>
-#include <map>
 #include <thread>
-#include <vector>
 
-#include "mimic/net/frame_codec.h"
-#include "mimic/net/nats.h"
+#include <nlohmann/json.hpp>
+
 #include "mimic/net/server.h"
-#include "nats/nats_connection.h"
+#include "nats/scene_feed_impl.h"
 
 namespace mimic::net {
 
 using nats_detail::describe;
+using nats_detail::monotonic_us;
 
-struct NatsSceneFeed::Impl {
-  NatsOptions opt;
-  Server* server = nullptr;
-  nats_detail::Connection conn;
-  natsSubscription* sub = nullptr;
+namespace {
 
-  // From the client's threads to the server thread.
-  struct ModelEvent {
-    std::string key;
-    bool removed = false;
-    std::vector<uint8_t> packet;
-  };
-  struct Frame {
-    std::string key;
-    std::vector<uint8_t> packet;
-    uint64_t arrival_us = 0;  // wall clock as the client handed it over
-  };
-  mutable std::mutex latency_mutex;
-  std::vector<float> latency_ms = std::vector<float>(4096);
-  uint64_t latency_next = 0;
-  std::mutex queue_mutex;
-  std::vector<ModelEvent> models_in;
-  std::vector<Frame> frames_in;
-  bool pump_scheduled = false;
-  static constexpr size_t kMaxQueuedFrames = 1 << 16;
+// mimic.<scene>.<key>.<kind>[.<lod>]: the key is the token after the scene.
+bool subject_key(const char* subject, size_t scene_size, std::string& key, uint8_t& lod) {
+  const std::string_view s(subject);
+  const size_t a = 6 + scene_size + 1;  // "mimic." + scene + "."
+  if (s.size() <= a) return false;
+  const size_t b = s.find('.', a);
+  if (b == std::string_view::npos || b == a) return false;
+  key.assign(s.substr(a, b - a));
+  lod = 0;
+  if (const size_t c = s.rfind('.'); c > b && c + 2 == s.size() && s[c + 1] >= '0' && s[c + 1] <= '7')
+    lod = uint8_t(s[c + 1] - '0');
+  return true;
+}
 
-  // Server thread only.
-  struct Known {
-    uint16_t id = 0;
-    uint32_t revision = 0;
-    uint16_t dof_count = 0;
-    std::vector<uint8_t> packet;
-  };
-  std::map<std::string, Known> avatars;
-  avatar::Pose scratch;
-  std::vector<ModelEvent> models_work;
-  std::vector<Frame> frames_work;
-  std::vector<std::string> pass_keys;
-  std::atomic<uint64_t> frames{0}, dropped{0}, early{0}, models{0}, model_failures{0}, rejected{0}, avatar_count{0};
+}  // namespace
 
-  std::thread watcher;
-  std::atomic<bool> stopping{false};
-  std::atomic<bool> rewatch{true};
-  mutable std::mutex error_mutex;
-  std::string last_error;
-  std::shared_ptr<std::atomic<bool>> alive = std::make_shared<std::atomic<bool>>(true);
+void NatsSceneFeed::Impl::schedule_pump_locked() {
+  if (pump_scheduled) return;
+  pump_scheduled = true;
+  server->dispatch([this, alive = alive] {
+    if (*alive) pump();
+  });
+}
 
-  void set_error(std::string e) {
-    std::lock_guard lock(error_mutex);
-    last_error = std::move(e);
-  }
-
-  // Caller holds queue_mutex.
-  void schedule_pump_locked() {
-    if (pump_scheduled) return;
-    pump_scheduled = true;
-    server->dispatch([this, alive = alive] {
-      if (*alive) pump();
-    });
-  }
-
-  static void on_msg(natsConnection*, natsSubscription*, natsMsg* msg, void* self) {
-    auto* f = static_cast<Impl*>(self);
-    // mimic.<scene>.<key>.pose: the key is the third token.
-    const std::string subject = natsMsg_GetSubject(msg);
-    const size_t a = subject.find('.', 6) + 1, b = subject.rfind('.');
-    if (a > 0 && b > a) {
-      const auto* data = reinterpret_cast<const uint8_t*>(natsMsg_GetData(msg));
-      std::lock_guard lock(f->queue_mutex);
-      if (f->frames_in.size() < kMaxQueuedFrames) {
-        f->frames_in.push_back(
-            {subject.substr(a, b - a), std::vector<uint8_t>(data, data + natsMsg_GetDataLength(msg)), wall_clock_us()});
-        f->schedule_pump_locked();
-      } else {
-        f->dropped++;
-      }
-    }
-    natsMsg_Destroy(msg);
-  }
-
-  void pump() {
-    {
-      std::lock_guard lock(queue_mutex);
-      pump_scheduled = false;
-      models_work.swap(models_in);
-      frames_work.swap(frames_in);
-    }
-    for (auto& e : models_work) apply_model(e);
-    models_work.clear();
-    // One frame per avatar per pass: a second frame of the same avatar would overwrite the
-    // first in every subscriber's pending slot before its write could complete (latest wins),
-    // so the rest waits for the next pass, after the server has run its writes.
-    size_t used = 0;
-    pass_keys.clear();
-    server->begin_batch();
-    for (; used < frames_work.size(); ++used) {
-      Frame& f = frames_work[used];
-      if (std::find(pass_keys.begin(), pass_keys.end(), f.key) != pass_keys.end()) break;
-      pass_keys.push_back(f.key);
-      apply_frame(f);
-    }
-    server->end_batch();
-    if (used < frames_work.size()) {
-      std::lock_guard lock(queue_mutex);
-      frames_in.insert(frames_in.begin(), std::make_move_iterator(frames_work.begin() + long(used)),
-                       std::make_move_iterator(frames_work.end()));
+// A mesh frame or topology, queued for the server thread (client thread).
+void NatsSceneFeed::Impl::queue_mesh(natsMsg* msg) {
+  Frame frame;
+  frame.mesh = true;
+  if (subject_key(natsMsg_GetSubject(msg), opt.scene.size(), frame.key, frame.lod)) {
+    const auto* data = reinterpret_cast<const uint8_t*>(natsMsg_GetData(msg));
+    frame.packet.assign(data, data + natsMsg_GetDataLength(msg));
+    frame.arrival_us = wall_clock_us();
+    std::lock_guard lock(queue_mutex);
+    // Mesh frames are large: only a few wait (latest wins on the server anyway).
+    if (meshes_in.size() < kMaxQueuedMeshes) {
+      meshes_in.push_back(std::move(frame));
       schedule_pump_locked();
-    }
-    frames_work.clear();
-  }
-
-  void apply_model(ModelEvent& e) {
-    auto it = avatars.find(e.key);
-    if (e.removed) {
-      if (it != avatars.end()) {
-        server->remove_avatar(it->second.id);
-        avatars.erase(it);
-      }
-      avatar_count = avatars.size();
-      return;
-    }
-    if (it != avatars.end() && it->second.packet == e.packet) return;  // put again unchanged
-    AvatarModel m;
-    if (decode_avatar_model(e.packet, m) != Reject::ok) {
-      rejected++;
-      return;
-    }
-    if (it == avatars.end()) {
-      auto id = server->add_avatar(m.name, m.dof_count, std::move(m.model_bytes));
-      if (!id) {
-        rejected++;
-        set_error("avatar " + printable(m.name) + ": " + id.error().what());
-        return;
-      }
-      avatars[e.key] = {*id, m.revision, m.dof_count, std::move(e.packet)};
     } else {
-      // A new model, or its publisher restarted (sequence numbers start again).
-      if (auto st = server->update_avatar_model(it->second.id, m.dof_count, std::move(m.model_bytes)); !st) {
-        rejected++;
-        return;
-      }
-      it->second.revision = m.revision;
-      it->second.dof_count = m.dof_count;
-      it->second.packet = std::move(e.packet);
+      dropped++;
     }
-    models++;
-    avatar_count = avatars.size();
   }
+  natsMsg_Destroy(msg);
+}
 
-  void apply_frame(Frame& f) {
-    auto it = avatars.find(f.key);
-    PoseHeader h;
-    // Whatever came through the broker is checked as a remote publisher's frame would be.
-    if (it == avatars.end()) {
-      early++;  // its model has not arrived yet (or it has left)
-      return;
+// A publisher's tick of pose frames: queued together, so the server thread takes the tick in
+// one pass and fans it out once (client thread). Entries are checked as far as framing goes;
+// the frames themselves are decoded on the server thread.
+void NatsSceneFeed::Impl::on_poses_msg(natsConnection*, natsSubscription*, natsMsg* msg, void* self) {
+  auto* f = static_cast<Impl*>(self);
+  const auto* data = reinterpret_cast<const uint8_t*>(natsMsg_GetData(msg));
+  const size_t size = size_t(std::max(0, natsMsg_GetDataLength(msg)));
+  const uint64_t arrival_us = wall_clock_us();
+  std::vector<Frame> tick;
+  bool malformed = false;
+  for (size_t at = 0; at < size;) {
+    Header h;
+    const size_t packet_at = at + nats_detail::kPosesKeyBytes;
+    if (packet_at + kHeaderBytes > size ||
+        decode_header(std::span<const uint8_t>(data + packet_at, size - packet_at), h) != Reject::ok ||
+        h.type != MsgType::pose || packet_at + kHeaderBytes + h.payload_bytes > size) {
+      malformed = true;  // the rest cannot be framed
+      break;
     }
-    if (decode_pose(f.packet, h, scratch) != Reject::ok ||
-        scratch.dof_rad.size() != it->second.dof_count) {
-      rejected++;
-      return;
-    }
-    if (server->publish_pose(it->second.id, f.packet) == Reject::ok) {
-      frames++;
-      std::lock_guard lock(latency_mutex);
-      latency_ms[latency_next++ % latency_ms.size()] = float(double(int64_t(f.arrival_us - h.time_us)) * 1e-3);
-    }
-    else
-      rejected++;
+    uint64_t key = 0;
+    for (size_t b = 0; b < nats_detail::kPosesKeyBytes; ++b) key |= uint64_t(data[at + b]) << (8 * b);
+    Frame frame;
+    frame.key = nats_detail::avatar_key_text(key);
+    frame.packet.assign(data + packet_at, data + packet_at + kHeaderBytes + h.payload_bytes);
+    frame.arrival_us = arrival_us;
+    tick.push_back(std::move(frame));
+    at = packet_at + kHeaderBytes + h.payload_bytes;
   }
+  natsMsg_Destroy(msg);
+  if (malformed) f->rejected++;
+  if (tick.empty()) return;
+  std::lock_guard lock(f->queue_mutex);
+  if (f->frames_in.size() + tick.size() <= kMaxQueuedFrames) {
+    f->frames_in.insert(f->frames_in.end(), std::make_move_iterator(tick.begin()), std::make_move_iterator(tick.end()));
+    f->schedule_pump_locked();
+  } else {
+    f->dropped += tick.size();
+  }
+}
 
-  void watch_loop() {
-    jsCtx* js = nullptr;
-    kvStore* kv = nullptr;
-    kvWatcher* w = nullptr;
-    auto reset = [&] {
-      if (w) kvWatcher_Destroy(w);
-      if (kv) kvStore_Destroy(kv);
-      if (js) jsCtx_Destroy(js);
-      w = nullptr;
-      kv = nullptr;
-      js = nullptr;
-    };
-    const std::string bucket = nats_detail::bucket_name(opt.scene);
-    std::map<std::string, std::vector<uint8_t>> seen;  // this watch's view, to spot deletions on rewatch
-    std::map<std::string, std::vector<uint8_t>> current;
-    while (!stopping) {
-      if (rewatch.exchange(false)) {
-        reset();
-        current.clear();
+void NatsSceneFeed::Impl::on_mesh_msg(natsConnection*, natsSubscription*, natsMsg* msg, void* self) {
+  static_cast<Impl*>(self)->queue_mesh(msg);
+}
+
+void NatsSceneFeed::Impl::on_status_msg(natsConnection*, natsSubscription*, natsMsg* msg, void* self) {
+  auto* f = static_cast<Impl*>(self);
+  // {"publisher":..., "period_ms":P, "avatars":["<key>", ...], "mesh_lods":[L or -1, ...], ...}:
+  // anything else is ignored.
+  const auto j = nlohmann::json::parse(std::string_view(natsMsg_GetData(msg), size_t(natsMsg_GetDataLength(msg))), nullptr,
+                                       false);
+  natsMsg_Destroy(msg);
+  Heartbeat hb;
+  if (j.is_object() && j.contains("avatars") && j["avatars"].is_array()) {
+    if (auto p = j.find("period_ms"); p != j.end() && p->is_number_integer())
+      hb.period_ms = std::clamp(p->get<int>(), 100, 60000);
+    const auto& keys = j["avatars"];
+    const auto lods = j.find("mesh_lods");
+    const bool with_lods = lods != j.end() && lods->is_array() && lods->size() == keys.size();
+    for (size_t i = 0; i < keys.size() && hb.keys.size() < 4096; ++i) {
+      if (!keys[i].is_string() || keys[i].get_ref<const std::string&>().size() != 16) continue;
+      hb.keys.push_back(keys[i].get<std::string>());
+      const auto& lod = with_lods ? (*lods)[i] : nlohmann::json();
+      hb.mesh_lods.push_back(lod.is_number_integer() && lod.get<int>() >= 0 && lod.get<int>() < 8 ? int8_t(lod.get<int>())
+                                                                                              : int8_t(-1));
+    }
+  }
+  if (hb.keys.empty()) return;
+  std::lock_guard lock(f->queue_mutex);
+  if (f->heartbeats_in.size() < 4096) {
+    f->heartbeats_in.push_back(std::move(hb));
+    f->schedule_pump_locked();
+  }
+}
+
+// The watcher thread's other duty, four times a second: the server thread checks liveness and
+// which mesh LODs its viewers want; here the mesh subscriptions follow and requests go out.
+void NatsSceneFeed::Impl::tick() {
+  server->dispatch([this, alive = alive] {
+    if (*alive) housekeeping();
+  });
+  std::vector<MeshWant> want;
+  {
+    std::lock_guard lock(wants_mutex);
+    want = wants;
+  }
+  for (auto it = mesh_subs.begin(); it != mesh_subs.end();) {
+    const bool still = std::any_of(want.begin(), want.end(), [&](const MeshWant& w) {
+      return w.key == it->first.first && w.lod == it->first.second;
+    });
+    if (still) {
+      ++it;
+      continue;
+    }
+    natsSubscription_Unsubscribe(it->second.sub);
+    natsSubscription_Destroy(it->second.sub);
+    it = mesh_subs.erase(it);
+  }
+  if (!conn.connected()) return;
+  const int64_t now = monotonic_us();
+  for (const MeshWant& w : want) {
+    auto [it, fresh] = mesh_subs.try_emplace({w.key, w.lod});
+    if (fresh) {
+      const std::string subject = nats_detail::mesh_subject(opt.scene, w.key, w.lod);
+      if (natsStatus s = natsConnection_Subscribe(&it->second.sub, conn.get(), subject.c_str(), on_mesh_msg, this);
+          s != NATS_OK) {
+        set_error("subscribe " + subject + ": " + describe(s));
+        mesh_subs.erase(it);
+        continue;
       }
-      if (!w) {
-        if (!conn.connected()) {
-          std::this_thread::sleep_for(std::chrono::milliseconds(50));
-          continue;
-        }
-        jsOptions jo;
-        jsOptions_Init(&jo);
-        jo.Wait = 2000;
-        natsStatus s = natsConnection_JetStream(&js, conn.get(), &jo);
-        if (s == NATS_OK) s = js_KeyValue(&kv, js, bucket.c_str());
-        if (s == NATS_OK) s = kvStore_WatchAll(&w, kv, nullptr);
-        if (s != NATS_OK) {
-          // No publisher has created the bucket yet, or the cluster is electing a leader.
-          model_failures++;
-          set_error("model bucket " + bucket + ": " + describe(s));
-          reset();
-          std::this_thread::sleep_for(std::chrono::milliseconds(250));
-          continue;
-        }
+    }
+    // Repeated while wanted (the publisher stops after three periods without); at every tick
+    // while the topology is missing (a request may beat the subscription to a cluster node).
+    if (!fresh && !w.need_topology && now - it->second.last_request_us < nats_detail::kMeshWantPeriod_ms * 1000) continue;
+    const uint8_t request[nats_detail::kMeshWantBytes] = {w.lod, w.need_topology ? nats_detail::kMeshWantTopology : uint8_t(0)};
+    const std::string subject = nats_detail::mesh_want_subject(opt.scene, w.key);
+    if (natsConnection_Publish(conn.get(), subject.c_str(), request, int(sizeof request)) == NATS_OK) {
+      it->second.last_request_us = now;
+      mesh_requests++;
+    }
+  }
+}
+
+void NatsSceneFeed::Impl::watch_loop() {
+  jsCtx* js = nullptr;
+  kvStore* kv = nullptr;
+  kvWatcher* w = nullptr;
+  auto reset = [&] {
+    if (w) kvWatcher_Destroy(w);
+    if (kv) kvStore_Destroy(kv);
+    if (js) jsCtx_Destroy(js);
+    w = nullptr;
+    kv = nullptr;
+    js = nullptr;
+  };
+  const std::string bucket = nats_detail::bucket_name(opt.scene);
+  std::map<std::string, std::vector<uint8_t>> seen;  // this watch's view, to spot deletions on rewatch
+  std::map<std::string, std::vector<uint8_t>> current;
+  int64_t next_tick = 0;
+  while (!stopping) {
+    if (const int64_t now = monotonic_us(); now >= next_tick) {
+      next_tick = now + kTickPeriod_ms * 1000;
+      tick();
+    }
+    if (rewatch.exchange(false)) {
+      reset();
+      current.clear();
+    }
+    if (!w) {
+      if (!conn.connected()) {
+        std::this_thread::sleep_for(std::chrono::milliseconds(50));
+        continue;
       }
-      kvEntry* e = nullptr;
-      const natsStatus s = kvWatcher_Next(&e, w, 200);
-      if (s == NATS_TIMEOUT) continue;
+      jsOptions jo;
+      jsOptions_Init(&jo);
+      jo.Wait = 2000;
+      natsStatus s = natsConnection_JetStream(&js, conn.get(), &jo);
+      if (s == NATS_OK) s = js_KeyValue(&kv, js, bucket.c_str());
+      if (s == NATS_OK) s = kvStore_WatchAll(&w, kv, nullptr);
+      if (kvStatus* st = nullptr; s == NATS_OK && kvStore_Status(&st, kv) == NATS_OK) {
+        bucket_ttl_ns = kvStatus_TTL(st);
+        kvStatus_Destroy(st);
+      }
       if (s != NATS_OK) {
-        set_error("model watch: " + describe(s));
-        rewatch = true;
+        // No publisher has created the bucket yet, or the cluster is electing a leader.
+        model_failures++;
+        set_error("model bucket " + bucket + ": " + describe(s));
+        reset();
+        std::this_thread::sleep_for(std::chrono::milliseconds(kTickPeriod_ms));
         continue;
       }
-      if (!e) {
-        // The initial values are all in: keys held before this watch and absent now were
-        // deleted while we were not watching.
-        std::lock_guard lock(queue_mutex);
-        for (const auto& [key, packet] : seen)
-          if (!current.count(key)) models_in.push_back({key, true, {}});
-        seen = current;
-        schedule_pump_locked();
-        continue;
-      }
-      ModelEvent ev;
-      ev.key = kvEntry_Key(e);
-      const kvOperation op = kvEntry_Operation(e);
-      ev.removed = op != kvOp_Put;
-      if (!ev.removed) {
-        const auto* v = static_cast<const uint8_t*>(kvEntry_Value(e));
-        ev.packet.assign(v, v + kvEntry_ValueLen(e));
-        current[ev.key] = ev.packet;
-        seen[ev.key] = ev.packet;
-      } else {
-        current.erase(ev.key);
-        seen.erase(ev.key);
-      }
-      kvEntry_Destroy(e);
+    }
+    kvEntry* e = nullptr;
+    const natsStatus s = kvWatcher_Next(&e, w, kTickPeriod_ms);
+    if (s == NATS_TIMEOUT) continue;
+    if (s != NATS_OK) {
+      set_error("model watch: " + describe(s));
+      rewatch = true;
+      continue;
+    }
+    if (!e) {
+      // The initial values are all in: keys held before this watch and absent now were
+      // deleted (or expired) while we were not watching.
       std::lock_guard lock(queue_mutex);
-      models_in.push_back(std::move(ev));
+      for (const auto& [key, packet] : seen)
+        if (!current.count(key)) models_in.push_back({key, true, {}});
+      seen = current;
       schedule_pump_locked();
+      continue;
     }
-    reset();
+    ModelEvent ev;
+    ev.key = kvEntry_Key(e);
+    ev.removed = kvEntry_Operation(e) != kvOp_Put;
+    if (!ev.removed) {
+      const auto* v = static_cast<const uint8_t*>(kvEntry_Value(e));
+      ev.packet.assign(v, v + kvEntry_ValueLen(e));
+      current[ev.key] = ev.packet;
+      seen[ev.key] = ev.packet;
+    } else {
+      current.erase(ev.key);
+      seen.erase(ev.key);
+    }
+    kvEntry_Destroy(e);
+    std::lock_guard lock(queue_mutex);
+    models_in.push_back(std::move(ev));
+    schedule_pump_locked();
   }
+  reset();
+}
 
-  ~Impl() {
-    stopping = true;
-    if (watcher.joinable()) watcher.join();
-    if (sub) {
-      // Drain: the callbacks in progress finish before this object goes away.
-      if (natsSubscription_Drain(sub) == NATS_OK)
-        natsSubscription_WaitForDrainCompletion(sub, 2000);
-      else
-        natsSubscription_Unsubscribe(sub);
-      natsSubscription_Destroy(sub);
-    }
-    conn.close();
-    *alive = false;
+NatsSceneFeed::Impl::~Impl() {
+  stopping = true;
+  if (watcher.joinable()) watcher.join();
+  // Drain: the callbacks in progress finish before this object goes away.
+  std::vector<natsSubscription*> subs = {sub, status_sub};
+  for (auto& [key, m] : mesh_subs) subs.push_back(m.sub);
+  for (natsSubscription* s : subs) {
+    if (!s) continue;
+    if (natsSubscription_Drain(s) == NATS_OK) natsSubscription_WaitForDrainCompletion(s, 2000);
+    else natsSubscription_Unsubscribe(s);
   }
-};
+  conn.close();
+  for (natsSubscription* s : subs)
+    if (s) natsSubscription_Destroy(s);
+  *alive = false;
+}
 
 Result<std::unique_ptr<NatsSceneFeed>> NatsSceneFeed::create(const NatsOptions& options, Server& server) {
+  if (auto st = check_nats_options(options); !st) return tl::unexpected(st.error());
   auto impl = std::make_unique<Impl>();
   impl->opt = options;
   impl->server = &server;
@@ -293,14 +297,18 @@ Result<std::unique_ptr<NatsSceneFeed>> NatsSceneFeed::create(const NatsOptions& 
   // every current model again, and anything missed meanwhile.
   p->conn.on_reconnected = [p] { p->rewatch = true; };
   if (auto st = impl->conn.open(options); !st) return tl::unexpected(st.error());
-  const std::string subject = "mimic." + options.scene + ".*.pose";
   // Subscriptions are kept across reconnects by the client (and set up on the first connect
   // when the broker was down at start).
-  if (natsStatus s = natsConnection_Subscribe(&impl->sub, impl->conn.get(), subject.c_str(), Impl::on_msg, p);
+  const std::string poses = nats_detail::poses_subject(options.scene, "*");
+  if (natsStatus s = natsConnection_Subscribe(&impl->sub, impl->conn.get(), poses.c_str(), Impl::on_poses_msg, p);
       s != NATS_OK)
-    return fail(Errc::io_error, "subscribe " + subject + ": " + describe(s));
+    return fail(Errc::io_error, "subscribe " + poses + ": " + describe(s));
   // Pose frames are small and frequent: let many wait rather than dropping them in the client.
   natsSubscription_SetPendingLimits(impl->sub, 1 << 16, 64 << 20);
+  const std::string status = nats_detail::status_subject(options.scene, "*");
+  if (natsStatus s = natsConnection_Subscribe(&impl->status_sub, impl->conn.get(), status.c_str(), Impl::on_status_msg, p);
+      s != NATS_OK)
+    return fail(Errc::io_error, "subscribe " + status + ": " + describe(s));
   impl->watcher = std::thread([p] { p->watch_loop(); });
   return std::unique_ptr<NatsSceneFeed>(new NatsSceneFeed(std::move(impl)));
 }
@@ -322,20 +330,11 @@ NatsLinkStats NatsSceneFeed::stats() const {
   s.model_failures = impl_->model_failures;
   s.rejected = impl_->rejected;
   s.early_frames = impl_->early;
-  {
-    std::lock_guard lock(impl_->latency_mutex);
-    std::vector<float> v(impl_->latency_ms.begin(),
-                         impl_->latency_ms.begin() + long(std::min<uint64_t>(impl_->latency_next, impl_->latency_ms.size())));
-    if (!v.empty()) {
-      auto at = [&v](double q) {
-        const size_t k = std::min(v.size() - 1, size_t(q * double(v.size() - 1) + 0.5));
-        std::nth_element(v.begin(), v.begin() + long(k), v.end());
-        return double(v[k]);
-      };
-      s.latency_ms_p50 = at(0.5);
-      s.latency_ms_p99 = at(0.99);
-    }
-  }
+  s.mesh_frames = impl_->mesh_frames;
+  s.mesh_requests = impl_->mesh_requests;
+  s.expired = impl_->expired;
+  s.held = impl_->held;
+  impl_->latency_percentiles(s.latency_ms_p50, s.latency_ms_p99);
   s.avatars = impl_->avatar_count;
   std::lock_guard lock(impl_->error_mutex);
   s.last_error = impl_->last_error.empty() ? impl_->conn.last_error() : impl_->last_error;

@@ -16,6 +16,11 @@ NatsPublisher::NatsPublisher(std::unique_ptr<Impl> impl) : impl_(std::move(impl)
 NatsPublisher::~NatsPublisher() = default;
 Result<int> NatsPublisher::add_avatar(const std::string&, uint16_t, std::string) { return tl::unexpected(unavailable()); }
 void NatsPublisher::publish_pose(int, std::span<const uint8_t>) noexcept {}
+void NatsPublisher::begin_tick() noexcept {}
+void NatsPublisher::end_tick() noexcept {}
+Status NatsPublisher::add_mesh(int, const MeshTopology&) { return tl::unexpected(unavailable()); }
+bool NatsPublisher::mesh_wanted(int) const noexcept { return false; }
+void NatsPublisher::publish_mesh(int, std::span<const uint8_t>) noexcept {}
 bool NatsPublisher::connected() const { return false; }
 std::string NatsPublisher::connected_url() const { return {}; }
 NatsLinkStats NatsPublisher::stats() const { return {}; }

@@ -95,6 +95,9 @@ void Session::on_hello(std::span<const uint8_t> packet) {
       mark_pose(a.id);
     }
   }
+  // Everything a fan-out will fill for this session is sized here, on the event loop.
+  srv.reserve_fanout();
+  reserve_buffers();
   flush();
 }
 

@@ -44,6 +44,7 @@ void ServerImpl::on_accept(tcp::socket sock) {
   s->counted_per_address = true;
   sessions.push_back(s);
   stats.sessions_open = sessions.size();
+  reserve_fanout();
   s->start();
 }
 

@@ -46,12 +46,7 @@ Reject Session::on_mesh_topology(std::span<const uint8_t> packet) {
   Avatar* a = slot_avatar(scratch_topology.avatar);
   if (!a || scratch_topology.lod >= kMaxLods) return Reject::unexpected;
   scratch_topology.avatar = a->id;
-  auto& slot = a->mesh[scratch_topology.lod];
-  slot.topology.resize(mesh_topology_packet_bytes(scratch_topology.indices.size()));
-  encode_mesh_topology(scratch_topology, slot.topology);
-  slot.frame_size = 0;
-  slot.sequence = 0;
-  for (auto& s : srv.sessions) s->topology_changed(a->id, scratch_topology.lod);
+  if (!srv.set_topology(*a, scratch_topology)) return Reject::malformed;
   return Reject::ok;
 }
 
@@ -120,9 +115,11 @@ void ServerImpl::update_model(Avatar& a, const AvatarModel& m) {
   a.has_pose = false;  // old frames may not match the new model
   a.lean.reset();
   a.lean_ok = false;
+  reserve_fanout();
   for (auto& s : sessions) {
     if (!s->active || s->role != Role::subscriber) continue;
     s->ensure_slot(a.id);
+    s->reserve_buffers();
     s->send_model(a);
     s->flush();
   }
@@ -164,9 +161,24 @@ Reject ServerImpl::accept_pose(Avatar& a, std::span<const uint8_t> packet) {
   return Reject::ok;
 }
 
+bool ServerImpl::set_topology(Avatar& a, const MeshTopology& t) {
+  auto packet = std::make_shared<std::vector<uint8_t>>(mesh_topology_packet_bytes(t.indices.size()));
+  if (encode_mesh_topology(t, *packet) == 0) return false;
+  auto& slot = a.mesh[t.lod];
+  slot.topology = std::move(packet);
+  // The frame buffer (and every mesh subscriber's) is sized here, not by the first frame.
+  slot.frame_capacity = mesh_packet_bytes(t.vertex_count);
+  if (slot.frame.size() < slot.frame_capacity) slot.frame.resize(slot.frame_capacity);
+  slot.frame_size = 0;
+  slot.sequence = 0;
+  reserve_fanout();
+  for (auto& s : sessions) s->topology_changed(a.id, t.lod);
+  return true;
+}
+
 Reject ServerImpl::accept_mesh(Avatar& a, uint8_t lod, std::span<const uint8_t> packet) {
   auto& slot = a.mesh[lod];
-  if (slot.topology.empty()) return Reject::unexpected;
+  if (!slot.topology) return Reject::unexpected;
   if (slot.frame.size() < packet.size()) slot.frame.resize(packet.size());
   std::memcpy(slot.frame.data(), packet.data(), packet.size());
   slot.frame_size = packet.size();

@@ -11,7 +11,6 @@ Session::Session(ServerImpl& s, tcp::socket socket)
   boost::system::error_code ec;
   const auto remote = sock.remote_endpoint(ec);
   if (!ec) peer_address = remote.address();
-  out.reserve(64 * 1024);
   scratch_pose.dof_rad.reserve(kMaxPoseDofs);
 }
 

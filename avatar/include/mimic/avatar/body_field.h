@@ -10,6 +10,7 @@
 #pragma once
 
 #include <cstdint>
+#include <limits>
 #include <span>
 #include <vector>
 
@@ -27,6 +28,14 @@ inline constexpr float kIsoLevel = 1.0f;
 struct RayHit {
   float t = -1.0f;
   bool hit() const { return t >= 0.0f; }
+};
+
+// Where a ray looks for the surface near a point: the point at t_near along it, the search kept
+// to t ∈ [t_min, t_max] (t_min ≤ t_near ≤ t_max).
+struct RayNear {
+  float t_near = 0.0f;
+  float t_min = 0.0f;
+  float t_max = std::numeric_limits<float>::infinity();
 };
 
 class BodyField {
@@ -80,9 +89,33 @@ class BodyField {
   void cast_rays(std::span<const glm::vec3> origins, std::span<const glm::vec3> dirs,
                  std::span<const uint16_t> candidates, std::span<RayHit> hits) const;
 
+  // Where the solid around the point origin + near.t_near·dir ends along the ray, searched
+  // within [t_min, t_max] with the same march as cast_outermost: from a point outside, the first
+  // crossing inwards (the surface beneath it), from a point inside the first one outwards, so the
+  // surface of another part of the body further along the ray is never taken. Where the window
+  // is inside throughout the hit is t_max exactly (the surface lies beyond it: the caller tells
+  // the two apart by t == t_max); a point outside with no solid beneath it in the window is a
+  // miss. A hard ellipsoid's exit within the window (clamped to t_max) is taken when nearer the
+  // point.
+  RayHit cast_nearest(const glm::vec3& origin, const glm::vec3& dir, std::span<const uint16_t> candidates,
+                      RayNear near) const;
+  // The same for rays of their own, eight at a time in lock-step (one RayNear per ray).
+  void cast_rays_nearest(std::span<const glm::vec3> origins, std::span<const glm::vec3> dirs,
+                         std::span<const RayNear> nears, std::span<const uint16_t> candidates,
+                         std::span<RayHit> hits) const;
+
  private:
+  // Up to eight rays in lock-step: the outermost crossing of each, or with `nears` (one per
+  // ray) the crossing nearest each ray's point.
   template <class Quadratic>
-  void cast_lanes(std::span<const uint16_t> candidates, int n, Quadratic&& quadratic, std::span<RayHit> out) const;
+  void cast_lanes(std::span<const uint16_t> candidates, int n, Quadratic&& quadratic, std::span<const RayNear> nears,
+                  std::span<RayHit> out) const;
+  // The quadratic |q0 + t·q1|² = a t² + 2 b t + c of primitive idx along the ray in its unit
+  // frame; false when the ray passes outside its bounding sphere or wholly behind the origin.
+  bool ray_quadratic(uint16_t idx, const glm::vec3& origin, const glm::vec3& dir, float& a, float& b, float& c) const;
+  void cast_rays_lanes(std::span<const glm::vec3> origins, std::span<const glm::vec3> dirs,
+                       std::span<const uint16_t> candidates, std::span<const RayNear> nears,
+                       std::span<RayHit> hits) const;
   struct Source {
     int joint = -1;
     int dof = -1;  // reference DOF of a deformable primitive, -1 when rigid

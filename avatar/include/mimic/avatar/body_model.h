@@ -56,6 +56,8 @@ struct PrimitiveState {
 
 enum class Falloff : uint8_t { linear, parabolic, hyperbolic };  // f(t) = t, t², √t
 const char* falloff_name(Falloff f);
+// f(t) for t in [0, 1]: how far a deformable primitive has gone from its relaxed state.
+float falloff_value(Falloff f, float t);
 
 // G = G0 + f(t)(Gmax − G0) for θ ≥ θ0 with t = (θ − θ0)/(θmax − θ0), and the mirror image
 // towards Gmin for θ ≤ θ0; θ's limits and θ0 are those of the skeleton DOF.
@@ -95,6 +97,12 @@ struct SkinLayout {
   int upper_leg_contours = 14;    // rings from the leg loop to the knee
   int lower_leg_contours = 12;    // rings from the knee to the ankle
   int boundary_contours = 4;      // k: boundary-driven rings at each junction (part of the above)
+  // Points per contour of each limb's own rings; 0: its loop's count. A limb whose count differs
+  // from its loop's keeps the loop's through its boundary-driven rings and first ring (the
+  // transition band, at the junction's resolution), then a zipper strip to its own count.
+  int neck_points = 0;
+  int arm_points = 0;
+  int leg_points = 0;
   int rigid_rings = 16;           // latitude rings of the rigid head, hand and foot meshes
   int rigid_points = 24;          // longitude points of those meshes
   // Heights, as fractions along their links, of the special rings.

@@ -3,9 +3,14 @@
 // evaluation, no B-spline per frame:
 //
 //   star rings      on the ring's plane of the current pose (joint-angle driven: bisector
-//                   normals at the joints, interpolated along links); a limb ring keeps its
-//                   point's projection across the link and puts it back on the plane along the
-//                   link, so a tilted plane cuts the limb obliquely as the limb itself would
+//                   normals at the joints, interpolated along links); a limb point keeps its
+//                   place across the link and, as the plane tilts, slides along its column of
+//                   the rest surface (through the same point of the neighbouring rings of its
+//                   link) to where the column meets the plane, so the limb keeps its shape
+//                   along the bone and the two links meet as a mitre
+//   joint bands     near an elbow or knee the rings are scaled about their rest centroid by a
+//                   function of the bend, measured at build time so the joint zone keeps its
+//                   volume
 //   the crease      where a bend tilts a ring's plane through its neighbour's, the points of
 //                   both stop on the line the planes share: adjacent contours never cross
 //   driven rings    p = S + α(G − S) + residual, S and G the moved start ring and loop
@@ -88,6 +93,14 @@ class RealtimeBody {
   int missed_rays() const;
   // Heap bytes of this shared body (the cost of the first avatar, paid once).
   size_t shared_bytes() const;
+  // What one frame's points cost, counted from the tables (docs/skin.md, "Speed, and what
+  // bounds it"): bytes the point loops read and write, and floating-point operations (a fused
+  // multiply-add counts two), for the contour points, muscle terms, boundary-driven rings,
+  // bridges, caps and rigid parts; the ring frames and joints are left out (a few kilobytes).
+  struct FrameWork {
+    double bytes_read = 0, bytes_written = 0, flops = 0;
+  };
+  FrameWork work_per_frame(bool muscles = true) const;
 
   struct Data;
   const Data& data() const { return *data_; }
@@ -117,6 +130,12 @@ class RealtimeSkin {
   // (the paper's method alone). Never allocates, never throws.
   void evaluate(const Pose& pose, std::span<glm::vec3> positions_out, std::span<glm::vec3> normals_out = {},
                 bool muscles = true);
+
+  // The contour points are moved eight at a time where the build targets AVX2 and FMA (as the
+  // baseline skinnings are); `scalar` true takes the scalar reference loop instead, which the
+  // tests hold the vectorised one to.
+  void use_scalar_reference(bool scalar);
+  static bool vectorised_kernel();
 
   const RealtimeBody& body() const { return *body_; }
   const RealtimeTimings& timings() const;

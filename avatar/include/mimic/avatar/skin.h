@@ -54,6 +54,8 @@ struct SkinStats {
   int contours = 0;      // rings and bridges sampled per frame
   int rays = 0;          // rays cast per frame
   int missed_rays = 0;   // rays that found no surface last frame (placed by fallback)
+  int windowed_rays = 0; // boundary-driven rays whose surface lay outside their window around
+                         // P last frame (placed at the window's nearer end)
 };
 
 class BodySkin {
@@ -87,6 +89,9 @@ class BodySkin {
     std::vector<glm::vec3> points;
     std::vector<glm::vec3> ray_origins;  // one per point
     std::vector<uint8_t> from_ray;       // 1 where the point is a ray hit (0: shared or fallback)
+    // Boundary-driven rings: each point's P = S + α(G − S), the point its ray aims at (empty
+    // for other rings).
+    std::vector<glm::vec3> targets;
   };
   std::vector<ContourView> contours() const;
 

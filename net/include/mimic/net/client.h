@@ -55,6 +55,7 @@ struct RemoteAvatar {
   std::vector<glm::vec3> mesh_positions_m;
   uint32_t mesh_vertex_count = 0;
   uint64_t mesh_frames = 0;
+  MeshFrameHeader mesh_last;       // of the latest mesh frame (its LOD, sequence, time)
   LeanPoseState lean;              // the lean stream's reference frames of this avatar
   bool key_requested = false;      // a KEY_REQUEST is out and no key has come yet
 };

@@ -38,10 +38,15 @@ Result<FanoutResult> measure_fanout(int subscribers, int avatars, double rate_hz
 
 // The fan-out capacity of one server process (`mimic bench --section fanout`): `subscribers`
 // real subscriber sockets over loopback (TCP streams, or TCP sessions whose pose frames come as
-// UDP datagrams), all read by one receiving thread with epoll, and `avatars` local avatars
+// UDP datagrams), read by a few receiving threads with epoll, and `avatars` local avatars
 // walking (the built-in walk on the default skeleton, phases apart) at `rate_hz`.
-enum class FanoutTransport { tcp, udp };
+// `nats`: the avatars are published into a real nats-server started on a free loopback port,
+// and a relay in this process (a Server fed by NatsSceneFeed, as `mimic relay`) serves the
+// subscribers over TCP.
+enum class FanoutTransport { tcp, udp, nats };
 const char* fanout_transport_name(FanoutTransport t);
+// Why the nats rows cannot run here (built without NATS, no nats-server installed), or ok.
+Status fanout_nats_available();
 
 struct FanoutOptions {
   int subscribers = 1000;
@@ -50,10 +55,14 @@ struct FanoutOptions {
   double seconds = 3;
   FanoutTransport transport = FanoutTransport::tcp;
   bool lean = true;  // subscribers ask for the lean stream (kCapLeanPose)
-  // > 0: the server thread and the receiving thread run SCHED_FIFO at this priority while
-  // publishing (as `mimic run --realtime` does), so a loaded machine's other processes do not
-  // preempt them. Needs the privilege; without it the run goes on at normal priority.
+  // > 0: the server's threads run SCHED_FIFO at this priority while publishing (as `mimic run
+  // --realtime` does), so a loaded machine's other processes do not preempt them, and the
+  // receiving threads one below (they stand for viewers on other hosts: they read between
+  // ticks instead of taking a core from one). Needs the privilege; without it the run goes on
+  // at normal priority.
   int realtime_priority = 0;
+  int sender_threads = 0;     // ServerOptions::fanout_threads (0: one per core, at most 4)
+  int receiver_threads = 2;   // threads reading the subscribers' sockets, each its own share
 };
 
 struct FanoutCapacity {
@@ -61,11 +70,20 @@ struct FanoutCapacity {
   uint64_t streams = 0;            // subscribers × avatars
   FanoutResult result;             // frames, drops, lost (from sequence numbers), tick times
   double bytes_per_avatar_frame = 0;  // mean pose packet size the subscribers received
-  double cpu_percent = 0;          // the server thread's CPU time / wall time while publishing
-  double cpu_us_per_tick = 0;      // the server thread's CPU time per tick (less load-dependent than wall time)
-  double process_cpu_percent = 0;  // the whole process (server and receiving thread), of one core
+  double cpu_percent = 0;          // the server's threads' CPU time / wall time while publishing
+  double cpu_us_per_tick = 0;      // the server's threads' CPU time per tick (less load-dependent than wall time)
+  double receiver_cpu_us_per_tick = 0;  // the receiving threads' CPU time per tick
+  double process_cpu_percent = 0;  // the whole process (server and receiving threads), of one core
   double load_average_1m = 0;      // the machine's, when the run ended
-  bool realtime = false;           // the server thread did run SCHED_FIFO
+  // nats rows: the frame's time stamp (just before publishing) to its arrival at the relay,
+  // the broker process's CPU, and the relay's fan-outs per published tick (the frames of a
+  // tick may reach it in more than one batch).
+  double publish_to_relay_ms_p50 = 0, publish_to_relay_ms_p99 = 0;
+  double broker_cpu_percent = 0;
+  double fanouts_per_tick = 0;
+  bool realtime = false;           // the server's threads did run SCHED_FIFO
+  int sender_threads = 1;          // threads sharing a tick's writes (Server::fanout_threads)
+  int receiver_threads = 1;
 };
 
 Result<FanoutCapacity> measure_fanout_capacity(const FanoutOptions& options);

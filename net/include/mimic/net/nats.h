@@ -4,19 +4,27 @@
 // avatars).
 //
 // Subjects and keys of scene S (a name of [A-Za-z0-9_-], at most 64 bytes):
-//   mimic.S.<key>.pose        pose frames, core NATS (no persistence), the wire format of
-//                             frame_codec.h (encode_pose), one frame per message
-//   mimic.S.status.<pub>      a publisher's status, JSON, once a second
+//   mimic.S.poses.<pub>       pose frames, core NATS (no persistence): one message per tick of
+//                             publisher <pub>, each avatar's key (8 bytes) and POSE packet
+//                             (frame_codec.h, encode_pose), so a relay fans a tick out once
+//   mimic.S.<key>.mesh.<L>    mesh frames of LOD L (encode_mesh) and, when asked, the mesh
+//                             topology (encode_mesh_topology); only while a relay asks
+//   mimic.S.<key>.mesh_want   a relay's request for mesh frames: u8 LOD, u8 flags (bit 0: send
+//                             the topology); repeated every second while it wants them
+//   mimic.S.status.<pub>      a publisher's status heartbeat, JSON, once a second: relays
+//                             remove the avatars it names after missed heartbeats
 //   KV bucket mimic_S, key <key>: the avatar's model packet (encode_avatar_model: name, DOF
-//                             count, body model bytes), latest wins, history 1
+//                             count, body model bytes), latest wins, history 1, put again
+//                             while the publisher lives, expiring (the bucket's TTL) once it
+//                             has stopped
 // <key> is nats_avatar_key(publisher, avatar): 16 hex digits of a 64-bit hash, the same on
 // every start of a publisher with the same names. Two different (publisher, avatar) pairs with
 // the same key would overwrite each other's model: the odds are about n²/2⁶⁵ for n avatars in
 // a scene; give every publishing host its own --nats-name.
 //
 // Threading: the broker's client runs its own threads. NatsPublisher::publish_pose (the
-// realtime loop) copies the frame into a per-avatar slot and wakes a sender thread: it never
-// waits for the broker. NatsSceneFeed hands what arrives to its Server through
+// realtime loop) copies the frame into a per-avatar slot, and end_tick wakes a sender thread:
+// it never waits for the broker. NatsSceneFeed hands what arrives to its Server through
 // Server::dispatch, so the Server stays driven by one thread.
 #pragma once
 
@@ -27,6 +35,7 @@
 #include <string_view>
 
 #include "mimic/core/result.h"
+#include "mimic/net/frame_codec.h"
 
 namespace mimic::net {
 
@@ -43,7 +52,22 @@ struct NatsOptions {
   int reconnect_wait_ms = 250;    // between attempts; reconnecting never gives up
   bool randomize = true;          // try the servers in random order (spreads clients over a cluster)
   int kv_replicas = 0;            // copies of the model bucket; 0: 3 when 3+ servers are given, else 1
+  // Publisher: its status heartbeat period. Relay: an avatar whose publisher has sent neither a
+  // heartbeat nor a frame for `missed_heartbeats` periods (the publisher's own) leaves the scene.
+  int heartbeat_ms = 1000;
+  int missed_heartbeats = 3;
+  // Publisher, when it creates the bucket: a model not put again for this long leaves it (the
+  // publisher puts its models again every third of it, so only a dead publisher's expire).
+  // 0: models never expire.
+  double model_ttl_s = 60;
+  // Publisher: mesh frames per avatar per second at most, while a relay asks for them.
+  double mesh_max_hz = 30;
 };
+
+// Bounds of the options above, checked by NatsPublisher::create and the command line.
+inline constexpr double kMinModelTtl_s = 3, kMaxModelTtl_s = 86400;
+inline constexpr double kMinMeshHz = 1, kMaxMeshHz = 240;
+Status check_nats_options(const NatsOptions& options);
 
 // Fills user/password/token from MIMIC_NATS_USER, MIMIC_NATS_PASSWORD, MIMIC_NATS_TOKEN.
 void nats_credentials_from_env(NatsOptions& options);
@@ -72,6 +96,10 @@ struct NatsLinkStats {
   uint64_t rejected = 0;        // relay: malformed or unknown frames and models from the broker
   uint64_t avatars = 0;         // relay: avatars of the scene being served
   uint64_t early_frames = 0;    // relay: frames of an avatar whose model had not arrived
+  uint64_t mesh_frames = 0;     // mesh frames published / received
+  uint64_t mesh_requests = 0;   // publisher: mesh_want messages received; relay: sent
+  uint64_t expired = 0;         // relay: avatars removed after their publisher's missed heartbeats
+  uint64_t held = 0;            // relay: models in the bucket whose publisher shows no sign of life
   // Relay: the frame's time stamp (capture time, publisher's wall clock) to its arrival at the
   // relay, over the last 4096 frames. With clocks in step (one host, or NTP), this is
   // publish-to-relay plus whatever the publisher spent between capture and publish.
@@ -92,8 +120,20 @@ class NatsPublisher {
   // or once connected). Returns the index publish_pose takes.
   Result<int> add_avatar(const std::string& avatar_name, uint16_t dof_count, std::string model_bytes);
   // Realtime: an encoded pose frame of avatar `index` (copied; latest wins). Never allocates,
-  // throws or waits for the broker.
+  // throws or waits for the broker. Between begin_tick() and end_tick() frames are held and
+  // go out together at end_tick(), in one message (relays fan a tick out once); outside, each
+  // goes at once.
   void publish_pose(int index, std::span<const uint8_t> packet) noexcept;
+  void begin_tick() noexcept;
+  void end_tick() noexcept;
+  // Setup: avatar `index` is deformed at `topology.lod`; its mesh frames go out on
+  // mimic.S.<key>.mesh.<lod> while relays ask for them (and the topology when they ask for it).
+  Status add_mesh(int index, const MeshTopology& topology);
+  // Realtime: a relay asked for this avatar's mesh within the last three seconds and the rate
+  // bound (mesh_max_hz) lets a frame go now. Never allocates, throws or waits.
+  bool mesh_wanted(int index) const noexcept;
+  // Realtime: an encoded mesh frame of avatar `index` at its LOD (copied; latest wins).
+  void publish_mesh(int index, std::span<const uint8_t> packet) noexcept;
 
   bool connected() const;
   std::string connected_url() const;  // the broker node in use, empty when not connected
@@ -108,8 +148,11 @@ class NatsPublisher {
 };
 
 // The relay side: subscribes once to a scene and feeds `server` (add_avatar, publish_pose,
-// update_avatar_model, remove_avatar) on the server's own thread. `server` must outlive it, and
-// the feed is destroyed while the server is not running (or from the server's thread).
+// update_avatar_model, remove_avatar, mesh topologies and frames) on the server's own thread.
+// An avatar is served once its publisher shows a sign of life (a heartbeat or a frame), and
+// leaves after `missed_heartbeats` of its publisher's periods without one; mesh frames of a LOD
+// are asked from the publisher while a viewer of the server wants them. `server` must outlive
+// it, and the feed is destroyed while the server is not running (or from the server's thread).
 class NatsSceneFeed {
  public:
   static Result<std::unique_ptr<NatsSceneFeed>> create(const NatsOptions& options, Server& server);

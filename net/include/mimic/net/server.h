@@ -55,6 +55,13 @@ struct ServerOptions {
   // many frames (0: only to joiners, after skipped frames and on request).
   uint8_t lean_pose_shift = 3;  // kDefaultPoseShift
   uint32_t lean_key_interval = 90;
+  // A tick's writes to subscribers are shared by this many threads (the server's own and
+  // fanout_threads - 1 workers; 0: one per core, at most 4), each subscriber written by one of
+  // them; only ticks with at least `fanout_parallel_from` subscribers to write are shared (below
+  // that, waking a worker costs more than it saves). Workers take the scheduling policy of the
+  // thread that publishes (SCHED_FIFO under `mimic run --realtime`).
+  int fanout_threads = 0;
+  size_t fanout_parallel_from = 256;
 };
 
 struct ServerStats {
@@ -87,6 +94,7 @@ struct ServerStats {
   uint64_t lean_deltas_out = 0;            // lean stream: delta frames sent (also in frames_out)
   uint64_t key_requests = 0;               // KEY_REQUESTs from subscribers
   uint64_t udp_send_calls = 0;             // sendmmsg calls (each sends a batch of datagrams)
+  uint64_t fanout_shared = 0;              // fan-outs whose writes several threads shared
   std::array<uint64_t, kRejectCount> rejected{};  // by Reject code
 
   uint64_t rejected_total() const {
@@ -118,6 +126,7 @@ class Server {
   uint16_t port() const;
   bool udp() const;  // pose frames offered as UDP datagrams (ServerOptions::udp and the port was free)
   std::string endpoint() const;  // "127.0.0.1:7777"
+  int fanout_threads() const;    // ServerOptions::fanout_threads, 0 resolved
 
   // Avatars published from this process. `model_bytes` is the serialised body model (opaque
   // here); pose frames must carry `dof_count` values.
@@ -150,6 +159,13 @@ class Server {
   void dispatch(std::function<void()> fn);
 
   const ServerStats& stats() const;
+  // Wall time of the last fan-outs (up to 4096; a fan-out is end_batch, or a frame published
+  // outside a batch): from the first write to the last one handed to the kernel.
+  struct FanoutTimes {
+    double p50_us = 0, p99_us = 0;
+    uint64_t count = 0;  // fan-outs since the server started
+  };
+  FanoutTimes fanout_times() const;
   std::vector<SessionInfo> sessions() const;
 
  private:

@@ -43,6 +43,23 @@ struct Camera {
   void zoom(float factor);
 };
 
+// Keeps an orbit camera's target on a moving point of the floor (the avatars' centre): a glide
+// with time constant `follow_s`, aimed ahead by the point's smoothed velocity times that constant,
+// so a steady walker stays in the middle of the view instead of trailing behind. Height, angles
+// and distance stay the user's. reset() forgets the point's history (after a pause or a jump).
+class CameraFollow {
+ public:
+  explicit CameraFollow(float follow_s = 0.4f, float velocity_s = 0.5f) : follow_s_(follow_s), velocity_s_(velocity_s) {}
+  void update(Camera& camera, const glm::vec3& centre, float dt_s);
+  void reset() { primed_ = false; velocity_ = glm::vec3(0.0f); }
+
+ private:
+  float follow_s_, velocity_s_;
+  bool primed_ = false;
+  glm::vec3 last_centre_{0.0f};
+  glm::vec3 velocity_{0.0f};  // m/s
+};
+
 // A camera that frames a standing body of `height_m` whose feet are at `floor_center` from the
 // preset's direction, with some margin, for an image of the given aspect.
 Camera preset_camera(CameraPreset preset, const glm::vec3& floor_center, float height_m, float aspect);

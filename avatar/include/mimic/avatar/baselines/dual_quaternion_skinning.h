@@ -24,7 +24,9 @@ struct DualQuaternionSkinningJob {
   std::span<glm::vec3> out_normals;               // [out] as many as in_normals
 
   bool Validate() const;
-  bool Run() const;  // never allocates; false if invalid
+  // Never allocates (with AVX2, a per-frame hemisphere table of up to 64 joints, 16 KB, lives on
+  // the stack); false if invalid.
+  bool Run() const;
 };
 
 }  // namespace mimic::avatar::baselines

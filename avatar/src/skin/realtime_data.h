@@ -1,0 +1,222 @@
+// Internals of the realtime skin shared by its build (realtime.cpp) and its per-frame deformation
+// (realtime_deform.cpp): the body's immutable tables (RealtimeBody::Data), each avatar's state and
+// the ring frames. Not a public header.
+#pragma once
+
+#include <span>
+#include <vector>
+
+#include "mimic/avatar/realtime_skin.h"
+#include "skin_impl.h"
+
+namespace mimic::avatar {
+
+namespace realtime_detail {
+
+inline constexpr int kTorsoChain = 0;        // layout.cpp builds the torso chain first
+
+// The frame a ring's points are measured in this frame: the ring plane's orthonormal axes
+// (front, left, normal) and, for star rings, the link the ring cuts.
+struct Frame {
+  glm::vec3 origin{0.0f}, x{1, 0, 0}, y{0, 1, 0}, z{0, 0, 1};
+  float x_scale = 1.0f;  // bridges: the half chord, so the arc stretches with its ends
+  // Star rings: a point is kept as its projection along the link onto the plane across the link
+  // (px, py) and its height along the link, put back on the ring's plane along the link.
+  glm::vec3 axis{0, 0, 1}, px{1, 0, 0}, py{0, 1, 0};
+  float along_per_normal = 1.0f;  // 1 / cos(link, normal), bounded
+
+  glm::vec3 to_world(const glm::vec3& l) const { return origin + (l.x * x_scale) * x + l.y * y + l.z * z; }
+  glm::vec3 to_local(const glm::vec3& p) const {
+    const glm::vec3 d = p - origin;
+    return {glm::dot(d, x) / x_scale, glm::dot(d, y), glm::dot(d, z)};
+  }
+  // (px, py, height) ↔ point: p = o + q + (height − q·n)·along_per_normal·axis, q = x·px + y·py.
+  glm::vec3 star_to_world(const glm::vec3& l) const {
+    const glm::vec3 q = l.x * px + l.y * py;
+    return origin + q + ((l.z - glm::dot(q, z)) * along_per_normal) * axis;
+  }
+  glm::vec3 star_to_local(const glm::vec3& p) const {
+    const glm::vec3 d = p - origin;
+    const float h = glm::dot(d, axis);
+    const glm::vec3 q = d - h * axis;
+    return {glm::dot(q, px), glm::dot(q, py), h / along_per_normal + glm::dot(q, z)};
+  }
+  // (px·n, py·n): how far the plane rises along the link per unit across it.
+  glm::vec2 rise() const { return {glm::dot(px, z), glm::dot(py, z)}; }
+};
+
+// `along_link`: limbs and neck, round their links; the torso is no cylinder round its short
+// spine links, so its rings keep their section in their plane (axis = normal).
+Frame star_frame(const Chain& c, int segment, float u, bool along_link);
+// A bridge's frame from its end points and the normal of the ring it leaves.
+Frame arc_frame(const glm::vec3& from, const glm::vec3& to, const glm::vec3& base_normal, bool flip_up);
+// (weight towards θmin, weight towards θmax) of a DOF value, as the primitives interpolate.
+glm::vec2 muscle_weights(float theta, float theta0, float theta_min, float theta_max, Falloff falloff);
+
+// What a star ring's points need this frame, beyond their own coordinates (RealtimeBody::Data::
+// RingOp documents the terms).
+struct StarRing {
+  glm::vec3 origin, px, py, axis;
+  glm::vec2 rise;        // Frame::rise()
+  float a = 1;           // along_per_normal
+  float shear_z = 0;     // a − a_rest: the height's share of the shear
+  glm::vec2 shear_q{0};  // rise·a − rise_rest·a_rest: the position's share
+  glm::vec2 centre{0};   // the band scale's centre (the ring's rest centroid)
+  float scale = 1;       // the band scale this frame
+};
+
+}  // namespace realtime_detail
+
+struct RealtimeBody::Data {
+  Skeleton skeleton;
+  int lod = 0;
+  std::vector<Chain> chains;  // nodes; the per-frame members are each avatar's
+  struct RingOp {
+    RingKind kind = RingKind::star;
+    uint32_t first = 0, count = 0;  // the ring's slots (contiguous) = its vertices
+    int chain = -1, segment = 0;    // star
+    float u = 0;
+    int prev_star = -1;             // star: the star ring before it on its surface
+    int s_ring = -1;                // driven
+    float alpha = 0;
+    uint32_t goal_first = 0;        // driven: offset in `goals`
+    uint32_t from = 0, to = 0;      // arc
+    int up_ring = -1;
+    bool flip_up = false;
+    // Star: the initial pose's plane against the link (Frame::rise, along_per_normal), from
+    // which the shear along the link is measured.
+    glm::vec2 rest_rise{0.0f};
+    float rest_a = 1.0f;
+    // Star rings near an elbow or knee: the band (index in `bands`) whose scale they take, with
+    // this weight, about their rest centroid.
+    int band = -1;
+    float band_weight = 0;
+    glm::vec2 centre{0.0f};
+    uint32_t muscle_first = 0, muscle_count = 0;  // blocks in `muscle_blocks`
+  };
+  std::vector<RingOp> rings;
+  std::vector<uint32_t> goals;
+  // Per slot (structure of arrays): the point in its ring's frame; star rings: (across the link
+  // x, y, height above the plane), see Frame::star_to_world.
+  std::vector<float> lx, ly, lz;
+  // Per star slot: the rest surface along the link through the point (the column), towards the
+  // previous ring on the same link (lo) and the next (hi): the change of (x, y) per metre along
+  // the link, and how far along the link the neighbour is (beyond it, the column runs straight).
+  std::vector<float> lo_x, lo_y, hi_x, hi_y, dh_lo, dh_hi;
+
+  struct MuscleDof {
+    int dof = -1;
+    float theta0 = 0, theta_min = 0, theta_max = 0;
+    Falloff falloff = Falloff::linear;
+  };
+  std::vector<MuscleDof> muscle_dofs;
+  // One block per (star ring, muscle DOF) that moves some point of the ring: for each of the
+  // ring's points, local += offset + w.x·to_min + w.y·to_max (nine arrays of `count` floats at
+  // `data`: offset x, y, z, to_min x, y, z, to_max x, y, z).
+  struct MuscleBlock {
+    uint32_t dof = 0;  // index in muscle_dofs
+    uint32_t data = 0;
+  };
+  std::vector<MuscleBlock> muscle_blocks;
+  std::vector<float> muscle_data;
+  size_t muscle_points = 0, muscle_terms = 0;
+
+  // Joint bands (elbows, knees): the radial scale of the band's rings as a function of the
+  // joint's bend, measured at build time so the joint zone keeps its volume ([0] without the
+  // muscle terms, [1] with them); linear between samples, 1 at the initial pose.
+  struct Band {
+    int chain = -1;  // the node between the chain's two links
+    std::vector<float> bend_rad;
+    std::vector<float> scale[2];
+    float scale_at(float bend, bool muscles) const;
+  };
+  std::vector<Band> bands;
+
+  // The star rings grouped by the chain segment they sit on (runs), so their frames are
+  // computed eight rings at a time from the segment's two ends: the rings of run i are
+  // run_rings[first .. first + count) at run_u of the same entries (padded by eight).
+  struct FrameRun {
+    int chain = -1, segment = 0;
+    bool along_link = true;
+    uint32_t first = 0, count = 0;
+  };
+  std::vector<FrameRun> frame_runs;
+  std::vector<uint32_t> run_rings;
+  std::vector<float> run_u;
+
+  int missed_rays = 0;
+  struct Cap {
+    uint32_t vertex = 0, first = 0, count = 0;
+  };
+  std::vector<Cap> caps;
+  struct Rigid {
+    int joint = -1;
+    uint32_t first_vertex = 0, first_local = 0, count = 0;
+  };
+  std::vector<Rigid> rigid;
+  std::vector<glm::vec3> rigid_local;
+  Mesh rest_mesh;
+  std::vector<JointInfluences> weights;
+  TextureLayout texture;
+  std::vector<ContourRows> contour_rows;
+};
+
+namespace realtime_detail {
+
+// How far a star ring's points reach from its origin this frame, for the crease's test: the
+// largest distance and the largest |height above the plane|.
+struct Reach {
+  float radius = 0, height = 0;
+};
+
+// One avatar's per-frame state.
+struct State {
+  std::vector<RigidTransform> world_from_joint;
+  std::vector<Chain> chains;
+  std::vector<Frame> frames;        // per ring, this frame
+  std::vector<glm::vec2> muscle_w;  // per muscle DOF: (towards θmin, towards θmax)
+  std::vector<float> band_scale;    // per band, this frame
+  // Build time only: the bands' scales forced (the calibration); empty otherwise.
+  std::vector<float> band_scale_forced;
+  bool vectorised = true;  // the eight-wide kernels where the build has them
+  std::vector<Reach> reach;  // per ring, this frame (star rings)
+  RealtimeTimings timings;
+
+  explicit State(const RealtimeBody::Data& d);
+  size_t heap_bytes() const;
+};
+
+// The frame's positions (never allocates).
+void deform(const RealtimeBody::Data& d, State& st, const Pose& pose, std::span<glm::vec3> pos, bool muscles);
+
+// A star ring's points (the muscle blocks when `muscle_w` is not null, the band scale, the
+// column slide, then the plane): the scalar reference, and eight at a time where the build
+// targets AVX2 and FMA (the same arithmetic in the same order, fused multiply-adds aside).
+Reach star_points_scalar(const RealtimeBody::Data& d, const RealtimeBody::Data::RingOp& r, const StarRing& s,
+                         const glm::vec2* muscle_w, glm::vec3* out);
+Reach star_points_avx2(const RealtimeBody::Data& d, const RealtimeBody::Data::RingOp& r, const StarRing& s,
+                       const glm::vec2* muscle_w, glm::vec3* out);
+// Every star ring's frame into st.frames (the frame runs, eight rings at a time where the build
+// has AVX2 and FMA; star_frame one by one otherwise or when `vectorised` is false).
+struct State;
+void star_frames(const RealtimeBody::Data& d, State& st, bool vectorised);
+
+// A boundary-driven ring's points: P = S + α(G − S) + the rest offset turned with S's frame.
+void driven_points(const RealtimeBody::Data& d, const RealtimeBody::Data::RingOp& r, const Frame& f,
+                   std::span<glm::vec3> pos, bool vectorised);
+// Rigid vertices: out[i] = rotation·local[i] + translation.
+void rigid_points(const glm::mat3& rotation, const glm::vec3& translation, const glm::vec3* local, uint32_t count,
+                  glm::vec3* out, bool vectorised);
+inline constexpr bool kHasAvx2Kernel =
+#if defined(__AVX2__) && defined(__FMA__)
+    true;
+#else
+    false;
+#endif
+
+// The bend of a chain at its middle node (radians, 0 straight).
+float chain_bend(const Chain& c);
+
+}  // namespace realtime_detail
+
+}  // namespace mimic::avatar

@@ -1,0 +1,221 @@
+// The realtime skin's frame (realtime_skin.h): joint transforms, chain nodes and one frame per
+// ring, then every contour point moved by its ring's configuration. Never allocates.
+#include <chrono>
+
+#if defined(__SSE__)
+#include <immintrin.h>
+#endif
+
+#include "realtime_data.h"
+
+namespace mimic::avatar::realtime_detail {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+using Data = RealtimeBody::Data;
+
+// Most a ring's section is stretched along its tilt (1/0.3, a ring tilted 72.5° against its
+// link): beyond, a sharply bent joint would push its outer side far out. The inner side is held
+// by the crease.
+constexpr float kMinLinkCos = 0.3f;
+
+// The crease: where a bend tilts ring `r`'s plane through the previous star ring's (the inner
+// side of the joint), the points of both stop on the line the two planes share, so adjacent
+// contours meet and never cross. A point v from its ring's origin rises over the other plane by
+// at most |v|·sin(angle between the planes) + |its height over its own plane|, so most pairs
+// (nearly parallel planes, or far apart) are passed over without visiting their points.
+void crease(const Data::RingOp& r, const Data::RingOp& pr, const Frame& f, const Frame& prev, const Reach& reach,
+            const Reach& prev_reach, std::span<glm::vec3> pos) {
+  const float cos_planes = glm::dot(f.z, prev.z);
+  const float sin_planes = std::sqrt(std::max(0.0f, 1.0f - cos_planes * cos_planes));
+  const float origin_height = glm::dot(f.origin - prev.origin, prev.z);
+  if (origin_height > 0.0f && origin_height < reach.radius * sin_planes + reach.height * 1.0001f + 1e-6f)
+    for (uint32_t k = r.first; k < r.first + r.count; ++k) {
+      const glm::vec3 v = pos[k] - f.origin;
+      const float rise = glm::dot(v, prev.z);
+      if (origin_height + rise < 0.0f) pos[k] = f.origin + (-origin_height / rise) * v;
+    }
+  const float back = glm::dot(prev.origin - f.origin, f.z);
+  if (back < 0.0f && -back < prev_reach.radius * sin_planes + prev_reach.height * 1.0001f + 1e-6f)
+    for (uint32_t k = pr.first; k < pr.first + pr.count; ++k) {
+      const glm::vec3 v = pos[k] - prev.origin;
+      const float rise = glm::dot(v, f.z);
+      if (back + rise > 0.0f) pos[k] = prev.origin + (-back / rise) * v;
+    }
+}
+
+}  // namespace
+
+// 1/|v| to float precision (the hardware estimate and one Newton step: a few cycles where a
+// square root and a division take twenty); v must not be zero.
+inline float inv_length(const glm::vec3& v) {
+  const float l2 = glm::dot(v, v);
+#if defined(__SSE__)
+  const float y = _mm_cvtss_f32(_mm_rsqrt_ss(_mm_set_ss(l2)));
+  return y * (1.5f - 0.5f * l2 * y * y);
+#else
+  return 1.0f / std::sqrt(l2);
+#endif
+}
+
+inline glm::vec3 unit_or(const glm::vec3& v, const glm::vec3& fallback) {
+  return glm::dot(v, v) > 1e-20f ? v * inv_length(v) : fallback;
+}
+
+Frame star_frame(const Chain& c, int segment, float u, bool along_link) {
+  // The ring's plane as ring_plane (skin_impl.h) places it for the full method, with the
+  // normalisations by reciprocal square root: the frames are this function's both when the
+  // points are measured and when they are moved, so the initial pose stays exact.
+  const int a = segment, b = std::min<int>(segment + 1, static_cast<int>(c.point.size()) - 1);
+  Frame f;
+  f.origin = c.point[a] + u * (c.point[b] - c.point[a]);
+  const glm::vec3 normal = unit_or(c.normal[a] + u * (c.normal[b] - c.normal[a]), c.normal[a]);
+  const glm::vec3 ref = c.ref[a] + u * (c.ref[b] - c.ref[a]);
+  glm::vec3 front = ref - glm::dot(ref, normal) * normal;
+  if (glm::dot(front, front) < 1e-10f)
+    front = glm::cross(normal, std::abs(normal.x) < 0.9f ? glm::vec3(1, 0, 0) : glm::vec3(0, 1, 0));
+  f.x = front * inv_length(front);
+  f.z = normal;
+  f.y = glm::cross(normal, f.x);
+  f.axis = along_link ? unit_or(c.point[b] - c.point[a], normal) : normal;
+  if (glm::dot(f.axis, normal) < 0.0f) f.axis = -f.axis;
+  const float cos_tilt = glm::dot(f.axis, normal);
+  if (cos_tilt < kMinLinkCos) {
+    // Tilted past the bound: project along an axis turned towards the normal until it is at
+    // the bound, so the points still land on the ring's plane.
+    const glm::vec3 tilt = unit_or(f.axis - cos_tilt * normal, f.x);
+    f.axis = kMinLinkCos * normal + std::sqrt(1.0f - kMinLinkCos * kMinLinkCos) * tilt;
+  }
+  f.along_per_normal = 1.0f / glm::dot(f.axis, normal);
+  f.px = unit_or(f.x - glm::dot(f.x, f.axis) * f.axis, f.y);
+  f.py = glm::cross(f.axis, f.px);
+  return f;
+}
+
+Frame arc_frame(const glm::vec3& from, const glm::vec3& to, const glm::vec3& base_normal, bool flip_up) {
+  Frame f;
+  f.origin = 0.5f * (from + to);
+  const glm::vec3 half = from - f.origin;
+  f.x_scale = std::max(glm::length(half), 1e-6f);
+  f.x = safe_normalize(half, {0, 0, 1});
+  glm::vec3 up = flip_up ? -base_normal : base_normal;
+  f.y = safe_normalize(up - glm::dot(up, f.x) * f.x, {0, 1, 0});
+  f.z = glm::cross(f.x, f.y);
+  return f;
+}
+
+glm::vec2 muscle_weights(float theta, float theta0, float theta_min, float theta_max, Falloff falloff) {
+  if (theta >= theta0) {
+    const float span = theta_max - theta0;
+    const float t = span > 1e-6f ? std::clamp((theta - theta0) / span, 0.0f, 1.0f) : 0.0f;
+    return {0.0f, falloff_value(falloff, t)};
+  }
+  const float span = theta0 - theta_min;
+  const float t = span > 1e-6f ? std::clamp((theta0 - theta) / span, 0.0f, 1.0f) : 0.0f;
+  return {falloff_value(falloff, t), 0.0f};
+}
+
+float chain_bend(const Chain& c) {
+  if (c.point.size() < 3) return 0.0f;
+  const glm::vec3 in = safe_normalize(c.point[1] - c.point[0], {0, 1, 0});
+  const glm::vec3 out = safe_normalize(c.point[2] - c.point[1], in);
+  return std::acos(std::clamp(glm::dot(in, out), -1.0f, 1.0f));
+}
+
+State::State(const Data& d)
+    : world_from_joint(d.skeleton.joint_count()),
+      chains(d.chains),
+      frames(d.rings.size()),
+      muscle_w(d.muscle_dofs.size()),
+      band_scale(d.bands.size(), 1.0f),
+      reach(d.rings.size()) {}
+
+size_t State::heap_bytes() const {
+  size_t b = world_from_joint.capacity() * sizeof(RigidTransform) + frames.capacity() * sizeof(Frame) +
+             muscle_w.capacity() * sizeof(glm::vec2) + chains.capacity() * sizeof(Chain) +
+             (band_scale.capacity() + band_scale_forced.capacity()) * sizeof(float) + reach.capacity() * sizeof(Reach);
+  for (const Chain& c : chains)
+    b += c.nodes.capacity() * sizeof(Chain::Node) + (c.point.capacity() + c.normal.capacity() + c.ref.capacity()) * sizeof(glm::vec3);
+  return b;
+}
+
+void deform(const Data& d, State& st, const Pose& pose, std::span<glm::vec3> pos, bool muscles) {
+  const auto t0 = Clock::now();
+  forward_kinematics(d.skeleton, pose, st.world_from_joint);
+  for (Chain& c : st.chains) c.update(st.world_from_joint);
+  for (size_t i = 0; i < d.muscle_dofs.size(); ++i) {
+    const auto& md = d.muscle_dofs[i];
+    st.muscle_w[i] = muscles ? muscle_weights(pose.dof_rad[md.dof], md.theta0, md.theta_min, md.theta_max, md.falloff)
+                             : glm::vec2(0.0f);
+  }
+  for (size_t b = 0; b < d.bands.size(); ++b)
+    st.band_scale[b] = !st.band_scale_forced.empty() ? st.band_scale_forced[b]
+                                                      : d.bands[b].scale_at(chain_bend(st.chains[d.bands[b].chain]), muscles);
+  star_frames(d, st, kHasAvx2Kernel && st.vectorised);
+  const auto t1 = Clock::now();
+
+  for (size_t ri = 0; ri < d.rings.size(); ++ri) {
+    const auto& r = d.rings[ri];
+    Frame& f = st.frames[ri];
+    switch (r.kind) {
+      case RingKind::star: {
+        StarRing s{f.origin, f.px, f.py, f.axis, f.rise(), f.along_per_normal};
+        s.shear_z = s.a - r.rest_a;
+        s.shear_q = s.rise * s.a - r.rest_rise * r.rest_a;
+        s.centre = r.centre;
+        s.scale = r.band >= 0 ? 1.0f + r.band_weight * (st.band_scale[r.band] - 1.0f) : 1.0f;
+        const glm::vec2* w = muscles && r.muscle_count > 0 ? st.muscle_w.data() : nullptr;
+        st.reach[ri] = kHasAvx2Kernel && st.vectorised ? star_points_avx2(d, r, s, w, pos.data() + r.first)
+                                                        : star_points_scalar(d, r, s, w, pos.data() + r.first);
+        if (r.prev_star >= 0)
+          crease(r, d.rings[r.prev_star], f, st.frames[r.prev_star], st.reach[ri], st.reach[r.prev_star], pos);
+        break;
+      }
+      case RingKind::arc: {
+        f = arc_frame(pos[r.from], pos[r.to], st.frames[r.up_ring].z, r.flip_up);
+        for (uint32_t k = r.first; k < r.first + r.count; ++k) pos[k] = f.to_world({d.lx[k], d.ly[k], d.lz[k]});
+        break;
+      }
+      case RingKind::driven: {
+        // P = S + α(G − S), plus the offset the full method's ray found from that point in the
+        // initial pose, turned with S.
+        f = st.frames[r.s_ring];
+        driven_points(d, r, f, pos, st.vectorised);
+        break;
+      }
+    }
+  }
+  for (const auto& c : d.caps) {
+    glm::vec3 sum(0.0f);
+    for (uint32_t k = c.first; k < c.first + c.count; ++k) sum += pos[k];
+    pos[c.vertex] = sum / static_cast<float>(c.count);
+  }
+  for (const auto& rg : d.rigid) {
+    const RigidTransform& w = st.world_from_joint[rg.joint];
+    rigid_points(glm::mat3_cast(w.rotation), w.translation, d.rigid_local.data() + rg.first_local, rg.count,
+                 pos.data() + rg.first_vertex, st.vectorised);
+  }
+  const auto t2 = Clock::now();
+  st.timings.joints_us = std::chrono::duration<double, std::micro>(t1 - t0).count();
+  st.timings.points_us = std::chrono::duration<double, std::micro>(t2 - t1).count();
+}
+
+}  // namespace mimic::avatar::realtime_detail
+
+namespace mimic::avatar {
+
+float RealtimeBody::Data::Band::scale_at(float bend, bool muscles) const {
+  const std::vector<float>& s = scale[muscles ? 1 : 0];
+  if (bend_rad.empty() || bend <= bend_rad.front()) return s.empty() ? 1.0f : s.front();
+  for (size_t i = 1; i < bend_rad.size(); ++i)
+    if (bend <= bend_rad[i]) {
+      const float t = (bend - bend_rad[i - 1]) / std::max(bend_rad[i] - bend_rad[i - 1], 1e-6f);
+      return s[i - 1] + t * (s[i] - s[i - 1]);
+    }
+  return s.back();
+}
+
+bool RealtimeSkin::vectorised_kernel() { return realtime_detail::kHasAvx2Kernel; }
+
+}  // namespace mimic::avatar

@@ -1,0 +1,21 @@
+// Avatar keys as numbers and text, and the message that carries a publisher's tick of pose
+// frames (docs/protocol.md, "Through a broker"). Internal to net/; no NATS client needed.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <string>
+#include <string_view>
+
+namespace mimic::net::nats_detail {
+
+// An avatar key's value (FNV-1a 64 over "publisher/avatar") and its text, 16 lowercase hex
+// digits (nats_avatar_key).
+uint64_t avatar_key_value(std::string_view publisher, std::string_view avatar);
+std::string avatar_key_text(uint64_t key);
+
+// A message on mimic.S.poses.<publisher>: entries of the avatar's key value (8 bytes,
+// little-endian) followed by its POSE packet, one entry per avatar of the tick.
+inline constexpr size_t kPosesKeyBytes = 8;
+
+}  // namespace mimic::net::nats_detail
