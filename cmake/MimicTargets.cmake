@@ -35,6 +35,11 @@ function(mimic_add_tests lib)
   endif()
   add_executable(mimic_${lib}_tests ${srcs})
   target_link_libraries(mimic_${lib}_tests PRIVATE ${ARG_DEPS} mimic_test_support GTest::gtest_main GTest::gmock)
+  # GoogleTest, JSON and the standard headers every test file includes, parsed once per test
+  # program instead of once per file: the tests are half of the build.
+  target_precompile_headers(mimic_${lib}_tests PRIVATE
+    <gtest/gtest.h> <nlohmann/json.hpp> <algorithm> <chrono> <cmath> <cstdio> <filesystem> <map>
+    <random> <string> <vector>)
   mimic_warnings(mimic_${lib}_tests)
   gtest_discover_tests(mimic_${lib}_tests
     # One variable only: gtest_discover_tests splits a list here. Tests find the `mimic`

@@ -26,7 +26,9 @@ fi
 gen=()
 command -v ninja >/dev/null && gen=(-G Ninja)
 if [ ! -f "$dir/CMakeCache.txt" ]; then
-  cmake -S . -B "$dir" "${gen[@]}" "${launcher[@]}" -DCMAKE_BUILD_TYPE=Release \
+  # -O1, as the sanitizers' authors advise: a quarter less build time than -O3 for the same
+  # findings, and the suite (mostly waiting on processes and sockets) runs as fast.
+  cmake -S . -B "$dir" "${gen[@]}" "${launcher[@]}" -DCMAKE_BUILD_TYPE=Release "-DCMAKE_CXX_FLAGS_RELEASE=-O1 -DNDEBUG" \
     -DCMAKE_CXX_COMPILER=clang++ -DMIMIC_FUZZ=ON -DMIMIC_SANITIZE=ON -DMIMIC_BUILD_BENCH=OFF
 fi
 start=$(date +%s)
@@ -38,7 +40,7 @@ if [ -z "${MIMIC_SKIP_TESTS:-}" ]; then
   # halt_on_error: the first report fails the test; leaks are reported too.
   ( cd "$dir" && ASAN_OPTIONS=detect_leaks=1:halt_on_error=1:abort_on_error=1 \
       UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
-      ctest --output-on-failure -j "$jobs" --timeout 900 )
+      ctest --output-on-failure -j "$(( 2 * jobs ))" --timeout 900 )  # two per core, as test.sh
   echo "sanitize_and_fuzz: tests under ASan+UBSan $(( $(date +%s) - start )) s"
 fi
 
