@@ -495,9 +495,6 @@ TEST(Nats, MeshFramesFlowOnlyWhileARelayViewerAsksForTheirLod) {
 }
 
 #if MIMIC_WITH_NATS
-// A model in the bucket whose publisher shows no life (what a crashed publisher leaves until the
-// bucket's TTL takes it) is not served; a heartbeat naming it brings it in, and missed heartbeats
-// take it out again.
 // A publisher's tick of frames crosses the broker as one message (every avatar's frame of
 // that tick), so a relay takes it in one piece and fans it out to its viewers once, whenever
 // its thread wakes; a message that cannot be framed is refused.
@@ -562,6 +559,9 @@ TEST(Nats, APublishersTickIsOneMessageAndOneRelayFanOut) {
   EXPECT_EQ(v->avatars().size(), size_t(kAvatars));
 }
 
+// A model in the bucket whose publisher shows no life (what a crashed publisher leaves until the
+// bucket's TTL takes it) is not served; a heartbeat naming it brings it in, and missed heartbeats
+// take it out again.
 TEST(Nats, AnAvatarIsServedWhileItsPublisherHeartbeatsAndLeavesAfterMissedOnes) {
   REQUIRE_NATS();
   NatsBroker broker;
