@@ -147,7 +147,9 @@ TEST(DevicesCli, WatchSeesASerialPortArriveAndLeave) {
   const std::string mimic = mimic::test::mimic_binary();
   const auto dir = std::filesystem::temp_directory_path() / ("mimic-watch-" + std::to_string(::getpid()));
   std::filesystem::create_directories(dir);
-  Child watch({mimic, "devices", "--watch", "--serial-dir", dir.string(), "--interval", "0.1", "--duration", "4"});
+  // A long duration (stopped by SIGINT below): on a loaded machine the two programs' start-ups
+  // alone can take seconds.
+  Child watch({mimic, "devices", "--watch", "--serial-dir", dir.string(), "--interval", "0.1", "--duration", "60"});
   // Wait for the initial listing, then plug a "USB-serial adapter" in: a virtual Spaceball's pty
   // behind a ttyUSB name; then unplug it.
   std::string l;
@@ -167,6 +169,7 @@ TEST(DevicesCli, WatchSeesASerialPortArriveAndLeave) {
   while ((l = watch.line()).find(" - ") == std::string::npos) ASSERT_FALSE(l.empty());
   departed = l;
   EXPECT_NE(departed.find("- serial " + (dir / "ttyUSB5").string()), std::string::npos) << departed;
+  ::kill(watch.pid, SIGINT);
   EXPECT_EQ(watch.wait(), 0);
   std::filesystem::remove_all(dir);
 }
