@@ -38,17 +38,22 @@ inline float term(float s, float inv_r2, float weight_norm) {
 
 }  // namespace
 
-PrimitiveState deformed_state(const PrimitiveState& g0, const PrimitiveState& gmin,
-                              const PrimitiveState& gmax, Falloff falloff, float theta,
-                              float theta0, float theta_min, float theta_max) {
+glm::vec2 muscle_weights(float theta, float theta0, float theta_min, float theta_max, Falloff falloff) {
   if (theta >= theta0) {
     const float span = theta_max - theta0;
     const float t = span > 1e-6f ? std::clamp((theta - theta0) / span, 0.0f, 1.0f) : 0.0f;
-    return lerp_state(g0, gmax, falloff_value(falloff, t));
+    return {0.0f, falloff_value(falloff, t)};
   }
   const float span = theta0 - theta_min;
   const float t = span > 1e-6f ? std::clamp((theta0 - theta) / span, 0.0f, 1.0f) : 0.0f;
-  return lerp_state(g0, gmin, falloff_value(falloff, t));
+  return {falloff_value(falloff, t), 0.0f};
+}
+
+PrimitiveState deformed_state(const PrimitiveState& g0, const PrimitiveState& gmin,
+                              const PrimitiveState& gmax, Falloff falloff, float theta,
+                              float theta0, float theta_min, float theta_max) {
+  const glm::vec2 w = muscle_weights(theta, theta0, theta_min, theta_max, falloff);
+  return theta >= theta0 ? lerp_state(g0, gmax, w.y) : lerp_state(g0, gmin, w.x);
 }
 
 Result<BodyField> BodyField::create(const BodyModel& model, const Skeleton& skeleton) {

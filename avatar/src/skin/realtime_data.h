@@ -6,6 +6,7 @@
 #include <span>
 #include <vector>
 
+#include "mimic/avatar/body_field.h"
 #include "mimic/avatar/realtime_skin.h"
 #include "skin_impl.h"
 
@@ -50,8 +51,6 @@ struct Frame {
 Frame star_frame(const Chain& c, int segment, float u, bool along_link);
 // A bridge's frame from its end points and the normal of the ring it leaves.
 Frame arc_frame(const glm::vec3& from, const glm::vec3& to, const glm::vec3& base_normal, bool flip_up);
-// (weight towards θmin, weight towards θmax) of a DOF value, as the primitives interpolate.
-glm::vec2 muscle_weights(float theta, float theta0, float theta_min, float theta_max, Falloff falloff);
 
 // What a star ring's points need this frame, beyond their own coordinates (RealtimeBody::Data::
 // RingOp documents the terms).

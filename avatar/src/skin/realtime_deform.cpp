@@ -105,17 +105,6 @@ Frame arc_frame(const glm::vec3& from, const glm::vec3& to, const glm::vec3& bas
   return f;
 }
 
-glm::vec2 muscle_weights(float theta, float theta0, float theta_min, float theta_max, Falloff falloff) {
-  if (theta >= theta0) {
-    const float span = theta_max - theta0;
-    const float t = span > 1e-6f ? std::clamp((theta - theta0) / span, 0.0f, 1.0f) : 0.0f;
-    return {0.0f, falloff_value(falloff, t)};
-  }
-  const float span = theta0 - theta_min;
-  const float t = span > 1e-6f ? std::clamp((theta0 - theta) / span, 0.0f, 1.0f) : 0.0f;
-  return {falloff_value(falloff, t), 0.0f};
-}
-
 float chain_bend(const Chain& c) {
   if (c.point.size() < 3) return 0.0f;
   const glm::vec3 in = safe_normalize(c.point[1] - c.point[0], {0, 1, 0});

@@ -158,7 +158,7 @@ struct NatsPublisher::Impl {
       std::lock_guard lock(frames_mutex);
       for (auto& s : slots) {
         if (!s->dirty) continue;
-        for (size_t b = 0; b < nats_detail::kPosesKeyBytes; ++b) batch[n + b] = uint8_t(s->key_value >> (8 * b));
+        nats_detail::write_poses_key(s->key_value, batch.data() + n);
         std::memcpy(batch.data() + n + nats_detail::kPosesKeyBytes, s->frame.data(), s->size);
         n += nats_detail::kPosesKeyBytes + s->size;
         s->dirty = false;
@@ -177,9 +177,9 @@ struct NatsPublisher::Impl {
       // Whole entries up to the limit.
       size_t end = begin, entries = 0;
       while (end < n) {
-        const size_t entry = nats_detail::kPosesKeyBytes + kHeaderBytes +
-                             (size_t(batch[end + 12]) | size_t(batch[end + 13]) << 8 | size_t(batch[end + 14]) << 16 |
-                              size_t(batch[end + 15]) << 24);
+        Header h;  // checked by publish_pose
+        decode_header(std::span<const uint8_t>(batch.data() + end + nats_detail::kPosesKeyBytes, kHeaderBytes), h);
+        const size_t entry = nats_detail::kPosesKeyBytes + kHeaderBytes + h.payload_bytes;
         if (end > begin && end + entry - begin > limit) break;
         end += entry;
         entries++;

@@ -80,10 +80,8 @@ void NatsSceneFeed::Impl::on_poses_msg(natsConnection*, natsSubscription*, natsM
       malformed = true;  // the rest cannot be framed
       break;
     }
-    uint64_t key = 0;
-    for (size_t b = 0; b < nats_detail::kPosesKeyBytes; ++b) key |= uint64_t(data[at + b]) << (8 * b);
     Frame frame;
-    frame.key = nats_detail::avatar_key_text(key);
+    frame.key = nats_detail::avatar_key_text(nats_detail::read_poses_key(data + at));
     frame.packet.assign(data + packet_at, data + packet_at + kHeaderBytes + h.payload_bytes);
     frame.arrival_us = arrival_us;
     tick.push_back(std::move(frame));

@@ -138,6 +138,11 @@ class BodyField {
   std::vector<uint8_t> hard_;
 };
 
+// The paper's interpolation weights at DOF value θ: (f(t) towards θmin, f(t) towards θmax), the
+// one on the other side of θ0 zero. The primitives (deformed_state) and the realtime skin's
+// muscle terms both use it.
+glm::vec2 muscle_weights(float theta, float theta0, float theta_min, float theta_max, Falloff falloff);
+
 // State of a deformable primitive at DOF value θ (the paper's interpolation).
 PrimitiveState deformed_state(const PrimitiveState& g0, const PrimitiveState& gmin,
                               const PrimitiveState& gmax, Falloff falloff, float theta,
