@@ -91,6 +91,18 @@ Status validate_mesh(const Mesh& mesh) {
     return fail(Errc::invalid_argument, "mesh has " + std::to_string(mesh.uvs.size()) +
                                             " texture coordinates for " + std::to_string(mesh.positions.size()) +
                                             " positions");
+  // Every writer stores 32-bit floats: a value that is not one could not be read back.
+  const auto finite = [](auto v) {
+    for (int k = 0; k < v.length(); ++k)
+      if (!std::isfinite(v[k])) return false;
+    return true;
+  };
+  for (size_t i = 0; i < mesh.positions.size(); ++i)
+    if (!finite(mesh.positions[i]))
+      return fail(Errc::invalid_argument, "mesh vertex " + std::to_string(i) + " is not finite");
+  for (size_t i = 0; i < mesh.uvs.size(); ++i)
+    if (!finite(mesh.uvs[i]))
+      return fail(Errc::invalid_argument, "mesh texture coordinate " + std::to_string(i) + " is not finite");
   for (size_t i = 0; i < mesh.indices.size(); ++i)
     if (mesh.indices[i] >= mesh.positions.size())
       return fail(Errc::invalid_argument, "mesh index " + std::to_string(i) + " = " +
@@ -134,7 +146,11 @@ Result<Mesh> read_with(const std::string& path, float metres_per_unit, Parse par
   auto bytes = read_file(path);
   if (!bytes) return tl::unexpected(bytes.error());
   auto mesh = parse(*bytes, path);
-  if (mesh && metres_per_unit != 1.0f) scale_mesh(*mesh, metres_per_unit);
+  if (!mesh || metres_per_unit == 1.0f) return mesh;
+  scale_mesh(*mesh, metres_per_unit);
+  if (auto ok = validate_mesh(*mesh); !ok)  // a huge unit can overflow a float
+    return fail(Errc::invalid_argument, path + ": after scaling by " + std::to_string(metres_per_unit) + ": " +
+                                            ok.error().message);
   return mesh;
 }
 

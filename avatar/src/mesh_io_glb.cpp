@@ -280,8 +280,11 @@ Result<Mesh> decode_glb(const Glb& g, const std::string& src) {
         if (!tv) return tl::unexpected(tv.error());
         if (tv->component != kFloat || tv->components != 2 || tv->count != pv->count)
           return r.error("TEXCOORD_0 must be float VEC2 with one per POSITION");
-        for (size_t i = 0; i < tv->count; ++i)
-          uvs.emplace_back(r.component(*tv, i, 0), 1.0 - r.component(*tv, i, 1));
+        for (size_t i = 0; i < tv->count; ++i) {
+          const glm::vec2 uv(r.component(*tv, i, 0), 1.0 - r.component(*tv, i, 1));
+          if (!std::isfinite(uv.x) || !std::isfinite(uv.y)) return r.error("TEXCOORD_0 is not finite");
+          uvs.push_back(uv);
+        }
       } else {
         want_uvs = false;
         uvs.resize(mesh.positions.size(), glm::vec2(0.0f));

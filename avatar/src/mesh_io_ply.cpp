@@ -1,8 +1,10 @@
 // Stanford PLY: binary little-endian writing; ascii and binary reading.
+#include <algorithm>
 #include <bit>
 #include <charconv>
 #include <cmath>
 #include <cstring>
+#include <limits>
 #include <map>
 #include <string>
 
@@ -210,6 +212,9 @@ Result<Mesh> parse_ply(std::string_view bytes, std::string_view source) {
       uint64_t count = 0;
       auto [p, ec] = std::from_chars(tok[2].data(), tok[2].data() + tok[2].size(), count);
       if (ec != std::errc() || p != tok[2].data() + tok[2].size()) return at("bad element count '" + std::string(tok[2]) + "'");
+      // One vertex list: a second one could carry other attributes than the first.
+      if (tok[1] == "vertex" && std::any_of(elements.begin(), elements.end(), [](const Element& e) { return e.name == "vertex"; }))
+        return at("a second vertex element");
       elements.push_back({std::string(tok[1]), count, {}});
     } else if (tok[0] == "property") {
       if (elements.empty()) return at("property before any element");
@@ -294,7 +299,7 @@ Result<Mesh> parse_ply(std::string_view bytes, std::string_view source) {
       }
       if (is_vertex) {
         for (int i : {ix, iy, iz, inx, iny, inz, is, itc})
-          if (i >= 0 && !(std::abs(vals[i]) <= 3.0e38))
+          if (i >= 0 && !(std::abs(vals[i]) <= std::numeric_limits<float>::max()))
             return error("vertex " + std::to_string(e) + " has a value that is not a finite float");
         mesh.positions.emplace_back(vals[ix], vals[iy], vals[iz]);
         if (has_normals)

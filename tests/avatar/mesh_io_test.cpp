@@ -4,6 +4,7 @@
 
 #include <cstring>
 #include <filesystem>
+#include <limits>
 #include <random>
 
 #include <unistd.h>
@@ -336,6 +337,14 @@ TEST(MeshIo, PlyReaderReadsAsciiPolygonsAndNamesErrors) {
       "element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 3\n");
   ASSERT_FALSE(bad_index);
   EXPECT_NE(bad_index.error().message.find("out of range"), std::string::npos);
+  // Two vertex lists with different attributes would leave normals that do not match positions.
+  auto two_lists = parse_ply(
+      "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\n"
+      "property float nx\nproperty float ny\nproperty float nz\n"
+      "element vertex 1\nproperty float x\nproperty float y\nproperty float z\nend_header\n0 0 0 0 0 1\n1 0 0\n");
+  ASSERT_FALSE(two_lists);
+  EXPECT_NE(two_lists.error().message.find("line 10: a second vertex element"), std::string::npos)
+      << two_lists.error().message;
 }
 
 TEST(MeshIo, TruncatedBinaryFilesFailCleanly) {
@@ -351,6 +360,55 @@ TEST(MeshIo, TruncatedBinaryFilesFailCleanly) {
       }
     }
   }
+}
+
+// Every finite float is a position some file can hold: the largest ones must survive each format
+// (a reader's range check once stopped short of FLT_MAX and refused what a writer had written).
+TEST(MeshIo, ExtremeFiniteValuesRoundTripInEveryFormat) {
+  Mesh m = two_part_cube();
+  const float big = std::numeric_limits<float>::max();
+  m.positions[0] = {-big, big, -3.2e24f};
+  m.positions[1] = {std::numeric_limits<float>::denorm_min(), -3.3895316e38f, 1e-38f};
+  m.uvs.assign(m.positions.size(), glm::vec2(0.25f, 0.75f));
+  m.uvs[2] = {big, -big};
+  ASSERT_TRUE(validate_mesh(m));
+  for (auto encode : {encode_obj, encode_ply, encode_glb}) {
+    const auto bytes = encode(m);
+    ASSERT_TRUE(bytes);
+    auto r = encode == encode_obj ? parse_obj(*bytes) : encode == encode_ply ? parse_ply(*bytes) : parse_glb(*bytes);
+    ASSERT_TRUE(r) << r.error().what();
+    EXPECT_TRUE(validate_mesh(*r));
+    ASSERT_EQ(r->positions.size(), m.positions.size());
+    EXPECT_EQ(r->positions[0], m.positions[0]);
+    EXPECT_EQ(r->positions[1], m.positions[1]);
+    EXPECT_EQ(r->triangle_count(), m.triangle_count());
+  }
+}
+
+TEST(MeshIo, NonFiniteValuesAreRejectedWithTheirIndex) {
+  Mesh m = two_part_cube();
+  m.positions[3].y = std::numeric_limits<float>::infinity();
+  auto bad = validate_mesh(m);
+  ASSERT_FALSE(bad);
+  EXPECT_NE(bad.error().message.find("vertex 3"), std::string::npos) << bad.error().message;
+  EXPECT_FALSE(write_mesh(m, temp_path("inf.glb")));
+
+  m = two_part_cube();
+  m.uvs.assign(m.positions.size(), glm::vec2(0.0f));
+  m.uvs[5].x = std::numeric_limits<float>::quiet_NaN();
+  bad = validate_mesh(m);
+  ASSERT_FALSE(bad);
+  EXPECT_NE(bad.error().message.find("texture coordinate 5"), std::string::npos) << bad.error().message;
+
+  // A unit that overflows the floats on reading is an error naming the file, not an infinite mesh.
+  const std::string path = temp_path("cube_for_scale.ply");
+  m = two_part_cube();
+  m.positions[6].z = 1e10f;
+  ASSERT_TRUE(write_mesh(m, path));
+  ASSERT_TRUE(read_ply(path, 1e28f));
+  auto scaled = read_ply(path, 1e30f);
+  ASSERT_FALSE(scaled);
+  EXPECT_NE(scaled.error().message.find(path), std::string::npos) << scaled.error().message;
 }
 
 // Random byte damage must give an error or a valid mesh, never a crash or an out-of-range index.
