@@ -105,12 +105,21 @@ int replay_through_driver(const std::string& path, bool json) {
   using clock = std::chrono::steady_clock;
   const double recorded_s = log->raw.back().host_time_s - log->raw.front().host_time_s;
   const auto deadline = clock::now() + std::chrono::duration<double>(recorded_s + 10.0);
-  auto sent_at = clock::time_point::max();
+  // Once every byte is out, the driver is drained: until it has decoded every recorded sample and
+  // then been quiet a moment (it may decode a few more), or quiet for long (a short decode). A
+  // fixed wait after the last byte lost samples when the machine was busy.
+  bool sent = false;
+  auto last_decoded = clock::now();
   while (error.empty() && !stop_requested() && clock::now() < deadline) {
     const size_t n = (*source)->poll(buf);
     decoded.insert(decoded.end(), buf.begin(), buf.begin() + static_cast<long>(n));
-    if (sent_at == clock::time_point::max() && (*server)->stats().bytes_out >= to_send) sent_at = clock::now();
-    if (sent_at != clock::time_point::max() && clock::now() > sent_at + std::chrono::milliseconds(300)) break;  // all read
+    const auto now = clock::now();
+    if (n > 0) last_decoded = now;
+    if (!sent && (*server)->stats().bytes_out >= to_send) sent = true, last_decoded = now;
+    const auto quiet = now - last_decoded;
+    if (sent && ((decoded.size() >= log->samples.size() && quiet > std::chrono::milliseconds(200)) ||
+                 quiet > std::chrono::seconds(3)))
+      break;
     std::this_thread::sleep_for(std::chrono::milliseconds(2));
   }
   (*source)->stop();
