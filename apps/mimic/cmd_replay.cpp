@@ -115,7 +115,10 @@ int replay_through_driver(const std::string& path, bool json) {
     decoded.insert(decoded.end(), buf.begin(), buf.begin() + static_cast<long>(n));
     const auto now = clock::now();
     if (n > 0) last_decoded = now;
-    if (!sent && (*server)->stats().bytes_out >= to_send) sent = true, last_decoded = now;
+    if (!sent && (*server)->stats().bytes_out >= to_send) {
+      sent = true;
+      last_decoded = now;  // the quiet time counts from the last byte out
+    }
     const auto quiet = now - last_decoded;
     if (sent && ((decoded.size() >= log->samples.size() && quiet > std::chrono::milliseconds(200)) ||
                  quiet > std::chrono::seconds(3)))

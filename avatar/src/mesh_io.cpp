@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 
 #include "mesh_io_internal.h"
@@ -148,9 +149,11 @@ Result<Mesh> read_with(const std::string& path, float metres_per_unit, Parse par
   auto mesh = parse(*bytes, path);
   if (!mesh || metres_per_unit == 1.0f) return mesh;
   scale_mesh(*mesh, metres_per_unit);
-  if (auto ok = validate_mesh(*mesh); !ok)  // a huge unit can overflow a float
-    return fail(Errc::invalid_argument, path + ": after scaling by " + std::to_string(metres_per_unit) + ": " +
-                                            ok.error().message);
+  if (auto ok = validate_mesh(*mesh); !ok) {  // a huge unit can overflow a float
+    char scale[32];
+    std::snprintf(scale, sizeof scale, "%g", double(metres_per_unit));
+    return fail(Errc::invalid_argument, path + ": after scaling by " + scale + " m per unit: " + ok.error().message);
+  }
   return mesh;
 }
 

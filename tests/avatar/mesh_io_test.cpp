@@ -400,6 +400,20 @@ TEST(MeshIo, NonFiniteValuesAreRejectedWithTheirIndex) {
   ASSERT_FALSE(bad);
   EXPECT_NE(bad.error().message.find("texture coordinate 5"), std::string::npos) << bad.error().message;
 
+  // A GLB whose texture coordinate is NaN is refused by the reader, not handed on.
+  m = two_part_cube();
+  m.uvs.assign(m.positions.size(), glm::vec2(0.0f));
+  m.uvs[4].x = 1234.5f;  // a value found once in the file, then overwritten
+  auto glb = encode_glb(m);
+  ASSERT_TRUE(glb);
+  const float marker = 1234.5f, nan = std::numeric_limits<float>::quiet_NaN();
+  const size_t at = glb->find(std::string(reinterpret_cast<const char*>(&marker), 4));
+  ASSERT_NE(at, std::string::npos);
+  std::memcpy(glb->data() + at, &nan, 4);
+  auto nan_uv = parse_glb(*glb);
+  ASSERT_FALSE(nan_uv);
+  EXPECT_NE(nan_uv.error().message.find("TEXCOORD_0 is not finite"), std::string::npos) << nan_uv.error().message;
+
   // A unit that overflows the floats on reading is an error naming the file, not an infinite mesh.
   const std::string path = temp_path("cube_for_scale.ply");
   m = two_part_cube();

@@ -10,6 +10,7 @@
 #include <sstream>
 #include <string>
 
+#include "replay_csv.h"
 #include "run_mimic.h"
 #include "test_data.h"
 
@@ -58,17 +59,9 @@ TEST(ExportCli, ARecordedSessionBecomesAnAnimation) {
   auto r = mimic::test::run_mimic("record --source 'sim:walk?sensors=11' --duration 1.5 --out '" + log + "'");
   ASSERT_EQ(r.status, 0) << r.output;
   // The session's own length, from its samples' times: a busy machine records a little longer.
-  r = mimic::test::run_mimic("replay '" + log + "' --csv", true);
-  std::string line;
-  ASSERT_EQ(r.status, 0) << r.output;
-  double first_s = -1, last_s = -1;
-  for (std::istringstream lines(r.output); std::getline(lines, line);) {
-    if (line.empty() || line[0] < '0' || line[0] > '9') continue;
-    const double t = std::stod(line);
-    if (first_s < 0) first_s = t;
-    last_s = t;
-  }
-  const double session_s = last_s - first_s;
+  const auto cycles = mimic::test::cycle_times(mimic::test::replay_csv(log));
+  ASSERT_FALSE(cycles.empty());
+  const double session_s = *cycles.rbegin() - *cycles.begin();
   ASSERT_GT(session_s, 1.4);
   r = mimic::test::run_mimic("export --log '" + log + "' --fps 20 --lod 3 --body preset:tall --out '" + out + "'");
   ASSERT_EQ(r.status, 0) << r.output;

@@ -17,6 +17,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "replay_csv.h"
 #include "test_data.h"
 
 namespace {
@@ -62,28 +63,7 @@ std::string work_dir() {
   return d.string();
 }
 
-struct CsvSample {
-  double t;
-  int sensor;
-  double v[7];
-};
-
-// Parses replay --csv output; fails the test on any malformed line.
-std::vector<CsvSample> parse_csv(const std::string& text) {
-  std::vector<CsvSample> rows;
-  std::istringstream in(text);
-  std::string line;
-  while (std::getline(in, line)) {
-    CsvSample s{};
-    int consumed = 0;
-    const int fields = std::sscanf(line.c_str(), "%lf,%d,%lf,%lf,%lf,%lf,%lf,%lf,%lf%n", &s.t, &s.sensor, &s.v[0], &s.v[1],
-                                   &s.v[2], &s.v[3], &s.v[4], &s.v[5], &s.v[6], &consumed);
-    EXPECT_EQ(fields, 9) << "line: " << line;
-    EXPECT_EQ(static_cast<size_t>(consumed), line.size()) << "trailing text in line: " << line;
-    rows.push_back(s);
-  }
-  return rows;
-}
+using mimic::test::parse_csv;
 
 // Copies `from` to `to` with one bit flipped halfway through the file.
 void flip_bit_in_the_middle(const std::string& from, const std::string& to) {

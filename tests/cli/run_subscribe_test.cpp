@@ -17,7 +17,6 @@
 #include <cstdio>
 #include <nlohmann/json.hpp>
 #include <memory>
-#include <set>
 #include <sstream>
 #include <string>
 #include <tuple>
@@ -25,6 +24,7 @@
 
 #include "mimic/net/frame_codec.h"
 #include "mimic_proc.h"
+#include "replay_csv.h"
 #include "test_data.h"
 
 extern char** environ;
@@ -190,14 +190,8 @@ TEST(RunSubscribe, AnOutageSendsTheLastPoseFlaggedStale) {
   const std::string log = "/tmp/mimic_outage_" + std::to_string(::getpid()) + ".mlog";
   Proc rec({"record", "--source", "sim:idle?sensors=6", "--duration", "0.5", "--out", log, "--quiet"});
   ASSERT_EQ(rec.wait(20.0), 0) << rec.err();
-  // The log's measurement cycles (a busy machine records a little more than 0.5 s).
-  Proc csv({"replay", log, "--csv"});
-  ASSERT_EQ(csv.wait(20.0), 0) << csv.err();
-  std::set<std::string> cycles;
-  std::istringstream csv_lines(csv.out());
-  for (std::string line; std::getline(csv_lines, line);)
-    if (const size_t comma = line.find(','); comma != std::string::npos) cycles.insert(line.substr(0, comma));
-  ASSERT_GE(cycles.size(), 40u) << csv.out();
+  const auto cycles = mimic::test::cycle_times(mimic::test::replay_csv(log));
+  ASSERT_GE(cycles.size(), 40u);
   Proc run({"run", "--source", "replay:" + log, "--listen", "127.0.0.1:0", "--duration", "3", "--quiet", "--json"});
   const std::string ep = endpoint_of(run);
   ASSERT_FALSE(ep.empty()) << run.err();
