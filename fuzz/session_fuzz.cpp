@@ -50,6 +50,7 @@ Server& server() {
     o.max_packets_per_s = 200;  // floods are reachable within one input
     o.max_control_backlog_bytes = 64 * 1024;
     o.max_model_bytes_held = 256 * 1024;
+    o.max_mesh_bytes = 1u << 20;  // topologies within a frame's size still meet the total bound
     auto r = Server::create(o);
     if (!r) std::abort();
     (void)(*r)->add_avatar("local", 4, std::string(64, 'm'));
@@ -102,7 +103,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     const size_t which = conns.empty() ? 0 : in.u8() % conns.size();
     std::vector<uint8_t> out(kMaxHelloBytes + 1200);
     size_t n = 0;
-    switch (op % 9) {
+    switch (op % 11) {
       case 0: {  // a new connection
         if (conns.size() >= 8) break;
         Conn c;
@@ -163,6 +164,38 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
         conns[which].fd = -1;
         break;
       }
+      case 9: {  // a mesh topology whose counts come from the input: vertices up to 2^32 - 1,
+                 // indices claimed vs carried
+        const uint32_t high = in.u8(), shift = in.u8() % 25u, low = in.u8();
+        const uint32_t vertices = high << shift | low;
+        const uint32_t claimed = in.u8();
+        const uint32_t carried = (in.u8() & 1) ? claimed : in.u8();
+        out.assign(kHeaderBytes + 11 + 4 * size_t(carried), 0);
+        size_t at = 0;
+        auto put = [&](uint64_t v, int k) {
+          for (int i = 0; i < k; ++i) out[at++] = uint8_t(v >> (8 * i));
+        };
+        put(kMagic, 1);
+        put(kProtocolVersion, 1);
+        put(uint8_t(MsgType::mesh_topology), 1);
+        put(0, 1);
+        put(out.size() - kHeaderBytes, 4);
+        put(in.u8() % 20, 2);  // slot
+        put(in.u8() % 10, 1);  // LOD, sometimes past the last
+        put(vertices, 4);
+        put(claimed, 4);
+        for (uint32_t i = 0; i < carried; ++i) put(in.u8() % (uint64_t(vertices) + 1), 4);
+        n = out.size();
+        break;
+      }
+      case 10: {  // a mesh frame whose vertex count may not be its topology's
+        std::vector<glm::vec3> p(size_t(in.u8()) * 8, glm::vec3(0.25f));
+        if (p.size() > 1) p[1] = glm::vec3(1.0f);
+        MeshFrameHeader mh{uint16_t(in.u8() % 20), uint8_t(in.u8() % 10), uint32_t(in.u8()), 0};
+        out.resize(mesh_packet_bytes(p.size()));
+        n = encode_mesh(mh, p, out);
+        break;
+      }
       case 8: {  // a burst of pings (flood)
         std::vector<uint8_t> burst;
         for (int i = 0; i < 300; ++i) {
@@ -188,5 +221,6 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   if (s.sessions_open != 0) std::abort();
   if (s.publishers != 0 || s.subscribers != 0) std::abort();
   if (s.model_bytes_held > 2 * 256 * 1024 + 4096 && s.avatars <= 1) std::abort();
+  if (s.mesh_bytes_held > (1u << 20)) std::abort();
   return 0;
 }

@@ -10,6 +10,7 @@
 #include "command.h"
 #include "lean_flags.h"
 #include "stop_signal.h"
+#include "mimic/core/process_limits.h"
 #include "mimic/net/nats.h"
 #include "mimic/net/server.h"
 
@@ -62,6 +63,7 @@ int relay(const std::vector<std::string>& argv) {
   if (!a.get_double("duration", duration_s)) return usage_error("relay", a.error());
 
   net::ServerOptions so;
+  raise_descriptor_limit();  // sessions are bounded by the descriptors the process may hold
   so.listen = a.get_or("listen", "127.0.0.1:7778");
   so.secret = a.get_or("secret", "");
   if (so.secret.empty())

@@ -13,6 +13,7 @@
 #include "stop_signal.h"
 #include <unistd.h>
 
+#include "mimic/core/process_limits.h"
 #include "mimic/net/client.h"
 #include "mimic/net/nats.h"
 #include "mimic/net/server.h"
@@ -27,6 +28,11 @@
 namespace mimic::app {
 using namespace ::mimic::service;
 namespace {
+
+constexpr int kLoopNice = -10;
+// Trackers stream at 100 Hz and more: a loop pass that starts more than this after the one
+// before let at least one frame period go by unserved (a missed tick).
+constexpr std::chrono::milliseconds kTickPeriod{10};
 
 std::atomic<bool> g_report{false};
 extern "C" void on_report_signal(int) { g_report = true; }
@@ -244,7 +250,11 @@ int run(const std::vector<std::string>& argv) {
     where = "publishing into " + o.connect;
   } else {
     net::ServerOptions o;
+    // Sessions are bounded by the descriptors the process may hold: as many as the system allows.
+    raise_descriptor_limit();
     o.listen = a.get_or("listen", "127.0.0.1:7777");
+    // Mesh frames are deformed at one LOD: a subscriber asking for another is told so.
+    o.mesh_lods_served = static_cast<uint8_t>(1u << mesh_lod);
     o.secret = secret;
     o.udp = !a.has("no-udp");
     if (const std::string e = take_lean_flags(a, o); !e.empty()) return usage_error("run", e);
@@ -373,6 +383,11 @@ int run(const std::vector<std::string>& argv) {
   if (rt_priority > 0 && !set_realtime_priority(int(rt_priority)))
     std::fprintf(stderr, "mimic run: SCHED_FIFO priority %ld refused (needs CAP_SYS_NICE); running unprioritised\n",
                  rt_priority);
+  // Without --realtime the loop still asks for a raised priority (nice -10) where the system
+  // permits it, so other work on a busy machine does not take its ticks.
+  if (rt_priority == 0 && !raise_thread_nice(kLoopNice))
+    std::fprintf(stderr, "mimic run: raised priority refused (nice %d needs CAP_SYS_NICE or RLIMIT_NICE); "
+                 "a busy machine may delay frames (missed ticks are counted)\n", kLoopNice);
   // Handlers before announcing the endpoint: whoever reads that line may signal at once.
   clear_stop_request();
   g_report = false;
@@ -386,6 +401,8 @@ int run(const std::vector<std::string>& argv) {
   // every buffer up; the network servicing between frames (joins, leaves) may allocate.
   constexpr uint64_t kWarmupFrames = 100;
   uint64_t loop_allocations = 0;
+  uint64_t missed_ticks = 0;  // frame periods the loop did not run in (a busy machine, a stall)
+  double longest_gap_ms = 0;
   auto summary = [&](double elapsed) {
     nlohmann::json j;
     j["duration_s"] = elapsed;
@@ -396,6 +413,8 @@ int run(const std::vector<std::string>& argv) {
     j["silent_sources"] = pipeline.silent_sources();  // their last pose repeats, flagged stale
     j["stale_frames"] = pipeline.stale_frames();
     j["loop_allocations"] = loop_allocations;
+    j["missed_ticks"] = missed_ticks;
+    j["longest_gap_ms"] = longest_gap_ms;
     j["model_bytes"] = model_bytes_total;
     for (int s = 0; s < kStageCount; ++s) {
       const auto sum = pipeline.timer(s).summary();
@@ -420,7 +439,12 @@ int run(const std::vector<std::string>& argv) {
                      {"sessions_open", st.sessions_open}, {"sessions_timed_out", st.sessions_timed_out},
                      {"sessions_refused_per_address", st.sessions_refused_per_address},
                      {"sessions_closed_slow", st.sessions_closed_slow}, {"model_bytes_held", st.model_bytes_held},
-                     {"key_requests", st.key_requests}, {"mesh_frames_out", st.mesh_frames_out}};
+                     {"key_requests", st.key_requests}, {"mesh_frames_out", st.mesh_frames_out},
+                     {"models_refused", st.models_refused}, {"mesh_topologies_refused", st.mesh_topologies_refused},
+                     {"sessions_out_of_memory", st.sessions_out_of_memory}, {"udp_own_address", st.udp_own_address},
+                     {"udp_answers_limited", st.udp_answers_limited}, {"accept_errors", st.accept_errors},
+                     {"secret_backoffs", st.secret_backoffs}, {"poll_budget_hit", st.poll_budget_hit},
+                     {"max_sessions", st.max_sessions_effective}};
       for (int r = 1; r < net::kRejectCount; ++r)
         if (st.rejected[size_t(r)]) j["server"]["rejected_by_reason"][net::reject_name(net::Reject(r))] = st.rejected[size_t(r)];
     }
@@ -440,9 +464,15 @@ int run(const std::vector<std::string>& argv) {
   uint64_t last_frames = 0;
   auto last_status = start;
   char line[320];
+  auto last_pass = start;
   while (!stop_requested()) {
     const auto now = C::now();
     if (duration_s > 0 && now - start >= std::chrono::duration<double>(duration_s)) break;
+    if (const auto gap = now - last_pass; gap > 2 * kTickPeriod) {
+      missed_ticks += uint64_t(gap / kTickPeriod) - 1;
+      longest_gap_ms = std::max(longest_gap_ms, std::chrono::duration<double, std::milli>(gap).count());
+    }
+    last_pass = now;
     const uint64_t allocs_before = thread_allocation_count();
     const bool warm = pipeline.frames() >= kWarmupFrames;
     pipeline.tick();
@@ -475,6 +505,9 @@ int run(const std::vector<std::string>& argv) {
       if (nats)
         n += std::snprintf(line + n, sizeof line - size_t(n), "%s",
                            nats->connected() ? " | nats up" : " | nats DOWN: local only");
+      if (missed_ticks > 0)
+        n += std::snprintf(line + n, sizeof line - size_t(n), " | missed %llu ticks (max gap %.0f ms)",
+                           static_cast<unsigned long long>(missed_ticks), longest_gap_ms);
       n += std::snprintf(line + n, sizeof line - size_t(n), " | p50/p99 us");
       for (int s = 0; s < kStageCount && n < int(sizeof line) - 32; ++s) {
         const auto sum = pipeline.timer(s).summary();

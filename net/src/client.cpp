@@ -310,6 +310,9 @@ void Client::Impl::on_packet(std::span<const uint8_t> p) {
     case MsgType::mesh: {
       auto it = avatars.find(pose_avatar(p));
       if (it == avatars.end()) break;
+      // A frame draws with its topology's indices: one of another vertex count (or before any
+      // topology) would index past its positions.
+      if (it->second.mesh_indices.empty() || p.size() != mesh_packet_bytes(it->second.mesh_vertex_count)) break;
       if (decode_mesh(p, it->second.mesh_last, it->second.mesh_positions_m) != Reject::ok) break;
       it->second.mesh_frames++;
       stats.mesh_frames++;

@@ -220,6 +220,7 @@ const char* reject_name(Reject r) noexcept {
     case Reject::server_full: return "server_full";
     case Reject::timeout: return "timeout";
     case Reject::too_many_sessions: return "too_many_sessions";
+    case Reject::unavailable: return "unavailable";
   }
   return "unknown";
 }
@@ -377,6 +378,7 @@ size_t encode_pose(const PoseHeader& h, const avatar::Pose& pose, std::span<uint
 }
 
 size_t encode_mesh_topology(const MeshTopology& m, std::span<uint8_t> out) noexcept {
+  if (m.vertex_count > kMaxMeshVertices) return 0;
   Writer w = begin(out, MsgType::mesh_topology);
   w.u16(m.avatar);
   w.u8(m.lod);
@@ -563,6 +565,7 @@ Reject decode_mesh_topology(std::span<const uint8_t> packet, MeshTopology& out) 
   out.vertex_count = r.u32();
   const uint32_t n = r.u32();
   if (!r.ok) return Reject::truncated;
+  if (out.vertex_count > kMaxMeshVertices) return Reject::oversized;
   if (r.left() != 4ull * n) return r.left() < 4ull * n ? Reject::truncated : Reject::malformed;
   if (n % 3 != 0) return Reject::malformed;
   out.indices.resize(n);
@@ -591,6 +594,7 @@ Reject decode_mesh(std::span<const uint8_t> packet, MeshFrameHeader& h,
   if (!r.ok) return Reject::truncated;
   if (reserved != 0 || !std::isfinite(lo.x + lo.y + lo.z) || !std::isfinite(step) || step <= 0)
     return Reject::malformed;
+  if (n > kMaxMeshVertices) return Reject::oversized;
   if (r.left() != 6ull * n) return r.left() < 6ull * n ? Reject::truncated : Reject::malformed;
   positions_m.resize(n);
   for (uint32_t i = 0; i < n; ++i)

@@ -5,6 +5,7 @@
 #include <thread>
 #include <utility>
 
+#include "mimic/core/process_limits.h"
 #include "server/server_impl.h"
 
 namespace mimic::net {
@@ -37,6 +38,7 @@ Server::~Server() {
   if (!impl_) return;
   boost::system::error_code ec;
   impl_->acceptor.close(ec);
+  impl_->accept_timer.cancel();
   impl_->udp_sock.close(ec);
   impl_->deferred.clear();
   for (auto& s : std::vector<std::shared_ptr<Session>>(impl_->sessions)) s->close(true);
@@ -76,11 +78,19 @@ Result<std::unique_ptr<Server>> Server::create(const ServerOptions& options) {
     if (!uec) impl->udp_sock.bind(uep, uec);
     if (!uec) impl->udp_sock.non_blocking(true, uec);
     impl->udp_on = !uec;
+    if (!uec) impl->udp_local = impl->udp_sock.local_endpoint(uec);
     if (uec) impl->udp_sock.close(uec);
   }
   impl->fanout_threads = options.fanout_threads > 0
                              ? options.fanout_threads
                              : int(std::clamp(std::thread::hardware_concurrency(), 1u, 4u));
+  // Each session holds a descriptor and the process needs others (listeners, logs, the broker,
+  // devices): sessions stop short of the descriptor limit, so accept() keeps working and a
+  // client over it is told "server full" instead of the accept loop failing with EMFILE.
+  const size_t fds = descriptor_limit();
+  const size_t spare = std::max<size_t>(64, fds / 8);
+  impl->opt.max_sessions = std::min(options.max_sessions, fds > spare + 16 ? fds - spare : size_t(16));
+  impl->stats.max_sessions_effective = impl->opt.max_sessions;
   impl->avatars.emplace_back();  // id 0 is never used
   impl->lanes.resize(size_t(impl->fanout_threads));
   impl->reserve_fanout();
@@ -113,6 +123,8 @@ Status Server::update_avatar_model(uint16_t avatar, uint16_t dof_count, std::str
   AvatarModel m;
   m.dof_count = dof_count;
   m.model_bytes = std::move(model_bytes);
+  m.name = a->name;
+  if (!impl_->model_fits(m, a)) return fail(Errc::out_of_range, "the server's models would pass its memory bound");
   impl_->update_model(*a, m);
   return {};
 }
@@ -139,7 +151,11 @@ Status Server::set_mesh_topology(const MeshTopology& topology) {
   Avatar* a = impl_->avatar(topology.avatar);
   if (!a) return fail(Errc::not_found, "no avatar " + std::to_string(topology.avatar));
   if (topology.lod >= kMaxLods) return fail(Errc::out_of_range, "LOD must be below 8");
-  if (!impl_->set_topology(*a, topology)) return fail(Errc::out_of_range, "mesh too large");
+  switch (impl_->set_topology(*a, topology)) {
+    case Reject::ok: return {};
+    case Reject::unavailable: return fail(Errc::out_of_range, "mesh frames would pass the server's memory bound");
+    default: return fail(Errc::out_of_range, "mesh too large");
+  }
   return {};
 }
 
@@ -158,7 +174,17 @@ void Server::run_until(std::chrono::steady_clock::time_point deadline) {
 void Server::poll() {
   if (impl_->io.stopped()) impl_->io.restart();
   impl_->start_deferred();
-  impl_->io.poll();
+  // io.poll() would run until nothing is ready, and a peer that keeps work ready (a flood, a
+  // completion that re-arms at once) would keep it there: a budget of completions and time.
+  const auto& o = impl_->opt;
+  const auto deadline = Clock::now() + std::chrono::microseconds(std::max(o.poll_budget_us, 1));
+  for (int n = 0;; ++n) {
+    if (n >= std::max(o.poll_max_handlers, 1) || ((n & 15) == 15 && Clock::now() >= deadline)) {
+      impl_->stats.poll_budget_hit++;
+      return;
+    }
+    if (impl_->io.poll_one() == 0) return;
+  }
 }
 
 void Server::run() {

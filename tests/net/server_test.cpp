@@ -280,6 +280,8 @@ TEST(Server, PublisherNeedsTheSecretWhenOneIsSet) {
   auto bad = Client::connect(o);
   ASSERT_FALSE(bad);
   EXPECT_NE(bad.error().message.find("unauthorized"), std::string::npos);
+  // After the wrong guess's back-off (docs/security.md).
+  std::this_thread::sleep_for(std::chrono::milliseconds(100));
   o.secret = "open sesame";
   EXPECT_TRUE(Client::connect(o));
   auto sub = subscriber(st);  // subscribers need none
@@ -416,29 +418,6 @@ TEST(Server, ConnectionFloodAndServerFull) {
   auto later = subscriber(st);  // room again
   ASSERT_TRUE(later);
   EXPECT_TRUE(pump({later.get()}, [&] { return later->avatars().size() == 1; }));
-}
-
-// Models and removals are never dropped, so a subscriber that stops reading while they keep
-// coming is cut off once its backlog passes the limit; the others carry on.
-TEST(Server, StalledSubscriberIsCutOffWhenItsBacklogOverflows) {
-  ServerOptions opt;
-  opt.send_buffer_bytes = 4096;
-  opt.max_control_backlog_bytes = 256 * 1024;
-  ServerThread st(opt);
-  RawPeer stalled(st.port(), 2048);
-  ASSERT_TRUE(stalled.send(hello_packet(Role::subscriber)));
-  auto sub = subscriber(st);
-  auto pub = publisher(st);
-  ASSERT_TRUE(pump({sub.get(), pub.get()}, [&] { return st.stats().subscribers == 2; }));
-  // 15 models of 60 KB: 900 KB every subscriber must get.
-  for (int i = 0; i < 15; ++i) {  // a publisher carries at most 16 avatars
-    ASSERT_TRUE(pub->add_avatar("big" + std::to_string(i), kDofs, std::string(60 * 1024, char('a' + i))));
-    pump({sub.get(), pub.get()}, [&] { return sub->stats().models == uint64_t(i + 1); }, 2.0);
-  }
-  EXPECT_EQ(sub->stats().models, 15u);
-  EXPECT_TRUE(stalled.wait_closed(3.0));
-  EXPECT_EQ(st.stats().sessions_closed_slow, 1u);
-  EXPECT_EQ(st.stats().subscribers, 1u);
 }
 
 TEST(Server, MeshFramesAtTheChosenLod) {

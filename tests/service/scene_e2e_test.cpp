@@ -145,17 +145,17 @@ TEST(SceneE2e, TheLoopStaysAllocationFreeWithActorsAndNavigation) {
 }
 
 TEST(SceneE2e, BadSceneOptionsGetClearErrors) {
-  mimic::test::Outcome r = mimic::test::run_mimic("run --source actor:dance --duration 1");
+  mimic::test::Outcome r = mimic::test::run_mimic("run --listen 127.0.0.1:0 --source actor:dance --duration 1");
   EXPECT_EQ(r.status, 2);
   EXPECT_NE(r.output.find("dance"), std::string::npos) << r.output;
-  r = mimic::test::run_mimic("run --source sim:idle --navigate sim:walk --duration 1");
+  r = mimic::test::run_mimic("run --listen 127.0.0.1:0 --source sim:idle --navigate sim:walk --duration 1");
   EXPECT_EQ(r.status, 2);
   EXPECT_NE(r.output.find("6-DOF"), std::string::npos) << r.output;
-  r = mimic::test::run_mimic("run --source sim:idle --place 1 --duration 1");
+  r = mimic::test::run_mimic("run --listen 127.0.0.1:0 --source sim:idle --place 1 --duration 1");
   EXPECT_EQ(r.status, 2);
-  r = mimic::test::run_mimic("run --room 1x1 --duration 1");
+  r = mimic::test::run_mimic("run --listen 127.0.0.1:0 --room 1x1 --duration 1");
   EXPECT_EQ(r.status, 2);
-  r = mimic::test::run_mimic("run --source 'actor:follow?target=5' --duration 1");
+  r = mimic::test::run_mimic("run --listen 127.0.0.1:0 --source 'actor:follow?target=5' --duration 1");
   EXPECT_EQ(r.status, 2);
 }
 

@@ -21,8 +21,10 @@ namespace mimic::test {
 
 class Proc {
  public:
-  explicit Proc(const std::vector<std::string>& rest) {
-    std::vector<std::string> args{mimic_binary()};
+  // `wrapper`: a program that runs mimic as its argument (e.g. {"/usr/bin/prlimit", "--nofile=256:256"}).
+  explicit Proc(const std::vector<std::string>& rest, const std::vector<std::string>& wrapper = {}) {
+    std::vector<std::string> args = wrapper;
+    args.push_back(mimic_binary());
     for (const auto& a : rest) args.push_back(a);
     int out[2], err[2];
     if (::pipe(out) != 0 || ::pipe(err) != 0) return;
@@ -51,6 +53,7 @@ class Proc {
     ::close(err_);
   }
   bool ok() const { return ok_; }
+  pid_t pid() const { return pid_; }
   void signal(int sig) { ::kill(pid_, sig); }
 
   // First stdout line (up to timeout).

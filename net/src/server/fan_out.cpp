@@ -36,29 +36,25 @@ void Session::queue_control(std::span<const uint8_t> bytes) {
   reserve_pieces();
 }
 
+// Models do not count against the control backlog: a queue holds at most one per avatar (a newer
+// revision replaces the one waiting) and each is the server's shared packet, not a copy, so what
+// a stalled subscriber pins is bounded by the scene's models (max_model_bytes_held, and
+// enforce_model_memory_cap for revisions a write in flight still holds). A joiner is sent the
+// whole scene, however large, as fast as it reads.
 void Session::queue_model(uint16_t avatar_id, const SharedBytes& packet) {
   if (closed) return;
-  // Latest wins: a model of this avatar still waiting is replaced where it stands.
   for (auto& c : control)
     if (c.model_of == avatar_id) {
-      control_bytes = control_bytes - c.bytes->size() + packet->size();
       c.bytes = packet;
       return;
     }
-  if (control_bytes + packet->size() > srv.opt.max_control_backlog_bytes) {
-    srv.stats.sessions_closed_slow++;
-    close(false);
-    return;
-  }
   control.push_back({packet, avatar_id});
-  control_bytes += packet->size();
   reserve_pieces();
 }
 
 void Session::drop_queued_model(uint16_t avatar_id) {
   for (auto it = control.begin(); it != control.end(); ++it)
     if (it->model_of == avatar_id) {
-      control_bytes -= it->bytes->size();
       control.erase(it);
       return;
     }
@@ -93,15 +89,24 @@ void Session::reserve_pieces() {
 }
 
 void Session::reserve_buffers() {
-  reserve_at_least(pending, pending_flag.size());
-  reserve_at_least(pending_mesh, pending_flag.size());
-  reserve_pieces();
-  // What the kernel did not take of a write is copied here: room for a frame of every avatar
-  // (and a mesh frame of each at this session's LOD); beyond it, frames wait in their slots.
-  // Not while a write in flight points into it: when that write completes.
-  size_t tail = std::max(kMaxDatagramBytes, srv.frame_bytes_bound);
-  if (mesh_lod < kMaxLods) tail += srv.mesh_bytes_bound[mesh_lod];
-  if (!writing && tail > out_tail.capacity()) out_tail.reserve(tail);
+  try {
+    reserve_at_least(pending, pending_flag.size());
+    reserve_at_least(pending_mesh, pending_flag.size());
+    reserve_pieces();
+    // What the kernel did not take of a write is copied here: room for a frame of every avatar
+    // and mesh frames at this session's LOD (at least the largest, at most a few MiB of them);
+    // beyond it, frames wait in their slots. Not while a write in flight points into it: when
+    // that write completes.
+    size_t tail = std::max(kMaxDatagramBytes, srv.frame_bytes_bound);
+    constexpr size_t kMeshTailBytes = 4u << 20;
+    if (mesh_lod < kMaxLods)
+      tail += std::max(srv.mesh_frame_largest[mesh_lod], std::min(srv.mesh_bytes_bound[mesh_lod], kMeshTailBytes));
+    if (!writing && tail > out_tail.capacity()) out_tail.reserve(tail);
+  } catch (const std::bad_alloc&) {
+    // This subscriber's buffers could not grow: it goes, the scene and everyone else stay.
+    srv.stats.sessions_out_of_memory++;
+    fail();
+  }
 }
 
 // The larger of a POSE frame and a lean key frame of `dofs` DOFs (which carries its values and
@@ -120,11 +125,15 @@ void ServerImpl::reserve_fanout() {
   size_t live = 0, udp_subscribers = 0;
   frame_bytes_bound = 0;
   mesh_bytes_bound.fill(0);
+  mesh_frame_largest.fill(0);
   for (const auto& a : avatars) {
     if (!a.live) continue;
     live++;
     frame_bytes_bound += net::frame_bytes_bound(a.dof_count);
-    for (int l = 0; l < kMaxLods; ++l) mesh_bytes_bound[size_t(l)] += a.mesh[size_t(l)].frame_capacity;
+    for (size_t l = 0; l < size_t(kMaxLods); ++l) {
+      mesh_bytes_bound[l] += a.mesh[l].frame_capacity;
+      mesh_frame_largest[l] = std::max(mesh_frame_largest[l], a.mesh[l].frame_capacity);
+    }
   }
   for (const auto& s : sessions) udp_subscribers += s->active && (s->caps & kCapUdpPose);
   // At most one datagram per frame (lean subscribers take a tick in one).

@@ -37,9 +37,19 @@ void Session::on_hello(std::span<const uint8_t> packet) {
     refuse(Reject::unsupported_version, "server speaks versions 2..2");
     return;
   }
-  if (h.role == Role::publisher && !srv.opt.secret.empty() && !secrets_equal(h.secret, srv.opt.secret)) {
-    count(Reject::unauthorized);
-    refuse(Reject::unauthorized, "publishers must present the shared secret");
+  if (h.role == Role::publisher && !srv.opt.secret.empty() && !secret_accepted(h.secret)) return;
+  if (h.role == Role::subscriber && (h.capabilities & kCapMesh) && h.mesh_lod < kMaxLods &&
+      !(srv.opt.mesh_lods_served & (1u << h.mesh_lod))) {
+    std::string served;
+    for (int l = 0; l < kMaxLods; ++l)
+      if (srv.opt.mesh_lods_served & (1u << l)) {
+        if (!served.empty()) served += ',';
+        served += std::to_string(l);
+      }
+    const std::string why = "mesh LOD " + std::to_string(h.mesh_lod) + " is not served here (served: " +
+                            (served.empty() ? "none" : served) + ")";
+    count(Reject::unavailable);
+    refuse(Reject::unavailable, why.c_str());
     return;
   }
   hello_timer.cancel();
@@ -99,6 +109,44 @@ void Session::on_hello(std::span<const uint8_t> packet) {
   srv.reserve_fanout();
   reserve_buffers();
   flush();
+}
+
+// The shared secret, checked at most once per back-off period per address: each wrong guess
+// doubles the wait of its address (ServerOptions::secret_backoff_s), so guessing costs time.
+bool Session::secret_accepted(const std::string& secret) {
+  const auto now = Clock::now();
+  auto it = srv.secret_failures.find(peer_address);
+  if (it != srv.secret_failures.end() && now < it->second.until) {
+    srv.stats.secret_backoffs++;
+    count(Reject::unauthorized);
+    refuse(Reject::unauthorized, "too many wrong secrets from this address: wait before trying again");
+    return false;
+  }
+  if (secrets_equal(secret, srv.opt.secret)) {
+    if (it != srv.secret_failures.end()) srv.secret_failures.erase(it);
+    return true;
+  }
+  if (it == srv.secret_failures.end()) {
+    // Bounded: expired entries go first, then the oldest address's record.
+    constexpr size_t kMaxTracked = 4096;
+    if (srv.secret_failures.size() >= kMaxTracked) srv.expire_secret_failures(now);
+    if (srv.secret_failures.size() >= kMaxTracked) srv.secret_failures.erase(srv.secret_failures.begin());
+    it = srv.secret_failures.emplace(peer_address, ServerImpl::SecretFailures{}).first;
+  }
+  auto& f = it->second;
+  f.count = std::min(f.count + 1, 30);
+  const double wait_s = std::min(srv.opt.secret_backoff_s * double(1u << (f.count - 1)), srv.opt.secret_backoff_max_s);
+  f.until = now + seconds(wait_s);
+  count(Reject::unauthorized);
+  refuse(Reject::unauthorized, "publishers must present the shared secret");
+  return false;
+}
+
+void ServerImpl::expire_secret_failures(Clock::time_point now) {
+  // A record outlives its wait by the longest wait, so a slow guesser keeps its back-off.
+  const auto keep = seconds(opt.secret_backoff_max_s);
+  for (auto it = secret_failures.begin(); it != secret_failures.end();)
+    it = now - it->second.until > keep ? secret_failures.erase(it) : std::next(it);
 }
 
 void Session::reattach(const std::map<uint8_t, uint16_t>& old_slots) {

@@ -3,17 +3,32 @@
 // resume records, orphaned avatars and UDP registrations.
 #include <algorithm>
 
+#include "server/secure_random.h"
 #include "server/server_impl.h"
 
 namespace mimic::net {
 
 void ServerImpl::start_accept() {
   acceptor.async_accept([this](const boost::system::error_code& ec, tcp::socket sock) {
+    if (ec == asio::error::operation_aborted || !acceptor.is_open()) return;
     if (ec) {
-      if (ec != asio::error::operation_aborted) start_accept();
+      // Out of descriptors or kernel memory: the connection stays in the backlog and the next
+      // accept() fails the same way at once. Retrying at once would spin the event loop; wait,
+      // longer each time, until a descriptor is freed.
+      stats.accept_errors++;
+      accept_backoff_ms = std::clamp(accept_backoff_ms * 2, 10, 500);
+      accept_timer.expires_after(std::chrono::milliseconds(accept_backoff_ms));
+      accept_timer.async_wait([this](const boost::system::error_code& tec) {
+        if (!tec) start_accept();
+      });
       return;
     }
-    on_accept(std::move(sock));
+    accept_backoff_ms = 0;
+    try {
+      on_accept(std::move(sock));
+    } catch (const std::bad_alloc&) {
+      stats.sessions_out_of_memory++;  // the socket closes with its handler; the server goes on
+    }
     start_accept();
   });
 }
@@ -25,7 +40,7 @@ void ServerImpl::on_accept(tcp::socket sock) {
   sock.non_blocking(true, ignore);  // flush() writes directly when the kernel has room
   if (opt.send_buffer_bytes > 0) sock.set_option(asio::socket_base::send_buffer_size(opt.send_buffer_bytes), ignore);
   auto s = std::make_shared<Session>(*this, std::move(sock));
-  s->id = next_session_id++;
+  s->id = new_session_id();
   if (sessions.size() >= opt.max_sessions) {
     s->count(Reject::server_full);
     s->refuse(Reject::server_full, "server full");
@@ -72,8 +87,18 @@ void ServerImpl::schedule_housekeeping() {
       }
     }
     expire_udp_registrations(now);
+    expire_secret_failures(now);
     schedule_housekeeping();
   });
+}
+
+// Client ids (WELCOME) are random, so one id says nothing of how many came before or of the next.
+uint32_t ServerImpl::new_session_id() const {
+  for (;;) {
+    const auto id = static_cast<uint32_t>(secure_random_u64());
+    if (id == 0) continue;
+    if (std::none_of(sessions.begin(), sessions.end(), [id](const auto& s) { return s->id == id; })) return id;
+  }
 }
 
 void ServerImpl::remove_session(Session* s) {

@@ -13,11 +13,13 @@ Reject Session::on_model(std::span<const uint8_t> packet) {
   if (m.avatar > 255) return Reject::malformed;
   if (auto it = slots.find(slot); it != slots.end()) {
     if (Avatar* a = srv.avatar(it->second)) {
+      if (!srv.model_fits(m, a)) return Reject::unavailable;
       srv.update_model(*a, m);
       return Reject::ok;
     }
   }
   if (slots.size() >= kMaxAvatarsPerPublisher) return Reject::unexpected;
+  if (!srv.model_fits(m, nullptr)) return Reject::unavailable;
   auto new_id = srv.new_avatar(m.name, m.dof_count, std::move(m.model_bytes), this);
   if (!new_id) return Reject::unexpected;
   slots[slot] = *new_id;
@@ -46,8 +48,7 @@ Reject Session::on_mesh_topology(std::span<const uint8_t> packet) {
   Avatar* a = slot_avatar(scratch_topology.avatar);
   if (!a || scratch_topology.lod >= kMaxLods) return Reject::unexpected;
   scratch_topology.avatar = a->id;
-  if (!srv.set_topology(*a, scratch_topology)) return Reject::malformed;
-  return Reject::ok;
+  return srv.set_topology(*a, scratch_topology);
 }
 
 Reject Session::on_mesh(std::span<const uint8_t> packet) {
@@ -63,6 +64,12 @@ Result<uint16_t> ServerImpl::new_avatar(const std::string& name, uint16_t dof_co
   if (dof_count > kMaxPoseDofs) return fail(Errc::out_of_range, "too many DOFs for a pose frame");
   if (model_bytes.size() > kMaxModelBytes) return fail(Errc::out_of_range, "body model too large");
   if (!name_is_printable(name)) return fail(Errc::invalid_argument, "avatar name has control characters");
+  {
+    AvatarModel probe;
+    probe.name = name.substr(0, kMaxNameBytes);
+    probe.model_bytes = model_bytes;
+    if (!model_fits(probe, nullptr)) return fail(Errc::out_of_range, "the server's models would pass its memory bound");
+  }
   uint16_t id = 0;
   for (uint16_t i = 1; i < avatars.size(); ++i)
     if (!avatars[i].live) {
@@ -91,6 +98,15 @@ Result<uint16_t> ServerImpl::new_avatar(const std::string& name, uint16_t dof_co
   update_model(a, m);
   stats.avatars++;
   return id;
+}
+
+bool ServerImpl::model_fits(const AvatarModel& m, const Avatar* replacing) {
+  uint64_t held = avatar_model_packet_bytes(m);
+  for (const auto& a : avatars)
+    if (a.live && &a != replacing && a.model_packet) held += a.model_packet->size();
+  if (held <= opt.max_model_bytes_held) return true;
+  stats.models_refused++;
+  return false;
 }
 
 SharedBytes ServerImpl::make_model_packet(const AvatarModel& m) {
@@ -131,6 +147,11 @@ void ServerImpl::drop_avatar(uint16_t id) {
   if (!a) return;
   a->live = false;
   a->model_packet.reset();
+  for (auto& m : a->mesh) {
+    mesh_bytes_held -= m.frame_capacity;
+    m = MeshSlot{};
+  }
+  stats.mesh_bytes_held = mesh_bytes_held;
   stats.avatars--;
   std::array<uint8_t, 16> buf{};
   const size_t n = encode_avatar_removed(id, buf);
@@ -161,25 +182,44 @@ Reject ServerImpl::accept_pose(Avatar& a, std::span<const uint8_t> packet) {
   return Reject::ok;
 }
 
-bool ServerImpl::set_topology(Avatar& a, const MeshTopology& t) {
-  auto packet = std::make_shared<std::vector<uint8_t>>(mesh_topology_packet_bytes(t.indices.size()));
-  if (encode_mesh_topology(t, *packet) == 0) return false;
+Reject ServerImpl::set_topology(Avatar& a, const MeshTopology& t) {
+  if (t.lod >= kMaxLods || t.vertex_count > kMaxMeshVertices) return Reject::oversized;
   auto& slot = a.mesh[t.lod];
-  slot.topology = std::move(packet);
-  // The frame buffer (and every mesh subscriber's) is sized here, not by the first frame.
-  slot.frame_capacity = mesh_packet_bytes(t.vertex_count);
-  if (slot.frame.size() < slot.frame_capacity) slot.frame.resize(slot.frame_capacity);
+  // Every frame buffer of the scene is sized from topologies (here and in each mesh subscriber's
+  // copy of an unfinished write), so their sum is bounded: a topology that would pass the
+  // budget is refused, whoever sends it.
+  const size_t frame_capacity = mesh_packet_bytes(t.vertex_count);
+  if (mesh_bytes_held - slot.frame_capacity + frame_capacity > opt.max_mesh_bytes) {
+    stats.mesh_topologies_refused++;
+    return Reject::unavailable;
+  }
+  try {
+    auto packet = std::make_shared<std::vector<uint8_t>>(mesh_topology_packet_bytes(t.indices.size()));
+    if (encode_mesh_topology(t, *packet) == 0) return Reject::oversized;
+    // The frame buffer (and every mesh subscriber's) is sized here, not by the first frame.
+    std::vector<uint8_t> frame(frame_capacity);
+    slot.topology = std::move(packet);
+    slot.frame = std::move(frame);
+  } catch (const std::bad_alloc&) {
+    stats.mesh_topologies_refused++;
+    return Reject::unavailable;
+  }
+  mesh_bytes_held = mesh_bytes_held - slot.frame_capacity + frame_capacity;
+  stats.mesh_bytes_held = mesh_bytes_held;
+  slot.frame_capacity = frame_capacity;
   slot.frame_size = 0;
   slot.sequence = 0;
   reserve_fanout();
   for (auto& s : sessions) s->topology_changed(a.id, t.lod);
-  return true;
+  return Reject::ok;
 }
 
 Reject ServerImpl::accept_mesh(Avatar& a, uint8_t lod, std::span<const uint8_t> packet) {
   auto& slot = a.mesh[lod];
   if (!slot.topology) return Reject::unexpected;
-  if (slot.frame.size() < packet.size()) slot.frame.resize(packet.size());
+  // A frame carries exactly its topology's vertices (decode_mesh checked its length against its
+  // count): the buffers were sized for that many, and a receiver draws them with those indices.
+  if (packet.size() != slot.frame_capacity) return Reject::malformed;
   std::memcpy(slot.frame.data(), packet.data(), packet.size());
   slot.frame_size = packet.size();
   set_pose_avatar(std::span<uint8_t>(slot.frame.data(), slot.frame_size), a.id);  // same offset

@@ -147,6 +147,8 @@ struct ServerImpl {
   ServerOptions opt;
   asio::io_context io{1};
   tcp::acceptor acceptor{io};
+  asio::steady_timer accept_timer{io};  // the wait after a failed accept()
+  int accept_backoff_ms = 0;
   asio::steady_timer housekeeping{io};
   bool loopback = true;
   // Pose frames as datagrams: subscribers register an address with their session token.
@@ -154,6 +156,13 @@ struct ServerImpl {
   bool udp_on = false;
   std::array<uint8_t, kMaxDatagramBytes> udp_in{};
   udp::endpoint udp_from;
+  udp::endpoint udp_local;  // the UDP socket's own address: datagrams "from" it are forged
+  // Publisher HELLOs with a wrong secret, by address: the next is not checked before `until`.
+  struct SecretFailures {
+    int count = 0;
+    Clock::time_point until;
+  };
+  std::map<asio::ip::address, SecretFailures> secret_failures;
   std::unordered_map<SessionToken, Session*, SessionTokenHash> udp_sessions;  // subscribers asking for UDP
   ServerStats stats;
   // Bytes of model packets alive (current revisions, and older ones still being written); the
@@ -163,7 +172,6 @@ struct ServerImpl {
   std::vector<std::shared_ptr<Session>> sessions;
   std::map<asio::ip::address, size_t> sessions_per_address;
   std::unordered_map<SessionToken, ResumeRecord, SessionTokenHash> resume;
-  uint32_t next_session_id = 1;
   // Model revisions are unique across the server's life, so an avatar id reused after a removal
   // never looks like a model a resuming subscriber already holds.
   uint32_t next_revision = 1;
@@ -185,12 +193,17 @@ struct ServerImpl {
   // copy of an unfinished write is sized for (reserve_fanout).
   size_t frame_bytes_bound = 0;
   std::array<size_t, kMaxLods> mesh_bytes_bound{};
+  std::array<size_t, kMaxLods> mesh_frame_largest{};
+  // Frame buffers sized by every avatar's topologies (bounded by opt.max_mesh_bytes).
+  size_t mesh_bytes_held = 0;
 
   // limits.cpp
   void start_accept();
   void on_accept(tcp::socket sock);
   void schedule_housekeeping();
   void remove_session(Session* s);
+  void expire_secret_failures(Clock::time_point now);
+  uint32_t new_session_id() const;
   // udp_registration.cpp
   void start_udp_receive();
   void on_datagram(std::span<const uint8_t> datagram);
@@ -203,11 +216,15 @@ struct ServerImpl {
   Result<uint16_t> new_avatar(const std::string& name, uint16_t dof_count, std::string model_bytes,
                               Session* owner);
   void update_model(Avatar& a, const AvatarModel& m);
+  // Whether the scene's current models stay within opt.max_model_bytes_held with `m` in place of
+  // `replacing`'s model (or added); counts a refusal.
+  bool model_fits(const AvatarModel& m, const Avatar* replacing);
   void drop_avatar(uint16_t id);
   Reject accept_pose(Avatar& a, std::span<const uint8_t> packet);
   Reject accept_mesh(Avatar& a, uint8_t lod, std::span<const uint8_t> packet);
-  // A new mesh topology of an avatar at t.lod (false if it cannot be encoded).
-  bool set_topology(Avatar& a, const MeshTopology& t);
+  // A new mesh topology of an avatar at t.lod: ok, oversized (more vertices than a frame holds)
+  // or unavailable (over opt.max_mesh_bytes, or out of memory).
+  Reject set_topology(Avatar& a, const MeshTopology& t);
   SharedBytes make_model_packet(const AvatarModel& m);
   // fan_out.cpp
   void fan_out_pose(uint16_t id);
@@ -252,6 +269,8 @@ struct Session : std::enable_shared_from_this<Session> {
   Clock::time_point udp_refreshed;
   udp::endpoint pending_peer;
   uint64_t pending_nonce = 0;
+  double udp_answer_tokens = 0;  // registration answers left (ServerOptions::udp_answers_per_s)
+  Clock::time_point udp_answer_refill;
 
   // Outgoing: one write in flight (control packets from their shared buffers, frames from the
   // avatars' buffers, as one gather write), control packets queued behind it (never dropped,
@@ -299,6 +318,7 @@ struct Session : std::enable_shared_from_this<Session> {
   void close(bool clean);
   // handshake.cpp
   void on_hello(std::span<const uint8_t> packet);
+  bool secret_accepted(const std::string& secret);
   void reattach(const std::map<uint8_t, uint16_t>& old_slots);
   // publishing.cpp
   Reject on_model(std::span<const uint8_t> packet);

@@ -62,7 +62,14 @@ void Session::on_read(const boost::system::error_code& ec, size_t n) {
       if (closed) return;  // a flood ends the session: nothing after it may be handled
       continue;
     }
-    handle(packet);
+    try {
+      handle(packet);
+    } catch (const std::bad_alloc&) {
+      // What this peer asked for could not be allocated: it loses its session, nobody else
+      // anything (an exception out of a handler would end the event loop and the process).
+      srv.stats.sessions_out_of_memory++;
+      close(false);
+    }
     if (closed) return;
   }
   read();
@@ -133,7 +140,8 @@ void Session::handle(std::span<const uint8_t> packet) {
   if (e == Reject::ok) return;
   count(e);
   // A broken message means a broken peer; order and role slips are only dropped.
-  if (e != Reject::out_of_order && e != Reject::unexpected) {
+  // Over one of the server's bounds (models, mesh memory) is not the peer's fault: only dropped.
+  if (e != Reject::out_of_order && e != Reject::unexpected && e != Reject::unavailable) {
     srv.stats.sessions_closed_for_input++;
     refuse(e, "bad packet");
   }

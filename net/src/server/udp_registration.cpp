@@ -20,9 +20,24 @@ void ServerImpl::start_udp_receive() {
   });
 }
 
+namespace {
+
+// A datagram whose source is the server's own port on this host: nobody but the server sends
+// from there, so it is forged, and answering it would make the server answer itself for ever.
+bool from_own_port(const udp::endpoint& from, const udp::endpoint& local) {
+  if (from.port() != local.port()) return false;
+  return from.address() == local.address() || from.address().is_loopback() || local.address().is_unspecified();
+}
+
+}  // namespace
+
 void ServerImpl::on_datagram(std::span<const uint8_t> datagram) {
   stats.udp_datagrams_in++;
   stats.bytes_in += datagram.size();
+  if (from_own_port(udp_from, udp_local)) {
+    stats.udp_own_address++;
+    return;
+  }
   UdpRegister reg;
   Reject e = decode_udp_register(datagram, reg);
   Session* s = nullptr;
@@ -40,6 +55,17 @@ void ServerImpl::on_datagram(std::span<const uint8_t> datagram) {
     return;
   }
   const auto now = Clock::now();
+  // Answers per session are rate limited: whatever sends registrations (a retrying client, a
+  // forged source, another server answering), this socket answers a bounded number.
+  const double rate = opt.udp_answers_per_s;
+  const double dt = std::chrono::duration<double>(now - s->udp_answer_refill).count();
+  s->udp_answer_refill = now;
+  s->udp_answer_tokens = std::min(rate, s->udp_answer_tokens + dt * rate);
+  if (s->udp_answer_tokens < 1.0) {
+    stats.udp_answers_limited++;
+    return;
+  }
+  s->udp_answer_tokens -= 1.0;
   UdpRegister answer;
   answer.token = reg.token;
   if (s->udp_ready && udp_from == s->udp_peer && reg.nonce == s->udp_nonce) {

@@ -43,6 +43,10 @@ inline constexpr size_t kMaxSecretBytes = 128;
 inline constexpr size_t kPoseFixedBytes = kHeaderBytes + 38;  // + 2 bytes per DOF
 inline constexpr size_t kMaxPoseDofs = (kMaxDatagramBytes - kPoseFixedBytes) / 2;
 inline constexpr uint16_t kNoMesh = 0xFF;
+// The most vertices a mesh frame of kMaxMeshBytes can carry (6 bytes each after a 36-byte
+// header). A topology's vertex count is bounded by it: receivers size every frame buffer of that
+// avatar and LOD from the count, before any frame arrives.
+inline constexpr uint32_t kMaxMeshVertices = (kMaxMeshBytes - kHeaderBytes - 36) / 6;
 
 enum class MsgType : uint8_t {
   hello = 1,           // client -> server: versions, role, capabilities, resume token, secret
@@ -111,8 +115,9 @@ enum class Reject : uint16_t {
   server_full = 12,
   timeout = 13,          // no HELLO in time, or silent for longer than the idle timeout
   too_many_sessions = 14,  // over the per-address session limit
+  unavailable = 15,      // asks for what this server does not offer (a mesh LOD it does not serve)
 };
-inline constexpr int kRejectCount = 15;
+inline constexpr int kRejectCount = 16;
 const char* reject_name(Reject r) noexcept;
 
 struct Header {

@@ -43,13 +43,35 @@ struct ServerOptions {
   size_t max_control_backlog_bytes = 8u << 20;  // models/meshes queued for a stalled client
   // Model packets held in memory, all avatars and revisions; over it, subscribers whose stalled
   // writes pin old revisions are disconnected.
+  // The current models of all avatars are bounded by it too: a model (or revision) that would
+  // pass it is refused (ServerStats::models_refused).
   uint64_t max_model_bytes_held = 64u << 20;
+  // Mesh frame buffers of all avatars and LODs, sized by their topologies: a topology that would
+  // pass it is refused (ServerStats::mesh_topologies_refused).
+  size_t max_mesh_bytes = 64u << 20;
+  // Mesh LODs whose frames this server serves (bit i = LOD i): a subscriber asking for another
+  // is refused with Reject::unavailable, naming these. All by default (remote publishers may
+  // bring any); `mimic run` serves the LOD it deforms.
+  uint8_t mesh_lods_served = 0xFF;
   bool udp = true;  // offer pose frames as UDP datagrams (a UDP socket on the same address and port)
   // UDP registrations must come from the TCP peer's IP address unless this is set (e.g. a
   // client whose UDP leaves through another interface or NAT than its TCP connection).
   bool udp_from_any_address = false;
   double udp_registration_timeout_s = 5.0;  // not refreshed for this long: frames back on TCP
   int housekeeping_period_ms = 250;         // timeouts are checked this often
+  // UDP_REGISTER answers per session per second (registrations refresh about once a second):
+  // beyond it registrations are dropped unanswered, so no datagram source can make the server
+  // answer without bound.
+  double udp_answers_per_s = 20;
+  // A publisher HELLO with a wrong secret makes its address wait before the next is checked:
+  // the wait starts here and doubles per failure, up to secret_backoff_max_s.
+  double secret_backoff_s = 0.05;
+  double secret_backoff_max_s = 10.0;
+  // Network work done by one poll(): at most this many completions and this much time, so a
+  // loop that interleaves frames with poll() keeps its rate whatever arrives (the rest waits for
+  // the next poll).
+  int poll_max_handlers = 256;
+  int poll_budget_us = 2000;
   // The lean pose stream (subscribers with kCapLeanPose, docs/protocol.md): precision as a
   // power-of-two coarsening of the POSE frame's steps, and a key frame to everyone every this
   // many frames (0: only to joiners, after skipped frames and on request).
@@ -95,6 +117,16 @@ struct ServerStats {
   uint64_t key_requests = 0;               // KEY_REQUESTs from subscribers
   uint64_t udp_send_calls = 0;             // sendmmsg calls (each sends a batch of datagrams)
   uint64_t fanout_shared = 0;              // fan-outs whose writes several threads shared
+  uint64_t models_refused = 0;             // models over max_model_bytes_held
+  uint64_t mesh_topologies_refused = 0;    // topologies over max_mesh_bytes (or out of memory)
+  uint64_t mesh_bytes_held = 0;            // mesh frame buffers sized by topologies
+  uint64_t sessions_out_of_memory = 0;     // sessions dropped because memory for them ran out
+  uint64_t udp_own_address = 0;            // datagrams claiming the server's own address, ignored
+  uint64_t udp_answers_limited = 0;        // registrations over udp_answers_per_s, unanswered
+  uint64_t accept_errors = 0;              // accept() failures (EMFILE, ENFILE, ...), retried later
+  uint64_t secret_backoffs = 0;            // publisher HELLOs refused while their address waits
+  uint64_t poll_budget_hit = 0;            // poll() calls that left work for the next one
+  uint64_t max_sessions_effective = 0;     // max_sessions, lowered to what descriptors allow
   std::array<uint64_t, kRejectCount> rejected{};  // by Reject code
 
   uint64_t rejected_total() const {
