@@ -3,6 +3,9 @@
 // without the bound it checks (docs/security.md lists them).
 #include <gtest/gtest.h>
 
+#include <sys/resource.h>
+
+#include <filesystem>
 #include <fstream>
 #include <set>
 
@@ -389,6 +392,55 @@ TEST(Hostile, AnUnservedMeshLodIsRefusedWithTheLodsServed) {
   ok.connect = st.endpoint();
   ok.mesh_lod = 0;
   EXPECT_TRUE(Client::connect(ok));
+}
+
+}  // namespace
+}  // namespace mimic::net
+
+namespace mimic::net {
+namespace {
+
+size_t open_descriptors() {
+  size_t n = 0;
+  for ([[maybe_unused]] const auto& e : std::filesystem::directory_iterator("/proc/self/fd")) ++n;
+  return n;
+}
+
+// Out of descriptors, accept() fails at once with EMFILE while the connection waits in the
+// backlog: retried at once, that spun the event loop for ever. The server waits instead, and
+// takes the waiting connections once descriptors are free again.
+TEST(Hostile, AcceptBacksOffWhenOutOfDescriptors) {
+  auto server = Server::create(ServerOptions{});
+  ASSERT_TRUE(server);
+  Server& srv = **server;
+  constexpr int kClients = 40;
+  std::vector<std::unique_ptr<RawPeer>> clients;
+  for (int i = 0; i < kClients; ++i) {
+    clients.push_back(std::make_unique<RawPeer>(srv.port()));
+    ASSERT_TRUE(clients.back()->connected());  // in the backlog: nobody polls the server yet
+  }
+  rlimit saved{};
+  ASSERT_EQ(getrlimit(RLIMIT_NOFILE, &saved), 0);
+  rlimit low = saved;
+  low.rlim_cur = open_descriptors() + 10;  // room for ten of them
+  ASSERT_EQ(setrlimit(RLIMIT_NOFILE, &low), 0);
+  const auto end = Clock::now() + std::chrono::milliseconds(300);
+  while (Clock::now() < end) {
+    srv.poll();
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  const ServerStats during = srv.stats();
+  ASSERT_EQ(setrlimit(RLIMIT_NOFILE, &saved), 0);
+  EXPECT_GE(during.accept_errors, 1u);
+  EXPECT_LE(during.accept_errors, 20u) << "accept() retried without waiting";
+  EXPECT_LT(during.sessions_accepted, uint64_t(kClients));
+  // Descriptors back: the rest are taken after the wait.
+  const auto until = Clock::now() + std::chrono::seconds(5);
+  while (Clock::now() < until && srv.stats().sessions_accepted < uint64_t(kClients)) {
+    srv.poll();
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  EXPECT_EQ(srv.stats().sessions_accepted, uint64_t(kClients));
 }
 
 }  // namespace
