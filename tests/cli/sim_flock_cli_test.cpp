@@ -90,6 +90,7 @@ TEST(SimFlockCli, ExtendedRangeWithMotionAndLog) {
   cfg.erc = true;
   cfg.auto_config_wait = 150ms;
   cfg.settle = 30ms;
+  cfg.reply_timeout = 3000ms;  // a loaded machine may start the simulator late
   mimic::devices::FlockSource flock(cfg);
   auto started = flock.start();
   ASSERT_TRUE(started) << started.error().what();
@@ -151,6 +152,7 @@ TEST(SimFlockCli, WalkDefaultsKeepSensorsInRange) {
   cfg.erc = true;
   cfg.auto_config_wait = 150ms;
   cfg.settle = 30ms;
+  cfg.reply_timeout = 3000ms;  // a loaded machine may start the simulator late
   mimic::devices::FlockSource flock(cfg);
   auto started = flock.start();
   ASSERT_TRUE(started) << started.error().what();
