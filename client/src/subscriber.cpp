@@ -1,6 +1,8 @@
 // The client library over net::Client: body model bytes → skeleton once per model, pose frames →
 // forward kinematics into the Avatar the callbacks see.
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <map>
 #include <thread>
 
@@ -37,6 +39,48 @@ struct Subscriber::Impl {
   };
   std::unique_ptr<net::Client> client;
   std::map<uint16_t, Entry> avatars;
+  std::map<uint16_t, Mesh> meshes;
+
+  // A new topology sizes the buffers; every frame then fills them in place.
+  Mesh& mesh(const net::RemoteAvatar& r) {
+    Mesh& m = meshes[r.id];
+    if (m.indices.size() != r.mesh_indices.size() || m.positions_m.size() != r.mesh_positions_m.size() ||
+        !std::equal(m.indices.begin(), m.indices.end(), r.mesh_indices.begin())) {
+      m.avatar = r.id;
+      m.indices = r.mesh_indices;
+      m.positions_m.assign(r.mesh_positions_m.size(), Vec3{});
+      m.normals.assign(r.mesh_positions_m.size(), Vec3{});
+    }
+    m.lod = r.mesh_last.lod;
+    for (size_t i = 0; i < m.positions_m.size(); ++i) m.positions_m[i] = to_vec3(r.mesh_positions_m[i]);
+    vertex_normals(m);
+    m.sequence = r.mesh_last.sequence;
+    m.time_us = r.mesh_last.time_us;
+    m.frames = r.mesh_frames;
+    return m;
+  }
+
+  static void vertex_normals(Mesh& m) {
+    std::fill(m.normals.begin(), m.normals.end(), Vec3{});
+    const size_t n = m.positions_m.size();
+    for (size_t t = 0; t + 2 < m.indices.size(); t += 3) {
+      const uint32_t a = m.indices[t], b = m.indices[t + 1], c = m.indices[t + 2];
+      if (a >= n || b >= n || c >= n) continue;
+      const glm::vec3 pa(m.positions_m[a].x, m.positions_m[a].y, m.positions_m[a].z);
+      const glm::vec3 pb(m.positions_m[b].x, m.positions_m[b].y, m.positions_m[b].z);
+      const glm::vec3 pc(m.positions_m[c].x, m.positions_m[c].y, m.positions_m[c].z);
+      const glm::vec3 face = glm::cross(pb - pa, pc - pa);  // length = twice the area: area weights
+      for (uint32_t v : {a, b, c}) {
+        m.normals[v].x += face.x;
+        m.normals[v].y += face.y;
+        m.normals[v].z += face.z;
+      }
+    }
+    for (auto& v : m.normals) {
+      const float len = std::sqrt(v.x * v.x + v.y * v.y + v.z * v.z);
+      if (len > 0) v = {v.x / len, v.y / len, v.z / len};
+    }
+  }
 
   Entry& model(const net::RemoteAvatar& r) {
     Entry& e = avatars[r.id];
@@ -90,6 +134,13 @@ std::unique_ptr<Subscriber> Subscriber::connect(const Options& options, std::str
   o.name = options.name;
   o.udp = options.udp;
   o.connect_timeout_s = options.connect_timeout_s;
+  if (options.mesh_lod >= 0) {
+    if (options.mesh_lod > 7) {
+      if (error) *error = "mesh LOD must be 0..7 (or -1 for none)";
+      return nullptr;
+    }
+    o.mesh_lod = static_cast<uint8_t>(options.mesh_lod);
+  }
   auto c = net::Client::connect(o);
   if (!c) {
     if (error) *error = c.error().what();
@@ -108,8 +159,13 @@ std::unique_ptr<Subscriber> Subscriber::connect(const Options& options, std::str
     self->impl_->pose(r);
     if (self->on_frame) self->on_frame(self->impl_->avatars[r.id].view);
   };
+  self->impl_->client->on_mesh = [self](const net::RemoteAvatar& r) {
+    const Mesh& m = self->impl_->mesh(r);
+    if (self->on_mesh) self->on_mesh(m);
+  };
   self->impl_->client->on_removed = [self](uint16_t id) {
     self->impl_->avatars.erase(id);
+    self->impl_->meshes.erase(id);
     if (self->on_removed) self->on_removed(id);
   };
   return s;
@@ -142,6 +198,11 @@ std::vector<uint16_t> Subscriber::avatar_ids() const {
 const Avatar* Subscriber::avatar(uint16_t id) const {
   auto it = impl_->avatars.find(id);
   return it == impl_->avatars.end() ? nullptr : &it->second.view;
+}
+
+const Mesh* Subscriber::mesh(uint16_t id) const {
+  auto it = impl_->meshes.find(id);
+  return it == impl_->meshes.end() ? nullptr : &it->second;
 }
 
 const char* version() { return MIMIC_VERSION; }

@@ -27,6 +27,17 @@ if grep -E '#include *[<"](glm|tl|boost|nlohmann|mimic/(net|avatar|core))' "$hea
 # The library exports the API and nothing of the modules linked into it.
 exported=$(nm -D --defined-only "$lib" | c++filt)
 echo "$exported" | grep -q 'mimic::client::Subscriber::connect' || fail "Subscriber::connect not exported"
+# The C ABI: unmangled symbols, and a header that a C compiler takes alone.
+nm -D --defined-only "$lib" | grep -qw 'mimic_subscriber_connect' || fail "mimic_subscriber_connect not exported as C"
+[ -f "$prefix/include/mimic/mimic_c.h" ] || fail "no mimic_c.h"
+# The C compiler of the build's C++ compiler (a sanitized library needs the same runtime).
+case "$cxx" in
+  *clang++*) cc=${cxx/clang++/clang} ;;
+  *g++*) cc=${cxx/g++/gcc} ;;
+  *) cc=cc ;;
+esac
+printf '#include <mimic/mimic_c.h>\nint main(void) { return mimic_version() == 0; }\n' > "$work/only_c.c"
+"$cc" -std=c99 -Wall -Werror -pedantic -fsyntax-only -I"$prefix/include" "$work/only_c.c" || fail "mimic_c.h is not plain C99"
 if echo "$exported" | grep -E 'mimic::(net|avatar|core)::' | head -3 | grep .; then fail "internal symbols exported"; fi
 
 # A library built with the sanitizers (MIMIC_SANITIZE) needs their runtime in the program too.
@@ -42,8 +53,13 @@ flags=$(PKG_CONFIG_PATH=$(dirname "$pc") pkg-config --cflags --libs mimic)
 "$cxx" -std=c++17 $san "$src/examples/subscribe_print/main.cpp" $flags -Wl,-rpath,"$(dirname "$lib")" -o "$work/subscribe_print_pc" \
   || fail "build with pkg-config flags: $flags"
 
-# A live scene.
-"$mimic" run --listen 127.0.0.1:0 --quiet --duration 60 > "$work/run.out" 2> "$work/run.err" &
+# The C example (find_package(Mimic) -> Mimic::c), out of tree, C only.
+cmake -S "$src/examples/mesh_obj" -B "$work/mesh_obj" -DCMAKE_PREFIX_PATH="$prefix" -DCMAKE_BUILD_TYPE=Release \
+  -DCMAKE_C_COMPILER="$cc" -DCMAKE_C_FLAGS="$san" > "$work/configure_c.log" || { cat "$work/configure_c.log"; fail "configure the C example"; }
+cmake --build "$work/mesh_obj" > "$work/build_c.log" || { cat "$work/build_c.log"; fail "build the C example"; }
+
+# A live scene (deforming its skin at LOD 1 for mesh subscribers).
+"$mimic" run --listen 127.0.0.1:0 --quiet --duration 60 --mesh-lod 1 > "$work/run.out" 2> "$work/run.err" &
 run_pid=$!
 for _ in $(seq 100); do grep -q '^serving on ' "$work/run.out" 2>/dev/null && break; sleep 0.1; done
 endpoint=$(sed -n 's/^serving on //p' "$work/run.out" | head -1)
@@ -61,5 +77,25 @@ check_output() {  # FILE: 5 frames of the 23 joints of the default skeleton, the
 check_output "$work/find_package.out"
 "$work/subscribe_print_pc" "$endpoint" --frames 5 > "$work/pkg_config.out" || fail "pkg-config example failed"
 check_output "$work/pkg_config.out"
-echo "client library: installed, found by find_package and pkg-config, subscribed and printed joints"
+# The C program writes three mesh frames as OBJ files: every triangle's indices in range, as
+# many normals as vertices, unit length; the body about 1.5-2 m tall.
+mkdir -p "$work/objs"
+"$work/mesh_obj/mesh_obj" "$endpoint" --lod 1 --frames 3 --out "$work/objs" > "$work/mesh_obj.out" \
+  || fail "C mesh example failed: $(cat "$work/mesh_obj.out")"
+[ "$(ls "$work/objs"/*.obj | wc -l)" = 3 ] || fail "expected 3 OBJ files"
+for obj in "$work/objs"/*.obj; do
+  awk '/^v / { v++; if (min == "" || $3 < min) min = $3; if (max == "" || $3 > max) max = $3 }
+       /^vn / { n++; l = sqrt($2*$2 + $3*$3 + $4*$4); if (l < 0.99 || l > 1.01) bad++ }
+       /^f / { f++; for (i = 2; i <= 4; i++) { split($i, k, "/"); if (k[1] < 1 || k[1] > v) bad++ } }
+       END { if (v < 500 || n != v || f < 500 || bad > 0 || max - min < 1.4 || max - min > 2.2) {
+               print "v " v " vn " n " f " f " bad " bad " height " max - min; exit 1 } }' "$obj" \
+    || fail "$obj is not a whole body"
+done
+# A LOD the scene does not deform: refused with the LODs served.
+if "$work/mesh_obj/mesh_obj" "$endpoint" --lod 3 --frames 1 --out "$work/objs" 2> "$work/refused.err"; then
+  fail "LOD 3 should be refused"
+fi
+grep -q "served: 1" "$work/refused.err" || { cat "$work/refused.err"; fail "the refusal does not say which LOD is served"; }
+
+echo "client library: installed, found by find_package and pkg-config, subscribed and printed joints; the C ABI wrote mesh frames as OBJ"
 head -3 "$work/find_package.out"

@@ -60,10 +60,28 @@ struct Avatar {
   uint64_t lost = 0;                // frames superseded before they reached us (latest wins)
 };
 
+// The deformed skin of an avatar at one LOD, as the server deforms it (mesh frames, for clients
+// that draw Mimic's body without deforming it themselves). The index array comes once per
+// topology; each frame moves the vertices. Buffers are sized when the topology arrives and
+// reused for every frame: receiving a frame does not allocate.
+struct Mesh {
+  uint16_t avatar = 0;
+  int lod = 0;
+  std::vector<uint32_t> indices;    // triangles, counter-clockwise seen from outside
+  std::vector<Vec3> positions_m;    // world positions (16-bit quantised in the frame's box)
+  std::vector<Vec3> normals;        // unit, area-weighted over each vertex's triangles
+  uint32_t sequence = 0;            // of the latest mesh frame
+  uint64_t time_us = 0;             // its capture time, µs since the Unix epoch
+  uint64_t frames = 0;              // mesh frames received
+};
+
 struct Options {
   std::string server = "127.0.0.1:7777";  // HOST:PORT
   std::string name = "mimic-client";      // shown in the server's session list
   bool udp = false;                       // pose frames as UDP datagrams when offered
+  // Also receive the deformed skin at this LOD (0 finest .. 3), or -1 for joints only. A server
+  // that does not deform at that LOD refuses the session and says which LODs it serves.
+  int mesh_lod = -1;
   double connect_timeout_s = 3.0;
 };
 
@@ -79,6 +97,7 @@ class MIMIC_CLIENT_API Subscriber {
   std::function<void(const Avatar&)> on_avatar;    // an avatar joined (or a new body revision)
   std::function<void(const Avatar&)> on_frame;     // a new pose: joints are posed
   std::function<void(uint16_t id)> on_removed;     // an avatar left
+  std::function<void(const Mesh&)> on_mesh;        // a new mesh frame (Options::mesh_lod)
 
   // Handles what the network has, without blocking. false: the session ended (reason in *error).
   bool poll(std::string* error = nullptr);
@@ -87,6 +106,7 @@ class MIMIC_CLIENT_API Subscriber {
 
   std::vector<uint16_t> avatar_ids() const;
   const Avatar* avatar(uint16_t id) const;  // nullptr when absent; valid until the next poll
+  const Mesh* mesh(uint16_t id) const;      // nullptr before the first mesh frame; valid until the next poll
 
  private:
   struct Impl;
