@@ -73,6 +73,8 @@ const SchemeSpec kSchemes[] = {
       {"latency_ms", Kind::number, 0, 10000},
       {"dropout", Kind::number, 0, 1},
       {"burst", Kind::integer, 1, 100000}}},
+    // vmc keys are interpreted by service/src/vmc_feed.cpp (docs/hardware.md).
+    {"vmc", true, "[HOST:]PORT to listen on (VMC performer data)", {{"stale_ms", Kind::integer, 10, 60000}}},
     {"replay", true, "a log file path",
      {{"speed", Kind::number, 0, 1000000}, {"loop", Kind::boolean}, {"from", Kind::number, 0, 1000000000}}},
     {"bvh", true, "a BVH file path",

@@ -10,6 +10,7 @@
 #include <cmath>
 #include <cstring>
 
+#include "mimic/avatar/joint_angles.h"
 #include "mimic/net/server.h"  // split_host_port
 
 namespace mimic::net {
@@ -179,6 +180,35 @@ void apply_vmc_packet(std::span<const uint8_t> packet, double now_s, VmcState& s
   const osc::Error e =
       osc::for_each_message(packet, [&](const osc::Message& m) { apply_message(m, now_s, state, stats); });
   if (e != osc::Error::ok) stats.refused[size_t(e)]++;
+}
+
+bool pose_from_vmc(const VmcState& state, const avatar::Skeleton& skeleton, const std::vector<VmcBone>& bones,
+                   avatar::Pose& pose) {
+  const TrackedPose& hips = state.bones[size_t(unity_bone_index("Hips"))];
+  if (!hips.present || pose.dof_rad.size() != size_t(skeleton.dof_count())) return false;
+  const std::span<float> dofs(pose.dof_rad);
+  for (const auto& b : bones) {
+    const int index = unity_bone_index(b.unity_name);
+    if (index < 0 || !state.bones[size_t(index)].present) continue;
+    glm::dquat local(state.bones[size_t(index)].orientation);
+    if (skeleton.parent(b.joint) < 0) {
+      // The hips carry the body's placement: Root/Pos (identity unless the sender moves its
+      // model's root) then the Hips' own.
+      const glm::quat root_q = state.root.present ? state.root.orientation : glm::quat(1, 0, 0, 0);
+      const glm::vec3 root_p = state.root.present ? state.root.position_m : glm::vec3(0);
+      pose.root_position_m = root_p + root_q * hips.position_m;
+      pose.root_orientation = glm::normalize(root_q * hips.orientation);
+      local = glm::dquat(1, 0, 0, 0);
+    }
+    if (b.fold_joint >= 0) {
+      const glm::dquat half = glm::slerp(glm::dquat(1, 0, 0, 0), local, 0.5);
+      avatar::solve_joint_dofs(skeleton, b.joint, half, dofs);
+      avatar::solve_joint_dofs(skeleton, b.fold_joint, half, dofs);
+      continue;
+    }
+    if (skeleton.dof_end(b.joint) > skeleton.dof_begin(b.joint)) avatar::solve_joint_dofs(skeleton, b.joint, local, dofs);
+  }
+  return true;
 }
 
 Result<std::unique_ptr<VmcReceiver>> VmcReceiver::open(const std::string& host_port) {

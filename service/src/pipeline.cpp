@@ -1,6 +1,7 @@
 #include "mimic/service/pipeline.h"
 
 #include "feed_on_clock.h"
+#include "vmc_feed.h"
 
 #include <pthread.h>
 #include <sched.h>
@@ -338,6 +339,7 @@ Result<std::unique_ptr<PoseFeed>> open_feed_on_clock(const std::string& spec_tex
                                                      std::shared_ptr<const sim::Clock> clock) {
   auto spec = devices::parse_source_spec(spec_text);
   if (!spec) return tl::unexpected(spec.error());
+  if (spec->scheme == "vmc") return open_vmc_feed(*spec, body);  // poses, not tracker samples
   if (!calibration_path.empty()) {
     auto cal = solver::load_calibration(calibration_path);
     if (!cal) return tl::unexpected(cal.error());

@@ -116,6 +116,10 @@ Result<std::unique_ptr<devices::SensorSource>> open_sensor_source(const devices:
   if (spec.scheme == "spaceball" || spec.scheme == "magellan" || spec.scheme == "spacemouse")
     return fail(Errc::unsupported, "source '" + spec.text + "': a " + spec.scheme +
                                        " gives 6-DOF input (translation/rotation deflections), not tracker samples");
+  if (spec.scheme == "vmc")
+    return fail(Errc::unsupported, "source '" + spec.text +
+                                       "': VMC brings poses its sender has solved, not tracker samples: it drives "
+                                       "`mimic run` and `mimic view` (recording and calibrating from VMC are not supported)");
   return fail(Errc::unsupported, "source '" + spec.text + "': scheme '" + spec.scheme + "' is not a tracker source");
 }
 

@@ -63,6 +63,36 @@ TEST(VmcReceive, MimicsOwnVmcFramesReadBackExactly) {
   }
 }
 
+// Mimic's VMC output turned back into a pose on the same skeleton: every joint where the
+// original put it (the neck's split between neck and neck_upper is VMC's one loss).
+TEST(VmcReceive, PoseFromVmcRoundTripsMimicsOutput) {
+  const auto s = default_skeleton();
+  const avatar::Pose pose = some_pose(s);
+  VmcEncoder enc(s);
+  Bytes out;
+  const VmcBundles b = enc.encode(pose, 0.0, out);
+  VmcState state;
+  VmcReceiveStats stats;
+  size_t start = 0;
+  for (size_t i = 0; i < b.count; ++i) {
+    apply_vmc_packet(std::span<const uint8_t>(out.data() + start, b.end[i] - start), 1.0, state, stats);
+    start = b.end[i];
+  }
+  avatar::Pose got = s.rest_pose();
+  ASSERT_TRUE(pose_from_vmc(state, s, enc.bones(), got));
+  std::vector<avatar::RigidTransform> want_fk(size_t(s.joint_count())), got_fk(size_t(s.joint_count()));
+  avatar::forward_kinematics(s, pose, want_fk);
+  avatar::forward_kinematics(s, got, got_fk);
+  for (int j = 0; j < s.joint_count(); ++j) {
+    const float err = glm::length(want_fk[size_t(j)].translation - got_fk[size_t(j)].translation);
+    const bool above_neck = s.joint_name(j) == "neck_upper" || s.joint_name(j) == "head";
+    EXPECT_LT(err, above_neck ? 0.01f : 0.001f) << s.joint_name(j);
+  }
+  // Nothing before the hips arrive.
+  avatar::Pose none = s.rest_pose();
+  EXPECT_FALSE(pose_from_vmc(VmcState{}, s, enc.bones(), none));
+}
+
 // Over a real socket: VmcSender to a VmcReceiver on a port the kernel picked.
 TEST(VmcReceive, SenderToReceiverOverLoopback) {
   auto rx = VmcReceiver::open("127.0.0.1:0");

@@ -18,7 +18,7 @@ namespace mimic::devices {
 // "flock:/dev/ttyUSB0?birds=4&baud=115200", "spaceball:/dev/ttyS0", "magellan:/dev/ttyS1",
 // "spacemouse" (first USB device found), "sim:walk", "replay:session.mlog", "bvh:clip.bvh".
 struct SourceSpec {
-  std::string scheme;                         // flock, spaceball, magellan, spacemouse, sim, replay, bvh
+  std::string scheme;                         // flock, spaceball, magellan, spacemouse, sim, replay, bvh, vmc
   std::string target;                         // device path, motion name, file path; may be empty
   std::map<std::string, std::string> params;  // after '?', '&'-separated key=value
   std::string text;                           // as given

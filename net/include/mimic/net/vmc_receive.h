@@ -25,8 +25,10 @@
 #include <glm/glm.hpp>
 #include <glm/gtc/quaternion.hpp>
 
+#include "mimic/avatar/skeleton.h"
 #include "mimic/core/result.h"
 #include "mimic/net/osc.h"
+#include "mimic/net/vmc.h"
 
 namespace mimic::net {
 
@@ -83,6 +85,14 @@ struct VmcReceiveStats {
 // Applies one OSC packet to `state` (the decoding, without a socket: tests and fuzzing).
 // `now_s` stamps what it sets.
 void apply_vmc_packet(std::span<const uint8_t> packet, double now_s, VmcState& state, VmcReceiveStats& stats);
+
+// The pose a VMC frame describes on `skeleton` (`bones`: vmc_bone_map(skeleton)): each body
+// bone's local rotation solved into its joint's DOFs (a folded joint shares its bone's rotation
+// half and half: VMC's Neck carries Mimic's neck and neck_upper), the Hips' placement after
+// /VMC/Ext/Root/Pos as the root's. Bones not received keep `pose`'s values. False until a Hips
+// bone has come. Never allocates (pose.dof_rad has the skeleton's size).
+bool pose_from_vmc(const VmcState& state, const avatar::Skeleton& skeleton, const std::vector<VmcBone>& bones,
+                   avatar::Pose& pose);
 
 // A UDP socket receiving VMC and OSC tracker datagrams, on loopback unless told otherwise.
 class VmcReceiver {
