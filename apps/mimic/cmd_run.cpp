@@ -428,7 +428,8 @@ int run(const std::vector<std::string>& argv) {
       const auto ns = nats->stats();
       j["nats"] = {{"connected", ns.connected}, {"frames", ns.frames}, {"frames_dropped", ns.frames_dropped},
                    {"models", ns.models}, {"model_failures", ns.model_failures}, {"mesh_frames", ns.mesh_frames},
-                   {"mesh_requests", ns.mesh_requests}, {"disconnects", ns.disconnects},
+                   {"mesh_requests", ns.mesh_requests}, {"topologies", ns.topologies},
+                   {"topologies_refused", ns.topologies_refused}, {"disconnects", ns.disconnects},
                    {"reconnects", ns.reconnects}, {"last_error", ns.last_error}};
     }
     return j;
@@ -472,9 +473,11 @@ int run(const std::vector<std::string>& argv) {
                            static_cast<unsigned long long>(st.subscribers), static_cast<unsigned long long>(st.frames_dropped),
                            static_cast<unsigned long long>(st.rejected_total()));
       }
-      if (nats)
-        n += std::snprintf(line + n, sizeof line - size_t(n), "%s",
-                           nats->connected() ? " | nats up" : " | nats DOWN: local only");
+      if (nats) {
+        const auto link = nats->link_state();
+        n += net::format_nats_state(link, line + n, sizeof line - size_t(n));
+        if (!link.connected) n += std::snprintf(line + n, sizeof line - size_t(n), ": local only");
+      }
       n += std::snprintf(line + n, sizeof line - size_t(n), " | p50/p99 us");
       for (int s = 0; s < kStageCount && n < int(sizeof line) - 32; ++s) {
         const auto sum = pipeline.timer(s).summary();

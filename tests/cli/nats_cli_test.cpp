@@ -113,7 +113,7 @@ TEST(NatsCli, RunServesLocallyWhileTheBrokerIsDownThenJoinsItRelayAndSubscribeSe
   REQUIRE_NATS_SERVER();
   mimic::test::NatsBroker broker;
   broker.configure("late");  // nothing listens on its port yet
-  Proc run({"run", "--listen", "127.0.0.1:0", "--nats", broker.url(), "--scene", "stage", "--nats-name", "hostA",
+  Proc run({"run", "--listen", "127.0.0.1:0", "--nats", broker.url_as("hostA"), "--scene", "stage", "--nats-name", "hostA",
             "--duration", "14", "--json"});
   ASSERT_TRUE(run.ok());
   const std::string ep = endpoint_of(run);
@@ -126,7 +126,7 @@ TEST(NatsCli, RunServesLocallyWhileTheBrokerIsDownThenJoinsItRelayAndSubscribeSe
   ASSERT_TRUE(run.wait_for_err("nats DOWN: local only", 5.0)) << run.err();
 
   ASSERT_TRUE(broker.start());
-  Proc relay({"relay", "--nats", broker.url(), "--scene", "stage", "--listen", "127.0.0.1:0", "--duration", "10",
+  Proc relay({"relay", "--nats", broker.url_as("relay"), "--scene", "stage", "--listen", "127.0.0.1:0", "--duration", "10",
               "--json", "--quiet"});
   const std::string relay_ep = endpoint_of(relay);
   ASSERT_FALSE(relay_ep.empty()) << relay.err();
@@ -136,7 +136,7 @@ TEST(NatsCli, RunServesLocallyWhileTheBrokerIsDownThenJoinsItRelayAndSubscribeSe
   EXPECT_EQ(j["frames"], 60);
   EXPECT_EQ(j["avatars"], 1);
   EXPECT_EQ(j["models"], 1);
-  Proc direct({"subscribe", "--connect", broker.url() + "/stage", "--count", "60", "--json"});
+  Proc direct({"subscribe", "--connect", broker.url_as("relay") + "/stage", "--count", "60", "--json"});
   ASSERT_EQ(direct.wait(20.0), 0) << direct.err();
   EXPECT_EQ(last_json(direct.out())["frames"], 60);
 
@@ -164,11 +164,11 @@ TEST(NatsCli, AMeshViewerBehindARelayGetsTheDirectServersMeshFrames) {
   mimic::test::NatsBroker broker;
   broker.configure("mesh");
   ASSERT_TRUE(broker.start());
-  Proc run({"run", "--listen", "127.0.0.1:0", "--nats", broker.url(), "--scene", "mesh", "--nats-name", "hostM",
+  Proc run({"run", "--listen", "127.0.0.1:0", "--nats", broker.url_as("hostM"), "--scene", "mesh", "--nats-name", "hostM",
             "--mesh-lod", "2", "--duration", "60", "--json", "--quiet"});
   const std::string ep = endpoint_of(run);
   ASSERT_FALSE(ep.empty()) << run.err();
-  Proc relay(relay_args(broker.url(), "mesh"));
+  Proc relay(relay_args(broker.url_as("relay"), "mesh"));
   const std::string relay_ep = endpoint_of(relay);
   ASSERT_FALSE(relay_ep.empty()) << relay.err();
 
@@ -247,19 +247,20 @@ TEST(NatsCli, ASigkilledPublishersAvatarLeavesAndItsRestartBringsItBack) {
   mimic::test::NatsBroker broker;
   broker.configure("crash");
   ASSERT_TRUE(broker.start());
-  const std::vector<std::string> run_args = {"run", "--listen", "127.0.0.1:0", "--nats", broker.url(), "--scene",
+  const std::vector<std::string> run_args = {"run", "--listen", "127.0.0.1:0", "--nats", broker.url_as("hostK"), "--scene",
                                              "crash", "--nats-name", "hostK", "--nats-model-ttl", "3",
                                              "--duration", "60", "--quiet"};
   auto run = std::make_unique<Proc>(run_args);
   ASSERT_FALSE(endpoint_of(*run).empty()) << run->err();
-  Proc relay(relay_args(broker.url(), "crash"));
+  Proc relay(relay_args(broker.url_as("relay"), "crash"));
   const std::string relay_ep = endpoint_of(relay);
   ASSERT_FALSE(relay_ep.empty()) << relay.err();
   auto v = viewer(relay_ep);
   ASSERT_TRUE(v);
   ASSERT_TRUE(pump({v.get()}, [&] { return v->avatars().size() == 1 && v->stats().frames >= 30; }, 20));
-  const std::string key = mimic::net::nats_avatar_key("hostK", "avatar1");
-  mimic::test::NatsProbe probe(broker.url());
+  // The bucket key is publisher.key; a relay's user may read the bucket.
+  const std::string key = "hostK." + mimic::net::nats_avatar_key("hostK", "avatar1");
+  mimic::test::NatsProbe probe(broker.url_as("relay"));
   ASSERT_TRUE(probe.ok());
   ASSERT_TRUE(probe.open_bucket("mimic_crash"));
   EXPECT_TRUE(probe.holds(key));
