@@ -177,6 +177,10 @@ class NatsBroker {
     ::waitpid(pid_, nullptr, 0);
     pid_ = -1;
   }
+  // SIGSTOP/SIGCONT: a node that hangs (its connections open, nothing answered) and comes back.
+  void signal(int sig) {
+    if (pid_ > 0) ::kill(pid_, sig);
+  }
   bool running() const { return pid_ > 0; }
   // CPU time the broker process has used (user + system), for figures.
   double cpu_seconds() const {
