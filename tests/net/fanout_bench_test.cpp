@@ -84,6 +84,8 @@ TEST(FanoutBench, ABrokerRowThatFellBehindDoesNotSayKeptUp) {
       // The bench's own nats-server: a child of this process.
       pid_t broker = -1;
       for (const auto& e : std::filesystem::directory_iterator("/proc")) {
+        const std::string name = e.path().filename().string();
+        if (name.find_first_not_of("0123456789") != std::string::npos) continue;
         std::ifstream f(e.path() / "stat");
         std::string text((std::istreambuf_iterator<char>(f)), {});
         const size_t close = text.rfind(')');
@@ -92,7 +94,7 @@ TEST(FanoutBench, ABrokerRowThatFellBehindDoesNotSayKeptUp) {
         std::string state;
         pid_t ppid = 0;
         rest >> state >> ppid;
-        if (ppid == ::getpid()) broker = pid_t(std::stol(e.path().filename().string()));
+        if (ppid == ::getpid()) broker = pid_t(std::stol(name));
       }
       if (broker <= 0) return;
       std::this_thread::sleep_for(std::chrono::milliseconds(300));

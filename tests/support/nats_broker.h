@@ -68,7 +68,7 @@ struct NatsAuth {
 
 // The users every test broker knows: publishers (their --nats-name) and the relays' user.
 inline const std::vector<std::string>& nats_test_publishers() {
-  static const std::vector<std::string> names = {"hostA", "hostB", "hostC", "hostK", "hostM", "hostT", "hostX", "ghost", "mallory"};
+  static const std::vector<std::string> names = {"hostA", "hostB", "hostC", "hostK", "hostM", "hostT", "hostV", "hostX", "ghost", "mallory"};
   return names;
 }
 inline constexpr const char* kNatsRelayUser = "relay";
