@@ -104,7 +104,8 @@ int relay(const std::vector<std::string>& argv) {
     j["nats"] = {{"connected", ns.connected}, {"frames_in", ns.frames},    {"frames_dropped", ns.frames_dropped},
                  {"models", ns.models},       {"avatars", ns.avatars},     {"rejected", ns.rejected}, {"early_frames", ns.early_frames},
                  {"held", ns.held},           {"expired", ns.expired},     {"mesh_frames", ns.mesh_frames},
-                 {"mesh_requests", ns.mesh_requests},
+                 {"mesh_requests", ns.mesh_requests}, {"seq_jumps_refused", ns.seq_jumps_refused},
+                 {"models_refused", ns.models_refused}, {"foreign", ns.foreign}, {"model_bytes", ns.model_bytes},
                  {"latency_ms_p50", ns.latency_ms_p50}, {"latency_ms_p99", ns.latency_ms_p99},
                  {"disconnects", ns.disconnects}, {"reconnects", ns.reconnects}, {"last_error", ns.last_error}};
     j["server"] = {{"subscribers", st.subscribers}, {"frames_out", st.frames_out}, {"frames_dropped", st.frames_dropped},
@@ -125,8 +126,10 @@ int relay(const std::vector<std::string>& argv) {
     if (status_line) {
       const auto ns = feed->stats();
       const auto& st = server.stats();
-      std::fprintf(stderr, "\rrelay %s | nats %s | avatars %llu | in %llu | subs %llu out %llu drop %llu rej %llu   ",
-                   no.scene.c_str(), ns.connected ? "up" : "DOWN", static_cast<unsigned long long>(ns.avatars),
+      char link[96];
+      net::format_nats_state(feed->link_state(), link, sizeof link);
+      std::fprintf(stderr, "\rrelay %s%s | avatars %llu | in %llu | subs %llu out %llu drop %llu rej %llu   ",
+                   no.scene.c_str(), link, static_cast<unsigned long long>(ns.avatars),
                    static_cast<unsigned long long>(ns.frames), static_cast<unsigned long long>(st.subscribers),
                    static_cast<unsigned long long>(st.frames_out), static_cast<unsigned long long>(st.frames_dropped),
                    static_cast<unsigned long long>(ns.rejected + st.rejected_total()));

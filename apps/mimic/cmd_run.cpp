@@ -457,7 +457,8 @@ int run(const std::vector<std::string>& argv) {
       const auto ns = nats->stats();
       j["nats"] = {{"connected", ns.connected}, {"frames", ns.frames}, {"frames_dropped", ns.frames_dropped},
                    {"models", ns.models}, {"model_failures", ns.model_failures}, {"mesh_frames", ns.mesh_frames},
-                   {"mesh_requests", ns.mesh_requests}, {"disconnects", ns.disconnects},
+                   {"mesh_requests", ns.mesh_requests}, {"topologies", ns.topologies},
+                   {"topologies_refused", ns.topologies_refused}, {"disconnects", ns.disconnects},
                    {"reconnects", ns.reconnects}, {"last_error", ns.last_error}};
     }
     return j;
@@ -507,9 +508,11 @@ int run(const std::vector<std::string>& argv) {
                            static_cast<unsigned long long>(st.subscribers), static_cast<unsigned long long>(st.frames_dropped),
                            static_cast<unsigned long long>(st.rejected_total()));
       }
-      if (nats)
-        n += std::snprintf(line + n, sizeof line - size_t(n), "%s",
-                           nats->connected() ? " | nats up" : " | nats DOWN: local only");
+      if (nats) {
+        const auto link = nats->link_state();
+        n += net::format_nats_state(link, line + n, sizeof line - size_t(n));
+        if (!link.connected) n += std::snprintf(line + n, sizeof line - size_t(n), ": local only");
+      }
       if (missed_ticks > 0)
         n += std::snprintf(line + n, sizeof line - size_t(n), " | missed %llu ticks (max gap %.0f ms)",
                            static_cast<unsigned long long>(missed_ticks), longest_gap_ms);

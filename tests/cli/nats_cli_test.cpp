@@ -18,6 +18,7 @@
 #include <map>
 #include <memory>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "mimic/net/client.h"
@@ -113,8 +114,8 @@ TEST(NatsCli, RunServesLocallyWhileTheBrokerIsDownThenJoinsItRelayAndSubscribeSe
   REQUIRE_NATS_SERVER();
   mimic::test::NatsBroker broker;
   broker.configure("late");  // nothing listens on its port yet
-  Proc run({"run", "--listen", "127.0.0.1:0", "--nats", broker.url(), "--scene", "stage", "--nats-name", "hostA",
-            "--duration", "14", "--json"});
+  Proc run({"run", "--listen", "127.0.0.1:0", "--nats", broker.url_as("hostA"), "--scene", "stage", "--nats-name", "hostA",
+            "--duration", "40", "--json"});
   ASSERT_TRUE(run.ok());
   const std::string ep = endpoint_of(run);
   ASSERT_FALSE(ep.empty()) << run.err();
@@ -123,10 +124,10 @@ TEST(NatsCli, RunServesLocallyWhileTheBrokerIsDownThenJoinsItRelayAndSubscribeSe
   ASSERT_EQ(local.wait(15.0), 0) << local.err();
   EXPECT_EQ(last_json(local.out())["frames"], 30);
   // The status line says the broker is away before it comes (it is redrawn twice a second).
-  ASSERT_TRUE(run.wait_for_err("nats DOWN: local only", 5.0)) << run.err();
+  ASSERT_TRUE(run.wait_for_err(" s: local only", 5.0)) << run.err();
 
   ASSERT_TRUE(broker.start());
-  Proc relay({"relay", "--nats", broker.url(), "--scene", "stage", "--listen", "127.0.0.1:0", "--duration", "10",
+  Proc relay({"relay", "--nats", broker.url_as("relay"), "--scene", "stage", "--listen", "127.0.0.1:0", "--duration", "40",
               "--json", "--quiet"});
   const std::string relay_ep = endpoint_of(relay);
   ASSERT_FALSE(relay_ep.empty()) << relay.err();
@@ -136,15 +137,21 @@ TEST(NatsCli, RunServesLocallyWhileTheBrokerIsDownThenJoinsItRelayAndSubscribeSe
   EXPECT_EQ(j["frames"], 60);
   EXPECT_EQ(j["avatars"], 1);
   EXPECT_EQ(j["models"], 1);
-  Proc direct({"subscribe", "--connect", broker.url() + "/stage", "--count", "60", "--json"});
+  Proc direct({"subscribe", "--connect", broker.url_as("relay") + "/stage", "--count", "60", "--json"});
   ASSERT_EQ(direct.wait(20.0), 0) << direct.err();
   EXPECT_EQ(last_json(direct.out())["frames"], 60);
+  // The broker goes away and comes back: the status line shows the outage, and after it how
+  // many there were and how long the last one lasted.
+  broker.kill();
+  std::this_thread::sleep_for(std::chrono::seconds(1));  // the status line is redrawn twice a second
+  ASSERT_TRUE(broker.start());
+  ASSERT_TRUE(run.wait_for_err("nats up (1 outage, last ", 15.0)) << run.err();
 
   run.signal(SIGINT);
   ASSERT_EQ(run.wait(10.0), 0) << run.err();
   // The status line said so while the broker was away, and after.
   EXPECT_NE(run.err().find("not reachable: serving the local listeners"), std::string::npos) << run.err();
-  EXPECT_NE(run.err().find("nats DOWN: local only"), std::string::npos);
+  EXPECT_NE(run.err().find("nats DOWN "), std::string::npos);
   EXPECT_NE(run.err().find("nats up"), std::string::npos);
   const auto summary = last_json(run.out());
   EXPECT_GT(summary["nats"]["frames"].get<double>(), 60.0) << run.out();
@@ -164,11 +171,11 @@ TEST(NatsCli, AMeshViewerBehindARelayGetsTheDirectServersMeshFrames) {
   mimic::test::NatsBroker broker;
   broker.configure("mesh");
   ASSERT_TRUE(broker.start());
-  Proc run({"run", "--listen", "127.0.0.1:0", "--nats", broker.url(), "--scene", "mesh", "--nats-name", "hostM",
+  Proc run({"run", "--listen", "127.0.0.1:0", "--nats", broker.url_as("hostM"), "--scene", "mesh", "--nats-name", "hostM",
             "--mesh-lod", "2", "--duration", "60", "--json", "--quiet"});
   const std::string ep = endpoint_of(run);
   ASSERT_FALSE(ep.empty()) << run.err();
-  Proc relay(relay_args(broker.url(), "mesh"));
+  Proc relay(relay_args(broker.url_as("relay"), "mesh"));
   const std::string relay_ep = endpoint_of(relay);
   ASSERT_FALSE(relay_ep.empty()) << relay.err();
 
@@ -247,19 +254,20 @@ TEST(NatsCli, ASigkilledPublishersAvatarLeavesAndItsRestartBringsItBack) {
   mimic::test::NatsBroker broker;
   broker.configure("crash");
   ASSERT_TRUE(broker.start());
-  const std::vector<std::string> run_args = {"run", "--listen", "127.0.0.1:0", "--nats", broker.url(), "--scene",
+  const std::vector<std::string> run_args = {"run", "--listen", "127.0.0.1:0", "--nats", broker.url_as("hostK"), "--scene",
                                              "crash", "--nats-name", "hostK", "--nats-model-ttl", "3",
                                              "--duration", "60", "--quiet"};
   auto run = std::make_unique<Proc>(run_args);
   ASSERT_FALSE(endpoint_of(*run).empty()) << run->err();
-  Proc relay(relay_args(broker.url(), "crash"));
+  Proc relay(relay_args(broker.url_as("relay"), "crash"));
   const std::string relay_ep = endpoint_of(relay);
   ASSERT_FALSE(relay_ep.empty()) << relay.err();
   auto v = viewer(relay_ep);
   ASSERT_TRUE(v);
   ASSERT_TRUE(pump({v.get()}, [&] { return v->avatars().size() == 1 && v->stats().frames >= 30; }, 20));
-  const std::string key = mimic::net::nats_avatar_key("hostK", "avatar1");
-  mimic::test::NatsProbe probe(broker.url());
+  // The bucket key is publisher.key; a relay's user may read the bucket.
+  const std::string key = "hostK." + mimic::net::nats_avatar_key("hostK", "avatar1");
+  mimic::test::NatsProbe probe(broker.url_as("relay"));
   ASSERT_TRUE(probe.ok());
   ASSERT_TRUE(probe.open_bucket("mimic_crash"));
   EXPECT_TRUE(probe.holds(key));

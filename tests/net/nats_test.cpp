@@ -13,6 +13,7 @@
 
 #include "mimic/net/nats.h"
 #include "nats_broker.h"
+#include "nats_test_fixtures.h"
 #include "net_test_support.h"
 #if MIMIC_WITH_NATS
 #include "nats_kv.h"
@@ -25,160 +26,6 @@ using ::mimic::test::NatsBroker;
 using ::mimic::test::NatsCluster;
 using Clock = std::chrono::steady_clock;
 using namespace std::chrono_literals;
-
-constexpr uint16_t kDofs = 12;
-
-#define REQUIRE_NATS()                                                                  \
-  do {                                                                                  \
-    if (!MIMIC_WITH_NATS) GTEST_SKIP() << "built without NATS (MIMIC_WITH_NATS=OFF)";   \
-    ASSERT_FALSE(::mimic::test::nats_server_binary().empty()) << "nats-server missing: run scripts/setup.sh"; \
-  } while (0)
-
-// Publishes `avatars` avatars at `hz` from a thread, as mimic run --nats does: encoded pose
-// frames stamped with the wall clock at publish time, a tick of them at a time.
-// A square of two triangles whose corners move with the sequence number: the mesh of an
-// avatar deformed at `lod` (mesh_lod < 0: none), sent as the pipeline sends it, only while
-// mesh_wanted() says a relay asks.
-MeshTopology test_topology(uint8_t lod) {
-  MeshTopology t;
-  t.lod = lod;
-  t.vertex_count = 4;
-  t.indices = {0, 1, 2, 0, 2, 3};
-  return t;
-}
-std::vector<glm::vec3> test_positions(uint32_t sequence) {
-  const float x = float(sequence % 100) * 0.01f;
-  return {{x, 0, 0}, {x + 1, 0, 0}, {x + 1, 1, 0}, {x, 1, 0}};
-}
-
-class TestPublisher {
- public:
-  TestPublisher(const NatsOptions& o, int avatars, double hz = 90, int mesh_lod = -1) {
-    auto p = NatsPublisher::create(o);
-    if (!p) throw std::runtime_error(p.error().what());
-    pub_ = std::move(*p);
-    for (int i = 0; i < avatars; ++i) {
-      auto idx = pub_->add_avatar("avatar" + std::to_string(i + 1), kDofs, "model of " + o.name + " " + std::to_string(i));
-      if (!idx) throw std::runtime_error(idx.error().what());
-      if (mesh_lod >= 0)
-        if (auto st = pub_->add_mesh(*idx, test_topology(uint8_t(mesh_lod))); !st) throw std::runtime_error(st.error().what());
-    }
-    thread_ = std::thread([this, avatars, hz, mesh_lod] {
-      avatar::Pose pose;
-      pose.dof_rad.assign(kDofs, 0.1f);
-      std::vector<uint8_t> buf(pose_packet_bytes(kDofs)), mesh(mesh_packet_bytes(4));
-      std::vector<uint32_t> seq(size_t(avatars), 0);
-      auto next = Clock::now();
-      while (!stop_) {
-        if (paused_) {
-          std::this_thread::sleep_for(std::chrono::milliseconds(2));
-          next = Clock::now();
-          continue;
-        }
-        pub_->begin_tick();
-        for (int i = 0; i < avatars; ++i) {
-          PoseHeader h;
-          h.avatar = uint16_t(i);
-          h.sequence = ++seq[size_t(i)];
-          h.time_us = wall_clock_us();
-          pose.root_position_m.x = float(h.sequence) * 1e-3f;
-          const size_t n = encode_pose(h, pose, buf);
-          pub_->publish_pose(i, std::span<const uint8_t>(buf.data(), n));
-          if (mesh_lod >= 0 && pub_->mesh_wanted(i)) {
-            const size_t m = encode_mesh({0, uint8_t(mesh_lod), h.sequence, h.time_us}, test_positions(h.sequence), mesh);
-            pub_->publish_mesh(i, std::span<const uint8_t>(mesh.data(), m));
-            mesh_sent_++;
-          }
-        }
-        pub_->end_tick();
-        ticks_++;
-        next += std::chrono::microseconds(int64_t(1e6 / hz));
-        std::this_thread::sleep_until(next);
-      }
-    });
-  }
-  ~TestPublisher() {
-    stop_ = true;
-    thread_.join();
-  }
-  NatsPublisher& get() { return *pub_; }
-  uint64_t mesh_sent() const { return mesh_sent_; }
-  uint64_t ticks() const { return ticks_; }
-  // Holds the ticks (the tick under way finishes), so that what was sent can be counted at the far end.
-  void pause(bool on) { paused_ = on; }
-
- private:
-  std::unique_ptr<NatsPublisher> pub_;
-  std::atomic<uint64_t> mesh_sent_{0}, ticks_{0};
-  std::atomic<bool> stop_{false}, paused_{false};
-  std::thread thread_;
-};
-
-// A relay as mimic relay runs it: a Server on its own thread fed from the broker.
-class TestRelay {
- public:
-  explicit TestRelay(const NatsOptions& o, uint16_t port = 0) {
-    ServerOptions so;
-    so.listen = "127.0.0.1:" + std::to_string(port);
-    auto s = Server::create(so);
-    if (!s) throw std::runtime_error(s.error().what());
-    server_ = std::move(*s);
-    auto f = NatsSceneFeed::create(o, *server_);
-    if (!f) throw std::runtime_error(f.error().what());
-    feed_ = std::move(*f);
-    thread_ = std::thread([this] { server_->run(); });
-  }
-  ~TestRelay() {
-    server_->stop();
-    thread_.join();
-    feed_.reset();  // while the server it feeds is not running
-  }
-  std::string endpoint() const { return server_->endpoint(); }
-  uint16_t port() const { return server_->port(); }
-  // Fan-outs to the relay's viewers so far (asked on the server's own thread).
-  uint64_t fanouts() {
-    std::promise<uint64_t> p;
-    server_->dispatch([&] { p.set_value(server_->fanout_times().count); });
-    return p.get_future().get();
-  }
-  NatsSceneFeed& feed() { return *feed_; }
-
- private:
-  std::unique_ptr<Server> server_;
-  std::unique_ptr<NatsSceneFeed> feed_;
-  std::thread thread_;
-};
-
-std::unique_ptr<Client> viewer(const std::string& endpoint, uint8_t mesh_lod = kNoMesh) {
-  ClientOptions o;
-  o.connect = endpoint;
-  o.name = "viewer";
-  o.mesh_lod = mesh_lod;
-  auto c = Client::connect(o);
-  if (!c) throw std::runtime_error(c.error().what());
-  return std::move(*c);
-}
-
-NatsOptions options(const std::string& servers, const std::string& name, const std::string& scene = "lobby") {
-  NatsOptions o;
-  o.servers = servers;
-  o.name = name;
-  o.scene = scene;
-  return o;
-}
-
-bool sees_all(const Client& c, size_t avatars, uint64_t frames_each = 1) {
-  if (c.avatars().size() != avatars) return false;
-  for (const auto& [id, a] : c.avatars())
-    if (a.frames < frames_each) return false;
-  return true;
-}
-
-double percentile(std::vector<double> v, double q) {
-  if (v.empty()) return 0;
-  std::sort(v.begin(), v.end());
-  return v[std::min(v.size() - 1, size_t(q * double(v.size() - 1) + 0.5))];
-}
 
 TEST(NatsNames, TargetsScenesAndStableKeys) {
   auto t = parse_nats_target("nats://a:1,nats://b:2/lobby");
@@ -204,11 +51,11 @@ TEST(Nats, TwoPublishersOneSceneTwoRelaysSameAvatarsAndLatency) {
   NatsBroker broker;
   broker.configure("solo");
   ASSERT_TRUE(broker.start());
-  TestPublisher a(options(broker.url(), "hostA"), 1), b(options(broker.url(), "hostB"), 2);
-  TestRelay r1(options(broker.url(), "relay1")), r2(options(broker.url(), "relay2"));
+  TestPublisher a(options(broker.url_as("hostA"), "hostA"), 1), b(options(broker.url_as("hostB"), "hostB"), 2);
+  TestRelay r1(options(broker.url_as("relay"), "relay1")), r2(options(broker.url_as("relay"), "relay2"));
   auto v1 = viewer(r1.endpoint()), v2 = viewer(r2.endpoint());
   ASSERT_TRUE(test::pump({v1.get(), v2.get()}, [&] { return sees_all(*v1, 3, 30) && sees_all(*v2, 3, 30); }, 15))
-      << v1->avatars().size() << " " << v2->avatars().size() << " " << r1.feed().stats().last_error;
+      << v1->avatars().size() << " " << v2->avatars().size() << " " << r1.feed().stats().last_error << broker.log();
   std::vector<std::string> n1, n2;
   for (const auto& [id, m] : v1->avatars()) n1.push_back(m.name + "|" + m.model_bytes);
   for (const auto& [id, m] : v2->avatars()) n2.push_back(m.name + "|" + m.model_bytes);
@@ -219,7 +66,7 @@ TEST(Nats, TwoPublishersOneSceneTwoRelaysSameAvatarsAndLatency) {
   EXPECT_EQ(n1[2], "hostB/avatar2|model of hostB 1");
 
   // A viewer joining late gets every model at once from the bucket.
-  TestRelay late(options(broker.url(), "relay3"));
+  TestRelay late(options(broker.url_as("relay"), "relay3"));
   auto v3 = viewer(late.endpoint());
   ASSERT_TRUE(test::pump({v3.get()}, [&] { return v3->avatars().size() == 3; }, 10));
 
@@ -245,8 +92,8 @@ TEST(Nats, BrokerThroughputFigure) {
   broker.configure("solo");
   ASSERT_TRUE(broker.start());
   std::vector<std::unique_ptr<TestRelay>> relays;
-  for (int i = 0; i < 3; ++i) relays.push_back(std::make_unique<TestRelay>(options(broker.url(), "relay" + std::to_string(i))));
-  TestPublisher a(options(broker.url(), "hostA"), 50), b(options(broker.url(), "hostB"), 50);
+  for (int i = 0; i < 3; ++i) relays.push_back(std::make_unique<TestRelay>(options(broker.url_as("relay"), "relay" + std::to_string(i))));
+  TestPublisher a(options(broker.url_as("hostA"), "hostA"), 50), b(options(broker.url_as("hostB"), "hostB"), 50);
   auto v = viewer(relays[0]->endpoint());
   ASSERT_TRUE(test::pump({v.get()}, [&] { return sees_all(*v, 100, 10); }, 20));
   const uint64_t in0 = relays[0]->feed().stats().frames + relays[1]->feed().stats().frames + relays[2]->feed().stats().frames;
@@ -271,7 +118,7 @@ TEST(Nats, WrongCredentialsAreRefusedWithAClearMessage) {
   NatsBroker broker;
   broker.configure("auth", {"mimic", "s3cret", ""});
   ASSERT_TRUE(broker.start());
-  auto o = options(broker.url(), "hostA");
+  auto o = options(broker.url(), "hostA");  // a broker of one user, no credentials in the address
   o.user = "mimic";
   o.password = "wrong";
   auto p = NatsPublisher::create(o);
@@ -292,9 +139,9 @@ TEST(Nats, BrokerDownAtStartIsJoinedWhenItComesUp) {
   REQUIRE_NATS();
   NatsBroker broker;
   broker.configure("late");  // port chosen, nothing listening yet
-  TestPublisher pub(options(broker.url(), "hostA"), 1);
+  TestPublisher pub(options(broker.url_as("hostA"), "hostA"), 1);
   EXPECT_FALSE(pub.get().connected());
-  TestRelay relay(options(broker.url(), "relay"));
+  TestRelay relay(options(broker.url_as("relay"), "relay"));
   EXPECT_FALSE(relay.feed().connected());
   auto v = viewer(relay.endpoint());  // the relay serves its viewers meanwhile
   test::pump_for({v.get()}, 0.5);
@@ -312,7 +159,7 @@ TEST(Nats, ClusterNodeKilledWhileFramesFlow) {
   ASSERT_TRUE(cluster.start());
   // Publisher and relay both on node 1 (in list order, not at random), both knowing every node.
   const auto& n = cluster.nodes;
-  const std::string pub_urls = cluster.urls(), relay_urls = cluster.urls();
+  const std::string pub_urls = cluster.urls_as("hostA"), relay_urls = cluster.urls_as("relay");
   auto po = options(pub_urls, "hostA");
   auto ro = options(relay_urls, "relay");
   po.randomize = false;
@@ -351,7 +198,7 @@ TEST(Nats, ClusterNodeKilledWhileFramesFlow) {
               static_cast<unsigned long long>(lost), static_cast<unsigned long long>(pub->get().stats().frames_dropped));
   EXPECT_LT(lost, 2u * 90u * 3u);
   // A late viewer after the failures still gets both models from the surviving node.
-  TestRelay late(options(n[2].url(), "late"));
+  TestRelay late(options(n[2].url_as("relay"), "late"));
   auto v2 = viewer(late.endpoint());
   EXPECT_TRUE(test::pump({v2.get()}, [&] { return sees_all(*v2, 2, 1); }, 15)) << late.feed().stats().last_error;
 }
@@ -361,15 +208,15 @@ TEST(Nats, RelayRestartedViewersReconnectAndResume) {
   NatsBroker broker;
   broker.configure("solo");
   ASSERT_TRUE(broker.start());
-  TestPublisher pub(options(broker.url(), "hostA"), 1);
-  auto relay = std::make_unique<TestRelay>(options(broker.url(), "relay"));
+  TestPublisher pub(options(broker.url_as("hostA"), "hostA"), 1);
+  auto relay = std::make_unique<TestRelay>(options(broker.url_as("relay"), "relay"));
   const uint16_t port = relay->port();
   auto v = viewer(relay->endpoint());
   ASSERT_TRUE(test::pump({v.get()}, [&] { return sees_all(*v, 1, 30); }, 15));
   relay.reset();  // the relay process goes away
   test::pump_for({v.get()}, 0.3);
   const uint64_t frames_down = v->stats().frames;
-  relay = std::make_unique<TestRelay>(options(broker.url(), "relay"), port);
+  relay = std::make_unique<TestRelay>(options(broker.url_as("relay"), "relay"), port);
   ASSERT_TRUE(test::pump({v.get()}, [&] { return v->stats().frames > frames_down + 60 && v->avatars().size() == 1; }, 15));
   EXPECT_GE(v->stats().reconnects, 1u);
 }
@@ -379,17 +226,17 @@ TEST(Nats, PublisherRestartKeepsItsAvatarKeys) {
   NatsBroker broker;
   broker.configure("solo");
   ASSERT_TRUE(broker.start());
-  TestRelay relay(options(broker.url(), "relay"));
+  TestRelay relay(options(broker.url_as("relay"), "relay"));
   auto v = viewer(relay.endpoint());
   std::string key_before;
   {
-    TestPublisher pub(options(broker.url(), "hostA"), 1);
+    TestPublisher pub(options(broker.url_as("hostA"), "hostA"), 1);
     key_before = pub.get().key(0);
     ASSERT_TRUE(test::pump({v.get()}, [&] { return sees_all(*v, 1, 20); }, 15));
   }
   // A clean stop takes the avatar out of the scene.
   ASSERT_TRUE(test::pump({v.get()}, [&] { return v->avatars().empty(); }, 10));
-  TestPublisher again(options(broker.url(), "hostA"), 1);
+  TestPublisher again(options(broker.url_as("hostA"), "hostA"), 1);
   EXPECT_EQ(again.get().key(0), key_before);
   ASSERT_TRUE(test::pump({v.get()}, [&] { return sees_all(*v, 1, 20); }, 15));
   EXPECT_EQ(v->avatars().begin()->second.name, "hostA/avatar1");
@@ -401,9 +248,9 @@ TEST(Nats, OneBrokerThreeRelaysTwoPublishersManyViewers) {
   NatsBroker broker;
   broker.configure("solo");
   ASSERT_TRUE(broker.start());
-  TestPublisher a(options(broker.url(), "hostA"), 2), b(options(broker.url(), "hostB"), 2);
+  TestPublisher a(options(broker.url_as("hostA"), "hostA"), 2), b(options(broker.url_as("hostB"), "hostB"), 2);
   std::vector<std::unique_ptr<TestRelay>> relays;
-  for (int i = 0; i < 3; ++i) relays.push_back(std::make_unique<TestRelay>(options(broker.url(), "relay" + std::to_string(i))));
+  for (int i = 0; i < 3; ++i) relays.push_back(std::make_unique<TestRelay>(options(broker.url_as("relay"), "relay" + std::to_string(i))));
   constexpr int kViewersPerRelay = 20;
   std::vector<std::unique_ptr<Client>> viewers;
   std::vector<Client*> all;
@@ -449,10 +296,10 @@ TEST(Nats, MeshFramesFlowOnlyWhileARelayViewerAsksForTheirLod) {
   NatsBroker broker;
   broker.configure("solo");
   ASSERT_TRUE(broker.start());
-  auto po = options(broker.url(), "hostM");
+  auto po = options(broker.url_as("hostM"), "hostM");
   po.mesh_max_hz = 15;
   TestPublisher pub(po, 1, 90, /*mesh_lod=*/1);
-  TestRelay relay(options(broker.url(), "relay"));
+  TestRelay relay(options(broker.url_as("relay"), "relay"));
   auto poses = viewer(relay.endpoint());
   ASSERT_TRUE(test::pump({poses.get()}, [&] { return sees_all(*poses, 1, 90); }, 15));
   EXPECT_EQ(pub.get().stats().mesh_requests, 0u) << "nobody asked";
@@ -510,12 +357,12 @@ TEST(Nats, APublishersTickIsOneMessageAndOneRelayFanOut) {
   NatsBroker broker;
   broker.configure("solo");
   ASSERT_TRUE(broker.start());
-  ::mimic::test::NatsProbe probe(broker.url());
+  ::mimic::test::NatsProbe probe(broker.url_as("relay"));
   ASSERT_TRUE(probe.ok());
   ASSERT_TRUE(probe.subscribe("mimic.lobby.poses.*"));
-  TestRelay relay(options(broker.url(), "relay"));
+  TestRelay relay(options(broker.url_as("relay"), "relay"));
   constexpr int kAvatars = 8;
-  TestPublisher pub(options(broker.url(), "hostT"), kAvatars);
+  TestPublisher pub(options(broker.url_as("hostT"), "hostT"), kAvatars);
   std::set<std::string> keys;
   for (int i = 0; i < kAvatars; ++i) keys.insert(pub.get().key(i));
   auto v = viewer(relay.endpoint());
@@ -571,7 +418,8 @@ TEST(Nats, APublishersTickIsOneMessageAndOneRelayFanOut) {
 
   // A message that cannot be framed is counted and changes nothing.
   const uint64_t rejected = relay.feed().stats().rejected;
-  ASSERT_TRUE(probe.publish("mimic.lobby.poses.hostX", std::string(40, 'x')));
+  ::mimic::test::NatsProbe junk(broker.url_as("hostX"));  // a publisher of its own, on its own subject
+  ASSERT_TRUE(junk.publish("mimic.lobby.poses.hostX", std::string(40, 'x')));
   ASSERT_TRUE(test::pump({v.get()}, [&] { return relay.feed().stats().rejected > rejected; }, 10));
   EXPECT_EQ(v->avatars().size(), size_t(kAvatars));
 }
@@ -584,7 +432,7 @@ TEST(Nats, AnAvatarIsServedWhileItsPublisherHeartbeatsAndLeavesAfterMissedOnes) 
   NatsBroker broker;
   broker.configure("solo");
   ASSERT_TRUE(broker.start());
-  ::mimic::test::NatsProbe probe(broker.url());
+  ::mimic::test::NatsProbe probe(broker.url_as("ghost"));
   ASSERT_TRUE(probe.ok());
   ASSERT_TRUE(probe.open_bucket("mimic_lobby", /*create=*/true));
   const std::string key = nats_avatar_key("ghost", "avatar1");
@@ -595,9 +443,9 @@ TEST(Nats, AnAvatarIsServedWhileItsPublisherHeartbeatsAndLeavesAfterMissedOnes) 
   m.model_bytes = "model of a publisher that died";
   std::vector<uint8_t> packet(avatar_model_packet_bytes(m));
   ASSERT_GT(encode_avatar_model(m, packet), 0u);
-  ASSERT_TRUE(probe.put(key, packet));
+  ASSERT_TRUE(probe.put("ghost." + key, packet));  // the bucket key is publisher.key
 
-  TestRelay relay(options(broker.url(), "relay"));
+  TestRelay relay(options(broker.url_as("relay"), "relay"));
   auto v = viewer(relay.endpoint());
   ASSERT_TRUE(test::pump({v.get()}, [&] { return relay.feed().stats().held == 1; }, 10)) << relay.feed().stats().last_error;
   test::pump_for({v.get()}, 4.0);  // longer than three missed heartbeats

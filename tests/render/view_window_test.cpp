@@ -219,13 +219,13 @@ TEST(ViewWindow, ConnectsToASceneOnANatsBroker) {
   VirtualDisplay x;
   ASSERT_FALSE(x.display().empty()) << "Xvfb did not start (scripts/setup.sh installs it)";
   ::setenv("DISPLAY", x.display().c_str(), 1);
-  mimic::test::Child host({mimic::test::mimic_binary(), "run", "--listen", "127.0.0.1:0", "--nats", broker.url(),
+  mimic::test::Child host({mimic::test::mimic_binary(), "run", "--listen", "127.0.0.1:0", "--nats", broker.url_as("hostV"),
                            "--scene", "stage", "--nats-name", "hostV", "--source", "sim:walk", "--source",
                            "sim:idle?seed=2", "--duration", "30", "--quiet"});
   const std::string line = host.line();
   ASSERT_NE(line.find("publishing scene 'stage'"), std::string::npos) << line;
   const std::string out = temp("nats.png");
-  const std::string target = broker.url() + "/stage";
+  const std::string target = broker.url_as("relay") + "/stage";  // a viewer reads as a relay does
   const Outcome r = run_mimic("view --connect " + target + " --frames 120 --no-vsync --size 400x300 --capture '" + out + "'");
   ASSERT_EQ(r.status, 0) << r.output;
   // Both avatars came through the broker, under their publisher's names, deformed here from

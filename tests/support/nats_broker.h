@@ -1,5 +1,9 @@
 // Real nats-server processes for tests: one broker, or a cluster of three, on free loopback
-// ports, JetStream on (a temporary store directory), stopped and cleaned up afterwards.
+// ports, JetStream on (a temporary store directory), stopped and cleaned up afterwards. Unless
+// a test asks for a single user of its own, a broker runs the shipped configuration
+// (config/nats/mimic-broker.conf, its users written by scripts/nats_auth_conf.sh): the test
+// publishers below and the relay user "relay", each with its permissions, passwords random per
+// test process and given to nats-server in its environment as in production.
 #pragma once
 
 #include <arpa/inet.h>
@@ -10,8 +14,12 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <fcntl.h>
+
 #include <chrono>
 #include <cstdio>
+#include <map>
+#include <random>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -58,6 +66,47 @@ struct NatsAuth {
   std::string user, password, token;
 };
 
+// The users every test broker knows: publishers (their --nats-name) and the relays' user.
+inline const std::vector<std::string>& nats_test_publishers() {
+  static const std::vector<std::string> names = {"hostA", "hostB", "hostC", "hostK", "hostM", "hostT", "hostV", "hostX", "ghost", "mallory"};
+  return names;
+}
+inline constexpr const char* kNatsRelayUser = "relay";
+
+// One random password per user for the whole test process (a broker restarted on the same port
+// takes the same ones).
+inline std::string nats_test_password(const std::string& user) {
+  static std::map<std::string, std::string> passwords;
+  static std::mt19937_64 rng{std::random_device{}()};
+  auto& p = passwords[user];
+  if (p.empty()) {
+    char buf[17];
+    std::snprintf(buf, sizeof buf, "%016llx", static_cast<unsigned long long>(rng()));
+    p = buf;
+  }
+  return p;
+}
+// MIMIC_NATS_PASSWORD_<USER>, as scripts/nats_auth_conf.sh names it.
+inline std::string nats_password_variable(const std::string& user) {
+  std::string v = "MIMIC_NATS_PASSWORD_";
+  for (char c : user) v += (c >= 'a' && c <= 'z') ? char(c - 'a' + 'A') : ((c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9')) ? c : '_';
+  return v;
+}
+// nats://USER:PASSWORD@HOST:PORT for each address of a comma-separated list.
+inline std::string nats_url_as(const std::string& urls, const std::string& user) {
+  std::string out;
+  for (size_t begin = 0; begin < urls.size();) {
+    size_t end = urls.find(',', begin);
+    if (end == std::string::npos) end = urls.size();
+    const std::string u = urls.substr(begin, end - begin);
+    const size_t scheme = u.find("://");
+    out.append(out.empty() ? "" : ",").append(u.substr(0, scheme + 3)).append(user).append(":");
+    out.append(nats_test_password(user)).append("@").append(u.substr(scheme + 3));
+    begin = end + 1;
+  }
+  return out;
+}
+
 class NatsBroker {
  public:
   uint16_t port = 0, cluster_port = 0;
@@ -79,10 +128,15 @@ class NatsBroker {
     char tmpl[] = "/tmp/mimic-nats-XXXXXX";
     dir_ = ::mkdtemp(tmpl);
     std::ofstream c(dir_ + "/nats.conf");
-    c << "server_name: " << name << "\nlisten: 127.0.0.1:" << port << "\n";
-    c << "jetstream { store_dir: \"" << dir_ << "/js\" }\n";
-    if (!auth.token.empty()) c << "authorization { token: \"" << auth.token << "\" }\n";
-    if (!auth.user.empty()) c << "authorization { user: \"" << auth.user << "\", password: \"" << auth.password << "\" }\n";
+    if (auth.token.empty() && auth.user.empty()) {
+      write_shipped_config(c);
+    } else {
+      c << "listen: 127.0.0.1:" << port << "\n";
+      c << "jetstream { store_dir: \"" << dir_ << "/js\" }\n";
+      if (!auth.token.empty()) c << "authorization { token: \"" << auth.token << "\" }\n";
+      if (!auth.user.empty()) c << "authorization { user: \"" << auth.user << "\", password: \"" << auth.password << "\" }\n";
+    }
+    c << "server_name: " << name << "\n";
     if (cluster_port) {
       c << "cluster { name: mimic_test, listen: 127.0.0.1:" << cluster_port << ", routes: [";
       for (size_t i = 0; i < routes.size(); ++i) c << (i ? ", " : "") << "nats-route://127.0.0.1:" << routes[i];
@@ -99,7 +153,15 @@ class NatsBroker {
     std::vector<char*> argv;
     for (auto& a : args) argv.push_back(a.data());
     argv.push_back(nullptr);
-    if (posix_spawn(&pid_, bin.c_str(), nullptr, nullptr, argv.data(), environ) != 0) return false;
+    // The users' passwords, from the environment as the shipped configuration wants them.
+    std::vector<std::string> env_text;
+    // (nats-server reads a variable's value as a configuration value: quoted, it is a string.)
+    for (const auto& u : users()) env_text.push_back(nats_password_variable(u) + "=\"" + nats_test_password(u) + "\"");
+    std::vector<char*> envp;
+    for (auto& e : env_text) envp.push_back(e.data());
+    for (char** e = environ; *e; ++e) envp.push_back(*e);
+    envp.push_back(nullptr);
+    if (posix_spawn(&pid_, bin.c_str(), nullptr, nullptr, argv.data(), envp.data()) != 0) return false;
     const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
     while (std::chrono::steady_clock::now() < deadline) {
       if (port_accepts(port)) return true;
@@ -114,6 +176,10 @@ class NatsBroker {
     ::kill(pid_, SIGKILL);
     ::waitpid(pid_, nullptr, 0);
     pid_ = -1;
+  }
+  // SIGSTOP/SIGCONT: a node that hangs (its connections open, nothing answered) and comes back.
+  void signal(int sig) {
+    if (pid_ > 0) ::kill(pid_, sig);
   }
   bool running() const { return pid_ > 0; }
   // CPU time the broker process has used (user + system), for figures.
@@ -132,12 +198,47 @@ class NatsBroker {
     return double(utime + stime) / double(::sysconf(_SC_CLK_TCK));
   }
   std::string url() const { return "nats://127.0.0.1:" + std::to_string(port); }
+  // The address with a user's credentials in it (what MIMIC_NATS_USER/PASSWORD carry in the product).
+  std::string url_as(const std::string& user) const { return nats_url_as(url(), user); }
   std::string log() const {
     std::ifstream f(dir_ + "/nats.log");
     return std::string(std::istreambuf_iterator<char>(f), {});
   }
 
  private:
+  static std::vector<std::string> users() {
+    std::vector<std::string> u = nats_test_publishers();
+    u.push_back(kNatsRelayUser);
+    return u;
+  }
+
+  // config/nats/mimic-broker.conf with this node's address and store, and the users' file from
+  // scripts/nats_auth_conf.sh beside it.
+  void write_shipped_config(std::ofstream& c) {
+    std::ifstream shipped(std::string(MIMIC_SOURCE_DIR) + "/config/nats/mimic-broker.conf");
+    for (std::string line; std::getline(shipped, line);) {
+      if (line.starts_with("listen:")) line = "listen: 127.0.0.1:" + std::to_string(port);
+      if (const size_t at = line.find("store_dir:"); at != std::string::npos)
+        line = line.substr(0, at) + "store_dir: \"" + dir_ + "/js\"";
+      c << line << "\n";
+    }
+    std::vector<std::string> args = {"/bin/sh", std::string(MIMIC_SOURCE_DIR) + "/scripts/nats_auth_conf.sh", "--relay",
+                                     kNatsRelayUser};
+    for (const auto& p : nats_test_publishers()) {
+      args.push_back("--publisher");
+      args.push_back(p);
+    }
+    std::vector<char*> argv;
+    for (auto& a : args) argv.push_back(a.data());
+    argv.push_back(nullptr);
+    posix_spawn_file_actions_t fa;
+    posix_spawn_file_actions_init(&fa);
+    posix_spawn_file_actions_addopen(&fa, 1, (dir_ + "/mimic-auth.conf").c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0600);
+    pid_t pid = -1;
+    if (posix_spawn(&pid, "/bin/sh", &fa, nullptr, argv.data(), environ) == 0) ::waitpid(pid, nullptr, 0);
+    posix_spawn_file_actions_destroy(&fa);
+  }
+
   pid_t pid_ = -1;
   std::string dir_;
 };
@@ -164,6 +265,7 @@ class NatsCluster {
     return true;
   }
   std::string urls() const { return nodes[0].url() + "," + nodes[1].url() + "," + nodes[2].url(); }
+  std::string urls_as(const std::string& user) const { return nats_url_as(urls(), user); }
 };
 
 }  // namespace mimic::test

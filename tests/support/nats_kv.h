@@ -1,5 +1,6 @@
 // A bare NATS client for tests that look at the broker directly: what the model bucket holds,
-// a model left behind as by a dead publisher, a heartbeat sent by hand. Needs MIMIC_WITH_NATS.
+// a model left behind as by a dead publisher, a heartbeat sent by hand, what another user may
+// try. Needs MIMIC_WITH_NATS.
 #pragma once
 
 #include <nats/nats.h>
@@ -11,8 +12,13 @@ namespace mimic::test {
 
 class NatsProbe {
  public:
+  // `url` may carry a user's credentials (NatsBroker::url_as): the probe then has that user's
+  // permissions, and a refused put or delete fails after a second (no answer comes).
   explicit NatsProbe(const std::string& url) {
-    ok_ = natsConnection_ConnectTo(&nc_, url.c_str()) == NATS_OK && natsConnection_JetStream(&js_, nc_, nullptr) == NATS_OK;
+    jsOptions jo;
+    jsOptions_Init(&jo);
+    jo.Wait = 1000;
+    ok_ = natsConnection_ConnectTo(&nc_, url.c_str()) == NATS_OK && natsConnection_JetStream(&js_, nc_, &jo) == NATS_OK;
   }
   ~NatsProbe() {
     if (sub_) natsSubscription_Destroy(sub_);
@@ -40,6 +46,7 @@ class NatsProbe {
     uint64_t rev = 0;
     return kv_ && kvStore_Put(&rev, kv_, key.c_str(), value.data(), int(value.size())) == NATS_OK;
   }
+  bool remove(const std::string& key) { return kv_ && kvStore_Delete(kv_, key.c_str()) == NATS_OK; }
   // True while the bucket holds a value for `key`.
   bool holds(const std::string& key) {
     kvEntry* e = nullptr;

@@ -364,9 +364,9 @@ FanoutCapacity capacity_row(const FanoutOptions& o, const Swarm& swarm, const Me
   r.rate_hz = o.rate_hz;
   r.seconds = double(m.ticks) / o.rate_hz;
   r.frames_expected = cap.streams * uint64_t(m.ticks);
-  r.frames_received = swarm.frames();
+  r.frames_received = m.frames_received >= 0 ? uint64_t(m.frames_received) : swarm.frames();
   r.frames_dropped = m.dropped;
-  r.lost = swarm.lost();
+  r.lost = m.lost >= 0 ? uint64_t(m.lost) : swarm.lost();
   r.tick_p50_us = percentile(m.tick_us, 0.50);
   r.tick_p99_us = percentile(m.tick_us, 0.99);
   r.late_ticks = m.late_ticks;

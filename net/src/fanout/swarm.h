@@ -97,6 +97,9 @@ struct Measured {
   double process_cpu_s = 0;
   bool realtime = false;
   int sender_threads = 1;
+  // When set (>= 0): what the subscribers had received, and lost, by the end of the timed
+  // window, instead of everything counted up to stop().
+  int64_t frames_received = -1, lost = -1;
 };
 FanoutCapacity capacity_row(const FanoutOptions& o, const Swarm& swarm, const Measured& m);
 

@@ -1,4 +1,6 @@
 // Addresses, scene names and avatar keys of the broker transport.
+#include <algorithm>
+#include <cstdio>
 #include <cstdlib>
 
 #include "mimic/net/nats.h"
@@ -10,6 +12,18 @@ void nats_credentials_from_env(NatsOptions& options) {
   if (const char* v = std::getenv("MIMIC_NATS_USER")) options.user = v;
   if (const char* v = std::getenv("MIMIC_NATS_PASSWORD")) options.password = v;
   if (const char* v = std::getenv("MIMIC_NATS_TOKEN")) options.token = v;
+}
+
+int format_nats_state(const NatsLinkState& s, char* out, size_t size) noexcept {
+  int n = 0;
+  if (!s.connected)
+    n = std::snprintf(out, size, " | nats DOWN %.1f s", s.down_s);
+  else if (s.disconnects == 0)
+    n = std::snprintf(out, size, " | nats up");
+  else
+    n = std::snprintf(out, size, " | nats up (%llu outage%s, last %.3f s)", static_cast<unsigned long long>(s.disconnects),
+                      s.disconnects == 1 ? "" : "s", s.last_outage_s);
+  return std::clamp(n, 0, size ? int(size) - 1 : 0);
 }
 
 bool is_nats_url(std::string_view text) { return text.starts_with("nats://") || text.starts_with("tls://"); }

@@ -26,11 +26,27 @@ std::string subject_token(const std::string& name) {
     if (!((c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_' || c == '-')) c = '_';
   return s;
 }
-std::string mesh_subject(const std::string& scene, const std::string& key, unsigned lod) {
-  return "mimic." + scene + "." + key + ".mesh." + std::to_string(lod);
+std::string owned_key(const std::string& publisher_token, const std::string& key) { return publisher_token + "." + key; }
+bool is_owned_key(std::string_view text) {
+  const size_t dot = text.find('.');
+  if (dot == 0 || dot == std::string_view::npos || dot > 64 || text.size() != dot + 17) return false;
+  for (size_t i = 0; i < dot; ++i) {
+    const char c = text[i];
+    if (!((c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_' || c == '-')) return false;
+  }
+  for (size_t i = dot + 1; i < text.size(); ++i)
+    if (!((text[i] >= '0' && text[i] <= '9') || (text[i] >= 'a' && text[i] <= 'f'))) return false;
+  return true;
 }
-std::string mesh_want_subject(const std::string& scene, const std::string& key) {
-  return "mimic." + scene + "." + key + ".mesh_want";
+std::string mesh_subject(const std::string& scene, const std::string& owned, unsigned lod) {
+  return "mimic." + scene + ".mesh." + owned + "." + std::to_string(lod);
+}
+std::string mesh_want_subject(const std::string& scene, const std::string& owned) {
+  return "mimic." + scene + ".want." + owned;
+}
+std::string_view last_token(std::string_view subject) {
+  const size_t dot = subject.rfind('.');
+  return dot == std::string_view::npos ? subject : subject.substr(dot + 1);
 }
 std::string status_subject(const std::string& scene, const std::string& publisher_token) {
   return "mimic." + scene + ".status." + publisher_token;
@@ -41,13 +57,36 @@ int64_t monotonic_us() noexcept {
       .count();
 }
 
+void Connection::set_up(bool up) noexcept {
+  const int64_t now = monotonic_us();
+  if (up) {
+    if (const int64_t since = down_since_us_.exchange(0); since != 0) last_outage_us_ = now - since;
+  } else if (up_.load()) {
+    down_since_us_ = now;
+  }
+  up_.store(up, std::memory_order_release);
+}
+
+NatsLinkState Connection::state() const noexcept {
+  NatsLinkState s;
+  s.connected = connected();
+  s.disconnects = disconnects_;
+  const int64_t since = down_since_us_;
+  s.down_s = !s.connected && since != 0 ? double(monotonic_us() - since) * 1e-6 : 0;
+  s.last_outage_s = double(last_outage_us_.load()) * 1e-6;
+  return s;
+}
+
 void Connection::disconnected_cb(natsConnection*, void* self) {
-  static_cast<Connection*>(self)->disconnects_++;
+  auto* c = static_cast<Connection*>(self);
+  c->disconnects_++;
+  c->set_up(false);
 }
 
 void Connection::reconnected_cb(natsConnection*, void* self) {
   auto* c = static_cast<Connection*>(self);
   c->reconnects_++;
+  c->set_up(true);
   if (c->on_reconnected) c->on_reconnected();
 }
 
@@ -57,6 +96,7 @@ void Connection::error_cb(natsConnection*, natsSubscription*, natsStatus s, void
 
 void Connection::closed_cb(natsConnection*, void* self) {
   auto* c = static_cast<Connection*>(self);
+  c->up_ = false;
   std::lock_guard lock(c->closed_mutex_);
   c->closed_ = true;
   c->closed_cv_.notify_all();
@@ -75,10 +115,23 @@ std::string Connection::last_error() const {
 std::string Connection::connected_url() const {
   char buf[256] = {};
   if (!connected() || natsConnection_GetConnectedUrl(nc_, buf, sizeof buf) != NATS_OK) return {};
-  return buf;
+  // Without the credentials an address may carry (nats://USER:PASSWORD@HOST:PORT): this is shown.
+  std::string url = buf;
+  if (const size_t scheme = url.find("://"), at = url.rfind('@'); scheme != std::string::npos && at != std::string::npos && at > scheme)
+    url.erase(scheme + 3, at - scheme - 2);
+  return url;
 }
 
-bool Connection::connected() const { return nc_ && natsConnection_Status(nc_) == NATS_CONN_STATUS_CONNECTED; }
+// Addresses as shown in messages: without the USER:PASSWORD@ an address may carry.
+std::string redact_urls(std::string_view servers) {
+  std::string out(servers);
+  for (size_t scheme = out.find("://"); scheme != std::string::npos; scheme = out.find("://", scheme + 3)) {
+    const size_t end = std::min(out.find(',', scheme), out.size());
+    if (const size_t at = out.rfind('@', end); at != std::string::npos && at > scheme && at < end)
+      out.erase(scheme + 3, at + 1 - (scheme + 3));
+  }
+  return out;
+}
 
 Status Connection::open(const NatsOptions& options) {
   std::vector<std::string> urls;
@@ -92,7 +145,7 @@ Status Connection::open(const NatsOptions& options) {
   for (const auto& u : urls)
     if (!is_nats_url(u)) {
       std::string msg = "'";
-      msg.append(u).append("' is not a nats://HOST:PORT address");
+      msg.append(redact_urls(u)).append("' is not a nats://HOST:PORT address");
       return fail(Errc::invalid_argument, msg);
     }
   if (auto st = check_scene_name(options.scene); !st) return st;
@@ -110,6 +163,9 @@ Status Connection::open(const NatsOptions& options) {
   if (s == NATS_OK) s = natsOptions_SetTimeout(o, int64_t(options.connect_timeout_s * 1000));
   if (s == NATS_OK) s = natsOptions_SetMaxReconnect(o, -1);  // a relay or publisher never gives up
   if (s == NATS_OK) s = natsOptions_SetReconnectWait(o, options.reconnect_wait_ms);
+  // The wait above comes only after every server of the list failed once; the jitter on top
+  // stays small so that a failover never waits long for it.
+  if (s == NATS_OK) s = natsOptions_SetReconnectJitter(o, 50, 200);
   // Pose frames are not buffered through an outage (they are checked against the connection
   // state first); this only bounds what a publish racing a disconnect may hold.
   if (s == NATS_OK) s = natsOptions_SetReconnectBufSize(o, 256 * 1024);
@@ -128,23 +184,27 @@ Status Connection::open(const NatsOptions& options) {
   if (s != NATS_OK) return fail(Errc::invalid_argument, "nats options: " + describe(s));
 
   s = natsConnection_Connect(&nc_, o);
-  if (s == NATS_OK) return {};
+  if (s == NATS_OK) {
+    set_up(true);
+    return {};
+  }
   const std::string why = describe(s);
   const bool refused = s == NATS_CONNECTION_AUTH_FAILED || s == NATS_NOT_PERMITTED ||
                        why.find("uthorization") != std::string::npos || why.find("uthentication") != std::string::npos;
   if (refused)
     return fail(Errc::invalid_argument,
-                "the NATS broker at " + options.servers + " refused the credentials (" + why +
+                "the NATS broker at " + redact_urls(options.servers) + " refused the credentials (" + why +
                     "); set MIMIC_NATS_USER and MIMIC_NATS_PASSWORD, or MIMIC_NATS_TOKEN");
   if (s != NATS_NO_SERVER && s != NATS_TIMEOUT && s != NATS_IO_ERROR)
-    return fail(Errc::io_error, "cannot connect to the NATS broker at " + options.servers + ": " + why);
+    return fail(Errc::io_error, "cannot connect to the NATS broker at " + redact_urls(options.servers) + ": " + why);
   // Nobody answers yet: keep trying in the background; the callback reports the connect.
   set_error("broker unreachable: " + why);
   nc_ = nullptr;
+  down_since_us_ = monotonic_us();
   natsOptions_SetRetryOnFailedConnect(o, true, reconnected_cb, this);
   s = natsConnection_Connect(&nc_, o);
   if (s == NATS_OK || s == NATS_NOT_YET_CONNECTED) return {};
-  return fail(Errc::io_error, "cannot connect to the NATS broker at " + options.servers + ": " + describe(s));
+  return fail(Errc::io_error, "cannot connect to the NATS broker at " + redact_urls(options.servers) + ": " + describe(s));
 }
 
 void Connection::close() {

@@ -12,6 +12,7 @@
 #include <cstring>
 #include <random>
 #include <thread>
+#include <utility>
 #include <vector>
 
 #include "mimic/net/frame_codec.h"
@@ -27,8 +28,12 @@ using nats_detail::subject_token;
 
 namespace {
 
-// A topology is sent at most this often per avatar, however many relays ask.
-constexpr int64_t kTopologyMinGap_us = 250'000;
+// A topology (the largest mesh message, hundreds of KB at LOD 0) goes out on a relay's ask, at
+// most kTopologyBurst times at once and then once per kTopologyRefill_us per avatar, however
+// many asks come: a few two-byte requests cannot make the publisher put megabytes on the
+// broker. Relays that join together share one (they all subscribe to the subject).
+constexpr double kTopologyBurst = 2;
+constexpr int64_t kTopologyRefill_us = 5'000'000;
 
 }  // namespace
 
@@ -50,11 +55,12 @@ struct NatsPublisher::Impl {
     std::atomic<int64_t> wanted_until_us{0};
     std::atomic<int64_t> next_due_us{0};
     std::atomic<bool> topology_asked{false};
-    int64_t topology_sent_us = -kTopologyMinGap_us;  // sender thread
+    double topology_tokens = kTopologyBurst;  // sender thread
+    int64_t topology_tokens_at_us = 0;
     natsSubscription* want_sub = nullptr;
   };
   struct Slot {
-    std::string key, avatar_name;
+    std::string key, owned, avatar_name;  // owned: the bucket key P.K
     uint64_t key_value = 0;
     std::vector<uint8_t> model_packet;
     // The frame of the tick in progress (the publishing thread's alone until end_tick).
@@ -81,7 +87,8 @@ struct NatsPublisher::Impl {
   std::atomic<uint32_t> wake{0};
   std::atomic<bool> stopping{false};
   std::atomic<bool> models_dirty{true};
-  std::atomic<uint64_t> frames{0}, dropped{0}, models{0}, model_failures{0}, mesh_frames{0}, mesh_requests{0};
+  std::atomic<uint64_t> frames{0}, dropped{0}, models{0}, model_failures{0}, mesh_frames{0}, mesh_requests{0},
+      topologies{0}, topologies_refused{0};
   std::thread sender, housekeeper;
   std::mutex hk_mutex;
   std::condition_variable hk_cv;
@@ -117,16 +124,21 @@ struct NatsPublisher::Impl {
   }
 
   void send_mesh(Mesh& mesh) {
-    if (mesh.topology_asked.load(std::memory_order_relaxed)) {
+    if (mesh.topology_asked.exchange(false, std::memory_order_relaxed)) {
       const int64_t now = monotonic_us();
-      if (now - mesh.topology_sent_us >= kTopologyMinGap_us) {
-        mesh.topology_asked = false;
-        mesh.topology_sent_us = now;
-        if (conn.connected())
-          if (natsStatus s = natsConnection_Publish(conn.get(), mesh.subject.c_str(), mesh.topology.data(),
-                                                    int(mesh.topology.size()));
-              s != NATS_OK)
-            set_error("mesh topology: " + describe(s));
+      mesh.topology_tokens = std::min(kTopologyBurst, mesh.topology_tokens + double(now - mesh.topology_tokens_at_us) /
+                                                                                double(kTopologyRefill_us));
+      mesh.topology_tokens_at_us = now;
+      if (mesh.topology_tokens < 1) {
+        topologies_refused++;  // the relay asks again while it lacks it
+      } else if (conn.connected()) {
+        mesh.topology_tokens -= 1;
+        if (natsStatus s = natsConnection_Publish(conn.get(), mesh.subject.c_str(), mesh.topology.data(),
+                                                  int(mesh.topology.size()));
+            s != NATS_OK)
+          set_error("mesh topology: " + describe(s));
+        else
+          topologies++;
       }
     }
     size_t n = 0;
@@ -203,12 +215,24 @@ struct NatsPublisher::Impl {
     }
   }
 
+  // Drops the bucket handle after a failed put: a broker restarted with an empty store has no
+  // bucket behind it any more ("no responders"), so the next round binds to it again or
+  // creates it anew, and puts every model again.
+  void forget_bucket() {
+    if (kv) kvStore_Destroy(kv);
+    kv = nullptr;
+    if (js) jsCtx_Destroy(js);
+    js = nullptr;
+  }
+
   bool ensure_bucket() {
     if (kv) return true;
     if (!js) {
       jsOptions jo;
       jsOptions_Init(&jo);
-      jo.Wait = 2000;
+      // Puts and bucket calls wait this long at most for JetStream (a cluster electing a
+      // leader answers nothing); they run on the housekeeping thread only.
+      jo.Wait = 1000;
       if (natsStatus s = natsConnection_JetStream(&js, conn.get(), &jo); s != NATS_OK) {
         set_error("JetStream: " + describe(s));
         return false;
@@ -216,6 +240,7 @@ struct NatsPublisher::Impl {
     }
     const std::string bucket = nats_detail::bucket_name(opt.scene);
     if (js_KeyValue(&kv, js, bucket.c_str()) == NATS_OK) return true;
+    kv = nullptr;
     kvConfig cfg;
     kvConfig_Init(&cfg);
     cfg.Bucket = bucket.c_str();
@@ -234,6 +259,10 @@ struct NatsPublisher::Impl {
     return true;
   }
 
+  // Housekeeping thread. The packets are copied out first: a put may wait a second for
+  // JetStream, and the sender thread takes slots_mutex for every tick (holding it across the
+  // puts stalled pose frames for as long as a put waited, on every failover that moved the
+  // bucket's leader).
   void put_models() {
     if (!ensure_bucket()) {
       // E.g. a cluster still electing its JetStream leader: try again on the next round.
@@ -241,13 +270,18 @@ struct NatsPublisher::Impl {
       models_dirty = true;
       return;
     }
-    std::lock_guard lock(slots_mutex);
-    for (auto& s : slots) {
+    std::vector<std::pair<std::string, std::vector<uint8_t>>> todo;
+    {
+      std::lock_guard lock(slots_mutex);
+      for (auto& s : slots) todo.emplace_back(s->owned, s->model_packet);
+    }
+    for (const auto& [key, packet] : todo) {
+      if (stopping) return;
       uint64_t rev = 0;
-      if (natsStatus st = kvStore_Put(&rev, kv, s->key.c_str(), s->model_packet.data(), int(s->model_packet.size()));
-          st != NATS_OK) {
+      if (natsStatus st = kvStore_Put(&rev, kv, key.c_str(), packet.data(), int(packet.size())); st != NATS_OK) {
         model_failures++;
         set_error("model put: " + describe(st));
+        forget_bucket();
         models_dirty = true;
         return;
       }
@@ -283,6 +317,7 @@ struct NatsPublisher::Impl {
     // Models are put again every third of their TTL, so only a dead publisher's expire.
     const auto refresh = std::chrono::duration_cast<C::duration>(std::chrono::duration<double>(opt.model_ttl_s / 3));
     auto next_refresh = C::now() + refresh;
+    auto next_put = C::now();
     std::unique_lock lock(hk_mutex);
     while (!stopping) {
       hk_cv.wait_for(lock, std::chrono::milliseconds(50));
@@ -293,10 +328,15 @@ struct NatsPublisher::Impl {
         models_dirty = true;
         next_refresh = C::now() + refresh;
       }
-      if (models_dirty.exchange(false)) put_models();
+      // The heartbeat first: a put may wait for JetStream, relays must not miss it meanwhile.
       if (C::now() >= next_status) {
         publish_status();
         next_status = C::now() + std::chrono::milliseconds(opt.heartbeat_ms);
+      }
+      if (C::now() >= next_put && models_dirty.exchange(false)) {
+        put_models();
+        // After a failed round, the next one a little later (not 20 times a second).
+        if (models_dirty) next_put = C::now() + std::chrono::milliseconds(250);
       }
       lock.lock();
     }
@@ -321,7 +361,7 @@ struct NatsPublisher::Impl {
     }
     // A clean leave removes this publisher's avatars from the scene.
     if (conn.connected() && kv) {
-      for (auto& s : slots) kvStore_Delete(kv, s->key.c_str());
+      for (auto& s : slots) kvStore_Delete(kv, s->owned.c_str());
       natsConnection_FlushTimeout(conn.get(), 1000);
     }
     if (kv) kvStore_Destroy(kv);
@@ -361,6 +401,7 @@ Result<int> NatsPublisher::add_avatar(const std::string& avatar_name, uint16_t d
   slot->avatar_name = avatar_name;
   slot->key_value = nats_detail::avatar_key_value(impl_->opt.name, avatar_name);
   slot->key = nats_detail::avatar_key_text(slot->key_value);
+  slot->owned = nats_detail::owned_key(subject_token(impl_->opt.name), slot->key);
   AvatarModel m;
   m.revision = impl_->incarnation;
   m.dof_count = dof_count;
@@ -389,8 +430,8 @@ Status NatsPublisher::add_mesh(int index, const MeshTopology& topology) {
   auto mesh = std::make_unique<Impl::Mesh>();
   mesh->owner = impl_.get();
   mesh->lod = topology.lod;
-  mesh->subject = nats_detail::mesh_subject(impl_->opt.scene, slot.key, topology.lod);
-  mesh->want_subject = nats_detail::mesh_want_subject(impl_->opt.scene, slot.key);
+  mesh->subject = nats_detail::mesh_subject(impl_->opt.scene, slot.owned, topology.lod);
+  mesh->want_subject = nats_detail::mesh_want_subject(impl_->opt.scene, slot.owned);
   MeshTopology t = topology;
   t.avatar = 0;  // relays put their own id in
   mesh->topology.resize(mesh_topology_packet_bytes(t.indices.size()));
@@ -470,6 +511,7 @@ void NatsPublisher::publish_mesh(int index, std::span<const uint8_t> packet) noe
 }
 
 bool NatsPublisher::connected() const { return impl_->conn.connected(); }
+NatsLinkState NatsPublisher::link_state() const noexcept { return impl_->conn.state(); }
 std::string NatsPublisher::connected_url() const { return impl_->conn.connected_url(); }
 
 std::string NatsPublisher::key(int index) const {
@@ -488,6 +530,8 @@ NatsLinkStats NatsPublisher::stats() const {
   s.model_failures = impl_->model_failures;
   s.mesh_frames = impl_->mesh_frames;
   s.mesh_requests = impl_->mesh_requests;
+  s.topologies = impl_->topologies;
+  s.topologies_refused = impl_->topologies_refused;
   std::lock_guard lock(impl_->error_mutex);
   s.last_error = impl_->last_error.empty() ? impl_->conn.last_error() : impl_->last_error;
   return s;

@@ -3,6 +3,7 @@
 // one watcher of its model bucket, and a subscription per mesh LOD some viewer wants; what
 // arrives is validated and handed to the Server on its own thread (scene_feed_serve.cpp).
 #include <chrono>
+#include <set>
 #include <thread>
 
 #include <nlohmann/json.hpp>
@@ -17,17 +18,15 @@ using nats_detail::monotonic_us;
 
 namespace {
 
-// mimic.<scene>.<key>.<kind>[.<lod>]: the key is the token after the scene.
+// mimic.<scene>.mesh.<P>.<K>.<lod>: the owned key P.K and the LOD.
 bool subject_key(const char* subject, size_t scene_size, std::string& key, uint8_t& lod) {
   const std::string_view s(subject);
-  const size_t a = 6 + scene_size + 1;  // "mimic." + scene + "."
-  if (s.size() <= a) return false;
-  const size_t b = s.find('.', a);
-  if (b == std::string_view::npos || b == a) return false;
-  key.assign(s.substr(a, b - a));
-  lod = 0;
-  if (const size_t c = s.rfind('.'); c > b && c + 2 == s.size() && s[c + 1] >= '0' && s[c + 1] <= '7')
-    lod = uint8_t(s[c + 1] - '0');
+  const size_t a = 6 + scene_size + 6;  // "mimic." + scene + ".mesh."
+  if (s.size() < a + 2 || s[s.size() - 2] != '.' || s.back() < '0' || s.back() > '7') return false;
+  const std::string_view owned = s.substr(a, s.size() - 2 - a);
+  if (!nats_detail::is_owned_key(owned)) return false;
+  key.assign(owned);
+  lod = uint8_t(s.back() - '0');
   return true;
 }
 
@@ -69,6 +68,8 @@ void NatsSceneFeed::Impl::on_poses_msg(natsConnection*, natsSubscription*, natsM
   const auto* data = reinterpret_cast<const uint8_t*>(natsMsg_GetData(msg));
   const size_t size = size_t(std::max(0, natsMsg_GetDataLength(msg)));
   const uint64_t arrival_us = wall_clock_us();
+  // The publisher is the subject's (its user may publish there alone): its avatars only.
+  const std::string prefix = std::string(nats_detail::last_token(natsMsg_GetSubject(msg))) + ".";
   std::vector<Frame> tick;
   bool malformed = false;
   for (size_t at = 0; at < size;) {
@@ -81,7 +82,7 @@ void NatsSceneFeed::Impl::on_poses_msg(natsConnection*, natsSubscription*, natsM
       break;
     }
     Frame frame;
-    frame.key = nats_detail::avatar_key_text(nats_detail::read_poses_key(data + at));
+    frame.key = prefix + nats_detail::avatar_key_text(nats_detail::read_poses_key(data + at));
     frame.packet.assign(data + packet_at, data + packet_at + kHeaderBytes + h.payload_bytes);
     frame.arrival_us = arrival_us;
     tick.push_back(std::move(frame));
@@ -109,6 +110,8 @@ void NatsSceneFeed::Impl::on_status_msg(natsConnection*, natsSubscription*, nats
   // anything else is ignored.
   const auto j = nlohmann::json::parse(std::string_view(natsMsg_GetData(msg), size_t(natsMsg_GetDataLength(msg))), nullptr,
                                        false);
+  // Keys of the subject's publisher only (see on_poses_msg).
+  const std::string prefix = std::string(nats_detail::last_token(natsMsg_GetSubject(msg))) + ".";
   natsMsg_Destroy(msg);
   Heartbeat hb;
   if (j.is_object() && j.contains("avatars") && j["avatars"].is_array()) {
@@ -119,7 +122,7 @@ void NatsSceneFeed::Impl::on_status_msg(natsConnection*, natsSubscription*, nats
     const bool with_lods = lods != j.end() && lods->is_array() && lods->size() == keys.size();
     for (size_t i = 0; i < keys.size() && hb.keys.size() < 4096; ++i) {
       if (!keys[i].is_string() || keys[i].get_ref<const std::string&>().size() != 16) continue;
-      hb.keys.push_back(keys[i].get<std::string>());
+      hb.keys.push_back(prefix + keys[i].get<std::string>());
       const auto& lod = with_lods ? (*lods)[i] : nlohmann::json();
       hb.mesh_lods.push_back(lod.is_number_integer() && lod.get<int>() >= 0 && lod.get<int>() < 8 ? int8_t(lod.get<int>())
                                                                                               : int8_t(-1));
@@ -194,8 +197,9 @@ void NatsSceneFeed::Impl::watch_loop() {
     js = nullptr;
   };
   const std::string bucket = nats_detail::bucket_name(opt.scene);
-  std::map<std::string, std::vector<uint8_t>> seen;  // this watch's view, to spot deletions on rewatch
-  std::map<std::string, std::vector<uint8_t>> current;
+  // Keys only (the models themselves are kept once, on the server thread): this watch's view,
+  // to spot deletions on rewatch.
+  std::set<std::string> seen, current;
   int64_t next_tick = 0;
   while (!stopping) {
     if (const int64_t now = monotonic_us(); now >= next_tick) {
@@ -242,7 +246,7 @@ void NatsSceneFeed::Impl::watch_loop() {
       // The initial values are all in: keys held before this watch and absent now were
       // deleted (or expired) while we were not watching.
       std::lock_guard lock(queue_mutex);
-      for (const auto& [key, packet] : seen)
+      for (const auto& key : seen)
         if (!current.count(key)) models_in.push_back({key, true, {}});
       seen = current;
       schedule_pump_locked();
@@ -251,11 +255,22 @@ void NatsSceneFeed::Impl::watch_loop() {
     ModelEvent ev;
     ev.key = kvEntry_Key(e);
     ev.removed = kvEntry_Operation(e) != kvOp_Put;
+    if (!nats_detail::is_owned_key(ev.key)) {
+      models_refused++;  // not a publisher's P.K: nobody's frames could ever name it
+      kvEntry_Destroy(e);
+      continue;
+    }
+    // Not even copied when too large: a put replaced the key's model in the bucket, so the
+    // model the relay had under it leaves too.
+    if (!ev.removed && size_t(kvEntry_ValueLen(e)) > kHeaderBytes + 14 + kMaxNameBytes + opt.max_model_bytes) {
+      models_refused++;
+      ev.removed = true;
+    }
     if (!ev.removed) {
       const auto* v = static_cast<const uint8_t*>(kvEntry_Value(e));
       ev.packet.assign(v, v + kvEntry_ValueLen(e));
-      current[ev.key] = ev.packet;
-      seen[ev.key] = ev.packet;
+      current.insert(ev.key);
+      seen.insert(ev.key);
     } else {
       current.erase(ev.key);
       seen.erase(ev.key);
@@ -315,6 +330,7 @@ NatsSceneFeed::NatsSceneFeed(std::unique_ptr<Impl> impl) : impl_(std::move(impl)
 NatsSceneFeed::~NatsSceneFeed() = default;
 
 bool NatsSceneFeed::connected() const { return impl_->conn.connected(); }
+NatsLinkState NatsSceneFeed::link_state() const noexcept { return impl_->conn.state(); }
 std::string NatsSceneFeed::connected_url() const { return impl_->conn.connected_url(); }
 
 NatsLinkStats NatsSceneFeed::stats() const {
@@ -332,6 +348,10 @@ NatsLinkStats NatsSceneFeed::stats() const {
   s.mesh_requests = impl_->mesh_requests;
   s.expired = impl_->expired;
   s.held = impl_->held;
+  s.seq_jumps_refused = impl_->seq_jumps_refused;
+  s.models_refused = impl_->models_refused;
+  s.foreign = impl_->foreign;
+  s.model_bytes = impl_->model_bytes_held;
   impl_->latency_percentiles(s.latency_ms_p50, s.latency_ms_p99);
   s.avatars = impl_->avatar_count;
   std::lock_guard lock(impl_->error_mutex);

@@ -27,6 +27,15 @@ struct NatsSceneFeed::Impl {
   static constexpr int kTickPeriod_ms = 250;  // liveness checks and mesh requests
   static constexpr size_t kMaxQueuedFrames = 1 << 16;
   static constexpr size_t kMaxQueuedMeshes = 64;
+  // Sequence continuity (apply_frame): a frame more than kMaxSeqStep from the avatar's newest
+  // is a jump, taken only once kJumpFrames frames continue it, and, unless the avatar's frames
+  // had stopped for kJumpQuiet before it, only after kJumpHold with no frame in step meanwhile.
+  // A publisher back from an outage or restarted is followed; a stream far ahead injected
+  // beside a live one is refused (it would freeze the avatar for viewers, who take only
+  // sequences newer than the newest they have).
+  static constexpr int32_t kMaxSeqStep = 256;
+  static constexpr int kJumpFrames = 3;
+  static constexpr std::chrono::milliseconds kJumpQuiet{500}, kJumpHold{300};
 
   NatsOptions opt;
   Server* server = nullptr;
@@ -59,13 +68,22 @@ struct NatsSceneFeed::Impl {
   bool pump_scheduled = false;
 
   // Server thread only.
+  // Keyed by the bucket key "P.K": publisher token P (the subject token its frames, heartbeats
+  // and mesh frames come on, which broker permissions tie to that publisher's user) and avatar
+  // key K. A frame on another publisher's subject naming K finds nothing.
   struct Known {
     bool shown = false;       // served (added to the server), once its publisher showed life
     uint16_t id = 0;          // on the server, while shown
     uint32_t revision = 0;
     uint16_t dof_count = 0;
-    std::vector<uint8_t> packet;  // as in the bucket
+    uint64_t packet_hash = 0;  // of the packet as in the bucket: a put again unchanged is no update
+    size_t packet_size = 0;
     std::string name, model_bytes;
+    // Sequence continuity (kMaxSeqStep): the newest accepted and when, and a jump being confirmed.
+    bool has_seq = false;
+    uint32_t seq = 0, jump_last = 0;
+    int jump_frames = 0;
+    Clock::time_point seq_at{}, jump_since{};
     Clock::time_point alive_at{};  // its publisher's last heartbeat naming it, or its last frame
     Clock::time_point put_at{};    // its last put in the bucket (a live publisher's come every TTL/3)
     int period_ms = 1000;          // its publisher's heartbeat period
@@ -73,6 +91,9 @@ struct NatsSceneFeed::Impl {
     std::array<uint32_t, 8> mesh_vertices{};  // per LOD: the topology set on the server (0: none)
   };
   std::map<std::string, Known> avatars;
+  // Avatar key K -> how many publishers' keys P.K end in it: a frame naming K on a publisher's
+  // subject that does not own it is counted as foreign.
+  std::map<std::string, int, std::less<>> key_owners;
   // Heartbeats naming keys whose model has not come yet: it is shown at once when it does.
   struct Heard {
     Clock::time_point at;
@@ -105,7 +126,9 @@ struct NatsSceneFeed::Impl {
   std::map<std::pair<std::string, uint8_t>, MeshSub> mesh_subs;
 
   std::atomic<uint64_t> frames{0}, dropped{0}, early{0}, models{0}, model_failures{0}, rejected{0}, avatar_count{0},
-      mesh_frames{0}, mesh_requests{0}, expired{0}, held{0};
+      mesh_frames{0}, mesh_requests{0}, expired{0}, held{0}, seq_jumps_refused{0}, models_refused{0}, foreign{0},
+      model_bytes_held{0};
+  size_t model_bytes_freed = 0;  // server thread: since the last malloc_trim
   mutable std::mutex latency_mutex;
   std::vector<float> latency_ms = std::vector<float>(4096);
   uint64_t latency_next = 0;
@@ -144,6 +167,8 @@ struct NatsSceneFeed::Impl {
   bool show(Known& k);
   void hide(Known& k);
   bool alive_at(const Known& k, Clock::time_point now) const;
+  bool sequence_ok(Known& k, uint32_t seq, Clock::time_point now, bool& reset);
+  void forget(std::map<std::string, Known>::iterator it);
 };
 
 }  // namespace mimic::net

@@ -4,6 +4,9 @@
 // it, or one of its frames) and leaves after `missed_heartbeats` of its publisher's periods
 // without any; mesh frames go to the viewers that asked for their LOD.
 #include <algorithm>
+#if defined(__GLIBC__)
+#include <malloc.h>
+#endif
 
 #include "mimic/net/server.h"
 #include "nats/scene_feed_impl.h"
@@ -66,6 +69,7 @@ bool NatsSceneFeed::Impl::show(Known& k) {
   k.id = *id;
   k.shown = true;
   k.mesh_vertices = {};
+  k.has_seq = false;
   avatar_count++;
   return true;
 }
@@ -78,16 +82,36 @@ void NatsSceneFeed::Impl::hide(Known& k) {
   avatar_count--;
 }
 
+namespace {
+uint64_t fnv1a(std::span<const uint8_t> bytes) {
+  uint64_t h = 14695981039346656037ull;
+  for (uint8_t b : bytes) {
+    h ^= b;
+    h *= 1099511628211ull;
+  }
+  return h;
+}
+}  // namespace
+
+// An avatar leaves the relay: its model's memory goes back (to the system too, once enough
+// has been freed; a relay flooded with models and then emptied shrinks again).
+void NatsSceneFeed::Impl::forget(std::map<std::string, Known>::iterator it) {
+  hide(it->second);
+  model_bytes_held -= it->second.model_bytes.size();
+  model_bytes_freed += it->second.model_bytes.size();
+  if (auto o = key_owners.find(std::string_view(it->first).substr(it->first.size() - 16)); o != key_owners.end() && --o->second == 0)
+    key_owners.erase(o);
+  avatars.erase(it);
+}
+
 void NatsSceneFeed::Impl::apply_model(ModelEvent& e) {
   auto it = avatars.find(e.key);
   if (e.removed) {
-    if (it != avatars.end()) {
-      hide(it->second);
-      avatars.erase(it);
-    }
+    if (it != avatars.end()) forget(it);
     return;
   }
-  if (it != avatars.end() && it->second.packet == e.packet) {
+  const uint64_t hash = fnv1a(e.packet);
+  if (it != avatars.end() && it->second.packet_hash == hash && it->second.packet_size == e.packet.size()) {
     it->second.put_at = Clock::now();  // put again unchanged: only its age starts over
     return;
   }
@@ -96,14 +120,26 @@ void NatsSceneFeed::Impl::apply_model(ModelEvent& e) {
     rejected++;
     return;
   }
+  // Bounded: one model's size, and all the relay keeps (a flood of models under a publisher's
+  // keys is refused past the budget, not held).
+  const size_t before = it == avatars.end() ? 0 : it->second.model_bytes.size();
+  if (m.model_bytes.size() > opt.max_model_bytes ||
+      model_bytes_held - before + m.model_bytes.size() > opt.max_scene_model_bytes) {
+    models_refused++;
+    return;
+  }
+  model_bytes_held += m.model_bytes.size();
+  model_bytes_held -= before;
   if (it == avatars.end()) {
     Known& k = avatars[e.key];
+    key_owners[e.key.substr(e.key.size() - 16)]++;
     k.put_at = Clock::now();
     k.revision = m.revision;
     k.dof_count = m.dof_count;
     k.name = std::move(m.name);
     k.model_bytes = std::move(m.model_bytes);
-    k.packet = std::move(e.packet);
+    k.packet_hash = hash;
+    k.packet_size = e.packet.size();
     // Its publisher's heartbeat may have come first.
     if (auto h = heard.find(e.key); h != heard.end()) {
       k.alive_at = h->second.at;
@@ -123,8 +159,11 @@ void NatsSceneFeed::Impl::apply_model(ModelEvent& e) {
   k.revision = m.revision;
   k.dof_count = m.dof_count;
   k.model_bytes = std::move(m.model_bytes);
-  k.packet = std::move(e.packet);
+  model_bytes_freed += before;
+  k.packet_hash = hash;
+  k.packet_size = e.packet.size();
   k.mesh_vertices = {};  // its mesh may differ too: asked for again
+  k.has_seq = false;     // the server forgets the avatar's sequence with its model
   models++;
   if (k.shown)
     if (auto st = server->update_avatar_model(k.id, k.dof_count, k.model_bytes); !st) rejected++;
@@ -150,7 +189,10 @@ void NatsSceneFeed::Impl::apply_frame(Frame& f, Clock::time_point now) {
   PoseHeader h;
   // Whatever came through the broker is checked as a remote publisher's frame would be.
   if (it == avatars.end()) {
-    early++;  // its model has not arrived yet (or it has left)
+    // Another publisher's avatar named on this one's subject, or its model has not arrived yet
+    // (or it has left).
+    if (key_owners.count(std::string_view(f.key).substr(f.key.size() - 16))) foreign++;
+    else early++;
     return;
   }
   Known& k = it->second;
@@ -158,8 +200,12 @@ void NatsSceneFeed::Impl::apply_frame(Frame& f, Clock::time_point now) {
     rejected++;
     return;
   }
-  k.alive_at = now;  // a frame is a sign of life as good as a heartbeat
   if (!show(k)) return;
+  bool reset = false;
+  if (!sequence_ok(k, h.sequence, now, reset)) return;
+  k.alive_at = now;  // a frame is a sign of life as good as a heartbeat
+  // A stream confirmed behind the newest: the server (and its viewers) forget the old sequence.
+  if (reset && !server->update_avatar_model(k.id, k.dof_count, k.model_bytes)) rejected++;
   if (server->publish_pose(k.id, f.packet) == Reject::ok) {
     frames++;
     std::lock_guard lock(latency_mutex);
@@ -167,6 +213,39 @@ void NatsSceneFeed::Impl::apply_frame(Frame& f, Clock::time_point now) {
   } else {
     rejected++;
   }
+}
+
+bool NatsSceneFeed::Impl::sequence_ok(Known& k, uint32_t seq, Clock::time_point now, bool& reset) {
+  reset = false;
+  const int32_t d = int32_t(seq - k.seq);
+  if (!k.has_seq || (d > 0 && d <= kMaxSeqStep)) {
+    k.has_seq = true;
+    k.seq = seq;
+    k.seq_at = now;
+    k.jump_frames = 0;
+    return true;
+  }
+  // A duplicate or a late frame: the server refuses it as out of order.
+  if (d <= 0 && d >= -kMaxSeqStep) return true;
+  // A jump: a candidate stream, followed while its frames continue it.
+  const int32_t step = int32_t(seq - k.jump_last);
+  if (k.jump_frames > 0 && step > 0 && step <= kMaxSeqStep) {
+    k.jump_frames++;
+  } else {
+    k.jump_frames = 1;
+    k.jump_since = now;
+  }
+  k.jump_last = seq;
+  const bool stopped_before = k.jump_since - k.seq_at >= kJumpQuiet;
+  if (k.jump_frames >= kJumpFrames && (stopped_before || now - k.jump_since >= kJumpHold)) {
+    reset = d < 0;
+    k.seq = seq;
+    k.seq_at = now;
+    k.jump_frames = 0;
+    return true;
+  }
+  seq_jumps_refused++;
+  return false;
 }
 
 void NatsSceneFeed::Impl::apply_mesh(Frame& f) {
@@ -227,9 +306,12 @@ void NatsSceneFeed::Impl::housekeeping() {
       }
     // A held model older than the bucket's TTL has left the bucket (expiry sends no event).
     if (const int64_t ttl_ns = bucket_ttl_ns; ttl_ns > 0)
-      std::erase_if(avatars, [&](const auto& a) {
-        return !a.second.shown && now - a.second.put_at > std::chrono::nanoseconds(ttl_ns) + std::chrono::seconds(1);
-      });
+      for (auto it = avatars.begin(); it != avatars.end();) {
+        const auto next = std::next(it);
+        if (!it->second.shown && now - it->second.put_at > std::chrono::nanoseconds(ttl_ns) + std::chrono::seconds(1))
+          forget(it);
+        it = next;
+      }
     std::erase_if(heard, [&](const auto& h) {
       return now - h.second.at > std::chrono::milliseconds(int64_t(h.second.period_ms) * opt.missed_heartbeats);
     });
@@ -241,6 +323,14 @@ void NatsSceneFeed::Impl::housekeeping() {
     else if (!any_shown) any_shown = &k;
   }
   held = waiting;
+#if defined(__GLIBC__)
+  // Freed models sit in the allocator's free lists otherwise (many of them small enough not to
+  // be mapped on their own): given back once a few MB have gone.
+  if (model_bytes_freed > (size_t(8) << 20)) {
+    malloc_trim(0);
+    model_bytes_freed = 0;
+  }
+#endif
   // A viewer's mesh LOD covers every avatar of the scene: one question to the server.
   const uint8_t lods = any_shown ? server->mesh_lods_wanted(any_shown->id) : 0;
   // Asked only of publishers that offer that LOD (their heartbeat says which).

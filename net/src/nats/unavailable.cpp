@@ -22,6 +22,7 @@ Status NatsPublisher::add_mesh(int, const MeshTopology&) { return tl::unexpected
 bool NatsPublisher::mesh_wanted(int) const noexcept { return false; }
 void NatsPublisher::publish_mesh(int, std::span<const uint8_t>) noexcept {}
 bool NatsPublisher::connected() const { return false; }
+NatsLinkState NatsPublisher::link_state() const noexcept { return {}; }
 std::string NatsPublisher::connected_url() const { return {}; }
 NatsLinkStats NatsPublisher::stats() const { return {}; }
 std::string NatsPublisher::key(int) const { return {}; }
@@ -32,6 +33,7 @@ Result<std::unique_ptr<NatsSceneFeed>> NatsSceneFeed::create(const NatsOptions&,
 NatsSceneFeed::NatsSceneFeed(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
 NatsSceneFeed::~NatsSceneFeed() = default;
 bool NatsSceneFeed::connected() const { return false; }
+NatsLinkState NatsSceneFeed::link_state() const noexcept { return {}; }
 std::string NatsSceneFeed::connected_url() const { return {}; }
 NatsLinkStats NatsSceneFeed::stats() const { return {}; }
 

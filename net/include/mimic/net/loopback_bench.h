@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 
 #include "mimic/core/result.h"
 
@@ -63,6 +64,9 @@ struct FanoutOptions {
   int realtime_priority = 0;
   int sender_threads = 0;     // ServerOptions::fanout_threads (0: one per core, at most 4)
   int receiver_threads = 2;   // threads reading the subscribers' sockets, each its own share
+  // Called once, just before the first tick of the timed window (tests: a fault injected while
+  // the window runs).
+  std::function<void()> on_window_start;
 };
 
 struct FanoutCapacity {

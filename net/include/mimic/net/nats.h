@@ -3,24 +3,27 @@
 // Mimic's own protocol (a net::Server fed from the broker as the pipeline feeds it local
 // avatars).
 //
-// Subjects and keys of scene S (a name of [A-Za-z0-9_-], at most 64 bytes):
-//   mimic.S.poses.<pub>       pose frames, core NATS (no persistence): one message per tick of
-//                             publisher <pub>, each avatar's key (8 bytes) and POSE packet
+// Subjects and keys of scene S (a name of [A-Za-z0-9_-], at most 64 bytes), publisher P (its
+// name as a subject token) and avatar key K:
+//   mimic.S.poses.P           pose frames, core NATS (no persistence): one message per tick of
+//                             publisher P, each avatar's key (8 bytes) and POSE packet
 //                             (frame_codec.h, encode_pose), so a relay fans a tick out once
-//   mimic.S.<key>.mesh.<L>    mesh frames of LOD L (encode_mesh) and, when asked, the mesh
+//   mimic.S.mesh.P.K.L        mesh frames of LOD L (encode_mesh) and, when asked, the mesh
 //                             topology (encode_mesh_topology); only while a relay asks
-//   mimic.S.<key>.mesh_want   a relay's request for mesh frames: u8 LOD, u8 flags (bit 0: send
+//   mimic.S.want.P.K          a relay's request for mesh frames: u8 LOD, u8 flags (bit 0: send
 //                             the topology); repeated every second while it wants them
-//   mimic.S.status.<pub>      a publisher's status heartbeat, JSON, once a second: relays
+//   mimic.S.status.P          a publisher's status heartbeat, JSON, once a second: relays
 //                             remove the avatars it names after missed heartbeats
-//   KV bucket mimic_S, key <key>: the avatar's model packet (encode_avatar_model: name, DOF
+//   KV bucket mimic_S, key P.K: the avatar's model packet (encode_avatar_model: name, DOF
 //                             count, body model bytes), latest wins, history 1, put again
 //                             while the publisher lives, expiring (the bucket's TTL) once it
 //                             has stopped
-// <key> is nats_avatar_key(publisher, avatar): 16 hex digits of a 64-bit hash, the same on
-// every start of a publisher with the same names. Two different (publisher, avatar) pairs with
-// the same key would overwrite each other's model: the odds are about n²/2⁶⁵ for n avatars in
-// a scene; give every publishing host its own --nats-name.
+// Everything a publisher writes carries P, so broker permissions can give each publisher's
+// user its own subjects and keys alone (config/nats/, docs/security-broker.md); a relay takes
+// the frames, heartbeats and mesh frames on P's subjects for P's keys only (another
+// publisher's K named there is counted as foreign and dropped).
+// K is nats_avatar_key(publisher, avatar): 16 hex digits of a 64-bit hash, the same on every
+// start of a publisher with the same names.
 //
 // Threading: the broker's client runs its own threads. NatsPublisher::publish_pose (the
 // realtime loop) copies the frame into a per-avatar slot, and end_tick wakes a sender thread:
@@ -48,8 +51,11 @@ struct NatsOptions {
   // Credentials: user + password, or a token. From the environment (nats_credentials_from_env),
   // never from the command line.
   std::string user, password, token;
-  double connect_timeout_s = 2.0;
-  int reconnect_wait_ms = 250;    // between attempts; reconnecting never gives up
+  // One connect attempt (TCP, INFO, CONNECT/PONG) to one server; a failover to the next server
+  // of the list waits at most this for a node that does not answer (a refused connection
+  // fails at once).
+  double connect_timeout_s = 1.0;
+  int reconnect_wait_ms = 250;    // after every server of the list failed once; never gives up
   bool randomize = true;          // try the servers in random order (spreads clients over a cluster)
   int kv_replicas = 0;            // copies of the model bucket; 0: 3 when 3+ servers are given, else 1
   // Publisher: its status heartbeat period. Relay: an avatar whose publisher has sent neither a
@@ -62,6 +68,10 @@ struct NatsOptions {
   double model_ttl_s = 60;
   // Publisher: mesh frames per avatar per second at most, while a relay asks for them.
   double mesh_max_hz = 30;
+  // Relay: a model whose body model is larger is refused (counted in models_refused), and so is
+  // one that would take the models it keeps past max_scene_model_bytes.
+  size_t max_model_bytes = kMaxModelBytes;
+  size_t max_scene_model_bytes = size_t(128) << 20;
 };
 
 // Bounds of the options above, checked by NatsPublisher::create and the command line.
@@ -100,12 +110,35 @@ struct NatsLinkStats {
   uint64_t mesh_requests = 0;   // publisher: mesh_want messages received; relay: sent
   uint64_t expired = 0;         // relay: avatars removed after their publisher's missed heartbeats
   uint64_t held = 0;            // relay: models in the bucket whose publisher shows no sign of life
+  // Relay, refused and counted: frames far ahead of (or behind) an avatar's newest that did not
+  // prove to be its publisher's stream (NatsSceneFeed), models too large, over the scene's
+  // budget or under a key that is not P.K, and frames, heartbeats or mesh frames naming an
+  // avatar key that the publisher of their subject does not own.
+  uint64_t seq_jumps_refused = 0;
+  uint64_t models_refused = 0;
+  uint64_t foreign = 0;
+  uint64_t model_bytes = 0;     // relay: body model bytes it keeps (shown and held)
+  // Publisher: topologies sent on relays' asks, and asks beyond the topology rate bound.
+  uint64_t topologies = 0, topologies_refused = 0;
   // Relay: the frame's time stamp (capture time, publisher's wall clock) to its arrival at the
   // relay, over the last 4096 frames. With clocks in step (one host, or NTP), this is
   // publish-to-relay plus whatever the publisher spent between capture and publish.
   double latency_ms_p50 = 0, latency_ms_p99 = 0;
   std::string last_error;
 };
+
+// The broker link's state, cheap enough for a status line on the realtime loop: atomics kept
+// by the client's callbacks (never the client's own lock, which its reconnect thread holds
+// through a connect attempt).
+struct NatsLinkState {
+  bool connected = false;
+  uint64_t disconnects = 0;  // times the link went down since start
+  double down_s = 0;         // while down: for how long
+  double last_outage_s = 0;  // the last outage's length, once the link came back
+};
+// " | nats up", " | nats up (2 outages, last 0.031 s)", " | nats DOWN 1.2 s" into `out`
+// (snprintf: no allocation). Returns the characters written.
+int format_nats_state(const NatsLinkState& s, char* out, size_t size) noexcept;
 
 class NatsPublisher {
  public:
@@ -136,6 +169,7 @@ class NatsPublisher {
   void publish_mesh(int index, std::span<const uint8_t> packet) noexcept;
 
   bool connected() const;
+  NatsLinkState link_state() const noexcept;
   std::string connected_url() const;  // the broker node in use, empty when not connected
   NatsLinkStats stats() const;
   std::string key(int index) const;
@@ -161,6 +195,7 @@ class NatsSceneFeed {
   NatsSceneFeed& operator=(const NatsSceneFeed&) = delete;
 
   bool connected() const;
+  NatsLinkState link_state() const noexcept;
   std::string connected_url() const;
   NatsLinkStats stats() const;
 
