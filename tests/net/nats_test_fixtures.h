@@ -19,6 +19,7 @@
 #include "net_test_support.h"
 
 namespace mimic::net {
+// Internal to each test file that includes it (the helpers below may go unused in one).
 namespace {
 
 using ::mimic::test::NatsBroker;
@@ -39,14 +40,14 @@ constexpr uint16_t kDofs = 12;
 // A square of two triangles whose corners move with the sequence number: the mesh of an
 // avatar deformed at `lod` (mesh_lod < 0: none), sent as the pipeline sends it, only while
 // mesh_wanted() says a relay asks.
-MeshTopology test_topology(uint8_t lod) {
+[[maybe_unused]] MeshTopology test_topology(uint8_t lod) {
   MeshTopology t;
   t.lod = lod;
   t.vertex_count = 4;
   t.indices = {0, 1, 2, 0, 2, 3};
   return t;
 }
-std::vector<glm::vec3> test_positions(uint32_t sequence) {
+[[maybe_unused]] std::vector<glm::vec3> test_positions(uint32_t sequence) {
   const float x = float(sequence % 100) * 0.01f;
   return {{x, 0, 0}, {x + 1, 0, 0}, {x + 1, 1, 0}, {x, 1, 0}};
 }
@@ -149,7 +150,7 @@ class TestRelay {
   std::thread thread_;
 };
 
-std::unique_ptr<Client> viewer(const std::string& endpoint, uint8_t mesh_lod = kNoMesh) {
+[[maybe_unused]] std::unique_ptr<Client> viewer(const std::string& endpoint, uint8_t mesh_lod = kNoMesh) {
   ClientOptions o;
   o.connect = endpoint;
   o.name = "viewer";
@@ -159,7 +160,7 @@ std::unique_ptr<Client> viewer(const std::string& endpoint, uint8_t mesh_lod = k
   return std::move(*c);
 }
 
-NatsOptions options(const std::string& servers, const std::string& name, const std::string& scene = "lobby") {
+[[maybe_unused]] NatsOptions options(const std::string& servers, const std::string& name, const std::string& scene = "lobby") {
   NatsOptions o;
   o.servers = servers;
   o.name = name;
@@ -167,14 +168,14 @@ NatsOptions options(const std::string& servers, const std::string& name, const s
   return o;
 }
 
-bool sees_all(const Client& c, size_t avatars, uint64_t frames_each = 1) {
+[[maybe_unused]] bool sees_all(const Client& c, size_t avatars, uint64_t frames_each = 1) {
   if (c.avatars().size() != avatars) return false;
   for (const auto& [id, a] : c.avatars())
     if (a.frames < frames_each) return false;
   return true;
 }
 
-double percentile(std::vector<double> v, double q) {
+[[maybe_unused]] double percentile(std::vector<double> v, double q) {
   if (v.empty()) return 0;
   std::sort(v.begin(), v.end());
   return v[std::min(v.size() - 1, size_t(q * double(v.size() - 1) + 0.5))];
