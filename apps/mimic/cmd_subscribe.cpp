@@ -23,10 +23,18 @@ const char* kUsage =
     "--json only a summary object at the end:\n"
     "  frames, avatars, fps, latency_ms_p50, latency_ms_p99, lost, out_of_order, model_bytes,\n"
     "  frame_bytes_mean, mesh_frames, reconnects, duration_s, transport, udp_frames, lean_keys,\n"
-    "  lean, lean_shift, lean_unreferenced, key_requests\n"
+    "  lean, lean_shift, lean_unreferenced, key_requests, cuts, stall_resyncs, outages, outage_s,\n"
+    "  outage_max_s, lost_across_sessions\n"
     "Latency is the frame's capture time (sender's clock) to its arrival here; fps is per avatar,\n"
     "the rate its frames were captured at (their timestamps), not how fast they happened to arrive.\n"
-    "Names and server messages are printed with control characters escaped (\\xNN).\n"
+    "After any cut (the server restarted, dropped this viewer, or timed it out while this\n"
+    "process was stopped) it reconnects and goes on; a line on stderr says so, and another how\n"
+    "long frames were missing when they come again. lost counts frames missed by sequence, also\n"
+    "across a server restart when the same publisher goes on (outage_s: the time without\n"
+    "frames). A viewer that was not running for over a second drops what its sockets buffered\n"
+    "meanwhile and resumes with the newest frames.\n"
+    "Names and server messages are printed with control, bidi and invisible characters escaped\n"
+    "(\\uXXXX; bytes that are not UTF-8 as \\xNN).\n"
     "\n"
     "options:\n"
     "  --connect HOST:PORT  the scene (default 127.0.0.1:7777), or a scene on a NATS broker:\n"
@@ -95,6 +103,14 @@ int subscribe(const std::vector<std::string>& argv) {
       std::printf("model avatar=%u name=%s dofs=%u revision=%u bytes=%zu\n", m.id, net::printable(m.name).c_str(), m.dof_count,
                   m.revision, m.model_bytes.size());
   };
+  // Cuts and comebacks, as they happen (the client reconnects by itself).
+  client.on_cut = [&](const std::string& why) {
+    std::fprintf(stderr, "subscribe: connection cut (%s); reconnecting\n", why.c_str());
+  };
+  client.on_back = [&](double outage_s, uint64_t lost) {
+    std::fprintf(stderr, "subscribe: frames again after %.2f s without (%llu lost by sequence)\n", outage_s,
+                 static_cast<unsigned long long>(lost));
+  };
   client.on_removed = [&](uint16_t id) {
     if (!json) std::printf("removed avatar=%u\n", id);
   };
@@ -160,6 +176,12 @@ int subscribe(const std::vector<std::string>& argv) {
     j["lean_keys"] = s.lean_keys;
     j["lean_unreferenced"] = s.lean_unreferenced;
     j["key_requests"] = s.key_requests;
+    j["cuts"] = s.cuts;
+    j["stall_resyncs"] = s.stall_resyncs;
+    j["outages"] = s.outages;
+    j["outage_s"] = s.outage_s;
+    j["outage_max_s"] = s.outage_max_s;
+    j["lost_across_sessions"] = s.lost_across_sessions;
     std::printf("%s\n", j.dump().c_str());
   }
   client.close();

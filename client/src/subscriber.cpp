@@ -144,6 +144,17 @@ const Avatar* Subscriber::avatar(uint16_t id) const {
   return it == impl_->avatars.end() ? nullptr : &it->second.view;
 }
 
+Link Subscriber::link() const {
+  const net::ClientStats& s = impl_->client->stats();
+  Link l;
+  l.connected = impl_->client->connected();
+  l.cuts = s.cuts;
+  l.outages = s.outages;
+  l.outage_s = s.outage_s;
+  l.lost = s.lost;
+  return l;
+}
+
 const char* version() { return MIMIC_VERSION; }
 
 }  // namespace mimic::client
