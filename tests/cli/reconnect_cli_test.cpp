@@ -9,6 +9,7 @@
 #include <chrono>
 #include <memory>
 #include <cstdio>
+#include <cstdlib>
 #include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
@@ -41,7 +42,11 @@ std::vector<double> latencies_ms(const std::string& out) {
   std::istringstream in(out);
   for (std::string line; std::getline(in, line);) {
     const auto at = line.find(" latency_ms=");
-    if (line.rfind("pose ", 0) == 0 && at != std::string::npos) v.push_back(std::stod(line.substr(at + 12)));
+    if (line.rfind("pose ", 0) != 0 || at == std::string::npos) continue;
+    char* end = nullptr;
+    const double ms = std::strtod(line.c_str() + at + 12, &end);
+    EXPECT_NE(end, line.c_str() + at + 12) << "unreadable line: " << line;
+    v.push_back(ms);
   }
   return v;
 }
