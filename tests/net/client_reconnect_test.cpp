@@ -35,7 +35,8 @@ uint32_t publish_for(Client& pub, uint8_t slot, uint32_t seq, double seconds, st
   driven.push_back(&pub);
   const auto end = Clock::now() + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(seconds));
   while (Clock::now() < end) {
-    EXPECT_TRUE(pub.publish_pose(slot, {0, 0, ++seq, wall_clock_us()}, pose_with(0.001f * float(seq % 1000))));
+    ++seq;
+    EXPECT_TRUE(pub.publish_pose(slot, {0, 0, seq, wall_clock_us()}, pose_with(0.001f * float(seq % 1000))));
     pump_for(driven, 0.01);
   }
   return seq;
