@@ -2,8 +2,10 @@
 // the newest frames rather than what its sockets buffered, and counts what the cut cost.
 #include <gtest/gtest.h>
 
+#include <atomic>
 #include <thread>
 
+#include "mimic/net/pose_stream.h"
 #include "net_test_support.h"
 
 namespace mimic::net {
@@ -149,6 +151,69 @@ TEST(ClientReconnect, ARestartedPublisherCarriesNothing) {
   while (sub->stats().outages == 0 && Clock::now() < deadline) seq = publish_for(*pub, slot, seq, 0.01, {sub.get()});
   ASSERT_EQ(sub->stats().outages, 1u);
   EXPECT_EQ(sub->stats().lost_across_sessions, 0u);
+}
+
+// A server of our own cuts the connection after the handshake and a model, stops listening, and
+// then a lean delta the client has no reference for arrives as a datagram. No session is up: the
+// client must not ask for a key frame (the request would go out on the next connection before
+// its HELLO, and a server refuses that: "unexpected (HELLO expected first)").
+TEST(ClientReconnect, NoKeyRequestBetweenSessions) {
+  const int lfd = ::socket(AF_INET, SOCK_STREAM, 0);
+  sockaddr_in a{};
+  a.sin_family = AF_INET;
+  a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  ASSERT_EQ(::bind(lfd, reinterpret_cast<sockaddr*>(&a), sizeof a), 0);
+  ASSERT_EQ(::listen(lfd, 4), 0);
+  socklen_t len = sizeof a;
+  ::getsockname(lfd, reinterpret_cast<sockaddr*>(&a), &len);
+  const int ufd = ::socket(AF_INET, SOCK_DGRAM, 0);
+  if (::bind(ufd, reinterpret_cast<sockaddr*>(&a), sizeof a) != 0) {
+    ::close(lfd);
+    ::close(ufd);
+    GTEST_SKIP() << "the UDP port beside the TCP one is taken";
+  }
+  std::atomic<bool> registered{false}, cut_seen{false}, sent{false};
+  std::thread fake([&] {
+    const int fd = ::accept(lfd, nullptr, nullptr);
+    Bytes out(4096);
+    Welcome w;
+    w.capabilities = kCapPose | kCapResume | kCapUdpPose | kCapLeanPose;
+    w.session_token.bytes.fill(7);
+    size_t n = encode_welcome(w, out);
+    n += encode_avatar_model({1, 1, kDofs, "walker", "model"}, std::span<uint8_t>(out).subspan(n));
+    (void)::send(fd, out.data(), n, MSG_NOSIGNAL);
+    // The client registers its UDP address right after WELCOME.
+    sockaddr_in from{};
+    socklen_t from_len = sizeof from;
+    pollfd p{ufd, POLLIN, 0};
+    if (::poll(&p, 1, 5000) > 0)
+      (void)::recvfrom(ufd, out.data(), out.size(), 0, reinterpret_cast<sockaddr*>(&from), &from_len);
+    registered = true;
+    ::close(fd);
+    ::close(lfd);  // reconnections are refused from now on
+    for (int i = 0; i < 500 && !cut_seen; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    LeanPoseEncoder enc;
+    enc.update(pose_packet(1, 1, kDofs));
+    enc.update(pose_packet(1, 2, kDofs));
+    const auto delta = enc.delta();
+    (void)::sendto(ufd, delta.data(), delta.size(), 0, reinterpret_cast<sockaddr*>(&from), from_len);
+    sent = true;
+  });
+  ClientOptions o;
+  o.connect = "127.0.0.1:" + std::to_string(ntohs(a.sin_port));
+  o.udp = true;
+  o.lean = true;
+  auto c = Client::connect(o);
+  ASSERT_TRUE(c) << c.error().what();
+  Client& client = **c;
+  EXPECT_TRUE(pump({&client}, [&] { return registered && client.avatars().size() == 1 && client.stats().cuts >= 1; }));
+  cut_seen = true;
+  EXPECT_TRUE(pump({&client}, [&] { return bool(sent); }));
+  pump_for({&client}, 0.3);
+  fake.join();
+  ::close(ufd);
+  EXPECT_EQ(client.stats().key_requests, 0u);
+  EXPECT_FALSE(client.connected());
 }
 
 }  // namespace
