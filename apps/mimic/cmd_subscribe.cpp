@@ -59,6 +59,43 @@ double percentile(std::vector<double> v, double q) {
   return v[k];
 }
 
+// The --json summary of a run (the keys the usage lists).
+nlohmann::json summary(const net::Client& client, uint64_t frames, double fps, const std::vector<double>& latency_ms,
+                       double duration_s) {
+  const auto& s = client.stats();
+  nlohmann::json j;
+  j["frames"] = frames;
+  j["avatars"] = client.avatars().size();
+  j["fps"] = fps;
+  j["latency_ms_p50"] = percentile(latency_ms, 0.50);
+  j["latency_ms_p99"] = percentile(latency_ms, 0.99);
+  j["lost"] = s.lost;
+  j["out_of_order"] = s.out_of_order;
+  j["model_bytes"] = s.model_bytes;
+  j["models"] = s.models;
+  j["frame_bytes_mean"] = s.frames ? double(s.frame_bytes) / double(s.frames) : 0.0;
+  j["mesh_frames"] = s.mesh_frames;
+  j["reconnects"] = s.reconnects;
+  j["duration_s"] = duration_s;
+  j["transport"] = s.udp_frames > 0 ? "udp" : "tcp";
+  j["udp_frames"] = s.udp_frames;
+  j["lean"] = (client.negotiated_capabilities() & net::kCapLeanPose) != 0;
+  // The precision the server streams at (its key frames carry it); null before any key.
+  j["lean_shift"] = nullptr;
+  for (const auto& [id, m] : client.avatars())
+    if (m.lean.valid) j["lean_shift"] = m.lean.shift;
+  j["lean_keys"] = s.lean_keys;
+  j["lean_unreferenced"] = s.lean_unreferenced;
+  j["key_requests"] = s.key_requests;
+  j["cuts"] = s.cuts;
+  j["stall_resyncs"] = s.stall_resyncs;
+  j["outages"] = s.outages;
+  j["outage_s"] = s.outage_s;
+  j["outage_max_s"] = s.outage_max_s;
+  j["lost_across_sessions"] = s.lost_across_sessions;
+  return j;
+}
+
 int subscribe(const std::vector<std::string>& argv) {
   Args a(argv, {"connect", "count", "duration", "mesh-lod"}, {"json", "udp", "lean", "no-lean"});
   if (a.help()) {
@@ -137,9 +174,6 @@ int subscribe(const std::vector<std::string>& argv) {
     st = client.run_until(now + std::chrono::milliseconds(5));
     if (!st) break;
   }
-  const auto& s = client.stats();
-  // The rate frames were captured at, by their own timestamps: frames that arrive in a burst
-  // (a backlog after a stall, a resume) do not make it look faster than the source.
   // Frames per second per avatar, at the rate they were captured (their timestamps), averaged
   // over the avatars: frames that arrive in a burst (the latest pose of every avatar on joining,
   // a backlog after a stall) do not make the source look faster than it is.
@@ -152,37 +186,8 @@ int subscribe(const std::vector<std::string>& argv) {
   }
   if (timed > 0) fps /= double(timed);
   if (json) {
-    nlohmann::json j;
-    j["frames"] = frames;
-    j["avatars"] = client.avatars().size();
-    j["fps"] = fps;
-    j["latency_ms_p50"] = percentile(latency_ms, 0.50);
-    j["latency_ms_p99"] = percentile(latency_ms, 0.99);
-    j["lost"] = s.lost;
-    j["out_of_order"] = s.out_of_order;
-    j["model_bytes"] = s.model_bytes;
-    j["models"] = s.models;
-    j["frame_bytes_mean"] = s.frames ? double(s.frame_bytes) / double(s.frames) : 0.0;
-    j["mesh_frames"] = s.mesh_frames;
-    j["reconnects"] = s.reconnects;
-    j["duration_s"] = std::chrono::duration<double>(C::now() - start).count();
-    j["transport"] = s.udp_frames > 0 ? "udp" : "tcp";
-    j["udp_frames"] = s.udp_frames;
-    j["lean"] = (client.negotiated_capabilities() & net::kCapLeanPose) != 0;
-    // The precision the server streams at (its key frames carry it); null before any key.
-    j["lean_shift"] = nullptr;
-    for (const auto& [id, m] : client.avatars())
-      if (m.lean.valid) j["lean_shift"] = m.lean.shift;
-    j["lean_keys"] = s.lean_keys;
-    j["lean_unreferenced"] = s.lean_unreferenced;
-    j["key_requests"] = s.key_requests;
-    j["cuts"] = s.cuts;
-    j["stall_resyncs"] = s.stall_resyncs;
-    j["outages"] = s.outages;
-    j["outage_s"] = s.outage_s;
-    j["outage_max_s"] = s.outage_max_s;
-    j["lost_across_sessions"] = s.lost_across_sessions;
-    std::printf("%s\n", j.dump().c_str());
+    const double duration = std::chrono::duration<double>(C::now() - start).count();
+    std::printf("%s\n", summary(client, frames, fps, latency_ms, duration).dump().c_str());
   }
   client.close();
   if (!st) return failure("subscribe", net::printable(st.error().what()));
