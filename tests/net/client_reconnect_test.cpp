@@ -74,8 +74,10 @@ void stalled_viewer_comes_back(bool udp) {
   EXPECT_GE(sub->stats().cuts, 1u);
   EXPECT_GE(sub->stats().stall_resyncs, 1u);
   EXPECT_FALSE(cut_reason.empty());
-  // Not one frame from before the wake: the first is at least the newest one published then.
-  EXPECT_GE(after.front(), newest_at_wake) << "first frame after the stall " << after.front() << ", newest "
+  // Not one frame from the stall: the first is the newest published then (give or take the
+  // last few still on their way to the server on a loaded machine), not the one after the
+  // last seen before it, ~300 frames older.
+  EXPECT_GE(after.front() + 10, newest_at_wake) << "first frame after the stall " << after.front() << ", newest "
                                            << newest_at_wake << ", last seen before " << seen_before;
   // What was skipped is counted, by sequence.
   EXPECT_GE(sub->stats().lost, uint64_t(newest_at_wake - seen_before - 1));
