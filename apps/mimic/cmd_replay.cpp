@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "command.h"
+#include "mimic/core/text.h"
 #include "stop_signal.h"
 #include "mimic/sim/clock.h"
 #include "mimic/sim/log.h"
@@ -82,7 +83,7 @@ int replay_through_driver(const std::string& path, bool json) {
     return failure(kName, path + ": the log has no raw bytes (record the session with mimic record --raw)");
   auto spec = devices::parse_source_spec(log->header.source);
   if (!spec || spec->scheme != "flock")
-    return failure(kName, path + ": raw bytes of source '" + log->header.source +
+    return failure(kName, path + ": raw bytes of source '" + terminal_safe(log->header.source) +
                               "': only Flock of Birds sessions (flock:) play back through a driver");
   auto config = devices::flock_config_from_spec(*spec);
   if (!config) return failure(kName, path + ": " + config.error().message);
@@ -96,7 +97,8 @@ int replay_through_driver(const std::string& path, bool json) {
   auto source = sim::open_sensor_source(*spec);
   if (!source) return failure(kName, source.error().what());
   if (!json) std::fprintf(stderr, "playing %zu raw chunks (%llu bytes) of %s to the Flock driver on %s\n", log->raw.size(),
-                          static_cast<unsigned long long>(chunk_bytes), log->header.source.c_str(), spec->target.c_str());
+                          static_cast<unsigned long long>(chunk_bytes), terminal_safe(log->header.source).c_str(),
+                          spec->target.c_str());
   install_stop_handler(true);
   std::vector<devices::SensorSample> decoded, buf(1024);
   decoded.reserve(log->samples.size() + 64);
@@ -194,7 +196,8 @@ int run(const std::vector<std::string>& argv) {
   const bool live = !csv && !args.has("quiet") && ::isatty(STDERR_FILENO);
   if (!csv && !args.has("quiet"))
     std::fprintf(stderr, "replaying %s: %s, %zu sensors, %zu samples, %.3f s%s\n", path.c_str(),
-                 log.header.source.empty() ? "unknown source" : log.header.source.c_str(), log.header.sensors.size(),
+                 log.header.source.empty() ? "unknown source" : terminal_safe(log.header.source).c_str(),
+                 log.header.sensors.size(),
                  log.samples.size(),
                  log.samples.empty() ? 0.0 : log.samples.back().host_time_s - log.samples.front().host_time_s,
                  log.complete ? "" : " (damaged)");

@@ -23,10 +23,18 @@ const char* kUsage =
     "--json only a summary object at the end:\n"
     "  frames, avatars, fps, latency_ms_p50, latency_ms_p99, lost, out_of_order, model_bytes,\n"
     "  frame_bytes_mean, mesh_frames, reconnects, duration_s, transport, udp_frames, lean_keys,\n"
-    "  lean, lean_shift, lean_unreferenced, key_requests\n"
+    "  lean, lean_shift, lean_unreferenced, key_requests, cuts, stall_resyncs, outages, outage_s,\n"
+    "  outage_max_s, lost_across_sessions\n"
     "Latency is the frame's capture time (sender's clock) to its arrival here; fps is per avatar,\n"
     "the rate its frames were captured at (their timestamps), not how fast they happened to arrive.\n"
-    "Names and server messages are printed with control characters escaped (\\xNN).\n"
+    "After any cut (the server restarted, dropped this viewer, or timed it out while this\n"
+    "process was stopped) it reconnects and goes on; a line on stderr says so, and another how\n"
+    "long frames were missing when they come again. lost counts frames missed by sequence, also\n"
+    "across a server restart when the same publisher goes on (outage_s: the time without\n"
+    "frames). A viewer that was not running for over a second drops what its sockets buffered\n"
+    "meanwhile and resumes with the newest frames.\n"
+    "Names and server messages are printed with control, bidi and invisible characters escaped\n"
+    "(\\uXXXX; bytes that are not UTF-8 as \\xNN).\n"
     "\n"
     "options:\n"
     "  --connect HOST:PORT  the scene (default 127.0.0.1:7777), or a scene on a NATS broker:\n"
@@ -49,6 +57,43 @@ double percentile(std::vector<double> v, double q) {
   const size_t k = std::min(v.size() - 1, static_cast<size_t>(q * double(v.size() - 1) + 0.5));
   std::nth_element(v.begin(), v.begin() + static_cast<long>(k), v.end());
   return v[k];
+}
+
+// The --json summary of a run (the keys the usage lists).
+nlohmann::json summary(const net::Client& client, uint64_t frames, double fps, const std::vector<double>& latency_ms,
+                       double duration_s) {
+  const auto& s = client.stats();
+  nlohmann::json j;
+  j["frames"] = frames;
+  j["avatars"] = client.avatars().size();
+  j["fps"] = fps;
+  j["latency_ms_p50"] = percentile(latency_ms, 0.50);
+  j["latency_ms_p99"] = percentile(latency_ms, 0.99);
+  j["lost"] = s.lost;
+  j["out_of_order"] = s.out_of_order;
+  j["model_bytes"] = s.model_bytes;
+  j["models"] = s.models;
+  j["frame_bytes_mean"] = s.frames ? double(s.frame_bytes) / double(s.frames) : 0.0;
+  j["mesh_frames"] = s.mesh_frames;
+  j["reconnects"] = s.reconnects;
+  j["duration_s"] = duration_s;
+  j["transport"] = s.udp_frames > 0 ? "udp" : "tcp";
+  j["udp_frames"] = s.udp_frames;
+  j["lean"] = (client.negotiated_capabilities() & net::kCapLeanPose) != 0;
+  // The precision the server streams at (its key frames carry it); null before any key.
+  j["lean_shift"] = nullptr;
+  for (const auto& [id, m] : client.avatars())
+    if (m.lean.valid) j["lean_shift"] = m.lean.shift;
+  j["lean_keys"] = s.lean_keys;
+  j["lean_unreferenced"] = s.lean_unreferenced;
+  j["key_requests"] = s.key_requests;
+  j["cuts"] = s.cuts;
+  j["stall_resyncs"] = s.stall_resyncs;
+  j["outages"] = s.outages;
+  j["outage_s"] = s.outage_s;
+  j["outage_max_s"] = s.outage_max_s;
+  j["lost_across_sessions"] = s.lost_across_sessions;
+  return j;
 }
 
 int subscribe(const std::vector<std::string>& argv) {
@@ -95,6 +140,14 @@ int subscribe(const std::vector<std::string>& argv) {
       std::printf("model avatar=%u name=%s dofs=%u revision=%u bytes=%zu\n", m.id, net::printable(m.name).c_str(), m.dof_count,
                   m.revision, m.model_bytes.size());
   };
+  // Cuts and comebacks, as they happen (the client reconnects by itself).
+  client.on_cut = [&](const std::string& why) {
+    std::fprintf(stderr, "subscribe: connection cut (%s); reconnecting\n", why.c_str());
+  };
+  // (The frames it cost are counted as each avatar's first frame comes: lost in the summary.)
+  client.on_back = [&](double outage_s, uint64_t) {
+    std::fprintf(stderr, "subscribe: frames again after %.2f s without\n", outage_s);
+  };
   client.on_removed = [&](uint16_t id) {
     if (!json) std::printf("removed avatar=%u\n", id);
   };
@@ -121,9 +174,6 @@ int subscribe(const std::vector<std::string>& argv) {
     st = client.run_until(now + std::chrono::milliseconds(5));
     if (!st) break;
   }
-  const auto& s = client.stats();
-  // The rate frames were captured at, by their own timestamps: frames that arrive in a burst
-  // (a backlog after a stall, a resume) do not make it look faster than the source.
   // Frames per second per avatar, at the rate they were captured (their timestamps), averaged
   // over the avatars: frames that arrive in a burst (the latest pose of every avatar on joining,
   // a backlog after a stall) do not make the source look faster than it is.
@@ -136,31 +186,8 @@ int subscribe(const std::vector<std::string>& argv) {
   }
   if (timed > 0) fps /= double(timed);
   if (json) {
-    nlohmann::json j;
-    j["frames"] = frames;
-    j["avatars"] = client.avatars().size();
-    j["fps"] = fps;
-    j["latency_ms_p50"] = percentile(latency_ms, 0.50);
-    j["latency_ms_p99"] = percentile(latency_ms, 0.99);
-    j["lost"] = s.lost;
-    j["out_of_order"] = s.out_of_order;
-    j["model_bytes"] = s.model_bytes;
-    j["models"] = s.models;
-    j["frame_bytes_mean"] = s.frames ? double(s.frame_bytes) / double(s.frames) : 0.0;
-    j["mesh_frames"] = s.mesh_frames;
-    j["reconnects"] = s.reconnects;
-    j["duration_s"] = std::chrono::duration<double>(C::now() - start).count();
-    j["transport"] = s.udp_frames > 0 ? "udp" : "tcp";
-    j["udp_frames"] = s.udp_frames;
-    j["lean"] = (client.negotiated_capabilities() & net::kCapLeanPose) != 0;
-    // The precision the server streams at (its key frames carry it); null before any key.
-    j["lean_shift"] = nullptr;
-    for (const auto& [id, m] : client.avatars())
-      if (m.lean.valid) j["lean_shift"] = m.lean.shift;
-    j["lean_keys"] = s.lean_keys;
-    j["lean_unreferenced"] = s.lean_unreferenced;
-    j["key_requests"] = s.key_requests;
-    std::printf("%s\n", j.dump().c_str());
+    const double duration = std::chrono::duration<double>(C::now() - start).count();
+    std::printf("%s\n", summary(client, frames, fps, latency_ms, duration).dump().c_str());
   }
   client.close();
   if (!st) return failure("subscribe", net::printable(st.error().what()));

@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "command.h"
+#include "mimic/core/text.h"
 
 namespace mimic::app {
 
@@ -95,13 +96,16 @@ bool Args::get_int(const std::string& key, long& out) {
   return true;
 }
 
+// Messages quote names, paths and peers' words: whatever they hold, they cannot drive the
+// terminal (text already escaped keeps its backslashes).
 int usage_error(const char* command, const std::string& message) {
-  std::fprintf(stderr, "mimic %s: %s\n(see 'mimic %s --help')\n", command, message.c_str(), command);
+  std::fprintf(stderr, "mimic %s: %s\n(see 'mimic %s --help')\n", command,
+               terminal_safe(message, Backslash::kept).c_str(), command);
   return 2;
 }
 
 int failure(const char* command, const std::string& message) {
-  std::fprintf(stderr, "mimic %s: %s\n", command, message.c_str());
+  std::fprintf(stderr, "mimic %s: %s\n", command, terminal_safe(message, Backslash::kept).c_str());
   return 1;
 }
 

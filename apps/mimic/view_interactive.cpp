@@ -96,6 +96,7 @@ int run_interactive(Args& args, const ViewOptions& view) {
 
   std::vector<ViewAvatar> avatars;
   std::unique_ptr<service::Pipeline> pipeline;
+  std::string last_cut;  // before the client: its callback writes here
   std::unique_ptr<net::Client> client;
   std::string connection;
   auto model = body_from_args(args);
@@ -110,6 +111,8 @@ int run_interactive(Args& args, const ViewOptions& view) {
     if (!c) return failure(kName, "cannot connect to " + *where + ": " + c.error().message);
     client = std::move(*c);
     connection = "connected to " + *where;
+    // The client reconnects by itself after any cut; the panel says why it is away meanwhile.
+    client->on_cut = [&last_cut](const std::string& why) { last_cut = why; };
   } else {
     pipeline = std::make_unique<service::Pipeline>(service::PipelineOutputs{});
     const auto specs = split_sources(args.get_or("source", "sim:walk?sensors=11"));
@@ -226,7 +229,7 @@ int run_interactive(Args& args, const ViewOptions& view) {
           if (it == avatars.end()) {
             avatars.emplace_back();
             it = avatars.end() - 1;
-            it->name = remote.name + "#" + std::to_string(id);
+            it->name = net::printable(remote.name) + "#" + std::to_string(id);  // a peer's text
             it->remote_id = id;
             it->source = "remote avatar " + std::to_string(id);
           }
@@ -246,8 +249,16 @@ int run_interactive(Args& args, const ViewOptions& view) {
       }
       // Where the scene comes from (a mimic run, a relay, or a broker's scene through the relay
       // the client runs in this process) and what has come.
-      connection = args.get_or("connect", "") + ": " + std::to_string(client->stats().frames) + " pose frames" +
+      const net::ClientStats& cs = client->stats();
+      connection = args.get_or("connect", "") + ": " + std::to_string(cs.frames) + " pose frames" +
                    ((client->negotiated_capabilities() & net::kCapLeanPose) ? " (lean)" : "");
+      if (!client->connected()) connection += ", reconnecting (" + last_cut + ")";
+      if (cs.cuts > 0) {
+        char text[96];
+        std::snprintf(text, sizeof text, ", %llu cut(s), %.1f s without frames, %llu lost",
+                      static_cast<unsigned long long>(cs.cuts), cs.outage_s, static_cast<unsigned long long>(cs.lost));
+        connection += text;
+      }
     }
 
     if (eyes > 0 && first_person < 0 && static_cast<long>(avatars.size()) >= eyes) first_person = static_cast<int>(eyes - 1);

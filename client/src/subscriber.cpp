@@ -205,6 +205,17 @@ const Mesh* Subscriber::mesh(uint16_t id) const {
   return it == impl_->meshes.end() ? nullptr : &it->second;
 }
 
+Link Subscriber::link() const {
+  const net::ClientStats& s = impl_->client->stats();
+  Link l;
+  l.connected = impl_->client->connected();
+  l.cuts = s.cuts;
+  l.outages = s.outages;
+  l.outage_s = s.outage_s;
+  l.lost = s.lost;
+  return l;
+}
+
 const char* version() { return MIMIC_VERSION; }
 
 }  // namespace mimic::client

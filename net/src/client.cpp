@@ -8,6 +8,7 @@
 #include <cstring>
 #include <optional>
 
+#include "client_impl.h"
 #include "mimic/net/nats.h"
 #include "mimic/net/server.h"
 #include "nats/embedded_relay.h"
@@ -15,109 +16,7 @@
 namespace mimic::net {
 
 namespace asio = boost::asio;
-using tcp = asio::ip::tcp;
-using udp = asio::ip::udp;
-using Clock = std::chrono::steady_clock;
-
-namespace {
-constexpr size_t kMaxSlots = 16;
-
-Clock::duration seconds(double s) {
-  return std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(s));
-}
-}  // namespace
-
-struct PublishedAvatar {
-  bool live = false;
-  std::string name;
-  uint16_t dof_count = 0;
-  std::vector<uint8_t> model_packet;
-  std::array<uint8_t, kMaxDatagramBytes> pose{};
-  size_t pose_size = 0;
-  bool pending = false;
-};
-
-struct Client::Impl {
-  // A scene on a NATS broker is served to this client by a relay of its own (destroyed after
-  // everything below it).
-  std::shared_ptr<nats_detail::EmbeddedRelay> embedded_relay;
-  Client* owner = nullptr;
-  ClientOptions opt;
-  asio::io_context io{1};
-  std::optional<tcp::socket> sock;
-  tcp::endpoint endpoint;
-  PacketReader reader{kMaxPacketBytes};
-  bool connected = false;
-  bool handshake_done = false;
-  std::optional<Error> fatal;   // the session is over for good
-  bool dropped = false;         // connection lost; may resume
-  SessionToken token;
-  uint32_t caps = 0;
-  uint64_t generation = 0;      // handlers of an old socket ignore themselves
-  ClientStats stats;
-  std::map<uint16_t, RemoteAvatar> avatars;
-  std::array<PublishedAvatar, kMaxSlots> published;
-  avatar::Pose scratch_pose;
-  MeshTopology scratch_topology;
-
-  std::vector<uint8_t> out, control;
-  bool writing = false;
-
-  // Pose frames as datagrams: one socket for the client's life, registered with the session
-  // token (again after every resume, and every second to keep NAT mappings open).
-  std::optional<udp::socket> usock;
-  std::array<uint8_t, kMaxDatagramBytes> uin{};
-  udp::endpoint ufrom;
-  bool udp_ready = false;
-  uint64_t udp_nonce = 0;  // the server's last answer: echoed to prove we receive at this address
-  asio::steady_timer udp_timer{io};
-  // A session that says nothing is closed by the server's idle timeout; a PING every 2 s keeps a
-  // quiet subscriber (or a publisher whose source is silent) alive.
-  asio::steady_timer keepalive_timer{io};
-  void keepalive();
-  // The latest datagram frame of each avatar whose model is still on its way (bounded).
-  std::map<uint16_t, std::vector<uint8_t>> early;
-  static constexpr size_t kMaxEarly = 64;
-  void start_udp();
-  void register_udp();
-  void udp_receive();
-  void on_pose(std::span<const uint8_t> p, uint64_t now_us, bool datagram);
-
-  asio::steady_timer retry_timer{io};
-  asio::steady_timer handshake_timer{io};
-  bool connecting = false;             // a connection attempt (TCP or handshake) is under way
-  int failures = 0;                    // consecutive failed attempts
-  std::optional<Error> connect_error;  // why the last attempt failed
-
-  void start_connection();
-  void connect_failed(Errc code, std::string message);
-  void schedule_retry();
-  void read();
-  void on_packet(std::span<const uint8_t> p);
-  void queue_control(std::span<const uint8_t> bytes) { control.insert(control.end(), bytes.begin(), bytes.end()); }
-  void flush();
-  void lose_connection() {
-    if (!connected && !connecting) return;
-    connected = false;
-    connecting = false;
-    dropped = true;
-    udp_ready = false;  // the server forgets the address with the session; registered again after WELCOME
-    ++generation;
-    boost::system::error_code ec;
-    if (sock) sock->close(ec);
-    writing = false;
-    handshake_timer.cancel();
-    schedule_retry();
-  }
-  void end(Errc code, std::string message) {
-    if (!fatal) fatal = Error{code, std::move(message)};
-    lose_connection();
-  }
-  Status status() const {
-    if (fatal) return tl::unexpected(*fatal);
-    return {};
-  }
-};
+using namespace client_detail;
 
 // Reconnection is asynchronous: the realtime loop that drives the client never waits for it.
 void Client::Impl::start_connection() {
@@ -144,6 +43,9 @@ void Client::Impl::start_connection() {
     boost::system::error_code ignore;
     sock->set_option(tcp::no_delay(true), ignore);
     connected = true;
+    // HELLO goes first: nothing queued while the connection was down (a key request, a PING)
+    // belongs to this connection, and the server refuses anything before HELLO.
+    control.clear();
     Hello h;
     h.role = opt.role;
     h.name = opt.name.substr(0, kMaxNameBytes);
@@ -167,6 +69,33 @@ void Client::Impl::connect_failed(Errc code, std::string message) {
   lose_connection();
 }
 
+void Client::Impl::lose_connection() {
+  if (!connected && !connecting) return;
+  // A session that was up is cut: whatever the cause, the client comes back (when it may).
+  if (handshake_done && !fatal && !token.empty()) {
+    // Sessions cut right after their WELCOME, twice in a row (a server that takes us and drops
+    // us at once): back off instead of reconnecting at once, over and over.
+    if (Clock::now() - welcome_at >= std::chrono::seconds(1)) short_sessions = 0;
+    else if (++short_sessions >= 2) failures++;
+    stats.cuts++;
+    if (!outage_from) {
+      outage_from = last_frame_at == Clock::time_point{} ? Clock::now() : last_frame_at;
+      lost_at_cut = stats.lost;
+    }
+  }
+  connected = false;
+  connecting = false;
+  handshake_done = false;
+  dropped = true;
+  udp_ready = false;  // the server forgets the address with the session; registered again after WELCOME
+  ++generation;
+  boost::system::error_code ec;
+  if (sock) sock->close(ec);
+  writing = false;
+  handshake_timer.cancel();
+  schedule_retry();
+}
+
 void Client::Impl::schedule_retry() {
   if (!opt.reconnect || token.empty() || fatal) return;
   // The first retry at once (a dropped connection usually comes straight back), then backing off.
@@ -185,9 +114,11 @@ void Client::Impl::read() {
                         [this, gen](const boost::system::error_code& ec, size_t n) {
                           if (gen != generation) return;
                           if (ec) {
-                            lose_connection();
+                            cut(ec == asio::error::eof ? "the server closed the connection" : "connection lost: " + ec.message());
                             return;
                           }
+                          // Bytes that waited while this thread stalled are old: dropped, resumed.
+                          if (resync_if_stalled()) return;
                           stats.bytes_in += n;
                           reader.commit(n);
                           for (;;) {
@@ -195,7 +126,9 @@ void Client::Impl::read() {
                             const Reject e = reader.next(p);
                             if (e != Reject::ok) {
                               stats.rejected++;
-                              end(Errc::parse_error, std::string("bad stream from server: ") + reject_name(e));
+                              const std::string why = std::string("bad stream from server: ") + reject_name(e);
+                              if (handshake_done) cut(why);
+                              else end(Errc::parse_error, why);
                               return;
                             }
                             if (p.empty()) break;
@@ -206,6 +139,64 @@ void Client::Impl::read() {
                         });
 }
 
+void Client::Impl::on_welcome(const Welcome& w) {
+  const bool was_resume = !token.empty();
+  token = w.session_token;
+  caps = w.capabilities;
+  handshake_done = true;
+  welcome_at = Clock::now();
+  connecting = false;
+  dropped = false;
+  failures = 0;
+  handshake_timer.cancel();
+  if (w.resumed) stats.resumed++;
+  // The server did not know us (it restarted, or the grace period ran out): the scene
+  // arrives afresh, so forget the old one.
+  if (was_resume && !w.resumed && opt.role == Role::subscriber) {
+    remember_departed();  // its frames to come are measured against the old ones
+    std::vector<uint16_t> gone;
+    for (const auto& entry : avatars) gone.push_back(entry.first);
+    avatars.clear();
+    early.clear();
+    for (const uint16_t id : gone)
+      if (owner->on_removed) owner->on_removed(id);
+  }
+  // A publisher whose session was not kept brings its avatars again.
+  if (opt.role == Role::publisher && (!w.resumed || !was_resume)) {
+    for (auto& a : published)
+      if (a.live) queue_control(a.model_packet);
+  }
+  for (auto& a : published)
+    if (a.live && a.pose_size) a.pending = true;
+  flush();
+  udp_ready = false;  // a new session (or a resumed one on a new server) learns the address anew
+  udp_nonce = 0;
+  if (caps & kCapUdpPose) start_udp();
+  keepalive();
+  if (opt.role == Role::subscriber) start_watch();
+}
+
+void Client::Impl::on_reject(const RejectMsg& r) {
+  // The message is the server's text: shown escaped, it cannot drive the terminal.
+  const std::string why = std::string("server refused the session: ") + reject_name(r.reason) + " (" +
+                          printable(r.message) + ")";
+  // Refusals that another try cannot change end the session: a bad secret, no common version,
+  // a mesh LOD the server does not serve, and for a publisher what it sent (it would send it
+  // again). Any other REJECT of a session we
+  // had (the idle timeout after a stall, a full server while it restarts) is a cut like any other.
+  const bool transient = r.reason == Reject::timeout || r.reason == Reject::server_full ||
+                         r.reason == Reject::too_many_sessions;
+  const bool final = r.reason == Reject::unauthorized || r.reason == Reject::unsupported_version ||
+                     r.reason == Reject::unknown_version || r.reason == Reject::unavailable ||
+                     (opt.role == Role::publisher && !transient);
+  if (!final && opt.reconnect && !token.empty()) {
+    if (!handshake_done) failures++;  // refused while coming back: try again, backing off
+    cut(why);
+    return;
+  }
+  end(Errc::disconnected, why);
+}
+
 void Client::Impl::on_packet(std::span<const uint8_t> p) {
   const auto type = static_cast<MsgType>(p[2]);
   const uint64_t now_us = wall_clock_us();
@@ -213,43 +204,22 @@ void Client::Impl::on_packet(std::span<const uint8_t> p) {
     case MsgType::welcome: {
       Welcome w;
       if (decode_welcome(p, w) != Reject::ok) break;
-      const bool was_resume = !token.empty();
-      token = w.session_token;
-      caps = w.capabilities;
-      handshake_done = true;
-      connecting = false;
-      dropped = false;
-      failures = 0;
-      handshake_timer.cancel();
-      if (w.resumed) stats.resumed++;
-      // The server did not know us (it restarted, or the grace period ran out): the scene
-      // arrives afresh, so forget the old one.
-      if (was_resume && !w.resumed && opt.role == Role::subscriber) avatars.clear();
-      // A publisher whose session was not kept brings its avatars again.
-      if (opt.role == Role::publisher && (!w.resumed || !was_resume)) {
-        for (auto& a : published)
-          if (a.live) queue_control(a.model_packet);
-      }
-      for (auto& a : published)
-        if (a.live && a.pose_size) a.pending = true;
-      flush();
-      udp_ready = false;  // a new session (or a resumed one on a new server) learns the address anew
-      udp_nonce = 0;
-      if (caps & kCapUdpPose) start_udp();
-      keepalive();
+      on_welcome(w);
       return;
     }
     case MsgType::reject: {
       RejectMsg r;
       if (decode_reject(p, r) == Reject::ok) {
-        // The message is the server's text: shown escaped, it cannot drive the terminal.
-        end(Errc::disconnected, std::string("server refused the session: ") + reject_name(r.reason) + " (" +
-                                    printable(r.message) + ")");
+        on_reject(r);
         return;
       }
       break;
     }
-    case MsgType::bye: end(Errc::disconnected, "server said goodbye"); return;
+    case MsgType::bye:
+      // A server that stops says goodbye; one that starts again takes us back.
+      if (handshake_done && opt.reconnect) cut("the server said goodbye");
+      else end(Errc::disconnected, "server said goodbye");
+      return;
     case MsgType::avatar_model: {
       AvatarModel m;
       if (decode_avatar_model(p, m) != Reject::ok) break;
@@ -264,6 +234,7 @@ void Client::Impl::on_packet(std::span<const uint8_t> p) {
         a.has_pose = false;
         a.lean.valid = false;  // frames after a new model start from a key frame
         a.key_requested = false;
+        carry_over(a);
       }
       stats.models++;
       stats.model_bytes += p.size();
@@ -285,6 +256,7 @@ void Client::Impl::on_packet(std::span<const uint8_t> p) {
           continue;
         }
         const uint16_t gone = it->first;
+        remember_departed(it->second);
         it = avatars.erase(it);
         if (owner->on_removed) owner->on_removed(gone);
       }
@@ -293,6 +265,7 @@ void Client::Impl::on_packet(std::span<const uint8_t> p) {
     case MsgType::avatar_removed: {
       uint16_t id = 0;
       if (decode_avatar_removed(p, id) != Reject::ok) break;
+      if (auto it = avatars.find(id); it != avatars.end()) remember_departed(it->second);
       avatars.erase(id);
       if (owner->on_removed) owner->on_removed(id);
       return;
@@ -323,177 +296,6 @@ void Client::Impl::on_packet(std::span<const uint8_t> p) {
     default: break;
   }
   stats.rejected++;
-}
-
-void Client::Impl::on_pose(std::span<const uint8_t> p, uint64_t now_us, bool datagram) {
-  PoseHeader h;
-  const bool lean = p[2] == uint8_t(MsgType::pose_delta);
-  if (!lean && decode_pose(p, h, scratch_pose) != Reject::ok) {
-    stats.rejected++;
-    return;
-  }
-  if (lean) {
-    h.avatar = pose_avatar(p);
-    h.sequence = lean_pose_sequence(p);
-  }
-  auto it = avatars.find(h.avatar);
-  if (it == avatars.end()) {
-    if (!datagram) {
-      stats.rejected++;
-      return;
-    }
-    // A datagram may overtake the model it belongs to: kept until the model arrives.
-    stats.udp_early++;
-    auto e = early.find(h.avatar);
-    if (e == early.end() && early.size() < kMaxEarly) e = early.emplace(h.avatar, std::vector<uint8_t>{}).first;
-    auto sequence_of = [](std::span<const uint8_t> q) {
-      return q[2] == uint8_t(MsgType::pose_delta) ? lean_pose_sequence(q) : pose_sequence(q);
-    };
-    if (e != early.end() && (e->second.empty() || static_cast<int32_t>(h.sequence - sequence_of(e->second)) > 0))
-      e->second.assign(p.begin(), p.end());
-    return;
-  }
-  auto& a = it->second;
-  if (lean) {
-    // The reference rule: a delta applies only on top of the frame right before it; without
-    // it, drop the delta and ask once for a key frame (docs/protocol.md).
-    const Reject e = decode_lean_pose(p, a.lean, h, scratch_pose);
-    if (e == Reject::unexpected) {
-      stats.lean_unreferenced++;
-      if (!a.key_requested && (caps & kCapLeanPose)) {
-        std::array<uint8_t, 16> buf{};
-        queue_control(std::span<const uint8_t>(buf.data(), encode_key_request(a.id, buf)));
-        flush();
-        a.key_requested = true;
-        stats.key_requests++;
-      }
-      return;
-    }
-    if (e == Reject::out_of_order) {
-      stats.out_of_order++;
-      return;
-    }
-    if (e != Reject::ok) {
-      stats.rejected++;
-      return;
-    }
-    if (lean_pose_is_key(p)) {
-      stats.lean_keys++;
-      a.key_requested = false;
-    }
-  }
-  // A frame that does not fit the model would animate the wrong joints (docs/protocol.md).
-  if (scratch_pose.dof_rad.size() != a.dof_count) {
-    stats.rejected++;
-    stats.wrong_dof_count++;
-    return;
-  }
-  if (a.has_pose) {
-    const int32_t step = static_cast<int32_t>(h.sequence - a.last.sequence);
-    if (step <= 0) {
-      stats.out_of_order++;
-      return;
-    }
-    a.lost += uint64_t(step - 1);
-    stats.lost += uint64_t(step - 1);
-  }
-  a.last = h;
-  std::swap(a.pose, scratch_pose);
-  a.has_pose = true;
-  a.frames++;
-  stats.frames++;
-  stats.frame_bytes += p.size();
-  if (datagram) stats.udp_frames++;
-  if (owner->on_pose) owner->on_pose(a, now_us);
-}
-
-void Client::Impl::start_udp() {
-  if (!usock) {
-    const udp::endpoint server(endpoint.address(), endpoint.port());
-    boost::system::error_code ec;
-    usock.emplace(io);
-    usock->open(server.protocol(), ec);
-    // Connected: the kernel passes up datagrams from the server's address and port only.
-    if (!ec) usock->connect(server, ec);
-    if (ec) {
-      usock.reset();
-      return;  // frames keep coming over TCP
-    }
-    udp_receive();
-  }
-  register_udp();
-}
-
-void Client::Impl::register_udp() {
-  if (!usock || token.empty() || fatal) return;
-  std::array<uint8_t, kUdpRegisterBytes> buf{};
-  boost::system::error_code ec;
-  usock->send(asio::buffer(buf.data(), encode_udp_register({token, udp_nonce}, buf)), 0, ec);
-  // Until the server answers, again in 250 ms; then once a second.
-  udp_timer.expires_after(udp_ready ? std::chrono::milliseconds(1000) : std::chrono::milliseconds(250));
-  udp_timer.async_wait([this](const boost::system::error_code& e) {
-    if (!e) register_udp();
-  });
-}
-
-void Client::Impl::keepalive() {
-  keepalive_timer.expires_after(std::chrono::seconds(2));
-  const uint64_t gen = generation;
-  keepalive_timer.async_wait([this, gen](const boost::system::error_code& ec) {
-    if (ec || gen != generation || !connected || fatal) return;
-    std::array<uint8_t, kHeaderBytes> buf{};
-    queue_control(std::span<const uint8_t>(buf.data(), encode_ping(buf)));
-    flush();
-    keepalive();
-  });
-}
-
-void Client::Impl::udp_receive() {
-  usock->async_receive(asio::buffer(uin), [this](const boost::system::error_code& ec, size_t n) {
-    if (ec) {
-      if (ec == asio::error::operation_aborted || !usock || !usock->is_open()) return;
-      udp_receive();  // e.g. ICMP port unreachable while the server restarts
-      return;
-    }
-    stats.bytes_in += n;
-    const std::span<const uint8_t> d(uin.data(), n);
-    Header h;
-    UdpRegister echoed;
-    if (decode_header(d, h) != Reject::ok || n < kHeaderBytes + h.payload_bytes ||
-        (n != kHeaderBytes + h.payload_bytes && h.type != MsgType::pose_delta)) {
-      stats.rejected++;
-    } else if (h.type == MsgType::pose) {
-      on_pose(d, wall_clock_us(), true);
-    } else if (h.type == MsgType::pose_delta) {
-      // Lean frames of several avatars may share a datagram, back to back.
-      const uint64_t now = wall_clock_us();
-      for (size_t at = 0; at < n;) {
-        const auto rest = d.subspan(at);
-        Header ph;
-        if (decode_header(rest, ph) != Reject::ok || ph.type != MsgType::pose_delta ||
-            rest.size() < kHeaderBytes + ph.payload_bytes) {
-          stats.rejected++;
-          break;
-        }
-        on_pose(rest.first(kHeaderBytes + ph.payload_bytes), now, true);
-        at += kHeaderBytes + ph.payload_bytes;
-      }
-    } else if (h.type == MsgType::udp_register && decode_udp_register(d, echoed) == Reject::ok && echoed.token == token) {
-      if (echoed.nonce != 0 && echoed.nonce == udp_nonce) {
-        udp_ready = true;  // the server has seen us echo its nonce from this address
-      } else {
-        // A challenge: echo the nonce at once (the server sends frames here only after that).
-        udp_ready = false;
-        udp_nonce = echoed.nonce;
-        std::array<uint8_t, kUdpRegisterBytes> buf{};
-        boost::system::error_code ignore;
-        usock->send(asio::buffer(buf.data(), encode_udp_register({token, udp_nonce}, buf)), 0, ignore);
-      }
-    } else {
-      stats.rejected++;
-    }
-    udp_receive();
-  });
 }
 
 void Client::Impl::flush() {
@@ -531,6 +333,7 @@ Client::~Client() {
   impl_->retry_timer.cancel();
   impl_->udp_timer.cancel();
   impl_->keepalive_timer.cancel();
+  impl_->watch_timer.cancel();
   if (impl_->usock) {
     boost::system::error_code ec;
     impl_->usock->close(ec);

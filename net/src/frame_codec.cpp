@@ -1,5 +1,7 @@
 #include "mimic/net/frame_codec.h"
 
+#include "mimic/core/text.h"
+
 #include <algorithm>
 #include <bit>
 #include <cmath>
@@ -170,38 +172,9 @@ size_t SessionTokenHash::operator()(const SessionToken& t) const noexcept {
   return static_cast<size_t>(h);
 }
 
-bool name_is_printable(std::string_view name) noexcept {
-  for (size_t i = 0; i < name.size(); ++i) {
-    const auto c = static_cast<uint8_t>(name[i]);
-    if (c < 0x20 || c == 0x7F) return false;
-    // U+0080..U+009F (C1 controls, e.g. CSI) are 0xC2 0x80..0x9F in UTF-8.
-    if (c == 0xC2 && i + 1 < name.size() && static_cast<uint8_t>(name[i + 1]) < 0xA0) return false;
-  }
-  return true;
-}
+bool name_is_printable(std::string_view name) noexcept { return is_safe_name(name); }
 
-std::string printable(std::string_view text) {
-  static constexpr char kHex[] = "0123456789abcdef";
-  std::string out;
-  out.reserve(text.size());
-  for (size_t i = 0; i < text.size(); ++i) {
-    const auto c = static_cast<uint8_t>(text[i]);
-    const bool c1 = c == 0xC2 && i + 1 < text.size() && static_cast<uint8_t>(text[i + 1]) < 0xA0;
-    if (c >= 0x20 && c != 0x7F && c != '\\' && !c1) {
-      out += static_cast<char>(c);
-      continue;
-    }
-    // A C1 control is escaped whole (both bytes), so no terminal reads its second byte as one.
-    for (size_t k = 0; k < (c1 ? 2u : 1u); ++k) {
-      const auto e = static_cast<uint8_t>(text[i + k]);
-      out += "\\x";
-      out += kHex[e >> 4];
-      out += kHex[e & 15];
-    }
-    if (c1) ++i;
-  }
-  return out;
-}
+std::string printable(std::string_view text) { return terminal_safe(text); }
 
 const char* reject_name(Reject r) noexcept {
   switch (r) {

@@ -365,12 +365,23 @@ Result<LogContents> decode_log(std::span<const uint8_t> bytes) {
         log.complete = true;
         ++index;
         pos += total;
-        break;  // anything after the end record is ignored
+        break;
       }
     }
     // Unknown record types with a good CRC are skipped: later versions may add some.
     ++index;
     pos += total;
+  }
+  // Bytes after the end record were not written by this log's writer (an appended file, a
+  // copy gone wrong, tampering): never read as records, but never passed over in silence.
+  if (pos < n) {
+    LogDamage dmg{pos, index, std::to_string(n - pos) + " bytes after the end record (not read)"};
+    dmg.bytes_skipped = n - pos;
+    dmg.resumed_at_byte = n;
+    dmg.samples_before = log.samples.size();
+    log.bytes_skipped += dmg.bytes_skipped;
+    if (!log.damage) log.damage = dmg;
+    log.damages.push_back(std::move(dmg));
   }
   log.records = index;
   return log;

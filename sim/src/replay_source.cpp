@@ -1,5 +1,7 @@
 #include "mimic/sim/replay_source.h"
 
+#include "mimic/core/text.h"
+
 #include <cmath>
 #include <cstdio>
 
@@ -68,7 +70,9 @@ ReplaySource::ReplaySource(LogContents log, const ReplayOptions& options, std::s
   char text[96];
   std::snprintf(text, sizeof text, ", %zu samples, %.3f s", s.size(),
                 s.empty() ? 0.0 : s.back().host_time_s - s.front().host_time_s);
-  status_.description = "replay of " + (log_.header.source.empty() ? std::string("a log") : log_.header.source) + text;
+  // The header is the file's text, not ours: escaped before any terminal shows it.
+  status_.description =
+      "replay of " + (log_.header.source.empty() ? std::string("a log") : terminal_safe(log_.header.source)) + text;
   if (log_.damage) status_.last_error = log_.damage->what();
   cursor_ = begin_;
 }

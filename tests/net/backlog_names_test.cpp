@@ -97,10 +97,15 @@ TEST(Names, ControlCharactersAreRefusedAndEscapedWhenPrinted) {
   EXPECT_FALSE(name_is_printable("a\nb"));
   EXPECT_FALSE(name_is_printable("del\x7f"));
   EXPECT_FALSE(name_is_printable("csi\xc2\x9b"));
-  EXPECT_EQ(printable("\x1b]0;hijacked\x07"), "\\x1b]0;hijacked\\x07");
+  EXPECT_EQ(printable("\x1b]0;hijacked\x07"), "\\u001b]0;hijacked\\u0007");
   EXPECT_EQ(printable("Zoë"), "Zoë");
-  EXPECT_EQ(printable("a\\b"), "a\\x5cb");
-  EXPECT_EQ(printable("csi\xc2\x9b"), "csi\\xc2\\x9b");
+  EXPECT_EQ(printable("a\\b"), "a\\\\b");
+  EXPECT_EQ(printable("csi\xc2\x9b"), "csi\\u009b");
+  // Bidi overrides, zero-width characters and bytes that are not UTF-8 are refused too.
+  EXPECT_FALSE(name_is_printable("avat\u200bar1"));
+  EXPECT_FALSE(name_is_printable("evil\u202Etxt.exe"));
+  EXPECT_FALSE(name_is_printable("raw\x9b"));
+  EXPECT_FALSE(name_is_printable("bad\xff"));
 }
 
 TEST(Names, TheServerRefusesControlCharactersInNames) {

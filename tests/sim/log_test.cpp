@@ -424,6 +424,27 @@ TEST(LogReader, EndRecordMustCountTheSamples) {
   EXPECT_EQ(log->samples.size(), 6u);
 }
 
+// Bytes after the end record are not read as records, but they are reported with the offset
+// where they start: a log never hides what it carries.
+TEST(LogReader, BytesAfterTheEndRecordAreReportedWithTheirOffset) {
+  SmallLog s = small_log();
+  std::vector<uint8_t> v = s.bytes;
+  const size_t end = v.size();
+  for (const char c : std::string("\x1b[31mtrailing garbage")) v.push_back(static_cast<uint8_t>(c));
+  auto log = decode_log(v);
+  ASSERT_TRUE(log);
+  EXPECT_TRUE(log->complete);
+  EXPECT_EQ(log->samples.size(), 6u);
+  EXPECT_EQ(log->samples_lost, 0u);
+  ASSERT_TRUE(log->damage);
+  EXPECT_EQ(log->damage->byte_offset, end);
+  EXPECT_EQ(log->damage->bytes_skipped, v.size() - end);
+  EXPECT_NE(log->damage->what().find("after the end record"), std::string::npos) << log->damage->what();
+  EXPECT_NE(log->damage->what().find("byte " + std::to_string(end)), std::string::npos) << log->damage->what();
+  // A sound log reports nothing.
+  EXPECT_FALSE(decode_log(s.bytes)->damage);
+}
+
 TEST(SampleCsv, OneLinePerSampleWithSixDecimals) {
   SensorSample s;
   s.host_time_s = 12.3456789;

@@ -91,8 +91,10 @@ class Proc {
       int status = 0;
       if (::waitpid(pid_, &status, WNOHANG) == pid_) {
         exited_ = true;
-        drain(0);
-        drain(0);
+        // Everything it wrote, to the end of both pipes (a chatty child leaves more than one
+        // read's worth); bounded, should a grandchild hold the pipes open and keep writing.
+        for (int i = 0; i < 4096 && drain(0) > 0; ++i) {
+        }
         return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
       }
     }
@@ -102,18 +104,27 @@ class Proc {
   const std::string& err() const { return err_text_; }
 
  private:
-  void drain(int timeout_ms) {
+  // Reads what is waiting (up to one chunk per pipe); the bytes read.
+  size_t drain(int timeout_ms) {
     pollfd p[2] = {{out_, POLLIN, 0}, {err_, POLLIN, 0}};
-    if (::poll(p, 2, timeout_ms) <= 0) return;
+    if (::poll(p, 2, timeout_ms) <= 0) return 0;
     char buf[8192];
+    size_t got = 0;
     if (p[0].revents & POLLIN) {
       const ssize_t n = ::read(out_, buf, sizeof buf);
-      if (n > 0) out_text_.append(buf, size_t(n));
+      if (n > 0) {
+        out_text_.append(buf, size_t(n));
+        got += size_t(n);
+      }
     }
     if (p[1].revents & POLLIN) {
       const ssize_t n = ::read(err_, buf, sizeof buf);
-      if (n > 0) err_text_.append(buf, size_t(n));
+      if (n > 0) {
+        err_text_.append(buf, size_t(n));
+        got += size_t(n);
+      }
     }
+    return got;
   }
   pid_t pid_ = -1;
   bool ok_ = false, exited_ = false;

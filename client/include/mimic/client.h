@@ -12,8 +12,10 @@
 //
 // Frames: metres, +Y up, the body faces +Z, its left is +X (Mimic's world). Orientations are
 // unit quaternions (x, y, z, w), world_from_joint. A Subscriber is used from one thread; its
-// callbacks run inside poll()/run_for() on that thread. When the connection drops it reconnects
-// and resumes in the background; poll() fails only when the session ended for good.
+// callbacks run inside poll()/run_for() on that thread. After any cut (the connection dropped, the
+// server restarted or timed this client out while it was stopped) it reconnects and resumes in
+// the background, with the newest frames; poll() fails only when the session ended for good
+// (refused: wrong secret, no common protocol version).
 #pragma once
 
 #include <cstdint>
@@ -75,6 +77,15 @@ struct Mesh {
   uint64_t frames = 0;              // mesh frames received
 };
 
+// How the connection has fared so far.
+struct Link {
+  bool connected = false;
+  uint64_t cuts = 0;     // times the connection of an established session was cut
+  uint64_t outages = 0;  // cuts after which frames came again
+  double outage_s = 0;   // time without frames over those (last frame before to first after)
+  uint64_t lost = 0;     // frames missed by sequence, all avatars, across cuts and restarts
+};
+
 struct Options {
   std::string server = "127.0.0.1:7777";  // HOST:PORT
   std::string name = "mimic-client";      // shown in the server's session list
@@ -107,6 +118,7 @@ class MIMIC_CLIENT_API Subscriber {
   std::vector<uint16_t> avatar_ids() const;
   const Avatar* avatar(uint16_t id) const;  // nullptr when absent; valid until the next poll
   const Mesh* mesh(uint16_t id) const;      // nullptr before the first mesh frame; valid until the next poll
+  Link link() const;
 
  private:
   struct Impl;

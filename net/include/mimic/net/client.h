@@ -5,6 +5,12 @@
 // A client is driven by the thread that calls run_until/poll; callbacks run there. When the
 // connection drops, the client reconnects and resumes its session (same token: a subscriber
 // is not sent models it already holds; a publisher keeps its avatar ids and sequence numbers).
+// Any cut of an established session is followed by a reconnection: a dropped connection, the
+// server's goodbye, or a REJECT (e.g. its idle timeout after this process was stopped); only
+// refusals another try cannot change (bad secret, no common version, a publisher's malformed
+// input) end the session for good. A
+// subscriber that was not driven for a while (stopped, busy) drops what its sockets buffered
+// meanwhile and resumes, so it shows the newest frames rather than replaying old ones.
 #pragma once
 
 #include <chrono>
@@ -37,6 +43,9 @@ struct ClientOptions {
   // server offers it, at the server's precision (coarser than POSE frames: docs/protocol.md).
   bool lean = false;
   double connect_timeout_s = 3.0;
+  // Subscribers: not driven (run_until/poll) for this long, the client takes what its sockets
+  // hold as stale, drops it and resumes the session to get the newest frames (0: never).
+  double stall_resync_s = 1.0;
 };
 
 struct RemoteAvatar {
@@ -58,6 +67,13 @@ struct RemoteAvatar {
   MeshFrameHeader mesh_last;       // of the latest mesh frame (its LOD, sequence, time)
   LeanPoseState lean;              // the lean stream's reference frames of this avatar
   bool key_requested = false;      // a KEY_REQUEST is out and no key has come yet
+  // The same avatar (same name, DOF count and model) came back after it left the scene (removed,
+  // or the scene came back as a new session after a cut; within 10 minutes): its last frame
+  // then. Its first frame here counts the frames in between as lost (when the sequence moved
+  // forward by no more than its capture times allow: a restarted publisher carries nothing).
+  bool carried = false;
+  uint32_t carried_sequence = 0;
+  uint64_t carried_time_us = 0;
 };
 
 struct ClientStats {
@@ -79,6 +95,14 @@ struct ClientStats {
   uint64_t lean_keys = 0;         // lean stream: key frames applied (also in frames)
   uint64_t lean_unreferenced = 0; // lean stream: deltas whose reference frame we lack (dropped)
   uint64_t key_requests = 0;      // KEY_REQUESTs sent after such a delta
+  // Cuts (subscribers and publishers) and what they cost.
+  uint64_t cuts = 0;               // established sessions that lost their connection, any cause
+  uint64_t stall_resyncs = 0;      // of them: this side stalled, buffered frames dropped to resume
+  uint64_t stale_datagrams = 0;    // datagrams dropped as stale on such a resync
+  uint64_t outages = 0;            // cuts after which frames flowed again
+  double outage_s = 0;             // time without frames over those: last frame before to first after
+  double outage_max_s = 0;
+  uint64_t lost_across_sessions = 0;  // part of `lost`: frames missed while an avatar was gone and came back
 };
 
 class Client {
@@ -94,6 +118,12 @@ class Client {
   std::function<void(const RemoteAvatar&, uint64_t receive_time_us)> on_pose;
   std::function<void(uint16_t avatar)> on_removed;
   std::function<void(const RemoteAvatar&)> on_mesh;
+  // The connection of an established session was cut (`why` is printable: peers' words escaped);
+  // the client is reconnecting.
+  std::function<void(const std::string& why)> on_cut;
+  // The first pose frame after a cut: `outage_s` since the last frame before it, `lost` frames
+  // missed by sequence so far since the cut.
+  std::function<void(double outage_s, uint64_t lost)> on_back;
 
   // Publisher: announces an avatar (body model bytes are opaque here) and returns its slot.
   Result<uint8_t> add_avatar(const std::string& name, uint16_t dof_count, std::string model_bytes);

@@ -250,11 +250,12 @@ Reject decode_mesh_topology(std::span<const uint8_t> packet, MeshTopology& out);
 Reject decode_mesh(std::span<const uint8_t> packet, MeshFrameHeader& header,
                    std::vector<glm::vec3>& positions_m);
 
-// Names (publishers', avatars') are shown in terminals and logs: any control character (C0,
-// DEL, C1 as UTF-8) makes the HELLO or model carrying it malformed.
+// Names (publishers', avatars') are shown in terminals and logs: a name that is not valid UTF-8
+// or holds a control, bidi or invisible format character (mimic::is_safe_name) makes the HELLO
+// or model carrying it malformed.
 bool name_is_printable(std::string_view name) noexcept;
-// `text` with every control character (and backslash) written as \xNN: safe to print whatever a
-// peer sent.
+// `text` safe to print whatever a peer sent (mimic::terminal_safe: controls, bidi and invisible
+// characters as \uXXXX, bytes that are not UTF-8 as \xNN, a backslash doubled).
 std::string printable(std::string_view text);
 
 // Reads the avatar id of a pose packet and rewrites it in place (the server re-stamps a
