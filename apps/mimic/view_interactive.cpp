@@ -8,8 +8,8 @@
 #include "view_interactive.h"
 
 #include <algorithm>
-#include <cmath>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <map>
 #include <memory>
@@ -88,6 +88,7 @@ render::Camera frame_scene(const std::vector<ViewAvatar>& avatars, render::Camer
   glm::vec3 lo(1e9f), hi(-1e9f);
   glm::vec2 facing(0.0f);  // sum of unit headings (sin, cos)
   for (const ViewAvatar& a : avatars) {
+    if (a.deform_ms <= 0) continue;  // arrived this frame: its skin is not posed yet
     for (const glm::vec3& p : a.lods->mesh(a.lod).positions) {
       const glm::vec3 w = glm::vec3(a.world_from_body * glm::vec4(p, 1.0f));
       lo = glm::min(lo, w);
@@ -96,6 +97,7 @@ render::Camera frame_scene(const std::vector<ViewAvatar>& avatars, render::Camer
     const float yaw = render::facing_yaw_rad(glm::quat_cast(glm::mat3(a.world_from_body)) * a.pose.root_orientation);
     facing += glm::vec2(std::sin(yaw), std::cos(yaw));
   }
+  if (lo.x > hi.x) lo = glm::vec3(-0.5f, 0.0f, -0.5f), hi = glm::vec3(0.5f, 1.8f, 0.5f);  // nobody posed yet
   lo.y = std::min(lo.y, 0.0f);  // the feet on the floor, whatever the skin's lowest point
   render::Camera c;
   c.yaw_rad = render::preset_yaw_rad(preset, glm::length(facing) > 1e-3f ? std::atan2(facing.x, facing.y) : 0.0f);
