@@ -245,6 +245,7 @@ int run_view(const std::vector<std::string>& argv) {
   if (!args.get_int("lod", lod) || !args.get_int("ray-ring", ring)) return usage_error(kName, args.error());
   if (args.has("lod") && (lod < 0 || lod >= render::kLodCount))
     return usage_error(kName, "--lod must be in 0.." + std::to_string(render::kLodCount - 1));
+  if (ring < 0 || ring > 100000) return usage_error(kName, "--ray-ring must be a ring number from 0");
   view.lod = static_cast<int>(lod);
   view.ray_ring = static_cast<int>(ring);
   if (auto list = args.get("overlay"); list && !render::parse_overlays(*list, view.overlays))

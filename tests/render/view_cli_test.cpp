@@ -214,6 +214,9 @@ TEST(ViewCli, BadRequestsGetClearErrors) {
   EXPECT_EQ(r.status, 1);
   EXPECT_NE(r.output.find("/nonexistent-dir/x.png:"), std::string::npos) << r.output;
   EXPECT_EQ(r.output.find(".tmp"), std::string::npos) << r.output;
+  r = run_mimic("view --screenshot /tmp/x.png --ray-ring -5 --overlay rays");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.output.find("--ray-ring"), std::string::npos) << r.output;
   r = run_mimic("view --screenshot /tmp/x.png --motion walk --time nan");
   EXPECT_EQ(r.status, 2);
   EXPECT_NE(r.output.find("--time"), std::string::npos) << r.output;
