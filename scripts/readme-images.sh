@@ -11,17 +11,16 @@ shot() { local name=$1; shift; "$mimic" view --screenshot "$out/$name.png" "$@" 
 
 # The first picture: the body mid-stride.
 shot hero --motion walk --time 0.4 --camera three-quarter --size 420x480 --lod 0
-# Poses.
+# Poses: the relaxed posture, the walk in profile (cameras turn with the avatar), an arm raised.
 shot pose-rest --pose rest --size 240x300 --lod 0
 shot pose-walk --motion walk --time 0.9 --camera side --size 240x300 --lod 0
-shot pose-wave --pose rest --set l_shoulder_abduction=1.2,l_elbow_flexion=1.3,r_shoulder_abduction=-1.2 --size 240x300 --lod 0
+shot pose-wave --pose rest --set l_shoulder_abduction=1.2,l_elbow_flexion=1.3 --size 240x300 --lod 0
 [ -f "$data/bvh/07_01.bvh" ] && shot pose-bvh --bvh "$data/bvh/07_01.bvh" --frame 120 --camera three-quarter --size 240x300
 # The five scaling presets (mimic scale --preset), framed at one scale so their sizes compare.
 presets=$(mktemp -d)
 for preset in child adult_female adult_male tall heavy; do
   "$mimic" scale --preset "$preset" --out "$presets/$preset.json" 2>/dev/null
-  shot "preset-$preset" --body "$presets/$preset.json" --pose rest --set l_shoulder_abduction=-1.2,r_shoulder_abduction=-1.2 \
-    --frame-height 1.5 --size 200x300 --lod 0
+  shot "preset-$preset" --body "$presets/$preset.json" --pose rest --frame-height 1.5 --size 200x300 --lod 0
 done
 rm -rf "$presets"
 # Levels of detail, with the contour rings drawn so the sampling shows.
@@ -30,7 +29,7 @@ for lod in 0 1 2 3; do
 done
 # The method: skeleton and primitives (muscles by f(t)) inside the translucent body; the rays
 # cast for one ring; the contours.
-shot method-primitives --pose rest --set l_elbow_flexion=1.8,r_shoulder_abduction=-1.2 --overlay skeleton,primitives --see-through --camera three-quarter --size 300x340
+shot method-primitives --pose rest --set l_elbow_flexion=1.8 --overlay skeleton,primitives --see-through --camera three-quarter --size 300x340
 shot method-contours --pose rest --overlay contours --lod 2 --camera front --size 300x340
 shot method-rays --pose rest --overlay rays --ray-ring 5 --see-through --camera three-quarter --size 300x340
 # The shared scene: two tracked participants and three actors in one `mimic run`, watched by

@@ -1,13 +1,19 @@
 #include "body_posing.h"
 
 #include <chrono>
+#include <cmath>
 
+#include "mimic/avatar/body_model.h"
 #include "mimic/avatar/body_presets.h"
 #include "mimic/avatar/bvh.h"
 #include "mimic/avatar/motion.h"
 #include "mimic/avatar/retarget.h"
 
 namespace mimic::app {
+
+namespace {
+constexpr double kMaxTime_s = 3600;  // an hour of a looping motion is plenty
+}  // namespace
 
 Result<avatar::BodyModel> body_from_args(const Args& args) {
   if (auto path = args.get("body")) return avatar::load_body_or_preset(*path);
@@ -24,6 +30,7 @@ Result<PoseRequest> pose_from_args(const Args& a, const avatar::Skeleton& skelet
     double scale = avatar::kCmuMetresPerUnit;
     long frame = 0;
     if (!args.get_double("scale", scale) || !args.get_int("frame", frame)) return fail(Errc::invalid_argument, args.error());
+    if (!(std::isfinite(scale) && scale > 0)) return fail(Errc::invalid_argument, "--scale must be a positive number of metres per unit");
     if (!args.has("frame")) return fail(Errc::invalid_argument, "--bvh needs --frame N (frames count from 0)");
     auto clip = avatar::load_bvh(*bvh, avatar::BvhParseOptions{scale});
     if (!clip) return tl::unexpected(clip.error());
@@ -37,6 +44,10 @@ Result<PoseRequest> pose_from_args(const Args& a, const avatar::Skeleton& skelet
   } else if (auto motion = args.get("motion")) {
     double time_s = 0;
     if (!args.get_double("time", time_s)) return fail(Errc::invalid_argument, args.error());
+    // strtod takes "nan" and "inf"; a motion has no pose there (and loops far from 1e9 s).
+    if (!(time_s >= 0 && time_s <= kMaxTime_s))
+      return fail(Errc::invalid_argument, "--time must be 0.." + std::to_string(int(kMaxTime_s)) + " seconds, got '" +
+                                              args.get_or("time", "") + "'");
     auto m = avatar::make_builtin_motion(*motion, skeleton);
     if (!m) return tl::unexpected(m.error());
     req.pose = skeleton.zero_pose();
@@ -45,7 +56,7 @@ Result<PoseRequest> pose_from_args(const Args& a, const avatar::Skeleton& skelet
   } else {
     const std::string which = args.get_or("pose", "zero");
     if (which == "zero") req.pose = skeleton.zero_pose();
-    else if (which == "rest") req.pose = skeleton.rest_pose();
+    else if (which == "rest") req.pose = avatar::relaxed_posture(skeleton);
     else return fail(Errc::invalid_argument, "--pose must be zero or rest, got '" + which + "'");
     req.pose.root_position_m.y = avatar::standing_root_height_m(skeleton);
     req.description = which + " posture";

@@ -1,6 +1,7 @@
 // mimic export: a rigged, animated glTF of the avatar (bind mesh, skin, joint hierarchy,
 // contour-derived weights, the motion as an animation).
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <memory>
 #include <optional>
@@ -14,6 +15,7 @@
 #include "mimic/avatar/motion.h"
 #include "mimic/avatar/realtime_skin.h"
 #include "mimic/avatar/retarget.h"
+#include "mimic/avatar/skin_lod.h"
 #include "mimic/core/file.h"
 #include "mimic/service/solve_log.h"
 
@@ -58,7 +60,9 @@ int run(const std::vector<std::string>& argv) {
   if (!args.get_double("fps", fps) || !args.get_double("seconds", seconds) || !args.get_int("lod", lod))
     return usage_error(kName, args.error());
   if (!(fps > 0 && fps <= 240)) return usage_error(kName, "--fps must be in (0, 240]");
-  if (seconds < 0) return usage_error(kName, "--seconds must be >= 0");
+  if (!(seconds >= 0 && std::isfinite(seconds))) return usage_error(kName, "--seconds must be a number >= 0");
+  if (lod < 0 || lod >= avatar::kSkinLodCount)
+    return usage_error(kName, "--lod must be 0.." + std::to_string(avatar::kSkinLodCount - 1) + ", got " + std::to_string(lod));
 
   auto body = body_from_args(args);
   if (!body) return failure(kName, body.error().what());
@@ -100,7 +104,9 @@ int run(const std::vector<std::string>& argv) {
   std::string what;
   if (motion) {
     const double span_s = seconds > 0 ? std::min(seconds, motion->duration_s()) : motion->duration_s();
-    const long keys = std::max(2L, static_cast<long>(span_s * fps + 1e-9) + 1);
+    // Keys every 1/fps and one at the very end: a clip whose length is not a whole number of
+    // key intervals (a BVH's frame time is rounded: 0.008333 s) keeps its last frame.
+    const long keys = std::max(2L, static_cast<long>(std::ceil(span_s * fps - 1e-6)) + 1);
     avatar::Pose pose = sk.zero_pose();
     for (long k = 0; k < keys; ++k) {
       const double t = std::min(span_s, double(k) / fps);

@@ -20,9 +20,9 @@ constexpr const char* kUsage =
     "usage: mimic mesh (--bvh CLIP --frame N | --motion idle|walk --time S | --pose zero|rest)\n"
     "                  --out FILE.{obj,ply,glb} [options]\n"
     "\n"
-    "Poses the metaball body, samples its skin as cross-section contours, smooths them with cubic\n"
-    "B-splines, stitches the eleven skin pieces into one closed envelope with the rigid head,\n"
-    "hands and feet, and writes the mesh: metres, +Y up, the body facing +Z, one group per part.\n"
+    "Poses the metaball body, samples its skin as cross-section contours (smoothed with cubic\n"
+    "B-splines by --method full), stitches the eleven skin pieces into one closed envelope with\n"
+    "the rigid head, hands and feet, and writes the mesh: metres, +Y up, the body facing +Z, one group per part.\n"
     "Prints what it did and how long each stage took.\n"
     "\n"
     "pose (one of):\n"
@@ -36,15 +36,16 @@ constexpr const char* kUsage =
     "options:\n"
     "  --out FILE            .obj, .ply (binary) or .glb (glTF 2.0); written atomically (required)\n"
     "  --body FILE           body model (JSON, see docs/body-model.md); default: the built-in body\n"
-    "  --method full|realtime  full (default): contours ray-cast in the pose; realtime: contours\n"
-    "                        ray-cast once in the zero posture and moved with their rings (the\n"
-    "                        paper's realtime method, muscles kept; contour points are the vertices)\n"
+    "  --method realtime|full  realtime (default, as run, view and export): contours ray-cast once\n"
+    "                        in the zero posture and moved with their rings (the paper's realtime\n"
+    "                        method, muscles kept; contour points are the vertices); full: every\n"
+    "                        contour ray-cast in the pose and smoothed by B-splines\n"
     "  --no-muscles          realtime: the contours keep their measured shape\n"
     "  --lod N|PIECE=N,...   contours per link and points per contour: 0 the body's own (default)\n"
-    "                        to 3 (about 300 triangles), for the whole body or per piece, e.g.\n"
+    "                        to 3 (438 triangles), for the whole body or per piece, e.g.\n"
     "                        torso=0,neck=1,arms=2,legs=1,rigid=0 (pieces not named: all=N, else 0)\n"
-    "  --subdivision N       full: B-spline samples per contour span, 1..16 (default 1); 0 = contour\n"
-    "                        points are the vertices, no smoothing\n"
+    "  --subdivision N       --method full: B-spline samples per contour span, 1..16 (default\n"
+    "                        1); 0 = contour points are the vertices, no smoothing\n"
     "  --no-rigid            leave out the head, hands and feet\n"
     "  --uv                  texture coordinates per part (u around each contour, v along each\n"
     "                        piece), the seams split so the file's vertices are not welded there;\n"
@@ -113,11 +114,11 @@ int run_mesh(const std::vector<std::string>& argv) {
   if (!args.get_int("subdivision", subdivision)) return usage_error(kName, args.error());
   if (subdivision < 0 || subdivision > 16) return usage_error(kName, "--subdivision must be in 0..16");
   const auto lods = avatar::parse_skin_lods(args.get_or("lod", "0"));
-  if (!lods) return usage_error(kName, "--lod: " + lods.error().message);
-  auto method = avatar::parse_skin_method(args.get_or("method", "full"));
+  if (!lods) return usage_error(kName, "--lod: " + lods.error().message + " (or PIECE=N,...)");
+  auto method = avatar::parse_skin_method(args.get_or("method", "realtime"));
   if (!method) return usage_error(kName, method.error().message);
   if (*method == avatar::SkinMethod::realtime && args.has("subdivision"))
-    return usage_error(kName, "--subdivision is for --method full (the realtime method's vertices are its contour points)");
+    return usage_error(kName, "--subdivision is for --method full (the realtime method, the default, has its contour points as vertices)");
 
   auto t0 = std::chrono::steady_clock::now();
   auto body = body_from_args(args);

@@ -41,7 +41,8 @@ constexpr const char* kUsage =
     "  --set DOF=RAD,...     then set these joint DOFs (radians), e.g. l_shoulder_abduction=2.5\n"
     "  --empty               no avatar: the floor alone\n"
     "\n"
-    "interactive sources (default: sim:walk?sensors=11, the built-in walk on simulated trackers):\n"
+    "interactive sources (default: sim:walk, as mimic run: the built-in walk on six simulated\n"
+    "trackers):\n"
     "  --source SPECS        any source `mimic run` takes: sim:walk?sensors=11, replay:FILE.mlog,\n"
     "                        bvh:CLIP, flock:/dev/ttyUSB0?birds=4 ...; several, separated by ';',\n"
     "                        stand side by side\n"
@@ -58,7 +59,8 @@ constexpr const char* kUsage =
     "                        for by default (key and delta frames at the server's precision)\n"
     "\n"
     "options:\n"
-    "  --camera NAME         front, side (from the body's left), back, three-quarter (default front)\n"
+    "  --camera NAME         where from, relative to where the avatar faces: front (its face,\n"
+    "                        the default), side (its left), back, three-quarter (front left)\n"
     "  --size WxH            image or window size in pixels (default 640x720, window 960x720)\n"
     "  --lod N               skin level of detail, 0 (finest) .. 3; default: by distance\n"
     "  --overlay LIST        skeleton,primitives,contours,rays,sensors | all | none (default none)\n"
@@ -80,8 +82,8 @@ constexpr const char* kUsage =
     "  -h, --help            this text\n"
     "\n"
     "interactive keys: H or F1 help, 1-5 overlays, L cycle LOD (auto, 0..3), T translucent,\n"
-    "G grid, F first-person at the next avatar's head, R reset camera, Esc quit; left drag\n"
-    "orbit, right or middle drag pan, wheel zoom.\n"
+    "G grid, F first-person at the next avatar's head, R reset camera (every avatar framed beside\n"
+    "the panel, facing them), Esc quit; left drag orbit, right or middle drag pan, wheel zoom.\n"
     "\n"
     "exit status: 0 done, 1 rendering or input failure, 2 usage error\n";
 
@@ -159,7 +161,7 @@ int screenshot(Args& args, const ViewOptions& view) {
       return usage ? usage_error(kName, request.error().message) : failure(kName, request.error().message);
     }
     if (!args.has("bvh") && !args.has("motion") && !args.has("pose")) {
-      request->pose = lods->skeleton().rest_pose();
+      request->pose = avatar::relaxed_posture(lods->skeleton());
       request->pose.root_position_m.y = avatar::standing_root_height_m(lods->skeleton());
       request->description = "rest posture";
     }
@@ -180,7 +182,9 @@ int screenshot(Args& args, const ViewOptions& view) {
       floor_center = glm::vec3(0.0f);
       height_m = view.frame_height_m;
     }
-    frame.camera = render::preset_camera(view.camera, floor_center, height_m, aspect);
+    // Presets are relative to the avatar: front faces its face wherever the pose turned it.
+    frame.camera = render::preset_camera(view.camera, floor_center, height_m, aspect,
+                                         render::facing_yaw_rad(request->pose.root_orientation));
     const int lod = view.lod >= 0 ? view.lod
                                   : render::choose_lod(frame.camera.distance_m, height_m, frame.camera.fov_y_rad,
                                                        view.height);
@@ -241,6 +245,7 @@ int run_view(const std::vector<std::string>& argv) {
   if (!args.get_int("lod", lod) || !args.get_int("ray-ring", ring)) return usage_error(kName, args.error());
   if (args.has("lod") && (lod < 0 || lod >= render::kLodCount))
     return usage_error(kName, "--lod must be in 0.." + std::to_string(render::kLodCount - 1));
+  if (ring < 0 || ring > 100000) return usage_error(kName, "--ray-ring must be a ring number from 0");
   view.lod = static_cast<int>(lod);
   view.ray_ring = static_cast<int>(ring);
   if (auto list = args.get("overlay"); list && !render::parse_overlays(*list, view.overlays))

@@ -9,6 +9,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <map>
 #include <memory>
@@ -21,6 +22,7 @@
 #include "mimic/avatar/body_model.h"
 #include "mimic/net/client.h"
 #include "mimic/render/avatar_lods.h"
+#include "mimic/render/camera.h"
 #include "mimic/render/hud.h"
 #include "mimic/render/image.h"
 #include "mimic/render/overlays.h"
@@ -74,6 +76,37 @@ struct ViewAvatar {
   std::vector<render::SensorMark> sensors;  // local pipeline only: the protocol carries poses
 };
 
+glm::vec3 root_in_world(const ViewAvatar& a) {
+  return glm::vec3(a.world_from_body * glm::vec4(a.pose.root_position_m, 1.0f));
+}
+
+// The orbit camera for the scene as it stands: every avatar's skin (as last deformed) inside
+// the part of the window the status panel leaves free, seen from `preset` relative to where the
+// avatars face on average (front: their faces).
+render::Camera frame_scene(const std::vector<ViewAvatar>& avatars, render::CameraPreset preset, float aspect,
+                           float panel_right) {
+  glm::vec3 lo(1e9f), hi(-1e9f);
+  glm::vec2 facing(0.0f);  // sum of unit headings (sin, cos)
+  for (const ViewAvatar& a : avatars) {
+    if (a.deform_ms <= 0) continue;  // arrived this frame: its skin is not posed yet
+    for (const glm::vec3& p : a.lods->mesh(a.lod).positions) {
+      const glm::vec3 w = glm::vec3(a.world_from_body * glm::vec4(p, 1.0f));
+      lo = glm::min(lo, w);
+      hi = glm::max(hi, w);
+    }
+    const float yaw = render::facing_yaw_rad(glm::quat_cast(glm::mat3(a.world_from_body)) * a.pose.root_orientation);
+    facing += glm::vec2(std::sin(yaw), std::cos(yaw));
+  }
+  if (lo.x > hi.x) lo = glm::vec3(-0.5f, 0.0f, -0.5f), hi = glm::vec3(0.5f, 1.8f, 0.5f);  // nobody posed yet
+  lo.y = std::min(lo.y, 0.0f);  // the feet on the floor, whatever the skin's lowest point
+  render::Camera c;
+  c.yaw_rad = render::preset_yaw_rad(preset, glm::length(facing) > 1e-3f ? std::atan2(facing.x, facing.y) : 0.0f);
+  c.pitch_rad = avatars.size() > 1 ? 0.3f : 0.12f;
+  // A panel wider than half the window is left out of the reckoning: the scene gets the middle.
+  render::fit_box(c, lo, hi, aspect, panel_right < 0.5f ? panel_right + 0.01f : 0.0f, 1.0f);
+  return c;
+}
+
 std::string overlay_names(unsigned mask) {
   std::string s;
   const char* names[] = {"skeleton", "primitives", "contours", "rays", "sensors"};
@@ -115,7 +148,7 @@ int run_interactive(Args& args, const ViewOptions& view) {
     client->on_cut = [&last_cut](const std::string& why) { last_cut = why; };
   } else {
     pipeline = std::make_unique<service::Pipeline>(service::PipelineOutputs{});
-    const auto specs = split_sources(args.get_or("source", "sim:walk?sensors=11"));
+    const auto specs = split_sources(args.get_or("source", "sim:walk"));
     auto body_skeleton = avatar::Skeleton::build(model->skeleton);
     if (!body_skeleton) return failure(kName, "body model: " + body_skeleton.error().message);
     for (size_t i = 0; i < specs.size(); ++i) {
@@ -128,7 +161,8 @@ int run_interactive(Args& args, const ViewOptions& view) {
       if (!lods) return failure(kName, "body model does not fit source " + specs[i] + ": " + lods.error().message);
       a.lods.emplace(std::move(*lods));
       a.pose = a.lods->skeleton().rest_pose();
-      // Side by side along X, a metre and a half apart, the scene centred on the origin.
+      // Side by side along X, a metre and a half apart, the scene centred on the origin (moved
+      // once the poses are known, so each stands in its place: see the framing below).
       const float x_m = (static_cast<float>(i) - 0.5f * static_cast<float>(specs.size() - 1)) * 1.5f;
       a.world_from_body = glm::translate(glm::mat4(1.0f), glm::vec3(x_m, 0.0f, 0.0f));
       if (auto st = pipeline->add_avatar(a.name, std::move(*feed), "", nullptr); !st)
@@ -142,6 +176,8 @@ int run_interactive(Args& args, const ViewOptions& view) {
                                                 float(view.width) / float(view.height));
   render::Camera home = camera;
   bool framed = false;  // the camera has been fitted to the scene once its avatars stood somewhere
+  float panel_right = 0.0f;           // the status panel's right edge, a fraction of the width
+  glm::vec3 follow_offset(0.0f);      // the framed target's offset from the avatars' centre
   // The orbit camera keeps the avatars in view as they walk (the built-in walk leaves the first
   // framing within seconds); panning by hand stops that until R or C.
   bool follow = true;
@@ -262,24 +298,29 @@ int run_interactive(Args& args, const ViewOptions& view) {
     }
 
     if (eyes > 0 && first_person < 0 && static_cast<long>(avatars.size()) >= eyes) first_person = static_cast<int>(eyes - 1);
-    // Once the avatars have poses (a few frames in), fit the orbit camera to the whole scene.
+    // Once the avatars have poses and skins (a few frames in), fit the orbit camera to the whole
+    // scene, facing the avatars, beside the status panel.
     if (!framed && frames >= 5 && !avatars.empty()) {
-      glm::vec3 lo(1e9f), hi(-1e9f);
-      for (const ViewAvatar& a : avatars) {
-        const glm::vec3 p = glm::vec3(a.world_from_body * glm::vec4(a.pose.root_position_m, 1.0f));
-        lo = glm::min(lo, p);
-        hi = glm::max(hi, p);
-      }
-      const float spread_m = std::max(hi.x - lo.x, hi.z - lo.z);
-      camera.target = {0.5f * (lo.x + hi.x), 0.9f, 0.5f * (lo.z + hi.z)};
-      camera.distance_m = std::max(camera.distance_m, 0.4f * spread_m / std::tan(0.5f * camera.fov_y_rad) + 1.5f);
-      if (avatars.size() > 1) camera.pitch_rad = std::max(camera.pitch_rad, 0.3f);
+      // Local avatars stand in a row 1.5 m apart where they are now: a motion that starts away
+      // from its own origin (the built-in walk circles 1.2 m from it) would stand in a
+      // neighbour otherwise.
+      if (pipeline)
+        for (size_t i = 0; i < avatars.size(); ++i) {
+          const float x_m = (static_cast<float>(i) - 0.5f * static_cast<float>(avatars.size() - 1)) * 1.5f;
+          const glm::vec3 root = avatars[i].pose.root_position_m;
+          avatars[i].world_from_body = glm::translate(glm::mat4(1.0f), glm::vec3(x_m - root.x, 0.0f, -root.z));
+        }
+      camera = frame_scene(avatars, view.camera, float(view.width) / float(view.height), panel_right);
       home = camera;
+      glm::vec3 centre(0.0f);
+      for (const ViewAvatar& a : avatars) centre += root_in_world(a);
+      follow_offset = camera.target - centre / static_cast<float>(avatars.size());
+      follow_offset.y = 0.0f;
       framed = true;
     } else if (framed && follow && first_person < 0 && !avatars.empty()) {
       glm::vec3 centre(0.0f);
-      for (const ViewAvatar& a : avatars) centre += glm::vec3(a.world_from_body * glm::vec4(a.pose.root_position_m, 1.0f));
-      follower.update(camera, centre / static_cast<float>(avatars.size()), dt_s);
+      for (const ViewAvatar& a : avatars) centre += root_in_world(a);
+      follower.update(camera, centre / static_cast<float>(avatars.size()) + follow_offset, dt_s);
     }
 
     // Deform each avatar at the LOD its distance calls for, gather overlays.
@@ -340,7 +381,7 @@ int run_interactive(Args& args, const ViewOptions& view) {
     for (const ViewAvatar& a : avatars)
       hud.avatars.push_back({a.name, a.source, a.status, a.stale, a.lod, a.lods->triangle_count(a.lod), a.deform_ms,
                              glm::length(camera.eye() - glm::vec3(a.world_from_body * glm::vec4(a.pose.root_position_m, 1.0f)))});
-    if (!args.has("no-panel")) render::draw_hud(hud);
+    if (!args.has("no-panel")) panel_right = render::draw_hud(hud);
     window->render_ui();
     ++frames;
     if (capture && frames == frames_limit) {

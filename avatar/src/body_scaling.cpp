@@ -1,3 +1,4 @@
+#include <algorithm>
 #include <cmath>
 #include <set>
 
@@ -47,6 +48,23 @@ Pose standing_posture(const Skeleton& skeleton) {
         break;
       p.dof_rad[dof] = 0;
     }
+  }
+  return p;
+}
+
+Pose relaxed_posture(const Skeleton& skeleton) {
+  // From the relaxed DOF values (θ0), the upper arms lowered most of the way: hanging straight
+  // down they would press into the hips, so they stay 18° out, and the elbows bend a little.
+  const Pose down = standing_posture(skeleton);
+  Pose p = skeleton.rest_pose();
+  constexpr float kArmDownFraction = 0.8f;
+  constexpr float kElbowFlexion_rad = 0.2f;
+  for (const char* side : {"l_", "r_"}) {
+    const std::string s = side;
+    if (const int dof = skeleton.find_dof(s + "shoulder_abduction"); dof >= 0)
+      p.dof_rad[dof] = kArmDownFraction * down.dof_rad[dof];
+    if (const int dof = skeleton.find_dof(s + "elbow_flexion"); dof >= 0)
+      p.dof_rad[dof] = std::clamp(kElbowFlexion_rad, skeleton.dof(dof).min_rad, skeleton.dof(dof).max_rad);
   }
   return p;
 }

@@ -112,14 +112,20 @@ Result<std::string> encode_skinned_glb(const SkinnedAnimation& a) {
   attributes["JOINTS_0"] = b.add(joints.data(), joints.size() * 2, kUnsignedShort, int(nv), "VEC4", kArrayBuffer);
   attributes["WEIGHTS_0"] = b.add(weights.data(), weights.size() * 4, kFloat, int(nv), "VEC4", kArrayBuffer);
 
-  json primitives = json::array();
+  // One mesh per part, named after it (glTF primitives have no names; importers name their
+  // objects after nodes and meshes), all sharing the vertex attributes and the one skin.
+  json meshes = json::array();
   for (const auto& part : mesh.parts) {
     if (part.triangle_count == 0) continue;
     const int acc = b.add(mesh.indices.data() + size_t(part.first_triangle) * 3, size_t(part.triangle_count) * 12,
                           kUnsignedInt, int(part.triangle_count * 3), "SCALAR", kElementArrayBuffer);
-    primitives.push_back({{"attributes", attributes}, {"indices", acc}, {"mode", 4}, {"extras", {{"name", part.name}}}});
+    json primitive = {{"attributes", attributes}, {"indices", acc}, {"mode", 4}, {"extras", {{"name", part.name}}}};
+    // A part named like a joint ("neck", "head") gets a suffix: players keep node names unique
+    // by renaming one of the two ("neck_1"), which would hide which is which.
+    const std::string name = sk.find_joint(part.name) >= 0 ? part.name + "_skin" : part.name;
+    meshes.push_back({{"name", name}, {"primitives", json::array({primitive})}});
   }
-  if (primitives.empty()) return fail(Errc::invalid_argument, "glTF: the mesh has no triangles");
+  if (meshes.empty()) return fail(Errc::invalid_argument, "glTF: the mesh has no triangles");
 
   // Joints: the bind pose's world transforms give the inverse bind matrices.
   std::vector<RigidTransform> bind(nj);
@@ -156,7 +162,11 @@ Result<std::string> encode_skinned_glb(const SkinnedAnimation& a) {
     if (sk.parent(int(j)) < 0) root = int(j);
   json skin_joints = json::array();
   for (size_t j = 0; j < nj; ++j) skin_joints.push_back(j);
-  nodes.push_back({{"name", "mimic_body"}, {"mesh", 0}, {"skin", 0}});
+  json scene_nodes = json::array({root});
+  for (size_t m = 0; m < meshes.size(); ++m) {
+    scene_nodes.push_back(nodes.size());
+    nodes.push_back({{"name", meshes[m]["name"]}, {"mesh", m}, {"skin", 0}});
+  }
 
   const size_t nk = a.times_s.size();
   std::vector<float> times(nk);
@@ -199,9 +209,9 @@ Result<std::string> encode_skinned_glb(const SkinnedAnimation& a) {
   json doc = {
       {"asset", {{"version", "2.0"}, {"generator", "Mimic"}}},
       {"scene", 0},
-      {"scenes", json::array({{{"name", a.name}, {"nodes", json::array({root, nj})}}})},
+      {"scenes", json::array({{{"name", a.name}, {"nodes", scene_nodes}}})},
       {"nodes", nodes},
-      {"meshes", json::array({{{"name", a.name}, {"primitives", primitives}}})},
+      {"meshes", meshes},
       {"skins", json::array({{{"name", a.name + "_skeleton"}, {"joints", skin_joints}, {"skeleton", root},
                               {"inverseBindMatrices", ibm_acc}}})},
       {"animations", json::array({{{"name", "motion"}, {"samplers", samplers}, {"channels", channels}}})},

@@ -21,10 +21,15 @@ Status write_file_atomic(const std::string& path, std::string_view bytes) {
   const std::string tmp = path + ".tmp";
   {
     std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    if (!out) return fail(Errc::io_error, tmp + ": cannot create: " + std::strerror(errno));
+    // Errors name the path asked for: the temporary file beside it is ours, not the caller's.
+    if (!out) return fail(Errc::io_error, path + ": cannot create: " + std::strerror(errno));
     out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
     out.flush();
-    if (!out) return fail(Errc::io_error, tmp + ": write failed");
+    if (!out) {
+      const int e = errno;
+      std::remove(tmp.c_str());
+      return fail(Errc::io_error, path + ": write failed" + (e ? std::string(": ") + std::strerror(e) : std::string()));
+    }
   }
   if (std::rename(tmp.c_str(), path.c_str()) != 0) {
     std::remove(tmp.c_str());

@@ -61,24 +61,82 @@ void CameraFollow::update(Camera& camera, const glm::vec3& centre, float dt_s) {
   camera.target.z += k * (aim.z - camera.target.z);
 }
 
-Camera preset_camera(CameraPreset preset, const glm::vec3& floor_center, float height_m, float aspect) {
+float facing_yaw_rad(const glm::quat& world_from_root) {
+  const glm::vec3 f = world_from_root * glm::vec3(0.0f, 0.0f, 1.0f);
+  if (f.x * f.x + f.z * f.z < 1e-8f) return 0.0f;  // facing straight up or down: no heading
+  return std::atan2(f.x, f.z);
+}
+
+float preset_yaw_rad(CameraPreset preset, float facing_yaw_rad) {
+  constexpr float kPi = 3.14159265f;
+  // The eye sits at yaw: on +Z for 0 (see Camera::eye), so a body facing yaw is seen from the
+  // front at the same yaw, from its left (its +X) a quarter turn further.
+  switch (preset) {
+    case CameraPreset::kFront: return facing_yaw_rad;
+    case CameraPreset::kSide: return facing_yaw_rad + 0.5f * kPi;
+    case CameraPreset::kBack: return facing_yaw_rad + kPi;
+    case CameraPreset::kThreeQuarter: return facing_yaw_rad + 0.25f * kPi;
+  }
+  return facing_yaw_rad;
+}
+
+Camera preset_camera(CameraPreset preset, const glm::vec3& floor_center, float height_m, float aspect,
+                     float facing_yaw_rad) {
   Camera c;
   c.target = floor_center + glm::vec3(0.0f, 0.5f * height_m, 0.0f);
-  c.pitch_rad = 0.08f;
-  switch (preset) {
-    case CameraPreset::kFront: c.yaw_rad = 0.0f; break;
-    case CameraPreset::kSide: c.yaw_rad = 0.5f * 3.14159265f; break;  // eye on +X: the left side
-    case CameraPreset::kBack: c.yaw_rad = 3.14159265f; break;
-    case CameraPreset::kThreeQuarter:
-      c.yaw_rad = 0.25f * 3.14159265f;
-      c.pitch_rad = 0.2f;
-      break;
-  }
+  c.pitch_rad = preset == CameraPreset::kThreeQuarter ? 0.2f : 0.08f;
+  c.yaw_rad = preset_yaw_rad(preset, facing_yaw_rad);
   // Fit the body's height (plus margin, and its arm span when the image is narrow) in the view.
   const float half_fov = 0.5f * c.fov_y_rad;
   const float needed_half_height = 0.62f * height_m * std::max(1.0f, 1.0f / std::max(aspect, 1e-3f));
   c.distance_m = needed_half_height / std::tan(half_fov);
   return c;
+}
+
+void fit_box(Camera& camera, const glm::vec3& lo, const glm::vec3& hi, float aspect, float free_x0, float free_x1) {
+  constexpr float kMargin = 0.9f;  // of the free band and of the height
+  aspect = std::max(aspect, 1e-3f);
+  free_x0 = std::clamp(free_x0, 0.0f, 0.9f);
+  free_x1 = std::clamp(free_x1, free_x0 + 0.1f, 1.0f);
+  camera.first_person_eye.reset();
+  camera.target = 0.5f * (lo + hi);
+  const float t = std::tan(0.5f * camera.fov_y_rad);
+  // NDC half-extents the box may take: the free band's half width, the full height.
+  const float band_half = kMargin * (free_x1 - free_x0);  // NDC spans 2 over the width
+  const float band_centre = (free_x0 + free_x1) - 1.0f;    // in NDC
+  const glm::vec3 corners[8] = {{lo.x, lo.y, lo.z}, {hi.x, lo.y, lo.z}, {lo.x, hi.y, lo.z}, {hi.x, hi.y, lo.z},
+                                {lo.x, lo.y, hi.z}, {hi.x, lo.y, hi.z}, {lo.x, hi.y, hi.z}, {hi.x, hi.y, hi.z}};
+  // The smallest distance (bisection) at which every corner projects inside the band's width
+  // and the image's height; the pan then moves the box's middle to the band's middle.
+  auto extent = [&](float d, float& x_min, float& x_max, float& y_abs) {
+    camera.distance_m = d;
+    const glm::mat4 v = camera.view_from_world();
+    x_min = 1e9f, x_max = -1e9f, y_abs = 0.0f;
+    for (const glm::vec3& p : corners) {
+      const glm::vec4 q = v * glm::vec4(p, 1.0f);
+      const float depth = std::max(-q.z, 1e-3f);
+      const float x = q.x / (depth * t * aspect), y = q.y / (depth * t);
+      x_min = std::min(x_min, x);
+      x_max = std::max(x_max, x);
+      y_abs = std::max(y_abs, std::abs(y));
+    }
+  };
+  const float radius = 0.5f * glm::length(hi - lo) + 0.1f;
+  float near_d = radius, far_d = 80.0f;
+  for (int i = 0; i < 40; ++i) {
+    const float d = 0.5f * (near_d + far_d);
+    float x_min, x_max, y_abs;
+    extent(d, x_min, x_max, y_abs);
+    const bool fits = x_max - x_min <= 2.0f * band_half && y_abs <= kMargin;
+    (fits ? far_d : near_d) = d;
+  }
+  float x_min, x_max, y_abs;
+  extent(far_d, x_min, x_max, y_abs);
+  // Pan so the box's NDC middle lands on the band's: one NDC unit is t·aspect·d metres at the target.
+  const float shift_ndc = band_centre - 0.5f * (x_min + x_max);
+  const glm::mat4 v = camera.view_from_world();
+  const glm::vec3 right(v[0][0], v[1][0], v[2][0]);
+  camera.target -= right * (shift_ndc * t * aspect * far_d);
 }
 
 }  // namespace mimic::render

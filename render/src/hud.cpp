@@ -4,7 +4,7 @@
 
 namespace mimic::render {
 
-void draw_hud(const HudState& s) {
+float draw_hud(const HudState& s) {
   ImGui::SetNextWindowPos(ImVec2(8, 8), ImGuiCond_Always);
   ImGui::SetNextWindowBgAlpha(0.75f);
   ImGui::Begin("Mimic", nullptr,
@@ -28,9 +28,11 @@ void draw_hud(const HudState& s) {
   }
   ImGui::Separator();
   ImGui::TextUnformatted("H or F1: help");
+  const float display_w = ImGui::GetIO().DisplaySize.x;
+  const float panel_right = display_w > 0 ? (ImGui::GetWindowPos().x + ImGui::GetWindowSize().x) / display_w : 0.0f;
   ImGui::End();
 
-  if (!s.help) return;
+  if (!s.help) return panel_right;
   const ImGuiIO& io = ImGui::GetIO();
   ImGui::SetNextWindowPos(ImVec2(io.DisplaySize.x - 8, io.DisplaySize.y - 8), ImGuiCond_Always, ImVec2(1, 1));
   ImGui::SetNextWindowBgAlpha(0.85f);
@@ -57,6 +59,7 @@ void draw_hud(const HudState& s) {
     ImGui::TextUnformatted(k[1]);
   }
   ImGui::End();
+  return panel_right;
 }
 
 }  // namespace mimic::render

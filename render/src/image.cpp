@@ -3,8 +3,10 @@
 #include <png.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <memory>
 
@@ -23,7 +25,7 @@ Status write_png(const Image& image, const std::string& path) {
     return fail(Errc::invalid_argument, "write_png: image size does not match its pixels");
   const std::string tmp = path + ".tmp";
   File f(std::fopen(tmp.c_str(), "wb"));
-  if (!f) return fail(Errc::io_error, "cannot write " + tmp);
+  if (!f) return fail(Errc::io_error, path + ": cannot create: " + std::strerror(errno));
   png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, nullptr, nullptr, nullptr);
   png_infop info = png ? png_create_info_struct(png) : nullptr;
   if (!info) {

@@ -1,11 +1,33 @@
 #include "mimic/service/solve_log.h"
 
+#include <algorithm>
 #include <cmath>
 #include <memory>
 
 #include "feed_on_clock.h"
 
 namespace mimic::service {
+
+namespace {
+
+// Solves the same samples again, warm-started each time, until no DOF moves by more than
+// kSettled_rad (or kMaxRounds passes).
+void settle(PoseFeed& feed, avatar::Pose& pose) {
+  constexpr int kMaxRounds = 200;
+  constexpr float kSettled_rad = 1e-4f;
+  avatar::Pose before = pose;
+  for (int round = 0; round < kMaxRounds; ++round) {
+    double capture_s = 0;
+    bool stale = false;
+    feed.solve(pose, capture_s, stale);
+    float moved = glm::length(pose.root_position_m - before.root_position_m);
+    for (size_t d = 0; d < pose.dof_rad.size(); ++d) moved = std::max(moved, std::abs(pose.dof_rad[d] - before.dof_rad[d]));
+    if (moved < kSettled_rad) return;
+    before = pose;
+  }
+}
+
+}  // namespace
 
 Result<SolvedTake> solve_log(const std::string& log_path, const std::string& calibration_path, double fps,
                              const avatar::Skeleton* body, double max_seconds) {
@@ -33,6 +55,10 @@ Result<SolvedTake> solve_log(const std::string& log_path, const std::string& cal
     double capture_s = 0;
     bool stale = false;
     (*feed)->solve(pose, capture_s, stale);
+    // The live solver takes a few iterations per frame from where the last frame left it; the
+    // first frame starts from the zero posture, so live it settles over the first frames. A
+    // take has no such excuse: its first key is solved to convergence on its own samples.
+    if (take.poses.empty()) settle(**feed, pose);
     take.times_s.push_back(static_cast<double>(step - first_step) * dt_s);
     take.poses.push_back(pose);
     if ((*feed)->status().state == devices::DeviceState::disconnected) break;

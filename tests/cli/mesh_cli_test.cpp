@@ -37,7 +37,7 @@ void expect_closed_body(const std::string& path) {
 TEST(MeshCli, WritesEachFormatFromABvhFrame) {
   for (const char* ext : {"obj", "ply", "glb"}) {
     const std::string out = temp(std::string("07_01.") + ext);
-    const Outcome r = run_mimic("mesh --bvh '" + mimic::test::clip_path("07_01") + "' --frame 120 --out '" + out + "'");
+    const Outcome r = run_mimic("mesh --bvh '" + mimic::test::clip_path("07_01") + "' --frame 120 --method full --out '" + out + "'");
     ASSERT_EQ(r.status, 0) << r.output;
     for (const char* stage : {"body", "skin", "pose", "contours", "B-spline", "stitch", "wrote"})
       EXPECT_NE(r.output.find(stage), std::string::npos) << stage << "\n" << r.output;
@@ -49,11 +49,16 @@ TEST(MeshCli, WritesEachFormatFromABvhFrame) {
 
 TEST(MeshCli, BuiltInMotionsAndRealtimeMode) {
   const std::string out = temp("walk.glb");
-  Outcome r = run_mimic("mesh --motion walk --time 0.37 --subdivision 0 --out '" + out + "'");
+  Outcome r = run_mimic("mesh --motion walk --time 0.37 --method full --subdivision 0 --out '" + out + "'");
   ASSERT_EQ(r.status, 0) << r.output;
   expect_closed_body(out);
-  r = run_mimic("mesh --motion idle --time 3 --subdivision 2 --out '" + out + "'");
+  r = run_mimic("mesh --motion idle --time 3 --method full --subdivision 2 --out '" + out + "'");
   ASSERT_EQ(r.status, 0) << r.output;
+  expect_closed_body(out);
+  // Without --method: the realtime skin, the default of every command (run, view, export).
+  r = run_mimic("mesh --motion walk --time 0.4 --out '" + out + "'");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("frame     realtime"), std::string::npos) << r.output;
   expect_closed_body(out);
   std::filesystem::remove(out);
 }
@@ -150,6 +155,21 @@ TEST(MeshCli, BadRequestsGetClearErrors) {
   r = run_mimic("mesh --body /nonexistent/body.json --pose zero --out /tmp/x.obj");
   EXPECT_EQ(r.status, 1);
   EXPECT_NE(r.output.find("/nonexistent/body.json"), std::string::npos) << r.output;
+  // Numbers that parse but mean nothing are usage errors too, named by their option.
+  for (const char* time : {"nan", "inf", "1e9", "-1"}) {
+    r = run_mimic(std::string("mesh --motion walk --time ") + time + " --out /tmp/x.obj");
+    EXPECT_EQ(r.status, 2) << time << ": " << r.output;
+    EXPECT_NE(r.output.find("--time"), std::string::npos) << r.output;
+  }
+  r = run_mimic("mesh --pose zero --lod 7 --out /tmp/x.obj");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_EQ(r.output.find("LOD: LOD"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("0..3"), std::string::npos) << r.output;
+  // A folder that does not exist: the error names the path given, not a temporary file.
+  r = run_mimic("mesh --pose zero --lod 3 --out /nonexistent-mimic-dir/x.obj");
+  EXPECT_EQ(r.status, 1);
+  EXPECT_NE(r.output.find("/nonexistent-mimic-dir/x.obj:"), std::string::npos) << r.output;
+  EXPECT_EQ(r.output.find(".tmp"), std::string::npos) << r.output;
   r = run_mimic("mesh --help");
   EXPECT_EQ(r.status, 0);
   EXPECT_NE(r.output.find("--subdivision"), std::string::npos);

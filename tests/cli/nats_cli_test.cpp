@@ -271,6 +271,7 @@ TEST(NatsCli, ASigkilledPublishersAvatarLeavesAndItsRestartBringsItBack) {
   ASSERT_TRUE(probe.ok());
   ASSERT_TRUE(probe.open_bucket("mimic_crash"));
   EXPECT_TRUE(probe.holds(key));
+  const uint16_t id_before = v->avatars().begin()->first;
 
   run->signal(SIGKILL);
   EXPECT_EQ(run->wait(10.0), 128 + SIGKILL);
@@ -287,6 +288,9 @@ TEST(NatsCli, ASigkilledPublishersAvatarLeavesAndItsRestartBringsItBack) {
   const uint64_t frames_before = v->stats().frames;
   ASSERT_TRUE(pump({v.get()}, [&] { return v->avatars().size() == 1 && v->stats().frames >= frames_before + 30; }, 20));
   EXPECT_EQ(v->avatars().begin()->second.name, "hostK/avatar1");
+  // The relay hands out its lowest free id: with nobody else arriving, the one it had
+  // (docs/scaling.md says so).
+  EXPECT_EQ(v->avatars().begin()->first, id_before);
   EXPECT_TRUE(probe.holds(key)) << "the same key again";
   run->signal(SIGINT);
   ASSERT_EQ(run->wait(15.0), 0) << run->err();

@@ -25,6 +25,17 @@ TEST(File, AtomicWriteThenReadRoundTrips) {
   std::filesystem::remove(path);
 }
 
+TEST(File, AWriteIntoAMissingFolderNamesThePathGiven) {
+  // The temporary file beside the target is an implementation detail: the error names the
+  // path the caller asked for, and only that.
+  const std::string path = "/nonexistent-mimic-dir/x.obj";
+  const Status st = write_file_atomic(path, "bytes");
+  ASSERT_FALSE(st);
+  EXPECT_EQ(st.error().code, Errc::io_error);
+  EXPECT_NE(st.error().message.find(path + ":"), std::string::npos) << st.error().message;
+  EXPECT_EQ(st.error().message.find(".tmp"), std::string::npos) << st.error().message;
+}
+
 TEST(File, MissingFileIsAnIoError) {
   auto r = read_file("/nonexistent/dir/file");
   ASSERT_FALSE(r);

@@ -28,6 +28,49 @@ TEST(Camera, FrontSeesTheLeftOnTheRightAndBackTheOpposite) {
   EXPECT_LT(project(side, {0, 1, 0.3f}, 1).x, -0.01f);
 }
 
+TEST(Camera, PresetsAreRelativeToWhereTheBodyFaces) {
+  // A body turned a quarter turn to face +X: its face is on +X, its left hand on −Z.
+  const glm::quat turned = glm::angleAxis(1.5707964f, glm::vec3(0, 1, 0));
+  const float facing = mimic::render::facing_yaw_rad(turned);
+  EXPECT_NEAR(facing, 1.5707964f, 1e-5f);
+  const Camera front = mimic::render::preset_camera(CameraPreset::kFront, {0, 0, 0}, 1.7f, 1.0f, facing);
+  EXPECT_GT(front.eye().x, 2.0f);  // in front of the face
+  EXPECT_NEAR(front.eye().z, 0.0f, 1e-3f);
+  const glm::vec3 left_hand = turned * glm::vec3(0.8f, 1.4f, 0.0f), right_hand = turned * glm::vec3(-0.8f, 1.4f, 0.0f);
+  EXPECT_GT(project(front, left_hand, 1).x, 0.2f);  // as for an unturned body: its left on the right
+  EXPECT_LT(project(front, right_hand, 1).x, -0.2f);
+  const Camera side = mimic::render::preset_camera(CameraPreset::kSide, {0, 0, 0}, 1.7f, 1.0f, facing);
+  EXPECT_LT(side.eye().z, -2.0f);  // at its left
+  const Camera back = mimic::render::preset_camera(CameraPreset::kBack, {0, 0, 0}, 1.7f, 1.0f, facing);
+  EXPECT_LT(back.eye().x, -2.0f);
+  // Pitch and roll of the root do not move the heading; facing straight down has none.
+  EXPECT_NEAR(mimic::render::facing_yaw_rad(turned * glm::angleAxis(0.4f, glm::vec3(1, 0, 0))), facing, 1e-5f);
+  EXPECT_EQ(mimic::render::facing_yaw_rad(glm::angleAxis(1.5707964f, glm::vec3(1, 0, 0))), 0.0f);
+}
+
+TEST(Camera, FitBoxKeepsTheSceneInTheBandAPanelLeavesFree) {
+  // Two avatars side by side (the viewer's local layout), the panel over the left 35 %.
+  const glm::vec3 lo(-1.6f, 0.0f, -0.4f), hi(1.6f, 1.8f, 0.4f);
+  for (float aspect : {0.75f, 1.33f, 2.0f})
+    for (float yaw : {0.0f, 0.7f, 3.1f}) {
+      Camera c;
+      c.yaw_rad = yaw;
+      c.pitch_rad = 0.3f;
+      mimic::render::fit_box(c, lo, hi, aspect, 0.35f, 1.0f);
+      float x_min = 1e9f, x_max = -1e9f;
+      for (int k = 0; k < 8; ++k) {
+        const glm::vec3 p((k & 1) ? hi.x : lo.x, (k & 2) ? hi.y : lo.y, (k & 4) ? hi.z : lo.z);
+        const glm::vec2 ndc = project(c, p, aspect);
+        x_min = std::min(x_min, ndc.x);
+        x_max = std::max(x_max, ndc.x);
+        EXPECT_LT(std::abs(ndc.y), 1.0f) << aspect << " " << yaw;
+      }
+      EXPECT_GT(x_min, 2 * 0.35f - 1) << "under the panel at aspect " << aspect << ", yaw " << yaw;
+      EXPECT_LT(x_max, 1.0f) << aspect << " " << yaw;
+      EXPECT_GT(x_max - x_min, 0.8f) << "and not lost in the distance";
+    }
+}
+
 TEST(Camera, PresetsFrameTheWholeBodyAtAnyAspect) {
   for (float aspect : {0.5f, 0.9f, 1.0f, 1.78f})
     for (auto preset : {CameraPreset::kFront, CameraPreset::kSide, CameraPreset::kBack, CameraPreset::kThreeQuarter}) {

@@ -52,7 +52,7 @@ double top_column(const mimic::render::Image& image, int rows) {
 }
 
 TEST(ViewCli, ScreenshotOfTheBodyFillsTheFrameItIsPlacedIn) {
-  const mimic::render::Image image = shoot("rest.png", "--pose rest --size 300x400 --no-grid");
+  const mimic::render::Image image = shoot("zero.png", "--pose zero --size 300x400 --no-grid");
   ASSERT_EQ(image.width, 300);
   ASSERT_EQ(image.height, 400);
   const mimic::render::Coverage c = mimic::render::coverage(image, kBackground);
@@ -67,8 +67,44 @@ TEST(ViewCli, ScreenshotOfTheBodyFillsTheFrameItIsPlacedIn) {
   EXPECT_GT(c.count, 8000);
 }
 
+TEST(ViewCli, TheRestPostureIsRelaxedNotTheTPose) {
+  // --pose rest: arms lowered towards the sides. Against the T-pose (--pose zero) the body is
+  // far narrower, and no longer the same picture.
+  const std::string size = "--size 300x400 --no-grid --lod 2";
+  const mimic::render::Image zero = shoot("zero.png", "--pose zero " + size);
+  const mimic::render::Image rest = shoot("rest.png", "--pose rest " + size);
+  ASSERT_EQ(zero.width, rest.width);
+  EXPECT_NE(zero.rgba, rest.rgba);
+  const mimic::render::Coverage z = mimic::render::coverage(zero, kBackground);
+  const mimic::render::Coverage r = mimic::render::coverage(rest, kBackground);
+  EXPECT_LT(r.max_x - r.min_x, 0.6 * (z.max_x - z.min_x)) << "arms down: the span shrinks";
+  EXPECT_GT(r.max_y - r.min_y, 0.6 * rest.height) << "still the whole body, standing";
+  // The default pose of a screenshot is the relaxed one.
+  const mimic::render::Image fallback = shoot("default.png", size);
+  EXPECT_EQ(fallback.rgba, rest.rgba);
+}
+
+TEST(ViewCli, CameraPresetsAreRelativeToWhereTheAvatarFaces) {
+  // The built-in walk goes round a circle in 6.6 s, so a quarter lap later it faces a quarter
+  // turn away. With its left arm raised to the side, its hand is the highest point: from the
+  // front (its face) that is on the image's right, from the back on its left — at every
+  // heading, because the presets turn with the avatar.
+  for (double t : {0.4, 2.05, 3.7, 5.35}) {
+    const std::string pose = "--motion walk --time " + std::to_string(t) +
+                             " --set l_shoulder_abduction=1.2 --size 320x360 --no-grid --lod 2 --camera ";
+    const mimic::render::Image front = shoot("walk_front.png", pose + "front");
+    const mimic::render::Image back = shoot("walk_back.png", pose + "back");
+    // Against the figure's own middle (the raised arm stands nearly upright).
+    const mimic::render::Coverage f = mimic::render::coverage(front, kBackground);
+    const mimic::render::Coverage b = mimic::render::coverage(back, kBackground);
+    EXPECT_GT(top_column(front, 12), 0.5 * (f.min_x + f.max_x) + 0.04 * front.width) << "t = " << t << " s";
+    EXPECT_LT(top_column(back, 12), 0.5 * (b.min_x + b.max_x) - 0.04 * back.width) << "t = " << t << " s";
+  }
+}
+
 TEST(ViewCli, TheRaisedLeftArmShowsOnTheBodysLeft) {
-  // T-pose with the left arm raised 70° above the horizontal: its hand is the highest point.
+  // The relaxed posture with the left arm raised 70° above the horizontal: its hand is the
+  // highest point.
   const std::string pose = "--pose rest --set l_shoulder_abduction=1.2 --size 320x360 --no-grid ";
   const mimic::render::Image front = shoot("left_front.png", pose + "--camera front");
   const mimic::render::Image back = shoot("left_back.png", pose + "--camera back");
@@ -176,6 +212,14 @@ TEST(ViewCli, BadRequestsGetClearErrors) {
   EXPECT_EQ(r.status, 2);
   r = run_mimic("view --screenshot /nonexistent-dir/x.png --pose rest");
   EXPECT_EQ(r.status, 1);
+  EXPECT_NE(r.output.find("/nonexistent-dir/x.png:"), std::string::npos) << r.output;
+  EXPECT_EQ(r.output.find(".tmp"), std::string::npos) << r.output;
+  r = run_mimic("view --screenshot /tmp/x.png --ray-ring -5 --overlay rays");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.output.find("--ray-ring"), std::string::npos) << r.output;
+  r = run_mimic("view --screenshot /tmp/x.png --motion walk --time nan");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.output.find("--time"), std::string::npos) << r.output;
   r = run_mimic("view --screenshot /tmp/x.png --source sim:walk");
   EXPECT_EQ(r.status, 2);
 }

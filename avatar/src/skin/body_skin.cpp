@@ -72,6 +72,12 @@ void BodySkin::stage_stitch() {
   for (const RigidMesh& rm : m.rigid) {
     const RigidTransform& w = m.world_from_joint[rm.joint];
     for (size_t i = 0; i < rm.local.size(); ++i) pos[rm.first_vertex + i] = w.apply(rm.local[i]);
+    if (rm.toe_joint < 0) continue;
+    const RigidTransform& toes = m.world_from_joint[rm.toe_joint];
+    for (size_t k = 0; k < rm.toe_vertex.size(); ++k) {
+      glm::vec3& p = pos[rm.first_vertex + rm.toe_vertex[k]];
+      p += rm.toe_weight[k] * (toes.apply(rm.toe_local[k]) - p);
+    }
   }
   m.timings.stitch_us = micros_since(t0);
   if (m.options.normals) {

@@ -70,6 +70,30 @@ std::vector<float> resampled_angles(std::span<const float> a, int m) {
   return out;
 }
 
+// The forefoot of a rigid part whose joint has a child joint that moves (a foot and its toes):
+// each vertex's weight for the child, by how far ahead of the child's joint centre it lies
+// along the child's link, in the rest posture the part was sampled in.
+void bind_toes(RigidMesh& rm, const Skeleton& skeleton, std::span<const RigidTransform> world_from_joint) {
+  int child = -1;
+  for (int j = 0; j < skeleton.joint_count() && child < 0; ++j)
+    if (skeleton.parent(j) == rm.joint && skeleton.dof_end(j) > skeleton.dof_begin(j)) child = j;
+  if (child < 0 || glm::length(skeleton.tip_m(child)) < 1e-4f) return;
+  const RigidTransform& part = world_from_joint[rm.joint];
+  const RigidTransform& toes = world_from_joint[child];
+  const glm::vec3 ahead = glm::normalize(toes.apply_vector(skeleton.tip_m(child)));
+  const RigidTransform toes_from_world = toes.inverse();
+  for (size_t i = 0; i < rm.local.size(); ++i) {
+    const glm::vec3 p = part.apply(rm.local[i]);
+    const float s = glm::dot(p - toes.translation, ahead);
+    const float u = std::clamp((s + kToeBlendBack_m) / (kToeBlendBack_m + kToeBlendFront_m), 0.0f, 1.0f);
+    if (u <= 0.0f) continue;
+    rm.toe_vertex.push_back(static_cast<uint32_t>(i));
+    rm.toe_weight.push_back(u * u * (3.0f - 2.0f * u));
+    rm.toe_local.push_back(toes_from_world.apply(p));
+  }
+  if (!rm.toe_vertex.empty()) rm.toe_joint = child;
+}
+
 }  // namespace
 
 Status BodySkin::Impl::build(const BodyModel& model) {
@@ -392,6 +416,7 @@ Status BodySkin::Impl::build(const BodyModel& model) {
         }
       }
       sample(axis);
+      bind_toes(rm, skeleton, world_from_joint);
       rigid.push_back(std::move(rm));
     }
   }

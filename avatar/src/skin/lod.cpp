@@ -106,8 +106,8 @@ Result<int> parse_level(std::string_view text, std::string_view what) {
   int v = -1;
   const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), v);
   if (ec != std::errc() || end != text.data() + text.size() || v < 0 || v >= kSkinLodCount)
-    return fail(Errc::invalid_argument, std::string(what) + ": LOD must be 0.." + std::to_string(kSkinLodCount - 1) +
-                                            ", not '" + std::string(text) + "'");
+    return fail(Errc::invalid_argument, (what.empty() ? std::string() : std::string(what) + ": ") + "LOD must be 0.." +
+                                            std::to_string(kSkinLodCount - 1) + ", not '" + std::string(text) + "'");
   return v;
 }
 
@@ -115,7 +115,7 @@ Result<int> parse_level(std::string_view text, std::string_view what) {
 
 Result<SkinPieceLods> parse_skin_lods(std::string_view text) {
   if (text.find('=') == std::string_view::npos) {
-    auto v = parse_level(text, "LOD");
+    auto v = parse_level(text, "");
     if (!v) return tl::unexpected(v.error());
     return SkinPieceLods::whole(*v);
   }

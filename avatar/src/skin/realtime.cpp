@@ -333,8 +333,12 @@ Result<std::shared_ptr<const RealtimeBody>> RealtimeBody::create(const BodyModel
     }
   for (const RigidMesh& rm : m.rigid) {
     d->rigid.push_back({rm.joint, rm.first_vertex, static_cast<uint32_t>(d->rigid_local.size()),
-                        static_cast<uint32_t>(rm.local.size())});
+                        static_cast<uint32_t>(rm.local.size()), rm.toe_joint, static_cast<uint32_t>(d->toe_vertex.size()),
+                        static_cast<uint32_t>(rm.toe_vertex.size())});
     d->rigid_local.insert(d->rigid_local.end(), rm.local.begin(), rm.local.end());
+    for (uint32_t v : rm.toe_vertex) d->toe_vertex.push_back(rm.first_vertex + v);
+    d->toe_weight.insert(d->toe_weight.end(), rm.toe_weight.begin(), rm.toe_weight.end());
+    d->toe_local.insert(d->toe_local.end(), rm.toe_local.begin(), rm.toe_local.end());
   }
   d->rest_mesh = m.mesh;
   auto weights = contour_skin_weights(*skin);
@@ -489,6 +493,7 @@ size_t RealtimeBody::shared_bytes() const {
              d.muscle_blocks.capacity() * sizeof(Data::MuscleBlock) + d.muscle_data.capacity() * 4 +
              d.frame_runs.capacity() * sizeof(Data::FrameRun) + (d.run_rings.capacity() + d.run_u.capacity()) * 4 +
              d.rigid_local.capacity() * sizeof(glm::vec3) + d.weights.capacity() * sizeof(JointInfluences) +
+             d.toe_vertex.capacity() * 4 + d.toe_weight.capacity() * 4 + d.toe_local.capacity() * sizeof(glm::vec3) +
              d.texture.source.capacity() * 4 + d.texture.uv.capacity() * sizeof(glm::vec2) + d.texture.indices.capacity() * 4;
   for (const Data::Band& band : d.bands)
     b += sizeof(Data::Band) + (band.bend_rad.capacity() + band.scale[0].capacity() + band.scale[1].capacity()) * 4;

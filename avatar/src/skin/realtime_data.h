@@ -151,9 +151,14 @@ struct RealtimeBody::Data {
   struct Rigid {
     int joint = -1;
     uint32_t first_vertex = 0, first_local = 0, count = 0;
+    int toe_joint = -1;  // the forefoot's blend (skin_impl.h RigidMesh::toe_*): toe_* [first_toe, +toe_count)
+    uint32_t first_toe = 0, toe_count = 0;
   };
   std::vector<Rigid> rigid;
   std::vector<glm::vec3> rigid_local;
+  std::vector<uint32_t> toe_vertex;  // mesh vertex
+  std::vector<float> toe_weight;
+  std::vector<glm::vec3> toe_local;
   Mesh rest_mesh;
   std::vector<JointInfluences> weights;
   TextureLayout texture;

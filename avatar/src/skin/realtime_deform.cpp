@@ -184,6 +184,12 @@ void deform(const Data& d, State& st, const Pose& pose, std::span<glm::vec3> pos
     const RigidTransform& w = st.world_from_joint[rg.joint];
     rigid_points(glm::mat3_cast(w.rotation), w.translation, d.rigid_local.data() + rg.first_local, rg.count,
                  pos.data() + rg.first_vertex, st.vectorised);
+    if (rg.toe_joint < 0) continue;
+    const RigidTransform& toes = st.world_from_joint[rg.toe_joint];
+    for (uint32_t k = rg.first_toe; k < rg.first_toe + rg.toe_count; ++k) {
+      glm::vec3& p = pos[d.toe_vertex[k]];
+      p += d.toe_weight[k] * (toes.apply(d.toe_local[k]) - p);
+    }
   }
   const auto t2 = Clock::now();
   st.timings.joints_us = std::chrono::duration<double, std::micro>(t1 - t0).count();

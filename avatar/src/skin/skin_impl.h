@@ -261,7 +261,19 @@ struct RigidMesh {
   int joint = -1;
   std::vector<glm::vec3> local;  // vertices in the joint frame
   uint32_t first_vertex = 0;
+  // A foot's forefoot bends with its toes: the vertices ahead of the joint's child (the toe
+  // joint) blend towards it by toe_weight, from toe_local, their rest place in its frame. Else
+  // the flexed toes would leave the forefoot under the floor at each heel rise.
+  int toe_joint = -1;
+  std::vector<uint32_t> toe_vertex;  // indices into local
+  std::vector<float> toe_weight;     // 0 (the part's joint) .. 1 (the toe joint)
+  std::vector<glm::vec3> toe_local;
 };
+
+// The forefoot blend of a rigid part (RigidMesh::toe_*): behind the toe joint's crease plane
+// by more than this the part's own joint moves a vertex, ahead by more than the front distance
+// the toe joint does, smoothly in between (metres along the toes' direction).
+inline constexpr float kToeBlendBack_m = 0.012f, kToeBlendFront_m = 0.022f;
 
 }  // namespace skin_detail
 

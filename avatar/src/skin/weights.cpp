@@ -113,6 +113,18 @@ Result<std::vector<JointInfluences>> contour_skin_weights(const BodySkin& skin) 
       j.joint[0] = static_cast<uint16_t>(rm.joint);
       j.weight[0] = 1.0f;
     }
+  for (const RigidMesh& rm : m.rigid)
+    for (size_t k = 0; k < rm.toe_vertex.size(); ++k) {
+      // The forefoot's blend, the larger weight first.
+      JointInfluences& j = out[rm.first_vertex + rm.toe_vertex[k]];
+      const float w = rm.toe_weight[k];
+      const bool toes_first = w > 0.5f;
+      j.joint[0] = static_cast<uint16_t>(toes_first ? rm.toe_joint : rm.joint);
+      j.joint[1] = static_cast<uint16_t>(toes_first ? rm.joint : rm.toe_joint);
+      j.weight[0] = toes_first ? w : 1.0f - w;
+      j.weight[1] = toes_first ? 1.0f - w : w;
+      if (j.weight[1] <= 0.0f) j.joint[1] = 0, j.weight[1] = 0.0f;
+    }
   return out;
 }
 

@@ -162,6 +162,10 @@ Result<BodyModel> scale_body(const BodyModel& model, const BodyScaling& scaling)
 // with the height and in girth with the lateral and frontal ratios.
 Pose standing_posture(const Skeleton& skeleton);
 
+// The relaxed standing posture `--pose rest` shows: arms lowered towards the sides (not quite
+// touching the hips), elbows slightly bent, every other DOF at its relaxed value θ0.
+Pose relaxed_posture(const Skeleton& skeleton);
+
 // 0 lateral (x), 1 high (y), 2 frontal (z): the largest |component| of a world direction.
 int scaling_tag(const glm::vec3& axis_world);
 

@@ -10,6 +10,7 @@
 #include <string_view>
 
 #include <glm/glm.hpp>
+#include <glm/gtc/quaternion.hpp>
 
 namespace mimic::render {
 
@@ -60,8 +61,24 @@ class CameraFollow {
   glm::vec3 velocity_{0.0f};  // m/s
 };
 
+// Where a body faces, as a yaw about +Y (0: +Z, the zero posture's facing; π/2: +X), from its
+// root orientation; pitch and roll are ignored.
+float facing_yaw_rad(const glm::quat& world_from_root);
+
+// The orbit yaw of a preset for a body facing `facing_yaw_rad`: front looks at its face, side
+// at its left, back at its back, three-quarter between its front and its left.
+float preset_yaw_rad(CameraPreset preset, float facing_yaw_rad);
+
 // A camera that frames a standing body of `height_m` whose feet are at `floor_center` from the
-// preset's direction, with some margin, for an image of the given aspect.
-Camera preset_camera(CameraPreset preset, const glm::vec3& floor_center, float height_m, float aspect);
+// preset's direction relative to where the body faces, with some margin, for an image of the
+// given aspect.
+Camera preset_camera(CameraPreset preset, const glm::vec3& floor_center, float height_m, float aspect,
+                     float facing_yaw_rad = 0.0f);
+
+// Fits the orbit camera's target and distance (its angles kept) so that the box lo..hi
+// (world, metres) shows whole inside the horizontal band [free_x0, free_x1] of the image
+// (fractions of its width, 0 left .. 1 right: the part not covered by a panel), with a margin.
+void fit_box(Camera& camera, const glm::vec3& lo, const glm::vec3& hi, float aspect, float free_x0 = 0.0f,
+             float free_x1 = 1.0f);
 
 }  // namespace mimic::render

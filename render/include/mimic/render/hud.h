@@ -30,6 +30,8 @@ struct HudState {
   bool help = false;
 };
 
-void draw_hud(const HudState& state);
+// Returns the status panel's right edge as a fraction of the display's width (the part of the
+// view it covers, from the left), so a camera can frame the scene beside it.
+float draw_hud(const HudState& state);
 
 }  // namespace mimic::render
