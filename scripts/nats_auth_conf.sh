@@ -1,5 +1,5 @@
 #!/bin/sh
-# Writes the authorization block of a nats-server configuration for Mimic (docs/security-broker.md):
+# Writes the authorization block of a nats-server configuration for Mimic (docs/security.md, The broker):
 # one user per publisher, which may write only its own subjects and bucket keys, and relay users,
 # which may only read the scenes (and ask publishers for mesh frames). No secret is written: each
 # user's password is a reference to an environment variable of the nats-server process,

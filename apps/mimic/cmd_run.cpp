@@ -109,7 +109,7 @@ const char* kUsage =
     "                      HOST defaults to 127.0.0.1\n"
     "  --mesh-lod L        skin level of detail deformed every frame and offered as mesh frames\n"
     "                      to thin clients (mimic subscribe --mesh-lod L): 0 the body's own\n"
-    "                      contours (finest, default) to 3 (about 300 triangles)\n"
+    "                      contours (finest, default) to 3 (438 triangles)\n"
     "  --mesh-method M     realtime (default): contours measured once, moved with the joints\n"
     "                      (muscles kept); full: every contour ray-cast every frame\n"
     "  --duration S        stop by itself after S seconds (default: run until Ctrl-C)\n"

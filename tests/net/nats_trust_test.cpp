@@ -1,5 +1,5 @@
 // The broker as a trust boundary and its faults, against real nats-server processes running the
-// shipped configuration (config/nats/, docs/security-broker.md): each publisher's user writes
+// shipped configuration (config/nats/, docs/security.md, The broker): each publisher's user writes
 // only its own subjects and bucket keys, relays only read; what a publisher may still send is
 // bounded at the relay (sequence jumps, model sizes, the models it keeps) and at the publisher
 // (topologies on request); a broker restarted with an empty store gets the models back; a model

@@ -19,7 +19,7 @@
 //                             while the publisher lives, expiring (the bucket's TTL) once it
 //                             has stopped
 // Everything a publisher writes carries P, so broker permissions can give each publisher's
-// user its own subjects and keys alone (config/nats/, docs/security-broker.md); a relay takes
+// user its own subjects and keys alone (config/nats/, docs/security.md, The broker); a relay takes
 // the frames, heartbeats and mesh frames on P's subjects for P's keys only (another
 // publisher's K named there is counted as foreign and dropped).
 // K is nats_avatar_key(publisher, avatar): 16 hex digits of a 64-bit hash, the same on every
