@@ -27,16 +27,10 @@
 namespace {
 
 using mimic::test::Proc;
+using mimic::test::endpoint_of;
 namespace net = mimic::net;
 using Bytes = std::vector<uint8_t>;
 using Clock = std::chrono::steady_clock;
-
-std::string endpoint_of(Proc& run) {
-  const std::string line = run.first_line(10.0);
-  const std::string prefix = "serving on ";
-  if (line.rfind(prefix, 0) != 0) return "";
-  return line.substr(prefix.size());
-}
 
 uint16_t port_of(const std::string& endpoint) {
   return static_cast<uint16_t>(std::stoi(endpoint.substr(endpoint.rfind(':') + 1)));

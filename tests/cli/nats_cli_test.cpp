@@ -33,14 +33,7 @@
 namespace {
 
 using mimic::test::Proc;
-
-std::string endpoint_of(Proc& p) {
-  const std::string line = p.first_line(10.0);
-  const std::string prefix = "serving on ";
-  if (line.rfind(prefix, 0) != 0) return "";
-  const size_t end = line.find(';');
-  return line.substr(prefix.size(), end == std::string::npos ? std::string::npos : end - prefix.size());
-}
+using mimic::test::endpoint_of;
 
 nlohmann::json last_json(const std::string& out) {
   const auto start = out.rfind("\n{");

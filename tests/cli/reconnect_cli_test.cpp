@@ -20,13 +20,7 @@
 namespace {
 
 using mimic::test::Proc;
-
-std::string endpoint_of(Proc& run) {
-  const std::string line = run.first_line(20.0);
-  const std::string prefix = "serving on ";
-  if (line.rfind(prefix, 0) != 0) return "";
-  return line.substr(prefix.size());
-}
+using mimic::test::endpoint_of;
 
 nlohmann::json last_json(const std::string& out) {
   const auto start = out.rfind("\n{");

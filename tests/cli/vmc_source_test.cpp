@@ -23,14 +23,8 @@
 namespace {
 
 using mimic::test::Proc;
+using mimic::test::endpoint_of;
 using Clock = std::chrono::steady_clock;
-
-std::string endpoint_of(Proc& run) {
-  const std::string line = run.first_line(10.0);
-  const std::string prefix = "serving on ";
-  if (line.rfind(prefix, 0) != 0) return "";
-  return line.substr(prefix.size());
-}
 
 uint16_t free_udp_port() {
   const int fd = ::socket(AF_INET, SOCK_DGRAM, 0);

@@ -28,6 +28,15 @@ avatar::Pose some_pose(const avatar::Skeleton& s) {
   return p;
 }
 
+// An encoded frame's bundles, each as the datagram it is sent as.
+void apply_bundles(const Bytes& out, const VmcBundles& b, VmcState& state, VmcReceiveStats& stats) {
+  size_t start = 0;
+  for (size_t i = 0; i < b.count; ++i) {
+    apply_vmc_packet(std::span<const uint8_t>(out.data() + start, b.end[i] - start), 1.0, state, stats);
+    start = b.end[i];
+  }
+}
+
 // What Mimic sends as VMC, read back: every body bone's local rotation, the hips' world
 // placement, the frame's end (OK) and stream time.
 TEST(VmcReceive, MimicsOwnVmcFramesReadBackExactly) {
@@ -38,11 +47,7 @@ TEST(VmcReceive, MimicsOwnVmcFramesReadBackExactly) {
   const VmcBundles b = enc.encode(pose, 2.5, out);
   VmcState state;
   VmcReceiveStats stats;
-  size_t start = 0;
-  for (size_t i = 0; i < b.count; ++i) {
-    apply_vmc_packet(std::span<const uint8_t>(out.data() + start, b.end[i] - start), 1.0, state, stats);
-    start = b.end[i];
-  }
+  apply_bundles(out, b, state, stats);
   EXPECT_EQ(stats.refused_total(), 0u);
   EXPECT_EQ(stats.unknown_bones, 0u);
   EXPECT_EQ(state.frames, 1u);
@@ -73,11 +78,7 @@ TEST(VmcReceive, PoseFromVmcRoundTripsMimicsOutput) {
   const VmcBundles b = enc.encode(pose, 0.0, out);
   VmcState state;
   VmcReceiveStats stats;
-  size_t start = 0;
-  for (size_t i = 0; i < b.count; ++i) {
-    apply_vmc_packet(std::span<const uint8_t>(out.data() + start, b.end[i] - start), 1.0, state, stats);
-    start = b.end[i];
-  }
+  apply_bundles(out, b, state, stats);
   avatar::Pose got = s.rest_pose();
   ASSERT_TRUE(pose_from_vmc(state, s, enc.bones(), got));
   std::vector<avatar::RigidTransform> want_fk(size_t(s.joint_count())), got_fk(size_t(s.joint_count()));

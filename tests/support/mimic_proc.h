@@ -132,4 +132,14 @@ class Proc {
   std::string out_text_, err_text_;
 };
 
+// The endpoint a `mimic run` or `mimic relay` serves on, from its first line ("serving on
+// HOST:PORT[; ...]"); empty when it did not say so in time.
+inline std::string endpoint_of(Proc& p, double timeout_s = 20.0) {
+  const std::string line = p.first_line(timeout_s);
+  const std::string prefix = "serving on ";
+  if (line.rfind(prefix, 0) != 0) return "";
+  const size_t end = line.find(';');
+  return line.substr(prefix.size(), end == std::string::npos ? std::string::npos : end - prefix.size());
+}
+
 }  // namespace mimic::test
