@@ -126,8 +126,9 @@ void print_help() {
     return std::string(a.name) < b.name;
   });
   for (const auto& c : cmds) std::printf("  %-14s %s\n", c.name, c.summary);
-  std::printf("\nWith no command, 'mimic' runs 'mimic run' on its embedded default when that command "
-              "is built.\nFrames: metres, +Y up, the body faces +Z.\n");
+  std::printf("\nStart here: 'mimic run' serves the embedded default (simulated trackers on the built-in "
+              "walk,\nthe default body, 127.0.0.1:7777), 'mimic view' shows it in a window.\n"
+              "Frames: metres, +Y up, the body faces +Z.\n");
 }
 
 }  // namespace
@@ -136,7 +137,8 @@ void print_help() {
 int main(int argc, char** argv) {
   using namespace mimic::app;
   std::vector<std::string> args(argv + 1, argv + argc);
-  if (!args.empty() && (args[0] == "--help" || args[0] == "-h" || args[0] == "help")) {
+  // Bare `mimic` says what it is and what it can do; the server is `mimic run`.
+  if (args.empty() || args[0] == "--help" || args[0] == "-h" || args[0] == "help") {
     print_help();
     return 0;
   }
@@ -144,8 +146,8 @@ int main(int argc, char** argv) {
     std::printf("mimic %s\n", MIMIC_VERSION);
     return 0;
   }
-  std::string name = args.empty() ? "run" : args[0];
-  if (!args.empty()) args.erase(args.begin());
+  std::string name = args[0];
+  args.erase(args.begin());
   for (const auto& c : commands()) {
     if (name != c.name) continue;
     try {
@@ -154,10 +156,6 @@ int main(int argc, char** argv) {
       std::fprintf(stderr, "mimic %s: %s\n", c.name, e.what());
       return 1;
     }
-  }
-  if (args.empty() && name == "run") {
-    print_help();
-    return 0;
   }
   std::fprintf(stderr, "mimic: unknown command '%s' (see 'mimic --help')\n", name.c_str());
   return 2;
