@@ -34,6 +34,7 @@
 #include "mimic/core/result.h"
 #include "mimic/devices/sample.h"
 #include "mimic/solver/least_squares_ik.h"
+#include "mimic/solver/locomotion.h"
 
 namespace mimic::solver {
 
@@ -61,6 +62,14 @@ struct SolverOptions {
   float relaxed_knee_bend_rad = 0.17f;  // 10°
   float relaxed_root_drop_m = 0.02f;
   float crouch_allowance_m = 0.10f;
+  // With head and hands only, the hips are pulled (per metre) to where an upright trunk hanging
+  // from the head puts them, tilted by `lean_follow` of the head's own tilt.
+  float root_follow_weight = 3.0f;
+  float lean_follow = 0.0f;
+  float locomotion_reach = 0.97f;  // hips no higher than this much of a straight leg above a planted foot
+  // Legs nobody tracks (no sensor on thigh, shin or foot, or the foot's sensor lost) step.
+  bool step = true;
+  LocomotionOptions locomotion;
 };
 
 class SolverModel {
@@ -111,12 +120,15 @@ class SolverModel {
   int head_ = -1;
   glm::vec3 head_from_root_rest_{0.0f};  // head joint relative to the root, relaxed posture
   std::array<float, 2> ankle_below_root_rest_{};  // root height above each ankle, zero posture
+  std::array<glm::vec3, 2> ball_in_ankle_{};      // toes joint (ball of the foot) in the ankle frame
+  std::array<int, 2> toes_{-1, -1};
 };
 
 class SolverContext {
  public:
   explicit SolverContext(const SolverModel& model);  // allocates; call at setup
-  void reset() { have_previous_ = false; }           // forget the warm start's swivel history
+  void reset() { have_previous_ = false, locomotion_ = {}; }  // forget the warm start and steps
+  const LocomotionState& locomotion() const { return locomotion_; }
 
  private:
   friend struct SolveJob;
@@ -130,6 +142,8 @@ class SolverContext {
   std::vector<avatar::RigidTransform> world_;
   std::array<glm::vec3, 4> last_bend_world_{};
   bool have_previous_ = false;
+  LocomotionState locomotion_;
+  double last_time_s_ = -1;
 };
 
 struct SolveJob {
@@ -147,6 +161,9 @@ struct SolveJob {
 
   bool Validate() const;
   bool Run();
+
+ private:
+  void place_untracked_feet();
 };
 
 }  // namespace mimic::solver
