@@ -377,7 +377,8 @@ int run_eval_solver(const std::vector<std::string>& argv) {
                   p.jitter_truth_mm, p.solve_us_p50, p.solve_us_p99);
       if (args.has("joints"))
         for (size_t i = 0; i < p.joint_names.size(); ++i)
-          std::printf("          %-14s %6.2f cm\n", p.joint_names[i].c_str(), p.joint_mpjpe_cm[i]);
+          std::printf("          %-14s %6.2f cm  jitter %5.2f mm\n", p.joint_names[i].c_str(), p.joint_mpjpe_cm[i],
+                      i < p.joint_jitter_mm.size() ? p.joint_jitter_mm[i] : 0.0);
     }
     std::fflush(stdout);
   }

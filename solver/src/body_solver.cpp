@@ -140,22 +140,29 @@ ChainSolution solve_chain(const ChainInput& in, const glm::vec3& pole) {
 // Limits first, then closeness to the hinted swivel.
 float chain_cost(const ChainSolution& c, float phi) { return 40.0f * c.violation + 0.1f * phi * phi; }
 
-// A planted foot the leg cannot reach flat (the trailing foot of a stride) lifts its heel: it
-// turns about the ball of the foot, which stays where it was planted, until the ankle is in reach.
-void lift_heel(RigidTransform& ankle_t, const glm::vec3& hip, float reach_m, const glm::vec3& ball_in_ankle) {
-  const float reach = 0.999f * reach_m;
-  if (glm::length(hip - ankle_t.translation) <= reach || glm::length(ball_in_ankle) < 1e-3f) return;
-  const glm::vec3 ball = ankle_t.apply(ball_in_ankle);
-  auto ankle_at = [&](float pitch_rad) {
-    return ball - ankle_t.rotation * (glm::angleAxis(pitch_rad, glm::vec3(1, 0, 0)) * ball_in_ankle);
-  };
-  float lo = 0.0f, hi = 1.2f;  // up to about 70° of heel lift; beyond, on tiptoe, the leg stretches
-  for (int i = 0; i < 12 && glm::length(hip - ankle_at(hi)) <= reach; ++i) {
-    const float mid = 0.5f * (lo + hi);
-    (glm::length(hip - ankle_at(mid)) > reach ? lo : hi) = mid;
+// Toes nothing tracks follow the foot, and a foot pitched toes-down (a sensor's foot at push-off)
+// would push their tip through the floor: they bend up at the ball instead, as toes do.
+void keep_toes_above_floor(const SolverModel& m, int toes, float floor_y, const RigidTransform& foot_w,
+                           std::span<float> dof) {
+  const Skeleton& s = m.skeleton();
+  if (s.dof_end(toes) - s.dof_begin(toes) != 1) return;
+  const int d = s.dof_begin(toes);
+  const auto& f = s.dof(d);
+  const glm::vec3 ball = foot_w.apply(s.offset_m(toes));
+  auto tip_y = [&](float a) { return ball.y + (foot_w.rotation * (glm::angleAxis(a, f.axis) * s.tip_m(toes))).y; };
+  if (tip_y(dof[d]) >= floor_y) return;
+  // The direction that raises the tip, then the smallest turn that way that clears the floor.
+  const float raise = tip_y(dof[d] + 0.01f) > tip_y(dof[d]) ? 1.0f : -1.0f;
+  float lo = dof[d], hi = raise > 0 ? f.max_rad : f.min_rad;
+  if (tip_y(hi) < floor_y) {
+    dof[d] = hi;
+    return;
   }
-  ankle_t.translation = ankle_at(hi);
-  ankle_t.rotation = ankle_t.rotation * glm::angleAxis(hi, glm::vec3(1, 0, 0));
+  for (int i = 0; i < 10; ++i) {
+    const float mid = 0.5f * (lo + hi);
+    (tip_y(mid) < floor_y ? lo : hi) = mid;
+  }
+  dof[d] = hi;
 }
 
 }  // namespace
@@ -245,7 +252,10 @@ Result<SolverModel> SolverModel::create(Skeleton skeleton, std::vector<SensorMou
     for (int leg = 0; leg < 2; ++leg) {
       m.ankle_below_root_rest_[leg] = w[0].translation.y - w[m.chains_[2 + leg].end].translation.y;
       const int toes = s.find_joint(leg == 0 ? "l_toes" : "r_toes");
-      if (toes >= 0 && s.parent(toes) == m.chains_[2 + leg].end) m.ball_in_ankle_[leg] = s.offset_m(toes), m.toes_[leg] = toes;
+      if (toes >= 0 && s.parent(toes) == m.chains_[2 + leg].end) {
+        m.ball_in_ankle_[leg] = s.offset_m(toes), m.toes_[leg] = toes;
+        m.toe_tip_below_root_rest_[leg] = w[0].translation.y - w[toes].apply(s.tip_m(toes)).y;
+      }
     }
   }
   m.prior_rad_.resize(s.dof_count());
@@ -565,64 +575,12 @@ bool SolveJob::Run() {
       else if (!solved_by_ls[j]) relax(j);
     }
     fk(j);
+    if (const int leg = j == m.toes_[0] ? 0 : j == m.toes_[1] ? 1 : -1; leg >= 0 && std::isfinite(o.standing_root_y_m))
+      keep_toes_above_floor(m, j, o.standing_root_y_m - m.toe_tip_below_root_rest_[leg], c.world_[s.parent(j)], dof);
+    fk(j);
   }
   c.have_previous_ = true;
   return true;
 }
-
-// Feet of legs without a sensor (or whose sensor is lost): the stepper plants and swings them;
-// their targets join the chains' solve as guesses.
-void SolveJob::place_untracked_feet() {
-  const SolverModel& m = *model;
-  SolverContext& c = *context;
-  const Pose& p = *pose;
-  const Skeleton& s = m.skeleton();
-  const SolverOptions& o = m.options();
-  LocomotionInput in;
-  bool any = false;
-  for (int leg = 0; leg < 2; ++leg) {
-    const auto& ch = m.chains_[2 + leg];
-    in.drive[leg] = o.step && !c.has_target_[ch.upper] && !c.has_target_[ch.mid] && !c.has_target_[ch.end];
-    any = any || in.drive[leg];
-  }
-  if (!any) {
-    c.locomotion_.feet[0].driven = c.locomotion_.feet[1].driven = false;
-    return;
-  }
-  double now_s = -1;
-  for (const auto& smp : samples)
-    if (smp.flags & devices::kSampleValid) now_s = std::max(now_s, smp.device_time_s);
-  in.dt_s = now_s > c.last_time_s_ && c.last_time_s_ >= 0 ? static_cast<float>(now_s - c.last_time_s_) : 1.0f / 120;
-  if (now_s >= 0) c.last_time_s_ = now_s;
-  glm::vec3 fwd = p.root_orientation * glm::vec3(0, 0, 1);
-  in.root = p.root_position_m;
-  in.root_yaw_rad = glm::length(glm::vec2(fwd.x, fwd.z)) > 1e-3f ? std::atan2(fwd.x, fwd.z) : 0.0f;
-  in.have_last_ankle = c.have_previous_;
-  for (int leg = 0; leg < 2; ++leg) {
-    const auto& ch = m.chains_[2 + leg];
-    in.hip[leg] = p.root_position_m + p.root_orientation * s.offset_m(ch.upper);
-    in.reach_m[leg] = ch.upper_m + ch.lower_m;
-    in.floor_ankle_y_m[leg] = o.standing_root_y_m - m.ankle_below_root_rest_[leg];
-    in.last_ankle[leg] = c.world_[ch.end].translation;
-  }
-  if (c.has_target_[m.head_]) in.head = c.segment_target_[m.head_].translation, in.have_head = true;
-  update_locomotion(c.locomotion_, in, o.locomotion);
-  for (int leg = 0; leg < 2; ++leg) {
-    if (!in.drive[leg]) continue;
-    const auto& f = c.locomotion_.feet[leg];
-    const int e = m.chains_[2 + leg].end;
-    const glm::quat yaw = glm::angleAxis(f.yaw_rad, glm::vec3(0, 1, 0));
-    c.segment_target_[e] = RigidTransform{yaw, f.ankle};
-    if (!f.swinging) lift_heel(c.segment_target_[e], in.hip[leg], in.reach_m[leg], m.ball_in_ankle_[leg]);
-    // The toes stay flat on the floor under a lifted heel.
-    if (const int toes = m.toes_[leg]; toes >= 0 && !c.has_target_[toes]) {
-      c.segment_target_[toes] = RigidTransform{yaw, c.segment_target_[e].apply(m.ball_in_ankle_[leg])};
-      c.has_target_[toes] = 1;
-    }
-    c.has_target_[e] = 1;
-    c.guessed_end_[2 + leg] = true;
-  }
-}
-
 
 }  // namespace mimic::solver

@@ -2,6 +2,8 @@
 
 #include <algorithm>
 
+#include "mimic/solver/body_solver.h"
+
 namespace mimic::solver {
 
 namespace {
@@ -51,6 +53,25 @@ void take_over(FootStepState& f, const LocomotionInput& in, int k) {
   f.phase = 0;
   f.duration_s = 0.2f;
 }
+
+// A planted foot the leg cannot reach flat (the trailing foot of a stride) lifts its heel: it
+// turns about the ball of the foot, which stays where it was planted, until the ankle is in reach.
+void lift_heel(avatar::RigidTransform& ankle_t, const glm::vec3& hip, float reach_m, const glm::vec3& ball_in_ankle) {
+  const float reach = 0.999f * reach_m;
+  if (glm::length(hip - ankle_t.translation) <= reach || glm::length(ball_in_ankle) < 1e-3f) return;
+  const glm::vec3 ball = ankle_t.apply(ball_in_ankle);
+  auto ankle_at = [&](float pitch_rad) {
+    return ball - ankle_t.rotation * (glm::angleAxis(pitch_rad, glm::vec3(1, 0, 0)) * ball_in_ankle);
+  };
+  float lo = 0.0f, hi = 1.2f;  // up to about 70° of heel lift; beyond, on tiptoe, the leg stretches
+  for (int i = 0; i < 12 && glm::length(hip - ankle_at(hi)) <= reach; ++i) {
+    const float mid = 0.5f * (lo + hi);
+    (glm::length(hip - ankle_at(mid)) > reach ? lo : hi) = mid;
+  }
+  ankle_t.translation = ankle_at(hi);
+  ankle_t.rotation = ankle_t.rotation * glm::angleAxis(hi, glm::vec3(1, 0, 0));
+}
+
 
 }  // namespace
 
@@ -154,5 +175,60 @@ void update_locomotion(LocomotionState& s, const LocomotionInput& in, const Loco
     }
   }
 }
+
+// Feet of legs without a sensor (or whose sensor is lost): the stepper plants and swings them;
+// their targets join the chains' solve as guesses.
+void SolveJob::place_untracked_feet() {
+  const SolverModel& m = *model;
+  SolverContext& c = *context;
+  const avatar::Pose& p = *pose;
+  const avatar::Skeleton& s = m.skeleton();
+  const SolverOptions& o = m.options();
+  LocomotionInput in;
+  bool any = false;
+  for (int leg = 0; leg < 2; ++leg) {
+    const auto& ch = m.chains_[2 + leg];
+    in.drive[leg] = o.step && !c.has_target_[ch.upper] && !c.has_target_[ch.mid] && !c.has_target_[ch.end];
+    any = any || in.drive[leg];
+  }
+  if (!any) {
+    c.locomotion_.feet[0].driven = c.locomotion_.feet[1].driven = false;
+    return;
+  }
+  double now_s = -1;
+  for (const auto& smp : samples)
+    if (smp.flags & devices::kSampleValid) now_s = std::max(now_s, smp.device_time_s);
+  in.dt_s = now_s > c.last_time_s_ && c.last_time_s_ >= 0 ? static_cast<float>(now_s - c.last_time_s_) : 1.0f / 120;
+  if (now_s >= 0) c.last_time_s_ = now_s;
+  glm::vec3 fwd = p.root_orientation * glm::vec3(0, 0, 1);
+  in.root = p.root_position_m;
+  in.root_yaw_rad = glm::length(glm::vec2(fwd.x, fwd.z)) > 1e-3f ? std::atan2(fwd.x, fwd.z) : 0.0f;
+  in.have_last_ankle = c.have_previous_;
+  for (int leg = 0; leg < 2; ++leg) {
+    const auto& ch = m.chains_[2 + leg];
+    in.hip[leg] = p.root_position_m + p.root_orientation * s.offset_m(ch.upper);
+    in.reach_m[leg] = ch.upper_m + ch.lower_m;
+    in.floor_ankle_y_m[leg] = o.standing_root_y_m - m.ankle_below_root_rest_[leg];
+    in.last_ankle[leg] = c.world_[ch.end].translation;
+  }
+  if (c.has_target_[m.head_]) in.head = c.segment_target_[m.head_].translation, in.have_head = true;
+  update_locomotion(c.locomotion_, in, o.locomotion);
+  for (int leg = 0; leg < 2; ++leg) {
+    if (!in.drive[leg]) continue;
+    const auto& f = c.locomotion_.feet[leg];
+    const int e = m.chains_[2 + leg].end;
+    const glm::quat yaw = glm::angleAxis(f.yaw_rad, glm::vec3(0, 1, 0));
+    c.segment_target_[e] = avatar::RigidTransform{yaw, f.ankle};
+    if (!f.swinging) lift_heel(c.segment_target_[e], in.hip[leg], in.reach_m[leg], m.ball_in_ankle_[leg]);
+    // The toes stay flat on the floor under a lifted heel.
+    if (const int toes = m.toes_[leg]; toes >= 0 && !c.has_target_[toes]) {
+      c.segment_target_[toes] = avatar::RigidTransform{yaw, c.segment_target_[e].apply(m.ball_in_ankle_[leg])};
+      c.has_target_[toes] = 1;
+    }
+    c.has_target_[e] = 1;
+    c.guessed_end_[2 + leg] = true;
+  }
+}
+
 
 }  // namespace mimic::solver

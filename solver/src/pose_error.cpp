@@ -21,6 +21,7 @@ PoseErrorAccumulator::PoseErrorAccumulator(const avatar::Skeleton& truth, const 
     end_effectors_ += ee ? 1 : 0;
   }
   joint_sum_.assign(pairs_.size(), 0.0);
+  joint_jitter_sum_.assign(pairs_.size(), 0.0);
 }
 
 void PoseErrorAccumulator::add(std::span<const avatar::RigidTransform> truth_world,
@@ -50,7 +51,9 @@ void PoseErrorAccumulator::add(std::span<const avatar::RigidTransform> truth_wor
   if (end_effectors_ > 0) ee_sum_ += ee / end_effectors_;
   if (frames_ >= 2) {
     for (size_t i = 0; i < n; ++i) {
-      jitter_sum_ += glm::length(glm::dvec3(solved_now[i]) - 2.0 * glm::dvec3(prev_solved_[i]) + glm::dvec3(prev2_solved_[i]));
+      const double j = glm::length(glm::dvec3(solved_now[i]) - 2.0 * glm::dvec3(prev_solved_[i]) + glm::dvec3(prev2_solved_[i]));
+      jitter_sum_ += j;
+      joint_jitter_sum_[i] += j;
       jitter_truth_sum_ += glm::length(glm::dvec3(truth_now[i]) - 2.0 * glm::dvec3(prev_truth_[i]) + glm::dvec3(prev2_truth_[i]));
     }
     jitter_terms_ += static_cast<long>(n);
@@ -74,6 +77,7 @@ PoseErrorReport PoseErrorAccumulator::report() const {
     r.end_effector_mm = 1000.0 * ee_sum_ / frames_;
     r.end_effector_max_mm = 1000.0 * ee_max_;
     for (double v : joint_sum_) r.joint_mpjpe_cm.push_back(100.0 * v / frames_);
+    for (double v : joint_jitter_sum_) r.joint_jitter_mm.push_back(frames_ > 2 ? 1000.0 * v / (frames_ - 2) : 0.0);
   }
   if (jitter_terms_ > 0) {
     r.jitter_mm = 1000.0 * jitter_sum_ / static_cast<double>(jitter_terms_);

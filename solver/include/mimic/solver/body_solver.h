@@ -122,6 +122,7 @@ class SolverModel {
   std::array<float, 2> ankle_below_root_rest_{};  // root height above each ankle, zero posture
   std::array<glm::vec3, 2> ball_in_ankle_{};      // toes joint (ball of the foot) in the ankle frame
   std::array<int, 2> toes_{-1, -1};
+  std::array<float, 2> toe_tip_below_root_rest_{};  // root height above each toe tip, zero posture
 };
 
 class SolverContext {

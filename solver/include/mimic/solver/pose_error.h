@@ -37,6 +37,7 @@ struct PoseErrorReport {
   double solve_us_max = 0;
   std::vector<std::string> joint_names;
   std::vector<double> joint_mpjpe_cm;  // per joint of the set
+  std::vector<double> joint_jitter_mm;  // per joint of the set
 };
 
 // The joints end_effector_mm is taken over: head, wrists, ankles.
@@ -62,7 +63,7 @@ class PoseErrorAccumulator {
   int end_effectors_ = 0;
   int frames_ = 0;
   double pos_sum_ = 0, rot_sum_ = 0, ee_sum_ = 0, ee_max_ = 0;
-  std::vector<double> joint_sum_;
+  std::vector<double> joint_sum_, joint_jitter_sum_;
   std::vector<glm::vec3> prev_solved_, prev2_solved_, prev_truth_, prev2_truth_;
   double jitter_sum_ = 0, jitter_truth_sum_ = 0;
   long jitter_terms_ = 0;
