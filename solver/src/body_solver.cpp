@@ -398,8 +398,7 @@ bool SolveJob::Run() {
         const glm::vec3 lean_up = glm::normalize(glm::vec3(0, 1, 0) + o.lean_follow * (up - glm::vec3(0, 1, 0)));
         const glm::quat lean = glm::rotation(glm::vec3(0, 1, 0), lean_up);
         const glm::vec3 under = head.translation - lean * (heading * m.head_from_root_rest_);
-        goal.x = under.x, goal.z = under.z;
-        weight = o.root_follow_weight;
+        if (o.root_follow_weight > 0) goal.x = under.x, goal.z = under.z, weight = o.root_follow_weight;
       }
       // A planted foot must stay within the leg's reach: the hips come down between wide-apart
       // feet, as they do in a stride.
