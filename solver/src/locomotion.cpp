@@ -176,6 +176,28 @@ void update_locomotion(LocomotionState& s, const LocomotionInput& in, const Loco
   }
 }
 
+// Without stepping (SolverOptions::step off): each untracked foot under its hip, knee soft, on
+// or above the floor, facing the heading — where a standing body's feet are.
+void hang_untracked_feet(const SolverModel& m, SolverContext& c, const avatar::Pose& p, std::array<bool, 2> legs) {
+  const avatar::Skeleton& s = m.skeleton();
+  const SolverOptions& o = m.options();
+  glm::vec3 fwd = p.root_orientation * glm::vec3(0, 0, 1);
+  if (glm::length(glm::vec2(fwd.x, fwd.z)) < 1e-3f) return;
+  const glm::quat facing = glm::angleAxis(std::atan2(fwd.x, fwd.z), glm::vec3(0, 1, 0));
+  const float bend = std::clamp(o.relaxed_knee_bend_rad, 0.0f, 1.5f);
+  for (int leg = 0; leg < 2; ++leg) {
+    if (!legs[leg]) continue;
+    const auto& ch = m.chains_[2 + leg];
+    const glm::vec3 hip = p.root_position_m + p.root_orientation * s.offset_m(ch.upper);
+    const float hang = std::sqrt(ch.upper_m * ch.upper_m + ch.lower_m * ch.lower_m +
+                                 2.0f * ch.upper_m * ch.lower_m * std::cos(bend));
+    const float floor_y = o.standing_root_y_m - m.ankle_below_root_rest_[leg];
+    c.segment_target_[ch.end] = avatar::RigidTransform{facing, glm::vec3(hip.x, std::max(floor_y, hip.y - hang), hip.z)};
+    c.has_target_[ch.end] = 1;
+    c.guessed_end_[2 + leg] = true;
+  }
+}
+
 // Feet of legs without a sensor (or whose sensor is lost): the stepper plants and swings them;
 // their targets join the chains' solve as guesses.
 void SolveJob::place_untracked_feet() {
@@ -188,8 +210,12 @@ void SolveJob::place_untracked_feet() {
   bool any = false;
   for (int leg = 0; leg < 2; ++leg) {
     const auto& ch = m.chains_[2 + leg];
-    in.drive[leg] = o.step && !c.has_target_[ch.upper] && !c.has_target_[ch.mid] && !c.has_target_[ch.end];
+    in.drive[leg] = !c.has_target_[ch.upper] && !c.has_target_[ch.mid] && !c.has_target_[ch.end];
     any = any || in.drive[leg];
+  }
+  if (any && !o.step) {
+    hang_untracked_feet(m, c, p, in.drive);
+    any = false;
   }
   if (!any) {
     c.locomotion_.feet[0].driven = c.locomotion_.feet[1].driven = false;

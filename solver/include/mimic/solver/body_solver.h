@@ -74,6 +74,8 @@ struct SolverOptions {
   LocomotionOptions locomotion;
 };
 
+class SolverContext;
+
 class SolverModel {
  public:
   // Fails on a skeleton without Mimic's joint names (pelvis, spine, limbs), a mount on an
@@ -103,6 +105,7 @@ class SolverModel {
   friend class SolverContext;
   friend struct SolveJob;
   friend class LimbLengthEstimator;
+  friend void hang_untracked_feet(const SolverModel&, SolverContext&, const avatar::Pose&, std::array<bool, 2>);
   // New link lengths of a two-bone chain (functional calibration): both offsets keep their
   // direction. No allocation. False when a length is not positive and finite.
   bool set_chain_lengths(int chain, float upper_m, float lower_m);
@@ -128,6 +131,8 @@ class SolverModel {
 };
 
 class SolverContext {
+  friend void hang_untracked_feet(const SolverModel&, SolverContext&, const avatar::Pose&, std::array<bool, 2>);
+
  public:
   explicit SolverContext(const SolverModel& model);  // allocates; call at setup
   void reset() { have_previous_ = false, locomotion_ = {}; }  // forget the warm start and steps
