@@ -453,7 +453,7 @@ bool SolveJob::Run() {
       if (c.has_target_[j])
         for (int d = s.dof_begin(j); d < s.dof_end(j); ++d) c.prior_[d] = dof[d];
     ls.prior_rad = c.prior_;
-    ls.prior_weight = o.prior_weight;
+    ls.prior_weight = root_known ? o.prior_weight_with_pelvis : o.prior_weight;
     ls.damping = o.damping;
     ls.max_iterations = o.iterations;
     ls.context = &c.ls_;
