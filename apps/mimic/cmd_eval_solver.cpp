@@ -51,6 +51,8 @@ constexpr const char* kUsage =
     "  floor_mm         deepest point of a solved foot (ankle, toes, toe tip) under the floor\n"
     "                   (the lowest the true feet reach)\n"
     "  steps            stances after a swing of 10 cm or more, solved / truth\n"
+    "  lag_ms           (JSON) the delay of the solved joints behind the truth: the shift of -2..+6\n"
+    "                   samples with the least mean error, refined by a parabola\n"
     "  jitter_mm        mean |p[t+1] - 2 p[t] + p[t-1]| of solved joint positions per sample\n"
     "                   (second difference at the sample rate); jitter_truth_mm is the same for\n"
     "                   the ground truth\n"
@@ -76,7 +78,7 @@ constexpr const char* kUsage =
     "                       sensors, frames, joints, mpjpe_cm, mpjre_deg, end_effector_mm,\n"
     "                       end_effector_max_mm, end_effector_reach_mm (the solved end effectors'\n"
     "                       distance from their own sensors' targets: the IK's share), jitter,\n"
-    "                       jitter_mm, jitter_truth_mm,\n"
+    "                       jitter_mm, jitter_truth_mm, lag_ms,\n"
     "                       jitter_definition, solve_us_p50, solve_us_p99, solve_us_max, noise_mm,\n"
     "                       noise_deg, tilt_deg, rate_hz, latency_ms, dropout, seed, filter,\n"
     "                       refine, refined_limbs, refined_joints\n"
@@ -210,6 +212,7 @@ Run evaluate(const std::shared_ptr<const avatar::Motion>& motion, double frame_t
   avatar::Pose pose = model->skeleton().zero_pose();
   std::vector<avatar::RigidTransform> solved_world(model->skeleton().joint_count());
   solver::PoseErrorAccumulator acc(truth, model->skeleton());
+  acc.set_rate_hz(st.rate_hz);
   solver::GaitAccumulator gait(truth, model->skeleton(), st.rate_hz);
   avatar::Pose truth_pose = truth.zero_pose();
   std::vector<avatar::RigidTransform> truth_world(truth.joint_count());
@@ -352,6 +355,7 @@ int run_eval_solver(const std::vector<std::string>& argv) {
                        {"jitter", p.jitter_mm},
                        {"jitter_mm", p.jitter_mm},
                        {"jitter_truth_mm", p.jitter_truth_mm},
+                       {"lag_ms", p.lag_ms},
                        {"jitter_definition", "mean |p[t+1]-2p[t]+p[t-1]| of solved joint positions per sample, mm"},
                        {"solve_us_p50", p.solve_us_p50},
                        {"solve_us_p99", p.solve_us_p99},

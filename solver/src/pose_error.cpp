@@ -1,6 +1,7 @@
 #include "mimic/solver/pose_error.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 
 namespace mimic::solver {
@@ -58,6 +59,10 @@ void PoseErrorAccumulator::add(std::span<const avatar::RigidTransform> truth_wor
     }
     jitter_terms_ += static_cast<long>(n);
   }
+  if (rate_hz_ > 0) {
+    solved_track_.insert(solved_track_.end(), solved_now.begin(), solved_now.end());
+    truth_track_.insert(truth_track_.end(), truth_now.begin(), truth_now.end());
+  }
   prev2_solved_ = frames_ >= 1 ? prev_solved_ : solved_now;
   prev2_truth_ = frames_ >= 1 ? prev_truth_ : truth_now;
   prev_solved_ = std::move(solved_now);
@@ -82,6 +87,28 @@ PoseErrorReport PoseErrorAccumulator::report() const {
   if (jitter_terms_ > 0) {
     r.jitter_mm = 1000.0 * jitter_sum_ / static_cast<double>(jitter_terms_);
     r.jitter_truth_mm = 1000.0 * jitter_truth_sum_ / static_cast<double>(jitter_terms_);
+  }
+  const size_t n = pairs_.size();
+  if (rate_hz_ > 0 && n > 0 && frames_ > 20) {
+    // Error against the truth `shift` samples earlier, for each shift; the best, refined.
+    constexpr int kMin = -2, kMax = 6;
+    std::array<double, kMax - kMin + 1> err{};
+    for (int sh = kMin; sh <= kMax; ++sh) {
+      double sum = 0;
+      long terms = 0;
+      for (int f = std::max(0, sh); f < frames_ + std::min(0, sh); ++f)
+        for (size_t i = 0; i < n; ++i, ++terms)
+          sum += glm::length(glm::dvec3(solved_track_[f * n + i]) - glm::dvec3(truth_track_[(f - sh) * n + i]));
+      err[sh - kMin] = sum / static_cast<double>(std::max(1L, terms));
+    }
+    const int best = static_cast<int>(std::min_element(err.begin(), err.end()) - err.begin());
+    double shift = best + kMin;
+    if (best > 0 && best + 1 < static_cast<int>(err.size())) {
+      const double a = err[best - 1], b = err[best], c = err[best + 1];
+      const double d = a - 2 * b + c;
+      if (d > 0) shift += 0.5 * (a - c) / d;
+    }
+    r.lag_ms = 1000.0 * shift / rate_hz_;
   }
   if (!solve_us_.empty()) {
     std::vector<double> t = solve_us_;
