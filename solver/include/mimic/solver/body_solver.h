@@ -16,6 +16,8 @@
 //      sets forearm twist and wrist, or the ankle;
 //   4. any other segment with a sensor (clavicle, toes, …) takes its orientation; joints nothing
 //      observes return to their relaxed values.
+// Legs nobody tracks (head and hands only, or a foot sensor lost) step (locomotion.h): their feet
+// are planted and swung by the stepper, whose state lives in the SolverContext.
 // DOFs come from rotations by swing–twist/Euler decomposition without flips (swing_twist.h) and
 // are clamped to their limits.
 //
