@@ -37,7 +37,7 @@ struct BenchOptions {
   long realtime = 0;          // fan-out: SCHED_FIFO priority of the server and receiving threads
   long threads = 0;           // fan-out: the server's threads sharing a tick's writes (0: its default)
   long receivers = 2;         // fan-out: threads reading the subscribers
-  bool json_lines = false;    // skin or fan-out alone with --json: one object per LOD or configuration per line
+  bool json_lines = false;    // skin, solver or fan-out alone with --json: one object per LOD, layout or configuration per line
 };
 
 // ---- network -----------------------------------------------------------------------------------
@@ -330,7 +330,10 @@ Result<nlohmann::json> bench_solver(const BenchOptions& opt) {
     std::vector<solver::SensorMount> sm;
     for (size_t i = 0; i < mounts->size(); ++i)
       sm.push_back({static_cast<uint16_t>(i), (*mounts)[i].segment, (*mounts)[i].segment_from_sensor});
-    auto model = solver::SolverModel::create(*sk, sm);
+    // The standing height a calibration would give: head and hands alone then have stepping legs.
+    solver::SolverOptions so;
+    so.standing_root_y_m = avatar::standing_root_height_m(*sk);
+    auto model = solver::SolverModel::create(*sk, sm, so);
     if (!model) return tl::unexpected(model.error());
     solver::SolverContext ctx(*model);
     solver::SensorFilterBank filters(static_cast<int>(sm.size()));
@@ -349,6 +352,9 @@ Result<nlohmann::json> bench_solver(const BenchOptions& opt) {
     const auto [p50, p99] = p50_p99(us);
     j[layout] = {{"solve_us_p50", p50}, {"solve_us_p99", p99}, {"frames", us.size()}};
     std::fprintf(stderr, "solver, %s sensors: filter + solve p50 %.1f us, p99 %.1f us\n", layout.c_str(), p50, p99);
+    if (opt.json_lines)
+      std::printf("%s\n", nlohmann::json{{"section", "solver"}, {"sensors", layout}, {"p50_us", p50}, {"p99_us", p99},
+                                         {"frames", us.size()}}.dump().c_str());
   }
   return j;
 }
@@ -475,7 +481,8 @@ const char* kUsage =
     "        method's on the same poses (mm); with --json alone, one JSON object per LOD\n"
     "        per line\n"
     "  solver  filter + solve per frame for the layouts 3, 6, 11 and all (built-in walk,\n"
-    "        1 mm / 0.5 deg noise, 120 Hz): p50/p99\n"
+    "        1 mm / 0.5 deg noise, 120 Hz, the standing height known): p50/p99; with --json\n"
+    "        alone, one JSON object per layout per line (section, sensors, p50_us, p99_us, frames)\n"
     "  fanout  subscriber streams one process serves at 90 Hz over loopback (TCP and UDP, lean\n"
     "        stream): tick p50/p99, bytes per avatar-frame, CPU, lost (from sequence numbers);\n"
     "        and through a broker (nats): the bench starts nats-server on a free loopback port,\n"
@@ -524,7 +531,7 @@ int bench(const std::vector<std::string>& argv) {
     return usage_error("bench", "--receivers takes 1..64");
   if (!opt.transport.empty() && opt.transport != "tcp" && opt.transport != "udp" && opt.transport != "nats")
     return usage_error("bench", "--transport must be tcp, udp or nats");
-  opt.json_lines = (only == "fanout" || only == "skin") && a.has("json");
+  opt.json_lines = (only == "fanout" || only == "skin" || only == "solver") && a.has("json");
   nlohmann::json all;
   bool found = false;
   for (const auto& s : kSections) {

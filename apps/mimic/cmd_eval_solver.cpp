@@ -20,6 +20,7 @@
 #include "mimic/solver/body_solver.h"
 #include "mimic/solver/calibration.h"
 #include "mimic/solver/filters.h"
+#include "mimic/solver/gait_metrics.h"
 #include "mimic/solver/pose_error.h"
 #include "mimic/solver/sensor_layout.h"
 
@@ -44,6 +45,14 @@ constexpr const char* kUsage =
     "  mpjpe_cm         mean per-joint position error\n"
     "  mpjre_deg        mean per-joint rotation error (angle between solved and true joint frames)\n"
     "  end_effector_mm  mean position error of head, wrists and ankles\n"
+    "  lower_cm         mean position error of hips, knees and ankles (lower_body_mpjpe_cm)\n"
+    "  skate_mm         per stance of a true foot (ankle slower than 0.25 m/s, within 10 cm of\n"
+    "                   its lowest), the solved foot's largest slide relative to it; mean\n"
+    "  floor_mm         deepest point of a solved foot (ankle, toes, toe tip) under the floor\n"
+    "                   (the lowest the true feet reach)\n"
+    "  steps            stances after a swing of 10 cm or more, solved / truth\n"
+    "  lag_ms           (JSON) the delay of the solved joints behind the truth: the shift of -2..+6\n"
+    "                   samples with the least mean error, refined by a parabola\n"
     "  jitter_mm        mean |p[t+1] - 2 p[t] + p[t-1]| of solved joint positions per sample\n"
     "                   (second difference at the sample rate); jitter_truth_mm is the same for\n"
     "                   the ground truth\n"
@@ -63,12 +72,13 @@ constexpr const char* kUsage =
     "  --dropout P          chance per sample that a sensor falls silent for 3 samples (default 0)\n"
     "  --no-filter          solve the raw samples (no One Euro filtering)\n"
     "  --no-refine          keep the stand-still calibration (no refinement from the motion)\n"
+    "  --no-step            untracked legs hang under the hips instead of stepping\n"
     "  --joints             also print the position error of every joint (table output)\n"
     "  --json               one JSON object per layout on stdout instead of the table; keys: clip,\n"
     "                       sensors, frames, joints, mpjpe_cm, mpjre_deg, end_effector_mm,\n"
     "                       end_effector_max_mm, end_effector_reach_mm (the solved end effectors'\n"
     "                       distance from their own sensors' targets: the IK's share), jitter,\n"
-    "                       jitter_mm, jitter_truth_mm,\n"
+    "                       jitter_mm, jitter_truth_mm, lag_ms,\n"
     "                       jitter_definition, solve_us_p50, solve_us_p99, solve_us_max, noise_mm,\n"
     "                       noise_deg, tilt_deg, rate_hz, latency_ms, dropout, seed, filter,\n"
     "                       refine, refined_limbs, refined_joints\n"
@@ -113,6 +123,7 @@ struct Settings {
   long max_frames = -1;
   bool filter = true;
   bool refine = true;
+  bool step = true;
 };
 
 std::string base_name(const std::string& path) {
@@ -125,6 +136,7 @@ std::string base_name(const std::string& path) {
 struct Run {
   solver::PoseErrorReport report;
   std::string error;
+  solver::GaitReport gait{};
   int refined_limbs = 0;   // chains whose lengths the stream refined
   int refined_joints = 0;  // joint centres the stream refined
   double reach_mm = 0;     // mean distance of the solved end effectors from their sensors' targets
@@ -176,7 +188,9 @@ Run evaluate(const std::shared_ptr<const avatar::Motion>& motion, double frame_t
   }
   auto cal = solver::calibrate(solver::tracking_skeleton_desc(), layout, capture);
   if (!cal) return {{}, "calibration failed: " + cal.error().message};
-  auto first_model = solver::make_solver_model(*cal);
+  solver::SolverOptions options;
+  options.step = st.step;
+  auto first_model = solver::make_solver_model(*cal, options);
   if (!first_model) return {{}, first_model.error().message};
   auto model = std::make_unique<solver::SolverModel>(std::move(*first_model));
   solver::ModelRefiner refiner(*cal, *model, st.rate_hz);
@@ -198,6 +212,8 @@ Run evaluate(const std::shared_ptr<const avatar::Motion>& motion, double frame_t
   avatar::Pose pose = model->skeleton().zero_pose();
   std::vector<avatar::RigidTransform> solved_world(model->skeleton().joint_count());
   solver::PoseErrorAccumulator acc(truth, model->skeleton());
+  acc.set_rate_hz(st.rate_hz);
+  solver::GaitAccumulator gait(truth, model->skeleton(), st.rate_hz);
   avatar::Pose truth_pose = truth.zero_pose();
   std::vector<avatar::RigidTransform> truth_world(truth.joint_count());
   long ticks = static_cast<long>(std::floor(motion_after->duration_s() * st.rate_hz)) + 1;
@@ -234,11 +250,13 @@ Run evaluate(const std::shared_ptr<const avatar::Motion>& motion, double frame_t
       motion_after->sample(static_cast<double>(k) / st.rate_hz + st.latency_ms / 1000.0, truth_pose);
       avatar::forward_kinematics(truth, truth_pose, truth_world);
       acc.add(truth_world, solved_world, solve_us);
+      gait.add(truth_world, solved_world);
     } else {
       acc.add(rig->true_world_from_joint(), solved_world, solve_us);
+      gait.add(rig->true_world_from_joint(), solved_world);
     }
   }
-  return {acc.report(), {}, refiner.refined_limbs(), refiner.refined_joints(),
+  return {acc.report(), {}, gait.report(), refiner.refined_limbs(), refiner.refined_joints(),
           reach_n > 0 ? 1000.0 * reach_sum_m / static_cast<double>(reach_n) : 0.0};
 }
 
@@ -256,7 +274,7 @@ bool parse_noise(const std::string& text, double& mm, double& deg) {
 
 int run_eval_solver(const std::vector<std::string>& argv) {
   Args args(argv, {"bvh", "sensors", "noise", "tilt", "rate", "seed", "frames", "latency", "dropout"},
-            {"json", "no-filter", "no-refine", "joints"});
+            {"json", "no-filter", "no-refine", "no-step", "joints"});
   if (args.help()) {
     std::printf("%s", kUsage);
     return 0;
@@ -282,6 +300,7 @@ int run_eval_solver(const std::vector<std::string>& argv) {
   st.max_frames = args.has("frames") ? frames : -1;
   st.filter = !args.has("no-filter");
   st.refine = !args.has("no-refine");
+  st.step = !args.has("no-step");
   std::vector<std::string> layouts;
   {
     std::stringstream ss(args.get_or("sensors", "3,6,11,all"));
@@ -306,8 +325,9 @@ int run_eval_solver(const std::vector<std::string>& argv) {
                 name.c_str(), shared->duration_s(), st.rate_hz, st.noise_mm, st.noise_deg, st.tilt_deg,
                 st.filter ? "on" : "off", st.refine ? "on" : "off", static_cast<unsigned long long>(st.seed));
     std::printf("joint set: every joint but the toes; world space, no alignment. jitter = mean |p[t+1]-2p[t]+p[t-1]|\n");
-    std::printf("%-7s %7s %9s %10s %8s %11s %13s %11s %11s\n", "sensors", "frames", "mpjpe_cm", "mpjre_deg", "ee_mm",
-                "jitter_mm", "(truth_mm)", "solve_p50", "solve_p99");
+    std::printf("%-7s %7s %9s %10s %8s %8s %8s %8s %9s %11s %13s %11s %11s\n", "sensors", "frames", "mpjpe_cm",
+                "mpjre_deg", "ee_mm", "lower_cm", "skate_mm", "floor_mm", "steps", "jitter_mm", "(truth_mm)",
+                "solve_p50", "solve_p99");
   }
   int status = 0;
   for (const auto& layout : layouts) {
@@ -328,9 +348,14 @@ int run_eval_solver(const std::vector<std::string>& argv) {
                        {"end_effector_mm", p.end_effector_mm},
                        {"end_effector_max_mm", p.end_effector_max_mm},
                        {"end_effector_reach_mm", r.reach_mm},
+                       {"lower_body_mpjpe_cm", r.gait.lower_body_mpjpe_cm},
+                       {"foot_skate_mm", r.gait.foot_skate_mm},
+                       {"floor_penetration_mm", r.gait.floor_penetration_mm},
+                       {"steps", {{"solved", r.gait.steps_solved}, {"truth", r.gait.steps_truth}}},
                        {"jitter", p.jitter_mm},
                        {"jitter_mm", p.jitter_mm},
                        {"jitter_truth_mm", p.jitter_truth_mm},
+                       {"lag_ms", p.lag_ms},
                        {"jitter_definition", "mean |p[t+1]-2p[t]+p[t-1]| of solved joint positions per sample, mm"},
                        {"solve_us_p50", p.solve_us_p50},
                        {"solve_us_p99", p.solve_us_p99},
@@ -344,15 +369,20 @@ int run_eval_solver(const std::vector<std::string>& argv) {
                        {"seed", st.seed},
                        {"filter", st.filter},
                        {"refine", st.refine},
+                       {"step", st.step},
                        {"refined_limbs", r.refined_limbs},
                        {"refined_joints", r.refined_joints}};
       std::printf("%s\n", j.dump().c_str());
     } else {
-      std::printf("%-7s %7d %9.2f %10.1f %8.1f %11.2f %13.2f %9.1fus %9.1fus\n", layout.c_str(), p.frames, p.mpjpe_cm,
-                  p.mpjre_deg, p.end_effector_mm, p.jitter_mm, p.jitter_truth_mm, p.solve_us_p50, p.solve_us_p99);
+      const auto& g = r.gait;
+      std::printf("%-7s %7d %9.2f %10.1f %8.1f %8.2f %8.1f %8.1f %4d/%-4d %11.2f %13.2f %9.1fus %9.1fus\n",
+                  layout.c_str(), p.frames, p.mpjpe_cm, p.mpjre_deg, p.end_effector_mm, g.lower_body_mpjpe_cm,
+                  g.foot_skate_mm, g.floor_penetration_mm, g.steps_solved, g.steps_truth, p.jitter_mm,
+                  p.jitter_truth_mm, p.solve_us_p50, p.solve_us_p99);
       if (args.has("joints"))
         for (size_t i = 0; i < p.joint_names.size(); ++i)
-          std::printf("          %-14s %6.2f cm\n", p.joint_names[i].c_str(), p.joint_mpjpe_cm[i]);
+          std::printf("          %-14s %6.2f cm  jitter %5.2f mm\n", p.joint_names[i].c_str(), p.joint_mpjpe_cm[i],
+                      i < p.joint_jitter_mm.size() ? p.joint_jitter_mm[i] : 0.0);
     }
     std::fflush(stdout);
   }

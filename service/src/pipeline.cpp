@@ -377,7 +377,10 @@ Result<std::unique_ptr<PoseFeed>> open_feed_on_clock(const std::string& spec_tex
       mounts.push_back({b.sensor, b.segment, t});
     }
   }
-  auto model = solver::SolverModel::create(*skeleton, std::move(mounts));
+  // A simulated wearer stands as tall as the skeleton it wears: its legs can step when untracked.
+  solver::SolverOptions options;
+  if (spec->scheme == "sim" || spec->scheme == "bvh") options.standing_root_y_m = avatar::standing_root_height_m(*skeleton);
+  auto model = solver::SolverModel::create(*skeleton, std::move(mounts), options);
   if (!model) return tl::unexpected(model.error());
   auto source = sim::open_sensor_source(*spec, std::move(clock), nullptr, body);
   if (!source) return tl::unexpected(source.error());

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include <glm/gtx/quaternion.hpp>
+
 #include "mimic/solver/swing_twist.h"
 #include "mimic/solver/two_bone_ik.h"
 
@@ -138,6 +140,31 @@ ChainSolution solve_chain(const ChainInput& in, const glm::vec3& pole) {
 // Limits first, then closeness to the hinted swivel.
 float chain_cost(const ChainSolution& c, float phi) { return 40.0f * c.violation + 0.1f * phi * phi; }
 
+// Toes nothing tracks follow the foot, and a foot pitched toes-down (a sensor's foot at push-off)
+// would push their tip through the floor: they bend up at the ball instead, as toes do.
+void keep_toes_above_floor(const SolverModel& m, int toes, float floor_y, const RigidTransform& foot_w,
+                           std::span<float> dof) {
+  const Skeleton& s = m.skeleton();
+  if (s.dof_end(toes) - s.dof_begin(toes) != 1) return;
+  const int d = s.dof_begin(toes);
+  const auto& f = s.dof(d);
+  const glm::vec3 ball = foot_w.apply(s.offset_m(toes));
+  auto tip_y = [&](float a) { return ball.y + (foot_w.rotation * (glm::angleAxis(a, f.axis) * s.tip_m(toes))).y; };
+  if (tip_y(dof[d]) >= floor_y) return;
+  // The direction that raises the tip, then the smallest turn that way that clears the floor.
+  const float raise = tip_y(dof[d] + 0.01f) > tip_y(dof[d]) ? 1.0f : -1.0f;
+  float lo = dof[d], hi = raise > 0 ? f.max_rad : f.min_rad;
+  if (tip_y(hi) < floor_y) {
+    dof[d] = hi;
+    return;
+  }
+  for (int i = 0; i < 10; ++i) {
+    const float mid = 0.5f * (lo + hi);
+    (tip_y(mid) < floor_y ? lo : hi) = mid;
+  }
+  dof[d] = hi;
+}
+
 }  // namespace
 
 Result<SolverModel> SolverModel::create(Skeleton skeleton, std::vector<SensorMount> mounts,
@@ -222,8 +249,14 @@ Result<SolverModel> SolverModel::create(Skeleton skeleton, std::vector<SensorMou
     std::vector<RigidTransform> w(s.joint_count());
     forward_kinematics(s, s.rest_pose(), w);
     m.head_from_root_rest_ = w[m.head_].translation - w[0].translation;
-    for (int leg = 0; leg < 2; ++leg)
+    for (int leg = 0; leg < 2; ++leg) {
       m.ankle_below_root_rest_[leg] = w[0].translation.y - w[m.chains_[2 + leg].end].translation.y;
+      const int toes = s.find_joint(leg == 0 ? "l_toes" : "r_toes");
+      if (toes >= 0 && s.parent(toes) == m.chains_[2 + leg].end) {
+        m.ball_in_ankle_[leg] = s.offset_m(toes), m.toes_[leg] = toes;
+        m.toe_tip_below_root_rest_[leg] = w[0].translation.y - w[toes].apply(s.tip_m(toes)).y;
+      }
+    }
   }
   m.prior_rad_.resize(s.dof_count());
   for (int d = 0; d < s.dof_count(); ++d) m.prior_rad_[d] = s.dof(d).rest_rad;
@@ -347,15 +380,40 @@ bool SolveJob::Run() {
       // upright — a squat or a seat, where the hips go down with it. (Bending over tilts the
       // head too, and there the hips stay up; a head bob of a few centimetres is no crouch.)
       float root_y = o.standing_root_y_m - o.relaxed_root_drop_m;
+      glm::vec3 goal(p.root_position_m.x, root_y, p.root_position_m.z);
+      float weight = o.standing_weight;
       if (c.has_target_[m.head_]) {
+        const RigidTransform& head = c.segment_target_[m.head_];
         const float head_standing_y = o.standing_root_y_m + m.head_from_root_rest_.y;
-        const float drop_m = head_standing_y - c.segment_target_[m.head_].translation.y;
-        const float up = (c.segment_target_[m.head_].rotation * glm::vec3(0, 1, 0)).y;
-        const float upright = std::clamp((up - 0.5f) / 0.4f, 0.0f, 1.0f);  // 1 within 26° of vertical, 0 past 60°
-        root_y -= std::max(0.0f, drop_m - o.crouch_allowance_m) * upright;
+        const float drop_m = head_standing_y - head.translation.y;
+        const glm::vec3 up = head.rotation * glm::vec3(0, 1, 0);
+        const float upright = std::clamp((up.y - 0.5f) / 0.4f, 0.0f, 1.0f);  // 1 within 26° of vertical, 0 past 60°
+        goal.y -= std::max(0.0f, drop_m - o.crouch_allowance_m) * upright;
+        if (o.step)
+          goal.y -= std::min(o.locomotion.max_walk_drop_m,
+                             o.locomotion.walk_drop_m_per_mps * glm::length(c.locomotion_.velocity_mps));
+        // Horizontally the hips hang under the head as an upright trunk would, leaning with part
+        // of the head's tilt (looking down is not bending over); without this pull the trunk's
+        // solve leans as readily as it moves the hips, and walking it left them 10 cm behind.
+        const glm::vec3 lean_up = glm::normalize(glm::vec3(0, 1, 0) + o.lean_follow * (up - glm::vec3(0, 1, 0)));
+        const glm::quat lean = glm::rotation(glm::vec3(0, 1, 0), lean_up);
+        const glm::vec3 under = head.translation - lean * (heading * m.head_from_root_rest_);
+        if (o.root_follow_weight > 0) goal.x = under.x, goal.z = under.z, weight = o.root_follow_weight;
       }
-      c.targets_.push_back(IkTarget{0, glm::vec3(p.root_position_m.x, root_y, p.root_position_m.z),
-                                    glm::quat(1, 0, 0, 0), o.standing_weight, 0.0f});
+      // A planted foot must stay within the leg's reach: the hips come down between wide-apart
+      // feet, as they do in a stride.
+      for (int leg = 0; leg < 2; ++leg) {
+        const FootStepState& f = c.locomotion_.feet[leg];
+        if (!f.driven || f.swinging) continue;
+        const auto& ch = m.chains_[2 + leg];
+        const glm::vec3 hip_offset = heading * s.offset_m(ch.upper);
+        const glm::vec2 d(goal.x + hip_offset.x - f.planted.x, goal.z + hip_offset.z - f.planted.z);
+        const float reach = o.locomotion_reach * (ch.upper_m + ch.lower_m);
+        const float up_m = std::sqrt(std::max(0.0f, reach * reach - glm::dot(d, d)));
+        goal.y = std::min(goal.y, f.planted.y + up_m - hip_offset.y);
+      }
+      c.targets_.push_back(IkTarget{0, goal,
+                                    glm::quat(1, 0, 0, 0), weight, 0.0f});
     }
   }
   // Hands: the arm DOFs (clavicle, shoulder, elbow bend) join the solve so that the trunk
@@ -395,7 +453,7 @@ bool SolveJob::Run() {
       if (c.has_target_[j])
         for (int d = s.dof_begin(j); d < s.dof_end(j); ++d) c.prior_[d] = dof[d];
     ls.prior_rad = c.prior_;
-    ls.prior_weight = o.prior_weight;
+    ls.prior_weight = root_known ? o.prior_weight_with_pelvis : o.prior_weight;
     ls.damping = o.damping;
     ls.max_iterations = o.iterations;
     ls.context = &c.ls_;
@@ -404,32 +462,9 @@ bool SolveJob::Run() {
     ls_iterations = ls.iterations;
   }
 
-  // 3b. Legs nobody tracks: each foot under its hip, knee soft, on or above the floor, facing
-  // the heading (a walk's steps cannot be told from head and hands alone; standing, this is
-  // where feet are).
-  if (trunk_observed && !root_known && std::isfinite(o.standing_root_y_m)) {
-    bool tracked = false;
-    for (int leg = 2; leg < 4; ++leg) {
-      const auto& ch = m.chains_[leg];
-      tracked = tracked || c.has_target_[ch.upper] || c.has_target_[ch.mid] || c.has_target_[ch.end];
-    }
-    glm::vec3 fwd = p.root_orientation * glm::vec3(0, 0, 1);
-    fwd.y = 0;
-    if (!tracked && glm::length(fwd) > 1e-3f) {
-      const glm::quat facing = glm::angleAxis(std::atan2(fwd.x, fwd.z), glm::vec3(0, 1, 0));
-      const float bend = std::clamp(o.relaxed_knee_bend_rad, 0.0f, 1.5f);
-      for (int leg = 0; leg < 2; ++leg) {
-        const auto& ch = m.chains_[2 + leg];
-        const glm::vec3 hip = p.root_position_m + p.root_orientation * s.offset_m(ch.upper);
-        const float hang = std::sqrt(ch.upper_m * ch.upper_m + ch.lower_m * ch.lower_m +
-                                     2.0f * ch.upper_m * ch.lower_m * std::cos(bend));
-        const float floor_y = o.standing_root_y_m - m.ankle_below_root_rest_[leg];
-        c.segment_target_[ch.end] = RigidTransform{facing, glm::vec3(hip.x, std::max(floor_y, hip.y - hang), hip.z)};
-        c.has_target_[ch.end] = 1;
-        c.guessed_end_[2 + leg] = true;
-      }
-    }
-  }
+  // 3b. Legs nobody tracks step (locomotion.h); without a floor (no calibration) they are
+  // left to the relaxed posture.
+  if (trunk_observed && std::isfinite(o.standing_root_y_m)) place_untracked_feet();
 
   // 4. Limbs and the rest, parents first.
   std::array<bool, 4> chain_solved{};
@@ -538,6 +573,9 @@ bool SolveJob::Run() {
       if (c.has_target_[j]) from_orientation(j);
       else if (!solved_by_ls[j]) relax(j);
     }
+    fk(j);
+    if (const int leg = j == m.toes_[0] ? 0 : j == m.toes_[1] ? 1 : -1; leg >= 0 && std::isfinite(o.standing_root_y_m))
+      keep_toes_above_floor(m, j, o.standing_root_y_m - m.toe_tip_below_root_rest_[leg], c.world_[s.parent(j)], dof);
     fk(j);
   }
   c.have_previous_ = true;

@@ -105,8 +105,13 @@ TEST(EvalSolverCli, PrintsOneJsonObjectPerLayoutWithTheRequiredKeys) {
   while (std::getline(lines, line)) {
     const auto j = nlohmann::json::parse(line);
     for (const char* key : {"clip", "sensors", "frames", "mpjpe_cm", "mpjre_deg", "end_effector_mm", "jitter",
-                            "jitter_definition", "solve_us_p50", "solve_us_p99"})
+                            "jitter_definition", "solve_us_p50", "solve_us_p99", "lower_body_mpjpe_cm",
+                            "foot_skate_mm", "floor_penetration_mm", "steps"})
       EXPECT_TRUE(j.contains(key)) << key;
+    EXPECT_GE(j["steps"]["solved"].get<int>(), 0);
+    EXPECT_GE(j["steps"]["truth"].get<int>(), 0);
+    EXPECT_GE(j["floor_penetration_mm"].get<double>(), 0.0);
+    EXPECT_GT(j["lower_body_mpjpe_cm"].get<double>(), 0.0);
     EXPECT_EQ(j["clip"], "07_01");
     EXPECT_EQ(j["frames"], 120);
     EXPECT_GT(j["mpjpe_cm"].get<double>(), 0.0);

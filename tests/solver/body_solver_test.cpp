@@ -173,9 +173,9 @@ struct HeadAndHands {
   }
 };
 
-// Head and hands only: the legs hang under the hips with soft knees, feet on the floor or above
-// it, facing the heading — and a wearer who crouches bends the knees instead of sinking the
-// feet through the floor.
+// Head and hands only, standing still: the feet are planted under the hips with soft knees, on
+// the floor, facing the heading — and a wearer who crouches bends the knees instead of sinking
+// the feet through the floor.
 TEST(BodySolver, LegsNobodyTracksHangUnderTheHipsAboveTheFloor) {
   HeadAndHands h;
   const Skeleton& s = h.s;

@@ -31,7 +31,10 @@ struct Bound {
 
 TEST(ClipAccuracy, SimulatedSensorsOnSharedClipsStayWithinBounds) {
   if (!std::filesystem::exists(test::clip_path("07_01"))) GTEST_SKIP() << "shared data not found";
-  const Bound bounds[] = {{"3", 11.0, 130.0}, {"6", 3.0, 8.0}, {"11", 1.6, 8.0}, {"all", 1.0, 8.0}};
+  // Three sensors: the stepping feet are out of phase with the truth's part of the time, which
+  // costs the ankles more than feet hanging under the hips did (end effectors 168 mm on 07_01's
+  // first two seconds, against 96 mm).
+  const Bound bounds[] = {{"3", 11.0, 200.0}, {"6", 3.0, 8.0}, {"11", 1.6, 8.0}, {"all", 1.0, 8.0}};
   for (const char* id : {"07_01", "13_26"}) {
     const auto* clip = load(id);
     ASSERT_NE(clip, nullptr) << id;

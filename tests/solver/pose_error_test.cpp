@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+
 namespace mimic::solver {
 namespace {
 
@@ -66,6 +68,28 @@ TEST(PoseError, JitterIsTheSecondDifference) {
   }
   EXPECT_NEAR(acc.report().jitter_mm, 2.0, 1e-3);  // |0 - 2·1 + 0| mm
   EXPECT_NEAR(acc.report().jitter_truth_mm, 0.0, 1e-6);
+}
+
+// A solved body that follows the truth two samples late measures a lag of two samples, and one
+// on time measures none.
+TEST(PoseError, LagIsTheDelayBehindTheTruth) {
+  const Skeleton s = *Skeleton::build(avatar::default_skeleton_desc());
+  constexpr double kRate = 100.0;
+  for (const int delay : {0, 2}) {
+    PoseErrorAccumulator acc(s, s);
+    acc.set_rate_hz(kRate);
+    std::vector<RigidTransform> wt(s.joint_count()), ws(s.joint_count());
+    Pose truth = s.zero_pose(), solved = s.zero_pose();
+    auto at = [](int k) { return glm::vec3(0.3f * std::sin(0.05f * static_cast<float>(k)), 0.9f, 0.01f * static_cast<float>(k)); };
+    for (int k = 0; k < 200; ++k) {
+      truth.root_position_m = at(k);
+      solved.root_position_m = at(k - delay);
+      forward_kinematics(s, truth, wt);
+      forward_kinematics(s, solved, ws);
+      acc.add(wt, ws);
+    }
+    EXPECT_NEAR(acc.report().lag_ms, 1000.0 * delay / kRate, 1.0) << "delay " << delay;
+  }
 }
 
 }  // namespace

@@ -11,6 +11,9 @@
 //   jitter_mm        mean over frames and joints of |p[t+1] − 2·p[t] + p[t−1]| of the solved
 //                    positions (second difference at the sample rate); jitter_truth_mm is the
 //                    same for the ground truth, so the excess is what the solver adds
+//   lag_ms           the time shift of the truth that the solved joint positions match best
+//                    (mean position error over shifts of −2…+6 samples, refined by a parabola
+//                    through the best three): what filters and solve add in delay
 //   solve_us_*       wall time of one solve, percentiles over frames
 #pragma once
 
@@ -35,8 +38,10 @@ struct PoseErrorReport {
   double solve_us_p50 = 0;
   double solve_us_p99 = 0;
   double solve_us_max = 0;
+  double lag_ms = 0;  // needs the sample rate: set_rate_hz()
   std::vector<std::string> joint_names;
   std::vector<double> joint_mpjpe_cm;  // per joint of the set
+  std::vector<double> joint_jitter_mm;  // per joint of the set
 };
 
 // The joints end_effector_mm is taken over: head, wrists, ankles.
@@ -51,6 +56,7 @@ class PoseErrorAccumulator {
   void add(std::span<const avatar::RigidTransform> truth_world,
            std::span<const avatar::RigidTransform> solved_world, double solve_us = -1);
   PoseErrorReport report() const;
+  void set_rate_hz(double rate_hz) { rate_hz_ = rate_hz; }
 
  private:
   struct Pair {
@@ -62,11 +68,13 @@ class PoseErrorAccumulator {
   int end_effectors_ = 0;
   int frames_ = 0;
   double pos_sum_ = 0, rot_sum_ = 0, ee_sum_ = 0, ee_max_ = 0;
-  std::vector<double> joint_sum_;
+  std::vector<double> joint_sum_, joint_jitter_sum_;
   std::vector<glm::vec3> prev_solved_, prev2_solved_, prev_truth_, prev2_truth_;
   double jitter_sum_ = 0, jitter_truth_sum_ = 0;
   long jitter_terms_ = 0;
   std::vector<double> solve_us_;
+  double rate_hz_ = 0;
+  std::vector<glm::vec3> solved_track_, truth_track_;  // every frame's joint positions, for the lag
 };
 
 }  // namespace mimic::solver

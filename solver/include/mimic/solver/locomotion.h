@@ -1,0 +1,90 @@
+// Procedural steps for legs nobody tracks (Final IK's VRIK locomotion, in spirit): the three
+// sensors of a VR headset and its controllers, or a foot whose sensor dropped out.
+//
+// Each foot driven here is planted on the floor while it supports the body and does not move. A
+// step starts when the foot's home (under its hip, where the pelvis is heading) has left it
+// further than `step_threshold_m`, the body has turned more than `turn_threshold_rad` past the
+// foot, or the leg cannot reach it; one foot swings at a time, the one left furthest behind,
+// alternating when both are. The step lands where the hip will be half a stance after touchdown
+// at the pelvis' velocity, so walking feet land ahead of the body; its duration shortens with
+// speed; the foot swings on an arc of a height in proportion to the step, never below the floor
+// and never across the other foot.
+//
+// State lives in the caller's SolverContext; update() never allocates or throws.
+#pragma once
+
+#include <array>
+#include <cmath>
+
+#include <glm/glm.hpp>
+
+namespace mimic::solver {
+
+struct LocomotionOptions {
+  float step_threshold_m = 0.14f;   // foot this far from its (predicted) home: step
+  float turn_threshold_rad = 0.6f;  // body turned this far past the foot (34°): step
+  float swing_s_slow = 0.42f;       // swing duration standing …
+  float swing_s_fast = 0.30f;       // … and at `fast_mps`
+  float fast_mps = 2.5f;
+  float stance_lead_s = 0.30f;      // a step lands where the hip is that long after touchdown
+  float max_step_m = 0.85f;         // a step never reaches further than this from the hip
+  float velocity_tau_s = 0.12f;     // smoothing of the pelvis velocity
+  float reach_fraction = 1.10f;     // a planted foot further than this much of the leg (flat) is due
+  bool flight = true;               // … and past this much it lifts while the other swings
+  float flight_reach_fraction = 1.30f;
+  float min_width_m = 0.10f;        // feet never closer side to side (ankle centres)
+  float arc_height_m = 0.10f;       // swing arc height for a 0.6 m step (in proportion, ≥ 2 cm)
+  // Walking (faster than `sway_speed_mps`), the body rests on the foot the head sways over: a
+  // foot lifts only while the head is at least `sway_gate_m` over to the other side of its
+  // mean path (tau `sway_tau_s`). Negative gate: off.
+  float sway_speed_mps = 0.4f;
+  float sway_gate_m = 0.004f;
+  float sway_tau_s = 0.5f;
+  float sway_override = 1.5f;  // a foot this many trigger distances behind steps regardless
+  // Walking, the hips ride this much lower per m/s (at most `max_walk_drop_m`): strides need
+  // the reach a locked-knee stance does not have.
+  float walk_drop_m_per_mps = 0.025f;
+  float max_walk_drop_m = 0.05f;
+};
+
+struct FootStepState {
+  bool driven = false;    // this foot is placed by the stepper this frame
+  bool swinging = false;
+  glm::vec3 planted{0.0f};  // ankle, world, while planted (and where a swing ends)
+  float planted_yaw_rad = 0;
+  glm::vec3 from{0.0f};
+  float from_yaw_rad = 0;
+  float phase = 0, duration_s = 0.4f;
+  glm::vec3 ankle{0.0f};  // output: this frame's ankle target
+  float yaw_rad = 0;      // output: this frame's foot heading (about +Y, 0 = +Z)
+};
+
+struct LocomotionState {
+  std::array<FootStepState, 2> feet{};  // left, right
+  glm::vec2 velocity_mps{0.0f};         // pelvis, horizontal (x, z), smoothed
+  glm::vec3 last_root{0.0f};
+  bool have_root = false;
+  double last_time_s = -1;
+  int last_stepped = -1;
+  long steps = 0;  // steps started so far
+  glm::vec2 sway_centre{0.0f};          // the head's mean horizontal path
+  bool have_sway = false;
+};
+
+struct LocomotionInput {
+  float dt_s = 1.0f / 120;
+  glm::vec3 root{0.0f};           // pelvis position, world
+  float root_yaw_rad = 0;         // pelvis heading
+  std::array<glm::vec3, 2> hip{};  // hip joint centres, world
+  std::array<float, 2> reach_m{};  // hip to ankle, leg straight
+  std::array<float, 2> floor_ankle_y_m{};  // ankle height of a flat foot on the floor
+  std::array<bool, 2> drive{};     // which feet the stepper places
+  std::array<glm::vec3, 2> last_ankle{};  // solved ankles of the previous frame (take-over)
+  bool have_last_ankle = false;
+  glm::vec3 head{0.0f};  // head joint, world
+  bool have_head = false;
+};
+
+void update_locomotion(LocomotionState& state, const LocomotionInput& in, const LocomotionOptions& o = {});
+
+}  // namespace mimic::solver

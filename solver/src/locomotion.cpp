@@ -1,0 +1,260 @@
+#include "mimic/solver/locomotion.h"
+
+#include <algorithm>
+
+#include "mimic/solver/body_solver.h"
+
+namespace mimic::solver {
+
+namespace {
+
+constexpr float kPi = 3.14159265f;
+
+float wrap_rad(float a) { return std::remainder(a, 2.0f * kPi); }
+glm::vec2 xz(const glm::vec3& p) { return {p.x, p.z}; }
+float smooth01(float t) {
+  t = std::clamp(t, 0.0f, 1.0f);
+  return t * t * (3.0f - 2.0f * t);
+}
+
+// Where a step that starts now lands: under the hip, half a stance past touchdown at the pelvis'
+// velocity, no further than `max_step_m` from the hip.
+glm::vec2 landing(const LocomotionInput& in, const LocomotionState& s, const LocomotionOptions& o, int k,
+                  float remaining_s) {
+  glm::vec2 lead = s.velocity_mps * (remaining_s + o.stance_lead_s);
+  const float len = glm::length(lead);
+  if (len > o.max_step_m) lead *= o.max_step_m / len;
+  return xz(in.hip[k]) + lead;
+}
+
+// Keeps foot k on its own side of the other foot by `min_width_m` (feet never cross).
+glm::vec2 beside(glm::vec2 p, const glm::vec2& other, float yaw, int k, float min_width_m) {
+  const glm::vec2 left(std::cos(yaw), -std::sin(yaw));  // skeleton +X (left) turned by the heading
+  const float side = k == 0 ? 1.0f : -1.0f;
+  const float lateral = side * glm::dot(p - other, left);
+  if (lateral < min_width_m) p += side * (min_width_m - lateral) * left;
+  return p;
+}
+
+void take_over(FootStepState& f, const LocomotionInput& in, int k) {
+  f.driven = true;
+  f.planted_yaw_rad = f.from_yaw_rad = f.yaw_rad = in.root_yaw_rad;
+  const float floor_y = in.floor_ankle_y_m[k];
+  if (!in.have_last_ankle) {
+    f.planted = glm::vec3(in.hip[k].x, floor_y, in.hip[k].z);
+    f.swinging = false;
+    return;
+  }
+  // Where the foot was: planted there, or lowered onto the floor below it if it was in the air.
+  const glm::vec3 last = in.last_ankle[k];
+  f.planted = glm::vec3(last.x, floor_y, last.z);
+  f.swinging = last.y > floor_y + 0.02f;
+  f.from = glm::vec3(last.x, std::max(last.y, floor_y), last.z);
+  f.phase = 0;
+  f.duration_s = 0.2f;
+}
+
+// A planted foot the leg cannot reach flat (the trailing foot of a stride) lifts its heel: it
+// turns about the ball of the foot, which stays where it was planted, until the ankle is in reach.
+void lift_heel(avatar::RigidTransform& ankle_t, const glm::vec3& hip, float reach_m, const glm::vec3& ball_in_ankle) {
+  const float reach = 0.999f * reach_m;
+  if (glm::length(hip - ankle_t.translation) <= reach || glm::length(ball_in_ankle) < 1e-3f) return;
+  const glm::vec3 ball = ankle_t.apply(ball_in_ankle);
+  auto ankle_at = [&](float pitch_rad) {
+    return ball - ankle_t.rotation * (glm::angleAxis(pitch_rad, glm::vec3(1, 0, 0)) * ball_in_ankle);
+  };
+  float lo = 0.0f, hi = 1.2f;  // up to about 70° of heel lift; beyond, on tiptoe, the leg stretches
+  for (int i = 0; i < 12 && glm::length(hip - ankle_at(hi)) <= reach; ++i) {
+    const float mid = 0.5f * (lo + hi);
+    (glm::length(hip - ankle_at(mid)) > reach ? lo : hi) = mid;
+  }
+  ankle_t.translation = ankle_at(hi);
+  ankle_t.rotation = ankle_t.rotation * glm::angleAxis(hi, glm::vec3(1, 0, 0));
+}
+
+
+}  // namespace
+
+void update_locomotion(LocomotionState& s, const LocomotionInput& in, const LocomotionOptions& o) {
+  const float dt = std::clamp(in.dt_s, 1e-4f, 0.1f);
+  if (s.have_root) {
+    const glm::vec2 v = (xz(in.root) - xz(s.last_root)) / dt;
+    const float a = 1.0f - std::exp(-dt / o.velocity_tau_s);
+    s.velocity_mps += a * (v - s.velocity_mps);
+  }
+  s.last_root = in.root;
+  s.have_root = true;
+  const float speed = glm::length(s.velocity_mps);
+  // The head's sideways sway about its mean path: which foot carries the body.
+  float sway_m = 0;
+  if (in.have_head) {
+    if (!s.have_sway) s.sway_centre = xz(in.head), s.have_sway = true;
+    s.sway_centre += (1.0f - std::exp(-dt / o.sway_tau_s)) * (xz(in.head) - s.sway_centre);
+    sway_m = glm::dot(xz(in.head) - s.sway_centre, glm::vec2(std::cos(in.root_yaw_rad), -std::sin(in.root_yaw_rad)));
+  }
+  const bool gate = in.have_head && o.sway_gate_m >= 0 && speed > o.sway_speed_mps;
+  const float swing_s = o.swing_s_slow + (o.swing_s_fast - o.swing_s_slow) * std::clamp(speed / o.fast_mps, 0.0f, 1.0f);
+
+  for (int k = 0; k < 2; ++k) {
+    FootStepState& f = s.feet[k];
+    if (!in.drive[k]) {
+      f.driven = f.swinging = false;
+      continue;
+    }
+    if (!f.driven) take_over(f, in, k);
+  }
+
+  // A new step when no foot swings: the foot whose support the body has left the most. A foot
+  // about to be out of the leg's reach lifts whatever the other does (running has flight).
+  bool any_swinging = false;
+  for (const auto& f : s.feet) any_swinging = any_swinging || (f.driven && f.swinging);
+  // Walking, a foot stays until it is as far behind as it landed ahead (half a stance).
+  const float trigger_m = std::max(o.step_threshold_m, speed * o.stance_lead_s);
+  int best = -1;
+  float best_score = 1.0f;
+  for (int k = 0; k < 2; ++k) {
+    const FootStepState& f = s.feet[k];
+    if (!f.driven || f.swinging) continue;
+    const float reach_used = glm::length(in.hip[k] - f.planted) / in.reach_m[k];
+    if (any_swinging) {
+      if (o.flight && reach_used > o.flight_reach_fraction) best = k, best_score = 1e9f;
+      continue;
+    }
+    const float off_m = glm::length(xz(in.hip[k]) - xz(f.planted));
+    const float turn = std::abs(wrap_rad(in.root_yaw_rad - f.planted_yaw_rad));
+    float score = std::max(off_m / trigger_m, turn / o.turn_threshold_rad);
+    if (reach_used > o.reach_fraction) score = std::max(score, o.sway_override);
+    if (k == s.last_stepped) score *= 0.8f;  // alternate when both feet are due
+    // Walking, the foot the body rests on (the head sways over it) does not lift, unless it has
+    // been left far behind: the sway is a hint, not a clock.
+    if (gate && (k == 0 ? 1.0f : -1.0f) * sway_m > -o.sway_gate_m && score < o.sway_override) continue;
+    if (score > best_score) best = k, best_score = score;
+  }
+  if (best >= 0) {
+    FootStepState& f = s.feet[best];
+    f.swinging = true;
+    f.phase = 0;
+    f.duration_s = swing_s;
+    f.from = f.planted;
+    f.from_yaw_rad = f.planted_yaw_rad;
+    s.last_stepped = best;
+    ++s.steps;
+  }
+
+  for (int k = 0; k < 2; ++k) {
+    FootStepState& f = s.feet[k];
+    if (!f.driven) continue;
+    const float floor_y = in.floor_ankle_y_m[k];
+    const FootStepState& other = s.feet[1 - k];
+    const glm::vec2 other_xz = other.driven ? xz(other.swinging ? other.ankle : other.planted) : xz(in.last_ankle[1 - k]);
+    const bool other_known = other.driven || in.have_last_ankle;
+    if (!f.swinging) {
+      f.ankle = glm::vec3(f.planted.x, floor_y, f.planted.z);
+      f.yaw_rad = f.planted_yaw_rad;
+      continue;
+    }
+    f.phase = std::min(1.0f, f.phase + dt / f.duration_s);
+    // The landing spot follows the body during the first part of the swing, then is committed.
+    if (f.phase < 0.7f) {
+      glm::vec2 to = landing(in, s, o, k, (1.0f - f.phase) * f.duration_s);
+      if (other_known) to = beside(to, other_xz, in.root_yaw_rad, k, o.min_width_m);
+      f.planted = glm::vec3(to.x, floor_y, to.y);
+      f.planted_yaw_rad = in.root_yaw_rad;
+    }
+    const float t = smooth01(f.phase);
+    glm::vec2 h = xz(f.from) + t * (xz(f.planted) - xz(f.from));
+    if (other_known) h = beside(h, other_xz, in.root_yaw_rad, k, o.min_width_m);
+    const float step_m = glm::length(xz(f.planted) - xz(f.from));
+    const float arc_m = std::max(0.02f, o.arc_height_m * step_m / 0.6f);
+    const float y = f.from.y + t * (floor_y - f.from.y) + std::min(arc_m, 0.15f) * std::sin(kPi * f.phase);
+    f.ankle = glm::vec3(h.x, std::max(floor_y, y), h.y);
+    f.yaw_rad = f.from_yaw_rad + t * wrap_rad(f.planted_yaw_rad - f.from_yaw_rad);
+    if (f.phase >= 1.0f) {
+      f.swinging = false;
+      f.planted = glm::vec3(h.x, floor_y, h.y);
+    }
+  }
+}
+
+// Without stepping (SolverOptions::step off): each untracked foot under its hip, knee soft, on
+// or above the floor, facing the heading — where a standing body's feet are.
+void hang_untracked_feet(const SolverModel& m, SolverContext& c, const avatar::Pose& p, std::array<bool, 2> legs) {
+  const avatar::Skeleton& s = m.skeleton();
+  const SolverOptions& o = m.options();
+  glm::vec3 fwd = p.root_orientation * glm::vec3(0, 0, 1);
+  if (glm::length(glm::vec2(fwd.x, fwd.z)) < 1e-3f) return;
+  const glm::quat facing = glm::angleAxis(std::atan2(fwd.x, fwd.z), glm::vec3(0, 1, 0));
+  const float bend = std::clamp(o.relaxed_knee_bend_rad, 0.0f, 1.5f);
+  for (int leg = 0; leg < 2; ++leg) {
+    if (!legs[leg]) continue;
+    const auto& ch = m.chains_[2 + leg];
+    const glm::vec3 hip = p.root_position_m + p.root_orientation * s.offset_m(ch.upper);
+    const float hang = std::sqrt(ch.upper_m * ch.upper_m + ch.lower_m * ch.lower_m +
+                                 2.0f * ch.upper_m * ch.lower_m * std::cos(bend));
+    const float floor_y = o.standing_root_y_m - m.ankle_below_root_rest_[leg];
+    c.segment_target_[ch.end] = avatar::RigidTransform{facing, glm::vec3(hip.x, std::max(floor_y, hip.y - hang), hip.z)};
+    c.has_target_[ch.end] = 1;
+    c.guessed_end_[2 + leg] = true;
+  }
+}
+
+// Feet of legs without a sensor (or whose sensor is lost): the stepper plants and swings them;
+// their targets join the chains' solve as guesses.
+void SolveJob::place_untracked_feet() {
+  const SolverModel& m = *model;
+  SolverContext& c = *context;
+  const avatar::Pose& p = *pose;
+  const avatar::Skeleton& s = m.skeleton();
+  const SolverOptions& o = m.options();
+  LocomotionInput in;
+  bool any = false;
+  for (int leg = 0; leg < 2; ++leg) {
+    const auto& ch = m.chains_[2 + leg];
+    in.drive[leg] = !c.has_target_[ch.upper] && !c.has_target_[ch.mid] && !c.has_target_[ch.end];
+    any = any || in.drive[leg];
+  }
+  if (any && !o.step) {
+    hang_untracked_feet(m, c, p, in.drive);
+    any = false;
+  }
+  if (!any) {
+    c.locomotion_.feet[0].driven = c.locomotion_.feet[1].driven = false;
+    return;
+  }
+  double now_s = -1;
+  for (const auto& smp : samples)
+    if (smp.flags & devices::kSampleValid) now_s = std::max(now_s, smp.device_time_s);
+  in.dt_s = now_s > c.last_time_s_ && c.last_time_s_ >= 0 ? static_cast<float>(now_s - c.last_time_s_) : 1.0f / 120;
+  if (now_s >= 0) c.last_time_s_ = now_s;
+  glm::vec3 fwd = p.root_orientation * glm::vec3(0, 0, 1);
+  in.root = p.root_position_m;
+  in.root_yaw_rad = glm::length(glm::vec2(fwd.x, fwd.z)) > 1e-3f ? std::atan2(fwd.x, fwd.z) : 0.0f;
+  in.have_last_ankle = c.have_previous_;
+  for (int leg = 0; leg < 2; ++leg) {
+    const auto& ch = m.chains_[2 + leg];
+    in.hip[leg] = p.root_position_m + p.root_orientation * s.offset_m(ch.upper);
+    in.reach_m[leg] = ch.upper_m + ch.lower_m;
+    in.floor_ankle_y_m[leg] = o.standing_root_y_m - m.ankle_below_root_rest_[leg];
+    in.last_ankle[leg] = c.world_[ch.end].translation;
+  }
+  if (c.has_target_[m.head_]) in.head = c.segment_target_[m.head_].translation, in.have_head = true;
+  update_locomotion(c.locomotion_, in, o.locomotion);
+  for (int leg = 0; leg < 2; ++leg) {
+    if (!in.drive[leg]) continue;
+    const auto& f = c.locomotion_.feet[leg];
+    const int e = m.chains_[2 + leg].end;
+    const glm::quat yaw = glm::angleAxis(f.yaw_rad, glm::vec3(0, 1, 0));
+    c.segment_target_[e] = avatar::RigidTransform{yaw, f.ankle};
+    if (!f.swinging) lift_heel(c.segment_target_[e], in.hip[leg], in.reach_m[leg], m.ball_in_ankle_[leg]);
+    // The toes stay flat on the floor under a lifted heel.
+    if (const int toes = m.toes_[leg]; toes >= 0 && !c.has_target_[toes]) {
+      c.segment_target_[toes] = avatar::RigidTransform{yaw, c.segment_target_[e].apply(m.ball_in_ankle_[leg])};
+      c.has_target_[toes] = 1;
+    }
+    c.has_target_[e] = 1;
+    c.guessed_end_[2 + leg] = true;
+  }
+}
+
+
+}  // namespace mimic::solver

@@ -1,0 +1,192 @@
+// Procedural steps of legs nobody tracks (head and hands only, or a foot whose sensor is lost):
+// properties of the solved feet, whatever the clip.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <random>
+
+#include "mimic/avatar/motion.h"
+#include "mimic/solver/body_solver.h"
+#include "synthetic_sensors.h"
+
+namespace mimic::solver {
+namespace {
+
+using avatar::Pose;
+using avatar::RigidTransform;
+using avatar::Skeleton;
+
+constexpr double kRateHz = 120.0;
+
+// A wearer with the given layout (straps square), standing height known, as after calibration.
+struct Wearer {
+  Skeleton s = *Skeleton::build(avatar::default_skeleton_desc());
+  std::vector<SensorMount> mounts;
+  float standing_root_y = avatar::standing_root_height_m(s);
+  SolverModel model;
+  SolverContext ctx;
+  Pose solved = s.zero_pose();
+  std::vector<devices::SensorSample> samples;
+  std::mt19937_64 rng{11};
+  std::vector<RigidTransform> world = std::vector<RigidTransform>(s.joint_count());
+  int frame = 0;
+
+  explicit Wearer(const char* layout)
+      : mounts(testing::mounts_for(*standard_layout(layout, s), 0.0f, 5)), model(make_model()), ctx(model) {}
+  SolverModel make_model() const {
+    SolverOptions options;
+    options.standing_root_y_m = standing_root_y;
+    return *SolverModel::create(s, mounts, options);
+  }
+  // One frame: sensors on the true pose (1 mm / 0.5° noise), solved, FK into `world`. Sensors
+  // listed in `lost` send invalid samples.
+  void step(const Pose& truth, std::initializer_list<uint16_t> lost = {}) {
+    testing::sense(s, truth, mounts, samples, &rng, 0.001f, glm::radians(0.5f), frame / kRateHz);
+    for (auto& smp : samples)
+      for (uint16_t id : lost)
+        if (smp.sensor == id) smp.flags = 0;
+    SolveJob job{&model, samples, &ctx, &solved};
+    ASSERT_TRUE(job.Run());
+    avatar::forward_kinematics(s, solved, world);
+    ++frame;
+  }
+  glm::vec3 ankle(int leg) const { return world[s.find_joint(leg == 0 ? "l_ankle" : "r_ankle")].translation; }
+  float leg_m(int leg) const {
+    const int knee = s.find_joint(leg == 0 ? "l_knee" : "r_knee");
+    const int ankle = s.find_joint(leg == 0 ? "l_ankle" : "r_ankle");
+    return glm::length(s.offset_m(knee)) + glm::length(s.offset_m(ankle));
+  }
+  glm::vec3 ball(int leg) const { return world[s.find_joint(leg == 0 ? "l_toes" : "r_toes")].translation; }
+  float floor_ankle_y() const {
+    std::vector<RigidTransform> w(s.joint_count());
+    avatar::forward_kinematics(s, s.zero_pose(), w);
+    return standing_root_y - (w[0].translation.y - w[s.find_joint("l_ankle")].translation.y);
+  }
+  // Lowest point of either foot: ankle, toes, toe tip.
+  float lowest_foot_point_y() const {
+    float y = 1e9f;
+    for (const char* side : {"l_", "r_"}) {
+      const int a = s.find_joint(std::string(side) + "ankle"), t = s.find_joint(std::string(side) + "toes");
+      y = std::min({y, world[a].translation.y, world[t].translation.y, world[t].apply(s.tip_m(t)).y});
+    }
+    return y;
+  }
+};
+
+Pose standing(const Wearer& w, glm::vec3 at, float yaw_rad) {
+  Pose p = w.s.zero_pose();
+  p.root_position_m = {at.x, w.standing_root_y - 0.02f, at.z};
+  p.root_orientation = glm::angleAxis(yaw_rad, glm::vec3(0, 1, 0));
+  return p;
+}
+
+float horizontal(const glm::vec3& a, const glm::vec3& b) { return glm::length(glm::vec2(a.x - b.x, a.z - b.z)); }
+
+TEST(Locomotion, StandingStillTakesNoSteps) {
+  Wearer w("3");
+  const Pose truth = standing(w, {0.4f, 0, -0.2f}, 0.5f);
+  for (int k = 0; k < 30; ++k) w.step(truth);  // settle
+  const long steps0 = w.ctx.locomotion().steps;
+  const glm::vec3 l0 = w.ankle(0), r0 = w.ankle(1);
+  for (int k = 0; k < int(4 * kRateHz); ++k) w.step(truth);
+  EXPECT_EQ(w.ctx.locomotion().steps, steps0);
+  EXPECT_LT(glm::length(w.ankle(0) - l0), 0.002f);
+  EXPECT_LT(glm::length(w.ankle(1) - r0), 0.002f);
+}
+
+TEST(Locomotion, TurningInPlaceSteps) {
+  Wearer w("3");
+  for (int k = 0; k < 30; ++k) w.step(standing(w, {0, 0, 0}, 0.0f));
+  const long steps0 = w.ctx.locomotion().steps;
+  // A quarter turn over two seconds, then a second to settle.
+  for (int k = 0; k < int(3 * kRateHz); ++k) {
+    const float yaw = 1.5708f * std::min(1.0f, static_cast<float>(k / (2 * kRateHz)));
+    w.step(standing(w, {0, 0, 0}, yaw));
+  }
+  EXPECT_GE(w.ctx.locomotion().steps - steps0, 2);
+  // Both feet end turned with the body, beside each other (left foot on the left).
+  for (const auto& f : w.ctx.locomotion().feet) {
+    EXPECT_FALSE(f.swinging);
+    EXPECT_LT(std::abs(std::remainder(f.yaw_rad - 1.5708f, 6.2832f)), 0.6f);
+  }
+  const glm::vec3 left_dir = glm::angleAxis(1.5708f, glm::vec3(0, 1, 0)) * glm::vec3(1, 0, 0);
+  EXPECT_GT(glm::dot(w.ankle(0) - w.ankle(1), left_dir), 0.08f);
+}
+
+// The built-in walk, seen by head and hands only: the solved feet step along, a planted foot does
+// not slide (its ball: a trailing foot lifts its heel), no foot goes under the floor and the
+// feet never cross.
+TEST(Locomotion, WalkingFeetStepStayPlantedAndAboveTheFloor) {
+  Wearer w("3");
+  auto walk = avatar::make_builtin_motion("walk", w.s);
+  ASSERT_TRUE(walk.has_value());
+  Pose truth = w.s.zero_pose();
+  const float floor_y = w.floor_ankle_y();
+  std::array<glm::vec3, 2> last{};
+  std::array<bool, 2> was_planted{};
+  float worst_slide_m = 0, dragged_m = 0, lowest_m = 1e9f, worst_cross_m = 1e9f;
+  const int frames = int(6 * kRateHz);
+  for (int k = 0; k < frames; ++k) {
+    (*walk)->sample(k / kRateHz, truth);
+    w.step(truth);
+    const auto& loco = w.ctx.locomotion();
+    for (int leg = 0; leg < 2; ++leg) {
+      const bool planted = loco.feet[leg].driven && !loco.feet[leg].swinging;
+      // Within the leg's reach (flat, or with the heel lifted) a planted foot holds still; a body
+      // that outruns its legs drags a foot until it may lift, and that is counted apart.
+      const glm::vec3 hip = w.world[w.s.find_joint(leg == 0 ? "l_hip" : "r_hip")].translation;
+      const bool in_reach = glm::length(hip - loco.feet[leg].ankle) < 0.999f * w.leg_m(leg);
+      if (k > 30 && planted && was_planted[leg]) {
+        const float slide_m = horizontal(w.ball(leg), last[leg]);
+        if (in_reach) worst_slide_m = std::max(worst_slide_m, slide_m);
+        else dragged_m += slide_m;
+      }
+      was_planted[leg] = planted;
+      last[leg] = w.ball(leg);
+    }
+    lowest_m = std::min(lowest_m, w.lowest_foot_point_y());
+    const glm::vec3 left_dir = w.solved.root_orientation * glm::vec3(1, 0, 0);
+    worst_cross_m = std::min(worst_cross_m, glm::dot(w.ankle(0) - w.ankle(1), left_dir));
+    EXPECT_GE(w.ankle(0).y, floor_y - 1e-4f);
+    EXPECT_GE(w.ankle(1).y, floor_y - 1e-4f);
+  }
+  const auto& loco = w.ctx.locomotion();
+  std::printf("  walk: %ld steps in %.1f s, worst planted slide %.2f mm within reach (%.0f mm dragged out of "
+              "reach in all), lowest foot point %.1f mm below the flat foot's ankle, narrowest %.1f cm\n",
+              loco.steps, frames / kRateHz, 1000 * worst_slide_m, 1000 * dragged_m, 1000 * (floor_y - lowest_m),
+              100 * worst_cross_m);
+  EXPECT_GE(loco.steps, 6);  // a walk of six seconds steps, about twice a second
+  // (A few millimetres: a guessed foot's chain is clamped to the hip's and ankle's limits.)
+  EXPECT_LT(worst_slide_m, 0.005f);
+  EXPECT_GT(worst_cross_m, 0.0f);
+}
+
+// Six sensors, the left foot's sensor lost while walking: the stepper takes the foot over from
+// where it was; it steps, and stays on or above the floor (within 5 mm: the hip's and ankle's
+// limits may keep the chain a few millimetres off a planted target).
+TEST(Locomotion, AFootWhoseSensorIsLostSteps) {
+  Wearer w("6");
+  auto walk = avatar::make_builtin_motion("walk", w.s);
+  ASSERT_TRUE(walk.has_value());
+  uint16_t l_foot = 0;
+  const auto layout = standard_layout("6", w.s);
+  ASSERT_TRUE(layout.has_value());
+  for (const auto& b : layout->bindings)
+    if (b.name == "l_foot") l_foot = b.sensor;
+  Pose truth = w.s.zero_pose();
+  const float floor_y = w.floor_ankle_y();
+  for (int k = 0; k < int(5 * kRateHz); ++k) {
+    (*walk)->sample(k / kRateHz, truth);
+    const bool lost = k > kRateHz;
+    if (lost) w.step(truth, {l_foot});
+    else w.step(truth);
+    EXPECT_EQ(w.ctx.locomotion().feet[0].driven, lost);
+    EXPECT_FALSE(w.ctx.locomotion().feet[1].driven);
+    EXPECT_GE(w.ankle(0).y, floor_y - 0.005f);
+  }
+  EXPECT_GE(w.ctx.locomotion().steps, 3);
+}
+
+}  // namespace
+}  // namespace mimic::solver
