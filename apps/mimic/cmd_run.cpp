@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 
 #include "command.h"
+#include "status_line.h"
 #include "stop_signal.h"
 #include <unistd.h>
 
@@ -150,6 +151,44 @@ bool parse_place(const std::string& text, Placement& place) {
 struct SourceArgs {
   std::string spec, body, calibration, place, navigate;
 };
+
+// The live status line, most useful first: the frame rate (per avatar) and a silent source
+// always show; then end-to-end latency, missed ticks and the broker; then the subscribers; the
+// per-stage timings go first when the terminal is narrow (docs/status-line.md).
+void write_status(StatusLine& line, Pipeline& pipeline, net::Server* server, net::NatsPublisher* nats, double fps,
+                  uint64_t missed_ticks, double longest_gap_ms) {
+  line.begin(StatusLine::Clock::now());
+  const size_t n = pipeline.avatar_count();
+  if (n == 1) line.add(0, "1 avatar %5.1f fps", fps);
+  else line.add(0, "%zu avatars %5.1f fps each", n, fps);
+  if (pipeline.silent_sources() > 0) line.add(0, "%zu source(s) SILENT: sending stale", pipeline.silent_sources());
+  const auto latency = pipeline.timer(kStageLatency).summary();
+  line.add(1, "latency %.1f/%.1f ms", latency.p50_us * 1e-3, latency.p99_us * 1e-3);
+  if (missed_ticks > 0)
+    line.add(2, "missed %llu ticks (max gap %.0f ms)", static_cast<unsigned long long>(missed_ticks), longest_gap_ms);
+  if (nats) {
+    char text[96];
+    const auto link = nats->link_state();
+    net::format_nats_state(link, text, sizeof text);
+    // format_nats_state writes " | nats ...": the line puts its own separators.
+    const char* t = text;
+    while (*t == ' ' || *t == '|') ++t;
+    line.add(2, "%s%s", t, link.connected ? "" : ": local only");
+  }
+  if (server) {
+    const auto& st = server->stats();
+    line.add(3, "subs %llu drop %llu rej %llu", static_cast<unsigned long long>(st.subscribers),
+             static_cast<unsigned long long>(st.frames_dropped), static_cast<unsigned long long>(st.rejected_total()));
+  }
+  char stages[112];
+  int at = std::snprintf(stages, sizeof stages, "p50/p99 us");
+  for (int s = 0; s < kStageLatency && at < int(sizeof stages); ++s) {
+    const auto sum = pipeline.timer(s).summary();
+    at += std::snprintf(stages + at, sizeof stages - size_t(at), " %s %.0f/%.0f", stage_name(s), sum.p50_us, sum.p99_us);
+  }
+  line.add(5, "%s", stages);
+  line.emit();
+}
 
 // Splits repeated --source [--body] [--calibration] groups out of argv (the Args parser keeps
 // one value per key). --body and --calibration belong to the --source before them.
@@ -466,10 +505,9 @@ int run(const std::vector<std::string>& argv) {
   const bool status_line = !a.has("quiet");
   using C = std::chrono::steady_clock;
   const auto start = C::now();
-  auto next_status = start + std::chrono::milliseconds(500);
+  StatusLine status(stderr);
   uint64_t last_frames = 0;
   auto last_status = start;
-  char line[320];
   auto last_pass = start;
   while (!stop_requested()) {
     const auto now = C::now();
@@ -492,44 +530,19 @@ int run(const std::vector<std::string>& argv) {
       std::printf("%s\n", summary(std::chrono::duration<double>(C::now() - start).count()).dump().c_str());
       std::fflush(stdout);
     }
-    if (status_line && C::now() >= next_status) {
+    if (status_line && status.due(C::now())) {
       const double dt = std::chrono::duration<double>(C::now() - last_status).count();
-      const double fps = double(pipeline.frames() - last_frames) / std::max(dt, 1e-9);
+      const size_t avatars = std::max<size_t>(1, pipeline.avatar_count());
+      const double fps = double(pipeline.frames() - last_frames) / std::max(dt, 1e-9) / double(avatars);
       last_frames = pipeline.frames();
       last_status = C::now();
-      next_status = last_status + std::chrono::milliseconds(500);
-      int n = std::snprintf(line, sizeof line, "\r%zu avatar(s) %6.1f fps", pipeline.avatar_count(), fps);
-      if (pipeline.silent_sources() > 0)
-        n += std::snprintf(line + n, sizeof line - size_t(n), " | %zu source(s) SILENT: sending stale",
-                           pipeline.silent_sources());
-      if (server) {
-        const auto& st = server->stats();
-        n += std::snprintf(line + n, sizeof line - size_t(n), " | subs %llu drop %llu rej %llu",
-                           static_cast<unsigned long long>(st.subscribers), static_cast<unsigned long long>(st.frames_dropped),
-                           static_cast<unsigned long long>(st.rejected_total()));
-      }
-      if (nats) {
-        const auto link = nats->link_state();
-        n += net::format_nats_state(link, line + n, sizeof line - size_t(n));
-        if (!link.connected) n += std::snprintf(line + n, sizeof line - size_t(n), ": local only");
-      }
-      if (missed_ticks > 0)
-        n += std::snprintf(line + n, sizeof line - size_t(n), " | missed %llu ticks (max gap %.0f ms)",
-                           static_cast<unsigned long long>(missed_ticks), longest_gap_ms);
-      n += std::snprintf(line + n, sizeof line - size_t(n), " | p50/p99 us");
-      for (int s = 0; s < kStageCount && n < int(sizeof line) - 32; ++s) {
-        const auto sum = pipeline.timer(s).summary();
-        n += std::snprintf(line + n, sizeof line - size_t(n), " %s %.0f/%.0f", stage_name(s), sum.p50_us, sum.p99_us);
-      }
-      std::fputs(line, stderr);
-      std::fputs("   ", stderr);
-      std::fflush(stderr);
+      write_status(status, pipeline, server.get(), nats.get(), fps, missed_ticks, longest_gap_ms);
     }
   }
   std::signal(SIGINT, SIG_DFL);
   std::signal(SIGTERM, SIG_DFL);
   std::signal(SIGUSR1, SIG_DFL);
-  if (status_line) std::fputs("\n", stderr);
+  if (status_line) status.finish();
   const double elapsed = std::chrono::duration<double>(C::now() - start).count();
   std::fprintf(stderr, "mimic run: stopped after %.1f s, %llu frames\n", elapsed, static_cast<unsigned long long>(pipeline.frames()));
   if (a.has("json")) std::printf("%s\n", summary(elapsed).dump().c_str());
