@@ -42,7 +42,13 @@ if echo "$exported" | grep -E 'mimic::(net|avatar|core)::' | head -3 | grep .; t
 
 # A library built with the sanitizers (MIMIC_SANITIZE) needs their runtime in the program too.
 san=
-if [ "$sanitize" = 1 ]; then san="-fsanitize=address,undefined"; fi
+san_c_link=
+if [ "$sanitize" = 1 ]; then
+  san="-fsanitize=address,undefined"
+  # A C program's link leaves out UBSan's C++ part (and the C++ library it needs), which the
+  # library, C++ inside, calls into.
+  san_c_link="-fsanitize-link-c++-runtime -Wl,--push-state,--no-as-needed -lstdc++ -Wl,--pop-state"
+fi
 
 # find_package(Mimic), out of tree.
 cmake -S "$src/examples/subscribe_print" -B "$work/example" -DCMAKE_PREFIX_PATH="$prefix" -DCMAKE_BUILD_TYPE=Release \
@@ -55,7 +61,7 @@ flags=$(PKG_CONFIG_PATH=$(dirname "$pc") pkg-config --cflags --libs mimic)
 
 # The C example (find_package(Mimic) -> Mimic::c), out of tree, C only.
 cmake -S "$src/examples/mesh_obj" -B "$work/mesh_obj" -DCMAKE_PREFIX_PATH="$prefix" -DCMAKE_BUILD_TYPE=Release \
-  -DCMAKE_C_COMPILER="$cc" -DCMAKE_C_FLAGS="$san" > "$work/configure_c.log" || { cat "$work/configure_c.log"; fail "configure the C example"; }
+  -DCMAKE_C_COMPILER="$cc" -DCMAKE_C_FLAGS="$san" -DCMAKE_EXE_LINKER_FLAGS="$san_c_link" > "$work/configure_c.log" || { cat "$work/configure_c.log"; fail "configure the C example"; }
 cmake --build "$work/mesh_obj" > "$work/build_c.log" || { cat "$work/build_c.log"; fail "build the C example"; }
 
 # A live scene (deforming its skin at LOD 1 for mesh subscribers).
