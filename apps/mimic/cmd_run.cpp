@@ -379,10 +379,11 @@ int run(const std::vector<std::string>& argv) {
     auto p = net::NatsPublisher::create(o);
     if (!p) return failure("run", p.error().what());
     nats = std::move(*p);
-    where += "; publishing scene '" + o.scene + "' as '" + o.name + "' through " + o.servers;
+    const std::string shown = net::nats_display_servers(o.servers);
+    where += "; publishing scene '" + o.scene + "' as '" + o.name + "' through " + shown;
     if (!nats->connected())
       std::fprintf(stderr, "mimic run: NATS broker %s not reachable: serving the local listeners, joining it when it comes up\n",
-                   o.servers.c_str());
+                   shown.c_str());
   }
   std::unique_ptr<net::VmcSender> vmc;
   if (a.has("vmc")) {

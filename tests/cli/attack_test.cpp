@@ -262,4 +262,14 @@ TEST(Attack, AnUnservedMeshLodIsRefusedWithAReason) {
   stop(run);
 }
 
+// Credentials in a broker address (nats://USER:PASSWORD@HOST) never reach the terminal, the
+// first line that scripts and logs keep, or an error message.
+TEST(Attack, CredentialsInABrokerAddressAreNeverShown) {
+  Proc run({"run", "--listen", "127.0.0.1:0", "--nats", "nats://alice:s3cret@127.0.0.1:1", "--duration", "0.5"});
+  run.wait(30.0);
+  EXPECT_EQ(run.out().find("s3cret"), std::string::npos) << run.out();
+  EXPECT_EQ(run.err().find("s3cret"), std::string::npos) << run.err();
+  EXPECT_EQ(run.err().find("alice"), std::string::npos) << run.err();
+}
+
 }  // namespace

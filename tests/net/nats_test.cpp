@@ -46,6 +46,13 @@ TEST(NatsNames, TargetsScenesAndStableKeys) {
   EXPECT_EQ(nats_avatar_key("a", "b").size(), 16u);
 }
 
+// Addresses as mimic shows them: credentials in an address never reach a terminal or a log.
+TEST(NatsNames, ShownAddressesCarryNoCredentials) {
+  EXPECT_EQ(nats_display_servers("nats://alice:s3cret@h:4222"), "nats://h:4222");
+  EXPECT_EQ(nats_display_servers("nats://tok@a:1,nats://b:2,nats://u:p@c:3"), "nats://a:1,nats://b:2,nats://c:3");
+  EXPECT_EQ(nats_display_servers("nats://h:4222"), "nats://h:4222");
+}
+
 TEST(Nats, TwoPublishersOneSceneTwoRelaysSameAvatarsAndLatency) {
   REQUIRE_NATS();
   NatsBroker broker;

@@ -99,6 +99,16 @@ std::string avatar_key_text(uint64_t key) {
 
 }  // namespace nats_detail
 
+std::string nats_display_servers(std::string_view servers) {
+  std::string out(servers);
+  for (size_t scheme = out.find("://"); scheme != std::string::npos; scheme = out.find("://", scheme + 3)) {
+    const size_t end = std::min(out.find(',', scheme), out.size());
+    if (const size_t at = out.rfind('@', end); at != std::string::npos && at > scheme && at < end)
+      out.erase(scheme + 3, at + 1 - (scheme + 3));
+  }
+  return out;
+}
+
 std::string nats_avatar_key(std::string_view publisher, std::string_view avatar) {
   return nats_detail::avatar_key_text(nats_detail::avatar_key_value(publisher, avatar));
 }

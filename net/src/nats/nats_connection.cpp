@@ -123,15 +123,7 @@ std::string Connection::connected_url() const {
 }
 
 // Addresses as shown in messages: without the USER:PASSWORD@ an address may carry.
-std::string redact_urls(std::string_view servers) {
-  std::string out(servers);
-  for (size_t scheme = out.find("://"); scheme != std::string::npos; scheme = out.find("://", scheme + 3)) {
-    const size_t end = std::min(out.find(',', scheme), out.size());
-    if (const size_t at = out.rfind('@', end); at != std::string::npos && at > scheme && at < end)
-      out.erase(scheme + 3, at + 1 - (scheme + 3));
-  }
-  return out;
-}
+std::string redact_urls(std::string_view servers) { return nats_display_servers(servers); }
 
 Status Connection::open(const NatsOptions& options) {
   std::vector<std::string> urls;

@@ -92,6 +92,9 @@ struct NatsTarget {
 Result<NatsTarget> parse_nats_target(std::string_view text);
 Status check_scene_name(std::string_view scene);
 
+// Broker addresses as shown to people and in logs: without the USER:PASSWORD@ an address may carry.
+std::string nats_display_servers(std::string_view servers);
+
 // Stable avatar key: 16 lowercase hex digits of FNV-1a 64 over "publisher/avatar".
 std::string nats_avatar_key(std::string_view publisher, std::string_view avatar);
 
