@@ -276,38 +276,6 @@ int run(const std::vector<std::string>& argv) {
     return usage_error("run", "--nats-model-ttl must be 0 (never) or 3 to 86400 seconds");
   if (!(nats_options.mesh_max_hz >= net::kMinMeshHz && nats_options.mesh_max_hz <= net::kMaxMeshHz))
     return usage_error("run", "--nats-mesh-hz must be 1 to 240");
-  std::unique_ptr<net::Server> server;
-  std::unique_ptr<net::Client> publisher;
-  std::unique_ptr<net::NatsPublisher> nats;
-  std::string where;
-  if (a.has("publish") && (a.has("lean-shift") || a.has("lean-key-interval")))
-    return usage_error("run", "--lean-shift and --lean-key-interval set what this process serves: not with --publish");
-  if (a.has("publish")) {
-    net::ClientOptions o;
-    o.connect = *a.get("publish");
-    o.role = net::Role::publisher;
-    o.secret = secret;
-    o.name = "mimic run";
-    auto c = net::Client::connect(o);
-    if (!c) return failure("run", c.error().what());
-    publisher = std::move(*c);
-    where = "publishing into " + o.connect;
-  } else {
-    net::ServerOptions o;
-    // Sessions are bounded by the descriptors the process may hold: as many as the system allows.
-    raise_descriptor_limit();
-    o.listen = a.get_or("listen", "127.0.0.1:7777");
-    // Mesh frames are deformed at one LOD: a subscriber asking for another is told so.
-    o.mesh_lods_served = static_cast<uint8_t>(1u << mesh_lod);
-    o.secret = secret;
-    o.udp = !a.has("no-udp");
-    if (const std::string e = take_lean_flags(a, o); !e.empty()) return usage_error("run", e);
-    auto s = net::Server::create(o);
-    if (!s) return failure("run", s.error().what());
-    server = std::move(*s);
-    where = "serving on " + server->endpoint();
-  }
-
   // Setup: everything is allocated here, before the loop.
   std::vector<std::unique_ptr<PoseFeed>> feeds;
   std::vector<BodyAsset> bodies;
@@ -344,6 +312,8 @@ int run(const std::vector<std::string>& argv) {
       if (!feed) return usage_error("run", feed.error().message);
     } else {
       feed = open_feed(spec, calibration, &body_skeleton);
+      // A spec that does not parse is a usage error (2); a source that cannot be opened is not (1).
+      if (!feed && feed.error().code == Errc::invalid_argument) return usage_error("run", feed.error().what());
       if (!feed) return failure("run", feed.error().what());
       // A source that opened with a problem (e.g. a replayed log with damage) says so up front:
       // otherwise it would play what it can and then fall silent without a word.
@@ -368,6 +338,39 @@ int run(const std::vector<std::string>& argv) {
     feeds.push_back(std::move(*feed));
     bodies.push_back(std::move(*asset));
     deformers.push_back(std::move(*deformer));
+  }
+  // The network last: every option and source is checked before a port is taken, so a bad one
+  // is named as such even when another program holds the port.
+  std::unique_ptr<net::Server> server;
+  std::unique_ptr<net::Client> publisher;
+  std::unique_ptr<net::NatsPublisher> nats;
+  std::string where;
+  if (a.has("publish") && (a.has("lean-shift") || a.has("lean-key-interval")))
+    return usage_error("run", "--lean-shift and --lean-key-interval set what this process serves: not with --publish");
+  if (a.has("publish")) {
+    net::ClientOptions o;
+    o.connect = *a.get("publish");
+    o.role = net::Role::publisher;
+    o.secret = secret;
+    o.name = "mimic run";
+    auto c = net::Client::connect(o);
+    if (!c) return failure("run", c.error().what());
+    publisher = std::move(*c);
+    where = "publishing into " + o.connect;
+  } else {
+    net::ServerOptions o;
+    // Sessions are bounded by the descriptors the process may hold: as many as the system allows.
+    raise_descriptor_limit();
+    o.listen = a.get_or("listen", "127.0.0.1:7777");
+    // Mesh frames are deformed at one LOD: a subscriber asking for another is told so.
+    o.mesh_lods_served = static_cast<uint8_t>(1u << mesh_lod);
+    o.secret = secret;
+    o.udp = !a.has("no-udp");
+    if (const std::string e = take_lean_flags(a, o); !e.empty()) return usage_error("run", e);
+    auto s = net::Server::create(o);
+    if (!s) return failure("run", s.error().what());
+    server = std::move(*s);
+    where = "serving on " + server->endpoint();
   }
   if (a.has("nats")) {
     net::NatsOptions o = nats_options;
