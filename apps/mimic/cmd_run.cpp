@@ -557,6 +557,6 @@ int run(const std::vector<std::string>& argv) {
 
 }  // namespace
 
-MIMIC_COMMAND(run, "run", "run the realtime pipeline and serve the avatars (the default command)", kUsage, run);
+MIMIC_COMMAND(run, "run", "run the realtime pipeline and serve the avatars", kUsage, run);
 
 }  // namespace mimic::app
