@@ -124,7 +124,7 @@ Status Server::update_avatar_model(uint16_t avatar, uint16_t dof_count, std::str
   m.dof_count = dof_count;
   m.model_bytes = std::move(model_bytes);
   m.name = a->name;
-  if (!impl_->model_fits(m, a)) return fail(Errc::out_of_range, "the server's models would pass its memory bound");
+  if (!impl_->model_fits(avatar_model_packet_bytes(m), a)) return fail(Errc::out_of_range, "the server's models would pass its memory bound");
   impl_->update_model(*a, m);
   return {};
 }

@@ -184,7 +184,7 @@ void apply_vmc_packet(std::span<const uint8_t> packet, double now_s, VmcState& s
 
 bool pose_from_vmc(const VmcState& state, const avatar::Skeleton& skeleton, const std::vector<VmcBone>& bones,
                    avatar::Pose& pose) {
-  const TrackedPose& hips = state.bones[size_t(unity_bone_index("Hips"))];
+  const TrackedPose& hips = state.bones[kHipsBone];
   if (!hips.present || pose.dof_rad.size() != size_t(skeleton.dof_count())) return false;
   const std::span<float> dofs(pose.dof_rad);
   for (const auto& b : bones) {

@@ -37,7 +37,7 @@ class VmcFeed final : public PoseFeed {
   }
 
   void solve(avatar::Pose& pose, double& capture_s, bool& stale) override {
-    const auto& hips = rx_->state().bones[size_t(net::unity_bone_index("Hips"))];
+    const auto& hips = rx_->state().bones[net::kHipsBone];
     const bool ok = net::pose_from_vmc(rx_->state(), skeleton_, bones_, pose_);
     pose.root_position_m = pose_.root_position_m;
     pose.root_orientation = pose_.root_orientation;
@@ -49,7 +49,7 @@ class VmcFeed final : public PoseFeed {
   devices::DeviceStatus status() const override {
     devices::DeviceStatus s;
     const auto& st = rx_->stats();
-    const auto& hips = rx_->state().bones[size_t(net::unity_bone_index("Hips"))];
+    const auto& hips = rx_->state().bones[net::kHipsBone];
     s.description = describe();
     s.state = !hips.present ? devices::DeviceState::connecting
               : steady_now_s() - hips.received_s > stale_after_s_ ? devices::DeviceState::stale

@@ -23,14 +23,16 @@
 #include "mimic/net/client.h"
 #include "mimic/net/frame_codec.h"
 #include "mimic_proc.h"
+#include "raw_peer.h"
 
 namespace {
 
 using mimic::test::Proc;
 using mimic::test::endpoint_of;
 namespace net = mimic::net;
-using Bytes = std::vector<uint8_t>;
-using Clock = std::chrono::steady_clock;
+using mimic::net::test::Bytes;
+using mimic::net::test::Clock;
+using mimic::net::test::RawPeer;
 
 uint16_t port_of(const std::string& endpoint) {
   return static_cast<uint16_t>(std::stoi(endpoint.substr(endpoint.rfind(':') + 1)));
@@ -72,43 +74,6 @@ bool frames_keep_coming(net::Client& c, uint64_t n, double timeout_s) {
   const uint64_t before = c.stats().frames;
   return pump(c, [&] { return c.stats().frames >= before + n; }, timeout_s);
 }
-
-// A raw TCP connection from `from` (any 127.x.y.z) to the server.
-class Raw {
- public:
-  Raw(uint16_t port, const char* from = "127.0.0.1") : fd_(::socket(AF_INET, SOCK_STREAM, 0)) {
-    sockaddr_in l{};
-    l.sin_family = AF_INET;
-    ::inet_pton(AF_INET, from, &l.sin_addr);
-    ::bind(fd_, reinterpret_cast<sockaddr*>(&l), sizeof l);
-    sockaddr_in a{};
-    a.sin_family = AF_INET;
-    a.sin_port = htons(port);
-    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-    ok_ = ::connect(fd_, reinterpret_cast<sockaddr*>(&a), sizeof a) == 0;
-  }
-  ~Raw() { ::close(fd_); }
-  bool ok() const { return ok_; }
-  bool send(const Bytes& b) { return ::send(fd_, b.data(), b.size(), MSG_NOSIGNAL) == ssize_t(b.size()); }
-  // Whatever arrives within `timeout_s` (up to `want` bytes).
-  Bytes read(double timeout_s, size_t want) {
-    Bytes out;
-    const auto end = Clock::now() + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(timeout_s));
-    while (Clock::now() < end && out.size() < want) {
-      pollfd p{fd_, POLLIN, 0};
-      if (::poll(&p, 1, 10) <= 0) continue;
-      uint8_t buf[65536];
-      const ssize_t n = ::recv(fd_, buf, sizeof buf, 0);
-      if (n <= 0) break;
-      out.insert(out.end(), buf, buf + n);
-    }
-    return out;
-  }
-
- private:
-  int fd_;
-  bool ok_ = false;
-};
 
 Bytes hello(net::Role role) {
   net::Hello h;
@@ -156,11 +121,11 @@ TEST(Attack, OneMeshTopologyPacketNeitherKillsNorGrowsMimicRun) {
   ASSERT_TRUE(frames_keep_coming(*v, 10, 10.0));
   const size_t rss_before = rss_kib(run.pid());
   for (uint32_t count : {0xFFFFFFFFu, 100'000'000u}) {
-    Raw attacker(port_of(ep));
+    RawPeer attacker(port_of(ep));
     ASSERT_TRUE(attacker.send(hello(net::Role::publisher)));
     ASSERT_TRUE(attacker.send(model(0, 64)));
     ASSERT_TRUE(attacker.send(topology(count)));
-    attacker.read(1.0, SIZE_MAX);  // until the server closes it
+    attacker.wait_closed(5.0);  // until the server closes it
   }
   EXPECT_EQ(run.wait(0.2), -1) << "mimic run ended: " << run.err();
   EXPECT_TRUE(frames_keep_coming(*v, 30, 10.0));
@@ -201,11 +166,11 @@ TEST(Attack, ExhaustingDescriptorsDoesNotFreezeTheLoop) {
   auto v = viewer(ep);
   ASSERT_TRUE(v);
   ASSERT_TRUE(frames_keep_coming(*v, 10, 10.0));
-  std::vector<std::unique_ptr<Raw>> crowd;
+  std::vector<std::unique_ptr<RawPeer>> crowd;
   const char* from[] = {"127.0.0.2", "127.0.0.3", "127.0.0.4", "127.0.0.5", "127.0.0.6"};
   for (int i = 0; i < 300; ++i) {
-    crowd.push_back(std::make_unique<Raw>(port_of(ep), from[i % 5]));
-    if (crowd.back()->ok()) crowd.back()->send(hello(net::Role::subscriber));
+    crowd.push_back(std::make_unique<RawPeer>(port_of(ep), 0, from[i % 5]));
+    if (crowd.back()->connected()) crowd.back()->send(hello(net::Role::subscriber));
   }
   EXPECT_TRUE(frames_keep_coming(*v, 90, 10.0));
   EXPECT_EQ(run.wait(0.1), -1) << run.err();
@@ -220,7 +185,7 @@ TEST(Attack, ASceneLargerThanTheBacklogCanStillBeJoined) {
   Proc run(run_args());
   const std::string ep = endpoint_of(run);
   ASSERT_FALSE(ep.empty()) << run.err();
-  Raw pub(port_of(ep));
+  RawPeer pub(port_of(ep));
   ASSERT_TRUE(pub.send(hello(net::Role::publisher)));
   for (uint16_t slot = 0; slot < 9; ++slot) ASSERT_TRUE(pub.send(model(slot, 1'000'000)));
   Proc sub({"subscribe", "--connect", ep, "--count", "20", "--json"});

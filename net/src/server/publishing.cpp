@@ -13,13 +13,13 @@ Reject Session::on_model(std::span<const uint8_t> packet) {
   if (m.avatar > 255) return Reject::malformed;
   if (auto it = slots.find(slot); it != slots.end()) {
     if (Avatar* a = srv.avatar(it->second)) {
-      if (!srv.model_fits(m, a)) return Reject::unavailable;
+      if (!srv.model_fits(avatar_model_packet_bytes(m), a)) return Reject::unavailable;
       srv.update_model(*a, m);
       return Reject::ok;
     }
   }
   if (slots.size() >= kMaxAvatarsPerPublisher) return Reject::unexpected;
-  if (!srv.model_fits(m, nullptr)) return Reject::unavailable;
+  if (!srv.model_fits(avatar_model_packet_bytes(m), nullptr)) return Reject::unavailable;
   auto new_id = srv.new_avatar(m.name, m.dof_count, std::move(m.model_bytes), this);
   if (!new_id) return Reject::unexpected;
   slots[slot] = *new_id;
@@ -64,12 +64,8 @@ Result<uint16_t> ServerImpl::new_avatar(const std::string& name, uint16_t dof_co
   if (dof_count > kMaxPoseDofs) return fail(Errc::out_of_range, "too many DOFs for a pose frame");
   if (model_bytes.size() > kMaxModelBytes) return fail(Errc::out_of_range, "body model too large");
   if (!name_is_printable(name)) return fail(Errc::invalid_argument, "avatar name has control characters");
-  {
-    AvatarModel probe;
-    probe.name = name.substr(0, kMaxNameBytes);
-    probe.model_bytes = model_bytes;
-    if (!model_fits(probe, nullptr)) return fail(Errc::out_of_range, "the server's models would pass its memory bound");
-  }
+  if (!model_fits(kHeaderBytes + 14 + std::min(name.size(), kMaxNameBytes) + model_bytes.size(), nullptr))
+    return fail(Errc::out_of_range, "the server's models would pass its memory bound");
   uint16_t id = 0;
   for (uint16_t i = 1; i < avatars.size(); ++i)
     if (!avatars[i].live) {
@@ -100,8 +96,8 @@ Result<uint16_t> ServerImpl::new_avatar(const std::string& name, uint16_t dof_co
   return id;
 }
 
-bool ServerImpl::model_fits(const AvatarModel& m, const Avatar* replacing) {
-  uint64_t held = avatar_model_packet_bytes(m);
+bool ServerImpl::model_fits(size_t packet_bytes, const Avatar* replacing) {
+  uint64_t held = packet_bytes;
   for (const auto& a : avatars)
     if (a.live && &a != replacing && a.model_packet) held += a.model_packet->size();
   if (held <= opt.max_model_bytes_held) return true;

@@ -216,9 +216,9 @@ struct ServerImpl {
   Result<uint16_t> new_avatar(const std::string& name, uint16_t dof_count, std::string model_bytes,
                               Session* owner);
   void update_model(Avatar& a, const AvatarModel& m);
-  // Whether the scene's current models stay within opt.max_model_bytes_held with `m` in place of
-  // `replacing`'s model (or added); counts a refusal.
-  bool model_fits(const AvatarModel& m, const Avatar* replacing);
+  // Whether the scene's current models stay within opt.max_model_bytes_held with a model packet
+  // of `packet_bytes` in place of `replacing`'s (or added); counts a refusal.
+  bool model_fits(size_t packet_bytes, const Avatar* replacing);
   void drop_avatar(uint16_t id);
   Reject accept_pose(Avatar& a, std::span<const uint8_t> packet);
   Reject accept_mesh(Avatar& a, uint8_t lod, std::span<const uint8_t> packet);

@@ -39,6 +39,8 @@ inline constexpr std::array<std::string_view, 24> kUnityBodyBones = {
     "RightLowerArm", "RightHand",    "LeftUpperLeg", "LeftLowerLeg", "LeftFoot",      "LeftToes",
     "RightUpperLeg", "RightLowerLeg", "RightFoot",   "RightToes",    "LeftEye",       "RightEye"};
 int unity_bone_index(std::string_view name);  // -1 when not a body bone
+inline constexpr size_t kHipsBone = 0;        // kUnityBodyBones[0]: the bone that places the body
+static_assert(kUnityBodyBones[kHipsBone] == "Hips");
 
 struct TrackedPose {
   bool present = false;
