@@ -18,6 +18,8 @@ packages=(
   xvfb liblo-tools                 # viewer under a virtual display; OSC peer for interop tests
   clang libclang-rt-14-dev         # the second compiler CI builds with; libFuzzer and sanitizers
   libnats-dev nats-server          # broker transport (mimic run --nats, mimic relay); tests start brokers
+  libcli11-dev zlib1g-dev          # command-line parsing and usage text; CRC-32
+  universal-ctags clang-format     # the size rules (scripts/check_structure.sh) and the tree's format
 )
 
 missing=()
