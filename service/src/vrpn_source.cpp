@@ -20,8 +20,9 @@ std::string param(const devices::SourceSpec& spec, const char* key, const char* 
   return it == spec.params.end() ? fallback : it->second;
 }
 
-// VRPN sensor number → Mimic sensor id (the solver mount's), or -1 for a sensor not worn.
-using SensorMap = std::array<int, kMaxSensors>;
+// (VRPN device index, sensor number) → Mimic sensor id (the solver mount's), or -1 for a sensor
+// not worn; index device * kMaxSensors + sensor.
+using SensorMap = std::vector<int>;
 
 class VrpnSource final : public devices::SensorSource {
  public:
@@ -29,7 +30,7 @@ class VrpnSource final : public devices::SensorSource {
              glm::mat3 axes, float scale_m, double stale_s, std::string description)
       : remote_(std::move(remote)),
         clock_(std::move(clock)),
-        map_(map),
+        map_(std::move(map)),
         axes_(axes),
         scale_m_(scale_m),
         stale_s_(stale_s) {
@@ -51,10 +52,11 @@ class VrpnSource final : public devices::SensorSource {
     size_t k = 0;
     for (size_t i = 0; i < n && k < out.size(); ++i) {
       const net::VrpnReport& r = reports_[i];
-      if (r.sensor < 0 || size_t(r.sensor) >= kMaxSensors || map_[size_t(r.sensor)] < 0) continue;
+      const size_t at = size_t(r.device) * kMaxSensors + size_t(r.sensor);
+      if (r.sensor < 0 || size_t(r.sensor) >= kMaxSensors || at >= map_.size() || map_[at] < 0) continue;
       devices::SensorSample& s = out[k++];
       s = {};
-      s.sensor = static_cast<uint16_t>(map_[size_t(r.sensor)]);
+      s.sensor = static_cast<uint16_t>(map_[at]);
       s.device_time_s = r.capture_unix_s;
       s.host_time_s = r.received_s;
       s.position_m = axes_ * glm::vec3(r.position) * scale_m_;
@@ -103,6 +105,18 @@ class VrpnSource final : public devices::SensorSource {
   uint64_t samples_ = 0;
 };
 
+std::vector<std::string> split_list(const std::string& text) {
+  std::vector<std::string> out;
+  size_t start = 0;
+  while (start < text.size()) {
+    size_t comma = text.find(',', start);
+    if (comma == std::string::npos) comma = text.size();
+    if (comma > start) out.push_back(text.substr(start, comma - start));
+    start = comma + 1;
+  }
+  return out;
+}
+
 Result<int> parse_int(std::string_view text, int lo, int hi, const std::string& what) {
   int v = 0;
   const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), v);
@@ -112,9 +126,16 @@ Result<int> parse_int(std::string_view text, int lo, int hi, const std::string& 
   return v;
 }
 
-// map=0:head,3:pelvis → (VRPN sensor, segment name) pairs.
-Result<std::vector<std::pair<int, std::string>>> parse_map(const std::string& text) {
-  std::vector<std::pair<int, std::string>> out;
+// One map= item: a sensor number of the main device, or a device name (its sensor 0).
+struct MapItem {
+  std::string device;  // empty: the main device
+  int sensor = 0;
+  std::string segment;
+};
+
+// map=0:head,3:pelvis or map=Head:head,LeftHand:l_hand.
+Result<std::vector<MapItem>> parse_map(const std::string& text) {
+  std::vector<MapItem> out;
   size_t start = 0;
   while (start <= text.size()) {
     size_t comma = text.find(',', start);
@@ -123,11 +144,20 @@ Result<std::vector<std::pair<int, std::string>>> parse_map(const std::string& te
     const size_t colon = item.find(':');
     if (colon == std::string::npos || colon + 1 == item.size())
       return fail(Errc::invalid_argument, "vrpn map: expected SENSOR:SEGMENT, got '" + item + "'");
-    auto sensor = parse_int(std::string_view(item).substr(0, colon), 0, int(kMaxSensors) - 1, "vrpn map sensor");
-    if (!sensor) return tl::unexpected(sensor.error());
-    for (const auto& [s, name] : out)
-      if (s == *sensor) return fail(Errc::invalid_argument, "vrpn map: sensor " + item.substr(0, colon) + " twice");
-    out.emplace_back(*sensor, item.substr(colon + 1));
+    const std::string key = item.substr(0, colon);
+    MapItem m;
+    m.segment = item.substr(colon + 1);
+    if (key.find_first_not_of("0123456789") == std::string::npos) {
+      auto sensor = parse_int(key, 0, int(kMaxSensors) - 1, "vrpn map sensor");
+      if (!sensor) return tl::unexpected(sensor.error());
+      m.sensor = *sensor;
+    } else {
+      m.device = key;
+    }
+    for (const auto& o : out)
+      if (o.device == m.device && o.sensor == m.sensor)
+        return fail(Errc::invalid_argument, "vrpn map: '" + key + "' twice");
+    out.push_back(std::move(m));
     start = comma + 1;
   }
   return out;
@@ -173,14 +203,15 @@ Result<std::vector<solver::SensorMount>> vrpn_mounts(const devices::SourceSpec& 
     auto named = solver::standard_layout("11", skeleton);
     auto every = solver::standard_layout("all", skeleton);
     if (!named || !every) return fail(Errc::not_found, "vrpn map: the skeleton lacks the standard segments");
-    for (const auto& [sensor, name] : *map) {
+    for (size_t i = 0; i < map->size(); ++i) {
+      const std::string& name = (*map)[i].segment;
       const solver::SensorBinding* found = nullptr;
       for (const auto* layout : {&*named, &*every})
         for (const auto& b : layout->bindings)
           if (!found && (b.name == name || b.segment == name)) found = &b;
       if (!found) return fail(Errc::not_found, "vrpn map: no segment '" + name + "' (names: head, pelvis, chest, "
                                                    "l_hand, l_foot, l_upper_arm, l_thigh, r_…, or a joint name)");
-      mounts.push_back(mount_of(*found, static_cast<uint16_t>(sensor)));
+      mounts.push_back(mount_of(*found, static_cast<uint16_t>(i)));  // map items are sensors 0, 1, … in order
     }
     return mounts;
   }
@@ -205,29 +236,44 @@ Result<std::unique_ptr<devices::SensorSource>> open_vrpn_source(const devices::S
   }
   auto stale_ms = parse_int(param(spec, "stale_ms", "250"), 10, 60000, "vrpn stale_ms");
   if (!stale_ms) return tl::unexpected(stale_ms.error());
-  // Which VRPN sensor feeds which mount: layout order, or the explicit map.
-  SensorMap map;
-  map.fill(-1);
+  // Which VRPN device and sensor feeds which mount: the explicit map in its order; or the layout
+  // in order, over the main device's sensors, or over the devices (main, then devices=) when
+  // there are several, each device's sensor 0.
+  net::VrpnTrackerRemote::Options o;
+  o.tracker = *address;
+  auto device_index = [&](const std::string& name) {
+    if (name.empty() || name == o.tracker.device) return 0;
+    for (size_t i = 0; i < o.more_trackers.size(); ++i)
+      if (o.more_trackers[i] == name) return int(i + 1);
+    o.more_trackers.push_back(name);
+    return int(o.more_trackers.size());
+  };
+  for (const std::string& name : split_list(param(spec, "devices", ""))) device_index(name);
+  std::vector<std::array<int, 3>> wiring;  // device, sensor, mount id
   if (auto it = spec.params.find("map"); it != spec.params.end()) {
     auto m = parse_map(it->second);
     if (!m) return tl::unexpected(m.error());
-    for (const auto& [sensor, name] : *m) map[size_t(sensor)] = sensor;
+    for (size_t i = 0; i < m->size(); ++i)
+      wiring.push_back({device_index((*m)[i].device), (*m)[i].sensor, int(i)});
   } else {
     const std::string layout = param(spec, "layout", "6");
     const int count = layout == "3" ? 3 : layout == "6" ? 6 : layout == "11" ? 11 : int(kMaxSensors);
-    for (int i = 0; i < count; ++i) map[size_t(i)] = i;
+    const bool per_device = !o.more_trackers.empty();
+    for (int i = 0; i < (per_device ? int(o.more_trackers.size()) + 1 : count); ++i)
+      wiring.push_back({per_device ? i : 0, per_device ? 0 : i, i});
   }
-  net::VrpnTrackerRemote::Options o;
-  o.tracker = *address;
+  SensorMap map((o.more_trackers.size() + 1) * kMaxSensors, -1);
+  for (const auto& [device, sensor, id] : wiring) map[size_t(device) * kMaxSensors + size_t(sensor)] = id;
   o.button_device = param(spec, "buttons", "");
   if (!clock) clock = std::make_shared<SteadyClock>();
   auto remote = net::VrpnTrackerRemote::create(o, clock);
   if (!remote) return tl::unexpected(remote.error());
   std::string description = "vrpn:" + address->text() + " (VRPN tracker";
+  if (!o.more_trackers.empty()) description += " + " + std::to_string(o.more_trackers.size()) + " more devices";
   if (!o.button_device.empty()) description += ", buttons " + o.button_device;
   description += ")";
   return std::unique_ptr<devices::SensorSource>(
-      new VrpnSource(std::move(*remote), std::move(clock), map, *axes, scale_m, *stale_ms / 1000.0, std::move(description)));
+      new VrpnSource(std::move(*remote), std::move(clock), std::move(map), *axes, scale_m, *stale_ms / 1000.0, std::move(description)));
 }
 
 }  // namespace mimic::service

@@ -1,8 +1,12 @@
 // A `vrpn:DEVICE@HOST[:PORT]` (or `DEVICE@tcp://HOST[:PORT]`) source: a VRPN tracker's reports
 // become tracker samples for the solver (docs/hardware.md).
-//   layout=3|6|11|all   VRPN sensor i is sensor i of that standard layout (default 6)
-//   map=0:head,3:pelvis explicit: VRPN sensor number → segment name of the standard layouts
-//                       ("head", "pelvis", "l_hand", "l_foot", "chest", "l_thigh", … or any joint)
+//   layout=3|6|11|all   VRPN sensor i is sensor i of that standard layout (default 6); with
+//                       devices=, device i (DEVICE first) is, each its sensor 0
+//   devices=A,B,…       more tracker devices on the same server (OptiTrack Motive and Vicon
+//                       Tracker serve one device per rigid body)
+//   map=0:head,3:pelvis explicit: a sensor number of DEVICE, or a device name (its sensor 0) →
+//   map=Head:head,…     a segment of the standard layouts ("head", "pelvis", "l_hand", "l_foot",
+//                       "chest", "l_thigh", … or any joint); named devices are read as well
 //   axes=x,-z,y         for the sender's X, Y and Z in turn, the Mimic axis it becomes (Mimic:
 //                       +Y up, the body faces +Z, its left is +X); default x,y,z
 //   scale=0.001         sender units → metres (default 1)

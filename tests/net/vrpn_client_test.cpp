@@ -184,6 +184,32 @@ TEST(VrpnTrackerRemote, APeerKilledAndRestartedIsCountedAndRecovered) {
   EXPECT_EQ(remote->stats().drops, 1u);
 }
 
+// Motive and Vicon serve one device per rigid body: several devices read on one connection, each
+// report saying whose it is.
+TEST(VrpnTrackerRemote, ReadsSeveralTrackerDevicesOnOneConnection) {
+  PeerServer peer({"Head", "LeftHand", "Prop"});
+  VrpnTrackerRemote::Options o;
+  o.tracker = *parse_vrpn_address("Head@tcp://127.0.0.1:" + std::to_string(peer.port()));
+  o.more_trackers = {"LeftHand"};
+  auto remote = std::move(*VrpnTrackerRemote::create(o));
+  std::vector<VrpnReport> got;
+  const double head[3] = {0, 1.7, 0}, hand[3] = {0.3, 1.0, 0.2}, q[4] = {0, 0, 0, 1};
+  ASSERT_TRUE(run_until(*remote, nullptr, [&] {
+    if (remote->link() == VrpnLink::connected) {
+      peer.send_pos_quat("Head", 0, head, q, 1, 0);
+      peer.send_pos_quat("LeftHand", 0, hand, q, 1, 0);
+      peer.send_pos_quat("Prop", 0, hand, q, 1, 0);  // not asked for
+    }
+    bool h = false, l = false;
+    for (const auto& r : got) (r.device == 0 ? h : l) = true;
+    return h && l && got.size() >= 6;
+  }, got)) << remote->last_error();
+  for (const auto& r : got) {
+    ASSERT_TRUE(r.device == 0 || r.device == 1);
+    EXPECT_EQ(r.position.y, r.device == 0 ? 1.7 : 1.0);
+  }
+}
+
 TEST(VrpnTrackerRemote, ReconnectsWhenTheServerGoesAwayAndComesBack) {
   auto s = std::make_unique<Served>();
   const std::string endpoint = s->server->endpoint();

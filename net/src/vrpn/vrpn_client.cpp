@@ -28,8 +28,10 @@ constexpr size_t kReportsPerDatagram = vrpn::kUdpDatagramBytes / vrpn::message_b
 constexpr double kPingEvery_s = 1.0;       // vrpn_BaseClass's rate
 constexpr double kLobEvery_s = 1.0;        // how often a call-back request is repeated
 
-enum Local : int32_t { kTrackerSender = 0, kButtonSender = 1, kPingType = 0 };
-enum class Remote : int8_t { none, tracker, buttons, pos_quat, button_change, pong };
+// Our senders: the button device first (if any), then the trackers; one message type, ping.
+enum Local : int32_t { kPingType = 0 };
+enum class Remote : int8_t { none, pos_quat, button_change, pong };
+constexpr int16_t kNotOurs = -1, kButtons = -2;  // remote sender → tracker index, or these
 
 void close_fd(int& fd) {
   if (fd >= 0) ::close(fd);
@@ -112,10 +114,11 @@ struct VrpnTrackerRemote::Impl {
   std::string last_error;
   int listen_fd = -1, tcp_fd = -1, udp_fd = -1;
   double next_attempt_s = 0, last_lob_s = -1e9, last_ping_s = 0, last_heard_s = 0;
-  std::array<Remote, kMaxRemoteIds> remote_sender{}, remote_type{};
+  std::array<int16_t, kMaxRemoteIds> remote_sender{};
+  std::array<Remote, kMaxRemoteIds> remote_type{};
   std::array<uint8_t, vrpn::kHeaderBytes + kMaxPayload + 8> rx{};
   size_t rx_fill = 0;
-  std::array<uint8_t, 4096> tx{};
+  std::array<uint8_t, 16384> tx{};  // descriptions of up to 66 devices, then pings
   size_t tx_fill = 0;
   std::array<uint8_t, 2048> datagram{};
   char error_text[160] = {};
@@ -168,7 +171,7 @@ struct VrpnTrackerRemote::Impl {
     in_addr local{};
     if (!local_address(local)) return drop_errno("no route to the VRPN server");
     rx_fill = tx_fill = 0;
-    remote_sender.fill(Remote::none);
+    remote_sender.fill(kNotOurs);
     remote_type.fill(Remote::none);
     if (!options.tracker.tcp_only) {
       udp_fd = socket_of(SOCK_DGRAM);
@@ -262,9 +265,10 @@ struct VrpnTrackerRemote::Impl {
       ok &= queue(int32_t(port_of(udp_fd)), vrpn::kUdpDescription,
                   std::span<const uint8_t>(reinterpret_cast<const uint8_t*>(ip), std::strlen(ip) + 1));
     }
-    ok &= queue_description(kTrackerSender, vrpn::kSenderDescription, options.tracker.device);
-    if (!options.button_device.empty())
-      ok &= queue_description(kButtonSender, vrpn::kSenderDescription, options.button_device);
+    int32_t id = 0;
+    ok &= queue_description(id++, vrpn::kSenderDescription, options.tracker.device);
+    for (const std::string& name : options.more_trackers) ok &= queue_description(id++, vrpn::kSenderDescription, name);
+    if (!options.button_device.empty()) ok &= queue_description(id++, vrpn::kSenderDescription, options.button_device);
     ok &= queue_description(kPingType, vrpn::kTypeDescription, "vrpn_Base ping_message");
     if (!ok) return drop("VRPN descriptions do not fit the send buffer");
     link = VrpnLink::connected;
@@ -292,10 +296,12 @@ struct VrpnTrackerRemote::Impl {
     if (m.sender < 0 || size_t(m.sender) >= kMaxRemoteIds) return;
     const std::string_view name = vrpn::description_name(m.payload);
     if (m.type == vrpn::kSenderDescription) {
-      remote_sender[size_t(m.sender)] = name == options.tracker.device ? Remote::tracker
-                                        : !options.button_device.empty() && name == options.button_device
-                                            ? Remote::buttons
-                                            : Remote::none;
+      int16_t ours = kNotOurs;
+      if (name == options.tracker.device) ours = 0;
+      for (size_t i = 0; i < options.more_trackers.size(); ++i)
+        if (name == options.more_trackers[i]) ours = int16_t(i + 1);
+      if (!options.button_device.empty() && name == options.button_device) ours = kButtons;
+      remote_sender[size_t(m.sender)] = ours;
     } else {
       remote_type[size_t(m.sender)] = name == "vrpn_Tracker Pos_Quat"    ? Remote::pos_quat
                                       : name == "vrpn_Button Change"     ? Remote::button_change
@@ -316,11 +322,13 @@ struct VrpnTrackerRemote::Impl {
     last_heard_s = now();
     if (m.type == vrpn::kSenderDescription || m.type == vrpn::kTypeDescription) return describe(m);
     if (m.type < 0 || size_t(m.type) >= kMaxRemoteIds || m.sender < 0 || size_t(m.sender) >= kMaxRemoteIds) return;
-    const Remote type = remote_type[size_t(m.type)], sender = remote_sender[size_t(m.sender)];
+    const Remote type = remote_type[size_t(m.type)];
+    const int16_t sender = remote_sender[size_t(m.sender)];
     if (type == Remote::pong) {
       ++stats.pongs;
-    } else if (type == Remote::pos_quat && sender == Remote::tracker && out.report_count < out.reports.size()) {
+    } else if (type == Remote::pos_quat && sender >= 0 && out.report_count < out.reports.size()) {
       VrpnReport& r = out.reports[out.report_count];
+      r.device = sender;
       double p[3], q[4];
       if (!vrpn::read_pos_quat(m.payload, r.sensor, p, q)) {
         ++stats.malformed;
@@ -332,7 +340,7 @@ struct VrpnTrackerRemote::Impl {
       r.received_s = last_heard_s;
       ++out.report_count;
       ++stats.reports;
-    } else if (type == Remote::button_change && sender == Remote::buttons && m.payload.size() == 8 &&
+    } else if (type == Remote::button_change && sender == kButtons && m.payload.size() == 8 &&
                out.button_count < out.buttons.size()) {
       out.buttons[out.button_count++] = {int32_t(vrpn::load_be32(m.payload.data())),
                                          vrpn::load_be32(m.payload.data() + 4) != 0, last_heard_s};
@@ -405,7 +413,7 @@ struct VrpnTrackerRemote::Impl {
 
   void keep_alive() {
     if (now() - last_ping_s >= kPingEvery_s) {
-      if (queue(kTrackerSender, kPingType, {})) last_ping_s = now();
+      if (queue(0, kPingType, {})) last_ping_s = now();  // from the tracker, as vrpn_Tracker_Remote pings
     }
   }
 };
@@ -423,6 +431,10 @@ Result<std::unique_ptr<VrpnTrackerRemote>> VrpnTrackerRemote::create(const Optio
   if (options.tracker.device.empty()) return fail(Errc::invalid_argument, "VRPN: no device name");
   if (options.button_device.size() + 1 > vrpn::kMaxNameBytes)
     return fail(Errc::invalid_argument, "VRPN: button device name longer than 99 bytes");
+  if (options.more_trackers.size() > 64) return fail(Errc::invalid_argument, "VRPN: more than 65 tracker devices");
+  for (const std::string& name : options.more_trackers)
+    if (name.empty() || name.size() + 1 > vrpn::kMaxNameBytes)
+      return fail(Errc::invalid_argument, "VRPN: a tracker device name must be 1-99 bytes");
   addrinfo hints{};
   hints.ai_family = AF_INET;
   hints.ai_socktype = SOCK_STREAM;

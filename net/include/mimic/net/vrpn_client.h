@@ -19,6 +19,7 @@
 #include <span>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include <glm/glm.hpp>
 #include <glm/gtc/quaternion.hpp>
@@ -43,6 +44,7 @@ Result<VrpnAddress> parse_vrpn_address(std::string_view text);
 
 // One `vrpn_Tracker Pos_Quat` report, in the server's frame and units (VRPN fixes neither).
 struct VrpnReport {
+  int32_t device = 0;  // 0: Options::tracker.device; i > 0: Options::more_trackers[i - 1]
   int32_t sensor = 0;
   glm::dvec3 position{0.0};
   glm::dquat orientation{1, 0, 0, 0};
@@ -79,6 +81,9 @@ class VrpnTrackerRemote {
  public:
   struct Options {
     VrpnAddress tracker;
+    // More tracker devices on the same server (OptiTrack Motive and Vicon Tracker serve each rigid
+    // body as a device of its own, sensor 0).
+    std::vector<std::string> more_trackers;
     std::string button_device;  // on the same server; empty: none
     double silent_after_s = 3.0;
     double retry_after_s = 1.0;
