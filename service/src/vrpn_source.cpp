@@ -8,6 +8,7 @@
 
 #include "mimic/net/vrpn_client.h"
 #include "mimic/solver/sensor_layout.h"
+#include "tracker_map.h"
 
 namespace mimic::service {
 
@@ -105,18 +106,6 @@ class VrpnSource final : public devices::SensorSource {
   uint64_t samples_ = 0;
 };
 
-std::vector<std::string> split_list(const std::string& text) {
-  std::vector<std::string> out;
-  size_t start = 0;
-  while (start < text.size()) {
-    size_t comma = text.find(',', start);
-    if (comma == std::string::npos) comma = text.size();
-    if (comma > start) out.push_back(text.substr(start, comma - start));
-    start = comma + 1;
-  }
-  return out;
-}
-
 Result<int> parse_int(std::string_view text, int lo, int hi, const std::string& what) {
   int v = 0;
   const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), v);
@@ -200,18 +189,10 @@ Result<std::vector<solver::SensorMount>> vrpn_mounts(const devices::SourceSpec& 
   if (auto it = spec.params.find("map"); it != spec.params.end()) {
     auto map = parse_map(it->second);
     if (!map) return tl::unexpected(map.error());
-    auto named = solver::standard_layout("11", skeleton);
-    auto every = solver::standard_layout("all", skeleton);
-    if (!named || !every) return fail(Errc::not_found, "vrpn map: the skeleton lacks the standard segments");
-    for (size_t i = 0; i < map->size(); ++i) {
-      const std::string& name = (*map)[i].segment;
-      const solver::SensorBinding* found = nullptr;
-      for (const auto* layout : {&*named, &*every})
-        for (const auto& b : layout->bindings)
-          if (!found && (b.name == name || b.segment == name)) found = &b;
-      if (!found) return fail(Errc::not_found, "vrpn map: no segment '" + name + "' (names: head, pelvis, chest, "
-                                                   "l_hand, l_foot, l_upper_arm, l_thigh, r_…, or a joint name)");
-      mounts.push_back(mount_of(*found, static_cast<uint16_t>(i)));  // map items are sensors 0, 1, … in order
+    for (size_t i = 0; i < map->size(); ++i) {  // map items are sensors 0, 1, … in order
+      auto m = mount_on((*map)[i].segment, static_cast<uint16_t>(i), skeleton);
+      if (!m) return fail(m.error().code, "vrpn map: " + m.error().message);
+      mounts.push_back(std::move(*m));
     }
     return mounts;
   }
