@@ -69,15 +69,20 @@ Result<std::string> encode_skinned_glb(const SkinnedAnimation& a) {
     if (p.dof_rad.size() != size_t(sk.dof_count())) return fail(Errc::invalid_argument, "glTF: a pose of another skeleton");
 
   BinaryBuilder b;
-  // Vertex attributes.
+  // Vertex attributes, the bind pose raised so it stands on the floor.
   glm::vec3 lo(std::numeric_limits<float>::max()), hi(std::numeric_limits<float>::lowest());
   for (const auto& p : mesh.positions) {
     lo = glm::min(lo, p);
     hi = glm::max(hi, p);
   }
+  const glm::vec3 lift(0.0f, -lo.y, 0.0f);
+  std::vector<glm::vec3> positions(mesh.positions);
+  for (auto& p : positions) p += lift;
+  rig::Pose bind_pose = a.bind_pose;
+  bind_pose.root_position_m += lift;
   json attributes;
-  attributes["POSITION"] = b.add(mesh.positions.data(), nv * 12, kFloat, int(nv), "VEC3", kArrayBuffer,
-                                 {{"min", vec_json(lo)}, {"max", vec_json(hi)}});
+  attributes["POSITION"] = b.add(positions.data(), nv * 12, kFloat, int(nv), "VEC3", kArrayBuffer,
+                                 {{"min", vec_json(lo + lift)}, {"max", vec_json(hi + lift)}});
   if (mesh.normals.size() == nv) {
     std::vector<glm::vec3> n(nv);
     for (size_t i = 0; i < nv; ++i) {
@@ -109,24 +114,31 @@ Result<std::string> encode_skinned_glb(const SkinnedAnimation& a) {
   attributes["JOINTS_0"] = b.add(joints.data(), joints.size() * 2, kUnsignedShort, int(nv), "VEC4", kArrayBuffer);
   attributes["WEIGHTS_0"] = b.add(weights.data(), weights.size() * 4, kFloat, int(nv), "VEC4", kArrayBuffer);
 
-  // One mesh per part, named after it (glTF primitives have no names; importers name their
-  // objects after nodes and meshes), all sharing the vertex attributes and the one skin.
-  json meshes = json::array();
-  for (const auto& part : mesh.parts) {
+  // One mesh, a primitive per part sharing the vertex attributes, each with a material of the
+  // part's own colour and named after it: engines import one skinned mesh with its submeshes.
+  json primitives = json::array(), materials = json::array();
+  for (const auto& part : covering_parts(mesh)) {
     if (part.triangle_count == 0) continue;
     const int acc = b.add(mesh.indices.data() + size_t(part.first_triangle) * 3, size_t(part.triangle_count) * 12,
                           kUnsignedInt, int(part.triangle_count * 3), "SCALAR", kElementArrayBuffer);
-    json primitive = {{"attributes", attributes}, {"indices", acc}, {"mode", 4}, {"extras", {{"name", part.name}}}};
-    // A part named like a joint ("neck", "head") gets a suffix: players keep node names unique
-    // by renaming one of the two ("neck_1"), which would hide which is which.
-    const std::string name = sk.find_joint(part.name) >= 0 ? part.name + "_skin" : part.name;
-    meshes.push_back({{"name", name}, {"primitives", json::array({primitive})}});
+    const glm::vec3 rgb = detail::part_colour(materials.size());
+    materials.push_back({{"name", part.name},
+                         {"pbrMetallicRoughness",
+                          {{"baseColorFactor", json::array({rgb.x, rgb.y, rgb.z, 1.0f})},
+                           {"metallicFactor", 0.0},
+                           {"roughnessFactor", 0.8}}}});
+    primitives.push_back({{"attributes", attributes},
+                          {"indices", acc},
+                          {"mode", 4},
+                          {"material", materials.size() - 1},
+                          {"extras", {{"name", part.name}}}});
   }
-  if (meshes.empty()) return fail(Errc::invalid_argument, "glTF: the mesh has no triangles");
+  if (primitives.empty()) return fail(Errc::invalid_argument, "glTF: the mesh has no triangles");
+  json meshes = json::array({{{"name", a.name + "_body"}, {"primitives", primitives}}});
 
   // Joints: the bind pose's world transforms give the inverse bind matrices.
   std::vector<rig::RigidTransform> bind(nj);
-  rig::forward_kinematics(sk, a.bind_pose, bind);
+  rig::forward_kinematics(sk, bind_pose, bind);
   std::vector<float> ibm(nj * 16);
   for (size_t j = 0; j < nj; ++j) {
     const glm::mat4 world = glm::translate(glm::mat4(1.0f), bind[j].translation) * glm::mat4_cast(bind[j].rotation);
@@ -136,15 +148,15 @@ Result<std::string> encode_skinned_glb(const SkinnedAnimation& a) {
   const int ibm_acc = b.add(ibm.data(), ibm.size() * 4, kFloat, int(nj), "MAT4", 0);
 
   // Local transforms of the bind pose for the nodes, and the keyframes.
-  const std::span<const float> bind_dofs(a.bind_pose.dof_rad);
+  const std::span<const float> bind_dofs(bind_pose.dof_rad);
   json nodes = json::array();
   for (size_t j = 0; j < nj; ++j) {
     const int jj = int(j);
     glm::vec3 t = sk.offset_m(jj);
     glm::quat r = sk.local_rotation(jj, bind_dofs);
     if (sk.parent(jj) < 0) {
-      t = a.bind_pose.root_position_m + a.bind_pose.root_orientation * t;
-      r = glm::normalize(a.bind_pose.root_orientation) * r;
+      t = bind_pose.root_position_m + bind_pose.root_orientation * t;
+      r = glm::normalize(bind_pose.root_orientation) * r;
     }
     json node = {{"name", sk.joint_name(jj)}, {"translation", vec_json(t)},
                  {"rotation", json::array({r.x, r.y, r.z, r.w})}};
@@ -160,10 +172,8 @@ Result<std::string> encode_skinned_glb(const SkinnedAnimation& a) {
   json skin_joints = json::array();
   for (size_t j = 0; j < nj; ++j) skin_joints.push_back(j);
   json scene_nodes = json::array({root});
-  for (size_t m = 0; m < meshes.size(); ++m) {
-    scene_nodes.push_back(nodes.size());
-    nodes.push_back({{"name", meshes[m]["name"]}, {"mesh", m}, {"skin", 0}});
-  }
+  scene_nodes.push_back(nodes.size());
+  nodes.push_back({{"name", a.name + "_body"}, {"mesh", 0}, {"skin", 0}});
 
   const size_t nk = a.times_s.size();
   std::vector<float> times(nk);
@@ -209,6 +219,7 @@ Result<std::string> encode_skinned_glb(const SkinnedAnimation& a) {
       {"scenes", json::array({{{"name", a.name}, {"nodes", scene_nodes}}})},
       {"nodes", nodes},
       {"meshes", meshes},
+      {"materials", materials},
       {"skins", json::array({{{"name", a.name + "_skeleton"}, {"joints", skin_joints}, {"skeleton", root},
                               {"inverseBindMatrices", ibm_acc}}})},
       {"animations", json::array({{{"name", "motion"}, {"samplers", samplers}, {"channels", channels}}})},
