@@ -6,7 +6,7 @@
 #include <cmath>
 #include <memory>
 
-#include "mimic/avatar/motion.h"
+#include "mimic/rig/motion.h"
 #include "mimic/avatar/realtime_skin.h"
 #include "mimic/avatar/skin.h"
 #include "mimic/avatar/skin_lod.h"
@@ -17,7 +17,7 @@ namespace mimic::avatar {
 namespace {
 
 ContourLayout build_layout(const BodyModel& model, int subdivision, bool rigid = true) {
-  auto sk = Skeleton::build(model.skeleton);
+  auto sk = rig::Skeleton::build(model.skeleton);
   EXPECT_TRUE(sk);
   auto layout = ContourLayout::build(model, *sk, {subdivision, rigid});
   EXPECT_TRUE(layout) << layout.error().what();
@@ -25,12 +25,12 @@ ContourLayout build_layout(const BodyModel& model, int subdivision, bool rigid =
 }
 
 // Poses the planes are checked in: the zero posture and a walk (bent elbows and knees).
-std::vector<Pose> poses(const Skeleton& sk) {
-  std::vector<Pose> out{sk.zero_pose()};
-  auto walk = make_builtin_motion("walk", sk);
+std::vector<rig::Pose> poses(const rig::Skeleton& sk) {
+  std::vector<rig::Pose> out{sk.zero_pose()};
+  auto walk = rig::make_builtin_motion("walk", sk);
   EXPECT_TRUE(walk);
   for (double t : {0.2, 0.45, 0.8}) {
-    Pose p = sk.zero_pose();
+    rig::Pose p = sk.zero_pose();
     (*walk)->sample(t, p);
     out.push_back(p);
   }
@@ -40,7 +40,7 @@ std::vector<Pose> poses(const Skeleton& sk) {
 TEST(ContourLayout, StarPlaneDirectionsAreUnitAndInThePlane) {
   for (int lod = 0; lod < kSkinLodCount; ++lod) {
     const ContourLayout layout = build_layout(with_skin_lod(default_body_model(), lod), 1);
-    for (const Pose& pose : poses(layout.skeleton())) {
+    for (const rig::Pose& pose : poses(layout.skeleton())) {
       const std::vector<ContourPlane> planes = layout.star_planes(pose);
       ASSERT_FALSE(planes.empty());
       for (const ContourPlane& p : planes) {
@@ -123,7 +123,7 @@ TEST(ContourLayout, SubdivisionRefinesTheSamePiecesAndRigidPartsAreOptional) {
 
 TEST(ContourLayout, RejectsABadSubdivisionAndARealtimeBodyOfSmoothedRows) {
   const BodyModel model = default_body_model();
-  auto sk = Skeleton::build(model.skeleton);
+  auto sk = rig::Skeleton::build(model.skeleton);
   ASSERT_TRUE(sk);
   EXPECT_FALSE(ContourLayout::build(model, *sk, {17, true}));
   EXPECT_FALSE(ContourLayout::build(model, *sk, {-1, true}));

@@ -75,15 +75,15 @@ std::vector<float> resampled_angles(std::span<const float> a, int m) {
 // The forefoot of a rigid part whose joint has a child joint that moves (a foot and its toes):
 // each vertex's weight for the child, by how far ahead of the child's joint centre it lies
 // along the child's link, in the rest posture the part was sampled in.
-void bind_toes(RigidMesh& rm, const Skeleton& skeleton, std::span<const RigidTransform> world_from_joint) {
+void bind_toes(RigidMesh& rm, const rig::Skeleton& skeleton, std::span<const rig::RigidTransform> world_from_joint) {
   int child = -1;
   for (int j = 0; j < skeleton.joint_count() && child < 0; ++j)
     if (skeleton.parent(j) == rm.joint && skeleton.dof_end(j) > skeleton.dof_begin(j)) child = j;
   if (child < 0 || glm::length(skeleton.tip_m(child)) < 1e-4f) return;
-  const RigidTransform& part = world_from_joint[rm.joint];
-  const RigidTransform& toes = world_from_joint[child];
+  const rig::RigidTransform& part = world_from_joint[rm.joint];
+  const rig::RigidTransform& toes = world_from_joint[child];
   const glm::vec3 ahead = glm::normalize(toes.apply_vector(skeleton.tip_m(child)));
-  const RigidTransform toes_from_world = toes.inverse();
+  const rig::RigidTransform toes_from_world = toes.inverse();
   for (size_t i = 0; i < rm.local.size(); ++i) {
     const glm::vec3 p = part.apply(rm.local[i]);
     const float s = glm::dot(p - toes.translation, ahead);
@@ -121,7 +121,7 @@ constexpr const char* kSkinJoints[] = {"pelvis",     "spine_lower", "spine_mid",
                                        "r_shoulder", "r_elbow",     "r_wrist",    "l_hip",      "l_knee",
                                        "l_ankle",    "r_hip",       "r_knee",     "r_ankle"};
 
-Chain torso_chain(const Skeleton& sk, const SkinLayout& L) {
+Chain torso_chain(const rig::Skeleton& sk, const SkinLayout& L) {
   Chain torso;
   const int pelvis = sk.find_joint("pelvis"), su = sk.find_joint("spine_upper");
   torso.nodes = {{pelvis, {0, -L.crotch_drop_m, 0}}, {pelvis, {0, 0, 0}}, {sk.find_joint("spine_lower"), {0, 0, 0}},
@@ -133,7 +133,7 @@ Chain torso_chain(const Skeleton& sk, const SkinLayout& L) {
 }
 
 // Three joints in a row, the last link continuing to the end joint's tip (neck, arm, leg).
-Chain three_joint_chain(const Skeleton& sk, const std::string& a, const std::string& b, const std::string& c) {
+Chain three_joint_chain(const rig::Skeleton& sk, const std::string& a, const std::string& b, const std::string& c) {
   Chain chain;
   const int end = sk.find_joint(c);
   chain.nodes = {{sk.find_joint(a), {0, 0, 0}}, {sk.find_joint(b), {0, 0, 0}}, {end, {0, 0, 0}}};
@@ -143,7 +143,7 @@ Chain three_joint_chain(const Skeleton& sk, const std::string& a, const std::str
 }
 
 // Chains: 0 torso, 1 neck, 2/3 arms, 4/5 legs.
-std::vector<Chain> make_chains(const Skeleton& sk, const SkinLayout& L) {
+std::vector<Chain> make_chains(const rig::Skeleton& sk, const SkinLayout& L) {
   std::vector<Chain> chains{torso_chain(sk, L), three_joint_chain(sk, "neck", "neck_upper", "head")};
   for (const std::string side : {"l_", "r_"}) chains.push_back(three_joint_chain(sk, side + "shoulder", side + "elbow", side + "wrist"));
   for (const std::string side : {"l_", "r_"}) chains.push_back(three_joint_chain(sk, side + "hip", side + "knee", side + "ankle"));
@@ -427,9 +427,9 @@ void add_limb(Data& d, const LimbSpec& spec, std::span<const glm::vec3> ctrl) {
 // A rigid part sampled once in the zero posture, kept in its joint's frame: a pole, rigid_rings
 // latitude rings of rigid_points, the other pole, on rays from the centre of its primitives.
 void add_rigid_part(Data& d, RigidPart part, const BodyModel& model, const BodyField& field,
-                    std::span<const RigidTransform> world_from_joint) {
+                    std::span<const rig::RigidTransform> world_from_joint) {
   const SkinLayout& L = d.counts;
-  const Skeleton& skeleton = d.skeleton;
+  const rig::Skeleton& skeleton = d.skeleton;
   std::vector<uint16_t> cand(kMaxCandidates);
   const int n = field.candidates_of_part(part, cand);
   if (n == 0) return;
@@ -440,7 +440,7 @@ void add_rigid_part(Data& d, RigidPart part, const BodyModel& model, const BodyF
   glm::vec3 centre(0);
   for (uint16_t i : cand) centre += field.center(i);
   centre /= static_cast<float>(n);
-  const RigidTransform& w = world_from_joint[jnt];
+  const rig::RigidTransform& w = world_from_joint[jnt];
   const glm::vec3 axis = safe_normalize(w.apply_vector(skeleton.tip_m(jnt)), {0, 1, 0});
   const glm::vec3 front0 = std::abs(axis.z) < 0.9f ? glm::vec3(0, 0, 1) : glm::vec3(0, 1, 0);
   const glm::vec3 front = glm::normalize(front0 - glm::dot(front0, axis) * axis);
@@ -448,7 +448,7 @@ void add_rigid_part(Data& d, RigidPart part, const BodyModel& model, const BodyF
   RigidMesh rm;
   rm.part = part;
   rm.joint = jnt;
-  const RigidTransform local_from_world = w.inverse();
+  const rig::RigidTransform local_from_world = w.inverse();
   auto sample = [&](const glm::vec3& dir) {
     const RayHit h = field.cast_outermost(centre, dir, cand);
     const glm::vec3 p = centre + (h.hit() ? h.t : kMissRadius_m) * dir;
@@ -474,7 +474,7 @@ Status check_inputs(const BodyModel& model, const ContourLayoutOptions& options)
   return {};
 }
 
-Status check_joints(const Skeleton& skeleton) {
+Status check_joints(const rig::Skeleton& skeleton) {
   for (const char* name : kSkinJoints)
     if (skeleton.find_joint(name) < 0) return fail(Errc::invalid_argument, std::string("skin needs joint '") + name + "'");
   return {};
@@ -489,7 +489,7 @@ void build_topology(ContourLayout::Data& d);
 
 ContourLayout::ContourLayout(std::shared_ptr<const Data> data) : data_(std::move(data)) {}
 
-Result<ContourLayout> ContourLayout::build(const BodyModel& model, const Skeleton& skeleton,
+Result<ContourLayout> ContourLayout::build(const BodyModel& model, const rig::Skeleton& skeleton,
                                            const ContourLayoutOptions& options) {
   if (auto st = check_inputs(model, options); !st) return tl::unexpected(st.error());
   auto field = BodyField::create(model, skeleton);
@@ -501,9 +501,9 @@ Result<ContourLayout> ContourLayout::build(const BodyModel& model, const Skeleto
   d->skeleton = skeleton;
   d->chains = make_chains(skeleton, d->counts);
   // The zero posture, where the layout is measured.
-  const Pose zero = skeleton.zero_pose();
-  std::vector<RigidTransform> world_from_joint(static_cast<size_t>(skeleton.joint_count()));
-  forward_kinematics(skeleton, zero, world_from_joint);
+  const rig::Pose zero = skeleton.zero_pose();
+  std::vector<rig::RigidTransform> world_from_joint(static_cast<size_t>(skeleton.joint_count()));
+  rig::forward_kinematics(skeleton, zero, world_from_joint);
   field->update(world_from_joint, zero.dof_rad);
   for (Chain& c : d->chains) c.update(world_from_joint);
 
@@ -529,7 +529,7 @@ Result<ContourLayout> ContourLayout::build(const BodyModel& model, const Skeleto
   return ContourLayout(std::move(d));
 }
 
-const Skeleton& ContourLayout::skeleton() const { return data_->skeleton; }
+const rig::Skeleton& ContourLayout::skeleton() const { return data_->skeleton; }
 const ContourLayoutOptions& ContourLayout::options() const { return data_->options; }
 size_t ContourLayout::ring_count() const { return data_->rings.size(); }
 size_t ContourLayout::control_point_count() const { return data_->control_points; }
@@ -537,10 +537,10 @@ size_t ContourLayout::vertex_count() const { return data_->vertex_count; }
 std::span<const uint32_t> ContourLayout::indices() const { return data_->indices; }
 std::span<const MeshPart> ContourLayout::parts() const { return data_->parts; }
 
-std::vector<ContourPlane> ContourLayout::star_planes(const Pose& pose) const {
+std::vector<ContourPlane> ContourLayout::star_planes(const rig::Pose& pose) const {
   const Data& d = *data_;
-  std::vector<RigidTransform> world_from_joint(static_cast<size_t>(d.skeleton.joint_count()));
-  forward_kinematics(d.skeleton, pose, world_from_joint);
+  std::vector<rig::RigidTransform> world_from_joint(static_cast<size_t>(d.skeleton.joint_count()));
+  rig::forward_kinematics(d.skeleton, pose, world_from_joint);
   std::vector<Chain> chains = d.chains;
   for (Chain& c : chains) c.update(world_from_joint);
   std::vector<ContourPlane> out;

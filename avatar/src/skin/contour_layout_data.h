@@ -50,7 +50,7 @@ struct Chain {
   // Per frame.
   std::vector<glm::vec3> point, normal, ref;
 
-  void update(std::span<const RigidTransform> w) {
+  void update(std::span<const rig::RigidTransform> w) {
     const size_t n = nodes.size();
     for (size_t i = 0; i < n; ++i) point[i] = w[nodes[i].joint].apply(nodes[i].offset);
     for (size_t i = 0; i < n; ++i) {
@@ -285,7 +285,7 @@ using namespace skin_detail;
 struct ContourLayout::Data {
   ContourLayoutOptions options;
   SkinLayout counts;  // the model's, as authored (and scaled by skin_lod.h)
-  Skeleton skeleton;
+  rig::Skeleton skeleton;
   // Nodes fixed; point/normal/ref hold the zero posture (whoever runs the layout copies the
   // chains and updates them each frame).
   std::vector<Chain> chains;

@@ -30,12 +30,12 @@ ImplicitSkin& ImplicitSkin::operator=(ImplicitSkin&&) noexcept = default;
 ImplicitSkin::~ImplicitSkin() = default;
 
 Result<ImplicitSkin> ImplicitSkin::create(const BodyModel& model, const SkinOptions& options) {
-  auto skeleton = Skeleton::build(model.skeleton);
+  auto skeleton = rig::Skeleton::build(model.skeleton);
   if (!skeleton) return tl::unexpected(skeleton.error());
   return create(model, *skeleton, options);
 }
 
-Result<ImplicitSkin> ImplicitSkin::create(const BodyModel& model, const Skeleton& skeleton, const SkinOptions& options) {
+Result<ImplicitSkin> ImplicitSkin::create(const BodyModel& model, const rig::Skeleton& skeleton, const SkinOptions& options) {
   auto layout = ContourLayout::build(model, skeleton, {options.subdivision, options.rigid_parts});
   if (!layout) return tl::unexpected(layout.error());
   return create(model, *layout, options.normals);
@@ -49,13 +49,13 @@ Result<ImplicitSkin> ImplicitSkin::create(const BodyModel& model, const ContourL
   return skin;
 }
 
-void ImplicitSkin::stage_fk(const Pose& pose) {
+void ImplicitSkin::stage_fk(const rig::Pose& pose) {
   const auto t0 = Clock::now();
-  forward_kinematics(impl_->L.skeleton, pose, impl_->world_from_joint);
+  rig::forward_kinematics(impl_->L.skeleton, pose, impl_->world_from_joint);
   impl_->timings.fk_us = micros_since(t0);
 }
 
-void ImplicitSkin::stage_deform(const Pose& pose) {
+void ImplicitSkin::stage_deform(const rig::Pose& pose) {
   const auto t0 = Clock::now();
   impl_->field.update(impl_->world_from_joint, pose.dof_rad);
   for (Chain& c : impl_->chains) c.update(impl_->world_from_joint);
@@ -87,10 +87,10 @@ void ImplicitSkin::stage_stitch() {
     pos[s.cap_vertex] = c / static_cast<float>(s.out_rows.back().size());
   }
   for (const RigidMesh& rm : m.L.rigid) {
-    const RigidTransform& w = m.world_from_joint[rm.joint];
+    const rig::RigidTransform& w = m.world_from_joint[rm.joint];
     for (size_t i = 0; i < rm.local.size(); ++i) pos[rm.first_vertex + i] = w.apply(rm.local[i]);
     if (rm.toe_joint < 0) continue;
-    const RigidTransform& toes = m.world_from_joint[rm.toe_joint];
+    const rig::RigidTransform& toes = m.world_from_joint[rm.toe_joint];
     for (size_t k = 0; k < rm.toe_vertex.size(); ++k) {
       glm::vec3& p = pos[rm.first_vertex + rm.toe_vertex[k]];
       p += rm.toe_weight[k] * (toes.apply(rm.toe_local[k]) - p);
@@ -104,7 +104,7 @@ void ImplicitSkin::stage_stitch() {
   }
 }
 
-void ImplicitSkin::evaluate(const Pose& pose) {
+void ImplicitSkin::evaluate(const rig::Pose& pose) {
   stage_fk(pose);
   stage_deform(pose);
   stage_contours();
@@ -115,7 +115,7 @@ void ImplicitSkin::evaluate(const Pose& pose) {
 const Mesh& ImplicitSkin::mesh() const { return impl_->mesh; }
 const ContourLayout& ImplicitSkin::layout() const { return impl_->layout; }
 std::span<const glm::vec3> ImplicitSkin::control_points() const { return impl_->caster.ctrl; }
-const Skeleton& ImplicitSkin::skeleton() const { return impl_->L.skeleton; }
+const rig::Skeleton& ImplicitSkin::skeleton() const { return impl_->L.skeleton; }
 const BodyField& ImplicitSkin::field() const { return impl_->field; }
 const SkinTimings& ImplicitSkin::timings() const { return impl_->timings; }
 const SkinStats& ImplicitSkin::stats() const { return impl_->caster.stats; }

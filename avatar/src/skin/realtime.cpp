@@ -30,12 +30,12 @@ RealtimeBody::RealtimeBody(std::unique_ptr<Data> data) : data_(std::move(data)) 
 RealtimeBody::~RealtimeBody() = default;
 
 Result<std::shared_ptr<const RealtimeBody>> RealtimeBody::create(const BodyModel& model, const RealtimeOptions& options) {
-  auto skeleton = Skeleton::build(model.skeleton);
+  auto skeleton = rig::Skeleton::build(model.skeleton);
   if (!skeleton) return tl::unexpected(skeleton.error());
   return create(model, *skeleton, options);
 }
 
-Result<std::shared_ptr<const RealtimeBody>> RealtimeBody::create(const BodyModel& model, const Skeleton& skeleton,
+Result<std::shared_ptr<const RealtimeBody>> RealtimeBody::create(const BodyModel& model, const rig::Skeleton& skeleton,
                                                                  const RealtimeOptions& options) {
   if (options.lod < 0 || options.lod >= kSkinLodCount)
     return fail(Errc::out_of_range, "skin LOD must be in 0.." + std::to_string(kSkinLodCount - 1));
@@ -147,9 +147,9 @@ void pad_for_kernels(Data& d) {
   d.dh_hi.resize(d.dh_hi.size() + 8, 1e3f);
 }
 
-std::vector<Chain> chains_at(const ContourLayout::Data& L, const Pose& pose) {
-  std::vector<RigidTransform> w(static_cast<size_t>(L.skeleton.joint_count()));
-  forward_kinematics(L.skeleton, pose, w);
+std::vector<Chain> chains_at(const ContourLayout::Data& L, const rig::Pose& pose) {
+  std::vector<rig::RigidTransform> w(static_cast<size_t>(L.skeleton.joint_count()));
+  rig::forward_kinematics(L.skeleton, pose, w);
   std::vector<Chain> chains = L.chains;
   for (Chain& c : chains) c.update(w);
   return chains;
@@ -160,11 +160,11 @@ std::vector<Chain> chains_at(const ContourLayout::Data& L, const Pose& pose) {
 Result<std::shared_ptr<const RealtimeBody>> RealtimeBody::create(const BodyModel& model, const ContourLayout& layout,
                                                                  const RealtimeOptions& options) {
   const ContourLayout::Data& L = layout.data();
-  const Skeleton& skeleton = L.skeleton;
+  const rig::Skeleton& skeleton = L.skeleton;
   if (L.options.subdivision != 0) return fail(Errc::invalid_argument, "a realtime body needs a layout of subdivision 0");
   auto skin = ImplicitSkin::create(model, layout, true);
   if (!skin) return tl::unexpected(skin.error());
-  const Pose base = options.initial_pose ? *options.initial_pose : skeleton.zero_pose();
+  const rig::Pose base = options.initial_pose ? *options.initial_pose : skeleton.zero_pose();
   if (base.dof_rad.size() != static_cast<size_t>(skeleton.dof_count()))
     return fail(Errc::invalid_argument, "initial pose has " + std::to_string(base.dof_rad.size()) +
                                             " DOF values, the skeleton " + std::to_string(skeleton.dof_count()));
@@ -199,7 +199,7 @@ Result<std::shared_ptr<const RealtimeBody>> RealtimeBody::create(const BodyModel
   return std::shared_ptr<const RealtimeBody>(new RealtimeBody(std::move(d)));
 }
 
-const Skeleton& RealtimeBody::skeleton() const { return data_->skeleton; }
+const rig::Skeleton& RealtimeBody::skeleton() const { return data_->skeleton; }
 const Mesh& RealtimeBody::rest_mesh() const { return data_->rest_mesh; }
 std::span<const JointInfluences> RealtimeBody::weights() const { return data_->weights; }
 int RealtimeBody::lod() const { return data_->lod; }
@@ -273,7 +273,7 @@ size_t RealtimeSkin::instance_bytes() const { return sizeof(*this) + sizeof(Stat
 
 void RealtimeSkin::use_scalar_reference(bool scalar) { state_->vectorised = !scalar; }
 
-void RealtimeSkin::evaluate(const Pose& pose, std::span<glm::vec3> pos, std::span<glm::vec3> normals, bool muscles) {
+void RealtimeSkin::evaluate(const rig::Pose& pose, std::span<glm::vec3> pos, std::span<glm::vec3> normals, bool muscles) {
   const RealtimeBody::Data& d = body_->data();
   if (pos.size() < d.rest_mesh.positions.size() || pose.dof_rad.size() != static_cast<size_t>(d.skeleton.dof_count()))
     return;  // a caller's sizing error; documented sizes

@@ -68,7 +68,7 @@ struct StarRing {
 }  // namespace realtime_detail
 
 struct RealtimeBody::Data {
-  Skeleton skeleton;
+  rig::Skeleton skeleton;
   int lod = 0;
   std::vector<Chain> chains;  // nodes; the per-frame members are each avatar's
   struct RingOp {
@@ -176,7 +176,7 @@ struct Reach {
 
 // One avatar's per-frame state.
 struct State {
-  std::vector<RigidTransform> world_from_joint;
+  std::vector<rig::RigidTransform> world_from_joint;
   std::vector<Chain> chains;
   std::vector<Frame> frames;        // per ring, this frame
   std::vector<glm::vec2> muscle_w;  // per muscle DOF: (towards θmin, towards θmax)
@@ -192,7 +192,7 @@ struct State {
 };
 
 // The frame's positions (never allocates).
-void deform(const RealtimeBody::Data& d, State& st, const Pose& pose, std::span<glm::vec3> pos, bool muscles);
+void deform(const RealtimeBody::Data& d, State& st, const rig::Pose& pose, std::span<glm::vec3> pos, bool muscles);
 
 // A star ring's points (the muscle blocks when `muscle_w` is not null, the band scale, the
 // column slide, then the plane): the scalar reference, and eight at a time where the build
@@ -236,10 +236,10 @@ void measure_local(const RestContours& m, const RealtimeBody::Data& d, std::vect
 // and next star ring of the same link, in the point's own ring frame.
 void measure_columns(const RestContours& m, RealtimeBody::Data& d);
 // Joint bands at the elbows and knees and their scales over each joint's bend.
-Status calibrate_bands(const RestContours& m, const Pose& base, RealtimeBody::Data& d);
+Status calibrate_bands(const RestContours& m, const rig::Pose& base, RealtimeBody::Data& d);
 // The muscle terms: `skin` (the layout's implicit skin) ray-casts the contours with each
 // deforming DOF's primitives at θ0, θmin and θmax, the posture kept at `base`.
-void measure_muscles(const BodyModel& model, ImplicitSkin& skin, const RestContours& m, const Pose& base,
+void measure_muscles(const BodyModel& model, ImplicitSkin& skin, const RestContours& m, const rig::Pose& base,
                      RealtimeBody::Data& d);
 
 }  // namespace realtime_detail

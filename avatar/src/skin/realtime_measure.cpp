@@ -98,18 +98,18 @@ void measure_columns(const RestContours& m, Data& d) {
 namespace {
 
 // The bending DOF of a joint: of its DOFs, the one that bends the chain most over its range.
-int bending_dof(const Skeleton& skeleton, const Chain& chain_template, int joint, const Pose& base) {
+int bending_dof(const rig::Skeleton& skeleton, const Chain& chain_template, int joint, const rig::Pose& base) {
   Chain c = chain_template;
-  std::vector<RigidTransform> w(skeleton.joint_count());
+  std::vector<rig::RigidTransform> w(skeleton.joint_count());
   int best = -1;
   float best_bend = 0.05f;
   for (int i = 0; i < skeleton.dof_count(); ++i) {
-    const Dof& dof = skeleton.dof(i);
+    const rig::Dof& dof = skeleton.dof(i);
     if (dof.joint != joint) continue;
     for (float theta : {dof.min_rad, dof.max_rad}) {
-      Pose p = base;
+      rig::Pose p = base;
       p.dof_rad[i] = theta;
-      forward_kinematics(skeleton, p, w);
+      rig::forward_kinematics(skeleton, p, w);
       c.update(w);
       const float bend = chain_bend(c);
       if (bend > best_bend) best_bend = bend, best = i;
@@ -125,8 +125,8 @@ int bending_dof(const Skeleton& skeleton, const Chain& chain_template, int joint
 // pose, found by the secant method on the realtime skin itself.
 }  // namespace
 
-Status calibrate_bands(const RestContours& m, const Pose& base, Data& d) {
-  const Skeleton& sk = d.skeleton;
+Status calibrate_bands(const RestContours& m, const rig::Pose& base, Data& d) {
+  const rig::Skeleton& sk = d.skeleton;
   for (const std::vector<int>& stars : limb_star_rings(m)) {
     const int chain = d.rings[stars.front()].chain;
     const Chain& c = m.chains[chain];
@@ -150,7 +150,7 @@ Status calibrate_bands(const RestContours& m, const Pose& base, Data& d) {
 
     const int dof = bending_dof(sk, c, joint, base);
     if (dof < 0) continue;  // scale 1 throughout
-    const Dof& dd = sk.dof(dof);
+    const rig::Dof& dd = sk.dof(dof);
     const float theta_b = base.dof_rad[dof];
     const float theta_end = std::abs(dd.max_rad - theta_b) >= std::abs(dd.min_rad - theta_b) ? dd.max_rad : dd.min_rad;
     // The zone's two pieces, named as the surface's parts.
@@ -170,7 +170,7 @@ Status calibrate_bands(const RestContours& m, const Pose& base, Data& d) {
       double v_rest = 0;
       float k = 1.0f;
       for (int i = 0; i < kSamples; ++i) {
-        Pose p = base;
+        rig::Pose p = base;
         p.dof_rad[dof] = theta_b + (theta_end - theta_b) * static_cast<float>(i) / (kSamples - 1);
         auto volume_at = [&](float scale) {
           st.band_scale_forced[band] = scale;
@@ -220,13 +220,13 @@ Status calibrate_bands(const RestContours& m, const Pose& base, Data& d) {
 namespace {
 
 // Every DOF that deforms a primitive, once, with the range the primitive's shape follows.
-void find_muscle_dofs(const BodyModel& model, const Skeleton& skeleton, Data& d) {
+void find_muscle_dofs(const BodyModel& model, const rig::Skeleton& skeleton, Data& d) {
   std::vector<int> muscle_dof_of_dof(skeleton.dof_count(), -1);
   for (const Primitive& p : model.primitives) {
     if (!p.deformation) continue;
     const int dof = skeleton.find_dof(p.deformation->dof);
     if (dof < 0 || muscle_dof_of_dof[dof] >= 0) continue;
-    const Dof& sd = skeleton.dof(dof);
+    const rig::Dof& sd = skeleton.dof(dof);
     muscle_dof_of_dof[dof] = static_cast<int>(d.muscle_dofs.size());
     d.muscle_dofs.push_back({dof, sd.rest_rad, sd.min_rad, sd.max_rad, p.deformation->falloff});
   }
@@ -263,7 +263,7 @@ void pack_muscle_blocks(const std::vector<std::vector<Term>>& ring_terms, Data& 
 
 // Muscles: the contours with the primitives of every DOF that deforms one at θ0, θmin and
 // θmax; what moves in the rings' frames is what the muscles do there.
-void measure_muscles(const BodyModel& model, ImplicitSkin& skin, const RestContours& m, const Pose& base, Data& d) {
+void measure_muscles(const BodyModel& model, ImplicitSkin& skin, const RestContours& m, const rig::Pose& base, Data& d) {
   find_muscle_dofs(model, d.skeleton, d);
   const size_t n = m.ctrl.size();
   std::vector<glm::vec3> at0(n), at_min(n), at_max(n);
@@ -271,7 +271,7 @@ void measure_muscles(const BodyModel& model, ImplicitSkin& skin, const RestConto
   // joints at run time); only the primitives take their shape at θ, so a term is the muscle's
   // own change of shape, which superposes over DOFs and postures.
   auto measure_at = [&](int dof, float theta, std::vector<glm::vec3>& out) {
-    Pose p = base;
+    rig::Pose p = base;
     p.dof_rad[dof] = theta;
     skin.stage_fk(base);
     skin.stage_deform(p);

@@ -66,7 +66,7 @@ struct ImplicitSkin::Impl {
   bool normals = true;
   BodyField field;
 
-  std::vector<RigidTransform> world_from_joint;
+  std::vector<rig::RigidTransform> world_from_joint;
   std::vector<Chain> chains;  // the layout's, updated each frame
   RingCaster caster;
 

@@ -38,7 +38,7 @@
 
 #include "mimic/avatar/body_model.h"
 #include "mimic/avatar/mesh.h"
-#include "mimic/avatar/skeleton.h"
+#include "mimic/rig/skeleton.h"
 #include "mimic/core/result.h"
 
 namespace mimic::avatar {
@@ -63,10 +63,10 @@ class ContourLayout {
   // (pelvis, spine, neck, head, shoulders/elbows/wrists, hips/knees/ankles) or a subdivision out
   // of range. Ray-casts the torso and bridges once in the zero posture (the limbs' ray angles face
   // their loops) and samples the rigid parts. Allocates; cheap to copy afterwards (shared).
-  static Result<ContourLayout> build(const BodyModel& model, const Skeleton& skeleton,
+  static Result<ContourLayout> build(const BodyModel& model, const rig::Skeleton& skeleton,
                                      const ContourLayoutOptions& options = {});
 
-  const Skeleton& skeleton() const;
+  const rig::Skeleton& skeleton() const;
   const ContourLayoutOptions& options() const;
   size_t ring_count() const;
   size_t control_point_count() const;
@@ -76,7 +76,7 @@ class ContourLayout {
   std::span<const uint32_t> indices() const;
   std::span<const MeshPart> parts() const;
   // The star rings' planes in `pose` (it must have the skeleton's DOFs), in ring order.
-  std::vector<ContourPlane> star_planes(const Pose& pose) const;
+  std::vector<ContourPlane> star_planes(const rig::Pose& pose) const;
 
   // The layout's tables, for the skin's own sources (avatar/src/skin/contour_layout_data.h).
   struct Data;

@@ -29,7 +29,7 @@
 #include "mimic/avatar/body_model.h"
 #include "mimic/avatar/contour_layout.h"
 #include "mimic/avatar/mesh.h"
-#include "mimic/avatar/skeleton.h"
+#include "mimic/rig/skeleton.h"
 
 namespace mimic::avatar {
 
@@ -64,7 +64,7 @@ class ImplicitSkin {
   static Result<ImplicitSkin> create(const BodyModel& model, const SkinOptions& options = {});
   // Same, with a skeleton other than the model's (e.g. fitted to a performer); it must have the
   // model's joints and DOFs.
-  static Result<ImplicitSkin> create(const BodyModel& model, const Skeleton& skeleton,
+  static Result<ImplicitSkin> create(const BodyModel& model, const rig::Skeleton& skeleton,
                                      const SkinOptions& options = {});
   // A skin of a layout already built (from this model's primitives and the layout's skeleton);
   // the layout fixes the subdivision and rigid parts, `normals` is SkinOptions::normals.
@@ -75,14 +75,14 @@ class ImplicitSkin {
   ~ImplicitSkin();
 
   // Whole pipeline for one pose; afterwards mesh() holds the new positions. Never allocates.
-  void evaluate(const Pose& pose);
+  void evaluate(const rig::Pose& pose);
 
   const Mesh& mesh() const;
   const ContourLayout& layout() const;
   // The contour (control) points of the last frame, metres, world frame, one per control point
   // of the layout (its rings' slots; at subdivision 0 the mesh's first vertices).
   std::span<const glm::vec3> control_points() const;
-  const Skeleton& skeleton() const;
+  const rig::Skeleton& skeleton() const;
   const BodyField& field() const;  // the primitives of the last evaluated pose
   const SkinTimings& timings() const;
   const SkinStats& stats() const;
@@ -103,8 +103,8 @@ class ImplicitSkin {
   std::vector<ContourView> contours() const;
 
   // The stages separately (for benchmarks); evaluate() runs them in order.
-  void stage_fk(const Pose& pose);
-  void stage_deform(const Pose& pose);
+  void stage_fk(const rig::Pose& pose);
+  void stage_deform(const rig::Pose& pose);
   void stage_contours();
   void stage_bspline();
   void stage_stitch();
