@@ -50,20 +50,20 @@ Result<ImplicitSkin> ImplicitSkin::create(const BodyModel& model, const ContourL
 }
 
 void ImplicitSkin::stage_fk(const rig::Pose& pose) {
-  const auto t0 = Clock::now();
+  const double t0 = steady_now_s();
   rig::forward_kinematics(impl_->L.skeleton, pose, impl_->world_from_joint);
   impl_->timings.fk_us = micros_since(t0);
 }
 
 void ImplicitSkin::stage_deform(const rig::Pose& pose) {
-  const auto t0 = Clock::now();
+  const double t0 = steady_now_s();
   impl_->field.update(impl_->world_from_joint, pose.dof_rad);
   for (Chain& c : impl_->chains) c.update(impl_->world_from_joint);
   impl_->timings.deform_us = micros_since(t0);
 }
 
 void ImplicitSkin::stage_contours() {
-  const auto t0 = Clock::now();
+  const double t0 = steady_now_s();
   Impl& m = *impl_;
   m.caster.stats = {};
   for (const Ring& r : m.L.rings) m.caster.compute_ring(m.L, m.field, m.chains, r);
@@ -71,13 +71,13 @@ void ImplicitSkin::stage_contours() {
 }
 
 void ImplicitSkin::stage_bspline() {
-  const auto t0 = Clock::now();
+  const double t0 = steady_now_s();
   impl_->evaluate_bspline();
   impl_->timings.bspline_us = micros_since(t0);
 }
 
 void ImplicitSkin::stage_stitch() {
-  const auto t0 = Clock::now();
+  const double t0 = steady_now_s();
   Impl& m = *impl_;
   auto& pos = m.mesh.positions;
   for (const Surface& s : m.L.surfaces) {
@@ -98,7 +98,7 @@ void ImplicitSkin::stage_stitch() {
   }
   m.timings.stitch_us = micros_since(t0);
   if (m.normals) {
-    const auto t1 = Clock::now();
+    const double t1 = steady_now_s();
     m.update_normals();
     m.timings.normals_us = micros_since(t1);
   }

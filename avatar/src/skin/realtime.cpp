@@ -2,12 +2,12 @@
 // initial pose by the layout's implicit skin and measured in each ring's own frame
 // (realtime_measure.cpp: coordinates, columns, muscle blocks, joint bands); realtime_deform.cpp
 // moves them every frame.
-#include <chrono>
 #include <cstdio>
 
 #include "mimic/avatar/realtime_skin.h"
 #include "mimic/avatar/skin_lod.h"
 #include "mimic/avatar/texture_layout.h"
+#include "mimic/core/clock.h"
 #include "realtime_data.h"
 
 namespace mimic::avatar {
@@ -278,7 +278,7 @@ void RealtimeSkin::evaluate(const rig::Pose& pose, std::span<glm::vec3> pos, std
   if (pos.size() < d.rest_mesh.positions.size() || pose.dof_rad.size() != static_cast<size_t>(d.skeleton.dof_count()))
     return;  // a caller's sizing error; documented sizes
   deform(d, *state_, pose, pos, muscles);
-  const auto t2 = std::chrono::steady_clock::now();
+  const double t2 = steady_now_s();
   if (normals.size() >= pos.size()) {
     std::fill(normals.begin(), normals.end(), glm::vec3(0.0f));
     const auto& idx = d.rest_mesh.indices;
@@ -291,8 +291,7 @@ void RealtimeSkin::evaluate(const rig::Pose& pose, std::span<glm::vec3> pos, std
     }
     for (size_t v = 0; v < d.rest_mesh.positions.size(); ++v) normals[v] = safe_normalize(normals[v], {0, 1, 0});
   }
-  state_->timings.normals_us =
-      normals.size() >= pos.size() ? std::chrono::duration<double, std::micro>(std::chrono::steady_clock::now() - t2).count() : 0.0;
+  state_->timings.normals_us = normals.size() >= pos.size() ? (steady_now_s() - t2) * 1e6 : 0.0;
 }
 
 }  // namespace mimic::avatar

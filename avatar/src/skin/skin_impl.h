@@ -3,23 +3,20 @@
 // build uses it too, in the zero posture) and ImplicitSkin::Impl, one skin's per-frame state.
 #pragma once
 
-#include <chrono>
 #include <memory>
 #include <span>
 #include <vector>
 
 #include "contour_layout_data.h"
 #include "mimic/avatar/skin.h"
+#include "mimic/core/clock.h"
 
 namespace mimic::avatar {
 
 namespace skin_detail {
 
-using Clock = std::chrono::steady_clock;
-
-inline double micros_since(Clock::time_point t0) {
-  return std::chrono::duration<double, std::micro>(Clock::now() - t0).count();
-}
+// Microseconds since `t0_s` (steady_now_s()), for the stage timings.
+inline double micros_since(double t0_s) { return (steady_now_s() - t0_s) * 1e6; }
 
 // The contours of one frame: each ring of a layout ray-cast on the field, given the chains of
 // the frame. Sized once (size_for), so compute_ring never allocates.
