@@ -192,7 +192,7 @@ std::vector<double> time_frames(double seconds, size_t max_frames, F&& frame) {
 // and the baseline skinnings (LBS, DQS, CoR) of the same vertices; one row per LOD.
 struct SkinBenchCase {
   int lod = 0;
-  avatar::BodySkin full;
+  avatar::ImplicitSkin full;
   std::shared_ptr<const avatar::RealtimeBody> body;
   std::vector<rig::Pose> poses;
 };
@@ -274,7 +274,7 @@ Result<nlohmann::json> bench_skin(const BenchOptions& opt) {
     avatar::SkinOptions o;
     o.subdivision = 0;
     o.normals = false;
-    auto full = avatar::BodySkin::create(model, o);
+    auto full = avatar::ImplicitSkin::create(model, o);
     if (!full) return tl::unexpected(full.error());
     avatar::RealtimeOptions ro;
     ro.lod = lod;

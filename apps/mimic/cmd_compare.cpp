@@ -65,7 +65,7 @@ int run_compare(const std::vector<std::string>& argv) {
   if (!body) return failure(kName, body.error().message);
   avatar::SkinOptions options;
   options.subdivision = 2;
-  auto skin = avatar::BodySkin::create(*body, options);
+  auto skin = avatar::ImplicitSkin::create(*body, options);
   if (!skin) return failure(kName, skin.error().message);
   const rig::Pose pose = avatar::pose_to_match(skin->skeleton(), *ref_landmarks);
   skin->evaluate(pose);

@@ -134,7 +134,7 @@ int run_mesh(const std::vector<std::string>& argv) {
   avatar::SkinOptions options;
   options.subdivision = static_cast<int>(subdivision);
   options.rigid_parts = !args.has("no-rigid");
-  auto skin = avatar::BodySkin::create(at_lod, options);
+  auto skin = avatar::ImplicitSkin::create(at_lod, options);
   if (!skin) return failure(kName, skin.error().message);
   std::printf("skin      topology and rigid parts built                       %8.2f ms\n", ms_since(t0));
 

@@ -195,7 +195,7 @@ int screenshot(Args& args, const ViewOptions& view) {
     std::printf("pose      %-52s %8.2f ms\n", request->description.c_str(), request->load_ms);
     std::printf("frame     LOD %d, %zu triangles, deformed in %.3f ms\n", lod, lods->triangle_count(lod), deform_ms);
     if (view.overlays & (render::kOverlayContours | render::kOverlayPrimitives | render::kOverlayRays)) {
-      const avatar::BodySkin& skin = lods->overlay_skin(lod, request->pose);
+      const avatar::ImplicitSkin& skin = lods->overlay_skin(lod, request->pose);
       if (view.overlays & render::kOverlayContours) render::append_contours(skin, glm::mat4(1.0f), lines);
       if (view.overlays & render::kOverlayPrimitives)
         render::append_primitives(skin, lods->model(), request->pose, glm::mat4(1.0f), view.see_through ? lines : xray);

@@ -338,7 +338,7 @@ int run_interactive(Args& args, const ViewOptions& view) {
       a.deform_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - d0).count();
       draws.push_back({mesh, a.world_from_body, see_through ? 0.35f : 1.0f});
       if (overlays & (render::kOverlayContours | render::kOverlayPrimitives | render::kOverlayRays)) {
-        const avatar::BodySkin& skin = a.lods->overlay_skin(a.lod, a.pose);
+        const avatar::ImplicitSkin& skin = a.lods->overlay_skin(a.lod, a.pose);
         if (overlays & render::kOverlayContours) render::append_contours(skin, a.world_from_body, lines);
         if (overlays & render::kOverlayPrimitives)
           render::append_primitives(skin, a.lods->model(), a.pose, a.world_from_body, see_through ? lines : xray);

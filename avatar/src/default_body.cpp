@@ -81,13 +81,9 @@ GroupMask G(std::initializer_list<Group> gs) {
   return m;
 }
 
-}  // namespace
-
-BodyModel default_body_model() {
+// The pelvis, hips and gluteals.
+void add_pelvis_and_hips(Author& a) {
   using enum Group;
-  Author a(rig::default_skeleton_desc());
-  a.model.name = "mimic-default";
-
   // --- pelvis and hips -------------------------------------------------------------------
   a.add("pelvis_core", "pelvis", {0, 0.905f, 0.025f}, {0.135f, 0.085f, 0.095f}, G({hip, lower_torso}));
   a.add("lower_abdomen", "pelvis", {0, 0.95f, 0.07f}, {0.11f, 0.065f, 0.07f}, G({hip, lower_torso}));
@@ -100,14 +96,22 @@ BodyModel default_body_model() {
              {0.075f, 0.85f, -0.04f});
   }
   a.add("l_hip_side", "pelvis", {0.125f, 0.875f, 0.01f}, {0.055f, 0.075f, 0.075f}, G({hip, lower_torso, left_upper_leg}));
+}
 
+// Abdomen, lower back, waist.
+void add_abdomen_and_lower_back(Author& a) {
+  using enum Group;
   // --- abdomen and lower back ---------------------------------------------------------------
   a.add("abdomen", "spine_lower", {0, 1.0f, 0.06f}, {0.115f, 0.085f, 0.08f}, G({lower_torso}));
   a.add("lower_back", "spine_lower", {0, 1.0f, -0.005f}, {0.105f, 0.085f, 0.05f}, G({lower_torso}));
   a.add("l_oblique", "spine_lower", {0.085f, 0.98f, 0.025f}, {0.05f, 0.08f, 0.065f}, G({lower_torso}));
   a.add("waist", "spine_mid", {0, 1.095f, 0.05f}, {0.11f, 0.07f, 0.085f}, G({lower_torso, upper_torso}));
   a.add("l_lat_lower", "spine_mid", {0.07f, 1.115f, -0.005f}, {0.055f, 0.075f, 0.045f}, G({lower_torso, upper_torso}));
+}
 
+// Chest, upper back, the left shoulder girdle.
+void add_chest_back_shoulders(Author& a) {
+  using enum Group;
   // --- chest, back, shoulders -----------------------------------------------------------------
   a.add("rib_cage", "spine_mid", {0, 1.19f, 0.05f}, {0.125f, 0.11f, 0.095f}, G({upper_torso}));
   {
@@ -124,12 +128,20 @@ BodyModel default_body_model() {
   a.add("l_trapezius", "spine_upper", {0.07f, 1.37f, -0.01f}, {0.08f, 0.035f, 0.05f}, G({upper_torso, left_shoulder}),
         1.5f, {0, 0, -18});
   a.add("l_clavicle_ridge", "l_clavicle", {0.1f, 1.355f, 0.035f}, {0.07f, 0.025f, 0.03f}, G({upper_torso, left_shoulder}));
+}
 
+// The neck, from its base to the skull.
+void add_neck(Author& a) {
+  using enum Group;
   // --- neck -------------------------------------------------------------------------------------
   a.add("neck_base", "neck", {0, 1.4f, 0.0f}, {0.07f, 0.05f, 0.06f}, G({upper_torso}));
   a.add("neck_mid", "neck", {0, 1.45f, 0.01f}, {0.055f, 0.05f, 0.055f}, G({upper_torso}));
   a.add("neck_top", "neck_upper", {0, 1.5f, 0.015f}, {0.05f, 0.04f, 0.05f}, G({upper_torso}));
+}
 
+// The left arm, shoulder to wrist, with its muscles.
+void add_left_arm(Author& a) {
+  using enum Group;
   // --- arm (left; mirrored below) -------------------------------------------------------------
   a.add("l_shoulder_cap", "l_shoulder", {0.17f, 1.36f, 0.0f}, {0.05f, 0.045f, 0.05f}, G({left_shoulder, left_upper_arm}));
   {
@@ -160,14 +172,22 @@ BodyModel default_body_model() {
   }
   a.add("l_forearm_lower", "l_elbow", {0.56f, 1.341f, 0.0f}, {0.065f, 0.02f, 0.029f}, G({left_lower_arm}));
   a.add("l_wrist_pad", "l_wrist", {0.622f, 1.341f, 0.0f}, {0.025f, 0.017f, 0.026f}, G({left_lower_arm}));
+}
 
+// The left hand, rigid.
+void add_left_hand(Author& a) {
+  using enum Group;
   // --- hand (rigid, a mitten: fingers together) --------------------------------------------------
   a.rigid("l_palm", "l_wrist", RigidPart::left_hand, {0.675f, 1.341f, 0.0f}, {0.05f, 0.016f, 0.042f});
   a.rigid("l_fingers", "l_wrist", RigidPart::left_hand, {0.75f, 1.339f, -0.005f}, {0.05f, 0.011f, 0.037f});
   a.rigid("l_thumb", "l_wrist", RigidPart::left_hand, {0.665f, 1.334f, 0.047f}, {0.035f, 0.012f, 0.013f}, 1.5f,
           {0, -40, 0});
   a.rigid("l_hand_wrist", "l_wrist", RigidPart::left_hand, {0.628f, 1.341f, 0.0f}, {0.022f, 0.018f, 0.027f});
+}
 
+// The left leg, hip to ankle, with its muscles.
+void add_left_leg(Author& a) {
+  using enum Group;
   // --- leg (left; mirrored below) --------------------------------------------------------------
   a.add("l_thigh_upper", "l_hip", {0.1f, 0.77f, 0.015f}, {0.085f, 0.1f, 0.085f}, G({left_upper_leg, hip}));
   {
@@ -194,13 +214,21 @@ BodyModel default_body_model() {
   a.add("l_lower_calf", "l_knee", {0.11f, 0.2f, -0.01f}, {0.034f, 0.09f, 0.034f}, G({left_lower_leg}));
   a.add("l_ankle", "l_ankle", {0.11f, 0.09f, 0.0f}, {0.03f, 0.045f, 0.034f}, G({left_lower_leg, left_ankle}));
   a.hard("l_malleolus", "l_ankle", {0.11f, 0.075f, 0.0f}, {0.032f, 0.02f, 0.022f}, G({left_ankle}));
+}
 
+// The left foot, rigid.
+void add_left_foot(Author& a) {
+  using enum Group;
   // --- foot (rigid) -------------------------------------------------------------------------------
   a.rigid("l_heel", "l_ankle", RigidPart::left_foot, {0.11f, 0.04f, -0.02f}, {0.03f, 0.035f, 0.04f});
   a.rigid("l_foot_arch", "l_ankle", RigidPart::left_foot, {0.11f, 0.038f, 0.06f}, {0.04f, 0.032f, 0.07f});
   a.rigid("l_foot_ball", "l_ankle", RigidPart::left_foot, {0.115f, 0.025f, 0.15f}, {0.045f, 0.021f, 0.05f});
   a.rigid("l_foot_ankle", "l_ankle", RigidPart::left_foot, {0.11f, 0.075f, 0.0f}, {0.03f, 0.03f, 0.034f});
+}
 
+// The head, rigid.
+void add_head(Author& a) {
+  using enum Group;
   // --- head (rigid) -------------------------------------------------------------------------------
   a.rigid("cranium", "head", RigidPart::head, {0, 1.6f, 0.0f}, {0.075f, 0.085f, 0.095f});
   a.rigid("face", "head", RigidPart::head, {0, 1.565f, 0.05f}, {0.065f, 0.075f, 0.06f});
@@ -209,6 +237,22 @@ BodyModel default_body_model() {
   a.rigid("chin", "head", RigidPart::head, {0, 1.5f, 0.08f}, {0.025f, 0.02f, 0.02f});
   a.rigid("l_ear", "head", RigidPart::head, {0.075f, 1.575f, 0.0f}, {0.012f, 0.03f, 0.02f});
   a.rigid("skull_base", "head", RigidPart::head, {0, 1.515f, 0.0f}, {0.05f, 0.035f, 0.05f});
+}
+
+}  // namespace
+
+BodyModel default_body_model() {
+  Author a(rig::default_skeleton_desc());
+  a.model.name = "mimic-default";
+  add_pelvis_and_hips(a);
+  add_abdomen_and_lower_back(a);
+  add_chest_back_shoulders(a);
+  add_neck(a);
+  add_left_arm(a);
+  add_left_hand(a);
+  add_left_leg(a);
+  add_left_foot(a);
+  add_head(a);
 
   // Mirror every left primitive to the right.
   std::vector<Primitive> right;

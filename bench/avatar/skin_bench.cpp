@@ -28,21 +28,21 @@ std::vector<rig::Pose> poses(const rig::Skeleton& s, int n) {
   return out;
 }
 
-BodySkin make(int subdivision, bool normals = false) {
+ImplicitSkin make(int subdivision, bool normals = false) {
   SkinOptions o;
   o.subdivision = subdivision;
   o.normals = normals;
-  return std::move(*BodySkin::create(default_body_model(), o));
+  return std::move(*ImplicitSkin::create(default_body_model(), o));
 }
 
-void set_counters(benchmark::State& state, const BodySkin& skin) {
+void set_counters(benchmark::State& state, const ImplicitSkin& skin) {
   state.counters["vertices"] = static_cast<double>(skin.mesh().positions.size());
   state.counters["rays"] = skin.stats().rays;
   state.SetItemsProcessed(state.iterations());
 }
 
 void BM_Frame(benchmark::State& state) {
-  BodySkin skin = make(static_cast<int>(state.range(0)));
+  ImplicitSkin skin = make(static_cast<int>(state.range(0)));
   const auto ps = poses(skin.skeleton(), 16);
   size_t i = 0;
   for (auto _ : state) {
@@ -55,7 +55,7 @@ BENCHMARK(BM_Frame)->Arg(0)->Arg(1)->Arg(2)->Unit(benchmark::kMicrosecond);
 
 // The same frame plus area-weighted vertex normals (what a renderer or a mesh file needs).
 void BM_FrameWithNormals(benchmark::State& state) {
-  BodySkin skin = make(static_cast<int>(state.range(0)), true);
+  ImplicitSkin skin = make(static_cast<int>(state.range(0)), true);
   const auto ps = poses(skin.skeleton(), 16);
   size_t i = 0;
   for (auto _ : state) {
@@ -69,7 +69,7 @@ BENCHMARK(BM_FrameWithNormals)->Arg(1)->Unit(benchmark::kMicrosecond);
 enum Stage { kFk, kDeform, kContours, kBspline, kStitch };
 
 void BM_Stage(benchmark::State& state) {
-  BodySkin skin = make(1);
+  ImplicitSkin skin = make(1);
   const auto ps = poses(skin.skeleton(), 16);
   const auto stage = static_cast<Stage>(state.range(0));
   size_t i = 0;
@@ -96,7 +96,7 @@ BENCHMARK(BM_Stage)->ArgName("fk0_deform1_contours2_bspline3_stitch4")->DenseRan
 // The baseline skinnings of the same mesh (avatar/baselines/): FK, skinning transforms and the
 // vertices per iteration, as a frame would run them. Per-vertex figures: baselines_bench.cpp.
 void BM_BaselineSkinning(benchmark::State& state) {
-  BodySkin skin = make(1);
+  ImplicitSkin skin = make(1);
   const rig::Skeleton& s = skin.skeleton();
   skin.evaluate(s.zero_pose());
   auto skinner = baselines::bind_to_links(s, s.zero_pose(), skin.mesh());

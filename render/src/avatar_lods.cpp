@@ -21,7 +21,7 @@ Result<AvatarLods> AvatarLods::create(const avatar::BodyModel& model, const rig:
   for (int lod = 0; lod < kLodCount; ++lod) {
     avatar::SkinOptions options;  // B-spline smoothing, one sample per span
     const avatar::BodyModel at_lod = avatar::with_skin_lod(model, lod);
-    auto skin = skeleton ? avatar::BodySkin::create(at_lod, *skeleton, options) : avatar::BodySkin::create(at_lod, options);
+    auto skin = skeleton ? avatar::ImplicitSkin::create(at_lod, *skeleton, options) : avatar::ImplicitSkin::create(at_lod, options);
     if (!skin) return tl::unexpected(skin.error());
     skin->evaluate(skin->skeleton().rest_pose());
     if (method == avatar::SkinMethod::realtime) {
@@ -61,7 +61,7 @@ const avatar::Mesh& AvatarLods::mesh(int lod) const {
   return method_ == avatar::SkinMethod::realtime ? realtime_meshes_[lod] : skins_[lod].mesh();
 }
 
-const avatar::BodySkin& AvatarLods::overlay_skin(int lod, const rig::Pose& pose) {
+const avatar::ImplicitSkin& AvatarLods::overlay_skin(int lod, const rig::Pose& pose) {
   lod = std::clamp(lod, 0, count() - 1);
   if (method_ == avatar::SkinMethod::realtime) skins_[lod].evaluate(pose);
   return skins_[lod];

@@ -69,7 +69,7 @@ float deformation_amount(const avatar::Deformation& d, const rig::Dof& dof, floa
   return t;
 }
 
-void append_primitives(const avatar::BodySkin& skin, const avatar::BodyModel& model, const rig::Pose& pose,
+void append_primitives(const avatar::ImplicitSkin& skin, const avatar::BodyModel& model, const rig::Pose& pose,
                        const glm::mat4& world_from_body, Lines& out) {
   const avatar::BodyField& field = skin.field();
   const rig::Skeleton& skeleton = skin.skeleton();
@@ -99,7 +99,7 @@ void append_primitives(const avatar::BodySkin& skin, const avatar::BodyModel& mo
   }
 }
 
-void append_contours(const avatar::BodySkin& skin, const glm::mat4& world_from_body, Lines& out) {
+void append_contours(const avatar::ImplicitSkin& skin, const glm::mat4& world_from_body, Lines& out) {
   const glm::vec4 color{0.05f, 0.05f, 0.10f, 0.9f};
   for (const auto& ring : skin.contours()) {
     const size_t n = ring.points.size();
@@ -108,7 +108,7 @@ void append_contours(const avatar::BodySkin& skin, const glm::mat4& world_from_b
   }
 }
 
-void append_rays(const avatar::BodySkin& skin, int ring, const glm::mat4& world_from_body, Lines& out) {
+void append_rays(const avatar::ImplicitSkin& skin, int ring, const glm::mat4& world_from_body, Lines& out) {
   const auto rings = skin.contours();
   if (rings.empty()) return;
   const auto& r = rings[static_cast<size_t>(std::clamp(ring, 0, static_cast<int>(rings.size()) - 1))];

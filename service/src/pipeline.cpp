@@ -411,13 +411,13 @@ namespace {
 
 class SkinDeformer final : public Deformer {
  public:
-  SkinDeformer(avatar::BodySkin skin, uint8_t lod) : skin_(std::move(skin)), lod_(lod) {}
+  SkinDeformer(avatar::ImplicitSkin skin, uint8_t lod) : skin_(std::move(skin)), lod_(lod) {}
   void deform(const rig::Pose& pose) override { skin_.evaluate(pose); }
   const avatar::Mesh* mesh() const override { return &skin_.mesh(); }
   uint8_t lod() const override { return lod_; }
 
  private:
-  avatar::BodySkin skin_;
+  avatar::ImplicitSkin skin_;
   uint8_t lod_;
 };
 
@@ -455,7 +455,7 @@ Result<std::unique_ptr<Deformer>> make_skin_deformer(const avatar::BodyModel& mo
   avatar::SkinOptions o;
   o.subdivision = 0;
   o.normals = false;  // receivers that want normals compute them from the fixed topology
-  auto skin = avatar::BodySkin::create(avatar::with_skin_lod(model, lod), skeleton, o);
+  auto skin = avatar::ImplicitSkin::create(avatar::with_skin_lod(model, lod), skeleton, o);
   if (!skin) return tl::unexpected(skin.error());
   return std::unique_ptr<Deformer>(new SkinDeformer(std::move(*skin), static_cast<uint8_t>(lod)));
 }

@@ -24,7 +24,7 @@ Measured measure(const BodyModel& model) {
   Measured out;
   SkinOptions o;
   o.rigid_parts = false;  // the envelope alone is the closed surface
-  auto skin = BodySkin::create(model, o);
+  auto skin = ImplicitSkin::create(model, o);
   EXPECT_TRUE(skin) << skin.error().what();
   const rig::Skeleton& s = skin->skeleton();
   rig::Pose p = s.zero_pose();

@@ -15,7 +15,7 @@ struct Figures {
 };
 
 Figures figures(const BodyModel& m) {
-  auto skin = BodySkin::create(m);
+  auto skin = ImplicitSkin::create(m);
   EXPECT_TRUE(skin) << skin.error().what();
   const rig::Skeleton& s = skin->skeleton();
   rig::Pose p = s.zero_pose();

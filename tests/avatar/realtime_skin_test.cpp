@@ -25,11 +25,11 @@ std::shared_ptr<const RealtimeBody> make_body(int lod = 0) {
   return *b;
 }
 
-BodySkin full_skin(int lod = 0) {
+ImplicitSkin full_skin(int lod = 0) {
   SkinOptions o;
   o.subdivision = 0;
   o.normals = false;
-  auto s = BodySkin::create(with_skin_lod(default_body_model(), lod), o);
+  auto s = ImplicitSkin::create(with_skin_lod(default_body_model(), lod), o);
   EXPECT_TRUE(s) << s.error().what();
   return std::move(*s);
 }
@@ -45,7 +45,7 @@ void expect_closed_outward(const Mesh& m, const std::string& what) {
 TEST(RealtimeSkin, TheInitialPoseIsTheFullMethodVertexForVertex) {
   auto body = make_body();
   RealtimeSkin skin(body);
-  BodySkin full = full_skin();
+  ImplicitSkin full = full_skin();
   Mesh m = body->rest_mesh();
   ASSERT_EQ(m.positions.size(), full.mesh().positions.size());
   skin.evaluate(full.skeleton().zero_pose(), m.positions);
@@ -85,7 +85,7 @@ TEST(RealtimeSkin, MusclesBulgeWithoutRays) {
     if (std::abs(m.positions[v].x - 0.29f) < 0.02f && m.positions[v].z > 0.02f) front.push_back(v);
   ASSERT_GT(front.size(), 2u);
   std::vector<rig::RigidTransform> w(sk.joint_count());
-  BodySkin full = full_skin();
+  ImplicitSkin full = full_skin();
   // How far the chosen vertices reach from the upper arm's axis: the realtime skin's, with or
   // without muscles, or the full method's (muscles < 0).
   auto bulge = [&](float flex, int muscles) {
@@ -117,7 +117,7 @@ TEST(RealtimeSkin, MusclesBulgeWithoutRays) {
 TEST(RealtimeSkin, ClosedOutwardAndNearTheFullMethodThroughEverySharedClip) {
   auto body = make_body();
   RealtimeSkin skin(body);
-  BodySkin full = full_skin();
+  ImplicitSkin full = full_skin();
   Mesh m = body->rest_mesh();
   const Mesh& fm = full.mesh();
   std::vector<float> with, without;
@@ -260,7 +260,7 @@ TEST(RealtimeSkin, TheVectorisedKernelsAgreeWithTheScalarReference) {
       }
     }
     EXPECT_LT(worst, 1e-5f) << "LOD " << lod;
-    BodySkin full = full_skin(lod);
+    ImplicitSkin full = full_skin(lod);
     vectorised.evaluate(full.skeleton().zero_pose(), a);
     scalar.evaluate(full.skeleton().zero_pose(), b);
     for (size_t v = 0; v < a.size(); ++v) {
@@ -342,7 +342,7 @@ TEST(RealtimeSkin, AnInitialPoseOfTheCallersIsExactToo) {
   auto body = RealtimeBody::create(default_body_model(), o);
   ASSERT_TRUE(body) << body.error().what();
   RealtimeSkin skin(*body);
-  BodySkin full = full_skin(1);
+  ImplicitSkin full = full_skin(1);
   full.evaluate(p);
   Mesh m = (*body)->rest_mesh();
   skin.evaluate(p, m.positions);

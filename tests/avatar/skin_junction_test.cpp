@@ -38,7 +38,7 @@ struct JunctionFigures {
   std::map<std::string, int> folds_by_part;
 };
 
-JunctionFigures measure(const BodySkin& s) {
+JunctionFigures measure(const ImplicitSkin& s) {
   JunctionFigures out;
   const auto rings = s.contours();
   std::map<std::tuple<float, float, float>, bool> junction_points;
@@ -103,10 +103,10 @@ JunctionFigures measure(const BodySkin& s) {
   return out;
 }
 
-BodySkin make_skin() {
+ImplicitSkin make_skin() {
   SkinOptions o;
   o.subdivision = 0;
-  auto s = BodySkin::create(default_body_model(), o);
+  auto s = ImplicitSkin::create(default_body_model(), o);
   EXPECT_TRUE(s) << s.error().what();
   return std::move(*s);
 }
@@ -122,7 +122,7 @@ BodySkin make_skin() {
 // radius in the neck's first driven ring at rest): 0.40 at rest, 0.62 in the clips (0.40 and 0.72
 // with the uncut loop).
 TEST(SkinJunctions, DrivenRingsStayNearTheirPointsAndTheJunctionsDoNotFold) {
-  BodySkin s = make_skin();
+  ImplicitSkin s = make_skin();
   std::vector<std::pair<std::string, rig::Pose>> poses = {{"rest", s.skeleton().rest_pose()},
                                                      {"T-pose", s.skeleton().zero_pose()}};
   for (const char* id : test::kShared_clips) {

@@ -24,7 +24,7 @@ TEST(SkinLod, FourLevelsFromAboutTenThousandToAboutThreeHundredTriangles) {
     ASSERT_TRUE(validate(model)) << "LOD " << lod;
     SkinOptions o;
     o.subdivision = 0;
-    auto skin = BodySkin::create(model, o);
+    auto skin = ImplicitSkin::create(model, o);
     ASSERT_TRUE(skin) << skin.error().what();
     const Mesh& m = skin->mesh();
     const MeshTopology t = analyze_topology(m);
@@ -82,11 +82,11 @@ std::vector<SkinPieceLods> lod_sample(int random_count = 12) {
   return out;
 }
 
-BodySkin full_skin(const SkinPieceLods& lods, int subdivision = 0) {
+ImplicitSkin full_skin(const SkinPieceLods& lods, int subdivision = 0) {
   SkinOptions o;
   o.subdivision = subdivision;
   o.normals = false;
-  auto skin = BodySkin::create(with_skin_lods(default_body_model(), lods), o);
+  auto skin = ImplicitSkin::create(with_skin_lods(default_body_model(), lods), o);
   EXPECT_TRUE(skin) << skin_lods_name(lods) << ": " << skin.error().what();
   return std::move(*skin);
 }
@@ -106,7 +106,7 @@ BodySkin full_skin(const SkinPieceLods& lods, int subdivision = 0) {
   return ::testing::AssertionSuccess();
 }
 
-size_t points_of(const BodySkin& skin, const std::string& ring) {
+size_t points_of(const ImplicitSkin& skin, const std::string& ring) {
   for (const auto& c : skin.contours())
     if (c.name == ring) return c.points.size();
   ADD_FAILURE() << "no ring " << ring;
@@ -123,8 +123,8 @@ std::map<std::string, uint32_t> triangles_per_part(const Mesh& m) {
 // loop, its boundary-driven rings and that first ring keep the loop's count, set by the torso),
 // and its own contours per link; the torso and the rigid parts depend on their own LOD only.
 TEST(SkinLod, EachPieceTakesItsOwnPointsPerContourAndContoursPerLink) {
-  std::array<BodySkin*, kSkinLodCount> whole{};
-  std::vector<BodySkin> wholes;
+  std::array<ImplicitSkin*, kSkinLodCount> whole{};
+  std::vector<ImplicitSkin> wholes;
   for (int lod = 0; lod < kSkinLodCount; ++lod) wholes.push_back(full_skin(SkinPieceLods::whole(lod)));
   for (int lod = 0; lod < kSkinLodCount; ++lod) whole[lod] = &wholes[lod];
   EXPECT_EQ(points_of(*whole[0], "l_arm_1"), 24u);
@@ -134,7 +134,7 @@ TEST(SkinLod, EachPieceTakesItsOwnPointsPerContourAndContoursPerLink) {
   int mixed = 0;
   for (const SkinPieceLods& l : lod_sample()) {
     const std::string what = skin_lods_name(l);
-    const BodySkin skin = full_skin(l);
+    const ImplicitSkin skin = full_skin(l);
     const auto tris = triangles_per_part(skin.mesh());
     const auto torso_tris = triangles_per_part(whole[l.torso]->mesh());
     const auto rigid_tris = triangles_per_part(whole[l.rigid]->mesh());
@@ -173,11 +173,11 @@ TEST(SkinLod, EachPieceAloneReducesTheTriangles) {
 TEST(SkinLod, EveryCombinationIsClosedOrientedAndOutwardAtRest) {
   for (const SkinPieceLods& l : lod_sample()) {
     const std::string what = skin_lods_name(l);
-    const BodySkin contour = full_skin(l, 0);
+    const ImplicitSkin contour = full_skin(l, 0);
     ASSERT_TRUE(sound(contour.mesh())) << what << " full, contour points";
     EXPECT_EQ(contour.stats().missed_rays, 0) << what;
     EXPECT_EQ(weld_by_position(contour.mesh(), 1e-5f).positions.size(), contour.mesh().positions.size()) << what;
-    const BodySkin smooth = full_skin(l, 2);
+    const ImplicitSkin smooth = full_skin(l, 2);
     ASSERT_TRUE(sound(smooth.mesh())) << what << " full, B-spline";
     auto body = RealtimeBody::create(with_skin_lods(default_body_model(), l));
     ASSERT_TRUE(body) << what << ": " << body.error().what();
@@ -218,7 +218,7 @@ TEST(SkinLod, MixedLodsStayClosedThroughTheSharedClips) {
   for (int i = 0; i < 4; ++i) sample.push_back({level(rng), level(rng), level(rng), level(rng), level(rng)});
   for (const SkinPieceLods& l : sample) {
     const std::string what = skin_lods_name(l);
-    BodySkin full = full_skin(l);
+    ImplicitSkin full = full_skin(l);
     auto body = RealtimeBody::create(with_skin_lods(default_body_model(), l));
     ASSERT_TRUE(body) << body.error().what();
     RealtimeSkin skin(*body);
@@ -238,7 +238,7 @@ TEST(SkinLod, MixedLodsStayClosedThroughTheSharedClips) {
 // tile their unit square exactly.
 TEST(SkinLod, TextureCoordinatesOnTheTransitionStrips) {
   for (const SkinPieceLods& l : {SkinPieceLods{0, 3, 3, 3, 0}, SkinPieceLods{3, 0, 0, 0, 3}}) {
-    const BodySkin s = full_skin(l);
+    const ImplicitSkin s = full_skin(l);
     const Mesh& m = s.mesh();
     const TextureLayout t = texture_layout(s);
     ASSERT_EQ(t.indices.size(), m.indices.size());

@@ -11,10 +11,10 @@
 namespace mimic::avatar {
 namespace {
 
-BodySkin make_skin(int subdivision) {
+ImplicitSkin make_skin(int subdivision) {
   SkinOptions o;
   o.subdivision = subdivision;
-  auto s = BodySkin::create(default_body_model(), o);
+  auto s = ImplicitSkin::create(default_body_model(), o);
   EXPECT_TRUE(s) << s.error().what();
   return std::move(*s);
 }
@@ -45,7 +45,7 @@ void expect_closed_outward(const Mesh& m, const std::string& what) {
 
 TEST(Skin, ZeroPostureIsAClosedOutwardEnvelopePlusRigidParts) {
   for (int sub : {0, 1, 2}) {
-    const BodySkin s = make_skin(sub);
+    const ImplicitSkin s = make_skin(sub);
     const Mesh& m = s.mesh();
     expect_closed_outward(m, "subdivision " + std::to_string(sub));
     const MeshTopology t = analyze_topology(m);
@@ -59,7 +59,7 @@ TEST(Skin, ZeroPostureIsAClosedOutwardEnvelopePlusRigidParts) {
 }
 
 TEST(Skin, HasTheElevenPiecesAndRigidParts) {
-  const BodySkin s = make_skin(1);
+  const ImplicitSkin s = make_skin(1);
   std::vector<std::string> names;
   for (const auto& p : s.mesh().parts) {
     names.push_back(p.name);
@@ -73,7 +73,7 @@ TEST(Skin, HasTheElevenPiecesAndRigidParts) {
 }
 
 TEST(Skin, StaysClosedAndOutwardInRandomPostures) {
-  BodySkin s = make_skin(1);
+  ImplicitSkin s = make_skin(1);
   std::mt19937_64 rng(42);
   const size_t triangles = s.mesh().triangle_count();
   for (int i = 0; i < 25; ++i) {
@@ -87,7 +87,7 @@ TEST(Skin, StaysClosedAndOutwardInRandomPostures) {
 // crossing along that ray; on a boundary-driven ring, where the solid around the point P its ray
 // aims at ends (searched within 30% of |P − O| of P and half the rings' spacing).
 TEST(Skin, ContourPointsLieOnTheIsoSurfaceAndAreOutermost) {
-  BodySkin s = make_skin(1);
+  ImplicitSkin s = make_skin(1);
   std::mt19937_64 rng(7);
   for (int pose = 0; pose < 4; ++pose) {
     if (pose > 0) s.evaluate(random_pose(s.skeleton(), rng, 0.5f));
@@ -134,7 +134,7 @@ TEST(Skin, ContourPointsLieOnTheIsoSurfaceAndAreOutermost) {
 }
 
 TEST(Skin, MusclesDeformWithTheirJoint) {
-  BodySkin s = make_skin(0);
+  ImplicitSkin s = make_skin(0);
   const rig::Skeleton& sk = s.skeleton();
   // Biceps bulge: the upper arm's front surface at mid-arm moves out as the elbow flexes.
   auto front_of_upper_arm = [&](float flex) {
@@ -160,7 +160,7 @@ namespace {
 // Poses the default body through every shared clip (every 40th frame, frame 0 included) and
 // checks the envelope in each: closed, consistently oriented, outward, no ray misses.
 TEST(Skin, ClosedAndOutwardThroughEverySharedClip) {
-  BodySkin s = make_skin(1);
+  ImplicitSkin s = make_skin(1);
   const double rest_volume = analyze_topology(s.mesh()).signed_volume;
   int poses = 0;
   for (const char* id : test::kShared_clips) {

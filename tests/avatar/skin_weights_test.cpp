@@ -8,10 +8,10 @@
 namespace mimic::avatar {
 namespace {
 
-BodySkin realtime_resolution() {
+ImplicitSkin realtime_resolution() {
   SkinOptions o;
   o.subdivision = 0;
-  auto s = BodySkin::create(default_body_model(), o);
+  auto s = ImplicitSkin::create(default_body_model(), o);
   EXPECT_TRUE(s) << s.error().what();
   return std::move(*s);
 }
@@ -23,7 +23,7 @@ float weight_of(const JointInfluences& in, int joint) {
 }
 
 TEST(SkinWeights, EveryVertexHasAtMostFourNormalisedInfluences) {
-  const BodySkin s = realtime_resolution();
+  const ImplicitSkin s = realtime_resolution();
   auto w = contour_skin_weights(s);
   ASSERT_TRUE(w) << w.error().what();
   ASSERT_EQ(w->size(), s.mesh().positions.size());
@@ -45,7 +45,7 @@ TEST(SkinWeights, EveryVertexHasAtMostFourNormalisedInfluences) {
 }
 
 TEST(SkinWeights, FollowTheRingsAlongTheLinks) {
-  const BodySkin s = realtime_resolution();
+  const ImplicitSkin s = realtime_resolution();
   const rig::Skeleton& sk = s.skeleton();
   auto w = contour_skin_weights(s);
   ASSERT_TRUE(w);
@@ -90,7 +90,7 @@ TEST(SkinWeights, FollowTheRingsAlongTheLinks) {
 // Linear blend skinning with these weights tracks the contour skin through a walk: a mean
 // distance of a few centimetres would mean the weights bind vertices to the wrong links.
 TEST(SkinWeights, LinearBlendWithThemStaysNearTheContourSkin) {
-  BodySkin s = realtime_resolution();
+  ImplicitSkin s = realtime_resolution();
   const rig::Skeleton& sk = s.skeleton();
   auto w = contour_skin_weights(s);
   ASSERT_TRUE(w);
@@ -120,7 +120,7 @@ TEST(SkinWeights, LinearBlendWithThemStaysNearTheContourSkin) {
 }
 
 TEST(SkinWeights, NeedTheRealtimeResolution) {
-  auto s = BodySkin::create(default_body_model(), SkinOptions{});
+  auto s = ImplicitSkin::create(default_body_model(), SkinOptions{});
   ASSERT_TRUE(s);
   EXPECT_FALSE(contour_skin_weights(*s));
 }

@@ -13,10 +13,10 @@
 namespace mimic::avatar {
 namespace {
 
-BodySkin skin_at(int subdivision) {
+ImplicitSkin skin_at(int subdivision) {
   SkinOptions o;
   o.subdivision = subdivision;
-  auto s = BodySkin::create(default_body_model(), o);
+  auto s = ImplicitSkin::create(default_body_model(), o);
   EXPECT_TRUE(s) << s.error().what();
   return std::move(*s);
 }
@@ -25,7 +25,7 @@ BodySkin skin_at(int subdivision) {
 // triangle is small in (u, v) (none spans the wrap) and lies in its part's unit square.
 TEST(TextureLayout, SplitsTheSeamsAndKeepsEveryTriangle) {
   for (int sub : {0, 1}) {
-    const BodySkin s = skin_at(sub);
+    const ImplicitSkin s = skin_at(sub);
     const Mesh& m = s.mesh();
     const TextureLayout t = texture_layout(s);
     ASSERT_EQ(t.indices.size(), m.indices.size());
@@ -51,7 +51,7 @@ TEST(TextureLayout, SplitsTheSeamsAndKeepsEveryTriangle) {
 // Each skin piece covers v from 0 to 1 and u from 0 to 1; the forearm's first row is the elbow
 // ring, so the elbow's vertices appear twice: v = 1 of the upper arm, v = 0 of the forearm.
 TEST(TextureLayout, EachPartIsItsOwnSquare) {
-  const BodySkin s = skin_at(0);
+  const ImplicitSkin s = skin_at(0);
   const Mesh& m = s.mesh();
   const TextureLayout t = texture_layout(s);
   for (const MeshPart& p : m.parts) {

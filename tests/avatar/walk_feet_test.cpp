@@ -58,7 +58,7 @@ TEST(WalkFeet, TheFullSkinStaysOnTheFloorAtEveryKey) {
   SkinOptions o;
   o.subdivision = 0;
   o.normals = false;
-  auto skin = BodySkin::create(default_body_model(), o);
+  auto skin = ImplicitSkin::create(default_body_model(), o);
   ASSERT_TRUE(skin) << skin.error().what();
   const FloorContact c = walk_contact(skin->skeleton(), [&](const rig::Pose& pose) {
     skin->evaluate(pose);

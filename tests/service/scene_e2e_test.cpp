@@ -122,7 +122,7 @@ TEST(SceneE2e, BodiesOfEverySizeStandOnTheFloor) {
     names.push_back(model->name);
     auto skeleton = mimic::rig::Skeleton::build(model->skeleton);
     ASSERT_TRUE(skeleton);
-    auto skin = mimic::avatar::BodySkin::create(*model, *skeleton);
+    auto skin = mimic::avatar::ImplicitSkin::create(*model, *skeleton);
     ASSERT_TRUE(skin) << skin.error().what();
     skin->evaluate(a.pose);
     float sole_m = 1e9f;

@@ -60,7 +60,7 @@ Result<std::vector<SweepResult>> inspect_joint_zones(const BodyModel& base_model
   so.subdivision = 0;  // the realtime resolution: contour points are the vertices
   so.rigid_parts = false;
   so.normals = false;
-  auto full = BodySkin::create(model, so);
+  auto full = ImplicitSkin::create(model, so);
   if (!full) return tl::unexpected(full.error());
   const rig::Skeleton& skeleton = full->skeleton();
   RealtimeOptions ro;

@@ -14,20 +14,15 @@ constexpr float kDrivenReach = 0.3f;
 // ---------------------------------------------------------------------------------------------
 // Contours
 
-int BodySkin::Impl::gather(GroupMask mask) {
+int RingCaster::gather(const BodyField& field, GroupMask mask) {
   int n = 0;
   for (int i = 0; i < field.size() && n < kMaxCandidates; ++i)
     if (field.groups(i) & mask) candidates[n++] = static_cast<uint16_t>(i);
   return n;
 }
 
-void BodySkin::Impl::cast_into(uint32_t slot, const glm::vec3& origin, const glm::vec3& dir,
-                               std::span<const uint16_t> cand, const glm::vec3& fallback) {
-  store(slot, origin, dir, field.cast_outermost(origin, dir, cand), fallback);
-}
-
-void BodySkin::Impl::store(uint32_t slot, const glm::vec3& origin, const glm::vec3& dir, RayHit hit,
-                           const glm::vec3& fallback) {
+void RingCaster::store(uint32_t slot, const glm::vec3& origin, const glm::vec3& dir, RayHit hit,
+                       const glm::vec3& fallback) {
   ++stats.rays;
   ctrl_origin[slot] = origin;
   if (hit.hit()) {
@@ -46,7 +41,7 @@ void BodySkin::Impl::store(uint32_t slot, const glm::vec3& origin, const glm::ve
 // edge beside the front armpit), and points inside the convex hull of the others (a hollow such
 // as the one between pectoral and deltoid) are pushed out onto it along their ray, as skin
 // spans a hollow. The loops the arc closes then go round their limb without folding back.
-void BodySkin::Impl::span_arc(size_t m, const Directions& dir) {
+void RingCaster::span_arc(size_t m, const Directions& dir) {
   const size_t np = m + 2;
   auto cos_of = [&](size_t i) { return i == 0 ? 1.0f : i == np - 1 ? -1.0f : dir.cos[i - 1]; };
   auto sin_of = [&](size_t i) { return i == 0 || i == np - 1 ? 0.0f : dir.sin[i - 1]; };
@@ -69,9 +64,11 @@ void BodySkin::Impl::span_arc(size_t m, const Directions& dir) {
   }
 }
 
-void BodySkin::Impl::size_ring_buffers() {
-  size_t widest = star_hits.size();
-  for (const Ring& r : rings) widest = std::max(widest, r.slots.size());
+void RingCaster::size_for(size_t control_points, size_t widest) {
+  ctrl.resize(control_points);
+  ctrl_origin.resize(control_points);
+  ctrl_hit.resize(control_points);
+  candidates.resize(kMaxCandidates);
   star_hits.resize(widest);
   ray_origins.resize(widest);
   ray_dirs.resize(widest);
@@ -82,109 +79,116 @@ void BodySkin::Impl::size_ring_buffers() {
   arc_hull.resize(widest + 2);
 }
 
-void BodySkin::Impl::compute_ring(const Ring& r) {
+void RingCaster::compute_ring(const ContourLayout::Data& layout, const BodyField& field, std::span<const Chain> chains,
+                              const Ring& r) {
   switch (r.kind) {
-    case RingKind::star: {
-      const Plane p = ring_plane(chains[r.chain], r.segment, r.u);
-      const int n = field.candidates_near_plane(p.origin, p.normal, r.mask, candidates);
-      const std::span<const uint16_t> cand(candidates.data(), n);
-      const Directions& dir = direction_tables[r.angles];
-      const std::span<RayHit> hits(star_hits.data(), r.slots.size());
-      field.cast_star(p.origin, p.front, p.left, dir.cos, dir.sin, cand, hits);
-      for (size_t j = 0; j < r.slots.size(); ++j) {
-        const glm::vec3 d = dir.cos[j] * p.front + dir.sin[j] * p.left;
-        store(r.slots[j], p.origin, d, hits[j], p.origin + kMissRadius_m * d);
-      }
-      break;
-    }
-    case RingKind::driven: {
-      const Ring& s = rings[r.s_ring];
-      const Chain& c = chains[s.chain];
-      const glm::vec3 a = c.point[0];
-      const glm::vec3 axis = safe_normalize(c.point[1] - c.point[0], c.normal[0]);
-      const int n = gather(r.mask);
-      const std::span<const uint16_t> cand(candidates.data(), n);
-      // Origins are P's projection on the link, kept between just before the joint and the
-      // S ring: in extreme postures (an arm swung across the chest) the bare projection can
-      // land far down the limb, from where the ray would miss the junction.
-      const float s_along = glm::dot(ctrl_origin[s.slots[0]] - a, axis);
-      const size_t m = r.slots.size();
-      for (size_t j = 0; j < m; ++j) {
-        const glm::vec3 sj = ctrl[s.slots[j]];
-        const glm::vec3 pj = driven_target(r, s.slots[j], r.goal[j]);
-        const glm::vec3 o = a + std::clamp(glm::dot(pj - a, axis), -0.05f, std::max(s_along, -0.05f)) * axis;
-        const glm::vec3 so = a + glm::dot(sj - a, axis) * axis;
-        ray_origins[j] = o;
-        ray_dirs[j] = safe_normalize(pj - o, safe_normalize(sj - so, c.normal[0]));
-        // The surface is searched only around P, where the solid around P ends (inwards from P
-        // outside the body, outwards from P inside it): the outermost crossing along the whole
-        // ray is, at a junction, often another part of the body (the other thigh across the
-        // crotch, the chest under a hanging arm, the shoulder's top beyond the neck's loop).
-        const float tp = glm::length(pj - o);
-        const float spacing = r.alpha_step * glm::length(ctrl[r.goal[j]] - sj);
-        const float reach = std::min(kDrivenReach * tp, 0.5f * spacing);
-        ray_nears[j] = RayNear{tp, std::max(tp - reach, 0.0f), tp + reach};
-        ray_fallbacks[j] = o + ray_nears[j].t_min * ray_dirs[j];
-      }
-      // Every ray of the ring at once, eight in lock-step.
-      const std::span<RayHit> hits(star_hits.data(), m);
-      field.cast_rays_nearest(std::span(ray_origins.data(), m), std::span(ray_dirs.data(), m),
-                              std::span(ray_nears.data(), m), cand, hits);
-      for (size_t j = 0; j < m; ++j) {
-        // No crossing within the window: the point stays at the window's end nearer the surface
-        // (its outer end where the solid goes on past it, else its inner end).
-        const bool beyond = hits[j].hit() && hits[j].t >= ray_nears[j].t_max;
-        if (beyond || !hits[j].hit()) {
-          ++stats.rays;
-          ++stats.windowed_rays;
-          ctrl_origin[r.slots[j]] = ray_origins[j];
-          ctrl[r.slots[j]] = beyond ? ray_origins[j] + ray_nears[j].t_max * ray_dirs[j] : ray_fallbacks[j];
-          ctrl_hit[r.slots[j]] = 0;
-        } else {
-          store(r.slots[j], ray_origins[j], ray_dirs[j], hits[j], ray_fallbacks[j]);
-        }
-      }
-      break;
-    }
-    case RingKind::arc: {
-      const glm::vec3 from = ctrl[r.from], to = ctrl[r.to];
-      const glm::vec3 o = 0.5f * (from + to);
-      const glm::vec3 front = safe_normalize(from - o, {0, 0, 1});
-      // "Up" is the normal of the ring the bridge leaves (the chest or crotch ring).
-      const Ring& base = rings[r.up_ring];
-      const Plane base_plane = ring_plane(chains[base.chain], base.segment, base.u);
-      glm::vec3 up = r.flip_up ? -base_plane.normal : base_plane.normal;
-      up = safe_normalize(up - glm::dot(up, front) * front, {0, 1, 0});
-      const int n = gather(r.mask);
-      const std::span<const uint16_t> cand(candidates.data(), n);
-      // A half star from the chord's middle: one contour's worth of shared work.
-      const int segs = static_cast<int>(r.slots.size()) + 1;
-      const size_t m = r.slots.size();
-      const Directions& dir = direction_tables[r.angles];
-      const std::span<RayHit> hits(star_hits.data(), m);
-      field.cast_star(o, front, up, dir.cos, dir.sin, cand, hits);
-      for (int k = 1; k < segs; ++k) {
-        const glm::vec3 d = dir.cos[static_cast<size_t>(k - 1)] * front + dir.sin[static_cast<size_t>(k - 1)] * up;
-        const glm::vec3 chord = glm::mix(from, to, static_cast<float>(k) / static_cast<float>(segs));
-        store(r.slots[k - 1], o, d, hits[static_cast<size_t>(k - 1)], chord);
-      }
-      // The arc as skin spans it, from its two ends on the ring it leaves: radii along the rays
-      // (a miss counts as 0), one end at angle 0 and the other at π.
-      const float half = glm::length(from - o);
-      arc_r[0] = half;
-      for (size_t k = 0; k < m; ++k) arc_r[k + 1] = hits[k].hit() ? hits[k].t : 0.0f;
-      arc_r[m + 1] = half;
-      span_arc(m, dir);
-      for (size_t k = 0; k < m; ++k) {
-        if (arc_r[k + 1] == (hits[k].hit() ? hits[k].t : 0.0f)) continue;
-        const glm::vec3 d = dir.cos[k] * front + dir.sin[k] * up;
-        ctrl[r.slots[k]] = o + arc_r[k + 1] * d;
-        ctrl_hit[r.slots[k]] = 0;
-      }
-      break;
-    }
+    case RingKind::star: star_ring(layout, field, chains, r); break;
+    case RingKind::driven: driven_ring(layout, field, chains, r); break;
+    case RingKind::arc: arc_ring(layout, field, chains, r); break;
   }
   ++stats.contours;
+}
+
+void RingCaster::star_ring(const ContourLayout::Data& layout, const BodyField& field, std::span<const Chain> chains,
+                           const Ring& r) {
+  const Plane p = ring_plane(chains[r.chain], r.segment, r.u);
+  const int n = field.candidates_near_plane(p.origin, p.normal, r.mask, candidates);
+  const std::span<const uint16_t> cand(candidates.data(), n);
+  const Directions& dir = layout.direction_tables[r.angles];
+  const std::span<RayHit> hits(star_hits.data(), r.slots.size());
+  field.cast_star(p.origin, p.front, p.left, dir.cos, dir.sin, cand, hits);
+  for (size_t j = 0; j < r.slots.size(); ++j) {
+    const glm::vec3 d = dir.cos[j] * p.front + dir.sin[j] * p.left;
+    store(r.slots[j], p.origin, d, hits[j], p.origin + kMissRadius_m * d);
+  }
+}
+
+void RingCaster::driven_ring(const ContourLayout::Data& layout, const BodyField& field, std::span<const Chain> chains,
+                             const Ring& r) {
+  const Ring& s = layout.rings[r.s_ring];
+  const Chain& c = chains[s.chain];
+  const glm::vec3 a = c.point[0];
+  const glm::vec3 axis = safe_normalize(c.point[1] - c.point[0], c.normal[0]);
+  const int n = gather(field, r.mask);
+  const std::span<const uint16_t> cand(candidates.data(), n);
+  // Origins are P's projection on the link, kept between just before the joint and the
+  // S ring: in extreme postures (an arm swung across the chest) the bare projection can
+  // land far down the limb, from where the ray would miss the junction.
+  const float s_along = glm::dot(ctrl_origin[s.slots[0]] - a, axis);
+  const size_t m = r.slots.size();
+  for (size_t j = 0; j < m; ++j) {
+    const glm::vec3 sj = ctrl[s.slots[j]];
+    const glm::vec3 pj = driven_target(r, s.slots[j], r.goal[j]);
+    const glm::vec3 o = a + std::clamp(glm::dot(pj - a, axis), -0.05f, std::max(s_along, -0.05f)) * axis;
+    const glm::vec3 so = a + glm::dot(sj - a, axis) * axis;
+    ray_origins[j] = o;
+    ray_dirs[j] = safe_normalize(pj - o, safe_normalize(sj - so, c.normal[0]));
+    // The surface is searched only around P, where the solid around P ends (inwards from P
+    // outside the body, outwards from P inside it): the outermost crossing along the whole
+    // ray is, at a junction, often another part of the body (the other thigh across the
+    // crotch, the chest under a hanging arm, the shoulder's top beyond the neck's loop).
+    const float tp = glm::length(pj - o);
+    const float spacing = r.alpha_step * glm::length(ctrl[r.goal[j]] - sj);
+    const float reach = std::min(kDrivenReach * tp, 0.5f * spacing);
+    ray_nears[j] = RayNear{tp, std::max(tp - reach, 0.0f), tp + reach};
+    ray_fallbacks[j] = o + ray_nears[j].t_min * ray_dirs[j];
+  }
+  // Every ray of the ring at once, eight in lock-step.
+  const std::span<RayHit> hits(star_hits.data(), m);
+  field.cast_rays_nearest(std::span(ray_origins.data(), m), std::span(ray_dirs.data(), m),
+                          std::span(ray_nears.data(), m), cand, hits);
+  for (size_t j = 0; j < m; ++j) {
+    // No crossing within the window: the point stays at the window's end nearer the surface
+    // (its outer end where the solid goes on past it, else its inner end).
+    const bool beyond = hits[j].hit() && hits[j].t >= ray_nears[j].t_max;
+    if (beyond || !hits[j].hit()) {
+      ++stats.rays;
+      ++stats.windowed_rays;
+      ctrl_origin[r.slots[j]] = ray_origins[j];
+      ctrl[r.slots[j]] = beyond ? ray_origins[j] + ray_nears[j].t_max * ray_dirs[j] : ray_fallbacks[j];
+      ctrl_hit[r.slots[j]] = 0;
+    } else {
+      store(r.slots[j], ray_origins[j], ray_dirs[j], hits[j], ray_fallbacks[j]);
+    }
+  }
+}
+
+void RingCaster::arc_ring(const ContourLayout::Data& layout, const BodyField& field, std::span<const Chain> chains,
+                          const Ring& r) {
+  const glm::vec3 from = ctrl[r.from], to = ctrl[r.to];
+  const glm::vec3 o = 0.5f * (from + to);
+  const glm::vec3 front = safe_normalize(from - o, {0, 0, 1});
+  // "Up" is the normal of the ring the bridge leaves (the chest or crotch ring).
+  const Ring& base = layout.rings[r.up_ring];
+  const Plane base_plane = ring_plane(chains[base.chain], base.segment, base.u);
+  glm::vec3 up = r.flip_up ? -base_plane.normal : base_plane.normal;
+  up = safe_normalize(up - glm::dot(up, front) * front, {0, 1, 0});
+  const int n = gather(field, r.mask);
+  const std::span<const uint16_t> cand(candidates.data(), n);
+  // A half star from the chord's middle: one contour's worth of shared work.
+  const int segs = static_cast<int>(r.slots.size()) + 1;
+  const size_t m = r.slots.size();
+  const Directions& dir = layout.direction_tables[r.angles];
+  const std::span<RayHit> hits(star_hits.data(), m);
+  field.cast_star(o, front, up, dir.cos, dir.sin, cand, hits);
+  for (int k = 1; k < segs; ++k) {
+    const glm::vec3 d = dir.cos[static_cast<size_t>(k - 1)] * front + dir.sin[static_cast<size_t>(k - 1)] * up;
+    const glm::vec3 chord = glm::mix(from, to, static_cast<float>(k) / static_cast<float>(segs));
+    store(r.slots[k - 1], o, d, hits[static_cast<size_t>(k - 1)], chord);
+  }
+  // The arc as skin spans it, from its two ends on the ring it leaves: radii along the rays
+  // (a miss counts as 0), one end at angle 0 and the other at π.
+  const float half = glm::length(from - o);
+  arc_r[0] = half;
+  for (size_t k = 0; k < m; ++k) arc_r[k + 1] = hits[k].hit() ? hits[k].t : 0.0f;
+  arc_r[m + 1] = half;
+  span_arc(m, dir);
+  for (size_t k = 0; k < m; ++k) {
+    if (arc_r[k + 1] == (hits[k].hit() ? hits[k].t : 0.0f)) continue;
+    const glm::vec3 d = dir.cos[k] * front + dir.sin[k] * up;
+    ctrl[r.slots[k]] = o + arc_r[k + 1] * d;
+    ctrl_hit[r.slots[k]] = 0;
+  }
 }
 
 }  // namespace mimic::avatar

@@ -6,15 +6,16 @@
 #include <span>
 #include <vector>
 
+#include "contour_layout_data.h"
 #include "mimic/avatar/body_field.h"
 #include "mimic/avatar/realtime_skin.h"
-#include "skin_impl.h"
+#include "mimic/avatar/skin.h"
 
 namespace mimic::avatar {
 
 namespace realtime_detail {
 
-inline constexpr int kTorsoChain = 0;        // layout.cpp builds the torso chain first
+inline constexpr int kTorsoChain = 0;        // contour_layout.cpp builds the torso chain first
 
 // The frame a ring's points are measured in this frame: the ring plane's orthonormal axes
 // (front, left, normal) and, for star rings, the link the ring cuts.
@@ -220,6 +221,26 @@ inline constexpr bool kHasAvx2Kernel =
 
 // The bend of a chain at its middle node (radians, 0 straight).
 float chain_bend(const Chain& c);
+
+// Build time (realtime_measure.cpp): the contours a realtime body is measured from, the layout's
+// chains at the initial pose and the control points the implicit skin ray-cast there.
+struct RestContours {
+  const ContourLayout::Data& layout;
+  const std::vector<Chain>& chains;
+  std::span<const glm::vec3> ctrl;
+};
+// Each slot's coordinates in its ring's frame, for the contours `m.ctrl` (the inverse of what
+// deform does with the columns at rest).
+void measure_local(const RestContours& m, const RealtimeBody::Data& d, std::vector<glm::vec3>& local);
+// The columns (Data::lo_x …): in the initial pose, each limb point's neighbours on the previous
+// and next star ring of the same link, in the point's own ring frame.
+void measure_columns(const RestContours& m, RealtimeBody::Data& d);
+// Joint bands at the elbows and knees and their scales over each joint's bend.
+Status calibrate_bands(const RestContours& m, const rig::Pose& base, RealtimeBody::Data& d);
+// The muscle terms: `skin` (the layout's implicit skin) ray-casts the contours with each
+// deforming DOF's primitives at θ0, θmin and θmax, the posture kept at `base`.
+void measure_muscles(const BodyModel& model, ImplicitSkin& skin, const RestContours& m, const rig::Pose& base,
+                     RealtimeBody::Data& d);
 
 }  // namespace realtime_detail
 

@@ -1,18 +1,17 @@
 // The realtime skin's frame (realtime_skin.h): joint transforms, chain nodes and one frame per
 // ring, then every contour point moved by its ring's configuration. Never allocates.
-#include <chrono>
 
 #if defined(__SSE__)
 #include <immintrin.h>
 #endif
 
+#include "mimic/core/clock.h"
 #include "realtime_data.h"
 
 namespace mimic::avatar::realtime_detail {
 
 namespace {
 
-using Clock = std::chrono::steady_clock;
 using Data = RealtimeBody::Data;
 
 // Most a ring's section is stretched along its tilt (1/0.3, a ring tilted 72.5° against its
@@ -130,7 +129,7 @@ size_t State::heap_bytes() const {
 }
 
 void deform(const Data& d, State& st, const rig::Pose& pose, std::span<glm::vec3> pos, bool muscles) {
-  const auto t0 = Clock::now();
+  const double t0 = steady_now_s();
   rig::forward_kinematics(d.skeleton, pose, st.world_from_joint);
   for (Chain& c : st.chains) c.update(st.world_from_joint);
   for (size_t i = 0; i < d.muscle_dofs.size(); ++i) {
@@ -142,7 +141,7 @@ void deform(const Data& d, State& st, const rig::Pose& pose, std::span<glm::vec3
     st.band_scale[b] = !st.band_scale_forced.empty() ? st.band_scale_forced[b]
                                                       : d.bands[b].scale_at(chain_bend(st.chains[d.bands[b].chain]), muscles);
   star_frames(d, st, kHasAvx2Kernel && st.vectorised);
-  const auto t1 = Clock::now();
+  const double t1 = steady_now_s();
 
   for (size_t ri = 0; ri < d.rings.size(); ++ri) {
     const auto& r = d.rings[ri];
@@ -191,9 +190,9 @@ void deform(const Data& d, State& st, const rig::Pose& pose, std::span<glm::vec3
       p += d.toe_weight[k] * (toes.apply(d.toe_local[k]) - p);
     }
   }
-  const auto t2 = Clock::now();
-  st.timings.joints_us = std::chrono::duration<double, std::micro>(t1 - t0).count();
-  st.timings.points_us = std::chrono::duration<double, std::micro>(t2 - t1).count();
+  const double t2 = steady_now_s();
+  st.timings.joints_us = (t1 - t0) * 1e6;
+  st.timings.points_us = (t2 - t1) * 1e6;
 }
 
 }  // namespace mimic::avatar::realtime_detail

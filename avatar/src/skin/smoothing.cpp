@@ -7,15 +7,17 @@ namespace mimic::avatar {
 // ---------------------------------------------------------------------------------------------
 // Per frame
 
-void BodySkin::Impl::evaluate_bspline() {
+void ImplicitSkin::Impl::evaluate_bspline() {
   std::vector<glm::vec3>& pos = mesh.positions;
-  if (options.subdivision == 0) {
+  const std::vector<glm::vec3>& ctrl = caster.ctrl;
+  if (L.options.subdivision == 0) {
     std::copy(ctrl.begin(), ctrl.end(), pos.begin());
     return;
   }
-  const size_t sub = static_cast<size_t>(options.subdivision);
-  for (size_t si = 0; si < surfaces.size(); ++si) {
-    const Surface& s = surfaces[si];
+  const size_t sub = static_cast<size_t>(L.options.subdivision);
+  const std::vector<Ring>& rings = L.rings;
+  for (size_t si = 0; si < L.surfaces.size(); ++si) {
+    const Surface& s = L.surfaces[si];
     for (const Surface::Run& run : s.runs) {
       const size_t first = static_cast<size_t>(run.first_row), rows = static_cast<size_t>(run.rows);
       const size_t cols = s.control_row(rings, first).size() * sub;
@@ -46,7 +48,7 @@ void BodySkin::Impl::evaluate_bspline() {
     }
     if (si == 0) {
       // Bridges hang between torso vertices: polygon [end, interior…, end], clamped.
-      for (const Bridge& b : bridges) {
+      for (const Bridge& b : L.bridges) {
         const std::vector<uint32_t>& interior = rings[b.ring].slots;
         const size_t np = interior.size() + 2;
         scratch_poly[0] = pos[b.out_from];
@@ -59,7 +61,7 @@ void BodySkin::Impl::evaluate_bspline() {
   }
 }
 
-void BodySkin::Impl::update_normals() {
+void ImplicitSkin::Impl::update_normals() {
   // Summed in 16-byte slots: neighbouring triangles share vertices, and a 12-byte vec3 read
   // back right after its two-part store cannot be forwarded (half the frame went there).
   std::vector<glm::vec4>& acc = normal_sums;

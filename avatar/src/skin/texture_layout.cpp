@@ -7,7 +7,8 @@
 #include <map>
 #include <tuple>
 
-#include "skin_impl.h"
+#include "contour_layout_data.h"
+#include "mimic/avatar/skin.h"
 
 namespace mimic::avatar {
 
@@ -35,8 +36,10 @@ float frac(size_t i, size_t n) { return n > 0 ? static_cast<float>(i) / static_c
 
 }  // namespace
 
-TextureLayout texture_layout(const BodySkin& skin) {
-  const BodySkin::Impl& m = *skin.impl_;
+TextureLayout texture_layout(const ImplicitSkin& skin) { return texture_layout(skin.layout()); }
+
+TextureLayout texture_layout(const ContourLayout& layout) {
+  const ContourLayout::Data& m = layout.data();
   TextureLayout out;
   Builder b(out);
   for (const Surface& s : m.surfaces) {
@@ -92,7 +95,7 @@ TextureLayout texture_layout(const BodySkin& skin) {
       }
     }
   }
-  const size_t rings = static_cast<size_t>(m.layout.rigid_rings), pts = static_cast<size_t>(m.layout.rigid_points);
+  const size_t rings = static_cast<size_t>(m.counts.rigid_rings), pts = static_cast<size_t>(m.counts.rigid_points);
   for (const RigidMesh& rm : m.rigid) {
     const uint32_t south = rm.first_vertex, north = south + 1 + static_cast<uint32_t>(rings * pts);
     auto at = [&](size_t r, size_t j) { return south + 1 + static_cast<uint32_t>(r * pts + j % pts); };

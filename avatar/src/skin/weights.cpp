@@ -2,7 +2,8 @@
 // from where its ring sits along its chain of links.
 #include "mimic/avatar/skin_weights.h"
 
-#include "skin_impl.h"
+#include "contour_layout_data.h"
+#include "mimic/avatar/skin.h"
 
 namespace mimic::avatar {
 
@@ -53,11 +54,15 @@ float segment_weight(int seg, int segments, float x, float h) {
 
 }  // namespace
 
-Result<std::vector<JointInfluences>> contour_skin_weights(const BodySkin& skin) {
-  const BodySkin::Impl& m = *skin.impl_;
+Result<std::vector<JointInfluences>> contour_skin_weights(const ImplicitSkin& skin) {
+  return contour_skin_weights(skin.layout());
+}
+
+Result<std::vector<JointInfluences>> contour_skin_weights(const ContourLayout& layout) {
+  const ContourLayout::Data& m = layout.data();
   if (m.options.subdivision != 0)
     return fail(Errc::invalid_argument, "contour skin weights need the realtime resolution (subdivision 0)");
-  std::vector<Influence> slot(m.ctrl.size());
+  std::vector<Influence> slot(m.control_points);
   for (const Ring& r : m.rings) {
     switch (r.kind) {
       case RingKind::star: {
@@ -98,7 +103,7 @@ Result<std::vector<JointInfluences>> contour_skin_weights(const BodySkin& skin) 
       }
     }
   }
-  std::vector<JointInfluences> out(m.mesh.positions.size());
+  std::vector<JointInfluences> out(m.vertex_count);
   for (size_t k = 0; k < slot.size(); ++k) out[k] = slot[k].reduced();
   for (const Surface& s : m.surfaces) {
     if (!s.cap) continue;

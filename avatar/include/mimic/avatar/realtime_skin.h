@@ -18,7 +18,7 @@
 //   caps, rigid     the ring's centroid; head, hands and feet moved rigidly with their joint
 //
 // Each point's coordinates are measured in the initial pose, so that pose comes out exactly as
-// the full method (BodySkin, subdivision 0) draws it, vertex for vertex.
+// the full method (ImplicitSkin, subdivision 0) draws it, vertex for vertex.
 //
 // Muscles, beyond the paper: for every DOF that deforms a primitive (the biceps' elbow flexion,
 // the calf's knee flexion…), the contours are also ray-cast in the initial posture with that
@@ -41,6 +41,7 @@
 #include <vector>
 
 #include "mimic/avatar/body_model.h"
+#include "mimic/avatar/contour_layout.h"
 #include "mimic/avatar/mesh.h"
 #include "mimic/avatar/mesh_check.h"
 #include "mimic/rig/skeleton.h"
@@ -49,7 +50,7 @@
 
 namespace mimic::avatar {
 
-// How a skin is made each frame: `full` ray-casts every contour (BodySkin), `realtime` moves the
+// How a skin is made each frame: `full` ray-casts every contour (ImplicitSkin), `realtime` moves the
 // contours measured once (RealtimeSkin).
 enum class SkinMethod : uint8_t { full, realtime };
 const char* skin_method_name(SkinMethod m);
@@ -67,6 +68,11 @@ class RealtimeBody {
   static Result<std::shared_ptr<const RealtimeBody>> create(const BodyModel& model, const rig::Skeleton& skeleton,
                                                             const RealtimeOptions& options = {});
   static Result<std::shared_ptr<const RealtimeBody>> create(const BodyModel& model,
+                                                            const RealtimeOptions& options = {});
+  // From a layout already built (subdivision 0; contour_layout.h) of this model: the layout fixes
+  // the LOD's counts and the rigid parts, options.lod is what lod() reports, options.initial_pose
+  // where the contours are ray-cast. The rest mesh has the layout's vertices and triangles.
+  static Result<std::shared_ptr<const RealtimeBody>> create(const BodyModel& model, const ContourLayout& layout,
                                                             const RealtimeOptions& options = {});
   // The same, but a body already built for an equal model, skeleton and options and still held
   // by some avatar is returned instead of a new one (thread-safe): avatars of one body share it.

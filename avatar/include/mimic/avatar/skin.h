@@ -1,5 +1,7 @@
-// The skin: every frame, contours are sampled on the body's implicit surface and turned into one
-// closed envelope plus rigid head, hands and feet (the paper's method, §3 of the design).
+// The implicit skin (the full method): every frame, the contours of a ContourLayout
+// (contour_layout.h) are ray-cast on the body's implicit (metaball iso-)surface and turned into
+// one closed envelope plus rigid head, hands and feet (the paper's method, §3 of the design).
+// RealtimeSkin (realtime_skin.h) is the other method: contours measured once, then moved.
 //
 //   FK → primitives moved and deformed → contours (star-shaped ray casting around the links,
 //   joint-angle driven planes, boundary-driven rings at the junctions, bridges across the crotch
@@ -25,13 +27,11 @@
 
 #include "mimic/avatar/body_field.h"
 #include "mimic/avatar/body_model.h"
+#include "mimic/avatar/contour_layout.h"
 #include "mimic/avatar/mesh.h"
 #include "mimic/rig/skeleton.h"
 
 namespace mimic::avatar {
-
-struct JointInfluences;  // skin_weights.h
-struct TextureLayout;    // texture_layout.h
 
 struct SkinOptions {
   // 0: contour points are the vertices, no smoothing (the mesh the realtime method moves,
@@ -58,23 +58,30 @@ struct SkinStats {
                          // P last frame (placed at the window's nearer end)
 };
 
-class BodySkin {
+class ImplicitSkin {
  public:
-  // Builds the topology for the model (its own skeleton) and samples the rigid parts once.
-  static Result<BodySkin> create(const BodyModel& model, const SkinOptions& options = {});
+  // Builds the contour layout for the model (its own skeleton) and evaluates the zero posture.
+  static Result<ImplicitSkin> create(const BodyModel& model, const SkinOptions& options = {});
   // Same, with a skeleton other than the model's (e.g. fitted to a performer); it must have the
   // model's joints and DOFs.
-  static Result<BodySkin> create(const BodyModel& model, const rig::Skeleton& skeleton,
-                                 const SkinOptions& options = {});
+  static Result<ImplicitSkin> create(const BodyModel& model, const rig::Skeleton& skeleton,
+                                     const SkinOptions& options = {});
+  // A skin of a layout already built (from this model's primitives and the layout's skeleton);
+  // the layout fixes the subdivision and rigid parts, `normals` is SkinOptions::normals.
+  static Result<ImplicitSkin> create(const BodyModel& model, const ContourLayout& layout, bool normals = true);
 
-  BodySkin(BodySkin&&) noexcept;
-  BodySkin& operator=(BodySkin&&) noexcept;
-  ~BodySkin();
+  ImplicitSkin(ImplicitSkin&&) noexcept;
+  ImplicitSkin& operator=(ImplicitSkin&&) noexcept;
+  ~ImplicitSkin();
 
   // Whole pipeline for one pose; afterwards mesh() holds the new positions. Never allocates.
   void evaluate(const rig::Pose& pose);
 
   const Mesh& mesh() const;
+  const ContourLayout& layout() const;
+  // The contour (control) points of the last frame, metres, world frame, one per control point
+  // of the layout (its rings' slots; at subdivision 0 the mesh's first vertices).
+  std::span<const glm::vec3> control_points() const;
   const rig::Skeleton& skeleton() const;
   const BodyField& field() const;  // the primitives of the last evaluated pose
   const SkinTimings& timings() const;
@@ -103,11 +110,8 @@ class BodySkin {
   void stage_stitch();
 
  private:
-  friend Result<std::vector<JointInfluences>> contour_skin_weights(const BodySkin& skin);
-  friend TextureLayout texture_layout(const BodySkin& skin);
-  friend class RealtimeBody;  // measures its contours once from this skin's layout
   struct Impl;
-  explicit BodySkin(std::unique_ptr<Impl> impl);
+  explicit ImplicitSkin(std::unique_ptr<Impl> impl);
   std::unique_ptr<Impl> impl_;
 };
 

@@ -9,7 +9,7 @@
 // their ring's weights; the rigid head, hands and feet their joint's alone.
 //
 // These are what linear blend, dual quaternion and centre-of-rotation skinning baselines bind
-// the realtime rest mesh with (the same vertices, in the same order, as BodySkin::mesh()), and
+// the realtime rest mesh with (the same vertices, in the same order, as ImplicitSkin::mesh()), and
 // what a skinned glTF export carries.
 #pragma once
 
@@ -21,19 +21,22 @@
 
 namespace mimic::avatar {
 
-class BodySkin;
+class ContourLayout;
+class ImplicitSkin;
 
 struct JointInfluences {
   static constexpr int kMax = 4;
-  std::array<uint16_t, kMax> joint{};  // skeleton joint indices (BodySkin::skeleton())
+  std::array<uint16_t, kMax> joint{};  // skeleton joint indices (the layout's skeleton)
   std::array<float, kMax> weight{};    // descending, summing to 1; unused slots hold 0
 };
 
 // Half-width of the blend around a joint, as a fraction of each link's length.
 inline constexpr float kBlendHalfWidth = 0.3f;
 
-// One entry per vertex of skin.mesh(), in order. Fails unless the skin's vertices are its
-// contour points (SkinOptions::subdivision 0, which the realtime method always uses).
-Result<std::vector<JointInfluences>> contour_skin_weights(const BodySkin& skin);
+// One entry per vertex of the layout's mesh, in order. Fails unless its vertices are its contour
+// points (subdivision 0, which the realtime method always uses).
+Result<std::vector<JointInfluences>> contour_skin_weights(const ContourLayout& layout);
+// The same for skin.layout().
+Result<std::vector<JointInfluences>> contour_skin_weights(const ImplicitSkin& skin);
 
 }  // namespace mimic::avatar

@@ -19,7 +19,8 @@
 
 namespace mimic::avatar {
 
-class BodySkin;
+class ContourLayout;
+class ImplicitSkin;
 
 struct TextureLayout {
   std::vector<uint32_t> source;   // per textured vertex: the skin vertex it copies
@@ -27,8 +28,10 @@ struct TextureLayout {
   std::vector<uint32_t> indices;  // 3 per triangle, the skin mesh's triangles in order
 };
 
-// The layout of a skin's mesh (any subdivision; the realtime body holds its own).
-TextureLayout texture_layout(const BodySkin& skin);
+// The texture layout of a contour layout's mesh (any subdivision; the realtime body holds its
+// own), and the same for skin.layout().
+TextureLayout texture_layout(const ContourLayout& layout);
+TextureLayout texture_layout(const ImplicitSkin& skin);
 
 // The mesh with its seams split: positions (and normals) gathered through layout.source, uvs
 // set, the same parts. `mesh` must be the mesh the layout was made for.

@@ -43,7 +43,7 @@ class AvatarLods {
   const avatar::Mesh& mesh(int lod) const;
   // The full method's skin of LOD `lod` at `pose`, for the overlays (with the realtime method it
   // is evaluated here, a ray-cast frame: only when overlays are drawn).
-  const avatar::BodySkin& overlay_skin(int lod, const rig::Pose& pose);
+  const avatar::ImplicitSkin& overlay_skin(int lod, const rig::Pose& pose);
   const rig::Skeleton& skeleton() const { return skins_[0].skeleton(); }
   const avatar::BodyModel& model() const { return model_; }
   size_t triangle_count(int lod) const { return mesh(lod).triangle_count(); }
@@ -51,7 +51,7 @@ class AvatarLods {
  private:
   avatar::BodyModel model_;
   avatar::SkinMethod method_ = avatar::SkinMethod::full;
-  std::vector<avatar::BodySkin> skins_;
+  std::vector<avatar::ImplicitSkin> skins_;
   std::vector<avatar::RealtimeSkin> realtime_;  // realtime method: one per LOD
   std::vector<avatar::Mesh> realtime_meshes_;
   std::vector<MeshId> meshes_;

@@ -32,12 +32,12 @@ void append_skeleton(const rig::Skeleton& skeleton, const rig::Pose& pose, const
                      Lines& out);
 // Three principal ellipses per primitive of the field. Muscles (primitives of `model` with a
 // deformation) take the colour of f(t) for `pose`; soft metaballs are amber, hard ellipsoids grey.
-void append_primitives(const avatar::BodySkin& skin, const avatar::BodyModel& model, const rig::Pose& pose,
+void append_primitives(const avatar::ImplicitSkin& skin, const avatar::BodyModel& model, const rig::Pose& pose,
                        const glm::mat4& world_from_body, Lines& out);
 // Every contour ring of the last frame as a closed polyline.
-void append_contours(const avatar::BodySkin& skin, const glm::mat4& world_from_body, Lines& out);
+void append_contours(const avatar::ImplicitSkin& skin, const glm::mat4& world_from_body, Lines& out);
 // The rays of ring `ring` (clamped to the rings there are): origin → hit, hits marked.
-void append_rays(const avatar::BodySkin& skin, int ring, const glm::mat4& world_from_body, Lines& out);
+void append_rays(const avatar::ImplicitSkin& skin, int ring, const glm::mat4& world_from_body, Lines& out);
 
 struct SensorMark {
   glm::vec3 position_m;    // world

@@ -1,7 +1,7 @@
 // How well a skinning method keeps the body's shape at its joints: the joint-zone volume
 // (joint_zone.h) while a joint sweeps through its range, as a % change from the relaxed pose,
 // and the smallest of the zone's cross-sections as a fraction of the same section at rest.
-// Measured for the full contour method (BodySkin, ray cast every frame, realtime resolution),
+// Measured for the full contour method (ImplicitSkin, ray cast every frame, realtime resolution),
 // the realtime contour method (RealtimeSkin, with its muscle terms) and the three baselines
 // (LBS, DQS, CoR) bound to the same rest mesh with the contour-derived weights — what
 // `mimic inspect` prints.

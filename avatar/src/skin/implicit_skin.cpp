@@ -1,0 +1,145 @@
+// The implicit skin's public face (skin.h): creation from a layout, the stages in order, accessors.
+#include "skin_impl.h"
+
+namespace mimic::avatar {
+
+// ---------------------------------------------------------------------------------------------
+
+ImplicitSkin::Impl::Impl(ContourLayout layout_in, BodyField field_in, bool normals_in)
+    : layout(std::move(layout_in)), L(layout.data()), normals(normals_in), field(std::move(field_in)) {
+  world_from_joint.resize(static_cast<size_t>(L.skeleton.joint_count()));
+  chains = L.chains;
+  caster.size_for(L.control_points, L.widest_ring);
+  mesh.positions.resize(L.vertex_count);
+  mesh.indices = L.indices;
+  mesh.parts = L.parts;
+  if (L.options.subdivision > 0) {
+    scratch_rows.resize(L.bspline_cells);
+    scratch_grid.resize(L.bspline_cells);
+    scratch_poly.resize(1024);
+  }
+  if (normals) {
+    mesh.normals.assign(L.vertex_count, glm::vec3(0, 1, 0));
+    normal_sums.assign(L.vertex_count, glm::vec4(0));
+  }
+}
+
+ImplicitSkin::ImplicitSkin(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+ImplicitSkin::ImplicitSkin(ImplicitSkin&&) noexcept = default;
+ImplicitSkin& ImplicitSkin::operator=(ImplicitSkin&&) noexcept = default;
+ImplicitSkin::~ImplicitSkin() = default;
+
+Result<ImplicitSkin> ImplicitSkin::create(const BodyModel& model, const SkinOptions& options) {
+  auto skeleton = rig::Skeleton::build(model.skeleton);
+  if (!skeleton) return tl::unexpected(skeleton.error());
+  return create(model, *skeleton, options);
+}
+
+Result<ImplicitSkin> ImplicitSkin::create(const BodyModel& model, const rig::Skeleton& skeleton, const SkinOptions& options) {
+  auto layout = ContourLayout::build(model, skeleton, {options.subdivision, options.rigid_parts});
+  if (!layout) return tl::unexpected(layout.error());
+  return create(model, *layout, options.normals);
+}
+
+Result<ImplicitSkin> ImplicitSkin::create(const BodyModel& model, const ContourLayout& layout, bool normals) {
+  auto field = BodyField::create(model, layout.skeleton());
+  if (!field) return tl::unexpected(field.error());
+  ImplicitSkin skin(std::make_unique<Impl>(layout, std::move(*field), normals));
+  skin.evaluate(layout.skeleton().zero_pose());
+  return skin;
+}
+
+void ImplicitSkin::stage_fk(const rig::Pose& pose) {
+  const double t0 = steady_now_s();
+  rig::forward_kinematics(impl_->L.skeleton, pose, impl_->world_from_joint);
+  impl_->timings.fk_us = micros_since(t0);
+}
+
+void ImplicitSkin::stage_deform(const rig::Pose& pose) {
+  const double t0 = steady_now_s();
+  impl_->field.update(impl_->world_from_joint, pose.dof_rad);
+  for (Chain& c : impl_->chains) c.update(impl_->world_from_joint);
+  impl_->timings.deform_us = micros_since(t0);
+}
+
+void ImplicitSkin::stage_contours() {
+  const double t0 = steady_now_s();
+  Impl& m = *impl_;
+  m.caster.stats = {};
+  for (const Ring& r : m.L.rings) m.caster.compute_ring(m.L, m.field, m.chains, r);
+  m.timings.contours_us = micros_since(t0);
+}
+
+void ImplicitSkin::stage_bspline() {
+  const double t0 = steady_now_s();
+  impl_->evaluate_bspline();
+  impl_->timings.bspline_us = micros_since(t0);
+}
+
+void ImplicitSkin::stage_stitch() {
+  const double t0 = steady_now_s();
+  Impl& m = *impl_;
+  auto& pos = m.mesh.positions;
+  for (const Surface& s : m.L.surfaces) {
+    if (!s.cap) continue;
+    glm::vec3 c(0);
+    for (uint32_t v : s.out_rows.back()) c += pos[v];
+    pos[s.cap_vertex] = c / static_cast<float>(s.out_rows.back().size());
+  }
+  for (const RigidMesh& rm : m.L.rigid) {
+    const rig::RigidTransform& w = m.world_from_joint[rm.joint];
+    for (size_t i = 0; i < rm.local.size(); ++i) pos[rm.first_vertex + i] = w.apply(rm.local[i]);
+    if (rm.toe_joint < 0) continue;
+    const rig::RigidTransform& toes = m.world_from_joint[rm.toe_joint];
+    for (size_t k = 0; k < rm.toe_vertex.size(); ++k) {
+      glm::vec3& p = pos[rm.first_vertex + rm.toe_vertex[k]];
+      p += rm.toe_weight[k] * (toes.apply(rm.toe_local[k]) - p);
+    }
+  }
+  m.timings.stitch_us = micros_since(t0);
+  if (m.normals) {
+    const double t1 = steady_now_s();
+    m.update_normals();
+    m.timings.normals_us = micros_since(t1);
+  }
+}
+
+void ImplicitSkin::evaluate(const rig::Pose& pose) {
+  stage_fk(pose);
+  stage_deform(pose);
+  stage_contours();
+  stage_bspline();
+  stage_stitch();
+}
+
+const Mesh& ImplicitSkin::mesh() const { return impl_->mesh; }
+const ContourLayout& ImplicitSkin::layout() const { return impl_->layout; }
+std::span<const glm::vec3> ImplicitSkin::control_points() const { return impl_->caster.ctrl; }
+const rig::Skeleton& ImplicitSkin::skeleton() const { return impl_->L.skeleton; }
+const BodyField& ImplicitSkin::field() const { return impl_->field; }
+const SkinTimings& ImplicitSkin::timings() const { return impl_->timings; }
+const SkinStats& ImplicitSkin::stats() const { return impl_->caster.stats; }
+
+std::vector<ImplicitSkin::ContourView> ImplicitSkin::contours() const {
+  std::vector<ContourView> out;
+  const Impl& m = *impl_;
+  const RingCaster& c = m.caster;
+  for (const Ring& r : m.L.rings) {
+    ContourView v;
+    v.name = r.name;
+    v.mask = r.mask;
+    for (uint32_t s : r.slots) {
+      v.points.push_back(c.ctrl[s]);
+      v.ray_origins.push_back(c.ctrl_origin[s]);
+      v.from_ray.push_back(c.ctrl_hit[s]);
+    }
+    if (r.kind == RingKind::driven) {
+      const std::vector<uint32_t>& s_slots = m.L.rings[r.s_ring].slots;
+      for (size_t j = 0; j < r.slots.size(); ++j) v.targets.push_back(c.driven_target(r, s_slots[j], r.goal[j]));
+    }
+    out.push_back(std::move(v));
+  }
+  return out;
+}
+
+}  // namespace mimic::avatar
