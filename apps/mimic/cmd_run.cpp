@@ -15,6 +15,7 @@
 #include <unistd.h>
 
 #include "mimic/core/process_limits.h"
+#include "mimic/core/thread_priority.h"
 #include "mimic/net/client.h"
 #include "mimic/net/nats.h"
 #include "mimic/net/server.h"
@@ -393,23 +394,21 @@ int run(const std::vector<std::string>& argv) {
     auto v = net::VmcSender::open(*a.get("vmc"));
     if (!v) return failure("run", v.error().what());
     vmc = std::move(*v);
-    for (const auto& f : feeds)
-      if (auto st = vmc->add_avatar(f->skeleton()); !st) return failure("run", st.error().what());
   }
   std::unique_ptr<net::VrpnServer> vrpn;
   if (a.has("vrpn")) {
     auto v = net::VrpnServer::create(*a.get("vrpn"));
     if (!v) return failure("run", v.error().what());
     vrpn = std::move(*v);
-    for (const auto& f : feeds)
-      if (auto st = vrpn->add_avatar(f->skeleton()); !st) return failure("run", st.error().what());
-    std::fprintf(stderr, "mimic run: VRPN trackers Avatar0..%zu and Sensors0..%zu on %s\n", feeds.size() - 1,
-                 feeds.size() - 1, vrpn->endpoint().c_str());
   }
-  PipelineOutputs outputs{server.get(), publisher.get(), vmc.get()};
-  outputs.vrpn = vrpn.get();
-  outputs.nats = nats.get();
-  Pipeline pipeline(outputs);
+  // The scene server first: it numbers the avatars for every sink (service/sink.h).
+  SinkList sinks;
+  if (server) sinks.push_back(make_server_sink(*server));
+  if (publisher) sinks.push_back(make_publisher_sink(*publisher));
+  if (vmc) sinks.push_back(make_vmc_sink(*vmc));
+  if (vrpn) sinks.push_back(make_vrpn_sink(*vrpn));
+  if (nats) sinks.push_back(make_nats_sink(*nats));
+  Pipeline pipeline(std::move(sinks));
   // Sleep between passes: new samples wait at most about this long (plus the timer slack).
   constexpr int kIdleUs = 100;
   size_t model_bytes_total = 0;
@@ -428,7 +427,10 @@ int run(const std::vector<std::string>& argv) {
         !st)
       return failure("run", st.error().what());
   }
-  if (rt_priority > 0 && !set_realtime_priority(int(rt_priority)))
+  if (vrpn)
+    std::fprintf(stderr, "mimic run: VRPN trackers Avatar0..%zu and Sensors0..%zu on %s\n", pipeline.avatar_count() - 1,
+                 pipeline.avatar_count() - 1, vrpn->endpoint().c_str());
+  if (rt_priority > 0 && !set_thread_fifo(int(rt_priority)))
     std::fprintf(stderr, "mimic run: SCHED_FIFO priority %ld refused (needs CAP_SYS_NICE); running unprioritised\n",
                  rt_priority);
   // Without --realtime the loop still asks for a raised priority (nice -10) where the system
@@ -525,7 +527,7 @@ int run(const std::vector<std::string>& argv) {
     const bool warm = pipeline.frames() >= kWarmupFrames;
     pipeline.tick();
     if (warm) loop_allocations += thread_allocation_count() - allocs_before;
-    if (auto st = service_network(outputs, kIdleUs); !st) {
+    if (auto st = pipeline.service_network(kIdleUs); !st) {
       std::fprintf(stderr, "\nmimic run: %s\n", st.error().what().c_str());
       break;
     }

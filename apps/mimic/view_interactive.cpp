@@ -147,7 +147,7 @@ int run_interactive(Args& args, const ViewOptions& view) {
     // The client reconnects by itself after any cut; the panel says why it is away meanwhile.
     client->on_cut = [&last_cut](const std::string& why) { last_cut = why; };
   } else {
-    pipeline = std::make_unique<service::Pipeline>(service::PipelineOutputs{});
+    pipeline = std::make_unique<service::Pipeline>();
     const auto specs = split_sources(args.get_or("source", "sim:walk"));
     auto body_skeleton = avatar::Skeleton::build(model->skeleton);
     if (!body_skeleton) return failure(kName, "body model: " + body_skeleton.error().message);
