@@ -136,7 +136,8 @@ Result<std::unique_ptr<Deformer>> make_skin_deformer(const avatar::BodyModel& mo
 class Pipeline {
  public:
   // `sinks` receive every frame (none: the poses stay here, for a local viewer); `clock` times
-  // the loop (stale repeats, latency, stage timers; default the steady clock).
+  // the loop (stale repeats, latency, stage timers; default the steady clock). Latency is the
+  // clock's now minus the samples' host time: the feeds' sources stamp them on the same clock.
   explicit Pipeline(SinkList sinks = {}, std::shared_ptr<const Clock> clock = nullptr);
 
   Status add_avatar(const std::string& name, std::unique_ptr<PoseFeed> feed, std::string model_bytes,
