@@ -54,7 +54,7 @@ const char* state_name(devices::DeviceState s) {
 struct ViewAvatar {
   std::string name, source;
   std::optional<render::AvatarLods> lods;
-  avatar::Pose pose;
+  rig::Pose pose;
   glm::mat4 world_from_body{1.0f};
   bool stale = false;
   std::string status;
@@ -99,7 +99,7 @@ struct ViewState {
   // Per-frame buffers, kept for their capacity.
   render::Lines lines, xray;
   std::vector<render::MeshDraw> draws;
-  std::vector<avatar::RigidTransform> joints;
+  std::vector<rig::RigidTransform> joints;
 };
 
 glm::vec3 root_in_world(const ViewAvatar& a) {
@@ -315,12 +315,12 @@ void frame_camera(const ViewOptions& view, long frames, float dt_s, std::vector<
 }
 
 // The eyes of an avatar: a little in front of its face, looking where its head looks.
-void look_through(const ViewAvatar& a, std::vector<avatar::RigidTransform>& joints, render::Camera& camera) {
+void look_through(const ViewAvatar& a, std::vector<rig::RigidTransform>& joints, render::Camera& camera) {
   joints.resize(a.lods->skeleton().joint_count());
-  avatar::forward_kinematics(a.lods->skeleton(), a.pose, joints);
+  rig::forward_kinematics(a.lods->skeleton(), a.pose, joints);
   const int head = a.lods->skeleton().find_joint("head");
   if (head < 0) return;
-  const avatar::RigidTransform& h = joints[head];
+  const rig::RigidTransform& h = joints[head];
   const glm::vec3 forward = h.apply_vector({0, 0, 1});
   camera.first_person_eye = glm::vec3(a.world_from_body * glm::vec4(h.apply({0, 0.09f, 0.14f}), 1.0f));
   camera.first_person_forward = glm::vec3(a.world_from_body * glm::vec4(forward, 0.0f));

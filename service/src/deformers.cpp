@@ -12,19 +12,19 @@ namespace {
 
 class FkDeformer final : public Deformer {
  public:
-  explicit FkDeformer(const avatar::Skeleton& s) : skeleton_(s), frames_(size_t(s.joint_count())) {}
-  void deform(const avatar::Pose& pose) override { avatar::forward_kinematics(skeleton_, pose, frames_); }
+  explicit FkDeformer(const rig::Skeleton& s) : skeleton_(s), frames_(size_t(s.joint_count())) {}
+  void deform(const rig::Pose& pose) override { rig::forward_kinematics(skeleton_, pose, frames_); }
 
  private:
-  avatar::Skeleton skeleton_;
-  std::vector<avatar::RigidTransform> frames_;
+  rig::Skeleton skeleton_;
+  std::vector<rig::RigidTransform> frames_;
 };
 
 
 class SkinDeformer final : public Deformer {
  public:
   SkinDeformer(avatar::BodySkin skin, uint8_t lod) : skin_(std::move(skin)), lod_(lod) {}
-  void deform(const avatar::Pose& pose) override { skin_.evaluate(pose); }
+  void deform(const rig::Pose& pose) override { skin_.evaluate(pose); }
   const avatar::Mesh* mesh() const override { return &skin_.mesh(); }
   uint8_t lod() const override { return lod_; }
 
@@ -40,7 +40,7 @@ class RealtimeDeformer final : public Deformer {
       : skin_(body), mesh_(body->rest_mesh()), lod_(static_cast<uint8_t>(body->lod())) {
     mesh_.normals.clear();  // receivers that want normals compute them from the fixed topology
   }
-  void deform(const avatar::Pose& pose) override { skin_.evaluate(pose, mesh_.positions); }
+  void deform(const rig::Pose& pose) override { skin_.evaluate(pose, mesh_.positions); }
   const avatar::Mesh* mesh() const override { return &mesh_; }
   uint8_t lod() const override { return lod_; }
 
@@ -52,12 +52,12 @@ class RealtimeDeformer final : public Deformer {
 
 }  // namespace
 
-std::unique_ptr<Deformer> make_fk_deformer(const avatar::Skeleton& skeleton) {
+std::unique_ptr<Deformer> make_fk_deformer(const rig::Skeleton& skeleton) {
   return std::make_unique<FkDeformer>(skeleton);
 }
 
 Result<std::unique_ptr<Deformer>> make_skin_deformer(const avatar::BodyModel& model,
-                                                     const avatar::Skeleton& skeleton, int lod,
+                                                     const rig::Skeleton& skeleton, int lod,
                                                      avatar::SkinMethod method) {
   if (lod < 0 || lod >= kMeshLodCount)
     return fail(Errc::out_of_range, "mesh LOD must be in 0.." + std::to_string(kMeshLodCount - 1));

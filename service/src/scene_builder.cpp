@@ -48,7 +48,7 @@ tl::expected<SceneAvatar, SceneError> build_avatar(const SceneSpec& spec, const 
   // The body first: its skeleton is the one the avatar's source is solved on.
   auto asset = load_body(entry.body);
   if (!asset) return failed(asset.error().what());
-  auto skeleton = avatar::Skeleton::build(asset->model.skeleton);
+  auto skeleton = rig::Skeleton::build(asset->model.skeleton);
   if (!skeleton) return failed("body model " + entry.body + ": " + skeleton.error().what());
   const SourceScheme* scheme = find_source_scheme(entry.spec);
   const bool self_placed = scheme && scheme->self_placed;

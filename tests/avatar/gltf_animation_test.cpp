@@ -15,7 +15,7 @@
 #include <nlohmann/json.hpp>
 
 #include "mimic/avatar/body_model.h"
-#include "mimic/avatar/motion.h"
+#include "mimic/rig/motion.h"
 #include "mimic/avatar/realtime_skin.h"
 #include "mimic/avatar/skin_lod.h"
 
@@ -71,20 +71,20 @@ Glb parse(const std::string& b) {
 
 struct Rig {
   BodyModel body = default_body_model();
-  Skeleton skeleton = *Skeleton::build(body.skeleton);
+  rig::Skeleton skeleton = *rig::Skeleton::build(body.skeleton);
   std::shared_ptr<const RealtimeBody> shared;
-  std::unique_ptr<Motion> motion;
+  std::unique_ptr<rig::Motion> motion;
   SkinnedAnimation anim;
   Rig() {
     RealtimeOptions o;
     o.lod = kSkinLodCount - 1;  // the coarsest: quick, same method
     shared = *RealtimeBody::create(body, skeleton, o);
-    motion = *make_builtin_motion("walk", skeleton);
+    motion = *rig::make_builtin_motion("walk", skeleton);
     anim.bind_mesh = &shared->rest_mesh();
     anim.influences = shared->weights();
     anim.skeleton = &skeleton;
     anim.bind_pose = skeleton.zero_pose();
-    Pose p = skeleton.zero_pose();
+    rig::Pose p = skeleton.zero_pose();
     for (int k = 0; k < 12; ++k) {
       motion->sample(0.1 * k, p);
       anim.times_s.push_back(0.1 * k);
@@ -125,8 +125,8 @@ TEST(GltfAnimation, StructureSkinAndWeights) {
   }
   // Inverse bind matrices undo the joints' bind-pose world transforms.
   const auto ibm = g.floats(skin["inverseBindMatrices"].get<int>());
-  std::vector<RigidTransform> bind(nj);
-  forward_kinematics(r.skeleton, r.anim.bind_pose, bind);
+  std::vector<rig::RigidTransform> bind(nj);
+  rig::forward_kinematics(r.skeleton, r.anim.bind_pose, bind);
   for (size_t j = 0; j < nj; ++j) {
     const glm::mat4 m = glm::make_mat4(ibm.data() + 16 * j);
     const glm::vec4 origin = m * glm::vec4(bind[j].translation, 1.0f);

@@ -87,15 +87,15 @@ struct Rig {
   explicit Rig(bool with_skin = false) {
     auto body = load_body("");
     EXPECT_TRUE(body.has_value());
-    auto skeleton = avatar::Skeleton::build(body->model.skeleton);
+    auto skeleton = rig::Skeleton::build(body->model.skeleton);
     EXPECT_TRUE(skeleton.has_value());
     // The records a tracker worn in the standard six-sensor layout sends at rest.
     auto layout = solver::standard_layout("6", *skeleton);
     EXPECT_TRUE(layout.has_value());
-    std::vector<avatar::RigidTransform> joints(size_t(skeleton->joint_count()));
-    avatar::forward_kinematics(*skeleton, skeleton->rest_pose(), joints);
+    std::vector<rig::RigidTransform> joints(size_t(skeleton->joint_count()));
+    rig::forward_kinematics(*skeleton, skeleton->rest_pose(), joints);
     for (const auto& b : layout->bindings) {
-      const avatar::RigidTransform& seg = joints[size_t(skeleton->find_joint(b.segment))];
+      const rig::RigidTransform& seg = joints[size_t(skeleton->find_joint(b.segment))];
       devices::SensorSample s;
       s.sensor = b.sensor;
       s.position_m = seg.apply(b.placement_m);

@@ -27,7 +27,7 @@
 #include <vector>
 
 #include "mimic/avatar/mesh.h"
-#include "mimic/avatar/skeleton.h"
+#include "mimic/rig/skeleton.h"
 #include "mimic/core/result.h"
 #include "mimic/devices/sample.h"
 
@@ -47,7 +47,7 @@ namespace mimic::service {
 struct AvatarJoin {
   size_t index = 0;  // the pipeline's avatar index: FrameOut::avatar
   const std::string& name;
-  const avatar::Skeleton& skeleton;
+  const rig::Skeleton& skeleton;
   const std::string& model_bytes;  // the body model's compact JSON, sent to subscribers on join
   // The avatar's id in pose and mesh frames. A sink that numbers avatars itself (the scene
   // server) sets it; the pipeline asks sinks in list order, so such a sink goes first.
@@ -58,7 +58,7 @@ struct AvatarJoin {
 struct FrameOut {
   size_t avatar = 0;                // the pipeline's avatar index
   const net::PoseHeader& header;    // as encoded in `packet` (avatar = the wire id)
-  const avatar::Pose& pose;         // in the scene's world frame
+  const rig::Pose& pose;         // in the scene's world frame
   std::span<const uint8_t> packet;  // the pose frame, encoded once; empty if the encoder refused it
   std::span<const devices::SensorSample> samples;  // the tracker samples the pose was solved from
   double time_s = 0;                // capture time, seconds since the Unix epoch (header.time_us)

@@ -15,7 +15,7 @@
 #include <string>
 #include <string_view>
 
-#include "mimic/avatar/skeleton.h"
+#include "mimic/rig/skeleton.h"
 #include "mimic/core/result.h"
 #include "mimic/service/pipeline.h"
 #include "mimic/service/scene.h"
@@ -26,7 +26,7 @@ namespace mimic::service {
 struct SourceRequest {
   std::string text;         // the spec as given
   std::string calibration;  // the wearer's calibration (mimic calibrate), or empty
-  const avatar::Skeleton* body = nullptr;  // the avatar's body skeleton (solved on, walked with)
+  const rig::Skeleton* body = nullptr;  // the avatar's body skeleton (solved on, walked with)
   std::shared_ptr<SceneRoster> roster;     // where every avatar stands (actors read it)
   int slot = 0;                            // this avatar's slot in the roster
 };
