@@ -30,6 +30,7 @@
 #include "mimic/render/window.h"
 #include "mimic/service/pipeline.h"
 #include "body_posing.h"
+#include "scene_connect.h"
 #include "stop_signal.h"
 
 namespace mimic::app {
@@ -140,7 +141,7 @@ int run_interactive(Args& args, const ViewOptions& view) {
     options.connect = *where;
     options.name = "mimic-view";
     options.lean = !args.has("no-lean");  // ~60 bytes a frame instead of 150: docs/protocol.md
-    auto c = net::Client::connect(options);
+    auto c = connect_scene(options);
     if (!c) return failure(kName, "cannot connect to " + *where + ": " + c.error().message);
     client = std::move(*c);
     connection = "connected to " + *where;

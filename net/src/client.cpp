@@ -9,9 +9,7 @@
 #include <optional>
 
 #include "client_impl.h"
-#include "mimic/net/nats.h"
 #include "mimic/net/server.h"
-#include "nats/embedded_relay.h"
 
 namespace mimic::net {
 
@@ -343,17 +341,11 @@ Client::~Client() {
 }
 
 Result<std::unique_ptr<Client>> Client::connect(const ClientOptions& options) {
-  if (is_nats_url(options.connect)) {
-    if (options.role != Role::subscriber)
-      return fail(Errc::invalid_argument, "publishing into a NATS scene is mimic run --nats, not a client");
-    auto relay = nats_detail::EmbeddedRelay::start(options.connect, options.udp);
-    if (!relay) return tl::unexpected(relay.error());
-    ClientOptions local = options;
-    local.connect = (*relay)->endpoint();
-    auto c = connect(local);
-    if (c) (*c)->impl_->embedded_relay = std::move(*relay);
-    return c;
-  }
+  // A broker's scene is joined through a relay (open_scene_connection, mimic relay): the client
+  // itself speaks Mimic's protocol over TCP and UDP only.
+  if (options.connect.find("://") != std::string::npos)
+    return fail(Errc::invalid_argument, "'" + options.connect +
+                                            "' is a URL: a client connects to HOST:PORT of a Mimic server or relay");
   auto hp = split_host_port(options.connect);
   if (!hp) return tl::unexpected(hp.error());
   auto impl = std::make_unique<Impl>();
@@ -456,6 +448,8 @@ void Client::close() {
   d.dropped = false;
   d.fatal = Error{Errc::disconnected, "closed"};
 }
+
+void Client::hold(std::shared_ptr<void> resource) { impl_->held.push_back(std::move(resource)); }
 
 bool Client::connected() const { return impl_->connected; }
 bool Client::udp_active() const { return impl_->udp_ready && impl_->connected; }

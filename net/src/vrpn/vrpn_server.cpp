@@ -16,7 +16,7 @@
 
 #include "mimic/avatar/transform.h"
 #include "mimic/net/server.h"
-#include "vrpn_wire.h"
+#include "mimic/net/vrpn_wire.h"
 
 namespace mimic::net {
 
