@@ -20,7 +20,7 @@
 #include "mimic/net/server.h"
 #include "mimic/net/vmc.h"
 #include "mimic/net/vrpn_server.h"
-#include "alloc_count.h"
+#include "mimic/core/alloc_counter.h"
 #include "lean_flags.h"
 #include "mimic/service/pipeline.h"
 #include "mimic/service/scene.h"

@@ -336,7 +336,7 @@ Result<std::unique_ptr<PoseFeed>> open_feed(const std::string& spec_text, const 
 
 Result<std::unique_ptr<PoseFeed>> open_feed_on_clock(const std::string& spec_text, const std::string& calibration_path,
                                                      const avatar::Skeleton* body,
-                                                     std::shared_ptr<const sim::Clock> clock) {
+                                                     std::shared_ptr<const Clock> clock) {
   auto spec = devices::parse_source_spec(spec_text);
   if (!spec) return tl::unexpected(spec.error());
   if (spec->scheme == "vmc") return open_vmc_feed(*spec, body);  // poses, not tracker samples

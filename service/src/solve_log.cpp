@@ -32,7 +32,7 @@ void settle(PoseFeed& feed, avatar::Pose& pose) {
 Result<SolvedTake> solve_log(const std::string& log_path, const std::string& calibration_path, double fps,
                              const avatar::Skeleton* body, double max_seconds) {
   if (!(fps > 0 && fps <= 1000)) return fail(Errc::invalid_argument, "frame rate must be in (0, 1000]");
-  auto clock = std::make_shared<sim::ManualClock>(0.0);
+  auto clock = std::make_shared<ManualClock>(0.0);
   auto feed = open_feed_on_clock("replay:" + log_path, calibration_path, body, clock);
   if (!feed) return tl::unexpected(feed.error());
   if (auto st = (*feed)->start(); !st) return tl::unexpected(st.error());

@@ -7,7 +7,7 @@
 
 #include <gtest/gtest.h>
 
-#include "alloc_counter.h"
+#include "mimic/core/alloc_counter.h"
 #include "test_motion.h"
 
 namespace mimic::sim {
@@ -329,9 +329,9 @@ TEST(SensorRig, StepNeverAllocates) {
   auto rig = SensorRig::create(motion, c).value();
   std::vector<SensorSample> out(c.sensors.size());
   rig.step(out);
-  const size_t before = test::allocation_count();
+  const uint64_t before = thread_allocation_count();
   for (int k = 0; k < 500; ++k) rig.step(out);
-  EXPECT_EQ(test::allocation_count(), before);
+  EXPECT_EQ(thread_allocation_count(), before);
 }
 
 }  // namespace
@@ -349,9 +349,9 @@ TEST(SensorRig, BuiltInWalkStepsWithoutAllocating) {
   auto rig = SensorRig::create(walk, c).value();
   std::vector<devices::SensorSample> out(11);
   rig.step(out);
-  const size_t before = test::allocation_count();
+  const uint64_t before = thread_allocation_count();
   for (int k = 0; k < 300; ++k) rig.step(out);
-  EXPECT_EQ(test::allocation_count(), before);
+  EXPECT_EQ(thread_allocation_count(), before);
 }
 
 }  // namespace

@@ -1,28 +1,13 @@
 // The realtime path never allocates: filtering and solving a frame, for every layout, counted
-// by replacing the global allocation functions in this test binary.
+// by the allocation counter this test binary links (mimic/core/alloc_counter.h).
 #include <gtest/gtest.h>
 
-#include <atomic>
-#include <cstdlib>
-#include <new>
 #include <random>
 
+#include "mimic/core/alloc_counter.h"
 #include "mimic/solver/filters.h"
 #include "mimic/solver/steering.h"
 #include "synthetic_sensors.h"
-
-namespace {
-std::atomic<bool> g_counting{false};
-std::atomic<long> g_allocations{0};
-}  // namespace
-
-void* operator new(std::size_t n) {
-  if (g_counting.load(std::memory_order_relaxed)) g_allocations.fetch_add(1, std::memory_order_relaxed);
-  if (void* p = std::malloc(n == 0 ? 1 : n)) return p;
-  throw std::bad_alloc();
-}
-void operator delete(void* p) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t) noexcept { std::free(p); }
 
 namespace mimic::solver {
 namespace {
@@ -49,8 +34,7 @@ TEST(NoAllocation, FilterAndSolveFramesForEveryLayout) {
     avatar::Pose pose = s.zero_pose();
     devices::InputFrame input;
     input.translation = {0.3f, 0, -0.5f};
-    g_allocations = 0;
-    g_counting = true;
+    const uint64_t before = thread_allocation_count();
     for (auto& f : frames) {
       filters.process(f);
       SolveJob job{&model, f, &ctx, &pose};
@@ -58,8 +42,7 @@ TEST(NoAllocation, FilterAndSolveFramesForEveryLayout) {
       steering.update(input, 0.01);
       steering.apply(pose);
     }
-    g_counting = false;
-    EXPECT_EQ(g_allocations.load(), 0) << "layout " << name;
+    EXPECT_EQ(thread_allocation_count() - before, 0u) << "layout " << name;
   }
 }
 

@@ -92,8 +92,6 @@ void encode_raw_record(double host_time_s, RawDirection direction, std::span<con
                        std::vector<uint8_t>& out);
 void encode_end_record(uint64_t sample_count, std::vector<uint8_t>& out);
 
-uint32_t crc32(std::span<const uint8_t> bytes, uint32_t crc = 0);
-
 struct LogWriterOptions {
   double flush_interval_s = 0.25;   // of sample host time; records older than this reach the file
   size_t buffer_bytes = 64 * 1024;  // flush earlier when this much is pending

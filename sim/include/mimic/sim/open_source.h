@@ -21,7 +21,7 @@
 #include "mimic/core/result.h"
 #include "mimic/devices/serial.h"
 #include "mimic/devices/source.h"
-#include "mimic/sim/clock.h"
+#include "mimic/core/clock.h"
 #include "mimic/sim/log.h"
 #include "mimic/sim/replay_source.h"
 #include "mimic/sim/sensor_rig.h"

@@ -1,4 +1,4 @@
-#include "alloc_count.h"
+#include "mimic/core/alloc_counter.h"
 
 #include <cstdlib>
 #include <new>
@@ -18,9 +18,9 @@ void* counted_aligned_alloc(std::size_t n, std::align_val_t align) {
 }
 }  // namespace
 
-namespace mimic::app {
+namespace mimic {
 uint64_t thread_allocation_count() noexcept { return t_allocations; }
-}  // namespace mimic::app
+}  // namespace mimic
 
 void* operator new(std::size_t n) {
   if (void* p = counted_alloc(n)) return p;
