@@ -16,7 +16,9 @@
 
 #include "mimic/core/process_limits.h"
 #include "mimic/net/client.h"
+#if MIMIC_HAVE_NATS  // built with the broker transport (mimic::nats); else --nats is refused
 #include "mimic/net/nats.h"
+#endif
 #include "mimic/net/server.h"
 #include "mimic/net/vmc.h"
 #include "mimic/net/vrpn_server.h"
@@ -166,6 +168,7 @@ void write_status(StatusLine& line, Pipeline& pipeline, net::Server* server, net
   line.add(1, "latency %.1f/%.1f ms", latency.p50_us * 1e-3, latency.p99_us * 1e-3);
   if (missed_ticks > 0)
     line.add(2, "missed %llu ticks (max gap %.0f ms)", static_cast<unsigned long long>(missed_ticks), longest_gap_ms);
+#if MIMIC_HAVE_NATS
   if (nats) {
     char text[96];
     const auto link = nats->link_state();
@@ -175,6 +178,9 @@ void write_status(StatusLine& line, Pipeline& pipeline, net::Server* server, net
     while (*t == ' ' || *t == '|') ++t;
     line.add(2, "%s%s", t, link.connected ? "" : ": local only");
   }
+#else
+  (void)nats;
+#endif
   if (server) {
     const auto& st = server->stats();
     line.add(3, "subs %llu drop %llu rej %llu", static_cast<unsigned long long>(st.subscribers),
@@ -268,6 +274,7 @@ int run(const std::vector<std::string>& argv) {
   if (a.has("nats") && a.has("publish")) return usage_error("run", "--nats and --publish do not go together");
   if ((a.has("scene") || a.has("nats-name") || a.has("nats-model-ttl") || a.has("nats-mesh-hz")) && !a.has("nats"))
     return usage_error("run", "--scene, --nats-name, --nats-model-ttl and --nats-mesh-hz need --nats");
+#if MIMIC_HAVE_NATS
   net::NatsOptions nats_options;
   if (!a.get_double("nats-model-ttl", nats_options.model_ttl_s) || !a.get_double("nats-mesh-hz", nats_options.mesh_max_hz))
     return usage_error("run", a.error());
@@ -276,6 +283,9 @@ int run(const std::vector<std::string>& argv) {
     return usage_error("run", "--nats-model-ttl must be 0 (never) or 3 to 86400 seconds");
   if (!(nats_options.mesh_max_hz >= net::kMinMeshHz && nats_options.mesh_max_hz <= net::kMaxMeshHz))
     return usage_error("run", "--nats-mesh-hz must be 1 to 240");
+#else
+  if (a.has("nats")) return failure("run", "this build has no NATS support (configure with -DMIMIC_WITH_NATS=ON)");
+#endif
   // Setup: everything is allocated here, before the loop.
   std::vector<std::unique_ptr<PoseFeed>> feeds;
   std::vector<BodyAsset> bodies;
@@ -343,7 +353,9 @@ int run(const std::vector<std::string>& argv) {
   // is named as such even when another program holds the port.
   std::unique_ptr<net::Server> server;
   std::unique_ptr<net::Client> publisher;
+#if MIMIC_HAVE_NATS
   std::unique_ptr<net::NatsPublisher> nats;
+#endif
   std::string where;
   if (a.has("publish") && (a.has("lean-shift") || a.has("lean-key-interval")))
     return usage_error("run", "--lean-shift and --lean-key-interval set what this process serves: not with --publish");
@@ -372,6 +384,7 @@ int run(const std::vector<std::string>& argv) {
     server = std::move(*s);
     where = "serving on " + server->endpoint();
   }
+#if MIMIC_HAVE_NATS
   if (a.has("nats")) {
     net::NatsOptions o = nats_options;
     o.servers = *a.get("nats");
@@ -388,6 +401,7 @@ int run(const std::vector<std::string>& argv) {
       std::fprintf(stderr, "mimic run: NATS broker %s not reachable: serving the local listeners, joining it when it comes up\n",
                    shown.c_str());
   }
+#endif
   std::unique_ptr<net::VmcSender> vmc;
   if (a.has("vmc")) {
     auto v = net::VmcSender::open(*a.get("vmc"));
@@ -408,7 +422,9 @@ int run(const std::vector<std::string>& argv) {
   }
   PipelineOutputs outputs{server.get(), publisher.get(), vmc.get()};
   outputs.vrpn = vrpn.get();
+#if MIMIC_HAVE_NATS
   outputs.nats = nats.get();
+#endif
   Pipeline pipeline(outputs);
   // Sleep between passes: new samples wait at most about this long (plus the timer slack).
   constexpr int kIdleUs = 100;
@@ -496,6 +512,7 @@ int run(const std::vector<std::string>& argv) {
       for (int r = 1; r < net::kRejectCount; ++r)
         if (st.rejected[size_t(r)]) j["server"]["rejected_by_reason"][net::reject_name(net::Reject(r))] = st.rejected[size_t(r)];
     }
+#if MIMIC_HAVE_NATS
     if (nats) {
       const auto ns = nats->stats();
       j["nats"] = {{"connected", ns.connected}, {"frames", ns.frames}, {"frames_dropped", ns.frames_dropped},
@@ -504,6 +521,7 @@ int run(const std::vector<std::string>& argv) {
                    {"topologies_refused", ns.topologies_refused}, {"disconnects", ns.disconnects},
                    {"reconnects", ns.reconnects}, {"last_error", ns.last_error}};
     }
+#endif
     return j;
   };
   const bool status_line = !a.has("quiet");
@@ -540,7 +558,11 @@ int run(const std::vector<std::string>& argv) {
       const double fps = double(pipeline.frames() - last_frames) / std::max(dt, 1e-9) / double(avatars);
       last_frames = pipeline.frames();
       last_status = C::now();
+#if MIMIC_HAVE_NATS
       write_status(status, pipeline, server.get(), nats.get(), fps, missed_ticks, longest_gap_ms);
+#else
+      write_status(status, pipeline, server.get(), nullptr, fps, missed_ticks, longest_gap_ms);
+#endif
     }
   }
   std::signal(SIGINT, SIG_DFL);
@@ -551,7 +573,9 @@ int run(const std::vector<std::string>& argv) {
   std::fprintf(stderr, "mimic run: stopped after %.1f s, %llu frames\n", elapsed, static_cast<unsigned long long>(pipeline.frames()));
   if (a.has("json")) std::printf("%s\n", summary(elapsed).dump().c_str());
   if (publisher) publisher->close();
+#if MIMIC_HAVE_NATS
   nats.reset();  // a clean leave: this publisher's avatars leave the scene
+#endif
   return 0;
 }
 

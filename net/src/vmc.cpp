@@ -6,7 +6,7 @@
 #include <boost/asio.hpp>
 #include <cstring>
 
-#include "mimic/net/server.h"
+#include "mimic/core/host_port.h"
 
 namespace mimic::net {
 
@@ -35,15 +35,15 @@ Result<std::unique_ptr<VmcSender>> VmcSender::open(const std::string& host_port)
   if (!hp) return tl::unexpected(hp.error());
   auto impl = std::make_unique<Impl>();
   boost::system::error_code ec;
-  auto addr = asio::ip::make_address(hp->first, ec);
+  auto addr = asio::ip::make_address(hp->host, ec);
   if (ec) {
     asio::ip::udp::resolver resolver(impl->io);
-    auto results = resolver.resolve(hp->first, std::to_string(hp->second), ec);
-    if (ec || results.empty()) return fail(Errc::not_found, "cannot resolve '" + hp->first + "'");
+    auto results = resolver.resolve(hp->host, std::to_string(hp->port), ec);
+    if (ec || results.empty()) return fail(Errc::not_found, "cannot resolve '" + hp->host + "'");
     addr = results.begin()->endpoint().address();
   }
   impl->addr = addr;
-  impl->base_port = hp->second;
+  impl->base_port = hp->port;
   impl->sock.open(addr.is_v4() ? asio::ip::udp::v4() : asio::ip::udp::v6(), ec);
   if (ec) return fail(Errc::io_error, "cannot open a UDP socket: " + ec.message());
   impl->sock.non_blocking(true, ec);

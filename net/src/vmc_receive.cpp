@@ -6,28 +6,20 @@
 #include <sys/socket.h>
 #include <unistd.h>
 
-#include <chrono>
 #include <cstring>
 
-#include "mimic/net/server.h"  // split_host_port
+#include "mimic/core/clock.h"
+#include "mimic/core/host_port.h"
 
 namespace mimic::net {
-
-namespace {
-
-double steady_now_s() {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
-}
-
-}  // namespace
 
 Result<std::unique_ptr<VmcReceiver>> VmcReceiver::open(const std::string& host_port) {
   std::string host = "127.0.0.1", port_text = host_port;
   if (host_port.find(':') != std::string::npos) {
     auto hp = split_host_port(host_port);
     if (!hp) return tl::unexpected(hp.error());
-    host = hp->first == "localhost" ? "127.0.0.1" : hp->first;
-    port_text = std::to_string(hp->second);
+    host = hp->host == "localhost" ? "127.0.0.1" : hp->host;
+    port_text = std::to_string(hp->port);
   }
   char* end = nullptr;
   const long port = std::strtol(port_text.c_str(), &end, 10);

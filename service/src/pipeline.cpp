@@ -21,7 +21,9 @@
 #include "mimic/core/file.h"
 #include "mimic/net/client.h"
 #include "mimic/net/frame_codec.h"
+#if MIMIC_HAVE_NATS  // built with the broker transport (mimic::nats); else outputs.nats stays null
 #include "mimic/net/nats.h"
+#endif
 #include "mimic/net/server.h"
 #include "mimic/net/vmc.h"
 #include "mimic/net/vrpn_server.h"
@@ -476,11 +478,13 @@ Status Pipeline::add_avatar(const std::string& name, std::unique_ptr<PoseFeed> f
     if (!slot) return tl::unexpected(slot.error());
     a.publisher_slot = *slot;
   }
+#if MIMIC_HAVE_NATS
   if (out_.nats) {
     auto index = out_.nats->add_avatar(name, dofs, model_bytes);
     if (!index) return tl::unexpected(index.error());
     a.nats_index = *index;
   }
+#endif
   if (auto st = feed->start(); !st) return st;
   a.pose = s.rest_pose();
   a.packet.resize(net::pose_packet_bytes(s.dof_count()));
@@ -497,8 +501,10 @@ Status Pipeline::add_avatar(const std::string& name, std::unique_ptr<PoseFeed> f
     t.vertex_count = static_cast<uint32_t>(mesh.positions.size());
     t.indices = mesh.indices;
     a.mesh_packet.resize(net::mesh_packet_bytes(mesh.positions.size()));
+#if MIMIC_HAVE_NATS
     if (out_.nats)
       if (auto st = out_.nats->add_mesh(a.nats_index, t); !st) return st;
+#endif
     if (out_.server) {
       if (auto st = out_.server->set_mesh_topology(t); !st) return st;
       a.topology_sent = true;
@@ -519,7 +525,11 @@ void Pipeline::send_mesh(Avatar& a, uint64_t time_us) {
   const avatar::Mesh& mesh = *a.deformer->mesh();
   const uint8_t lod = a.deformer->lod();
   const bool to_server = out_.server && lod < 8 && (out_.server->mesh_lods_wanted(a.server_id) & (1u << lod));
+#if MIMIC_HAVE_NATS
   const bool to_broker = out_.nats && out_.nats->mesh_wanted(a.nats_index);
+#else
+  const bool to_broker = false;
+#endif
   if (!to_server && !to_broker) return;
   if (to_server && !a.topology_sent) {
     net::MeshTopology t;
@@ -538,7 +548,9 @@ void Pipeline::send_mesh(Avatar& a, uint64_t time_us) {
   const std::span<const uint8_t> packet(a.mesh_packet.data(), n);
   if (n == 0 || (to_server && out_.server->publish_mesh(a.server_id, lod, packet) != net::Reject::ok))
     send_failures_++;
+#if MIMIC_HAVE_NATS
   if (n && to_broker) out_.nats->publish_mesh(a.nats_index, packet);
+#endif
 }
 
 void Pipeline::publish_pose_frame(Avatar& a, const net::PoseHeader& h, size_t bytes) {
@@ -547,7 +559,9 @@ void Pipeline::publish_pose_frame(Avatar& a, const net::PoseHeader& h, size_t by
   if (out_.publisher && a.publisher_slot >= 0 &&
       !out_.publisher->publish_pose(static_cast<uint8_t>(a.publisher_slot), h, a.pose))
     send_failures_++;
+#if MIMIC_HAVE_NATS
   if (out_.nats && bytes) out_.nats->publish_pose(a.nats_index, packet);
+#endif
 }
 
 void Pipeline::tick() {
@@ -556,7 +570,9 @@ void Pipeline::tick() {
   // Pose frames first: receivers deform locally, so the pose stream does not wait for the skin.
   // One write per subscriber for all avatars of this pass, and one broker message.
   if (out_.server) out_.server->begin_batch();
+#if MIMIC_HAVE_NATS
   if (out_.nats) out_.nats->begin_tick();
+#endif
   for (size_t i = 0; i < avatars_.size(); ++i) {
     Avatar& a = avatars_[i];
     const auto t0 = C::now();
@@ -616,7 +632,9 @@ void Pipeline::tick() {
   // The pose frames leave the sockets here: every avatar of this pass counts the flush in its
   // send stage, and its latency (sensor record -> frame out) ends here.
   double flush_us = 0;
+#if MIMIC_HAVE_NATS
   if (out_.nats) out_.nats->end_tick();  // only wakes the sender: first, so both go out together
+#endif
   if (out_.server) {
     const auto t0 = C::now();
     out_.server->end_batch();

@@ -9,6 +9,7 @@
 
 #include "fanout/swarm.h"
 #include "mimic/bench/loopback_bench.h"
+#include "mimic/core/thread_priority.h"
 #include "mimic/net/server.h"
 
 namespace mimic::bench {
@@ -64,7 +65,7 @@ Result<FanoutCapacity> measure_fanout_capacity(const FanoutOptions& o) {
   srv.run_until(Clock::now() + std::chrono::milliseconds(100));
   swarm.start_counting();
   std::this_thread::sleep_for(std::chrono::milliseconds(50));
-  m.realtime = o.realtime_priority > 0 && set_fifo(o.realtime_priority);
+  m.realtime = o.realtime_priority > 0 && set_thread_fifo(o.realtime_priority);
   const uint64_t dropped_before = srv.stats().frames_dropped;
   const double rcpu0 = swarm.receivers_cpu_s(), pcpu0 = process_cpu_s();
   const auto start = Clock::now();
@@ -82,7 +83,7 @@ Result<FanoutCapacity> measure_fanout_capacity(const FanoutOptions& o) {
   m.receivers_cpu_s = swarm.receivers_cpu_s() - rcpu0;
   m.process_cpu_s = process_cpu_s() - pcpu0;
   m.server_cpu_s = std::max(0.0, m.process_cpu_s - m.receivers_cpu_s);  // the server's threads
-  if (m.realtime) set_fifo(0);
+  if (m.realtime) set_thread_fifo(0);
   const uint64_t expected = uint64_t(o.subscribers) * uint64_t(o.avatars) * uint64_t(m.ticks);
   const auto drain_deadline = Clock::now() + std::chrono::seconds(5);
   while (swarm.frames() < expected && Clock::now() < drain_deadline)

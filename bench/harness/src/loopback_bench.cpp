@@ -13,6 +13,7 @@
 #include <thread>
 #include <vector>
 
+#include "mimic/core/percentile.h"
 #include "mimic/net/client.h"
 #include "mimic/net/server.h"
 
@@ -26,13 +27,6 @@ using Clock = std::chrono::steady_clock;
 
 double us_between(Clock::time_point a, Clock::time_point b) {
   return std::chrono::duration<double, std::micro>(b - a).count();
-}
-
-double percentile(std::vector<double> v, double q) {
-  if (v.empty()) return 0;
-  const size_t k = std::min(v.size() - 1, static_cast<size_t>(q * double(v.size() - 1) + 0.5));
-  std::nth_element(v.begin(), v.begin() + static_cast<long>(k), v.end());
-  return v[k];
 }
 
 avatar::Pose test_pose(uint16_t dofs, uint32_t k) {
@@ -97,8 +91,8 @@ Result<LatencyResult> measure_loopback_latency(int frames, uint16_t dof_count, b
   }
   LatencyResult r;
   r.samples = samples.size();
-  r.p50_us = percentile(samples, 0.50);
-  r.p99_us = percentile(samples, 0.99);
+  r.p50_us = percentile_in_place(samples, 0.50);
+  r.p99_us = percentile_in_place(samples, 0.99);
   r.max_us = samples.empty() ? 0 : *std::max_element(samples.begin(), samples.end());
   return r;
 }
@@ -259,8 +253,8 @@ Result<FanoutResult> measure_fanout(int subscribers, int avatars, double rate_hz
   r.frames_received = subs.received();
   r.frames_dropped = srv.stats().frames_dropped;
   r.lost = subs.lost();
-  r.tick_p50_us = percentile(tick_us, 0.50);
-  r.tick_p99_us = percentile(tick_us, 0.99);
+  r.tick_p50_us = percentile_in_place(tick_us, 0.50);
+  r.tick_p99_us = percentile_in_place(tick_us, 0.99);
   r.late_ticks = late;
   // The last tick is due (ticks - 1) periods after the first and takes one more to send.
   r.achieved_rate_hz = double(ticks) / std::max(elapsed_s, 1e-9);

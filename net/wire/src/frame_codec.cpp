@@ -3,6 +3,7 @@
 #include "mimic/core/text.h"
 
 #include <algorithm>
+#include <chrono>
 #include <bit>
 #include <cmath>
 #include <cstring>
@@ -13,6 +14,12 @@
 namespace mimic::net {
 
 using namespace codec_detail;
+
+uint64_t wall_clock_us() {
+  return static_cast<uint64_t>(std::chrono::duration_cast<std::chrono::microseconds>(
+                                   std::chrono::system_clock::now().time_since_epoch())
+                                   .count());
+}
 
 bool SessionToken::empty() const noexcept {
   uint8_t any = 0;

@@ -4,6 +4,7 @@
 #include <cstring>
 
 #include "mimic/avatar/joint_angles.h"
+#include "mimic/core/finite.h"
 
 namespace mimic::net {
 
@@ -14,8 +15,6 @@ constexpr float kDegToRad = 3.14159265358979f / 180.0f;
 // Unity (left-handed, +X right) to Mimic (right-handed, +X left): mirror x.
 glm::vec3 from_unity(glm::vec3 p) { return {-p.x, p.y, p.z}; }
 glm::quat from_unity(glm::quat q) { return glm::quat(q.w, q.x, -q.y, -q.z); }
-
-bool finite(const glm::vec3& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
 
 // "<name> px py pz qx qy qz qw" (trailing arguments ignored). False on other arguments, or a
 // rotation that cannot be normalised.
@@ -28,7 +27,7 @@ bool read_named_pose(const osc::Message& m, std::string_view& name, glm::vec3& p
   p = {v[0], v[1], v[2]};
   q = glm::quat(v[6], v[3], v[4], v[5]);
   const float len = glm::length(q);
-  non_finite = !finite(p) || !std::isfinite(len) || len < 1e-6f;
+  non_finite = !all_finite(p) || !std::isfinite(len) || len < 1e-6f;
   if (!non_finite) q /= len;
   return true;
 }
@@ -92,7 +91,7 @@ bool apply_osc_tracker(const osc::Message& m, double now_s, VmcState& s, VmcRece
     stats.refused[size_t(osc::Error::wrong_arguments)]++;
     return true;
   }
-  if (!finite(v)) {
+  if (!all_finite(v)) {
     stats.non_finite++;
     return true;
   }

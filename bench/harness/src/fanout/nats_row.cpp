@@ -24,6 +24,7 @@
 #include "fanout/swarm.h"
 #include "mimic/net/frame_codec.h"
 #include "mimic/bench/loopback_bench.h"
+#include "mimic/core/thread_priority.h"
 #include "mimic/net/nats.h"
 #include "mimic/net/server.h"
 
@@ -67,15 +68,6 @@ double cpu_seconds_of(pid_t pid) {
   timespec t{};
   if (clock_getcpuclockid(pid, &clock) != 0 || clock_gettime(clock, &t) != 0) return 0;
   return double(t.tv_sec) + 1e-9 * double(t.tv_nsec);
-}
-
-// Every thread of a process (the broker's, or this one's NATS client threads) at a policy.
-void set_policy_of_threads(pid_t pid, int priority) {
-  sched_param p{};
-  p.sched_priority = priority;
-  std::error_code ec;
-  for (const auto& e : std::filesystem::directory_iterator("/proc/" + std::to_string(pid) + "/task", ec))
-    sched_setscheduler(pid_t(std::stol(e.path().filename().string())), priority > 0 ? SCHED_FIFO : SCHED_OTHER, &p);
 }
 
 // One nats-server with JetStream (the relay keeps the models in its key-value bucket) on a port
@@ -194,8 +186,8 @@ Result<FanoutCapacity> measure_nats(const FanoutOptions& o) {
   // Realtime: every thread on the path, the broker's included; the receivers (started next)
   // put themselves one below.
   if (o.realtime_priority > 0) {
-    set_policy_of_threads(broker.pid(), o.realtime_priority);
-    set_policy_of_threads(::getpid(), o.realtime_priority);
+    set_process_threads_fifo(broker.pid(), o.realtime_priority);
+    set_process_threads_fifo(::getpid(), o.realtime_priority);
   }
   swarm.start_receiving(o);
 
@@ -204,7 +196,7 @@ Result<FanoutCapacity> measure_nats(const FanoutOptions& o) {
   m.ticks = std::max(1, int(o.seconds * o.rate_hz));
   swarm.start_counting();
   std::this_thread::sleep_for(std::chrono::milliseconds(50));
-  m.realtime = o.realtime_priority > 0 && set_fifo(o.realtime_priority);
+  m.realtime = o.realtime_priority > 0 && set_thread_fifo(o.realtime_priority);
   const uint64_t dropped_before = on_server(srv, [&] { return srv.stats().frames_dropped; });
   const uint64_t fanouts_before = on_server(srv, [&] { return srv.fanout_times().count; });
   const auto link_before = (*publisher)->stats().frames_dropped + (*feed)->stats().frames_dropped;
@@ -226,7 +218,7 @@ Result<FanoutCapacity> measure_nats(const FanoutOptions& o) {
   m.process_cpu_s = process_cpu_s() - pcpu0;
   m.server_cpu_s = std::max(0.0, m.process_cpu_s - m.receivers_cpu_s);  // publisher, relay and their clients
   const double broker_cpu_s = cpu_seconds_of(broker.pid()) - bcpu0;
-  if (m.realtime) set_fifo(0);
+  if (m.realtime) set_thread_fifo(0);
   const uint64_t expected = uint64_t(o.subscribers) * uint64_t(o.avatars) * uint64_t(m.ticks);
   // Everything the row says comes from the timed window: what arrived by its end (with a few
   // ticks' grace for the frames in flight), the relay's fan-out times and rate in it. A relay
@@ -243,7 +235,7 @@ Result<FanoutCapacity> measure_nats(const FanoutOptions& o) {
   const auto drain_deadline = Clock::now() + std::chrono::seconds(5);
   while (swarm.frames() < expected && Clock::now() < drain_deadline) std::this_thread::sleep_for(std::chrono::milliseconds(5));
   swarm.stop();
-  if (o.realtime_priority > 0) set_policy_of_threads(::getpid(), 0);
+  if (o.realtime_priority > 0) set_process_threads_fifo(::getpid(), 0);
 
   m.sender_threads = srv.fanout_threads();
   FanoutCapacity cap = capacity_row(o, swarm, m);

@@ -14,6 +14,8 @@
 #include <array>
 #include <cstdlib>
 
+#include "mimic/core/thread_priority.h"
+#include "mimic/core/percentile.h"
 #include "mimic/net/frame_codec.h"
 #include "mimic/net/pose_stream.h"
 
@@ -21,23 +23,10 @@ namespace mimic::bench::fanout {
 
 using namespace mimic::net;  // the harness drives the product's servers and clients
 
-double percentile(std::vector<double> v, double q) {
-  if (v.empty()) return 0;
-  const size_t k = std::min(v.size() - 1, static_cast<size_t>(q * double(v.size() - 1) + 0.5));
-  std::nth_element(v.begin(), v.begin() + static_cast<long>(k), v.end());
-  return v[k];
-}
-
 double process_cpu_s() {
   rusage u{};
   getrusage(RUSAGE_SELF, &u);
   return double(u.ru_utime.tv_sec + u.ru_stime.tv_sec) + 1e-6 * double(u.ru_utime.tv_usec + u.ru_stime.tv_usec);
-}
-
-bool set_fifo(int priority) {
-  sched_param p{};
-  p.sched_priority = priority;
-  return pthread_setschedparam(pthread_self(), priority > 0 ? SCHED_FIFO : SCHED_OTHER, &p) == 0;
 }
 
 // Every subscriber needs a TCP socket (and a UDP one), the server one per session.
@@ -272,7 +261,7 @@ void Swarm::start_receiving(const FanoutOptions& o) {
 // Below the server's priority: the receivers stand for viewers on other hosts, so they read
 // between ticks instead of taking a core from a tick.
 void Swarm::receive(Receiver& rx, int realtime_priority) {
-  if (realtime_priority > 0) set_fifo(std::max(1, realtime_priority - 1));
+  if (realtime_priority > 0) set_thread_fifo(std::max(1, realtime_priority - 1));
   std::vector<epoll_event> events(512);
   auto in = std::make_unique<UdpInbox>();
   Counts c;
@@ -369,8 +358,9 @@ FanoutCapacity capacity_row(const FanoutOptions& o, const Swarm& swarm, const Me
   r.frames_received = m.frames_received >= 0 ? uint64_t(m.frames_received) : swarm.frames();
   r.frames_dropped = m.dropped;
   r.lost = m.lost >= 0 ? uint64_t(m.lost) : swarm.lost();
-  r.tick_p50_us = percentile(m.tick_us, 0.50);
-  r.tick_p99_us = percentile(m.tick_us, 0.99);
+  std::vector<double> tick_us = m.tick_us;
+  r.tick_p50_us = percentile_in_place(tick_us, 0.50);
+  r.tick_p99_us = percentile_in_place(tick_us, 0.99);
   r.late_ticks = m.late_ticks;
   r.achieved_rate_hz = double(m.ticks) / std::max(m.elapsed_s, 1e-9);
   // Lost frames are the ones a subscriber never saw (a sequence gap); frames the server had to

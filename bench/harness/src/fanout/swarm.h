@@ -21,9 +21,7 @@ namespace mimic::bench::fanout {
 
 using Clock = std::chrono::steady_clock;
 
-double percentile(std::vector<double> v, double q);
 double process_cpu_s();
-bool set_fifo(int priority);  // the calling thread; 0: back to SCHED_OTHER
 void raise_fd_limit(size_t wanted);
 // A server that takes `subscribers` sessions from this host, frames as datagrams when `udp`.
 net::ServerOptions server_options(const FanoutOptions& o, bool udp);

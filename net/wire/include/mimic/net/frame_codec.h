@@ -291,4 +291,7 @@ class PacketReader {
   size_t max_packet_;
 };
 
+// Wall clock in µs since the Unix epoch: what pose and mesh frames carry as their capture time.
+uint64_t wall_clock_us();
+
 }  // namespace mimic::net

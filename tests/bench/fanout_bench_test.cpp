@@ -10,9 +10,9 @@
 #include <string>
 #include <thread>
 
-#include "mimic/net/loopback_bench.h"
+#include "mimic/bench/loopback_bench.h"
 
-namespace mimic::net {
+namespace mimic::bench {
 namespace {
 
 TEST(FanoutBench, EverySubscriberReceivesEveryFrameOverTcpAndUdp) {
@@ -113,4 +113,4 @@ TEST(FanoutBench, ABrokerRowThatFellBehindDoesNotSayKeptUp) {
 }
 
 }  // namespace
-}  // namespace mimic::net
+}  // namespace mimic::bench
