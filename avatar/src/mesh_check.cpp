@@ -6,7 +6,7 @@
 #include <numeric>
 #include <unordered_map>
 
-#include "mesh_io_internal.h"
+#include "mimic/avatar/mesh.h"
 
 namespace mimic::avatar {
 
@@ -238,7 +238,7 @@ Mesh weld_by_position(const Mesh& mesh, float tolerance) {
       out.normals.push_back(len > 0 ? n / len : glm::vec3(0, 1, 0));
     }
   // Rebuild triangles and parts, dropping collapsed ones.
-  for (const auto& part : detail::covering_parts(mesh)) {
+  for (const auto& part : covering_parts(mesh)) {
     MeshPart np{part.name, static_cast<uint32_t>(out.triangle_count()), 0};
     for (uint32_t f = part.first_triangle; f < part.first_triangle + part.triangle_count; ++f) {
       const uint32_t a = new_index[mesh.indices[3 * f]], b = new_index[mesh.indices[3 * f + 1]],

@@ -52,7 +52,7 @@ Result<std::unique_ptr<VmcSender>> VmcSender::open(const std::string& host_port)
   return std::unique_ptr<VmcSender>(new VmcSender(std::move(impl)));
 }
 
-Status VmcSender::add_avatar(const avatar::Skeleton& skeleton) {
+Status VmcSender::add_avatar(const rig::Skeleton& skeleton) {
   const size_t i = impl_->avatars.size();
   if (i >= 64) return fail(Errc::out_of_range, "VMC: at most 64 avatars");
   if (impl_->base_port + i > 65535)
@@ -67,7 +67,7 @@ Status VmcSender::add_avatar(const avatar::Skeleton& skeleton) {
 
 size_t VmcSender::avatar_count() const { return impl_->avatars.size(); }
 
-size_t VmcSender::send(size_t avatar, const avatar::Pose& pose, double capture_time_s) {
+size_t VmcSender::send(size_t avatar, const rig::Pose& pose, double capture_time_s) {
   if (avatar >= impl_->avatars.size()) return 0;
   Impl::Avatar& a = impl_->avatars[avatar];
   if (!a.started) {

@@ -193,7 +193,7 @@ size_t encode_scene(std::span<const SceneEntry> entries, std::span<uint8_t> out)
   return finish(w);
 }
 
-size_t encode_pose(const PoseHeader& h, const avatar::Pose& pose, std::span<uint8_t> out) noexcept {
+size_t encode_pose(const PoseHeader& h, const rig::Pose& pose, std::span<uint8_t> out) noexcept {
   if (pose.dof_rad.size() > kMaxPoseDofs) return 0;
   Writer w = begin(out, MsgType::pose);
   w.u16(h.avatar);

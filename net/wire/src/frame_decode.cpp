@@ -120,7 +120,7 @@ Reject decode_scene(std::span<const uint8_t> packet, std::vector<SceneEntry>& ou
   return close(r);
 }
 
-Reject decode_pose(std::span<const uint8_t> packet, PoseHeader& h, avatar::Pose& out) {
+Reject decode_pose(std::span<const uint8_t> packet, PoseHeader& h, rig::Pose& out) {
   Reader r;
   if (const Reject e = open(packet, MsgType::pose, r); e != Reject::ok) return e;
   h.avatar = r.u16();

@@ -52,7 +52,7 @@ void OscWriter::end_message() {
   p[3] = uint8_t(size);
 }
 
-std::vector<VmcBone> vmc_bone_map(const avatar::Skeleton& s) {
+std::vector<VmcBone> vmc_bone_map(const rig::Skeleton& s) {
   struct Entry {
     const char* joint;
     const char* fold;
@@ -91,7 +91,7 @@ std::vector<VmcBone> vmc_bone_map(const avatar::Skeleton& s) {
   return bones;
 }
 
-VmcEncoder::VmcEncoder(const avatar::Skeleton& skeleton) : skeleton_(skeleton), bones_(vmc_bone_map(skeleton)) {}
+VmcEncoder::VmcEncoder(const rig::Skeleton& skeleton) : skeleton_(skeleton), bones_(vmc_bone_map(skeleton)) {}
 
 namespace {
 
@@ -124,7 +124,7 @@ size_t bone_message_bytes(std::string_view address, std::string_view name) {
 
 }  // namespace
 
-VmcBundles VmcEncoder::encode(const avatar::Pose& pose, double stream_time_s, std::vector<uint8_t>& out,
+VmcBundles VmcEncoder::encode(const rig::Pose& pose, double stream_time_s, std::vector<uint8_t>& out,
                               size_t max_bundle_bytes) const {
   out.clear();
   OscWriter w(out);

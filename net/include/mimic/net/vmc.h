@@ -8,7 +8,7 @@
 #include <memory>
 #include <string>
 
-#include "mimic/avatar/skeleton.h"
+#include "mimic/rig/skeleton.h"
 #include "mimic/core/result.h"
 #include "mimic/net/vmc_encode.h"
 
@@ -20,13 +20,13 @@ class VmcSender {
  public:
   static Result<std::unique_ptr<VmcSender>> open(const std::string& host_port);
   // Fails when port + index would pass 65535 or past 64 avatars.
-  Status add_avatar(const avatar::Skeleton& skeleton);
+  Status add_avatar(const rig::Skeleton& skeleton);
   size_t avatar_count() const;
   ~VmcSender();
   // Sends avatar `avatar`'s frame captured at `capture_time_s` (any clock in seconds; /VMC/Ext/T
   // counts from the first frame sent for that avatar). Never throws; allocation-free after the
   // first frame. Returns bytes sent, 0 on failure or for an avatar never added.
-  size_t send(size_t avatar, const avatar::Pose& pose, double capture_time_s);
+  size_t send(size_t avatar, const rig::Pose& pose, double capture_time_s);
 
  private:
   struct Impl;

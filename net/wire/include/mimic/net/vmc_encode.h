@@ -23,7 +23,7 @@
 #include <string_view>
 #include <vector>
 
-#include "mimic/avatar/skeleton.h"
+#include "mimic/rig/skeleton.h"
 
 namespace mimic::net {
 
@@ -55,7 +55,7 @@ struct VmcBone {
 
 // Unity humanoid bones for the joints present in `skeleton` (e.g. pelvis -> Hips,
 // l_shoulder -> LeftUpperArm, l_knee -> LeftLowerLeg).
-std::vector<VmcBone> vmc_bone_map(const avatar::Skeleton& skeleton);
+std::vector<VmcBone> vmc_bone_map(const rig::Skeleton& skeleton);
 
 inline constexpr size_t kVmcMaxBundleBytes = 1400;
 inline constexpr size_t kVmcMaxBundles = 16;
@@ -68,16 +68,16 @@ struct VmcBundles {
 
 class VmcEncoder {
  public:
-  explicit VmcEncoder(const avatar::Skeleton& skeleton);
+  explicit VmcEncoder(const rig::Skeleton& skeleton);
   // The pose's bundles, back to back, into `out` (cleared first; no allocation once it has grown
   // to a frame's size). `stream_time_s` goes out as /VMC/Ext/T. `max_bundle_bytes` must hold
   // the largest single message (about 60 bytes).
-  VmcBundles encode(const avatar::Pose& pose, double stream_time_s, std::vector<uint8_t>& out,
+  VmcBundles encode(const rig::Pose& pose, double stream_time_s, std::vector<uint8_t>& out,
                     size_t max_bundle_bytes = kVmcMaxBundleBytes) const;
   const std::vector<VmcBone>& bones() const { return bones_; }
 
  private:
-  avatar::Skeleton skeleton_;
+  rig::Skeleton skeleton_;
   std::vector<VmcBone> bones_;
 };
 
