@@ -6,7 +6,7 @@
 #include <cstdint>
 #include <cstdlib>
 
-#include "mimic/net/vmc_receive.h"
+#include "mimic/net/vmc_decode.h"
 
 namespace {
 

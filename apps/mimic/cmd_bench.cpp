@@ -11,7 +11,7 @@
 #include "command.h"
 #include "mimic/net/client.h"
 #include "mimic/net/frame_codec.h"
-#include "mimic/net/loopback_bench.h"
+#include "mimic/bench/loopback_bench.h"
 #include "mimic/net/server.h"
 #include "mimic/net/vmc.h"
 #include "mimic/avatar/baselines/baseline_skinner.h"
@@ -64,12 +64,12 @@ Result<nlohmann::json> bench_net(const BenchOptions& opt) {
                double(raw_bytes) / double(mimic_bytes));
 
   // Server -> subscriber over loopback.
-  auto lat = net::measure_loopback_latency(opt.quick ? 300 : 3000, uint16_t(sk->dof_count()));
+  auto lat = bench::measure_loopback_latency(opt.quick ? 300 : 3000, uint16_t(sk->dof_count()));
   if (!lat) return tl::unexpected(lat.error());
   j["loopback_latency_us"] = {{"p50", lat->p50_us}, {"p99", lat->p99_us}, {"max", lat->max_us}, {"samples", lat->samples}};
   std::fprintf(stderr, "server -> subscriber on loopback: p50 %.1f us, p99 %.1f us (%llu frames)\n", lat->p50_us,
                lat->p99_us, static_cast<unsigned long long>(lat->samples));
-  auto lat_udp = net::measure_loopback_latency(opt.quick ? 300 : 3000, uint16_t(sk->dof_count()), true);
+  auto lat_udp = bench::measure_loopback_latency(opt.quick ? 300 : 3000, uint16_t(sk->dof_count()), true);
   if (!lat_udp) return tl::unexpected(lat_udp.error());
   j["loopback_latency_udp_us"] = {{"p50", lat_udp->p50_us}, {"p99", lat_udp->p99_us}, {"max", lat_udp->max_us},
                                   {"samples", lat_udp->samples}};
@@ -142,7 +142,7 @@ Result<nlohmann::json> bench_net(const BenchOptions& opt) {
   else configs = {{100, 1}, {250, 2}, {250, 4}, {500, 2}, {opt.subscribers, opt.avatars}};
   long best = 0;
   for (const auto& [subs, avs] : configs) {
-    auto r = net::measure_fanout(int(subs), int(avs), 90.0, opt.quick ? 0.5 : opt.seconds);
+    auto r = bench::measure_fanout(int(subs), int(avs), 90.0, opt.quick ? 0.5 : opt.seconds);
     if (!r) return tl::unexpected(r.error());
     sweep.push_back({{"subscribers", subs},
                      {"avatars", avs},
@@ -366,9 +366,9 @@ Result<nlohmann::json> bench_solver(const BenchOptions& opt) {
 
 // One row per (transport, subscribers, avatars). Transports measured by other modules (a broker
 // relay) add their rows to this table the same way: the same columns, one JSON object each.
-nlohmann::json fanout_row(const net::FanoutCapacity& c) {
+nlohmann::json fanout_row(const bench::FanoutCapacity& c) {
   const auto& r = c.result;
-  nlohmann::json row = {{"transport", net::fanout_transport_name(c.options.transport)},
+  nlohmann::json row = {{"transport", bench::fanout_transport_name(c.options.transport)},
           {"streams", c.streams},
           {"subscribers", c.options.subscribers},
           {"avatars", c.options.avatars},
@@ -392,7 +392,7 @@ nlohmann::json fanout_row(const net::FanoutCapacity& c) {
           {"late_ticks", r.late_ticks},
           {"kept_up", r.kept_up},
           {"load_average_1m", c.load_average_1m}};
-  if (c.options.transport == net::FanoutTransport::nats) {
+  if (c.options.transport == bench::FanoutTransport::nats) {
     row["publish_to_relay_ms_p50"] = c.publish_to_relay_ms_p50;
     row["publish_to_relay_ms_p99"] = c.publish_to_relay_ms_p99;
     row["broker_cpu_percent"] = c.broker_cpu_percent;
@@ -402,17 +402,17 @@ nlohmann::json fanout_row(const net::FanoutCapacity& c) {
 }
 
 Result<nlohmann::json> bench_fanout(const BenchOptions& opt) {
-  std::vector<net::FanoutTransport> transports;
-  for (auto t : {net::FanoutTransport::tcp, net::FanoutTransport::udp, net::FanoutTransport::nats})
-    if (opt.transport.empty() || opt.transport == net::fanout_transport_name(t)) transports.push_back(t);
+  std::vector<bench::FanoutTransport> transports;
+  for (auto t : {bench::FanoutTransport::tcp, bench::FanoutTransport::udp, bench::FanoutTransport::nats})
+    if (opt.transport.empty() || opt.transport == bench::fanout_transport_name(t)) transports.push_back(t);
   std::vector<std::pair<long, long>> points;
   if (opt.fanout_point) points = {{opt.subscribers, opt.avatars}};
   else if (opt.quick) points = {{50, 2}};
   else points = {{1000, 1}, {2500, 4}, {1250, 8}};
   nlohmann::json rows = nlohmann::json::array();
   for (auto t : transports) {
-    if (t == net::FanoutTransport::nats) {
-      if (auto ready = net::fanout_nats_available(); !ready) {
+    if (t == bench::FanoutTransport::nats) {
+      if (auto ready = bench::fanout_nats_available(); !ready) {
         // A row saying why, so that a reader of the JSON lines sees the transport was skipped.
         std::fprintf(stderr, "fan-out nats: skipped: %s\n", ready.error().message.c_str());
         const nlohmann::json row = {{"transport", "nats"}, {"skipped", ready.error().message}};
@@ -422,7 +422,7 @@ Result<nlohmann::json> bench_fanout(const BenchOptions& opt) {
       }
     }
     for (const auto& [subs, avs] : points) {
-      net::FanoutOptions o;
+      bench::FanoutOptions o;
       o.subscribers = int(subs);
       o.avatars = int(avs);
       o.seconds = opt.quick ? 0.5 : opt.seconds;
@@ -430,19 +430,19 @@ Result<nlohmann::json> bench_fanout(const BenchOptions& opt) {
       o.realtime_priority = int(opt.realtime);
       o.sender_threads = int(opt.threads);
       o.receiver_threads = int(opt.receivers);
-      auto c = net::measure_fanout_capacity(o);
+      auto c = bench::measure_fanout_capacity(o);
       if (!c) return tl::unexpected(c.error());
       const auto row = fanout_row(*c);
       std::fprintf(stderr,
                    "fan-out %s 90 Hz: %ld subscribers x %ld avatars = %llu streams: %s (tick p50 %.0f us, p99 %.0f us, "
                    "%.1f bytes/avatar-frame, lost %llu, dropped %llu, server %d threads %.0f%% CPU = %.0f us per tick, "
                    "receivers %.0f us per tick, load %.1f)\n",
-                   net::fanout_transport_name(t), subs, avs, static_cast<unsigned long long>(c->streams),
+                   bench::fanout_transport_name(t), subs, avs, static_cast<unsigned long long>(c->streams),
                    c->result.kept_up ? "kept up" : "FELL BEHIND", c->result.tick_p50_us, c->result.tick_p99_us,
                    c->bytes_per_avatar_frame, static_cast<unsigned long long>(c->result.lost),
                    static_cast<unsigned long long>(c->result.frames_dropped), c->sender_threads, c->cpu_percent,
                    c->cpu_us_per_tick, c->receiver_cpu_us_per_tick, c->load_average_1m);
-      if (t == net::FanoutTransport::nats)
+      if (t == bench::FanoutTransport::nats)
         std::fprintf(stderr, "  publish -> nats-server -> relay: p50 %.2f ms, p99 %.2f ms; nats-server %.0f%% CPU; %.2f relay fan-outs per tick\n",
                      c->publish_to_relay_ms_p50, c->publish_to_relay_ms_p99, c->broker_cpu_percent, c->fanouts_per_tick);
       if (opt.json_lines) std::printf("%s\n", row.dump().c_str());

@@ -1,5 +1,6 @@
 // mimic relay: an edge relay. Takes one scene from a NATS broker once and serves it to local
 // viewers with Mimic's own protocol (the same server, handshake and limits as mimic run).
+#if MIMIC_HAVE_NATS  // built with the broker transport (mimic::nats)
 #include <chrono>
 #include <csignal>
 #include <cstdio>
@@ -148,3 +149,4 @@ int relay(const std::vector<std::string>& argv) {
 MIMIC_COMMAND(relay, "relay", "serve a scene from a NATS broker to local viewers (an edge relay)", kUsage, relay);
 
 }  // namespace mimic::app
+#endif  // MIMIC_HAVE_NATS

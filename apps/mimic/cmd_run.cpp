@@ -17,7 +17,13 @@
 #include "mimic/core/process_limits.h"
 #include "mimic/core/thread_priority.h"
 #include "mimic/net/client.h"
+#if MIMIC_HAVE_NATS  // built with the broker transport (mimic::nats); else --nats is refused
 #include "mimic/net/nats.h"
+#else
+namespace mimic::net {
+class NatsPublisher {};  // absent: run refuses --nats
+}  // namespace mimic::net
+#endif
 #include "mimic/net/server.h"
 #include "mimic/net/vmc.h"
 #include "mimic/net/vrpn_server.h"
@@ -141,6 +147,7 @@ void write_status(StatusLine& line, Pipeline& pipeline, net::Server* server, net
   line.add(1, "latency %.1f/%.1f ms", latency.p50_us * 1e-3, latency.p99_us * 1e-3);
   if (missed_ticks > 0)
     line.add(2, "missed %llu ticks (max gap %.0f ms)", static_cast<unsigned long long>(missed_ticks), longest_gap_ms);
+#if MIMIC_HAVE_NATS
   if (nats) {
     char text[96];
     const auto link = nats->link_state();
@@ -150,6 +157,9 @@ void write_status(StatusLine& line, Pipeline& pipeline, net::Server* server, net
     while (*t == ' ' || *t == '|') ++t;
     line.add(2, "%s%s", t, link.connected ? "" : ": local only");
   }
+#else
+  (void)nats;
+#endif
   if (server) {
     const auto& st = server->stats();
     line.add(3, "subs %llu drop %llu rej %llu", static_cast<unsigned long long>(st.subscribers),
@@ -171,7 +181,9 @@ struct RunOptions {
   double duration_s = 0;
   long rt_priority = 0;
   std::string secret;
+#if MIMIC_HAVE_NATS
   net::NatsOptions nats;
+#endif
 };
 
 // -1 when the options are good, else the exit code (the error printed).
@@ -196,12 +208,16 @@ int parse_options(Args& a, RunOptions& o) {
   if (a.has("nats") && a.has("publish")) return usage_error("run", "--nats and --publish do not go together");
   if ((a.has("scene") || a.has("nats-name") || a.has("nats-model-ttl") || a.has("nats-mesh-hz")) && !a.has("nats"))
     return usage_error("run", "--scene, --nats-name, --nats-model-ttl and --nats-mesh-hz need --nats");
+#if MIMIC_HAVE_NATS
   if (!a.get_double("nats-model-ttl", o.nats.model_ttl_s) || !a.get_double("nats-mesh-hz", o.nats.mesh_max_hz))
     return usage_error("run", a.error());
   if (!(o.nats.model_ttl_s == 0 || (o.nats.model_ttl_s >= net::kMinModelTtl_s && o.nats.model_ttl_s <= net::kMaxModelTtl_s)))
     return usage_error("run", "--nats-model-ttl must be 0 (never) or 3 to 86400 seconds");
   if (!(o.nats.mesh_max_hz >= net::kMinMeshHz && o.nats.mesh_max_hz <= net::kMaxMeshHz))
     return usage_error("run", "--nats-mesh-hz must be 1 to 240");
+#else
+  if (a.has("nats")) return failure("run", "this build has no NATS support (configure with -DMIMIC_WITH_NATS=ON)");
+#endif
   return -1;
 }
 
@@ -221,7 +237,9 @@ struct Outputs {
     if (publisher) out.push_back(make_publisher_sink(*publisher));
     if (vmc) out.push_back(make_vmc_sink(*vmc));
     if (vrpn) out.push_back(make_vrpn_sink(*vrpn));
+#if MIMIC_HAVE_NATS
     if (nats) out.push_back(make_nats_sink(*nats));
+#endif
     return out;
   }
 };
@@ -262,6 +280,7 @@ int open_scene_output(Args& a, const RunOptions& o, Outputs& out) {
 // port is taken (a bad one is named as such even when another program holds the port).
 int open_outputs(Args& a, const RunOptions& o, Outputs& out) {
   if (int rc = open_scene_output(a, o, out); rc >= 0) return rc;
+#if MIMIC_HAVE_NATS
   if (a.has("nats")) {
     net::NatsOptions no = o.nats;
     no.servers = *a.get("nats");
@@ -278,6 +297,7 @@ int open_outputs(Args& a, const RunOptions& o, Outputs& out) {
       std::fprintf(stderr, "mimic run: NATS broker %s not reachable: serving the local listeners, joining it when it comes up\n",
                    shown.c_str());
   }
+#endif
   if (a.has("vmc")) {
     auto v = net::VmcSender::open(*a.get("vmc"));
     if (!v) return failure("run", v.error().what());

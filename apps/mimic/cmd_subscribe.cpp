@@ -10,6 +10,7 @@
 #include "command.h"
 #include "mimic/net/client.h"
 #include "mimic/net/server.h"
+#include "scene_connect.h"
 
 namespace mimic::app {
 namespace {
@@ -119,7 +120,7 @@ int subscribe(const std::vector<std::string>& argv) {
   o.udp = a.has("udp");
   if (a.has("lean") && a.has("no-lean")) return usage_error("subscribe", "--lean and --no-lean contradict each other");
   o.lean = !a.has("no-lean");
-  auto c = net::Client::connect(o);
+  auto c = connect_scene(o);
   if (!c) return failure("subscribe", net::printable(c.error().what()));
   net::Client& client = **c;
   if (o.udp && !(client.negotiated_capabilities() & net::kCapUdpPose))

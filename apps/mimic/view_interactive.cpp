@@ -32,6 +32,7 @@
 #include "mimic/service/pipeline.h"
 #include "mimic/service/scene_builder.h"
 #include "body_posing.h"
+#include "scene_connect.h"
 #include "stop_signal.h"
 
 namespace mimic::app {
@@ -176,7 +177,7 @@ int open_remote(const Args& args, ViewScene& scene) {
   options.connect = scene.connect;
   options.name = "mimic-view";
   options.lean = !args.has("no-lean");  // ~60 bytes a frame instead of 150: docs/protocol.md
-  auto c = net::Client::connect(options);
+  auto c = connect_scene(options);
   if (!c) return failure(kName, "cannot connect to " + scene.connect + ": " + c.error().message);
   scene.client = std::move(*c);
   scene.connection = "connected to " + scene.connect;

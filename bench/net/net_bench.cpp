@@ -5,7 +5,7 @@
 #include <random>
 
 #include "mimic/net/frame_codec.h"
-#include "mimic/net/loopback_bench.h"
+#include "mimic/bench/loopback_bench.h"
 #include "mimic/net/vmc.h"
 
 namespace {
@@ -76,7 +76,7 @@ BENCHMARK(BM_BytesPerAvatarFrame);
 // arg: 1 = pose frames as UDP datagrams.
 void BM_LoopbackLatency(benchmark::State& state) {
   for (auto _ : state) {
-    auto r = net::measure_loopback_latency(2000, 52, state.range(0) != 0);
+    auto r = bench::measure_loopback_latency(2000, 52, state.range(0) != 0);
     if (!r) {
       state.SkipWithError(r.error().what().c_str());
       return;
@@ -91,7 +91,7 @@ BENCHMARK(BM_LoopbackLatency)->Arg(0)->Arg(1)->Iterations(1)->Unit(benchmark::kM
 // args: subscribers, avatars. 90 Hz for 2 s.
 void BM_Fanout90Hz(benchmark::State& state) {
   for (auto _ : state) {
-    auto r = net::measure_fanout(int(state.range(0)), int(state.range(1)), 90.0, 2.0);
+    auto r = bench::measure_fanout(int(state.range(0)), int(state.range(1)), 90.0, 2.0);
     if (!r) {
       state.SkipWithError(r.error().what().c_str());
       return;

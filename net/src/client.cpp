@@ -9,9 +9,7 @@
 #include <optional>
 
 #include "client_impl.h"
-#include "mimic/net/nats.h"
-#include "mimic/net/server.h"
-#include "nats/embedded_relay.h"
+#include "mimic/core/host_port.h"
 
 namespace mimic::net {
 
@@ -343,30 +341,26 @@ Client::~Client() {
 }
 
 Result<std::unique_ptr<Client>> Client::connect(const ClientOptions& options) {
-  if (is_nats_url(options.connect)) {
-    if (options.role != Role::subscriber)
-      return fail(Errc::invalid_argument, "publishing into a NATS scene is mimic run --nats, not a client");
-    auto relay = nats_detail::EmbeddedRelay::start(options.connect, options.udp);
-    if (!relay) return tl::unexpected(relay.error());
-    ClientOptions local = options;
-    local.connect = (*relay)->endpoint();
-    auto c = connect(local);
-    if (c) (*c)->impl_->embedded_relay = std::move(*relay);
-    return c;
-  }
+  // A broker's scene is joined through a relay (open_scene_connection, mimic relay): the client
+  // itself speaks Mimic's protocol over TCP and UDP only.
+  // Not echoed: a broker address may carry USER:PASSWORD@.
+  if (options.connect.find("://") != std::string::npos)
+    return fail(Errc::invalid_argument,
+                "a URL was given: a client connects to HOST:PORT of a Mimic server or relay (a broker's scene "
+                "through a relay)");
   auto hp = split_host_port(options.connect);
   if (!hp) return tl::unexpected(hp.error());
   auto impl = std::make_unique<Impl>();
   impl->opt = options;
   boost::system::error_code ec;
-  auto addr = asio::ip::make_address(hp->first, ec);
+  auto addr = asio::ip::make_address(hp->host, ec);
   if (ec) {
     tcp::resolver resolver(impl->io);
-    auto results = resolver.resolve(hp->first, std::to_string(hp->second), ec);
-    if (ec || results.empty()) return fail(Errc::not_found, "cannot resolve '" + hp->first + "'");
+    auto results = resolver.resolve(hp->host, std::to_string(hp->port), ec);
+    if (ec || results.empty()) return fail(Errc::not_found, "cannot resolve '" + hp->host + "'");
     addr = results.begin()->endpoint().address();
   }
-  impl->endpoint = tcp::endpoint(addr, hp->second);
+  impl->endpoint = tcp::endpoint(addr, hp->port);
   impl->out.reserve(16 * 1024);
   impl->control.reserve(4 * 1024);
   impl->scratch_pose.dof_rad.reserve(kMaxPoseDofs);
@@ -456,6 +450,8 @@ void Client::close() {
   d.dropped = false;
   d.fatal = Error{Errc::disconnected, "closed"};
 }
+
+void Client::hold(std::shared_ptr<void> resource) { impl_->held.push_back(std::move(resource)); }
 
 bool Client::connected() const { return impl_->connected; }
 bool Client::udp_active() const { return impl_->udp_ready && impl_->connected; }

@@ -17,10 +17,6 @@
 
 namespace mimic::net {
 
-namespace nats_detail {
-class EmbeddedRelay;
-}
-
 namespace client_detail {
 
 namespace asio = boost::asio;
@@ -63,9 +59,9 @@ struct Client::Impl {
   using tcp = client_detail::tcp;
   using udp = client_detail::udp;
 
-  // A scene on a NATS broker is served to this client by a relay of its own (destroyed after
-  // everything below it).
-  std::shared_ptr<nats_detail::EmbeddedRelay> embedded_relay;
+  // What Client::hold keeps alive (e.g. the relay serving this client): destroyed after
+  // everything below it.
+  std::vector<std::shared_ptr<void>> held;
   Client* owner = nullptr;
   ClientOptions opt;
   boost::asio::io_context io{1};

@@ -9,7 +9,7 @@
 #include <boost/asio.hpp>
 
 #include "client_impl.h"
-#include "mimic/net/server.h"
+#include "mimic/net/frame_codec.h"  // wall_clock_us
 
 namespace mimic::net {
 

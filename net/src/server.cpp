@@ -5,30 +5,11 @@
 #include <thread>
 #include <utility>
 
+#include "mimic/core/host_port.h"
 #include "mimic/core/process_limits.h"
 #include "server/server_impl.h"
 
 namespace mimic::net {
-
-uint64_t wall_clock_us() {
-  return static_cast<uint64_t>(std::chrono::duration_cast<std::chrono::microseconds>(
-                                   std::chrono::system_clock::now().time_since_epoch())
-                                   .count());
-}
-
-Result<std::pair<std::string, uint16_t>> split_host_port(const std::string& text) {
-  const auto colon = text.rfind(':');
-  if (colon == std::string::npos || colon == 0 || colon + 1 == text.size())
-    return fail(Errc::invalid_argument, "expected ADDR:PORT, got '" + text + "'");
-  std::string host = text.substr(0, colon);
-  if (host.size() > 2 && host.front() == '[' && host.back() == ']') host = host.substr(1, host.size() - 2);
-  const std::string port_text = text.substr(colon + 1);
-  char* end = nullptr;
-  const long port = std::strtol(port_text.c_str(), &end, 10);
-  if (*end != '\0' || port < 0 || port > 65535)
-    return fail(Errc::invalid_argument, "bad port '" + port_text + "' in '" + text + "'");
-  return std::make_pair(host, static_cast<uint16_t>(port));
-}
 
 // ---- Server -----------------------------------------------------------------------------------
 
@@ -55,15 +36,15 @@ Result<std::unique_ptr<Server>> Server::create(const ServerOptions& options) {
   impl->opt = options;
   boost::system::error_code ec;
   // "localhost" is the loopback address (not a name to resolve: it must not be anything else).
-  const std::string host = hp->first == "localhost" ? "127.0.0.1" : hp->first;
+  const std::string host = hp->host == "localhost" ? "127.0.0.1" : hp->host;
   const auto addr = asio::ip::make_address(host, ec);
-  if (ec) return fail(Errc::invalid_argument, "bad listen address '" + hp->first + "': " + ec.message());
+  if (ec) return fail(Errc::invalid_argument, "bad listen address '" + hp->host + "': " + ec.message());
   impl->loopback = addr.is_loopback();
   if (!impl->loopback && options.secret.empty())
     return fail(Errc::invalid_argument,
                 "serving on " + options.listen +
                     " exposes the scene beyond this machine: give publishers a shared secret (--secret)");
-  const tcp::endpoint ep(addr, hp->second);
+  const tcp::endpoint ep(addr, hp->port);
   impl->acceptor.open(ep.protocol(), ec);
   if (!ec) impl->acceptor.set_option(tcp::acceptor::reuse_address(true), ec);
   if (!ec) impl->acceptor.bind(ep, ec);

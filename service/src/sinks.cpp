@@ -6,7 +6,9 @@
 
 #include "mimic/net/client.h"
 #include "mimic/net/frame_codec.h"
+#if MIMIC_HAVE_NATS  // built with the broker transport (mimic::nats)
 #include "mimic/net/nats.h"
+#endif
 #include "mimic/net/server.h"
 #include "mimic/net/vmc.h"
 #include "mimic/net/vrpn_server.h"
@@ -77,6 +79,7 @@ class PublisherSink final : public PoseSink {
 };
 
 // A NATS broker: each pass's pose frames in one message; mesh frames while a relay asks.
+#if MIMIC_HAVE_NATS
 class NatsSink final : public PoseSink {
  public:
   explicit NatsSink(net::NatsPublisher& nats) : nats_(nats) {}
@@ -112,6 +115,7 @@ class NatsSink final : public PoseSink {
   net::NatsPublisher& nats_;
   std::vector<int> indices_;
 };
+#endif
 
 // VMC (OSC over UDP): avatar i to the sender's avatar i, bones from the pose.
 class VmcSink final : public PoseSink {
@@ -154,7 +158,9 @@ std::unique_ptr<PoseSink> make_server_sink(net::Server& server) { return std::ma
 std::unique_ptr<PoseSink> make_publisher_sink(net::Client& publisher) {
   return std::make_unique<PublisherSink>(publisher);
 }
+#if MIMIC_HAVE_NATS
 std::unique_ptr<PoseSink> make_nats_sink(net::NatsPublisher& nats) { return std::make_unique<NatsSink>(nats); }
+#endif
 std::unique_ptr<PoseSink> make_vmc_sink(net::VmcSender& vmc) { return std::make_unique<VmcSink>(vmc); }
 std::unique_ptr<PoseSink> make_vrpn_sink(net::VrpnServer& vrpn) { return std::make_unique<VrpnSink>(vrpn); }
 

@@ -1,6 +1,8 @@
 // End to end with a real nats-server: `mimic run --nats` refused on wrong credentials, serving
 // its local listeners while the broker is down and joining it when it comes up (status line),
 // `mimic relay` and `mimic subscribe --connect nats://...` taking the scene from the broker.
+// Built with the broker transport only (the mimic::nats target; MIMIC_HAVE_NATS).
+#if MIMIC_HAVE_NATS
 #include <gtest/gtest.h>
 
 #include <fcntl.h>
@@ -26,9 +28,7 @@
 #include "mimic_proc.h"
 #include "nats_broker.h"
 #include "test_data.h"
-#if MIMIC_WITH_NATS
 #include "nats_kv.h"
-#endif
 
 namespace {
 
@@ -39,13 +39,6 @@ nlohmann::json last_json(const std::string& out) {
   const auto start = out.rfind("\n{");
   const std::string text = start == std::string::npos ? out : out.substr(start + 1);
   return nlohmann::json::parse(text, nullptr, false);
-}
-
-// A build configured with MIMIC_WITH_NATS=OFF says so; nothing to test then.
-bool built_with_nats() {
-  Proc probe({"run", "--listen", "127.0.0.1:0", "--nats", "nats://127.0.0.1:1", "--duration", "0.1", "--quiet"});
-  probe.wait(10.0);
-  return probe.err().find("no NATS support") == std::string::npos;
 }
 
 // `mimic relay` of `scene` on a port of its own, for a minute at most.
@@ -82,7 +75,6 @@ bool pump(const std::vector<mimic::net::Client*>& clients, const std::function<b
 
 #define REQUIRE_NATS_SERVER()                                                                        \
   do {                                                                                               \
-    if (!built_with_nats()) GTEST_SKIP() << "built without NATS (MIMIC_WITH_NATS=OFF)";              \
     ASSERT_FALSE(mimic::test::nats_server_binary().empty()) << "nats-server missing: run scripts/setup.sh"; \
   } while (0)
 
@@ -238,7 +230,6 @@ TEST(NatsCli, AMeshViewerBehindARelayGetsTheDirectServersMeshFrames) {
   EXPECT_GT(rj["server"]["mesh_frames_out"].get<int>(), 0);
 }
 
-#if MIMIC_WITH_NATS
 // A publisher killed without a clean stop: the relay's viewers see its avatar leave after its
 // missed heartbeats, its model ages out of the bucket, and the restarted publisher (same name,
 // same avatar key) comes back.
@@ -293,6 +284,6 @@ TEST(NatsCli, ASigkilledPublishersAvatarLeavesAndItsRestartBringsItBack) {
   EXPECT_EQ(rj["nats"]["expired"], 1) << relay.out();
   EXPECT_EQ(rj["nats"]["rejected"], 0);
 }
-#endif
 
 }  // namespace
+#endif  // MIMIC_HAVE_NATS

@@ -1,6 +1,6 @@
 // A bare NATS client for tests that look at the broker directly: what the model bucket holds,
 // a model left behind as by a dead publisher, a heartbeat sent by hand, what another user may
-// try. Needs MIMIC_WITH_NATS.
+// try. Needs the broker transport (mimic::nats).
 #pragma once
 
 #include <nats/nats.h>

@@ -16,7 +16,7 @@
 #include <cstring>
 
 #include "mimic/core/host_port.h"
-#include "vrpn_wire.h"
+#include "mimic/net/vrpn_wire.h"
 
 namespace mimic::net {
 

@@ -15,8 +15,9 @@
 #include <vector>
 
 #include "mimic/rig/transform.h"
-#include "mimic/net/server.h"
-#include "vrpn_wire.h"
+#include "mimic/core/host_port.h"
+#include "mimic/net/frame_codec.h"  // wall_clock_us
+#include "mimic/net/vrpn_wire.h"
 
 namespace mimic::net {
 
@@ -428,10 +429,10 @@ Result<std::unique_ptr<VrpnServer>> VrpnServer::create(const std::string& listen
   auto impl = std::make_unique<Impl>();
   sockaddr_in addr{};
   addr.sin_family = AF_INET;
-  addr.sin_port = htons(hp->second);
-  const std::string host = hp->first == "localhost" ? "127.0.0.1" : hp->first;
+  addr.sin_port = htons(hp->port);
+  const std::string host = hp->host == "localhost" ? "127.0.0.1" : hp->host;
   if (::inet_pton(AF_INET, host.c_str(), &addr.sin_addr) != 1)
-    return fail(Errc::invalid_argument, "VRPN: '" + hp->first + "' is not an IPv4 address");
+    return fail(Errc::invalid_argument, "VRPN: '" + hp->host + "' is not an IPv4 address");
   impl->tcp_listen = ::socket(AF_INET, SOCK_STREAM, 0);
   impl->udp_listen = ::socket(AF_INET, SOCK_DGRAM, 0);
   impl->udp_data = ::socket(AF_INET, SOCK_DGRAM, 0);

@@ -28,8 +28,8 @@
 namespace mimic::net {
 
 struct ClientOptions {
-  // HOST:PORT, or a scene on a NATS broker: nats://HOST:PORT[,nats://HOST:PORT...][/SCENE]
-  // (served to this client by a relay inside its process; docs/scaling.md)
+  // HOST:PORT of a Mimic server or relay. (A scene on a NATS broker is joined through a relay:
+  // open_scene_connection in mimic/net/scene_connection.h, or `mimic relay`; docs/scaling.md.)
   std::string connect = "127.0.0.1:7777";
   Role role = Role::subscriber;
   std::string name = "mimic";
@@ -143,6 +143,9 @@ class Client {
   void drop_connection();
   // Clean leave: BYE, then close; the session cannot be resumed.
   void close();
+  // Keeps `resource` alive as long as this client, released after the client's sockets are
+  // closed: what serves it from inside this process (open_scene_connection's relay).
+  void hold(std::shared_ptr<void> resource);
 
   bool connected() const;
   bool udp_active() const;  // the server has registered our UDP address

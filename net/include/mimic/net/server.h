@@ -205,10 +205,4 @@ class Server {
   std::unique_ptr<ServerImpl> impl_;
 };
 
-// "127.0.0.1:7777" -> host and port; clear error otherwise.
-Result<std::pair<std::string, uint16_t>> split_host_port(const std::string& text);
-
-// Wall clock in µs since the Unix epoch (pose frame timestamps).
-uint64_t wall_clock_us();
-
 }  // namespace mimic::net
