@@ -200,7 +200,8 @@ void LeastSquaresIkJob::BuildNormalEquations(int cols, int root_cols, float prio
   const Skeleton& s = *skeleton;
   LeastSquaresIkContext& c = *context;
   const Pose& p = *pose;
-  fill_residual(targets, c.world_, c.residual_);  // world is at the current pose
+  // The residual is the last objective's: it was evaluated at the current pose (the first, or
+  // the step just accepted).
   FillJacobian(root_cols);
   float* a0 = c.normal0_.data();
   float* g0 = c.rhs0_.data();
