@@ -12,9 +12,9 @@
 #include "command.h"
 #include "mimic/avatar/body_model.h"
 #include "mimic/avatar/gltf_animation.h"
-#include "mimic/avatar/motion.h"
+#include "mimic/rig/motion.h"
 #include "mimic/avatar/realtime_skin.h"
-#include "mimic/avatar/retarget.h"
+#include "mimic/rig/retarget.h"
 #include "mimic/avatar/skin_lod.h"
 #include "mimic/core/file.h"
 #include "mimic/service/solve_log.h"
@@ -66,20 +66,20 @@ int run(const std::vector<std::string>& argv) {
 
   auto body = body_from_args(args);
   if (!body) return failure(kName, body.error().what());
-  auto skeleton = avatar::Skeleton::build(body->skeleton);
+  auto skeleton = rig::Skeleton::build(body->skeleton);
   if (!skeleton) return failure(kName, skeleton.error().what());
   // The animation's skeleton and keys: a motion sampled at --fps, or a recorded session solved
   // at --fps (on the calibration's fitted skeleton when one is given).
-  std::unique_ptr<avatar::Motion> motion;
+  std::unique_ptr<rig::Motion> motion;
   std::optional<service::SolvedTake> take;
   if (args.has("bvh")) {
-    avatar::BvhMotionOptions o;
+    rig::BvhMotionOptions o;
     o.body = &*skeleton;
-    auto m = avatar::load_bvh_motion(*args.get("bvh"), o);
+    auto m = rig::load_bvh_motion(*args.get("bvh"), o);
     if (!m) return failure(kName, m.error().what());
     motion = std::move(*m);
   } else if (args.has("motion")) {
-    auto m = avatar::make_builtin_motion(*args.get("motion"), *skeleton);
+    auto m = rig::make_builtin_motion(*args.get("motion"), *skeleton);
     if (!m) return usage_error(kName, m.error().message);
     motion = std::move(*m);
   } else {
@@ -88,7 +88,7 @@ int run(const std::vector<std::string>& argv) {
     if (t->poses.size() < 2) return failure(kName, *args.get("log") + ": too short for an animation (under two frames)");
     take = std::move(*t);
   }
-  const avatar::Skeleton& sk = motion ? motion->skeleton() : take->skeleton;
+  const rig::Skeleton& sk = motion ? motion->skeleton() : take->skeleton;
 
   avatar::RealtimeOptions ro;
   ro.lod = static_cast<int>(lod);
@@ -107,7 +107,7 @@ int run(const std::vector<std::string>& argv) {
     // Keys every 1/fps and one at the very end: a clip whose length is not a whole number of
     // key intervals (a BVH's frame time is rounded: 0.008333 s) keeps its last frame.
     const long keys = std::max(2L, static_cast<long>(std::ceil(span_s * fps - 1e-6)) + 1);
-    avatar::Pose pose = sk.zero_pose();
+    rig::Pose pose = sk.zero_pose();
     for (long k = 0; k < keys; ++k) {
       const double t = std::min(span_s, double(k) / fps);
       if (k > 0 && !(t > anim.times_s.back())) break;

@@ -12,8 +12,8 @@
 
 #include "command.h"
 #include "stop_signal.h"
-#include "mimic/avatar/motion.h"
-#include "mimic/avatar/retarget.h"
+#include "mimic/rig/motion.h"
+#include "mimic/rig/retarget.h"
 #include "mimic/devices/flock_packet.h"
 #include "mimic/sim/flock_placement.h"
 #include "mimic/sim/log.h"
@@ -79,7 +79,7 @@ struct RigProvider {
 
 // Samples the sensors' true world positions over the motion (at most 10 minutes of it, at
 // 20 Hz) and places the transmitter where all of them stay in front of it.
-Result<sim::FlockPlacement> place_for_motion(const std::shared_ptr<const avatar::Motion>& motion, const sim::RigConfig& rc) {
+Result<sim::FlockPlacement> place_for_motion(const std::shared_ptr<const rig::Motion>& motion, const sim::RigConfig& rc) {
   sim::RigConfig survey;
   survey.sensors = rc.sensors;
   survey.rate_hz = 20.0;
@@ -125,22 +125,22 @@ int run(const std::vector<std::string>& argv) {
   cfg.auto_config_busy_s = busy;
 
   // Transmitter placement in the body's world: behind the pelvis, facing +Z.
-  avatar::RigidTransform world_from_transmitter;
+  rig::RigidTransform world_from_transmitter;
   world_from_transmitter.translation = glm::vec3(0.0f, 1.0f, -0.5f);
   std::vector<std::string> sensor_names;
   std::string motion_what = "sinusoids";
 
   if (args.has("motion") || args.has("bvh")) {
-    std::shared_ptr<const avatar::Motion> motion;
+    std::shared_ptr<const rig::Motion> motion;
     if (args.has("bvh")) {
-      auto m = avatar::load_bvh_motion(*args.get("bvh"));
+      auto m = rig::load_bvh_motion(*args.get("bvh"));
       if (!m) return failure(kName, m.error().what());
       motion = std::move(*m);
       motion_what = "bvh:" + *args.get("bvh");
     } else {
-      auto skeleton = avatar::Skeleton::build(avatar::default_skeleton_desc());
+      auto skeleton = rig::Skeleton::build(rig::default_skeleton_desc());
       if (!skeleton) return failure(kName, skeleton.error().what());
-      auto m = avatar::make_builtin_motion(*args.get("motion"), *skeleton);
+      auto m = rig::make_builtin_motion(*args.get("motion"), *skeleton);
       if (!m) return usage_error(kName, m.error().message);
       motion = std::move(*m);
       motion_what = "motion:" + *args.get("motion");

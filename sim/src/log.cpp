@@ -56,12 +56,12 @@ void end_record(std::vector<uint8_t>& out, size_t record_start) {
   put<uint32_t>(out, c);
 }
 
-nlohmann::json transform_json(const avatar::RigidTransform& t) {
+nlohmann::json transform_json(const rig::RigidTransform& t) {
   return {{"translation_m", {t.translation.x, t.translation.y, t.translation.z}},
           {"rotation_wxyz", {t.rotation.w, t.rotation.x, t.rotation.y, t.rotation.z}}};
 }
 
-bool read_transform(const nlohmann::json& j, avatar::RigidTransform& t) {
+bool read_transform(const nlohmann::json& j, rig::RigidTransform& t) {
   if (!j.is_object()) return false;
   const auto& tr = j.value("translation_m", nlohmann::json());
   const auto& ro = j.value("rotation_wxyz", nlohmann::json());

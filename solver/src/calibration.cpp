@@ -12,9 +12,9 @@
 
 namespace mimic::solver {
 
-using avatar::RigidTransform;
-using avatar::Skeleton;
-using avatar::SkeletonDesc;
+using rig::RigidTransform;
+using rig::Skeleton;
+using rig::SkeletonDesc;
 using detail::angle_deg;
 using detail::Fit;
 using detail::pose_world;
@@ -147,47 +147,47 @@ Fit fit_passes(const SkeletonDesc& base, const std::vector<SensorStats>& stats, 
 
 SkeletonDesc tracking_skeleton_desc(const SkeletonDesc& base) {
   SkeletonDesc d = base;
-  auto find = [&](const std::string& name) -> avatar::JointDesc* {
+  auto find = [&](const std::string& name) -> rig::JointDesc* {
     for (auto& j : d.joints)
       if (j.name == name) return &j;
     return nullptr;
   };
   // Moves joint `name` onto its parent's origin; its children keep their positions.
   auto collapse = [&](const std::string& name) {
-    avatar::JointDesc* j = find(name);
+    rig::JointDesc* j = find(name);
     if (!j) return glm::vec3(0.0f);
     const glm::vec3 o = j->offset_m;
     j->offset_m = glm::vec3(0.0f);
     for (auto& c : d.joints)
       if (c.parent == name) c.offset_m += o;
-    if (avatar::JointDesc* p = find(j->parent); p && glm::length2(p->tip_m - o) < 1e-10f) p->tip_m = glm::vec3(0.0f);
+    if (rig::JointDesc* p = find(j->parent); p && glm::length2(p->tip_m - o) < 1e-10f) p->tip_m = glm::vec3(0.0f);
     return o;
   };
   collapse("spine_lower");
-  if (avatar::JointDesc* sl = find("spine_lower"); sl)
-    if (avatar::JointDesc* sm = find("spine_mid"); sm)
-      if (avatar::JointDesc* pv = find("pelvis"); pv) sl->tip_m = pv->tip_m = sm->offset_m;
+  if (rig::JointDesc* sl = find("spine_lower"); sl)
+    if (rig::JointDesc* sm = find("spine_mid"); sm)
+      if (rig::JointDesc* pv = find("pelvis"); pv) sl->tip_m = pv->tip_m = sm->offset_m;
   for (const char* side : {"l_", "r_"}) {
     const std::string s(side);
     collapse(s + "clavicle");
-    if (avatar::JointDesc* c = find(s + "clavicle"); c)
-      if (avatar::JointDesc* sh = find(s + "shoulder"); sh) c->tip_m = sh->offset_m;
+    if (rig::JointDesc* c = find(s + "clavicle"); c)
+      if (rig::JointDesc* sh = find(s + "shoulder"); sh) c->tip_m = sh->offset_m;
   }
   // Proportions of what no sensor of a sparse layout marks, relative to the leg (hip centre to
   // ankle): the means of the six CMU subjects of the reference clips (their skeletons put the
   // thorax, neck and shoulders lower than anatomical tables do, and the upper arm longer).
   const float leg = [&] {
-    const avatar::JointDesc* k = find("l_knee");
-    const avatar::JointDesc* a = find("l_ankle");
+    const rig::JointDesc* k = find("l_knee");
+    const rig::JointDesc* a = find("l_ankle");
     return k && a ? glm::length(k->offset_m) + glm::length(a->offset_m) : 0.794f;
   }();
   auto set_offset = [&](const std::string& name, glm::vec3 offset) {
-    avatar::JointDesc* j = find(name);
+    rig::JointDesc* j = find(name);
     if (!j) return;
-    if (avatar::JointDesc* p = find(j->parent); p && glm::length2(p->tip_m - j->offset_m) < 1e-10f) p->tip_m = offset;
+    if (rig::JointDesc* p = find(j->parent); p && glm::length2(p->tip_m - j->offset_m) < 1e-10f) p->tip_m = offset;
     j->offset_m = offset;
   };
-  if (avatar::JointDesc* n = find("neck"); n && find("neck_upper") && find("head") && find("spine_upper")) {
+  if (rig::JointDesc* n = find("neck"); n && find("neck_upper") && find("head") && find("spine_upper")) {
     set_offset("spine_mid", {0.0f, 0.149f * leg, 0.0f});
     set_offset("spine_upper", {0.0f, 0.149f * leg, 0.0f});
     // The neck pivots at the top of the thorax; two equal links up to the head joint.
@@ -196,23 +196,23 @@ SkeletonDesc tracking_skeleton_desc(const SkeletonDesc& base) {
     set_offset("head", {0.0f, 0.100f * leg, 0.0f});
     find("spine_upper")->tip_m = n->tip_m = find("neck_upper")->offset_m;
     find("neck_upper")->tip_m = find("head")->offset_m;
-    if (avatar::JointDesc* sl = find("spine_lower"); sl) sl->tip_m = find("spine_mid")->offset_m;
-    if (avatar::JointDesc* pv = find("pelvis"); pv) pv->tip_m = find("spine_mid")->offset_m;
+    if (rig::JointDesc* sl = find("spine_lower"); sl) sl->tip_m = find("spine_mid")->offset_m;
+    if (rig::JointDesc* pv = find("pelvis"); pv) pv->tip_m = find("spine_mid")->offset_m;
   }
   for (const char* side : {"l_", "r_"}) {
     const std::string sd(side);
     const float x = sd == "l_" ? 1.0f : -1.0f;
     set_offset(sd + "shoulder", {x * 0.218f * leg, 0.068f * leg, -0.016f * leg});
-    if (avatar::JointDesc* c = find(sd + "clavicle"); c)
-      if (const avatar::JointDesc* sh = find(sd + "shoulder"); sh) c->tip_m = sh->offset_m;
-    avatar::JointDesc* e = find(sd + "elbow");
-    avatar::JointDesc* w = find(sd + "wrist");
+    if (rig::JointDesc* c = find(sd + "clavicle"); c)
+      if (const rig::JointDesc* sh = find(sd + "shoulder"); sh) c->tip_m = sh->offset_m;
+    rig::JointDesc* e = find(sd + "elbow");
+    rig::JointDesc* w = find(sd + "wrist");
     if (e && w) {  // shoulder to wrist 0.569 of the leg, 61 % of it above the elbow
       set_offset(sd + "elbow", glm::normalize(e->offset_m) * (0.611f * 0.569f * leg));
       set_offset(sd + "wrist", glm::normalize(w->offset_m) * (0.389f * 0.569f * leg));
     }
     // Hip centres a hand's width below the root and a little forward of it.
-    if (avatar::JointDesc* hp = find(sd + "hip"); hp) hp->offset_m = glm::vec3(x * 0.112f * leg, -0.120f * leg, 0.045f * leg);
+    if (rig::JointDesc* hp = find(sd + "hip"); hp) hp->offset_m = glm::vec3(x * 0.112f * leg, -0.120f * leg, 0.045f * leg);
   }
   return d;
 }

@@ -9,10 +9,10 @@
 
 namespace mimic::solver::detail {
 
-using avatar::Pose;
-using avatar::RigidTransform;
-using avatar::Skeleton;
-using avatar::SkeletonDesc;
+using rig::Pose;
+using rig::RigidTransform;
+using rig::Skeleton;
+using rig::SkeletonDesc;
 
 namespace {
 
@@ -187,7 +187,7 @@ class BodyFitter {
   glm::vec3 root_position(const Skeleton& sk, const std::vector<RigidTransform>& wz) const {
     if (marks_.has(Landmark::pelvis)) return marks_.at(Landmark::pelvis);
     if (marks_.has(Landmark::head)) return marks_.at(Landmark::head) - heading_ * (jpos(sk, wz, "head") - wz[0].translation);
-    return glm::vec3(0, avatar::standing_root_height_m(sk) + opt_.floor_y_m, 0);
+    return glm::vec3(0, rig::standing_root_height_m(sk) + opt_.floor_y_m, 0);
   }
   // Joint position of the fitted skeleton standing at `root_`.
   glm::vec3 placed(const char* n) const { return root_ + heading_ * (jpos(s_, w_, n) - w_[0].translation); }
@@ -228,7 +228,7 @@ void BodyFitter::collect_marks(const SegmentRotations& segment_rot) {
 // Overall size from the head's height above the floor (or the feet).
 void BodyFitter::scale_to_height() {
   rebuild();
-  const float root_h0 = avatar::standing_root_height_m(s_);
+  const float root_h0 = rig::standing_root_height_m(s_);
   if (!marks_.has(Landmark::head)) return;
   const float head0 = jpos(s_, w_, "head").y + root_h0;
   const float head_y = marks_.at(Landmark::head).y;
@@ -252,7 +252,7 @@ void BodyFitter::fit_trunk() {
   rebuild();
   const glm::vec3 up(0, 1, 0);
   const JointMarks& m = marks_;
-  avatar::Proportions prop = avatar::measure_proportions(s_);
+  rig::Proportions prop = rig::measure_proportions(s_);
   if (m.has(Landmark::pelvis) && m.has(Landmark::head)) {
     const glm::vec3 pelvis = m.at(Landmark::pelvis);
     const float want = glm::dot(m.at(Landmark::head) - pelvis, up);
@@ -282,7 +282,7 @@ void BodyFitter::fit_trunk() {
   if (m.has(Landmark::l_shoulder) && m.has(Landmark::r_shoulder))
     prop.shoulder_width_m = glm::length(m.at(Landmark::l_shoulder) - m.at(Landmark::r_shoulder));
   if (m.has(Landmark::l_hip) && m.has(Landmark::r_hip)) prop.hip_width_m = glm::length(m.at(Landmark::l_hip) - m.at(Landmark::r_hip));
-  avatar::apply_proportions(out_.desc, prop);
+  rig::apply_proportions(out_.desc, prop);
 }
 
 // Each side as its sensors show it (people are not symmetric); a side nobody measured mirrors
@@ -373,7 +373,7 @@ void BodyFitter::fit_limbs() {
     if (float l = limb_length(shoulder, sided(side, Landmark::l_wrist)); l > 0) arm += l, ++n_arm;
     if (float l = limb_length(hip, sided(side, Landmark::l_ankle)); l > 0) leg += l, ++n_leg;
   }
-  avatar::Proportions prop = avatar::measure_proportions(s_);
+  rig::Proportions prop = rig::measure_proportions(s_);
   if (n_arm > 0) {
     const float total = prop.upper_arm_m + prop.forearm_m;
     const float k = std::clamp((arm / static_cast<float>(n_arm)) / total, 0.6f, 1.5f);
@@ -390,14 +390,14 @@ void BodyFitter::fit_limbs() {
     prop.thigh_m = k * total * thigh_share;
     prop.shin_m = k * total * (1.0f - thigh_share);
   }
-  avatar::apply_proportions(out_.desc, prop);
+  rig::apply_proportions(out_.desc, prop);
   if (n_arm == 2 || n_leg == 2) fit_each_limb(n_arm, n_leg);
 }
 
 // Then each side's own limb where both sides were measured (the mean is for a side nobody
 // measured, and for the split when no sensor shows it).
 void BodyFitter::fit_each_limb(int n_arm, int n_leg) {
-  auto find_desc = [&](const std::string& n) -> avatar::JointDesc* {
+  auto find_desc = [&](const std::string& n) -> rig::JointDesc* {
     for (auto& jd : out_.desc.joints)
       if (jd.name == n) return &jd;
     return nullptr;
@@ -415,8 +415,8 @@ void BodyFitter::fit_each_limb(int n_arm, int n_leg) {
       const float total = mid_marked ? std::clamp(upper_m + lower_m, 0.2f, 1.5f)
                                      : std::clamp(limb_length(upper, end), 0.2f, 1.5f);
       const float share = mid_marked && upper_m + lower_m > 0.1f ? upper_m / (upper_m + lower_m) : -1.0f;
-      avatar::JointDesc* jm = find_desc(landmark_name(mid));
-      avatar::JointDesc* je = find_desc(landmark_name(end));
+      rig::JointDesc* jm = find_desc(landmark_name(mid));
+      rig::JointDesc* je = find_desc(landmark_name(end));
       if (!jm || !je || glm::length(jm->offset_m) < 1e-4f || glm::length(je->offset_m) < 1e-4f) continue;
       const float lm = glm::length(jm->offset_m), le = glm::length(je->offset_m);
       const float sh = share > 0.25f && share < 0.8f ? share : lm / (lm + le);
@@ -526,7 +526,7 @@ Fit BodyFitter::finish() {
   if (marks_.has(Landmark::l_ankle) || marks_.has(Landmark::r_ankle)) {
     const glm::vec3 a = marks_.has(Landmark::l_ankle) ? marks_.at(Landmark::l_ankle) : marks_.at(Landmark::r_ankle);
     const auto wp = pose_world(s, out_.pose);
-    floor = a.y - (wp[s.find_joint("l_ankle")].translation.y - (out_.pose.root_position_m.y - avatar::standing_root_height_m(s)));
+    floor = a.y - (wp[s.find_joint("l_ankle")].translation.y - (out_.pose.root_position_m.y - rig::standing_root_height_m(s)));
   }
   out_.height_m = marks_.has(Landmark::head) ? head_top - floor : 0.0f;
   out_.floor_y_m = floor;
@@ -567,7 +567,7 @@ void JointMarks::set_joint(int j, const glm::vec3& p) {
 
 std::vector<RigidTransform> pose_world(const Skeleton& s, const Pose& pose) {
   std::vector<RigidTransform> w(s.joint_count());
-  avatar::forward_kinematics(s, pose, w);
+  rig::forward_kinematics(s, pose, w);
   return w;
 }
 

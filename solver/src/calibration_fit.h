@@ -11,7 +11,7 @@
 #include <glm/glm.hpp>
 #include <glm/gtc/quaternion.hpp>
 
-#include "mimic/avatar/skeleton.h"
+#include "mimic/rig/skeleton.h"
 #include "mimic/solver/calibration.h"
 #include "mimic/solver/sensor_layout.h"
 
@@ -49,7 +49,7 @@ constexpr Landmark sided(int side, Landmark left) {
 // (std::logic_error), never a zero.
 class JointMarks {
  public:
-  explicit JointMarks(const avatar::Skeleton& skeleton);
+  explicit JointMarks(const rig::Skeleton& skeleton);
 
   bool has(Landmark l) const { return has_joint(joint_of_[static_cast<size_t>(l)]); }
   glm::vec3 at(Landmark l) const;
@@ -67,8 +67,8 @@ class JointMarks {
 };
 
 struct Fit {
-  avatar::SkeletonDesc desc;
-  avatar::Pose pose;
+  rig::SkeletonDesc desc;
+  rig::Pose pose;
   float height_m = 0;
   float floor_y_m = 0;
 };
@@ -78,11 +78,11 @@ using SegmentRotations = std::map<std::string, glm::quat>;
 
 // One pass of the fit: skeleton proportions and calibration posture from the marks. Sensors are
 // placed with `segment_rot` where it names their segment, else with the heading.
-Fit fit_body(const avatar::SkeletonDesc& base, const std::vector<SensorStats>& stats, const glm::quat& heading,
+Fit fit_body(const rig::SkeletonDesc& base, const std::vector<SensorStats>& stats, const glm::quat& heading,
              const SegmentRotations& segment_rot, const CalibrationOptions& opt);
 
 // Joint world positions of a skeleton posed at `pose`.
-std::vector<avatar::RigidTransform> pose_world(const avatar::Skeleton& s, const avatar::Pose& pose);
+std::vector<rig::RigidTransform> pose_world(const rig::Skeleton& s, const rig::Pose& pose);
 
 float angle_deg(const glm::quat& a, const glm::quat& b);
 

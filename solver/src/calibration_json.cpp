@@ -11,7 +11,7 @@
 
 namespace mimic::solver {
 
-using avatar::Skeleton;
+using rig::Skeleton;
 
 namespace {
 
@@ -110,7 +110,7 @@ Result<Calibration> calibration_from_json(std::string_view text) {
   for (const json& jj : j["skeleton"]["joints"]) {
     const std::string where = "skeleton joint " + std::to_string(index++);
     if (!jj.is_object() || !jj.contains("name") || !jj["name"].is_string()) return bad(where + ": missing \"name\"");
-    avatar::JointDesc jd;
+    rig::JointDesc jd;
     jd.name = jj["name"].get<std::string>();
     if (jj.contains("parent") && jj["parent"].is_string()) jd.parent = jj["parent"].get<std::string>();
     if (!jj.contains("offset_m") || !read_vec(jj["offset_m"], jd.offset_m)) return bad(where + " (" + jd.name + "): bad \"offset_m\"");
@@ -118,7 +118,7 @@ Result<Calibration> calibration_from_json(std::string_view text) {
     if (jj.contains("dofs")) {
       if (!jj["dofs"].is_array()) return bad(where + " (" + jd.name + "): \"dofs\" is not an array");
       for (const json& fj : jj["dofs"]) {
-        avatar::DofDesc f;
+        rig::DofDesc f;
         if (!fj.is_object() || !fj.contains("name") || !fj["name"].is_string() || !fj.contains("axis") ||
             !read_vec(fj["axis"], f.axis) || !fj.contains("min_deg") || !fj["min_deg"].is_number() ||
             !fj.contains("max_deg") || !fj["max_deg"].is_number())

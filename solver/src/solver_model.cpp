@@ -7,8 +7,8 @@
 
 namespace mimic::solver {
 
-using avatar::RigidTransform;
-using avatar::Skeleton;
+using rig::RigidTransform;
+using rig::Skeleton;
 
 namespace {
 

@@ -10,7 +10,7 @@ namespace mimic::solver::detail {
 namespace {
 
 TEST(JointMarks, AMissingMarkIsAnErrorNotAZero) {
-  const avatar::Skeleton s = *avatar::Skeleton::build(tracking_skeleton_desc());
+  const rig::Skeleton s = *rig::Skeleton::build(tracking_skeleton_desc());
   JointMarks marks(s);
   EXPECT_FALSE(marks.has(Landmark::head));
   EXPECT_THROW(marks.at(Landmark::head), std::logic_error);
@@ -21,7 +21,7 @@ TEST(JointMarks, AMissingMarkIsAnErrorNotAZero) {
 }
 
 TEST(JointMarks, LandmarksAndJointsNameTheSameSlots) {
-  const avatar::Skeleton s = *avatar::Skeleton::build(tracking_skeleton_desc());
+  const rig::Skeleton s = *rig::Skeleton::build(tracking_skeleton_desc());
   JointMarks marks(s);
   marks.set(Landmark::r_wrist, {0.7f, 1.4f, 0.1f});
   EXPECT_TRUE(marks.has_joint(s.find_joint("r_wrist")));
@@ -35,12 +35,12 @@ TEST(JointMarks, LandmarksAndJointsNameTheSameSlots) {
 }
 
 TEST(JointMarks, ALandmarkTheSkeletonLacksCannotBeSet) {
-  avatar::SkeletonDesc desc = tracking_skeleton_desc();
+  rig::SkeletonDesc desc = tracking_skeleton_desc();
   for (auto& j : desc.joints) {
     if (j.name == "spine_mid") j.name = "chest_lower";
     if (j.parent == "spine_mid") j.parent = "chest_lower";
   }
-  const avatar::Skeleton s = *avatar::Skeleton::build(desc);
+  const rig::Skeleton s = *rig::Skeleton::build(desc);
   JointMarks marks(s);
   EXPECT_FALSE(marks.has(Landmark::spine_mid));
   EXPECT_THROW(marks.set(Landmark::spine_mid, glm::vec3(0.0f, 1.2f, 0.0f)), std::logic_error);

@@ -13,7 +13,7 @@ namespace mimic::solver {
 namespace {
 
 TEST(NoAllocation, FilterAndSolveFramesForEveryLayout) {
-  const avatar::Skeleton s = *avatar::Skeleton::build(avatar::default_skeleton_desc());
+  const rig::Skeleton s = *rig::Skeleton::build(rig::default_skeleton_desc());
   for (const char* name : {"3", "6", "11", "all"}) {
     const auto layout = *standard_layout(name, s);
     const auto mounts = testing::mounts_for(layout, 0.3f, 4);
@@ -24,14 +24,14 @@ TEST(NoAllocation, FilterAndSolveFramesForEveryLayout) {
     std::mt19937_64 rng(5);
     std::vector<std::vector<devices::SensorSample>> frames;
     std::vector<devices::SensorSample> tick;
-    const avatar::Pose a = testing::random_pose(s, rng, 0.4f), b = testing::random_pose(s, rng, 0.4f);
+    const rig::Pose a = testing::random_pose(s, rng, 0.4f), b = testing::random_pose(s, rng, 0.4f);
     for (int k = 0; k < 30; ++k) {
-      avatar::Pose p = a;
+      rig::Pose p = a;
       for (int d = 0; d < s.dof_count(); ++d) p.dof_rad[d] += (b.dof_rad[d] - a.dof_rad[d]) * static_cast<float>(k) / 30.0f;
       testing::sense(s, p, mounts, tick, &rng, 0.001f, 0.01f, 0.01 * k);
       frames.push_back(tick);
     }
-    avatar::Pose pose = s.zero_pose();
+    rig::Pose pose = s.zero_pose();
     devices::InputFrame input;
     input.translation = {0.3f, 0, -0.5f};
     const uint64_t before = thread_allocation_count();
