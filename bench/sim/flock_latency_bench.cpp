@@ -11,20 +11,18 @@
 #include <thread>
 #include <vector>
 
-#include <pthread.h>
-#include <sched.h>
-
 #include <benchmark/benchmark.h>
 
+#include "mimic/core/clock.h"
+#include "mimic/core/percentile.h"
+#include "mimic/core/thread_priority.h"
 #include "mimic/devices/flock.h"
 #include "mimic/sim/virtual_flock.h"
 
 namespace {
 
 namespace fl = mimic::devices::flock;
-using Clock = std::chrono::steady_clock;
 
-double now_s() { return std::chrono::duration<double>(Clock::now().time_since_epoch()).count(); }
 
 constexpr int kBirds = 4;
 constexpr int kSlots = 800;       // sequence numbers 0..799 ride in the Z position (1 mm apart)
@@ -32,11 +30,7 @@ constexpr double kStepM = 0.001;
 
 int seq_of_z(double z_m) { return static_cast<int>(std::lround(z_m / kStepM)) % kSlots; }
 
-double percentile(std::vector<double> v, double p) {
-  if (v.empty()) return 0;
-  std::sort(v.begin(), v.end());
-  return v[std::min(v.size() - 1, static_cast<size_t>(p * static_cast<double>(v.size() - 1) + 0.5))];
-}
+double percentile(std::vector<double> v, double p) { return mimic::percentile_in_place(v, p); }
 
 // Arg: SCHED_FIFO priority for the simulator, the driver's reader and the consumer (0 = normal
 // scheduling). With it the consumer polls every 20 us instead of spinning, so the figure is what
@@ -45,11 +39,7 @@ void BM_FlockLatencyPtyToConsumer(benchmark::State& state) {
   const double seconds = 3.0;
   const int rt = static_cast<int>(state.range(0));
   bool consumer_rt = false;
-  if (rt > 0) {
-    sched_param p{};
-    p.sched_priority = rt;
-    consumer_rt = pthread_setschedparam(pthread_self(), SCHED_FIFO, &p) == 0;
-  }
+  if (rt > 0) consumer_rt = mimic::set_thread_fifo(rt);
   std::vector<double> to_stamp_us, to_consumer_us;
   uint64_t resyncs = 0, records = 0;
   for (auto _ : state) {
@@ -88,11 +78,11 @@ void BM_FlockLatencyPtyToConsumer(benchmark::State& state) {
       return;
     }
     std::vector<mimic::devices::SensorSample> buf(64);
-    const double until = now_s() + seconds;
-    const double skip_until = now_s() + 0.2;  // let the stream settle
-    while (now_s() < until) {
+    const double until = mimic::steady_now_s() + seconds;
+    const double skip_until = mimic::steady_now_s() + 0.2;  // let the stream settle
+    while (mimic::steady_now_s() < until) {
       const size_t n = driver.poll(buf);
-      const double t_consumer = now_s();
+      const double t_consumer = mimic::steady_now_s();
       for (size_t i = 0; i < n; ++i) {
         const auto& s = buf[i];
         if (s.sensor < 1 || s.sensor > kBirds || t_consumer < skip_until) continue;
@@ -121,10 +111,7 @@ void BM_FlockLatencyPtyToConsumer(benchmark::State& state) {
   state.counters["consumer_p90_us"] = percentile(to_consumer_us, 0.90);
   state.counters["consumer_p99_us"] = percentile(to_consumer_us, 0.99);
   state.counters["consumer_max_us"] = percentile(to_consumer_us, 1.0);
-  if (rt > 0) {
-    sched_param p{};
-    pthread_setschedparam(pthread_self(), SCHED_OTHER, &p);
-  }
+  if (rt > 0) mimic::set_thread_fifo(0);
 }
 BENCHMARK(BM_FlockLatencyPtyToConsumer)->Arg(0)->Arg(20)->Iterations(1)->Unit(benchmark::kMillisecond)->UseRealTime();
 

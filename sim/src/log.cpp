@@ -207,6 +207,203 @@ void encode_end_record(uint64_t sample_count, std::vector<uint8_t>& out) {
   end_record(out, start);
 }
 
+namespace {
+
+// The records after a log's prefix, read in order; damage is noted in the contents and reading
+// resumes at the next good record. Only a damaged header record is an error.
+class LogDecoder {
+ public:
+  explicit LogDecoder(std::span<const uint8_t> bytes) : bytes_(bytes), n_(bytes.size()), d_(bytes.data()) {}
+  Result<LogContents> run();
+
+ private:
+  enum class Frame { good, damaged, stop };  // stop: damaged, and nothing good follows
+
+  bool frame_ok_at(size_t q) const;
+  void note(LogDamage dmg);
+  bool resync(std::string reason);
+  void skip_record(std::string reason, size_t total);
+  Result<Frame> check_frame(uint32_t& len);
+  bool read_record(uint8_t type, const uint8_t* p, uint32_t len, size_t total);
+
+  std::span<const uint8_t> bytes_;
+  size_t n_;
+  const uint8_t* d_;
+  LogContents log_;
+  size_t pos_ = kPrefixBytes;
+  uint64_t index_ = 0;
+};
+
+// A well-framed record (length in range, whole, CRC good) of a type that can follow the header,
+// at `q`: where reading resumes after damage. A false match needs a 32-bit CRC to agree by chance.
+bool LogDecoder::frame_ok_at(size_t q) const {
+  if (n_ - q < kFrameBytes) return false;
+  const uint32_t len = get<uint32_t>(d_ + q);
+  const uint8_t type = d_[q + 4];
+  if (len > n_ - q - kFrameBytes) return false;
+  if (type == kSample ? len != kSamplePayload : type == kEnd ? len != 8 : type == kRaw ? (len < 9 || d_[q + 5] > 1) : true)
+    return false;
+  return crc32(bytes_.subspan(q, 5 + len)) == get<uint32_t>(d_ + q + 5 + len);
+}
+
+void LogDecoder::note(LogDamage dmg) {
+  if (!log_.damage) log_.damage = dmg;
+  log_.damages.push_back(std::move(dmg));
+}
+
+// Damage at `pos_`: note it, then scan for the next good record; everything from there on is
+// read as usual. False when nothing good follows (the rest of the file is skipped).
+bool LogDecoder::resync(std::string reason) {
+  LogDamage dmg{pos_, index_, std::move(reason)};
+  const uint64_t samples_before = log_.samples.size();
+  size_t q = pos_ + 1;
+  while (q < n_ && !frame_ok_at(q)) ++q;
+  dmg.bytes_skipped = (q < n_ ? q : n_) - pos_;
+  dmg.resumed_at_byte = q < n_ ? q : n_;
+  dmg.samples_before = samples_before;
+  dmg.resumed = q < n_;
+  log_.bytes_skipped += dmg.bytes_skipped;
+  note(std::move(dmg));
+  pos_ = q < n_ ? q : n_;
+  return q < n_;
+}
+
+// A record whose frame and CRC are good but whose content is not: skipped whole.
+void LogDecoder::skip_record(std::string reason, size_t total) {
+  LogDamage dmg{pos_, index_, std::move(reason)};
+  dmg.bytes_skipped = total;
+  dmg.resumed_at_byte = pos_ + total;
+  dmg.resumed = true;
+  dmg.samples_before = log_.samples.size();
+  log_.bytes_skipped += total;
+  note(std::move(dmg));
+}
+
+// The frame of the record at `pos_`: length in range, whole, CRC good (its payload length in
+// `len`); else the damage noted and reading resynced.
+Result<LogDecoder::Frame> LogDecoder::check_frame(uint32_t& len) {
+  auto damaged = [&](std::string reason) { return resync(std::move(reason)) ? Frame::damaged : Frame::stop; };
+  if (n_ - pos_ < kFrameBytes) {
+    if (index_ == 0) return fail(Errc::parse_error, "Mimic log header record truncated at byte 12");
+    return damaged("truncated record frame (" + std::to_string(n_ - pos_) + " bytes left)");
+  }
+  len = get<uint32_t>(d_ + pos_);
+  if (len > kMaxPayload) {
+    if (index_ == 0) return fail(Errc::parse_error, "Mimic log header record has an implausible length at byte 12");
+    return damaged("implausible record length " + std::to_string(len));
+  }
+  const size_t total = kFrameBytes + len;
+  if (n_ - pos_ < total) {
+    if (index_ == 0)
+      return fail(Errc::parse_error, "Mimic log header record truncated at byte 12 (needs " + std::to_string(total) +
+                                         " bytes, " + std::to_string(n_ - pos_) + " left)");
+    return damaged("truncated record (needs " + std::to_string(total) + " bytes, " + std::to_string(n_ - pos_) + " left)");
+  }
+  const uint32_t stored = get<uint32_t>(d_ + pos_ + 5 + len);
+  if (crc32(bytes_.subspan(pos_, 5 + len)) != stored) {
+    if (index_ == 0) return fail(Errc::parse_error, "Mimic log header record is corrupted (CRC mismatch at byte 12)");
+    return damaged("CRC mismatch");
+  }
+  return Frame::good;
+}
+
+// A well-framed record after the header, payload `p` of `len` bytes. True when it is the end
+// record that closes the log.
+bool LogDecoder::read_record(uint8_t type, const uint8_t* p, uint32_t len, size_t total) {
+  if (type == kHeader) {
+    skip_record("a second header record", total);
+  } else if (type == kSample) {
+    if (len != kSamplePayload) {
+      skip_record("sample record of " + std::to_string(len) + " bytes (expected " + std::to_string(kSamplePayload) + ")",
+                  total);
+    } else {
+      devices::SensorSample s;
+      s.sensor = get<uint16_t>(p);
+      s.flags = get<uint32_t>(p + 2);
+      s.buttons = get<uint32_t>(p + 6);
+      s.device_time_s = get<double>(p + 10);
+      s.host_time_s = get<double>(p + 18);
+      s.position_m = {get<float>(p + 26), get<float>(p + 30), get<float>(p + 34)};
+      s.orientation = glm::quat(get<float>(p + 38), get<float>(p + 42), get<float>(p + 46), get<float>(p + 50));
+      log_.samples.push_back(s);
+    }
+  } else if (type == kRaw) {
+    if (len < 9 || p[0] > 1) {
+      skip_record("malformed raw-bytes record", total);
+    } else {
+      RawChunk c;
+      c.direction = static_cast<RawDirection>(p[0]);
+      c.host_time_s = get<double>(p + 1);
+      c.samples_before = log_.samples.size();
+      c.bytes.assign(p + 9, p + len);
+      log_.raw.push_back(std::move(c));
+    }
+  } else if (type == kEnd) {
+    const uint64_t count = len == 8 ? get<uint64_t>(p) : 0;
+    if (len != 8) {
+      skip_record("malformed end record", total);
+    } else if (count != log_.samples.size() && log_.damages.empty()) {
+      skip_record("end record counts " + std::to_string(count) + " samples but " + std::to_string(log_.samples.size()) +
+                      " were read",
+                  total);
+      return true;
+    } else {
+      // After damage the writer's count says how many samples it cost.
+      if (count > log_.samples.size()) log_.samples_lost = count - log_.samples.size();
+      log_.complete = true;
+      return true;
+    }
+  }
+  // Unknown record types with a good CRC are skipped: later versions may add some.
+  return false;
+}
+
+Result<LogContents> LogDecoder::run() {
+  while (true) {
+    if (pos_ == n_) {
+      if (index_ == 0) return fail(Errc::parse_error, "Mimic log ends before its header record (byte 12)");
+      LogDamage dmg{pos_, index_, "log ends without an end record (recording interrupted)"};
+      dmg.resumed_at_byte = n_;
+      dmg.samples_before = log_.samples.size();
+      note(std::move(dmg));
+      break;
+    }
+    uint32_t len = 0;
+    const auto frame = check_frame(len);
+    if (!frame) return tl::unexpected(frame.error());
+    if (*frame == Frame::stop) break;
+    if (*frame == Frame::damaged) continue;
+    const size_t total = kFrameBytes + len;
+    const uint8_t* p = d_ + pos_ + 5;
+    const uint8_t type = d_[pos_ + 4];
+    bool ended = false;
+    if (index_ == 0) {
+      if (type != kHeader) return fail(Errc::parse_error, "Mimic log: the first record (byte 12) is not a header");
+      const std::string err = parse_header_json(std::string_view(reinterpret_cast<const char*>(p), len), log_.header);
+      if (!err.empty()) return fail(Errc::parse_error, "Mimic log " + err + " (record at byte 12)");
+    } else {
+      ended = read_record(type, p, len, total);
+    }
+    ++index_;
+    pos_ += total;
+    if (ended) break;
+  }
+  // Bytes after the end record were not written by this log's writer (an appended file, a
+  // copy gone wrong, tampering): never read as records, but never passed over in silence.
+  if (pos_ < n_) {
+    LogDamage dmg{pos_, index_, std::to_string(n_ - pos_) + " bytes after the end record (not read)"};
+    dmg.bytes_skipped = n_ - pos_;
+    dmg.resumed_at_byte = n_;
+    dmg.samples_before = log_.samples.size();
+    log_.bytes_skipped += dmg.bytes_skipped;
+    note(std::move(dmg));
+  }
+  log_.records = index_;
+  return std::move(log_);
+}
+
+}  // namespace
+
 Result<LogContents> decode_log(std::span<const uint8_t> bytes) {
   const size_t n = bytes.size();
   const uint8_t* d = bytes.data();
@@ -220,156 +417,7 @@ Result<LogContents> decode_log(std::span<const uint8_t> bytes) {
   if (version != kLogVersion)
     return fail(Errc::unsupported, "Mimic log version " + std::to_string(version) + " at byte 8; this build reads version " +
                                        std::to_string(kLogVersion));
-
-  LogContents log;
-  size_t pos = kPrefixBytes;
-  uint64_t index = 0;
-  // A well-framed record (length in range, whole, CRC good) of a type that can follow the
-  // header, at `q`: where reading resumes after damage. A false match needs a 32-bit CRC to
-  // agree by chance.
-  auto frame_ok_at = [&](size_t q) {
-    if (n - q < kFrameBytes) return false;
-    const uint32_t len = get<uint32_t>(d + q);
-    const uint8_t type = d[q + 4];
-    if (len > n - q - kFrameBytes) return false;
-    if (type == kSample ? len != kSamplePayload : type == kEnd ? len != 8 : type == kRaw ? (len < 9 || d[q + 5] > 1) : true)
-      return false;
-    return crc32(bytes.subspan(q, 5 + len)) == get<uint32_t>(d + q + 5 + len);
-  };
-  // Damage at `pos`: note it, then scan for the next good record; everything from there on is
-  // read as usual. False when nothing good follows (the rest of the file is skipped).
-  auto resync = [&](std::string reason) {
-    LogDamage dmg{pos, index, std::move(reason)};
-    const uint64_t samples_before = log.samples.size();
-    size_t q = pos + 1;
-    while (q < n && !frame_ok_at(q)) ++q;
-    dmg.bytes_skipped = (q < n ? q : n) - pos;
-    dmg.resumed_at_byte = q < n ? q : n;
-    dmg.samples_before = samples_before;
-    dmg.resumed = q < n;
-    log.bytes_skipped += dmg.bytes_skipped;
-    if (!log.damage) log.damage = dmg;
-    log.damages.push_back(std::move(dmg));
-    pos = q < n ? q : n;
-    return q < n;
-  };
-
-  while (true) {
-    if (pos == n) {
-      if (index == 0) return fail(Errc::parse_error, "Mimic log ends before its header record (byte 12)");
-      LogDamage dmg{pos, index, "log ends without an end record (recording interrupted)"};
-      dmg.resumed_at_byte = n;
-      dmg.samples_before = log.samples.size();
-      if (!log.damage) log.damage = dmg;
-      log.damages.push_back(std::move(dmg));
-      break;
-    }
-    if (n - pos < kFrameBytes) {
-      if (index == 0) return fail(Errc::parse_error, "Mimic log header record truncated at byte 12");
-      if (!resync("truncated record frame (" + std::to_string(n - pos) + " bytes left)")) break;
-      continue;
-    }
-    const uint32_t len = get<uint32_t>(d + pos);
-    const uint8_t type = d[pos + 4];
-    if (len > kMaxPayload) {
-      if (index == 0) return fail(Errc::parse_error, "Mimic log header record has an implausible length at byte 12");
-      if (!resync("implausible record length " + std::to_string(len))) break;
-      continue;
-    }
-    const size_t total = kFrameBytes + len;
-    if (n - pos < total) {
-      if (index == 0)
-        return fail(Errc::parse_error, "Mimic log header record truncated at byte 12 (needs " + std::to_string(total) +
-                                           " bytes, " + std::to_string(n - pos) + " left)");
-      if (!resync("truncated record (needs " + std::to_string(total) + " bytes, " + std::to_string(n - pos) + " left)"))
-        break;
-      continue;
-    }
-    const uint32_t stored = get<uint32_t>(d + pos + 5 + len);
-    if (crc32(bytes.subspan(pos, 5 + len)) != stored) {
-      if (index == 0) return fail(Errc::parse_error, "Mimic log header record is corrupted (CRC mismatch at byte 12)");
-      if (!resync("CRC mismatch")) break;
-      continue;
-    }
-    const uint8_t* p = d + pos + 5;
-    // A record whose frame and CRC are good but whose content is not: skipped whole.
-    auto skip_record = [&](std::string reason) {
-      LogDamage dmg{pos, index, std::move(reason)};
-      dmg.bytes_skipped = total;
-      dmg.resumed_at_byte = pos + total;
-      dmg.resumed = true;
-      dmg.samples_before = log.samples.size();
-      log.bytes_skipped += total;
-      if (!log.damage) log.damage = dmg;
-      log.damages.push_back(std::move(dmg));
-    };
-    if (index == 0) {
-      if (type != kHeader) return fail(Errc::parse_error, "Mimic log: the first record (byte 12) is not a header");
-      const std::string err = parse_header_json(std::string_view(reinterpret_cast<const char*>(p), len), log.header);
-      if (!err.empty()) return fail(Errc::parse_error, "Mimic log " + err + " (record at byte 12)");
-    } else if (type == kHeader) {
-      skip_record("a second header record");
-    } else if (type == kSample) {
-      if (len != kSamplePayload) {
-        skip_record("sample record of " + std::to_string(len) + " bytes (expected " + std::to_string(kSamplePayload) + ")");
-      } else {
-        devices::SensorSample s;
-        s.sensor = get<uint16_t>(p);
-        s.flags = get<uint32_t>(p + 2);
-        s.buttons = get<uint32_t>(p + 6);
-        s.device_time_s = get<double>(p + 10);
-        s.host_time_s = get<double>(p + 18);
-        s.position_m = {get<float>(p + 26), get<float>(p + 30), get<float>(p + 34)};
-        s.orientation = glm::quat(get<float>(p + 38), get<float>(p + 42), get<float>(p + 46), get<float>(p + 50));
-        log.samples.push_back(s);
-      }
-    } else if (type == kRaw) {
-      if (len < 9 || p[0] > 1) {
-        skip_record("malformed raw-bytes record");
-      } else {
-        RawChunk c;
-        c.direction = static_cast<RawDirection>(p[0]);
-        c.host_time_s = get<double>(p + 1);
-        c.samples_before = log.samples.size();
-        c.bytes.assign(p + 9, p + len);
-        log.raw.push_back(std::move(c));
-      }
-    } else if (type == kEnd) {
-      const uint64_t count = len == 8 ? get<uint64_t>(p) : 0;
-      if (len != 8) {
-        skip_record("malformed end record");
-      } else if (count != log.samples.size() && log.damages.empty()) {
-        skip_record("end record counts " + std::to_string(count) + " samples but " + std::to_string(log.samples.size()) +
-                    " were read");
-        ++index;
-        pos += total;
-        break;
-      } else {
-        // After damage the writer's count says how many samples it cost.
-        if (count > log.samples.size()) log.samples_lost = count - log.samples.size();
-        log.complete = true;
-        ++index;
-        pos += total;
-        break;
-      }
-    }
-    // Unknown record types with a good CRC are skipped: later versions may add some.
-    ++index;
-    pos += total;
-  }
-  // Bytes after the end record were not written by this log's writer (an appended file, a
-  // copy gone wrong, tampering): never read as records, but never passed over in silence.
-  if (pos < n) {
-    LogDamage dmg{pos, index, std::to_string(n - pos) + " bytes after the end record (not read)"};
-    dmg.bytes_skipped = n - pos;
-    dmg.resumed_at_byte = n;
-    dmg.samples_before = log.samples.size();
-    log.bytes_skipped += dmg.bytes_skipped;
-    if (!log.damage) log.damage = dmg;
-    log.damages.push_back(std::move(dmg));
-  }
-  log.records = index;
-  return log;
+  return LogDecoder(bytes).run();
 }
 
 Result<LogContents> read_log(const std::string& path) {

@@ -9,6 +9,8 @@
 #include <cstring>
 #include <limits>
 
+#include "mimic/core/clock.h"
+
 namespace mimic::sim {
 
 SerialDevice::SerialDevice(unsigned baud, unsigned bits_per_byte)
@@ -63,12 +65,6 @@ double SerialDevice::next_output_s() const {
 
 // --- PtyServer ---
 
-namespace {
-double steady_s() {
-  using namespace std::chrono;
-  return duration<double>(steady_clock::now().time_since_epoch()).count();
-}
-}  // namespace
 
 Result<std::unique_ptr<PtyServer>> PtyServer::start(std::unique_ptr<SerialDevice> device,
                                                    const std::string& log_path) {
@@ -89,7 +85,7 @@ Result<std::unique_ptr<PtyServer>> PtyServer::start(std::unique_ptr<SerialDevice
 }
 
 PtyServer::PtyServer(Pty pty, std::unique_ptr<SerialDevice> device, std::FILE* log)
-    : pty_(std::move(pty)), device_(std::move(device)), log_(log), t0_(steady_s()) {}
+    : pty_(std::move(pty)), device_(std::move(device)), log_(log), t0_(steady_now_s()) {}
 
 PtyServer::~PtyServer() { stop(); }
 
@@ -102,7 +98,7 @@ void PtyServer::stop() {
   }
 }
 
-double PtyServer::now_s() const { return steady_s() - t0_; }
+double PtyServer::now_s() const { return steady_now_s() - t0_; }
 
 void PtyServer::set_muted(bool muted) {
   std::lock_guard lock(mutex_);

@@ -1,8 +1,5 @@
 #include "mimic/sim/virtual_flock.h"
 
-#include <pthread.h>
-#include <sched.h>
-
 #include <algorithm>
 #include <array>
 #include <atomic>
@@ -16,33 +13,18 @@
 #include <vector>
 
 #include "mimic/devices/flock_packet.h"
+#include "flock_bus.h"
+#include "mimic/core/clock.h"
+#include "mimic/core/thread_priority.h"
 #include "mimic/sim/pty.h"
 
 namespace mimic::sim {
 
 namespace fl = devices::flock;
-using Clock = std::chrono::steady_clock;
+using detail::Unit;
 
 namespace {
 
-double host_seconds(Clock::time_point t) {
-  return std::chrono::duration<double>(t.time_since_epoch()).count();
-}
-
-// One unit on the Fast Bird Bus.
-struct Unit {
-  int address = 0;
-  bool sensor = true;
-  bool transmitter = false;
-  bool erc = false;
-  fl::Format format = fl::Format::position_angles;  // the power-up format
-  bool button_mode = false;
-  fl::Hemisphere hemisphere = fl::Hemisphere::forward;
-  int16_t position_scaling = 0;  // parameter 3: 0 = 36 in, 1 = 72 in
-  int error_code = 0;
-  int error_extra = 0;
-  std::map<uint8_t, std::vector<uint8_t>> params;  // CHANGE values kept for EXAMINE
-};
 
 struct Output {
   double due_s;                 // sim time the last byte leaves the UART
@@ -54,12 +36,11 @@ enum class Fault { tear, phase, drop };
 
 }  // namespace
 
-struct VirtualFlock::Impl {
-  VirtualFlockConfig cfg;
+struct VirtualFlock::Impl : detail::FlockBus {
   Pty pty;
   std::thread thread;
   std::atomic<bool> stop{false};
-  Clock::time_point t0;
+  double t0_s = 0;  // steady_now_s() at start
 
   // Hooks and stats, shared with other threads.
   mutable std::mutex mu;
@@ -70,19 +51,8 @@ struct VirtualFlock::Impl {
   VirtualFlockStats stats;
 
   // Device state, owned by the simulator thread.
-  std::vector<Unit> units;  // index = address (standalone: a single unit at 0)
-  bool standalone = false;
-  int master = 1;
-  bool configured = false;
-  uint32_t running_mask = 0;
-  bool group_mode = false;
-  bool streaming = false;
-  int stream_address = 0;
-  bool sleeping = false;
   bool xoff = false;
   int report_divisor = 1;
-  int rate_count = 0;
-  double busy_until_s = -1;
   double silent_until_s = -1;
   int pending_prefix = -1;
   std::vector<uint8_t> cmd;
@@ -94,9 +64,8 @@ struct VirtualFlock::Impl {
   bool host_present = false;
   bool line_mismatch = false;
 
-  double now_s() const { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+  double now_s() const { return steady_now_s() - t0_s; }
   double byte_time_s() const { return cfg.pace_output ? 10.0 / cfg.baud : 0.0; }
-  double rate_hz() const { return fl::measurement_rate_hz(rate_count, cfg.crystal_mhz); }
 
   void power_up() {
     const int count = cfg.birds + (cfg.erc ? 1 : 0);
@@ -126,10 +95,6 @@ struct VirtualFlock::Impl {
     out.clear();
   }
 
-  bool unit_exists(int a) const {
-    if (standalone) return a == 0;
-    return a >= 1 && a < static_cast<int>(units.size());
-  }
   std::vector<int> sensor_addresses() const {
     std::vector<int> v;
     for (const Unit& u : units)
@@ -139,12 +104,6 @@ struct VirtualFlock::Impl {
   fl::PositionRange range_of(const Unit& u) const {
     if (cfg.erc) return fl::PositionRange::in144;
     return u.position_scaling == 1 ? fl::PositionRange::in72 : fl::PositionRange::in36;
-  }
-
-  void set_error(int address, int code, int extra = 0) {
-    Unit& u = units[unit_exists(address) ? static_cast<size_t>(address) : static_cast<size_t>(master)];
-    u.error_code = code;
-    u.error_extra = extra;
   }
 
   // ------------------------------------------------------------------------------------------
@@ -259,9 +218,9 @@ struct VirtualFlock::Impl {
         continue;
       }
       if (cfg.on_bytes && *w > 0)
-        cfg.on_bytes(host_seconds(Clock::now()), true, std::span<const uint8_t>(o.bytes.data(), *w));
+        cfg.on_bytes(steady_now_s(), true, std::span<const uint8_t>(o.bytes.data(), *w));
       if (o.address >= 0 && cfg.on_record_written)
-        cfg.on_record_written(host_seconds(Clock::now()), o.address, o.bytes);
+        cfg.on_record_written(steady_now_s(), o.address, o.bytes);
     }
   }
 
@@ -393,112 +352,7 @@ struct VirtualFlock::Impl {
   }
 
   void examine(Unit& u, uint8_t p, double reply_at) {
-    const int size = fl::examine_size(p);
-    if (size == 0) {
-      set_error(u.address, 6);
-      return;
-    }
-    std::vector<uint8_t> r(static_cast<size_t>(size), 0);
-    auto word = [&](int v) { fl::put_le16(static_cast<int16_t>(static_cast<uint16_t>(v)), r.data()); };
-    switch (p) {
-      case fl::param::kStatus: {
-        fl::BirdStatus s;
-        s.master = u.address == master;
-        s.initialized = configured;
-        s.error_pending = u.error_code != 0;
-        s.running = !sleeping && ((running_mask >> u.address) & 1u);
-        s.sleeping = sleeping;
-        s.format = u.format;
-        s.streaming = streaming && (group_mode || stream_address == u.address);
-        word(fl::encode_status(s));
-        break;
-      }
-      case fl::param::kSoftwareRevision: word(cfg.software_revision); break;
-      case fl::param::kCrystalSpeed: word(static_cast<int>(std::lround(cfg.crystal_mhz))); break;
-      case fl::param::kPositionScaling: word(u.position_scaling); break;
-      case fl::param::kMeasurementRateCount: word(rate_count); break;
-      case fl::param::kMeasurementRate: word(static_cast<int>(std::lround(rate_hz() * 256))); break;
-      case fl::param::kErrorCode:
-        r[0] = static_cast<uint8_t>(u.error_code);
-        u.error_code = 0;  // reading the error clears it
-        break;
-      case fl::param::kSystemModel: std::memcpy(r.data(), u.erc ? "6DERC     " : "6DFOB     ", 10); break;
-      case fl::param::kExpandedErrorCode:
-        r[0] = static_cast<uint8_t>(u.error_code);
-        r[1] = static_cast<uint8_t>(u.error_extra);
-        u.error_code = 0;
-        break;
-      case fl::param::kAddressingMode: r[0] = 0; break;
-      case fl::param::kFbbAddress: r[0] = static_cast<uint8_t>(u.address); break;
-      case fl::param::kHemisphere: {
-        const auto h = fl::hemisphere_bytes(u.hemisphere);
-        r[0] = h[0];
-        r[1] = h[1];
-        break;
-      }
-      case 25: case 26: case 27: word(1000 + 10 * u.address + (p - 25)); break;
-      case fl::param::kGroupMode: r[0] = group_mode ? 1 : 0; break;
-      case fl::param::kFlockStatus:
-        for (int a = 1; a <= 14; ++a) {
-          if (standalone || !unit_exists(a)) continue;
-          const Unit& x = units[static_cast<size_t>(a)];
-          uint8_t b = fl::kUnitAccessible;
-          if ((running_mask >> a) & 1u) b |= fl::kUnitRunning;
-          if (x.sensor) b |= fl::kUnitSensor;
-          if (x.erc) b |= fl::kUnitErc;
-          if (x.transmitter) b |= fl::kUnitTransmitter;
-          r[static_cast<size_t>(a - 1)] = b;
-        }
-        break;
-      case fl::param::kAutoConfig:
-        r[0] = standalone ? 0 : 1;
-        r[1] = static_cast<uint8_t>(running_mask & 0xFF);
-        r[2] = static_cast<uint8_t>((running_mask >> 8) & 0xFF);
-        break;
-      default:
-        if (auto it = u.params.find(p); it != u.params.end())
-          std::copy_n(it->second.begin(), std::min(it->second.size(), r.size()), r.begin());
-        break;
-    }
-    queue(reply_at, std::move(r), -1);
-  }
-
-  void change(Unit& u, uint8_t p, std::span<const uint8_t> data, double now) {
-    switch (p) {
-      case fl::param::kPositionScaling: u.position_scaling = fl::get_le16(data.data()); return;
-      case fl::param::kMeasurementRateCount: rate_count = std::max<int>(1, fl::get_le16(data.data())); return;
-      case fl::param::kMeasurementRate: {
-        const double hz = static_cast<uint16_t>(fl::get_le16(data.data())) / 256.0;
-        if (hz >= 14 && hz <= 144) rate_count = fl::measurement_rate_count(hz, cfg.crystal_mhz);
-        return;
-      }
-      case fl::param::kHemisphere:
-        if (auto h = fl::hemisphere_from_bytes(data[0], data[1])) u.hemisphere = *h;
-        return;
-      case fl::param::kGroupMode: group_mode = data[0] != 0; return;
-      case fl::param::kAutoConfig: {
-        const int n = data[0];
-        streaming = false;
-        busy_until_s = now + cfg.auto_config_busy_s;
-        if (standalone) {
-          set_error(master, 7);  // a standalone unit is not an FBB master
-          return;
-        }
-        const int present = static_cast<int>(units.size()) - 1;
-        if (n < 1 || n > present) {
-          configured = false;
-          running_mask = 0;
-          set_error(master, 13, std::min(n, present + 1));
-          return;
-        }
-        configured = true;
-        sleeping = false;  // auto-configuration wakes a sleeping flock
-        running_mask = 0;
-        for (int a = 1; a <= n; ++a) running_mask |= 1u << a;
-        return;
-      }
-      default: u.params[p].assign(data.begin(), data.end()); return;
-    }
+    if (std::vector<uint8_t> r = examine_reply(u, p); !r.empty()) queue(reply_at, std::move(r), -1);
   }
 
   // ------------------------------------------------------------------------------------------
@@ -566,7 +420,7 @@ struct VirtualFlock::Impl {
           now = now_s();
           if (now < silent_until_s) break;  // the cable is out: bytes go nowhere
           check_line();
-          if (cfg.on_bytes && *n > 0) cfg.on_bytes(host_seconds(Clock::now()), false, std::span<const uint8_t>(buf.data(), *n));
+          if (cfg.on_bytes && *n > 0) cfg.on_bytes(steady_now_s(), false, std::span<const uint8_t>(buf.data(), *n));
           for (size_t i = 0; i < *n; ++i) on_byte(buf[i], now);
           break;
         }
@@ -607,13 +461,9 @@ const std::string& VirtualFlock::slave_path() const { return impl_->pty.slave_pa
 Status VirtualFlock::start() {
   if (impl_->thread.joinable()) return fail(Errc::invalid_argument, "virtual flock already started");
   impl_->stop = false;
-  impl_->t0 = Clock::now();
+  impl_->t0_s = steady_now_s();
   impl_->thread = std::thread([this] {
-    if (impl_->cfg.realtime_priority > 0) {
-      sched_param p{};
-      p.sched_priority = std::clamp(impl_->cfg.realtime_priority, 1, 99);
-      pthread_setschedparam(pthread_self(), SCHED_FIFO, &p);
-    }
+    if (impl_->cfg.realtime_priority > 0) set_thread_fifo(std::clamp(impl_->cfg.realtime_priority, 1, 99));
     impl_->run();
   });
   return {};

@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <thread>
 
+#include "mimic/core/clock.h"
 #include "mimic/devices/hid_spacemouse.h"
 
 namespace mimic::sim {
@@ -93,11 +94,10 @@ class SimulatedSpaceMouse final : public devices::InputSource {
   }
 
   void run() {
-    using clock = std::chrono::steady_clock;
-    const auto t0 = clock::now();
+    const double t0_s = steady_now_s();
     while (running_.load()) {
-      const double now = std::chrono::duration<double>(clock::now() - t0).count();
-      const double host = std::chrono::duration<double>(clock::now().time_since_epoch()).count();
+      const double host = steady_now_s();
+      const double now = host - t0_s;
       hid_.advance(now, [&](std::span<const uint8_t> r) { core_.feed(r, host); });
       std::this_thread::sleep_for(std::chrono::milliseconds(4));
     }

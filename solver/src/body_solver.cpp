@@ -6,6 +6,7 @@
 #include <glm/gtx/quaternion.hpp>
 
 #include "mimic/solver/swing_twist.h"
+#include "sample_check.h"
 #include "mimic/solver/two_bone_ik.h"
 
 namespace mimic::solver {
@@ -16,19 +17,7 @@ using rig::Skeleton;
 
 namespace {
 
-constexpr const char* kTrunk[] = {"spine_lower", "spine_mid", "spine_upper", "neck", "neck_upper", "head"};
-constexpr const char* kChains[4][3] = {{"l_shoulder", "l_elbow", "l_wrist"},
-                                       {"r_shoulder", "r_elbow", "r_wrist"},
-                                       {"l_hip", "l_knee", "l_ankle"},
-                                       {"r_hip", "r_knee", "r_ankle"}};
-
-bool finite_sample(const devices::SensorSample& s) {
-  const auto& p = s.position_m;
-  const auto& q = s.orientation;
-  return std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z) && std::isfinite(q.w) &&
-         std::isfinite(q.x) && std::isfinite(q.y) && std::isfinite(q.z) &&
-         glm::dot(q, q) > 0.25f;
-}
+using detail::finite_sample;
 
 glm::vec3 perpendicular_part(const glm::vec3& v, const glm::vec3& unit_axis) {
   return v - unit_axis * glm::dot(v, unit_axis);
@@ -140,6 +129,28 @@ ChainSolution solve_chain(const ChainInput& in, const glm::vec3& pole) {
 // Limits first, then closeness to the hinted swivel.
 float chain_cost(const ChainSolution& c, float phi) { return 40.0f * c.violation + 0.1f * phi * phi; }
 
+// The swivel the limits allow nearest to the hinted one (e1): 16 samples round the axis, then
+// halving steps about the best.
+ChainSolution search_swivel(const ChainInput& in, const glm::vec3& e1, const glm::vec3& e2, ChainSolution best) {
+  float best_phi = 0;
+  float best_cost = chain_cost(best, 0.0f);
+  constexpr int kSamples = 16;
+  for (int k = 1; k < kSamples; ++k) {
+    const float phi = 6.2831853f * static_cast<float>(k) / kSamples - (k > kSamples / 2 ? 6.2831853f : 0.0f);
+    const ChainSolution cand = solve_chain(in, std::cos(phi) * e1 + std::sin(phi) * e2);
+    const float cost = chain_cost(cand, phi);
+    if (cand.ok && cost < best_cost) best = cand, best_cost = cost, best_phi = phi;
+  }
+  for (float step = 6.2831853f / (2 * kSamples); step > 0.005f; step *= 0.5f) {
+    for (float phi : {best_phi - step, best_phi + step}) {
+      const ChainSolution cand = solve_chain(in, std::cos(phi) * e1 + std::sin(phi) * e2);
+      const float cost = chain_cost(cand, phi);
+      if (cand.ok && cost < best_cost) best = cand, best_cost = cost, best_phi = phi;
+    }
+  }
+  return best;
+}
+
 // Toes nothing tracks follow the foot, and a foot pitched toes-down (a sensor's foot at push-off)
 // would push their tip through the floor: they bend up at the ball instead, as toes do.
 void keep_toes_above_floor(const SolverModel& m, int toes, float floor_y, const RigidTransform& foot_w,
@@ -167,136 +178,6 @@ void keep_toes_above_floor(const SolverModel& m, int toes, float floor_y, const 
 
 }  // namespace
 
-Result<SolverModel> SolverModel::create(Skeleton skeleton, std::vector<SensorMount> mounts,
-                                        SolverOptions options) {
-  SolverModel m;
-  m.skeleton_ = std::move(skeleton);
-  m.mounts_ = std::move(mounts);
-  m.options_ = options;
-  const Skeleton& s = m.skeleton_;
-  if (s.joint_count() > 64) return fail(Errc::unsupported, "solver: more than 64 joints");
-  if (s.dof_begin(0) != s.dof_end(0)) return fail(Errc::unsupported, "solver: the root joint must have no DOFs");
-
-  int max_id = -1;
-  for (const auto& mt : m.mounts_) max_id = std::max(max_id, int{mt.sensor});
-  m.slot_of_sensor_.assign(static_cast<size_t>(max_id + 1), -1);
-  for (size_t i = 0; i < m.mounts_.size(); ++i) {
-    const auto& mt = m.mounts_[i];
-    const int j = s.find_joint(mt.segment);
-    if (j < 0) return fail(Errc::not_found, "solver: sensor " + std::to_string(mt.sensor) + " is on unknown segment '" + mt.segment + "'");
-    if (m.slot_of_sensor_[mt.sensor] >= 0)
-      return fail(Errc::invalid_argument, "solver: sensor id " + std::to_string(mt.sensor) + " mounted twice");
-    m.slot_of_sensor_[mt.sensor] = static_cast<int>(i);
-    m.mount_joint_.push_back(j);
-    m.sensor_from_segment_.push_back(mt.segment_from_sensor.inverse());
-  }
-
-  for (const char* name : kTrunk) {
-    const int j = s.find_joint(name);
-    if (j < 0) continue;
-    m.trunk_joints_.push_back(j);
-    for (int d = s.dof_begin(j); d < s.dof_end(j); ++d) m.trunk_dofs_.push_back(d);
-  }
-  m.head_ = s.find_joint("head");
-  if (m.head_ < 0) return fail(Errc::not_found, "solver: the skeleton has no 'head' joint");
-
-  m.chain_of_joint_.assign(s.joint_count(), -1);
-  for (int c = 0; c < 4; ++c) {
-    Chain& ch = m.chains_[c];
-    ch.upper = s.find_joint(kChains[c][0]);
-    ch.mid = s.find_joint(kChains[c][1]);
-    ch.end = s.find_joint(kChains[c][2]);
-    if (ch.upper < 0 || ch.mid < 0 || ch.end < 0 || s.parent(ch.mid) != ch.upper || s.parent(ch.end) != ch.mid)
-      return fail(Errc::not_found, std::string("solver: the skeleton lacks the chain ") + kChains[c][0] + "–" +
-                                       kChains[c][1] + "–" + kChains[c][2]);
-    if (s.dof_begin(ch.mid) == s.dof_end(ch.mid))
-      return fail(Errc::invalid_argument, std::string("solver: joint ") + kChains[c][1] + " has no bend DOF");
-    ch.flex_dof = s.dof_begin(ch.mid);
-    // DOF indices are packed per joint, parents first, so the middle's and the end's are apart.
-    if ((s.dof_end(ch.mid) - ch.flex_dof - 1) + (s.dof_end(ch.end) - s.dof_begin(ch.end)) > 3)
-      return fail(Errc::unsupported, std::string("solver: more than 3 DOFs below the bend of ") + kChains[c][1]);
-    for (int d = ch.flex_dof + 1; d < s.dof_end(ch.mid); ++d) ch.end_dofs[ch.end_dof_count++] = d;
-    if (s.dof_end(ch.upper) - s.dof_begin(ch.upper) > 3)
-      return fail(Errc::unsupported, std::string("solver: more than 3 DOFs at ") + kChains[c][0]);
-    for (int d = s.dof_begin(ch.upper); d < s.dof_end(ch.upper); ++d) ch.upper_dofs[ch.upper_dof_count++] = d;
-    for (int d = s.dof_begin(ch.end); d < s.dof_end(ch.end); ++d) ch.end_dofs[ch.end_dof_count++] = d;
-    ch.upper_m = glm::length(s.offset_m(ch.mid));
-    ch.lower_m = glm::length(s.offset_m(ch.end));
-    if (ch.upper_m <= 0 || ch.lower_m <= 0)
-      return fail(Errc::invalid_argument, std::string("solver: zero-length link in the chain from ") + kChains[c][0]);
-    ch.upper_dir = s.offset_m(ch.mid) / ch.upper_m;
-    const glm::vec3 lower_dir = s.offset_m(ch.end) / ch.lower_m;
-    ch.hinge = s.dof(ch.flex_dof).axis;
-    ch.bend_dir = glm::cross(ch.hinge, ch.upper_dir);
-    if (std::abs(glm::dot(ch.hinge, ch.upper_dir)) > 1e-3f || glm::dot(lower_dir, ch.upper_dir) < 0.999f)
-      return fail(Errc::unsupported, std::string("solver: the chain from ") + kChains[c][0] +
-                                         " must be straight in the zero posture with its bend axis across it");
-    // Elbows hang down and a little back, knees point forward.
-    ch.default_pole = c < 2 ? glm::normalize(glm::vec3(0, -1, -0.3f)) : glm::vec3(0, 0, 1);
-    if (c < 2) {
-      const int clavicle = s.parent(ch.upper);
-      if (clavicle > 0 && std::find(m.trunk_joints_.begin(), m.trunk_joints_.end(), clavicle) == m.trunk_joints_.end())
-        for (int d = s.dof_begin(clavicle); d < s.dof_end(clavicle); ++d) m.arm_dofs_[c].push_back(d);
-      for (int d = s.dof_begin(ch.upper); d < s.dof_end(ch.upper); ++d) m.arm_dofs_[c].push_back(d);
-      m.arm_dofs_[c].push_back(ch.flex_dof);
-    }
-    m.chain_of_joint_[ch.upper] = m.chain_of_joint_[ch.mid] = m.chain_of_joint_[ch.end] = static_cast<int8_t>(c);
-    if (c >= 2)
-      for (int j : {ch.upper, ch.mid})
-        for (int d = s.dof_begin(j); d < s.dof_end(j); ++d) m.leg_dofs_.push_back(d);
-  }
-  {
-    std::vector<RigidTransform> w(s.joint_count());
-    forward_kinematics(s, s.rest_pose(), w);
-    m.head_from_root_rest_ = w[m.head_].translation - w[0].translation;
-    for (int leg = 0; leg < 2; ++leg) {
-      m.ankle_below_root_rest_[leg] = w[0].translation.y - w[m.chains_[2 + leg].end].translation.y;
-      const int toes = s.find_joint(leg == 0 ? "l_toes" : "r_toes");
-      if (toes >= 0 && s.parent(toes) == m.chains_[2 + leg].end) {
-        m.ball_in_ankle_[leg] = s.offset_m(toes), m.toes_[leg] = toes;
-        m.toe_tip_below_root_rest_[leg] = w[0].translation.y - w[toes].apply(s.tip_m(toes)).y;
-      }
-    }
-  }
-  m.prior_rad_.resize(s.dof_count());
-  for (int d = 0; d < s.dof_count(); ++d) m.prior_rad_[d] = s.dof(d).rest_rad;
-  for (int leg = 2; leg < 4; ++leg) {
-    const int d = m.chains_[leg].flex_dof;
-    m.prior_rad_[d] = std::clamp(options.relaxed_knee_bend_rad, s.dof(d).min_rad, s.dof(d).max_rad);
-  }
-  return m;
-}
-
-bool SolverModel::set_chain_lengths(int chain, float upper_m, float lower_m) {
-  if (chain < 0 || chain >= 4 || !(upper_m > 0) || !(lower_m > 0) || !std::isfinite(upper_m) || !std::isfinite(lower_m))
-    return false;
-  Chain& ch = chains_[chain];
-  const glm::vec3 old_mid = skeleton_.offset_m(ch.mid), old_end = skeleton_.offset_m(ch.end);
-  const glm::vec3 mid = ch.upper_dir * upper_m, end = glm::normalize(old_end) * lower_m;
-  skeleton_.set_offset_m(ch.mid, mid);
-  skeleton_.set_offset_m(ch.end, end);
-  if (glm::length(skeleton_.tip_m(ch.upper) - old_mid) < 1e-6f) skeleton_.set_tip_m(ch.upper, mid);
-  if (glm::length(skeleton_.tip_m(ch.mid) - old_end) < 1e-6f) skeleton_.set_tip_m(ch.mid, end);
-  ch.upper_m = upper_m;
-  ch.lower_m = lower_m;
-  return true;
-}
-
-SolverContext::SolverContext(const SolverModel& model)
-    : ls_(model.skeleton(),
-          static_cast<int>(model.trunk_dofs_.size() + model.leg_dofs_.size() + model.arm_dofs_[0].size() +
-                           model.arm_dofs_[1].size()),
-          static_cast<int>(model.trunk_joints_.size()) + 10) {
-  const int n = model.skeleton().joint_count();
-  targets_.reserve(model.trunk_joints_.size() + 10);
-  ls_dofs_.reserve(model.trunk_dofs_.size() + model.leg_dofs_.size() + model.arm_dofs_[0].size() +
-                   model.arm_dofs_[1].size());
-  segment_target_.resize(n);
-  prior_.resize(model.skeleton().dof_count());
-  has_target_.resize(n);
-  world_.resize(n);
-}
-
 bool SolveJob::Validate() const {
   if (!model || !context || !pose) return false;
   const Skeleton& s = model->skeleton();
@@ -305,16 +186,11 @@ bool SolveJob::Validate() const {
          static_cast<int>(context->has_target_.size()) == s.joint_count();
 }
 
-bool SolveJob::Run() {
-  if (!Validate()) return false;
+// 1. Segment targets from the samples.
+void SolveJob::GatherTargets() {
   const SolverModel& m = *model;
   SolverContext& c = *context;
-  const Skeleton& s = m.skeleton_;
-  const SolverOptions& o = m.options_;
   Pose& p = *pose;
-  std::span<float> dof(p.dof_rad);
-
-  // 1. Segment targets from the samples.
   std::fill(c.has_target_.begin(), c.has_target_.end(), uint8_t{0});
   c.guessed_end_.fill(false);
   sensors_used = 0;
@@ -331,7 +207,280 @@ bool SolveJob::Run() {
   if (!std::isfinite(p.root_position_m.x + p.root_position_m.y + p.root_position_m.z) ||
       !(glm::dot(p.root_orientation, p.root_orientation) > 0.25f))
     p.root_position_m = glm::vec3(0.0f), p.root_orientation = glm::quat(1, 0, 0, 0);
+}
 
+// Where the hips of an untracked root go (world) and how hard they are pulled there: the root's
+// height nobody tracks is standing, unless the head has come down while staying upright — a
+// squat or a seat, where the hips go down with it. (Bending over tilts the head too, and there
+// the hips stay up; a head bob of a few centimetres is no crouch.)
+IkTarget SolveJob::StandingRootTarget(const glm::quat& heading) const {
+  const SolverModel& m = *model;
+  const SolverContext& c = *context;
+  const Skeleton& s = m.skeleton_;
+  const SolverOptions& o = m.options_;
+  const Pose& p = *pose;
+  float root_y = o.standing_root_y_m - o.relaxed_root_drop_m;
+  glm::vec3 goal(p.root_position_m.x, root_y, p.root_position_m.z);
+  float weight = o.standing_weight;
+  if (c.has_target_[m.head_]) {
+    const RigidTransform& head = c.segment_target_[m.head_];
+    const float head_standing_y = o.standing_root_y_m + m.head_from_root_rest_.y;
+    const float drop_m = head_standing_y - head.translation.y;
+    const glm::vec3 up = head.rotation * glm::vec3(0, 1, 0);
+    const float upright = std::clamp((up.y - 0.5f) / 0.4f, 0.0f, 1.0f);  // 1 within 26° of vertical, 0 past 60°
+    goal.y -= std::max(0.0f, drop_m - o.crouch_allowance_m) * upright;
+    if (o.step)
+      goal.y -= std::min(o.locomotion.max_walk_drop_m,
+                         o.locomotion.walk_drop_m_per_mps * glm::length(c.locomotion_.velocity_mps));
+    // Horizontally the hips hang under the head as an upright trunk would, leaning with part
+    // of the head's tilt (looking down is not bending over); without this pull the trunk's
+    // solve leans as readily as it moves the hips, and walking it left them 10 cm behind.
+    const glm::vec3 lean_up = glm::normalize(glm::vec3(0, 1, 0) + o.lean_follow * (up - glm::vec3(0, 1, 0)));
+    const glm::quat lean = glm::rotation(glm::vec3(0, 1, 0), lean_up);
+    const glm::vec3 under = head.translation - lean * (heading * m.head_from_root_rest_);
+    if (o.root_follow_weight > 0) goal.x = under.x, goal.z = under.z, weight = o.root_follow_weight;
+  }
+  // A planted foot must stay within the leg's reach: the hips come down between wide-apart
+  // feet, as they do in a stride.
+  for (int leg = 0; leg < 2; ++leg) {
+    const FootStepState& f = c.locomotion_.feet[leg];
+    if (!f.driven || f.swinging) continue;
+    const auto& ch = m.chains_[2 + leg];
+    const glm::vec3 hip_offset = heading * s.offset_m(ch.upper);
+    const glm::vec2 d(goal.x + hip_offset.x - f.planted.x, goal.z + hip_offset.z - f.planted.z);
+    const float reach = o.locomotion_reach * (ch.upper_m + ch.lower_m);
+    const float up_m = std::sqrt(std::max(0.0f, reach * reach - glm::dot(d, d)));
+    goal.y = std::min(goal.y, f.planted.y + up_m - hip_offset.y);
+  }
+  return IkTarget{0, goal, glm::quat(1, 0, 0, 0), weight, 0.0f};
+}
+
+// An observed trunk without a pelvis sensor: the root is an unknown, kept upright and facing
+// where the head (or the feet) face; tracked feet place it, else it stands (StandingRootTarget).
+void SolveJob::AddRootTargets() {
+  const SolverModel& m = *model;
+  SolverContext& c = *context;
+  const SolverOptions& o = m.options_;
+  Pose& p = *pose;
+  glm::quat heading = p.root_orientation;
+  const glm::quat head_rot = c.has_target_[m.head_] ? c.segment_target_[m.head_].rotation : glm::quat(1, 0, 0, 0);
+  glm::vec3 forward(0.0f);
+  for (int leg = 2; leg < 4; ++leg)
+    if (c.has_target_[m.chains_[leg].end]) forward += c.segment_target_[m.chains_[leg].end].rotation * glm::vec3(0, 0, 1);
+  if (glm::length(forward) < 0.5f && c.has_target_[m.head_]) {
+    forward = head_rot * glm::vec3(0, 0, 1);
+    if (glm::length(glm::vec2(forward.x, forward.z)) < 0.3f) forward = head_rot * glm::vec3(0, 1, 0);
+  }
+  heading_of(forward, heading);
+  if (!c.have_previous_ && c.has_target_[m.head_]) {
+    // First frame: start the root upright under the head rather than at the origin.
+    p.root_orientation = heading;
+    p.root_position_m = c.segment_target_[m.head_].translation - heading * m.head_from_root_rest_;
+  }
+  c.targets_.push_back(IkTarget{0, glm::vec3(0.0f), heading, 0.0f, 0.5f * o.rotation_weight});
+  bool feet = false;
+  for (int leg = 2; leg < 4; ++leg) {
+    const int e = m.chains_[leg].end;
+    if (!c.has_target_[e]) continue;
+    c.targets_.push_back(IkTarget{e, c.segment_target_[e].translation, glm::quat(1, 0, 0, 0), o.position_weight, 0.0f});
+    feet = true;
+  }
+  if (feet) c.ls_dofs_.insert(c.ls_dofs_.end(), m.leg_dofs_.begin(), m.leg_dofs_.end());
+  if (!feet && std::isfinite(o.standing_root_y_m)) c.targets_.push_back(StandingRootTarget(heading));
+}
+
+// Hands: the arm DOFs (clavicle, shoulder, elbow bend) join the solve so that the trunk leaves
+// the hands within reach; the analytic chains then place the arms exactly.
+void SolveJob::AddArmTargets() {
+  const SolverModel& m = *model;
+  SolverContext& c = *context;
+  const Skeleton& s = m.skeleton_;
+  const SolverOptions& o = m.options_;
+  for (int arm = 0; arm < 2; ++arm) {
+    const int e = m.chains_[arm].end;
+    if (!c.has_target_[e]) continue;
+    c.targets_.push_back(IkTarget{e, c.segment_target_[e].translation, glm::quat(1, 0, 0, 0), o.position_weight, 0.0f});
+    c.ls_dofs_.insert(c.ls_dofs_.end(), m.arm_dofs_[arm].begin(), m.arm_dofs_[arm].end());
+    // An upper-arm sensor places the shoulder joint (through clavicle and spine) too.
+    const int upper = m.chains_[arm].upper;
+    if (c.has_target_[upper])
+      c.targets_.push_back(IkTarget{upper, c.segment_target_[upper].translation, c.segment_target_[upper].rotation,
+                                    o.position_weight, o.rotation_weight});
+    const int clavicle = s.parent(upper);
+    if (c.has_target_[clavicle])
+      c.targets_.push_back(IkTarget{clavicle, c.segment_target_[clavicle].translation, c.segment_target_[clavicle].rotation,
+                                    o.position_weight, o.rotation_weight});
+  }
+}
+
+// 3. The trunk's damped least squares over the DOFs and targets gathered.
+void SolveJob::SolveTrunk(bool root_known) {
+  const SolverModel& m = *model;
+  SolverContext& c = *context;
+  const Skeleton& s = m.skeleton_;
+  const SolverOptions& o = m.options_;
+  std::span<float> dof(pose->dof_rad);
+  LeastSquaresIkJob ls;
+  ls.skeleton = &s;
+  ls.dofs = c.ls_dofs_;
+  ls.solve_root = !root_known;
+  ls.targets = c.targets_;
+  // Relaxed trunk, but no pull on the arms: their DOFs are there only to keep the hands in reach.
+  std::copy(m.prior_rad_.begin(), m.prior_rad_.end(), c.prior_.begin());
+  // Shoulder and elbow move freely; the clavicle (rarely moving much) keeps its pull.
+  for (int arm = 0; arm < 2; ++arm)
+    for (int d : m.arm_dofs_[arm])
+      if (s.dof(d).joint != s.parent(m.chains_[arm].upper)) c.prior_[d] = dof[d];
+  // A segment with its own sensor needs no pull: its orientation is measured.
+  for (int j : m.trunk_joints_)
+    if (c.has_target_[j])
+      for (int d = s.dof_begin(j); d < s.dof_end(j); ++d) c.prior_[d] = dof[d];
+  ls.prior_rad = c.prior_;
+  ls.prior_weight = root_known ? o.prior_weight_with_pelvis : o.prior_weight;
+  ls.damping = o.damping;
+  ls.max_iterations = o.iterations;
+  ls.context = &c.ls_;
+  ls.pose = pose;
+  ls.Run();
+  ls_iterations = ls.iterations;
+}
+
+// The world transform of joint j from its parent's (already placed) and its DOFs.
+void SolveJob::PlaceJoint(int j) {
+  const Skeleton& s = model->skeleton_;
+  SolverContext& c = *context;
+  const Pose& p = *pose;
+  const glm::quat local = s.local_rotation(j, p.dof_rad);
+  const int par = s.parent(j);
+  if (par < 0) {
+    c.world_[j] = RigidTransform{p.root_orientation * local, p.root_position_m + p.root_orientation * s.offset_m(j)};
+  } else {
+    c.world_[j] = RigidTransform{c.world_[par].rotation * local, c.world_[par].apply(s.offset_m(j))};
+  }
+}
+
+// Joint j's DOFs from its segment's measured orientation relative to its placed parent.
+void SolveJob::OrientFromTarget(int j) {
+  const Skeleton& s = model->skeleton_;
+  const SolverContext& c = *context;
+  Pose& p = *pose;
+  const int par = s.parent(j);
+  const glm::quat parent_rot = par < 0 ? p.root_orientation : c.world_[par].rotation;
+  joint_dofs_from_rotation(s, j, glm::conjugate(parent_rot) * c.segment_target_[j].rotation, p.dof_rad);
+}
+
+// 4. The two-bone chain `ci` reaching for its end target from its placed parent: swivel from the
+// middle or upper segment's sensor, else a guess; when the limits cannot follow that swivel, the
+// feasible one nearest to it. False when the chain cannot be solved (the caller falls back).
+bool SolveJob::SolveLimb(int ci) {
+  const SolverModel& m = *model;
+  SolverContext& c = *context;
+  const Skeleton& s = m.skeleton_;
+  const Pose& p = *pose;
+  std::span<float> dof(pose->dof_rad);
+  const SolverModel::Chain& ch = m.chains_[ci];
+  const int j = ch.upper;
+  const RigidTransform& parent_w = c.world_[s.parent(j)];
+  const glm::vec3 start = parent_w.apply(s.offset_m(j));
+  const RigidTransform& end_t = c.segment_target_[ch.end];
+  glm::vec3 pole;
+  const glm::vec3 default_pole = p.root_orientation * ch.default_pole;
+  if (c.has_target_[ch.mid]) {
+    // The middle segment's origin is the middle joint: its sensor's position says where (a
+    // shorter lever than the lower link turned by the sensor's orientation).
+    pole = c.segment_target_[ch.mid].translation - start;
+  } else if (c.has_target_[ch.upper]) {
+    pole = ch.upper_m * (c.segment_target_[ch.upper].rotation * ch.upper_dir);
+  } else {
+    // The hand (foot) rarely bends far from its forearm (shin): guess the middle joint
+    // one lower link back along it, leaning on the natural direction when that is vague.
+    const glm::vec3 guess = end_t.translation - ch.lower_m * (end_t.rotation * ch.upper_dir) - start;
+    const float reach = ch.upper_m + ch.lower_m;
+    pole = guess + 0.3f * reach * default_pole;
+  }
+  ChainInput in{&s, &ch, &parent_w, start, &end_t, dof};
+  if (c.has_target_[ch.upper]) in.upper_rot = &c.segment_target_[ch.upper].rotation;
+  if (c.has_target_[ch.upper]) in.hinge_hint = c.segment_target_[ch.upper].rotation * ch.hinge;
+  else if (c.has_target_[ch.mid]) in.hinge_hint = c.segment_target_[ch.mid].rotation * ch.hinge;
+  else if (c.have_previous_) in.last_bend = &c.last_bend_world_[ci];
+  else in.hinge_hint = end_t.rotation * ch.hinge;
+  // Swivel: the hint first; if the limits cannot follow it (shoulder twist, forearm twist,
+  // wrist, hip rotation …), the feasible swivel nearest to it.
+  const glm::vec3 axis_dir = end_t.translation - start;
+  const float axis_len = glm::length(axis_dir);
+  const glm::vec3 n = axis_len > 1e-6f ? axis_dir / axis_len : glm::vec3(0, -1, 0);
+  glm::vec3 e1 = perpendicular_part(pole, n);
+  if (glm::length(e1) < 1e-6f) e1 = perpendicular_part(default_pole, n);
+  if (glm::length(e1) < 1e-6f) e1 = perpendicular_part(glm::vec3(0, 0, 1), n);
+  if (glm::length(e1) < 1e-6f) e1 = perpendicular_part(glm::vec3(1, 0, 0), n);
+  e1 = glm::normalize(e1);
+  const glm::vec3 e2 = glm::cross(n, e1);
+  ChainSolution best = solve_chain(in, e1);
+  // (A guessed foot is not worth a search for the swivel the limits allow.)
+  if (best.ok && best.violation > 1e-4f && !c.guessed_end_[ci]) best = search_swivel(in, e1, e2, best);
+  if (!best.ok) return false;
+  for (int i = 0; i < ch.upper_dof_count; ++i) dof[ch.upper_dofs[i]] = best.upper[i];
+  dof[ch.flex_dof] = best.bend;
+  for (int i = 0; i < ch.end_dof_count; ++i) dof[ch.end_dofs[i]] = best.end[i];
+  c.last_bend_world_[ci] = best.bend_world;
+  return true;
+}
+
+// 4. Limbs and the rest, parents first: chains reach for their ends, other segments with a
+// sensor take its orientation, joints nothing observes relax.
+void SolveJob::SolveLimbsAndRest(bool trunk_observed) {
+  const SolverModel& m = *model;
+  SolverContext& c = *context;
+  const Skeleton& s = m.skeleton_;
+  const SolverOptions& o = m.options_;
+  std::span<float> dof(pose->dof_rad);
+  std::array<bool, 4> chain_solved{};
+  auto relax = [&](int j) {
+    for (int d = s.dof_begin(j); d < s.dof_end(j); ++d) dof[d] = m.prior_rad_[d];
+  };
+  bool is_trunk[64] = {};
+  bool solved_by_ls[64] = {};
+  if (trunk_observed)
+    for (int d : c.ls_dofs_) solved_by_ls[s.dof(d).joint] = true;
+  for (int j : m.trunk_joints_) is_trunk[j] = true;
+
+  for (int j = 0; j < s.joint_count(); ++j) {
+    const int ci = m.chain_of_joint_[j];
+    if (j == 0 || is_trunk[j]) {
+      if (j != 0 && !trunk_observed) {
+        if (c.has_target_[j]) OrientFromTarget(j);
+      }
+    } else if (ci >= 0) {
+      const SolverModel::Chain& ch = m.chains_[ci];
+      if (j == ch.upper && c.has_target_[ch.end] && SolveLimb(ci)) {
+        PlaceJoint(j);
+        chain_solved[ci] = true;
+        continue;
+      }
+      if (!chain_solved[ci]) {
+        if (c.has_target_[j]) OrientFromTarget(j);
+        else relax(j);
+      }
+    } else {
+      if (c.has_target_[j]) OrientFromTarget(j);
+      else if (!solved_by_ls[j]) relax(j);
+    }
+    PlaceJoint(j);
+    if (const int leg = j == m.toes_[0] ? 0 : j == m.toes_[1] ? 1 : -1; leg >= 0 && std::isfinite(o.standing_root_y_m))
+      keep_toes_above_floor(m, j, o.standing_root_y_m - m.toe_tip_below_root_rest_[leg], c.world_[s.parent(j)], dof);
+    PlaceJoint(j);
+  }
+}
+
+bool SolveJob::Run() {
+  if (!Validate()) return false;
+  const SolverModel& m = *model;
+  SolverContext& c = *context;
+  const Skeleton& s = m.skeleton_;
+  const SolverOptions& o = m.options_;
+  Pose& p = *pose;
+
+  GatherTargets();
   // 2. Root from the pelvis, else an unknown of the trunk solve.
   const bool root_known = c.has_target_[0] != 0;
   if (root_known) {
@@ -349,235 +498,16 @@ bool SolveJob::Run() {
       c.targets_.push_back(IkTarget{j, c.segment_target_[j].translation, c.segment_target_[j].rotation,
                                     o.position_weight, o.rotation_weight});
   const bool trunk_observed = !c.targets_.empty();
-  if (!root_known && trunk_observed) {
-    // Keep the pelvis upright and facing where the head (or the feet) face.
-    glm::quat heading = p.root_orientation;
-    const glm::quat head_rot = c.has_target_[m.head_] ? c.segment_target_[m.head_].rotation : glm::quat(1, 0, 0, 0);
-    glm::vec3 forward(0.0f);
-    for (int leg = 2; leg < 4; ++leg)
-      if (c.has_target_[m.chains_[leg].end]) forward += c.segment_target_[m.chains_[leg].end].rotation * glm::vec3(0, 0, 1);
-    if (glm::length(forward) < 0.5f && c.has_target_[m.head_]) {
-      forward = head_rot * glm::vec3(0, 0, 1);
-      if (glm::length(glm::vec2(forward.x, forward.z)) < 0.3f) forward = head_rot * glm::vec3(0, 1, 0);
-    }
-    heading_of(forward, heading);
-    if (!c.have_previous_ && c.has_target_[m.head_]) {
-      // First frame: start the root upright under the head rather than at the origin.
-      p.root_orientation = heading;
-      p.root_position_m = c.segment_target_[m.head_].translation - heading * m.head_from_root_rest_;
-    }
-    c.targets_.push_back(IkTarget{0, glm::vec3(0.0f), heading, 0.0f, 0.5f * o.rotation_weight});
-    bool feet = false;
-    for (int leg = 2; leg < 4; ++leg) {
-      const int e = m.chains_[leg].end;
-      if (!c.has_target_[e]) continue;
-      c.targets_.push_back(IkTarget{e, c.segment_target_[e].translation, glm::quat(1, 0, 0, 0), o.position_weight, 0.0f});
-      feet = true;
-    }
-    if (feet) c.ls_dofs_.insert(c.ls_dofs_.end(), m.leg_dofs_.begin(), m.leg_dofs_.end());
-    if (!feet && std::isfinite(o.standing_root_y_m)) {
-      // The root's height nobody tracks: standing, unless the head has come down while staying
-      // upright — a squat or a seat, where the hips go down with it. (Bending over tilts the
-      // head too, and there the hips stay up; a head bob of a few centimetres is no crouch.)
-      float root_y = o.standing_root_y_m - o.relaxed_root_drop_m;
-      glm::vec3 goal(p.root_position_m.x, root_y, p.root_position_m.z);
-      float weight = o.standing_weight;
-      if (c.has_target_[m.head_]) {
-        const RigidTransform& head = c.segment_target_[m.head_];
-        const float head_standing_y = o.standing_root_y_m + m.head_from_root_rest_.y;
-        const float drop_m = head_standing_y - head.translation.y;
-        const glm::vec3 up = head.rotation * glm::vec3(0, 1, 0);
-        const float upright = std::clamp((up.y - 0.5f) / 0.4f, 0.0f, 1.0f);  // 1 within 26° of vertical, 0 past 60°
-        goal.y -= std::max(0.0f, drop_m - o.crouch_allowance_m) * upright;
-        if (o.step)
-          goal.y -= std::min(o.locomotion.max_walk_drop_m,
-                             o.locomotion.walk_drop_m_per_mps * glm::length(c.locomotion_.velocity_mps));
-        // Horizontally the hips hang under the head as an upright trunk would, leaning with part
-        // of the head's tilt (looking down is not bending over); without this pull the trunk's
-        // solve leans as readily as it moves the hips, and walking it left them 10 cm behind.
-        const glm::vec3 lean_up = glm::normalize(glm::vec3(0, 1, 0) + o.lean_follow * (up - glm::vec3(0, 1, 0)));
-        const glm::quat lean = glm::rotation(glm::vec3(0, 1, 0), lean_up);
-        const glm::vec3 under = head.translation - lean * (heading * m.head_from_root_rest_);
-        if (o.root_follow_weight > 0) goal.x = under.x, goal.z = under.z, weight = o.root_follow_weight;
-      }
-      // A planted foot must stay within the leg's reach: the hips come down between wide-apart
-      // feet, as they do in a stride.
-      for (int leg = 0; leg < 2; ++leg) {
-        const FootStepState& f = c.locomotion_.feet[leg];
-        if (!f.driven || f.swinging) continue;
-        const auto& ch = m.chains_[2 + leg];
-        const glm::vec3 hip_offset = heading * s.offset_m(ch.upper);
-        const glm::vec2 d(goal.x + hip_offset.x - f.planted.x, goal.z + hip_offset.z - f.planted.z);
-        const float reach = o.locomotion_reach * (ch.upper_m + ch.lower_m);
-        const float up_m = std::sqrt(std::max(0.0f, reach * reach - glm::dot(d, d)));
-        goal.y = std::min(goal.y, f.planted.y + up_m - hip_offset.y);
-      }
-      c.targets_.push_back(IkTarget{0, goal,
-                                    glm::quat(1, 0, 0, 0), weight, 0.0f});
-    }
-  }
-  // Hands: the arm DOFs (clavicle, shoulder, elbow bend) join the solve so that the trunk
-  // leaves the hands within reach; the analytic chains below then place the arms exactly.
-  if (trunk_observed) {
-    for (int arm = 0; arm < 2; ++arm) {
-      const int e = m.chains_[arm].end;
-      if (!c.has_target_[e]) continue;
-      c.targets_.push_back(IkTarget{e, c.segment_target_[e].translation, glm::quat(1, 0, 0, 0), o.position_weight, 0.0f});
-      c.ls_dofs_.insert(c.ls_dofs_.end(), m.arm_dofs_[arm].begin(), m.arm_dofs_[arm].end());
-      // An upper-arm sensor places the shoulder joint (through clavicle and spine) too.
-      const int upper = m.chains_[arm].upper;
-      if (c.has_target_[upper])
-        c.targets_.push_back(IkTarget{upper, c.segment_target_[upper].translation, c.segment_target_[upper].rotation,
-                                      o.position_weight, o.rotation_weight});
-      const int clavicle = s.parent(upper);
-      if (c.has_target_[clavicle])
-        c.targets_.push_back(IkTarget{clavicle, c.segment_target_[clavicle].translation, c.segment_target_[clavicle].rotation,
-                                      o.position_weight, o.rotation_weight});
-    }
-  }
+  if (!root_known && trunk_observed) AddRootTargets();
+  if (trunk_observed) AddArmTargets();
   ls_iterations = 0;
-  if (trunk_observed) {
-    LeastSquaresIkJob ls;
-    ls.skeleton = &s;
-    ls.dofs = c.ls_dofs_;
-    ls.solve_root = !root_known;
-    ls.targets = c.targets_;
-    // Relaxed trunk, but no pull on the arms: their DOFs are there only to keep the hands in reach.
-    std::copy(m.prior_rad_.begin(), m.prior_rad_.end(), c.prior_.begin());
-    // Shoulder and elbow move freely; the clavicle (rarely moving much) keeps its pull.
-    for (int arm = 0; arm < 2; ++arm)
-      for (int d : m.arm_dofs_[arm])
-        if (s.dof(d).joint != s.parent(m.chains_[arm].upper)) c.prior_[d] = dof[d];
-    // A segment with its own sensor needs no pull: its orientation is measured.
-    for (int j : m.trunk_joints_)
-      if (c.has_target_[j])
-        for (int d = s.dof_begin(j); d < s.dof_end(j); ++d) c.prior_[d] = dof[d];
-    ls.prior_rad = c.prior_;
-    ls.prior_weight = root_known ? o.prior_weight_with_pelvis : o.prior_weight;
-    ls.damping = o.damping;
-    ls.max_iterations = o.iterations;
-    ls.context = &c.ls_;
-    ls.pose = &p;
-    ls.Run();
-    ls_iterations = ls.iterations;
-  }
+  if (trunk_observed) SolveTrunk(root_known);
 
   // 3b. Legs nobody tracks step (locomotion.h); without a floor (no calibration) they are
   // left to the relaxed posture.
   if (trunk_observed && std::isfinite(o.standing_root_y_m)) place_untracked_feet();
 
-  // 4. Limbs and the rest, parents first.
-  std::array<bool, 4> chain_solved{};
-  auto fk = [&](int j) {
-    const glm::quat local = s.local_rotation(j, dof);
-    const int par = s.parent(j);
-    if (par < 0) {
-      c.world_[j] = RigidTransform{p.root_orientation * local, p.root_position_m + p.root_orientation * s.offset_m(j)};
-    } else {
-      c.world_[j] = RigidTransform{c.world_[par].rotation * local, c.world_[par].apply(s.offset_m(j))};
-    }
-  };
-  auto relax = [&](int j) {
-    for (int d = s.dof_begin(j); d < s.dof_end(j); ++d) dof[d] = m.prior_rad_[d];
-  };
-  auto from_orientation = [&](int j) {
-    const int par = s.parent(j);
-    const glm::quat parent_rot = par < 0 ? p.root_orientation : c.world_[par].rotation;
-    joint_dofs_from_rotation(s, j, glm::conjugate(parent_rot) * c.segment_target_[j].rotation, dof);
-  };
-  bool is_trunk[64] = {};
-  bool solved_by_ls[64] = {};
-  if (trunk_observed)
-    for (int d : c.ls_dofs_) solved_by_ls[s.dof(d).joint] = true;
-  for (int j : m.trunk_joints_) is_trunk[j] = true;
-
-  for (int j = 0; j < s.joint_count(); ++j) {
-    const int ci = m.chain_of_joint_[j];
-    if (j == 0 || is_trunk[j]) {
-      if (j != 0 && !trunk_observed) {
-        if (c.has_target_[j]) from_orientation(j);
-      }
-    } else if (ci >= 0) {
-      const SolverModel::Chain& ch = m.chains_[ci];
-      if (j == ch.upper && c.has_target_[ch.end]) {
-        const RigidTransform& parent_w = c.world_[s.parent(j)];
-        const glm::vec3 start = parent_w.apply(s.offset_m(j));
-        const RigidTransform& end_t = c.segment_target_[ch.end];
-        glm::vec3 pole;
-        const glm::vec3 default_pole = p.root_orientation * ch.default_pole;
-        if (c.has_target_[ch.mid]) {
-          // The middle segment's origin is the middle joint: its sensor's position says where (a
-          // shorter lever than the lower link turned by the sensor's orientation).
-          pole = c.segment_target_[ch.mid].translation - start;
-        } else if (c.has_target_[ch.upper]) {
-          pole = ch.upper_m * (c.segment_target_[ch.upper].rotation * ch.upper_dir);
-        } else {
-          // The hand (foot) rarely bends far from its forearm (shin): guess the middle joint
-          // one lower link back along it, leaning on the natural direction when that is vague.
-          const glm::vec3 guess = end_t.translation - ch.lower_m * (end_t.rotation * ch.upper_dir) - start;
-          const float reach = ch.upper_m + ch.lower_m;
-          pole = guess + 0.3f * reach * default_pole;
-        }
-        ChainInput in{&s, &ch, &parent_w, start, &end_t, dof};
-        if (c.has_target_[ch.upper]) in.upper_rot = &c.segment_target_[ch.upper].rotation;
-        if (c.has_target_[ch.upper]) in.hinge_hint = c.segment_target_[ch.upper].rotation * ch.hinge;
-        else if (c.has_target_[ch.mid]) in.hinge_hint = c.segment_target_[ch.mid].rotation * ch.hinge;
-        else if (c.have_previous_) in.last_bend = &c.last_bend_world_[ci];
-        else in.hinge_hint = end_t.rotation * ch.hinge;
-        // Swivel: the hint first; if the limits cannot follow it (shoulder twist, forearm twist,
-        // wrist, hip rotation …), the feasible swivel nearest to it.
-        const glm::vec3 axis_dir = end_t.translation - start;
-        const float axis_len = glm::length(axis_dir);
-        const glm::vec3 n = axis_len > 1e-6f ? axis_dir / axis_len : glm::vec3(0, -1, 0);
-        glm::vec3 e1 = perpendicular_part(pole, n);
-        if (glm::length(e1) < 1e-6f) e1 = perpendicular_part(default_pole, n);
-        if (glm::length(e1) < 1e-6f) e1 = perpendicular_part(glm::vec3(0, 0, 1), n);
-        if (glm::length(e1) < 1e-6f) e1 = perpendicular_part(glm::vec3(1, 0, 0), n);
-        e1 = glm::normalize(e1);
-        const glm::vec3 e2 = glm::cross(n, e1);
-        ChainSolution best = solve_chain(in, e1);
-        // (A guessed foot is not worth a search for the swivel the limits allow.)
-        if (best.ok && best.violation > 1e-4f && !c.guessed_end_[ci]) {
-          float best_phi = 0;
-          float best_cost = chain_cost(best, 0.0f);
-          constexpr int kSamples = 16;
-          for (int k = 1; k < kSamples; ++k) {
-            const float phi = 6.2831853f * static_cast<float>(k) / kSamples - (k > kSamples / 2 ? 6.2831853f : 0.0f);
-            const ChainSolution cand = solve_chain(in, std::cos(phi) * e1 + std::sin(phi) * e2);
-            const float cost = chain_cost(cand, phi);
-            if (cand.ok && cost < best_cost) best = cand, best_cost = cost, best_phi = phi;
-          }
-          for (float step = 6.2831853f / (2 * kSamples); step > 0.005f; step *= 0.5f) {
-            for (float phi : {best_phi - step, best_phi + step}) {
-              const ChainSolution cand = solve_chain(in, std::cos(phi) * e1 + std::sin(phi) * e2);
-              const float cost = chain_cost(cand, phi);
-              if (cand.ok && cost < best_cost) best = cand, best_cost = cost, best_phi = phi;
-            }
-          }
-        }
-        if (best.ok) {
-          for (int i = 0; i < ch.upper_dof_count; ++i) dof[ch.upper_dofs[i]] = best.upper[i];
-          dof[ch.flex_dof] = best.bend;
-          for (int i = 0; i < ch.end_dof_count; ++i) dof[ch.end_dofs[i]] = best.end[i];
-          c.last_bend_world_[ci] = best.bend_world;
-          fk(j);
-          chain_solved[ci] = true;
-          continue;
-        }
-      }
-      if (!chain_solved[ci]) {
-        if (c.has_target_[j]) from_orientation(j);
-        else relax(j);
-      }
-    } else {
-      if (c.has_target_[j]) from_orientation(j);
-      else if (!solved_by_ls[j]) relax(j);
-    }
-    fk(j);
-    if (const int leg = j == m.toes_[0] ? 0 : j == m.toes_[1] ? 1 : -1; leg >= 0 && std::isfinite(o.standing_root_y_m))
-      keep_toes_above_floor(m, j, o.standing_root_y_m - m.toe_tip_below_root_rest_[leg], c.world_[s.parent(j)], dof);
-    fk(j);
-  }
+  SolveLimbsAndRest(trunk_observed);
   c.have_previous_ = true;
   return true;
 }

@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "rotation_vector.h"
+#include "sample_check.h"
 
 namespace mimic::solver {
 
@@ -14,11 +15,7 @@ constexpr float kTwoPi = 6.28318530718f;
 using detail::exp_rotation;
 using detail::rotation_vector;
 
-bool finite(const devices::SensorSample& s) {
-  return std::isfinite(s.position_m.x) && std::isfinite(s.position_m.y) && std::isfinite(s.position_m.z) &&
-         std::isfinite(s.orientation.w) && std::isfinite(s.orientation.x) && std::isfinite(s.orientation.y) &&
-         std::isfinite(s.orientation.z) && glm::dot(s.orientation, s.orientation) > 0.25f;
-}
+bool finite(const devices::SensorSample& s) { return detail::finite_sample(s); }
 
 }  // namespace
 

@@ -4,6 +4,8 @@
 #include <array>
 #include <cmath>
 
+#include "mimic/core/percentile.h"
+
 namespace mimic::solver {
 
 bool is_end_effector(std::string_view joint) {
@@ -112,11 +114,9 @@ PoseErrorReport PoseErrorAccumulator::report() const {
   }
   if (!solve_us_.empty()) {
     std::vector<double> t = solve_us_;
-    std::sort(t.begin(), t.end());
-    auto pct = [&](double p) { return t[std::min(t.size() - 1, static_cast<size_t>(p * static_cast<double>(t.size() - 1) + 0.5))]; };
-    r.solve_us_p50 = pct(0.50);
-    r.solve_us_p99 = pct(0.99);
-    r.solve_us_max = t.back();
+    r.solve_us_p50 = percentile_in_place(t, 0.50);
+    r.solve_us_p99 = percentile_in_place(t, 0.99);
+    r.solve_us_max = percentile_in_place(t, 1.0);
   }
   return r;
 }

@@ -3,11 +3,11 @@
 #include <algorithm>
 #include <cmath>
 
+#include "mimic/core/finite.h"
+
 namespace mimic::solver {
 
 namespace {
-
-bool finite(const glm::vec3& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
 
 // Distance start→end for a middle bend θ (law of cosines; θ = 0 is straight).
 float reach_for_bend(float a, float b, float bend) {
@@ -24,7 +24,7 @@ glm::vec3 any_perpendicular(const glm::vec3& n) {
 
 bool TwoBoneIkJob::Validate() const {
   return upper_m > 0 && lower_m > 0 && std::isfinite(upper_m) && std::isfinite(lower_m) &&
-         finite(start_m) && finite(target_m) && finite(pole_dir) && min_bend_rad <= max_bend_rad;
+         all_finite(start_m) && all_finite(target_m) && all_finite(pole_dir) && min_bend_rad <= max_bend_rad;
 }
 
 bool TwoBoneIkJob::Run() {

@@ -178,7 +178,17 @@ struct SolveJob {
   bool Run();
 
  private:
+  // The stages of Run() (body_solver.cpp, locomotion.cpp).
+  void GatherTargets();
+  void AddRootTargets();
+  IkTarget StandingRootTarget(const glm::quat& heading) const;
+  void AddArmTargets();
+  void SolveTrunk(bool root_known);
   void place_untracked_feet();
+  void SolveLimbsAndRest(bool trunk_observed);
+  bool SolveLimb(int chain);
+  void PlaceJoint(int joint);
+  void OrientFromTarget(int joint);
 };
 
 }  // namespace mimic::solver

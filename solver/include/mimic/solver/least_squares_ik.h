@@ -44,15 +44,15 @@ class LeastSquaresIkContext {
   int joints_ = 0, max_dofs_ = 0, max_targets_ = 0;
   std::vector<rig::RigidTransform> world_;
   std::vector<glm::vec3> dof_axis_world_;  // per skeleton DOF
-  std::vector<float> jacobian_;            // rows × cols, row-major
+  std::vector<float> jacobian_;            // per target a block: its rows × its columns, row-major
   std::vector<float> residual_;
   std::vector<float> normal_;              // cols × cols
   std::vector<float> rhs_;
   std::vector<float> normal0_, rhs0_;      // undamped system, kept across rejected steps
   std::vector<float> saved_;               // DOF values before a trial step
-  std::vector<int> columns_;               // a target's non-zero Jacobian columns
+  std::vector<int> columns_;               // per target, its non-zero Jacobian columns, ascending
+  std::vector<int> column_begin_, column_count_;  // per target: where its columns start, how many
   float lambda_ = 0;                       // damping the last solve ended with
-  std::vector<uint64_t> chain_mask_;       // per target: bit j set when joint j moves it
 };
 
 struct LeastSquaresIkJob {
@@ -76,6 +76,14 @@ struct LeastSquaresIkJob {
 
   bool Validate() const;
   bool Run();
+
+ private:
+  // The stages of Run().
+  void ListColumns(int root_cols);
+  float Objective(float prior2);
+  void FillJacobian(int root_cols);
+  void BuildNormalEquations(int cols, int root_cols, float prior2);
+  void ApplyStep(std::span<const float> step, int root_cols);
 };
 
 }  // namespace mimic::solver
