@@ -21,6 +21,7 @@
 #include "mimic/sim/sensor_rig.h"
 #include "mimic/solver/body_solver.h"
 #include "mimic/solver/filters.h"
+#include "mimic/core/thread_priority.h"
 #include "mimic/service/pipeline.h"
 
 namespace mimic::app {
@@ -88,7 +89,9 @@ Result<nlohmann::json> bench_net(const BenchOptions& opt) {
     if (!body) return tl::unexpected(body.error());
     auto skin = make_skin_deformer(body->model, (*feed)->skeleton(), 2);
     if (!skin) return tl::unexpected(skin.error());
-    Pipeline pipeline({server->get(), nullptr, nullptr});
+    SinkList sinks;
+    sinks.push_back(make_server_sink(**server));
+    Pipeline pipeline(std::move(sinks));
     if (auto st = pipeline.add_avatar("bench", std::move(*feed), std::move(body->bytes), std::move(*skin)); !st)
       return tl::unexpected(st.error());
     std::atomic<bool> stop{false};
@@ -100,7 +103,7 @@ Result<nlohmann::json> bench_net(const BenchOptions& opt) {
       while (c && !stop) (void)(*c)->run_until(std::chrono::steady_clock::now() + std::chrono::milliseconds(20));
     });
     using C = std::chrono::steady_clock;
-    const bool rt = rt_priority > 0 && set_realtime_priority(rt_priority);
+    const bool rt = rt_priority > 0 && set_thread_fifo(rt_priority);
     if (rt_priority > 0 && !rt) {
       stop = true;
       viewer.join();
@@ -109,9 +112,9 @@ Result<nlohmann::json> bench_net(const BenchOptions& opt) {
     const auto end = C::now() + std::chrono::duration<double>(opt.quick ? 1.0 : opt.seconds);
     while (C::now() < end) {
       pipeline.tick();
-      (void)service_network({server->get(), nullptr, nullptr}, slice_us);
+      (void)pipeline.service_network(slice_us);
     }
-    if (rt) set_realtime_priority(0);
+    if (rt) set_thread_fifo(0);
     stop = true;
     viewer.join();
     const auto s = pipeline.timer(kStageLatency).summary();

@@ -15,6 +15,7 @@
 #include <unistd.h>
 
 #include "mimic/core/process_limits.h"
+#include "mimic/core/thread_priority.h"
 #include "mimic/net/client.h"
 #include "mimic/net/nats.h"
 #include "mimic/net/server.h"
@@ -24,7 +25,8 @@
 #include "lean_flags.h"
 #include "mimic/service/pipeline.h"
 #include "mimic/service/scene.h"
-#include "mimic/sim/open_input.h"
+#include "mimic/service/scene_builder.h"
+#include "source_args.h"
 
 namespace mimic::app {
 using namespace ::mimic::service;
@@ -125,33 +127,6 @@ const char* kUsage =
     "status line (stderr) shows fps, subscribers, dropped and rejected frames and p50/p99 of each\n"
     "stage in microseconds. Ctrl-C stops cleanly.\n";
 
-// "8x6": the room's width (x) and depth (z) in metres.
-bool parse_room(const std::string& text, Room& room) {
-  float w = 0, d = 0;
-  char x = 0, extra = 0;
-  if (std::sscanf(text.c_str(), "%f%c%f%c", &w, &x, &d, &extra) != 3 || x != 'x') return false;
-  if (!(w >= 2 && w <= 100 && d >= 2 && d <= 100)) return false;
-  room.half_width_m = 0.5f * w;
-  room.half_depth_m = 0.5f * d;
-  return true;
-}
-
-// "X,Z" or "X,Z,HEADING_DEG".
-bool parse_place(const std::string& text, Placement& place) {
-  float x = 0, z = 0, deg = 0;
-  char extra = 0;
-  const int n = std::sscanf(text.c_str(), "%f,%f,%f%c", &x, &z, &deg, &extra);
-  if (n != 2 && n != 3) return false;
-  if (!std::isfinite(x) || !std::isfinite(z) || !std::isfinite(deg)) return false;
-  place.position_m = {x, 0.0f, z};
-  place.heading_rad = deg * 3.14159265f / 180.0f;
-  return true;
-}
-
-struct SourceArgs {
-  std::string spec, body, calibration, place, navigate;
-};
-
 // The live status line, most useful first: the frame rate (per avatar) and a silent source
 // always show; then end-to-end latency, missed ticks and the broker; then the subscribers; the
 // per-stage timings go first when the terminal is narrow (docs/status-line.md).
@@ -190,348 +165,278 @@ void write_status(StatusLine& line, Pipeline& pipeline, net::Server* server, net
   line.emit();
 }
 
-// Splits repeated --source [--body] [--calibration] groups out of argv (the Args parser keeps
-// one value per key). --body and --calibration belong to the --source before them.
-bool take_sources(std::vector<std::string>& args, std::vector<SourceArgs>& out, std::string& error) {
-  std::vector<std::string> rest;
-  for (size_t i = 0; i < args.size(); ++i) {
-    const std::string a = args[i];
-    std::string key, value;
-    for (const char* k : {"--source", "--body", "--calibration", "--place", "--navigate"}) {
-      if (a == k) {
-        if (i + 1 >= args.size()) {
-          error = std::string("option ") + k + " needs a value";
-          return false;
-        }
-        key = k;
-        value = args[++i];
-      } else if (a.rfind(std::string(k) + "=", 0) == 0) {
-        key = k;
-        value = a.substr(std::string(k).size() + 1);
-      }
-    }
-    if (key.empty()) {
-      rest.push_back(a);
-      continue;
-    }
-    if (key == "--source") {
-      out.push_back({value, "", "", "", ""});
-      continue;
-    }
-    if (out.empty()) out.push_back({"sim:walk", "", "", "", ""});
-    std::string& slot = key == "--body"        ? out.back().body
-                        : key == "--calibration" ? out.back().calibration
-                        : key == "--place"       ? out.back().place
-                                                 : out.back().navigate;
-    if (!slot.empty()) {
-      error = "two " + key + " options for one --source";
-      return false;
-    }
-    slot = value;
-  }
-  args = rest;
-  return true;
-}
+// Everything the command line says, checked before anything is opened.
+struct RunOptions {
+  SceneSpec scene;
+  double duration_s = 0;
+  long rt_priority = 0;
+  std::string secret;
+  net::NatsOptions nats;
+};
 
-int run(const std::vector<std::string>& argv) {
-  std::vector<std::string> args = argv;
-  std::vector<SourceArgs> sources;
-  std::string error;
-  if (!take_sources(args, sources, error)) return usage_error("run", error);
-  Args a(args, {"listen", "secret", "publish", "vmc", "vrpn", "duration", "realtime", "mesh-lod", "mesh-method", "room",
-                 "nats", "scene", "nats-name", "nats-model-ttl", "nats-mesh-hz", "lean-shift", "lean-key-interval"},
-         {"json", "quiet", "no-udp"});
-  if (a.help()) {
-    std::printf("%s", kUsage);
-    return 0;
-  }
+// -1 when the options are good, else the exit code (the error printed).
+int parse_options(Args& a, RunOptions& o) {
   if (!a.ok()) return usage_error("run", a.error());
   if (!a.positionals().empty()) return usage_error("run", "unexpected argument '" + a.positionals()[0] + "'");
-  double duration_s = 0;
-  long rt_priority = 0, mesh_lod = 0;
-  if (!a.get_double("duration", duration_s) || !a.get_int("realtime", rt_priority) || !a.get_int("mesh-lod", mesh_lod))
+  long mesh_lod = 0;
+  if (!a.get_double("duration", o.duration_s) || !a.get_int("realtime", o.rt_priority) || !a.get_int("mesh-lod", mesh_lod))
     return usage_error("run", a.error());
   if (mesh_lod < 0 || mesh_lod >= kMeshLodCount)
     return usage_error("run", "--mesh-lod must be in 0.." + std::to_string(kMeshLodCount - 1));
+  o.scene.mesh_lod = int(mesh_lod);
   const auto mesh_method = avatar::parse_skin_method(a.get_or("mesh-method", "realtime"));
   if (!mesh_method) return usage_error("run", "--mesh-method: " + mesh_method.error().message);
-  if (rt_priority < 0 || rt_priority > 99) return usage_error("run", "--realtime takes a priority 1-99");
-  if (sources.empty()) sources.push_back({"sim:walk", "", "", "", ""});
-  Room room;
-  if (auto r = a.get("room"); r && !parse_room(*r, room))
+  o.scene.skin_method = *mesh_method;
+  if (o.rt_priority < 0 || o.rt_priority > 99) return usage_error("run", "--realtime takes a priority 1-99");
+  if (auto r = a.get("room"); r && !parse_room(*r, o.scene.room))
     return usage_error("run", "--room must be WxD in metres (2..100 each), got '" + *r + "'");
-
-  std::string secret = a.get_or("secret", "");
-  if (secret.empty())
-    if (const char* env = std::getenv("MIMIC_SECRET")) secret = env;
-
+  o.secret = a.get_or("secret", "");
+  if (o.secret.empty())
+    if (const char* env = std::getenv("MIMIC_SECRET")) o.secret = env;
   if (a.has("nats") && a.has("publish")) return usage_error("run", "--nats and --publish do not go together");
   if ((a.has("scene") || a.has("nats-name") || a.has("nats-model-ttl") || a.has("nats-mesh-hz")) && !a.has("nats"))
     return usage_error("run", "--scene, --nats-name, --nats-model-ttl and --nats-mesh-hz need --nats");
-  net::NatsOptions nats_options;
-  if (!a.get_double("nats-model-ttl", nats_options.model_ttl_s) || !a.get_double("nats-mesh-hz", nats_options.mesh_max_hz))
+  if (!a.get_double("nats-model-ttl", o.nats.model_ttl_s) || !a.get_double("nats-mesh-hz", o.nats.mesh_max_hz))
     return usage_error("run", a.error());
-  if (!(nats_options.model_ttl_s == 0 ||
-        (nats_options.model_ttl_s >= net::kMinModelTtl_s && nats_options.model_ttl_s <= net::kMaxModelTtl_s)))
+  if (!(o.nats.model_ttl_s == 0 || (o.nats.model_ttl_s >= net::kMinModelTtl_s && o.nats.model_ttl_s <= net::kMaxModelTtl_s)))
     return usage_error("run", "--nats-model-ttl must be 0 (never) or 3 to 86400 seconds");
-  if (!(nats_options.mesh_max_hz >= net::kMinMeshHz && nats_options.mesh_max_hz <= net::kMaxMeshHz))
+  if (!(o.nats.mesh_max_hz >= net::kMinMeshHz && o.nats.mesh_max_hz <= net::kMaxMeshHz))
     return usage_error("run", "--nats-mesh-hz must be 1 to 240");
-  // Setup: everything is allocated here, before the loop.
-  std::vector<std::unique_ptr<PoseFeed>> feeds;
-  std::vector<BodyAsset> bodies;
-  std::vector<std::unique_ptr<Deformer>> deformers;
-  // One scene: every avatar placed in the room (side by side along X unless --place says where),
-  // its place in the roster the actors read.
-  auto roster = std::make_shared<SceneRoster>(room);
-  for (size_t i = 0; i < sources.size(); ++i) roster->join();
-  for (size_t index = 0; index < sources.size(); ++index) {
-    const auto& [spec, body, calibration, place_text, navigate_text] = sources[index];
-    const int slot = static_cast<int>(index);
-    Placement place;
-    place.position_m.x = (static_cast<float>(index) - 0.5f * static_cast<float>(sources.size() - 1)) * 1.5f;
-    if (!place_text.empty() && !parse_place(place_text, place))
-      return usage_error("run", "--place must be X,Z[,HEADING_DEG] in metres, got '" + place_text + "'");
-    // The body first: its skeleton is the one the avatar's source is solved on.
-    auto asset = load_body(body);
-    if (!asset) return failure("run", asset.error().what());
-    auto built_skeleton = rig::Skeleton::build(asset->model.skeleton);
-    if (!built_skeleton) return failure("run", "body model " + body + ": " + built_skeleton.error().what());
-    const rig::Skeleton body_skeleton = std::move(*built_skeleton);
-    Result<std::unique_ptr<PoseFeed>> feed = tl::unexpected(Error{});
-    if (spec.rfind("actor:", 0) == 0) {
-      std::string actor_spec = spec;
-      if (!place_text.empty() && spec.find("x=") == std::string::npos) {
-        actor_spec.append(spec.find('?') == std::string::npos ? "?" : "&").append("x=").append(std::to_string(place.position_m.x));
-        actor_spec.append("&z=").append(std::to_string(place.position_m.z));
-      } else if (spec.find("x=") == std::string::npos) {
-        // Actors start spread over the room's back half, away from the participants' row.
-        actor_spec.append(spec.find('?') == std::string::npos ? "?" : "&").append("x=").append(std::to_string(place.position_m.x));
-        actor_spec.append("&z=").append(std::to_string(-0.4f * room.half_depth_m));
-      }
-      feed = make_actor_feed(actor_spec, roster, slot, &body_skeleton);
-      if (!feed) return usage_error("run", feed.error().message);
-    } else {
-      feed = open_feed(spec, calibration, &body_skeleton);
-      // A spec that does not parse is a usage error (2); a source that cannot be opened is not (1).
-      if (!feed && feed.error().code == Errc::invalid_argument) return usage_error("run", feed.error().what());
-      if (!feed) return failure("run", feed.error().what());
-      // A source that opened with a problem (e.g. a replayed log with damage) says so up front:
-      // otherwise it would play what it can and then fall silent without a word.
-      if (const std::string problem = (*feed)->status().last_error; !problem.empty())
-        std::fprintf(stderr, "mimic run: source %s: %s\n", spec.c_str(), problem.c_str());
-      std::unique_ptr<devices::InputSource> navigator;
-      NavigationOptions navigation;
-      if (!navigate_text.empty()) {
-        auto nav = parse_navigation(navigate_text);
-        if (!nav) return usage_error("run", "--navigate: " + nav.error().message);
-        navigation = nav->options;
-        auto input = sim::open_input_source(nav->device);
-        if (!input) return usage_error("run", "--navigate: " + input.error().message);
-        navigator = std::move(*input);
-      }
-      feed = place_in_scene(std::move(*feed), place, roster, slot, std::move(navigator), navigation);
-    }
-    auto deformer = make_skin_deformer(asset->model, (*feed)->skeleton(), int(mesh_lod), *mesh_method);
-    if (!deformer)
-      return failure("run", "body model " + (body.empty() ? std::string("(default)") : body) +
-                                " does not fit source " + spec + ": " + deformer.error().what());
-    feeds.push_back(std::move(*feed));
-    bodies.push_back(std::move(*asset));
-    deformers.push_back(std::move(*deformer));
-  }
-  // The network last: every option and source is checked before a port is taken, so a bad one
-  // is named as such even when another program holds the port.
+  return -1;
+}
+
+// The network outputs, each also a pose sink of the pipeline.
+struct Outputs {
   std::unique_ptr<net::Server> server;
   std::unique_ptr<net::Client> publisher;
   std::unique_ptr<net::NatsPublisher> nats;
-  std::string where;
+  std::unique_ptr<net::VmcSender> vmc;
+  std::unique_ptr<net::VrpnServer> vrpn;
+  std::string where;  // the first line on stdout
+
+  // The scene server first: it numbers the avatars for every sink (service/sink.h).
+  SinkList sinks() const {
+    SinkList out;
+    if (server) out.push_back(make_server_sink(*server));
+    if (publisher) out.push_back(make_publisher_sink(*publisher));
+    if (vmc) out.push_back(make_vmc_sink(*vmc));
+    if (vrpn) out.push_back(make_vrpn_sink(*vrpn));
+    if (nats) out.push_back(make_nats_sink(*nats));
+    return out;
+  }
+};
+
+// Host the scene here (--listen) or publish into a remote one (--publish); -1 when done.
+int open_scene_output(Args& a, const RunOptions& o, Outputs& out) {
   if (a.has("publish") && (a.has("lean-shift") || a.has("lean-key-interval")))
     return usage_error("run", "--lean-shift and --lean-key-interval set what this process serves: not with --publish");
   if (a.has("publish")) {
-    net::ClientOptions o;
-    o.connect = *a.get("publish");
-    o.role = net::Role::publisher;
-    o.secret = secret;
-    o.name = "mimic run";
-    auto c = net::Client::connect(o);
+    net::ClientOptions co;
+    co.connect = *a.get("publish");
+    co.role = net::Role::publisher;
+    co.secret = o.secret;
+    co.name = "mimic run";
+    auto c = net::Client::connect(co);
     if (!c) return failure("run", c.error().what());
-    publisher = std::move(*c);
-    where = "publishing into " + o.connect;
-  } else {
-    net::ServerOptions o;
-    // Sessions are bounded by the descriptors the process may hold: as many as the system allows.
-    raise_descriptor_limit();
-    o.listen = a.get_or("listen", "127.0.0.1:7777");
-    // Mesh frames are deformed at one LOD: a subscriber asking for another is told so.
-    o.mesh_lods_served = static_cast<uint8_t>(1u << mesh_lod);
-    o.secret = secret;
-    o.udp = !a.has("no-udp");
-    if (const std::string e = take_lean_flags(a, o); !e.empty()) return usage_error("run", e);
-    auto s = net::Server::create(o);
-    if (!s) return failure("run", s.error().what());
-    server = std::move(*s);
-    where = "serving on " + server->endpoint();
+    out.publisher = std::move(*c);
+    out.where = "publishing into " + co.connect;
+    return -1;
   }
+  net::ServerOptions so;
+  // Sessions are bounded by the descriptors the process may hold: as many as the system allows.
+  raise_descriptor_limit();
+  so.listen = a.get_or("listen", "127.0.0.1:7777");
+  // Mesh frames are deformed at one LOD: a subscriber asking for another is told so.
+  so.mesh_lods_served = static_cast<uint8_t>(1u << o.scene.mesh_lod);
+  so.secret = o.secret;
+  so.udp = !a.has("no-udp");
+  if (const std::string e = take_lean_flags(a, so); !e.empty()) return usage_error("run", e);
+  auto s = net::Server::create(so);
+  if (!s) return failure("run", s.error().what());
+  out.server = std::move(*s);
+  out.where = "serving on " + out.server->endpoint();
+  return -1;
+}
+
+// Everything after the scene: the network last, so every option and source is checked before a
+// port is taken (a bad one is named as such even when another program holds the port).
+int open_outputs(Args& a, const RunOptions& o, Outputs& out) {
+  if (int rc = open_scene_output(a, o, out); rc >= 0) return rc;
   if (a.has("nats")) {
-    net::NatsOptions o = nats_options;
-    o.servers = *a.get("nats");
-    o.scene = a.get_or("scene", "default");
+    net::NatsOptions no = o.nats;
+    no.servers = *a.get("nats");
+    no.scene = a.get_or("scene", "default");
     char host[256] = {};
-    o.name = a.get_or("nats-name", ::gethostname(host, sizeof host - 1) == 0 && host[0] ? host : "mimic");
-    net::nats_credentials_from_env(o);
-    auto p = net::NatsPublisher::create(o);
+    no.name = a.get_or("nats-name", ::gethostname(host, sizeof host - 1) == 0 && host[0] ? host : "mimic");
+    net::nats_credentials_from_env(no);
+    auto p = net::NatsPublisher::create(no);
     if (!p) return failure("run", p.error().what());
-    nats = std::move(*p);
-    const std::string shown = net::nats_display_servers(o.servers);
-    where += "; publishing scene '" + o.scene + "' as '" + o.name + "' through " + shown;
-    if (!nats->connected())
+    out.nats = std::move(*p);
+    const std::string shown = net::nats_display_servers(no.servers);
+    out.where += "; publishing scene '" + no.scene + "' as '" + no.name + "' through " + shown;
+    if (!out.nats->connected())
       std::fprintf(stderr, "mimic run: NATS broker %s not reachable: serving the local listeners, joining it when it comes up\n",
                    shown.c_str());
   }
-  std::unique_ptr<net::VmcSender> vmc;
   if (a.has("vmc")) {
     auto v = net::VmcSender::open(*a.get("vmc"));
     if (!v) return failure("run", v.error().what());
-    vmc = std::move(*v);
-    for (const auto& f : feeds)
-      if (auto st = vmc->add_avatar(f->skeleton()); !st) return failure("run", st.error().what());
+    out.vmc = std::move(*v);
   }
-  std::unique_ptr<net::VrpnServer> vrpn;
   if (a.has("vrpn")) {
     auto v = net::VrpnServer::create(*a.get("vrpn"));
     if (!v) return failure("run", v.error().what());
-    vrpn = std::move(*v);
-    for (const auto& f : feeds)
-      if (auto st = vrpn->add_avatar(f->skeleton()); !st) return failure("run", st.error().what());
-    std::fprintf(stderr, "mimic run: VRPN trackers Avatar0..%zu and Sensors0..%zu on %s\n", feeds.size() - 1,
-                 feeds.size() - 1, vrpn->endpoint().c_str());
+    out.vrpn = std::move(*v);
   }
-  PipelineOutputs outputs{server.get(), publisher.get(), vmc.get()};
-  outputs.vrpn = vrpn.get();
-  outputs.nats = nats.get();
-  Pipeline pipeline(outputs);
-  // Sleep between passes: new samples wait at most about this long (plus the timer slack).
-  constexpr int kIdleUs = 100;
-  size_t model_bytes_total = 0;
-  for (size_t i = 0; i < feeds.size(); ++i) {
-    const uint16_t dofs = static_cast<uint16_t>(feeds[i]->skeleton().dof_count());
-    const auto* mesh = deformers[i]->mesh();
+  return -1;
+}
+
+// The scene's avatars into the pipeline (announced to every sink); -1 when done.
+int add_avatars(Scene& scene, long mesh_lod, Pipeline& pipeline, size_t& model_bytes_total) {
+  for (size_t i = 0; i < scene.avatars.size(); ++i) {
+    SceneAvatar& av = scene.avatars[i];
+    const uint16_t dofs = static_cast<uint16_t>(av.feed->skeleton().dof_count());
+    const auto* mesh = av.deformer->mesh();
     std::fprintf(stderr,
                  "mimic run: avatar %zu: %s; body '%s', model %zu bytes; pose frame %zu bytes; mesh LOD %ld %zu "
                  "vertices %zu triangles\n",
-                 i + 1, feeds[i]->describe().c_str(), bodies[i].model.name.c_str(), bodies[i].bytes.size(),
+                 i + 1, av.feed->describe().c_str(), av.body.model.name.c_str(), av.body.bytes.size(),
                  net::pose_packet_bytes(dofs), mesh_lod, mesh ? mesh->positions.size() : 0,
                  mesh ? mesh->triangle_count() : 0);
-    model_bytes_total += bodies[i].bytes.size();
-    if (auto st = pipeline.add_avatar("avatar" + std::to_string(i + 1), std::move(feeds[i]), std::move(bodies[i].bytes),
-                                      std::move(deformers[i]));
+    model_bytes_total += av.body.bytes.size();
+    if (auto st = pipeline.add_avatar("avatar" + std::to_string(i + 1), std::move(av.feed), std::move(av.body.bytes),
+                                      std::move(av.deformer));
         !st)
       return failure("run", st.error().what());
   }
-  if (rt_priority > 0 && !set_realtime_priority(int(rt_priority)))
+  return -1;
+}
+
+// The loop's own health, beside the pipeline's counters.
+struct LoopStats {
+  uint64_t loop_allocations = 0;
+  uint64_t missed_ticks = 0;  // frame periods the loop did not run in (a busy machine, a stall)
+  double longest_gap_ms = 0;
+  size_t model_bytes = 0;
+};
+
+// The --json summary (also printed on SIGUSR1).
+nlohmann::json summary(Pipeline& pipeline, const Outputs& out, const LoopStats& loop, double elapsed) {
+  const net::VrpnServer* vrpn = out.vrpn.get();
+  const net::Server* server = out.server.get();
+  const net::NatsPublisher* nats = out.nats.get();
+  const uint64_t loop_allocations = loop.loop_allocations, missed_ticks = loop.missed_ticks;
+  const double longest_gap_ms = loop.longest_gap_ms;
+  const size_t model_bytes_total = loop.model_bytes;
+  nlohmann::json j;
+  j["duration_s"] = elapsed;
+  j["avatars"] = pipeline.avatar_count();
+  j["frames"] = pipeline.frames();
+  j["fps"] = double(pipeline.frames()) / std::max(elapsed, 1e-9) / double(std::max<size_t>(1, pipeline.avatar_count()));
+  j["send_failures"] = pipeline.send_failures();
+  j["silent_sources"] = pipeline.silent_sources();  // their last pose repeats, flagged stale
+  j["stale_frames"] = pipeline.stale_frames();
+  j["loop_allocations"] = loop_allocations;
+  j["missed_ticks"] = missed_ticks;
+  j["longest_gap_ms"] = longest_gap_ms;
+  j["model_bytes"] = model_bytes_total;
+  for (int s = 0; s < kStageCount; ++s) {
+    const auto sum = pipeline.timer(s).summary();
+    j["stages"][stage_name(s)] = {{"p50_us", sum.p50_us}, {"p99_us", sum.p99_us}, {"max_us", sum.max_us},
+                                  {"count", sum.count}};
+  }
+  if (vrpn) {
+    const auto st = vrpn->stats();
+    j["vrpn"] = {{"endpoint", vrpn->endpoint()}, {"connections", st.connections}, {"clients", st.clients},
+                 {"reports", st.reports}, {"udp_datagrams", st.udp_datagrams}, {"frames_dropped", st.frames_dropped},
+                 {"pongs", st.pongs}, {"refused", st.refused}};
+  }
+  if (server) {
+    const auto& st = server->stats();
+    j["server"] = {{"endpoint", server->endpoint()},  {"sessions_accepted", st.sessions_accepted},
+                   {"subscribers", st.subscribers},   {"frames_out", st.frames_out},
+                   {"frames_dropped", st.frames_dropped}, {"bytes_out", st.bytes_out},
+                   {"rejected", st.rejected_total()}, {"resumed", st.resumed},
+                   {"udp", server->udp()},            {"udp_registered", st.udp_registered},
+                   {"udp_frames_out", st.udp_frames_out}, {"udp_challenges", st.udp_challenges},
+                   {"udp_wrong_address", st.udp_wrong_address}, {"udp_expired", st.udp_expired},
+                   {"sessions_open", st.sessions_open}, {"sessions_timed_out", st.sessions_timed_out},
+                   {"sessions_refused_per_address", st.sessions_refused_per_address},
+                   {"sessions_closed_slow", st.sessions_closed_slow}, {"model_bytes_held", st.model_bytes_held},
+                   {"key_requests", st.key_requests}, {"mesh_frames_out", st.mesh_frames_out},
+                   {"models_refused", st.models_refused}, {"mesh_topologies_refused", st.mesh_topologies_refused},
+                   {"sessions_out_of_memory", st.sessions_out_of_memory}, {"udp_own_address", st.udp_own_address},
+                   {"udp_answers_limited", st.udp_answers_limited}, {"accept_errors", st.accept_errors},
+                   {"secret_backoffs", st.secret_backoffs}, {"poll_budget_hit", st.poll_budget_hit},
+                   {"max_sessions", st.max_sessions_effective}};
+    for (int r = 1; r < net::kRejectCount; ++r)
+      if (st.rejected[size_t(r)]) j["server"]["rejected_by_reason"][net::reject_name(net::Reject(r))] = st.rejected[size_t(r)];
+  }
+  if (nats) {
+    const auto ns = nats->stats();
+    j["nats"] = {{"connected", ns.connected}, {"frames", ns.frames}, {"frames_dropped", ns.frames_dropped},
+                 {"models", ns.models}, {"model_failures", ns.model_failures}, {"mesh_frames", ns.mesh_frames},
+                 {"mesh_requests", ns.mesh_requests}, {"topologies", ns.topologies},
+                 {"topologies_refused", ns.topologies_refused}, {"disconnects", ns.disconnects},
+                 {"reconnects", ns.reconnects}, {"last_error", ns.last_error}};
+  }
+  return j;
+}
+
+// Announces the priority the loop got, then the endpoint (handlers first: whoever reads that
+// line may signal at once).
+void start_loop(const RunOptions& o, const Outputs& out, const Pipeline& pipeline) {
+  if (out.vrpn)
+    std::fprintf(stderr, "mimic run: VRPN trackers Avatar0..%zu and Sensors0..%zu on %s\n", pipeline.avatar_count() - 1,
+                 pipeline.avatar_count() - 1, out.vrpn->endpoint().c_str());
+  if (o.rt_priority > 0 && !set_thread_fifo(int(o.rt_priority)))
     std::fprintf(stderr, "mimic run: SCHED_FIFO priority %ld refused (needs CAP_SYS_NICE); running unprioritised\n",
-                 rt_priority);
+                 o.rt_priority);
   // Without --realtime the loop still asks for a raised priority (nice -10) where the system
   // permits it, so other work on a busy machine does not take its ticks.
-  if (rt_priority == 0 && !raise_thread_nice(kLoopNice))
+  if (o.rt_priority == 0 && !raise_thread_nice(kLoopNice))
     std::fprintf(stderr, "mimic run: raised priority refused (nice %d needs CAP_SYS_NICE or RLIMIT_NICE); "
                  "a busy machine may delay frames (missed ticks are counted)\n", kLoopNice);
-  // Handlers before announcing the endpoint: whoever reads that line may signal at once.
   clear_stop_request();
   g_report = false;
   install_stop_handler();
   std::signal(SIGUSR1, on_report_signal);
-  std::printf("%s\n", where.c_str());
+  std::printf("%s\n", out.where.c_str());
   std::fflush(stdout);
-  if (server) std::fprintf(stderr, "mimic run: watch it with: mimic view --connect %s\n", server->endpoint().c_str());
+  if (out.server) std::fprintf(stderr, "mimic run: watch it with: mimic view --connect %s\n", out.server->endpoint().c_str());
+}
 
+// Until Ctrl-C, --duration or the remote scene ends; returns the seconds it ran.
+double run_loop(const RunOptions& o, bool status_line, Pipeline& pipeline, const Outputs& out, LoopStats& loop) {
+  // Sleep between passes: new samples wait at most about this long (plus the timer slack).
+  constexpr int kIdleUs = 100;
   // Allocations inside the frame work (read → send), counted once the first frames have warmed
   // every buffer up; the network servicing between frames (joins, leaves) may allocate.
   constexpr uint64_t kWarmupFrames = 100;
-  uint64_t loop_allocations = 0;
-  uint64_t missed_ticks = 0;  // frame periods the loop did not run in (a busy machine, a stall)
-  double longest_gap_ms = 0;
-  auto summary = [&](double elapsed) {
-    nlohmann::json j;
-    j["duration_s"] = elapsed;
-    j["avatars"] = pipeline.avatar_count();
-    j["frames"] = pipeline.frames();
-    j["fps"] = double(pipeline.frames()) / std::max(elapsed, 1e-9) / double(std::max<size_t>(1, pipeline.avatar_count()));
-    j["send_failures"] = pipeline.send_failures();
-    j["silent_sources"] = pipeline.silent_sources();  // their last pose repeats, flagged stale
-    j["stale_frames"] = pipeline.stale_frames();
-    j["loop_allocations"] = loop_allocations;
-    j["missed_ticks"] = missed_ticks;
-    j["longest_gap_ms"] = longest_gap_ms;
-    j["model_bytes"] = model_bytes_total;
-    for (int s = 0; s < kStageCount; ++s) {
-      const auto sum = pipeline.timer(s).summary();
-      j["stages"][stage_name(s)] = {{"p50_us", sum.p50_us}, {"p99_us", sum.p99_us}, {"max_us", sum.max_us},
-                                    {"count", sum.count}};
-    }
-    if (vrpn) {
-      const auto st = vrpn->stats();
-      j["vrpn"] = {{"endpoint", vrpn->endpoint()}, {"connections", st.connections}, {"clients", st.clients},
-                   {"reports", st.reports}, {"udp_datagrams", st.udp_datagrams}, {"frames_dropped", st.frames_dropped},
-                   {"pongs", st.pongs}, {"refused", st.refused}};
-    }
-    if (server) {
-      const auto& st = server->stats();
-      j["server"] = {{"endpoint", server->endpoint()},  {"sessions_accepted", st.sessions_accepted},
-                     {"subscribers", st.subscribers},   {"frames_out", st.frames_out},
-                     {"frames_dropped", st.frames_dropped}, {"bytes_out", st.bytes_out},
-                     {"rejected", st.rejected_total()}, {"resumed", st.resumed},
-                     {"udp", server->udp()},            {"udp_registered", st.udp_registered},
-                     {"udp_frames_out", st.udp_frames_out}, {"udp_challenges", st.udp_challenges},
-                     {"udp_wrong_address", st.udp_wrong_address}, {"udp_expired", st.udp_expired},
-                     {"sessions_open", st.sessions_open}, {"sessions_timed_out", st.sessions_timed_out},
-                     {"sessions_refused_per_address", st.sessions_refused_per_address},
-                     {"sessions_closed_slow", st.sessions_closed_slow}, {"model_bytes_held", st.model_bytes_held},
-                     {"key_requests", st.key_requests}, {"mesh_frames_out", st.mesh_frames_out},
-                     {"models_refused", st.models_refused}, {"mesh_topologies_refused", st.mesh_topologies_refused},
-                     {"sessions_out_of_memory", st.sessions_out_of_memory}, {"udp_own_address", st.udp_own_address},
-                     {"udp_answers_limited", st.udp_answers_limited}, {"accept_errors", st.accept_errors},
-                     {"secret_backoffs", st.secret_backoffs}, {"poll_budget_hit", st.poll_budget_hit},
-                     {"max_sessions", st.max_sessions_effective}};
-      for (int r = 1; r < net::kRejectCount; ++r)
-        if (st.rejected[size_t(r)]) j["server"]["rejected_by_reason"][net::reject_name(net::Reject(r))] = st.rejected[size_t(r)];
-    }
-    if (nats) {
-      const auto ns = nats->stats();
-      j["nats"] = {{"connected", ns.connected}, {"frames", ns.frames}, {"frames_dropped", ns.frames_dropped},
-                   {"models", ns.models}, {"model_failures", ns.model_failures}, {"mesh_frames", ns.mesh_frames},
-                   {"mesh_requests", ns.mesh_requests}, {"topologies", ns.topologies},
-                   {"topologies_refused", ns.topologies_refused}, {"disconnects", ns.disconnects},
-                   {"reconnects", ns.reconnects}, {"last_error", ns.last_error}};
-    }
-    return j;
-  };
-  const bool status_line = !a.has("quiet");
   using C = std::chrono::steady_clock;
   const auto start = C::now();
   StatusLine status(stderr);
   uint64_t last_frames = 0;
-  auto last_status = start;
-  auto last_pass = start;
+  auto last_status = start, last_pass = start;
   while (!stop_requested()) {
     const auto now = C::now();
-    if (duration_s > 0 && now - start >= std::chrono::duration<double>(duration_s)) break;
+    if (o.duration_s > 0 && now - start >= std::chrono::duration<double>(o.duration_s)) break;
     if (const auto gap = now - last_pass; gap > 2 * kTickPeriod) {
-      missed_ticks += uint64_t(gap / kTickPeriod) - 1;
-      longest_gap_ms = std::max(longest_gap_ms, std::chrono::duration<double, std::milli>(gap).count());
+      loop.missed_ticks += uint64_t(gap / kTickPeriod) - 1;
+      loop.longest_gap_ms = std::max(loop.longest_gap_ms, std::chrono::duration<double, std::milli>(gap).count());
     }
     last_pass = now;
     const uint64_t allocs_before = thread_allocation_count();
     const bool warm = pipeline.frames() >= kWarmupFrames;
     pipeline.tick();
-    if (warm) loop_allocations += thread_allocation_count() - allocs_before;
-    if (auto st = service_network(outputs, kIdleUs); !st) {
+    if (warm) loop.loop_allocations += thread_allocation_count() - allocs_before;
+    if (auto st = pipeline.service_network(kIdleUs); !st) {
       std::fprintf(stderr, "\nmimic run: %s\n", st.error().what().c_str());
       break;
     }
     if (g_report.exchange(false)) {
       // On request (SIGUSR1): the same JSON as at exit, one line on stdout.
-      std::printf("%s\n", summary(std::chrono::duration<double>(C::now() - start).count()).dump().c_str());
+      std::printf("%s\n", summary(pipeline, out, loop, std::chrono::duration<double>(C::now() - start).count()).dump().c_str());
       std::fflush(stdout);
     }
     if (status_line && status.due(C::now())) {
@@ -540,18 +445,44 @@ int run(const std::vector<std::string>& argv) {
       const double fps = double(pipeline.frames() - last_frames) / std::max(dt, 1e-9) / double(avatars);
       last_frames = pipeline.frames();
       last_status = C::now();
-      write_status(status, pipeline, server.get(), nats.get(), fps, missed_ticks, longest_gap_ms);
+      write_status(status, pipeline, out.server.get(), out.nats.get(), fps, loop.missed_ticks, loop.longest_gap_ms);
     }
   }
+  if (status_line) status.finish();
+  return std::chrono::duration<double>(C::now() - start).count();
+}
+
+int run(const std::vector<std::string>& argv) {
+  std::vector<std::string> args = argv;
+  RunOptions o;
+  std::string error;
+  if (!take_sources(args, o.scene.sources, error)) return usage_error("run", error);
+  Args a(args, {"listen", "secret", "publish", "vmc", "vrpn", "duration", "realtime", "mesh-lod", "mesh-method", "room",
+                 "nats", "scene", "nats-name", "nats-model-ttl", "nats-mesh-hz", "lean-shift", "lean-key-interval"},
+         {"json", "quiet", "no-udp"});
+  if (a.help()) {
+    std::printf("%s", kUsage);
+    return 0;
+  }
+  if (int rc = parse_options(a, o); rc >= 0) return rc;
+  // Setup: everything is allocated here, before the loop.
+  auto scene = build_scene(o.scene);
+  if (!scene) return scene.error().usage ? usage_error("run", scene.error().message) : failure("run", scene.error().message);
+  for (const std::string& note : scene->notes) std::fprintf(stderr, "mimic run: %s\n", note.c_str());
+  Outputs out;
+  if (int rc = open_outputs(a, o, out); rc >= 0) return rc;
+  Pipeline pipeline(out.sinks());
+  LoopStats loop;
+  if (int rc = add_avatars(*scene, o.scene.mesh_lod, pipeline, loop.model_bytes); rc >= 0) return rc;
+  start_loop(o, out, pipeline);
+  const double elapsed = run_loop(o, !a.has("quiet"), pipeline, out, loop);
   std::signal(SIGINT, SIG_DFL);
   std::signal(SIGTERM, SIG_DFL);
   std::signal(SIGUSR1, SIG_DFL);
-  if (status_line) status.finish();
-  const double elapsed = std::chrono::duration<double>(C::now() - start).count();
   std::fprintf(stderr, "mimic run: stopped after %.1f s, %llu frames\n", elapsed, static_cast<unsigned long long>(pipeline.frames()));
-  if (a.has("json")) std::printf("%s\n", summary(elapsed).dump().c_str());
-  if (publisher) publisher->close();
-  nats.reset();  // a clean leave: this publisher's avatars leave the scene
+  if (a.has("json")) std::printf("%s\n", summary(pipeline, out, loop, elapsed).dump().c_str());
+  if (out.publisher) out.publisher->close();
+  out.nats.reset();  // a clean leave: this publisher's avatars leave the scene
   return 0;
 }
 

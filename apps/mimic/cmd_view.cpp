@@ -15,6 +15,7 @@
 #include "mimic/render/offscreen.h"
 #include "mimic/render/overlays.h"
 #include "mimic/render/renderer.h"
+#include "source_args.h"
 #include "view_interactive.h"
 
 namespace mimic::app {
@@ -42,11 +43,18 @@ constexpr const char* kUsage =
     "  --empty               no avatar: the floor alone\n"
     "\n"
     "interactive sources (default: sim:walk, as mimic run: the built-in walk on six simulated\n"
-    "trackers):\n"
-    "  --source SPECS        any source `mimic run` takes: sim:walk?sensors=11, replay:FILE.mlog,\n"
-    "                        bvh:CLIP, flock:/dev/ttyUSB0?birds=4 ...; several, separated by ';',\n"
-    "                        stand side by side\n"
-    "  --calibration FILE    calibration of the wearer (mimic calibrate) for a tracker source\n"
+    "trackers); the scene is built as `mimic run` builds it:\n"
+    "  --source SPEC         any source `mimic run` takes: sim:walk?sensors=11, replay:FILE.mlog,\n"
+    "                        bvh:CLIP, flock:/dev/ttyUSB0?birds=4, vmc:PORT, actor:wander ...;\n"
+    "                        repeat for several avatars (or separate specs with ';'). After a\n"
+    "                        --source, these options are its own:\n"
+    "    --body FILE         its body model (before any --source: every avatar's)\n"
+    "    --calibration FILE  its wearer's calibration (mimic calibrate; before any --source:\n"
+    "                        every tracker's)\n"
+    "    --place X,Z[,DEG]   where it stands (default: side by side along X, 1.5 m apart)\n"
+    "    --navigate SPEC     move it with a 6-DOF device: spaceball:PATH, magellan:PATH,\n"
+    "                        spacemouse[:sim] (?speed=M/S&turn=RAD/S&dead=ZONE)\n"
+    "  --room WxD            the room's size in metres (default 8x8; actors stay inside)\n"
     "  --connect HOST:PORT   view the scene a `mimic run` (or `mimic relay`) serves: body models\n"
     "                        once, then pose frames, every avatar deformed here\n"
     "  --connect nats://HOST:PORT[,nats://HOST:PORT...]/SCENE\n"
@@ -221,10 +229,16 @@ int screenshot(Args& args, const ViewOptions& view) {
 }
 
 int run_view(const std::vector<std::string>& argv) {
-  Args args(argv,
+  // The --source groups first (as mimic run takes them); --body and --calibration before any
+  // --source stay here, for every avatar (and --body for screenshots).
+  std::vector<std::string> rest = argv;
+  ViewOptions view;
+  std::string error;
+  if (!take_sources(rest, view.sources, error, {.leading_defaults = true, .split_lists = true}))
+    return usage_error(kName, error);
+  Args args(rest,
             {"screenshot", "bvh", "frame", "scale", "motion", "time", "pose", "set", "camera", "size", "lod", "overlay",
-             "ray-ring", "body", "source", "calibration", "connect", "frames", "capture", "eyes",
-             "frame-height", "method"},
+             "ray-ring", "body", "calibration", "connect", "frames", "capture", "eyes", "frame-height", "method", "room"},
             {"empty", "no-grid", "see-through", "no-vsync", "help-overlay", "no-panel", "no-lean"});
   if (args.help()) {
     std::printf("%s", kUsage);
@@ -232,8 +246,12 @@ int run_view(const std::vector<std::string>& argv) {
   }
   if (!args.ok()) return usage_error(kName, args.error());
   if (!args.positionals().empty()) return usage_error(kName, "unexpected argument '" + args.positionals()[0] + "'");
-
-  ViewOptions view;
+  for (service::SourceEntry& e : view.sources) {
+    if (e.body.empty()) e.body = args.get_or("body", "");
+    if (e.calibration.empty()) e.calibration = args.get_or("calibration", "");
+  }
+  if (auto r = args.get("room"); r && !service::parse_room(*r, view.room))
+    return usage_error(kName, "--room must be WxD in metres (2..100 each), got '" + *r + "'");
   if (auto cam = args.get("camera")) {
     auto preset = render::parse_camera_preset(*cam);
     if (!preset) return usage_error(kName, "--camera must be front, side, back or three-quarter, got '" + *cam + "'");
@@ -264,10 +282,16 @@ int run_view(const std::vector<std::string>& argv) {
   }
 
   if (args.has("screenshot")) {
-    if (args.has("source") || args.has("connect")) return usage_error(kName, "--screenshot draws a posed body: give --bvh, --motion or --pose, not --source or --connect");
+    if (!view.sources.empty() || args.has("connect"))
+      return usage_error(kName, "--screenshot draws a posed body: give --bvh, --motion or --pose, not --source or --connect");
     return screenshot(args, view);
   }
-  if (args.has("source") && args.has("connect")) return usage_error(kName, "give --source or --connect, not both");
+  if (!view.sources.empty() && args.has("connect")) return usage_error(kName, "give --source or --connect, not both");
+  if (view.sources.empty() && !args.has("connect")) {
+    view.sources.emplace_back();  // sim:walk
+    view.sources.back().body = args.get_or("body", "");
+    view.sources.back().calibration = args.get_or("calibration", "");
+  }
   // A window is wider than a portrait screenshot: room for the status panel beside the body.
   if (!args.has("size")) view.width = 960;
   return run_interactive(args, view);

@@ -7,6 +7,7 @@
 #include "command.h"
 #include "mimic/render/camera.h"
 #include "mimic/render/overlays.h"
+#include "mimic/service/scene_builder.h"
 
 namespace mimic::app {
 
@@ -20,6 +21,9 @@ struct ViewOptions {
   bool see_through = false;
   float frame_height_m = 0;  // screenshots: > 0 frames this height about the origin
   avatar::SkinMethod method = avatar::SkinMethod::realtime;  // how the drawn skin is made
+  // The local scene (without --connect): what `mimic run` would serve (service/scene_builder.h).
+  std::vector<service::SourceEntry> sources;
+  service::Room room;
 };
 
 int run_interactive(Args& args, const ViewOptions& view);

@@ -87,14 +87,10 @@ std::optional<glm::dquat> t_pose_heading(std::span<const RigidTransform> w0, con
   return glm::angleAxis(std::atan2(-left.z, left.x), up);
 }
 
-Result<Plan> make_plan(const BvhClip& clip) {
-  auto tmpl = Skeleton::build(default_skeleton_desc());
-  if (!tmpl) return tl::unexpected(tmpl.error());
-  const Skeleton& t = *tmpl;
+// Which clip joint plays each Mimic joint: by Mimic's own names (our export) or CMU's; the
+// mapped joints must keep Mimic's ancestry.
+Status map_joints(const BvhClip& clip, const Skeleton& t, Plan& plan) {
   const int n = t.joint_count();
-  Plan plan;
-  plan.bvh.assign(n, -1);
-
   // Naming convention: Mimic's own (our export) or CMU's.
   const bool own = clip.find_joint("pelvis") >= 0;
   for (int m = 0; m < n; ++m) {
@@ -118,6 +114,52 @@ Result<Plan> make_plan(const BvhClip& clip) {
       return fail(Errc::unsupported, clip.source_name + ": joint '" + clip.joints[plan.bvh[m]].name + "' is not below '" +
                                          clip.joints[plan.bvh[t.parent(m)]].name + "' as the skeleton needs");
   }
+
+  return {};
+}
+
+// How each joint of the fitted skeleton is solved: the root, joints without DOFs, exact Euler
+// triples, aim joints, and the two-bone chains (hip-knee-ankle, shoulder-elbow-wrist).
+void classify_joints(Plan& plan) {
+  const Skeleton& s = plan.skeleton;
+  const int n = s.joint_count();
+  plan.kind.assign(n, Solve::rotation);
+  plan.lower.assign(n, -1);
+  plan.end.assign(n, -1);
+  for (int m = 0; m < n; ++m) {
+    const int dofs = s.dof_end(m) - s.dof_begin(m);
+    if (m == 0) plan.kind[m] = Solve::root;
+    else if (dofs == 0) plan.kind[m] = Solve::none;
+    else if (orthogonal_triple(s, m)) plan.kind[m] = Solve::rotation;
+    else if (dofs <= 2 && glm::length(s.tip_m(m)) > 1e-6f) plan.kind[m] = Solve::aim;
+  }
+  for (const auto& chain : kChains) {
+    const int u = s.find_joint(chain[0]), l = s.find_joint(chain[1]), e = s.find_joint(chain[2]);
+    if (u < 0 || l < 0 || e < 0 || s.parent(l) != u || s.parent(e) != l || !orthogonal_triple(s, u)) continue;
+    if (s.dof_end(l) == s.dof_begin(l)) continue;
+    const glm::vec3 h = s.dof(s.dof_begin(l)).axis;
+    const int extra = (s.dof_end(l) - s.dof_begin(l) - 1) + (s.dof_end(e) - s.dof_begin(e));
+    // The hinge must be normal to both links, and what follows it must fit one decomposition.
+    if (std::abs(glm::dot(h, glm::normalize(s.offset_m(l)))) > 1e-4f ||
+        std::abs(glm::dot(h, glm::normalize(s.offset_m(e)))) > 1e-4f || extra > kMaxJointDofs)
+      continue;
+    plan.kind[u] = Solve::chain_upper;
+    plan.kind[l] = plan.kind[e] = Solve::chain_member;
+    plan.lower[u] = l;
+    plan.end[u] = e;
+  }
+}
+
+Result<Plan> make_plan(const BvhClip& clip) {
+  auto tmpl = Skeleton::build(default_skeleton_desc());
+  if (!tmpl) return tl::unexpected(tmpl.error());
+  const Skeleton& t = *tmpl;
+  const int n = t.joint_count();
+  Plan plan;
+  plan.bvh.assign(n, -1);
+
+  if (auto st = map_joints(clip, t, plan); !st) return tl::unexpected(st.error());
+  const bool own = clip.find_joint("pelvis") >= 0;
 
   // Clip rest positions (all channels zero), metres.
   const double mpu = clip.metres_per_unit;
@@ -205,33 +247,7 @@ Result<Plan> make_plan(const BvhClip& clip) {
   auto fitted = Skeleton::build(desc);
   if (!fitted) return tl::unexpected(fitted.error());
   plan.skeleton = std::move(*fitted);
-  const Skeleton& s = plan.skeleton;
-
-  plan.kind.assign(n, Solve::rotation);
-  plan.lower.assign(n, -1);
-  plan.end.assign(n, -1);
-  for (int m = 0; m < n; ++m) {
-    const int dofs = s.dof_end(m) - s.dof_begin(m);
-    if (m == 0) plan.kind[m] = Solve::root;
-    else if (dofs == 0) plan.kind[m] = Solve::none;
-    else if (orthogonal_triple(s, m)) plan.kind[m] = Solve::rotation;
-    else if (dofs <= 2 && glm::length(s.tip_m(m)) > 1e-6f) plan.kind[m] = Solve::aim;
-  }
-  for (const auto& chain : kChains) {
-    const int u = s.find_joint(chain[0]), l = s.find_joint(chain[1]), e = s.find_joint(chain[2]);
-    if (u < 0 || l < 0 || e < 0 || s.parent(l) != u || s.parent(e) != l || !orthogonal_triple(s, u)) continue;
-    if (s.dof_end(l) == s.dof_begin(l)) continue;
-    const glm::vec3 h = s.dof(s.dof_begin(l)).axis;
-    const int extra = (s.dof_end(l) - s.dof_begin(l) - 1) + (s.dof_end(e) - s.dof_begin(e));
-    // The hinge must be normal to both links, and what follows it must fit one decomposition.
-    if (std::abs(glm::dot(h, glm::normalize(s.offset_m(l)))) > 1e-4f ||
-        std::abs(glm::dot(h, glm::normalize(s.offset_m(e)))) > 1e-4f || extra > kMaxJointDofs)
-      continue;
-    plan.kind[u] = Solve::chain_upper;
-    plan.kind[l] = plan.kind[e] = Solve::chain_member;
-    plan.lower[u] = l;
-    plan.end[u] = e;
-  }
+  classify_joints(plan);
   return plan;
 }
 

@@ -89,7 +89,122 @@ class OscTrackerSource final : public devices::SensorSource {
   uint64_t samples_ = 0;
 };
 
+// (serial, segment) pairs of a vmc: map=.
+Result<std::vector<std::pair<std::string, std::string>>> device_map(const devices::SourceSpec& spec) {
+  std::vector<std::pair<std::string, std::string>> out;
+  auto it = spec.params.find("map");
+  if (it == spec.params.end()) return fail(Errc::invalid_argument, "vmc devices: map=SERIAL:SEGMENT,… is needed");
+  for (const std::string& item : split_list(it->second)) {
+    const size_t colon = item.rfind(':');
+    if (colon == std::string::npos || colon == 0 || colon + 1 == item.size())
+      return fail(Errc::invalid_argument, "vmc map: expected SERIAL:SEGMENT, got '" + item + "'");
+    out.emplace_back(item.substr(0, colon), item.substr(colon + 1));
+  }
+  if (out.size() > net::kMaxVmcDevices)
+    return fail(Errc::invalid_argument, "vmc map: more than " + std::to_string(net::kMaxVmcDevices) + " devices");
+  return out;
+}
+
+class VmcDeviceSource final : public devices::SensorSource {
+ public:
+  VmcDeviceSource(std::unique_ptr<net::VmcReceiver> rx, std::vector<std::string> serials,
+                  std::shared_ptr<const Clock> clock, double stale_s)
+      : rx_(std::move(rx)), serials_(std::move(serials)), clock_(std::move(clock)), stale_s_(stale_s) {
+    description_ = "vmc:" + rx_->endpoint() + " (VMC devices: " + std::to_string(serials_.size()) + ")";
+    emitted_s_.assign(serials_.size(), 0.0);
+  }
+  Status start() override { return {}; }
+  void stop() override {}
+
+  size_t poll(std::span<devices::SensorSample> out) override {
+    rx_->poll();
+    const auto& st = rx_->state();
+    size_t k = 0;
+    for (size_t d = 0; d < st.device_count && k < out.size(); ++d) {
+      const auto& dev = st.devices[d];
+      const int id = sensor_of(dev);
+      if (id < 0 || !dev.pose.present || dev.pose.received_s == emitted_s_[size_t(id)]) continue;
+      emitted_s_[size_t(id)] = dev.pose.received_s;
+      devices::SensorSample& s = out[k++];
+      s = {};
+      s.sensor = static_cast<uint16_t>(id);
+      s.device_time_s = s.host_time_s = dev.pose.received_s;
+      s.position_m = dev.pose.position_m;
+      s.orientation = dev.pose.orientation;
+      last_s_ = dev.pose.received_s;
+      ++samples_;
+    }
+    return k;
+  }
+
+  devices::DeviceStatus status() const override {
+    devices::DeviceStatus s;
+    s.description = description_;
+    s.state = samples_ == 0                            ? devices::DeviceState::connecting
+              : clock_->now_s() - last_s_ > stale_s_ ? devices::DeviceState::stale
+                                                       : devices::DeviceState::streaming;
+    s.records = samples_;
+    s.resyncs = rx_->stats().refused_total() + rx_->stats().non_finite;
+    return s;
+  }
+
+ private:
+  // The map item naming this device ("SERIAL", or "T:SERIAL" / "H:SERIAL" / "C:SERIAL"), or -1.
+  int sensor_of(const net::VmcState::Device& dev) const {
+    const std::string_view serial(dev.serial.data());
+    for (size_t i = 0; i < serials_.size(); ++i) {
+      std::string_view want = serials_[i];
+      if (want.size() > 2 && want[1] == ':') {
+        if (want[0] != dev.kind) continue;
+        want.remove_prefix(2);
+      }
+      if (want == serial) return int(i);
+    }
+    return -1;
+  }
+
+  std::unique_ptr<net::VmcReceiver> rx_;
+  std::vector<std::string> serials_;
+  std::shared_ptr<const Clock> clock_;
+  double stale_s_;
+  std::string description_;
+  std::vector<double> emitted_s_;
+  double last_s_ = 0;
+  uint64_t samples_ = 0;
+};
+
+double stale_of(const devices::SourceSpec& spec) {
+  auto it = spec.params.find("stale_ms");
+  return it == spec.params.end() ? 0.25 : std::strtod(it->second.c_str(), nullptr) / 1000.0;
+}
+
 }  // namespace
+
+Result<std::vector<solver::SensorMount>> vmc_device_mounts(const devices::SourceSpec& spec,
+                                                           const rig::Skeleton& skeleton) {
+  auto map = device_map(spec);
+  if (!map) return tl::unexpected(map.error());
+  std::vector<solver::SensorMount> mounts;
+  for (size_t i = 0; i < map->size(); ++i) {
+    auto m = mount_on((*map)[i].second, static_cast<uint16_t>(i), skeleton);
+    if (!m) return fail(m.error().code, "vmc map: " + m.error().message);
+    mounts.push_back(std::move(*m));
+  }
+  return mounts;
+}
+
+Result<std::unique_ptr<devices::SensorSource>> open_vmc_device_source(const devices::SourceSpec& spec,
+                                                                      std::shared_ptr<const Clock> clock) {
+  auto map = device_map(spec);
+  if (!map) return tl::unexpected(map.error());
+  std::vector<std::string> serials;
+  for (auto& [serial, segment] : *map) serials.push_back(serial);
+  auto rx = net::VmcReceiver::open(spec.target);
+  if (!rx) return tl::unexpected(rx.error());
+  if (!clock) clock = std::make_shared<SteadyClock>();
+  return std::unique_ptr<devices::SensorSource>(
+      new VmcDeviceSource(std::move(*rx), std::move(serials), std::move(clock), stale_of(spec)));
+}
 
 Result<std::vector<solver::SensorMount>> osc_tracker_mounts(const devices::SourceSpec& spec,
                                                             const rig::Skeleton& skeleton) {
@@ -111,8 +226,7 @@ Result<std::unique_ptr<devices::SensorSource>> open_osc_tracker_source(const dev
   if (!names) return tl::unexpected(names.error());
   std::array<bool, net::kOscTrackers> worn{};
   for (size_t i = 0; i < worn.size(); ++i) worn[i] = !(*names)[i].empty();
-  double stale_s = 0.25;
-  if (auto it = spec.params.find("stale_ms"); it != spec.params.end()) stale_s = std::stod(it->second) / 1000.0;
+  const double stale_s = stale_of(spec);
   auto rx = net::VmcReceiver::open(spec.target);
   if (!rx) return tl::unexpected(rx.error());
   if (!clock) clock = std::make_shared<SteadyClock>();

@@ -20,6 +20,16 @@
 
 namespace mimic::service {
 
+// `vmc:[HOST:]PORT?map=SERIAL:SEGMENT,…`: a VMC sender's 6-DOF devices (/VMC/Ext/Tra/Pos,
+// /Hmd/Pos, /Con/Pos — e.g. SteamVR trackers relayed by a VMC tool) as tracker samples for the
+// solver, for senders that send devices and no bones. A device is named by its serial (its kind's
+// letter first for an HMD or controller: "H:serial", "C:serial" also match); sensor i is the i-th
+// map item.
+Result<std::unique_ptr<devices::SensorSource>> open_vmc_device_source(const devices::SourceSpec& spec,
+                                                                      std::shared_ptr<const Clock> clock = nullptr);
+Result<std::vector<solver::SensorMount>> vmc_device_mounts(const devices::SourceSpec& spec,
+                                                           const rig::Skeleton& skeleton);
+
 Result<std::unique_ptr<devices::SensorSource>> open_osc_tracker_source(const devices::SourceSpec& spec,
                                                                        std::shared_ptr<const Clock> clock = nullptr);
 

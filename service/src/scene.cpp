@@ -1,23 +1,19 @@
 #include "mimic/service/scene.h"
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <random>
 
 #include <glm/gtc/quaternion.hpp>
 
 #include "mimic/rig/motion.h"
+#include "mimic/core/clock.h"
 #include "mimic/sim/open_input.h"
 
 namespace mimic::service {
 namespace {
 
 constexpr float kPi = 3.14159265f;
-
-double now_s() {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
-}
 
 glm::vec3 forward_of(float heading_rad) { return {std::sin(heading_rad), 0.0f, std::cos(heading_rad)}; }
 
@@ -142,7 +138,7 @@ class PlacedFeed final : public PoseFeed {
   void solve(rig::Pose& pose, double& capture_s, bool& stale) override {
     inner_->solve(pose, capture_s, stale);
     if (navigator_) {
-      const double t = now_s();
+      const double t = steady_now_s();
       devices::InputFrame frame;
       while (navigator_->poll(frame)) {
         input_ = frame;
@@ -362,12 +358,12 @@ class ActorFeed final : public PoseFeed {
   const rig::Skeleton& skeleton() const override { return skeleton_; }
   std::string describe() const override { return "actor " + text_; }
   Status start() override {
-    last_s_ = now_s();
+    last_s_ = steady_now_s();
     return {};
   }
   size_t read() override {
     // A new pose every 10 ms, like a 100 Hz tracker.
-    const double t = now_s();
+    const double t = steady_now_s();
     if (t - last_s_ < 0.01) return 0;
     pending_s_ = t - last_s_;
     last_s_ = t;

@@ -1,17 +1,12 @@
 #include "vmc_feed.h"
 
-#include <chrono>
-
+#include "mimic/core/clock.h"
 #include "mimic/net/vmc.h"
 #include "mimic/net/vmc_receive.h"
 
 namespace mimic::service {
 
 namespace {
-
-double steady_now_s() {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
-}
 
 class VmcFeed final : public PoseFeed {
  public:

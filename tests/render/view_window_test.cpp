@@ -13,6 +13,8 @@
 #include <cstdlib>
 #include <filesystem>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "mimic/render/image.h"
 #include "nats_broker.h"
@@ -287,6 +289,62 @@ TEST(ViewWindow, ConnectsToASceneOnANatsBroker) {
   const Outcome bad = run_mimic("view --connect " + broker.url() + "/a.b --frames 1");
   EXPECT_EQ(bad.status, 1);
   EXPECT_NE(bad.output.find("may only hold A-Z a-z 0-9 _ -"), std::string::npos) << bad.output;
+}
+
+// Avatars a command reports: "avatar N:" lines of `mimic run`, "avatar    avatarN:" of `mimic view`.
+size_t count_of(const std::string& text, const std::string& what) {
+  size_t n = 0;
+  for (size_t at = text.find(what); at != std::string::npos; at = text.find(what, at + 1)) ++n;
+  return n;
+}
+
+// `mimic view --source` takes every source form `mimic run --source` does (one scene builder
+// for both): each form runs in both commands with the same avatars, and a form neither takes is
+// a usage error in both.
+TEST(ViewWindow, TakesEverySourceFormMimicRunTakes) {
+  VirtualDisplay display;
+  ASSERT_FALSE(display.display().empty()) << "Xvfb did not start (scripts/setup.sh installs it)";
+  ::setenv("DISPLAY", display.display().c_str(), 1);
+  // A Flock of Birds on a pseudo-terminal, and a wearer's calibration from mimic calibrate.
+  mimic::test::Child flock({mimic::test::mimic_binary(), "sim", "flock", "--birds", "4", "--seed", "3"});
+  const std::string pty = flock.line();
+  ASSERT_EQ(pty.rfind("/dev/", 0), 0u) << pty;
+  const std::string cal = temp("cal.json");
+  const Outcome calibrate = run_mimic("calibrate --source 'sim:idle?sensors=6' --out '" + cal +
+                                      "' --countdown 0 --seconds 1 --max-motion-cm 10 --max-motion-deg 30");
+  ASSERT_EQ(calibrate.status, 0) << calibrate.output;
+  const std::string log = mimic::test::repo_test_data("logs/golden_v1.mlog").string();
+  const std::string clip = mimic::test::clip_path("07_01");
+  const std::vector<std::pair<std::string, size_t>> forms = {
+      {"", 1},  // the default: sim:walk
+      {"--source sim:walk", 1},
+      {"--source 'sim:idle?rate=90&sensors=11&seed=2&noise_mm=2'", 1},
+      {"--source 'bvh:" + clip + "?loop=1&sensors=11'", 1},
+      {"--source 'replay:" + log + "?loop=1'", 1},
+      {"--source 'flock:" + pty + "?birds=4'", 1},
+      {"--source vmc:0", 1},
+      {"--source sim:walk --calibration '" + cal + "'", 1},
+      {"--body preset:child", 1},
+      {"--source sim:walk --body preset:child --place 1,2,90 --navigate spacemouse:sim", 1},
+      {"--source sim:walk --source 'actor:follow?target=1&seed=4' --source actor:greet --place=-1,-2 "
+       "--source 'actor:wander?seed=2' --body preset:child --room 10x6",
+       4},
+  };
+  for (const auto& [form, avatars] : forms) {
+    const Outcome run = run_mimic("run --listen 127.0.0.1:0 --duration 0.3 --quiet " + form);
+    ASSERT_EQ(run.status, 0) << "mimic run " << form << "\n" << run.output;
+    EXPECT_EQ(count_of(run.output, "mimic run: avatar "), avatars) << form << "\n" << run.output;
+    const Outcome view = run_mimic("view --frames 3 --no-vsync --no-panel --lod 3 --size 320x240 " + form);
+    ASSERT_EQ(view.status, 0) << "mimic view " << form << "\n" << view.output;
+    EXPECT_EQ(count_of(view.output, "avatar    avatar"), avatars) << form << "\n" << view.output;
+  }
+  for (const std::string bad : {"--source nope:x", "--source 'sim:walk?brids=4'", "--source sim:walk --place 1",
+                                "--source 'actor:dance'", "--source sim:walk --navigate 'sim:walk'",
+                                "--source sim:walk --body a.json --body b.json"}) {
+    EXPECT_EQ(run_mimic("run --listen 127.0.0.1:0 --duration 0.3 --quiet " + bad).status, 2) << "mimic run " << bad;
+    EXPECT_EQ(run_mimic("view --frames 1 --no-vsync " + bad).status, 2) << "mimic view " << bad;
+  }
+  std::filesystem::remove(cal);
 }
 
 }  // namespace

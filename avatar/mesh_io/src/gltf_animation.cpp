@@ -48,14 +48,12 @@ class BinaryBuilder {
 
 json vec_json(const glm::vec3& v) { return json::array({v.x, v.y, v.z}); }
 
-}  // namespace
-
-Result<std::string> encode_skinned_glb(const SkinnedAnimation& a) {
+Status check_animation(const SkinnedAnimation& a) {
   if (!a.bind_mesh || !a.skeleton) return fail(Errc::invalid_argument, "glTF: no mesh or no skeleton");
   const Mesh& mesh = *a.bind_mesh;
   const rig::Skeleton& sk = *a.skeleton;
   if (auto st = validate_mesh(mesh); !st) return tl::unexpected(st.error());
-  const size_t nv = mesh.positions.size(), nj = size_t(sk.joint_count());
+  const size_t nv = mesh.positions.size();
   if (a.influences.size() != nv)
     return fail(Errc::invalid_argument, "glTF: " + std::to_string(a.influences.size()) + " influences for " +
                                             std::to_string(nv) + " vertices");
@@ -63,20 +61,26 @@ Result<std::string> encode_skinned_glb(const SkinnedAnimation& a) {
     return fail(Errc::invalid_argument, "glTF: the animation needs one pose per keyframe time, at least one");
   for (size_t k = 1; k < a.times_s.size(); ++k)
     if (!(a.times_s[k] > a.times_s[k - 1])) return fail(Errc::invalid_argument, "glTF: keyframe times must increase");
-  for (const rig::Pose* p : {&a.bind_pose})
-    if (p->dof_rad.size() != size_t(sk.dof_count())) return fail(Errc::invalid_argument, "glTF: bind pose of another skeleton");
+  if (a.bind_pose.dof_rad.size() != size_t(sk.dof_count()))
+    return fail(Errc::invalid_argument, "glTF: bind pose of another skeleton");
   for (const rig::Pose& p : a.poses)
     if (p.dof_rad.size() != size_t(sk.dof_count())) return fail(Errc::invalid_argument, "glTF: a pose of another skeleton");
+  return {};
+}
 
-  BinaryBuilder b;
-  // Vertex attributes.
+// POSITION (the bind mesh raised by `lift`), NORMAL, JOINTS_0 and WEIGHTS_0.
+Result<json> vertex_attributes(const SkinnedAnimation& a, const glm::vec3& lift, BinaryBuilder& b) {
+  const Mesh& mesh = *a.bind_mesh;
+  const size_t nv = mesh.positions.size(), nj = size_t(a.skeleton->joint_count());
   glm::vec3 lo(std::numeric_limits<float>::max()), hi(std::numeric_limits<float>::lowest());
-  for (const auto& p : mesh.positions) {
+  std::vector<glm::vec3> positions(mesh.positions);
+  for (auto& p : positions) {
+    p += lift;
     lo = glm::min(lo, p);
     hi = glm::max(hi, p);
   }
   json attributes;
-  attributes["POSITION"] = b.add(mesh.positions.data(), nv * 12, kFloat, int(nv), "VEC3", kArrayBuffer,
+  attributes["POSITION"] = b.add(positions.data(), nv * 12, kFloat, int(nv), "VEC3", kArrayBuffer,
                                  {{"min", vec_json(lo)}, {"max", vec_json(hi)}});
   if (mesh.normals.size() == nv) {
     std::vector<glm::vec3> n(nv);
@@ -108,25 +112,40 @@ Result<std::string> encode_skinned_glb(const SkinnedAnimation& a) {
   }
   attributes["JOINTS_0"] = b.add(joints.data(), joints.size() * 2, kUnsignedShort, int(nv), "VEC4", kArrayBuffer);
   attributes["WEIGHTS_0"] = b.add(weights.data(), weights.size() * 4, kFloat, int(nv), "VEC4", kArrayBuffer);
+  return attributes;
+}
 
-  // One mesh per part, named after it (glTF primitives have no names; importers name their
-  // objects after nodes and meshes), all sharing the vertex attributes and the one skin.
-  json meshes = json::array();
-  for (const auto& part : mesh.parts) {
+// One mesh, a primitive per part sharing the vertex attributes, each with a material of the
+// part's own colour and named after it: engines import one skinned mesh with its submeshes.
+void body_mesh(const SkinnedAnimation& a, const json& attributes, BinaryBuilder& b, json& meshes, json& materials) {
+  const Mesh& mesh = *a.bind_mesh;
+  json primitives = json::array();
+  materials = json::array();
+  for (const auto& part : covering_parts(mesh)) {
     if (part.triangle_count == 0) continue;
     const int acc = b.add(mesh.indices.data() + size_t(part.first_triangle) * 3, size_t(part.triangle_count) * 12,
                           kUnsignedInt, int(part.triangle_count * 3), "SCALAR", kElementArrayBuffer);
-    json primitive = {{"attributes", attributes}, {"indices", acc}, {"mode", 4}, {"extras", {{"name", part.name}}}};
-    // A part named like a joint ("neck", "head") gets a suffix: players keep node names unique
-    // by renaming one of the two ("neck_1"), which would hide which is which.
-    const std::string name = sk.find_joint(part.name) >= 0 ? part.name + "_skin" : part.name;
-    meshes.push_back({{"name", name}, {"primitives", json::array({primitive})}});
+    const glm::vec3 rgb = detail::part_colour(materials.size());
+    materials.push_back({{"name", part.name},
+                         {"pbrMetallicRoughness",
+                          {{"baseColorFactor", json::array({rgb.x, rgb.y, rgb.z, 1.0f})},
+                           {"metallicFactor", 0.0},
+                           {"roughnessFactor", 0.8}}}});
+    primitives.push_back({{"attributes", attributes},
+                          {"indices", acc},
+                          {"mode", 4},
+                          {"material", materials.size() - 1},
+                          {"extras", {{"name", part.name}}}});
   }
-  if (meshes.empty()) return fail(Errc::invalid_argument, "glTF: the mesh has no triangles");
+  meshes = primitives.empty() ? json::array() : json::array({{{"name", a.name + "_body"}, {"primitives", primitives}}});
+}
 
-  // Joints: the bind pose's world transforms give the inverse bind matrices.
+// The joints as nodes in the bind pose (the skeleton's hierarchy), and their inverse bind
+// matrices' accessor.
+int joint_nodes(const rig::Skeleton& sk, const rig::Pose& bind_pose, BinaryBuilder& b, json& nodes) {
+  const size_t nj = size_t(sk.joint_count());
   std::vector<rig::RigidTransform> bind(nj);
-  rig::forward_kinematics(sk, a.bind_pose, bind);
+  rig::forward_kinematics(sk, bind_pose, bind);
   std::vector<float> ibm(nj * 16);
   for (size_t j = 0; j < nj; ++j) {
     const glm::mat4 world = glm::translate(glm::mat4(1.0f), bind[j].translation) * glm::mat4_cast(bind[j].rotation);
@@ -134,17 +153,15 @@ Result<std::string> encode_skinned_glb(const SkinnedAnimation& a) {
     std::memcpy(ibm.data() + j * 16, glm::value_ptr(inv), 64);
   }
   const int ibm_acc = b.add(ibm.data(), ibm.size() * 4, kFloat, int(nj), "MAT4", 0);
-
-  // Local transforms of the bind pose for the nodes, and the keyframes.
-  const std::span<const float> bind_dofs(a.bind_pose.dof_rad);
-  json nodes = json::array();
+  const std::span<const float> bind_dofs(bind_pose.dof_rad);
+  nodes = json::array();
   for (size_t j = 0; j < nj; ++j) {
     const int jj = int(j);
     glm::vec3 t = sk.offset_m(jj);
     glm::quat r = sk.local_rotation(jj, bind_dofs);
     if (sk.parent(jj) < 0) {
-      t = a.bind_pose.root_position_m + a.bind_pose.root_orientation * t;
-      r = glm::normalize(a.bind_pose.root_orientation) * r;
+      t = bind_pose.root_position_m + bind_pose.root_orientation * t;
+      r = glm::normalize(bind_pose.root_orientation) * r;
     }
     json node = {{"name", sk.joint_name(jj)}, {"translation", vec_json(t)},
                  {"rotation", json::array({r.x, r.y, r.z, r.w})}};
@@ -154,18 +171,13 @@ Result<std::string> encode_skinned_glb(const SkinnedAnimation& a) {
     if (!children.empty()) node["children"] = children;
     nodes.push_back(node);
   }
-  int root = 0;
-  for (size_t j = 0; j < nj; ++j)
-    if (sk.parent(int(j)) < 0) root = int(j);
-  json skin_joints = json::array();
-  for (size_t j = 0; j < nj; ++j) skin_joints.push_back(j);
-  json scene_nodes = json::array({root});
-  for (size_t m = 0; m < meshes.size(); ++m) {
-    scene_nodes.push_back(nodes.size());
-    nodes.push_back({{"name", meshes[m]["name"]}, {"mesh", m}, {"skin", 0}});
-  }
+  return ibm_acc;
+}
 
-  const size_t nk = a.times_s.size();
+// The keyframes: the root's translation and every joint's rotation that can change.
+json motion(const SkinnedAnimation& a, int root, BinaryBuilder& b) {
+  const rig::Skeleton& sk = *a.skeleton;
+  const size_t nk = a.times_s.size(), nj = size_t(sk.joint_count());
   std::vector<float> times(nk);
   for (size_t k = 0; k < nk; ++k) times[k] = float(a.times_s[k] - a.times_s[0]);
   const int input = b.add(times.data(), nk * 4, kFloat, int(nk), "SCALAR", 0,
@@ -202,6 +214,38 @@ Result<std::string> encode_skinned_glb(const SkinnedAnimation& a) {
     channels.push_back({{"sampler", samplers.size() - 1}, {"target", {{"node", jj}, {"path", "rotation"}}}});
   }
 
+  return json::array({{{"name", "motion"}, {"samplers", samplers}, {"channels", channels}}});
+}
+
+}  // namespace
+
+Result<std::string> encode_skinned_glb(const SkinnedAnimation& a) {
+  if (auto st = check_animation(a); !st) return tl::unexpected(st.error());
+  const rig::Skeleton& sk = *a.skeleton;
+  const size_t nj = size_t(sk.joint_count());
+  // The bind pose raised (or lowered) so it stands on the floor.
+  float lowest = std::numeric_limits<float>::max();
+  for (const auto& p : a.bind_mesh->positions) lowest = std::min(lowest, p.y);
+  const glm::vec3 lift(0.0f, -lowest, 0.0f);
+  rig::Pose bind_pose = a.bind_pose;
+  bind_pose.root_position_m += lift;
+
+  BinaryBuilder b;
+  auto attributes = vertex_attributes(a, lift, b);
+  if (!attributes) return tl::unexpected(attributes.error());
+  json meshes, materials, nodes;
+  body_mesh(a, *attributes, b, meshes, materials);
+  if (meshes.empty()) return fail(Errc::invalid_argument, "glTF: the mesh has no triangles");
+  const int ibm_acc = joint_nodes(sk, bind_pose, b, nodes);
+  int root = 0;
+  for (size_t j = 0; j < nj; ++j)
+    if (sk.parent(int(j)) < 0) root = int(j);
+  json skin_joints = json::array();
+  for (size_t j = 0; j < nj; ++j) skin_joints.push_back(j);
+  json scene_nodes = json::array({root, nodes.size()});
+  nodes.push_back({{"name", a.name + "_body"}, {"mesh", 0}, {"skin", 0}});
+  json animations = motion(a, root, b);
+
   while (b.bin().size() % 4) b.bin().push_back(0);
   json doc = {
       {"asset", {{"version", "2.0"}, {"generator", "Mimic"}}},
@@ -209,9 +253,10 @@ Result<std::string> encode_skinned_glb(const SkinnedAnimation& a) {
       {"scenes", json::array({{{"name", a.name}, {"nodes", scene_nodes}}})},
       {"nodes", nodes},
       {"meshes", meshes},
+      {"materials", materials},
       {"skins", json::array({{{"name", a.name + "_skeleton"}, {"joints", skin_joints}, {"skeleton", root},
                               {"inverseBindMatrices", ibm_acc}}})},
-      {"animations", json::array({{{"name", "motion"}, {"samplers", samplers}, {"channels", channels}}})},
+      {"animations", animations},
       {"accessors", b.accessors()},
       {"bufferViews", b.views()},
       {"buffers", json::array({{{"byteLength", b.bin().size()}}})},

@@ -97,8 +97,7 @@ Result<std::string> encode_glb(const Mesh& mesh) {
       if (uvs) {
         prim["attributes"]["TEXCOORD_0"] = uv_accessor;
         const size_t k = materials.size();
-        const float hue = std::fmod(0.618034f * static_cast<float>(k), 1.0f);
-        const glm::vec3 rgb = glm::clamp(glm::abs(glm::mod(hue * 6.0f + glm::vec3(0, 4, 2), 6.0f) - 3.0f) - 1.0f, 0.0f, 1.0f);
+        const glm::vec3 rgb = detail::part_colour(k);
         const glm::u8vec3 strong(glm::vec3(60) + rgb * 180.0f), light(glm::vec3(215) + rgb * 40.0f);
         const std::string png = detail::checker_png(64, 8, strong, light);
         while (bin.size() % 4) bin += '\0';
@@ -140,6 +139,11 @@ Result<std::string> encode_glb(const Mesh& mesh) {
 }
 
 namespace detail {
+
+glm::vec3 part_colour(size_t k) {
+  const float hue = std::fmod(0.618034f * static_cast<float>(k), 1.0f);
+  return glm::clamp(glm::abs(glm::mod(hue * 6.0f + glm::vec3(0, 4, 2), 6.0f) - 3.0f) - 1.0f, 0.0f, 1.0f);
+}
 
 Result<std::string> glb_container(std::string text, std::string_view bin) {
   while (text.size() % 4) text += ' ';

@@ -27,6 +27,9 @@ std::string lower_extension(const std::string& path);
 // pass the format's 4 GiB limit.
 Result<std::string> glb_container(std::string json_text, std::string_view bin);
 
+// The colour of the k-th part (golden-ratio hues, so neighbours differ), linear RGB in [0, 1].
+glm::vec3 part_colour(size_t k);
+
 // A size_px × size_px checker of `squares` × `squares` cells in colours a and b, as PNG bytes.
 std::string checker_png(int size_px, int squares, glm::u8vec3 a, glm::u8vec3 b);
 

@@ -111,6 +111,96 @@ Result<std::string> encode_obj(const Mesh& mesh) {
   return out;
 }
 
+namespace {
+
+// The corners of an "f" line (re-split without a token limit: polygons may have many corners),
+// relative indices resolved against the counts read so far. Returns why it is bad, or "".
+std::string read_face(std::string_view line, size_t v_count, size_t vt_count, size_t vn_count,
+                      std::vector<Corner>& corners) {
+  corners.clear();
+  size_t i = 0;
+  std::string_view rest = line.substr(line.find('f') + 1);
+  while (i < rest.size()) {
+    while (i < rest.size() && is_space(rest[i])) ++i;
+    if (i >= rest.size()) break;
+    size_t j = i;
+    while (j < rest.size() && !is_space(rest[j])) ++j;
+    const std::string_view item = rest.substr(i, j - i);
+    i = j;
+    std::string_view fields[3];
+    int nf = 0;
+    size_t s = 0;
+    while (nf < 3) {
+      const size_t slash = item.find('/', s);
+      fields[nf++] = item.substr(s, slash == std::string_view::npos ? std::string_view::npos : slash - s);
+      if (slash == std::string_view::npos) break;
+      s = slash + 1;
+      if (nf == 3) return "face corner '" + std::string(item) + "' has too many '/'";
+    }
+    Corner c;
+    if (!parse_int(fields[0], c.v) || c.v == 0)
+      return "bad vertex index '" + std::string(item) + "' in f";
+    if (nf >= 2 && !fields[1].empty() && (!parse_int(fields[1], c.vt) || c.vt == 0))
+      return "bad texture index '" + std::string(item) + "' in f";
+    if (c.vt < 0) {
+      c.vt += static_cast<long long>(vt_count) + 1;
+      if (c.vt <= 0) return "relative texture index '" + std::string(item) + "' points before the first vt";
+    }
+    if (nf == 3 && (!parse_int(fields[2], c.vn) || c.vn == 0))
+      return "bad normal index '" + std::string(item) + "' in f";
+    // Relative indices count back from the vertices read so far.
+    if (c.v < 0) {
+      c.v += static_cast<long long>(v_count) + 1;
+      if (c.v <= 0) return "relative vertex index '" + std::string(item) + "' points before the first vertex";
+    }
+    if (c.vn < 0) {
+      c.vn += static_cast<long long>(vn_count) + 1;
+      if (c.vn <= 0) return "relative normal index '" + std::string(item) + "' points before the first normal";
+    }
+    if (c.v > UINT32_MAX) return "vertex index '" + std::string(item) + "' is too large";
+    corners.push_back(c);
+  }
+  return {};
+}
+
+// Per-vertex normals and texture coordinates from the corners' references: the first reference
+// wins at a shared vertex; a vertex no face gave a normal gets its area-weighted face normal, one
+// without coordinates (0, 0).
+void resolve_corner_attributes(Mesh& mesh, const std::vector<glm::vec3>& vn, const std::vector<glm::vec2>& vt,
+                               const std::vector<long long>& corner_vn, const std::vector<long long>& corner_vt,
+                               bool any_normal_ref, bool any_uv_ref) {
+  if (any_normal_ref) {
+    std::vector<glm::vec3> normal(mesh.positions.size(), glm::vec3(0));
+    std::vector<char> has(mesh.positions.size(), 0);
+    for (size_t i = 0; i < mesh.indices.size(); ++i)
+      if (corner_vn[i] > 0 && !has[mesh.indices[i]]) {
+        normal[mesh.indices[i]] = vn[static_cast<size_t>(corner_vn[i] - 1)];
+        has[mesh.indices[i]] = 1;
+      }
+    // Vertices no face gave a normal get their area-weighted face normal.
+    for (size_t t = 0; t < mesh.triangle_count(); ++t) {
+      const uint32_t a = mesh.indices[3 * t], b = mesh.indices[3 * t + 1], c = mesh.indices[3 * t + 2];
+      const glm::vec3 fn = glm::cross(mesh.positions[b] - mesh.positions[a], mesh.positions[c] - mesh.positions[a]);
+      for (uint32_t v : {a, b, c})
+        if (!has[v]) normal[v] += fn;
+    }
+    for (auto& nn : normal) nn = detail::unit_or_up(nn);
+    mesh.normals = std::move(normal);
+  }
+  if (any_uv_ref) {
+    // First reference wins at a shared vertex, as for normals; unreferenced vertices get (0, 0).
+    mesh.uvs.assign(mesh.positions.size(), glm::vec2(0.0f));
+    std::vector<char> has(mesh.positions.size(), 0);
+    for (size_t i = 0; i < mesh.indices.size(); ++i)
+      if (corner_vt[i] > 0 && !has[mesh.indices[i]]) {
+        mesh.uvs[mesh.indices[i]] = vt[static_cast<size_t>(corner_vt[i] - 1)];
+        has[mesh.indices[i]] = 1;
+      }
+  }
+}
+
+}  // namespace
+
 Result<Mesh> parse_obj(std::string_view text, std::string_view source) {
   Mesh mesh;
   std::vector<glm::vec3> vn;
@@ -157,50 +247,8 @@ Result<Mesh> parse_obj(std::string_view text, std::string_view source) {
           return error(line_no, "bad number '" + std::string(tok[1 + k]) + "' in vt");
       vt.push_back(t);
     } else if (key == "f") {
-      // Re-split without a token limit: polygons may have many corners.
-      corners.clear();
-      size_t i = 0;
-      std::string_view rest = line.substr(line.find('f') + 1);
-      while (i < rest.size()) {
-        while (i < rest.size() && is_space(rest[i])) ++i;
-        if (i >= rest.size()) break;
-        size_t j = i;
-        while (j < rest.size() && !is_space(rest[j])) ++j;
-        const std::string_view item = rest.substr(i, j - i);
-        i = j;
-        std::string_view fields[3];
-        int nf = 0;
-        size_t s = 0;
-        while (nf < 3) {
-          const size_t slash = item.find('/', s);
-          fields[nf++] = item.substr(s, slash == std::string_view::npos ? std::string_view::npos : slash - s);
-          if (slash == std::string_view::npos) break;
-          s = slash + 1;
-          if (nf == 3) return error(line_no, "face corner '" + std::string(item) + "' has too many '/'");
-        }
-        Corner c;
-        if (!parse_int(fields[0], c.v) || c.v == 0)
-          return error(line_no, "bad vertex index '" + std::string(item) + "' in f");
-        if (nf >= 2 && !fields[1].empty() && (!parse_int(fields[1], c.vt) || c.vt == 0))
-          return error(line_no, "bad texture index '" + std::string(item) + "' in f");
-        if (c.vt < 0) {
-          c.vt += static_cast<long long>(vt.size()) + 1;
-          if (c.vt <= 0) return error(line_no, "relative texture index '" + std::string(item) + "' points before the first vt");
-        }
-        if (nf == 3 && (!parse_int(fields[2], c.vn) || c.vn == 0))
-          return error(line_no, "bad normal index '" + std::string(item) + "' in f");
-        // Relative indices count back from the vertices read so far.
-        if (c.v < 0) {
-          c.v += static_cast<long long>(mesh.positions.size()) + 1;
-          if (c.v <= 0) return error(line_no, "relative vertex index '" + std::string(item) + "' points before the first vertex");
-        }
-        if (c.vn < 0) {
-          c.vn += static_cast<long long>(vn.size()) + 1;
-          if (c.vn <= 0) return error(line_no, "relative normal index '" + std::string(item) + "' points before the first normal");
-        }
-        if (c.v > UINT32_MAX) return error(line_no, "vertex index '" + std::string(item) + "' is too large");
-        corners.push_back(c);
-      }
+      if (std::string why = read_face(line, mesh.positions.size(), vt.size(), vn.size(), corners); !why.empty())
+        return error(line_no, why);
       if (corners.size() < 3)
         return error(line_no, "face needs at least 3 vertices, has " + std::to_string(corners.size()));
       for (size_t k = 1; k + 1 < corners.size(); ++k) {
@@ -236,34 +284,7 @@ Result<Mesh> parse_obj(std::string_view text, std::string_view source) {
       return error(pending_line[i], "normal index " + std::to_string(corner_vn[i]) + " is out of range (" +
                                         std::to_string(vn.size()) + " normals)");
   }
-  if (any_normal_ref) {
-    std::vector<glm::vec3> normal(mesh.positions.size(), glm::vec3(0));
-    std::vector<char> has(mesh.positions.size(), 0);
-    for (size_t i = 0; i < mesh.indices.size(); ++i)
-      if (corner_vn[i] > 0 && !has[mesh.indices[i]]) {
-        normal[mesh.indices[i]] = vn[static_cast<size_t>(corner_vn[i] - 1)];
-        has[mesh.indices[i]] = 1;
-      }
-    // Vertices no face gave a normal get their area-weighted face normal.
-    for (size_t t = 0; t < tri_group.size(); ++t) {
-      const uint32_t a = mesh.indices[3 * t], b = mesh.indices[3 * t + 1], c = mesh.indices[3 * t + 2];
-      const glm::vec3 fn = glm::cross(mesh.positions[b] - mesh.positions[a], mesh.positions[c] - mesh.positions[a]);
-      for (uint32_t v : {a, b, c})
-        if (!has[v]) normal[v] += fn;
-    }
-    for (auto& nn : normal) nn = detail::unit_or_up(nn);
-    mesh.normals = std::move(normal);
-  }
-  if (any_uv_ref) {
-    // First reference wins at a shared vertex, as for normals; unreferenced vertices get (0, 0).
-    mesh.uvs.assign(mesh.positions.size(), glm::vec2(0.0f));
-    std::vector<char> has(mesh.positions.size(), 0);
-    for (size_t i = 0; i < mesh.indices.size(); ++i)
-      if (corner_vt[i] > 0 && !has[mesh.indices[i]]) {
-        mesh.uvs[mesh.indices[i]] = vt[static_cast<size_t>(corner_vt[i] - 1)];
-        has[mesh.indices[i]] = 1;
-      }
-  }
+  resolve_corner_attributes(mesh, vn, vt, corner_vn, corner_vt, any_normal_ref, any_uv_ref);
   detail::gather_parts(mesh, tri_group, names);
   return mesh;
 }

@@ -159,16 +159,24 @@ Result<std::string> encode_ply(const Mesh& mesh) {
   return out;
 }
 
-Result<Mesh> parse_ply(std::string_view bytes, std::string_view source) {
-  const std::string src(source);
-  auto error = [&](const std::string& what) { return fail(Errc::parse_error, src + ": " + what); };
-  // Header: text lines up to end_header.
-  size_t pos = 0, line_no = 0;
+namespace {
+
+struct PlyHeader {
   Format format = Format::ascii;
-  bool have_format = false;
   std::vector<Element> elements;
   std::map<long long, std::string> part_names;
-  bool ended = false;
+  size_t body_at = 0;  // byte offset of the data after end_header
+};
+
+// Header: text lines up to end_header.
+Result<PlyHeader> parse_ply_header(std::string_view bytes, const std::string& src) {
+  auto error = [&](const std::string& what) { return fail(Errc::parse_error, src + ": " + what); };
+  size_t pos = 0, line_no = 0;
+  bool have_format = false, ended = false;
+  PlyHeader h;
+  Format& format = h.format;
+  std::vector<Element>& elements = h.elements;
+  std::map<long long, std::string>& part_names = h.part_names;
   while (pos < bytes.size() && !ended) {
     size_t eol = bytes.find('\n', pos);
     if (eol == std::string_view::npos) return error("header has no end_header line");
@@ -243,99 +251,128 @@ Result<Mesh> parse_ply(std::string_view bytes, std::string_view source) {
   }
   if (!ended) return error("header has no end_header line");
   if (!have_format) return error("header has no format line");
+  h.body_at = pos;
+  return h;
 
+}
+
+// What the elements read so far hold: the mesh's vertices, faces as triangles (index values not
+// yet checked against the vertex count) and their part groups.
+struct PlyBody {
   Mesh mesh;
   std::vector<uint32_t> tri_group;
   std::vector<std::string> names;
   std::map<long long, uint32_t> group_of_id;
   std::vector<double> face_index_values;
-  Reader in(bytes.substr(pos), pos, format, source);
   bool saw_vertex = false;
-  for (const Element& el : elements) {
-    const bool is_vertex = el.name == "vertex", is_face = el.name == "face";
-    int ix = -1, iy = -1, iz = -1, inx = -1, iny = -1, inz = -1, iidx = -1, ipart = -1, is = -1, itc = -1;
-    for (int i = 0; i < static_cast<int>(el.props.size()); ++i) {
-      const auto& n = el.props[i].name;
-      const bool list = el.props[i].is_list;
-      if (is_vertex && !list) {
-        if (n == "x") ix = i; else if (n == "y") iy = i; else if (n == "z") iz = i;
-        else if (n == "nx") inx = i; else if (n == "ny") iny = i; else if (n == "nz") inz = i;
-        else if (n == "s" || n == "u" || n == "texture_u") is = i;
-        else if (n == "t" || n == "v" || n == "texture_v") itc = i;
+};
+
+Status read_element(const Element& el, const PlyHeader& h, Reader& in, const std::string& src, PlyBody& out) {
+  auto error = [&](const std::string& what) { return fail(Errc::parse_error, src + ": " + what); };
+  Mesh& mesh = out.mesh;
+  auto& tri_group = out.tri_group;
+  auto& names = out.names;
+  auto& group_of_id = out.group_of_id;
+  auto& face_index_values = out.face_index_values;
+  const auto& part_names = h.part_names;
+  const bool is_vertex = el.name == "vertex", is_face = el.name == "face";
+  int ix = -1, iy = -1, iz = -1, inx = -1, iny = -1, inz = -1, iidx = -1, ipart = -1, is = -1, itc = -1;
+  for (int i = 0; i < static_cast<int>(el.props.size()); ++i) {
+    const auto& n = el.props[i].name;
+    const bool list = el.props[i].is_list;
+    if (is_vertex && !list) {
+      if (n == "x") ix = i; else if (n == "y") iy = i; else if (n == "z") iz = i;
+      else if (n == "nx") inx = i; else if (n == "ny") iny = i; else if (n == "nz") inz = i;
+      else if (n == "s" || n == "u" || n == "texture_u") is = i;
+      else if (n == "t" || n == "v" || n == "texture_v") itc = i;
+    }
+    if (is_face && list && (n == "vertex_indices" || n == "vertex_index")) iidx = i;
+    if (is_face && !list && n == "part") ipart = i;
+  }
+  if (is_vertex) {
+    if (ix < 0 || iy < 0 || iz < 0) return error("vertex element lacks x, y or z");
+    out.saw_vertex = true;
+  }
+  if (is_face && iidx < 0) return error("face element lacks a vertex_indices list");
+  const bool has_normals = inx >= 0 && iny >= 0 && inz >= 0;
+  const bool has_uvs = is >= 0 && itc >= 0;
+  // Never trust a header count for allocation beyond what the bytes could hold.
+  if (is_vertex) mesh.positions.reserve(std::min<uint64_t>(el.count, in.remaining() / 3 + 1));
+  std::vector<double> vals(el.props.size());
+  std::vector<double> poly;
+  for (uint64_t e = 0; e < el.count; ++e) {
+    poly.clear();
+    for (size_t i = 0; i < el.props.size(); ++i) {
+      const Property& pr = el.props[i];
+      if (!pr.is_list) {
+        auto v = in.read(pr.type);
+        if (!v) return tl::unexpected(v.error());
+        vals[i] = *v;
+        continue;
       }
-      if (is_face && list && (n == "vertex_indices" || n == "vertex_index")) iidx = i;
-      if (is_face && !list && n == "part") ipart = i;
+      auto cnt = in.read(pr.count_type);
+      if (!cnt) return tl::unexpected(cnt.error());
+      if (!(*cnt >= 0) || *cnt > 1e6) return error(el.name + " " + std::to_string(e) + ": bad list length");
+      const auto count = static_cast<size_t>(*cnt);
+      for (size_t k = 0; k < count; ++k) {
+        auto v = in.read(pr.type);
+        if (!v) return tl::unexpected(v.error());
+        if (static_cast<int>(i) == iidx) poly.push_back(*v);
+      }
     }
     if (is_vertex) {
-      if (ix < 0 || iy < 0 || iz < 0) return error("vertex element lacks x, y or z");
-      saw_vertex = true;
-    }
-    if (is_face && iidx < 0) return error("face element lacks a vertex_indices list");
-    const bool has_normals = inx >= 0 && iny >= 0 && inz >= 0;
-    const bool has_uvs = is >= 0 && itc >= 0;
-    // Never trust a header count for allocation beyond what the bytes could hold.
-    if (is_vertex) mesh.positions.reserve(std::min<uint64_t>(el.count, in.remaining() / 3 + 1));
-    std::vector<double> vals(el.props.size());
-    std::vector<double> poly;
-    for (uint64_t e = 0; e < el.count; ++e) {
-      poly.clear();
-      for (size_t i = 0; i < el.props.size(); ++i) {
-        const Property& pr = el.props[i];
-        if (!pr.is_list) {
-          auto v = in.read(pr.type);
-          if (!v) return tl::unexpected(v.error());
-          vals[i] = *v;
-          continue;
-        }
-        auto cnt = in.read(pr.count_type);
-        if (!cnt) return tl::unexpected(cnt.error());
-        if (!(*cnt >= 0) || *cnt > 1e6) return error(el.name + " " + std::to_string(e) + ": bad list length");
-        const auto count = static_cast<size_t>(*cnt);
-        for (size_t k = 0; k < count; ++k) {
-          auto v = in.read(pr.type);
-          if (!v) return tl::unexpected(v.error());
-          if (static_cast<int>(i) == iidx) poly.push_back(*v);
-        }
+      for (int i : {ix, iy, iz, inx, iny, inz, is, itc})
+        if (i >= 0 && !(std::abs(vals[i]) <= std::numeric_limits<float>::max()))
+          return error("vertex " + std::to_string(e) + " has a value that is not a finite float");
+      mesh.positions.emplace_back(vals[ix], vals[iy], vals[iz]);
+      if (has_normals)
+        mesh.normals.push_back(detail::unit_or_up(glm::vec3(vals[inx], vals[iny], vals[inz])));
+      if (has_uvs) mesh.uvs.emplace_back(vals[is], vals[itc]);
+    } else if (is_face) {
+      if (poly.size() < 3) return error("face " + std::to_string(e) + " has fewer than 3 vertices");
+      long long id = 0;
+      if (ipart >= 0) {
+        if (!(std::abs(vals[ipart]) <= 1e15)) return error("face " + std::to_string(e) + ": bad part id");
+        id = static_cast<long long>(vals[ipart]);
       }
-      if (is_vertex) {
-        for (int i : {ix, iy, iz, inx, iny, inz, is, itc})
-          if (i >= 0 && !(std::abs(vals[i]) <= std::numeric_limits<float>::max()))
-            return error("vertex " + std::to_string(e) + " has a value that is not a finite float");
-        mesh.positions.emplace_back(vals[ix], vals[iy], vals[iz]);
-        if (has_normals)
-          mesh.normals.push_back(detail::unit_or_up(glm::vec3(vals[inx], vals[iny], vals[inz])));
-        if (has_uvs) mesh.uvs.emplace_back(vals[is], vals[itc]);
-      } else if (is_face) {
-        if (poly.size() < 3) return error("face " + std::to_string(e) + " has fewer than 3 vertices");
-        long long id = 0;
-        if (ipart >= 0) {
-          if (!(std::abs(vals[ipart]) <= 1e15)) return error("face " + std::to_string(e) + ": bad part id");
-          id = static_cast<long long>(vals[ipart]);
-        }
-        auto [it, inserted] = group_of_id.emplace(id, static_cast<uint32_t>(names.size()));
-        if (inserted) {
-          auto nm = part_names.find(id);
-          names.push_back(nm != part_names.end() ? nm->second
-                                                 : (ipart >= 0 ? "part" + std::to_string(id) : "mesh"));
-        }
-        for (size_t k = 1; k + 1 < poly.size(); ++k) {
-          for (double v : {poly[0], poly[k], poly[k + 1]}) face_index_values.push_back(v);
-          tri_group.push_back(it->second);
-        }
+      auto [it, inserted] = group_of_id.emplace(id, static_cast<uint32_t>(names.size()));
+      if (inserted) {
+        auto nm = part_names.find(id);
+        names.push_back(nm != part_names.end() ? nm->second
+                                               : (ipart >= 0 ? "part" + std::to_string(id) : "mesh"));
+      }
+      for (size_t k = 1; k + 1 < poly.size(); ++k) {
+        for (double v : {poly[0], poly[k], poly[k + 1]}) face_index_values.push_back(v);
+        tri_group.push_back(it->second);
       }
     }
   }
-  if (!saw_vertex) return error("no vertex element");
-  mesh.indices.reserve(face_index_values.size());
-  for (size_t i = 0; i < face_index_values.size(); ++i) {
-    const double v = face_index_values[i];
+  return {};
+}
+
+}  // namespace
+
+Result<Mesh> parse_ply(std::string_view bytes, std::string_view source) {
+  const std::string src(source);
+  auto error = [&](const std::string& what) { return fail(Errc::parse_error, src + ": " + what); };
+  auto h = parse_ply_header(bytes, src);
+  if (!h) return tl::unexpected(h.error());
+  PlyBody b;
+  Reader in(bytes.substr(h->body_at), h->body_at, h->format, source);
+  for (const Element& el : h->elements)
+    if (auto st = read_element(el, *h, in, src, b); !st) return tl::unexpected(st.error());
+  if (!b.saw_vertex) return error("no vertex element");
+  Mesh& mesh = b.mesh;
+  mesh.indices.reserve(b.face_index_values.size());
+  for (size_t i = 0; i < b.face_index_values.size(); ++i) {
+    const double v = b.face_index_values[i];
     if (!(v >= 0) || v >= static_cast<double>(mesh.positions.size()) || v != std::floor(v))
       return error("face " + std::to_string(i / 3) + " (after triangulation) has vertex index " +
                    std::to_string(v) + " out of range (" + std::to_string(mesh.positions.size()) + " vertices)");
     mesh.indices.push_back(static_cast<uint32_t>(v));
   }
-  detail::gather_parts(mesh, tri_group, names);
-  return mesh;
+  detail::gather_parts(mesh, b.tri_group, b.names);
+  return std::move(b.mesh);
 }
 
 }  // namespace mimic::avatar

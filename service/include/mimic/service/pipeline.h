@@ -1,14 +1,15 @@
 // The realtime pipeline of Mimic: for every avatar, read (poll its tracker source) →
-// solve (samples → Pose) → encode (pose frame) → send (server fan-out, remote publisher, VMC),
-// then deform (Pose → skin) and send mesh frames to thin clients. The pose frames go first
-// because receivers deform locally: the pose stream never waits for the skin. Built at setup;
-// Pipeline::tick() never allocates or throws: a source with nothing new is skipped, a failed
-// send is counted.
+// solve (samples → Pose) → encode (pose frame, once) → send (to every pose sink: scene server,
+// remote publisher, NATS, VMC, VRPN), then deform (Pose → skin) and send mesh frames to the
+// sinks that ask. The pose frames go first because receivers deform locally: the pose stream
+// never waits for the skin. Built at setup; Pipeline::tick() never allocates or throws: a source
+// with nothing new is skipped, a failed send is counted.
 //
 // Seams (replaceable without touching the loop): PoseFeed does read + solve (tracker source +
 // body solver), Deformer does deform (the skin at a mesh LOD, or forward kinematics alone when
-// nobody asked for meshes). A library of its own so that every front end (`mimic run`, the
-// viewer, the tests) runs the same loop.
+// nobody asked for meshes), PoseSink does send (service/sink.h), Clock says what time it is (a
+// ManualClock in tests). A library of its own so that every front end (`mimic run`, the viewer,
+// the tests) runs the same loop; service/scene_builder.h builds the feeds from `--source` specs.
 #pragma once
 
 #include <array>
@@ -24,18 +25,11 @@
 #include "mimic/rig/skeleton.h"
 #include "mimic/avatar/realtime_skin.h"
 #include "mimic/avatar/skin_lod.h"
+#include "mimic/core/clock.h"
 #include "mimic/core/result.h"
 #include "mimic/devices/sample.h"
 #include "mimic/devices/source.h"
-
-namespace mimic::net {
-class Server;
-class Client;
-class VmcSender;
-class NatsPublisher;
-struct PoseHeader;
-class VrpnServer;
-}  // namespace mimic::net
+#include "mimic/service/sink.h"
 
 namespace mimic::service {
 
@@ -54,7 +48,8 @@ class StageTimer {
   Summary summary();  // uses preallocated scratch: no allocation
 
  private:
-  std::vector<float> ring_, scratch_;
+  std::vector<float> ring_;
+  std::vector<double> scratch_;
   size_t next_ = 0, filled_ = 0;
   uint64_t count_ = 0;
 };
@@ -105,6 +100,15 @@ Result<std::unique_ptr<PoseFeed>> make_motion_feed(std::shared_ptr<const rig::Mo
 Result<std::unique_ptr<PoseFeed>> open_feed(const std::string& spec_text, const std::string& calibration_path = "",
                                             const rig::Skeleton* body = nullptr);
 
+// Tracker samples from `source` through the sensor filters and the body solver on `skeleton`,
+// the sensors where the standard layout `layout` (3, 6, 11, all) places them. One pose per
+// measurement cycle: when every sensor seen so far has a new sample, or kCycleWait_s (25 ms of
+// sample time) after the first new one, when a sensor must be missing.
+Result<std::unique_ptr<PoseFeed>> make_tracker_feed(std::unique_ptr<devices::SensorSource> source,
+                                                    const rig::Skeleton& skeleton, const std::string& layout,
+                                                    std::string description);
+inline constexpr double kCycleWait_s = 0.025;
+
 // Built-in motion by name ("walk", "idle").
 Result<std::shared_ptr<const rig::Motion>> builtin_motion(const std::string& name,
                                                              const rig::Skeleton& skeleton);
@@ -129,31 +133,22 @@ Result<std::unique_ptr<Deformer>> make_skin_deformer(const avatar::BodyModel& mo
                                                      const rig::Skeleton& skeleton, int lod,
                                                      avatar::SkinMethod method = avatar::SkinMethod::realtime);
 
-// Gives the calling thread SCHED_FIFO priority `priority` (1-99), or back to normal scheduling
-// with 0. False when the system refuses (no privilege).
-bool set_realtime_priority(int priority);
-
-struct PipelineOutputs {
-  net::Server* server = nullptr;     // host the scene here
-  net::Client* publisher = nullptr;  // publish into a scene hosted elsewhere
-  net::VmcSender* vmc = nullptr;     // VMC/OSC output: avatar i to the sender's avatar i
-  net::VrpnServer* vrpn = nullptr;   // VRPN trackers: avatar i's joints and samples
-  net::NatsPublisher* nats = nullptr;  // also publish every avatar through a NATS broker
-};
-
-// Between passes of the loop: handles what the network has for us without blocking, then sleeps
-// `idle_us` (a precise sleep: waiting inside the network library rounds up to milliseconds).
-// An error means the remote scene we publish into ended the session.
-Status service_network(const PipelineOutputs& out, int idle_us);
-
 class Pipeline {
  public:
-  explicit Pipeline(PipelineOutputs outputs) : out_(outputs) {}
+  // `sinks` receive every frame (none: the poses stay here, for a local viewer); `clock` times
+  // the loop (stale repeats, latency, stage timers; default the steady clock). Latency is the
+  // clock's now minus the samples' host time: the feeds' sources stamp them on the same clock.
+  explicit Pipeline(SinkList sinks = {}, std::shared_ptr<const Clock> clock = nullptr);
 
   Status add_avatar(const std::string& name, std::unique_ptr<PoseFeed> feed, std::string model_bytes,
                     std::unique_ptr<Deformer> deformer);
   // One pass over every avatar. Never allocates or throws.
   void tick();
+  // Between passes of the loop: every sink handles what the network has for it without
+  // blocking, then the loop sleeps `idle_us` (a precise sleep: waiting inside the network
+  // library rounds up to milliseconds). An error means the remote scene we publish into ended
+  // the session.
+  Status service_network(int idle_us);
 
   size_t avatar_count() const { return avatars_.size(); }
   uint64_t frames() const { return frames_; }
@@ -174,22 +169,21 @@ class Pipeline {
     std::unique_ptr<PoseFeed> feed;
     std::unique_ptr<Deformer> deformer;
     rig::Pose pose;
-    uint16_t server_id = 0;
-    int publisher_slot = -1;
-    int nats_index = -1;
+    uint16_t wire_id = 0;  // the avatar's id in pose and mesh frames (AvatarJoin::wire_id)
     uint32_t sequence = 0;
     uint64_t time_us = 0;  // capture time of the current frame
     std::vector<uint8_t> packet;
-    std::vector<uint8_t> mesh_packet;  // sized when the topology is announced
-    bool topology_sent = false;
-    double last_send_s = 0;  // now_s() of the last frame sent
+    std::vector<uint8_t> mesh_packet;  // sized when the topology is announced (add_avatar)
+    double last_send_s = 0;  // clock time of the last frame sent
     bool silent = false;     // the source has gone quiet: stale repeats
   };
-  void send_mesh(Avatar& a, uint64_t time_us);
-  // The pose frame encoded in a.packet (`bytes` long, 0 if the encoder refused it) to every
-  // stream output: the scene served here, a remote scene, the broker.
-  void publish_pose_frame(Avatar& a, const net::PoseHeader& h, size_t bytes);
-  PipelineOutputs out_;
+  void send_mesh(size_t index, Avatar& a);
+  // The pose frame encoded in a.packet (`bytes` long, 0 if the encoder refused it) to every sink
+  // (the sinks that forward them, for a stale repeat).
+  void send_pose(size_t index, Avatar& a, const net::PoseHeader& h, size_t bytes, bool stale_repeat);
+  void repeat_stale(size_t index, Avatar& a);
+  SinkList sinks_;
+  std::shared_ptr<const Clock> clock_;
   std::vector<Avatar> avatars_;
   std::vector<double> pending_latency_;  // capture time of each avatar's frame this pass, or 0
   std::vector<double> pending_send_us_;

@@ -36,7 +36,11 @@ struct SkinnedAnimation {
   std::string name = "mimic";
 };
 
-// The .glb bytes. Fails (invalid_argument) on a mesh that does not validate, influences of
+// The .glb bytes, as engines load them: one skinned mesh (a primitive and a material per part,
+// the part's name in the primitive's extras), the joint nodes, the inverse bind matrices and
+// one animation. The bind pose stands on the floor: the bind mesh and its pose are raised (or
+// lowered) together so its lowest vertex is at y = 0; the animation's poses are kept as given.
+// Fails (invalid_argument) on a mesh that does not validate, influences of
 // another count than the vertices or naming joints beyond the skeleton, no keyframe, times not
 // increasing, or poses of another DOF count.
 Result<std::string> encode_skinned_glb(const SkinnedAnimation& animation);
