@@ -30,8 +30,12 @@ void add_pose_options(CLI::App& app, PoseOptions& o) {
                              "pose: frame --frame N of a BVH clip (frames count from 0, the clip's first\n"
                              "frame; CMU clips start with a T-pose), retargeted onto the body")
                   ->type_name("CLIP");
-  app.add_option("--frame", o.frame, "the --bvh clip's frame")->check(CLI::NonNegativeNumber)->needs(bvh);
+  app.add_option("--frame", o.frame, "the --bvh clip's frame")
+      ->default_str("")
+      ->check(CLI::NonNegativeNumber)
+      ->needs(bvh);
   app.add_option("--scale", o.scale, "metres per BVH unit (default 0.056444, the CMU unit)")
+      ->default_str("")
       ->check(cli::finite_range(0, INFINITY, cli::Bound::exclusive))
       ->needs(bvh);
   auto* motion = app.add_option("--motion", o.motion, "pose: a built-in motion at --time S")

@@ -20,6 +20,16 @@ std::string number_text(double v) {
   return buf;
 }
 
+// What the option's first validator says about its values ("INT in [0 - 3]"), or "". CLI11 2.1
+// reads validators through a non-const accessor that throws when there are none; nothing changes.
+std::string first_validator_description(const CLI::Option* opt) {
+  try {
+    return const_cast<CLI::Option*>(opt)->get_validator(0)->get_description();
+  } catch (const CLI::OptionNotFound&) {
+    return {};
+  }
+}
+
 // CLI11's layout with the usage line first (what to type, then what it does) and Mimic's
 // lower-case headings.
 class Formatter : public CLI::Formatter {
@@ -64,7 +74,9 @@ class Formatter : public CLI::Formatter {
     if (!opt->get_option_text().empty()) return " " + opt->get_option_text();
     if (opt->get_type_size() != 0) {
       std::string type = opt->get_type_name();
-      if (const auto colon = type.find(':'); colon != std::string::npos) type = type.substr(colon + 1);
+      const std::string checks = first_validator_description(opt);
+      if (const auto at = checks.empty() ? std::string::npos : type.find(':' + checks); at != std::string::npos)
+        type = type.substr(at + 1);
       if (!type.empty()) out += " " + type;
       if (opt->get_expected_max() == CLI::detail::expected_max_vector_size) out += " ...";
       const std::string& fallback = opt->get_default_str();

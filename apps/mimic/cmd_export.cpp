@@ -143,6 +143,6 @@ int run(const std::vector<std::string>& argv) {
 
 }  // namespace
 
-MIMIC_COMMAND(export_, kName, "write a rigged, animated glTF (.glb) of the avatar on a BVH clip, a motion or a recorded session", nullptr, run);
+MIMIC_COMMAND(export_, kName, "write a rigged, animated glTF (.glb) of the avatar on a BVH clip, a motion or a recorded session", run);
 
 }  // namespace mimic::app
