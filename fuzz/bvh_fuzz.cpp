@@ -6,18 +6,18 @@
 #include <string_view>
 #include <vector>
 
-#include "mimic/avatar/bvh.h"
+#include "mimic/rig/bvh.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   using namespace mimic::avatar;
   const std::string_view text(reinterpret_cast<const char*>(data), size);
-  auto clip = parse_bvh(text, "fuzz.bvh");
+  auto clip = rig::parse_bvh(text, "fuzz.bvh");
   if (!clip) {
     if (clip.error().message.empty()) std::abort();
     return 0;
   }
   if (clip->values.size() != static_cast<std::size_t>(clip->frame_count) * clip->channel_count) std::abort();
-  std::vector<RigidTransform> world(clip->joints.size());
-  for (int f = 0; f < clip->frame_count && f < 4; ++f) bvh_forward_kinematics(*clip, f, world);
+  std::vector<rig::RigidTransform> world(clip->joints.size());
+  for (int f = 0; f < clip->frame_count && f < 4; ++f) rig::bvh_forward_kinematics(*clip, f, world);
   return 0;
 }

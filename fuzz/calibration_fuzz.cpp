@@ -16,7 +16,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     if (cal.error().message.empty()) std::abort();
     return 0;
   }
-  if (!mimic::avatar::Skeleton::build(cal->skeleton)) std::abort();
+  if (!mimic::rig::Skeleton::build(cal->skeleton)) std::abort();
   (void)make_solver_model(*cal);  // may refuse (a skeleton without Mimic's chains), never crash
   auto again = calibration_from_json(calibration_to_json(*cal));
   if (!again || again->sensors.size() != cal->sensors.size() || again->skeleton.joints.size() != cal->skeleton.joints.size())

@@ -10,6 +10,7 @@
 #include <span>
 #include <vector>
 
+#include "mimic/core/crc32.h"
 #include "mimic/sim/log.h"
 
 namespace {
@@ -60,7 +61,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     std::uint32_t len;
     std::memcpy(&len, fixed.data() + pos, 4);
     if (len > fixed.size() - pos - 9) break;
-    const std::uint32_t crc = mimic::sim::crc32(std::span<const std::uint8_t>(fixed.data() + pos, 5 + len));
+    const std::uint32_t crc = mimic::crc32(std::span<const std::uint8_t>(fixed.data() + pos, 5 + len));
     std::memcpy(fixed.data() + pos + 5 + len, &crc, 4);
     pos += 9 + len;
   }

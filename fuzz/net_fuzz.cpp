@@ -18,7 +18,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   RejectMsg reject;
   AvatarModel model;
   PoseHeader pose_header;
-  mimic::avatar::Pose pose;
+  mimic::rig::Pose pose;
   MeshTopology topology;
   MeshFrameHeader mesh_header;
   std::vector<glm::vec3> positions;

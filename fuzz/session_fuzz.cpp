@@ -138,7 +138,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
         break;
       }
       case 4: {  // a pose on a slot
-        mimic::avatar::Pose p;
+        mimic::rig::Pose p;
         p.dof_rad.assign(in.u8() % 8, 0.1f);
         PoseHeader ph{uint16_t(in.u8() % 20), 0, uint32_t(in.u8()), 0};
         n = encode_pose(ph, p, out);

@@ -5,9 +5,9 @@
 
 #include "mimic/avatar/body_model.h"
 #include "mimic/avatar/body_presets.h"
-#include "mimic/avatar/bvh.h"
-#include "mimic/avatar/motion.h"
-#include "mimic/avatar/retarget.h"
+#include "mimic/rig/bvh.h"
+#include "mimic/rig/motion.h"
+#include "mimic/rig/retarget.h"
 
 namespace mimic::app {
 
@@ -39,7 +39,7 @@ void add_pose_options(CLI::App& app, PoseOptions& o) {
       ->check(cli::finite_range(0, INFINITY, cli::Bound::exclusive))
       ->needs(bvh);
   auto* motion = app.add_option("--motion", o.motion, "pose: a built-in motion at --time S")
-                     ->check(CLI::IsMember(avatar::builtin_motion_names()))
+                     ->check(CLI::IsMember(rig::builtin_motion_names()))
                      ->excludes(bvh);
   app.add_option("--time", o.time_s, "seconds into the --motion")
       ->check(cli::finite_range(0, kMaxTime_s))
@@ -50,22 +50,22 @@ void add_pose_options(CLI::App& app, PoseOptions& o) {
       ->excludes(motion);
 }
 
-Result<PoseRequest> pose_from(const PoseOptions& o, const avatar::Skeleton& skeleton) {
+Result<PoseRequest> pose_from(const PoseOptions& o, const rig::Skeleton& skeleton) {
   const auto t0 = std::chrono::steady_clock::now();
   PoseRequest req;
   if (!o.bvh.empty()) {
     if (o.frame < 0) return fail(Errc::invalid_argument, "--bvh needs --frame N (frames count from 0)");
-    auto clip = avatar::load_bvh(o.bvh, avatar::BvhParseOptions{o.scale > 0 ? o.scale : avatar::kCmuMetresPerUnit});
+    auto clip = rig::load_bvh(o.bvh, rig::BvhParseOptions{o.scale > 0 ? o.scale : rig::kCmuMetresPerUnit});
     if (!clip) return tl::unexpected(clip.error());
     if (o.frame >= clip->frame_count)
       return fail(Errc::out_of_range, "--frame " + std::to_string(o.frame) + " is outside " + o.bvh + " (frames 0.." +
                                           std::to_string(clip->frame_count - 1) + ")");
-    auto r = avatar::retarget_bvh(*clip);
+    auto r = rig::retarget_bvh(*clip);
     if (!r) return tl::unexpected(r.error());
-    req.pose = avatar::transfer_pose(r->skeleton, r->poses[size_t(o.frame)], skeleton);
+    req.pose = rig::transfer_pose(r->skeleton, r->poses[size_t(o.frame)], skeleton);
     req.description = o.bvh + " frame " + std::to_string(o.frame) + " of " + std::to_string(clip->frame_count);
   } else if (!o.motion.empty()) {
-    auto m = avatar::make_builtin_motion(o.motion, skeleton);
+    auto m = rig::make_builtin_motion(o.motion, skeleton);
     if (!m) return tl::unexpected(m.error());
     req.pose = skeleton.zero_pose();
     (*m)->sample(o.time_s, req.pose);
@@ -75,14 +75,14 @@ Result<PoseRequest> pose_from(const PoseOptions& o, const avatar::Skeleton& skel
     if (which == "zero") req.pose = skeleton.zero_pose();
     else if (which == "rest") req.pose = avatar::relaxed_posture(skeleton);
     else return fail(Errc::invalid_argument, "--pose must be zero or rest, got '" + which + "'");
-    req.pose.root_position_m.y = avatar::standing_root_height_m(skeleton);
+    req.pose.root_position_m.y = rig::standing_root_height_m(skeleton);
     req.description = which + " posture";
   }
   req.load_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   return req;
 }
 
-Result<PoseRequest> pose_from_args(const Args& a, const avatar::Skeleton& skeleton) {
+Result<PoseRequest> pose_from_args(const Args& a, const rig::Skeleton& skeleton) {
   Args args = a;
   const int sources = int(args.has("bvh")) + int(args.has("motion")) + int(args.has("pose"));
   if (sources > 1) return fail(Errc::invalid_argument, "give one of --bvh, --motion or --pose");
@@ -90,7 +90,7 @@ Result<PoseRequest> pose_from_args(const Args& a, const avatar::Skeleton& skelet
   o.bvh = args.get_or("bvh", "");
   o.motion = args.get_or("motion", "");
   o.pose = args.get_or("pose", "");
-  o.scale = avatar::kCmuMetresPerUnit;
+  o.scale = rig::kCmuMetresPerUnit;
   if (!args.get_double("scale", o.scale) || !args.get_int("frame", o.frame) || !args.get_double("time", o.time_s))
     return fail(Errc::invalid_argument, args.error());
   if (!(std::isfinite(o.scale) && o.scale > 0)) return fail(Errc::invalid_argument, "--scale must be a positive number of metres per unit");

@@ -8,7 +8,7 @@
 #include "cli.h"
 #include "command.h"
 #include "mimic/avatar/body_model.h"
-#include "mimic/avatar/skeleton.h"
+#include "mimic/rig/skeleton.h"
 #include "mimic/core/result.h"
 
 namespace mimic::app {
@@ -20,7 +20,7 @@ Result<avatar::BodyModel> body_from_args(const Args& args);
 
 struct PoseRequest {
   std::string description;  // what was asked for, for the report ("07_01.bvh frame 120" ...)
-  avatar::Pose pose;
+  rig::Pose pose;
   double load_ms = 0;       // reading and retargeting the clip
 };
 
@@ -37,8 +37,8 @@ void add_pose_options(CLI::App& app, PoseOptions& o);
 
 // The pose the options ask for, for `skeleton`. Errors name the option at fault; a request that
 // does not make sense is Errc::invalid_argument (a usage error), a clip that does not load is not.
-Result<PoseRequest> pose_from(const PoseOptions& o, const avatar::Skeleton& skeleton);
+Result<PoseRequest> pose_from(const PoseOptions& o, const rig::Skeleton& skeleton);
 // The same from the old parser's words (mimic view).
-Result<PoseRequest> pose_from_args(const Args& args, const avatar::Skeleton& skeleton);
+Result<PoseRequest> pose_from_args(const Args& args, const rig::Skeleton& skeleton);
 
 }  // namespace mimic::app

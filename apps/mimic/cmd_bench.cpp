@@ -11,6 +11,7 @@
 
 #include "cli.h"
 #include "command.h"
+#include "mimic/core/percentile.h"
 #include "mimic/net/client.h"
 #include "mimic/net/frame_codec.h"
 #include "mimic/net/loopback_bench.h"
@@ -45,10 +46,10 @@ struct BenchOptions {
 // ---- network -----------------------------------------------------------------------------------
 
 // Bytes per avatar-frame: the same walking pose three ways.
-Status bytes_per_frame(const avatar::Skeleton& sk, nlohmann::json& j) {
-  auto motion = avatar::make_builtin_motion("walk", sk);
+Status bytes_per_frame(const rig::Skeleton& sk, nlohmann::json& j) {
+  auto motion = rig::make_builtin_motion("walk", sk);
   if (!motion) return tl::unexpected(motion.error());
-  avatar::Pose pose = sk.zero_pose();
+  rig::Pose pose = sk.zero_pose();
   (*motion)->sample(0.3, pose);
   std::vector<uint8_t> frame(net::kMaxDatagramBytes), bundle;
   const size_t mimic_bytes = net::encode_pose({1, 0, 1, net::wall_clock_us()}, pose, frame);
@@ -63,7 +64,7 @@ Status bytes_per_frame(const avatar::Skeleton& sk, nlohmann::json& j) {
 }
 
 // Server -> subscriber over loopback, frames on the stream and as UDP datagrams.
-Status loopback_latency(const BenchOptions& opt, const avatar::Skeleton& sk, nlohmann::json& j) {
+Status loopback_latency(const BenchOptions& opt, const rig::Skeleton& sk, nlohmann::json& j) {
   auto lat = net::measure_loopback_latency(opt.quick ? 300 : 3000, uint16_t(sk.dof_count()));
   if (!lat) return tl::unexpected(lat.error());
   j["loopback_latency_us"] = {{"p50", lat->p50_us}, {"p99", lat->p99_us}, {"max", lat->max_us}, {"samples", lat->samples}};
@@ -164,7 +165,7 @@ Status fanout_sweep(const BenchOptions& opt, nlohmann::json& j) {
 
 Result<nlohmann::json> bench_net(const BenchOptions& opt) {
   nlohmann::json j;
-  auto sk = avatar::Skeleton::build(avatar::default_skeleton_desc());
+  auto sk = rig::Skeleton::build(rig::default_skeleton_desc());
   if (!sk) return tl::unexpected(sk.error());
   if (auto st = bytes_per_frame(*sk, j); !st) return tl::unexpected(st.error());
   if (auto st = loopback_latency(opt, *sk, j); !st) return tl::unexpected(st.error());
@@ -180,11 +181,9 @@ Result<nlohmann::json> bench_net(const BenchOptions& opt) {
 
 // ---- skin ---------------------------------------------------------------------------------------
 
-// Median and 99th percentile of a set of durations (microseconds); sorts in place.
+// Median and 99th percentile of a set of durations (microseconds); reorders them.
 std::pair<double, double> p50_p99(std::vector<double>& us) {
-  if (us.empty()) return {0.0, 0.0};
-  std::sort(us.begin(), us.end());
-  return {us[us.size() / 2], us[std::min(us.size() - 1, us.size() * 99 / 100)]};
+  return {percentile_in_place(us, 0.50), percentile_in_place(us, 0.99)};
 }
 
 template <class F>
@@ -208,11 +207,11 @@ struct SkinBenchCase {
   int lod = 0;
   avatar::BodySkin full;
   std::shared_ptr<const avatar::RealtimeBody> body;
-  std::vector<avatar::Pose> poses;
+  std::vector<rig::Pose> poses;
 };
 
 nlohmann::json skin_row(SkinBenchCase& c, double seconds) {
-  const avatar::Skeleton& sk = c.full.skeleton();
+  const rig::Skeleton& sk = c.full.skeleton();
   const avatar::Mesh& rest = c.body->rest_mesh();
   const size_t np = c.poses.size();
   auto median = [](std::vector<double> us) { return p50_p99(us).first; };
@@ -223,13 +222,13 @@ nlohmann::json skin_row(SkinBenchCase& c, double seconds) {
   const double rtm_us = median(time_frames(seconds, 2000000, [&](size_t k) { rt.evaluate(c.poses[k % np], out, {}, true); }));
   // The baselines on the same rest mesh, bound with the contour-derived weights; a frame is FK,
   // the joints' skinning transforms, then the vertices.
-  std::vector<avatar::RigidTransform> w(sk.joint_count());
-  avatar::forward_kinematics(sk, sk.zero_pose(), w);
+  std::vector<rig::RigidTransform> w(sk.joint_count());
+  rig::forward_kinematics(sk, sk.zero_pose(), w);
   auto baselines = avatar::baselines::BaselineSkinner::create(sk, w, rest, avatar::baselines::from_influences(c.body->weights()));
   if (!baselines) return {{"lod", c.lod}, {"error", baselines.error().what()}};
   auto baseline_us = [&](avatar::baselines::SkinningMethod m) {
     return median(time_frames(seconds, 2000000, [&](size_t k) {
-      avatar::forward_kinematics(sk, c.poses[k % np], w);
+      rig::forward_kinematics(sk, c.poses[k % np], w);
       baselines->set_pose(w);
       baselines->deform(m, out);
     }));
@@ -247,7 +246,7 @@ nlohmann::json skin_row(SkinBenchCase& c, double seconds) {
   const double cor_ns = vertices_ns(avatar::baselines::SkinningMethod::cor);
   // Accuracy against the full method on the same poses (same vertices, in order).
   double sum[2] = {0, 0}, worst[2] = {0, 0};
-  for (const avatar::Pose& p : c.poses) {
+  for (const rig::Pose& p : c.poses) {
     c.full.evaluate(p);
     for (int muscles = 0; muscles < 2; ++muscles) {
       rt.evaluate(p, out, {}, muscles == 1);
@@ -295,8 +294,8 @@ Result<nlohmann::json> bench_skin(const BenchOptions& opt) {
     auto body = avatar::RealtimeBody::create(avatar::default_body_model(), full->skeleton(), ro);
     if (!body) return tl::unexpected(body.error());
     SkinBenchCase c{lod, std::move(*full), *body, {}};
-    const avatar::Skeleton& sk = c.full.skeleton();
-    auto motion = avatar::make_builtin_motion("walk", sk);
+    const rig::Skeleton& sk = c.full.skeleton();
+    auto motion = rig::make_builtin_motion("walk", sk);
     if (!motion) return tl::unexpected(motion.error());
     c.poses.assign(64, sk.zero_pose());
     for (size_t k = 0; k < c.poses.size(); ++k) (*motion)->sample(0.02 * static_cast<double>(k), c.poses[k]);
@@ -325,11 +324,11 @@ Result<nlohmann::json> bench_skin(const BenchOptions& opt) {
 // exact mounts, 1 mm / 0.5° noise, 120 Hz).
 Result<nlohmann::json> bench_solver(const BenchOptions& opt) {
   nlohmann::json j;
-  auto sk = avatar::Skeleton::build(avatar::default_skeleton_desc());
+  auto sk = rig::Skeleton::build(rig::default_skeleton_desc());
   if (!sk) return tl::unexpected(sk.error());
-  auto motion = avatar::make_builtin_motion("walk", *sk);
+  auto motion = rig::make_builtin_motion("walk", *sk);
   if (!motion) return tl::unexpected(motion.error());
-  std::shared_ptr<const avatar::Motion> shared(std::move(*motion));
+  std::shared_ptr<const rig::Motion> shared(std::move(*motion));
   const double seconds = opt.quick ? 0.3 : opt.seconds;
   for (const std::string layout : {"3", "6", "11", "all"}) {
     auto mounts = sim::make_layout(layout, *sk);
@@ -346,12 +345,12 @@ Result<nlohmann::json> bench_solver(const BenchOptions& opt) {
       sm.push_back({static_cast<uint16_t>(i), (*mounts)[i].segment, (*mounts)[i].segment_from_sensor});
     // The standing height a calibration would give: head and hands alone then have stepping legs.
     solver::SolverOptions so;
-    so.standing_root_y_m = avatar::standing_root_height_m(*sk);
+    so.standing_root_y_m = rig::standing_root_height_m(*sk);
     auto model = solver::SolverModel::create(*sk, sm, so);
     if (!model) return tl::unexpected(model.error());
     solver::SolverContext ctx(*model);
     solver::SensorFilterBank filters(static_cast<int>(sm.size()));
-    avatar::Pose pose = sk->zero_pose();
+    rig::Pose pose = sk->zero_pose();
     std::vector<std::vector<devices::SensorSample>> ticks(240, std::vector<devices::SensorSample>(sm.size()));
     for (auto& t : ticks) rig->step(t);
     std::vector<devices::SensorSample> work(sm.size());

@@ -180,8 +180,8 @@ Status refine_by_motion(devices::SensorSource& source, const std::string& layout
 void print_calibration(const solver::Calibration& cal, const std::string& out) {
   std::printf("calibrated: height %.2f m, facing %.0f deg, %d samples over %.2f s, stillness %.1f mm / %.1f deg\n",
               cal.height_m, cal.heading_deg, cal.samples, cal.duration_s, cal.max_motion_mm, cal.max_motion_deg);
-  const avatar::Skeleton fitted = *avatar::Skeleton::build(cal.skeleton);
-  const avatar::Proportions p = avatar::measure_proportions(fitted);
+  const rig::Skeleton fitted = *rig::Skeleton::build(cal.skeleton);
+  const rig::Proportions p = rig::measure_proportions(fitted);
   std::printf("body: upper arm %.3f m, forearm %.3f m, thigh %.3f m, shin %.3f m, shoulders %.3f m, hips %.3f m\n",
               p.upper_arm_m, p.forearm_m, p.thigh_m, p.shin_m, p.shoulder_width_m, p.hip_width_m);
   for (const auto& s : cal.sensors) {
@@ -207,7 +207,7 @@ int run_calibrate(const std::vector<std::string>& argv) {
   auto spec = devices::parse_source_spec(o.source);
   if (!spec) return p.usage_error(spec.error().message);
   const std::string layout_name = o.layout.empty() ? layout_from_spec(*spec) : o.layout;
-  const avatar::Skeleton base = *avatar::Skeleton::build(solver::tracking_skeleton_desc());
+  const rig::Skeleton base = *rig::Skeleton::build(solver::tracking_skeleton_desc());
   auto layout = solver::standard_layout(layout_name, base);
   if (!layout) return p.usage_error(layout.error().message);
 

@@ -59,7 +59,7 @@ int run_compare(const std::vector<std::string>& argv) {
   options.subdivision = 2;
   auto skin = avatar::BodySkin::create(*body, options);
   if (!skin) return failure(kName, skin.error().message);
-  const avatar::Pose pose = avatar::pose_to_match(skin->skeleton(), *ref_landmarks);
+  const rig::Pose pose = avatar::pose_to_match(skin->skeleton(), *ref_landmarks);
   skin->evaluate(pose);
   const avatar::BodyMeasurements ours =
       avatar::measure_body(skin->mesh(), avatar::landmarks_from_skeleton(skin->skeleton(), pose));

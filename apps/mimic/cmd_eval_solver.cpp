@@ -17,7 +17,7 @@
 
 #include "cli.h"
 #include "command.h"
-#include "mimic/avatar/retarget.h"
+#include "mimic/rig/retarget.h"
 #include "mimic/sim/sensor_rig.h"
 #include "mimic/solver/model_refiner.h"
 #include "mimic/solver/body_solver.h"
@@ -60,32 +60,32 @@ constexpr const char* kAbout =
     "  solve_us         wall time of filtering + solving one frame, p50 and p99";
 
 // The motion frozen at one instant: the wearer holding the calibration pose.
-class FrozenMotion final : public avatar::Motion {
+class FrozenMotion final : public rig::Motion {
  public:
-  FrozenMotion(std::shared_ptr<const avatar::Motion> m, double t_s) : m_(std::move(m)), t_(t_s) {}
-  const avatar::Skeleton& skeleton() const override { return m_->skeleton(); }
+  FrozenMotion(std::shared_ptr<const rig::Motion> m, double t_s) : m_(std::move(m)), t_(t_s) {}
+  const rig::Skeleton& skeleton() const override { return m_->skeleton(); }
   double duration_s() const override { return 1e9; }
   bool loops() const override { return false; }
-  void sample(double, avatar::Pose& out) const override { m_->sample(t_, out); }
+  void sample(double, rig::Pose& out) const override { m_->sample(t_, out); }
   std::string name() const override { return m_->name() + "@frozen"; }
 
  private:
-  std::shared_ptr<const avatar::Motion> m_;
+  std::shared_ptr<const rig::Motion> m_;
   double t_;
 };
 
 // The motion from a later start (the clip after its T-pose).
-class ShiftedMotion final : public avatar::Motion {
+class ShiftedMotion final : public rig::Motion {
  public:
-  ShiftedMotion(std::shared_ptr<const avatar::Motion> m, double shift_s) : m_(std::move(m)), shift_(shift_s) {}
-  const avatar::Skeleton& skeleton() const override { return m_->skeleton(); }
+  ShiftedMotion(std::shared_ptr<const rig::Motion> m, double shift_s) : m_(std::move(m)), shift_(shift_s) {}
+  const rig::Skeleton& skeleton() const override { return m_->skeleton(); }
   double duration_s() const override { return std::max(0.0, m_->duration_s() - shift_); }
   bool loops() const override { return false; }
-  void sample(double t, avatar::Pose& out) const override { m_->sample(t + shift_, out); }
+  void sample(double t, rig::Pose& out) const override { m_->sample(t + shift_, out); }
   std::string name() const override { return m_->name(); }
 
  private:
-  std::shared_ptr<const avatar::Motion> m_;
+  std::shared_ptr<const rig::Motion> m_;
   double shift_;
 };
 
@@ -115,9 +115,9 @@ struct Run {
   double reach_mm = 0;     // mean distance of the solved end effectors from their sensors' targets
 };
 
-Run evaluate(const std::shared_ptr<const avatar::Motion>& motion, double frame_time_s, const std::string& layout_name,
+Run evaluate(const std::shared_ptr<const rig::Motion>& motion, double frame_time_s, const std::string& layout_name,
              const Settings& st) {
-  const avatar::Skeleton& truth = motion->skeleton();
+  const rig::Skeleton& truth = motion->skeleton();
   auto mounts = sim::make_layout(layout_name, truth);
   if (!mounts) return {{}, mounts.error().message};
   // Straps never sit square: a random turn of up to --tilt on every sensor.
@@ -130,7 +130,7 @@ Run evaluate(const std::shared_ptr<const avatar::Motion>& motion, double frame_t
   }
   // The solver's view of the layout: which sensor is on which segment, and where the wearer
   // was told to strap it (from its own layout table, matched by sensor name).
-  const avatar::Skeleton base = *avatar::Skeleton::build(solver::tracking_skeleton_desc());
+  const rig::Skeleton base = *rig::Skeleton::build(solver::tracking_skeleton_desc());
   auto nominal = solver::standard_layout(layout_name, base);
   if (!nominal) return {{}, nominal.error().message};
   solver::SensorLayout layout;
@@ -182,13 +182,13 @@ Run evaluate(const std::shared_ptr<const avatar::Motion>& motion, double frame_t
   fc.enabled = st.filter;
   fc.predict_s = static_cast<float>(st.latency_ms / 1000.0);  // the tracker's known latency
   solver::SensorFilterBank filters(static_cast<int>(mounts->size()), fc);
-  avatar::Pose pose = model->skeleton().zero_pose();
-  std::vector<avatar::RigidTransform> solved_world(model->skeleton().joint_count());
+  rig::Pose pose = model->skeleton().zero_pose();
+  std::vector<rig::RigidTransform> solved_world(model->skeleton().joint_count());
   solver::PoseErrorAccumulator acc(truth, model->skeleton());
   acc.set_rate_hz(st.rate_hz);
   solver::GaitAccumulator gait(truth, model->skeleton(), st.rate_hz);
-  avatar::Pose truth_pose = truth.zero_pose();
-  std::vector<avatar::RigidTransform> truth_world(truth.joint_count());
+  rig::Pose truth_pose = truth.zero_pose();
+  std::vector<rig::RigidTransform> truth_world(truth.joint_count());
   long ticks = static_cast<long>(std::floor(motion_after->duration_s() * st.rate_hz)) + 1;
   if (st.max_frames >= 0) ticks = std::min(ticks, st.max_frames);
   for (long k = 0; k < ticks; ++k) {
@@ -204,7 +204,7 @@ Run evaluate(const std::shared_ptr<const avatar::Motion>& motion, double frame_t
     solver::SolveJob job{model.get(), tick, ctx.get(), &pose};
     job.Run();
     const auto t1 = std::chrono::steady_clock::now();
-    avatar::forward_kinematics(model->skeleton(), pose, solved_world);
+    rig::forward_kinematics(model->skeleton(), pose, solved_world);
     const double solve_us = std::chrono::duration<double, std::micro>(t1 - t0).count();
     // Reach: how far the solved head, wrists and ankles are from where their own sensors (as
     // calibrated, after the filters) put them — the IK's part of the end-effector error.
@@ -214,14 +214,14 @@ Run evaluate(const std::shared_ptr<const avatar::Motion>& motion, double frame_t
       if (m.sensor != smp.sensor || !solver::is_end_effector(m.segment)) continue;
       const int j = model->skeleton().find_joint(m.segment);
       const glm::vec3 target =
-          avatar::RigidTransform{smp.orientation, smp.position_m}.apply(m.segment_from_sensor.inverse().translation);
+          rig::RigidTransform{smp.orientation, smp.position_m}.apply(m.segment_from_sensor.inverse().translation);
       reach_sum_m += glm::length(solved_world[j].translation - target);
       ++reach_n;
     }
     if (st.latency_ms > 0) {
       // The samples left the body latency ago; the avatar is judged against the body now.
       motion_after->sample(static_cast<double>(k) / st.rate_hz + st.latency_ms / 1000.0, truth_pose);
-      avatar::forward_kinematics(truth, truth_pose, truth_world);
+      rig::forward_kinematics(truth, truth_pose, truth_world);
       acc.add(truth_world, solved_world, solve_us);
       gait.add(truth_world, solved_world);
     } else {
@@ -309,10 +309,10 @@ int run_eval_solver(const std::vector<std::string>& argv) {
   const std::string* clip_path = &o.clip_path;
   const std::vector<std::string>& layouts = o.layouts;
 
-  auto motion = avatar::load_bvh_motion(*clip_path);
+  auto motion = rig::load_bvh_motion(*clip_path);
   if (!motion) return failure(kName, motion.error().message);
-  std::shared_ptr<const avatar::Motion> shared(std::move(*motion));
-  auto clip = avatar::load_bvh(*clip_path);  // for the frame time
+  std::shared_ptr<const rig::Motion> shared(std::move(*motion));
+  auto clip = rig::load_bvh(*clip_path);  // for the frame time
   if (!clip) return failure(kName, clip.error().message);
   const std::string name = base_name(*clip_path);
   const bool json = o.json;

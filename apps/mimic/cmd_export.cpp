@@ -13,9 +13,9 @@
 #include "command.h"
 #include "mimic/avatar/body_model.h"
 #include "mimic/avatar/gltf_animation.h"
-#include "mimic/avatar/motion.h"
+#include "mimic/rig/motion.h"
 #include "mimic/avatar/realtime_skin.h"
-#include "mimic/avatar/retarget.h"
+#include "mimic/rig/retarget.h"
 #include "mimic/avatar/skin_lod.h"
 #include "mimic/core/file.h"
 #include "mimic/service/solve_log.h"
@@ -44,7 +44,7 @@ std::optional<int> parse(cli::Parser& p, const std::vector<std::string>& argv, O
   auto* bvh = app.add_option("--bvh", o.bvh, "a BVH clip (CMU units), retargeted onto the body's skeleton")
                   ->type_name("CLIP");
   auto* motion = app.add_option("--motion", o.motion, "a built-in motion (one loop)")
-                     ->check(CLI::IsMember(avatar::builtin_motion_names()));
+                     ->check(CLI::IsMember(rig::builtin_motion_names()));
   auto* log = app.add_option("--log", o.log,
                              "a recorded tracker session (mimic record), solved frame by frame as\n"
                              "mimic run --source replay: would (filters, body solver), at --fps")
@@ -73,20 +73,20 @@ int run(const std::vector<std::string>& argv) {
   if (auto exit_code = parse(p, argv, o)) return *exit_code;
   auto body = body_from_path(o.body);
   if (!body) return failure(kName, body.error().what());
-  auto skeleton = avatar::Skeleton::build(body->skeleton);
+  auto skeleton = rig::Skeleton::build(body->skeleton);
   if (!skeleton) return failure(kName, skeleton.error().what());
   // The animation's skeleton and keys: a motion sampled at --fps, or a recorded session solved
   // at --fps (on the calibration's fitted skeleton when one is given).
-  std::unique_ptr<avatar::Motion> motion;
+  std::unique_ptr<rig::Motion> motion;
   std::optional<service::SolvedTake> take;
   if (!o.bvh.empty()) {
-    avatar::BvhMotionOptions bo;
+    rig::BvhMotionOptions bo;
     bo.body = &*skeleton;
-    auto m = avatar::load_bvh_motion(o.bvh, bo);
+    auto m = rig::load_bvh_motion(o.bvh, bo);
     if (!m) return failure(kName, m.error().what());
     motion = std::move(*m);
   } else if (!o.motion.empty()) {
-    auto m = avatar::make_builtin_motion(o.motion, *skeleton);
+    auto m = rig::make_builtin_motion(o.motion, *skeleton);
     if (!m) return usage_error(kName, m.error().message);
     motion = std::move(*m);
   } else {
@@ -95,7 +95,7 @@ int run(const std::vector<std::string>& argv) {
     if (t->poses.size() < 2) return failure(kName, o.log + ": too short for an animation (under two frames)");
     take = std::move(*t);
   }
-  const avatar::Skeleton& sk = motion ? motion->skeleton() : take->skeleton;
+  const rig::Skeleton& sk = motion ? motion->skeleton() : take->skeleton;
 
   avatar::RealtimeOptions ro;
   ro.lod = o.lod;
@@ -114,7 +114,7 @@ int run(const std::vector<std::string>& argv) {
     // Keys every 1/fps and one at the very end: a clip whose length is not a whole number of
     // key intervals (a BVH's frame time is rounded: 0.008333 s) keeps its last frame.
     const long keys = std::max(2L, static_cast<long>(std::ceil(span_s * o.fps - 1e-6)) + 1);
-    avatar::Pose pose = sk.zero_pose();
+    rig::Pose pose = sk.zero_pose();
     for (long k = 0; k < keys; ++k) {
       const double t = std::min(span_s, double(k) / o.fps);
       if (k > 0 && !(t > anim.times_s.back())) break;

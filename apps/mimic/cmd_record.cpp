@@ -11,6 +11,7 @@
 
 #include "cli.h"
 #include "command.h"
+#include "mimic/core/clock.h"
 #include "stop_signal.h"
 #include "mimic/devices/source.h"
 #include "mimic/sim/log.h"
@@ -27,10 +28,6 @@ constexpr const char* kAbout =
     "--duration seconds have passed, the source ends (a replay), or Ctrl-C. The log is\n"
     "flushed every quarter second and closed cleanly on Ctrl-C, so it is complete and valid\n"
     "up to the last sample.";
-
-double now_s() {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
-}
 
 struct SensorCount {
   uint16_t id;
@@ -139,7 +136,7 @@ int run(const std::vector<std::string>& argv) {
 
   install_stop_handler();
   const bool live = !o.quiet && ::isatty(STDERR_FILENO);
-  const double start = now_s();
+  const double start = steady_now_s();
   double next_status = start;
   double next_flush = start + 0.25;
   uint64_t total = 0;
@@ -164,7 +161,7 @@ int run(const std::vector<std::string>& argv) {
   };
   while (!stop_requested() && error.empty()) {
     drain();
-    const double t = now_s();
+    const double t = steady_now_s();
     if (duration_s > 0 && t - start >= duration_s) break;
     if (replay && replay->finished()) break;
     // Also flush on the wall clock: a source that falls silent must not keep its last
@@ -183,7 +180,7 @@ int run(const std::vector<std::string>& argv) {
   (*source)->stop();
   if (raw && error.empty())  // the stop command the driver sent on the way out
     if (auto r = raw->write_to(*writer); !r) error = r.error().what();
-  const double elapsed = now_s() - start;
+  const double elapsed = steady_now_s() - start;
   if (auto st = writer->close(); !st && error.empty()) error = st.error().what();
   if (live) std::fprintf(stderr, "\r\033[K");
   std::fprintf(stderr, "%s\n", status_line(elapsed, total, sensors).c_str());

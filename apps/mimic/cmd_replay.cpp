@@ -14,7 +14,7 @@
 #include "command.h"
 #include "mimic/core/text.h"
 #include "stop_signal.h"
-#include "mimic/sim/clock.h"
+#include "mimic/core/clock.h"
 #include "mimic/sim/log.h"
 #include "mimic/sim/replay_source.h"
 #include "mimic/devices/flock.h"
@@ -190,7 +190,7 @@ int run(const std::vector<std::string>& argv) {
   const bool csv = o.csv;
   options.keep_log_times = csv;
 
-  auto clock = std::make_shared<sim::SteadyClock>();
+  auto clock = std::make_shared<SteadyClock>();
   auto opened = sim::ReplaySource::open(path, options, clock);
   if (!opened) {
     const Errc code = opened.error().code;

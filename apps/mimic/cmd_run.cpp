@@ -20,7 +20,7 @@
 #include "mimic/net/server.h"
 #include "mimic/net/vmc.h"
 #include "mimic/net/vrpn_server.h"
-#include "alloc_count.h"
+#include "mimic/core/alloc_counter.h"
 #include "lean_flags.h"
 #include "mimic/service/pipeline.h"
 #include "mimic/service/scene.h"
@@ -294,9 +294,9 @@ int run(const std::vector<std::string>& argv) {
     // The body first: its skeleton is the one the avatar's source is solved on.
     auto asset = load_body(body);
     if (!asset) return failure("run", asset.error().what());
-    auto built_skeleton = avatar::Skeleton::build(asset->model.skeleton);
+    auto built_skeleton = rig::Skeleton::build(asset->model.skeleton);
     if (!built_skeleton) return failure("run", "body model " + body + ": " + built_skeleton.error().what());
-    const avatar::Skeleton body_skeleton = std::move(*built_skeleton);
+    const rig::Skeleton body_skeleton = std::move(*built_skeleton);
     Result<std::unique_ptr<PoseFeed>> feed = tl::unexpected(Error{});
     if (spec.rfind("actor:", 0) == 0) {
       std::string actor_spec = spec;

@@ -30,12 +30,12 @@ Result<const avatar::BodyPreset*> find_preset(std::string_view name) {
 
 // Standing height of the skin's skeleton (top of the head link over the sole), for listings.
 float skeleton_height_m(const avatar::BodyModel& body) {
-  auto s = avatar::Skeleton::build(body.skeleton);
+  auto s = rig::Skeleton::build(body.skeleton);
   if (!s) return 0;
-  avatar::Pose p = s->zero_pose();
-  p.root_position_m.y = avatar::standing_root_height_m(*s);
-  std::vector<avatar::RigidTransform> w(s->joint_count());
-  avatar::forward_kinematics(*s, p, w);
+  rig::Pose p = s->zero_pose();
+  p.root_position_m.y = rig::standing_root_height_m(*s);
+  std::vector<rig::RigidTransform> w(s->joint_count());
+  rig::forward_kinematics(*s, p, w);
   float top = 0;
   for (int j = 0; j < s->joint_count(); ++j) top = std::max(top, w[j].apply(s->tip_m(j)).y);
   return top;

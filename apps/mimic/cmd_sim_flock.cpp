@@ -14,8 +14,8 @@
 #include "cli.h"
 #include "command.h"
 #include "stop_signal.h"
-#include "mimic/avatar/motion.h"
-#include "mimic/avatar/retarget.h"
+#include "mimic/rig/motion.h"
+#include "mimic/rig/retarget.h"
 #include "mimic/devices/flock_packet.h"
 #include "mimic/sim/flock_placement.h"
 #include "mimic/sim/log.h"
@@ -62,7 +62,7 @@ std::optional<int> parse(cli::Parser& p, const std::vector<std::string>& argv, O
   auto* motion = p->add_option("--motion", o.motion,
                                "built-in motion of the sensor rig. Without --motion or --bvh every\n"
                                "joint of the default body swings on its own sinusoid")
-                     ->check(CLI::IsMember(avatar::builtin_motion_names()));
+                     ->check(CLI::IsMember(rig::builtin_motion_names()));
   p->add_option("--bvh", o.bvh, "a BVH clip retargeted onto Mimic's skeleton (does not loop)")
       ->type_name("CLIP")
       ->excludes(motion);
@@ -99,7 +99,7 @@ struct RigProvider {
 
 // Samples the sensors' true world positions over the motion (at most 10 minutes of it, at
 // 20 Hz) and places the transmitter where all of them stay in front of it.
-Result<sim::FlockPlacement> place_for_motion(const std::shared_ptr<const avatar::Motion>& motion, const sim::RigConfig& rc) {
+Result<sim::FlockPlacement> place_for_motion(const std::shared_ptr<const rig::Motion>& motion, const sim::RigConfig& rc) {
   sim::RigConfig survey;
   survey.sensors = rc.sensors;
   survey.rate_hz = 20.0;
@@ -118,25 +118,25 @@ Result<sim::FlockPlacement> place_for_motion(const std::shared_ptr<const avatar:
 // Where the sensors ride and what that needs of the Flock: the transmitter's place, the
 // sensors' names and whether an extended range controller serves them.
 struct Scene {
-  avatar::RigidTransform world_from_transmitter;
+  rig::RigidTransform world_from_transmitter;
   std::vector<std::string> sensor_names;
   std::string motion_what = "sinusoids";
   bool ert = false;
 };
 
-Result<std::shared_ptr<const avatar::Motion>> load_motion(const Options& o, Scene& scene) {
+Result<std::shared_ptr<const rig::Motion>> load_motion(const Options& o, Scene& scene) {
   if (!o.bvh.empty()) {
-    auto m = avatar::load_bvh_motion(o.bvh);
+    auto m = rig::load_bvh_motion(o.bvh);
     if (!m) return tl::unexpected(m.error());
     scene.motion_what = "bvh:" + o.bvh;
-    return std::shared_ptr<const avatar::Motion>(std::move(*m));
+    return std::shared_ptr<const rig::Motion>(std::move(*m));
   }
-  auto skeleton = avatar::Skeleton::build(avatar::default_skeleton_desc());
+  auto skeleton = rig::Skeleton::build(rig::default_skeleton_desc());
   if (!skeleton) return tl::unexpected(skeleton.error());
-  auto m = avatar::make_builtin_motion(o.motion, *skeleton);
+  auto m = rig::make_builtin_motion(o.motion, *skeleton);
   if (!m) return tl::unexpected(m.error());
   scene.motion_what = "motion:" + o.motion;
-  return std::shared_ptr<const avatar::Motion>(std::move(*m));
+  return std::shared_ptr<const rig::Motion>(std::move(*m));
 }
 
 // The sensor rig on --motion or --bvh drives the birds; the transmitter goes where the motion

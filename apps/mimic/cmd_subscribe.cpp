@@ -10,6 +10,7 @@
 
 #include "cli.h"
 #include "command.h"
+#include "mimic/core/percentile.h"
 #include "mimic/net/client.h"
 #include "mimic/net/server.h"
 
@@ -35,23 +36,16 @@ constexpr const char* kAbout =
     "Names and server messages are printed with control, bidi and invisible characters escaped\n"
     "(\\uXXXX; bytes that are not UTF-8 as \\xNN).";
 
-double percentile(std::vector<double> v, double q) {
-  if (v.empty()) return 0;
-  const size_t k = std::min(v.size() - 1, static_cast<size_t>(q * double(v.size() - 1) + 0.5));
-  std::nth_element(v.begin(), v.begin() + static_cast<long>(k), v.end());
-  return v[k];
-}
-
-// The --json summary of a run (the keys the usage lists).
-nlohmann::json summary(const net::Client& client, uint64_t frames, double fps, const std::vector<double>& latency_ms,
+// The --json summary of a run (the keys the usage lists); reorders `latency_ms`.
+nlohmann::json summary(const net::Client& client, uint64_t frames, double fps, std::vector<double>& latency_ms,
                        double duration_s) {
   const auto& s = client.stats();
   nlohmann::json j;
   j["frames"] = frames;
   j["avatars"] = client.avatars().size();
   j["fps"] = fps;
-  j["latency_ms_p50"] = percentile(latency_ms, 0.50);
-  j["latency_ms_p99"] = percentile(latency_ms, 0.99);
+  j["latency_ms_p50"] = percentile_in_place(latency_ms, 0.50);
+  j["latency_ms_p99"] = percentile_in_place(latency_ms, 0.99);
   j["lost"] = s.lost;
   j["out_of_order"] = s.out_of_order;
   j["model_bytes"] = s.model_bytes;

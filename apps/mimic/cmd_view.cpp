@@ -107,7 +107,7 @@ bool parse_size(const std::string& text, int& w, int& h) {
 }
 
 // "l_shoulder_abduction=2.5,r_elbow_flexion=1" onto the pose; errors name the DOF.
-Status apply_dof_settings(const std::string& list, const avatar::Skeleton& skeleton, avatar::Pose& pose) {
+Status apply_dof_settings(const std::string& list, const rig::Skeleton& skeleton, rig::Pose& pose) {
   size_t start = 0;
   while (start < list.size()) {
     size_t comma = list.find(',', start);
@@ -162,7 +162,7 @@ int screenshot(Args& args, const ViewOptions& view) {
     }
     if (!args.has("bvh") && !args.has("motion") && !args.has("pose")) {
       request->pose = avatar::relaxed_posture(lods->skeleton());
-      request->pose.root_position_m.y = avatar::standing_root_height_m(lods->skeleton());
+      request->pose.root_position_m.y = rig::standing_root_height_m(lods->skeleton());
       request->description = "rest posture";
     }
     if (auto set = args.get("set")) {

@@ -64,7 +64,7 @@ std::vector<std::string> split_sources(const std::string& list) {
 struct ViewAvatar {
   std::string name, source;
   std::optional<render::AvatarLods> lods;
-  avatar::Pose pose;
+  rig::Pose pose;
   glm::mat4 world_from_body{1.0f};
   bool stale = false;
   std::string status;
@@ -149,7 +149,7 @@ int run_interactive(Args& args, const ViewOptions& view) {
   } else {
     pipeline = std::make_unique<service::Pipeline>(service::PipelineOutputs{});
     const auto specs = split_sources(args.get_or("source", "sim:walk"));
-    auto body_skeleton = avatar::Skeleton::build(model->skeleton);
+    auto body_skeleton = rig::Skeleton::build(model->skeleton);
     if (!body_skeleton) return failure(kName, "body model: " + body_skeleton.error().message);
     for (size_t i = 0; i < specs.size(); ++i) {
       auto feed = service::open_feed(specs[i], args.get_or("calibration", ""), &*body_skeleton);
@@ -192,7 +192,7 @@ int run_interactive(Args& args, const ViewOptions& view) {
   if (!args.get_int("eyes", eyes) || eyes < 0) return usage_error(kName, "--eyes takes an avatar number from 1");
   render::Lines lines, xray;
   std::vector<render::MeshDraw> draws;
-  std::vector<avatar::RigidTransform> joints;
+  std::vector<rig::RigidTransform> joints;
   double frame_ms_sum = 0, frame_ms_shown = 0, fps_shown = 0, window_start = window->time_s();
   int frames_in_window = 0;
   double total_ms = 0;
@@ -349,10 +349,10 @@ int run_interactive(Args& args, const ViewOptions& view) {
       if (static_cast<int>(i) == first_person) {
         // The eyes of this avatar: a little in front of its face, looking where its head looks.
         joints.resize(a.lods->skeleton().joint_count());
-        avatar::forward_kinematics(a.lods->skeleton(), a.pose, joints);
+        rig::forward_kinematics(a.lods->skeleton(), a.pose, joints);
         const int head = a.lods->skeleton().find_joint("head");
         if (head >= 0) {
-          const avatar::RigidTransform& h = joints[head];
+          const rig::RigidTransform& h = joints[head];
           const glm::vec3 forward = h.apply_vector({0, 0, 1});
           camera.first_person_eye = glm::vec3(a.world_from_body * glm::vec4(h.apply({0, 0.09f, 0.14f}), 1.0f));
           camera.first_person_forward = glm::vec3(a.world_from_body * glm::vec4(forward, 0.0f));

@@ -56,7 +56,7 @@ PrimitiveState deformed_state(const PrimitiveState& g0, const PrimitiveState& gm
   return theta >= theta0 ? lerp_state(g0, gmax, w.y) : lerp_state(g0, gmin, w.x);
 }
 
-Result<BodyField> BodyField::create(const BodyModel& model, const Skeleton& skeleton) {
+Result<BodyField> BodyField::create(const BodyModel& model, const rig::Skeleton& skeleton) {
   BodyField f;
   const size_t n = model.primitives.size();
   if (n >= 65535) return fail(Errc::invalid_argument, "too many primitives");
@@ -75,7 +75,7 @@ Result<BodyField> BodyField::create(const BodyModel& model, const Skeleton& skel
       s.gmin = p.deformation->at_min;
       s.gmax = p.deformation->at_max;
       s.falloff = p.deformation->falloff;
-      const Dof& d = skeleton.dof(s.dof);
+      const rig::Dof& d = skeleton.dof(s.dof);
       s.theta0 = d.rest_rad;
       s.theta_min = d.min_rad;
       s.theta_max = d.max_rad;
@@ -96,21 +96,21 @@ Result<BodyField> BodyField::create(const BodyModel& model, const Skeleton& skel
   f.bound_radius_.resize(n);
   f.min_axis_.resize(n);
   // A valid initial frame: the zero posture.
-  std::vector<RigidTransform> w(skeleton.joint_count());
-  const Pose zero = skeleton.zero_pose();
-  forward_kinematics(skeleton, zero, w);
+  std::vector<rig::RigidTransform> w(skeleton.joint_count());
+  const rig::Pose zero = skeleton.zero_pose();
+  rig::forward_kinematics(skeleton, zero, w);
   f.update(w, zero.dof_rad);
   return f;
 }
 
-void BodyField::update(std::span<const RigidTransform> world_from_joint, std::span<const float> dof_rad) {
+void BodyField::update(std::span<const rig::RigidTransform> world_from_joint, std::span<const float> dof_rad) {
   const size_t n = sources_.size();
   for (size_t i = 0; i < n; ++i) {
     const Source& s = sources_[i];
     const PrimitiveState st =
         s.dof < 0 ? s.g0
                   : deformed_state(s.g0, s.gmin, s.gmax, s.falloff, dof_rad[s.dof], s.theta0, s.theta_min, s.theta_max);
-    const RigidTransform& wj = world_from_joint[s.joint];
+    const rig::RigidTransform& wj = world_from_joint[s.joint];
     const glm::mat3 world_rot = glm::mat3_cast(wj.rotation) * rotation_xyz(st.orientation_rad);
     const glm::vec3 inv_axes = 1.0f / st.semi_axes_m;
     // unit_from_world = S⁻¹ · Rᵀ: rows of Rᵀ are the primitive's axes in world.

@@ -6,6 +6,8 @@
 #include <nlohmann/json.hpp>
 
 #include "mimic/core/file.h"
+#include "mimic/core/json_io.h"
+#include "mimic/rig/skeleton_json.h"
 
 namespace mimic::avatar {
 
@@ -53,10 +55,8 @@ PrimitiveState mirror_state(PrimitiveState s) {
 
 using nlohmann::json;
 
-// Six decimals (micrometres, microdegrees) keep files readable and round trips exact.
-double rounded(float v) { return std::round(static_cast<double>(v) * 1e6) / 1e6; }
-
-json vec(const glm::vec3& v) { return json::array({rounded(v.x), rounded(v.y), rounded(v.z)}); }
+double rounded(float v) { return json_rounded(v); }
+json vec(const glm::vec3& v) { return json_vec3(v); }
 
 
 // Defaults are left out: kind metaball, weight 1, zero orientation; a deformation state's centre
@@ -88,137 +88,16 @@ json primitive_json(const Primitive& p) {
   return pj;
 }
 
-json dof_json(const DofDesc& d);
-
-json joint_json(const JointDesc& jd) {
-  json dofs = json::array();
-  for (const auto& d : jd.dofs) dofs.push_back(dof_json(d));
-  return json{{"name", jd.name}, {"parent", jd.parent}, {"offset", vec(jd.offset_m)}, {"tip", vec(jd.tip_m)},
-              {"dofs", dofs}};
+PrimitiveState read_state(JsonReader& r, const json& obj, const std::string& path, const PrimitiveState& fallback) {
+  PrimitiveState s;
+  s.semi_axes_m = r.vec3(obj, path, "semi_axes", fallback.semi_axes_m, true);
+  s.center_m = r.vec3(obj, path, "center", fallback.center_m);
+  s.orientation_rad = glm::radians(r.vec3(obj, path, "orientation_deg", glm::degrees(fallback.orientation_rad)));
+  return s;
 }
 
-json dof_json(const DofDesc& d) {
-  return json{{"name", d.name},
-              {"axis", vec(d.axis)},
-              {"min_deg", rounded(glm::degrees(d.min_rad))},
-              {"max_deg", rounded(glm::degrees(d.max_rad))},
-              {"rest_deg", rounded(glm::degrees(d.rest_rad))}};
-}
-
-// Reads JSON with a running path so every error says where it is.
-class Reader {
- public:
-  explicit Reader(std::string source) : source_(std::move(source)) {}
-
-  [[nodiscard]] bool ok() const { return error_.empty(); }
-  [[nodiscard]] const std::string& error() const { return error_; }
-
-  void fail_at(const std::string& path, const std::string& what) {
-    if (error_.empty()) error_ = source_ + ": " + path + ": " + what;
-  }
-
-  const json* member(const json& obj, const std::string& path, const char* key, bool required) {
-    if (!obj.is_object()) {
-      fail_at(path, "expected an object");
-      return nullptr;
-    }
-    auto it = obj.find(key);
-    if (it == obj.end()) {
-      if (required) fail_at(path, std::string("missing \"") + key + "\"");
-      return nullptr;
-    }
-    return &*it;
-  }
-
-  float number(const json& obj, const std::string& path, const char* key, float fallback,
-               bool required = false) {
-    const json* v = member(obj, path, key, required);
-    if (!v) return fallback;
-    if (!v->is_number()) {
-      fail_at(path + "." + key, "expected a number");
-      return fallback;
-    }
-    const double d = v->get<double>();
-    if (!std::isfinite(d) || std::abs(d) > 3.0e38) {  // beyond a float: no undefined conversion
-      fail_at(path + "." + key, "not a finite number a float can hold");
-      return fallback;
-    }
-    return static_cast<float>(d);
-  }
-
-  int integer(const json& obj, const std::string& path, const char* key, int fallback) {
-    const json* v = member(obj, path, key, false);
-    if (!v) return fallback;
-    if (!v->is_number_integer()) {
-      fail_at(path + "." + key, "expected an integer");
-      return fallback;
-    }
-    const int64_t n = v->get<int64_t>();
-    if (n < INT32_MIN || n > INT32_MAX) {
-      fail_at(path + "." + key, "integer out of range");
-      return fallback;
-    }
-    return static_cast<int>(n);
-  }
-
-  std::string string(const json& obj, const std::string& path, const char* key, bool required,
-                     const std::string& fallback = "") {
-    const json* v = member(obj, path, key, required);
-    if (!v) return fallback;
-    if (!v->is_string()) {
-      fail_at(path + "." + key, "expected a string");
-      return fallback;
-    }
-    return v->get<std::string>();
-  }
-
-  glm::vec3 vec3(const json& obj, const std::string& path, const char* key, glm::vec3 fallback,
-                 bool required = false) {
-    const json* v = member(obj, path, key, required);
-    if (!v) return fallback;
-    if (!v->is_array() || v->size() != 3) {
-      fail_at(path + "." + key, "expected an array of 3 numbers");
-      return fallback;
-    }
-    glm::vec3 out;
-    for (int i = 0; i < 3; ++i) {
-      const double d = (*v)[i].is_number() ? (*v)[i].get<double>() : NAN;
-      if (!std::isfinite(d) || std::abs(d) > 3.0e38) {
-        fail_at(path + "." + key + "[" + std::to_string(i) + "]", "expected a finite number");
-        return fallback;
-      }
-      out[i] = static_cast<float>(d);
-    }
-    return out;
-  }
-
-  PrimitiveState state(const json& obj, const std::string& path, const PrimitiveState& fallback) {
-    PrimitiveState s;
-    s.semi_axes_m = vec3(obj, path, "semi_axes", fallback.semi_axes_m, true);
-    s.center_m = vec3(obj, path, "center", fallback.center_m);
-    s.orientation_rad = glm::radians(vec3(obj, path, "orientation_deg", glm::degrees(fallback.orientation_rad)));
-    return s;
-  }
-
- private:
-  std::string source_;
-  std::string error_;
-};
 
 }  // namespace
-
-JointDesc mirrored(const JointDesc& left) {
-  JointDesc j = left;
-  j.name = mirror_name(left.name);
-  j.parent = mirror_name(left.parent);
-  j.offset_m.x = -j.offset_m.x;
-  j.tip_m.x = -j.tip_m.x;
-  for (auto& d : j.dofs) {
-    d.name = mirror_name(d.name);
-    d.axis = {d.axis.x, -d.axis.y, -d.axis.z};
-  }
-  return j;
-}
 
 Primitive mirrored(const Primitive& p) {
   Primitive q = p;
@@ -271,7 +150,7 @@ float falloff_value(Falloff f, float t) {
 }
 
 Status validate(const BodyModel& model) {
-  auto skel = Skeleton::build(model.skeleton);
+  auto skel = rig::Skeleton::build(model.skeleton);
   if (!skel) return fail(Errc::invalid_argument, "skeleton: " + skel.error().message);
   if (model.primitives.empty()) return fail(Errc::invalid_argument, "body has no primitives");
   std::set<std::string> names;
@@ -349,19 +228,7 @@ std::string to_json(const BodyModel& model, bool pretty) {
   j["format"] = "mimic-body";
   j["version"] = kFormatVersion;
   j["name"] = model.name;
-  // A right joint right after its exact mirror image on the left is written once, on the left,
-  // as "mirror": true (the reader puts the twin back in the same place).
-  json joints = json::array();
-  const auto& js = model.skeleton.joints;
-  for (size_t i = 0; i < js.size(); ++i) {
-    json jj = joint_json(js[i]);
-    if (js[i].name.rfind("l_", 0) == 0 && i + 1 < js.size() && joint_json(js[i + 1]) == joint_json(mirrored(js[i]))) {
-      jj["mirror"] = true;
-      ++i;
-    }
-    joints.push_back(std::move(jj));
-  }
-  j["skeleton"] = json{{"joints", joints}};
+  j["skeleton"] = rig::skeleton_json(model.skeleton);
   // A right-side primitive that is the exact mirror image of its left twin is written once,
   // on the left, as "mirror": true.
   std::vector<char> written_as_mirror(model.primitives.size(), 0);
@@ -424,7 +291,7 @@ Result<BodyModel> body_model_from_json(std::string_view text, std::string_view s
     for (size_t i = 0; i < upto; ++i) line += text[i] == '\n';
     return fail(Errc::parse_error, src + ":" + std::to_string(line) + ": invalid JSON (" + e.what() + ")");
   }
-  Reader r(src);
+  JsonReader r(src);
   BodyModel m;
   const std::string format = r.string(root, "$", "format", true);
   if (r.ok() && format != "mimic-body") r.fail_at("$.format", "expected \"mimic-body\", got \"" + format + "\"");
@@ -434,45 +301,8 @@ Result<BodyModel> body_model_from_json(std::string_view text, std::string_view s
                                std::to_string(kFormatVersion) + ")");
   m.name = r.string(root, "$", "name", false, "unnamed");
 
-  if (const json* sk = r.member(root, "$", "skeleton", true); sk && r.ok()) {
-    const json* joints = r.member(*sk, "$.skeleton", "joints", true);
-    if (joints && !joints->is_array()) r.fail_at("$.skeleton.joints", "expected an array");
-    if (joints && joints->is_array()) {
-      for (size_t i = 0; i < joints->size() && r.ok(); ++i) {
-        const json& jj = (*joints)[i];
-        const std::string path = "$.skeleton.joints[" + std::to_string(i) + "]";
-        JointDesc jd;
-        jd.name = r.string(jj, path, "name", true);
-        jd.parent = r.string(jj, path, "parent", false);
-        jd.offset_m = r.vec3(jj, path, "offset", {0, 0, 0});
-        jd.tip_m = r.vec3(jj, path, "tip", {0, 0, 0});
-        if (const json* dofs = r.member(jj, path, "dofs", false); dofs) {
-          if (!dofs->is_array()) r.fail_at(path + ".dofs", "expected an array");
-          for (size_t k = 0; r.ok() && dofs->is_array() && k < dofs->size(); ++k) {
-            const json& dj = (*dofs)[k];
-            const std::string dp = path + ".dofs[" + std::to_string(k) + "]";
-            DofDesc d;
-            d.name = r.string(dj, dp, "name", true);
-            d.axis = r.vec3(dj, dp, "axis", {1, 0, 0}, true);
-            d.min_rad = glm::radians(r.number(dj, dp, "min_deg", -180, true));
-            d.max_rad = glm::radians(r.number(dj, dp, "max_deg", 180, true));
-            d.rest_rad = glm::radians(r.number(dj, dp, "rest_deg", 0));
-            jd.dofs.push_back(std::move(d));
-          }
-        }
-        bool mirror = false;
-        if (const json* mj = r.member(jj, path, "mirror", false); mj) {
-          if (!mj->is_boolean()) r.fail_at(path + ".mirror", "expected true or false");
-          else if (mj->get<bool>() && jd.name.rfind("l_", 0) != 0)
-            r.fail_at(path + ".mirror", "only a left-side (\"l_…\") joint can be mirrored");
-          else mirror = mj->get<bool>();
-        }
-        JointDesc twin = mirror ? mirrored(jd) : JointDesc{};
-        m.skeleton.joints.push_back(std::move(jd));
-        if (mirror) m.skeleton.joints.push_back(std::move(twin));
-      }
-    }
-  }
+  if (const json* sk = r.member(root, "$", "skeleton", true); sk && r.ok())
+    m.skeleton = rig::read_skeleton_json(*sk, "$.skeleton", r);
 
   if (const json* prims = r.member(root, "$", "primitives", true); prims && r.ok()) {
     std::vector<Primitive> mirrors;  // right-side twins of "mirror": true primitives, appended
@@ -502,7 +332,7 @@ Result<BodyModel> body_model_from_json(std::string_view text, std::string_view s
       if (auto rp = rigid_part_from_name(part)) p.part = *rp;
       else r.fail_at(path + ".part", "unknown rigid part \"" + part + "\"");
       if (const json* st = r.member(pj, path, "state", true); st && r.ok())
-        p.state = r.state(*st, path + ".state", PrimitiveState{});
+        p.state = read_state(r, *st, path + ".state", PrimitiveState{});
       if (const json* dj = r.member(pj, path, "deformation", false); dj && r.ok()) {
         Deformation d;
         d.dof = r.string(*dj, path + ".deformation", "dof", true);
@@ -512,9 +342,9 @@ Result<BodyModel> body_model_from_json(std::string_view text, std::string_view s
         else if (f == "hyperbolic") d.falloff = Falloff::hyperbolic;
         else r.fail_at(path + ".deformation.falloff", "expected linear, parabolic or hyperbolic");
         if (const json* mn = r.member(*dj, path + ".deformation", "min", true); mn && r.ok())
-          d.at_min = r.state(*mn, path + ".deformation.min", p.state);
+          d.at_min = read_state(r, *mn, path + ".deformation.min", p.state);
         if (const json* mx = r.member(*dj, path + ".deformation", "max", true); mx && r.ok())
-          d.at_max = r.state(*mx, path + ".deformation.max", p.state);
+          d.at_max = read_state(r, *mx, path + ".deformation.max", p.state);
         p.deformation = d;
       }
       if (const json* mj = r.member(pj, path, "mirror", false); mj) {

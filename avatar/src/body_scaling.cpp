@@ -11,7 +11,7 @@ namespace mimic::avatar {
 namespace {
 
 // Joints of the lower region: the pelvis and everything hanging from a hip.
-std::set<std::string> lower_region(const SkeletonDesc& d) {
+std::set<std::string> lower_region(const rig::SkeletonDesc& d) {
   std::set<std::string> lower{d.joints.empty() ? "" : d.joints.front().name};
   bool grew = true;
   while (grew) {
@@ -32,9 +32,9 @@ int scaling_tag(const glm::vec3& axis_world) {
   return a.x >= a.y && a.x >= a.z ? 0 : a.y >= a.z ? 1 : 2;
 }
 
-Pose standing_posture(const Skeleton& skeleton) {
-  Pose p = skeleton.zero_pose();
-  std::vector<RigidTransform> w(skeleton.joint_count());
+rig::Pose standing_posture(const rig::Skeleton& skeleton) {
+  rig::Pose p = skeleton.zero_pose();
+  std::vector<rig::RigidTransform> w(skeleton.joint_count());
   for (const char* side : {"l_", "r_"}) {
     const std::string s = side;
     const int dof = skeleton.find_dof(s + "shoulder_abduction");
@@ -43,7 +43,7 @@ Pose standing_posture(const Skeleton& skeleton) {
     // Whichever quarter turn lowers the upper arm's tip below the shoulder.
     for (float a : {-1.5707964f, 1.5707964f}) {
       p.dof_rad[dof] = a;
-      forward_kinematics(skeleton, p, w);
+      rig::forward_kinematics(skeleton, p, w);
       if (w[shoulder].apply(skeleton.tip_m(shoulder)).y < w[shoulder].translation.y - 0.5f * glm::length(skeleton.tip_m(shoulder)))
         break;
       p.dof_rad[dof] = 0;
@@ -52,11 +52,11 @@ Pose standing_posture(const Skeleton& skeleton) {
   return p;
 }
 
-Pose relaxed_posture(const Skeleton& skeleton) {
+rig::Pose relaxed_posture(const rig::Skeleton& skeleton) {
   // From the relaxed DOF values (θ0), the upper arms lowered most of the way: hanging straight
   // down they would press into the hips, so they stay 18° out, and the elbows bend a little.
-  const Pose down = standing_posture(skeleton);
-  Pose p = skeleton.rest_pose();
+  const rig::Pose down = standing_posture(skeleton);
+  rig::Pose p = skeleton.rest_pose();
   constexpr float kArmDownFraction = 0.8f;
   constexpr float kElbowFlexion_rad = 0.2f;
   for (const char* side : {"l_", "r_"}) {
@@ -73,15 +73,15 @@ Result<BodyModel> scale_body(const BodyModel& model, const BodyScaling& s) {
   for (float f : {s.total_height, s.frontal_scaling, s.high_lateral_scaling, s.low_lateral_scaling, s.spine_origin_ratio})
     if (!(f > 0.0f) || !std::isfinite(f) || f > 10.0f)
       return fail(Errc::invalid_argument, "scaling factors must be finite and in (0, 10]");
-  auto skeleton = Skeleton::build(model.skeleton);
+  auto skeleton = rig::Skeleton::build(model.skeleton);
   if (!skeleton) return tl::unexpected(skeleton.error());
 
   // Heights of the zero posture standing on the floor: spine origin and top of the head.
-  const float origin_h = standing_root_height_m(*skeleton);
-  Pose p = skeleton->zero_pose();
+  const float origin_h = rig::standing_root_height_m(*skeleton);
+  rig::Pose p = skeleton->zero_pose();
   p.root_position_m.y = origin_h;
-  std::vector<RigidTransform> w(skeleton->joint_count());
-  forward_kinematics(*skeleton, p, w);
+  std::vector<rig::RigidTransform> w(skeleton->joint_count());
+  rig::forward_kinematics(*skeleton, p, w);
   float top_h = 0;
   for (int j = 0; j < skeleton->joint_count(); ++j) top_h = std::max(top_h, w[j].apply(skeleton->tip_m(j)).y);
   if (!(top_h > origin_h)) return fail(Errc::invalid_argument, "skeleton has no height above its root");
@@ -97,8 +97,8 @@ Result<BodyModel> scale_body(const BodyModel& model, const BodyScaling& s) {
 
   // The operators act in the world frame of the standing posture, arms at the sides (the zero
   // posture is a T-pose: scaling it laterally would lengthen the arms, not widen the body).
-  std::vector<RigidTransform> standing(static_cast<size_t>(skeleton->joint_count()));
-  forward_kinematics(*skeleton, standing_posture(*skeleton), standing);
+  std::vector<rig::RigidTransform> standing(static_cast<size_t>(skeleton->joint_count()));
+  rig::forward_kinematics(*skeleton, standing_posture(*skeleton), standing);
   auto world_rotation = [&](const std::string& joint) {
     const int j = skeleton->find_joint(joint);
     return j < 0 ? glm::mat3(1.0f) : glm::mat3_cast(standing[j].rotation);

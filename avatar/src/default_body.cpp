@@ -16,15 +16,15 @@ constexpr float kRootHeight_m = 0.89f;
 
 struct Author {
   BodyModel model;
-  Skeleton skeleton;
-  std::vector<RigidTransform> world;
+  rig::Skeleton skeleton;
+  std::vector<rig::RigidTransform> world;
 
-  explicit Author(SkeletonDesc desc) : skeleton(*Skeleton::build(desc)) {
+  explicit Author(rig::SkeletonDesc desc) : skeleton(*rig::Skeleton::build(desc)) {
     model.skeleton = std::move(desc);
-    Pose p = skeleton.zero_pose();
+    rig::Pose p = skeleton.zero_pose();
     p.root_position_m = {0, kRootHeight_m, 0};
     world.resize(skeleton.joint_count());
-    forward_kinematics(skeleton, p, world);
+    rig::forward_kinematics(skeleton, p, world);
   }
 
   glm::vec3 local(const std::string& joint, glm::vec3 world_point) const {
@@ -85,7 +85,7 @@ GroupMask G(std::initializer_list<Group> gs) {
 
 BodyModel default_body_model() {
   using enum Group;
-  Author a(default_skeleton_desc());
+  Author a(rig::default_skeleton_desc());
   a.model.name = "mimic-default";
 
   // --- pelvis and hips -------------------------------------------------------------------

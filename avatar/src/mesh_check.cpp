@@ -6,7 +6,7 @@
 #include <numeric>
 #include <unordered_map>
 
-#include "mesh_io_internal.h"
+#include "mimic/avatar/mesh.h"
 
 namespace mimic::avatar {
 
@@ -44,6 +44,34 @@ size_t distinct_roots(UnionFind& uf, const std::vector<uint32_t>& members) {
   for (uint32_t m : members) roots.push_back(uf.find(m));
   std::sort(roots.begin(), roots.end());
   return static_cast<size_t>(std::unique(roots.begin(), roots.end()) - roots.begin());
+}
+
+// Vertices whose corners fall into more than one fan (non-manifold vertices), from the corners
+// joined across shared edges.
+size_t count_split_fans(const Mesh& mesh, UnionFind& corners) {
+  const size_t nv = mesh.positions.size(), nt = mesh.triangle_count();
+  const auto& ix = mesh.indices;
+  size_t split = 0;
+  // Per vertex, the fans its corners fall into.
+  std::vector<uint32_t> first(nv + 1, 0);
+  for (size_t f = 0; f < nt; ++f)
+    for (int k = 0; k < 3; ++k) ++first[ix[3 * f + k] + 1];
+  std::partial_sum(first.begin(), first.end(), first.begin());
+  std::vector<uint32_t> corner_list(3 * nt), fill(first.begin(), first.end() - 1);
+  for (size_t f = 0; f < nt; ++f) {
+    const uint32_t v[3] = {ix[3 * f], ix[3 * f + 1], ix[3 * f + 2]};
+    if (v[0] == v[1] || v[1] == v[2] || v[2] == v[0]) continue;
+    for (uint32_t k = 0; k < 3; ++k) corner_list[fill[v[k]]++] = static_cast<uint32_t>(3 * f + k);
+  }
+  std::vector<uint32_t> roots;
+  for (size_t v = 0; v < nv; ++v) {
+    roots.clear();
+    for (uint32_t c = first[v]; c < fill[v]; ++c) roots.push_back(corners.find(corner_list[c]));
+    std::sort(roots.begin(), roots.end());
+    if (std::unique(roots.begin(), roots.end()) - roots.begin() > 1) ++split;
+  }
+
+  return split;
 }
 
 }  // namespace
@@ -130,24 +158,7 @@ MeshTopology analyze_topology(const Mesh& mesh) {
     i = j;
   }
 
-  // Per vertex, the fans its corners fall into.
-  std::vector<uint32_t> first(nv + 1, 0);
-  for (size_t f = 0; f < nt; ++f)
-    for (int k = 0; k < 3; ++k) ++first[ix[3 * f + k] + 1];
-  std::partial_sum(first.begin(), first.end(), first.begin());
-  std::vector<uint32_t> corner_list(3 * nt), fill(first.begin(), first.end() - 1);
-  for (size_t f = 0; f < nt; ++f) {
-    const uint32_t v[3] = {ix[3 * f], ix[3 * f + 1], ix[3 * f + 2]};
-    if (v[0] == v[1] || v[1] == v[2] || v[2] == v[0]) continue;
-    for (uint32_t k = 0; k < 3; ++k) corner_list[fill[v[k]]++] = static_cast<uint32_t>(3 * f + k);
-  }
-  std::vector<uint32_t> roots;
-  for (size_t v = 0; v < nv; ++v) {
-    roots.clear();
-    for (uint32_t c = first[v]; c < fill[v]; ++c) roots.push_back(corners.find(corner_list[c]));
-    std::sort(roots.begin(), roots.end());
-    if (std::unique(roots.begin(), roots.end()) - roots.begin() > 1) ++t.non_manifold_vertices;
-  }
+  t.non_manifold_vertices = count_split_fans(mesh, corners);
 
   std::vector<uint32_t> used_vertices;
   for (size_t f = 0; f < nt; ++f) {
@@ -238,7 +249,7 @@ Mesh weld_by_position(const Mesh& mesh, float tolerance) {
       out.normals.push_back(len > 0 ? n / len : glm::vec3(0, 1, 0));
     }
   // Rebuild triangles and parts, dropping collapsed ones.
-  for (const auto& part : detail::covering_parts(mesh)) {
+  for (const auto& part : covering_parts(mesh)) {
     MeshPart np{part.name, static_cast<uint32_t>(out.triangle_count()), 0};
     for (uint32_t f = part.first_triangle; f < part.first_triangle + part.triangle_count; ++f) {
       const uint32_t a = new_index[mesh.indices[3 * f]], b = new_index[mesh.indices[3 * f + 1]],

@@ -43,7 +43,7 @@ struct Scene {
       joints.insert(joints.end(), {uint16_t(j), uint16_t(k), 0, 0});
       weights.insert(weights.end(), {1 - wk, wk, 0, 0});
     }
-    std::vector<RigidTransform> w(kJoints), inv(kJoints);
+    std::vector<rig::RigidTransform> w(kJoints), inv(kJoints);
     for (int j = 0; j < kJoints; ++j) {
       w[j] = {glm::normalize(glm::quat(1.0f, 0.1f * u(rng), 0.1f * u(rng), 0.1f * u(rng))), {u(rng), u(rng), u(rng)}};
     }

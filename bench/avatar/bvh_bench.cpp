@@ -3,15 +3,15 @@
 
 #include <random>
 
-#include "mimic/avatar/bvh.h"
-#include "mimic/avatar/joint_angles.h"
-#include "mimic/avatar/motion.h"
-#include "mimic/avatar/retarget.h"
+#include "mimic/rig/bvh.h"
+#include "mimic/rig/joint_angles.h"
+#include "mimic/rig/motion.h"
+#include "mimic/rig/retarget.h"
 #include "mimic/core/file.h"
 
 namespace {
 
-using namespace mimic::avatar;
+using namespace mimic;
 
 const std::string& clip_text() {
   static const std::string text = [] {
@@ -28,7 +28,7 @@ void BM_ParseBvh(benchmark::State& state) {
     return;
   }
   for (auto _ : state) {
-    auto clip = parse_bvh(text, "13_26.bvh");
+    auto clip = rig::parse_bvh(text, "13_26.bvh");
     benchmark::DoNotOptimize(clip);
   }
   state.SetBytesProcessed(static_cast<int64_t>(state.iterations()) * static_cast<int64_t>(text.size()));
@@ -36,13 +36,13 @@ void BM_ParseBvh(benchmark::State& state) {
 BENCHMARK(BM_ParseBvh)->Unit(benchmark::kMillisecond);
 
 void BM_RetargetFrames(benchmark::State& state) {
-  auto clip = parse_bvh(clip_text(), "13_26.bvh");
+  auto clip = rig::parse_bvh(clip_text(), "13_26.bvh");
   if (!clip) {
     state.SkipWithError("shared clip 13_26.bvh not found");
     return;
   }
   for (auto _ : state) {
-    auto r = retarget_bvh(*clip);
+    auto r = rig::retarget_bvh(*clip);
     benchmark::DoNotOptimize(r);
   }
   state.SetItemsProcessed(static_cast<int64_t>(state.iterations()) * clip->frame_count);
@@ -50,15 +50,15 @@ void BM_RetargetFrames(benchmark::State& state) {
 BENCHMARK(BM_RetargetFrames)->Unit(benchmark::kMillisecond);
 
 void BM_BvhForwardKinematics(benchmark::State& state) {
-  auto clip = parse_bvh(clip_text(), "13_26.bvh");
+  auto clip = rig::parse_bvh(clip_text(), "13_26.bvh");
   if (!clip) {
     state.SkipWithError("shared clip 13_26.bvh not found");
     return;
   }
-  std::vector<RigidTransform> w(clip->joints.size());
+  std::vector<rig::RigidTransform> w(clip->joints.size());
   int f = 0;
   for (auto _ : state) {
-    bvh_forward_kinematics(*clip, f, w);
+    rig::bvh_forward_kinematics(*clip, f, w);
     benchmark::DoNotOptimize(w.data());
     f = (f + 1) % clip->frame_count;
   }
@@ -75,7 +75,7 @@ void BM_EulerDecomposition(benchmark::State& state) {
   double prev[3] = {0, 0, 0}, out[3];
   size_t i = 0;
   for (auto _ : state) {
-    dofs_from_rotation(axes, q[i++ & 255], prev, out);
+    rig::dofs_from_rotation(axes, q[i++ & 255], prev, out);
     benchmark::DoNotOptimize(out);
   }
   state.SetItemsProcessed(state.iterations());
@@ -83,9 +83,9 @@ void BM_EulerDecomposition(benchmark::State& state) {
 BENCHMARK(BM_EulerDecomposition);
 
 void BM_BuiltinMotionSample(benchmark::State& state, const char* name) {
-  auto s = Skeleton::build(default_skeleton_desc());
-  auto m = make_builtin_motion(name, *s);
-  Pose p = s->zero_pose();
+  auto s = rig::Skeleton::build(rig::default_skeleton_desc());
+  auto m = rig::make_builtin_motion(name, *s);
+  rig::Pose p = s->zero_pose();
   double t = 0;
   for (auto _ : state) {
     (*m)->sample(t, p);

@@ -12,14 +12,14 @@
 namespace mimic::avatar {
 namespace {
 
-std::vector<Pose> poses(const Skeleton& s, int n) {
+std::vector<rig::Pose> poses(const rig::Skeleton& s, int n) {
   std::mt19937_64 rng(2024);
   std::uniform_real_distribution<float> u(0.0f, 1.0f);
-  std::vector<Pose> out;
+  std::vector<rig::Pose> out;
   for (int k = 0; k < n; ++k) {
-    Pose p = s.rest_pose();
+    rig::Pose p = s.rest_pose();
     for (int i = 0; i < s.dof_count(); ++i) {
-      const Dof& d = s.dof(i);
+      const rig::Dof& d = s.dof(i);
       p.dof_rad[i] = 0.5f * (d.min_rad + u(rng) * (d.max_rad - d.min_rad));
     }
     p.root_position_m = {0, 0.9f, 0};
@@ -74,7 +74,7 @@ void BM_Stage(benchmark::State& state) {
   const auto stage = static_cast<Stage>(state.range(0));
   size_t i = 0;
   for (auto _ : state) {
-    const Pose& p = ps[i++ % ps.size()];
+    const rig::Pose& p = ps[i++ % ps.size()];
     state.PauseTiming();
     skin.stage_fk(p);
     if (stage > kDeform) skin.stage_deform(p);
@@ -97,16 +97,16 @@ BENCHMARK(BM_Stage)->ArgName("fk0_deform1_contours2_bspline3_stitch4")->DenseRan
 // vertices per iteration, as a frame would run them. Per-vertex figures: baselines_bench.cpp.
 void BM_BaselineSkinning(benchmark::State& state) {
   BodySkin skin = make(1);
-  const Skeleton& s = skin.skeleton();
+  const rig::Skeleton& s = skin.skeleton();
   skin.evaluate(s.zero_pose());
   auto skinner = baselines::bind_to_links(s, s.zero_pose(), skin.mesh());
   const auto method = static_cast<baselines::SkinningMethod>(state.range(0));
-  std::vector<RigidTransform> w(s.joint_count());
+  std::vector<rig::RigidTransform> w(s.joint_count());
   std::vector<glm::vec3> out(skinner->vertex_count());
   const auto ps = poses(s, 16);
   size_t i = 0;
   for (auto _ : state) {
-    forward_kinematics(s, ps[i++ % ps.size()], w);
+    rig::forward_kinematics(s, ps[i++ % ps.size()], w);
     skinner->set_pose(w);
     skinner->deform(method, out);
     benchmark::DoNotOptimize(out.data());

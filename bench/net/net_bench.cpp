@@ -12,13 +12,13 @@ namespace {
 
 using namespace mimic;
 
-const avatar::Skeleton& skeleton() {
-  static const avatar::Skeleton s = *avatar::Skeleton::build(avatar::default_skeleton_desc());
+const rig::Skeleton& skeleton() {
+  static const rig::Skeleton s = *rig::Skeleton::build(rig::default_skeleton_desc());
   return s;
 }
 
-avatar::Pose walk_like_pose() {
-  avatar::Pose p = skeleton().rest_pose();
+rig::Pose walk_like_pose() {
+  rig::Pose p = skeleton().rest_pose();
   std::mt19937_64 rng(1);
   for (auto& a : p.dof_rad) a = float(int(rng() % 2000) - 1000) * 1e-3f;
   p.root_position_m = {0.1f, 0.93f, 1.7f};
@@ -26,7 +26,7 @@ avatar::Pose walk_like_pose() {
 }
 
 void BM_EncodePose(benchmark::State& state) {
-  const avatar::Pose p = walk_like_pose();
+  const rig::Pose p = walk_like_pose();
   std::vector<uint8_t> out(net::kMaxDatagramBytes);
   uint32_t seq = 0;
   size_t n = 0;
@@ -40,11 +40,11 @@ void BM_EncodePose(benchmark::State& state) {
 BENCHMARK(BM_EncodePose);
 
 void BM_DecodePose(benchmark::State& state) {
-  const avatar::Pose p = walk_like_pose();
+  const rig::Pose p = walk_like_pose();
   std::vector<uint8_t> out(net::kMaxDatagramBytes);
   out.resize(net::encode_pose({1, 0, 1, 0}, p, out));
   net::PoseHeader h;
-  avatar::Pose d = skeleton().rest_pose();
+  rig::Pose d = skeleton().rest_pose();
   for (auto _ : state) {
     benchmark::DoNotOptimize(net::decode_pose(out, h, d));
   }
@@ -55,7 +55,7 @@ BENCHMARK(BM_DecodePose);
 // The same pose as a Mimic pose frame, a VMC bundle, and raw floats (root xyz + quaternion +
 // one f32 per DOF, with the same 24 bytes of header/sequence/time as a pose frame).
 void BM_BytesPerAvatarFrame(benchmark::State& state) {
-  const avatar::Pose p = walk_like_pose();
+  const rig::Pose p = walk_like_pose();
   net::VmcEncoder vmc(skeleton());
   std::vector<uint8_t> bundle, frame(net::kMaxDatagramBytes);
   size_t mimic_bytes = 0;

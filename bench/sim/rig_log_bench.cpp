@@ -5,7 +5,7 @@
 
 #include <benchmark/benchmark.h>
 
-#include "mimic/avatar/motion.h"
+#include "mimic/rig/motion.h"
 #include "mimic/sim/log.h"
 #include "mimic/sim/sensor_rig.h"
 
@@ -13,9 +13,9 @@ namespace {
 
 using namespace mimic;
 
-std::shared_ptr<const avatar::Motion> walk() {
-  static auto skeleton = avatar::Skeleton::build(avatar::default_skeleton_desc()).value();
-  static std::shared_ptr<const avatar::Motion> motion(avatar::make_builtin_motion("walk", skeleton).value());
+std::shared_ptr<const rig::Motion> walk() {
+  static auto skeleton = rig::Skeleton::build(rig::default_skeleton_desc()).value();
+  static std::shared_ptr<const rig::Motion> motion(rig::make_builtin_motion("walk", skeleton).value());
   return motion;
 }
 

@@ -11,7 +11,7 @@
 #include <string>
 
 #include "../../tests/solver/clip_eval.h"
-#include "mimic/avatar/bvh.h"
+#include "mimic/rig/bvh.h"
 #include "mimic/solver/filters.h"
 #include "mimic/solver/two_bone_ik.h"
 
@@ -22,15 +22,15 @@ using namespace mimic;
 const char* kClips[] = {"02_04", "02_05", "02_06", "05_02", "06_04", "07_01", "09_11", "13_26"};
 const char* kLayouts[] = {"3", "6", "11", "all"};
 
-const avatar::RetargetedClip* clip(const std::string& id) {
-  static std::map<std::string, std::unique_ptr<avatar::RetargetedClip>> cache;
+const rig::RetargetedClip* clip(const std::string& id) {
+  static std::map<std::string, std::unique_ptr<rig::RetargetedClip>> cache;
   auto it = cache.find(id);
   if (it != cache.end()) return it->second.get();
-  auto bvh = avatar::load_bvh(std::string(MIMIC_SHARED_DATA) + "/bvh/" + id + ".bvh");
+  auto bvh = rig::load_bvh(std::string(MIMIC_SHARED_DATA) + "/bvh/" + id + ".bvh");
   if (!bvh) return nullptr;
-  auto r = avatar::retarget_bvh(*bvh);
+  auto r = rig::retarget_bvh(*bvh);
   if (!r) return nullptr;
-  return (cache[id] = std::make_unique<avatar::RetargetedClip>(std::move(*r))).get();
+  return (cache[id] = std::make_unique<rig::RetargetedClip>(std::move(*r))).get();
 }
 
 // 07_01 worn by a layout's sensors (straps askew by up to 20°, 1 mm / 0.5° noise), calibrated
@@ -75,7 +75,7 @@ void BM_SolveFrame(benchmark::State& state) {
   const auto& frames = worn->frames;
   solver::SolverContext ctx(model);
   solver::SensorFilterBank filters(static_cast<int>(mounts.size()));
-  avatar::Pose pose = model.skeleton().zero_pose();
+  rig::Pose pose = model.skeleton().zero_pose();
   size_t f = 0;
   double ls_iterations = 0;
   std::vector<devices::SensorSample> work(mounts.size());

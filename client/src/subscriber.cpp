@@ -4,10 +4,11 @@
 #include <chrono>
 #include <cmath>
 #include <map>
+#include <optional>
 #include <thread>
 
-#include "mimic/avatar/body_model.h"
-#include "mimic/avatar/skeleton.h"
+#include "mimic/rig/skeleton_json.h"
+#include "mimic/rig/skeleton.h"
 #include "mimic/client.h"
 #include "mimic/net/client.h"
 
@@ -20,10 +21,10 @@ Quat to_quat(const glm::quat& q) { return {q.x, q.y, q.z, q.w}; }
 
 // The skeleton the model describes; Mimic's default skeleton when the model is not a Mimic body
 // model but the DOF count fits it; none otherwise (the avatar then carries angles only).
-std::optional<avatar::Skeleton> skeleton_of(const net::RemoteAvatar& r) {
-  if (auto model = avatar::body_model_from_json(r.model_bytes, r.name))
-    if (auto s = avatar::Skeleton::build(model->skeleton); s && s->dof_count() == r.dof_count) return std::move(*s);
-  if (auto s = avatar::Skeleton::build(avatar::default_skeleton_desc()); s && s->dof_count() == r.dof_count)
+std::optional<rig::Skeleton> skeleton_of(const net::RemoteAvatar& r) {
+  if (auto s = rig::skeleton_from_body_json(r.model_bytes, r.name); s && s->dof_count() == r.dof_count)
+    return std::move(*s);
+  if (auto s = rig::Skeleton::build(rig::default_skeleton_desc()); s && s->dof_count() == r.dof_count)
     return std::move(*s);
   return std::nullopt;
 }
@@ -33,8 +34,8 @@ std::optional<avatar::Skeleton> skeleton_of(const net::RemoteAvatar& r) {
 struct Subscriber::Impl {
   struct Entry {
     Avatar view;
-    std::optional<avatar::Skeleton> skeleton;
-    std::vector<avatar::RigidTransform> world_from_joint;
+    std::optional<rig::Skeleton> skeleton;
+    std::vector<rig::RigidTransform> world_from_joint;
     uint32_t revision = 0;
   };
   std::unique_ptr<net::Client> client;
@@ -92,10 +93,10 @@ struct Subscriber::Impl {
     e.view.name = r.name;
     e.view.dof_rad.assign(r.dof_count, 0.0f);
     if (e.skeleton) {
-      const avatar::Skeleton& s = *e.skeleton;
+      const rig::Skeleton& s = *e.skeleton;
       for (int d = 0; d < s.dof_count(); ++d) e.view.dof_names.push_back(s.dof(d).name);
       e.world_from_joint.resize(size_t(s.joint_count()));
-      avatar::forward_kinematics(s, s.rest_pose(), e.world_from_joint);
+      rig::forward_kinematics(s, s.rest_pose(), e.world_from_joint);
       for (int j = 0; j < s.joint_count(); ++j)
         e.view.joints.push_back({s.joint_name(j), s.parent(j), to_vec3(e.world_from_joint[size_t(j)].translation),
                                  to_quat(e.world_from_joint[size_t(j)].rotation)});
@@ -116,7 +117,7 @@ struct Subscriber::Impl {
     v.frames = r.frames;
     v.lost = r.lost;
     if (!e.skeleton || r.pose.dof_rad.size() != size_t(e.skeleton->dof_count())) return;
-    avatar::forward_kinematics(*e.skeleton, r.pose, e.world_from_joint);
+    rig::forward_kinematics(*e.skeleton, r.pose, e.world_from_joint);
     for (size_t j = 0; j < v.joints.size(); ++j) {
       v.joints[j].position_m = to_vec3(e.world_from_joint[j].translation);
       v.joints[j].orientation = to_quat(e.world_from_joint[j].rotation);

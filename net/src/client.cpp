@@ -408,7 +408,7 @@ Result<uint8_t> Client::add_avatar(const std::string& name, uint16_t dof_count, 
   return fail(Errc::out_of_range, "a publisher carries at most 16 avatars");
 }
 
-Status Client::publish_pose(uint8_t slot, const PoseHeader& header, const avatar::Pose& pose) {
+Status Client::publish_pose(uint8_t slot, const PoseHeader& header, const rig::Pose& pose) {
   auto& d = *impl_;
   if (slot >= kMaxSlots || !d.published[slot].live) return fail(Errc::not_found, "no such avatar slot");
   auto& a = d.published[slot];

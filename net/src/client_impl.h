@@ -82,7 +82,7 @@ struct Client::Impl {
   ClientStats stats;
   std::map<uint16_t, RemoteAvatar> avatars;
   std::array<client_detail::PublishedAvatar, client_detail::kMaxSlots> published;
-  avatar::Pose scratch_pose;
+  rig::Pose scratch_pose;
   MeshTopology scratch_topology;
 
   std::vector<uint8_t> out, control;

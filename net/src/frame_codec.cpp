@@ -324,7 +324,7 @@ size_t encode_scene(std::span<const SceneEntry> entries, std::span<uint8_t> out)
   return finish(w);
 }
 
-size_t encode_pose(const PoseHeader& h, const avatar::Pose& pose, std::span<uint8_t> out) noexcept {
+size_t encode_pose(const PoseHeader& h, const rig::Pose& pose, std::span<uint8_t> out) noexcept {
   if (pose.dof_rad.size() > kMaxPoseDofs) return 0;
   Writer w = begin(out, MsgType::pose);
   w.u16(h.avatar);
@@ -503,7 +503,7 @@ Reject decode_scene(std::span<const uint8_t> packet, std::vector<SceneEntry>& ou
   return close(r);
 }
 
-Reject decode_pose(std::span<const uint8_t> packet, PoseHeader& h, avatar::Pose& out) {
+Reject decode_pose(std::span<const uint8_t> packet, PoseHeader& h, rig::Pose& out) {
   Reader r;
   if (const Reject e = open(packet, MsgType::pose, r); e != Reject::ok) return e;
   h.avatar = r.u16();

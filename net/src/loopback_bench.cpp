@@ -33,8 +33,8 @@ double percentile(std::vector<double> v, double q) {
   return v[k];
 }
 
-avatar::Pose test_pose(uint16_t dofs, uint32_t k) {
-  avatar::Pose p;
+rig::Pose test_pose(uint16_t dofs, uint32_t k) {
+  rig::Pose p;
   p.root_position_m = {0, 0.9f, 0.001f * float(k % 1000)};
   p.dof_rad.assign(dofs, 0.0f);
   for (uint16_t i = 0; i < dofs; ++i) p.dof_rad[i] = 0.5f * std::sin(0.01f * float(k) + float(i));
@@ -81,7 +81,7 @@ Result<LatencyResult> measure_loopback_latency(int frames, uint16_t dof_count, b
   std::vector<double> samples;
   samples.reserve(size_t(frames));
   for (int k = 1; k <= frames + 50; ++k) {
-    const avatar::Pose pose = test_pose(dof_count, uint32_t(k));
+    const rig::Pose pose = test_pose(dof_count, uint32_t(k));
     encode_pose({*id, 0, uint32_t(k), wall_clock_us()}, pose, packet);
     const auto t0 = Clock::now();
     srv.publish_pose(*id, packet);
@@ -186,7 +186,7 @@ Result<FanoutResult> measure_fanout(int subscribers, int avatars, double rate_hz
   std::vector<double> tick_us;
   tick_us.reserve(size_t(ticks));
   std::vector<uint8_t> packet(pose_packet_bytes(dofs));
-  std::vector<avatar::Pose> poses;
+  std::vector<rig::Pose> poses;
   for (int a = 0; a < avatars; ++a) poses.push_back(test_pose(dofs, uint32_t(a)));
   uint64_t late = 0;
   const auto start = Clock::now();

@@ -262,7 +262,7 @@ std::span<const uint8_t> LeanPoseEncoder::key() noexcept {
   return {key_.data(), key_size_};
 }
 
-void lean_state_pose(const LeanPoseState& s, avatar::Pose& out) noexcept {
+void lean_state_pose(const LeanPoseState& s, rig::Pose& out) noexcept {
   const double unit = double(int64_t(1) << s.shift);
   for (int i = 0; i < 3; ++i)
     out.root_position_m[i] = float(double(s.current[size_t(i)]) * unit * double(kRootPositionStep_m));
@@ -278,7 +278,7 @@ void lean_state_pose(const LeanPoseState& s, avatar::Pose& out) noexcept {
 }
 
 Reject decode_lean_pose(std::span<const uint8_t> packet, LeanPoseState& state, PoseHeader& h,
-                        avatar::Pose& out) noexcept {
+                        rig::Pose& out) noexcept {
   Header hdr;
   if (const Reject e = decode_header(packet, hdr); e != Reject::ok) return e;
   if (hdr.type != MsgType::pose_delta) return Reject::unexpected;

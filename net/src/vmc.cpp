@@ -58,7 +58,7 @@ void OscWriter::end_message() {
   p[3] = uint8_t(size);
 }
 
-std::vector<VmcBone> vmc_bone_map(const avatar::Skeleton& s) {
+std::vector<VmcBone> vmc_bone_map(const rig::Skeleton& s) {
   struct Entry {
     const char* joint;
     const char* fold;
@@ -97,7 +97,7 @@ std::vector<VmcBone> vmc_bone_map(const avatar::Skeleton& s) {
   return bones;
 }
 
-VmcEncoder::VmcEncoder(const avatar::Skeleton& skeleton) : skeleton_(skeleton), bones_(vmc_bone_map(skeleton)) {}
+VmcEncoder::VmcEncoder(const rig::Skeleton& skeleton) : skeleton_(skeleton), bones_(vmc_bone_map(skeleton)) {}
 
 namespace {
 
@@ -130,7 +130,7 @@ size_t bone_message_bytes(std::string_view address, std::string_view name) {
 
 }  // namespace
 
-VmcBundles VmcEncoder::encode(const avatar::Pose& pose, double stream_time_s, std::vector<uint8_t>& out,
+VmcBundles VmcEncoder::encode(const rig::Pose& pose, double stream_time_s, std::vector<uint8_t>& out,
                               size_t max_bundle_bytes) const {
   out.clear();
   OscWriter w(out);
@@ -214,7 +214,7 @@ Result<std::unique_ptr<VmcSender>> VmcSender::open(const std::string& host_port)
   return std::unique_ptr<VmcSender>(new VmcSender(std::move(impl)));
 }
 
-Status VmcSender::add_avatar(const avatar::Skeleton& skeleton) {
+Status VmcSender::add_avatar(const rig::Skeleton& skeleton) {
   const size_t i = impl_->avatars.size();
   if (i >= 64) return fail(Errc::out_of_range, "VMC: at most 64 avatars");
   if (impl_->base_port + i > 65535)
@@ -229,7 +229,7 @@ Status VmcSender::add_avatar(const avatar::Skeleton& skeleton) {
 
 size_t VmcSender::avatar_count() const { return impl_->avatars.size(); }
 
-size_t VmcSender::send(size_t avatar, const avatar::Pose& pose, double capture_time_s) {
+size_t VmcSender::send(size_t avatar, const rig::Pose& pose, double capture_time_s) {
   if (avatar >= impl_->avatars.size()) return 0;
   Impl::Avatar& a = impl_->avatars[avatar];
   if (!a.started) {

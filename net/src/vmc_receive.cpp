@@ -10,7 +10,7 @@
 #include <cmath>
 #include <cstring>
 
-#include "mimic/avatar/joint_angles.h"
+#include "mimic/rig/joint_angles.h"
 #include "mimic/net/server.h"  // split_host_port
 
 namespace mimic::net {
@@ -182,8 +182,8 @@ void apply_vmc_packet(std::span<const uint8_t> packet, double now_s, VmcState& s
   if (e != osc::Error::ok) stats.refused[size_t(e)]++;
 }
 
-bool pose_from_vmc(const VmcState& state, const avatar::Skeleton& skeleton, const std::vector<VmcBone>& bones,
-                   avatar::Pose& pose) {
+bool pose_from_vmc(const VmcState& state, const rig::Skeleton& skeleton, const std::vector<VmcBone>& bones,
+                   rig::Pose& pose) {
   const TrackedPose& hips = state.bones[kHipsBone];
   if (!hips.present || pose.dof_rad.size() != size_t(skeleton.dof_count())) return false;
   const std::span<float> dofs(pose.dof_rad);
@@ -202,11 +202,11 @@ bool pose_from_vmc(const VmcState& state, const avatar::Skeleton& skeleton, cons
     }
     if (b.fold_joint >= 0) {
       const glm::dquat half = glm::slerp(glm::dquat(1, 0, 0, 0), local, 0.5);
-      avatar::solve_joint_dofs(skeleton, b.joint, half, dofs);
-      avatar::solve_joint_dofs(skeleton, b.fold_joint, half, dofs);
+      rig::solve_joint_dofs(skeleton, b.joint, half, dofs);
+      rig::solve_joint_dofs(skeleton, b.fold_joint, half, dofs);
       continue;
     }
-    if (skeleton.dof_end(b.joint) > skeleton.dof_begin(b.joint)) avatar::solve_joint_dofs(skeleton, b.joint, local, dofs);
+    if (skeleton.dof_end(b.joint) > skeleton.dof_begin(b.joint)) rig::solve_joint_dofs(skeleton, b.joint, local, dofs);
   }
   return true;
 }

@@ -13,7 +13,7 @@ int choose_lod(float distance_m, float height_m, float fov_y_rad, int viewport_h
   return std::clamp(avatar::choose_lod_at_distance(distance_m, current, view), 0, kLodCount - 1);
 }
 
-Result<AvatarLods> AvatarLods::create(const avatar::BodyModel& model, const avatar::Skeleton* skeleton,
+Result<AvatarLods> AvatarLods::create(const avatar::BodyModel& model, const rig::Skeleton* skeleton,
                                       Renderer& renderer, avatar::SkinMethod method) {
   AvatarLods lods;
   lods.model_ = model;
@@ -43,7 +43,7 @@ Result<AvatarLods> AvatarLods::create(const avatar::BodyModel& model, const avat
   return lods;
 }
 
-MeshId AvatarLods::update(int lod, const avatar::Pose& pose, Renderer& renderer) {
+MeshId AvatarLods::update(int lod, const rig::Pose& pose, Renderer& renderer) {
   lod = std::clamp(lod, 0, count() - 1);
   if (method_ == avatar::SkinMethod::realtime) {
     avatar::Mesh& mesh = realtime_meshes_[lod];
@@ -61,7 +61,7 @@ const avatar::Mesh& AvatarLods::mesh(int lod) const {
   return method_ == avatar::SkinMethod::realtime ? realtime_meshes_[lod] : skins_[lod].mesh();
 }
 
-const avatar::BodySkin& AvatarLods::overlay_skin(int lod, const avatar::Pose& pose) {
+const avatar::BodySkin& AvatarLods::overlay_skin(int lod, const rig::Pose& pose) {
   lod = std::clamp(lod, 0, count() - 1);
   if (method_ == avatar::SkinMethod::realtime) skins_[lod].evaluate(pose);
   return skins_[lod];

@@ -3,65 +3,17 @@
 #include <png.h>
 
 #include <algorithm>
-#include <cerrno>
-#include <cstdio>
 #include <cstdlib>
-#include <cstring>
-#include <filesystem>
-#include <memory>
+
+#include "mimic/avatar/png.h"
+#include "mimic/core/file.h"
 
 namespace mimic::render {
-namespace {
-
-struct FileCloser {
-  void operator()(std::FILE* f) const { std::fclose(f); }
-};
-using File = std::unique_ptr<std::FILE, FileCloser>;
-
-}  // namespace
 
 Status write_png(const Image& image, const std::string& path) {
-  if (image.width <= 0 || image.height <= 0 || image.rgba.size() != static_cast<size_t>(image.width) * image.height * 4)
-    return fail(Errc::invalid_argument, "write_png: image size does not match its pixels");
-  const std::string tmp = path + ".tmp";
-  File f(std::fopen(tmp.c_str(), "wb"));
-  if (!f) return fail(Errc::io_error, path + ": cannot create: " + std::strerror(errno));
-  png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, nullptr, nullptr, nullptr);
-  png_infop info = png ? png_create_info_struct(png) : nullptr;
-  if (!info) {
-    png_destroy_write_struct(&png, nullptr);
-    return fail(Errc::io_error, "libpng: out of memory");
-  }
-  std::vector<uint8_t> row(static_cast<size_t>(image.width) * 3);
-  // libpng reports errors by longjmp: nothing with a destructor is created past this point.
-  if (setjmp(png_jmpbuf(png))) {
-    png_destroy_write_struct(&png, &info);
-    f.reset();
-    std::remove(tmp.c_str());
-    return fail(Errc::io_error, "libpng failed writing " + path);
-  }
-  png_init_io(png, f.get());
-  png_set_IHDR(png, info, static_cast<png_uint_32>(image.width), static_cast<png_uint_32>(image.height), 8,
-               PNG_COLOR_TYPE_RGB, PNG_INTERLACE_NONE, PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
-  png_set_compression_level(png, 9);
-  png_write_info(png, info);
-  for (int y = 0; y < image.height; ++y) {
-    const uint8_t* src = image.pixel(0, y);
-    for (int x = 0; x < image.width; ++x) {
-      row[x * 3 + 0] = src[x * 4 + 0];
-      row[x * 3 + 1] = src[x * 4 + 1];
-      row[x * 3 + 2] = src[x * 4 + 2];
-    }
-    png_write_row(png, row.data());
-  }
-  png_write_end(png, nullptr);
-  png_destroy_write_struct(&png, &info);
-  if (std::fflush(f.get()) != 0) return fail(Errc::io_error, "cannot write " + tmp);
-  f.reset();
-  std::error_code ec;
-  std::filesystem::rename(tmp, path, ec);
-  if (ec) return fail(Errc::io_error, "cannot rename " + tmp + " to " + path + ": " + ec.message());
-  return {};
+  auto png = avatar::encode_png(image.width, image.height, 4, image.rgba);
+  if (!png) return tl::unexpected(png.error());
+  return write_file_atomic(path, *png);
 }
 
 Result<Image> read_png(const std::string& path) {

@@ -32,10 +32,10 @@ bool parse_overlays(std::string_view list, unsigned& mask) {
   return true;
 }
 
-void append_skeleton(const avatar::Skeleton& skeleton, const avatar::Pose& pose, const glm::mat4& world_from_body,
+void append_skeleton(const rig::Skeleton& skeleton, const rig::Pose& pose, const glm::mat4& world_from_body,
                      Lines& out) {
-  std::vector<avatar::RigidTransform> world_from_joint(skeleton.joint_count());
-  avatar::forward_kinematics(skeleton, pose, world_from_joint);
+  std::vector<rig::RigidTransform> world_from_joint(skeleton.joint_count());
+  rig::forward_kinematics(skeleton, pose, world_from_joint);
   const glm::vec4 bone{0.10f, 0.75f, 0.30f, 1.0f}, joint{1.0f, 1.0f, 1.0f, 1.0f};
   for (int j = 0; j < skeleton.joint_count(); ++j) {
     const glm::vec3 p = to_world(world_from_body, world_from_joint[j].translation);
@@ -51,7 +51,7 @@ void append_skeleton(const avatar::Skeleton& skeleton, const avatar::Pose& pose,
   }
 }
 
-float deformation_amount(const avatar::Deformation& d, const avatar::Dof& dof, float theta_rad) {
+float deformation_amount(const avatar::Deformation& d, const rig::Dof& dof, float theta_rad) {
   float t = 0.0f;
   if (theta_rad >= dof.rest_rad) {
     const float span = dof.max_rad - dof.rest_rad;
@@ -69,10 +69,10 @@ float deformation_amount(const avatar::Deformation& d, const avatar::Dof& dof, f
   return t;
 }
 
-void append_primitives(const avatar::BodySkin& skin, const avatar::BodyModel& model, const avatar::Pose& pose,
+void append_primitives(const avatar::BodySkin& skin, const avatar::BodyModel& model, const rig::Pose& pose,
                        const glm::mat4& world_from_body, Lines& out) {
   const avatar::BodyField& field = skin.field();
-  const avatar::Skeleton& skeleton = skin.skeleton();
+  const rig::Skeleton& skeleton = skin.skeleton();
   constexpr int kSegments = 24;
   for (int i = 0; i < field.size(); ++i) {
     glm::vec4 color = field.hard(i) ? glm::vec4(0.45f, 0.45f, 0.48f, 0.8f) : glm::vec4(0.95f, 0.62f, 0.10f, 0.8f);

@@ -6,12 +6,12 @@
 #include <string>
 
 #include "mimic/service/pipeline.h"
-#include "mimic/sim/clock.h"
+#include "mimic/core/clock.h"
 
 namespace mimic::service {
 
 Result<std::unique_ptr<PoseFeed>> open_feed_on_clock(const std::string& spec_text, const std::string& calibration_path,
-                                                     const avatar::Skeleton* body,
-                                                     std::shared_ptr<const sim::Clock> clock);
+                                                     const rig::Skeleton* body,
+                                                     std::shared_ptr<const Clock> clock);
 
 }  // namespace mimic::service

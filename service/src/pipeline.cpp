@@ -43,10 +43,10 @@ double now_s() {
 
 class MotionFeed final : public PoseFeed {
  public:
-  MotionFeed(std::shared_ptr<const avatar::Motion> motion, std::unique_ptr<devices::SensorSource> source,
+  MotionFeed(std::shared_ptr<const rig::Motion> motion, std::unique_ptr<devices::SensorSource> source,
              std::string description)
       : motion_(std::move(motion)), source_(std::move(source)), description_(std::move(description)) {}
-  const avatar::Skeleton& skeleton() const override { return motion_->skeleton(); }
+  const rig::Skeleton& skeleton() const override { return motion_->skeleton(); }
   std::string describe() const override { return description_; }
   Status start() override { return source_->start(); }
   size_t read() override {
@@ -64,7 +64,7 @@ class MotionFeed final : public PoseFeed {
     }
     return total;
   }
-  void solve(avatar::Pose& pose, double& capture_s, bool& stale) override {
+  void solve(rig::Pose& pose, double& capture_s, bool& stale) override {
     // Stand-in for the solver: the true pose of the virtual body at the newest sample.
     motion_->sample(newest_device_s_, pose);
     capture_s = newest_host_s_;
@@ -73,7 +73,7 @@ class MotionFeed final : public PoseFeed {
   devices::DeviceStatus status() const override { return source_->status(); }
 
  private:
-  std::shared_ptr<const avatar::Motion> motion_;
+  std::shared_ptr<const rig::Motion> motion_;
   std::unique_ptr<devices::SensorSource> source_;
   std::string description_;
   std::array<devices::SensorSample, 64> samples_{};
@@ -114,7 +114,7 @@ class SolverFeed final : public PoseFeed {
     refine_->cv.notify_one();
     refine_->thread.join();
   }
-  const avatar::Skeleton& skeleton() const override { return model_->skeleton(); }
+  const rig::Skeleton& skeleton() const override { return model_->skeleton(); }
   std::string describe() const override { return description_; }
   Status start() override { return source_->start(); }
   size_t read() override {
@@ -161,7 +161,7 @@ class SolverFeed final : public PoseFeed {
     return ready;
   }
   std::span<const devices::SensorSample> latest_samples() const override { return packed_; }
-  void solve(avatar::Pose& pose, double& capture_s, bool& stale) override {
+  void solve(rig::Pose& pose, double& capture_s, bool& stale) override {
     packed_.clear();  // capacity kept: no allocation
     stale = false;
     for (size_t i = 0; i < kMaxSensors; ++i) {
@@ -238,18 +238,18 @@ class SolverFeed final : public PoseFeed {
   std::vector<uint8_t> fresh_;  // a sample arrived since the last solve
   double first_fresh_s_ = -1;   // host time of the first of those
   size_t unsolved_ = 0;         // samples read since the last solve
-  avatar::Pose warm_;
+  rig::Pose warm_;
   double newest_host_s_ = 0;
 };
 
 class FkDeformer final : public Deformer {
  public:
-  explicit FkDeformer(const avatar::Skeleton& s) : skeleton_(s), frames_(size_t(s.joint_count())) {}
-  void deform(const avatar::Pose& pose) override { avatar::forward_kinematics(skeleton_, pose, frames_); }
+  explicit FkDeformer(const rig::Skeleton& s) : skeleton_(s), frames_(size_t(s.joint_count())) {}
+  void deform(const rig::Pose& pose) override { rig::forward_kinematics(skeleton_, pose, frames_); }
 
  private:
-  avatar::Skeleton skeleton_;
-  std::vector<avatar::RigidTransform> frames_;
+  rig::Skeleton skeleton_;
+  std::vector<rig::RigidTransform> frames_;
 };
 
 }  // namespace
@@ -298,14 +298,14 @@ StageTimer::Summary StageTimer::summary() {
   return s;
 }
 
-Result<std::shared_ptr<const avatar::Motion>> builtin_motion(const std::string& name,
-                                                             const avatar::Skeleton& skeleton) {
-  auto m = avatar::make_builtin_motion(name, skeleton);
+Result<std::shared_ptr<const rig::Motion>> builtin_motion(const std::string& name,
+                                                             const rig::Skeleton& skeleton) {
+  auto m = rig::make_builtin_motion(name, skeleton);
   if (!m) return tl::unexpected(m.error());
-  return std::shared_ptr<const avatar::Motion>(std::move(*m));
+  return std::shared_ptr<const rig::Motion>(std::move(*m));
 }
 
-Result<std::unique_ptr<PoseFeed>> make_motion_feed(std::shared_ptr<const avatar::Motion> motion,
+Result<std::unique_ptr<PoseFeed>> make_motion_feed(std::shared_ptr<const rig::Motion> motion,
                                                    std::unique_ptr<devices::SensorSource> source,
                                                    std::string description) {
   return std::unique_ptr<PoseFeed>(new MotionFeed(std::move(motion), std::move(source), std::move(description)));
@@ -316,7 +316,7 @@ namespace {
 // The mounts a log recorded with its sensors (a simulated rig writes its exact ones), when every
 // sensor names a segment of `skeleton`; otherwise none, and the standard layout is assumed.
 std::optional<std::vector<solver::SensorMount>> recorded_mounts(const std::string& log_path,
-                                                                const avatar::Skeleton& skeleton) {
+                                                                const rig::Skeleton& skeleton) {
   auto log = sim::read_log(log_path);
   if (!log || log->header.sensors.empty()) return std::nullopt;
   std::vector<solver::SensorMount> mounts;
@@ -330,13 +330,13 @@ std::optional<std::vector<solver::SensorMount>> recorded_mounts(const std::strin
 }  // namespace
 
 Result<std::unique_ptr<PoseFeed>> open_feed(const std::string& spec_text, const std::string& calibration_path,
-                                            const avatar::Skeleton* body) {
+                                            const rig::Skeleton* body) {
   return open_feed_on_clock(spec_text, calibration_path, body, nullptr);
 }
 
 Result<std::unique_ptr<PoseFeed>> open_feed_on_clock(const std::string& spec_text, const std::string& calibration_path,
-                                                     const avatar::Skeleton* body,
-                                                     std::shared_ptr<const sim::Clock> clock) {
+                                                     const rig::Skeleton* body,
+                                                     std::shared_ptr<const Clock> clock) {
   auto spec = devices::parse_source_spec(spec_text);
   if (!spec) return tl::unexpected(spec.error());
   if (spec->scheme == "vmc") return open_vmc_feed(*spec, body);  // poses, not tracker samples
@@ -352,7 +352,7 @@ Result<std::unique_ptr<PoseFeed>> open_feed_on_clock(const std::string& spec_tex
     return std::unique_ptr<PoseFeed>(
         new SolverFeed(std::move(*model), std::move(*source), desc + ", calibration " + calibration_path, &*cal));
   }
-  auto skeleton = body ? Result<avatar::Skeleton>(*body) : avatar::Skeleton::build(avatar::default_skeleton_desc());
+  auto skeleton = body ? Result<rig::Skeleton>(*body) : rig::Skeleton::build(rig::default_skeleton_desc());
   if (!skeleton) return tl::unexpected(skeleton.error());
   // Where the sensors sit: a simulated rig knows exactly; a real tracker uses the standard
   // layout's instructed placements until a calibration is given.
@@ -372,14 +372,14 @@ Result<std::unique_ptr<PoseFeed>> open_feed_on_clock(const std::string& spec_tex
     auto layout = solver::standard_layout(it == spec->params.end() ? "6" : it->second, *skeleton);
     if (!layout) return tl::unexpected(layout.error());
     for (const auto& b : layout->bindings) {
-      avatar::RigidTransform t;
+      rig::RigidTransform t;
       t.translation = b.placement_m;
       mounts.push_back({b.sensor, b.segment, t});
     }
   }
   // A simulated wearer stands as tall as the skeleton it wears: its legs can step when untracked.
   solver::SolverOptions options;
-  if (spec->scheme == "sim" || spec->scheme == "bvh") options.standing_root_y_m = avatar::standing_root_height_m(*skeleton);
+  if (spec->scheme == "sim" || spec->scheme == "bvh") options.standing_root_y_m = rig::standing_root_height_m(*skeleton);
   auto model = solver::SolverModel::create(*skeleton, std::move(mounts), options);
   if (!model) return tl::unexpected(model.error());
   auto source = sim::open_sensor_source(*spec, std::move(clock), nullptr, body);
@@ -389,7 +389,7 @@ Result<std::unique_ptr<PoseFeed>> open_feed_on_clock(const std::string& spec_tex
   return std::unique_ptr<PoseFeed>(new SolverFeed(std::move(*model), std::move(*source), desc));
 }
 
-std::unique_ptr<Deformer> make_fk_deformer(const avatar::Skeleton& skeleton) {
+std::unique_ptr<Deformer> make_fk_deformer(const rig::Skeleton& skeleton) {
   return std::make_unique<FkDeformer>(skeleton);
 }
 
@@ -412,7 +412,7 @@ namespace {
 class SkinDeformer final : public Deformer {
  public:
   SkinDeformer(avatar::BodySkin skin, uint8_t lod) : skin_(std::move(skin)), lod_(lod) {}
-  void deform(const avatar::Pose& pose) override { skin_.evaluate(pose); }
+  void deform(const rig::Pose& pose) override { skin_.evaluate(pose); }
   const avatar::Mesh* mesh() const override { return &skin_.mesh(); }
   uint8_t lod() const override { return lod_; }
 
@@ -428,7 +428,7 @@ class RealtimeDeformer final : public Deformer {
       : skin_(body), mesh_(body->rest_mesh()), lod_(static_cast<uint8_t>(body->lod())) {
     mesh_.normals.clear();  // receivers that want normals compute them from the fixed topology
   }
-  void deform(const avatar::Pose& pose) override { skin_.evaluate(pose, mesh_.positions); }
+  void deform(const rig::Pose& pose) override { skin_.evaluate(pose, mesh_.positions); }
   const avatar::Mesh* mesh() const override { return &mesh_; }
   uint8_t lod() const override { return lod_; }
 
@@ -441,7 +441,7 @@ class RealtimeDeformer final : public Deformer {
 }  // namespace
 
 Result<std::unique_ptr<Deformer>> make_skin_deformer(const avatar::BodyModel& model,
-                                                     const avatar::Skeleton& skeleton, int lod,
+                                                     const rig::Skeleton& skeleton, int lod,
                                                      avatar::SkinMethod method) {
   if (lod < 0 || lod >= kMeshLodCount)
     return fail(Errc::out_of_range, "mesh LOD must be in 0.." + std::to_string(kMeshLodCount - 1));

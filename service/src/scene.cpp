@@ -7,7 +7,7 @@
 
 #include <glm/gtc/quaternion.hpp>
 
-#include "mimic/avatar/motion.h"
+#include "mimic/rig/motion.h"
 #include "mimic/sim/open_input.h"
 
 namespace mimic::service {
@@ -34,7 +34,7 @@ glm::vec3 clamp_to_room(glm::vec3 p, const Room& room, float margin_m) {
 }
 
 // The pose turned by the placement's heading and moved to its position.
-void apply_placement(const Placement& place, avatar::Pose& pose) {
+void apply_placement(const Placement& place, rig::Pose& pose) {
   const glm::quat turn = glm::angleAxis(place.heading_rad, glm::vec3(0, 1, 0));
   pose.root_position_m = place.position_m + turn * pose.root_position_m;
   pose.root_orientation = glm::normalize(turn * pose.root_orientation);
@@ -128,7 +128,7 @@ class PlacedFeed final : public PoseFeed {
     placed_.reserve(64);
   }
 
-  const avatar::Skeleton& skeleton() const override { return inner_->skeleton(); }
+  const rig::Skeleton& skeleton() const override { return inner_->skeleton(); }
   std::string describe() const override {
     return inner_->describe() + (navigator_ ? ", navigated by " + navigator_->status().description : "");
   }
@@ -139,7 +139,7 @@ class PlacedFeed final : public PoseFeed {
     return inner_->start();
   }
   size_t read() override { return inner_->read(); }
-  void solve(avatar::Pose& pose, double& capture_s, bool& stale) override {
+  void solve(rig::Pose& pose, double& capture_s, bool& stale) override {
     inner_->solve(pose, capture_s, stale);
     if (navigator_) {
       const double t = now_s();
@@ -339,7 +339,7 @@ namespace {
 
 // Built-in motion with its own travel taken out: the heading and the horizontal root position
 // are the actor's to set.
-void strip_travel(avatar::Pose& pose) {
+void strip_travel(rig::Pose& pose) {
   const glm::vec3 f = pose.root_orientation * glm::vec3(0, 0, 1);
   const float yaw = std::atan2(f.x, f.z);
   pose.root_orientation = glm::normalize(glm::angleAxis(-yaw, glm::vec3(0, 1, 0)) * pose.root_orientation);
@@ -349,7 +349,7 @@ void strip_travel(avatar::Pose& pose) {
 
 class ActorFeed final : public PoseFeed {
  public:
-  ActorFeed(avatar::Skeleton skeleton, std::unique_ptr<avatar::Motion> walk, std::unique_ptr<avatar::Motion> idle,
+  ActorFeed(rig::Skeleton skeleton, std::unique_ptr<rig::Motion> walk, std::unique_ptr<rig::Motion> idle,
             ActorOptions options, float speed_mps, std::shared_ptr<SceneRoster> roster, int slot, std::string text)
       : skeleton_(std::move(skeleton)), walk_(std::move(walk)), idle_(std::move(idle)),
         brain_(options, speed_mps), roster_(std::move(roster)), slot_(slot), text_(std::move(text)) {
@@ -359,7 +359,7 @@ class ActorFeed final : public PoseFeed {
     elbow_dof_ = skeleton_.find_dof("r_elbow_flexion");
     roster_->set(slot_, options.start.position_m, options.start.heading_rad);
   }
-  const avatar::Skeleton& skeleton() const override { return skeleton_; }
+  const rig::Skeleton& skeleton() const override { return skeleton_; }
   std::string describe() const override { return "actor " + text_; }
   Status start() override {
     last_s_ = now_s();
@@ -374,7 +374,7 @@ class ActorFeed final : public PoseFeed {
     ++records_;
     return 1;
   }
-  void solve(avatar::Pose& pose, double& capture_s, bool& stale) override {
+  void solve(rig::Pose& pose, double& capture_s, bool& stale) override {
     const float dt_s = static_cast<float>(std::min(pending_s_, 0.1));
     brain_.step(dt_s, *roster_, slot_);
     const float w = brain_.walking();
@@ -406,21 +406,21 @@ class ActorFeed final : public PoseFeed {
   }
 
  private:
-  avatar::Skeleton skeleton_;
-  std::unique_ptr<avatar::Motion> walk_, idle_;
+  rig::Skeleton skeleton_;
+  std::unique_ptr<rig::Motion> walk_, idle_;
   ActorBrain brain_;
   std::shared_ptr<SceneRoster> roster_;
   int slot_;
   std::string text_;
-  avatar::Pose walk_pose_, idle_pose_;
+  rig::Pose walk_pose_, idle_pose_;
   int wave_dof_ = -1, elbow_dof_ = -1;
   double last_s_ = 0, pending_s_ = 0, walk_time_s_ = 0, idle_time_s_ = 0;
   uint64_t records_ = 0;
 };
 
 // Metres per second the built-in walk covers (its root's path over a few seconds).
-float walk_speed(const avatar::Motion& walk) {
-  avatar::Pose p = walk.skeleton().zero_pose();
+float walk_speed(const rig::Motion& walk) {
+  rig::Pose p = walk.skeleton().zero_pose();
   walk.sample(0.0, p);
   glm::vec3 prev = p.root_position_m;
   float path_m = 0;
@@ -437,14 +437,14 @@ float walk_speed(const avatar::Motion& walk) {
 }  // namespace
 
 Result<std::unique_ptr<PoseFeed>> make_actor_feed(const std::string& spec_text, std::shared_ptr<SceneRoster> roster,
-                                                  int slot, const avatar::Skeleton* body) {
+                                                  int slot, const rig::Skeleton* body) {
   auto options = actor_options(spec_text, roster->size());
   if (!options) return tl::unexpected(options.error());
-  auto skeleton = body ? Result<avatar::Skeleton>(*body) : avatar::Skeleton::build(avatar::default_skeleton_desc());
+  auto skeleton = body ? Result<rig::Skeleton>(*body) : rig::Skeleton::build(rig::default_skeleton_desc());
   if (!skeleton) return tl::unexpected(skeleton.error());
-  auto walk = avatar::make_builtin_motion("walk", *skeleton);
+  auto walk = rig::make_builtin_motion("walk", *skeleton);
   if (!walk) return tl::unexpected(walk.error());
-  auto idle = avatar::make_builtin_motion("idle", *skeleton);
+  auto idle = rig::make_builtin_motion("idle", *skeleton);
   if (!idle) return tl::unexpected(idle.error());
   const float speed = walk_speed(**walk);
   return std::unique_ptr<PoseFeed>(std::make_unique<ActorFeed>(std::move(*skeleton), std::move(*walk), std::move(*idle),

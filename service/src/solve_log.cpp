@@ -12,10 +12,10 @@ namespace {
 
 // Solves the same samples again, warm-started each time, until no DOF moves by more than
 // kSettled_rad (or kMaxRounds passes).
-void settle(PoseFeed& feed, avatar::Pose& pose) {
+void settle(PoseFeed& feed, rig::Pose& pose) {
   constexpr int kMaxRounds = 200;
   constexpr float kSettled_rad = 1e-4f;
-  avatar::Pose before = pose;
+  rig::Pose before = pose;
   for (int round = 0; round < kMaxRounds; ++round) {
     double capture_s = 0;
     bool stale = false;
@@ -30,14 +30,14 @@ void settle(PoseFeed& feed, avatar::Pose& pose) {
 }  // namespace
 
 Result<SolvedTake> solve_log(const std::string& log_path, const std::string& calibration_path, double fps,
-                             const avatar::Skeleton* body, double max_seconds) {
+                             const rig::Skeleton* body, double max_seconds) {
   if (!(fps > 0 && fps <= 1000)) return fail(Errc::invalid_argument, "frame rate must be in (0, 1000]");
-  auto clock = std::make_shared<sim::ManualClock>(0.0);
+  auto clock = std::make_shared<ManualClock>(0.0);
   auto feed = open_feed_on_clock("replay:" + log_path, calibration_path, body, clock);
   if (!feed) return tl::unexpected(feed.error());
   if (auto st = (*feed)->start(); !st) return tl::unexpected(st.error());
   SolvedTake take{(*feed)->skeleton(), {}, {}, (*feed)->describe(), 0};
-  avatar::Pose pose = take.skeleton.zero_pose();
+  rig::Pose pose = take.skeleton.zero_pose();
   const double dt_s = 1.0 / fps;
   // A log longer than a day is not a take; the bound keeps a stuck replay from spinning.
   const long max_steps = static_cast<long>(std::ceil((max_seconds > 0 ? max_seconds : 86400.0) * fps)) + 1;

@@ -15,13 +15,13 @@ double steady_now_s() {
 
 class VmcFeed final : public PoseFeed {
  public:
-  VmcFeed(avatar::Skeleton skeleton, std::unique_ptr<net::VmcReceiver> rx, double stale_after_s)
+  VmcFeed(rig::Skeleton skeleton, std::unique_ptr<net::VmcReceiver> rx, double stale_after_s)
       : skeleton_(std::move(skeleton)),
         bones_(net::vmc_bone_map(skeleton_)),
         rx_(std::move(rx)),
         stale_after_s_(stale_after_s),
         pose_(skeleton_.rest_pose()) {}
-  const avatar::Skeleton& skeleton() const override { return skeleton_; }
+  const rig::Skeleton& skeleton() const override { return skeleton_; }
   std::string describe() const override { return "vmc:" + rx_->endpoint() + " (VMC performer data)"; }
   Status start() override { return {}; }
 
@@ -36,7 +36,7 @@ class VmcFeed final : public PoseFeed {
     return 1;
   }
 
-  void solve(avatar::Pose& pose, double& capture_s, bool& stale) override {
+  void solve(rig::Pose& pose, double& capture_s, bool& stale) override {
     const auto& hips = rx_->state().bones[net::kHipsBone];
     const bool ok = net::pose_from_vmc(rx_->state(), skeleton_, bones_, pose_);
     pose.root_position_m = pose_.root_position_m;
@@ -61,18 +61,18 @@ class VmcFeed final : public PoseFeed {
   }
 
  private:
-  avatar::Skeleton skeleton_;
+  rig::Skeleton skeleton_;
   std::vector<net::VmcBone> bones_;
   std::unique_ptr<net::VmcReceiver> rx_;
   double stale_after_s_;
-  avatar::Pose pose_;
+  rig::Pose pose_;
   uint64_t seen_ = 0;
 };
 
 }  // namespace
 
-Result<std::unique_ptr<PoseFeed>> open_vmc_feed(const devices::SourceSpec& spec, const avatar::Skeleton* body) {
-  auto skeleton = body ? Result<avatar::Skeleton>(*body) : avatar::Skeleton::build(avatar::default_skeleton_desc());
+Result<std::unique_ptr<PoseFeed>> open_vmc_feed(const devices::SourceSpec& spec, const rig::Skeleton* body) {
+  auto skeleton = body ? Result<rig::Skeleton>(*body) : rig::Skeleton::build(rig::default_skeleton_desc());
   if (!skeleton) return tl::unexpected(skeleton.error());
   auto rx = net::VmcReceiver::open(spec.target);
   if (!rx) return tl::unexpected(rx.error());

@@ -11,6 +11,6 @@
 
 namespace mimic::service {
 
-Result<std::unique_ptr<PoseFeed>> open_vmc_feed(const devices::SourceSpec& spec, const avatar::Skeleton* body);
+Result<std::unique_ptr<PoseFeed>> open_vmc_feed(const devices::SourceSpec& spec, const rig::Skeleton* body);
 
 }  // namespace mimic::service

@@ -13,6 +13,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "mimic/core/crc32.h"
 #include "mimic/core/file.h"
 
 namespace mimic::sim {
@@ -29,16 +30,6 @@ constexpr size_t kSamplePayload = 54;
 
 enum RecordType : uint8_t { kHeader = 1, kSample = 2, kRaw = 3, kEnd = 4 };
 
-constexpr std::array<uint32_t, 256> make_crc_table() {
-  std::array<uint32_t, 256> t{};
-  for (uint32_t i = 0; i < 256; ++i) {
-    uint32_t c = i;
-    for (int k = 0; k < 8; ++k) c = (c & 1) ? 0xEDB88320u ^ (c >> 1) : c >> 1;
-    t[i] = c;
-  }
-  return t;
-}
-constexpr auto kCrcTable = make_crc_table();
 
 template <class T>
 void put(std::vector<uint8_t>& out, T v) {
@@ -65,12 +56,12 @@ void end_record(std::vector<uint8_t>& out, size_t record_start) {
   put<uint32_t>(out, c);
 }
 
-nlohmann::json transform_json(const avatar::RigidTransform& t) {
+nlohmann::json transform_json(const rig::RigidTransform& t) {
   return {{"translation_m", {t.translation.x, t.translation.y, t.translation.z}},
           {"rotation_wxyz", {t.rotation.w, t.rotation.x, t.rotation.y, t.rotation.z}}};
 }
 
-bool read_transform(const nlohmann::json& j, avatar::RigidTransform& t) {
+bool read_transform(const nlohmann::json& j, rig::RigidTransform& t) {
   if (!j.is_object()) return false;
   const auto& tr = j.value("translation_m", nlohmann::json());
   const auto& ro = j.value("rotation_wxyz", nlohmann::json());
@@ -161,12 +152,6 @@ std::string parse_header_json(std::string_view text, LogHeader& h) {
 }
 
 }  // namespace
-
-uint32_t crc32(std::span<const uint8_t> bytes, uint32_t crc) {
-  crc = ~crc;
-  for (uint8_t b : bytes) crc = kCrcTable[(crc ^ b) & 0xFFu] ^ (crc >> 8);
-  return ~crc;
-}
 
 std::string LogDamage::what() const {
   std::string text = "damage at byte " + std::to_string(byte_offset) + " (record " + std::to_string(record_index) +

@@ -3,7 +3,7 @@
 #include <cmath>
 #include <cstdio>
 
-#include "mimic/avatar/motion.h"
+#include "mimic/rig/motion.h"
 #include "mimic/sim/sim_source.h"
 
 // The Flock driver is optional at build time: the spec scheme exists either way, and a build
@@ -16,8 +16,8 @@
 #endif
 
 // BVH clips retargeted onto Mimic's skeleton, when the retargeting code is built in.
-#if __has_include("mimic/avatar/retarget.h")
-#include "mimic/avatar/retarget.h"
+#if __has_include("mimic/rig/retarget.h")
+#include "mimic/rig/retarget.h"
 #define MIMIC_SIM_HAVE_BVH_MOTION 1
 #else
 #define MIMIC_SIM_HAVE_BVH_MOTION 0
@@ -28,20 +28,20 @@ namespace mimic::sim {
 namespace {
 
 // Plays a clip again and again (bvh:CLIP?loop=1); clips hold their last frame otherwise.
-class LoopedMotion final : public avatar::Motion {
+class LoopedMotion final : public rig::Motion {
  public:
-  explicit LoopedMotion(std::unique_ptr<avatar::Motion> inner) : inner_(std::move(inner)) {}
-  const avatar::Skeleton& skeleton() const override { return inner_->skeleton(); }
+  explicit LoopedMotion(std::unique_ptr<rig::Motion> inner) : inner_(std::move(inner)) {}
+  const rig::Skeleton& skeleton() const override { return inner_->skeleton(); }
   double duration_s() const override { return inner_->duration_s(); }
   bool loops() const override { return true; }
-  void sample(double t_s, avatar::Pose& out) const override {
+  void sample(double t_s, rig::Pose& out) const override {
     const double d = inner_->duration_s();
     inner_->sample(d > 0 ? t_s - d * std::floor(t_s / d) : 0.0, out);
   }
   std::string name() const override { return inner_->name(); }
 
  private:
-  std::unique_ptr<avatar::Motion> inner_;
+  std::unique_ptr<rig::Motion> inner_;
 };
 
 std::string describe_rig(const std::string& what, const RigConfig& c) {
@@ -52,7 +52,7 @@ std::string describe_rig(const std::string& what, const RigConfig& c) {
 }
 
 Result<std::unique_ptr<devices::SensorSource>> rig_source(const devices::SourceSpec& spec,
-                                                          std::shared_ptr<const avatar::Motion> motion,
+                                                          std::shared_ptr<const rig::Motion> motion,
                                                           std::shared_ptr<const Clock> clock) {
   auto config = rig_config_from_spec(spec, motion->skeleton());
   if (!config) return tl::unexpected(config.error());
@@ -68,28 +68,28 @@ Result<std::unique_ptr<devices::SensorSource>> rig_source(const devices::SourceS
 Result<std::unique_ptr<devices::SensorSource>> open_sensor_source(const devices::SourceSpec& spec,
                                                                   std::shared_ptr<const Clock> clock,
                                                                   std::shared_ptr<devices::ByteTap> tap,
-                                                                  const avatar::Skeleton* performer) {
+                                                                  const rig::Skeleton* performer) {
   if (!clock) clock = std::make_shared<SteadyClock>();
   if (spec.scheme == "sim") {
-    auto skeleton = performer ? Result<avatar::Skeleton>(*performer) : avatar::Skeleton::build(avatar::default_skeleton_desc());
+    auto skeleton = performer ? Result<rig::Skeleton>(*performer) : rig::Skeleton::build(rig::default_skeleton_desc());
     if (!skeleton) return tl::unexpected(skeleton.error());
-    auto motion = avatar::make_builtin_motion(spec.target.empty() ? "walk" : spec.target, *skeleton);
+    auto motion = rig::make_builtin_motion(spec.target.empty() ? "walk" : spec.target, *skeleton);
     if (!motion) return tl::unexpected(motion.error());
-    return rig_source(spec, std::shared_ptr<const avatar::Motion>(std::move(*motion)), std::move(clock));
+    return rig_source(spec, std::shared_ptr<const rig::Motion>(std::move(*motion)), std::move(clock));
   }
   if (spec.scheme == "bvh") {
 #if MIMIC_SIM_HAVE_BVH_MOTION
-    avatar::BvhMotionOptions options;
+    rig::BvhMotionOptions options;
     options.body = performer;
-    auto motion = avatar::load_bvh_motion(spec.target, options);
+    auto motion = rig::load_bvh_motion(spec.target, options);
     if (!motion) return tl::unexpected(motion.error());
-    std::shared_ptr<const avatar::Motion> shared;
+    std::shared_ptr<const rig::Motion> shared;
     const auto loop = spec.params.find("loop");
     if (loop != spec.params.end() && (loop->second == "1" || loop->second == "true" || loop->second == "yes" ||
                                       loop->second == "on"))
       shared = std::make_shared<LoopedMotion>(std::move(*motion));
     else
-      shared = std::shared_ptr<const avatar::Motion>(std::move(*motion));
+      shared = std::shared_ptr<const rig::Motion>(std::move(*motion));
     return rig_source(spec, std::move(shared), std::move(clock));
 #else
     return fail(Errc::unsupported, "source '" + spec.text + "': BVH-driven motion is not built into this version");

@@ -36,7 +36,7 @@ bool flag(const devices::SourceSpec& spec, const char* key) {
 
 }  // namespace
 
-Result<RigConfig> rig_config_from_spec(const devices::SourceSpec& spec, const avatar::Skeleton& skeleton) {
+Result<RigConfig> rig_config_from_spec(const devices::SourceSpec& spec, const rig::Skeleton& skeleton) {
   RigConfig c;
   const auto layout_it = spec.params.find("sensors");
   auto layout = make_layout(layout_it == spec.params.end() ? "6" : layout_it->second, skeleton);

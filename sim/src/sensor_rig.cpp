@@ -16,8 +16,8 @@ uint64_t splitmix64(uint64_t& state) {
   return z ^ (z >> 31);
 }
 
-avatar::RigidTransform at(glm::vec3 translation_m) {
-  avatar::RigidTransform t;
+rig::RigidTransform at(glm::vec3 translation_m) {
+  rig::RigidTransform t;
   t.translation = translation_m;
   return t;
 }
@@ -68,7 +68,7 @@ glm::quat quat_from_rotation_vector(const glm::dvec3& v_rad) {
 
 std::vector<std::string> layout_names() { return {"3", "6", "11", "all"}; }
 
-Result<std::vector<SensorMount>> make_layout(std::string_view name, const avatar::Skeleton& skeleton) {
+Result<std::vector<SensorMount>> make_layout(std::string_view name, const rig::Skeleton& skeleton) {
   std::vector<SensorMount> out;
   if (name == "all") {
     for (int j = 0; j < skeleton.joint_count(); ++j)
@@ -95,7 +95,7 @@ Result<std::vector<SensorMount>> make_layout(std::string_view name, const avatar
   return out;
 }
 
-Result<SensorRig> SensorRig::create(std::shared_ptr<const avatar::Motion> motion, RigConfig config) {
+Result<SensorRig> SensorRig::create(std::shared_ptr<const rig::Motion> motion, RigConfig config) {
   if (!motion) return fail(Errc::invalid_argument, "sensor rig: no motion");
   if (config.sensors.empty()) return fail(Errc::invalid_argument, "sensor rig: no sensors");
   if (config.sensors.size() > 65535) return fail(Errc::out_of_range, "sensor rig: more than 65535 sensors");
@@ -111,7 +111,7 @@ Result<SensorRig> SensorRig::create(std::shared_ptr<const avatar::Motion> motion
     return fail(Errc::out_of_range, "sensor rig: dropout probability must lie in [0, 1]");
   if (config.dropout_burst < 1) return fail(Errc::out_of_range, "sensor rig: dropout burst must be at least 1 tick");
 
-  const avatar::Skeleton& skeleton = motion->skeleton();
+  const rig::Skeleton& skeleton = motion->skeleton();
   SensorRig rig;
   for (const auto& m : config.sensors) {
     const int j = skeleton.find_joint(m.segment);
@@ -150,7 +150,7 @@ double SensorRig::step(std::span<devices::SensorSample> out, double host_time_of
   const double dt = 1.0 / config_.rate_hz;
   ++tick_;
   motion_->sample(t, pose_);
-  avatar::forward_kinematics(motion_->skeleton(), pose_, world_from_joint_);
+  rig::forward_kinematics(motion_->skeleton(), pose_, world_from_joint_);
 
   const double bias_pos_step_m = config_.bias_walk_mm_per_sqrt_s * 1e-3 * std::sqrt(dt);
   const double bias_rot_step_rad = config_.bias_walk_deg_per_sqrt_s * kDegToRad * std::sqrt(dt);
@@ -160,10 +160,10 @@ double SensorRig::step(std::span<devices::SensorSample> out, double host_time_of
 
   for (size_t i = 0; i < state_.size(); ++i) {
     SensorState& s = state_[i];
-    const avatar::RigidTransform world_from_sensor =
+    const rig::RigidTransform world_from_sensor =
         world_from_joint_[segment_joint_[i]] * config_.sensors[i].segment_from_sensor;
     world_from_sensor_[i] = world_from_sensor;
-    const avatar::RigidTransform truth = reference_from_world_ * world_from_sensor;
+    const rig::RigidTransform truth = reference_from_world_ * world_from_sensor;
     reference_from_sensor_[i] = truth;
 
     // Fixed draw order and count: dropout, bias (position, rotation), noise (position, rotation).

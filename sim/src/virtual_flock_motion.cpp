@@ -5,7 +5,7 @@
 #include <random>
 #include <vector>
 
-#include "mimic/avatar/skeleton.h"
+#include "mimic/rig/skeleton.h"
 #include "mimic/sim/virtual_flock.h"
 
 namespace mimic::sim {
@@ -18,9 +18,9 @@ constexpr const char* kSensorJoints[] = {"pelvis",  "head",    "l_wrist", "r_wri
                                          "spine_upper", "l_shoulder", "r_shoulder", "neck"};
 
 struct MotionState {
-  avatar::Skeleton skeleton;
-  avatar::Pose pose;
-  std::vector<avatar::RigidTransform> world_from_joint;
+  rig::Skeleton skeleton;
+  rig::Pose pose;
+  std::vector<rig::RigidTransform> world_from_joint;
   std::vector<double> freq_hz, phase_rad, amp_rad, mid_rad;
   std::vector<int> sensor_joint;
   double last_t = -1;
@@ -32,12 +32,12 @@ struct MotionState {
 
 FlockSampleProvider make_builtin_flock_motion(uint64_t seed) {
   auto st = std::make_shared<MotionState>();
-  auto built = avatar::Skeleton::build(avatar::default_skeleton_desc());
+  auto built = rig::Skeleton::build(rig::default_skeleton_desc());
   if (!built) return [](double, int, devices::SensorSample&) {};
   st->skeleton = std::move(*built);
   st->pose = st->skeleton.zero_pose();
   st->world_from_joint.resize(static_cast<size_t>(st->skeleton.joint_count()));
-  st->root_height_m = avatar::standing_root_height_m(st->skeleton);
+  st->root_height_m = rig::standing_root_height_m(st->skeleton);
   std::mt19937_64 rng(seed);
   // Raw engine output, not std:: distributions, so the motion is the same on every library.
   auto unit = [&rng] { return static_cast<double>(rng() >> 11) / 9007199254740992.0; };
@@ -59,7 +59,7 @@ FlockSampleProvider make_builtin_flock_motion(uint64_t seed) {
       }
       st->pose.root_position_m = glm::vec3(0.05f * static_cast<float>(std::sin(kTwoPi * 0.3 * t_s)),
                                            st->root_height_m, 0.0f);
-      avatar::forward_kinematics(st->skeleton, st->pose, st->world_from_joint);
+      rig::forward_kinematics(st->skeleton, st->pose, st->world_from_joint);
       st->last_t = t_s;
     }
     const size_t n = std::size(kSensorJoints);

@@ -10,9 +10,9 @@
 
 namespace mimic::solver {
 
-using avatar::Pose;
-using avatar::RigidTransform;
-using avatar::Skeleton;
+using rig::Pose;
+using rig::RigidTransform;
+using rig::Skeleton;
 
 namespace {
 

@@ -13,10 +13,10 @@
 
 namespace mimic::solver {
 
-using avatar::Pose;
-using avatar::RigidTransform;
-using avatar::Skeleton;
-using avatar::SkeletonDesc;
+using rig::Pose;
+using rig::RigidTransform;
+using rig::Skeleton;
+using rig::SkeletonDesc;
 
 namespace {
 
@@ -49,7 +49,7 @@ std::string fmt(float v, const char* f = "%.1f") {
 // Joint world positions of a skeleton posed at `pose`.
 std::vector<RigidTransform> pose_world(const Skeleton& s, const Pose& pose) {
   std::vector<RigidTransform> w(s.joint_count());
-  avatar::forward_kinematics(s, pose, w);
+  rig::forward_kinematics(s, pose, w);
   return w;
 }
 
@@ -218,7 +218,7 @@ Fit fit_body(const SkeletonDesc& base, const std::vector<SensorStats>& stats, co
   // Overall size from the head's height above the floor (or the feet).
   Skeleton s = build();
   auto w = zero_world(s);
-  const float root_h0 = avatar::standing_root_height_m(s);
+  const float root_h0 = rig::standing_root_height_m(s);
   if (has("head")) {
     const float head0 = jpos(s, w, "head").y + root_h0;
     float scale;
@@ -237,13 +237,13 @@ Fit fit_body(const SkeletonDesc& base, const std::vector<SensorStats>& stats, co
   }
   s = build();
   w = zero_world(s);
-  avatar::Proportions prop = avatar::measure_proportions(s);
+  rig::Proportions prop = rig::measure_proportions(s);
 
   // Where the root sits: the pelvis sensor, else hanging below the head.
   auto root_position = [&](const Skeleton& sk, const std::vector<RigidTransform>& wz) {
     if (has("pelvis")) return mark["pelvis"];
     if (has("head")) return mark["head"] - heading * (jpos(sk, wz, "head") - wz[0].translation);
-    return glm::vec3(0, avatar::standing_root_height_m(sk) + opt.floor_y_m, 0);
+    return glm::vec3(0, rig::standing_root_height_m(sk) + opt.floor_y_m, 0);
   };
 
   // Spine and neck: pelvis to chest to head.
@@ -274,7 +274,7 @@ Fit fit_body(const SkeletonDesc& base, const std::vector<SensorStats>& stats, co
   }
   if (has("l_shoulder") && has("r_shoulder")) prop.shoulder_width_m = glm::length(mark["l_shoulder"] - mark["r_shoulder"]);
   if (has("l_hip") && has("r_hip")) prop.hip_width_m = glm::length(mark["l_hip"] - mark["r_hip"]);
-  avatar::apply_proportions(out.desc, prop);
+  rig::apply_proportions(out.desc, prop);
   // Hip and shoulder joints where the thigh and upper-arm sensors put them (relative to the
   // pelvis and the chest), averaged over both sides to keep the skeleton symmetric.
   const glm::quat inv_h = glm::conjugate(heading);
@@ -362,7 +362,7 @@ Fit fit_body(const SkeletonDesc& base, const std::vector<SensorStats>& stats, co
     if (float l = limb_length((sd + "shoulder").c_str(), (sd + "wrist").c_str()); l > 0) arm += l, ++n_arm;
     if (float l = limb_length((sd + "hip").c_str(), (sd + "ankle").c_str()); l > 0) leg += l, ++n_leg;
   }
-  prop = avatar::measure_proportions(s);
+  prop = rig::measure_proportions(s);
   if (n_arm > 0) {
     const float total = prop.upper_arm_m + prop.forearm_m;
     const float k = std::clamp((arm / static_cast<float>(n_arm)) / total, 0.6f, 1.5f);
@@ -379,7 +379,7 @@ Fit fit_body(const SkeletonDesc& base, const std::vector<SensorStats>& stats, co
     prop.thigh_m = k * total * thigh_share;
     prop.shin_m = k * total * (1.0f - thigh_share);
   }
-  avatar::apply_proportions(out.desc, prop);
+  rig::apply_proportions(out.desc, prop);
   // Then each side's own limb where both sides were measured (the mean above is for a side
   // nobody measured, and for the split when no sensor shows it).
   if (n_arm == 2 || n_leg == 2)
@@ -397,13 +397,13 @@ Fit fit_body(const SkeletonDesc& base, const std::vector<SensorStats>& stats, co
         const float total = mid_marked ? std::clamp(upper_m + lower_m, 0.2f, 1.5f)
                                        : std::clamp(limb_length(upper.c_str(), end.c_str()), 0.2f, 1.5f);
         const float share = mid_marked && upper_m + lower_m > 0.1f ? upper_m / (upper_m + lower_m) : -1.0f;
-        auto find_desc = [&](const std::string& n) -> avatar::JointDesc* {
+        auto find_desc = [&](const std::string& n) -> rig::JointDesc* {
           for (auto& jd : out.desc.joints)
             if (jd.name == n) return &jd;
           return nullptr;
         };
-        avatar::JointDesc* jm = find_desc(mid);
-        avatar::JointDesc* je = find_desc(end);
+        rig::JointDesc* jm = find_desc(mid);
+        rig::JointDesc* je = find_desc(end);
         if (!jm || !je || glm::length(jm->offset_m) < 1e-4f || glm::length(je->offset_m) < 1e-4f) continue;
         const float lm = glm::length(jm->offset_m), le = glm::length(je->offset_m);
         const float sh = share > 0.25f && share < 0.8f ? share : lm / (lm + le);
@@ -508,7 +508,7 @@ Fit fit_body(const SkeletonDesc& base, const std::vector<SensorStats>& stats, co
   if (has("l_ankle") || has("r_ankle")) {
     const glm::vec3 a = has("l_ankle") ? mark["l_ankle"] : mark["r_ankle"];
     const auto wp = pose_world(s, out.pose);
-    floor = a.y - (wp[s.find_joint("l_ankle")].translation.y - (out.pose.root_position_m.y - avatar::standing_root_height_m(s)));
+    floor = a.y - (wp[s.find_joint("l_ankle")].translation.y - (out.pose.root_position_m.y - rig::standing_root_height_m(s)));
   }
   out.height_m = has("head") ? head_top - floor : 0.0f;
   out.floor_y_m = floor;
@@ -520,47 +520,47 @@ Fit fit_body(const SkeletonDesc& base, const std::vector<SensorStats>& stats, co
 
 SkeletonDesc tracking_skeleton_desc(const SkeletonDesc& base) {
   SkeletonDesc d = base;
-  auto find = [&](const std::string& name) -> avatar::JointDesc* {
+  auto find = [&](const std::string& name) -> rig::JointDesc* {
     for (auto& j : d.joints)
       if (j.name == name) return &j;
     return nullptr;
   };
   // Moves joint `name` onto its parent's origin; its children keep their positions.
   auto collapse = [&](const std::string& name) {
-    avatar::JointDesc* j = find(name);
+    rig::JointDesc* j = find(name);
     if (!j) return glm::vec3(0.0f);
     const glm::vec3 o = j->offset_m;
     j->offset_m = glm::vec3(0.0f);
     for (auto& c : d.joints)
       if (c.parent == name) c.offset_m += o;
-    if (avatar::JointDesc* p = find(j->parent); p && glm::length2(p->tip_m - o) < 1e-10f) p->tip_m = glm::vec3(0.0f);
+    if (rig::JointDesc* p = find(j->parent); p && glm::length2(p->tip_m - o) < 1e-10f) p->tip_m = glm::vec3(0.0f);
     return o;
   };
   collapse("spine_lower");
-  if (avatar::JointDesc* sl = find("spine_lower"); sl)
-    if (avatar::JointDesc* sm = find("spine_mid"); sm)
-      if (avatar::JointDesc* pv = find("pelvis"); pv) sl->tip_m = pv->tip_m = sm->offset_m;
+  if (rig::JointDesc* sl = find("spine_lower"); sl)
+    if (rig::JointDesc* sm = find("spine_mid"); sm)
+      if (rig::JointDesc* pv = find("pelvis"); pv) sl->tip_m = pv->tip_m = sm->offset_m;
   for (const char* side : {"l_", "r_"}) {
     const std::string s(side);
     collapse(s + "clavicle");
-    if (avatar::JointDesc* c = find(s + "clavicle"); c)
-      if (avatar::JointDesc* sh = find(s + "shoulder"); sh) c->tip_m = sh->offset_m;
+    if (rig::JointDesc* c = find(s + "clavicle"); c)
+      if (rig::JointDesc* sh = find(s + "shoulder"); sh) c->tip_m = sh->offset_m;
   }
   // Proportions of what no sensor of a sparse layout marks, relative to the leg (hip centre to
   // ankle): the means of the six CMU subjects of the reference clips (their skeletons put the
   // thorax, neck and shoulders lower than anatomical tables do, and the upper arm longer).
   const float leg = [&] {
-    const avatar::JointDesc* k = find("l_knee");
-    const avatar::JointDesc* a = find("l_ankle");
+    const rig::JointDesc* k = find("l_knee");
+    const rig::JointDesc* a = find("l_ankle");
     return k && a ? glm::length(k->offset_m) + glm::length(a->offset_m) : 0.794f;
   }();
   auto set_offset = [&](const std::string& name, glm::vec3 offset) {
-    avatar::JointDesc* j = find(name);
+    rig::JointDesc* j = find(name);
     if (!j) return;
-    if (avatar::JointDesc* p = find(j->parent); p && glm::length2(p->tip_m - j->offset_m) < 1e-10f) p->tip_m = offset;
+    if (rig::JointDesc* p = find(j->parent); p && glm::length2(p->tip_m - j->offset_m) < 1e-10f) p->tip_m = offset;
     j->offset_m = offset;
   };
-  if (avatar::JointDesc* n = find("neck"); n && find("neck_upper") && find("head") && find("spine_upper")) {
+  if (rig::JointDesc* n = find("neck"); n && find("neck_upper") && find("head") && find("spine_upper")) {
     set_offset("spine_mid", {0.0f, 0.149f * leg, 0.0f});
     set_offset("spine_upper", {0.0f, 0.149f * leg, 0.0f});
     // The neck pivots at the top of the thorax; two equal links up to the head joint.
@@ -569,23 +569,23 @@ SkeletonDesc tracking_skeleton_desc(const SkeletonDesc& base) {
     set_offset("head", {0.0f, 0.100f * leg, 0.0f});
     find("spine_upper")->tip_m = n->tip_m = find("neck_upper")->offset_m;
     find("neck_upper")->tip_m = find("head")->offset_m;
-    if (avatar::JointDesc* sl = find("spine_lower"); sl) sl->tip_m = find("spine_mid")->offset_m;
-    if (avatar::JointDesc* pv = find("pelvis"); pv) pv->tip_m = find("spine_mid")->offset_m;
+    if (rig::JointDesc* sl = find("spine_lower"); sl) sl->tip_m = find("spine_mid")->offset_m;
+    if (rig::JointDesc* pv = find("pelvis"); pv) pv->tip_m = find("spine_mid")->offset_m;
   }
   for (const char* side : {"l_", "r_"}) {
     const std::string sd(side);
     const float x = sd == "l_" ? 1.0f : -1.0f;
     set_offset(sd + "shoulder", {x * 0.218f * leg, 0.068f * leg, -0.016f * leg});
-    if (avatar::JointDesc* c = find(sd + "clavicle"); c)
-      if (const avatar::JointDesc* sh = find(sd + "shoulder"); sh) c->tip_m = sh->offset_m;
-    avatar::JointDesc* e = find(sd + "elbow");
-    avatar::JointDesc* w = find(sd + "wrist");
+    if (rig::JointDesc* c = find(sd + "clavicle"); c)
+      if (const rig::JointDesc* sh = find(sd + "shoulder"); sh) c->tip_m = sh->offset_m;
+    rig::JointDesc* e = find(sd + "elbow");
+    rig::JointDesc* w = find(sd + "wrist");
     if (e && w) {  // shoulder to wrist 0.569 of the leg, 61 % of it above the elbow
       set_offset(sd + "elbow", glm::normalize(e->offset_m) * (0.611f * 0.569f * leg));
       set_offset(sd + "wrist", glm::normalize(w->offset_m) * (0.389f * 0.569f * leg));
     }
     // Hip centres a hand's width below the root and a little forward of it.
-    if (avatar::JointDesc* hp = find(sd + "hip"); hp) hp->offset_m = glm::vec3(x * 0.112f * leg, -0.120f * leg, 0.045f * leg);
+    if (rig::JointDesc* hp = find(sd + "hip"); hp) hp->offset_m = glm::vec3(x * 0.112f * leg, -0.120f * leg, 0.045f * leg);
   }
   return d;
 }
@@ -835,7 +835,7 @@ Result<Calibration> calibration_from_json(std::string_view text) {
   for (const json& jj : j["skeleton"]["joints"]) {
     const std::string where = "skeleton joint " + std::to_string(index++);
     if (!jj.is_object() || !jj.contains("name") || !jj["name"].is_string()) return bad(where + ": missing \"name\"");
-    avatar::JointDesc jd;
+    rig::JointDesc jd;
     jd.name = jj["name"].get<std::string>();
     if (jj.contains("parent") && jj["parent"].is_string()) jd.parent = jj["parent"].get<std::string>();
     if (!jj.contains("offset_m") || !read_vec(jj["offset_m"], jd.offset_m)) return bad(where + " (" + jd.name + "): bad \"offset_m\"");
@@ -843,7 +843,7 @@ Result<Calibration> calibration_from_json(std::string_view text) {
     if (jj.contains("dofs")) {
       if (!jj["dofs"].is_array()) return bad(where + " (" + jd.name + "): \"dofs\" is not an array");
       for (const json& fj : jj["dofs"]) {
-        avatar::DofDesc f;
+        rig::DofDesc f;
         if (!fj.is_object() || !fj.contains("name") || !fj["name"].is_string() || !fj.contains("axis") ||
             !read_vec(fj["axis"], f.axis) || !fj.contains("min_deg") || !fj["min_deg"].is_number() ||
             !fj.contains("max_deg") || !fj["max_deg"].is_number())

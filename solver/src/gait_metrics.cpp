@@ -57,7 +57,7 @@ int count_steps(const std::vector<glm::vec3>& ankle, const std::vector<Stance>& 
 
 }  // namespace
 
-GaitAccumulator::GaitAccumulator(const avatar::Skeleton& truth, const avatar::Skeleton& solved, double rate_hz,
+GaitAccumulator::GaitAccumulator(const rig::Skeleton& truth, const rig::Skeleton& solved, double rate_hz,
                                  GaitOptions options)
     : rate_hz_(rate_hz), options_(options) {
   for (const char* name : {"l_hip", "r_hip", "l_knee", "r_knee", "l_ankle", "r_ankle"}) {
@@ -79,8 +79,8 @@ GaitAccumulator::GaitAccumulator(const avatar::Skeleton& truth, const avatar::Sk
   solved_ankle_.resize(feet_.size());
 }
 
-void GaitAccumulator::add(std::span<const avatar::RigidTransform> truth_world,
-                          std::span<const avatar::RigidTransform> solved_world) {
+void GaitAccumulator::add(std::span<const rig::RigidTransform> truth_world,
+                          std::span<const rig::RigidTransform> solved_world) {
   if (!lower_pairs_.empty()) {
     double sum = 0;
     for (const auto& [t, s] : lower_pairs_)

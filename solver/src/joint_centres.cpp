@@ -9,7 +9,7 @@ namespace mimic::solver {
 
 namespace {
 
-using avatar::RigidTransform;
+using rig::RigidTransform;
 
 int find_sensor(const Calibration& cal, const std::string& segment) {
   for (size_t i = 0; i < cal.sensors.size(); ++i)
@@ -33,9 +33,9 @@ glm::quat rotation_between(glm::vec3 from, glm::vec3 to) {
 }  // namespace
 
 JointCentreEstimator::JointCentreEstimator(const Calibration& cal, JointCentreOptions options) : options_(options) {
-  auto skeleton = avatar::Skeleton::build(cal.skeleton);
+  auto skeleton = rig::Skeleton::build(cal.skeleton);
   if (!skeleton) return;
-  const avatar::Skeleton& s = *skeleton;
+  const rig::Skeleton& s = *skeleton;
   int max_id = -1;
   for (const auto& sc : cal.sensors) max_id = std::max(max_id, int{sc.sensor});
   slot_of_sensor_.assign(static_cast<size_t>(max_id + 1), -1);
@@ -128,9 +128,9 @@ std::vector<JointCentreFit> JointCentreEstimator::fits() const {
 }
 
 Result<Calibration> JointCentreEstimator::refine(const Calibration& cal, int* changed) const {
-  auto built = avatar::Skeleton::build(cal.skeleton);
+  auto built = rig::Skeleton::build(cal.skeleton);
   if (!built) return tl::unexpected(built.error());
-  const avatar::Skeleton& s = *built;
+  const rig::Skeleton& s = *built;
   const int n = s.joint_count();
   std::vector<int> desc_of(n, -1);  // skeleton joint → SkeletonDesc entry
   for (size_t i = 0; i < cal.skeleton.joints.size(); ++i) desc_of[s.find_joint(cal.skeleton.joints[i].name)] = static_cast<int>(i);

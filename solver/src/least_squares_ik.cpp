@@ -8,9 +8,9 @@
 
 namespace mimic::solver {
 
-using avatar::Pose;
-using avatar::RigidTransform;
-using avatar::Skeleton;
+using rig::Pose;
+using rig::RigidTransform;
+using rig::Skeleton;
 
 namespace {
 

@@ -52,9 +52,9 @@ void LimbLengthEstimator::add(std::span<const devices::SensorSample> samples, co
     const devices::SensorSample* e = find(ch.end_slot);
     if (!u || !e) continue;
     // In the upper sensor's frame, which no refinement of the model moves.
-    const avatar::RigidTransform world_from_upper_sensor{u->orientation, u->position_m};
+    const rig::RigidTransform world_from_upper_sensor{u->orientation, u->position_m};
     const glm::vec3 end_world =
-        avatar::RigidTransform{e->orientation, e->position_m}.apply(model.sensor_from_segment_[ch.end_slot].translation);
+        rig::RigidTransform{e->orientation, e->position_m}.apply(model.sensor_from_segment_[ch.end_slot].translation);
     const glm::vec3 xf = world_from_upper_sensor.inverse().apply(end_world);
     if (!std::isfinite(xf.x) || !std::isfinite(xf.y) || !std::isfinite(xf.z)) continue;
     const double x = xf.x, y = xf.y, z = xf.z, r2 = x * x + y * y + z * z;

@@ -56,7 +56,7 @@ void take_over(FootStepState& f, const LocomotionInput& in, int k) {
 
 // A planted foot the leg cannot reach flat (the trailing foot of a stride) lifts its heel: it
 // turns about the ball of the foot, which stays where it was planted, until the ankle is in reach.
-void lift_heel(avatar::RigidTransform& ankle_t, const glm::vec3& hip, float reach_m, const glm::vec3& ball_in_ankle) {
+void lift_heel(rig::RigidTransform& ankle_t, const glm::vec3& hip, float reach_m, const glm::vec3& ball_in_ankle) {
   const float reach = 0.999f * reach_m;
   if (glm::length(hip - ankle_t.translation) <= reach || glm::length(ball_in_ankle) < 1e-3f) return;
   const glm::vec3 ball = ankle_t.apply(ball_in_ankle);
@@ -178,8 +178,8 @@ void update_locomotion(LocomotionState& s, const LocomotionInput& in, const Loco
 
 // Without stepping (SolverOptions::step off): each untracked foot under its hip, knee soft, on
 // or above the floor, facing the heading — where a standing body's feet are.
-void hang_untracked_feet(const SolverModel& m, SolverContext& c, const avatar::Pose& p, std::array<bool, 2> legs) {
-  const avatar::Skeleton& s = m.skeleton();
+void hang_untracked_feet(const SolverModel& m, SolverContext& c, const rig::Pose& p, std::array<bool, 2> legs) {
+  const rig::Skeleton& s = m.skeleton();
   const SolverOptions& o = m.options();
   glm::vec3 fwd = p.root_orientation * glm::vec3(0, 0, 1);
   if (glm::length(glm::vec2(fwd.x, fwd.z)) < 1e-3f) return;
@@ -192,7 +192,7 @@ void hang_untracked_feet(const SolverModel& m, SolverContext& c, const avatar::P
     const float hang = std::sqrt(ch.upper_m * ch.upper_m + ch.lower_m * ch.lower_m +
                                  2.0f * ch.upper_m * ch.lower_m * std::cos(bend));
     const float floor_y = o.standing_root_y_m - m.ankle_below_root_rest_[leg];
-    c.segment_target_[ch.end] = avatar::RigidTransform{facing, glm::vec3(hip.x, std::max(floor_y, hip.y - hang), hip.z)};
+    c.segment_target_[ch.end] = rig::RigidTransform{facing, glm::vec3(hip.x, std::max(floor_y, hip.y - hang), hip.z)};
     c.has_target_[ch.end] = 1;
     c.guessed_end_[2 + leg] = true;
   }
@@ -203,8 +203,8 @@ void hang_untracked_feet(const SolverModel& m, SolverContext& c, const avatar::P
 void SolveJob::place_untracked_feet() {
   const SolverModel& m = *model;
   SolverContext& c = *context;
-  const avatar::Pose& p = *pose;
-  const avatar::Skeleton& s = m.skeleton();
+  const rig::Pose& p = *pose;
+  const rig::Skeleton& s = m.skeleton();
   const SolverOptions& o = m.options();
   LocomotionInput in;
   bool any = false;
@@ -244,11 +244,11 @@ void SolveJob::place_untracked_feet() {
     const auto& f = c.locomotion_.feet[leg];
     const int e = m.chains_[2 + leg].end;
     const glm::quat yaw = glm::angleAxis(f.yaw_rad, glm::vec3(0, 1, 0));
-    c.segment_target_[e] = avatar::RigidTransform{yaw, f.ankle};
+    c.segment_target_[e] = rig::RigidTransform{yaw, f.ankle};
     if (!f.swinging) lift_heel(c.segment_target_[e], in.hip[leg], in.reach_m[leg], m.ball_in_ankle_[leg]);
     // The toes stay flat on the floor under a lifted heel.
     if (const int toes = m.toes_[leg]; toes >= 0 && !c.has_target_[toes]) {
-      c.segment_target_[toes] = avatar::RigidTransform{yaw, c.segment_target_[e].apply(m.ball_in_ankle_[leg])};
+      c.segment_target_[toes] = rig::RigidTransform{yaw, c.segment_target_[e].apply(m.ball_in_ankle_[leg])};
       c.has_target_[toes] = 1;
     }
     c.has_target_[e] = 1;

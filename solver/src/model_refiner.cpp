@@ -31,7 +31,7 @@ Result<Calibration> ModelRefiner::refined_calibration(int* joints, int* limbs) c
   if (!model) return tl::unexpected(model.error());
   const int found_limbs = limbs_.refine(*model);
   // The limb lengths live in the model's skeleton now: back into the calibration's.
-  const avatar::Skeleton& s = model->skeleton();
+  const rig::Skeleton& s = model->skeleton();
   for (auto& jd : refined->skeleton.joints) {
     const int j = s.find_joint(jd.name);
     if (j < 0) continue;

@@ -10,7 +10,7 @@ bool is_end_effector(std::string_view joint) {
   return joint == "head" || joint == "l_wrist" || joint == "r_wrist" || joint == "l_ankle" || joint == "r_ankle";
 }
 
-PoseErrorAccumulator::PoseErrorAccumulator(const avatar::Skeleton& truth, const avatar::Skeleton& solved) {
+PoseErrorAccumulator::PoseErrorAccumulator(const rig::Skeleton& truth, const rig::Skeleton& solved) {
   for (int j = 0; j < truth.joint_count(); ++j) {
     const std::string& name = truth.joint_name(j);
     if (name.find("toes") != std::string::npos) continue;
@@ -25,8 +25,8 @@ PoseErrorAccumulator::PoseErrorAccumulator(const avatar::Skeleton& truth, const 
   joint_jitter_sum_.assign(pairs_.size(), 0.0);
 }
 
-void PoseErrorAccumulator::add(std::span<const avatar::RigidTransform> truth_world,
-                               std::span<const avatar::RigidTransform> solved_world, double solve_us) {
+void PoseErrorAccumulator::add(std::span<const rig::RigidTransform> truth_world,
+                               std::span<const rig::RigidTransform> solved_world, double solve_us) {
   const size_t n = pairs_.size();
   double pos = 0, rot = 0, ee = 0;
   std::vector<glm::vec3> solved_now(n), truth_now(n);

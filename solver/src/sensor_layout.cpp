@@ -20,7 +20,7 @@ void add_pair(SensorLayout& l, const std::string& part, const std::string& joint
 
 std::vector<std::string> standard_layout_names() { return {"3", "6", "11", "all"}; }
 
-Result<SensorLayout> standard_layout(std::string_view name, const avatar::Skeleton& skeleton) {
+Result<SensorLayout> standard_layout(std::string_view name, const rig::Skeleton& skeleton) {
   SensorLayout l;
   l.name = std::string(name);
   if (name == "all") {

@@ -35,7 +35,7 @@ SteeringEvents Steering::update(const devices::InputFrame& in, double dt_s) {
   return ev;
 }
 
-void Steering::apply(avatar::Pose& pose) {
+void Steering::apply(rig::Pose& pose) {
   if (!pivot_set_) {
     pivot_m_ = glm::vec3(pose.root_position_m.x, 0.0f, pose.root_position_m.z);
     pivot_set_ = true;

@@ -1,6 +1,6 @@
 #include "mimic/solver/swing_twist.h"
 
-#include "mimic/avatar/joint_angles.h"
+#include "mimic/rig/joint_angles.h"
 
 #include <algorithm>
 #include <array>
@@ -47,7 +47,7 @@ void decompose(const glm::quat& local, std::span<const glm::vec3> axes, std::spa
   std::array<glm::dvec3, 3> ax;
   std::array<double, 3> prev{}, base{};
   for (size_t i = 0; i < n; ++i) ax[i] = glm::dvec3(axes[i]), prev[i] = angles[i];
-  avatar::dofs_from_rotation(std::span(ax.data(), n), glm::dquat(local), std::span(prev.data(), n),
+  rig::dofs_from_rotation(std::span(ax.data(), n), glm::dquat(local), std::span(prev.data(), n),
                              std::span(base.data(), n));
   std::array<std::array<float, 3>, 2> cand{};
   for (size_t i = 0; i < n; ++i) cand[0][i] = static_cast<float>(base[i]);
@@ -88,7 +88,7 @@ void angles_from_rotation(const glm::quat& local, std::span<const glm::vec3> axe
   decompose(local, axes, angles_rad, min_rad, max_rad);
 }
 
-void dofs_from_rotation(const avatar::Skeleton& skeleton, std::span<const int> dofs,
+void dofs_from_rotation(const rig::Skeleton& skeleton, std::span<const int> dofs,
                         const glm::quat& rotation, std::span<float> dof_rad) {
   const size_t n = dofs.size();
   if (n == 0) return;
@@ -96,7 +96,7 @@ void dofs_from_rotation(const avatar::Skeleton& skeleton, std::span<const int> d
   std::array<glm::vec3, 3> axes;
   std::array<float, 3> lo{}, hi{}, angles{};
   for (size_t i = 0; i < n; ++i) {
-    const avatar::Dof& f = skeleton.dof(dofs[i]);
+    const rig::Dof& f = skeleton.dof(dofs[i]);
     axes[i] = f.axis;
     lo[i] = f.min_rad;
     hi[i] = f.max_rad;
@@ -107,7 +107,7 @@ void dofs_from_rotation(const avatar::Skeleton& skeleton, std::span<const int> d
   for (size_t i = 0; i < n; ++i) dof_rad[dofs[i]] = std::clamp(angles[i], lo[i], hi[i]);
 }
 
-void joint_dofs_from_rotation(const avatar::Skeleton& skeleton, int joint, const glm::quat& local,
+void joint_dofs_from_rotation(const rig::Skeleton& skeleton, int joint, const glm::quat& local,
                               std::span<float> dof_rad) {
   std::array<int, 3> dofs{};
   const int n = skeleton.dof_end(joint) - skeleton.dof_begin(joint);

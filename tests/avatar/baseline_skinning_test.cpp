@@ -24,23 +24,23 @@ constexpr float kPi = std::numbers::pi_v<float>;
 constexpr SkinningMethod kAll[] = {SkinningMethod::lbs, SkinningMethod::dqs, SkinningMethod::cor};
 
 struct Rig {
-  Skeleton skeleton = two_bone_skeleton();
+  rig::Skeleton skeleton = two_bone_skeleton();
   Mesh rest = cylinder_mesh();
-  std::vector<RigidTransform> rest_w = std::vector<RigidTransform>(2);
+  std::vector<rig::RigidTransform> rest_w = std::vector<rig::RigidTransform>(2);
   BaselineSkinner skinner = make();
 
   BaselineSkinner make() {
-    forward_kinematics(skeleton, skeleton.zero_pose(), rest_w);
+    rig::forward_kinematics(skeleton, skeleton.zero_pose(), rest_w);
     auto s = BaselineSkinner::create(skeleton, rest_w, rest, weights_from_links(skeleton, rest_w, rest.positions, 0.08f));
     EXPECT_TRUE(s) << s.error().what();
     return std::move(*s);
   }
   // Posed vertices for elbow flexion and twist (radians).
-  std::vector<glm::vec3> pose(SkinningMethod m, float flexion_rad, float twist_rad, Pose base = {}) {
-    Pose p = base.dof_rad.empty() ? skeleton.zero_pose() : base;
+  std::vector<glm::vec3> pose(SkinningMethod m, float flexion_rad, float twist_rad, rig::Pose base = {}) {
+    rig::Pose p = base.dof_rad.empty() ? skeleton.zero_pose() : base;
     p.dof_rad[0] = flexion_rad, p.dof_rad[1] = twist_rad;
-    std::vector<RigidTransform> w(2);
-    forward_kinematics(skeleton, p, w);
+    std::vector<rig::RigidTransform> w(2);
+    rig::forward_kinematics(skeleton, p, w);
     skinner.set_pose(w);
     std::vector<glm::vec3> out(skinner.vertex_count());
     skinner.deform(m, out);
@@ -99,10 +99,10 @@ TEST(BaselineSkinning, ASingleRigidJointMovesEveryVertexRigidly) {
   auto s = BaselineSkinner::create(r.skeleton, r.rest_w, r.rest, rigid);
   ASSERT_TRUE(s);
   r.skinner = std::move(*s);
-  Pose base = r.skeleton.zero_pose();
+  rig::Pose base = r.skeleton.zero_pose();
   base.root_position_m = {0.4f, -1.2f, 2.0f};
   base.root_orientation = glm::normalize(glm::quat(0.3f, 0.5f, -0.7f, 0.2f));
-  const RigidTransform world_from_root{base.root_orientation, base.root_position_m};
+  const rig::RigidTransform world_from_root{base.root_orientation, base.root_position_m};
   for (SkinningMethod m : kAll) {
     const auto out = r.pose(m, 1.0f, 0.5f, base);
     for (size_t v = 0; v < out.size(); ++v)
@@ -179,10 +179,10 @@ TEST(BaselineSkinning, BentElbowVolumes) {
 
 TEST(BaselineSkinning, NormalsFollowTheRotation) {
   Rig r;
-  Pose p = r.skeleton.zero_pose();
+  rig::Pose p = r.skeleton.zero_pose();
   p.dof_rad[0] = 1.2f;
-  std::vector<RigidTransform> w(2);
-  forward_kinematics(r.skeleton, p, w);
+  std::vector<rig::RigidTransform> w(2);
+  rig::forward_kinematics(r.skeleton, p, w);
   r.skinner.set_pose(w);
   std::vector<glm::vec3> pos(r.skinner.vertex_count()), nrm(pos.size());
   for (SkinningMethod m : kAll) {
@@ -196,7 +196,7 @@ TEST(BaselineSkinning, NormalsFollowTheRotation) {
 TEST(BaselineSkinning, AntipodalQuaternionsAreTheSameRotation) {
   // Two joints with the same transform, one written with the negated quaternion (the same
   // rotation): any blend of them must be that transform, in the eight-wide blocks and the tail.
-  const RigidTransform t{glm::normalize(glm::quat(0.2f, 0.9f, -0.3f, 0.4f)), {0.1f, -0.2f, 0.3f}};
+  const rig::RigidTransform t{glm::normalize(glm::quat(0.2f, 0.9f, -0.3f, 0.4f)), {0.1f, -0.2f, 0.3f}};
   DualQuat flipped = to_dual_quat(t);
   for (float& f : flipped.real) f = -f;
   for (float& f : flipped.dual) f = -f;
@@ -237,7 +237,7 @@ TEST(BaselineSkinning, EveryKernelPathEqualsThePlainReference) {
   std::mt19937 rng(3);
   std::uniform_real_distribution<float> u(-1.0f, 1.0f);
   for (const size_t joint_count : {size_t{32}, size_t{80}, size_t{300}}) {
-    std::vector<RigidTransform> world(joint_count), inv(joint_count);
+    std::vector<rig::RigidTransform> world(joint_count), inv(joint_count);
     for (auto& t : world) t = {glm::normalize(glm::quat(u(rng), u(rng), u(rng), u(rng))), {u(rng), u(rng), u(rng)}};
     std::vector<SkinningMatrix> mats(joint_count);
     std::vector<DualQuat> dqs(joint_count);

@@ -8,10 +8,10 @@ namespace mimic::avatar {
 namespace {
 
 // A one-joint skeleton with one rotational DOF, enough to carry test primitives.
-SkeletonDesc tiny_skeleton() {
-  SkeletonDesc d;
+rig::SkeletonDesc tiny_skeleton() {
+  rig::SkeletonDesc d;
   d.joints.push_back({"root", "", {0, 0, 0}, {0, 1, 0}, {}});
-  d.joints.push_back({"arm", "root", {0, 0, 0}, {1, 0, 0}, {DofDesc{"arm_flexion", {0, 0, 1}, -1.0f, 2.0f, 0.0f}}});
+  d.joints.push_back({"arm", "root", {0, 0, 0}, {1, 0, 0}, {rig::DofDesc{"arm_flexion", {0, 0, 1}, -1.0f, 2.0f, 0.0f}}});
   return d;
 }
 
@@ -33,7 +33,7 @@ Primitive ball(const std::string& name, glm::vec3 c, glm::vec3 axes, GroupMask g
 }
 
 BodyField field_of(const BodyModel& m) {
-  auto s = Skeleton::build(m.skeleton);
+  auto s = rig::Skeleton::build(m.skeleton);
   EXPECT_TRUE(s);
   auto f = BodyField::create(m, *s);
   EXPECT_TRUE(f) << f.error().what();
@@ -131,13 +131,13 @@ TEST(BodyField, DeformablePrimitiveFollowsItsDof) {
   d.at_max.semi_axes_m = {0.08f, 0.05f, 0.05f};
   m.deformation = d;
   BodyModel model = model_of({m});
-  auto skel = Skeleton::build(model.skeleton);
+  auto skel = rig::Skeleton::build(model.skeleton);
   auto f = BodyField::create(model, *skel);
   ASSERT_TRUE(f);
-  Pose p = skel->zero_pose();
+  rig::Pose p = skel->zero_pose();
   p.dof_rad[0] = 2.0f;  // the DOF's maximum: G = Gmax, and the joint has turned
-  std::vector<RigidTransform> w(skel->joint_count());
-  forward_kinematics(*skel, p, w);
+  std::vector<rig::RigidTransform> w(skel->joint_count());
+  rig::forward_kinematics(*skel, p, w);
   f->update(w, p.dof_rad);
   const glm::vec3 c = w[1].apply({0.2f, 0, 0});
   const RayHit h = f->cast_outermost(c, {0, 0, 1}, all(*f));
@@ -190,16 +190,16 @@ namespace {
 // caster with another.
 struct RandomPostures {
   BodyModel model = default_body_model();
-  Skeleton skel = *Skeleton::build(model.skeleton);
+  rig::Skeleton skel = *rig::Skeleton::build(model.skeleton);
   BodyField field = *BodyField::create(model, skel);
-  std::vector<RigidTransform> w = std::vector<RigidTransform>(skel.joint_count());
+  std::vector<rig::RigidTransform> w = std::vector<rig::RigidTransform>(skel.joint_count());
   std::mt19937_64 rng;
   std::uniform_real_distribution<float> u{-1.0f, 1.0f};
   explicit RandomPostures(uint64_t seed) : rng(seed) {}
   void next() {
-    Pose p = skel.zero_pose();
+    rig::Pose p = skel.zero_pose();
     for (int i = 0; i < skel.dof_count(); ++i) p.dof_rad[i] = 0.5f * u(rng);
-    forward_kinematics(skel, p, w);
+    rig::forward_kinematics(skel, p, w);
     field.update(w, p.dof_rad);
   }
   // The primitives of two groups, picked by the trial's number.

@@ -45,7 +45,7 @@ TEST(BodyModel, MirroredTwinsAreWrittenOnceAndComeBackInPlace) {
   auto back = body_model_from_json(text);
   ASSERT_TRUE(back) << back.error().what();
   // Joints (and so DOF indices, which pose frames rely on) keep their order.
-  auto a = Skeleton::build(m.skeleton), b = Skeleton::build(back->skeleton);
+  auto a = rig::Skeleton::build(m.skeleton), b = rig::Skeleton::build(back->skeleton);
   ASSERT_TRUE(a && b);
   ASSERT_EQ(a->dof_count(), b->dof_count());
   for (int i = 0; i < a->dof_count(); ++i) {

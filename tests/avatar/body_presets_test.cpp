@@ -9,7 +9,7 @@
 #include "mimic/avatar/body_presets.h"
 #include "mimic/avatar/measure.h"
 #include "mimic/avatar/mesh_check.h"
-#include "mimic/avatar/motion.h"
+#include "mimic/rig/motion.h"
 #include "mimic/avatar/skin.h"
 
 namespace mimic::avatar {
@@ -26,15 +26,15 @@ Measured measure(const BodyModel& model) {
   o.rigid_parts = false;  // the envelope alone is the closed surface
   auto skin = BodySkin::create(model, o);
   EXPECT_TRUE(skin) << skin.error().what();
-  const Skeleton& s = skin->skeleton();
-  Pose p = s.zero_pose();
-  p.root_position_m.y = standing_root_height_m(s);
+  const rig::Skeleton& s = skin->skeleton();
+  rig::Pose p = s.zero_pose();
+  p.root_position_m.y = rig::standing_root_height_m(s);
   skin->evaluate(p);
   out.m = measure_body(skin->mesh(), landmarks_from_skeleton(s, p));
   out.closed_standing = is_closed_oriented_manifold(analyze_topology(skin->mesh()));
-  auto walk = make_builtin_motion("walk", s);
+  auto walk = rig::make_builtin_motion("walk", s);
   EXPECT_TRUE(walk);
-  Pose q = s.zero_pose();
+  rig::Pose q = s.zero_pose();
   (*walk)->sample(0.37, q);
   skin->evaluate(q);
   out.closed_walking = is_closed_oriented_manifold(analyze_topology(skin->mesh()));

@@ -17,14 +17,14 @@ struct Figures {
 Figures figures(const BodyModel& m) {
   auto skin = BodySkin::create(m);
   EXPECT_TRUE(skin) << skin.error().what();
-  const Skeleton& s = skin->skeleton();
-  Pose p = s.zero_pose();
-  p.root_position_m.y = standing_root_height_m(s);
+  const rig::Skeleton& s = skin->skeleton();
+  rig::Pose p = s.zero_pose();
+  p.root_position_m.y = rig::standing_root_height_m(s);
   skin->evaluate(p);
   float top = 0;
   for (const glm::vec3& v : skin->mesh().positions) top = std::max(top, v.y);
-  std::vector<RigidTransform> w(s.joint_count());
-  forward_kinematics(s, p, w);
+  std::vector<rig::RigidTransform> w(s.joint_count());
+  rig::forward_kinematics(s, p, w);
   auto x = [&](const char* j) { return w[s.find_joint(j)].translation.x; };
   return {top, p.root_position_m.y, x("l_shoulder") - x("r_shoulder"), x("l_hip") - x("r_hip"),
           analyze_topology(skin->mesh()).signed_volume};
@@ -79,7 +79,7 @@ TEST(BodyScaling, LateralScalingWidensTheArmsWithoutLengtheningThem) {
   auto joint = [](const BodyModel& b, const char* name) {
     for (const auto& j : b.skeleton.joints)
       if (j.name == name) return j;
-    return JointDesc{};
+    return rig::JointDesc{};
   };
   EXPECT_NEAR(glm::length(joint(*broad, "l_elbow").offset_m), glm::length(joint(m, "l_elbow").offset_m), 1e-5f);
   EXPECT_NEAR(glm::length(joint(*broad, "l_wrist").offset_m), glm::length(joint(m, "l_wrist").offset_m), 1e-5f);
@@ -100,10 +100,10 @@ TEST(BodyScaling, LateralScalingWidensTheArmsWithoutLengtheningThem) {
 }
 
 TEST(BodyScaling, StandingPostureLowersTheArms) {
-  auto s = Skeleton::build(default_skeleton_desc());
+  auto s = rig::Skeleton::build(rig::default_skeleton_desc());
   ASSERT_TRUE(s);
-  std::vector<RigidTransform> w(s->joint_count());
-  forward_kinematics(*s, standing_posture(*s), w);
+  std::vector<rig::RigidTransform> w(s->joint_count());
+  rig::forward_kinematics(*s, standing_posture(*s), w);
   for (const char* side : {"l_", "r_"}) {
     const int shoulder = s->find_joint(std::string(side) + "shoulder"), wrist = s->find_joint(std::string(side) + "wrist");
     const glm::vec3 down = glm::normalize(w[wrist].translation - w[shoulder].translation);

@@ -15,7 +15,7 @@
 #include <nlohmann/json.hpp>
 
 #include "mimic/avatar/body_model.h"
-#include "mimic/avatar/motion.h"
+#include "mimic/rig/motion.h"
 #include "mimic/avatar/realtime_skin.h"
 #include "mimic/avatar/skin_lod.h"
 
@@ -71,20 +71,20 @@ Glb parse(const std::string& b) {
 
 struct Rig {
   BodyModel body = default_body_model();
-  Skeleton skeleton = *Skeleton::build(body.skeleton);
+  rig::Skeleton skeleton = *rig::Skeleton::build(body.skeleton);
   std::shared_ptr<const RealtimeBody> shared;
-  std::unique_ptr<Motion> motion;
+  std::unique_ptr<rig::Motion> motion;
   SkinnedAnimation anim;
   Rig() {
     RealtimeOptions o;
     o.lod = kSkinLodCount - 1;  // the coarsest: quick, same method
     shared = *RealtimeBody::create(body, skeleton, o);
-    motion = *make_builtin_motion("walk", skeleton);
+    motion = *rig::make_builtin_motion("walk", skeleton);
     anim.bind_mesh = &shared->rest_mesh();
     anim.influences = shared->weights();
     anim.skeleton = &skeleton;
     anim.bind_pose = skeleton.zero_pose();
-    Pose p = skeleton.zero_pose();
+    rig::Pose p = skeleton.zero_pose();
     for (int k = 0; k < 12; ++k) {
       motion->sample(0.1 * k, p);
       anim.times_s.push_back(0.1 * k);
@@ -99,22 +99,35 @@ TEST(GltfAnimation, StructureSkinAndWeights) {
   ASSERT_TRUE(bytes) << bytes.error().what();
   const Glb g = parse(*bytes);
   const size_t nj = size_t(r.skeleton.joint_count()), nv = r.anim.bind_mesh->positions.size();
-  // Joint nodes, then one node per part named after it, holding a mesh of that name.
+  // Joint nodes, then one node holding the one skinned mesh: a primitive and a material per part,
+  // named after it.
   size_t parts = 0;
   for (const auto& part : r.anim.bind_mesh->parts) parts += part.triangle_count > 0;
-  ASSERT_EQ(g.doc["nodes"].size(), nj + parts);
-  ASSERT_EQ(g.doc["meshes"].size(), parts);
+  ASSERT_EQ(g.doc["nodes"].size(), nj + 1);
+  ASSERT_EQ(g.doc["meshes"].size(), 1u);
+  const json& body = g.doc["nodes"][nj];
+  EXPECT_EQ(body["skin"], 0);
+  EXPECT_EQ(body["mesh"], 0);
+  const json& primitives = g.doc["meshes"][0]["primitives"];
+  ASSERT_EQ(primitives.size(), parts);
+  ASSERT_EQ(g.doc["materials"].size(), parts);
   for (size_t m = 0; m < parts; ++m) {
-    const json& node = g.doc["nodes"][nj + m];
-    EXPECT_EQ(node["skin"], 0);
-    EXPECT_EQ(node["name"], g.doc["meshes"][node["mesh"].get<size_t>()]["name"]);
-    const std::string part = g.doc["meshes"][m]["primitives"][0]["extras"]["name"];
-    EXPECT_TRUE(g.doc["meshes"][m]["name"] == part || g.doc["meshes"][m]["name"] == part + "_skin") << part;
+    const std::string part = primitives[m]["extras"]["name"];
+    EXPECT_EQ(g.doc["materials"][primitives[m]["material"].get<size_t>()]["name"], part);
   }
-  EXPECT_EQ(g.doc["meshes"][0]["name"], r.anim.bind_mesh->parts[0].name);
-  // Node names are unique (players rename duplicates): a part named like a joint is suffixed.
+  EXPECT_EQ(primitives[0]["extras"]["name"], r.anim.bind_mesh->parts[0].name);
+  // Node names are unique (players rename duplicates).
   std::set<std::string> names;
   for (const auto& n : g.doc["nodes"]) EXPECT_TRUE(names.insert(n["name"].get<std::string>()).second) << n["name"];
+  // The bind pose stands on the floor: its lowest vertex at y = 0 (the rest mesh is made with the
+  // pelvis at the origin, the feet under the floor).
+  const json& pos_acc = g.doc["accessors"][primitives[0]["attributes"]["POSITION"].get<size_t>()];
+  EXPECT_NEAR(pos_acc["min"][1].get<double>(), 0.0, 1e-6);
+  float lowest = 1e9f;
+  for (const auto& p : r.anim.bind_mesh->positions) lowest = std::min(lowest, p.y);
+  ASSERT_LT(lowest, -0.5f) << "the rest mesh this test starts from is under the floor";
+  rig::Pose lifted = r.anim.bind_pose;
+  lifted.root_position_m.y -= lowest;
   const json& skin = g.doc["skins"][0];
   ASSERT_EQ(skin["joints"].size(), nj);
   // The hierarchy is the skeleton's.
@@ -125,8 +138,8 @@ TEST(GltfAnimation, StructureSkinAndWeights) {
   }
   // Inverse bind matrices undo the joints' bind-pose world transforms.
   const auto ibm = g.floats(skin["inverseBindMatrices"].get<int>());
-  std::vector<RigidTransform> bind(nj);
-  forward_kinematics(r.skeleton, r.anim.bind_pose, bind);
+  std::vector<rig::RigidTransform> bind(nj);
+  rig::forward_kinematics(r.skeleton, lifted, bind);
   for (size_t j = 0; j < nj; ++j) {
     const glm::mat4 m = glm::make_mat4(ibm.data() + 16 * j);
     const glm::vec4 origin = m * glm::vec4(bind[j].translation, 1.0f);
@@ -169,8 +182,7 @@ TEST(GltfAnimation, PlaybackMovesRigidPartsWithTheRealtimeSkin) {
   // The rigid parts' vertices (head, hands, feet move rigidly with their joint in the realtime
   // skin, and are bound to that joint alone).
   std::vector<bool> rigid(r.shared->vertex_count(), false);
-  for (const auto& m : g.doc["meshes"]) {
-    const json& p = m["primitives"][0];
+  for (const json& p : g.doc["meshes"][0]["primitives"]) {
     const std::string name = p["extras"]["name"];
     if (name != "head" && name != "left_hand" && name != "right_hand" && name != "left_foot" && name != "right_foot")
       continue;

@@ -89,19 +89,19 @@ TEST(JointZone, ZoneSectionsOfACylinder) {
 }
 
 TEST(JointZone, LinearBlendSkinningLosesVolumeAtTheBentElbow) {
-  const Skeleton s = testing::two_bone_skeleton();
+  const rig::Skeleton s = testing::two_bone_skeleton();
   const Mesh rest = cylinder_mesh();
-  std::vector<RigidTransform> rest_w(2), w(2);
-  forward_kinematics(s, s.zero_pose(), rest_w);
+  std::vector<rig::RigidTransform> rest_w(2), w(2);
+  rig::forward_kinematics(s, s.zero_pose(), rest_w);
   auto skinner = baselines::BaselineSkinner::create(s, rest_w, rest,
                                                     baselines::weights_from_links(s, rest_w, rest.positions, 0.08f));
   ASSERT_TRUE(skinner);
   const auto tris = all_triangles(rest);
   const JointZone rest_zone{{0.3f, 0, 0}, {-1, 0, 0}, {1, 0, 0}, 0.1f};
   const double v0 = joint_zone_volume(rest.positions, rest.indices, tris, rest_zone);
-  Pose p = s.zero_pose();
+  rig::Pose p = s.zero_pose();
   p.dof_rad[0] = float(150 * kPi / 180);
-  forward_kinematics(s, p, w);
+  rig::forward_kinematics(s, p, w);
   skinner->set_pose(w);
   JointZone bent = rest_zone;
   bent.distal_dir = w[1].rotation * glm::vec3(1, 0, 0);

@@ -300,9 +300,9 @@ double angle_deg(glm::vec3 a, glm::vec3 b) {
 }
 
 // Limb directions of `pose` against the landmarks' segments, worst case in degrees.
-double worst_limb_error_deg(const Skeleton& s, const Pose& pose, const BodyLandmarks& lm) {
-  std::vector<RigidTransform> w(s.joint_count());
-  forward_kinematics(s, pose, w);
+double worst_limb_error_deg(const rig::Skeleton& s, const rig::Pose& pose, const BodyLandmarks& lm) {
+  std::vector<rig::RigidTransform> w(s.joint_count());
+  rig::forward_kinematics(s, pose, w);
   auto at = [&](const std::string& n) { return w[s.find_joint(n)].translation; };
   double worst = 0;
   for (auto [side, limb] : {std::pair{"l_", &lm.left}, std::pair{"r_", &lm.right}}) {
@@ -316,12 +316,12 @@ double worst_limb_error_deg(const Skeleton& s, const Pose& pose, const BodyLandm
 }
 
 TEST(Measure, PoseToMatchPutsMimicInTheMakeHumanAPose) {
-  auto s = Skeleton::build(default_skeleton_desc());
+  auto s = rig::Skeleton::build(rig::default_skeleton_desc());
   ASSERT_TRUE(s);
   auto lm = load_makehuman_joints(test::shared_data("mesh/makehuman_base_joints.csv"));
   ASSERT_TRUE(lm);
   EXPECT_GT(worst_limb_error_deg(*s, s->zero_pose(), *lm), 30.0);  // the T-pose is far off
-  const Pose pose = pose_to_match(*s, *lm);
+  const rig::Pose pose = pose_to_match(*s, *lm);
   EXPECT_LT(worst_limb_error_deg(*s, pose, *lm), 2.0);
   EXPECT_EQ(pose.root_position_m, lm->pelvis_m);
   // Every DOF within its limits, and the posture mirror-symmetric like the reference.
@@ -333,19 +333,19 @@ TEST(Measure, PoseToMatchPutsMimicInTheMakeHumanAPose) {
     EXPECT_NEAR(pose.dof_rad[s->find_dof(std::string("l_") + d)], pose.dof_rad[s->find_dof(std::string("r_") + d)], 0.01)
         << d;
   // Upper arms about 50° below horizontal, as the data's README says.
-  std::vector<RigidTransform> w(s->joint_count());
-  forward_kinematics(*s, pose, w);
+  std::vector<rig::RigidTransform> w(s->joint_count());
+  rig::forward_kinematics(*s, pose, w);
   const glm::vec3 upper = w[s->find_joint("l_elbow")].translation - w[s->find_joint("l_shoulder")].translation;
   EXPECT_NEAR(std::atan2(-upper.y, upper.x) * 180 / kPi, 50.0, 2.0);
 }
 
 TEST(Measure, PoseToMatchRecoversRandomReachablePostures) {
-  auto s = Skeleton::build(default_skeleton_desc());
+  auto s = rig::Skeleton::build(rig::default_skeleton_desc());
   ASSERT_TRUE(s);
   std::mt19937_64 rng(7);
   std::uniform_real_distribution<float> unit(0, 1);
   for (int trial = 0; trial < 20; ++trial) {
-    Pose truth = s->zero_pose();
+    rig::Pose truth = s->zero_pose();
     truth.root_position_m = {0.1f, 0.9f, -0.2f};
     for (const char* side : {"l_", "r_"})
       for (const char* d : {"shoulder_flexion", "shoulder_abduction", "shoulder_twist", "elbow_flexion",
@@ -358,13 +358,13 @@ TEST(Measure, PoseToMatchRecoversRandomReachablePostures) {
         truth.dof_rad[i] = lo + unit(rng) * (hi - lo);
       }
     const BodyLandmarks lm = landmarks_from_skeleton(*s, truth);
-    const Pose solved = pose_to_match(*s, lm);
+    const rig::Pose solved = pose_to_match(*s, lm);
     EXPECT_LT(worst_limb_error_deg(*s, solved, lm), 0.5) << "trial " << trial;
   }
 }
 
 TEST(Measure, LandmarkCsvRoundTrips) {
-  auto s = Skeleton::build(default_skeleton_desc());
+  auto s = rig::Skeleton::build(rig::default_skeleton_desc());
   ASSERT_TRUE(s);
   const BodyLandmarks lm = landmarks_from_skeleton(*s, s->zero_pose());
   auto back = parse_makehuman_joints(format_landmarks_csv(lm, 10.0f), 0.1f);
@@ -386,10 +386,10 @@ TEST(Measure, LandmarkCsvRoundTrips) {
 }
 
 TEST(Measure, LandmarksFromSkeletonStandOnTheGround) {
-  auto s = Skeleton::build(default_skeleton_desc());
+  auto s = rig::Skeleton::build(rig::default_skeleton_desc());
   ASSERT_TRUE(s);
-  Pose p = s->zero_pose();
-  p.root_position_m = {0, standing_root_height_m(*s), 0};
+  rig::Pose p = s->zero_pose();
+  p.root_position_m = {0, rig::standing_root_height_m(*s), 0};
   const BodyLandmarks lm = landmarks_from_skeleton(*s, p);
   EXPECT_NEAR(lm.ground_y_m, 0.0f, 1e-5f);
   EXPECT_EQ(lm.spine_m.size(), 3u);

@@ -6,9 +6,9 @@
 #include <array>
 #include <random>
 
-#include "mimic/avatar/bvh.h"
+#include "mimic/rig/bvh.h"
 #include "mimic/avatar/mesh_check.h"
-#include "mimic/avatar/retarget.h"
+#include "mimic/rig/retarget.h"
 #include "mimic/avatar/skin.h"
 #include "mimic/avatar/skin_inspection.h"
 #include "mimic/avatar/skin_lod.h"
@@ -59,9 +59,9 @@ TEST(RealtimeSkin, FollowsThePoseRigidlyWhereNothingBends) {
   // A whole-body translation and turn moves every vertex with the root.
   auto body = make_body(1);
   RealtimeSkin skin(body);
-  const Skeleton& sk = body->skeleton();
+  const rig::Skeleton& sk = body->skeleton();
   Mesh a = body->rest_mesh(), b = body->rest_mesh();
-  Pose p = sk.zero_pose();
+  rig::Pose p = sk.zero_pose();
   skin.evaluate(p, a.positions);
   p.root_position_m = {0.3f, 0.2f, -1.0f};
   p.root_orientation = glm::angleAxis(1.0f, glm::vec3(0, 1, 0));
@@ -75,7 +75,7 @@ TEST(RealtimeSkin, FollowsThePoseRigidlyWhereNothingBends) {
 TEST(RealtimeSkin, MusclesBulgeWithoutRays) {
   auto body = make_body();
   RealtimeSkin skin(body);
-  const Skeleton& sk = body->skeleton();
+  const rig::Skeleton& sk = body->skeleton();
   EXPECT_GT(body->muscle_points(), 100u);
   Mesh m = body->rest_mesh();
   // The biceps: the front of the mid upper arm (chosen in the zero posture) moves away from the
@@ -84,17 +84,17 @@ TEST(RealtimeSkin, MusclesBulgeWithoutRays) {
   for (size_t v = 0; v < m.positions.size(); ++v)
     if (std::abs(m.positions[v].x - 0.29f) < 0.02f && m.positions[v].z > 0.02f) front.push_back(v);
   ASSERT_GT(front.size(), 2u);
-  std::vector<RigidTransform> w(sk.joint_count());
+  std::vector<rig::RigidTransform> w(sk.joint_count());
   BodySkin full = full_skin();
   // How far the chosen vertices reach from the upper arm's axis: the realtime skin's, with or
   // without muscles, or the full method's (muscles < 0).
   auto bulge = [&](float flex, int muscles) {
-    Pose p = sk.zero_pose();
+    rig::Pose p = sk.zero_pose();
     p.dof_rad[sk.find_dof("l_elbow_flexion")] = flex;
     full.evaluate(p);
     skin.evaluate(p, m.positions, {}, muscles > 0);
     const std::vector<glm::vec3>& pos = muscles < 0 ? full.mesh().positions : m.positions;
-    forward_kinematics(sk, p, w);
+    rig::forward_kinematics(sk, p, w);
     const glm::vec3 a = w[sk.find_joint("l_shoulder")].translation, b = w[sk.find_joint("l_elbow")].translation;
     const glm::vec3 axis = glm::normalize(b - a);
     float best = 0;
@@ -126,12 +126,12 @@ TEST(RealtimeSkin, ClosedOutwardAndNearTheFullMethodThroughEverySharedClip) {
   std::vector<glm::vec3> plain(m.positions.size());
   int poses = 0;
   for (const char* id : test::kShared_clips) {
-    auto clip = load_bvh(test::clip_path(id));
+    auto clip = rig::load_bvh(test::clip_path(id));
     ASSERT_TRUE(clip) << clip.error().what();
-    auto r = retarget_bvh(*clip);
+    auto r = rig::retarget_bvh(*clip);
     ASSERT_TRUE(r) << r.error().what();
     for (size_t f = 0; f < r->poses.size(); f += 40) {
-      const Pose p = transfer_pose(r->skeleton, r->poses[f], full.skeleton());
+      const rig::Pose p = rig::transfer_pose(r->skeleton, r->poses[f], full.skeleton());
       full.evaluate(p);
       skin.evaluate(p, plain, {}, false);
       skin.evaluate(p, m.positions, {}, true);
@@ -176,14 +176,14 @@ TEST(RealtimeSkin, ClosedOutwardAndNearTheFullMethodThroughEverySharedClip) {
 TEST(RealtimeSkin, ContoursDoNotCrossAtTheJointLimits) {
   auto body = make_body();
   RealtimeSkin skin(body);
-  const Skeleton& sk = body->skeleton();
+  const rig::Skeleton& sk = body->skeleton();
   Mesh m = body->rest_mesh();
   for (const char* name : {"l_elbow_flexion", "r_knee_flexion", "l_hip_flexion", "r_shoulder_abduction", "l_forearm_twist",
                            "spine_lower_flexion"}) {
     const int dof = sk.find_dof(name);
     if (dof < 0) continue;
     for (float theta : {sk.dof(dof).min_rad, sk.dof(dof).max_rad}) {
-      Pose p = sk.zero_pose();
+      rig::Pose p = sk.zero_pose();
       p.dof_rad[dof] = theta;
       skin.evaluate(p, m.positions);
       const ContourOrder order = check_contour_order(m.positions, body->contour_rows());
@@ -201,12 +201,12 @@ TEST(RealtimeSkin, StaysClosedInRandomPostures) {
   for (int lod = 0; lod < kSkinLodCount; ++lod) {
     auto body = make_body(lod);
     RealtimeSkin skin(body);
-    const Skeleton& sk = body->skeleton();
+    const rig::Skeleton& sk = body->skeleton();
     Mesh m = body->rest_mesh();
     for (int i = 0; i < 20; ++i) {
-      Pose p = sk.rest_pose();
+      rig::Pose p = sk.rest_pose();
       for (int k = 0; k < sk.dof_count(); ++k) {
-        const Dof& d = sk.dof(k);
+        const rig::Dof& d = sk.dof(k);
         p.dof_rad[k] = d.rest_rad + 0.6f * (d.min_rad + u(rng) * (d.max_rad - d.min_rad) - d.rest_rad);
       }
       skin.evaluate(p, m.positions, m.normals);
@@ -241,9 +241,9 @@ TEST(RealtimeSkin, TheContourCheckFindsCrossingRings) {
 // full method's vertices in the initial pose.
 TEST(RealtimeSkin, TheVectorisedKernelsAgreeWithTheScalarReference) {
   if (!RealtimeSkin::vectorised_kernel()) GTEST_SKIP() << "this build has no eight-wide kernel (no AVX2/FMA target)";
-  auto clip = load_bvh(test::clip_path(test::kShared_clips[0]));
+  auto clip = rig::load_bvh(test::clip_path(test::kShared_clips[0]));
   ASSERT_TRUE(clip) << clip.error().what();
-  auto r = retarget_bvh(*clip);
+  auto r = rig::retarget_bvh(*clip);
   ASSERT_TRUE(r) << r.error().what();
   for (int lod = 0; lod < kSkinLodCount; ++lod) {
     auto body = make_body(lod);
@@ -252,7 +252,7 @@ TEST(RealtimeSkin, TheVectorisedKernelsAgreeWithTheScalarReference) {
     std::vector<glm::vec3> a(body->vertex_count()), b(body->vertex_count());
     float worst = 0;
     for (size_t f = 0; f < r->poses.size(); f += 7) {
-      const Pose p = transfer_pose(r->skeleton, r->poses[f], body->skeleton());
+      const rig::Pose p = rig::transfer_pose(r->skeleton, r->poses[f], body->skeleton());
       for (const bool muscles : {true, false}) {
         vectorised.evaluate(p, a, {}, muscles);
         scalar.evaluate(p, b, {}, muscles);
@@ -303,7 +303,7 @@ TEST(RealtimeSkin, AvatarsShareOneBodyAndHoldLittleEach) {
 
   // RealtimeBody::shared hands the same body to every avatar of an equal model and skeleton.
   const BodyModel model = default_body_model();
-  auto sk = Skeleton::build(model.skeleton);
+  auto sk = rig::Skeleton::build(model.skeleton);
   ASSERT_TRUE(sk);
   auto a = RealtimeBody::shared(model, *sk, {});
   auto b = RealtimeBody::shared(model, *sk, {});
@@ -314,7 +314,7 @@ TEST(RealtimeSkin, AvatarsShareOneBodyAndHoldLittleEach) {
   auto c = RealtimeBody::shared(model, *sk, coarse);
   ASSERT_TRUE(c);
   EXPECT_NE(c->get(), a->get());
-  Skeleton longer = *sk;
+  rig::Skeleton longer = *sk;
   longer.set_offset_m(longer.find_joint("l_elbow"), longer.offset_m(longer.find_joint("l_elbow")) * 1.1f);
   auto d = RealtimeBody::shared(model, longer, {});
   ASSERT_TRUE(d);
@@ -326,14 +326,14 @@ TEST(RealtimeSkin, RejectsABadLodAndAShortInitialPose) {
   o.lod = kSkinLodCount;
   EXPECT_FALSE(RealtimeBody::create(default_body_model(), o));
   o.lod = 0;
-  o.initial_pose = Pose{};
+  o.initial_pose = rig::Pose{};
   EXPECT_FALSE(RealtimeBody::create(default_body_model(), o));
 }
 
 TEST(RealtimeSkin, AnInitialPoseOfTheCallersIsExactToo) {
-  auto sk = Skeleton::build(default_body_model().skeleton);
+  auto sk = rig::Skeleton::build(default_body_model().skeleton);
   ASSERT_TRUE(sk);
-  Pose p = sk->zero_pose();
+  rig::Pose p = sk->zero_pose();
   p.dof_rad[sk->find_dof("l_elbow_flexion")] = 0.8f;
   p.dof_rad[sk->find_dof("r_knee_flexion")] = 0.5f;
   RealtimeOptions o;

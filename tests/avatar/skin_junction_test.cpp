@@ -8,8 +8,8 @@
 #include <map>
 #include <tuple>
 
-#include "mimic/avatar/bvh.h"
-#include "mimic/avatar/retarget.h"
+#include "mimic/rig/bvh.h"
+#include "mimic/rig/retarget.h"
 #include "mimic/avatar/skin.h"
 #include "test_data.h"
 
@@ -123,15 +123,15 @@ BodySkin make_skin() {
 // with the uncut loop).
 TEST(SkinJunctions, DrivenRingsStayNearTheirPointsAndTheJunctionsDoNotFold) {
   BodySkin s = make_skin();
-  std::vector<std::pair<std::string, Pose>> poses = {{"rest", s.skeleton().rest_pose()},
+  std::vector<std::pair<std::string, rig::Pose>> poses = {{"rest", s.skeleton().rest_pose()},
                                                      {"T-pose", s.skeleton().zero_pose()}};
   for (const char* id : test::kShared_clips) {
-    auto clip = load_bvh(test::clip_path(id));
+    auto clip = rig::load_bvh(test::clip_path(id));
     ASSERT_TRUE(clip) << clip.error().what();
-    auto r = retarget_bvh(*clip);
+    auto r = rig::retarget_bvh(*clip);
     ASSERT_TRUE(r) << r.error().what();
     for (size_t f = 0; f < r->poses.size(); f += 40)
-      poses.emplace_back(std::string(id) + " frame " + std::to_string(f), transfer_pose(r->skeleton, r->poses[f], s.skeleton()));
+      poses.emplace_back(std::string(id) + " frame " + std::to_string(f), rig::transfer_pose(r->skeleton, r->poses[f], s.skeleton()));
   }
   float offset = 0, zigzag = 0;
   int folds = 0;

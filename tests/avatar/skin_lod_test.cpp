@@ -6,10 +6,10 @@
 #include <map>
 #include <random>
 
-#include "mimic/avatar/bvh.h"
+#include "mimic/rig/bvh.h"
 #include "mimic/avatar/mesh_check.h"
 #include "mimic/avatar/realtime_skin.h"
-#include "mimic/avatar/retarget.h"
+#include "mimic/rig/retarget.h"
 #include "mimic/avatar/skin.h"
 #include "mimic/avatar/texture_layout.h"
 #include "test_data.h"
@@ -195,14 +195,14 @@ TEST(SkinLod, EveryCombinationIsClosedOrientedAndOutwardAtRest) {
 // Poses of every shared clip, with pieces at different LODs: both methods stay closed,
 // oriented and outward where pieces at different LODs meet.
 TEST(SkinLod, MixedLodsStayClosedThroughTheSharedClips) {
-  std::vector<Pose> poses;
-  const Skeleton skeleton = *Skeleton::build(default_body_model().skeleton);
+  std::vector<rig::Pose> poses;
+  const rig::Skeleton skeleton = *rig::Skeleton::build(default_body_model().skeleton);
   for (const char* id : test::kShared_clips) {
-    auto clip = load_bvh(test::clip_path(id));
+    auto clip = rig::load_bvh(test::clip_path(id));
     ASSERT_TRUE(clip) << clip.error().what();
-    auto r = retarget_bvh(*clip);
+    auto r = rig::retarget_bvh(*clip);
     ASSERT_TRUE(r) << r.error().what();
-    for (size_t f = 0; f < r->poses.size(); f += 160) poses.push_back(transfer_pose(r->skeleton, r->poses[f], skeleton));
+    for (size_t f = 0; f < r->poses.size(); f += 160) poses.push_back(rig::transfer_pose(r->skeleton, r->poses[f], skeleton));
   }
   ASSERT_GT(poses.size(), 40u);
   // Each piece alone at the far end from the rest, and a random set.
@@ -328,12 +328,12 @@ TEST(SkinLod, RealtimeEveryLodStaysClosedThroughTheSharedClips) {
     Mesh m = (*body)->rest_mesh();
     int poses = 0;
     for (const char* id : test::kShared_clips) {
-      auto clip = load_bvh(test::clip_path(id));
+      auto clip = rig::load_bvh(test::clip_path(id));
       ASSERT_TRUE(clip) << clip.error().what();
-      auto r = retarget_bvh(*clip);
+      auto r = rig::retarget_bvh(*clip);
       ASSERT_TRUE(r) << r.error().what();
       for (size_t f = 0; f < r->poses.size(); f += 80) {
-        skin.evaluate(transfer_pose(r->skeleton, r->poses[f], (*body)->skeleton()), m.positions);
+        skin.evaluate(rig::transfer_pose(r->skeleton, r->poses[f], (*body)->skeleton()), m.positions);
         const MeshTopology t = analyze_topology(m);
         ASSERT_TRUE(is_closed_oriented_manifold(t)) << "LOD " << lod << " " << id << " frame " << f;
         ASSERT_EQ(t.components, 6u);

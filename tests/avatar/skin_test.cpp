@@ -2,9 +2,9 @@
 
 #include <random>
 
-#include "mimic/avatar/bvh.h"
+#include "mimic/rig/bvh.h"
 #include "mimic/avatar/mesh_check.h"
-#include "mimic/avatar/retarget.h"
+#include "mimic/rig/retarget.h"
 #include "mimic/avatar/skin.h"
 #include "test_data.h"
 
@@ -20,11 +20,11 @@ BodySkin make_skin(int subdivision) {
 }
 
 // Random posture within limits, scaled towards the relaxed value by `amount` (0..1).
-Pose random_pose(const Skeleton& s, std::mt19937_64& rng, float amount) {
+rig::Pose random_pose(const rig::Skeleton& s, std::mt19937_64& rng, float amount) {
   std::uniform_real_distribution<float> u(0.0f, 1.0f);
-  Pose p = s.rest_pose();
+  rig::Pose p = s.rest_pose();
   for (int i = 0; i < s.dof_count(); ++i) {
-    const Dof& d = s.dof(i);
+    const rig::Dof& d = s.dof(i);
     p.dof_rad[i] = d.rest_rad + amount * (d.min_rad + u(rng) * (d.max_rad - d.min_rad) - d.rest_rad);
   }
   p.root_position_m = {u(rng) - 0.5f, 0.9f, u(rng) - 0.5f};
@@ -135,10 +135,10 @@ TEST(Skin, ContourPointsLieOnTheIsoSurfaceAndAreOutermost) {
 
 TEST(Skin, MusclesDeformWithTheirJoint) {
   BodySkin s = make_skin(0);
-  const Skeleton& sk = s.skeleton();
+  const rig::Skeleton& sk = s.skeleton();
   // Biceps bulge: the upper arm's front surface at mid-arm moves out as the elbow flexes.
   auto front_of_upper_arm = [&](float flex) {
-    Pose p = sk.zero_pose();
+    rig::Pose p = sk.zero_pose();
     p.dof_rad[sk.find_dof("l_elbow_flexion")] = flex;
     s.evaluate(p);
     float best = -1;
@@ -164,12 +164,12 @@ TEST(Skin, ClosedAndOutwardThroughEverySharedClip) {
   const double rest_volume = analyze_topology(s.mesh()).signed_volume;
   int poses = 0;
   for (const char* id : test::kShared_clips) {
-    auto clip = load_bvh(test::clip_path(id));
+    auto clip = rig::load_bvh(test::clip_path(id));
     ASSERT_TRUE(clip) << clip.error().what();
-    auto r = retarget_bvh(*clip);
+    auto r = rig::retarget_bvh(*clip);
     ASSERT_TRUE(r) << r.error().what();
     for (size_t f = 0; f < r->poses.size(); f += 40) {
-      s.evaluate(transfer_pose(r->skeleton, r->poses[f], s.skeleton()));
+      s.evaluate(rig::transfer_pose(r->skeleton, r->poses[f], s.skeleton()));
       const std::string what = std::string(id) + " frame " + std::to_string(f);
       expect_closed_outward(s.mesh(), what);
       EXPECT_EQ(s.stats().missed_rays, 0) << what;

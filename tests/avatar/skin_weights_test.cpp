@@ -2,7 +2,7 @@
 
 #include <gtest/gtest.h>
 
-#include "mimic/avatar/motion.h"
+#include "mimic/rig/motion.h"
 #include "mimic/avatar/skin.h"
 
 namespace mimic::avatar {
@@ -46,14 +46,14 @@ TEST(SkinWeights, EveryVertexHasAtMostFourNormalisedInfluences) {
 
 TEST(SkinWeights, FollowTheRingsAlongTheLinks) {
   const BodySkin s = realtime_resolution();
-  const Skeleton& sk = s.skeleton();
+  const rig::Skeleton& sk = s.skeleton();
   auto w = contour_skin_weights(s);
   ASSERT_TRUE(w);
   const int shoulder = sk.find_joint("l_shoulder"), elbow = sk.find_joint("l_elbow");
   // The contour rings: mid upper arm belongs to the shoulder alone, the elbow ring is shared
   // 50/50, mid forearm belongs to the elbow alone; the hand is rigid on the wrist.
-  std::vector<RigidTransform> rest(sk.joint_count());
-  forward_kinematics(sk, sk.zero_pose(), rest);
+  std::vector<rig::RigidTransform> rest(sk.joint_count());
+  rig::forward_kinematics(sk, sk.zero_pose(), rest);
   const glm::vec3 shoulder_p = rest[shoulder].translation, elbow_p = rest[elbow].translation;
   const glm::vec3 wrist_p = rest[sk.find_joint("l_wrist")].translation;
   int mid_upper = 0, at_elbow = 0, mid_lower = 0;
@@ -91,21 +91,21 @@ TEST(SkinWeights, FollowTheRingsAlongTheLinks) {
 // distance of a few centimetres would mean the weights bind vertices to the wrong links.
 TEST(SkinWeights, LinearBlendWithThemStaysNearTheContourSkin) {
   BodySkin s = realtime_resolution();
-  const Skeleton& sk = s.skeleton();
+  const rig::Skeleton& sk = s.skeleton();
   auto w = contour_skin_weights(s);
   ASSERT_TRUE(w);
-  std::vector<RigidTransform> rest(sk.joint_count()), now(sk.joint_count());
-  forward_kinematics(sk, sk.zero_pose(), rest);
+  std::vector<rig::RigidTransform> rest(sk.joint_count()), now(sk.joint_count());
+  rig::forward_kinematics(sk, sk.zero_pose(), rest);
   const std::vector<glm::vec3> rest_pos = s.mesh().positions;
-  auto motion = make_builtin_motion("walk", sk);
+  auto motion = rig::make_builtin_motion("walk", sk);
   ASSERT_TRUE(motion);
-  Pose p = sk.zero_pose();
+  rig::Pose p = sk.zero_pose();
   double sum = 0;
   size_t n = 0;
   for (int f = 0; f < 20; ++f) {
     (*motion)->sample(0.05 * f, p);
     s.evaluate(p);
-    forward_kinematics(sk, p, now);
+    rig::forward_kinematics(sk, p, now);
     for (size_t v = 0; v < rest_pos.size(); ++v) {
       glm::vec3 q(0);
       for (int i = 0; i < JointInfluences::kMax; ++i) {

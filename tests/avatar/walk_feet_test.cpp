@@ -5,7 +5,7 @@
 #include <gtest/gtest.h>
 
 #include "mimic/avatar/body_model.h"
-#include "mimic/avatar/motion.h"
+#include "mimic/rig/motion.h"
 #include "mimic/avatar/realtime_skin.h"
 #include "mimic/avatar/skin.h"
 
@@ -19,11 +19,11 @@ struct FloorContact {
 };
 
 template <class Evaluate>
-FloorContact walk_contact(const Skeleton& skeleton, Evaluate&& lowest_vertex_at) {
-  auto walk = make_builtin_motion("walk", skeleton);
+FloorContact walk_contact(const rig::Skeleton& skeleton, Evaluate&& lowest_vertex_at) {
+  auto walk = rig::make_builtin_motion("walk", skeleton);
   EXPECT_TRUE(walk);
   FloorContact c;
-  Pose pose = skeleton.zero_pose();
+  rig::Pose pose = skeleton.zero_pose();
   const double fps = 30;
   for (int k = 0; k / fps <= (*walk)->duration_s() + 1e-9; ++k) {
     (*walk)->sample(k / fps, pose);
@@ -41,7 +41,7 @@ TEST(WalkFeet, TheRealtimeSkinStaysOnTheFloorAtEveryKey) {
   ASSERT_TRUE(body) << body.error().what();
   RealtimeSkin skin(*body);
   Mesh mesh = (*body)->rest_mesh();
-  const FloorContact c = walk_contact((*body)->skeleton(), [&](const Pose& pose) {
+  const FloorContact c = walk_contact((*body)->skeleton(), [&](const rig::Pose& pose) {
     skin.evaluate(pose, mesh.positions);
     float low = 1e9f;
     for (const glm::vec3& p : mesh.positions) low = std::min(low, p.y);
@@ -60,7 +60,7 @@ TEST(WalkFeet, TheFullSkinStaysOnTheFloorAtEveryKey) {
   o.normals = false;
   auto skin = BodySkin::create(default_body_model(), o);
   ASSERT_TRUE(skin) << skin.error().what();
-  const FloorContact c = walk_contact(skin->skeleton(), [&](const Pose& pose) {
+  const FloorContact c = walk_contact(skin->skeleton(), [&](const rig::Pose& pose) {
     skin->evaluate(pose);
     float low = 1e9f;
     for (const glm::vec3& p : skin->mesh().positions) low = std::min(low, p.y);

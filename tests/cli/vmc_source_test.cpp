@@ -16,7 +16,7 @@
 #include <string>
 #include <vector>
 
-#include "mimic/avatar/skeleton.h"
+#include "mimic/rig/skeleton.h"
 #include "mimic/net/client.h"
 #include "mimic_proc.h"
 
@@ -45,9 +45,9 @@ std::unique_ptr<mimic::net::Client> viewer(const std::string& ep) {
   return c ? std::move(*c) : nullptr;
 }
 
-std::vector<glm::vec3> joints(const mimic::avatar::Skeleton& s, const mimic::avatar::Pose& p) {
-  std::vector<mimic::avatar::RigidTransform> fk(size_t(s.joint_count()));
-  mimic::avatar::forward_kinematics(s, p, fk);
+std::vector<glm::vec3> joints(const mimic::rig::Skeleton& s, const mimic::rig::Pose& p) {
+  std::vector<mimic::rig::RigidTransform> fk(size_t(s.joint_count()));
+  mimic::rig::forward_kinematics(s, p, fk);
   std::vector<glm::vec3> out;
   for (const auto& t : fk) out.push_back(t.translation);
   return out;
@@ -65,7 +65,7 @@ TEST(VmcSource, AnotherMimicsVmcOutputDrivesTheAvatar) {
 
   auto original = viewer(tx_ep), relayed = viewer(rx_ep);
   ASSERT_TRUE(original && relayed);
-  const auto skeleton = *mimic::avatar::Skeleton::build(mimic::avatar::default_skeleton_desc());
+  const auto skeleton = *mimic::rig::Skeleton::build(mimic::rig::default_skeleton_desc());
   // Every frame of each, as joint positions; compared once both are in (either viewer may get
   // a pose first).
   std::vector<std::vector<glm::vec3>> sent, received;

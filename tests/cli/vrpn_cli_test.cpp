@@ -17,7 +17,7 @@
 #include <set>
 #include <thread>
 
-#include "mimic/avatar/skeleton.h"
+#include "mimic/rig/skeleton.h"
 #include "run_mimic.h"
 #include "vrpn_test_client.h"
 
@@ -56,7 +56,7 @@ TEST(VrpnCli, RunServesAvatarJointsAndSensorSamples) {
   const auto nap = [] { std::this_thread::sleep_for(std::chrono::milliseconds(1)); };
   ASSERT_TRUE(c.connect_lob(port, nap));
   c.handshake({"Avatar0", "Sensors0"}, true);
-  const auto skeleton = *mimic::avatar::Skeleton::build(mimic::avatar::default_skeleton_desc());
+  const auto skeleton = *mimic::rig::Skeleton::build(mimic::rig::default_skeleton_desc());
   const size_t joints = size_t(skeleton.joint_count());
   std::map<std::string, std::map<int, int>> counts;
   c.pump(nap, 10, [&] {

@@ -148,10 +148,10 @@ TEST(Receivers, AClientRefusesAPoseWithTheWrongDofCount) {
     size_t n = encode_welcome(w, out);
     AvatarModel m{3, 1, kDofs, "eve", "m"};
     n += encode_avatar_model(m, std::span<uint8_t>(out).subspan(n));
-    avatar::Pose wrong;
+    rig::Pose wrong;
     wrong.dof_rad.assign(10, 0.1f);
     n += encode_pose({3, 0, 1, wall_clock_us()}, wrong, std::span<uint8_t>(out).subspan(n));
-    avatar::Pose right;
+    rig::Pose right;
     right.dof_rad.assign(kDofs, 0.2f);
     n += encode_pose({3, 0, 2, wall_clock_us()}, right, std::span<uint8_t>(out).subspan(n));
     (void)::send(fd, out.data(), n, MSG_NOSIGNAL);

@@ -25,8 +25,8 @@ std::unique_ptr<Client> join(const std::string& endpoint, Role role, bool udp = 
   return c ? std::move(*c) : nullptr;
 }
 
-avatar::Pose pose_with(float v) {
-  avatar::Pose p;
+rig::Pose pose_with(float v) {
+  rig::Pose p;
   p.root_position_m = {0.1f, 0.9f, -0.2f};
   p.dof_rad.assign(kDofs, v);
   return p;

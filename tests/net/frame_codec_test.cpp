@@ -9,9 +9,9 @@ namespace {
 
 using Bytes = std::vector<uint8_t>;
 
-avatar::Pose random_pose(std::mt19937_64& rng, size_t dofs) {
+rig::Pose random_pose(std::mt19937_64& rng, size_t dofs) {
   std::uniform_real_distribution<float> angle(-3.14159f, 3.14159f), pos(-100.0f, 100.0f), unit(-1, 1);
-  avatar::Pose p;
+  rig::Pose p;
   p.root_position_m = {pos(rng), pos(rng), pos(rng)};
   glm::quat q(unit(rng), unit(rng), unit(rng), unit(rng));
   if (glm::length(q) < 1e-3f) q = glm::quat(1, 0, 0, 0);
@@ -21,7 +21,7 @@ avatar::Pose random_pose(std::mt19937_64& rng, size_t dofs) {
   return p;
 }
 
-Bytes pose_packet(const PoseHeader& h, const avatar::Pose& p) {
+Bytes pose_packet(const PoseHeader& h, const rig::Pose& p) {
   Bytes b(kMaxDatagramBytes);
   b.resize(encode_pose(h, p, b));
   return b;
@@ -31,7 +31,7 @@ Bytes pose_packet(const PoseHeader& h, const avatar::Pose& p) {
 float rotation_distance(glm::quat a, glm::quat b) { return 1.0f - std::abs(glm::dot(a, b)); }
 
 TEST(FrameCodec, DefaultSkeletonPoseFitsTheBudget) {
-  auto s = avatar::Skeleton::build(avatar::default_skeleton_desc());
+  auto s = rig::Skeleton::build(rig::default_skeleton_desc());
   ASSERT_TRUE(s);
   const Bytes b = pose_packet({}, s->rest_pose());
   EXPECT_EQ(b.size(), pose_packet_bytes(s->dof_count()));
@@ -41,10 +41,10 @@ TEST(FrameCodec, DefaultSkeletonPoseFitsTheBudget) {
 
 TEST(FrameCodec, PoseRoundTripProperty) {
   std::mt19937_64 rng(7);
-  avatar::Pose decoded;
+  rig::Pose decoded;
   for (int trial = 0; trial < 2000; ++trial) {
     const size_t n = rng() % (kMaxPoseDofs + 1);
-    const avatar::Pose p = random_pose(rng, n);
+    const rig::Pose p = random_pose(rng, n);
     PoseHeader h{uint16_t(rng()), uint16_t(rng() & 1), uint32_t(rng()), rng()};
     const Bytes b = pose_packet(h, p);
     ASSERT_EQ(b.size(), pose_packet_bytes(n));
@@ -68,11 +68,11 @@ TEST(FrameCodec, PoseRoundTripProperty) {
 }
 
 TEST(FrameCodec, AnglesWrapIntoPlusMinusPi) {
-  avatar::Pose p;
+  rig::Pose p;
   p.dof_rad = {3.0f * 3.14159265f, -7.0f, 0.5f + 2 * 3.14159265f, std::nanf("")};
   const Bytes b = pose_packet({}, p);
   PoseHeader h;
-  avatar::Pose d;
+  rig::Pose d;
   ASSERT_EQ(decode_pose(b, h, d), Reject::ok);
   EXPECT_NEAR(std::abs(d.dof_rad[0]), 3.14159265f, 2 * kAngleStep_rad);
   EXPECT_NEAR(d.dof_rad[1], -7.0f + 2 * 3.14159265f, 2 * kAngleStep_rad);
@@ -81,14 +81,14 @@ TEST(FrameCodec, AnglesWrapIntoPlusMinusPi) {
 }
 
 TEST(FrameCodec, TooManyDofsIsNotEncoded) {
-  avatar::Pose p;
+  rig::Pose p;
   p.dof_rad.resize(kMaxPoseDofs + 1);
   Bytes b(4096);
   EXPECT_EQ(encode_pose({}, p, b), 0u);
 }
 
 TEST(FrameCodec, EncoderRefusesSmallBuffers) {
-  avatar::Pose p;
+  rig::Pose p;
   p.dof_rad.resize(10);
   Bytes b(pose_packet_bytes(10) - 1);
   EXPECT_EQ(encode_pose({}, p, b), 0u);
@@ -193,14 +193,14 @@ TEST(FrameCodec, TruncatedAndPaddedPacketsAreRefused) {
   const Bytes pose = pose_packet({1, 0, 5, 6}, random_pose(rng, 52));
   for (size_t n = 0; n < pose.size(); ++n) {
     PoseHeader h;
-    avatar::Pose d;
+    rig::Pose d;
     EXPECT_NE(decode_pose(std::span<const uint8_t>(pose).first(n), h, d), Reject::ok) << n;
   }
   // A header that claims fewer DOFs than the bytes carry: length and count disagree.
   Bytes lying = pose;
   lying[kPoseFixedBytes - 2] = 51;
   PoseHeader h;
-  avatar::Pose d;
+  rig::Pose d;
   EXPECT_EQ(decode_pose(lying, h, d), Reject::malformed);
   lying[kPoseFixedBytes - 2] = 60;
   EXPECT_EQ(decode_pose(lying, h, d), Reject::truncated);
@@ -221,7 +221,7 @@ TEST(FrameCodec, TruncatedAndPaddedPacketsAreRefused) {
 }
 
 TEST(FrameCodec, HeaderChecks) {
-  const Bytes pose = pose_packet({}, avatar::Pose{});
+  const Bytes pose = pose_packet({}, rig::Pose{});
   Header h;
   EXPECT_EQ(decode_header(pose, h), Reject::ok);
   Bytes b = pose;
@@ -244,10 +244,10 @@ TEST(FrameCodec, HeaderChecks) {
 }
 
 TEST(FrameCodec, BadQuaternionAndRoleAreMalformed) {
-  Bytes pose = pose_packet({}, avatar::Pose{});
+  Bytes pose = pose_packet({}, rig::Pose{});
   for (size_t i = 0; i < 8; ++i) pose[kHeaderBytes + 28 + i] = 0;  // all-zero root quaternion
   PoseHeader h;
-  avatar::Pose d;
+  rig::Pose d;
   EXPECT_EQ(decode_pose(pose, h, d), Reject::malformed);
 
   Hello hello;
@@ -262,7 +262,7 @@ TEST(FrameCodec, PoseDecodeDoesNotAllocateWhenSized) {
   // decode_pose resizes to the same size: capacity (and data pointer) unchanged.
   std::mt19937_64 rng(5);
   const Bytes b = pose_packet({}, random_pose(rng, 52));
-  avatar::Pose d;
+  rig::Pose d;
   d.dof_rad.resize(52);
   const float* before = d.dof_rad.data();
   PoseHeader h;
@@ -338,7 +338,7 @@ TEST(FrameCodec, RandomBytesNeverCrashDecoders) {
     for (int f = 0; f < flips; ++f) b[rng() % b.size()] = uint8_t(rng());
     if (rng() % 4 == 0) b.resize(rng() % (b.size() + 1));
     PoseHeader ph;
-    avatar::Pose p;
+    rig::Pose p;
     Hello h;
     AvatarModel m;
     MeshTopology t;

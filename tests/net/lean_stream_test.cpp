@@ -4,7 +4,7 @@
 
 #include <cmath>
 
-#include "mimic/avatar/motion.h"
+#include "mimic/rig/motion.h"
 #include "mimic/net/pose_stream.h"
 #include "net_test_support.h"
 
@@ -34,17 +34,17 @@ Bytes lean_hello() {
 }
 
 struct Walk {
-  avatar::Skeleton skeleton;
-  std::unique_ptr<avatar::Motion> motion;
+  rig::Skeleton skeleton;
+  std::unique_ptr<rig::Motion> motion;
   static Walk make() {
-    auto s = avatar::Skeleton::build(avatar::default_skeleton_desc());
+    auto s = rig::Skeleton::build(rig::default_skeleton_desc());
     EXPECT_TRUE(s);
-    auto m = avatar::make_builtin_motion("walk", *s);
+    auto m = rig::make_builtin_motion("walk", *s);
     EXPECT_TRUE(m);
     return {*s, std::move(*m)};
   }
-  avatar::Pose at(uint32_t seq) const {
-    avatar::Pose p = skeleton.zero_pose();
+  rig::Pose at(uint32_t seq) const {
+    rig::Pose p = skeleton.zero_pose();
     motion->sample(seq / 90.0, p);
     return p;
   }
@@ -74,7 +74,7 @@ TEST(LeanStream, OldAndLeanSubscribersGetEveryFrameLeanOnesInAThirdOfTheBytes) {
     const auto& a = lean_sub->avatars().begin()->second;
     ASSERT_EQ(a.last.sequence, s);
     // Within the documented bound of the pose the publisher sent.
-    const avatar::Pose want = walk.at(s);
+    const rig::Pose want = walk.at(s);
     const double bound = (double(1u << kDefaultPoseShift) + 1.0) / 2.0 * kAngleStep_rad + 1e-6;
     for (size_t i = 0; i < want.dof_rad.size(); ++i)
       ASSERT_LE(std::abs(std::remainder(double(a.pose.dof_rad[i]) - double(want.dof_rad[i]), 2 * M_PI)), bound) << s;
@@ -117,7 +117,7 @@ TEST(LeanStream, StalledSubscriberNeverGetsADeltaWithoutItsReference) {
   PacketReader r;
   feed(r, stalled.read_until_quiet(0.3));
   LeanPoseState state;
-  avatar::Pose pose;
+  rig::Pose pose;
   PoseHeader h;
   uint32_t frames = 0, keys = 0, last_seq = 0;
   for (;;) {
@@ -147,7 +147,7 @@ TEST(LeanStream, KeyRequestMakesTheNextFrameAKey) {
   uint16_t avatar_id = 0;
   PacketReader reader;
   auto next_frame = [&](uint32_t seq) -> Bytes {
-    avatar::Pose p;
+    rig::Pose p;
     p.dof_rad.assign(10, 0.01f * float(seq));
     EXPECT_TRUE(pub->publish_pose(*slot, {0, 0, seq, wall_clock_us()}, p));
     for (int tries = 0; tries < 50; ++tries) {

@@ -391,7 +391,7 @@ TEST(Nats, APublishersTickIsOneMessageAndOneRelayFanOut) {
       const std::span<const uint8_t> packet(m.data() + at + 8, pose_packet_bytes(kDofs));
       ASSERT_LE(at + 8 + packet.size(), m.size());
       PoseHeader h;
-      avatar::Pose pose;
+      rig::Pose pose;
       ASSERT_EQ(decode_pose(packet, h, pose), Reject::ok);
       sequences.insert(h.sequence);
       at += 8 + packet.size();

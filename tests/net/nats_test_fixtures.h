@@ -65,7 +65,7 @@ class TestPublisher {
         if (auto st = pub_->add_mesh(*idx, test_topology(uint8_t(mesh_lod))); !st) throw std::runtime_error(st.error().what());
     }
     thread_ = std::thread([this, avatars, hz, mesh_lod] {
-      avatar::Pose pose;
+      rig::Pose pose;
       pose.dof_rad.assign(kDofs, 0.1f);
       std::vector<uint8_t> buf(pose_packet_bytes(kDofs)), mesh(mesh_packet_bytes(4));
       std::vector<uint32_t> seq(size_t(avatars), 0);

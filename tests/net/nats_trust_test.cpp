@@ -45,7 +45,7 @@ TEST(NatsLinkState, StatusLineText) {
 
 // A tick message of one avatar as a publisher sends it: the key's value, then its POSE packet.
 std::string poses_message(const std::string& key_hex, uint32_t sequence) {
-  avatar::Pose pose;
+  rig::Pose pose;
   pose.dof_rad.assign(kDofs, 0.5f);
   PoseHeader h;
   h.sequence = sequence;
@@ -118,7 +118,7 @@ TEST(NatsTrust, EachPublisherWritesOnlyItsOwnSubjectsAndKeysAndRelaysOnlyRead) {
   for (int i = 0; i < 50 && reader.next(m, 2000);) {
     ASSERT_GE(m.size(), 8u + kHeaderBytes);
     PoseHeader h;
-    avatar::Pose pose;
+    rig::Pose pose;
     ASSERT_EQ(decode_pose(std::span<const uint8_t>(m.data() + 8, m.size() - 8), h, pose), Reject::ok);
     EXPECT_LT(h.sequence, ahead);
     ++i;

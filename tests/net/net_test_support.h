@@ -122,7 +122,7 @@ inline Bytes model_packet(uint16_t slot, uint16_t dofs, size_t model_bytes) {
 }
 
 inline Bytes pose_packet(uint16_t slot, uint32_t seq, uint16_t dofs) {
-  avatar::Pose p;
+  rig::Pose p;
   p.dof_rad.assign(dofs, 0.25f);
   Bytes b(kMaxDatagramBytes);
   b.resize(encode_pose({slot, 0, seq, wall_clock_us()}, p, b));

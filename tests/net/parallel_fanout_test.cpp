@@ -9,7 +9,7 @@
 #include <filesystem>
 #include <fstream>
 
-#include "mimic/avatar/motion.h"
+#include "mimic/rig/motion.h"
 #include "mimic/net/pose_stream.h"
 #include "net_test_support.h"
 
@@ -31,11 +31,11 @@ ServerOptions shared_fanout() {
 class Scene {
  public:
   explicit Scene(const ServerOptions& opt) : st_(opt) {
-    auto sk = avatar::Skeleton::build(avatar::default_skeleton_desc());
+    auto sk = rig::Skeleton::build(rig::default_skeleton_desc());
     EXPECT_TRUE(sk);
     skeleton_ = std::move(*sk);
     EXPECT_EQ(skeleton_.dof_count(), kDofs);
-    auto walk = avatar::make_builtin_motion("walk", skeleton_);
+    auto walk = rig::make_builtin_motion("walk", skeleton_);
     EXPECT_TRUE(walk);
     walk_ = std::move(*walk);
   }
@@ -70,7 +70,7 @@ class Scene {
   void tick(uint32_t seq) {
     st_.call([&] {
       std::vector<uint8_t> packet(pose_packet_bytes(kDofs));
-      avatar::Pose pose = skeleton_.zero_pose();
+      rig::Pose pose = skeleton_.zero_pose();
       st_.server().begin_batch();
       for (size_t i = 0; i < ids_.size(); ++i) {
         walk_->sample(double(seq) / 90.0 + 0.3 * double(i), pose);
@@ -88,8 +88,8 @@ class Scene {
 
  private:
   ServerThread st_;
-  avatar::Skeleton skeleton_;
-  std::unique_ptr<avatar::Motion> walk_;
+  rig::Skeleton skeleton_;
+  std::unique_ptr<rig::Motion> walk_;
   std::vector<uint16_t> ids_;
   std::vector<std::unique_ptr<Client>> owned_;
   std::vector<Client*> subs_;

@@ -7,7 +7,7 @@
 #include <cstdio>
 #include <random>
 
-#include "mimic/avatar/retarget.h"
+#include "mimic/rig/retarget.h"
 #include "mimic/net/pose_stream.h"
 #include "test_data.h"
 
@@ -16,7 +16,7 @@ namespace {
 
 using Bytes = std::vector<uint8_t>;
 
-Bytes pose_packet(const PoseHeader& h, const avatar::Pose& p) {
+Bytes pose_packet(const PoseHeader& h, const rig::Pose& p) {
   Bytes b(kMaxDatagramBytes);
   b.resize(encode_pose(h, p, b));
   return b;
@@ -29,17 +29,17 @@ double wrapped(double a) { return std::remainder(a, 2.0 * M_PI); }
 
 struct Clip {
   std::string id;
-  std::vector<avatar::Pose> frames;  // sampled at 90 Hz, as the pipeline streams it
+  std::vector<rig::Pose> frames;  // sampled at 90 Hz, as the pipeline streams it
 };
 
 std::vector<Clip> shared_clips_at_90hz() {
   std::vector<Clip> clips;
   for (const char* id : test::kShared_clips) {
-    auto m = avatar::load_bvh_motion(test::clip_path(id));
+    auto m = rig::load_bvh_motion(test::clip_path(id));
     EXPECT_TRUE(m) << id << ": " << m.error().what();
     if (!m) continue;
     Clip c{id, {}};
-    avatar::Pose pose = (*m)->skeleton().zero_pose();
+    rig::Pose pose = (*m)->skeleton().zero_pose();
     for (int k = 0; k / 90.0 <= (*m)->duration_s(); ++k) {
       (*m)->sample(k / 90.0, pose);
       c.frames.push_back(pose);
@@ -49,7 +49,7 @@ std::vector<Clip> shared_clips_at_90hz() {
   return clips;
 }
 
-void expect_within_bound(const avatar::Pose& got, const avatar::Pose& want, uint8_t shift, const std::string& where) {
+void expect_within_bound(const rig::Pose& got, const rig::Pose& want, uint8_t shift, const std::string& where) {
   const double steps = bound_steps(shift);
   ASSERT_EQ(got.dof_rad.size(), want.dof_rad.size()) << where;
   for (size_t i = 0; i < want.dof_rad.size(); ++i) {
@@ -76,7 +76,7 @@ TEST(PoseStream, EverySharedClipRoundTripsWithinTheBoundUnder64BytesPerFrame) {
   for (const Clip& c : clips) {
     LeanPoseEncoder enc;  // default precision, a key every 90 frames
     LeanPoseState rx;
-    avatar::Pose got;
+    rig::Pose got;
     uint64_t bytes = 0;
     uint64_t time_us = 1'700'000'000'000'000;
     for (size_t k = 0; k < c.frames.size(); ++k) {
@@ -116,7 +116,7 @@ TEST(PoseStream, FullPrecisionIsLosslessAgainstThePoseFrame) {
   ASSERT_FALSE(clips.empty());
   LeanPoseEncoder enc(0);
   LeanPoseState rx;
-  avatar::Pose got, want;
+  rig::Pose got, want;
   PoseHeader h, vh;
   for (size_t k = 0; k < clips[0].frames.size(); ++k) {
     const Bytes v2 = pose_packet({1, 0, uint32_t(k + 1), 5}, clips[0].frames[k]);
@@ -137,7 +137,7 @@ TEST(PoseStream, LostDatagramIsRefusedUntilAKeyFrameRecoversExactly) {
   ASSERT_GT(frames.size(), 400u);
   LeanPoseEncoder enc(kDefaultPoseShift, 90);
   LeanPoseState rx;
-  avatar::Pose got;
+  rig::Pose got;
   PoseHeader h;
   auto feed = [&](size_t k) {
     const Bytes v2 = pose_packet({2, 0, uint32_t(k + 1), 1000 * k}, frames[k]);
@@ -206,7 +206,7 @@ TEST(PoseStream, SkippedFramesGetTheKeyOfTheFrameSent) {
   const auto& frames = clips[1].frames;
   LeanPoseEncoder enc(kDefaultPoseShift, 0);
   LeanPoseState fast, slow;
-  avatar::Pose got;
+  rig::Pose got;
   PoseHeader h;
   for (size_t k = 0; k < 200; ++k) {
     ASSERT_TRUE(enc.update(pose_packet({3, 0, uint32_t(k + 1), 0}, frames[k])));
@@ -226,7 +226,7 @@ TEST(PoseStream, DamagedPacketsAreRefusedAndLeaveTheStateAlone) {
   const auto& frames = clips[2].frames;
   LeanPoseEncoder enc;
   LeanPoseState rx;
-  avatar::Pose got;
+  rig::Pose got;
   PoseHeader h;
   for (size_t k = 0; k < 10; ++k) {
     enc.update(pose_packet({4, 0, uint32_t(k + 1), 0}, frames[k]));
@@ -269,7 +269,7 @@ TEST(PoseStream, DamagedPacketsAreRefusedAndLeaveTheStateAlone) {
 }
 
 TEST(PoseStream, LargeSkeletonsStayOnPoseFrames) {
-  avatar::Pose p;
+  rig::Pose p;
   p.dof_rad.assign(kMaxLeanPoseDofs + 1, 0.1f);
   LeanPoseEncoder enc;
   EXPECT_FALSE(enc.update(pose_packet({1, 0, 1, 0}, p)));

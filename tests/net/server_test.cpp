@@ -1,6 +1,6 @@
 #include <gtest/gtest.h>
 
-#include "mimic/avatar/skeleton.h"
+#include "mimic/rig/skeleton.h"
 #include "net_test_support.h"
 
 namespace mimic::net {
@@ -30,8 +30,8 @@ std::unique_ptr<Client> publisher(const ServerThread& st, const std::string& sec
   return c ? std::move(*c) : nullptr;
 }
 
-avatar::Pose pose_with(float v, size_t dofs = kDofs) {
-  avatar::Pose p;
+rig::Pose pose_with(float v, size_t dofs = kDofs) {
+  rig::Pose p;
   p.root_position_m = {0.1f, 0.9f, -0.2f};
   p.dof_rad.assign(dofs, v);
   return p;

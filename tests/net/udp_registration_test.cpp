@@ -74,8 +74,8 @@ std::unique_ptr<Client> connect_as(const ServerThread& st, Role role, bool udp) 
   return c ? std::move(*c) : nullptr;
 }
 
-avatar::Pose pose_with(float v) {
-  avatar::Pose p;
+rig::Pose pose_with(float v) {
+  rig::Pose p;
   p.dof_rad.assign(kDofs, v);
   return p;
 }

@@ -23,8 +23,8 @@ std::unique_ptr<Client> connect_as(const ServerThread& st, Role role, bool udp) 
   return c ? std::move(*c) : nullptr;
 }
 
-avatar::Pose pose_with(float v) {
-  avatar::Pose p;
+rig::Pose pose_with(float v) {
+  rig::Pose p;
   p.root_position_m = {0.1f, 0.9f, -0.2f};
   p.dof_rad.assign(kDofs, v);
   return p;
@@ -216,7 +216,7 @@ TEST(UdpPoses, AStalledStreamDoesNotHoldBackDatagrams) {
     pump_for({pub.get()}, 0.01);
     const Bytes d = udp.receive(1.0);
     PoseHeader ph;
-    avatar::Pose p;
+    rig::Pose p;
     ASSERT_EQ(decode_pose(d, ph, p), Reject::ok) << "frame " << seq << " did not come as a datagram";
     EXPECT_GT(ph.sequence, last);
     last = ph.sequence;
@@ -314,7 +314,7 @@ TEST(UdpPoses, HostileDatagramsAreCountedAndOnlyKnownTokensAnswered) {
   pump_for({pub.get()}, 0.05);
   const Bytes frame = raw.receive(2.0);
   PoseHeader h;
-  avatar::Pose p;
+  rig::Pose p;
   ASSERT_EQ(decode_pose(frame, h, p), Reject::ok);
   EXPECT_EQ(h.sequence, 1u);
   // The subscriber's own next registration (within a second) takes its frames back.

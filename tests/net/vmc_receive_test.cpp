@@ -5,7 +5,7 @@
 #include <cstdlib>
 #include <thread>
 
-#include "mimic/avatar/skeleton.h"
+#include "mimic/rig/skeleton.h"
 #include "mimic/net/vmc.h"
 #include "mimic/net/vmc_receive.h"
 
@@ -18,10 +18,10 @@ bool near(const glm::quat& a, const glm::quat& b, float tol = 1e-4f) {
   return std::fabs(std::fabs(glm::dot(a, b)) - 1.0f) < tol;
 }
 
-avatar::Skeleton default_skeleton() { return *avatar::Skeleton::build(avatar::default_skeleton_desc()); }
+rig::Skeleton default_skeleton() { return *rig::Skeleton::build(rig::default_skeleton_desc()); }
 
-avatar::Pose some_pose(const avatar::Skeleton& s) {
-  avatar::Pose p = s.rest_pose();
+rig::Pose some_pose(const rig::Skeleton& s) {
+  rig::Pose p = s.rest_pose();
   for (size_t d = 0; d < p.dof_rad.size(); ++d) p.dof_rad[d] = 0.3f * std::sin(0.7f * float(d) + 0.2f);
   p.root_position_m = {0.2f, 0.95f, -0.4f};
   p.root_orientation = glm::angleAxis(0.6f, glm::normalize(glm::vec3(0.1f, 1, 0.05f)));
@@ -41,7 +41,7 @@ void apply_bundles(const Bytes& out, const VmcBundles& b, VmcState& state, VmcRe
 // placement, the frame's end (OK) and stream time.
 TEST(VmcReceive, MimicsOwnVmcFramesReadBackExactly) {
   const auto s = default_skeleton();
-  const avatar::Pose pose = some_pose(s);
+  const rig::Pose pose = some_pose(s);
   VmcEncoder enc(s);
   Bytes out;
   const VmcBundles b = enc.encode(pose, 2.5, out);
@@ -72,25 +72,25 @@ TEST(VmcReceive, MimicsOwnVmcFramesReadBackExactly) {
 // original put it (the neck's split between neck and neck_upper is VMC's one loss).
 TEST(VmcReceive, PoseFromVmcRoundTripsMimicsOutput) {
   const auto s = default_skeleton();
-  const avatar::Pose pose = some_pose(s);
+  const rig::Pose pose = some_pose(s);
   VmcEncoder enc(s);
   Bytes out;
   const VmcBundles b = enc.encode(pose, 0.0, out);
   VmcState state;
   VmcReceiveStats stats;
   apply_bundles(out, b, state, stats);
-  avatar::Pose got = s.rest_pose();
+  rig::Pose got = s.rest_pose();
   ASSERT_TRUE(pose_from_vmc(state, s, enc.bones(), got));
-  std::vector<avatar::RigidTransform> want_fk(size_t(s.joint_count())), got_fk(size_t(s.joint_count()));
-  avatar::forward_kinematics(s, pose, want_fk);
-  avatar::forward_kinematics(s, got, got_fk);
+  std::vector<rig::RigidTransform> want_fk(size_t(s.joint_count())), got_fk(size_t(s.joint_count()));
+  rig::forward_kinematics(s, pose, want_fk);
+  rig::forward_kinematics(s, got, got_fk);
   for (int j = 0; j < s.joint_count(); ++j) {
     const float err = glm::length(want_fk[size_t(j)].translation - got_fk[size_t(j)].translation);
     const bool above_neck = s.joint_name(j) == "neck_upper" || s.joint_name(j) == "head";
     EXPECT_LT(err, above_neck ? 0.01f : 0.001f) << s.joint_name(j);
   }
   // Nothing before the hips arrive.
-  avatar::Pose none = s.rest_pose();
+  rig::Pose none = s.rest_pose();
   EXPECT_FALSE(pose_from_vmc(VmcState{}, s, enc.bones(), none));
 }
 

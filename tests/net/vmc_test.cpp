@@ -137,7 +137,7 @@ uint16_t free_udp_port_pair() {
 }
 
 TEST(Vmc, OscdumpReceivesEveryBoneRootOkAndTime) {
-  auto sk = avatar::Skeleton::build(avatar::default_skeleton_desc());
+  auto sk = rig::Skeleton::build(rig::default_skeleton_desc());
   ASSERT_TRUE(sk);
   const uint16_t port = free_udp_port();
   OscDump dump(port);
@@ -146,7 +146,7 @@ TEST(Vmc, OscdumpReceivesEveryBoneRootOkAndTime) {
   ASSERT_TRUE(sender) << sender.error().what();
   ASSERT_TRUE((*sender)->add_avatar(*sk));
 
-  avatar::Pose pose = sk->zero_pose();
+  rig::Pose pose = sk->zero_pose();
   pose.root_position_m = {0.25f, 0.9f, -0.5f};
   const float abd = -75.0f * 3.14159265f / 180.0f;
   pose.dof_rad[size_t(sk->find_dof("l_shoulder_abduction"))] = abd;
@@ -205,7 +205,7 @@ TEST(Vmc, OscdumpReceivesEveryBoneRootOkAndTime) {
 
 // Every avatar is sent: avatar i to port + i, each a complete VMC stream of its own.
 TEST(Vmc, EveryAvatarOnItsOwnPort) {
-  auto sk = avatar::Skeleton::build(avatar::default_skeleton_desc());
+  auto sk = rig::Skeleton::build(rig::default_skeleton_desc());
   ASSERT_TRUE(sk);
   const uint16_t port = free_udp_port_pair();
   ASSERT_NE(port, 0);
@@ -217,7 +217,7 @@ TEST(Vmc, EveryAvatarOnItsOwnPort) {
   ASSERT_TRUE((*sender)->add_avatar(*sk));
   EXPECT_EQ((*sender)->avatar_count(), 2u);
   EXPECT_EQ((*sender)->send(2, sk->zero_pose(), 0.0), 0u);  // never added
-  avatar::Pose a = sk->zero_pose(), b = sk->zero_pose();
+  rig::Pose a = sk->zero_pose(), b = sk->zero_pose();
   a.root_position_m = {1.0f, 0.9f, 0.0f};
   b.root_position_m = {-2.0f, 0.9f, 0.0f};
   std::atomic<bool> done{false};
@@ -261,7 +261,7 @@ std::vector<std::string> bundle_addresses(const uint8_t* data, size_t size) {
 }
 
 TEST(Vmc, BundlesStayUnderTheMtuAndCloseWithOkAndTime) {
-  auto sk = avatar::Skeleton::build(avatar::default_skeleton_desc());
+  auto sk = rig::Skeleton::build(rig::default_skeleton_desc());
   ASSERT_TRUE(sk);
   VmcEncoder enc(*sk);
   std::vector<uint8_t> out;
@@ -296,7 +296,7 @@ TEST(Vmc, BundlesStayUnderTheMtuAndCloseWithOkAndTime) {
 
 // On the wire: one datagram per bundle, none over the limit.
 TEST(Vmc, DatagramsOnLoopbackStayUnderTheLimit) {
-  auto sk = avatar::Skeleton::build(avatar::default_skeleton_desc());
+  auto sk = rig::Skeleton::build(rig::default_skeleton_desc());
   ASSERT_TRUE(sk);
   const int fd = ::socket(AF_INET, SOCK_DGRAM, 0);
   sockaddr_in a{};

@@ -17,10 +17,10 @@ using test::vrpn::Client;
 
 struct Fixture {
   std::unique_ptr<VrpnServer> server;
-  avatar::Skeleton skeleton;
-  avatar::Pose pose;
-  std::vector<avatar::RigidTransform> world_from_joint;
-  Fixture() : skeleton(*avatar::Skeleton::build(avatar::default_skeleton_desc())) {
+  rig::Skeleton skeleton;
+  rig::Pose pose;
+  std::vector<rig::RigidTransform> world_from_joint;
+  Fixture() : skeleton(*rig::Skeleton::build(rig::default_skeleton_desc())) {
     auto s = VrpnServer::create("127.0.0.1:0");
     EXPECT_TRUE(s) << s.error().what();
     server = std::move(*s);
@@ -29,7 +29,7 @@ struct Fixture {
     pose.root_position_m = {0.5f, 0.95f, -1.25f};
     pose.dof_rad[size_t(skeleton.find_dof("l_elbow_flexion"))] = 1.0f;
     world_from_joint.resize(size_t(skeleton.joint_count()));
-    avatar::forward_kinematics(skeleton, pose, world_from_joint);
+    rig::forward_kinematics(skeleton, pose, world_from_joint);
   }
   std::function<void()> poll() {
     return [this] { server->poll(); };
@@ -131,7 +131,7 @@ TEST(VrpnServer, RefusesBadCookiesAndMalformedRequests) {
 
 // docs/vrpn.md lists Avatar<i>'s sensor numbers for the default skeleton: keep it true.
 TEST(VrpnServer, DocumentedSensorOrderOfTheDefaultSkeleton) {
-  const auto s = *avatar::Skeleton::build(avatar::default_skeleton_desc());
+  const auto s = *rig::Skeleton::build(rig::default_skeleton_desc());
   const std::vector<std::string> documented = {
       "pelvis",      "spine_lower", "l_hip",      "r_hip",      "spine_mid",  "l_knee",     "r_knee",  "spine_upper",
       "l_ankle",     "r_ankle",     "neck",       "l_clavicle", "r_clavicle", "l_toes",     "r_toes",  "neck_upper",

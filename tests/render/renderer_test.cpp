@@ -68,8 +68,8 @@ TEST_F(RendererTest, TheBodyCoversItsProjectionAndNothingElse) {
   const avatar::BodyModel model = avatar::default_body_model();
   auto lods = render::AvatarLods::create(model, nullptr, *renderer_);
   ASSERT_TRUE(lods) << lods.error().what();
-  avatar::Pose pose = lods->skeleton().rest_pose();
-  pose.root_position_m = {0.3f, avatar::standing_root_height_m(lods->skeleton()), -0.5f};
+  rig::Pose pose = lods->skeleton().rest_pose();
+  pose.root_position_m = {0.3f, rig::standing_root_height_m(lods->skeleton()), -0.5f};
   for (int lod = 0; lod < lods->count(); ++lod) {
     const render::MeshId mesh = lods->update(lod, pose, *renderer_);
     render::FrameDesc frame;
@@ -106,8 +106,8 @@ TEST_F(RendererTest, XrayLinesShowThroughTheBodyAndDepthTestedLinesDoNot) {
   const avatar::BodyModel model = avatar::default_body_model();
   auto lods = render::AvatarLods::create(model, nullptr, *renderer_);
   ASSERT_TRUE(lods);
-  avatar::Pose pose = lods->skeleton().rest_pose();
-  pose.root_position_m.y = avatar::standing_root_height_m(lods->skeleton());
+  rig::Pose pose = lods->skeleton().rest_pose();
+  pose.root_position_m.y = rig::standing_root_height_m(lods->skeleton());
   const render::MeshId mesh = lods->update(2, pose, *renderer_);
   render::FrameDesc frame;
   frame.width_px = kW;
@@ -185,7 +185,7 @@ TEST(Overlays, ParseNamesAndMeasureMuscles) {
   EXPECT_FALSE(render::parse_overlays("skeleton,bones", mask));
   avatar::Deformation d;
   d.falloff = avatar::Falloff::parabolic;
-  avatar::Dof dof;
+  rig::Dof dof;
   dof.min_rad = -1.0f;
   dof.max_rad = 2.0f;
   dof.rest_rad = 0.0f;

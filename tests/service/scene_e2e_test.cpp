@@ -120,7 +120,7 @@ TEST(SceneE2e, BodiesOfEverySizeStandOnTheFloor) {
     auto model = mimic::avatar::body_model_from_json(a.model_bytes);
     ASSERT_TRUE(model) << model.error().what();
     names.push_back(model->name);
-    auto skeleton = mimic::avatar::Skeleton::build(model->skeleton);
+    auto skeleton = mimic::rig::Skeleton::build(model->skeleton);
     ASSERT_TRUE(skeleton);
     auto skin = mimic::avatar::BodySkin::create(*model, *skeleton);
     ASSERT_TRUE(skin) << skin.error().what();

@@ -11,7 +11,7 @@
 #include <filesystem>
 #include <string>
 
-#include "mimic/avatar/motion.h"
+#include "mimic/rig/motion.h"
 #include "mimic/sim/log.h"
 #include "run_mimic.h"
 
@@ -55,9 +55,9 @@ TEST(SolveLog, ARecordedWalkSolvesFrameByFrameLikeTheMotion) {
   ASSERT_TRUE(contents) << contents.error().what();
   ASSERT_FALSE(contents->samples.empty());
   const double t0_s = contents->samples.front().device_time_s;
-  auto motion = avatar::make_builtin_motion("walk", take->skeleton);
+  auto motion = rig::make_builtin_motion("walk", take->skeleton);
   ASSERT_TRUE(motion);
-  avatar::Pose truth = take->skeleton.zero_pose();
+  rig::Pose truth = take->skeleton.zero_pose();
   float worst_m = 0;
   for (size_t k = 10; k < take->poses.size(); ++k) {
     (*motion)->sample(t0_s + take->times_s[k], truth);

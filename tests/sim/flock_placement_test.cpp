@@ -6,8 +6,8 @@
 
 #include <gtest/gtest.h>
 
-#include "mimic/avatar/motion.h"
-#include "mimic/avatar/skeleton.h"
+#include "mimic/rig/motion.h"
+#include "mimic/rig/skeleton.h"
 #include "mimic/sim/sensor_rig.h"
 
 namespace {
@@ -17,11 +17,11 @@ using mimic::sim::place_flock_transmitter;
 // Every sample of a full lap of a motion, in the placed transmitter's frame.
 std::vector<glm::vec3> lap_in_transmitter_frame(const char* motion_name, const char* layout, glm::vec3* placed,
                                                 double* needed_m) {
-  auto skeleton = mimic::avatar::Skeleton::build(mimic::avatar::default_skeleton_desc());
+  auto skeleton = mimic::rig::Skeleton::build(mimic::rig::default_skeleton_desc());
   EXPECT_TRUE(skeleton);
-  auto motion = mimic::avatar::make_builtin_motion(motion_name, *skeleton);
+  auto motion = mimic::rig::make_builtin_motion(motion_name, *skeleton);
   EXPECT_TRUE(motion);
-  std::shared_ptr<const mimic::avatar::Motion> shared = std::move(*motion);
+  std::shared_ptr<const mimic::rig::Motion> shared = std::move(*motion);
   mimic::sim::RigConfig rc;
   rc.sensors = *mimic::sim::make_layout(layout, shared->skeleton());
   rc.rate_hz = 50;

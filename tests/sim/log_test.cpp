@@ -1,3 +1,4 @@
+#include "mimic/core/crc32.h"
 #include "mimic/sim/log.h"
 
 #include <unistd.h>
@@ -12,7 +13,7 @@
 
 #include <gtest/gtest.h>
 
-#include "alloc_counter.h"
+#include "mimic/core/alloc_counter.h"
 #include "mimic/core/file.h"
 #include "mimic/sim/sensor_rig.h"
 #include "test_data.h"
@@ -103,14 +104,6 @@ void expect_same_header(const LogHeader& a, const LogHeader& b) {
   }
 }
 
-TEST(Crc32, MatchesTheStandardCheckValue) {
-  const char* text = "123456789";
-  EXPECT_EQ(crc32(std::span<const uint8_t>(reinterpret_cast<const uint8_t*>(text), 9)), 0xCBF43926u);
-  // Incremental use gives the same result.
-  const uint32_t part = crc32(std::span<const uint8_t>(reinterpret_cast<const uint8_t*>(text), 4));
-  EXPECT_EQ(crc32(std::span<const uint8_t>(reinterpret_cast<const uint8_t*>(text) + 4, 5), part), 0xCBF43926u);
-}
-
 TEST(LogWriter, RoundTripIsBitExact) {
   const std::string path = temp_path("round_trip.mlog");
   const LogHeader header = sample_header();
@@ -173,12 +166,12 @@ TEST(LogWriter, HeaderIsOnDiskAtOnceAndRecordsFollowOnFlush) {
   EXPECT_NE(log->damage->reason.find("without an end record"), std::string::npos);
 
   SensorSample s;
-  const size_t before = test::allocation_count();
+  const uint64_t before = thread_allocation_count();
   for (int i = 0; i < 40; ++i) {  // 0.39 s of host time: below the flush interval
     s.host_time_s = 10.0 + i * 0.01;
     ASSERT_TRUE(w.append(s));
   }
-  EXPECT_EQ(test::allocation_count(), before) << "append allocated";
+  EXPECT_EQ(thread_allocation_count(), before) << "append allocated";
   EXPECT_EQ(read_log(path)->samples.size(), 0u);
   s.host_time_s = 10.5;
   ASSERT_TRUE(w.append(s));  // half a second after the first: due

@@ -7,7 +7,7 @@
 
 #include <gtest/gtest.h>
 
-#include "alloc_counter.h"
+#include "mimic/core/alloc_counter.h"
 #include "mimic/core/file.h"
 
 namespace mimic::sim {
@@ -207,12 +207,12 @@ TEST(ReplaySource, EmptyLogFinishesAtOnceAndPollNeverAllocates) {
   o.loop = true;
   auto src = make(ten_ticks(), o, clock);
   ASSERT_TRUE(src->start());
-  const size_t before = test::allocation_count();
+  const uint64_t before = thread_allocation_count();
   for (int i = 0; i < 100; ++i) {
     clock->advance(0.05);
     src->poll(out);
   }
-  EXPECT_EQ(test::allocation_count(), before);
+  EXPECT_EQ(thread_allocation_count(), before);
 }
 
 }  // namespace

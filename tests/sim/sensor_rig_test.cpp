@@ -7,7 +7,7 @@
 
 #include <gtest/gtest.h>
 
-#include "alloc_counter.h"
+#include "mimic/core/alloc_counter.h"
 #include "test_motion.h"
 
 namespace mimic::sim {
@@ -15,7 +15,7 @@ namespace {
 
 using devices::SensorSample;
 
-RigConfig config_for(const std::string& layout, const avatar::Motion& motion) {
+RigConfig config_for(const std::string& layout, const rig::Motion& motion) {
   RigConfig c;
   c.sensors = make_layout(layout, motion.skeleton()).value();
   return c;
@@ -138,7 +138,7 @@ TEST(SensorRig, SensorsDrawFromIndependentStreams) {
 TEST(SensorRig, TruePoseIsForwardKinematicsComposedWithTheMount) {
   const auto motion = test::swing_motion();
   RigConfig c;
-  avatar::RigidTransform mount;
+  rig::RigidTransform mount;
   mount.rotation = glm::angleAxis(0.7f, glm::normalize(glm::vec3(1, 2, -1)));
   mount.translation = {0.03f, -0.05f, 0.1f};
   c.sensors = {{"forearm", "l_elbow", mount}, {"shin", "r_knee", mount}};
@@ -147,14 +147,14 @@ TEST(SensorRig, TruePoseIsForwardKinematicsComposedWithTheMount) {
   auto rig = SensorRig::create(motion, c).value();
 
   const auto& sk = motion->skeleton();
-  avatar::Pose pose = sk.zero_pose();
-  std::vector<avatar::RigidTransform> w(static_cast<size_t>(sk.joint_count()));
+  rig::Pose pose = sk.zero_pose();
+  std::vector<rig::RigidTransform> w(static_cast<size_t>(sk.joint_count()));
   std::vector<SensorSample> out(2);
   for (int k = 0; k < 200; ++k) {
     const double t = rig.step(out);
     EXPECT_DOUBLE_EQ(t, k / c.rate_hz);
     motion->sample(t, pose);
-    avatar::forward_kinematics(sk, pose, w);
+    rig::forward_kinematics(sk, pose, w);
     for (int i = 0; i < 2; ++i) {
       const auto& seg = w[static_cast<size_t>(sk.find_joint(c.sensors[i].segment))];
       const glm::vec3 expect_p = seg.apply(mount.translation);
@@ -329,9 +329,9 @@ TEST(SensorRig, StepNeverAllocates) {
   auto rig = SensorRig::create(motion, c).value();
   std::vector<SensorSample> out(c.sensors.size());
   rig.step(out);
-  const size_t before = test::allocation_count();
+  const uint64_t before = thread_allocation_count();
   for (int k = 0; k < 500; ++k) rig.step(out);
-  EXPECT_EQ(test::allocation_count(), before);
+  EXPECT_EQ(thread_allocation_count(), before);
 }
 
 }  // namespace
@@ -341,17 +341,17 @@ namespace mimic::sim {
 namespace {
 
 TEST(SensorRig, BuiltInWalkStepsWithoutAllocating) {
-  const auto skeleton = avatar::Skeleton::build(avatar::default_skeleton_desc()).value();
-  std::shared_ptr<const avatar::Motion> walk(avatar::make_builtin_motion("walk", skeleton).value());
+  const auto skeleton = rig::Skeleton::build(rig::default_skeleton_desc()).value();
+  std::shared_ptr<const rig::Motion> walk(rig::make_builtin_motion("walk", skeleton).value());
   RigConfig c;
   c.sensors = make_layout("11", skeleton).value();
   c.position_noise_mm = 1;
   auto rig = SensorRig::create(walk, c).value();
   std::vector<devices::SensorSample> out(11);
   rig.step(out);
-  const size_t before = test::allocation_count();
+  const uint64_t before = thread_allocation_count();
   for (int k = 0; k < 300; ++k) rig.step(out);
-  EXPECT_EQ(test::allocation_count(), before);
+  EXPECT_EQ(thread_allocation_count(), before);
 }
 
 }  // namespace

@@ -4,7 +4,7 @@
 
 #include <gtest/gtest.h>
 
-#include "alloc_counter.h"
+#include "mimic/core/alloc_counter.h"
 #include "test_motion.h"
 
 namespace mimic::sim {
@@ -54,14 +54,14 @@ TEST(SimSource, LatePollsGetEveryMissedTickInOrderAcrossSmallBuffers) {
   ASSERT_TRUE(source.start());
   clock->set(0.995);  // ticks 0..99 are due
   std::vector<SensorSample> buf(7), all(400);
-  const size_t before = test::allocation_count();
+  const uint64_t before = thread_allocation_count();
   size_t n;
   size_t total = 0;
   while ((n = source.poll(buf)) > 0) {
     ASSERT_LE(n, buf.size());
     for (size_t i = 0; i < n; ++i) all[total++] = buf[i];
   }
-  EXPECT_EQ(test::allocation_count(), before) << "poll allocated";
+  EXPECT_EQ(thread_allocation_count(), before) << "poll allocated";
   ASSERT_EQ(total, 300u);
 
   auto reference = make_rig(0.0);

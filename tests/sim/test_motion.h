@@ -8,18 +8,18 @@
 #include <memory>
 #include <string>
 
-#include "mimic/avatar/motion.h"
-#include "mimic/avatar/skeleton.h"
+#include "mimic/rig/motion.h"
+#include "mimic/rig/skeleton.h"
 
 namespace mimic::test {
 
-class SwingMotion final : public avatar::Motion {
+class SwingMotion final : public rig::Motion {
  public:
-  explicit SwingMotion(avatar::Skeleton skeleton) : skeleton_(std::move(skeleton)) {}
-  const avatar::Skeleton& skeleton() const override { return skeleton_; }
+  explicit SwingMotion(rig::Skeleton skeleton) : skeleton_(std::move(skeleton)) {}
+  const rig::Skeleton& skeleton() const override { return skeleton_; }
   double duration_s() const override { return 4.0; }
   bool loops() const override { return true; }
-  void sample(double t_s, avatar::Pose& out) const override {
+  void sample(double t_s, rig::Pose& out) const override {
     out.dof_rad.resize(static_cast<size_t>(skeleton_.dof_count()));  // no-op after the first call
     for (int i = 0; i < skeleton_.dof_count(); ++i) {
       const auto& d = skeleton_.dof(i);
@@ -34,11 +34,11 @@ class SwingMotion final : public avatar::Motion {
   std::string name() const override { return "swing"; }
 
  private:
-  avatar::Skeleton skeleton_;
+  rig::Skeleton skeleton_;
 };
 
-inline std::shared_ptr<const avatar::Motion> swing_motion() {
-  return std::make_shared<SwingMotion>(avatar::Skeleton::build(avatar::default_skeleton_desc()).value());
+inline std::shared_ptr<const rig::Motion> swing_motion() {
+  return std::make_shared<SwingMotion>(rig::Skeleton::build(rig::default_skeleton_desc()).value());
 }
 
 }  // namespace mimic::test

@@ -12,11 +12,11 @@
 namespace mimic::solver {
 namespace {
 
-using avatar::Pose;
-using avatar::RigidTransform;
-using avatar::Skeleton;
+using rig::Pose;
+using rig::RigidTransform;
+using rig::Skeleton;
 
-Skeleton default_skeleton() { return *Skeleton::build(avatar::default_skeleton_desc()); }
+Skeleton default_skeleton() { return *Skeleton::build(rig::default_skeleton_desc()); }
 
 struct Fixture {
   Skeleton skeleton = default_skeleton();
@@ -162,7 +162,7 @@ TEST(BodySolver, ThreeSensorsEstimateTheRootAndReachHandsAndHead) {
 struct HeadAndHands {
   Skeleton s = default_skeleton();
   std::vector<SensorMount> mounts = testing::mounts_for(*standard_layout("3", s), 0.0f, 5);
-  float standing_root_y = avatar::standing_root_height_m(s);
+  float standing_root_y = rig::standing_root_height_m(s);
   SolverModel model = make_model();
   SolverContext ctx{model};
 

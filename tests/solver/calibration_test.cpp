@@ -11,9 +11,9 @@
 namespace mimic::solver {
 namespace {
 
-using avatar::Pose;
-using avatar::RigidTransform;
-using avatar::Skeleton;
+using rig::Pose;
+using rig::RigidTransform;
+using rig::Skeleton;
 
 // A wearer 8 % taller than the default skeleton, standing in a T-pose with the arms 8° low (as
 // people do), turned 30° to the left.
@@ -21,12 +21,12 @@ struct Wearer {
   Skeleton skeleton;
   Pose pose;
   Wearer(float scale = 1.08f, float heading_deg = 30.0f) {
-    auto desc = avatar::default_skeleton_desc();
+    auto desc = rig::default_skeleton_desc();
     for (auto& j : desc.joints) j.offset_m *= scale, j.tip_m *= scale;
     skeleton = *Skeleton::build(desc);
     pose = skeleton.zero_pose();
     pose.root_orientation = glm::angleAxis(glm::radians(heading_deg), glm::vec3(0, 1, 0));
-    pose.root_position_m = {0.5f, avatar::standing_root_height_m(skeleton), -1.0f};
+    pose.root_position_m = {0.5f, rig::standing_root_height_m(skeleton), -1.0f};
     pose.dof_rad[skeleton.find_dof("l_shoulder_abduction")] = glm::radians(-8.0f);
     pose.dof_rad[skeleton.find_dof("r_shoulder_abduction")] = glm::radians(-8.0f);
   }
@@ -56,7 +56,7 @@ TEST(Calibration, RecoversKnownOffsetsFromASimulatedTPose) {
     const auto layout = *standard_layout(layout_name, w.skeleton);
     const auto mounts = testing::mounts_for(layout, glm::radians(40.0f), 17);  // straps askew by up to 40°
     const auto samples = capture(w, mounts, 100, 0.001f, glm::radians(0.5f));
-    auto cal = calibrate(avatar::default_skeleton_desc(), layout, samples);
+    auto cal = calibrate(rig::default_skeleton_desc(), layout, samples);
     ASSERT_TRUE(cal) << cal.error().what();
     ASSERT_EQ(cal->sensors.size(), mounts.size());
     EXPECT_NEAR(cal->heading_deg, 30.0f, 1.0f) << layout_name;
@@ -70,7 +70,7 @@ TEST(Calibration, RecoversKnownOffsetsFromASimulatedTPose) {
     }
     // The fitted skeleton has the wearer's limb lengths (within a centimetre or two).
     const Skeleton fitted = *Skeleton::build(cal->skeleton);
-    const auto truth = avatar::measure_proportions(w.skeleton), got = avatar::measure_proportions(fitted);
+    const auto truth = rig::measure_proportions(w.skeleton), got = rig::measure_proportions(fitted);
     EXPECT_NEAR(got.upper_arm_m + got.forearm_m, truth.upper_arm_m + truth.forearm_m, 0.02f) << layout_name;
     if (std::string(layout_name) != "3") {
       EXPECT_NEAR(got.thigh_m + got.shin_m, truth.thigh_m + truth.shin_m, 0.02f);
@@ -88,7 +88,7 @@ TEST(Calibration, TrunkLeaningBackLeavesTheArmsStraight) {
   const auto layout = *standard_layout("6", w.skeleton);
   const auto mounts = testing::mounts_for(layout, glm::radians(20.0f), 5);
   const auto samples = capture(w, mounts, 100, 0.001f, glm::radians(0.5f));
-  auto cal = calibrate(avatar::default_skeleton_desc(), layout, samples);
+  auto cal = calibrate(rig::default_skeleton_desc(), layout, samples);
   ASSERT_TRUE(cal) << cal.error().what();
   for (size_t i = 0; i < mounts.size(); ++i) {
     if (cal->sensors[i].segment.find("wrist") == std::string::npos) continue;
@@ -107,7 +107,7 @@ TEST(Calibration, CalibratedSolverReproducesTheStandingPose) {
   const auto layout = *standard_layout("11", w.skeleton);
   const auto mounts = testing::mounts_for(layout, glm::radians(30.0f), 3);
   const auto samples = capture(w, mounts, 50, 0.0f, 0.0f);
-  auto cal = calibrate(avatar::default_skeleton_desc(), layout, samples);
+  auto cal = calibrate(rig::default_skeleton_desc(), layout, samples);
   ASSERT_TRUE(cal) << cal.error().what();
   auto model = make_solver_model(*cal);
   ASSERT_TRUE(model) << model.error().what();
@@ -135,7 +135,7 @@ TEST(Calibration, RefusesAMissingSensorNamingIt) {
   auto mounts = testing::mounts_for(layout, 0.0f, 1);
   mounts.erase(mounts.begin() + 4);  // l_foot unplugged
   const auto samples = capture(w, mounts, 50, 0.0f, 0.0f);
-  auto cal = calibrate(avatar::default_skeleton_desc(), layout, samples);
+  auto cal = calibrate(rig::default_skeleton_desc(), layout, samples);
   ASSERT_FALSE(cal);
   EXPECT_NE(cal.error().message.find("l_foot"), std::string::npos) << cal.error().message;
   EXPECT_NE(cal.error().message.find("no data"), std::string::npos);
@@ -146,18 +146,18 @@ TEST(Calibration, RefusesAWearerWhoMoves) {
   const auto layout = *standard_layout("3", w.skeleton);
   const auto mounts = testing::mounts_for(layout, 0.0f, 1);
   const auto samples = capture(w, mounts, 100, 0.0f, 0.0f, 0.05f);  // swaying 5 cm
-  auto cal = calibrate(avatar::default_skeleton_desc(), layout, samples);
+  auto cal = calibrate(rig::default_skeleton_desc(), layout, samples);
   ASSERT_FALSE(cal);
   EXPECT_NE(cal.error().message.find("moved"), std::string::npos) << cal.error().message;
   // Noise alone is not motion.
-  EXPECT_TRUE(calibrate(avatar::default_skeleton_desc(), layout, capture(w, mounts, 100, 0.002f, glm::radians(1.0f))));
+  EXPECT_TRUE(calibrate(rig::default_skeleton_desc(), layout, capture(w, mounts, 100, 0.002f, glm::radians(1.0f))));
 }
 
 TEST(Calibration, JsonRoundTrip) {
   const Wearer w;
   const auto layout = *standard_layout("6", w.skeleton);
   const auto mounts = testing::mounts_for(layout, glm::radians(20.0f), 8);
-  auto cal = calibrate(avatar::default_skeleton_desc(), layout, capture(w, mounts, 20, 0.0f, 0.0f));
+  auto cal = calibrate(rig::default_skeleton_desc(), layout, capture(w, mounts, 20, 0.0f, 0.0f));
   ASSERT_TRUE(cal);
   const std::string text = calibration_to_json(*cal);
   auto back = calibration_from_json(text);
@@ -192,7 +192,7 @@ TEST(Calibration, MalformedJsonGivesAClearError) {
   EXPECT_NE(calibration_from_json("{\"format\":\"other\"}").error().message.find("format"), std::string::npos);
   const Wearer w;
   const auto layout = *standard_layout("3", w.skeleton);
-  auto cal = calibrate(avatar::default_skeleton_desc(), layout, capture(w, testing::mounts_for(layout, 0, 1), 10, 0, 0));
+  auto cal = calibrate(rig::default_skeleton_desc(), layout, capture(w, testing::mounts_for(layout, 0, 1), 10, 0, 0));
   ASSERT_TRUE(cal);
   std::string text = calibration_to_json(*cal);
   const auto at = text.find("\"rotation_wxyz\"");
@@ -227,7 +227,7 @@ namespace mimic::solver {
 namespace {
 
 TEST(TrackingSkeleton, UnmarkedJointsFollowTheMotionCaptureConvention) {
-  const avatar::SkeletonDesc base = avatar::default_skeleton_desc();
+  const rig::SkeletonDesc base = rig::default_skeleton_desc();
   const Skeleton s = *Skeleton::build(tracking_skeleton_desc(base));
   const Skeleton d = *Skeleton::build(base);
   ASSERT_EQ(s.joint_count(), d.joint_count());
@@ -263,7 +263,7 @@ void mid_link_calibration_places_the_wearers_joints(CalibrationPose calibration_
   w.skeleton = *Skeleton::build(desc);
   w.pose = w.skeleton.zero_pose();
   w.pose.root_orientation = glm::angleAxis(glm::radians(20.0f), glm::vec3(0, 1, 0));
-  w.pose.root_position_m = {0.3f, avatar::standing_root_height_m(w.skeleton), 0.7f};
+  w.pose.root_position_m = {0.3f, rig::standing_root_height_m(w.skeleton), 0.7f};
   if (calibration_pose == CalibrationPose::n_pose)
     for (const char* d : {"l_shoulder_abduction", "r_shoulder_abduction"})
       w.pose.dof_rad[w.skeleton.find_dof(d)] = glm::radians(-80.0f);

@@ -8,20 +8,20 @@
 #include <filesystem>
 
 #include "clip_eval.h"
-#include "mimic/avatar/bvh.h"
+#include "mimic/rig/bvh.h"
 #include "test_data.h"
 
 namespace mimic::solver {
 namespace {
 
-const avatar::RetargetedClip* load(const std::string& id) {
-  static std::map<std::string, std::unique_ptr<avatar::RetargetedClip>> cache;
+const rig::RetargetedClip* load(const std::string& id) {
+  static std::map<std::string, std::unique_ptr<rig::RetargetedClip>> cache;
   if (auto it = cache.find(id); it != cache.end()) return it->second.get();
-  auto bvh = avatar::load_bvh(test::clip_path(id));
+  auto bvh = rig::load_bvh(test::clip_path(id));
   if (!bvh) return nullptr;
-  auto r = avatar::retarget_bvh(*bvh);
+  auto r = rig::retarget_bvh(*bvh);
   if (!r) return nullptr;
-  return (cache[id] = std::make_unique<avatar::RetargetedClip>(std::move(*r))).get();
+  return (cache[id] = std::make_unique<rig::RetargetedClip>(std::move(*r))).get();
 }
 
 struct Bound {

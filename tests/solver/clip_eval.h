@@ -10,7 +10,7 @@
 #include <string>
 #include <vector>
 
-#include "mimic/avatar/retarget.h"
+#include "mimic/rig/retarget.h"
 #include "mimic/solver/body_solver.h"
 #include "mimic/solver/calibration.h"
 #include "mimic/solver/filters.h"
@@ -41,15 +41,15 @@ struct ClipEval {
   std::string error;  // empty on success
 };
 
-inline ClipEval evaluate_clip(const avatar::RetargetedClip& clip, const ClipEvalConfig& cfg) {
+inline ClipEval evaluate_clip(const rig::RetargetedClip& clip, const ClipEvalConfig& cfg) {
   ClipEval out;
-  const avatar::Skeleton& truth = clip.skeleton;
+  const rig::Skeleton& truth = clip.skeleton;
   // Where the straps really are (the wearer's own links) and where the calibration is told they
   // are (the instructions, drawn on the tracking skeleton).
   auto worn = standard_layout(cfg.layout, truth);
   if (!worn) return {{}, worn.error().what()};
   const auto mounts = mounts_for(*worn, glm::radians(cfg.mount_tilt_deg), cfg.seed);
-  auto layout = standard_layout(cfg.layout, *avatar::Skeleton::build(tracking_skeleton_desc()));
+  auto layout = standard_layout(cfg.layout, *rig::Skeleton::build(tracking_skeleton_desc()));
   if (!layout) return {{}, layout.error().what()};
   std::mt19937_64 rng(cfg.seed);
   const float noise_m = cfg.noise_mm / 1000.0f, noise_rad = glm::radians(cfg.noise_deg);
@@ -69,9 +69,9 @@ inline ClipEval evaluate_clip(const avatar::RetargetedClip& clip, const ClipEval
   SensorFilterConfig fc = cfg.filter_config;
   fc.enabled = cfg.filter;
   SensorFilterBank filters(static_cast<int>(mounts.size()), fc);
-  avatar::Pose pose = model->skeleton().zero_pose();
+  rig::Pose pose = model->skeleton().zero_pose();
   PoseErrorAccumulator acc(truth, model->skeleton());
-  std::vector<avatar::RigidTransform> wt(truth.joint_count()), ws(model->skeleton().joint_count());
+  std::vector<rig::RigidTransform> wt(truth.joint_count()), ws(model->skeleton().joint_count());
   const int last = cfg.max_frames < 0 ? static_cast<int>(clip.poses.size())
                                       : std::min<int>(static_cast<int>(clip.poses.size()), cfg.first_frame + cfg.max_frames * cfg.stride);
   for (int f = cfg.first_frame; f < last; f += cfg.stride) {
@@ -86,8 +86,8 @@ inline ClipEval evaluate_clip(const avatar::RetargetedClip& clip, const ClipEval
     SolveJob job{model.get(), tick, ctx.get(), &pose};
     job.Run();
     const auto t1 = std::chrono::steady_clock::now();
-    avatar::forward_kinematics(truth, clip.poses[f], wt);
-    avatar::forward_kinematics(model->skeleton(), pose, ws);
+    rig::forward_kinematics(truth, clip.poses[f], wt);
+    rig::forward_kinematics(model->skeleton(), pose, ws);
     acc.add(wt, ws, std::chrono::duration<double, std::micro>(t1 - t0).count());
   }
   out.report = acc.report();

@@ -13,13 +13,13 @@
 namespace mimic::solver {
 namespace {
 
-using avatar::Pose;
-using avatar::Skeleton;
+using rig::Pose;
+using rig::Skeleton;
 
 // The default skeleton with its limbs re-proportioned: long thighs and forearms, short shins and
 // upper arms, the way no stand-still can tell.
 Skeleton wearer_skeleton() {
-  auto desc = avatar::default_skeleton_desc();
+  auto desc = rig::default_skeleton_desc();
   for (auto& j : desc.joints) {
     const float k = j.name == "l_knee" || j.name == "r_knee"     ? 1.12f
                     : j.name == "l_ankle" || j.name == "r_ankle" ? 0.88f
@@ -46,7 +46,7 @@ TEST(LimbRefinement, FindsTheElbowAndKneeTheStandStillCouldNotSee) {
   const auto layout = *standard_layout("11", truth);
   const auto mounts = testing::mounts_for(layout, glm::radians(20.0f), 3);
   // The model the stand-still gave: right hands and feet, default split of each limb.
-  auto model = *SolverModel::create(*Skeleton::build(avatar::default_skeleton_desc()), mounts);
+  auto model = *SolverModel::create(*Skeleton::build(rig::default_skeleton_desc()), mounts);
   LimbLengthEstimator est(model);
   EXPECT_EQ(est.observable_count(), 4);
   std::mt19937_64 noise(9);
@@ -74,7 +74,7 @@ TEST(LimbRefinement, KeepsTheCalibrationWhenTheLimbsNeverBend) {
   const Skeleton truth = wearer_skeleton();
   const auto layout = *standard_layout("11", truth);
   const auto mounts = testing::mounts_for(layout, 0.0f, 3);
-  auto model = *SolverModel::create(*Skeleton::build(avatar::default_skeleton_desc()), mounts);
+  auto model = *SolverModel::create(*Skeleton::build(rig::default_skeleton_desc()), mounts);
   const float before = length_of(model.skeleton(), "l_knee");
   LimbLengthEstimator est(model);
   std::mt19937_64 noise(1);
@@ -112,7 +112,7 @@ TEST(JointCentres, RecoverEveryJointFromOneSensorPerSegment) {
   const auto mounts = testing::mounts_for(layout, glm::radians(20.0f), 4);
   // A calibration that put every joint somewhere else: the default skeleton, mounts 3 cm off.
   Calibration cal;
-  cal.skeleton = avatar::default_skeleton_desc();
+  cal.skeleton = rig::default_skeleton_desc();
   for (const auto& m : mounts) {
     SensorCalibration sc{m.sensor, m.segment, m.segment, m.segment_from_sensor};
     sc.segment_from_sensor.translation += glm::vec3(0.03f, -0.02f, 0.01f);
@@ -148,7 +148,7 @@ TEST(JointCentres, RecoverEveryJointFromOneSensorPerSegment) {
   auto mean_error = [&](const SolverModel& sm) {
     SolverContext ctx(sm);
     Pose pose = sm.skeleton().zero_pose();
-    std::vector<avatar::RigidTransform> wt(truth.joint_count()), ws(sm.skeleton().joint_count());
+    std::vector<rig::RigidTransform> wt(truth.joint_count()), ws(sm.skeleton().joint_count());
     double sum = 0;
     int n = 0;
     for (size_t i = 0; i < 200; ++i) {
@@ -157,8 +157,8 @@ TEST(JointCentres, RecoverEveryJointFromOneSensorPerSegment) {
         SolveJob job{&sm, tick, &ctx, &pose};
         EXPECT_TRUE(job.Run());
       }
-      avatar::forward_kinematics(truth, poses[i], wt);
-      avatar::forward_kinematics(sm.skeleton(), pose, ws);
+      rig::forward_kinematics(truth, poses[i], wt);
+      rig::forward_kinematics(sm.skeleton(), pose, ws);
       for (int j = 0; j < truth.joint_count(); ++j) sum += glm::length(wt[j].translation - ws[j].translation), ++n;
     }
     return sum / n;
@@ -169,10 +169,10 @@ TEST(JointCentres, RecoverEveryJointFromOneSensorPerSegment) {
 }
 
 TEST(JointCentres, WithoutNeighbouringSensorsThereIsNothingToRefine) {
-  const Skeleton s = *Skeleton::build(avatar::default_skeleton_desc());
+  const Skeleton s = *Skeleton::build(rig::default_skeleton_desc());
   for (const char* name : {"3", "6"}) {
     Calibration cal;
-    cal.skeleton = avatar::default_skeleton_desc();
+    cal.skeleton = rig::default_skeleton_desc();
     for (const auto& m : testing::mounts_for(*standard_layout(name, s), 0.0f, 1))
       cal.sensors.push_back({m.sensor, m.segment, m.segment, m.segment_from_sensor});
     JointCentreEstimator est(cal);
@@ -189,7 +189,7 @@ TEST(ModelRefiner, RebuildsOnScheduleAndKeepsSolving) {
   const auto layout = *standard_layout("all", truth);
   const auto mounts = testing::mounts_for(layout, glm::radians(10.0f), 8);
   Calibration cal;
-  cal.skeleton = avatar::default_skeleton_desc();
+  cal.skeleton = rig::default_skeleton_desc();
   for (const auto& m : mounts) cal.sensors.push_back({m.sensor, m.segment, m.segment, m.segment_from_sensor});
   auto model = std::make_unique<SolverModel>(*make_solver_model(cal));
   ModelRefiner refiner(cal, *model, 100.0);
@@ -216,7 +216,7 @@ TEST(ModelRefiner, RefinedCalibrationCarriesTheLimbLengths) {
   const Skeleton truth = wearer_skeleton();
   const auto mounts = testing::mounts_for(*standard_layout("11", truth), glm::radians(10.0f), 4);
   Calibration cal;
-  cal.skeleton = avatar::default_skeleton_desc();
+  cal.skeleton = rig::default_skeleton_desc();
   for (const auto& m : mounts) cal.sensors.push_back({m.sensor, m.segment, m.segment, m.segment_from_sensor});
   auto model = *make_solver_model(cal);
   ModelRefiner refiner(cal, model, 100.0);

@@ -8,11 +8,11 @@
 namespace mimic::solver {
 namespace {
 
-using avatar::Pose;
-using avatar::RigidTransform;
-using avatar::Skeleton;
+using rig::Pose;
+using rig::RigidTransform;
+using rig::Skeleton;
 
-Skeleton default_skeleton() { return *Skeleton::build(avatar::default_skeleton_desc()); }
+Skeleton default_skeleton() { return *Skeleton::build(rig::default_skeleton_desc()); }
 
 std::vector<int> dofs_of(const Skeleton& s, std::initializer_list<const char*> joints) {
   std::vector<int> out;

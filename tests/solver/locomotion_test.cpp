@@ -6,24 +6,24 @@
 #include <cstdio>
 #include <random>
 
-#include "mimic/avatar/motion.h"
+#include "mimic/rig/motion.h"
 #include "mimic/solver/body_solver.h"
 #include "synthetic_sensors.h"
 
 namespace mimic::solver {
 namespace {
 
-using avatar::Pose;
-using avatar::RigidTransform;
-using avatar::Skeleton;
+using rig::Pose;
+using rig::RigidTransform;
+using rig::Skeleton;
 
 constexpr double kRateHz = 120.0;
 
 // A wearer with the given layout (straps square), standing height known, as after calibration.
 struct Wearer {
-  Skeleton s = *Skeleton::build(avatar::default_skeleton_desc());
+  Skeleton s = *Skeleton::build(rig::default_skeleton_desc());
   std::vector<SensorMount> mounts;
-  float standing_root_y = avatar::standing_root_height_m(s);
+  float standing_root_y = rig::standing_root_height_m(s);
   SolverModel model;
   SolverContext ctx;
   Pose solved = s.zero_pose();
@@ -48,7 +48,7 @@ struct Wearer {
         if (smp.sensor == id) smp.flags = 0;
     SolveJob job{&model, samples, &ctx, &solved};
     ASSERT_TRUE(job.Run());
-    avatar::forward_kinematics(s, solved, world);
+    rig::forward_kinematics(s, solved, world);
     ++frame;
   }
   glm::vec3 ankle(int leg) const { return world[s.find_joint(leg == 0 ? "l_ankle" : "r_ankle")].translation; }
@@ -60,7 +60,7 @@ struct Wearer {
   glm::vec3 ball(int leg) const { return world[s.find_joint(leg == 0 ? "l_toes" : "r_toes")].translation; }
   float floor_ankle_y() const {
     std::vector<RigidTransform> w(s.joint_count());
-    avatar::forward_kinematics(s, s.zero_pose(), w);
+    rig::forward_kinematics(s, s.zero_pose(), w);
     return standing_root_y - (w[0].translation.y - w[s.find_joint("l_ankle")].translation.y);
   }
   // Lowest point of either foot: ankle, toes, toe tip.
@@ -119,7 +119,7 @@ TEST(Locomotion, TurningInPlaceSteps) {
 // feet never cross.
 TEST(Locomotion, WalkingFeetStepStayPlantedAndAboveTheFloor) {
   Wearer w("3");
-  auto walk = avatar::make_builtin_motion("walk", w.s);
+  auto walk = rig::make_builtin_motion("walk", w.s);
   ASSERT_TRUE(walk.has_value());
   Pose truth = w.s.zero_pose();
   const float floor_y = w.floor_ankle_y();
@@ -167,7 +167,7 @@ TEST(Locomotion, WalkingFeetStepStayPlantedAndAboveTheFloor) {
 // limits may keep the chain a few millimetres off a planted target).
 TEST(Locomotion, AFootWhoseSensorIsLostSteps) {
   Wearer w("6");
-  auto walk = avatar::make_builtin_motion("walk", w.s);
+  auto walk = rig::make_builtin_motion("walk", w.s);
   ASSERT_TRUE(walk.has_value());
   uint16_t l_foot = 0;
   const auto layout = standard_layout("6", w.s);

@@ -1,34 +1,19 @@
 // The realtime path never allocates: filtering and solving a frame, for every layout, counted
-// by replacing the global allocation functions in this test binary.
+// by the allocation counter this test binary links (mimic/core/alloc_counter.h).
 #include <gtest/gtest.h>
 
-#include <atomic>
-#include <cstdlib>
-#include <new>
 #include <random>
 
+#include "mimic/core/alloc_counter.h"
 #include "mimic/solver/filters.h"
 #include "mimic/solver/steering.h"
 #include "synthetic_sensors.h"
-
-namespace {
-std::atomic<bool> g_counting{false};
-std::atomic<long> g_allocations{0};
-}  // namespace
-
-void* operator new(std::size_t n) {
-  if (g_counting.load(std::memory_order_relaxed)) g_allocations.fetch_add(1, std::memory_order_relaxed);
-  if (void* p = std::malloc(n == 0 ? 1 : n)) return p;
-  throw std::bad_alloc();
-}
-void operator delete(void* p) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t) noexcept { std::free(p); }
 
 namespace mimic::solver {
 namespace {
 
 TEST(NoAllocation, FilterAndSolveFramesForEveryLayout) {
-  const avatar::Skeleton s = *avatar::Skeleton::build(avatar::default_skeleton_desc());
+  const rig::Skeleton s = *rig::Skeleton::build(rig::default_skeleton_desc());
   for (const char* name : {"3", "6", "11", "all"}) {
     const auto layout = *standard_layout(name, s);
     const auto mounts = testing::mounts_for(layout, 0.3f, 4);
@@ -39,18 +24,17 @@ TEST(NoAllocation, FilterAndSolveFramesForEveryLayout) {
     std::mt19937_64 rng(5);
     std::vector<std::vector<devices::SensorSample>> frames;
     std::vector<devices::SensorSample> tick;
-    const avatar::Pose a = testing::random_pose(s, rng, 0.4f), b = testing::random_pose(s, rng, 0.4f);
+    const rig::Pose a = testing::random_pose(s, rng, 0.4f), b = testing::random_pose(s, rng, 0.4f);
     for (int k = 0; k < 30; ++k) {
-      avatar::Pose p = a;
+      rig::Pose p = a;
       for (int d = 0; d < s.dof_count(); ++d) p.dof_rad[d] += (b.dof_rad[d] - a.dof_rad[d]) * static_cast<float>(k) / 30.0f;
       testing::sense(s, p, mounts, tick, &rng, 0.001f, 0.01f, 0.01 * k);
       frames.push_back(tick);
     }
-    avatar::Pose pose = s.zero_pose();
+    rig::Pose pose = s.zero_pose();
     devices::InputFrame input;
     input.translation = {0.3f, 0, -0.5f};
-    g_allocations = 0;
-    g_counting = true;
+    const uint64_t before = thread_allocation_count();
     for (auto& f : frames) {
       filters.process(f);
       SolveJob job{&model, f, &ctx, &pose};
@@ -58,8 +42,7 @@ TEST(NoAllocation, FilterAndSolveFramesForEveryLayout) {
       steering.update(input, 0.01);
       steering.apply(pose);
     }
-    g_counting = false;
-    EXPECT_EQ(g_allocations.load(), 0) << "layout " << name;
+    EXPECT_EQ(thread_allocation_count() - before, 0u) << "layout " << name;
   }
 }
 

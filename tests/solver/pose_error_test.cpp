@@ -7,12 +7,12 @@
 namespace mimic::solver {
 namespace {
 
-using avatar::Pose;
-using avatar::RigidTransform;
-using avatar::Skeleton;
+using rig::Pose;
+using rig::RigidTransform;
+using rig::Skeleton;
 
 TEST(PoseError, IdenticalPosesHaveNoErrorAndToesAreLeftOut) {
-  const Skeleton s = *Skeleton::build(avatar::default_skeleton_desc());
+  const Skeleton s = *Skeleton::build(rig::default_skeleton_desc());
   PoseErrorAccumulator acc(s, s);
   std::vector<RigidTransform> w(s.joint_count());
   Pose p = s.zero_pose();
@@ -33,7 +33,7 @@ TEST(PoseError, IdenticalPosesHaveNoErrorAndToesAreLeftOut) {
 }
 
 TEST(PoseError, ShiftedAndTurnedBodyMeasuresTheShiftAndTheTurn) {
-  const Skeleton s = *Skeleton::build(avatar::default_skeleton_desc());
+  const Skeleton s = *Skeleton::build(rig::default_skeleton_desc());
   PoseErrorAccumulator acc(s, s);
   std::vector<RigidTransform> wt(s.joint_count()), ws(s.joint_count());
   Pose truth = s.zero_pose();
@@ -55,7 +55,7 @@ TEST(PoseError, ShiftedAndTurnedBodyMeasuresTheShiftAndTheTurn) {
 }
 
 TEST(PoseError, JitterIsTheSecondDifference) {
-  const Skeleton s = *Skeleton::build(avatar::default_skeleton_desc());
+  const Skeleton s = *Skeleton::build(rig::default_skeleton_desc());
   PoseErrorAccumulator acc(s, s);
   std::vector<RigidTransform> wt(s.joint_count()), ws(s.joint_count());
   Pose p = s.zero_pose();
@@ -73,7 +73,7 @@ TEST(PoseError, JitterIsTheSecondDifference) {
 // A solved body that follows the truth two samples late measures a lag of two samples, and one
 // on time measures none.
 TEST(PoseError, LagIsTheDelayBehindTheTruth) {
-  const Skeleton s = *Skeleton::build(avatar::default_skeleton_desc());
+  const Skeleton s = *Skeleton::build(rig::default_skeleton_desc());
   constexpr double kRate = 100.0;
   for (const int delay : {0, 2}) {
     PoseErrorAccumulator acc(s, s);

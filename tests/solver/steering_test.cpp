@@ -15,8 +15,8 @@ devices::InputFrame frame(glm::vec3 t, glm::vec3 r = glm::vec3(0.0f), uint32_t b
   return f;
 }
 
-avatar::Pose standing_at(glm::vec3 p) {
-  avatar::Pose pose;
+rig::Pose standing_at(glm::vec3 p) {
+  rig::Pose pose;
   pose.root_position_m = p;
   return pose;
 }
@@ -42,7 +42,7 @@ TEST(Steering, PushingAwayWalksForwardAtTheConfiguredSpeed) {
   for (int k = 0; k < 50; ++k) s.update(frame({0, 0, -1}), 0.02);  // 1 s at full deflection
   EXPECT_NEAR(s.offset_m().z, 2.0f, 1e-4f);  // the avatar faces +Z
   EXPECT_NEAR(s.offset_m().x, 0.0f, 1e-6f);
-  avatar::Pose p = standing_at({1, 0.9f, 1});
+  rig::Pose p = standing_at({1, 0.9f, 1});
   s.apply(p);
   EXPECT_NEAR(p.root_position_m.z, 3.0f, 1e-4f);
   EXPECT_NEAR(p.root_position_m.y, 0.9f, 1e-6f);  // no vertical motion unless enabled
@@ -58,7 +58,7 @@ TEST(Steering, TwistingTurnsInPlaceAndWalkingFollowsTheHeading) {
   c.exponent = 1.0f;
   c.dead_zone = 0.0f;
   Steering s(c);
-  avatar::Pose p = standing_at({2, 0.9f, -1});
+  rig::Pose p = standing_at({2, 0.9f, -1});
   s.apply(p);  // latch the pivot where the wearer stands
   for (int k = 0; k < 100; ++k) s.update(frame({0, 0, 0}, {0, 1, 0}), 0.01);  // 1 s: a quarter turn left
   EXPECT_NEAR(s.heading_rad(), glm::radians(90.0f), 1e-4f);

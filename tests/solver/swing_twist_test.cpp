@@ -8,9 +8,9 @@
 namespace mimic::solver {
 namespace {
 
-using avatar::Skeleton;
+using rig::Skeleton;
 
-Skeleton default_skeleton() { return *Skeleton::build(avatar::default_skeleton_desc()); }
+Skeleton default_skeleton() { return *Skeleton::build(rig::default_skeleton_desc()); }
 
 float quat_angle_deg(glm::quat a, glm::quat b) {
   const glm::quat d = glm::normalize(a) * glm::conjugate(glm::normalize(b));

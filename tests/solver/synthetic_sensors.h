@@ -5,7 +5,7 @@
 #include <random>
 #include <vector>
 
-#include "mimic/avatar/skeleton.h"
+#include "mimic/rig/skeleton.h"
 #include "mimic/devices/sample.h"
 #include "mimic/solver/body_solver.h"
 #include "mimic/solver/sensor_layout.h"
@@ -31,15 +31,15 @@ inline std::vector<SensorMount> mounts_for(const SensorLayout& layout, float til
   return out;
 }
 
-inline void sense(const avatar::Skeleton& s, const avatar::Pose& pose, const std::vector<SensorMount>& mounts,
+inline void sense(const rig::Skeleton& s, const rig::Pose& pose, const std::vector<SensorMount>& mounts,
                   std::vector<devices::SensorSample>& out, std::mt19937_64* noise = nullptr,
                   float noise_m = 0, float noise_rad = 0, double t_s = 0) {
-  std::vector<avatar::RigidTransform> w(s.joint_count());
-  avatar::forward_kinematics(s, pose, w);
+  std::vector<rig::RigidTransform> w(s.joint_count());
+  rig::forward_kinematics(s, pose, w);
   out.clear();
   std::normal_distribution<float> n(0.0f, 1.0f);
   for (const auto& m : mounts) {
-    const avatar::RigidTransform ws = w[s.find_joint(m.segment)] * m.segment_from_sensor;
+    const rig::RigidTransform ws = w[s.find_joint(m.segment)] * m.segment_from_sensor;
     devices::SensorSample smp;
     smp.sensor = m.sensor;
     smp.device_time_s = smp.host_time_s = t_s;
@@ -56,9 +56,9 @@ inline void sense(const avatar::Skeleton& s, const avatar::Pose& pose, const std
 
 // DOFs drawn inside `fraction` of their limits around the relaxed value; the root turned and
 // moved somewhere in a room.
-inline avatar::Pose random_pose(const avatar::Skeleton& s, std::mt19937_64& rng, float fraction) {
+inline rig::Pose random_pose(const rig::Skeleton& s, std::mt19937_64& rng, float fraction) {
   std::uniform_real_distribution<float> u(0.0f, 1.0f);
-  avatar::Pose p = s.zero_pose();
+  rig::Pose p = s.zero_pose();
   for (int d = 0; d < s.dof_count(); ++d) {
     const auto& f = s.dof(d);
     const float lo = f.rest_rad + fraction * (f.min_rad - f.rest_rad);

@@ -11,12 +11,12 @@ BodySkin& BodySkin::operator=(BodySkin&&) noexcept = default;
 BodySkin::~BodySkin() = default;
 
 Result<BodySkin> BodySkin::create(const BodyModel& model, const SkinOptions& options) {
-  auto skeleton = Skeleton::build(model.skeleton);
+  auto skeleton = rig::Skeleton::build(model.skeleton);
   if (!skeleton) return tl::unexpected(skeleton.error());
   return create(model, *skeleton, options);
 }
 
-Result<BodySkin> BodySkin::create(const BodyModel& model, const Skeleton& skeleton, const SkinOptions& options) {
+Result<BodySkin> BodySkin::create(const BodyModel& model, const rig::Skeleton& skeleton, const SkinOptions& options) {
   if (auto st = validate(model); !st) return tl::unexpected(st.error());
   if (options.subdivision < 0 || options.subdivision > 16)
     return fail(Errc::invalid_argument, "subdivision must be in [0, 16]");
@@ -32,13 +32,13 @@ Result<BodySkin> BodySkin::create(const BodyModel& model, const Skeleton& skelet
   return skin;
 }
 
-void BodySkin::stage_fk(const Pose& pose) {
+void BodySkin::stage_fk(const rig::Pose& pose) {
   const auto t0 = Clock::now();
-  forward_kinematics(impl_->skeleton, pose, impl_->world_from_joint);
+  rig::forward_kinematics(impl_->skeleton, pose, impl_->world_from_joint);
   impl_->timings.fk_us = micros_since(t0);
 }
 
-void BodySkin::stage_deform(const Pose& pose) {
+void BodySkin::stage_deform(const rig::Pose& pose) {
   const auto t0 = Clock::now();
   impl_->field.update(impl_->world_from_joint, pose.dof_rad);
   for (Chain& c : impl_->chains) c.update(impl_->world_from_joint);
@@ -70,10 +70,10 @@ void BodySkin::stage_stitch() {
     pos[s.cap_vertex] = c / static_cast<float>(s.out_rows.back().size());
   }
   for (const RigidMesh& rm : m.rigid) {
-    const RigidTransform& w = m.world_from_joint[rm.joint];
+    const rig::RigidTransform& w = m.world_from_joint[rm.joint];
     for (size_t i = 0; i < rm.local.size(); ++i) pos[rm.first_vertex + i] = w.apply(rm.local[i]);
     if (rm.toe_joint < 0) continue;
-    const RigidTransform& toes = m.world_from_joint[rm.toe_joint];
+    const rig::RigidTransform& toes = m.world_from_joint[rm.toe_joint];
     for (size_t k = 0; k < rm.toe_vertex.size(); ++k) {
       glm::vec3& p = pos[rm.first_vertex + rm.toe_vertex[k]];
       p += rm.toe_weight[k] * (toes.apply(rm.toe_local[k]) - p);
@@ -87,7 +87,7 @@ void BodySkin::stage_stitch() {
   }
 }
 
-void BodySkin::evaluate(const Pose& pose) {
+void BodySkin::evaluate(const rig::Pose& pose) {
   stage_fk(pose);
   stage_deform(pose);
   stage_contours();
@@ -96,7 +96,7 @@ void BodySkin::evaluate(const Pose& pose) {
 }
 
 const Mesh& BodySkin::mesh() const { return impl_->mesh; }
-const Skeleton& BodySkin::skeleton() const { return impl_->skeleton; }
+const rig::Skeleton& BodySkin::skeleton() const { return impl_->skeleton; }
 const BodyField& BodySkin::field() const { return impl_->field; }
 const SkinTimings& BodySkin::timings() const { return impl_->timings; }
 const SkinStats& BodySkin::stats() const { return impl_->stats; }

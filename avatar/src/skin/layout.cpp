@@ -73,15 +73,15 @@ std::vector<float> resampled_angles(std::span<const float> a, int m) {
 // The forefoot of a rigid part whose joint has a child joint that moves (a foot and its toes):
 // each vertex's weight for the child, by how far ahead of the child's joint centre it lies
 // along the child's link, in the rest posture the part was sampled in.
-void bind_toes(RigidMesh& rm, const Skeleton& skeleton, std::span<const RigidTransform> world_from_joint) {
+void bind_toes(RigidMesh& rm, const rig::Skeleton& skeleton, std::span<const rig::RigidTransform> world_from_joint) {
   int child = -1;
   for (int j = 0; j < skeleton.joint_count() && child < 0; ++j)
     if (skeleton.parent(j) == rm.joint && skeleton.dof_end(j) > skeleton.dof_begin(j)) child = j;
   if (child < 0 || glm::length(skeleton.tip_m(child)) < 1e-4f) return;
-  const RigidTransform& part = world_from_joint[rm.joint];
-  const RigidTransform& toes = world_from_joint[child];
+  const rig::RigidTransform& part = world_from_joint[rm.joint];
+  const rig::RigidTransform& toes = world_from_joint[child];
   const glm::vec3 ahead = glm::normalize(toes.apply_vector(skeleton.tip_m(child)));
-  const RigidTransform toes_from_world = toes.inverse();
+  const rig::RigidTransform toes_from_world = toes.inverse();
   for (size_t i = 0; i < rm.local.size(); ++i) {
     const glm::vec3 p = part.apply(rm.local[i]);
     const float s = glm::dot(p - toes.translation, ahead);
@@ -145,8 +145,8 @@ Status BodySkin::Impl::build(const BodyModel& model) {
   }
 
   // Rest posture for measuring the layout.
-  const Pose zero = skeleton.zero_pose();
-  forward_kinematics(skeleton, zero, world_from_joint);
+  const rig::Pose zero = skeleton.zero_pose();
+  rig::forward_kinematics(skeleton, zero, world_from_joint);
   field.update(world_from_joint, zero.dof_rad);
   for (Chain& c : chains) c.update(world_from_joint);
 
@@ -393,7 +393,7 @@ Status BodySkin::Impl::build(const BodyModel& model) {
       glm::vec3 centre(0);
       for (uint16_t i : cand) centre += field.center(i);
       centre /= static_cast<float>(n);
-      const RigidTransform& w = world_from_joint[jnt];
+      const rig::RigidTransform& w = world_from_joint[jnt];
       const glm::vec3 axis = safe_normalize(w.apply_vector(skeleton.tip_m(jnt)), {0, 1, 0});
       const glm::vec3 front0 = std::abs(axis.z) < 0.9f ? glm::vec3(0, 0, 1) : glm::vec3(0, 1, 0);
       const glm::vec3 front = glm::normalize(front0 - glm::dot(front0, axis) * axis);
@@ -401,7 +401,7 @@ Status BodySkin::Impl::build(const BodyModel& model) {
       RigidMesh rm;
       rm.part = part;
       rm.joint = jnt;
-      const RigidTransform local_from_world = w.inverse();
+      const rig::RigidTransform local_from_world = w.inverse();
       auto sample = [&](const glm::vec3& d) {
         const RayHit h = field.cast_outermost(centre, d, cand);
         const glm::vec3 p = centre + (h.hit() ? h.t : kMissRadius_m) * d;

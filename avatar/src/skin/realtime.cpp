@@ -107,18 +107,18 @@ void measure_columns(const LayoutView& m, Data& d) {
 }
 
 // The bending DOF of a joint: of its DOFs, the one that bends the chain most over its range.
-int bending_dof(const Skeleton& skeleton, const Chain& chain_template, int joint, const Pose& base) {
+int bending_dof(const rig::Skeleton& skeleton, const Chain& chain_template, int joint, const rig::Pose& base) {
   Chain c = chain_template;
-  std::vector<RigidTransform> w(skeleton.joint_count());
+  std::vector<rig::RigidTransform> w(skeleton.joint_count());
   int best = -1;
   float best_bend = 0.05f;
   for (int i = 0; i < skeleton.dof_count(); ++i) {
-    const Dof& dof = skeleton.dof(i);
+    const rig::Dof& dof = skeleton.dof(i);
     if (dof.joint != joint) continue;
     for (float theta : {dof.min_rad, dof.max_rad}) {
-      Pose p = base;
+      rig::Pose p = base;
       p.dof_rad[i] = theta;
-      forward_kinematics(skeleton, p, w);
+      rig::forward_kinematics(skeleton, p, w);
       c.update(w);
       const float bend = chain_bend(c);
       if (bend > best_bend) best_bend = bend, best = i;
@@ -132,8 +132,8 @@ int bending_dof(const Skeleton& skeleton, const Chain& chain_template, int joint
 // within half a half-length and fading out beyond. Then, for bends sampled over the joint's
 // range, the scale that gives the joint zone (joint_zone.h) the volume it has in the initial
 // pose, found by the secant method on the realtime skin itself.
-Status calibrate_bands(const LayoutView& m, const Pose& base, Data& d) {
-  const Skeleton& sk = d.skeleton;
+Status calibrate_bands(const LayoutView& m, const rig::Pose& base, Data& d) {
+  const rig::Skeleton& sk = d.skeleton;
   for (const std::vector<int>& stars : limb_star_rings(m)) {
     const int chain = d.rings[stars.front()].chain;
     const Chain& c = m.chains[chain];
@@ -157,7 +157,7 @@ Status calibrate_bands(const LayoutView& m, const Pose& base, Data& d) {
 
     const int dof = bending_dof(sk, c, joint, base);
     if (dof < 0) continue;  // scale 1 throughout
-    const Dof& dd = sk.dof(dof);
+    const rig::Dof& dd = sk.dof(dof);
     const float theta_b = base.dof_rad[dof];
     const float theta_end = std::abs(dd.max_rad - theta_b) >= std::abs(dd.min_rad - theta_b) ? dd.max_rad : dd.min_rad;
     // The zone's two pieces, named as the surface's parts.
@@ -177,7 +177,7 @@ Status calibrate_bands(const LayoutView& m, const Pose& base, Data& d) {
       double v_rest = 0;
       float k = 1.0f;
       for (int i = 0; i < kSamples; ++i) {
-        Pose p = base;
+        rig::Pose p = base;
         p.dof_rad[dof] = theta_b + (theta_end - theta_b) * static_cast<float>(i) / (kSamples - 1);
         auto volume_at = [&](float scale) {
           st.band_scale_forced[band] = scale;
@@ -237,12 +237,12 @@ RealtimeBody::RealtimeBody(std::unique_ptr<Data> data) : data_(std::move(data)) 
 RealtimeBody::~RealtimeBody() = default;
 
 Result<std::shared_ptr<const RealtimeBody>> RealtimeBody::create(const BodyModel& model, const RealtimeOptions& options) {
-  auto skeleton = Skeleton::build(model.skeleton);
+  auto skeleton = rig::Skeleton::build(model.skeleton);
   if (!skeleton) return tl::unexpected(skeleton.error());
   return create(model, *skeleton, options);
 }
 
-Result<std::shared_ptr<const RealtimeBody>> RealtimeBody::create(const BodyModel& model, const Skeleton& skeleton,
+Result<std::shared_ptr<const RealtimeBody>> RealtimeBody::create(const BodyModel& model, const rig::Skeleton& skeleton,
                                                                  const RealtimeOptions& options) {
   if (options.lod < 0 || options.lod >= kSkinLodCount)
     return fail(Errc::out_of_range, "skin LOD must be in 0.." + std::to_string(kSkinLodCount - 1));
@@ -252,7 +252,7 @@ Result<std::shared_ptr<const RealtimeBody>> RealtimeBody::create(const BodyModel
   so.normals = true;
   auto skin = BodySkin::create(with_skin_lod(model, options.lod), skeleton, so);
   if (!skin) return tl::unexpected(skin.error());
-  const Pose base = options.initial_pose ? *options.initial_pose : skeleton.zero_pose();
+  const rig::Pose base = options.initial_pose ? *options.initial_pose : skeleton.zero_pose();
   if (base.dof_rad.size() != static_cast<size_t>(skeleton.dof_count()))
     return fail(Errc::invalid_argument, "initial pose has " + std::to_string(base.dof_rad.size()) +
                                             " DOF values, the skeleton " + std::to_string(skeleton.dof_count()));
@@ -361,7 +361,7 @@ Result<std::shared_ptr<const RealtimeBody>> RealtimeBody::create(const BodyModel
     if (!p.deformation) continue;
     const int dof = skeleton.find_dof(p.deformation->dof);
     if (dof < 0 || muscle_dof_of_dof[dof] >= 0) continue;
-    const Dof& sd = skeleton.dof(dof);
+    const rig::Dof& sd = skeleton.dof(dof);
     muscle_dof_of_dof[dof] = static_cast<int>(d->muscle_dofs.size());
     d->muscle_dofs.push_back({dof, sd.rest_rad, sd.min_rad, sd.max_rad, p.deformation->falloff});
   }
@@ -371,7 +371,7 @@ Result<std::shared_ptr<const RealtimeBody>> RealtimeBody::create(const BodyModel
   // joints at run time); only the primitives take their shape at θ, so a term is the muscle's
   // own change of shape, which superposes over DOFs and postures.
   auto measure_at = [&](int dof, float theta, std::vector<glm::vec3>& out) {
-    Pose p = base;
+    rig::Pose p = base;
     p.dof_rad[dof] = theta;
     skin->stage_fk(base);
     skin->stage_deform(p);
@@ -447,7 +447,7 @@ Result<std::shared_ptr<const RealtimeBody>> RealtimeBody::create(const BodyModel
   return std::shared_ptr<const RealtimeBody>(new RealtimeBody(std::move(d)));
 }
 
-const Skeleton& RealtimeBody::skeleton() const { return data_->skeleton; }
+const rig::Skeleton& RealtimeBody::skeleton() const { return data_->skeleton; }
 const Mesh& RealtimeBody::rest_mesh() const { return data_->rest_mesh; }
 std::span<const JointInfluences> RealtimeBody::weights() const { return data_->weights; }
 int RealtimeBody::lod() const { return data_->lod; }
@@ -521,7 +521,7 @@ size_t RealtimeSkin::instance_bytes() const { return sizeof(*this) + sizeof(Stat
 
 void RealtimeSkin::use_scalar_reference(bool scalar) { state_->vectorised = !scalar; }
 
-void RealtimeSkin::evaluate(const Pose& pose, std::span<glm::vec3> pos, std::span<glm::vec3> normals, bool muscles) {
+void RealtimeSkin::evaluate(const rig::Pose& pose, std::span<glm::vec3> pos, std::span<glm::vec3> normals, bool muscles) {
   const RealtimeBody::Data& d = body_->data();
   if (pos.size() < d.rest_mesh.positions.size() || pose.dof_rad.size() != static_cast<size_t>(d.skeleton.dof_count()))
     return;  // a caller's sizing error; documented sizes

@@ -19,7 +19,7 @@ void append(std::string& key, const glm::vec3& v) {
 
 // Everything the body is built from: the model's file form, the skeleton's joints, offsets,
 // tips and DOFs (a calibrated skeleton differs from the model's), and the options.
-std::string key_of(const BodyModel& model, const Skeleton& skeleton, const RealtimeOptions& options) {
+std::string key_of(const BodyModel& model, const rig::Skeleton& skeleton, const RealtimeOptions& options) {
   std::string key = to_json(model, false);
   key += '|';
   for (int j = 0; j < skeleton.joint_count(); ++j) {
@@ -27,7 +27,7 @@ std::string key_of(const BodyModel& model, const Skeleton& skeleton, const Realt
     append(key, skeleton.offset_m(j));
     append(key, skeleton.tip_m(j));
   }
-  for (const Dof& d : skeleton.dofs()) {
+  for (const rig::Dof& d : skeleton.dofs()) {
     key += d.name + ":" + std::to_string(d.joint) + ":";
     append(key, d.axis);
     append(key, {d.min_rad, d.max_rad, d.rest_rad});
@@ -38,7 +38,7 @@ std::string key_of(const BodyModel& model, const Skeleton& skeleton, const Realt
 
 }  // namespace
 
-Result<std::shared_ptr<const RealtimeBody>> RealtimeBody::shared(const BodyModel& model, const Skeleton& skeleton,
+Result<std::shared_ptr<const RealtimeBody>> RealtimeBody::shared(const BodyModel& model, const rig::Skeleton& skeleton,
                                                                  const RealtimeOptions& options) {
   if (options.initial_pose) return create(model, skeleton, options);  // a caller's own pose: not shared
   static std::mutex mutex;

@@ -67,7 +67,7 @@ struct StarRing {
 }  // namespace realtime_detail
 
 struct RealtimeBody::Data {
-  Skeleton skeleton;
+  rig::Skeleton skeleton;
   int lod = 0;
   std::vector<Chain> chains;  // nodes; the per-frame members are each avatar's
   struct RingOp {
@@ -175,7 +175,7 @@ struct Reach {
 
 // One avatar's per-frame state.
 struct State {
-  std::vector<RigidTransform> world_from_joint;
+  std::vector<rig::RigidTransform> world_from_joint;
   std::vector<Chain> chains;
   std::vector<Frame> frames;        // per ring, this frame
   std::vector<glm::vec2> muscle_w;  // per muscle DOF: (towards θmin, towards θmax)
@@ -191,7 +191,7 @@ struct State {
 };
 
 // The frame's positions (never allocates).
-void deform(const RealtimeBody::Data& d, State& st, const Pose& pose, std::span<glm::vec3> pos, bool muscles);
+void deform(const RealtimeBody::Data& d, State& st, const rig::Pose& pose, std::span<glm::vec3> pos, bool muscles);
 
 // A star ring's points (the muscle blocks when `muscle_w` is not null, the band scale, the
 // column slide, then the plane): the scalar reference, and eight at a time where the build

@@ -121,7 +121,7 @@ State::State(const Data& d)
       reach(d.rings.size()) {}
 
 size_t State::heap_bytes() const {
-  size_t b = world_from_joint.capacity() * sizeof(RigidTransform) + frames.capacity() * sizeof(Frame) +
+  size_t b = world_from_joint.capacity() * sizeof(rig::RigidTransform) + frames.capacity() * sizeof(Frame) +
              muscle_w.capacity() * sizeof(glm::vec2) + chains.capacity() * sizeof(Chain) +
              (band_scale.capacity() + band_scale_forced.capacity()) * sizeof(float) + reach.capacity() * sizeof(Reach);
   for (const Chain& c : chains)
@@ -129,9 +129,9 @@ size_t State::heap_bytes() const {
   return b;
 }
 
-void deform(const Data& d, State& st, const Pose& pose, std::span<glm::vec3> pos, bool muscles) {
+void deform(const Data& d, State& st, const rig::Pose& pose, std::span<glm::vec3> pos, bool muscles) {
   const auto t0 = Clock::now();
-  forward_kinematics(d.skeleton, pose, st.world_from_joint);
+  rig::forward_kinematics(d.skeleton, pose, st.world_from_joint);
   for (Chain& c : st.chains) c.update(st.world_from_joint);
   for (size_t i = 0; i < d.muscle_dofs.size(); ++i) {
     const auto& md = d.muscle_dofs[i];
@@ -181,11 +181,11 @@ void deform(const Data& d, State& st, const Pose& pose, std::span<glm::vec3> pos
     pos[c.vertex] = sum / static_cast<float>(c.count);
   }
   for (const auto& rg : d.rigid) {
-    const RigidTransform& w = st.world_from_joint[rg.joint];
+    const rig::RigidTransform& w = st.world_from_joint[rg.joint];
     rigid_points(glm::mat3_cast(w.rotation), w.translation, d.rigid_local.data() + rg.first_local, rg.count,
                  pos.data() + rg.first_vertex, st.vectorised);
     if (rg.toe_joint < 0) continue;
-    const RigidTransform& toes = st.world_from_joint[rg.toe_joint];
+    const rig::RigidTransform& toes = st.world_from_joint[rg.toe_joint];
     for (uint32_t k = rg.first_toe; k < rg.first_toe + rg.toe_count; ++k) {
       glm::vec3& p = pos[d.toe_vertex[k]];
       p += d.toe_weight[k] * (toes.apply(d.toe_local[k]) - p);

@@ -1,8 +1,8 @@
 // The realtime skin's per-point work (realtime_data.h): a star ring's points from their rest
 // coordinates, and the rigid parts' vertices. Scalar reference loops, and eight-wide AVX2/FMA
 // kernels where the build targets them (selected at compile time, as the baseline skinnings'
-// kernels are: avatar/src/baselines/simd.h).
-#include "baselines/simd.h"
+// kernels are: mimic/avatar/simd.h).
+#include "mimic/avatar/simd.h"
 #include "realtime_data.h"
 
 namespace mimic::avatar::realtime_detail {
@@ -84,7 +84,7 @@ void star_frames_scalar(const Data& d, State& st) {
 
 }  // namespace
 
-#if defined(MIMIC_BASELINES_AVX2)
+#if defined(MIMIC_SIMD_AVX2)
 
 namespace {
 
@@ -114,7 +114,7 @@ inline V3 select(__m256 mask, const V3& yes, const V3& no) {
 // v/|v| where |v|² > 1e-20, else the fallback (as unit_or in realtime_deform.cpp).
 inline V3 unit_or(const V3& v, const V3& fallback) {
   const __m256 l2 = dot(v, v);
-  return select(_mm256_cmp_ps(l2, _mm256_set1_ps(1e-20f), _CMP_GT_OQ), scale(v, baselines::simd::rsqrt8(l2)), fallback);
+  return select(_mm256_cmp_ps(l2, _mm256_set1_ps(1e-20f), _CMP_GT_OQ), scale(v, simd::rsqrt8(l2)), fallback);
 }
 
 }  // namespace
@@ -146,7 +146,7 @@ void star_frames(const Data& d, State& st, bool vectorised) {
         const V3 other{_mm256_blendv_ps(zero, one, use_x), _mm256_blendv_ps(one, zero, use_x), zero};
         front = select(degenerate, cross(n, other), front);
       }
-      const V3 x = scale(front, baselines::simd::rsqrt8(dot(front, front)));
+      const V3 x = scale(front, simd::rsqrt8(dot(front, front)));
       const V3 y = cross(n, x);
       V3 axis = run.along_link && link_ok ? link_dir : n;
       const __m256 flip = _mm256_cmp_ps(dot(axis, n), zero, _CMP_LT_OQ);
@@ -197,7 +197,7 @@ void driven_points(const Data& d, const Data::RingOp& r, const Frame& f, std::sp
   for (; j + 8 <= r.count; j += 8) {
     const uint32_t k = r.first + j;
     __m256 sx, sy, sz;
-    baselines::simd::load8(&pos[s_first + j].x, sx, sy, sz);
+    simd::load8(&pos[s_first + j].x, sx, sy, sz);
     const __m256i g3 = _mm256_mullo_epi32(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(goal + j)), _mm256_set1_epi32(3));
     const __m256 gx = _mm256_i32gather_ps(base, g3, 4);
     const __m256 gy = _mm256_i32gather_ps(base + 1, g3, 4);
@@ -209,7 +209,7 @@ void driven_points(const Data& d, const Data::RingOp& r, const Frame& f, std::sp
     const __m256 wx = _mm256_fmadd_ps(lz, fzx, _mm256_fmadd_ps(ly, fyx, _mm256_fmadd_ps(lx, fxx, ox)));
     const __m256 wy = _mm256_fmadd_ps(lz, fzy, _mm256_fmadd_ps(ly, fyy, _mm256_fmadd_ps(lx, fxy, oy)));
     const __m256 wz = _mm256_fmadd_ps(lz, fzz, _mm256_fmadd_ps(ly, fyz, _mm256_fmadd_ps(lx, fxz, oz)));
-    baselines::simd::store8(&pos[k].x, wx, wy, wz);
+    simd::store8(&pos[k].x, wx, wy, wz);
   }
   for (; j < r.count; ++j) {
     const uint32_t k = r.first + j;
@@ -277,9 +277,9 @@ Reach star_points_avx2(const Data& d, const Data::RingOp& r, const StarRing& s, 
     radius2 = _mm256_max_ps(radius2, _mm256_and_ps(valid, _mm256_fmadd_ps(h, h, _mm256_fmadd_ps(y, y, _mm256_mul_ps(x, x)))));
     height = _mm256_max_ps(height, _mm256_and_ps(valid, _mm256_and_ps(z, abs_mask)));
     if (i + 8 <= n) {
-      baselines::simd::store8(&out[i].x, wx, wy, wz);
+      simd::store8(&out[i].x, wx, wy, wz);
     } else {
-      baselines::simd::store8(&tail[0].x, wx, wy, wz);
+      simd::store8(&tail[0].x, wx, wy, wz);
       std::copy(tail, tail + (n - i), out + i);
     }
   }
@@ -302,12 +302,12 @@ void rigid_points(const glm::mat3& rot, const glm::vec3& t, const glm::vec3* loc
     const __m256 tx = _mm256_set1_ps(t.x), ty = _mm256_set1_ps(t.y), tz = _mm256_set1_ps(t.z);
     for (; i + 8 <= count; i += 8) {
       __m256 x, y, z;
-      baselines::simd::load8(&local[i].x, x, y, z);
+      simd::load8(&local[i].x, x, y, z);
       // Column-major: rot[c][r]; out = Σ_c rot[c]·p[c].
       const __m256 wx = _mm256_fmadd_ps(m20, z, _mm256_fmadd_ps(m10, y, _mm256_fmadd_ps(m00, x, tx)));
       const __m256 wy = _mm256_fmadd_ps(m21, z, _mm256_fmadd_ps(m11, y, _mm256_fmadd_ps(m01, x, ty)));
       const __m256 wz = _mm256_fmadd_ps(m22, z, _mm256_fmadd_ps(m12, y, _mm256_fmadd_ps(m02, x, tz)));
-      baselines::simd::store8(&out[i].x, wx, wy, wz);
+      simd::store8(&out[i].x, wx, wy, wz);
     }
   }
   for (; i < count; ++i) out[i] = rot * local[i] + t;

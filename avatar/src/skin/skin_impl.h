@@ -53,7 +53,7 @@ struct Chain {
   // Per frame.
   std::vector<glm::vec3> point, normal, ref;
 
-  void update(std::span<const RigidTransform> w) {
+  void update(std::span<const rig::RigidTransform> w) {
     const size_t n = nodes.size();
     for (size_t i = 0; i < n; ++i) point[i] = w[nodes[i].joint].apply(nodes[i].offset);
     for (size_t i = 0; i < n; ++i) {
@@ -281,11 +281,11 @@ using namespace skin_detail;
 
 struct BodySkin::Impl {
   SkinOptions options;
-  Skeleton skeleton;
+  rig::Skeleton skeleton;
   BodyField field;
   SkinLayout layout;
 
-  std::vector<RigidTransform> world_from_joint;
+  std::vector<rig::RigidTransform> world_from_joint;
   std::vector<Chain> chains;
   // Ray directions of star and arc rings in their planes (fixed by the layout): cos and sin of
   // each ray's angle from the plane's front towards its left (an arc's "up").

@@ -14,6 +14,7 @@
 #include <thread>
 
 #include "flock/spsc_queue.h"
+#include "mimic/core/thread_priority.h"
 #include "mimic/devices/serial.h"
 
 namespace mimic::devices {
@@ -428,9 +429,7 @@ Status FlockSource::start() {
   m.state = DeviceState::streaming;
   m.thread = std::thread([&m] {
     if (m.cfg.realtime_priority > 0) {
-      sched_param p{};
-      p.sched_priority = std::clamp(m.cfg.realtime_priority, 1, 99);
-      const bool ok = pthread_setschedparam(pthread_self(), SCHED_FIFO, &p) == 0;
+      const bool ok = set_thread_fifo(std::clamp(m.cfg.realtime_priority, 1, 99));
       std::lock_guard lock(m.mu);
       m.info.realtime = ok;
     }

@@ -6,20 +6,14 @@
 #include <cwchar>
 #include <thread>
 
+#include "mimic/core/clock.h"
+
 #ifdef MIMIC_WITH_HIDAPI
 #include <hidapi/hidapi.h>
 #endif
 
 namespace mimic::devices {
 
-namespace {
-
-double steady_now_s() {
-  using namespace std::chrono;
-  return duration<double>(steady_clock::now().time_since_epoch()).count();
-}
-
-}  // namespace
 
 HidReportSource::HidReportSource(std::string description, hid::Scaling scaling) : scaling_(scaling) {
   status_.description = std::move(description);

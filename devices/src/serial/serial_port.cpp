@@ -12,6 +12,7 @@
 #include <boost/asio/serial_port.hpp>
 #include <boost/asio/write.hpp>
 
+#include "mimic/core/clock.h"
 #include "mimic/devices/serial.h"
 
 namespace mimic::devices {
@@ -26,7 +27,7 @@ struct SerialPort::Impl {
 
   void tapped(bool from_device, const uint8_t* data, size_t n) {
     if (!tap || n == 0) return;
-    const double t = std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+    const double t = steady_now_s();
     tap->on_bytes(from_device, std::span<const uint8_t>(data, n), t);
   }
 

@@ -1,15 +1,12 @@
 #include "serial_input_driver.h"
 
+#include "mimic/core/clock.h"
+
 #include <array>
 #include <chrono>
 #include <exception>
 
 namespace mimic::devices::detail {
-
-double monotonic_now_s() noexcept {
-  using namespace std::chrono;
-  return duration<double>(steady_clock::now().time_since_epoch()).count();
-}
 
 SerialInputDriver::SerialInputDriver(std::string scheme, std::string path, LineSettings line,
                                      SerialTiming timing)
@@ -101,7 +98,7 @@ void SerialInputDriver::run() {
   std::array<uint8_t, 256> buf{};
   while (running_.load()) {
     try {
-      const double now = monotonic_now_s();
+      const double now = steady_now_s();
       if (!open_) {
         if (now < next_open_s_) {
           std::this_thread::sleep_for(std::chrono::milliseconds(20));
@@ -128,7 +125,7 @@ void SerialInputDriver::run() {
         continue;
       }
       auto n = line_.read(buf, 20);
-      const double t = monotonic_now_s();
+      const double t = steady_now_s();
       if (!n) {
         close_line(n.error().what().c_str());
         continue;

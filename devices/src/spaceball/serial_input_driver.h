@@ -87,7 +87,4 @@ class SerialInputDriver : public InputSource {
   double next_open_s_ = 0;
 };
 
-// Seconds on the host's monotonic clock (the time base of InputFrame::host_time_s).
-double monotonic_now_s() noexcept;
-
 }  // namespace mimic::devices::detail

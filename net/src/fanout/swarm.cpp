@@ -333,9 +333,9 @@ uint64_t Swarm::lost() const {
 }
 
 Result<Walkers> Walkers::make() {
-  auto skeleton = avatar::Skeleton::build(avatar::default_skeleton_desc());
+  auto skeleton = rig::Skeleton::build(rig::default_skeleton_desc());
   if (!skeleton) return tl::unexpected(skeleton.error());
-  auto walk = avatar::make_builtin_motion("walk", *skeleton);
+  auto walk = rig::make_builtin_motion("walk", *skeleton);
   if (!walk) return tl::unexpected(walk.error());
   Walkers w;
   w.skeleton_ = std::move(*skeleton);

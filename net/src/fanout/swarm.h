@@ -12,7 +12,7 @@
 #include <thread>
 #include <vector>
 
-#include "mimic/avatar/motion.h"
+#include "mimic/rig/motion.h"
 #include "mimic/core/result.h"
 #include "mimic/net/loopback_bench.h"
 #include "mimic/net/server.h"
@@ -79,9 +79,9 @@ class Walkers {
   std::span<const uint8_t> frame(int avatar, int tick, double rate_hz, uint16_t id);
 
  private:
-  avatar::Skeleton skeleton_;
-  std::shared_ptr<avatar::Motion> walk_;
-  avatar::Pose pose_;
+  rig::Skeleton skeleton_;
+  std::shared_ptr<rig::Motion> walk_;
+  rig::Pose pose_;
   std::vector<uint8_t> packet_;
 };
 

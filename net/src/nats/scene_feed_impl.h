@@ -102,7 +102,7 @@ struct NatsSceneFeed::Impl {
   };
   std::map<std::string, Heard> heard;
   bool was_down = false;
-  avatar::Pose scratch;
+  rig::Pose scratch;
   MeshTopology scratch_topology;
   std::vector<glm::vec3> scratch_positions;
   std::vector<ModelEvent> models_work;

@@ -298,7 +298,7 @@ struct Session : std::enable_shared_from_this<Session> {
   std::map<uint16_t, uint32_t> models_known;  // subscriber: avatar -> revision delivered
   double tokens = 0;
   Clock::time_point last_refill;
-  avatar::Pose scratch_pose;
+  rig::Pose scratch_pose;
   std::vector<glm::vec3> scratch_mesh;
   MeshTopology scratch_topology;
 

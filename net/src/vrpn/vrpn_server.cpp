@@ -14,7 +14,7 @@
 #include <cstring>
 #include <vector>
 
-#include "mimic/avatar/transform.h"
+#include "mimic/rig/transform.h"
 #include "mimic/net/server.h"
 #include "vrpn_wire.h"
 
@@ -79,8 +79,8 @@ struct VrpnServer::Impl {
     uint32_t tcp_seq = 0, udp_seq = 0;
   };
   struct Avatar {
-    avatar::Skeleton skeleton;
-    std::vector<avatar::RigidTransform> world_from_joint;
+    rig::Skeleton skeleton;
+    std::vector<rig::RigidTransform> world_from_joint;
   };
 
   int tcp_listen = -1, udp_listen = -1, udp_data = -1;
@@ -466,10 +466,10 @@ Result<std::unique_ptr<VrpnServer>> VrpnServer::create(const std::string& listen
   return std::unique_ptr<VrpnServer>(new VrpnServer(std::move(impl)));
 }
 
-Status VrpnServer::add_avatar(const avatar::Skeleton& skeleton) {
+Status VrpnServer::add_avatar(const rig::Skeleton& skeleton) {
   const size_t i = impl_->avatars.size();
   if (i >= 256) return fail(Errc::out_of_range, "VRPN: at most 256 avatars");
-  impl_->avatars.push_back({skeleton, std::vector<avatar::RigidTransform>(size_t(skeleton.joint_count()))});
+  impl_->avatars.push_back({skeleton, std::vector<rig::RigidTransform>(size_t(skeleton.joint_count()))});
   impl_->senders.push_back("Avatar" + std::to_string(i));
   impl_->senders.push_back("Sensors" + std::to_string(i));
   impl_->frame.resize(impl_->frame.size() +
@@ -496,10 +496,10 @@ void VrpnServer::poll() {
     if (c.state != Impl::Client::State::free) impl_->service(c);
 }
 
-void VrpnServer::send_pose(size_t avatar, const avatar::Pose& pose, double unix_time_s) {
+void VrpnServer::send_pose(size_t avatar, const rig::Pose& pose, double unix_time_s) {
   if (avatar >= impl_->avatars.size() || impl_->stats.clients == 0) return;
   Impl::Avatar& a = impl_->avatars[avatar];
-  avatar::forward_kinematics(a.skeleton, pose, a.world_from_joint);
+  rig::forward_kinematics(a.skeleton, pose, a.world_from_joint);
   for (size_t j = 0; j < a.world_from_joint.size(); ++j) {
     const auto& t = a.world_from_joint[j];
     const double p[3] = {t.translation.x, t.translation.y, t.translation.z};

@@ -30,6 +30,10 @@ void store_be_f64(uint8_t* p, double v) {
   store_be32(p + 4, uint32_t(b));
 }
 
+double load_be_f64(const uint8_t* p) {
+  return std::bit_cast<double>(uint64_t(load_be32(p)) << 32 | load_be32(p + 4));
+}
+
 Timestamp timestamp_from_seconds(double unix_s) {
   if (!(unix_s > 0)) return {};
   const double whole = std::floor(unix_s);
@@ -84,6 +88,16 @@ void write_pos_quat(std::span<uint8_t, kPosQuatBytes> out, int32_t sensor, const
   store_be32(p + 4, static_cast<uint32_t>(sensor));  // VRPN fills the alignment word the same way
   for (int i = 0; i < 3; ++i) store_be_f64(p + 8 + 8 * i, position[i]);
   for (int i = 0; i < 4; ++i) store_be_f64(p + 32 + 8 * i, quat_xyzw[i]);
+}
+
+bool read_pos_quat(std::span<const uint8_t> payload, int32_t& sensor, double position[3], double quat_xyzw[4]) {
+  if (payload.size() != kPosQuatBytes) return false;
+  const uint8_t* p = payload.data();
+  sensor = static_cast<int32_t>(load_be32(p));
+  bool finite = true;
+  for (int i = 0; i < 3; ++i) finite &= std::isfinite(position[i] = load_be_f64(p + 8 + 8 * i));
+  for (int i = 0; i < 4; ++i) finite &= std::isfinite(quat_xyzw[i] = load_be_f64(p + 32 + 8 * i));
+  return finite;
 }
 
 Parse parse_message(std::span<const uint8_t> in, size_t max_payload, Message& out) {

@@ -65,11 +65,15 @@ enum class Parse { ok, need_more, bad };
 // `max_payload`.
 Parse parse_message(std::span<const uint8_t> in, size_t max_payload, Message& out);
 
+// A Pos_Quat payload read back; false when it is not 64 bytes or holds a non-finite number.
+bool read_pos_quat(std::span<const uint8_t> payload, int32_t& sensor, double position[3], double quat_xyzw[4]);
+
 // The name in a sender/type description payload, or empty when malformed.
 std::string_view description_name(std::span<const uint8_t> payload);
 
 uint32_t load_be32(const uint8_t* p);
 void store_be32(uint8_t* p, uint32_t v);
 void store_be_f64(uint8_t* p, double v);
+double load_be_f64(const uint8_t* p);
 
 }  // namespace mimic::net::vrpn

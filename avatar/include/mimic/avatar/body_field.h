@@ -17,8 +17,8 @@
 #include <glm/glm.hpp>
 
 #include "mimic/avatar/body_model.h"
-#include "mimic/avatar/skeleton.h"
-#include "mimic/avatar/transform.h"
+#include "mimic/rig/skeleton.h"
+#include "mimic/rig/transform.h"
 
 namespace mimic::avatar {
 
@@ -42,10 +42,10 @@ class BodyField {
  public:
   // Packs the model's primitives for the given skeleton (which must contain their joints and
   // deformation DOFs). Fails with the name of the first unresolvable reference.
-  static Result<BodyField> create(const BodyModel& model, const Skeleton& skeleton);
+  static Result<BodyField> create(const BodyModel& model, const rig::Skeleton& skeleton);
 
   // Moves and deforms every primitive for this frame. Never allocates.
-  void update(std::span<const RigidTransform> world_from_joint, std::span<const float> dof_rad);
+  void update(std::span<const rig::RigidTransform> world_from_joint, std::span<const float> dof_rad);
 
   int size() const { return static_cast<int>(center_.size()); }
   GroupMask groups(int i) const { return groups_[i]; }

@@ -16,7 +16,7 @@
 
 #include <glm/glm.hpp>
 
-#include "mimic/avatar/skeleton.h"
+#include "mimic/rig/skeleton.h"
 #include "mimic/core/result.h"
 
 namespace mimic::avatar {
@@ -113,7 +113,7 @@ struct SkinLayout {
 
 struct BodyModel {
   std::string name = "mimic-default";
-  SkeletonDesc skeleton;
+  rig::SkeletonDesc skeleton;
   std::vector<Primitive> primitives;
   SkinLayout skin;
 };
@@ -121,9 +121,7 @@ struct BodyModel {
 // The mirror image of a left-side primitive ("l_…" names, joints, DOFs; left groups and parts)
 // on the right side: x negated, y and z rotations negated.
 Primitive mirrored(const Primitive& left);
-// The same for a joint: name, parent and DOF names; offset and tip x negated; DOF axes
-// (x, y, z) → (x, −y, −z), so equal angles give mirror-image postures.
-JointDesc mirrored(const JointDesc& left);
+// (Joints mirror with rig::mirrored, mimic/rig/skeleton_json.h.)
 
 // The built-in adult body (about 1.67 m), written for Mimic; needs no data files.
 BodyModel default_body_model();
@@ -160,11 +158,11 @@ Result<BodyModel> scale_body(const BodyModel& model, const BodyScaling& scaling)
 // The posture the scaling operators are defined in: the zero posture (a T-pose) with the upper
 // arms lowered to the sides by a quarter turn of shoulder abduction, so arms scale in length
 // with the height and in girth with the lateral and frontal ratios.
-Pose standing_posture(const Skeleton& skeleton);
+rig::Pose standing_posture(const rig::Skeleton& skeleton);
 
 // The relaxed standing posture `--pose rest` shows: arms lowered towards the sides (not quite
 // touching the hips), elbows slightly bent, every other DOF at its relaxed value θ0.
-Pose relaxed_posture(const Skeleton& skeleton);
+rig::Pose relaxed_posture(const rig::Skeleton& skeleton);
 
 // 0 lateral (x), 1 high (y), 2 frontal (z): the largest |component| of a world direction.
 int scaling_tag(const glm::vec3& axis_world);

@@ -6,6 +6,7 @@
 
 #include <cstdint>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include <glm/glm.hpp>
@@ -27,5 +28,13 @@ struct Mesh {
 
   size_t triangle_count() const { return indices.size() / 3; }
 };
+
+// Parts covering every triangle in order: the mesh's own parts (names made safe for line-based
+// formats), with any gap filled by a part named "mesh". Assumes the parts do not overlap.
+std::vector<MeshPart> covering_parts(const Mesh& mesh);
+
+// A part name as line-based headers need it: control characters replaced, outer spaces trimmed,
+// never empty ("mesh").
+std::string clean_name(std::string_view name);
 
 }  // namespace mimic::avatar

@@ -43,7 +43,7 @@
 #include "mimic/avatar/body_model.h"
 #include "mimic/avatar/mesh.h"
 #include "mimic/avatar/mesh_check.h"
-#include "mimic/avatar/skeleton.h"
+#include "mimic/rig/skeleton.h"
 #include "mimic/avatar/skin_weights.h"
 #include "mimic/avatar/texture_layout.h"
 
@@ -57,23 +57,23 @@ Result<SkinMethod> parse_skin_method(std::string_view name);  // "full" or "real
 
 struct RealtimeOptions {
   int lod = 0;                        // skin_lod.h: 0 finest … kSkinLodCount − 1 coarsest
-  std::optional<Pose> initial_pose;   // where the contours are ray-cast; default the zero posture
+  std::optional<rig::Pose> initial_pose;   // where the contours are ray-cast; default the zero posture
   bool rigid_parts = true;            // head, hands, feet
 };
 
 class RealtimeBody {
  public:
   // Ray-casts the contours once (initial pose, and θ0/θmin/θmax of every muscle DOF). Allocates.
-  static Result<std::shared_ptr<const RealtimeBody>> create(const BodyModel& model, const Skeleton& skeleton,
+  static Result<std::shared_ptr<const RealtimeBody>> create(const BodyModel& model, const rig::Skeleton& skeleton,
                                                             const RealtimeOptions& options = {});
   static Result<std::shared_ptr<const RealtimeBody>> create(const BodyModel& model,
                                                             const RealtimeOptions& options = {});
   // The same, but a body already built for an equal model, skeleton and options and still held
   // by some avatar is returned instead of a new one (thread-safe): avatars of one body share it.
-  static Result<std::shared_ptr<const RealtimeBody>> shared(const BodyModel& model, const Skeleton& skeleton,
+  static Result<std::shared_ptr<const RealtimeBody>> shared(const BodyModel& model, const rig::Skeleton& skeleton,
                                                             const RealtimeOptions& options = {});
 
-  const Skeleton& skeleton() const;
+  const rig::Skeleton& skeleton() const;
   // Topology (indices, parts) and the positions of the initial pose; shared by every avatar.
   const Mesh& rest_mesh() const;
   // contour_skin_weights() of the rest mesh, one per vertex.
@@ -128,7 +128,7 @@ class RealtimeSkin {
   // Writes body().vertex_count() positions (and, when `normals_out` is not empty, area-weighted
   // unit normals) for the pose. With `muscles` false, the contours keep their initial shape
   // (the paper's method alone). Never allocates, never throws.
-  void evaluate(const Pose& pose, std::span<glm::vec3> positions_out, std::span<glm::vec3> normals_out = {},
+  void evaluate(const rig::Pose& pose, std::span<glm::vec3> positions_out, std::span<glm::vec3> normals_out = {},
                 bool muscles = true);
 
   // The contour points are moved eight at a time where the build targets AVX2 and FMA (as the

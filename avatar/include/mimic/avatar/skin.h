@@ -26,7 +26,7 @@
 #include "mimic/avatar/body_field.h"
 #include "mimic/avatar/body_model.h"
 #include "mimic/avatar/mesh.h"
-#include "mimic/avatar/skeleton.h"
+#include "mimic/rig/skeleton.h"
 
 namespace mimic::avatar {
 
@@ -64,7 +64,7 @@ class BodySkin {
   static Result<BodySkin> create(const BodyModel& model, const SkinOptions& options = {});
   // Same, with a skeleton other than the model's (e.g. fitted to a performer); it must have the
   // model's joints and DOFs.
-  static Result<BodySkin> create(const BodyModel& model, const Skeleton& skeleton,
+  static Result<BodySkin> create(const BodyModel& model, const rig::Skeleton& skeleton,
                                  const SkinOptions& options = {});
 
   BodySkin(BodySkin&&) noexcept;
@@ -72,10 +72,10 @@ class BodySkin {
   ~BodySkin();
 
   // Whole pipeline for one pose; afterwards mesh() holds the new positions. Never allocates.
-  void evaluate(const Pose& pose);
+  void evaluate(const rig::Pose& pose);
 
   const Mesh& mesh() const;
-  const Skeleton& skeleton() const;
+  const rig::Skeleton& skeleton() const;
   const BodyField& field() const;  // the primitives of the last evaluated pose
   const SkinTimings& timings() const;
   const SkinStats& stats() const;
@@ -96,8 +96,8 @@ class BodySkin {
   std::vector<ContourView> contours() const;
 
   // The stages separately (for benchmarks); evaluate() runs them in order.
-  void stage_fk(const Pose& pose);
-  void stage_deform(const Pose& pose);
+  void stage_fk(const rig::Pose& pose);
+  void stage_deform(const rig::Pose& pose);
   void stage_contours();
   void stage_bspline();
   void stage_stitch();

@@ -56,7 +56,7 @@ struct RemoteAvatar {
   std::string model_bytes;
   bool has_pose = false;
   PoseHeader last;                 // of the latest pose frame
-  avatar::Pose pose;               // dequantised
+  rig::Pose pose;               // dequantised
   uint64_t frames = 0;
   uint64_t lost = 0;               // sequence gaps (frames superseded before they reached us)
   // Mesh frames, when asked for.
@@ -130,7 +130,7 @@ class Client {
   // Sends a pose of an added avatar (sequence numbers and timestamps are the caller's). Latest
   // wins: if the previous frame is still being written, this one replaces any waiting frame.
   // Never allocates after the first call.
-  Status publish_pose(uint8_t slot, const PoseHeader& header, const avatar::Pose& pose);
+  Status publish_pose(uint8_t slot, const PoseHeader& header, const rig::Pose& pose);
 
   // Processes the network until `deadline`, or without blocking. An error means the session
   // ended for good (rejected, or the connection dropped and resuming is off). Reconnecting

@@ -21,7 +21,7 @@
 #include <glm/glm.hpp>
 #include <glm/gtc/quaternion.hpp>
 
-#include "mimic/avatar/skeleton.h"
+#include "mimic/rig/skeleton.h"
 
 namespace mimic::net {
 
@@ -222,7 +222,7 @@ size_t encode_ping(std::span<uint8_t> out) noexcept;
 size_t encode_key_request(uint16_t avatar, std::span<uint8_t> out) noexcept;
 size_t encode_scene(std::span<const SceneEntry> entries, std::span<uint8_t> out) noexcept;
 // Also 0 when pose.dof_rad.size() > kMaxPoseDofs.
-size_t encode_pose(const PoseHeader& h, const avatar::Pose& pose, std::span<uint8_t> out) noexcept;
+size_t encode_pose(const PoseHeader& h, const rig::Pose& pose, std::span<uint8_t> out) noexcept;
 size_t encode_mesh_topology(const MeshTopology& m, std::span<uint8_t> out) noexcept;
 // Positions are quantised to 16 bits per axis inside their bounding box.
 size_t encode_mesh(const MeshFrameHeader& h, std::span<const glm::vec3> positions_m,
@@ -245,7 +245,7 @@ Reject decode_udp_register(std::span<const uint8_t> packet, UdpRegister& out) no
 Reject decode_key_request(std::span<const uint8_t> packet, uint16_t& avatar) noexcept;
 Reject decode_scene(std::span<const uint8_t> packet, std::vector<SceneEntry>& out);
 // `out.dof_rad` is resized to the packet's DOF count (no allocation when it already fits).
-Reject decode_pose(std::span<const uint8_t> packet, PoseHeader& header, avatar::Pose& out);
+Reject decode_pose(std::span<const uint8_t> packet, PoseHeader& header, rig::Pose& out);
 Reject decode_mesh_topology(std::span<const uint8_t> packet, MeshTopology& out);
 Reject decode_mesh(std::span<const uint8_t> packet, MeshFrameHeader& header,
                    std::vector<glm::vec3>& positions_m);

@@ -21,7 +21,7 @@
 #include <cstdint>
 #include <span>
 
-#include "mimic/avatar/skeleton.h"
+#include "mimic/rig/skeleton.h"
 #include "mimic/net/frame_codec.h"
 
 namespace mimic::net {
@@ -95,10 +95,10 @@ size_t encode_lean_key(const LeanPoseState& state, uint16_t pose_flags, std::spa
 // Reject::unexpected for a delta that does not follow `state` (lost or skipped frame: wait for a
 // key), Reject::out_of_order for a key not newer than `state`, malformed/truncated otherwise.
 Reject decode_lean_pose(std::span<const uint8_t> packet, LeanPoseState& state, PoseHeader& header,
-                        avatar::Pose& out) noexcept;
+                        rig::Pose& out) noexcept;
 
 // The pose a state holds (after decode_lean_pose accepted a packet).
-void lean_state_pose(const LeanPoseState& state, avatar::Pose& out) noexcept;
+void lean_state_pose(const LeanPoseState& state, rig::Pose& out) noexcept;
 
 // Reads sequence and avatar of a POSE_DELTA packet without decoding it.
 uint32_t lean_pose_sequence(std::span<const uint8_t> packet) noexcept;

@@ -24,7 +24,7 @@
 #include <string_view>
 #include <vector>
 
-#include "mimic/avatar/skeleton.h"
+#include "mimic/rig/skeleton.h"
 #include "mimic/core/result.h"
 
 namespace mimic::net {
@@ -57,7 +57,7 @@ struct VmcBone {
 
 // Unity humanoid bones for the joints present in `skeleton` (e.g. pelvis -> Hips,
 // l_shoulder -> LeftUpperArm, l_knee -> LeftLowerLeg).
-std::vector<VmcBone> vmc_bone_map(const avatar::Skeleton& skeleton);
+std::vector<VmcBone> vmc_bone_map(const rig::Skeleton& skeleton);
 
 inline constexpr size_t kVmcMaxBundleBytes = 1400;
 inline constexpr size_t kVmcMaxBundles = 16;
@@ -70,16 +70,16 @@ struct VmcBundles {
 
 class VmcEncoder {
  public:
-  explicit VmcEncoder(const avatar::Skeleton& skeleton);
+  explicit VmcEncoder(const rig::Skeleton& skeleton);
   // The pose's bundles, back to back, into `out` (cleared first; no allocation once it has grown
   // to a frame's size). `stream_time_s` goes out as /VMC/Ext/T. `max_bundle_bytes` must hold
   // the largest single message (about 60 bytes).
-  VmcBundles encode(const avatar::Pose& pose, double stream_time_s, std::vector<uint8_t>& out,
+  VmcBundles encode(const rig::Pose& pose, double stream_time_s, std::vector<uint8_t>& out,
                     size_t max_bundle_bytes = kVmcMaxBundleBytes) const;
   const std::vector<VmcBone>& bones() const { return bones_; }
 
  private:
-  avatar::Skeleton skeleton_;
+  rig::Skeleton skeleton_;
   std::vector<VmcBone> bones_;
 };
 
@@ -89,13 +89,13 @@ class VmcSender {
  public:
   static Result<std::unique_ptr<VmcSender>> open(const std::string& host_port);
   // Fails when port + index would pass 65535 or past 64 avatars.
-  Status add_avatar(const avatar::Skeleton& skeleton);
+  Status add_avatar(const rig::Skeleton& skeleton);
   size_t avatar_count() const;
   ~VmcSender();
   // Sends avatar `avatar`'s frame captured at `capture_time_s` (any clock in seconds; /VMC/Ext/T
   // counts from the first frame sent for that avatar). Never throws; allocation-free after the
   // first frame. Returns bytes sent, 0 on failure or for an avatar never added.
-  size_t send(size_t avatar, const avatar::Pose& pose, double capture_time_s);
+  size_t send(size_t avatar, const rig::Pose& pose, double capture_time_s);
 
  private:
   struct Impl;

@@ -25,7 +25,7 @@
 #include <glm/glm.hpp>
 #include <glm/gtc/quaternion.hpp>
 
-#include "mimic/avatar/skeleton.h"
+#include "mimic/rig/skeleton.h"
 #include "mimic/core/result.h"
 #include "mimic/net/osc.h"
 #include "mimic/net/vmc.h"
@@ -93,8 +93,8 @@ void apply_vmc_packet(std::span<const uint8_t> packet, double now_s, VmcState& s
 // half and half: VMC's Neck carries Mimic's neck and neck_upper), the Hips' placement after
 // /VMC/Ext/Root/Pos as the root's. Bones not received keep `pose`'s values. False until a Hips
 // bone has come. Never allocates (pose.dof_rad has the skeleton's size).
-bool pose_from_vmc(const VmcState& state, const avatar::Skeleton& skeleton, const std::vector<VmcBone>& bones,
-                   avatar::Pose& pose);
+bool pose_from_vmc(const VmcState& state, const rig::Skeleton& skeleton, const std::vector<VmcBone>& bones,
+                   rig::Pose& pose);
 
 // A UDP socket receiving VMC and OSC tracker datagrams, on loopback unless told otherwise.
 class VmcReceiver {

@@ -33,7 +33,7 @@
 #include <glm/glm.hpp>
 #include <glm/gtc/quaternion.hpp>
 
-#include "mimic/avatar/skeleton.h"
+#include "mimic/rig/skeleton.h"
 #include "mimic/core/result.h"
 
 namespace mimic::net {
@@ -59,7 +59,7 @@ class VrpnServer {
   VrpnServer& operator=(const VrpnServer&) = delete;
 
   // Setup only (before clients connect): devices Avatar<i> and Sensors<i> for the next avatar.
-  Status add_avatar(const avatar::Skeleton& skeleton);
+  Status add_avatar(const rig::Skeleton& skeleton);
   size_t avatar_count() const;
   uint16_t port() const;
   std::string endpoint() const;  // "host:port"
@@ -68,7 +68,7 @@ class VrpnServer {
   void poll();
   // Avatar `avatar`'s joints (forward kinematics of `pose`) as Avatar<i>'s reports, captured at
   // `unix_time_s`.
-  void send_pose(size_t avatar, const avatar::Pose& pose, double unix_time_s);
+  void send_pose(size_t avatar, const rig::Pose& pose, double unix_time_s);
   // One sample as a report of Sensors<i>; goes out with the next flush().
   void send_sample(size_t avatar, int32_t sensor, const glm::vec3& position_m, const glm::quat& orientation,
                    double unix_time_s);

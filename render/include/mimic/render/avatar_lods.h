@@ -33,18 +33,18 @@ class AvatarLods {
  public:
   // Skins for `model` (on `skeleton`, e.g. a fitted one, or the model's own when null); each
   // LOD's mesh goes to `renderer`. Fails when the model does not build a skin.
-  static Result<AvatarLods> create(const avatar::BodyModel& model, const avatar::Skeleton* skeleton,
+  static Result<AvatarLods> create(const avatar::BodyModel& model, const rig::Skeleton* skeleton,
                                    Renderer& renderer, avatar::SkinMethod method = avatar::SkinMethod::full);
   int count() const { return static_cast<int>(skins_.size()); }
   avatar::SkinMethod method() const { return method_; }
   // Deforms LOD `lod` to `pose` by the method and uploads it; returns that LOD's mesh.
-  MeshId update(int lod, const avatar::Pose& pose, Renderer& renderer);
+  MeshId update(int lod, const rig::Pose& pose, Renderer& renderer);
   // The drawn mesh of LOD `lod` as last updated.
   const avatar::Mesh& mesh(int lod) const;
   // The full method's skin of LOD `lod` at `pose`, for the overlays (with the realtime method it
   // is evaluated here, a ray-cast frame: only when overlays are drawn).
-  const avatar::BodySkin& overlay_skin(int lod, const avatar::Pose& pose);
-  const avatar::Skeleton& skeleton() const { return skins_[0].skeleton(); }
+  const avatar::BodySkin& overlay_skin(int lod, const rig::Pose& pose);
+  const rig::Skeleton& skeleton() const { return skins_[0].skeleton(); }
   const avatar::BodyModel& model() const { return model_; }
   size_t triangle_count(int lod) const { return mesh(lod).triangle_count(); }
 

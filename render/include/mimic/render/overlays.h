@@ -10,7 +10,7 @@
 #include <glm/gtc/quaternion.hpp>
 
 #include "mimic/avatar/body_model.h"
-#include "mimic/avatar/skeleton.h"
+#include "mimic/rig/skeleton.h"
 #include "mimic/avatar/skin.h"
 #include "mimic/render/renderer.h"
 
@@ -28,11 +28,11 @@ enum Overlay : unsigned {
 bool parse_overlays(std::string_view list, unsigned& mask);
 
 // Bones from each joint to its parent and a small cross at each joint.
-void append_skeleton(const avatar::Skeleton& skeleton, const avatar::Pose& pose, const glm::mat4& world_from_body,
+void append_skeleton(const rig::Skeleton& skeleton, const rig::Pose& pose, const glm::mat4& world_from_body,
                      Lines& out);
 // Three principal ellipses per primitive of the field. Muscles (primitives of `model` with a
 // deformation) take the colour of f(t) for `pose`; soft metaballs are amber, hard ellipsoids grey.
-void append_primitives(const avatar::BodySkin& skin, const avatar::BodyModel& model, const avatar::Pose& pose,
+void append_primitives(const avatar::BodySkin& skin, const avatar::BodyModel& model, const rig::Pose& pose,
                        const glm::mat4& world_from_body, Lines& out);
 // Every contour ring of the last frame as a closed polyline.
 void append_contours(const avatar::BodySkin& skin, const glm::mat4& world_from_body, Lines& out);
@@ -48,6 +48,6 @@ struct SensorMark {
 void append_sensors(std::span<const SensorMark> sensors, Lines& out);
 
 // f(t) of a muscle's deformation at DOF value theta_rad (0 at θ0, 1 at a limit).
-float deformation_amount(const avatar::Deformation& d, const avatar::Dof& dof, float theta_rad);
+float deformation_amount(const avatar::Deformation& d, const rig::Dof& dof, float theta_rad);
 
 }  // namespace mimic::render

@@ -20,8 +20,8 @@
 
 #include "mimic/avatar/body_model.h"
 #include "mimic/avatar/mesh.h"
-#include "mimic/avatar/motion.h"
-#include "mimic/avatar/skeleton.h"
+#include "mimic/rig/motion.h"
+#include "mimic/rig/skeleton.h"
 #include "mimic/avatar/realtime_skin.h"
 #include "mimic/avatar/skin_lod.h"
 #include "mimic/core/result.h"
@@ -63,7 +63,7 @@ class StageTimer {
 class PoseFeed {
  public:
   virtual ~PoseFeed() = default;
-  virtual const avatar::Skeleton& skeleton() const = 0;
+  virtual const rig::Skeleton& skeleton() const = 0;
   virtual std::string describe() const = 0;
   virtual Status start() = 0;
   // Polls the source; the number of new samples ready for a pose (0: nothing new this tick, or
@@ -71,7 +71,7 @@ class PoseFeed {
   virtual size_t read() = 0;
   // The pose from the samples read last. `capture_s` is the host time (steady clock, seconds)
   // at the newest sample's last byte.
-  virtual void solve(avatar::Pose& pose, double& capture_s, bool& stale) = 0;
+  virtual void solve(rig::Pose& pose, double& capture_s, bool& stale) = 0;
   virtual devices::DeviceStatus status() const = 0;
   // The newest sample of every sensor as the last solve() used them (after the filters, in the
   // source's reference frame), for viewers to draw and outputs that pass the trackers on; empty
@@ -85,14 +85,14 @@ class PoseFeed {
 class Deformer {
  public:
   virtual ~Deformer() = default;
-  virtual void deform(const avatar::Pose& pose) = 0;
+  virtual void deform(const rig::Pose& pose) = 0;
   virtual const avatar::Mesh* mesh() const { return nullptr; }
   virtual uint8_t lod() const { return 0; }
 };
 
 // A sensor source on a virtual body following `motion`; the solve stage poses the avatar from
 // the motion at the newest sample's device time (ground truth, for measurements).
-Result<std::unique_ptr<PoseFeed>> make_motion_feed(std::shared_ptr<const avatar::Motion> motion,
+Result<std::unique_ptr<PoseFeed>> make_motion_feed(std::shared_ptr<const rig::Motion> motion,
                                                    std::unique_ptr<devices::SensorSource> source,
                                                    std::string description);
 // Tracker source (sim:, bvh:, replay:, flock: — see sim/open_source.h) + sensor filters + body
@@ -103,13 +103,13 @@ Result<std::unique_ptr<PoseFeed>> make_motion_feed(std::shared_ptr<const avatar:
 // simulated sensors ride a performer of that size and the solver solves on it, so a body of
 // another size stands on the floor. A calibration's fitted skeleton takes precedence.
 Result<std::unique_ptr<PoseFeed>> open_feed(const std::string& spec_text, const std::string& calibration_path = "",
-                                            const avatar::Skeleton* body = nullptr);
+                                            const rig::Skeleton* body = nullptr);
 
 // Built-in motion by name ("walk", "idle").
-Result<std::shared_ptr<const avatar::Motion>> builtin_motion(const std::string& name,
-                                                             const avatar::Skeleton& skeleton);
+Result<std::shared_ptr<const rig::Motion>> builtin_motion(const std::string& name,
+                                                             const rig::Skeleton& skeleton);
 
-std::unique_ptr<Deformer> make_fk_deformer(const avatar::Skeleton& skeleton);
+std::unique_ptr<Deformer> make_fk_deformer(const rig::Skeleton& skeleton);
 
 // The body model of an avatar (the file given with --body, or the default body) and the bytes
 // sent to subscribers on join (its compact JSON form, docs/body-model.md).
@@ -126,7 +126,7 @@ inline constexpr int kMeshLodCount = avatar::kSkinLodCount;
 // (avatar/realtime_skin.h, contours moved) or the full one (avatar/skin.h, contours ray-cast every
 // frame); fails when the skeleton lacks the model's joints or DOFs.
 Result<std::unique_ptr<Deformer>> make_skin_deformer(const avatar::BodyModel& model,
-                                                     const avatar::Skeleton& skeleton, int lod,
+                                                     const rig::Skeleton& skeleton, int lod,
                                                      avatar::SkinMethod method = avatar::SkinMethod::realtime);
 
 // Gives the calling thread SCHED_FIFO priority `priority` (1-99), or back to normal scheduling
@@ -166,14 +166,14 @@ class Pipeline {
   StageTimer& timer(int stage) { return timers_[stage]; }
   const PoseFeed& feed(size_t i) const { return *avatars_[i].feed; }
   // The pose avatar i was last solved to (what a local viewer draws).
-  const avatar::Pose& pose(size_t i) const { return avatars_[i].pose; }
+  const rig::Pose& pose(size_t i) const { return avatars_[i].pose; }
 
  private:
   struct Avatar {
     std::string name;
     std::unique_ptr<PoseFeed> feed;
     std::unique_ptr<Deformer> deformer;
-    avatar::Pose pose;
+    rig::Pose pose;
     uint16_t server_id = 0;
     int publisher_slot = -1;
     int nats_index = -1;

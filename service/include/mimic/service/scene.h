@@ -15,7 +15,7 @@
 
 #include <glm/glm.hpp>
 
-#include "mimic/avatar/skeleton.h"
+#include "mimic/rig/skeleton.h"
 #include "mimic/core/result.h"
 #include "mimic/devices/source.h"
 #include "mimic/service/pipeline.h"
@@ -115,6 +115,6 @@ class ActorBrain {
 
 // `body`, when given, is the skeleton the actor walks with (its body model's); else the default.
 Result<std::unique_ptr<PoseFeed>> make_actor_feed(const std::string& spec_text, std::shared_ptr<SceneRoster> roster,
-                                                  int slot, const avatar::Skeleton* body = nullptr);
+                                                  int slot, const rig::Skeleton* body = nullptr);
 
 }  // namespace mimic::service

@@ -7,16 +7,16 @@
 #include <string>
 #include <vector>
 
-#include "mimic/avatar/skeleton.h"
+#include "mimic/rig/skeleton.h"
 #include "mimic/core/result.h"
 
 namespace mimic::service {
 
 struct SolvedTake {
-  avatar::Skeleton skeleton;      // what the poses are for: the calibration's fitted skeleton,
+  rig::Skeleton skeleton;      // what the poses are for: the calibration's fitted skeleton,
                                   // else the body's (or the default one)
   std::vector<double> times_s;    // from the first solved frame, 1/fps apart
-  std::vector<avatar::Pose> poses;
+  std::vector<rig::Pose> poses;
   std::string description;        // the source, for reports
   size_t samples = 0;             // samples read from the log
 };
@@ -25,6 +25,6 @@ struct SolvedTake {
 // the session (0: all of it). Fails on an unreadable log or calibration, a log without
 // samples, or a body the calibration does not fit.
 Result<SolvedTake> solve_log(const std::string& log_path, const std::string& calibration_path, double fps,
-                             const avatar::Skeleton* body = nullptr, double max_seconds = 0);
+                             const rig::Skeleton* body = nullptr, double max_seconds = 0);
 
 }  // namespace mimic::service

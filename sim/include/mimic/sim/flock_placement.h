@@ -17,7 +17,7 @@
 
 #include <glm/glm.hpp>
 
-#include "mimic/avatar/transform.h"
+#include "mimic/rig/transform.h"
 
 namespace mimic::sim {
 
@@ -25,7 +25,7 @@ inline constexpr double kFlockStandardRange_m = 36 * 0.0254;   // 0.9144 m
 inline constexpr double kFlockExtendedRange_m = 144 * 0.0254;  // 3.6576 m
 
 struct FlockPlacement {
-  avatar::RigidTransform world_from_transmitter;  // rotation identity: facing +Z
+  rig::RigidTransform world_from_transmitter;  // rotation identity: facing +Z
   double needed_range_m = 0;  // max over samples and axes of |position in the transmitter frame|
   bool fits_standard() const { return needed_range_m <= kFlockStandardRange_m; }
   bool fits_extended() const { return needed_range_m <= kFlockExtendedRange_m; }

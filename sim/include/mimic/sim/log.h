@@ -16,7 +16,7 @@
 #include <string_view>
 #include <vector>
 
-#include "mimic/avatar/transform.h"
+#include "mimic/rig/transform.h"
 #include "mimic/core/result.h"
 #include "mimic/devices/sample.h"
 
@@ -28,7 +28,7 @@ struct LogSensor {
   uint16_t id = 0;                             // SensorSample::sensor
   std::string name;                            // e.g. "head"
   std::string segment;                         // skeleton joint it rides on; empty if unknown
-  avatar::RigidTransform segment_from_sensor;  // mounting offset, when known (identity otherwise)
+  rig::RigidTransform segment_from_sensor;  // mounting offset, when known (identity otherwise)
 };
 
 struct LogHeader {
@@ -38,7 +38,7 @@ struct LogHeader {
   std::string description;       // free-form
   std::optional<uint64_t> seed;  // simulated sources
   double rate_hz = 0;            // nominal sample rate per sensor; 0 if unknown
-  avatar::RigidTransform world_from_reference;  // tracker frame in Mimic's world, when known
+  rig::RigidTransform world_from_reference;  // tracker frame in Mimic's world, when known
   std::string calibration_json;  // a calibration in force while recording; empty if none
 };
 
@@ -91,8 +91,6 @@ void encode_sample_record(const devices::SensorSample& sample, std::vector<uint8
 void encode_raw_record(double host_time_s, RawDirection direction, std::span<const uint8_t> bytes,
                        std::vector<uint8_t>& out);
 void encode_end_record(uint64_t sample_count, std::vector<uint8_t>& out);
-
-uint32_t crc32(std::span<const uint8_t> bytes, uint32_t crc = 0);
 
 struct LogWriterOptions {
   double flush_interval_s = 0.25;   // of sample host time; records older than this reach the file

@@ -17,11 +17,11 @@
 
 #include <memory>
 
-#include "mimic/avatar/skeleton.h"
+#include "mimic/rig/skeleton.h"
 #include "mimic/core/result.h"
 #include "mimic/devices/serial.h"
 #include "mimic/devices/source.h"
-#include "mimic/sim/clock.h"
+#include "mimic/core/clock.h"
 #include "mimic/sim/log.h"
 #include "mimic/sim/replay_source.h"
 #include "mimic/sim/sensor_rig.h"
@@ -34,10 +34,10 @@ namespace mimic::sim {
 Result<std::unique_ptr<devices::SensorSource>> open_sensor_source(const devices::SourceSpec& spec,
                                                                   std::shared_ptr<const Clock> clock = nullptr,
                                                                   std::shared_ptr<devices::ByteTap> tap = nullptr,
-                                                                  const avatar::Skeleton* performer = nullptr);
+                                                                  const rig::Skeleton* performer = nullptr);
 
 // The rig parameters of a sim: or bvh: spec, with the layout resolved on `skeleton`.
-Result<RigConfig> rig_config_from_spec(const devices::SourceSpec& spec, const avatar::Skeleton& skeleton);
+Result<RigConfig> rig_config_from_spec(const devices::SourceSpec& spec, const rig::Skeleton& skeleton);
 // The replay parameters of a replay: spec.
 Result<ReplayOptions> replay_options_from_spec(const devices::SourceSpec& spec);
 

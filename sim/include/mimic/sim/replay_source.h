@@ -22,7 +22,7 @@
 #include <string>
 
 #include "mimic/devices/source.h"
-#include "mimic/sim/clock.h"
+#include "mimic/core/clock.h"
 #include "mimic/sim/log.h"
 
 namespace mimic::sim {

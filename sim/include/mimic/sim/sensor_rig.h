@@ -43,9 +43,9 @@
 #include <string_view>
 #include <vector>
 
-#include "mimic/avatar/motion.h"
-#include "mimic/avatar/skeleton.h"
-#include "mimic/avatar/transform.h"
+#include "mimic/rig/motion.h"
+#include "mimic/rig/skeleton.h"
+#include "mimic/rig/transform.h"
 #include "mimic/core/result.h"
 #include "mimic/devices/sample.h"
 
@@ -54,7 +54,7 @@ namespace mimic::sim {
 struct SensorMount {
   std::string name;                            // e.g. "head", "l_hand"
   std::string segment;                         // skeleton joint whose frame carries the sensor
-  avatar::RigidTransform segment_from_sensor;  // mounting offset in the segment (joint) frame
+  rig::RigidTransform segment_from_sensor;  // mounting offset in the segment (joint) frame
 };
 
 // Named layouts on Mimic's skeleton (joint names as in default_skeleton_desc()); sensor id =
@@ -67,7 +67,7 @@ struct SensorMount {
 // feet → l_/r_ankle (instep), upper arms → l_/r_shoulder (outer side), thighs → l_/r_hip
 // (front), chest → spine_upper (sternum). Fails (not_found) on an unknown layout name or when a
 // segment is missing from the skeleton.
-Result<std::vector<SensorMount>> make_layout(std::string_view name, const avatar::Skeleton& skeleton);
+Result<std::vector<SensorMount>> make_layout(std::string_view name, const rig::Skeleton& skeleton);
 std::vector<std::string> layout_names();
 
 struct RigConfig {
@@ -81,7 +81,7 @@ struct RigConfig {
   double dropout_probability = 0.0;      // chance per tick that a dropout burst starts
   int dropout_burst = 1;                 // ticks per burst (≥ 1)
   uint64_t seed = 1;
-  avatar::RigidTransform world_from_reference;  // identity: the tracker frame is Mimic's world
+  rig::RigidTransform world_from_reference;  // identity: the tracker frame is Mimic's world
 };
 
 // The deterministic sample engine of one sensor (exposed for tests and for virtual devices that
@@ -103,10 +103,10 @@ class SensorRig {
  public:
   // The motion is shared (sample() is const). Fails on an empty layout, an unknown segment, a
   // non-positive rate, negative noise or latency, a probability outside [0, 1], a burst < 1.
-  static Result<SensorRig> create(std::shared_ptr<const avatar::Motion> motion, RigConfig config);
+  static Result<SensorRig> create(std::shared_ptr<const rig::Motion> motion, RigConfig config);
 
   const RigConfig& config() const { return config_; }
-  const avatar::Motion& motion() const { return *motion_; }
+  const rig::Motion& motion() const { return *motion_; }
   int sensor_count() const { return static_cast<int>(config_.sensors.size()); }
   double period_s() const { return 1.0 / config_.rate_hz; }
 
@@ -124,10 +124,10 @@ class SensorRig {
   void reset();
 
   // Ground truth of the last step(): the body's pose and each sensor's true pose.
-  const avatar::Pose& true_pose() const { return pose_; }
-  std::span<const avatar::RigidTransform> true_world_from_joint() const { return world_from_joint_; }
-  const avatar::RigidTransform& true_world_from_sensor(int i) const { return world_from_sensor_[i]; }
-  const avatar::RigidTransform& true_reference_from_sensor(int i) const { return reference_from_sensor_[i]; }
+  const rig::Pose& true_pose() const { return pose_; }
+  std::span<const rig::RigidTransform> true_world_from_joint() const { return world_from_joint_; }
+  const rig::RigidTransform& true_world_from_sensor(int i) const { return world_from_sensor_[i]; }
+  const rig::RigidTransform& true_reference_from_sensor(int i) const { return reference_from_sensor_[i]; }
   int segment_joint(int i) const { return segment_joint_[i]; }
 
  private:
@@ -142,15 +142,15 @@ class SensorRig {
 
   SensorRig() = default;
 
-  std::shared_ptr<const avatar::Motion> motion_;
+  std::shared_ptr<const rig::Motion> motion_;
   RigConfig config_;
   std::vector<int> segment_joint_;
-  avatar::RigidTransform reference_from_world_;
+  rig::RigidTransform reference_from_world_;
   uint64_t tick_ = 0;
-  avatar::Pose pose_;
-  std::vector<avatar::RigidTransform> world_from_joint_;
-  std::vector<avatar::RigidTransform> world_from_sensor_;
-  std::vector<avatar::RigidTransform> reference_from_sensor_;
+  rig::Pose pose_;
+  std::vector<rig::RigidTransform> world_from_joint_;
+  std::vector<rig::RigidTransform> world_from_sensor_;
+  std::vector<rig::RigidTransform> reference_from_sensor_;
   std::vector<SensorState> state_;
 };
 

@@ -14,7 +14,7 @@
 #include <vector>
 
 #include "mimic/devices/source.h"
-#include "mimic/sim/clock.h"
+#include "mimic/core/clock.h"
 #include "mimic/sim/sensor_rig.h"
 
 namespace mimic::sim {

@@ -32,7 +32,7 @@
 #include <string>
 #include <vector>
 
-#include "mimic/avatar/skeleton.h"
+#include "mimic/rig/skeleton.h"
 #include "mimic/core/result.h"
 #include "mimic/devices/sample.h"
 #include "mimic/solver/least_squares_ik.h"
@@ -43,7 +43,7 @@ namespace mimic::solver {
 struct SensorMount {
   uint16_t sensor = 0;                          // SensorSample::sensor
   std::string segment;                          // skeleton joint carrying the sensor
-  avatar::RigidTransform segment_from_sensor;   // where the sensor sits on the segment
+  rig::RigidTransform segment_from_sensor;   // where the sensor sits on the segment
 };
 
 struct SolverOptions {
@@ -87,10 +87,10 @@ class SolverModel {
  public:
   // Fails on a skeleton without Mimic's joint names (pelvis, spine, limbs), a mount on an
   // unknown segment or two mounts with one sensor id.
-  static Result<SolverModel> create(avatar::Skeleton skeleton, std::vector<SensorMount> mounts,
+  static Result<SolverModel> create(rig::Skeleton skeleton, std::vector<SensorMount> mounts,
                                     SolverOptions options = {});
 
-  const avatar::Skeleton& skeleton() const { return skeleton_; }
+  const rig::Skeleton& skeleton() const { return skeleton_; }
   std::span<const SensorMount> mounts() const { return mounts_; }
   const SolverOptions& options() const { return options_; }
 
@@ -112,16 +112,16 @@ class SolverModel {
   friend class SolverContext;
   friend struct SolveJob;
   friend class LimbLengthEstimator;
-  friend void hang_untracked_feet(const SolverModel&, SolverContext&, const avatar::Pose&, std::array<bool, 2>);
+  friend void hang_untracked_feet(const SolverModel&, SolverContext&, const rig::Pose&, std::array<bool, 2>);
   // New link lengths of a two-bone chain (functional calibration): both offsets keep their
   // direction. No allocation. False when a length is not positive and finite.
   bool set_chain_lengths(int chain, float upper_m, float lower_m);
-  avatar::Skeleton skeleton_;
+  rig::Skeleton skeleton_;
   std::vector<SensorMount> mounts_;
   SolverOptions options_;
   std::vector<int> slot_of_sensor_;               // sensor id → mount index or -1
   std::vector<int> mount_joint_;                  // per mount
-  std::vector<avatar::RigidTransform> sensor_from_segment_;  // per mount
+  std::vector<rig::RigidTransform> sensor_from_segment_;  // per mount
   std::vector<int> trunk_dofs_;                   // spine, neck, head
   std::vector<int> trunk_joints_;
   std::vector<int> leg_dofs_;                     // hips and knees (root placed from the feet)
@@ -138,7 +138,7 @@ class SolverModel {
 };
 
 class SolverContext {
-  friend void hang_untracked_feet(const SolverModel&, SolverContext&, const avatar::Pose&, std::array<bool, 2>);
+  friend void hang_untracked_feet(const SolverModel&, SolverContext&, const rig::Pose&, std::array<bool, 2>);
 
  public:
   explicit SolverContext(const SolverModel& model);  // allocates; call at setup
@@ -151,10 +151,10 @@ class SolverContext {
   std::vector<IkTarget> targets_;
   std::vector<int> ls_dofs_;
   std::vector<float> prior_;
-  std::vector<avatar::RigidTransform> segment_target_;  // per joint
+  std::vector<rig::RigidTransform> segment_target_;  // per joint
   std::vector<uint8_t> has_target_;                      // per joint
   std::array<bool, 4> guessed_end_{};                    // per chain: its end target is a guess
-  std::vector<avatar::RigidTransform> world_;
+  std::vector<rig::RigidTransform> world_;
   std::array<glm::vec3, 4> last_bend_world_{};
   bool have_previous_ = false;
   LocomotionState locomotion_;
@@ -169,7 +169,7 @@ struct SolveJob {
                                                    // values are ignored
   SolverContext* context = nullptr;
   // [in, out] warm start (the previous frame's solution, or zero_pose()) in, solution out
-  avatar::Pose* pose = nullptr;
+  rig::Pose* pose = nullptr;
   // [out]
   int sensors_used = 0;
   int ls_iterations = 0;

@@ -19,7 +19,7 @@
 #include <string_view>
 #include <vector>
 
-#include "mimic/avatar/skeleton.h"
+#include "mimic/rig/skeleton.h"
 #include "mimic/core/result.h"
 #include "mimic/devices/sample.h"
 #include "mimic/solver/body_solver.h"
@@ -41,11 +41,11 @@ struct SensorCalibration {
   uint16_t sensor = 0;
   std::string name;     // e.g. "l_hand"
   std::string segment;  // skeleton joint
-  avatar::RigidTransform segment_from_sensor;
+  rig::RigidTransform segment_from_sensor;
 };
 
 struct Calibration {
-  avatar::SkeletonDesc skeleton;  // Mimic's skeleton fitted to the wearer
+  rig::SkeletonDesc skeleton;  // Mimic's skeleton fitted to the wearer
   std::vector<SensorCalibration> sensors;
   CalibrationPose pose = CalibrationPose::t_pose;
   float height_m = 0;             // floor to top of the head, estimated
@@ -64,11 +64,11 @@ struct Calibration {
 // from the root, the neck and both clavicles branch from the top of the thoracic spine, the hip
 // centres sit a hand's width below the root. Same joints, DOFs and limits as `base`; the joint
 // positions of the zero posture change only where those conventions differ.
-avatar::SkeletonDesc tracking_skeleton_desc(const avatar::SkeletonDesc& base = avatar::default_skeleton_desc());
+rig::SkeletonDesc tracking_skeleton_desc(const rig::SkeletonDesc& base = rig::default_skeleton_desc());
 
 // [in] base: the skeleton to fit (tracking_skeleton_desc() usually); layout: which sensor is
 // where; capture: every sample received during the stand-still (any order, any mix of sensors).
-Result<Calibration> calibrate(const avatar::SkeletonDesc& base, const SensorLayout& layout,
+Result<Calibration> calibrate(const rig::SkeletonDesc& base, const SensorLayout& layout,
                               std::span<const devices::SensorSample> capture,
                               const CalibrationOptions& options = {});
 

@@ -19,7 +19,7 @@
 #include <span>
 #include <vector>
 
-#include "mimic/avatar/skeleton.h"
+#include "mimic/rig/skeleton.h"
 
 namespace mimic::solver {
 
@@ -41,10 +41,10 @@ struct GaitOptions {
 
 class GaitAccumulator {
  public:
-  GaitAccumulator(const avatar::Skeleton& truth, const avatar::Skeleton& solved, double rate_hz,
+  GaitAccumulator(const rig::Skeleton& truth, const rig::Skeleton& solved, double rate_hz,
                   GaitOptions options = {});
-  void add(std::span<const avatar::RigidTransform> truth_world,
-           std::span<const avatar::RigidTransform> solved_world);
+  void add(std::span<const rig::RigidTransform> truth_world,
+           std::span<const rig::RigidTransform> solved_world);
   GaitReport report() const;
 
  private:

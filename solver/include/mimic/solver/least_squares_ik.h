@@ -14,7 +14,7 @@
 #include <span>
 #include <vector>
 
-#include "mimic/avatar/skeleton.h"
+#include "mimic/rig/skeleton.h"
 
 namespace mimic::solver {
 
@@ -31,18 +31,18 @@ class LeastSquaresIkContext {
   LeastSquaresIkContext() = default;
   // Scratch for `skeleton` (at most 64 joints), up to max_dofs DOF unknowns (+ 6 for the root)
   // and max_targets targets. Allocates; call at setup.
-  LeastSquaresIkContext(const avatar::Skeleton& skeleton, int max_dofs, int max_targets);
+  LeastSquaresIkContext(const rig::Skeleton& skeleton, int max_dofs, int max_targets);
 
   int joint_count() const { return joints_; }
   int max_dofs() const { return max_dofs_; }
   int max_targets() const { return max_targets_; }
   // World transforms of the last evaluated pose (valid after Run()).
-  std::span<const avatar::RigidTransform> world_from_joint() const { return world_; }
+  std::span<const rig::RigidTransform> world_from_joint() const { return world_; }
 
  private:
   friend struct LeastSquaresIkJob;
   int joints_ = 0, max_dofs_ = 0, max_targets_ = 0;
-  std::vector<avatar::RigidTransform> world_;
+  std::vector<rig::RigidTransform> world_;
   std::vector<glm::vec3> dof_axis_world_;  // per skeleton DOF
   std::vector<float> jacobian_;            // rows × cols, row-major
   std::vector<float> residual_;
@@ -57,7 +57,7 @@ class LeastSquaresIkContext {
 
 struct LeastSquaresIkJob {
   // [in]
-  const avatar::Skeleton* skeleton = nullptr;
+  const rig::Skeleton* skeleton = nullptr;
   std::span<const int> dofs;           // skeleton DOF indices to solve for (distinct)
   bool solve_root = false;             // root position and orientation are unknowns too
   std::span<const IkTarget> targets;
@@ -69,7 +69,7 @@ struct LeastSquaresIkJob {
                                        // objective drops by less than 0.01 %)
   LeastSquaresIkContext* context = nullptr;
   // [in, out] warm start in, solution (inside the joint limits) out
-  avatar::Pose* pose = nullptr;
+  rig::Pose* pose = nullptr;
   // [out]
   int iterations = 0;                  // linear solves done
   float residual_norm = 0;             // weighted residual after the last iteration

@@ -22,7 +22,7 @@
 #include <string_view>
 #include <vector>
 
-#include "mimic/avatar/skeleton.h"
+#include "mimic/rig/skeleton.h"
 
 namespace mimic::solver {
 
@@ -50,11 +50,11 @@ bool is_end_effector(std::string_view joint);
 class PoseErrorAccumulator {
  public:
   // Allocates; the frame count is unbounded (solve times are kept for the percentiles).
-  PoseErrorAccumulator(const avatar::Skeleton& truth, const avatar::Skeleton& solved);
+  PoseErrorAccumulator(const rig::Skeleton& truth, const rig::Skeleton& solved);
 
   // World transforms of every joint of each skeleton for one frame; solve_us < 0 if untimed.
-  void add(std::span<const avatar::RigidTransform> truth_world,
-           std::span<const avatar::RigidTransform> solved_world, double solve_us = -1);
+  void add(std::span<const rig::RigidTransform> truth_world,
+           std::span<const rig::RigidTransform> solved_world, double solve_us = -1);
   PoseErrorReport report() const;
   void set_rate_hz(double rate_hz) { rate_hz_ = rate_hz; }
 

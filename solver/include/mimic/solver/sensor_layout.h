@@ -19,7 +19,7 @@
 
 #include <glm/glm.hpp>
 
-#include "mimic/avatar/skeleton.h"
+#include "mimic/rig/skeleton.h"
 #include "mimic/core/result.h"
 
 namespace mimic::solver {
@@ -39,7 +39,7 @@ struct SensorLayout {
 };
 
 // Fails (not_found) on an unknown name or a segment the skeleton lacks.
-Result<SensorLayout> standard_layout(std::string_view name, const avatar::Skeleton& skeleton);
+Result<SensorLayout> standard_layout(std::string_view name, const rig::Skeleton& skeleton);
 std::vector<std::string> standard_layout_names();
 
 }  // namespace mimic::solver

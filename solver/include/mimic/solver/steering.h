@@ -16,7 +16,7 @@
 
 #include <cstdint>
 
-#include "mimic/avatar/skeleton.h"
+#include "mimic/rig/skeleton.h"
 #include "mimic/devices/sample.h"
 
 namespace mimic::solver {
@@ -46,7 +46,7 @@ class Steering {
 
   // Tracked pose → steered pose (root position and orientation only). Latches the pivot on the
   // first call after a reset.
-  void apply(avatar::Pose& pose);
+  void apply(rig::Pose& pose);
 
   void reset();  // no offset, no turn; the next apply() sets the pivot
   float heading_rad() const { return heading_rad_; }

@@ -1,7 +1,7 @@
 // Rotations to named DOF values: a joint's local rotation R = R(a0, θ0) · R(a1, θ1) · R(a2, θ2)
-// (axes in the joint frame, as in avatar/skeleton.h) is decomposed back into θ.
+// (axes in the joint frame, as in rig/skeleton.h) is decomposed back into θ.
 //
-// The decomposition itself is avatar/joint_angles.h's (exact Euler for three orthogonal axes,
+// The decomposition itself is rig/joint_angles.h's (exact Euler for three orthogonal axes,
 // the twist for one, the best fit for two), nearest the previous values; on top of it this adds
 // the joint limits: of that solution, the other Euler branch and every angle ± 2π, the candidate
 // inside the limits and nearest the previous values wins, so a joint passing ±180° or gimbal
@@ -14,7 +14,7 @@
 #include <glm/glm.hpp>
 #include <glm/gtc/quaternion.hpp>
 
-#include "mimic/avatar/skeleton.h"
+#include "mimic/rig/skeleton.h"
 
 namespace mimic::solver {
 
@@ -32,13 +32,13 @@ void angles_from_rotation(const glm::quat& local, std::span<const glm::vec3> axe
 
 // Joint j's DOFs from its local rotation, written into dof_rad (indexed by skeleton DOF, the
 // current values are the warm start), clamped to the joint limits.
-void joint_dofs_from_rotation(const avatar::Skeleton& skeleton, int joint, const glm::quat& local,
+void joint_dofs_from_rotation(const rig::Skeleton& skeleton, int joint, const glm::quat& local,
                               std::span<float> dof_rad);
 
 // Up to three skeleton DOFs (indices, in the order their rotations compose, possibly spanning
 // joints along one chain) from one rotation, clamped to their limits. Used for forearm twist +
 // wrist, which together orient the hand.
-void dofs_from_rotation(const avatar::Skeleton& skeleton, std::span<const int> dofs,
+void dofs_from_rotation(const rig::Skeleton& skeleton, std::span<const int> dofs,
                         const glm::quat& rotation, std::span<float> dof_rad);
 
 }  // namespace mimic::solver

@@ -1,0 +1,38 @@
+#include "mimic/core/thread_priority.h"
+
+#include <pthread.h>
+#include <sched.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <string>
+
+namespace mimic {
+
+namespace {
+sched_param param_of(int priority) noexcept {
+  sched_param p{};
+  p.sched_priority = priority;
+  return p;
+}
+int policy_of(int priority) noexcept { return priority > 0 ? SCHED_FIFO : SCHED_OTHER; }
+}  // namespace
+
+bool set_thread_fifo(int priority) noexcept {
+  const sched_param p = param_of(priority);
+  return pthread_setschedparam(pthread_self(), policy_of(priority), &p) == 0;
+}
+
+int set_process_threads_fifo(pid_t pid, int priority) noexcept {
+  const sched_param p = param_of(priority);
+  int taken = 0;
+  std::error_code ec;
+  std::filesystem::directory_iterator tasks("/proc/" + std::to_string(pid) + "/task", ec);
+  for (; !ec && tasks != std::filesystem::directory_iterator(); tasks.increment(ec)) {
+    const long tid = std::strtol(tasks->path().filename().c_str(), nullptr, 10);
+    if (tid > 0 && sched_setscheduler(static_cast<pid_t>(tid), policy_of(priority), &p) == 0) ++taken;
+  }
+  return taken;
+}
+
+}  // namespace mimic
