@@ -15,46 +15,63 @@ namespace {
 constexpr double kMaxTime_s = 3600;  // an hour of a looping motion is plenty
 }  // namespace
 
+Result<avatar::BodyModel> body_from_path(const std::string& path) {
+  if (!path.empty()) return avatar::load_body_or_preset(path);
+  return avatar::default_body_model();
+}
+
 Result<avatar::BodyModel> body_from_args(const Args& args) {
   if (auto path = args.get("body")) return avatar::load_body_or_preset(*path);
   return avatar::default_body_model();
 }
 
-Result<PoseRequest> pose_from_args(const Args& a, const rig::Skeleton& skeleton) {
-  Args args = a;
+void add_pose_options(CLI::App& app, PoseOptions& o) {
+  auto* bvh = app.add_option("--bvh", o.bvh,
+                             "pose: frame --frame N of a BVH clip (frames count from 0, the clip's first\n"
+                             "frame; CMU clips start with a T-pose), retargeted onto the body")
+                  ->type_name("CLIP");
+  app.add_option("--frame", o.frame, "the --bvh clip's frame")
+      ->default_str("")
+      ->check(CLI::NonNegativeNumber)
+      ->needs(bvh);
+  app.add_option("--scale", o.scale, "metres per BVH unit (default 0.056444, the CMU unit)")
+      ->default_str("")
+      ->check(cli::finite_range(0, INFINITY, cli::Bound::exclusive))
+      ->needs(bvh);
+  auto* motion = app.add_option("--motion", o.motion, "pose: a built-in motion at --time S")
+                     ->check(CLI::IsMember(rig::builtin_motion_names()))
+                     ->excludes(bvh);
+  app.add_option("--time", o.time_s, "seconds into the --motion")
+      ->check(cli::finite_range(0, kMaxTime_s))
+      ->needs(motion);
+  app.add_option("--pose", o.pose, "pose: the T-pose the body is authored in, or the relaxed posture\n(default zero)")
+      ->check(CLI::IsMember({"zero", "rest"}))
+      ->excludes(bvh)
+      ->excludes(motion);
+}
+
+Result<PoseRequest> pose_from(const PoseOptions& o, const rig::Skeleton& skeleton) {
   const auto t0 = std::chrono::steady_clock::now();
   PoseRequest req;
-  const int sources = int(args.has("bvh")) + int(args.has("motion")) + int(args.has("pose"));
-  if (sources > 1) return fail(Errc::invalid_argument, "give one of --bvh, --motion or --pose");
-  if (auto bvh = args.get("bvh")) {
-    double scale = rig::kCmuMetresPerUnit;
-    long frame = 0;
-    if (!args.get_double("scale", scale) || !args.get_int("frame", frame)) return fail(Errc::invalid_argument, args.error());
-    if (!(std::isfinite(scale) && scale > 0)) return fail(Errc::invalid_argument, "--scale must be a positive number of metres per unit");
-    if (!args.has("frame")) return fail(Errc::invalid_argument, "--bvh needs --frame N (frames count from 0)");
-    auto clip = rig::load_bvh(*bvh, rig::BvhParseOptions{scale});
+  if (!o.bvh.empty()) {
+    if (o.frame < 0) return fail(Errc::invalid_argument, "--bvh needs --frame N (frames count from 0)");
+    auto clip = rig::load_bvh(o.bvh, rig::BvhParseOptions{o.scale > 0 ? o.scale : rig::kCmuMetresPerUnit});
     if (!clip) return tl::unexpected(clip.error());
-    if (frame < 0 || frame >= clip->frame_count)
-      return fail(Errc::out_of_range, "--frame " + std::to_string(frame) + " is outside " + *bvh + " (frames 0.." +
+    if (o.frame >= clip->frame_count)
+      return fail(Errc::out_of_range, "--frame " + std::to_string(o.frame) + " is outside " + o.bvh + " (frames 0.." +
                                           std::to_string(clip->frame_count - 1) + ")");
     auto r = rig::retarget_bvh(*clip);
     if (!r) return tl::unexpected(r.error());
-    req.pose = rig::transfer_pose(r->skeleton, r->poses[frame], skeleton);
-    req.description = *bvh + " frame " + std::to_string(frame) + " of " + std::to_string(clip->frame_count);
-  } else if (auto motion = args.get("motion")) {
-    double time_s = 0;
-    if (!args.get_double("time", time_s)) return fail(Errc::invalid_argument, args.error());
-    // strtod takes "nan" and "inf"; a motion has no pose there (and loops far from 1e9 s).
-    if (!(time_s >= 0 && time_s <= kMaxTime_s))
-      return fail(Errc::invalid_argument, "--time must be 0.." + std::to_string(int(kMaxTime_s)) + " seconds, got '" +
-                                              args.get_or("time", "") + "'");
-    auto m = rig::make_builtin_motion(*motion, skeleton);
+    req.pose = rig::transfer_pose(r->skeleton, r->poses[size_t(o.frame)], skeleton);
+    req.description = o.bvh + " frame " + std::to_string(o.frame) + " of " + std::to_string(clip->frame_count);
+  } else if (!o.motion.empty()) {
+    auto m = rig::make_builtin_motion(o.motion, skeleton);
     if (!m) return tl::unexpected(m.error());
     req.pose = skeleton.zero_pose();
-    (*m)->sample(time_s, req.pose);
-    req.description = "built-in motion '" + *motion + "' at " + std::to_string(time_s) + " s";
+    (*m)->sample(o.time_s, req.pose);
+    req.description = "built-in motion '" + o.motion + "' at " + std::to_string(o.time_s) + " s";
   } else {
-    const std::string which = args.get_or("pose", "zero");
+    const std::string which = o.pose.empty() ? "zero" : o.pose;
     if (which == "zero") req.pose = skeleton.zero_pose();
     else if (which == "rest") req.pose = avatar::relaxed_posture(skeleton);
     else return fail(Errc::invalid_argument, "--pose must be zero or rest, got '" + which + "'");
@@ -63,6 +80,26 @@ Result<PoseRequest> pose_from_args(const Args& a, const rig::Skeleton& skeleton)
   }
   req.load_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   return req;
+}
+
+Result<PoseRequest> pose_from_args(const Args& a, const rig::Skeleton& skeleton) {
+  Args args = a;
+  const int sources = int(args.has("bvh")) + int(args.has("motion")) + int(args.has("pose"));
+  if (sources > 1) return fail(Errc::invalid_argument, "give one of --bvh, --motion or --pose");
+  PoseOptions o;
+  o.bvh = args.get_or("bvh", "");
+  o.motion = args.get_or("motion", "");
+  o.pose = args.get_or("pose", "");
+  o.scale = rig::kCmuMetresPerUnit;
+  if (!args.get_double("scale", o.scale) || !args.get_int("frame", o.frame) || !args.get_double("time", o.time_s))
+    return fail(Errc::invalid_argument, args.error());
+  if (!(std::isfinite(o.scale) && o.scale > 0)) return fail(Errc::invalid_argument, "--scale must be a positive number of metres per unit");
+  if (args.has("frame") && o.frame < 0) return fail(Errc::invalid_argument, "--frame counts from 0");
+  // strtod takes "nan" and "inf"; a motion has no pose there (and loops far from 1e9 s).
+  if (!(o.time_s >= 0 && o.time_s <= kMaxTime_s))
+    return fail(Errc::invalid_argument, "--time must be 0.." + std::to_string(int(kMaxTime_s)) + " seconds, got '" +
+                                            args.get_or("time", "") + "'");
+  return pose_from(o, skeleton);
 }
 
 }  // namespace mimic::app

@@ -5,6 +5,7 @@
 #include <optional>
 #include <string>
 
+#include "cli.h"
 #include "command.h"
 #include "mimic/avatar/body_model.h"
 #include "mimic/rig/skeleton.h"
@@ -12,7 +13,9 @@
 
 namespace mimic::app {
 
-// --body FILE, or the built-in default body when absent.
+// --body FILE (a path or preset:NAME), or the built-in default body when `path` is empty.
+Result<avatar::BodyModel> body_from_path(const std::string& path);
+// The same from the old parser's --body (mimic view).
 Result<avatar::BodyModel> body_from_args(const Args& args);
 
 struct PoseRequest {
@@ -21,8 +24,21 @@ struct PoseRequest {
   double load_ms = 0;       // reading and retargeting the clip
 };
 
-// --bvh CLIP --frame N [--scale M] | --motion NAME --time S | --pose zero|rest, for `skeleton`.
-// Errors name the option at fault.
+// --bvh CLIP --frame N [--scale M] | --motion NAME --time S | --pose zero|rest.
+struct PoseOptions {
+  std::string bvh, motion, pose;
+  long frame = -1;  // -1: not given
+  double scale = 0;  // metres per BVH unit; 0: the CMU unit
+  double time_s = 0;
+};
+
+// Declares the pose options on a command (ranges, choices and exclusions with them).
+void add_pose_options(CLI::App& app, PoseOptions& o);
+
+// The pose the options ask for, for `skeleton`. Errors name the option at fault; a request that
+// does not make sense is Errc::invalid_argument (a usage error), a clip that does not load is not.
+Result<PoseRequest> pose_from(const PoseOptions& o, const rig::Skeleton& skeleton);
+// The same from the old parser's words (mimic view).
 Result<PoseRequest> pose_from_args(const Args& args, const rig::Skeleton& skeleton);
 
 }  // namespace mimic::app

@@ -3,15 +3,19 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
+#include <optional>
 #include <random>
 #include <thread>
 
 #include <nlohmann/json.hpp>
 
+#include "cli.h"
 #include "command.h"
+#include "mimic/core/percentile.h"
 #include "mimic/net/client.h"
 #include "mimic/net/frame_codec.h"
 #include "mimic/bench/loopback_bench.h"
+#include "mimic/core/thread_priority.h"
 #include "mimic/net/server.h"
 #include "mimic/net/vmc.h"
 #include "mimic/avatar/baselines/baseline_skinner.h"
@@ -21,7 +25,6 @@
 #include "mimic/sim/sensor_rig.h"
 #include "mimic/solver/body_solver.h"
 #include "mimic/solver/filters.h"
-#include "mimic/core/thread_priority.h"
 #include "mimic/service/pipeline.h"
 
 namespace mimic::app {
@@ -43,99 +46,95 @@ struct BenchOptions {
 
 // ---- network -----------------------------------------------------------------------------------
 
-Result<nlohmann::json> bench_net(const BenchOptions& opt) {
-  nlohmann::json j;
-  auto sk = rig::Skeleton::build(rig::default_skeleton_desc());
-  if (!sk) return tl::unexpected(sk.error());
-
-  // Bytes per avatar-frame: the same walking pose three ways.
-  auto motion = rig::make_builtin_motion("walk", *sk);
+// Bytes per avatar-frame: the same walking pose three ways.
+Status bytes_per_frame(const rig::Skeleton& sk, nlohmann::json& j) {
+  auto motion = rig::make_builtin_motion("walk", sk);
   if (!motion) return tl::unexpected(motion.error());
-  rig::Pose pose = sk->zero_pose();
+  rig::Pose pose = sk.zero_pose();
   (*motion)->sample(0.3, pose);
   std::vector<uint8_t> frame(net::kMaxDatagramBytes), bundle;
   const size_t mimic_bytes = net::encode_pose({1, 0, 1, net::wall_clock_us()}, pose, frame);
-  net::VmcEncoder(*sk).encode(pose, 0.3, bundle);
+  net::VmcEncoder(sk).encode(pose, 0.3, bundle);
   const size_t raw_bytes = 24 + 4 * (3 + 4 + pose.dof_rad.size());
   j["bytes_per_avatar_frame"] = {{"mimic", mimic_bytes}, {"vmc", bundle.size()}, {"raw_float", raw_bytes},
                                  {"dofs", pose.dof_rad.size()}};
   std::fprintf(stderr, "bytes per avatar-frame (%zu DOFs): mimic %zu, VMC %zu (%.1fx), raw float %zu (%.1fx)\n",
                pose.dof_rad.size(), mimic_bytes, bundle.size(), double(bundle.size()) / double(mimic_bytes), raw_bytes,
                double(raw_bytes) / double(mimic_bytes));
+  return {};
+}
 
-  // Server -> subscriber over loopback.
-  auto lat = bench::measure_loopback_latency(opt.quick ? 300 : 3000, uint16_t(sk->dof_count()));
+// Server -> subscriber over loopback, frames on the stream and as UDP datagrams.
+Status loopback_latency(const BenchOptions& opt, const rig::Skeleton& sk, nlohmann::json& j) {
+  auto lat = bench::measure_loopback_latency(opt.quick ? 300 : 3000, uint16_t(sk.dof_count()));
   if (!lat) return tl::unexpected(lat.error());
   j["loopback_latency_us"] = {{"p50", lat->p50_us}, {"p99", lat->p99_us}, {"max", lat->max_us}, {"samples", lat->samples}};
   std::fprintf(stderr, "server -> subscriber on loopback: p50 %.1f us, p99 %.1f us (%llu frames)\n", lat->p50_us,
                lat->p99_us, static_cast<unsigned long long>(lat->samples));
-  auto lat_udp = bench::measure_loopback_latency(opt.quick ? 300 : 3000, uint16_t(sk->dof_count()), true);
+  auto lat_udp = bench::measure_loopback_latency(opt.quick ? 300 : 3000, uint16_t(sk.dof_count()), true);
   if (!lat_udp) return tl::unexpected(lat_udp.error());
   j["loopback_latency_udp_us"] = {{"p50", lat_udp->p50_us}, {"p99", lat_udp->p99_us}, {"max", lat_udp->max_us},
                                   {"samples", lat_udp->samples}};
   std::fprintf(stderr, "server -> subscriber on loopback, frames as UDP datagrams: p50 %.1f us, p99 %.1f us\n",
                lat_udp->p50_us, lat_udp->p99_us);
+  return {};
+}
 
-  // Sensor record -> frame leaving the socket: the pipeline of `mimic run` on the simulated
-  // walk (tracker sample through solver, deformer, encoder and server), one subscriber reading.
-  // The loop is run's: it sleeps 100 us between passes; measured at normal priority and at
-  // SCHED_FIFO 50 (mimic run --realtime 50) when the system allows it.
-  auto pipeline_latency = [&](int slice_us, int rt_priority) -> Result<nlohmann::json> {
-    auto server = net::Server::create({});
-    if (!server) return tl::unexpected(server.error());
-    auto feed = open_feed("sim:walk?rate=90");
-    if (!feed) return tl::unexpected(feed.error());
-    auto body = load_body("");
-    if (!body) return tl::unexpected(body.error());
-    auto skin = make_skin_deformer(body->model, (*feed)->skeleton(), 2);
-    if (!skin) return tl::unexpected(skin.error());
-    SinkList sinks;
-    sinks.push_back(make_server_sink(**server));
-    Pipeline pipeline(std::move(sinks));
-    if (auto st = pipeline.add_avatar("bench", std::move(*feed), std::move(body->bytes), std::move(*skin)); !st)
-      return tl::unexpected(st.error());
-    std::atomic<bool> stop{false};
-    const std::string ep = (*server)->endpoint();
-    std::thread viewer([&] {
-      net::ClientOptions co;
-      co.connect = ep;
-      auto c = net::Client::connect(co);
-      while (c && !stop) (void)(*c)->run_until(std::chrono::steady_clock::now() + std::chrono::milliseconds(20));
-    });
-    using C = std::chrono::steady_clock;
-    const bool rt = rt_priority > 0 && set_thread_fifo(rt_priority);
-    if (rt_priority > 0 && !rt) {
-      stop = true;
-      viewer.join();
-      return nlohmann::json{{"refused", true}};
-    }
-    const auto end = C::now() + std::chrono::duration<double>(opt.quick ? 1.0 : opt.seconds);
-    while (C::now() < end) {
-      pipeline.tick();
-      (void)pipeline.service_network(slice_us);
-    }
-    if (rt) set_thread_fifo(0);
+// Sensor record -> frame leaving the socket: the pipeline of `mimic run` on the simulated
+// walk (tracker sample through solver, deformer, encoder and server), one subscriber reading.
+// The loop is run's: it sleeps `slice_us` between passes; at SCHED_FIFO `rt_priority` (mimic run
+// --realtime) when that is not 0 and the system allows it ({"refused": true} otherwise).
+Result<nlohmann::json> pipeline_latency(const BenchOptions& opt, int slice_us, int rt_priority) {
+  auto server = net::Server::create({});
+  if (!server) return tl::unexpected(server.error());
+  auto feed = open_feed("sim:walk?rate=90");
+  if (!feed) return tl::unexpected(feed.error());
+  auto body = load_body("");
+  if (!body) return tl::unexpected(body.error());
+  auto skin = make_skin_deformer(body->model, (*feed)->skeleton(), 2);
+  if (!skin) return tl::unexpected(skin.error());
+  SinkList sinks;
+  sinks.push_back(make_server_sink(**server));
+  Pipeline pipeline(std::move(sinks));
+  if (auto st = pipeline.add_avatar("bench", std::move(*feed), std::move(body->bytes), std::move(*skin)); !st)
+    return tl::unexpected(st.error());
+  std::atomic<bool> stop{false};
+  const std::string ep = (*server)->endpoint();
+  std::thread viewer([&] {
+    net::ClientOptions co;
+    co.connect = ep;
+    auto c = net::Client::connect(co);
+    while (c && !stop) (void)(*c)->run_until(std::chrono::steady_clock::now() + std::chrono::milliseconds(20));
+  });
+  using C = std::chrono::steady_clock;
+  const bool rt = rt_priority > 0 && set_thread_fifo(rt_priority);
+  if (rt_priority > 0 && !rt) {
     stop = true;
     viewer.join();
-    const auto s = pipeline.timer(kStageLatency).summary();
-    nlohmann::json stages;
-    for (int k = 0; k < kStageCount; ++k) {
-      const auto ks = pipeline.timer(k).summary();
-      stages[stage_name(k)] = {{"p50_us", ks.p50_us}, {"p99_us", ks.p99_us}};
-    }
-    std::fprintf(stderr, "sensor record -> frame leaving the socket (%s): p50 %.0f us, p99 %.0f us (%llu frames)\n",
-                 rt ? "mimic run --realtime 50" : "mimic run loop", s.p50_us, s.p99_us,
-                 static_cast<unsigned long long>(s.count));
-    return nlohmann::json{{"p50", s.p50_us}, {"p99", s.p99_us}, {"frames", s.count}, {"stages", stages}};
-  };
-  auto run_loop = pipeline_latency(100, 0);
-  if (!run_loop) return tl::unexpected(run_loop.error());
-  j["record_to_socket_us"] = *run_loop;
-  auto prioritised = pipeline_latency(100, 50);
-  if (!prioritised) return tl::unexpected(prioritised.error());
-  j["record_to_socket_realtime_us"] = *prioritised;
+    return nlohmann::json{{"refused", true}};
+  }
+  const auto end = C::now() + std::chrono::duration<double>(opt.quick ? 1.0 : opt.seconds);
+  while (C::now() < end) {
+    pipeline.tick();
+    (void)pipeline.service_network(slice_us);
+  }
+  if (rt) set_thread_fifo(0);
+  stop = true;
+  viewer.join();
+  const auto s = pipeline.timer(kStageLatency).summary();
+  nlohmann::json stages;
+  for (int k = 0; k < kStageCount; ++k) {
+    const auto ks = pipeline.timer(k).summary();
+    stages[stage_name(k)] = {{"p50_us", ks.p50_us}, {"p99_us", ks.p99_us}};
+  }
+  std::fprintf(stderr, "sensor record -> frame leaving the socket (%s): p50 %.0f us, p99 %.0f us (%llu frames)\n",
+               rt ? "mimic run --realtime 50" : "mimic run loop", s.p50_us, s.p99_us,
+               static_cast<unsigned long long>(s.count));
+  return nlohmann::json{{"p50", s.p50_us}, {"p99", s.p99_us}, {"frames", s.count}, {"stages", stages}};
+}
 
-  // Fan-out at 90 Hz: subscribers x avatars streams with no lost latest frame.
+// Fan-out at 90 Hz: subscribers x avatars streams with no lost latest frame.
+Status fanout_sweep(const BenchOptions& opt, nlohmann::json& j) {
   nlohmann::json sweep = nlohmann::json::array();
   std::vector<std::pair<long, long>> configs;
   if (opt.quick) configs = {{10, 1}, {50, 2}};
@@ -164,16 +163,30 @@ Result<nlohmann::json> bench_net(const BenchOptions& opt) {
   }
   j["fanout_90hz"] = sweep;
   j["max_streams_kept_up"] = best;
+  return {};
+}
+
+Result<nlohmann::json> bench_net(const BenchOptions& opt) {
+  nlohmann::json j;
+  auto sk = rig::Skeleton::build(rig::default_skeleton_desc());
+  if (!sk) return tl::unexpected(sk.error());
+  if (auto st = bytes_per_frame(*sk, j); !st) return tl::unexpected(st.error());
+  if (auto st = loopback_latency(opt, *sk, j); !st) return tl::unexpected(st.error());
+  auto run_loop = pipeline_latency(opt, 100, 0);
+  if (!run_loop) return tl::unexpected(run_loop.error());
+  j["record_to_socket_us"] = *run_loop;
+  auto prioritised = pipeline_latency(opt, 100, 50);
+  if (!prioritised) return tl::unexpected(prioritised.error());
+  j["record_to_socket_realtime_us"] = *prioritised;
+  if (auto st = fanout_sweep(opt, j); !st) return tl::unexpected(st.error());
   return j;
 }
 
 // ---- skin ---------------------------------------------------------------------------------------
 
-// Median and 99th percentile of a set of durations (microseconds); sorts in place.
+// Median and 99th percentile of a set of durations (microseconds); reorders them.
 std::pair<double, double> p50_p99(std::vector<double>& us) {
-  if (us.empty()) return {0.0, 0.0};
-  std::sort(us.begin(), us.end());
-  return {us[us.size() / 2], us[std::min(us.size() - 1, us.size() * 99 / 100)]};
+  return {percentile_in_place(us, 0.50), percentile_in_place(us, 0.99)};
 }
 
 template <class F>
@@ -464,12 +477,10 @@ const Section kSections[] = {
     {"fanout", bench_fanout},
 };
 
-const char* kUsage =
-    "usage: mimic bench [--section NAME] [--quick] [--subscribers N] [--avatars A] [--seconds S]\n"
-    "                   [--transport tcp|udp|nats] [--realtime P] [--threads N] [--receivers R] [--json]\n"
-    "\n"
-    "Measures this machine (figures, not pass/fail; a loaded machine measures worse).\n"
-    "\n"
+constexpr const char* kAbout =
+    "Measures this machine (figures, not pass/fail; a loaded machine measures worse).";
+
+constexpr const char* kSectionsHelp =
     "sections:\n"
     "  net   bytes per avatar-frame (Mimic pose frame vs VMC vs raw floats); server -> subscriber\n"
     "        latency on loopback (TCP, and UDP datagrams); sensor record -> frame leaving the\n"
@@ -491,67 +502,63 @@ const char* kUsage =
     "        and through a broker (nats): the bench starts nats-server on a free loopback port,\n"
     "        publishes into it and a relay in-process serves the subscribers (tick = the relay's\n"
     "        fan-out; publish-to-relay latency p50/p99); skipped, saying why, without NATS or\n"
-    "        nats-server; with --json alone, one JSON object per configuration per line\n"
-    "\n"
-    "options:\n"
-    "  --section NAME    run one section (default: all)\n"
-    "  --quick           a short smoke pass\n"
-    "  --subscribers N   largest fan-out point: subscribers (default 1000)\n"
-    "  --avatars A       largest fan-out point: avatars (default 1)\n"
-    "  --seconds S       duration of each timed run (default 3)\n"
-    "  --transport T     fanout: tcp, udp or nats only\n"
-    "  --realtime P      fanout: the server's threads SCHED_FIFO at priority P, the receiving\n"
-    "                    threads at P - 1\n"
-    "  --threads N       fanout: the server's threads sharing a tick's writes (default: one per\n"
-    "                    core, at most 4)\n"
-    "  --receivers R     fanout: threads reading the subscribers' sockets (default 2)\n"
-    "  --json            print one JSON object {section: figures} on stdout (skin or fanout\n"
-    "                    alone: one object per row and line)\n";
+    "        nats-server; with --json alone, one JSON object per configuration per line";
+
+// The options; `only` the one section asked for ("" for all), `json` whether to print figures.
+std::optional<int> parse(cli::Parser& p, const std::vector<std::string>& argv, BenchOptions& opt, std::string& only,
+                         bool& json) {
+  p->footer(kSectionsHelp);
+  std::vector<std::string> names;
+  for (const auto& s : kSections) names.push_back(s.name);
+  p->add_option("--section", only, "run one section (default: all)")->type_name("NAME")->check(CLI::IsMember(names));
+  p->add_flag("--quick", opt.quick, "a short smoke pass");
+  auto* subs = p->add_option("--subscribers", opt.subscribers, "largest fan-out point: subscribers")
+                   ->check(CLI::Range(1L, 1000000L));
+  auto* avs = p->add_option("--avatars", opt.avatars, "largest fan-out point: avatars")->check(CLI::Range(1L, 1000L));
+  p->add_option("--seconds", opt.seconds, "duration of each timed run")
+      ->check(cli::finite_range(0, 3600, cli::Bound::exclusive));
+  p->add_option("--transport", opt.transport, "fanout: this transport only")
+      ->check(CLI::IsMember({"tcp", "udp", "nats"}));
+  p->add_option("--realtime", opt.realtime,
+                "fanout: the server's threads SCHED_FIFO at priority P, the receiving\n"
+                "threads at P - 1 (0: normal priority)")
+      ->type_name("P")
+      ->check(CLI::Range(0L, 99L));
+  p->add_option("--threads", opt.threads,
+                "fanout: the server's threads sharing a tick's writes (0: one per\n"
+                "core, at most 4)")
+      ->check(CLI::Range(0L, 64L));
+  p->add_option("--receivers", opt.receivers, "fanout: threads reading the subscribers' sockets")
+      ->check(CLI::Range(1L, 64L));
+  p->add_flag("--json", json,
+              "print one JSON object {section: figures} on stdout (skin, solver or fanout\n"
+              "alone: one object per row and line)");
+  if (auto exit_code = p.parse(argv)) return exit_code;
+  opt.fanout_point = subs->count() > 0 || avs->count() > 0;
+  opt.json_lines = (only == "fanout" || only == "skin" || only == "solver") && json;
+  return std::nullopt;
+}
 
 int bench(const std::vector<std::string>& argv) {
-  Args a(argv, {"section", "subscribers", "avatars", "seconds", "transport", "realtime", "threads", "receivers"},
-         {"quick", "json"});
-  if (a.help()) {
-    std::printf("%s", kUsage);
-    return 0;
-  }
-  if (!a.ok()) return usage_error("bench", a.error());
+  cli::Parser p("bench", kAbout);
   BenchOptions opt;
-  opt.quick = a.has("quick");
-  if (!a.get_int("subscribers", opt.subscribers) || !a.get_int("avatars", opt.avatars) ||
-      !a.get_double("seconds", opt.seconds))
-    return usage_error("bench", a.error());
-  if (opt.subscribers < 1 || opt.avatars < 1 || opt.seconds <= 0)
-    return usage_error("bench", "--subscribers, --avatars and --seconds must be positive");
-  const std::string only = a.get_or("section", "");
-  opt.fanout_point = a.has("subscribers") || a.has("avatars");
-  opt.transport = a.get_or("transport", "");
-  if (!a.get_int("realtime", opt.realtime) || opt.realtime < 0 || opt.realtime > 99)
-    return usage_error("bench", "--realtime takes a priority 1..99");
-  if (!a.get_int("threads", opt.threads) || opt.threads < 0 || opt.threads > 64)
-    return usage_error("bench", "--threads takes 0..64 (0: one per core, at most 4)");
-  if (!a.get_int("receivers", opt.receivers) || opt.receivers < 1 || opt.receivers > 64)
-    return usage_error("bench", "--receivers takes 1..64");
-  if (!opt.transport.empty() && opt.transport != "tcp" && opt.transport != "udp" && opt.transport != "nats")
-    return usage_error("bench", "--transport must be tcp, udp or nats");
-  opt.json_lines = (only == "fanout" || only == "skin" || only == "solver") && a.has("json");
+  std::string only;
+  bool json = false;
+  if (auto exit_code = parse(p, argv, opt, only, json)) return *exit_code;
   nlohmann::json all;
-  bool found = false;
   for (const auto& s : kSections) {
     if (!only.empty() && only != s.name) continue;
-    found = true;
     std::fprintf(stderr, "== %s\n", s.name);
     auto r = s.run(opt);
-    if (!r) return failure("bench", std::string(s.name) + ": " + r.error().what());
+    if (!r) return p.failure(std::string(s.name) + ": " + r.error().what());
     all[s.name] = *r;
   }
-  if (!found) return usage_error("bench", "unknown section '" + only + "'");
-  if (a.has("json") && !opt.json_lines) std::printf("%s\n", all.dump().c_str());
+  if (json && !opt.json_lines) std::printf("%s\n", all.dump().c_str());
   return 0;
 }
 
 }  // namespace
 
-MIMIC_COMMAND(bench, "bench", "measure latency, throughput and sizes on this machine", kUsage, bench);
+MIMIC_COMMAND(bench, "bench", "measure latency, throughput and sizes on this machine", bench);
 
 }  // namespace mimic::app

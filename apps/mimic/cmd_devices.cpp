@@ -4,12 +4,14 @@
 #include <csignal>
 #include <cstdio>
 #include <ctime>
+#include <optional>
 #include <string>
 #include <thread>
 #include <vector>
 
 #include <nlohmann/json.hpp>
 
+#include "cli.h"
 #include "command.h"
 #include "stop_signal.h"
 #include "mimic/devices/usb_discovery.h"
@@ -19,10 +21,7 @@ namespace mimic::app {
 namespace {
 
 constexpr const char* kName = "devices";
-constexpr const char* kUsage =
-    "usage: mimic devices [--json] [--serial-dir DIRS] [--watch [--interval S] [--duration S]]\n"
-    "       mimic devices --read SOURCE [--duration S]\n"
-    "\n"
+constexpr const char* kAbout =
     "Lists what Mimic can use that is connected to this machine:\n"
     "  - USB devices recognised by vendor/product id (libusb): 3Dconnexion SpaceMouse,\n"
     "    SpaceNavigator, SpacePilot ... and USB-serial adapters a Flock of Birds or a serial\n"
@@ -32,31 +31,59 @@ constexpr const char* kUsage =
     "  - serial ports: /dev/ttyS* with a UART fitted, /dev/ttyUSB*, /dev/ttyACM*, and the\n"
     "    links in /dev/serial/by-id.\n"
     "When USB or HID cannot be listed (no libusb/hidapi in this build, no /dev/bus/usb in a\n"
-    "container) the output says why, and the rest is still listed.\n"
-    "\n"
-    "options:\n"
-    "  --json          one JSON object instead of text (with --watch: one object per change,\n"
-    "                  one per line)\n"
-    "  --watch         keep running and print arrivals (+) and departures (-) until Ctrl-C;\n"
-    "                  uses libusb hot-plug notification where available and rescans every\n"
-    "                  --interval seconds in any case (serial ports have no notification)\n"
-    "  --interval S    rescan period for --watch (default 1)\n"
-    "  --serial-dir DIRS  also look for ttyS*/ttyUSB*/ttyACM* entries (links to serial\n"
-    "                  devices or pseudo-terminals) in these comma-separated directories\n"
-    "  --duration S    stop watching (or reading) after S seconds (default: until Ctrl-C)\n"
-    "  --read SOURCE   open one 6-DOF input device and print what it sends, ten lines a\n"
-    "                  second, then its status; SOURCE is one of\n"
-    "                    spaceball:PATH   serial Spaceball (params: probe, dead, reset, tscale,\n"
-    "                                     rscale, null, baud)\n"
-    "                    magellan:PATH    serial Magellan / SpaceMouse (params: settle, probe,\n"
-    "                                     dead, scale, null)\n"
-    "                    spacemouse       first 3Dconnexion USB device; spacemouse:HIDRAW_PATH a\n"
-    "                                     given one; spacemouse:sim a simulated SpaceNavigator\n"
-    "                                     (vid=HEX&pid=HEX pick the device or simulated model)\n"
-    "                  Frames: translation T and rotation R in [-1, 1], +X right, +Y up, +Z\n"
-    "                  toward the user; buttons as a bit mask (bit 0 = button 1).\n"
-    "\n"
-    "Exit status: 0 (also when nothing is connected), 2 on bad usage.\n";
+    "container) the output says why, and the rest is still listed.";
+
+struct Options {
+  double interval_s = 1.0, duration_s = 0.0;
+  std::string read;
+  std::vector<std::string> serial_dirs;
+  bool json = false, watch = false;
+};
+
+// --read excludes the listing's options; --interval needs --watch; --duration goes with either.
+std::optional<int> parse(cli::Parser& p, const std::vector<std::string>& argv, Options& o) {
+  p->footer("Exit status: 0 (also when nothing is connected), 2 on bad usage.");
+  auto* json = p->add_flag("--json", o.json,
+                           "one JSON object instead of text (with --watch: one object per change,\n"
+                           "one per line)");
+  auto* watch = p->add_flag("--watch", o.watch,
+                            "keep running and print arrivals (+) and departures (-) until Ctrl-C;\n"
+                            "uses libusb hot-plug notification where available and rescans every\n"
+                            "--interval seconds in any case (serial ports have no notification)");
+  auto* interval = p->add_option("--interval", o.interval_s, "rescan period for --watch in seconds")
+                       ->check(cli::finite_range(0, 3600, cli::Bound::exclusive))
+                       ->needs(watch);
+  auto* dirs = p->add_option("--serial-dir", o.serial_dirs,
+                             "also look for ttyS*/ttyUSB*/ttyACM* entries (links to serial\n"
+                             "devices or pseudo-terminals) in these comma-separated directories")
+                   ->type_name("DIRS")
+                   ->delimiter(',');
+  auto* duration = p->add_option("--duration", o.duration_s,
+                                 "stop watching (or reading) after S seconds (default: until Ctrl-C)")
+                       ->default_str("")
+                       ->check(cli::finite_range(0, INFINITY));
+  p->add_option("--read", o.read,
+                "open one 6-DOF input device and print what it sends, ten lines a\n"
+                "second, then its status; SOURCE is one of\n"
+                "  spaceball:PATH   serial Spaceball (params: probe, dead, reset, tscale,\n"
+                "                   rscale, null, baud)\n"
+                "  magellan:PATH    serial Magellan / SpaceMouse (params: settle, probe,\n"
+                "                   dead, scale, null)\n"
+                "  spacemouse       first 3Dconnexion USB device; spacemouse:HIDRAW_PATH a\n"
+                "                   given one; spacemouse:sim a simulated SpaceNavigator\n"
+                "                   (vid=HEX&pid=HEX pick the device or simulated model)\n"
+                "Frames: translation T and rotation R in [-1, 1], +X right, +Y up, +Z\n"
+                "toward the user; buttons as a bit mask (bit 0 = button 1).")
+      ->type_name("SOURCE")
+      ->excludes(json)
+      ->excludes(watch)
+      ->excludes(interval)
+      ->excludes(dirs);
+  if (auto exit_code = p.parse(argv)) return exit_code;
+  if (duration->count() > 0 && o.read.empty() && !o.watch)
+    return p.usage_error("--duration only applies with --watch or --read");
+  return std::nullopt;
+}
 
 nlohmann::json to_json(const devices::DeviceInventory& inv) {
   auto hex = [](uint16_t v) {
@@ -182,48 +209,24 @@ int read_source(const std::string& text, double duration_s) {
 }
 
 int run(const std::vector<std::string>& argv) {
-  Args args(argv, {"interval", "duration", "read", "serial-dir"}, {"json", "watch"});
-  if (!args.ok()) return usage_error(kName, args.error());
-  if (args.help()) {
-    std::printf("%s", kUsage);
-    return 0;
-  }
-  if (!args.positionals().empty()) return usage_error(kName, "unexpected argument '" + args.positionals()[0] + "'");
-  double interval_s = 1.0, duration_s = 0.0;
-  if (!args.get_double("interval", interval_s) || !args.get_double("duration", duration_s)) {
-    return usage_error(kName, args.error());
-  }
-  if (!(interval_s > 0)) return usage_error(kName, "--interval must be positive");
-  if (args.has("read")) {
-    if (args.has("watch") || args.has("json") || args.has("interval") || args.has("serial-dir")) {
-      return usage_error(kName, "--read takes only --duration");
-    }
-    return read_source(*args.get("read"), duration_s);
-  }
-  if ((args.has("interval") || args.has("duration")) && !args.has("watch")) {
-    return usage_error(kName, "--interval and --duration only apply with --watch or --read");
-  }
-  const bool json = args.has("json");
+  cli::Parser p(kName, kAbout);
+  Options o;
+  if (auto exit_code = parse(p, argv, o)) return *exit_code;
+  if (!o.read.empty()) return read_source(o.read, o.duration_s);
+  const bool json = o.json;
+  const double interval_s = o.interval_s, duration_s = o.duration_s;
   devices::SerialScan scan;
-  if (auto dirs = args.get("serial-dir")) {
-    size_t start = 0;
-    while (start <= dirs->size()) {
-      const size_t comma = dirs->find(',', start);
-      const std::string d = dirs->substr(start, comma == std::string::npos ? std::string::npos : comma - start);
-      if (!d.empty()) scan.dirs.push_back(d);
-      if (comma == std::string::npos) break;
-      start = comma + 1;
-    }
-  }
+  for (const std::string& d : o.serial_dirs)
+    if (!d.empty()) scan.dirs.push_back(d);
 
   auto inv = devices::scan_devices(scan);
   if (json) {
-    std::printf("%s\n", to_json(inv).dump(json && args.has("watch") ? -1 : 2).c_str());
+    std::printf("%s\n", to_json(inv).dump(json && o.watch ? -1 : 2).c_str());
     std::fflush(stdout);
   } else {
     print_text(inv);
   }
-  if (!args.has("watch")) return 0;
+  if (!o.watch) return 0;
 
   install_stop_handler();
   std::atomic<bool> usb_changed{false};
@@ -267,7 +270,6 @@ int run(const std::vector<std::string>& argv) {
 
 }  // namespace
 
-MIMIC_COMMAND(devices, kName, "list connected trackers, SpaceMice and serial ports (--watch for hot-plug)",
-              kUsage, run);
+MIMIC_COMMAND(devices, kName, "list connected trackers, SpaceMice and serial ports (--watch for hot-plug)", run);
 
 }  // namespace mimic::app

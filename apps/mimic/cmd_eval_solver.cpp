@@ -6,13 +6,16 @@
 #include <cmath>
 #include <cstdio>
 #include <memory>
+#include <optional>
 #include <random>
 #include <sstream>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include <nlohmann/json.hpp>
 
+#include "cli.h"
 #include "command.h"
 #include "mimic/rig/retarget.h"
 #include "mimic/sim/sensor_rig.h"
@@ -29,9 +32,7 @@ namespace {
 
 constexpr const char* kName = "eval-solver";
 
-constexpr const char* kUsage =
-    "usage: mimic eval-solver --bvh CLIP [options]\n"
-    "\n"
+constexpr const char* kAbout =
     "Measures the joint-angle solver on a BVH clip. The clip, retargeted onto Mimic's skeleton, is\n"
     "the ground truth. Virtual sensors ride on it (the simulator's sensor rig: strap positions of\n"
     "the layout, each strap turned by a random mounting rotation, Gaussian noise). The solver\n"
@@ -56,35 +57,7 @@ constexpr const char* kUsage =
     "  jitter_mm        mean |p[t+1] - 2 p[t] + p[t-1]| of solved joint positions per sample\n"
     "                   (second difference at the sample rate); jitter_truth_mm is the same for\n"
     "                   the ground truth\n"
-    "  solve_us         wall time of filtering + solving one frame, p50 and p99\n"
-    "\n"
-    "options:\n"
-    "  --bvh CLIP           clip to evaluate (CMU/cgspeed or Mimic joint names; required)\n"
-    "  --sensors LIST       layouts, comma-separated, of 3, 6, 11, all (default 3,6,11,all)\n"
-    "  --noise MM,DEG       sensor noise, position std dev in mm and orientation in degrees\n"
-    "                       (default 1,0.5)\n"
-    "  --tilt DEG           largest random mounting rotation of a strap (default 20)\n"
-    "  --rate HZ            sensor rate (default 120, the clip's frame rate)\n"
-    "  --seed N             noise and mounting seed (default 1)\n"
-    "  --frames N           evaluate at most N frames after the T-pose (default all)\n"
-    "  --latency MS         tracker latency; the filters predict that far ahead and the avatar is\n"
-    "                       judged against the body at arrival time (default 0)\n"
-    "  --dropout P          chance per sample that a sensor falls silent for 3 samples (default 0)\n"
-    "  --no-filter          solve the raw samples (no One Euro filtering)\n"
-    "  --no-refine          keep the stand-still calibration (no refinement from the motion)\n"
-    "  --no-step            untracked legs hang under the hips instead of stepping\n"
-    "  --joints             also print the position error of every joint (table output)\n"
-    "  --json               one JSON object per layout on stdout instead of the table; keys: clip,\n"
-    "                       sensors, frames, joints, mpjpe_cm, mpjre_deg, end_effector_mm,\n"
-    "                       end_effector_max_mm, end_effector_reach_mm (the solved end effectors'\n"
-    "                       distance from their own sensors' targets: the IK's share), jitter,\n"
-    "                       jitter_mm, jitter_truth_mm, lag_ms,\n"
-    "                       jitter_definition, solve_us_p50, solve_us_p99, solve_us_max, noise_mm,\n"
-    "                       noise_deg, tilt_deg, rate_hz, latency_ms, dropout, seed, filter,\n"
-    "                       refine, refined_limbs, refined_joints\n"
-    "  -h, --help           this text\n"
-    "\n"
-    "exit status: 0 done, 1 unreadable clip or failed calibration, 2 usage error\n";
+    "  solve_us         wall time of filtering + solving one frame, p50 and p99";
 
 // The motion frozen at one instant: the wearer holding the calibration pose.
 class FrozenMotion final : public rig::Motion {
@@ -260,58 +233,81 @@ Run evaluate(const std::shared_ptr<const rig::Motion>& motion, double frame_time
           reach_n > 0 ? 1000.0 * reach_sum_m / static_cast<double>(reach_n) : 0.0};
 }
 
-bool parse_noise(const std::string& text, double& mm, double& deg) {
+// "MM,DEG": two non-negative finite numbers.
+Result<std::pair<double, double>> parse_noise(std::string_view text) {
   const auto comma = text.find(',');
-  if (comma == std::string::npos) return false;
-  char* end = nullptr;
-  const std::string a = text.substr(0, comma), b = text.substr(comma + 1);
-  mm = std::strtod(a.c_str(), &end);
-  if (a.empty() || *end != '\0') return false;
-  deg = std::strtod(b.c_str(), &end);
-  if (b.empty() || *end != '\0') return false;
-  return mm >= 0 && deg >= 0 && std::isfinite(mm) && std::isfinite(deg);
+  const std::string a(text.substr(0, comma == std::string_view::npos ? text.size() : comma));
+  const std::string b(comma == std::string_view::npos ? "" : text.substr(comma + 1));
+  char* end_a = nullptr;
+  char* end_b = nullptr;
+  const double mm = std::strtod(a.c_str(), &end_a), deg = std::strtod(b.c_str(), &end_b);
+  if (a.empty() || b.empty() || *end_a != '\0' || *end_b != '\0' || !(mm >= 0 && deg >= 0) || !std::isfinite(mm) ||
+      !std::isfinite(deg))
+    return fail(Errc::invalid_argument, "expects MM,DEG (two non-negative numbers), got '" + std::string(text) + "'");
+  return std::pair{mm, deg};
+}
+
+struct Options {
+  std::string clip_path, noise = "1,0.5";
+  std::vector<std::string> layouts = {"3", "6", "11", "all"};
+  long seed = 1, frames = -1;
+  bool no_filter = false, no_refine = false, no_step = false, joints = false, json = false;
+};
+
+std::optional<int> parse(cli::Parser& p, const std::vector<std::string>& argv, Options& o, Settings& st) {
+  p->footer("exit status: 0 done, 1 unreadable clip or failed calibration, 2 usage error");
+  p->add_option("--bvh", o.clip_path, "clip to evaluate (CMU/cgspeed or Mimic joint names)")
+      ->type_name("CLIP")
+      ->required();
+  p->add_option("--sensors", o.layouts, "layouts, comma-separated")
+      ->delimiter(',')
+      ->check(CLI::IsMember(solver::standard_layout_names()));
+  p->add_option("--noise", o.noise, "sensor noise, position std dev in mm and orientation in degrees")
+      ->check(cli::parsed_by(parse_noise, "MM,DEG"));
+  p->add_option("--tilt", st.tilt_deg, "largest random mounting rotation of a strap, degrees")
+      ->check(cli::finite_range(0, 180));
+  p->add_option("--rate", st.rate_hz, "sensor rate in Hz (the clip's frame rate by default)")
+      ->check(cli::finite_range(0, 10000, cli::Bound::exclusive));
+  p->add_option("--seed", o.seed, "noise and mounting seed")->check(CLI::NonNegativeNumber);
+  p->add_option("--frames", o.frames, "evaluate at most N frames after the T-pose (default all)")
+      ->default_str("")
+      ->check(CLI::NonNegativeNumber);
+  p->add_option("--latency", st.latency_ms,
+                "tracker latency in ms; the filters predict that far ahead and the avatar is\n"
+                "judged against the body at arrival time")
+      ->check(cli::finite_range(0, 1000));
+  p->add_option("--dropout", st.dropout, "chance per sample that a sensor falls silent for 3 samples")
+      ->check(cli::finite_range(0, 1));
+  p->add_flag("--no-filter", o.no_filter, "solve the raw samples (no One Euro filtering)");
+  p->add_flag("--no-refine", o.no_refine, "keep the stand-still calibration (no refinement from the motion)");
+  p->add_flag("--no-step", o.no_step, "untracked legs hang under the hips instead of stepping");
+  p->add_flag("--joints", o.joints, "also print the position error of every joint (table output)");
+  p->add_flag("--json", o.json,
+              "one JSON object per layout on stdout instead of the table; keys: clip,\n"
+              "sensors, frames, joints, mpjpe_cm, mpjre_deg, end_effector_mm,\n"
+              "end_effector_max_mm, end_effector_reach_mm (the solved end effectors'\n"
+              "distance from their own sensors' targets: the IK's share), jitter,\n"
+              "jitter_mm, jitter_truth_mm, lag_ms,\n"
+              "jitter_definition, solve_us_p50, solve_us_p99, solve_us_max, noise_mm,\n"
+              "noise_deg, tilt_deg, rate_hz, latency_ms, dropout, seed, filter,\n"
+              "refine, refined_limbs, refined_joints");
+  if (auto exit_code = p.parse(argv)) return exit_code;
+  std::tie(st.noise_mm, st.noise_deg) = *parse_noise(o.noise);
+  st.seed = static_cast<uint64_t>(o.seed);
+  st.max_frames = o.frames;
+  st.filter = !o.no_filter;
+  st.refine = !o.no_refine;
+  st.step = !o.no_step;
+  return std::nullopt;
 }
 
 int run_eval_solver(const std::vector<std::string>& argv) {
-  Args args(argv, {"bvh", "sensors", "noise", "tilt", "rate", "seed", "frames", "latency", "dropout"},
-            {"json", "no-filter", "no-refine", "no-step", "joints"});
-  if (args.help()) {
-    std::printf("%s", kUsage);
-    return 0;
-  }
-  if (!args.ok()) return usage_error(kName, args.error());
-  if (!args.positionals().empty()) return usage_error(kName, "unexpected argument '" + args.positionals()[0] + "'");
-  const auto clip_path = args.get("bvh");
-  if (!clip_path) return usage_error(kName, "--bvh CLIP is required");
+  cli::Parser parser(kName, kAbout);
+  Options o;
   Settings st;
-  if (auto n = args.get("noise"); n && !parse_noise(*n, st.noise_mm, st.noise_deg))
-    return usage_error(kName, "--noise expects MM,DEG (two non-negative numbers), got '" + *n + "'");
-  long seed = 1, frames = -1;
-  if (!args.get_double("tilt", st.tilt_deg) || !args.get_double("rate", st.rate_hz) || !args.get_int("seed", seed) ||
-      !args.get_int("frames", frames) || !args.get_double("latency", st.latency_ms) ||
-      !args.get_double("dropout", st.dropout))
-    return usage_error(kName, args.error());
-  if (!(st.latency_ms >= 0 && st.latency_ms <= 1000)) return usage_error(kName, "--latency must be within 0..1000 ms");
-  if (!(st.dropout >= 0 && st.dropout <= 1)) return usage_error(kName, "--dropout must be a probability within 0..1");
-  if (!(st.rate_hz > 0)) return usage_error(kName, "--rate must be positive");
-  if (st.tilt_deg < 0 || st.tilt_deg > 180) return usage_error(kName, "--tilt must be within 0..180 degrees");
-  if (seed < 0) return usage_error(kName, "--seed must be non-negative");
-  st.seed = static_cast<uint64_t>(seed);
-  st.max_frames = args.has("frames") ? frames : -1;
-  st.filter = !args.has("no-filter");
-  st.refine = !args.has("no-refine");
-  st.step = !args.has("no-step");
-  std::vector<std::string> layouts;
-  {
-    std::stringstream ss(args.get_or("sensors", "3,6,11,all"));
-    std::string item;
-    while (std::getline(ss, item, ','))
-      if (!item.empty()) layouts.push_back(item);
-  }
-  for (const auto& l : layouts)
-    if (l != "3" && l != "6" && l != "11" && l != "all")
-      return usage_error(kName, "--sensors: unknown layout '" + l + "' (known: 3, 6, 11, all)");
-  if (layouts.empty()) return usage_error(kName, "--sensors: no layout given");
+  if (auto exit_code = parse(parser, argv, o, st)) return *exit_code;
+  const std::string* clip_path = &o.clip_path;
+  const std::vector<std::string>& layouts = o.layouts;
 
   auto motion = rig::load_bvh_motion(*clip_path);
   if (!motion) return failure(kName, motion.error().message);
@@ -319,7 +315,7 @@ int run_eval_solver(const std::vector<std::string>& argv) {
   auto clip = rig::load_bvh(*clip_path);  // for the frame time
   if (!clip) return failure(kName, clip.error().message);
   const std::string name = base_name(*clip_path);
-  const bool json = args.has("json");
+  const bool json = o.json;
   if (!json) {
     std::printf("clip %s: %.2f s at %.0f Hz; noise %.2f mm / %.2f deg; mounting tilt up to %.0f deg; filter %s; limb refinement %s; seed %llu\n",
                 name.c_str(), shared->duration_s(), st.rate_hz, st.noise_mm, st.noise_deg, st.tilt_deg,
@@ -379,7 +375,7 @@ int run_eval_solver(const std::vector<std::string>& argv) {
                   layout.c_str(), p.frames, p.mpjpe_cm, p.mpjre_deg, p.end_effector_mm, g.lower_body_mpjpe_cm,
                   g.foot_skate_mm, g.floor_penetration_mm, g.steps_solved, g.steps_truth, p.jitter_mm,
                   p.jitter_truth_mm, p.solve_us_p50, p.solve_us_p99);
-      if (args.has("joints"))
+      if (o.joints)
         for (size_t i = 0; i < p.joint_names.size(); ++i)
           std::printf("          %-14s %6.2f cm  jitter %5.2f mm\n", p.joint_names[i].c_str(), p.joint_mpjpe_cm[i],
                       i < p.joint_jitter_mm.size() ? p.joint_jitter_mm[i] : 0.0);
@@ -391,7 +387,6 @@ int run_eval_solver(const std::vector<std::string>& argv) {
 
 }  // namespace
 
-MIMIC_COMMAND(eval_solver, "eval-solver", "measure the joint-angle solver on a BVH clip (MPJPE, MPJRE, jitter, time)",
-              kUsage, run_eval_solver);
+MIMIC_COMMAND(eval_solver, "eval-solver", "measure the joint-angle solver on a BVH clip (MPJPE, MPJRE, jitter, time)", run_eval_solver);
 
 }  // namespace mimic::app

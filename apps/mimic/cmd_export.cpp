@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "body_posing.h"
+#include "cli.h"
 #include "command.h"
 #include "mimic/avatar/body_model.h"
 #include "mimic/avatar/gltf_animation.h"
@@ -23,48 +24,54 @@ namespace mimic::app {
 namespace {
 
 constexpr const char* kName = "export";
-constexpr const char* kUsage =
-    "usage: mimic export (--bvh CLIP | --motion NAME | --log SESSION.mlog [--calibration C])\n"
-    "                    [--body FILE] [--fps F] [--seconds S] [--lod N] --out anim.glb\n"
-    "\n"
+constexpr const char* kAbout =
     "Writes a rigged, animated glTF 2.0 binary of the avatar: the skin in the bind pose (the\n"
     "zero posture, a T-pose) with the realtime method's topology (contour points are the\n"
     "vertices), a skin with the skeleton's joints as a node hierarchy and their inverse bind\n"
     "matrices, up to four joint weights per vertex derived from the contours, and the motion as\n"
     "one animation (root translation, joint rotations, linear keys). glTF players (three.js,\n"
-    "Blender, the Khronos validator) play it without Mimic.\n"
-    "\n"
-    "options:\n"
-    "  --bvh CLIP      a BVH clip (CMU units), retargeted onto the body's skeleton\n"
-    "  --motion NAME   a built-in motion: idle, walk (one loop)\n"
-    "  --log FILE      a recorded tracker session (mimic record), solved frame by frame as\n"
-    "                  mimic run --source replay: would (filters, body solver), at --fps\n"
-    "  --calibration C the wearer's calibration (mimic calibrate) for --log: the animation is\n"
-    "                  on their fitted skeleton\n"
-    "  --body FILE     body model or preset:NAME (default: the built-in body)\n"
-    "  --fps F         keyframes per second (default 30)\n"
-    "  --seconds S     at most S seconds of the motion (default: all of it)\n"
-    "  --lod N         skin level of detail, 0 finest (default 0)\n"
-    "  --out FILE      the .glb to write\n";
+    "Blender, the Khronos validator) play it without Mimic.";
+
+struct Options {
+  std::string bvh, motion, log, calibration, body, out;
+  double fps = 30, seconds = 0;
+  int lod = 0;
+};
+
+// One of --bvh, --motion or --log; the rest shape the file.
+std::optional<int> parse(cli::Parser& p, const std::vector<std::string>& argv, Options& o) {
+  auto& app = p.app();
+  auto* bvh = app.add_option("--bvh", o.bvh, "a BVH clip (CMU units), retargeted onto the body's skeleton")
+                  ->type_name("CLIP");
+  auto* motion = app.add_option("--motion", o.motion, "a built-in motion (one loop)")
+                     ->check(CLI::IsMember(rig::builtin_motion_names()));
+  auto* log = app.add_option("--log", o.log,
+                             "a recorded tracker session (mimic record), solved frame by frame as\n"
+                             "mimic run --source replay: would (filters, body solver), at --fps")
+                  ->type_name("SESSION.mlog");
+  app.add_option("--calibration", o.calibration,
+                 "the wearer's calibration (mimic calibrate) for --log: the animation is\non their fitted skeleton")
+      ->type_name("FILE")
+      ->needs(log);
+  bvh->excludes(motion)->excludes(log);
+  motion->excludes(log);
+  app.add_option("--body", o.body, "body model or preset:NAME (default: the built-in body)")->type_name("FILE");
+  app.add_option("--fps", o.fps, "keyframes per second")->check(cli::finite_range(0, 240, cli::Bound::exclusive));
+  app.add_option("--seconds", o.seconds, "at most S seconds of the motion (default: all of it)")
+      ->check(cli::finite_range(0, INFINITY));
+  app.add_option("--lod", o.lod, "skin level of detail, 0 finest")->check(CLI::Range(0, avatar::kSkinLodCount - 1));
+  app.add_option("--out", o.out, "the .glb to write")->type_name("FILE")->required();
+  if (auto exit_code = p.parse(argv)) return exit_code;
+  if (bvh->count() + motion->count() + log->count() != 1)
+    return p.usage_error("give one of --bvh CLIP, --motion NAME or --log SESSION.mlog");
+  return std::nullopt;
+}
 
 int run(const std::vector<std::string>& argv) {
-  Args args(argv, {"bvh", "motion", "log", "calibration", "body", "fps", "seconds", "lod", "out"}, {});
-  if (!args.ok()) return usage_error(kName, args.error());
-  if (!args.positionals().empty()) return usage_error(kName, "unexpected argument '" + args.positionals()[0] + "'");
-  if (int(args.has("bvh")) + int(args.has("motion")) + int(args.has("log")) != 1)
-    return usage_error(kName, "give one of --bvh CLIP, --motion NAME or --log SESSION.mlog");
-  if (args.has("calibration") && !args.has("log")) return usage_error(kName, "--calibration goes with --log");
-  if (!args.has("out")) return usage_error(kName, "--out FILE is required");
-  double fps = 30, seconds = 0;
-  long lod = 0;
-  if (!args.get_double("fps", fps) || !args.get_double("seconds", seconds) || !args.get_int("lod", lod))
-    return usage_error(kName, args.error());
-  if (!(fps > 0 && fps <= 240)) return usage_error(kName, "--fps must be in (0, 240]");
-  if (!(seconds >= 0 && std::isfinite(seconds))) return usage_error(kName, "--seconds must be a number >= 0");
-  if (lod < 0 || lod >= avatar::kSkinLodCount)
-    return usage_error(kName, "--lod must be 0.." + std::to_string(avatar::kSkinLodCount - 1) + ", got " + std::to_string(lod));
-
-  auto body = body_from_args(args);
+  cli::Parser p(kName, kAbout);
+  Options o;
+  if (auto exit_code = parse(p, argv, o)) return *exit_code;
+  auto body = body_from_path(o.body);
   if (!body) return failure(kName, body.error().what());
   auto skeleton = rig::Skeleton::build(body->skeleton);
   if (!skeleton) return failure(kName, skeleton.error().what());
@@ -72,26 +79,26 @@ int run(const std::vector<std::string>& argv) {
   // at --fps (on the calibration's fitted skeleton when one is given).
   std::unique_ptr<rig::Motion> motion;
   std::optional<service::SolvedTake> take;
-  if (args.has("bvh")) {
-    rig::BvhMotionOptions o;
-    o.body = &*skeleton;
-    auto m = rig::load_bvh_motion(*args.get("bvh"), o);
+  if (!o.bvh.empty()) {
+    rig::BvhMotionOptions bo;
+    bo.body = &*skeleton;
+    auto m = rig::load_bvh_motion(o.bvh, bo);
     if (!m) return failure(kName, m.error().what());
     motion = std::move(*m);
-  } else if (args.has("motion")) {
-    auto m = rig::make_builtin_motion(*args.get("motion"), *skeleton);
+  } else if (!o.motion.empty()) {
+    auto m = rig::make_builtin_motion(o.motion, *skeleton);
     if (!m) return usage_error(kName, m.error().message);
     motion = std::move(*m);
   } else {
-    auto t = service::solve_log(*args.get("log"), args.get_or("calibration", ""), fps, &*skeleton, seconds);
+    auto t = service::solve_log(o.log, o.calibration, o.fps, &*skeleton, o.seconds);
     if (!t) return failure(kName, t.error().what());
-    if (t->poses.size() < 2) return failure(kName, *args.get("log") + ": too short for an animation (under two frames)");
+    if (t->poses.size() < 2) return failure(kName, o.log + ": too short for an animation (under two frames)");
     take = std::move(*t);
   }
   const rig::Skeleton& sk = motion ? motion->skeleton() : take->skeleton;
 
   avatar::RealtimeOptions ro;
-  ro.lod = static_cast<int>(lod);
+  ro.lod = o.lod;
   auto shared = avatar::RealtimeBody::create(*body, sk, ro);
   if (!shared) return failure(kName, shared.error().what());
 
@@ -103,13 +110,13 @@ int run(const std::vector<std::string>& argv) {
   anim.name = body->name;
   std::string what;
   if (motion) {
-    const double span_s = seconds > 0 ? std::min(seconds, motion->duration_s()) : motion->duration_s();
+    const double span_s = o.seconds > 0 ? std::min(o.seconds, motion->duration_s()) : motion->duration_s();
     // Keys every 1/fps and one at the very end: a clip whose length is not a whole number of
     // key intervals (a BVH's frame time is rounded: 0.008333 s) keeps its last frame.
-    const long keys = std::max(2L, static_cast<long>(std::ceil(span_s * fps - 1e-6)) + 1);
+    const long keys = std::max(2L, static_cast<long>(std::ceil(span_s * o.fps - 1e-6)) + 1);
     rig::Pose pose = sk.zero_pose();
     for (long k = 0; k < keys; ++k) {
-      const double t = std::min(span_s, double(k) / fps);
+      const double t = std::min(span_s, double(k) / o.fps);
       if (k > 0 && !(t > anim.times_s.back())) break;
       motion->sample(t, pose);
       anim.times_s.push_back(t);
@@ -123,12 +130,12 @@ int run(const std::vector<std::string>& argv) {
   }
   auto bytes = avatar::encode_skinned_glb(anim);
   if (!bytes) return failure(kName, bytes.error().what());
-  if (auto st = write_file_atomic(*args.get("out"), *bytes); !st) return failure(kName, st.error().what());
+  if (auto st = write_file_atomic(o.out, *bytes); !st) return failure(kName, st.error().what());
   size_t influenced = 0;
   for (const auto& in : anim.influences) influenced = std::max<size_t>(influenced, size_t(std::count_if(in.weight.begin(), in.weight.end(), [](float w) { return w > 0; })));
   std::printf("%s: %zu vertices, %zu triangles, %d joints, up to %zu influences per vertex; %zu keyframes over %.2f s "
               "(%s); %zu bytes\n",
-              args.get("out")->c_str(), anim.bind_mesh->positions.size(), anim.bind_mesh->triangle_count(),
+              o.out.c_str(), anim.bind_mesh->positions.size(), anim.bind_mesh->triangle_count(),
               sk.joint_count(), influenced, anim.times_s.size(), anim.times_s.back(), what.c_str(),
               bytes->size());
   return 0;
@@ -136,6 +143,6 @@ int run(const std::vector<std::string>& argv) {
 
 }  // namespace
 
-MIMIC_COMMAND(export_, kName, "write a rigged, animated glTF (.glb) of the avatar on a BVH clip, a motion or a recorded session", kUsage, run);
+MIMIC_COMMAND(export_, kName, "write a rigged, animated glTF (.glb) of the avatar on a BVH clip, a motion or a recorded session", run);
 
 }  // namespace mimic::app

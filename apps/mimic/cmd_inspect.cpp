@@ -8,6 +8,7 @@
 #include <nlohmann/json.hpp>
 
 #include "body_posing.h"
+#include "cli.h"
 #include "command.h"
 #include "mimic/avatar/skin_inspection.h"
 #include "mimic/avatar/skin_lod.h"
@@ -16,9 +17,7 @@ namespace mimic::app {
 namespace {
 
 constexpr const char* kName = "inspect";
-constexpr const char* kUsage =
-    "usage: mimic inspect [--body FILE] [--lod N] [--sweep NAME] [--no-muscles] [--json]\n"
-    "\n"
+constexpr const char* kAbout =
     "Sweeps the left elbow and knee through 0-150 deg of flexion and the left forearm through\n"
     "-90..+90 deg of twist, and measures the skin around the joint at every step: the volume of\n"
     "the joint zone (the skin between two planes riding on the two links, 35% of the shorter link\n"
@@ -28,17 +27,7 @@ constexpr const char* kUsage =
     "frame), realtime (contours moved, muscle terms kept), and linear blend (lbs), dual\n"
     "quaternion (dqs) and optimized centres of rotation (cor) skinning bound with the\n"
     "contour-derived weights. Targets for the realtime method: |dV| <= 2% at 150 deg flexion,\n"
-    "<= 3% at +-90 deg twist, every section >= 90% of rest.\n"
-    "\n"
-    "options:\n"
-    "  --body FILE    body model (default: the built-in body)\n"
-    "  --lod N        skin level of detail, 0 (finest) to 3 (default 0)\n"
-    "  --sweep NAME   only elbow_flexion, knee_flexion or forearm_twist\n"
-    "  --no-muscles   the realtime method without its muscle terms\n"
-    "  --json         one JSON object: every sample of every sweep and method, and a summary\n"
-    "  -h, --help     this text\n"
-    "\n"
-    "exit status: 0 measured, 1 failure, 2 usage error\n";
+    "<= 3% at +-90 deg twist, every section >= 90% of rest.";
 
 const char* kMethods[] = {"full", "realtime", "lbs", "dqs", "cor"};
 
@@ -49,27 +38,28 @@ struct Summary {
 };
 
 int run_inspect(const std::vector<std::string>& argv) {
-  Args args(argv, {"body", "lod", "sweep"}, {"json", "no-muscles"});
-  if (args.help()) {
-    std::fputs(kUsage, stdout);
-    return 0;
-  }
-  if (!args.ok()) return usage_error(kName, args.error());
-  if (!args.positionals().empty()) return usage_error(kName, "unexpected argument '" + args.positionals()[0] + "'");
-  long lod = 0;
-  if (!args.get_int("lod", lod)) return usage_error(kName, args.error());
-  if (lod < 0 || lod >= avatar::kSkinLodCount)
-    return usage_error(kName, "--lod must be 0.." + std::to_string(avatar::kSkinLodCount - 1));
-  auto body = body_from_args(args);
+  cli::Parser p(kName, kAbout);
+  p->footer("exit status: 0 measured, 1 failure, 2 usage error");
+  std::string body_path, only;
+  int lod = 0;
+  bool no_muscles = false, json = false;
+  p->add_option("--body", body_path, "body model (default: the built-in body)")->type_name("FILE");
+  p->add_option("--lod", lod, "skin level of detail, 0 finest")->check(CLI::Range(0, avatar::kSkinLodCount - 1));
+  p->add_option("--sweep", only, "only this sweep")
+      ->check(CLI::IsMember({"elbow_flexion", "knee_flexion", "forearm_twist"}));
+  p->add_flag("--no-muscles", no_muscles, "the realtime method without its muscle terms");
+  p->add_flag("--json", json, "one JSON object: every sample of every sweep and method, and a summary");
+  if (auto exit_code = p.parse(argv)) return *exit_code;
+  auto body = body_from_path(body_path);
   if (!body) return failure(kName, body.error().what());
   auto sweeps = avatar::standard_joint_sweeps(*body);
-  if (auto only = args.get("sweep")) {
-    std::erase_if(sweeps, [&](const avatar::JointSweep& s) { return s.name != *only; });
-    if (sweeps.empty()) return usage_error(kName, "unknown sweep '" + *only + "' (elbow_flexion, knee_flexion, forearm_twist)");
+  if (!only.empty()) {
+    std::erase_if(sweeps, [&](const avatar::JointSweep& s) { return s.name != only; });
+    if (sweeps.empty()) return failure(kName, "the body has no sweep '" + only + "'");
   }
   avatar::InspectOptions options;
-  options.lod = static_cast<int>(lod);
-  options.muscles = !args.has("no-muscles");
+  options.lod = lod;
+  options.muscles = !no_muscles;
   auto results = avatar::inspect_joint_zones(*body, sweeps, options);
   if (!results) return failure(kName, results.error().what());
 
@@ -86,7 +76,7 @@ int run_inspect(const std::vector<std::string>& argv) {
           sum.twist_90_abs_dv = std::max(sum.twist_90_abs_dv, std::abs(s.volume_change_pct));
       }
 
-  if (args.has("json")) {
+  if (json) {
     nlohmann::ordered_json j;
     j["body"] = body->name;
     j["lod"] = lod;
@@ -117,7 +107,7 @@ int run_inspect(const std::vector<std::string>& argv) {
     std::printf("%s\n", j.dump(2).c_str());
     return 0;
   }
-  std::printf("body %s, LOD %ld, realtime muscles %s\n", body->name.c_str(), lod, options.muscles ? "on" : "off");
+  std::printf("body %s, LOD %d, realtime muscles %s\n", body->name.c_str(), lod, options.muscles ? "on" : "off");
   for (const auto& r : *results) {
     std::printf("\n%s (%s; zone: %s", r.sweep.name.c_str(), r.sweep.dof.c_str(), r.sweep.parts[0].c_str());
     for (size_t i = 1; i < r.sweep.parts.size(); ++i) std::printf(" + %s", r.sweep.parts[i].c_str());
@@ -143,7 +133,6 @@ int run_inspect(const std::vector<std::string>& argv) {
 
 }  // namespace
 
-MIMIC_COMMAND(inspect, kName, "joint-zone volume and sections as joints bend and twist: contour skin vs LBS/DQS/CoR",
-              kUsage, run_inspect);
+MIMIC_COMMAND(inspect, kName, "joint-zone volume and sections as joints bend and twist: contour skin vs LBS/DQS/CoR", run_inspect);
 
 }  // namespace mimic::app

@@ -5,6 +5,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "cli.h"
 #include "command.h"
 #include "mimic/avatar/measure.h"
 #include "mimic/avatar/mesh_check.h"
@@ -14,50 +15,44 @@ namespace mimic::app {
 namespace {
 
 constexpr const char* kName = "measure";
-constexpr const char* kUsage =
-    "usage: mimic measure [--obj FILE] [--joints CSV] [--units-per-metre N] [--json]\n"
-    "\n"
+constexpr const char* kAbout =
     "Measures a standing body mesh as a tailor would: standing height, tape-measure girths\n"
     "(chest, waist, hips, left thigh, left calf, left upper arm), enclosed volume and surface\n"
     "area. A girth is the convex-hull perimeter of the cross-section loop around the torso or\n"
-    "limb axis, so arms beside the torso are not wrapped in (docs/measurements.md).\n"
-    "\n"
-    "options:\n"
-    "  --obj FILE            mesh to measure: .obj, .ply or .glb (default: the shared MakeHuman\n"
-    "                        base mesh, <shared data>/mesh/makehuman_base_body.obj)\n"
-    "  --joints CSV          joint centres, rows name,x,y,z with MakeHuman joint names (pelvis,\n"
-    "                        spine-1..4, neck, head, head-2, ground, l-/r-upper-leg, -knee,\n"
-    "                        -ankle, -shoulder, -elbow, -hand), in the mesh's units (default:\n"
-    "                        <shared data>/mesh/makehuman_base_joints.csv for the default mesh;\n"
-    "                        for another mesh without --joints they are estimated from average\n"
-    "                        proportions, and the upper-arm girth is left out)\n"
-    "  --units-per-metre N   mesh and joint units per metre (default 10: MakeHuman decimetres;\n"
-    "                        1 for meshes written by Mimic)\n"
-    "  --json                print JSON instead of a table\n"
-    "  -h, --help            this text\n"
-    "\n"
-    "Frames: +Y up, the body faces +Z, its left is +X. Shared data: $MIMIC_SHARED_DATA or\n"
-    "../shared/data beside the checkout. Exit status: 0 measured, 1 unreadable input,\n"
-    "2 bad usage.\n";
+    "limb axis, so arms beside the torso are not wrapped in (docs/measurements.md).";
 
 int run_measure(const std::vector<std::string>& argv) {
-  Args args(argv, {"obj", "joints", "units-per-metre"}, {"json"});
-  if (args.help()) {
-    std::fputs(kUsage, stdout);
-    return 0;
-  }
-  if (!args.ok()) return usage_error(kName, args.error());
+  cli::Parser p(kName, kAbout);
+  p->footer(
+      "Frames: +Y up, the body faces +Z, its left is +X. Shared data: $MIMIC_SHARED_DATA or\n"
+      "../shared/data beside the checkout. Exit status: 0 measured, 1 unreadable input,\n"
+      "2 bad usage.");
+  std::string mesh_path, joints_path;
   double units_per_metre = 10.0;
-  if (!args.get_double("units-per-metre", units_per_metre)) return usage_error(kName, args.error());
-  if (!(units_per_metre > 0) || !std::isfinite(units_per_metre))
-    return usage_error(kName, "--units-per-metre must be a positive number");
-  if (!args.positionals().empty()) return usage_error(kName, "unexpected argument '" + args.positionals()[0] + "'");
-
-  const std::string data = shared_data_dir();
-  const bool default_mesh = !args.has("obj");
-  const std::string mesh_path = args.get_or("obj", data + "/mesh/makehuman_base_body.obj");
+  bool json = false;
+  p->add_option("--obj", mesh_path,
+                "mesh to measure: .obj, .ply or .glb (default: the shared MakeHuman\n"
+                "base mesh, <shared data>/mesh/makehuman_base_body.obj)")
+      ->type_name("FILE");
+  p->add_option("--joints", joints_path,
+                "joint centres, rows name,x,y,z with MakeHuman joint names (pelvis,\n"
+                "spine-1..4, neck, head, head-2, ground, l-/r-upper-leg, -knee,\n"
+                "-ankle, -shoulder, -elbow, -hand), in the mesh's units (default:\n"
+                "<shared data>/mesh/makehuman_base_joints.csv for the default mesh;\n"
+                "for another mesh without --joints they are estimated from average\n"
+                "proportions, and the upper-arm girth is left out)")
+      ->type_name("CSV");
+  p->add_option("--units-per-metre", units_per_metre,
+                "mesh and joint units per metre (10: MakeHuman decimetres;\n1 for meshes written by Mimic)")
+      ->check(cli::finite_range(0, INFINITY, cli::Bound::exclusive));
+  p->add_flag("--json", json, "print JSON instead of a table");
+  if (auto exit_code = p.parse(argv)) return *exit_code;
   // The shared mesh comes with its joints; another mesh without them gets estimated ones.
-  const std::string joints_path = args.get_or("joints", default_mesh ? data + "/mesh/makehuman_base_joints.csv" : "");
+  const std::string data = shared_data_dir();
+  if (mesh_path.empty()) {
+    mesh_path = data + "/mesh/makehuman_base_body.obj";
+    if (joints_path.empty()) joints_path = data + "/mesh/makehuman_base_joints.csv";
+  }
 
   const auto metres_per_unit = static_cast<float>(1.0 / units_per_metre);
   auto mesh = avatar::read_mesh(mesh_path, metres_per_unit);
@@ -75,7 +70,7 @@ int run_measure(const std::vector<std::string>& argv) {
   const avatar::MeshTopology topo = avatar::analyze_topology(*mesh);
   const bool closed = avatar::is_closed_oriented_manifold(topo);
 
-  if (args.has("json")) {
+  if (json) {
     auto j = nlohmann::ordered_json::parse(avatar::measurements_json(m));
     nlohmann::ordered_json out;
     out["mesh"] = mesh_path;
@@ -101,6 +96,6 @@ int run_measure(const std::vector<std::string>& argv) {
 
 }  // namespace
 
-MIMIC_COMMAND(measure, kName, "measure a body mesh: height, tape girths, volume, area", kUsage, run_measure);
+MIMIC_COMMAND(measure, kName, "measure a body mesh: height, tape girths, volume, area", run_measure);
 
 }  // namespace mimic::app

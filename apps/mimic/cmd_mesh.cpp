@@ -1,8 +1,10 @@
 // `mimic mesh`: one avatar frame as a mesh file (OBJ, binary PLY or glTF .glb).
 #include <chrono>
+#include <optional>
 #include <cstdio>
 
 #include "body_posing.h"
+#include "cli.h"
 #include "command.h"
 #include "mimic/avatar/mesh_check.h"
 #include "mimic/avatar/mesh_io.h"
@@ -16,43 +18,55 @@ namespace {
 
 constexpr const char* kName = "mesh";
 
-constexpr const char* kUsage =
-    "usage: mimic mesh (--bvh CLIP --frame N | --motion idle|walk --time S | --pose zero|rest)\n"
-    "                  --out FILE.{obj,ply,glb} [options]\n"
-    "\n"
+constexpr const char* kAbout =
     "Poses the metaball body, samples its skin as cross-section contours (smoothed with cubic\n"
     "B-splines by --method full), stitches the eleven skin pieces into one closed envelope with\n"
     "the rigid head, hands and feet, and writes the mesh: metres, +Y up, the body facing +Z, one group per part.\n"
-    "Prints what it did and how long each stage took.\n"
-    "\n"
-    "pose (one of):\n"
-    "  --bvh CLIP --frame N  frame N of a BVH clip (frames count from 0, the clip's first frame;\n"
-    "                        CMU clips start with a T-pose), retargeted onto the body\n"
-    "  --scale M             metres per BVH unit (default 0.056444, the CMU unit)\n"
-    "  --motion NAME         a built-in motion: idle or walk ...\n"
-    "  --time S              ... at S seconds (default 0)\n"
-    "  --pose zero|rest      the T-pose the body is authored in, or the relaxed posture (default zero)\n"
-    "\n"
-    "options:\n"
-    "  --out FILE            .obj, .ply (binary) or .glb (glTF 2.0); written atomically (required)\n"
-    "  --body FILE           body model (JSON, see docs/body-model.md); default: the built-in body\n"
-    "  --method realtime|full  realtime (default, as run, view and export): contours ray-cast once\n"
-    "                        in the zero posture and moved with their rings (the paper's realtime\n"
-    "                        method, muscles kept; contour points are the vertices); full: every\n"
-    "                        contour ray-cast in the pose and smoothed by B-splines\n"
-    "  --no-muscles          realtime: the contours keep their measured shape\n"
-    "  --lod N|PIECE=N,...   contours per link and points per contour: 0 the body's own (default)\n"
-    "                        to 3 (438 triangles), for the whole body or per piece, e.g.\n"
-    "                        torso=0,neck=1,arms=2,legs=1,rigid=0 (pieces not named: all=N, else 0)\n"
-    "  --subdivision N       --method full: B-spline samples per contour span, 1..16 (default\n"
-    "                        1); 0 = contour points are the vertices, no smoothing\n"
-    "  --no-rigid            leave out the head, hands and feet\n"
-    "  --uv                  texture coordinates per part (u around each contour, v along each\n"
-    "                        piece), the seams split so the file's vertices are not welded there;\n"
-    "                        a .glb gets one material per part (a checker in the part's colour)\n"
-    "  -h, --help            this text\n"
-    "\n"
-    "exit status: 0 written, 1 bad input or write failure, 2 usage error\n";
+    "Prints what it did and how long each stage took. The pose: one of --bvh CLIP --frame N,\n"
+    "--motion NAME [--time S] or --pose zero|rest.";
+
+struct Options {
+  PoseOptions pose;
+  std::string out, body, method = "realtime", lod = "0";
+  int subdivision = 1;
+  bool no_rigid = false, no_muscles = false, uv = false;
+};
+
+std::optional<int> parse(cli::Parser& p, const std::vector<std::string>& argv, Options& o) {
+  p->footer("exit status: 0 written, 1 bad input or write failure, 2 usage error");
+  add_pose_options(p.app(), o.pose);
+  p->add_option("--out", o.out, ".obj, .ply (binary) or .glb (glTF 2.0); written atomically")
+      ->type_name("FILE")
+      ->required();
+  p->add_option("--body", o.body, "body model (JSON, see docs/body-model.md); default: the built-in body")
+      ->type_name("FILE");
+  p->add_option("--method", o.method,
+                "realtime (as run, view and export): contours ray-cast once\n"
+                "in the zero posture and moved with their rings (the paper's realtime\n"
+                "method, muscles kept; contour points are the vertices); full: every\n"
+                "contour ray-cast in the pose and smoothed by B-splines")
+      ->check(cli::parsed_by(avatar::parse_skin_method, "realtime|full"));
+  p->add_flag("--no-muscles", o.no_muscles, "realtime: the contours keep their measured shape");
+  p->add_option("--lod", o.lod,
+                "contours per link and points per contour: 0 the body's own (default)\n"
+                "to 3 (438 triangles), for the whole body or per piece, e.g.\n"
+                "torso=0,neck=1,arms=2,legs=1,rigid=0 (pieces not named: all=N, else 0)")
+      ->check(cli::parsed_by(avatar::parse_skin_lods, "N|PIECE=N,..."));
+  auto* subdivision = p->add_option("--subdivision", o.subdivision,
+                                    "--method full: B-spline samples per contour span (0 = contour\n"
+                                    "points are the vertices, no smoothing)")
+                          ->check(CLI::Range(0, 16));
+  p->add_flag("--no-rigid", o.no_rigid, "leave out the head, hands and feet");
+  p->add_flag("--uv", o.uv,
+              "texture coordinates per part (u around each contour, v along each\n"
+              "piece), the seams split so the file's vertices are not welded there;\n"
+              "a .glb gets one material per part (a checker in the part's colour)");
+  if (auto exit_code = p.parse(argv)) return exit_code;
+  if (*avatar::parse_skin_method(o.method) == avatar::SkinMethod::realtime && subdivision->count() > 0)
+    return p.usage_error(
+        "--subdivision is for --method full (the realtime method, the default, has its contour points as vertices)");
+  return std::nullopt;
+}
 
 double ms_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
@@ -79,66 +93,52 @@ int report_pose_error(const Error& e) {
 
 // The realtime method: the shared body (contours ray-cast once, muscle terms), then one frame.
 // `body` is already at its LOD (with_skin_lods), so the realtime body takes it as it is (LOD 0).
-int realtime_mesh(const Args& args, const avatar::BodyModel& body, const std::string& out) {
+int realtime_mesh(const Options& args, const avatar::BodyModel& body) {
   auto t0 = std::chrono::steady_clock::now();
   avatar::RealtimeOptions o;
-  o.rigid_parts = !args.has("no-rigid");
+  o.rigid_parts = !args.no_rigid;
   auto shared = avatar::RealtimeBody::create(body, o);
   if (!shared) return failure(kName, shared.error().message);
   std::printf("skin      contours measured once, %4zu muscle points           %8.2f ms\n", (*shared)->muscle_points(),
               ms_since(t0));
-  auto request = pose_from_args(args, (*shared)->skeleton());
+  auto request = pose_from(args.pose, (*shared)->skeleton());
   if (!request) return report_pose_error(request.error());
   std::printf("pose      %-52s %8.2f ms\n", request->description.c_str(), request->load_ms);
   avatar::RealtimeSkin skin(*shared);
   avatar::Mesh mesh = (*shared)->rest_mesh();
-  skin.evaluate(request->pose, mesh.positions, mesh.normals, !args.has("no-muscles"));
+  skin.evaluate(request->pose, mesh.positions, mesh.normals, !args.no_muscles);
   const avatar::RealtimeTimings& t = skin.timings();
   std::printf("frame     realtime: joints and rings %.3f, contour points %.3f, normals %.3f: total %.3f ms\n",
               t.joints_us / 1e3, t.points_us / 1e3, t.normals_us / 1e3, t.total_us() / 1e3);
-  return write_out(mesh, args.has("uv") ? &(*shared)->texture_layout() : nullptr, out);
+  return write_out(mesh, args.uv ? &(*shared)->texture_layout() : nullptr, args.out);
 }
 
 int run_mesh(const std::vector<std::string>& argv) {
-  Args args(argv, {"bvh", "frame", "scale", "motion", "time", "pose", "out", "body", "subdivision", "method", "lod"},
-            {"no-rigid", "no-muscles", "uv"});
-  if (args.help()) {
-    std::printf("%s", kUsage);
-    return 0;
-  }
-  if (!args.ok()) return usage_error(kName, args.error());
-  if (!args.positionals().empty()) return usage_error(kName, "unexpected argument '" + args.positionals()[0] + "'");
-  const auto out = args.get("out");
-  if (!out) return usage_error(kName, "--out FILE.{obj,ply,glb} is required");
-  long subdivision = 1;
-  if (!args.get_int("subdivision", subdivision)) return usage_error(kName, args.error());
-  if (subdivision < 0 || subdivision > 16) return usage_error(kName, "--subdivision must be in 0..16");
-  const auto lods = avatar::parse_skin_lods(args.get_or("lod", "0"));
-  if (!lods) return usage_error(kName, "--lod: " + lods.error().message + " (or PIECE=N,...)");
-  auto method = avatar::parse_skin_method(args.get_or("method", "realtime"));
-  if (!method) return usage_error(kName, method.error().message);
-  if (*method == avatar::SkinMethod::realtime && args.has("subdivision"))
-    return usage_error(kName, "--subdivision is for --method full (the realtime method, the default, has its contour points as vertices)");
+  cli::Parser p(kName, kAbout);
+  Options args;
+  if (auto exit_code = parse(p, argv, args)) return *exit_code;
+  const auto lods = avatar::parse_skin_lods(args.lod);
+  const auto method = avatar::parse_skin_method(args.method);
 
   auto t0 = std::chrono::steady_clock::now();
-  auto body = body_from_args(args);
+  auto body = body_from_path(args.body);
   if (!body) return failure(kName, body.error().message);
   const double body_ms = ms_since(t0);
-  std::printf("body      %-40s %4zu primitives   %8.2f ms\n", args.get_or("body", "built-in default").c_str(),
+  std::printf("body      %-40s %4zu primitives   %8.2f ms\n", (args.body.empty() ? "built-in default" : args.body.c_str()),
               body->primitives.size(), body_ms);
   const avatar::BodyModel at_lod = avatar::with_skin_lods(*body, *lods);
   std::printf("lod       %s\n", avatar::skin_lods_name(*lods).c_str());
-  if (*method == avatar::SkinMethod::realtime) return realtime_mesh(args, at_lod, *out);
+  if (*method == avatar::SkinMethod::realtime) return realtime_mesh(args, at_lod);
 
   t0 = std::chrono::steady_clock::now();
   avatar::SkinOptions options;
-  options.subdivision = static_cast<int>(subdivision);
-  options.rigid_parts = !args.has("no-rigid");
+  options.subdivision = args.subdivision;
+  options.rigid_parts = !args.no_rigid;
   auto skin = avatar::ImplicitSkin::create(at_lod, options);
   if (!skin) return failure(kName, skin.error().message);
   std::printf("skin      topology and rigid parts built                       %8.2f ms\n", ms_since(t0));
 
-  auto request = pose_from_args(args, skin->skeleton());
+  auto request = pose_from(args.pose, skin->skeleton());
   if (!request) return report_pose_error(request.error());
   std::printf("pose      %-52s %8.2f ms\n", request->description.c_str(), request->load_ms);
 
@@ -149,12 +149,12 @@ int run_mesh(const std::vector<std::string>& argv) {
               "          B-spline %.3f, stitch %.3f, normals %.3f: total %.3f ms\n",
               t.fk_us / 1e3, t.deform_us / 1e3, t.contours_us / 1e3, st.contours, st.rays, st.missed_rays,
               t.bspline_us / 1e3, t.stitch_us / 1e3, t.normals_us / 1e3, t.total_us() / 1e3);
-  const avatar::TextureLayout layout = args.has("uv") ? avatar::texture_layout(*skin) : avatar::TextureLayout{};
-  return write_out(skin->mesh(), args.has("uv") ? &layout : nullptr, *out);
+  const avatar::TextureLayout layout = args.uv ? avatar::texture_layout(*skin) : avatar::TextureLayout{};
+  return write_out(skin->mesh(), args.uv ? &layout : nullptr, args.out);
 }
 
 }  // namespace
 
-MIMIC_COMMAND(mesh, kName, "pose the metaball body and write its skin as OBJ, PLY or glTF", kUsage, run_mesh);
+MIMIC_COMMAND(mesh, kName, "pose the metaball body and write its skin as OBJ, PLY or glTF", run_mesh);
 
 }  // namespace mimic::app

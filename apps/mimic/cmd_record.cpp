@@ -3,12 +3,15 @@
 
 #include <chrono>
 #include <csignal>
+#include <optional>
 #include <cstdio>
 #include <string>
 #include <thread>
 #include <vector>
 
+#include "cli.h"
 #include "command.h"
+#include "mimic/core/clock.h"
 #include "stop_signal.h"
 #include "mimic/devices/source.h"
 #include "mimic/sim/log.h"
@@ -20,39 +23,11 @@ namespace mimic::app {
 namespace {
 
 constexpr const char* kName = "record";
-constexpr const char* kUsage =
-    "usage: mimic record --source SRC --out FILE [--duration S] [--seed N] [--raw] [--quiet]\n"
-    "\n"
+constexpr const char* kAbout =
     "Records the samples of a tracker source into a Mimic log (docs/log-format.md) until\n"
     "--duration seconds have passed, the source ends (a replay), or Ctrl-C. The log is\n"
     "flushed every quarter second and closed cleanly on Ctrl-C, so it is complete and valid\n"
-    "up to the last sample.\n"
-    "\n"
-    "options:\n"
-    "  --source SRC    where samples come from:\n"
-    "                    sim:NAME     virtual body on a built-in motion (walk, idle)\n"
-    "                    bvh:CLIP     virtual body on a BVH clip\n"
-    "                    replay:FILE  another log\n"
-    "                    flock:PATH   Flock of Birds on a serial port\n"
-    "                  sim/bvh parameters: sensors=3|6|11|all rate=HZ noise_mm=MM noise_deg=DEG\n"
-    "                  drift_mm=MM drift_deg=DEG latency_ms=MS dropout=P burst=TICKS seed=N,\n"
-    "                  e.g. sim:walk?sensors=11&rate=120&noise_mm=2\n"
-    "  --out FILE      log to write (created as FILE.part, renamed once its header is on disk)\n"
-    "  --duration S    stop after S seconds (default: until Ctrl-C or the source ends)\n"
-    "  --seed N        seed of a simulated source (same as seed=N in --source)\n"
-    "  --raw           also keep every byte exchanged with a serial device (flock:), start-up\n"
-    "                  included, so that `mimic replay --through-driver` can play the session\n"
-    "                  back to the driver\n"
-    "  --quiet         no live status line (a summary is still printed at the end)\n"
-    "\n"
-    "While recording, stderr shows a live status line when it is a terminal: elapsed time,\n"
-    "samples, sample rate and, per sensor, how many samples were stale (dropped out).\n"
-    "Exit status: 0 when the log was written, 1 on an I/O or source error, 2 on bad usage.\n";
-
-
-double now_s() {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
-}
+    "up to the last sample.";
 
 struct SensorCount {
   uint16_t id;
@@ -71,46 +46,80 @@ std::string status_line(double elapsed_s, uint64_t samples, const std::vector<Se
   return line;
 }
 
-int run(const std::vector<std::string>& argv) {
-  Args args(argv, {"source", "duration", "out", "seed"}, {"quiet", "raw"});
-  if (!args.ok()) return usage_error(kName, args.error());
-  if (args.help()) {
-    std::printf("%s", kUsage);
-    return 0;
-  }
-  if (!args.positionals().empty()) return usage_error(kName, "unexpected argument '" + args.positionals()[0] + "'");
-  const auto source_text = args.get("source");
-  const auto out_path = args.get("out");
-  if (!source_text) return usage_error(kName, "--source is required (e.g. --source sim:walk)");
-  if (!out_path) return usage_error(kName, "--out is required (e.g. --out session.mlog)");
+struct Options {
+  std::string source, out;
   double duration_s = 0;
-  long seed = -1;
-  if (!args.get_double("duration", duration_s) || !args.get_int("seed", seed)) return usage_error(kName, args.error());
-  if (args.has("duration") && !(duration_s > 0)) return usage_error(kName, "--duration must be a positive number of seconds");
+  long seed = -1;  // -1: not given
+  bool quiet = false, raw = false;
+};
 
-  auto spec = devices::parse_source_spec(*source_text);
-  if (!spec) return usage_error(kName, spec.error().message);
-  if (args.has("seed")) {
+std::optional<int> parse(cli::Parser& p, const std::vector<std::string>& argv, Options& o) {
+  p->footer(
+      "While recording, stderr shows a live status line when it is a terminal: elapsed time,\n"
+      "samples, sample rate and, per sensor, how many samples were stale (dropped out).\n"
+      "Exit status: 0 when the log was written, 1 on an I/O or source error, 2 on bad usage.");
+  p->add_option("--source", o.source,
+                "where samples come from:\n"
+                "  sim:NAME     virtual body on a built-in motion (walk, idle)\n"
+                "  bvh:CLIP     virtual body on a BVH clip\n"
+                "  replay:FILE  another log\n"
+                "  flock:PATH   Flock of Birds on a serial port\n"
+                "sim/bvh parameters: sensors=3|6|11|all rate=HZ noise_mm=MM noise_deg=DEG\n"
+                "drift_mm=MM drift_deg=DEG latency_ms=MS dropout=P burst=TICKS seed=N,\n"
+                "e.g. sim:walk?sensors=11&rate=120&noise_mm=2")
+      ->type_name("SRC")
+      ->required();
+  p->add_option("--out", o.out, "log to write (created as FILE.part, renamed once its header is on disk)")
+      ->type_name("FILE")
+      ->required();
+  p->add_option("--duration", o.duration_s, "stop after S seconds (default: until Ctrl-C or the source ends)")
+      ->default_str("")
+      ->check(cli::finite_range(0, INFINITY, cli::Bound::exclusive));
+  p->add_option("--seed", o.seed, "seed of a simulated source (same as seed=N in --source)")
+      ->default_str("")
+      ->check(CLI::Range(0L, 0x7FFFFFFFL));
+  p->add_flag("--raw", o.raw,
+              "also keep every byte exchanged with a serial device (flock:), start-up\n"
+              "included, so that `mimic replay --through-driver` can play the session\n"
+              "back to the driver");
+  p->add_flag("--quiet", o.quiet, "no live status line (a summary is still printed at the end)");
+  return p.parse(argv);
+}
+
+// The source's spec with --seed folded in; a usage error's message when they do not go together.
+Result<devices::SourceSpec> source_spec(const Options& o) {
+  auto spec = devices::parse_source_spec(o.source);
+  if (!spec) return spec;
+  if (o.seed >= 0) {
     if (spec->scheme != "sim" && spec->scheme != "bvh")
-      return usage_error(kName, "--seed applies to simulated sources (sim:, bvh:) only");
-    if (seed < 0 || seed > 0x7FFFFFFF) return usage_error(kName, "--seed must be in 0..2147483647");
-    if (spec->params.count("seed")) return usage_error(kName, "the seed is given twice (--seed and seed= in --source)");
-    spec->params["seed"] = std::to_string(seed);
-    spec->text += (spec->text.find('?') == std::string::npos ? "?seed=" : "&seed=") + std::to_string(seed);
+      return fail(Errc::invalid_argument, "--seed applies to simulated sources (sim:, bvh:) only");
+    if (spec->params.count("seed"))
+      return fail(Errc::invalid_argument, "the seed is given twice (--seed and seed= in --source)");
+    spec->params["seed"] = std::to_string(o.seed);
+    spec->text += (spec->text.find('?') == std::string::npos ? "?seed=" : "&seed=") + std::to_string(o.seed);
   }
+  if (o.raw && spec->scheme != "flock")
+    return fail(Errc::invalid_argument, "--raw needs a serial device source (flock:PATH)");
+  return spec;
+}
 
+int run(const std::vector<std::string>& argv) {
+  cli::Parser p(kName, kAbout);
+  Options o;
+  if (auto exit_code = parse(p, argv, o)) return *exit_code;
+  const double duration_s = o.duration_s;
+  const std::string& out_path = o.out;
+  auto spec = source_spec(o);
+  if (!spec) return p.usage_error(spec.error().message);
   std::shared_ptr<sim::RawByteRecorder> raw;
-  if (args.has("raw")) {
-    if (spec->scheme != "flock") return usage_error(kName, "--raw needs a serial device source (flock:PATH)");
-    raw = std::make_shared<sim::RawByteRecorder>();
-  }
+  if (o.raw) raw = std::make_shared<sim::RawByteRecorder>();
   auto source = sim::open_sensor_source(*spec, nullptr, raw);
   if (!source) return failure(kName, source.error().what());
   if (auto st = (*source)->start(); !st) return failure(kName, st.error().what());
   const auto* replay = dynamic_cast<const sim::ReplaySource*>(source->get());
 
   const sim::LogHeader header = sim::log_header_for(*spec, **source);
-  auto writer = sim::LogWriter::create(*out_path, header);
+  auto writer = sim::LogWriter::create(out_path, header);
   if (!writer) {
     (*source)->stop();
     return failure(kName, writer.error().what());
@@ -126,8 +135,8 @@ int run(const std::vector<std::string>& argv) {
   };
 
   install_stop_handler();
-  const bool live = !args.has("quiet") && ::isatty(STDERR_FILENO);
-  const double start = now_s();
+  const bool live = !o.quiet && ::isatty(STDERR_FILENO);
+  const double start = steady_now_s();
   double next_status = start;
   double next_flush = start + 0.25;
   uint64_t total = 0;
@@ -152,7 +161,7 @@ int run(const std::vector<std::string>& argv) {
   };
   while (!stop_requested() && error.empty()) {
     drain();
-    const double t = now_s();
+    const double t = steady_now_s();
     if (duration_s > 0 && t - start >= duration_s) break;
     if (replay && replay->finished()) break;
     // Also flush on the wall clock: a source that falls silent must not keep its last
@@ -171,13 +180,13 @@ int run(const std::vector<std::string>& argv) {
   (*source)->stop();
   if (raw && error.empty())  // the stop command the driver sent on the way out
     if (auto r = raw->write_to(*writer); !r) error = r.error().what();
-  const double elapsed = now_s() - start;
+  const double elapsed = steady_now_s() - start;
   if (auto st = writer->close(); !st && error.empty()) error = st.error().what();
   if (live) std::fprintf(stderr, "\r\033[K");
   std::fprintf(stderr, "%s\n", status_line(elapsed, total, sensors).c_str());
   if (!error.empty()) return failure(kName, error + " (the log is valid up to the last flushed sample)");
   std::fprintf(stderr, "mimic record: %s%llu samples in %.2f s to %s (%s)\n", stop_requested() ? "interrupted; " : "",
-               static_cast<unsigned long long>(total), elapsed, out_path->c_str(), header.source.c_str());
+               static_cast<unsigned long long>(total), elapsed, out_path.c_str(), header.source.c_str());
   if (raw)
     std::fprintf(stderr, "mimic record: %llu raw bytes kept\n", static_cast<unsigned long long>(raw->bytes_seen()));
   const auto status = (*source)->status();
@@ -187,6 +196,6 @@ int run(const std::vector<std::string>& argv) {
 
 }  // namespace
 
-MIMIC_COMMAND(record, "record", "record tracker samples from a source into a log file", kUsage, run);
+MIMIC_COMMAND(record, "record", "record tracker samples from a source into a log file", run);
 
 }  // namespace mimic::app

@@ -5,9 +5,11 @@
 #include <csignal>
 #include <cstdio>
 #include <cstdlib>
+#include <optional>
 
 #include <nlohmann/json.hpp>
 
+#include "cli.h"
 #include "command.h"
 #include "lean_flags.h"
 #include "stop_signal.h"
@@ -18,10 +20,7 @@
 namespace mimic::app {
 namespace {
 
-const char* kUsage =
-    "usage: mimic relay --nats URL[,URL...] [--scene NAME] [--listen ADDR:PORT] [--secret S] [--no-udp]\n"
-    "                   [--lean-shift N] [--lean-key-interval N] [--duration S] [--json] [--quiet]\n"
-    "\n"
+constexpr const char* kAbout =
     "Subscribes once to a scene on the NATS broker(s) (every publisher's models from the scene's\n"
     "key-value bucket, their pose frames from core NATS) and serves it to local viewers (mimic\n"
     "subscribe, VR scenes) exactly as mimic run serves its own avatars: same handshake, limits,\n"
@@ -30,54 +29,59 @@ const char* kUsage =
     "An avatar is served once its publisher shows life (its heartbeat, once a second, or a\n"
     "frame) and leaves when the publisher misses 3 heartbeats (a crashed mimic run). Mesh\n"
     "viewers (mimic subscribe --mesh-lod L) get mesh frames of LOD L from the publishers that\n"
-    "deform at L: the relay asks for them while such a viewer is connected.\n"
-    "\n"
-    "options:\n"
-    "  --nats URL[,URL]    broker address(es), nats://HOST:PORT. Credentials from MIMIC_NATS_USER\n"
-    "                      + MIMIC_NATS_PASSWORD, or MIMIC_NATS_TOKEN\n"
-    "  --scene NAME        the scene (default 'default')\n"
-    "  --listen ADDR:PORT  where viewers connect (default 127.0.0.1:7778; port 0 picks one)\n"
-    "  --secret S          shared secret for publishers (prefer MIMIC_SECRET); needed on a\n"
-    "                      non-loopback address, as for mimic run\n"
-    "  --no-udp            pose frames over TCP only\n"
-    MIMIC_LEAN_FLAGS_USAGE
-    "  --duration S        stop by itself after S seconds\n"
-    "  --json              a JSON summary on stdout at exit (and on SIGUSR1)\n"
-    "  --quiet             no live status line on stderr\n"
-    "\n"
-    "The first line on stdout is 'serving on ADDR:PORT'.\n";
+    "deform at L: the relay asks for them while such a viewer is connected.";
+
+struct Options {
+  net::ServerOptions server;
+  std::string nats, scene = "default";
+  double duration_s = 0;
+  bool no_udp = false, json = false, quiet = false;
+};
+
+std::optional<int> parse(cli::Parser& p, const std::vector<std::string>& argv, Options& o) {
+  p->footer("The first line on stdout is 'serving on ADDR:PORT'.");
+  o.server.listen = "127.0.0.1:7778";
+  p->add_option("--nats", o.nats,
+                "broker address(es), nats://HOST:PORT. Credentials from MIMIC_NATS_USER\n"
+                "+ MIMIC_NATS_PASSWORD, or MIMIC_NATS_TOKEN")
+      ->type_name("URL[,URL]")
+      ->required();
+  p->add_option("--scene", o.scene, "the scene")->type_name("NAME");
+  p->add_option("--listen", o.server.listen, "where viewers connect (port 0 picks one)")->type_name("ADDR:PORT");
+  p->add_option("--secret", o.server.secret,
+                "shared secret for publishers (prefer MIMIC_SECRET); needed on a\n"
+                "non-loopback address, as for mimic run")
+      ->type_name("S");
+  p->add_flag("--no-udp", o.no_udp, "pose frames over TCP only");
+  add_lean_flags(p.app(), o.server);
+  p->add_option("--duration", o.duration_s, "stop by itself after S seconds")
+      ->default_str("")
+      ->check(cli::finite_range(0, INFINITY));
+  p->add_flag("--json", o.json, "a JSON summary on stdout at exit (and on SIGUSR1)");
+  p->add_flag("--quiet", o.quiet, "no live status line on stderr");
+  return p.parse(argv);
+}
 
 volatile std::sig_atomic_t g_report = 0;
 extern "C" void on_relay_report(int) { g_report = 1; }
 
 int relay(const std::vector<std::string>& argv) {
-  Args a(argv, {"nats", "scene", "listen", "secret", "duration", "lean-shift", "lean-key-interval"},
-         {"json", "quiet", "no-udp"});
-  if (a.help()) {
-    std::printf("%s", kUsage);
-    return 0;
-  }
-  if (!a.ok()) return usage_error("relay", a.error());
-  if (!a.positionals().empty()) return usage_error("relay", "unexpected argument '" + a.positionals()[0] + "'");
-  if (!a.has("nats")) return usage_error("relay", "--nats URL is required");
-  double duration_s = 0;
-  if (!a.get_double("duration", duration_s)) return usage_error("relay", a.error());
-
-  net::ServerOptions so;
+  cli::Parser p("relay", kAbout);
+  Options o;
+  if (auto exit_code = parse(p, argv, o)) return *exit_code;
+  const double duration_s = o.duration_s;
+  net::ServerOptions so = o.server;
   raise_descriptor_limit();  // sessions are bounded by the descriptors the process may hold
-  so.listen = a.get_or("listen", "127.0.0.1:7778");
-  so.secret = a.get_or("secret", "");
   if (so.secret.empty())
     if (const char* env = std::getenv("MIMIC_SECRET")) so.secret = env;
-  so.udp = !a.has("no-udp");
-  if (const std::string e = take_lean_flags(a, so); !e.empty()) return usage_error("relay", e);
+  so.udp = !o.no_udp;
   auto s = net::Server::create(so);
   if (!s) return failure("relay", s.error().what());
   net::Server& server = **s;
 
   net::NatsOptions no;
-  no.servers = *a.get("nats");
-  no.scene = a.get_or("scene", "default");
+  no.servers = o.nats;
+  no.scene = o.scene;
   no.name = "mimic relay " + server.endpoint();
   net::nats_credentials_from_env(no);
   auto f = net::NatsSceneFeed::create(no, server);
@@ -114,7 +118,7 @@ int relay(const std::vector<std::string>& argv) {
                    {"mesh_frames_out", st.mesh_frames_out}, {"sessions_accepted", st.sessions_accepted}};
     return j;
   };
-  const bool status_line = !a.has("quiet");
+  const bool status_line = !o.quiet;
   while (!stop_requested()) {
     if (duration_s > 0 && C::now() - start >= std::chrono::duration<double>(duration_s)) break;
     // The feed wakes the server as frames arrive (Server::dispatch): no polling delay here.
@@ -139,14 +143,14 @@ int relay(const std::vector<std::string>& argv) {
   }
   std::signal(SIGUSR1, SIG_DFL);
   if (status_line) std::fputs("\n", stderr);
-  if (a.has("json")) std::printf("%s\n", summary().dump().c_str());
+  if (o.json) std::printf("%s\n", summary().dump().c_str());
   feed.reset();  // before the server it feeds
   return 0;
 }
 
 }  // namespace
 
-MIMIC_COMMAND(relay, "relay", "serve a scene from a NATS broker to local viewers (an edge relay)", kUsage, relay);
+MIMIC_COMMAND(relay, "relay", "serve a scene from a NATS broker to local viewers (an edge relay)", relay);
 
 }  // namespace mimic::app
 #endif  // MIMIC_HAVE_NATS

@@ -5,10 +5,12 @@
 #include <csignal>
 #include <cstdio>
 #include <memory>
+#include <optional>
 #include <string>
 #include <thread>
 #include <vector>
 
+#include "cli.h"
 #include "command.h"
 #include "mimic/core/text.h"
 #include "stop_signal.h"
@@ -27,36 +29,53 @@ namespace mimic::app {
 namespace {
 
 constexpr const char* kName = "replay";
-constexpr const char* kUsage =
-    "usage: mimic replay FILE [--speed X] [--loop] [--from S] [--csv] [--quiet]\n"
-    "       mimic replay FILE --through-driver [--json]\n"
-    "\n"
+constexpr const char* kAbout =
     "Plays a Mimic log (docs/log-format.md) back with its recorded timing and shows a status\n"
-    "line on stderr, or with --csv prints every sample on stdout.\n"
-    "\n"
-    "options:\n"
-    "  --speed X   playback speed: 1 real time (default), 2 twice as fast, 0 as fast as possible\n"
-    "  --loop      start again at the end (until Ctrl-C); times keep increasing across passes\n"
-    "  --from S    start S seconds after the first sample\n"
-    "  --csv       one line per sample on stdout, no header line:\n"
-    "                host_time_s,sensor,x_m,y_m,z_m,qw,qx,qy,qz\n"
-    "              host_time_s as recorded (shifted by whole passes when looping); position in\n"
-    "              metres and orientation (reference_from_sensor) in the tracker's reference\n"
-    "              frame; all numbers with 6 decimals. Stale samples repeat the last good value.\n"
-    "  --quiet     no status line\n"
-    "  --through-driver\n"
-    "              play the raw bytes of a session recorded with `mimic record --raw` back to\n"
-    "              the real driver (a recorded device on a pseudo-terminal: start-up answers,\n"
-    "              then the stream, at the recorded pace) and check that it decodes the\n"
-    "              recorded samples again; prints the comparison (--json: one JSON object with\n"
-    "              chunks, bytes, samples_recorded, samples_decoded, identical, first_difference).\n"
-    "              Exit status 1 when the samples differ, or when the log is damaged\n"
-    "\n"
-    "A damaged or truncated log is replayed around the damage: the reader skips to the next good\n"
-    "record, so every good sample before and after is output. Each damaged stretch (byte offset,\n"
-    "record, bytes skipped) and the samples lost are reported on stderr and the exit status is 1.\n"
-    "Exit status 2 on bad usage or when FILE is not a readable log.\n";
+    "line on stderr, or with --csv prints every sample on stdout.";
 
+struct Options {
+  std::string path;
+  sim::ReplayOptions replay;
+  bool csv = false, quiet = false, through_driver = false, json = false;
+};
+
+std::optional<int> parse(cli::Parser& p, const std::vector<std::string>& argv, Options& o) {
+  p->footer(
+      "A damaged or truncated log is replayed around the damage: the reader skips to the next good\n"
+      "record, so every good sample before and after is output. Each damaged stretch (byte offset,\n"
+      "record, bytes skipped) and the samples lost are reported on stderr and the exit status is 1.\n"
+      "Exit status 2 on bad usage or when FILE is not a readable log.");
+  p->add_option("FILE", o.path, "the log to play")->required();
+  auto* speed = p->add_option("--speed", o.replay.speed,
+                              "playback speed: 1 real time, 2 twice as fast, 0 as fast as possible")
+                    ->check(cli::finite_range(0, 1e6));
+  auto* loop = p->add_flag("--loop", o.replay.loop,
+                           "start again at the end (until Ctrl-C); times keep increasing across passes");
+  auto* from = p->add_option("--from", o.replay.from_s, "start S seconds after the first sample")
+                   ->check(cli::finite_range(0, INFINITY));
+  auto* csv = p->add_flag("--csv", o.csv,
+                          "one line per sample on stdout, no header line:\n"
+                          "  host_time_s,sensor,x_m,y_m,z_m,qw,qx,qy,qz\n"
+                          "host_time_s as recorded (shifted by whole passes when looping); position in\n"
+                          "metres and orientation (reference_from_sensor) in the tracker's reference\n"
+                          "frame; all numbers with 6 decimals. Stale samples repeat the last good value.");
+  p->add_flag("--quiet", o.quiet, "no status line");
+  auto* through = p->add_flag("--through-driver", o.through_driver,
+                              "play the raw bytes of a session recorded with `mimic record --raw` back to\n"
+                              "the real driver (a recorded device on a pseudo-terminal: start-up answers,\n"
+                              "then the stream, at the recorded pace) and check that it decodes the\n"
+                              "recorded samples again; prints the comparison. Exit status 1 when the\n"
+                              "samples differ, or when the log is damaged")
+                      ->excludes(speed)
+                      ->excludes(loop)
+                      ->excludes(from)
+                      ->excludes(csv);
+  p->add_flag("--json", o.json,
+              "with --through-driver: one JSON object with chunks, bytes, samples_recorded,\n"
+              "samples_decoded, identical, first_difference")
+      ->needs(through);
+  return p.parse(argv);
+}
 
 // Same sensor, position and orientation, bit for bit (times differ: the host stamps them).
 // Every damaged stretch of `log`, one line each, and what it cost; nothing for a sound log.
@@ -162,25 +181,13 @@ int replay_through_driver(const std::string& path, bool json) {
 }
 
 int run(const std::vector<std::string>& argv) {
-  Args args(argv, {"speed", "from"}, {"loop", "csv", "quiet", "through-driver", "json"});
-  if (!args.ok()) return usage_error(kName, args.error());
-  if (args.help()) {
-    std::printf("%s", kUsage);
-    return 0;
-  }
-  if (args.positionals().size() != 1) return usage_error(kName, "expects exactly one log file");
-  const std::string path = args.positionals()[0];
-  if (args.has("through-driver")) {
-    if (args.has("csv") || args.has("loop") || args.has("speed") || args.has("from"))
-      return usage_error(kName, "--through-driver plays the session as recorded (no --csv, --loop, --speed, --from)");
-    return replay_through_driver(path, args.has("json"));
-  }
-  if (args.has("json")) return usage_error(kName, "--json goes with --through-driver");
-  sim::ReplayOptions options;
-  if (!args.get_double("speed", options.speed) || !args.get_double("from", options.from_s))
-    return usage_error(kName, args.error());
-  options.loop = args.has("loop");
-  const bool csv = args.has("csv");
+  cli::Parser p(kName, kAbout);
+  Options o;
+  if (auto exit_code = parse(p, argv, o)) return *exit_code;
+  const std::string& path = o.path;
+  if (o.through_driver) return replay_through_driver(path, o.json);
+  sim::ReplayOptions options = o.replay;
+  const bool csv = o.csv;
   options.keep_log_times = csv;
 
   auto clock = std::make_shared<SteadyClock>();
@@ -193,8 +200,8 @@ int run(const std::vector<std::string>& argv) {
   }
   sim::ReplaySource& source = **opened;
   const sim::LogContents& log = source.log();
-  const bool live = !csv && !args.has("quiet") && ::isatty(STDERR_FILENO);
-  if (!csv && !args.has("quiet"))
+  const bool live = !csv && !o.quiet && ::isatty(STDERR_FILENO);
+  if (!csv && !o.quiet)
     std::fprintf(stderr, "replaying %s: %s, %zu sensors, %zu samples, %.3f s%s\n", path.c_str(),
                  log.header.source.empty() ? "unknown source" : terminal_safe(log.header.source).c_str(),
                  log.header.sensors.size(),
@@ -235,7 +242,7 @@ int run(const std::vector<std::string>& argv) {
   std::fflush(stdout);
   source.stop();
   if (live) std::fprintf(stderr, "\r\033[K");
-  if (!csv && !args.has("quiet"))
+  if (!csv && !o.quiet)
     std::fprintf(stderr, "replayed %llu samples in %.2f s%s\n", static_cast<unsigned long long>(total),
                  clock->now_s() - start, stop_requested() ? " (interrupted)" : "");
   report_damage(path, log);
@@ -244,6 +251,6 @@ int run(const std::vector<std::string>& argv) {
 
 }  // namespace
 
-MIMIC_COMMAND(replay, "replay", "play a recorded log back in time, or dump it as CSV", kUsage, run);
+MIMIC_COMMAND(replay, "replay", "play a recorded log back in time, or dump it as CSV", run);
 
 }  // namespace mimic::app

@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <vector>
 
+#include "cli.h"
 #include "command.h"
 #include "mimic/rig/bvh.h"
 #include "mimic/rig/retarget.h"
@@ -14,43 +15,33 @@ namespace {
 
 constexpr const char* kName = "retarget";
 
-constexpr const char* kUsage =
-    "usage: mimic retarget --bvh IN.bvh --out OUT.bvh [options]\n"
-    "\n"
+constexpr const char* kAbout =
     "Retargets a BVH clip onto Mimic's skeleton, keeping the performer's proportions, and writes\n"
     "it as BVH in Mimic's hierarchy: the root with 6 channels, every other joint one rotation\n"
     "channel per DOF (e.g. l_elbow: flexion, forearm twist). IN may use CMU/cgspeed joint names\n"
     "(Hips, LeftUpLeg, ...) or Mimic's own (a file this command wrote). Prints the clip, the\n"
-    "performer's proportions and how closely Mimic's joint centres follow the clip's.\n"
-    "\n"
-    "options:\n"
-    "  --bvh IN.bvh          clip to read (required)\n"
-    "  --out OUT.bvh         file to write (required; written atomically)\n"
-    "  --scale M            metres per unit of IN (default 0.056444, the CMU unit)\n"
-    "  --out-scale M        metres per unit of OUT (default 0.056444, so OUT reads back with\n"
-    "                       the default --scale; use 0.01 for centimetres, 1 for metres)\n"
-    "  --default-body       write the motion on Mimic's default body instead of the performer's\n"
-    "                       (same joint angles, root translation scaled by standing height)\n"
-    "  -h, --help           this text\n"
-    "\n"
-    "exit status: 0 done, 1 unreadable or unsupported clip, 2 usage error\n";
+    "performer's proportions and how closely Mimic's joint centres follow the clip's.";
 
 int run_retarget(const std::vector<std::string>& argv) {
-  Args args(argv, {"bvh", "out", "scale", "out-scale"}, {"default-body"});
-  if (args.help()) {
-    std::printf("%s", kUsage);
-    return 0;
-  }
-  if (!args.ok()) return usage_error(kName, args.error());
-  if (!args.positionals().empty()) return usage_error(kName, "unexpected argument '" + args.positionals()[0] + "'");
-  const auto in = args.get("bvh");
-  const auto out = args.get("out");
-  if (!in) return usage_error(kName, "--bvh IN.bvh is required");
-  if (!out) return usage_error(kName, "--out OUT.bvh is required");
+  cli::Parser p(kName, kAbout);
+  p->footer("exit status: 0 done, 1 unreadable or unsupported clip, 2 usage error");
+  std::string in_path, out_path;
   double scale = rig::kCmuMetresPerUnit, out_scale = rig::kCmuMetresPerUnit;
-  if (!args.get_double("scale", scale) || !args.get_double("out-scale", out_scale)) return usage_error(kName, args.error());
-  if (!(scale > 0)) return usage_error(kName, "--scale must be a positive number of metres per file unit");
-  if (!(out_scale > 0)) return usage_error(kName, "--out-scale must be a positive number of metres per file unit");
+  bool default_body = false;
+  p->add_option("--bvh", in_path, "clip to read")->type_name("IN.bvh")->required();
+  p->add_option("--out", out_path, "file to write (written atomically)")->type_name("OUT.bvh")->required();
+  p->add_option("--scale", scale, "metres per unit of IN (the CMU unit by default)")
+      ->check(cli::finite_range(0, INFINITY, cli::Bound::exclusive));
+  p->add_option("--out-scale", out_scale,
+                "metres per unit of OUT (by default the CMU unit, so OUT reads back with\n"
+                "the default --scale; use 0.01 for centimetres, 1 for metres)")
+      ->check(cli::finite_range(0, INFINITY, cli::Bound::exclusive));
+  p->add_flag("--default-body", default_body,
+              "write the motion on Mimic's default body instead of the performer's\n"
+              "(same joint angles, root translation scaled by standing height)");
+  if (auto exit_code = p.parse(argv)) return *exit_code;
+  const std::string* in = &in_path;
+  const std::string* out = &out_path;
 
   auto clip = rig::load_bvh(*in, rig::BvhParseOptions{scale});
   if (!clip) return failure(kName, clip.error().message);
@@ -74,11 +65,11 @@ int run_retarget(const std::vector<std::string>& argv) {
       ++count;
     }
   }
-  const rig::Proportions p = rig::measure_proportions(r->skeleton);
+  const rig::Proportions props = rig::measure_proportions(r->skeleton);
   std::printf("retargeted onto %d Mimic joints (%d DOFs): performer pelvis height %.3f m, thigh %.3f m, shin %.3f m, "
               "upper arm %.3f m, forearm %.3f m\n",
-              r->skeleton.joint_count(), r->skeleton.dof_count(), p.pelvis_height_m, p.thigh_m, p.shin_m,
-              p.upper_arm_m, p.forearm_m);
+              r->skeleton.joint_count(), r->skeleton.dof_count(), props.pelvis_height_m, props.thigh_m, props.shin_m,
+              props.upper_arm_m, props.forearm_m);
   std::printf("segments aligned %s\n", r->characterised_on_t_pose ? "on the clip's frame-0 T-pose (head level, feet flat)"
                                                                    : "at the clip's rest pose (frame 0 is no T-pose)");
   std::printf("joint centres vs the clip: mean %.3f mm, max %.3f mm\n", count ? 1000 * sum / static_cast<double>(count) : 0.0, 1000 * worst);
@@ -86,7 +77,7 @@ int run_retarget(const std::vector<std::string>& argv) {
   const rig::Skeleton* skeleton = &r->skeleton;
   std::vector<rig::Pose> poses = std::move(r->poses);
   rig::Skeleton body;
-  if (args.has("default-body")) {
+  if (default_body) {
     auto b = rig::Skeleton::build(rig::default_skeleton_desc());
     if (!b) return failure(kName, b.error().message);
     body = std::move(*b);
@@ -105,6 +96,6 @@ int run_retarget(const std::vector<std::string>& argv) {
 
 }  // namespace
 
-MIMIC_COMMAND(retarget, kName, "retarget a BVH clip onto Mimic's skeleton and write it as BVH", kUsage, run_retarget);
+MIMIC_COMMAND(retarget, kName, "retarget a BVH clip onto Mimic's skeleton and write it as BVH", run_retarget);
 
 }  // namespace mimic::app

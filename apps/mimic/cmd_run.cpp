@@ -508,6 +508,6 @@ int run(const std::vector<std::string>& argv) {
 
 }  // namespace
 
-MIMIC_COMMAND(run, "run", "run the realtime pipeline and serve the avatars", kUsage, run);
+MIMIC_COMMAND(run, "run", "run the realtime pipeline and serve the avatars", run);
 
 }  // namespace mimic::app

@@ -4,6 +4,7 @@
 #include <string>
 
 #include "body_posing.h"
+#include "cli.h"
 #include "command.h"
 #include "mimic/avatar/body_model.h"
 #include "mimic/avatar/body_presets.h"
@@ -12,32 +13,20 @@ namespace mimic::app {
 namespace {
 
 constexpr const char* kName = "scale";
-constexpr const char* kUsage =
-    "usage: mimic scale [--preset NAME] [--total-height M] [--frontal F] [--high-lateral H]\n"
-    "                   [--low-lateral L] [--spine-origin-ratio R] [--body FILE] [--name NAME]\n"
-    "                   [--out BODY.json]\n"
-    "       mimic scale --list\n"
-    "\n"
+constexpr const char* kAbout =
     "Writes a new body model (JSON, docs/body-model.md) scaled by the five operators of\n"
-    "docs/body-scaling.md, all ratios relative to the input body (1 keeps it):\n"
-    "  --total-height M        uniform scale of the whole body\n"
-    "  --frontal F             front-to-back depth (z)\n"
-    "  --high-lateral H        width (x) above the spine origin: torso, arms, head\n"
-    "  --low-lateral L         width (x) of the hips and legs\n"
-    "  --spine-origin-ratio R  pelvis height / total height, relative to now (total kept)\n"
-    "Every primitive's principal axes are tagged lateral, frontal or high by their dominant world\n"
-    "direction in the standing posture (arms at the sides), and scaled by the matching ratio.\n"
-    "\n"
-    "options:\n"
-    "  --preset NAME   start from a preset's ratios (see --list); explicit operators override it\n"
-    "  --list          the presets, their ratios and heights\n"
-    "  --body FILE     the body to scale (default: the built-in adult)\n"
-    "  --name NAME     the new body's name (default: the preset's name, or \"scaled\")\n"
-    "  --out FILE      write there (default: standard output)\n"
-    "  -h, --help      this text\n"
-    "\n"
-    "The result loads, animates and meshes like any body: mimic mesh --body FILE, mimic compare\n"
-    "--body FILE, mimic run --body FILE. Exit status: 0 written, 1 failure, 2 usage error.\n";
+    "docs/body-scaling.md (--total-height, --frontal, --high-lateral, --low-lateral,\n"
+    "--spine-origin-ratio), all ratios relative to the input body (1 keeps it). Every\n"
+    "primitive's principal axes are tagged lateral, frontal or high by their dominant world\n"
+    "direction in the standing posture (arms at the sides), and scaled by the matching ratio.";
+
+// A preset's name, or an error that lists them.
+Result<const avatar::BodyPreset*> find_preset(std::string_view name) {
+  if (const avatar::BodyPreset* p = avatar::find_body_preset(name)) return p;
+  std::string known;
+  for (const avatar::BodyPreset& q : avatar::body_presets()) known += (known.empty() ? "" : ", ") + std::string(q.name);
+  return fail(Errc::invalid_argument, "unknown preset '" + std::string(name) + "' (presets: " + known + ")");
+}
 
 // Standing height of the skin's skeleton (top of the head link over the sole), for listings.
 float skeleton_height_m(const avatar::BodyModel& body) {
@@ -67,56 +56,59 @@ int list_presets() {
 }
 
 int run_scale(const std::vector<std::string>& argv) {
-  Args args(argv, {"preset", "total-height", "frontal", "high-lateral", "low-lateral", "spine-origin-ratio", "body", "name", "out"},
-            {"list"});
-  if (args.help()) {
-    std::fputs(kUsage, stdout);
-    return 0;
-  }
-  if (!args.ok()) return usage_error(kName, args.error());
-  if (!args.positionals().empty()) return usage_error(kName, "unexpected argument '" + args.positionals()[0] + "'");
-  if (args.has("list")) return list_presets();
+  cli::Parser p(kName, kAbout);
+  p->footer(
+      "The result loads, animates and meshes like any body: mimic mesh --body FILE, mimic compare\n"
+      "--body FILE, mimic run --body FILE. Exit status: 0 written, 1 failure, 2 usage error.");
+  std::string preset, body_path, name, out;
+  bool list = false;
+  p->add_option("--preset", preset, "start from a preset's ratios (see --list); explicit operators override it")
+      ->type_name("NAME")
+      ->check(cli::parsed_by(find_preset, "NAME"));
+  auto* list_flag = p->add_flag("--list", list, "the presets, their ratios and heights");
+  // The operators; unset ones keep the preset's ratio (or 1).
+  const std::pair<const char*, const char*> operators[] = {
+      {"--total-height", "uniform scale of the whole body"},
+      {"--frontal", "front-to-back depth (z)"},
+      {"--high-lateral", "width (x) above the spine origin: torso, arms, head"},
+      {"--low-lateral", "width (x) of the hips and legs"},
+      {"--spine-origin-ratio", "pelvis height / total height, relative to now (total kept)"}};
+  double ratios[5] = {0, 0, 0, 0, 0};  // 0: not given
+  for (size_t i = 0; i < 5; ++i)
+    p->add_option(operators[i].first, ratios[i], operators[i].second)
+        ->default_str("")
+        ->check(cli::finite_range(0, 10, cli::Bound::exclusive))
+        ->excludes(list_flag);
+  p->add_option("--body", body_path, "the body to scale (default: the built-in adult)")->type_name("FILE");
+  p->add_option("--name", name, "the new body's name (default: the preset's name, or \"scaled\")");
+  p->add_option("--out", out, "write there (default: standard output)")->type_name("FILE");
+  if (auto exit_code = p.parse(argv)) return *exit_code;
+  if (list) return list_presets();
 
   avatar::BodyScaling scaling;
-  std::string name = "scaled";
-  if (auto preset = args.get("preset")) {
-    const avatar::BodyPreset* p = avatar::find_body_preset(*preset);
-    if (!p) {
-      std::string known;
-      for (const avatar::BodyPreset& q : avatar::body_presets()) known += (known.empty() ? "" : ", ") + std::string(q.name);
-      return usage_error(kName, "unknown preset '" + *preset + "' (presets: " + known + ")");
-    }
-    scaling = p->scaling;
-    name = std::string(p->name);
+  if (!preset.empty()) {
+    const avatar::BodyPreset* chosen = *find_preset(preset);
+    scaling = chosen->scaling;
+    if (name.empty()) name = std::string(chosen->name);
   }
-  struct Operator {
-    const char* option;
-    float* value;
-  } ops[] = {{"total-height", &scaling.total_height},
-             {"frontal", &scaling.frontal_scaling},
-             {"high-lateral", &scaling.high_lateral_scaling},
-             {"low-lateral", &scaling.low_lateral_scaling},
-             {"spine-origin-ratio", &scaling.spine_origin_ratio}};
-  for (const Operator& op : ops) {
-    double v = *op.value;
-    if (!args.get_double(op.option, v)) return usage_error(kName, args.error());
-    if (!(v > 0) || !std::isfinite(v) || v > 10)
-      return usage_error(kName, std::string("--") + op.option + " must be a ratio in (0, 10]");
-    *op.value = static_cast<float>(v);
-  }
-  auto body = body_from_args(args);
+  if (name.empty()) name = "scaled";
+  float* const values[] = {&scaling.total_height, &scaling.frontal_scaling, &scaling.high_lateral_scaling,
+                           &scaling.low_lateral_scaling, &scaling.spine_origin_ratio};
+  for (size_t i = 0; i < 5; ++i)
+    if (ratios[i] > 0) *values[i] = static_cast<float>(ratios[i]);
+  auto body = body_from_path(body_path);
   if (!body) return failure(kName, body.error().what());
   auto scaled = avatar::scale_body(*body, scaling);
   if (!scaled) return failure(kName, scaled.error().what());
-  scaled->name = args.get_or("name", name);
+  scaled->name = name;
   const float before = skeleton_height_m(*body), after = skeleton_height_m(*scaled);
   std::fprintf(stderr,
                "mimic scale: %s: total %.3f, frontal %.3f, high lateral %.3f, low lateral %.3f, spine origin %.3f; "
                "height %.3f m -> %.3f m\n",
                scaled->name.c_str(), scaling.total_height, scaling.frontal_scaling, scaling.high_lateral_scaling,
                scaling.low_lateral_scaling, scaling.spine_origin_ratio, before, after);
-  if (auto out = args.get("out")) {
-    if (auto st = avatar::save_body_model(*scaled, *out); !st) return failure(kName, st.error().what());
+  if (!out.empty()) {
+    if (auto st = avatar::save_body_model(*scaled, out); !st) return failure(kName, st.error().what());
     return 0;
   }
   std::printf("%s\n", avatar::to_json(*scaled).c_str());
@@ -125,7 +117,7 @@ int run_scale(const std::vector<std::string>& argv) {
 
 }  // namespace
 
-MIMIC_COMMAND(scale, kName, "scale a body model (five operators or a preset: child, adult, tall, heavy ...)", kUsage,
+MIMIC_COMMAND(scale, kName, "scale a body model (five operators or a preset: child, adult, tall, heavy ...)",
               run_scale);
 
 }  // namespace mimic::app

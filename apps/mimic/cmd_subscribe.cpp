@@ -3,22 +3,22 @@
 #include <map>
 #include <chrono>
 #include <cstdio>
+#include <optional>
 #include <vector>
 
 #include <nlohmann/json.hpp>
 
+#include "cli.h"
 #include "command.h"
+#include "scene_connect.h"
+#include "mimic/core/percentile.h"
 #include "mimic/net/client.h"
 #include "mimic/net/server.h"
-#include "scene_connect.h"
 
 namespace mimic::app {
 namespace {
 
-const char* kUsage =
-    "usage: mimic subscribe [--connect HOST:PORT] [--count N] [--duration S] [--mesh-lod L] [--udp] [--no-lean]\n"
-    "                      [--json]\n"
-    "\n"
+constexpr const char* kAbout =
     "Joins the scene served by 'mimic run' as a subscriber: receives every avatar's body model\n"
     "once, then its pose frames (latest wins). Prints one line per model and per frame, or with\n"
     "--json only a summary object at the end:\n"
@@ -35,41 +35,18 @@ const char* kUsage =
     "frames). A viewer that was not running for over a second drops what its sockets buffered\n"
     "meanwhile and resumes with the newest frames.\n"
     "Names and server messages are printed with control, bidi and invisible characters escaped\n"
-    "(\\uXXXX; bytes that are not UTF-8 as \\xNN).\n"
-    "\n"
-    "options:\n"
-    "  --connect HOST:PORT  the scene (default 127.0.0.1:7777), or a scene on a NATS broker:\n"
-    "                       nats://HOST:PORT[,nats://HOST:PORT...][/SCENE] (credentials from\n"
-    "                       MIMIC_NATS_USER + MIMIC_NATS_PASSWORD, or MIMIC_NATS_TOKEN)\n"
-    "  --count N            stop after N pose frames\n"
-    "  --duration S         stop after S seconds (default: until --count, or forever)\n"
-    "  --mesh-lod L         also receive mesh frames at LOD L (0 = finest)\n"
-    "  --udp                pose frames as UDP datagrams (models stay on TCP; frames come over\n"
-    "                       TCP until the server has registered this address, or if it offers\n"
-    "                       no UDP)\n"
-    "  --no-lean            POSE frames (150 bytes, angles in pi/32767 rad steps) instead of the\n"
-    "                       lean pose stream taken by default: key and delta frames of about 60\n"
-    "                       bytes at the server's precision (mimic run --lean-shift;\n"
-    "                       docs/protocol.md). --lean asks for the default\n"
-    "  --json               print only the JSON summary\n";
+    "(\\uXXXX; bytes that are not UTF-8 as \\xNN).";
 
-double percentile(std::vector<double> v, double q) {
-  if (v.empty()) return 0;
-  const size_t k = std::min(v.size() - 1, static_cast<size_t>(q * double(v.size() - 1) + 0.5));
-  std::nth_element(v.begin(), v.begin() + static_cast<long>(k), v.end());
-  return v[k];
-}
-
-// The --json summary of a run (the keys the usage lists).
-nlohmann::json summary(const net::Client& client, uint64_t frames, double fps, const std::vector<double>& latency_ms,
+// The --json summary of a run (the keys the usage lists); reorders `latency_ms`.
+nlohmann::json summary(const net::Client& client, uint64_t frames, double fps, std::vector<double>& latency_ms,
                        double duration_s) {
   const auto& s = client.stats();
   nlohmann::json j;
   j["frames"] = frames;
   j["avatars"] = client.avatars().size();
   j["fps"] = fps;
-  j["latency_ms_p50"] = percentile(latency_ms, 0.50);
-  j["latency_ms_p99"] = percentile(latency_ms, 0.99);
+  j["latency_ms_p50"] = percentile_in_place(latency_ms, 0.50);
+  j["latency_ms_p99"] = percentile_in_place(latency_ms, 0.99);
   j["lost"] = s.lost;
   j["out_of_order"] = s.out_of_order;
   j["model_bytes"] = s.model_bytes;
@@ -97,29 +74,57 @@ nlohmann::json summary(const net::Client& client, uint64_t frames, double fps, c
   return j;
 }
 
-int subscribe(const std::vector<std::string>& argv) {
-  Args a(argv, {"connect", "count", "duration", "mesh-lod"}, {"json", "udp", "lean", "no-lean"});
-  if (a.help()) {
-    std::printf("%s", kUsage);
-    return 0;
-  }
-  if (!a.ok()) return usage_error("subscribe", a.error());
-  long count = 0, lod = -1;
+struct Options {
+  net::ClientOptions client;
+  long count = 0;
+  int lod = -1;
   double duration_s = 0;
-  if (!a.get_int("count", count) || !a.get_double("duration", duration_s) || !a.get_int("mesh-lod", lod))
-    return usage_error("subscribe", a.error());
-  if (count < 0) return usage_error("subscribe", "--count must be positive");
-  if (a.has("mesh-lod") && (lod < 0 || lod > 7)) return usage_error("subscribe", "--mesh-lod must be 0..7");
-  const bool json = a.has("json");
+  bool json = false;
+};
 
-  net::ClientOptions o;
-  o.connect = a.get_or("connect", "127.0.0.1:7777");
-  o.role = net::Role::subscriber;
-  o.name = "mimic subscribe";
-  if (lod >= 0) o.mesh_lod = static_cast<uint8_t>(lod);
-  o.udp = a.has("udp");
-  if (a.has("lean") && a.has("no-lean")) return usage_error("subscribe", "--lean and --no-lean contradict each other");
-  o.lean = !a.has("no-lean");
+std::optional<int> parse(cli::Parser& p, const std::vector<std::string>& argv, Options& o) {
+  o.client.connect = "127.0.0.1:7777";
+  bool lean = false, no_lean = false;
+  p->add_option("--connect", o.client.connect,
+                "the scene, or a scene on a NATS broker:\n"
+                "nats://HOST:PORT[,nats://HOST:PORT...][/SCENE] (credentials from\n"
+                "MIMIC_NATS_USER + MIMIC_NATS_PASSWORD, or MIMIC_NATS_TOKEN)")
+      ->type_name("HOST:PORT");
+  p->add_option("--count", o.count, "stop after N pose frames (0: no limit)")->check(CLI::NonNegativeNumber);
+  p->add_option("--duration", o.duration_s, "stop after S seconds (default: until --count, or forever)")
+      ->default_str("")
+      ->check(cli::finite_range(0, INFINITY));
+  p->add_option("--mesh-lod", o.lod, "also receive mesh frames at LOD L (0 = finest)")
+      ->default_str("")
+      ->check(CLI::Range(0, 7));
+  p->add_flag("--udp", o.client.udp,
+              "pose frames as UDP datagrams (models stay on TCP; frames come over\n"
+              "TCP until the server has registered this address, or if it offers\n"
+              "no UDP)");
+  auto* lean_flag = p->add_flag("--lean", lean, "the lean pose stream (the default)");
+  p->add_flag("--no-lean", no_lean,
+              "POSE frames (150 bytes, angles in pi/32767 rad steps) instead of the\n"
+              "lean pose stream taken by default: key and delta frames of about 60\n"
+              "bytes at the server's precision (mimic run --lean-shift;\n"
+              "docs/protocol.md)")
+      ->excludes(lean_flag);
+  p->add_flag("--json", o.json, "print only the JSON summary");
+  if (auto exit_code = p.parse(argv)) return exit_code;
+  o.client.lean = !no_lean;
+  o.client.role = net::Role::subscriber;
+  o.client.name = "mimic subscribe";
+  if (o.lod >= 0) o.client.mesh_lod = static_cast<uint8_t>(o.lod);
+  return std::nullopt;
+}
+
+int subscribe(const std::vector<std::string>& argv) {
+  cli::Parser p("subscribe", kAbout);
+  Options opts;
+  if (auto exit_code = parse(p, argv, opts)) return *exit_code;
+  const long count = opts.count;
+  const double duration_s = opts.duration_s;
+  const bool json = opts.json;
+  const net::ClientOptions& o = opts.client;
   auto c = connect_scene(o);
   if (!c) return failure("subscribe", net::printable(c.error().what()));
   net::Client& client = **c;
@@ -197,7 +202,7 @@ int subscribe(const std::vector<std::string>& argv) {
 
 }  // namespace
 
-MIMIC_COMMAND(subscribe, "subscribe", "join a scene as a viewer and print or summarise what arrives", kUsage,
+MIMIC_COMMAND(subscribe, "subscribe", "join a scene as a viewer and print or summarise what arrives",
               subscribe);
 
 }  // namespace mimic::app

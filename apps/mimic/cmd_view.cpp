@@ -299,7 +299,7 @@ int run_view(const std::vector<std::string>& argv) {
 
 }  // namespace
 
-MIMIC_COMMAND(view, kName, "see the avatar: the interactive viewer, or a PNG screenshot rendered offscreen", kUsage,
+MIMIC_COMMAND(view, kName, "see the avatar: the interactive viewer, or a PNG screenshot rendered offscreen",
               run_view);
 
 }  // namespace mimic::app

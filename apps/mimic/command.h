@@ -1,5 +1,6 @@
-// Subcommand registry and a small argument parser for the `mimic` program.
-// Each cmd_<name>.cpp defines one command with MIMIC_COMMAND; main() dispatches by name.
+// Subcommand registry of the `mimic` program. Each cmd_<name>.cpp defines one command with
+// MIMIC_COMMAND; main() dispatches by name and lists the commands in `mimic --help`. Commands
+// parse their own words with cli.h (CLI11), which generates their --help.
 #pragma once
 
 #include <cstdio>
@@ -13,7 +14,6 @@ namespace mimic::app {
 struct Command {
   const char* name;
   const char* summary;  // one line for `mimic --help`
-  const char* usage;    // full text for `mimic <name> --help`
   int (*run)(const std::vector<std::string>& args);
 };
 
@@ -23,11 +23,11 @@ struct Registrar {
   explicit Registrar(Command c) { commands().push_back(c); }
 };
 
-#define MIMIC_COMMAND(ident, name, summary, usage, fn) \
-  static ::mimic::app::Registrar ident##_registrar(::mimic::app::Command{name, summary, usage, fn})
+#define MIMIC_COMMAND(ident, name, summary, fn) \
+  static ::mimic::app::Registrar ident##_registrar(::mimic::app::Command{name, summary, fn})
 
-// Parses "--key value", "--key=value" and "--flag" options plus positionals. Options are
-// declared up front so a typo is an error that names the option, not a silent default.
+// The hand-rolled parser `mimic run` and `mimic view` still use (args.cpp); new code uses cli.h.
+// Parses "--key value", "--key=value" and "--flag" options plus positionals.
 class Args {
  public:
   Args(const std::vector<std::string>& argv, const std::vector<std::string>& value_options,
@@ -52,7 +52,8 @@ class Args {
   bool help_ = false;
 };
 
-// Prints "mimic <cmd>: <message>" to stderr and returns the usage-error exit code (2).
+// Prints "mimic <cmd>: <message>" and a pointer to `mimic <cmd> --help` to stderr and returns the
+// usage-error exit code (2); an empty <cmd> is the program itself.
 int usage_error(const char* command, const std::string& message);
 // Prints "mimic <cmd>: <message>" to stderr and returns the failure exit code (1).
 int failure(const char* command, const std::string& message);

@@ -5,6 +5,7 @@
 
 #include <string>
 
+#include "cli.h"
 #include "command.h"
 #include "mimic/net/pose_stream.h"
 #include "mimic/net/server.h"
@@ -21,7 +22,27 @@ inline constexpr long kMaxLeanKeyInterval = 3600;  // 40 s at 90 Hz
   "  --lean-key-interval N  a key frame to every lean viewer every N frames (1-3600; 0: only\n"   \
   "                      on joining, after lost frames and on request); default 90 (1 s)\n"
 
-// Reads both flags into `o`; an error message naming the flag and its bounds, or "".
+// Declares both flags on a command, bounds with them; they fill `o` when parsed (`o` must outlive
+// the parse).
+inline void add_lean_flags(CLI::App& app, net::ServerOptions& o) {
+  app.add_option_function<int>(
+         "--lean-shift", [&o](const int& shift) { o.lean_pose_shift = uint8_t(shift); },
+         "precision of the lean pose stream viewers get by default: POSE steps\n"
+         "divided by 2^N, 0 (lossless against POSE frames) to 8 (angles +/-0.012 rad,\n"
+         "root +/-1.3 mm); default 3 (angles +/-4.3e-4 rad, root +/-45 um).\n"
+         "Error bound: (2^N + 1)/2 POSE steps a value")
+      ->type_name("N")
+      ->check(CLI::Range(0, int(net::kMaxPoseShift)));
+  app.add_option_function<long>(
+         "--lean-key-interval", [&o](const long& frames) { o.lean_key_interval = uint32_t(frames); },
+         "a key frame to every lean viewer every N frames (0: only on joining,\n"
+         "after lost frames and on request); default 90 (1 s)")
+      ->type_name("N")
+      ->check(CLI::Range(0L, kMaxLeanKeyInterval));
+}
+
+// The old parser's form (mimic run): reads both flags into `o`; an error message naming the flag
+// and its bounds, or "".
 inline std::string take_lean_flags(Args& a, net::ServerOptions& o) {
   long shift = o.lean_pose_shift, interval = long(o.lean_key_interval);
   if (!a.get_int("lean-shift", shift) || !a.get_int("lean-key-interval", interval)) return a.error();

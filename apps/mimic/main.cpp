@@ -5,6 +5,7 @@
 #include <string>
 #include <vector>
 
+#include "cli.h"
 #include "command.h"
 #include "mimic/core/text.h"
 
@@ -15,92 +16,12 @@ std::vector<Command>& commands() {
   return all;
 }
 
-Args::Args(const std::vector<std::string>& argv, const std::vector<std::string>& value_options,
-           const std::vector<std::string>& flag_options) {
-  auto is = [](const std::vector<std::string>& v, const std::string& s) {
-    return std::find(v.begin(), v.end(), s) != v.end();
-  };
-  for (size_t i = 0; i < argv.size(); ++i) {
-    std::string a = argv[i];
-    if (a == "-h" || a == "--help") {
-      help_ = true;
-      continue;
-    }
-    if (a.size() > 2 && a.rfind("--", 0) == 0) {
-      std::string key = a.substr(2), value;
-      bool inline_value = false;
-      if (auto eq = key.find('='); eq != std::string::npos) {
-        value = key.substr(eq + 1);
-        key = key.substr(0, eq);
-        inline_value = true;
-      }
-      if (is(flag_options, key)) {
-        if (inline_value) {
-          error_ = "option --" + key + " takes no value";
-          return;
-        }
-        values_[key] = "1";
-      } else if (is(value_options, key)) {
-        if (!inline_value) {
-          if (i + 1 >= argv.size()) {
-            error_ = "option --" + key + " needs a value";
-            return;
-          }
-          value = argv[++i];
-        }
-        values_[key] = value;
-      } else {
-        error_ = "unknown option --" + key;
-        return;
-      }
-    } else {
-      positionals_.push_back(a);
-    }
-  }
-}
-
-std::optional<std::string> Args::get(const std::string& key) const {
-  auto it = values_.find(key);
-  if (it == values_.end()) return std::nullopt;
-  return it->second;
-}
-
-std::string Args::get_or(const std::string& key, const std::string& fallback) const {
-  auto v = get(key);
-  return v ? *v : fallback;
-}
-
-bool Args::get_double(const std::string& key, double& out) {
-  auto v = get(key);
-  if (!v) return true;
-  char* end = nullptr;
-  const double d = std::strtod(v->c_str(), &end);
-  if (v->empty() || *end != '\0') {
-    error_ = "--" + key + " expects a number, got '" + *v + "'";
-    return false;
-  }
-  out = d;
-  return true;
-}
-
-bool Args::get_int(const std::string& key, long& out) {
-  auto v = get(key);
-  if (!v) return true;
-  char* end = nullptr;
-  const long d = std::strtol(v->c_str(), &end, 10);
-  if (v->empty() || *end != '\0') {
-    error_ = "--" + key + " expects an integer, got '" + *v + "'";
-    return false;
-  }
-  out = d;
-  return true;
-}
-
 // Messages quote names, paths and peers' words: whatever they hold, they cannot drive the
 // terminal (text already escaped keeps its backslashes).
 int usage_error(const char* command, const std::string& message) {
-  std::fprintf(stderr, "mimic %s: %s\n(see 'mimic %s --help')\n", command,
-               terminal_safe(message, Backslash::kept).c_str(), command);
+  const std::string safe = terminal_safe(message, Backslash::kept);
+  if (*command == '\0') std::fprintf(stderr, "mimic: %s\n(see 'mimic --help')\n", safe.c_str());
+  else std::fprintf(stderr, "mimic %s: %s\n(see 'mimic %s --help')\n", command, safe.c_str(), command);
   return 2;
 }
 
@@ -116,19 +37,30 @@ std::string shared_data_dir() {
 
 namespace {
 
-void print_help() {
-  std::printf(
-      "mimic %s: puppets a realistic human avatar live from motion trackers and streams it to VR "
-      "scenes.\n\nusage: mimic <command> [options]    (mimic <command> --help for details)\n\ncommands:\n",
-      MIMIC_VERSION);
+// `mimic`, `mimic --help`, `mimic --version`: the program's own options, and the commands listed
+// from the registry (each command parses its own words).
+int run_top_level(const std::vector<std::string>& args) {
+  cli::Parser p("", std::string("mimic ") + MIMIC_VERSION +
+                        ": puppets a realistic human avatar live from motion trackers and streams it to VR scenes.");
+  p->get_formatter()->label("SUBCOMMAND", "command");
+  bool version = false;
+  p->add_flag("--version", version, "print the version and exit");
   auto cmds = commands();
-  std::sort(cmds.begin(), cmds.end(), [](const Command& a, const Command& b) {
-    return std::string(a.name) < b.name;
-  });
-  for (const auto& c : cmds) std::printf("  %-14s %s\n", c.name, c.summary);
-  std::printf("\nStart here: 'mimic run' serves the embedded default (simulated trackers on the built-in "
-              "walk,\nthe default body, 127.0.0.1:7777), 'mimic view' shows it in a window.\n"
-              "Frames: metres, +Y up, the body faces +Z.\n");
+  std::sort(cmds.begin(), cmds.end(), [](const Command& a, const Command& b) { return std::string(a.name) < b.name; });
+  for (const auto& c : cmds) p->add_subcommand(c.name, c.summary)->group("commands");
+  p->footer(
+      "Start here: 'mimic run' serves the embedded default (simulated trackers on the built-in walk,\n"
+      "the default body, 127.0.0.1:7777), 'mimic view' shows it in a window.\n"
+      "Frames: metres, +Y up, the body faces +Z.");
+  // Bare `mimic` says what it is and what it can do; the server is `mimic run`.
+  if (args.empty() || args == std::vector<std::string>{"help"}) {
+    std::fputs(p.help().c_str(), stdout);
+    return 0;
+  }
+  if (auto exit_code = p.parse(args)) return *exit_code;
+  if (version) std::printf("mimic %s\n", MIMIC_VERSION);
+  else std::fputs(p.help().c_str(), stdout);
+  return 0;
 }
 
 }  // namespace
@@ -137,15 +69,7 @@ void print_help() {
 int main(int argc, char** argv) {
   using namespace mimic::app;
   std::vector<std::string> args(argv + 1, argv + argc);
-  // Bare `mimic` says what it is and what it can do; the server is `mimic run`.
-  if (args.empty() || args[0] == "--help" || args[0] == "-h" || args[0] == "help") {
-    print_help();
-    return 0;
-  }
-  if (!args.empty() && args[0] == "--version") {
-    std::printf("mimic %s\n", MIMIC_VERSION);
-    return 0;
-  }
+  if (args.empty() || args[0].empty() || args[0][0] == '-' || args[0] == "help") return run_top_level(args);
   std::string name = args[0];
   args.erase(args.begin());
   for (const auto& c : commands()) {
@@ -157,6 +81,5 @@ int main(int argc, char** argv) {
       return 1;
     }
   }
-  std::fprintf(stderr, "mimic: unknown command '%s' (see 'mimic --help')\n", name.c_str());
-  return 2;
+  return usage_error("", "unknown command '" + name + "'");
 }

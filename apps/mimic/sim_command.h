@@ -11,7 +11,6 @@ namespace mimic::app {
 struct SimSubcommand {
   const char* name;     // "spaceball"
   const char* summary;  // one line for `mimic sim --help`
-  const char* usage;    // full text for `mimic sim <name> --help`
   int (*run)(const std::vector<std::string>& args);
 };
 
@@ -21,7 +20,7 @@ struct SimRegistrar {
   explicit SimRegistrar(SimSubcommand c) { sim_subcommands().push_back(c); }
 };
 
-#define MIMIC_SIM_SUBCOMMAND(ident, name, summary, usage, fn) \
-  static ::mimic::app::SimRegistrar ident##_sim_registrar(::mimic::app::SimSubcommand{name, summary, usage, fn})
+#define MIMIC_SIM_SUBCOMMAND(ident, name, summary, fn) \
+  static ::mimic::app::SimRegistrar ident##_sim_registrar(::mimic::app::SimSubcommand{name, summary, fn})
 
 }  // namespace mimic::app

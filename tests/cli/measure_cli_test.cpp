@@ -47,7 +47,7 @@ TEST(MeasureCli, JsonMatchesTheSharedMeshFigures) {
 TEST(MeasureCli, BadUsageAndBadInputAreReported) {
   Outcome r = run_mimic("measure --units-per-metre ten");
   EXPECT_EQ(r.status, 2);
-  EXPECT_NE(r.output.find("expects a number"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("expects a finite number"), std::string::npos) << r.output;
   r = run_mimic("measure --units-per-metre -1");
   EXPECT_EQ(r.status, 2);
   r = run_mimic("measure --colour red");

@@ -109,7 +109,7 @@ TEST(ScaleCli, BadUsageIsReported) {
   EXPECT_NE(r.output.find("presets: child, adult_female"), std::string::npos) << r.output;
   r = run_mimic("scale --frontal 0");
   EXPECT_EQ(r.status, 2);
-  EXPECT_NE(r.output.find("--frontal must be a ratio"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("--frontal: expects a finite number (0 - 10], got '0'"), std::string::npos) << r.output;
   r = run_mimic("scale --total-height tall");
   EXPECT_EQ(r.status, 2);
   r = run_mimic("scale --body /nonexistent.json");

@@ -214,7 +214,7 @@ TEST(SimFlockCli, HelpAndBadOptions) {
     Child bad({mimic, "sim", "flock", "--birds", "15"}, true);
     const std::string text = bad.rest();
     EXPECT_EQ(bad.wait(), 2);
-    EXPECT_NE(text.find("--birds must be 1-14"), std::string::npos) << text;
+    EXPECT_NE(text.find("--birds: Value 15 not in range 1 to 14"), std::string::npos) << text;
   }
   {
     Child bad({mimic, "sim", "flock", "--baud", "1234"}, true);
