@@ -360,6 +360,18 @@ nlohmann::json summary(Pipeline& pipeline, const Outputs& out, const LoopStats& 
   j["missed_ticks"] = missed_ticks;
   j["longest_gap_ms"] = longest_gap_ms;
   j["model_bytes"] = model_bytes_total;
+  // Each avatar's source: its state and counters (records, bad input skipped, reconnects).
+  j["sources"] = nlohmann::json::array();
+  for (size_t i = 0; i < pipeline.avatar_count(); ++i) {
+    const devices::DeviceStatus st = pipeline.feed(i).status();
+    static const char* kStates[] = {"disconnected", "connecting", "streaming", "stale", "error"};
+    j["sources"].push_back({{"description", st.description},
+                            {"state", kStates[static_cast<int>(st.state)]},
+                            {"records", st.records},
+                            {"resyncs", st.resyncs},
+                            {"reconnects", st.reconnects},
+                            {"last_error", st.last_error}});
+  }
   for (int s = 0; s < kStageCount; ++s) {
     const auto sum = pipeline.timer(s).summary();
     j["stages"][stage_name(s)] = {{"p50_us", sum.p50_us}, {"p99_us", sum.p99_us}, {"max_us", sum.max_us},

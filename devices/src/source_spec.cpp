@@ -74,7 +74,20 @@ const SchemeSpec kSchemes[] = {
       {"dropout", Kind::number, 0, 1},
       {"burst", Kind::integer, 1, 100000}}},
     // vmc keys are interpreted by service/src/vmc_feed.cpp (docs/hardware.md).
-    {"vmc", true, "[HOST:]PORT to listen on (VMC performer data)", {{"stale_ms", Kind::integer, 10, 60000}}},
+    {"vmc", true, "[HOST:]PORT to listen on (VMC performer data)",
+     {{"stale_ms", Kind::integer, 10, 60000}, {"map", Kind::any}}},
+    // vrpn and osc-trackers keys are interpreted by service/src/vrpn_source.cpp and
+    // osc_tracker_source.cpp (docs/hardware.md).
+    {"vrpn", true, "DEVICE@HOST[:PORT] or DEVICE@tcp://HOST[:PORT] (a VRPN tracker)",
+     {{"layout", Kind::choice, 0, 0, "3|6|11|all"},
+      {"devices", Kind::any},
+      {"map", Kind::any},
+      {"axes", Kind::any},
+      {"scale", Kind::number, 0, 1000000},
+      {"buttons", Kind::any},
+      {"stale_ms", Kind::integer, 10, 60000}}},
+    {"osc-trackers", true, "[HOST:]PORT to listen on (VRChat-style OSC trackers)",
+     {{"map", Kind::any}, {"stale_ms", Kind::integer, 10, 60000}}},
     {"replay", true, "a log file path",
      {{"speed", Kind::number, 0, 1000000}, {"loop", Kind::boolean}, {"from", Kind::number, 0, 1000000000}}},
     {"bvh", true, "a BVH file path",

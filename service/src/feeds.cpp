@@ -1,5 +1,7 @@
 // The feeds (read + solve) of the pipeline: tracker samples through the sensor filters and the
 // body solver, and the motion-driven stand-in; the spec → feed step for the trackers.
+#include "osc_tracker_source.h"
+#include "vrpn_source.h"
 #include "feed_on_clock.h"
 #include "vmc_feed.h"
 
@@ -281,6 +283,33 @@ Result<std::unique_ptr<PoseFeed>> make_tracker_feed(std::unique_ptr<devices::Sen
   return std::unique_ptr<PoseFeed>(new SolverFeed(std::move(*model), std::move(source), std::move(description)));
 }
 
+namespace {
+
+// Tracker sources that speak a network protocol (VRPN, OSC trackers, VMC devices): opened here
+// rather than by sim::open_sensor_source, which knows the devices and the simulators.
+bool network_tracker(const devices::SourceSpec& spec) {
+  return spec.scheme == "vrpn" || spec.scheme == "osc-trackers" ||
+         (spec.scheme == "vmc" && spec.params.count("map") > 0);
+}
+
+Result<std::unique_ptr<devices::SensorSource>> open_sensor(const devices::SourceSpec& spec,
+                                                           std::shared_ptr<const Clock> clock,
+                                                           const rig::Skeleton* body) {
+  if (spec.scheme == "vrpn") return open_vrpn_source(spec, std::move(clock));
+  if (spec.scheme == "osc-trackers") return open_osc_tracker_source(spec, std::move(clock));
+  if (spec.scheme == "vmc") return open_vmc_device_source(spec, std::move(clock));
+  return sim::open_sensor_source(spec, std::move(clock), nullptr, body);
+}
+
+Result<std::vector<solver::SensorMount>> network_mounts(const devices::SourceSpec& spec,
+                                                        const rig::Skeleton& skeleton) {
+  if (spec.scheme == "vrpn") return vrpn_mounts(spec, skeleton);
+  if (spec.scheme == "osc-trackers") return osc_tracker_mounts(spec, skeleton);
+  return vmc_device_mounts(spec, skeleton);
+}
+
+}  // namespace
+
 Result<std::unique_ptr<PoseFeed>> open_feed(const std::string& spec_text, const std::string& calibration_path,
                                             const rig::Skeleton* body) {
   return open_feed_on_clock(spec_text, calibration_path, body, nullptr);
@@ -291,13 +320,14 @@ Result<std::unique_ptr<PoseFeed>> open_feed_on_clock(const std::string& spec_tex
                                                      std::shared_ptr<const Clock> clock) {
   auto spec = devices::parse_source_spec(spec_text);
   if (!spec) return tl::unexpected(spec.error());
-  if (spec->scheme == "vmc") return open_vmc_feed(*spec, body);  // poses, not tracker samples
+  // VMC bones are poses, not tracker samples (VMC devices mapped to segments are samples).
+  if (spec->scheme == "vmc" && !network_tracker(*spec)) return open_vmc_feed(*spec, body);
   if (!calibration_path.empty()) {
     auto cal = solver::load_calibration(calibration_path);
     if (!cal) return tl::unexpected(cal.error());
     auto model = solver::make_solver_model(*cal);
     if (!model) return tl::unexpected(model.error());
-    auto source = sim::open_sensor_source(*spec, clock);
+    auto source = open_sensor(*spec, clock, nullptr);
     if (!source) return tl::unexpected(source.error());
     std::string desc = (*source)->status().description;
     if (desc.empty()) desc = spec_text;
@@ -319,6 +349,10 @@ Result<std::unique_ptr<PoseFeed>> open_feed_on_clock(const std::string& spec_tex
       mounts.push_back({static_cast<uint16_t>(i), rig->sensors[i].segment, rig->sensors[i].segment_from_sensor});
   } else if (recorded) {
     mounts = std::move(*recorded);
+  } else if (network_tracker(*spec)) {
+    auto m = network_mounts(*spec, *skeleton);
+    if (!m) return tl::unexpected(m.error());
+    mounts = std::move(*m);
   } else {
     auto it = spec->params.find("sensors");
     auto layout = layout_mounts(it == spec->params.end() ? "6" : it->second, *skeleton);
@@ -330,7 +364,7 @@ Result<std::unique_ptr<PoseFeed>> open_feed_on_clock(const std::string& spec_tex
   if (spec->scheme == "sim" || spec->scheme == "bvh") options.standing_root_y_m = rig::standing_root_height_m(*skeleton);
   auto model = solver::SolverModel::create(*skeleton, std::move(mounts), options);
   if (!model) return tl::unexpected(model.error());
-  auto source = sim::open_sensor_source(*spec, std::move(clock), nullptr, body);
+  auto source = open_sensor(*spec, std::move(clock), body);
   if (!source) return tl::unexpected(source.error());
   std::string desc = (*source)->status().description;
   if (desc.empty()) desc = spec_text;

@@ -27,13 +27,14 @@ Result<std::unique_ptr<PoseFeed>> open_actor(const SourceRequest& r) {
   return make_actor_feed(r.text, r.roster, r.slot, r.body);
 }
 
-// New schemes (vrpn, osc trackers) go here, one row each.
 const SourceScheme kSchemes[] = {
     {"sim", "sim:walk?sensors=11&seed=2", false, check_device_spec, open_device_feed},
     {"bvh", "bvh:CLIP.bvh?loop=1", false, check_device_spec, open_device_feed},
     {"replay", "replay:SESSION.mlog", false, check_device_spec, open_device_feed},
     {"flock", "flock:/dev/ttyUSB0?birds=4", false, check_device_spec, open_device_feed},
     {"vmc", "vmc:39539", false, check_device_spec, open_device_feed},
+    {"vrpn", "vrpn:Tracker0@tracker-pc:3883?layout=6", false, check_device_spec, open_device_feed},
+    {"osc-trackers", "osc-trackers:9000", false, check_device_spec, open_device_feed},
     {"actor", "actor:wander?seed=3", true, check_actor, open_actor},
 };
 

@@ -65,10 +65,10 @@ class Proc {
     }
     return "";
   }
-  // Collects output until stderr holds `text` (true) or the timeout passes (false).
-  bool wait_for_err(const std::string& text, double timeout_s) {
+  // Collects output until stderr holds `text` after byte `from` (true) or the timeout passes.
+  bool wait_for_err(const std::string& text, double timeout_s, size_t from = 0) {
     const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
-    while (err_text_.find(text) == std::string::npos) {
+    while (err_text_.find(text, from) == std::string::npos) {
       if (std::chrono::steady_clock::now() >= end) return false;
       drain(20);
     }
