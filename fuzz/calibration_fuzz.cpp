@@ -19,7 +19,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   if (!mimic::rig::Skeleton::build(cal->skeleton)) std::abort();
   (void)make_solver_model(*cal);  // may refuse (a skeleton without Mimic's chains), never crash
   auto again = calibration_from_json(calibration_to_json(*cal));
-  if (!again || again->sensors.size() != cal->sensors.size() || again->skeleton.joints.size() != cal->skeleton.joints.size())
+  if (!again || again->sensors.size() != cal->sensors.size() ||
+      again->skeleton.joints.size() != cal->skeleton.joints.size())
     std::abort();
   return 0;
 }

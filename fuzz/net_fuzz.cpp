@@ -55,7 +55,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const std::span<const uint8_t> whole(data, size);
   (void)decode_pose(whole, pose_header, pose);
   (void)decode_lean_pose(whole, lean, pose_header, pose);  // a datagram on the subscriber's socket
-  (void)decode_udp_register(whole, token);  // what arrives on the server's UDP socket
+  (void)decode_udp_register(whole, token);                 // what arrives on the server's UDP socket
   (void)decode_hello(whole, hello);
   (void)decode_avatar_model(whole, model);
   return 0;

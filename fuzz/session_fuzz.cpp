@@ -202,7 +202,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
           std::array<uint8_t, kHeaderBytes> b{};
           burst.insert(burst.end(), b.begin(), b.begin() + long(encode_ping(b)));
         }
-        if (!conns.empty() && conns[which].fd >= 0) (void)::send(conns[which].fd, burst.data(), burst.size(), MSG_NOSIGNAL);
+        if (!conns.empty() && conns[which].fd >= 0)
+          (void)::send(conns[which].fd, burst.data(), burst.size(), MSG_NOSIGNAL);
         break;
       }
     }

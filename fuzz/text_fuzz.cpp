@@ -21,8 +21,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     if (out.size() < size) std::abort();
     if (mode == mimic::Backslash::kept && mimic::terminal_safe(out, mode) != out) std::abort();
   }
-  if (mimic::is_safe_name(text) && text.find('\\') == std::string_view::npos &&
-      mimic::terminal_safe(text) != text)
+  if (mimic::is_safe_name(text) && text.find('\\') == std::string_view::npos && mimic::terminal_safe(text) != text)
     std::abort();
   return 0;
 }

@@ -72,9 +72,12 @@ Result<PoseRequest> pose_from(const PoseOptions& o, const rig::Skeleton& skeleto
     req.description = "built-in motion '" + o.motion + "' at " + std::to_string(o.time_s) + " s";
   } else {
     const std::string which = o.pose.empty() ? "zero" : o.pose;
-    if (which == "zero") req.pose = skeleton.zero_pose();
-    else if (which == "rest") req.pose = avatar::relaxed_posture(skeleton);
-    else return fail(Errc::invalid_argument, "--pose must be zero or rest, got '" + which + "'");
+    if (which == "zero")
+      req.pose = skeleton.zero_pose();
+    else if (which == "rest")
+      req.pose = avatar::relaxed_posture(skeleton);
+    else
+      return fail(Errc::invalid_argument, "--pose must be zero or rest, got '" + which + "'");
     req.pose.root_position_m.y = rig::standing_root_height_m(skeleton);
     req.description = which + " posture";
   }
@@ -93,7 +96,8 @@ Result<PoseRequest> pose_from_args(const Args& a, const rig::Skeleton& skeleton)
   o.scale = rig::kCmuMetresPerUnit;
   if (!args.get_double("scale", o.scale) || !args.get_int("frame", o.frame) || !args.get_double("time", o.time_s))
     return fail(Errc::invalid_argument, args.error());
-  if (!(std::isfinite(o.scale) && o.scale > 0)) return fail(Errc::invalid_argument, "--scale must be a positive number of metres per unit");
+  if (!(std::isfinite(o.scale) && o.scale > 0))
+    return fail(Errc::invalid_argument, "--scale must be a positive number of metres per unit");
   if (args.has("frame") && o.frame < 0) return fail(Errc::invalid_argument, "--frame counts from 0");
   // strtod takes "nan" and "inf"; a motion has no pose there (and loops far from 1e9 s).
   if (!(o.time_s >= 0 && o.time_s <= kMaxTime_s))

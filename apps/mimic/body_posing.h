@@ -21,13 +21,13 @@ Result<avatar::BodyModel> body_from_args(const Args& args);
 struct PoseRequest {
   std::string description;  // what was asked for, for the report ("07_01.bvh frame 120" ...)
   rig::Pose pose;
-  double load_ms = 0;       // reading and retargeting the clip
+  double load_ms = 0;  // reading and retargeting the clip
 };
 
 // --bvh CLIP --frame N [--scale M] | --motion NAME --time S | --pose zero|rest.
 struct PoseOptions {
   std::string bvh, motion, pose;
-  long frame = -1;  // -1: not given
+  long frame = -1;   // -1: not given
   double scale = 0;  // metres per BVH unit; 0: the CMU unit
   double time_s = 0;
 };

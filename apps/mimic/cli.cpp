@@ -46,7 +46,8 @@ class Formatter : public CLI::Formatter {
 
   std::string make_usage(const CLI::App* app, std::string name) const override {
     std::string out = get_label("Usage") + ": " + name;
-    const bool has_subcommands = !app->get_subcommands([](const CLI::App* s) { return !s->get_name().empty(); }).empty();
+    const bool has_subcommands =
+        !app->get_subcommands([](const CLI::App* s) { return !s->get_name().empty(); }).empty();
     if (has_subcommands) out += " <" + get_label("SUBCOMMAND") + ">";
     if (!app->get_options([](const CLI::Option* o) { return o->nonpositional(); }).empty())
       out += " [" + get_label("OPTIONS") + "]";
@@ -83,7 +84,8 @@ class Formatter : public CLI::Formatter {
       if (!fallback.empty() && fallback != "[]") out += " (default " + fallback + ")";
       if (opt->get_required()) out += " " + get_label("REQUIRED");
     }
-    for (const auto& [what, list] : {std::pair{"Needs", opt->get_needs()}, std::pair{"Excludes", opt->get_excludes()}}) {
+    for (const auto& [what, list] :
+         {std::pair{"Needs", opt->get_needs()}, std::pair{"Excludes", opt->get_excludes()}}) {
       if (list.empty()) continue;
       out += " (" + get_label(what);
       for (const CLI::Option* other : list) out += " " + other->get_name();
@@ -123,7 +125,8 @@ std::string message_of(const CLI::ParseError& e, CLI::App& app) {
 }  // namespace
 
 Parser::Parser(std::string path, std::string description)
-    : path_(std::move(path)), app_(std::make_unique<CLI::App>(std::move(description), path_.empty() ? "mimic" : "mimic " + path_)) {
+    : path_(std::move(path)),
+      app_(std::make_unique<CLI::App>(std::move(description), path_.empty() ? "mimic" : "mimic " + path_)) {
   app_->formatter(std::make_shared<Formatter>());
   app_->option_defaults()->group("options")->always_capture_default();
   app_->set_help_flag("-h,--help", "print this usage and exit");
@@ -194,9 +197,9 @@ void OptionGroups::collect() {
 
 CLI::Validator finite_range(double min, double max, Bound min_bound, Bound max_bound) {
   const bool open = min_bound == Bound::exclusive, open_max = max_bound == Bound::exclusive;
-  const std::string range = std::isinf(max) ? (open ? "> " : ">= ") + number_text(min)
-                                            : (open ? "(" : "[") + number_text(min) + " - " + number_text(max) +
-                                                  (open_max ? ")" : "]");
+  const std::string range =
+      std::isinf(max) ? (open ? "> " : ">= ") + number_text(min)
+                      : (open ? "(" : "[") + number_text(min) + " - " + number_text(max) + (open_max ? ")" : "]");
   return CLI::Validator(
       [min, max, open, open_max, range](std::string& input) -> std::string {
         double value = 0;

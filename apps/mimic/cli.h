@@ -69,8 +69,7 @@ class OptionGroups {
   };
 
   // `head` and member names are long option names with dashes: "--source".
-  OptionGroups(CLI::App& app, const std::string& head, const std::string& head_description,
-               std::string implicit_head);
+  OptionGroups(CLI::App& app, const std::string& head, const std::string& head_description, std::string implicit_head);
   CLI::Option* head() { return head_; }
   CLI::Option* member(const std::string& name, const std::string& description);
 

@@ -41,7 +41,8 @@ struct BenchOptions {
   long realtime = 0;          // fan-out: SCHED_FIFO priority of the server and receiving threads
   long threads = 0;           // fan-out: the server's threads sharing a tick's writes (0: its default)
   long receivers = 2;         // fan-out: threads reading the subscribers
-  bool json_lines = false;    // skin, solver or fan-out alone with --json: one object per LOD, layout or configuration per line
+  bool json_lines =
+      false;  // skin, solver or fan-out alone with --json: one object per LOD, layout or configuration per line
 };
 
 // ---- network -----------------------------------------------------------------------------------
@@ -56,8 +57,8 @@ Status bytes_per_frame(const rig::Skeleton& sk, nlohmann::json& j) {
   const size_t mimic_bytes = net::encode_pose({1, 0, 1, net::wall_clock_us()}, pose, frame);
   net::VmcEncoder(sk).encode(pose, 0.3, bundle);
   const size_t raw_bytes = 24 + 4 * (3 + 4 + pose.dof_rad.size());
-  j["bytes_per_avatar_frame"] = {{"mimic", mimic_bytes}, {"vmc", bundle.size()}, {"raw_float", raw_bytes},
-                                 {"dofs", pose.dof_rad.size()}};
+  j["bytes_per_avatar_frame"] = {
+      {"mimic", mimic_bytes}, {"vmc", bundle.size()}, {"raw_float", raw_bytes}, {"dofs", pose.dof_rad.size()}};
   std::fprintf(stderr, "bytes per avatar-frame (%zu DOFs): mimic %zu, VMC %zu (%.1fx), raw float %zu (%.1fx)\n",
                pose.dof_rad.size(), mimic_bytes, bundle.size(), double(bundle.size()) / double(mimic_bytes), raw_bytes,
                double(raw_bytes) / double(mimic_bytes));
@@ -68,13 +69,14 @@ Status bytes_per_frame(const rig::Skeleton& sk, nlohmann::json& j) {
 Status loopback_latency(const BenchOptions& opt, const rig::Skeleton& sk, nlohmann::json& j) {
   auto lat = bench::measure_loopback_latency(opt.quick ? 300 : 3000, uint16_t(sk.dof_count()));
   if (!lat) return tl::unexpected(lat.error());
-  j["loopback_latency_us"] = {{"p50", lat->p50_us}, {"p99", lat->p99_us}, {"max", lat->max_us}, {"samples", lat->samples}};
+  j["loopback_latency_us"] = {
+      {"p50", lat->p50_us}, {"p99", lat->p99_us}, {"max", lat->max_us}, {"samples", lat->samples}};
   std::fprintf(stderr, "server -> subscriber on loopback: p50 %.1f us, p99 %.1f us (%llu frames)\n", lat->p50_us,
                lat->p99_us, static_cast<unsigned long long>(lat->samples));
   auto lat_udp = bench::measure_loopback_latency(opt.quick ? 300 : 3000, uint16_t(sk.dof_count()), true);
   if (!lat_udp) return tl::unexpected(lat_udp.error());
-  j["loopback_latency_udp_us"] = {{"p50", lat_udp->p50_us}, {"p99", lat_udp->p99_us}, {"max", lat_udp->max_us},
-                                  {"samples", lat_udp->samples}};
+  j["loopback_latency_udp_us"] = {
+      {"p50", lat_udp->p50_us}, {"p99", lat_udp->p99_us}, {"max", lat_udp->max_us}, {"samples", lat_udp->samples}};
   std::fprintf(stderr, "server -> subscriber on loopback, frames as UDP datagrams: p50 %.1f us, p99 %.1f us\n",
                lat_udp->p50_us, lat_udp->p99_us);
   return {};
@@ -137,8 +139,10 @@ Result<nlohmann::json> pipeline_latency(const BenchOptions& opt, int slice_us, i
 Status fanout_sweep(const BenchOptions& opt, nlohmann::json& j) {
   nlohmann::json sweep = nlohmann::json::array();
   std::vector<std::pair<long, long>> configs;
-  if (opt.quick) configs = {{10, 1}, {50, 2}};
-  else configs = {{100, 1}, {250, 2}, {250, 4}, {500, 2}, {opt.subscribers, opt.avatars}};
+  if (opt.quick)
+    configs = {{10, 1}, {50, 2}};
+  else
+    configs = {{100, 1}, {250, 2}, {250, 4}, {500, 2}, {opt.subscribers, opt.avatars}};
   long best = 0;
   for (const auto& [subs, avs] : configs) {
     auto r = bench::measure_fanout(int(subs), int(avs), 90.0, opt.quick ? 0.5 : opt.seconds);
@@ -155,9 +159,12 @@ Status fanout_sweep(const BenchOptions& opt, nlohmann::json& j) {
                      {"achieved_rate_hz", r->achieved_rate_hz},
                      {"late_ticks", r->late_ticks},
                      {"kept_up", r->kept_up}});
-    std::fprintf(stderr, "fan-out 90 Hz: %ld subscribers x %ld avatars = %ld streams: %s at %.1f Hz (received %llu/%llu, dropped %llu, tick p99 %.0f us)\n",
+    std::fprintf(stderr,
+                 "fan-out 90 Hz: %ld subscribers x %ld avatars = %ld streams: %s at %.1f Hz (received %llu/%llu, "
+                 "dropped %llu, tick p99 %.0f us)\n",
                  subs, avs, subs * avs, r->kept_up ? "kept up" : "FELL BEHIND", r->achieved_rate_hz,
-                 static_cast<unsigned long long>(r->frames_received), static_cast<unsigned long long>(r->frames_expected),
+                 static_cast<unsigned long long>(r->frames_received),
+                 static_cast<unsigned long long>(r->frames_expected),
                  static_cast<unsigned long long>(r->frames_dropped), r->tick_p99_us);
     if (r->kept_up) best = std::max(best, subs * avs);
   }
@@ -221,13 +228,16 @@ nlohmann::json skin_row(SkinBenchCase& c, double seconds) {
   const double full_us = median(time_frames(seconds, 200000, [&](size_t k) { c.full.evaluate(c.poses[k % np]); }));
   avatar::RealtimeSkin rt(c.body);
   std::vector<glm::vec3> out(rest.positions.size());
-  const double rt_us = median(time_frames(seconds, 2000000, [&](size_t k) { rt.evaluate(c.poses[k % np], out, {}, false); }));
-  const double rtm_us = median(time_frames(seconds, 2000000, [&](size_t k) { rt.evaluate(c.poses[k % np], out, {}, true); }));
+  const double rt_us =
+      median(time_frames(seconds, 2000000, [&](size_t k) { rt.evaluate(c.poses[k % np], out, {}, false); }));
+  const double rtm_us =
+      median(time_frames(seconds, 2000000, [&](size_t k) { rt.evaluate(c.poses[k % np], out, {}, true); }));
   // The baselines on the same rest mesh, bound with the contour-derived weights; a frame is FK,
   // the joints' skinning transforms, then the vertices.
   std::vector<rig::RigidTransform> w(sk.joint_count());
   rig::forward_kinematics(sk, sk.zero_pose(), w);
-  auto baselines = avatar::baselines::BaselineSkinner::create(sk, w, rest, avatar::baselines::from_influences(c.body->weights()));
+  auto baselines =
+      avatar::baselines::BaselineSkinner::create(sk, w, rest, avatar::baselines::from_influences(c.body->weights()));
   if (!baselines) return {{"lod", c.lod}, {"error", baselines.error().what()}};
   auto baseline_us = [&](avatar::baselines::SkinningMethod m) {
     return median(time_frames(seconds, 2000000, [&](size_t k) {
@@ -309,7 +319,8 @@ Result<nlohmann::json> bench_skin(const BenchOptions& opt) {
                  "centres of rotation %.1f us (vertex loops: LBS %.2f, DQS %.2f, CoR %.2f ns/vertex); realtime vs "
                  "full: mean %.2f mm (%.2f mm without muscles), max %.0f mm\n",
                  lod, row["vertices"].get<size_t>(), row["triangles"].get<size_t>(), row["full_us"].get<double>(),
-                 row["realtime_us"].get<double>(), row["realtime_muscles_us"].get<double>(), row["lbs_us"].get<double>(),
+                 row["realtime_us"].get<double>(), row["realtime_muscles_us"].get<double>(),
+                 row["lbs_us"].get<double>(),
                  row["realtime_muscles_us"].get<double>() / std::max(row["lbs_us"].get<double>(), 1e-9),
                  row["dqs_us"].get<double>(), row["cor_us"].get<double>(), row["lbs_ns_per_vertex"].get<double>(),
                  row["dqs_ns_per_vertex"].get<double>(), row["cor_ns_per_vertex"].get<double>(),
@@ -369,8 +380,12 @@ Result<nlohmann::json> bench_solver(const BenchOptions& opt) {
     j[layout] = {{"solve_us_p50", p50}, {"solve_us_p99", p99}, {"frames", us.size()}};
     std::fprintf(stderr, "solver, %s sensors: filter + solve p50 %.1f us, p99 %.1f us\n", layout.c_str(), p50, p99);
     if (opt.json_lines)
-      std::printf("%s\n", nlohmann::json{{"section", "solver"}, {"sensors", layout}, {"p50_us", p50}, {"p99_us", p99},
-                                         {"frames", us.size()}}.dump().c_str());
+      std::printf(
+          "%s\n",
+          nlohmann::json{
+              {"section", "solver"}, {"sensors", layout}, {"p50_us", p50}, {"p99_us", p99}, {"frames", us.size()}}
+              .dump()
+              .c_str());
   }
   return j;
 }
@@ -382,29 +397,29 @@ Result<nlohmann::json> bench_solver(const BenchOptions& opt) {
 nlohmann::json fanout_row(const bench::FanoutCapacity& c) {
   const auto& r = c.result;
   nlohmann::json row = {{"transport", bench::fanout_transport_name(c.options.transport)},
-          {"streams", c.streams},
-          {"subscribers", c.options.subscribers},
-          {"avatars", c.options.avatars},
-          {"hz", c.options.rate_hz},
-          {"lean", c.options.lean},
-          {"realtime", c.realtime},
-          {"tick_us_p50", r.tick_p50_us},
-          {"tick_us_p99", r.tick_p99_us},
-          {"bytes_per_avatar_frame", c.bytes_per_avatar_frame},
-          {"cpu_percent", c.cpu_percent},
-          {"cpu_us_per_tick", c.cpu_us_per_tick},
-          {"receiver_cpu_us_per_tick", c.receiver_cpu_us_per_tick},
-          {"sender_threads", c.sender_threads},
-          {"receiver_threads", c.receiver_threads},
-          {"process_cpu_percent", c.process_cpu_percent},
-          {"lost", r.lost},
-          {"dropped", r.frames_dropped},
-          {"expected", r.frames_expected},
-          {"received", r.frames_received},
-          {"achieved_hz", r.achieved_rate_hz},
-          {"late_ticks", r.late_ticks},
-          {"kept_up", r.kept_up},
-          {"load_average_1m", c.load_average_1m}};
+                        {"streams", c.streams},
+                        {"subscribers", c.options.subscribers},
+                        {"avatars", c.options.avatars},
+                        {"hz", c.options.rate_hz},
+                        {"lean", c.options.lean},
+                        {"realtime", c.realtime},
+                        {"tick_us_p50", r.tick_p50_us},
+                        {"tick_us_p99", r.tick_p99_us},
+                        {"bytes_per_avatar_frame", c.bytes_per_avatar_frame},
+                        {"cpu_percent", c.cpu_percent},
+                        {"cpu_us_per_tick", c.cpu_us_per_tick},
+                        {"receiver_cpu_us_per_tick", c.receiver_cpu_us_per_tick},
+                        {"sender_threads", c.sender_threads},
+                        {"receiver_threads", c.receiver_threads},
+                        {"process_cpu_percent", c.process_cpu_percent},
+                        {"lost", r.lost},
+                        {"dropped", r.frames_dropped},
+                        {"expected", r.frames_expected},
+                        {"received", r.frames_received},
+                        {"achieved_hz", r.achieved_rate_hz},
+                        {"late_ticks", r.late_ticks},
+                        {"kept_up", r.kept_up},
+                        {"load_average_1m", c.load_average_1m}};
   if (c.options.transport == bench::FanoutTransport::nats) {
     row["publish_to_relay_ms_p50"] = c.publish_to_relay_ms_p50;
     row["publish_to_relay_ms_p99"] = c.publish_to_relay_ms_p99;
@@ -419,9 +434,12 @@ Result<nlohmann::json> bench_fanout(const BenchOptions& opt) {
   for (auto t : {bench::FanoutTransport::tcp, bench::FanoutTransport::udp, bench::FanoutTransport::nats})
     if (opt.transport.empty() || opt.transport == bench::fanout_transport_name(t)) transports.push_back(t);
   std::vector<std::pair<long, long>> points;
-  if (opt.fanout_point) points = {{opt.subscribers, opt.avatars}};
-  else if (opt.quick) points = {{50, 2}};
-  else points = {{1000, 1}, {2500, 4}, {1250, 8}};
+  if (opt.fanout_point)
+    points = {{opt.subscribers, opt.avatars}};
+  else if (opt.quick)
+    points = {{50, 2}};
+  else
+    points = {{1000, 1}, {2500, 4}, {1250, 8}};
   nlohmann::json rows = nlohmann::json::array();
   for (auto t : transports) {
     if (t == bench::FanoutTransport::nats) {
@@ -456,8 +474,11 @@ Result<nlohmann::json> bench_fanout(const BenchOptions& opt) {
                    static_cast<unsigned long long>(c->result.frames_dropped), c->sender_threads, c->cpu_percent,
                    c->cpu_us_per_tick, c->receiver_cpu_us_per_tick, c->load_average_1m);
       if (t == bench::FanoutTransport::nats)
-        std::fprintf(stderr, "  publish -> nats-server -> relay: p50 %.2f ms, p99 %.2f ms; nats-server %.0f%% CPU; %.2f relay fan-outs per tick\n",
-                     c->publish_to_relay_ms_p50, c->publish_to_relay_ms_p99, c->broker_cpu_percent, c->fanouts_per_tick);
+        std::fprintf(stderr,
+                     "  publish -> nats-server -> relay: p50 %.2f ms, p99 %.2f ms; nats-server %.0f%% CPU; %.2f relay "
+                     "fan-outs per tick\n",
+                     c->publish_to_relay_ms_p50, c->publish_to_relay_ms_p99, c->broker_cpu_percent,
+                     c->fanouts_per_tick);
       if (opt.json_lines) std::printf("%s\n", row.dump().c_str());
       rows.push_back(row);
     }
@@ -477,8 +498,7 @@ const Section kSections[] = {
     {"fanout", bench_fanout},
 };
 
-constexpr const char* kAbout =
-    "Measures this machine (figures, not pass/fail; a loaded machine measures worse).";
+constexpr const char* kAbout = "Measures this machine (figures, not pass/fail; a loaded machine measures worse).";
 
 constexpr const char* kSectionsHelp =
     "sections:\n"

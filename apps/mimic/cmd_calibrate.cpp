@@ -122,8 +122,8 @@ std::vector<devices::SensorSample> capture_still(devices::SensorSource& source, 
     if (t >= next_status || t >= seconds) {
       int seen = 0;
       for (const auto& b : layout.bindings) seen += first_seen.count(b.sensor) ? 1 : 0;
-      std::printf("capturing %.1f/%.1f s  sensors %d/%zu  samples %zu  motion %.0f mm   %s", std::min(t, seconds), seconds,
-                  seen, layout.bindings.size(), capture.size(), spread_mm, end_status);
+      std::printf("capturing %.1f/%.1f s  sensors %d/%zu  samples %zu  motion %.0f mm   %s", std::min(t, seconds),
+                  seconds, seen, layout.bindings.size(), capture.size(), spread_mm, end_status);
       std::fflush(stdout);
       next_status = t + 0.2;
     }
@@ -138,8 +138,7 @@ std::vector<devices::SensorSample> capture_still(devices::SensorSource& source, 
 // centres between neighbouring sensors, elbow and knee lengths). `cal` unchanged when the layout
 // has nothing to refine.
 Status refine_by_motion(devices::SensorSource& source, const std::string& layout_name, double move_s,
-                        std::vector<devices::SensorSample>& buffer, const char* end_status,
-                        solver::Calibration& cal) {
+                        std::vector<devices::SensorSample>& buffer, const char* end_status, solver::Calibration& cal) {
   auto model = solver::make_solver_model(cal);
   if (!model) return tl::unexpected(model.error());
   solver::ModelRefiner refiner(cal, *model, 120.0);
@@ -148,8 +147,10 @@ Status refine_by_motion(devices::SensorSource& source, const std::string& layout
                 layout_name.c_str());
     return {};
   }
-  std::printf("now move for %.0f s: bend the elbows and knees, roll the wrists and ankles, turn the head,\n"
-              "take a few steps\n", move_s);
+  std::printf(
+      "now move for %.0f s: bend the elbows and knees, roll the wrists and ankles, turn the head,\n"
+      "take a few steps\n",
+      move_s);
   const auto start = Clock::now();
   double next_status = 0;
   size_t moved = 0;
@@ -242,6 +243,7 @@ int run_calibrate(const std::vector<std::string>& argv) {
 
 }  // namespace
 
-MIMIC_COMMAND(calibrate, "calibrate", "measure sensor offsets and body proportions from a stand-still (T- or N-pose)", run_calibrate);
+MIMIC_COMMAND(calibrate, "calibrate", "measure sensor offsets and body proportions from a stand-still (T- or N-pose)",
+              run_calibrate);
 
 }  // namespace mimic::app

@@ -58,10 +58,10 @@ std::optional<int> parse(cli::Parser& p, const std::vector<std::string>& argv, O
                              "devices or pseudo-terminals) in these comma-separated directories")
                    ->type_name("DIRS")
                    ->delimiter(',');
-  auto* duration = p->add_option("--duration", o.duration_s,
-                                 "stop watching (or reading) after S seconds (default: until Ctrl-C)")
-                       ->default_str("")
-                       ->check(cli::finite_range(0, INFINITY));
+  auto* duration =
+      p->add_option("--duration", o.duration_s, "stop watching (or reading) after S seconds (default: until Ctrl-C)")
+          ->default_str("")
+          ->check(cli::finite_range(0, INFINITY));
   p->add_option("--read", o.read,
                 "open one 6-DOF input device and print what it sends, ten lines a\n"
                 "second, then its status; SOURCE is one of\n"
@@ -143,8 +143,10 @@ void print_text(const devices::DeviceInventory& inv) {
   std::printf("Serial ports:\n");
   if (inv.serial.empty()) std::printf("  none\n");
   for (const auto& s : inv.serial) {
-    if (s.target != s.path) std::printf("  %-44s %s -> %s\n", s.path.c_str(), s.kind.c_str(), s.target.c_str());
-    else std::printf("  %-44s %s\n", s.path.c_str(), s.kind.c_str());
+    if (s.target != s.path)
+      std::printf("  %-44s %s -> %s\n", s.path.c_str(), s.kind.c_str(), s.target.c_str());
+    else
+      std::printf("  %-44s %s\n", s.path.c_str(), s.kind.c_str());
   }
   if (inv.nothing_to_use()) {
     std::printf("\nNo 6-DOF input device or USB-serial adapter is connected.%s\n",
@@ -190,8 +192,8 @@ int read_source(const std::string& text, double duration_s) {
     if (have && now >= next_print) {
       next_print = now + std::chrono::milliseconds(100);
       std::printf("%7.3f  T %+.3f %+.3f %+.3f  R %+.3f %+.3f %+.3f  buttons 0x%03x\n",
-                  std::chrono::duration<double>(now - start).count(), f.translation.x, f.translation.y,
-                  f.translation.z, f.rotation.x, f.rotation.y, f.rotation.z, f.buttons);
+                  std::chrono::duration<double>(now - start).count(), f.translation.x, f.translation.y, f.translation.z,
+                  f.rotation.x, f.rotation.y, f.rotation.z, f.buttons);
       std::fflush(stdout);
       have = false;
     }
@@ -200,9 +202,9 @@ int read_source(const std::string& text, double duration_s) {
   const auto st = (*src)->status();
   static const char* kStates[] = {"disconnected", "connecting", "streaming", "stale", "error"};
   std::printf("status: %s: %s, %llu frames polled, %llu records, %llu resyncs, %llu reconnects%s%s\n",
-              st.description.c_str(), kStates[static_cast<int>(st.state)],
-              static_cast<unsigned long long>(frames), static_cast<unsigned long long>(st.records),
-              static_cast<unsigned long long>(st.resyncs), static_cast<unsigned long long>(st.reconnects),
+              st.description.c_str(), kStates[static_cast<int>(st.state)], static_cast<unsigned long long>(frames),
+              static_cast<unsigned long long>(st.records), static_cast<unsigned long long>(st.resyncs),
+              static_cast<unsigned long long>(st.reconnects),
               st.last_error.empty() ? "" : "; last error: ", st.last_error.c_str());
   (*src)->stop();
   return 0;

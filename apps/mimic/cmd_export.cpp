@@ -41,8 +41,8 @@ struct Options {
 // One of --bvh, --motion or --log; the rest shape the file.
 std::optional<int> parse(cli::Parser& p, const std::vector<std::string>& argv, Options& o) {
   auto& app = p.app();
-  auto* bvh = app.add_option("--bvh", o.bvh, "a BVH clip (CMU units), retargeted onto the body's skeleton")
-                  ->type_name("CLIP");
+  auto* bvh =
+      app.add_option("--bvh", o.bvh, "a BVH clip (CMU units), retargeted onto the body's skeleton")->type_name("CLIP");
   auto* motion = app.add_option("--motion", o.motion, "a built-in motion (one loop)")
                      ->check(CLI::IsMember(rig::builtin_motion_names()));
   auto* log = app.add_option("--log", o.log,
@@ -132,17 +132,20 @@ int run(const std::vector<std::string>& argv) {
   if (!bytes) return failure(kName, bytes.error().what());
   if (auto st = write_file_atomic(o.out, *bytes); !st) return failure(kName, st.error().what());
   size_t influenced = 0;
-  for (const auto& in : anim.influences) influenced = std::max<size_t>(influenced, size_t(std::count_if(in.weight.begin(), in.weight.end(), [](float w) { return w > 0; })));
-  std::printf("%s: %zu vertices, %zu triangles, %d joints, up to %zu influences per vertex; %zu keyframes over %.2f s "
-              "(%s); %zu bytes\n",
-              o.out.c_str(), anim.bind_mesh->positions.size(), anim.bind_mesh->triangle_count(),
-              sk.joint_count(), influenced, anim.times_s.size(), anim.times_s.back(), what.c_str(),
-              bytes->size());
+  for (const auto& in : anim.influences)
+    influenced = std::max<size_t>(
+        influenced, size_t(std::count_if(in.weight.begin(), in.weight.end(), [](float w) { return w > 0; })));
+  std::printf(
+      "%s: %zu vertices, %zu triangles, %d joints, up to %zu influences per vertex; %zu keyframes over %.2f s "
+      "(%s); %zu bytes\n",
+      o.out.c_str(), anim.bind_mesh->positions.size(), anim.bind_mesh->triangle_count(), sk.joint_count(), influenced,
+      anim.times_s.size(), anim.times_s.back(), what.c_str(), bytes->size());
   return 0;
 }
 
 }  // namespace
 
-MIMIC_COMMAND(export_, kName, "write a rigged, animated glTF (.glb) of the avatar on a BVH clip, a motion or a recorded session", run);
+MIMIC_COMMAND(export_, kName,
+              "write a rigged, animated glTF (.glb) of the avatar on a BVH clip, a motion or a recorded session", run);
 
 }  // namespace mimic::app

@@ -81,7 +81,8 @@ int run_inspect(const std::vector<std::string>& argv) {
     j["body"] = body->name;
     j["lod"] = lod;
     j["muscles"] = options.muscles;
-    j["targets"] = {{"flexion_150_abs_volume_change_pct", 2.0}, {"twist_90_abs_volume_change_pct", 3.0},
+    j["targets"] = {{"flexion_150_abs_volume_change_pct", 2.0},
+                    {"twist_90_abs_volume_change_pct", 3.0},
                     {"min_section_fraction", 0.9}};
     for (const auto& r : *results) {
       nlohmann::ordered_json sj;
@@ -133,6 +134,7 @@ int run_inspect(const std::vector<std::string>& argv) {
 
 }  // namespace
 
-MIMIC_COMMAND(inspect, kName, "joint-zone volume and sections as joints bend and twist: contour skin vs LBS/DQS/CoR", run_inspect);
+MIMIC_COMMAND(inspect, kName, "joint-zone volume and sections as joints bend and twist: contour skin vs LBS/DQS/CoR",
+              run_inspect);
 
 }  // namespace mimic::app

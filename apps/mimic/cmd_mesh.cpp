@@ -79,8 +79,11 @@ int write_out(const avatar::Mesh& welded, const avatar::TextureLayout* uv, const
   const avatar::Mesh& written = uv ? mesh : welded;
   std::printf("mesh      %zu vertices, %zu triangles, %zu parts, %zu closed components, volume %.1f dm3, %s\n",
               welded.positions.size(), welded.triangle_count(), welded.parts.size(), topo.components,
-              topo.signed_volume * 1e3, avatar::is_closed_oriented_manifold(topo) ? "closed oriented manifold" : "NOT CLOSED");
-  if (uv) std::printf("uv        per-part texture coordinates, %zu vertices with the seams split\n", written.positions.size());
+              topo.signed_volume * 1e3,
+              avatar::is_closed_oriented_manifold(topo) ? "closed oriented manifold" : "NOT CLOSED");
+  if (uv)
+    std::printf("uv        per-part texture coordinates, %zu vertices with the seams split\n",
+                written.positions.size());
   const auto t0 = std::chrono::steady_clock::now();
   if (auto w = avatar::write_mesh(written, out); !w) return failure(kName, w.error().message);
   std::printf("wrote     %-52s %8.2f ms\n", out.c_str(), ms_since(t0));
@@ -124,8 +127,8 @@ int run_mesh(const std::vector<std::string>& argv) {
   auto body = body_from_path(args.body);
   if (!body) return failure(kName, body.error().message);
   const double body_ms = ms_since(t0);
-  std::printf("body      %-40s %4zu primitives   %8.2f ms\n", (args.body.empty() ? "built-in default" : args.body.c_str()),
-              body->primitives.size(), body_ms);
+  std::printf("body      %-40s %4zu primitives   %8.2f ms\n",
+              (args.body.empty() ? "built-in default" : args.body.c_str()), body->primitives.size(), body_ms);
   const avatar::BodyModel at_lod = avatar::with_skin_lods(*body, *lods);
   std::printf("lod       %s\n", avatar::skin_lods_name(*lods).c_str());
   if (*method == avatar::SkinMethod::realtime) return realtime_mesh(args, at_lod);
@@ -145,10 +148,11 @@ int run_mesh(const std::vector<std::string>& argv) {
   skin->evaluate(request->pose);
   const avatar::SkinTimings& t = skin->timings();
   const avatar::SkinStats& st = skin->stats();
-  std::printf("frame     FK %.3f, deform %.3f, contours %.3f (%d rings, %d rays, %d missed),\n"
-              "          B-spline %.3f, stitch %.3f, normals %.3f: total %.3f ms\n",
-              t.fk_us / 1e3, t.deform_us / 1e3, t.contours_us / 1e3, st.contours, st.rays, st.missed_rays,
-              t.bspline_us / 1e3, t.stitch_us / 1e3, t.normals_us / 1e3, t.total_us() / 1e3);
+  std::printf(
+      "frame     FK %.3f, deform %.3f, contours %.3f (%d rings, %d rays, %d missed),\n"
+      "          B-spline %.3f, stitch %.3f, normals %.3f: total %.3f ms\n",
+      t.fk_us / 1e3, t.deform_us / 1e3, t.contours_us / 1e3, st.contours, st.rays, st.missed_rays, t.bspline_us / 1e3,
+      t.stitch_us / 1e3, t.normals_us / 1e3, t.total_us() / 1e3);
   const avatar::TextureLayout layout = args.uv ? avatar::texture_layout(*skin) : avatar::TextureLayout{};
   return write_out(skin->mesh(), args.uv ? &layout : nullptr, args.out);
 }

@@ -39,7 +39,8 @@ struct SensorCount {
 std::string status_line(double elapsed_s, uint64_t samples, const std::vector<SensorCount>& sensors) {
   char head[96];
   std::snprintf(head, sizeof head, "%7.1f s  %9llu samples  %8.1f/s  stale:", elapsed_s,
-                static_cast<unsigned long long>(samples), elapsed_s > 0 ? static_cast<double>(samples) / elapsed_s : 0.0);
+                static_cast<unsigned long long>(samples),
+                elapsed_s > 0 ? static_cast<double>(samples) / elapsed_s : 0.0);
   std::string line = head;
   if (sensors.empty()) line += " -";
   for (const auto& s : sensors) line += " " + s.name + "=" + std::to_string(s.stale);
@@ -190,7 +191,8 @@ int run(const std::vector<std::string>& argv) {
   if (raw)
     std::fprintf(stderr, "mimic record: %llu raw bytes kept\n", static_cast<unsigned long long>(raw->bytes_seen()));
   const auto status = (*source)->status();
-  if (!status.last_error.empty()) std::fprintf(stderr, "mimic record: source reported: %s\n", status.last_error.c_str());
+  if (!status.last_error.empty())
+    std::fprintf(stderr, "mimic record: source reported: %s\n", status.last_error.c_str());
   return 0;
 }
 

@@ -106,15 +106,29 @@ int relay(const std::vector<std::string>& argv) {
     j["duration_s"] = std::chrono::duration<double>(C::now() - start).count();
     j["endpoint"] = server.endpoint();
     j["scene"] = no.scene;
-    j["nats"] = {{"connected", ns.connected}, {"frames_in", ns.frames},    {"frames_dropped", ns.frames_dropped},
-                 {"models", ns.models},       {"avatars", ns.avatars},     {"rejected", ns.rejected}, {"early_frames", ns.early_frames},
-                 {"held", ns.held},           {"expired", ns.expired},     {"mesh_frames", ns.mesh_frames},
-                 {"mesh_requests", ns.mesh_requests}, {"seq_jumps_refused", ns.seq_jumps_refused},
-                 {"models_refused", ns.models_refused}, {"foreign", ns.foreign}, {"model_bytes", ns.model_bytes},
-                 {"latency_ms_p50", ns.latency_ms_p50}, {"latency_ms_p99", ns.latency_ms_p99},
-                 {"disconnects", ns.disconnects}, {"reconnects", ns.reconnects}, {"last_error", ns.last_error}};
-    j["server"] = {{"subscribers", st.subscribers}, {"frames_out", st.frames_out}, {"frames_dropped", st.frames_dropped},
-                   {"bytes_out", st.bytes_out}, {"rejected", st.rejected_total()}, {"udp_frames_out", st.udp_frames_out},
+    j["nats"] = {{"connected", ns.connected},
+                 {"frames_in", ns.frames},
+                 {"frames_dropped", ns.frames_dropped},
+                 {"models", ns.models},
+                 {"avatars", ns.avatars},
+                 {"rejected", ns.rejected},
+                 {"early_frames", ns.early_frames},
+                 {"held", ns.held},
+                 {"expired", ns.expired},
+                 {"mesh_frames", ns.mesh_frames},
+                 {"mesh_requests", ns.mesh_requests},
+                 {"seq_jumps_refused", ns.seq_jumps_refused},
+                 {"models_refused", ns.models_refused},
+                 {"foreign", ns.foreign},
+                 {"model_bytes", ns.model_bytes},
+                 {"latency_ms_p50", ns.latency_ms_p50},
+                 {"latency_ms_p99", ns.latency_ms_p99},
+                 {"disconnects", ns.disconnects},
+                 {"reconnects", ns.reconnects},
+                 {"last_error", ns.last_error}};
+    j["server"] = {{"subscribers", st.subscribers},         {"frames_out", st.frames_out},
+                   {"frames_dropped", st.frames_dropped},   {"bytes_out", st.bytes_out},
+                   {"rejected", st.rejected_total()},       {"udp_frames_out", st.udp_frames_out},
                    {"mesh_frames_out", st.mesh_frames_out}, {"sessions_accepted", st.sessions_accepted}};
     return j;
   };

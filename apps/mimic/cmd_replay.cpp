@@ -46,9 +46,9 @@ std::optional<int> parse(cli::Parser& p, const std::vector<std::string>& argv, O
       "record, bytes skipped) and the samples lost are reported on stderr and the exit status is 1.\n"
       "Exit status 2 on bad usage or when FILE is not a readable log.");
   p->add_option("FILE", o.path, "the log to play")->required();
-  auto* speed = p->add_option("--speed", o.replay.speed,
-                              "playback speed: 1 real time, 2 twice as fast, 0 as fast as possible")
-                    ->check(cli::finite_range(0, 1e6));
+  auto* speed =
+      p->add_option("--speed", o.replay.speed, "playback speed: 1 real time, 2 twice as fast, 0 as fast as possible")
+          ->check(cli::finite_range(0, 1e6));
   auto* loop = p->add_flag("--loop", o.replay.loop,
                            "start again at the end (until Ctrl-C); times keep increasing across passes");
   auto* from = p->add_option("--from", o.replay.from_s, "start S seconds after the first sample")
@@ -80,10 +80,11 @@ std::optional<int> parse(cli::Parser& p, const std::vector<std::string>& argv, O
 // Same sensor, position and orientation, bit for bit (times differ: the host stamps them).
 // Every damaged stretch of `log`, one line each, and what it cost; nothing for a sound log.
 void report_damage(const std::string& path, const sim::LogContents& log) {
-  for (const auto& d : log.damages) std::fprintf(stderr, "mimic replay: %s: damaged log, %s\n", path.c_str(), d.what().c_str());
+  for (const auto& d : log.damages)
+    std::fprintf(stderr, "mimic replay: %s: damaged log, %s\n", path.c_str(), d.what().c_str());
   if (log.damage)
-    std::fprintf(stderr, "mimic replay: %s: %zu good samples kept, %llu bytes skipped%s\n", path.c_str(), log.samples.size(),
-                 static_cast<unsigned long long>(log.bytes_skipped),
+    std::fprintf(stderr, "mimic replay: %s: %zu good samples kept, %llu bytes skipped%s\n", path.c_str(),
+                 log.samples.size(), static_cast<unsigned long long>(log.bytes_skipped),
                  log.complete ? (", " + std::to_string(log.samples_lost) + " samples lost").c_str() : "");
 }
 
@@ -115,9 +116,10 @@ int replay_through_driver(const std::string& path, bool json) {
   spec->target = (*server)->path();
   auto source = sim::open_sensor_source(*spec);
   if (!source) return failure(kName, source.error().what());
-  if (!json) std::fprintf(stderr, "playing %zu raw chunks (%llu bytes) of %s to the Flock driver on %s\n", log->raw.size(),
-                          static_cast<unsigned long long>(chunk_bytes), terminal_safe(log->header.source).c_str(),
-                          spec->target.c_str());
+  if (!json)
+    std::fprintf(stderr, "playing %zu raw chunks (%llu bytes) of %s to the Flock driver on %s\n", log->raw.size(),
+                 static_cast<unsigned long long>(chunk_bytes), terminal_safe(log->header.source).c_str(),
+                 spec->target.c_str());
   install_stop_handler(true);
   std::vector<devices::SensorSample> decoded, buf(1024);
   decoded.reserve(log->samples.size() + 64);
@@ -152,27 +154,31 @@ int replay_through_driver(const std::string& path, bool json) {
   size_t identical = 0, first_difference = SIZE_MAX;
   const size_t common = std::min(decoded.size(), log->samples.size());
   for (size_t i = 0; i < common; ++i) {
-    if (same_sample(decoded[i], log->samples[i])) ++identical;
-    else if (first_difference == SIZE_MAX) first_difference = i;
+    if (same_sample(decoded[i], log->samples[i]))
+      ++identical;
+    else if (first_difference == SIZE_MAX)
+      first_difference = i;
   }
   // The driver may decode a few more: bytes it read after the recording loop's last poll.
   const bool all_same = error.empty() && identical == log->samples.size() && decoded.size() >= log->samples.size();
   if (json) {
-    nlohmann::json j{{"chunks", log->raw.size()},
-                     {"bytes", chunk_bytes},
-                     {"samples_recorded", log->samples.size()},
-                     {"samples_decoded", decoded.size()},
-                     {"identical", identical},
-                     {"first_difference", first_difference == SIZE_MAX ? nlohmann::json(nullptr) : nlohmann::json(first_difference)},
-                     {"error", error},
-                     {"damaged", log->damage.has_value()}};
+    nlohmann::json j{
+        {"chunks", log->raw.size()},
+        {"bytes", chunk_bytes},
+        {"samples_recorded", log->samples.size()},
+        {"samples_decoded", decoded.size()},
+        {"identical", identical},
+        {"first_difference", first_difference == SIZE_MAX ? nlohmann::json(nullptr) : nlohmann::json(first_difference)},
+        {"error", error},
+        {"damaged", log->damage.has_value()}};
     if (log->damage) j["damage"] = log->damage->what();
     std::printf("%s\n", j.dump().c_str());
   } else {
     std::fprintf(stderr, "the driver decoded %zu samples; the recording has %zu; %zu identical%s\n", decoded.size(),
                  log->samples.size(), identical, all_same ? " (all recorded samples)" : "");
     if (first_difference != SIZE_MAX)
-      std::fprintf(stderr, "first difference at sample %zu (sensor %u)\n", first_difference, log->samples[first_difference].sensor);
+      std::fprintf(stderr, "first difference at sample %zu (sensor %u)\n", first_difference,
+                   log->samples[first_difference].sensor);
     if (!error.empty()) std::fprintf(stderr, "mimic replay: %s\n", error.c_str());
   }
   // A damaged recording cannot vouch for the driver, whatever matched.
@@ -204,8 +210,7 @@ int run(const std::vector<std::string>& argv) {
   if (!csv && !o.quiet)
     std::fprintf(stderr, "replaying %s: %s, %zu sensors, %zu samples, %.3f s%s\n", path.c_str(),
                  log.header.source.empty() ? "unknown source" : terminal_safe(log.header.source).c_str(),
-                 log.header.sensors.size(),
-                 log.samples.size(),
+                 log.header.sensors.size(), log.samples.size(),
                  log.samples.empty() ? 0.0 : log.samples.back().host_time_s - log.samples.front().host_time_s,
                  log.complete ? "" : " (damaged)");
 

@@ -66,13 +66,16 @@ int run_retarget(const std::vector<std::string>& argv) {
     }
   }
   const rig::Proportions props = rig::measure_proportions(r->skeleton);
-  std::printf("retargeted onto %d Mimic joints (%d DOFs): performer pelvis height %.3f m, thigh %.3f m, shin %.3f m, "
-              "upper arm %.3f m, forearm %.3f m\n",
-              r->skeleton.joint_count(), r->skeleton.dof_count(), props.pelvis_height_m, props.thigh_m, props.shin_m,
-              props.upper_arm_m, props.forearm_m);
-  std::printf("segments aligned %s\n", r->characterised_on_t_pose ? "on the clip's frame-0 T-pose (head level, feet flat)"
-                                                                   : "at the clip's rest pose (frame 0 is no T-pose)");
-  std::printf("joint centres vs the clip: mean %.3f mm, max %.3f mm\n", count ? 1000 * sum / static_cast<double>(count) : 0.0, 1000 * worst);
+  std::printf(
+      "retargeted onto %d Mimic joints (%d DOFs): performer pelvis height %.3f m, thigh %.3f m, shin %.3f m, "
+      "upper arm %.3f m, forearm %.3f m\n",
+      r->skeleton.joint_count(), r->skeleton.dof_count(), props.pelvis_height_m, props.thigh_m, props.shin_m,
+      props.upper_arm_m, props.forearm_m);
+  std::printf("segments aligned %s\n", r->characterised_on_t_pose
+                                           ? "on the clip's frame-0 T-pose (head level, feet flat)"
+                                           : "at the clip's rest pose (frame 0 is no T-pose)");
+  std::printf("joint centres vs the clip: mean %.3f mm, max %.3f mm\n",
+              count ? 1000 * sum / static_cast<double>(count) : 0.0, 1000 * worst);
 
   const rig::Skeleton* skeleton = &r->skeleton;
   std::vector<rig::Pose> poses = std::move(r->poses);

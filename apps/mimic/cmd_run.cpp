@@ -86,8 +86,7 @@ const char* kUsage =
     "                      non-loopback address requires --secret. Subscribers may take their\n"
     "                      pose frames as UDP datagrams from the same port (mimic subscribe --udp)\n"
     "  --no-udp            frames over TCP only (no UDP socket; subscribers asking for UDP are\n"
-    "                      told so in the handshake and get their frames on the stream)\n"
-    MIMIC_LEAN_FLAGS_USAGE
+    "                      told so in the handshake and get their frames on the stream)\n" MIMIC_LEAN_FLAGS_USAGE
     "  --secret S          shared secret publishers must present. On the command line it shows\n"
     "                      in 'ps' to every user of this machine: prefer the MIMIC_SECRET\n"
     "                      environment variable\n"
@@ -140,8 +139,10 @@ void write_status(StatusLine& line, Pipeline& pipeline, net::Server* server, net
                   uint64_t missed_ticks, double longest_gap_ms) {
   line.begin(StatusLine::Clock::now());
   const size_t n = pipeline.avatar_count();
-  if (n == 1) line.add(0, "1 avatar %5.1f fps", fps);
-  else line.add(0, "%zu avatars %5.1f fps each", n, fps);
+  if (n == 1)
+    line.add(0, "1 avatar %5.1f fps", fps);
+  else
+    line.add(0, "%zu avatars %5.1f fps each", n, fps);
   if (pipeline.silent_sources() > 0) line.add(0, "%zu source(s) SILENT: sending stale", pipeline.silent_sources());
   const auto latency = pipeline.timer(kStageLatency).summary();
   line.add(1, "latency %.1f/%.1f ms", latency.p50_us * 1e-3, latency.p99_us * 1e-3);
@@ -169,7 +170,8 @@ void write_status(StatusLine& line, Pipeline& pipeline, net::Server* server, net
   int at = std::snprintf(stages, sizeof stages, "p50/p99 us");
   for (int s = 0; s < kStageLatency && at < int(sizeof stages); ++s) {
     const auto sum = pipeline.timer(s).summary();
-    at += std::snprintf(stages + at, sizeof stages - size_t(at), " %s %.0f/%.0f", stage_name(s), sum.p50_us, sum.p99_us);
+    at +=
+        std::snprintf(stages + at, sizeof stages - size_t(at), " %s %.0f/%.0f", stage_name(s), sum.p50_us, sum.p99_us);
   }
   line.add(5, "%s", stages);
   line.emit();
@@ -191,7 +193,8 @@ int parse_options(Args& a, RunOptions& o) {
   if (!a.ok()) return usage_error("run", a.error());
   if (!a.positionals().empty()) return usage_error("run", "unexpected argument '" + a.positionals()[0] + "'");
   long mesh_lod = 0;
-  if (!a.get_double("duration", o.duration_s) || !a.get_int("realtime", o.rt_priority) || !a.get_int("mesh-lod", mesh_lod))
+  if (!a.get_double("duration", o.duration_s) || !a.get_int("realtime", o.rt_priority) ||
+      !a.get_int("mesh-lod", mesh_lod))
     return usage_error("run", a.error());
   if (mesh_lod < 0 || mesh_lod >= kMeshLodCount)
     return usage_error("run", "--mesh-lod must be in 0.." + std::to_string(kMeshLodCount - 1));
@@ -211,7 +214,8 @@ int parse_options(Args& a, RunOptions& o) {
 #if MIMIC_HAVE_NATS
   if (!a.get_double("nats-model-ttl", o.nats.model_ttl_s) || !a.get_double("nats-mesh-hz", o.nats.mesh_max_hz))
     return usage_error("run", a.error());
-  if (!(o.nats.model_ttl_s == 0 || (o.nats.model_ttl_s >= net::kMinModelTtl_s && o.nats.model_ttl_s <= net::kMaxModelTtl_s)))
+  if (!(o.nats.model_ttl_s == 0 ||
+        (o.nats.model_ttl_s >= net::kMinModelTtl_s && o.nats.model_ttl_s <= net::kMaxModelTtl_s)))
     return usage_error("run", "--nats-model-ttl must be 0 (never) or 3 to 86400 seconds");
   if (!(o.nats.mesh_max_hz >= net::kMinMeshHz && o.nats.mesh_max_hz <= net::kMaxMeshHz))
     return usage_error("run", "--nats-mesh-hz must be 1 to 240");
@@ -294,8 +298,9 @@ int open_outputs(Args& a, const RunOptions& o, Outputs& out) {
     const std::string shown = net::nats_display_servers(no.servers);
     out.where += "; publishing scene '" + no.scene + "' as '" + no.name + "' through " + shown;
     if (!out.nats->connected())
-      std::fprintf(stderr, "mimic run: NATS broker %s not reachable: serving the local listeners, joining it when it comes up\n",
-                   shown.c_str());
+      std::fprintf(
+          stderr, "mimic run: NATS broker %s not reachable: serving the local listeners, joining it when it comes up\n",
+          shown.c_str());
   }
 #endif
   if (a.has("vmc")) {
@@ -374,43 +379,70 @@ nlohmann::json summary(Pipeline& pipeline, const Outputs& out, const LoopStats& 
   }
   for (int s = 0; s < kStageCount; ++s) {
     const auto sum = pipeline.timer(s).summary();
-    j["stages"][stage_name(s)] = {{"p50_us", sum.p50_us}, {"p99_us", sum.p99_us}, {"max_us", sum.max_us},
-                                  {"count", sum.count}};
+    j["stages"][stage_name(s)] = {
+        {"p50_us", sum.p50_us}, {"p99_us", sum.p99_us}, {"max_us", sum.max_us}, {"count", sum.count}};
   }
   if (vrpn) {
     const auto st = vrpn->stats();
-    j["vrpn"] = {{"endpoint", vrpn->endpoint()}, {"connections", st.connections}, {"clients", st.clients},
-                 {"reports", st.reports}, {"udp_datagrams", st.udp_datagrams}, {"frames_dropped", st.frames_dropped},
-                 {"pongs", st.pongs}, {"refused", st.refused}};
+    j["vrpn"] = {{"endpoint", vrpn->endpoint()},
+                 {"connections", st.connections},
+                 {"clients", st.clients},
+                 {"reports", st.reports},
+                 {"udp_datagrams", st.udp_datagrams},
+                 {"frames_dropped", st.frames_dropped},
+                 {"pongs", st.pongs},
+                 {"refused", st.refused}};
   }
   if (server) {
     const auto& st = server->stats();
-    j["server"] = {{"endpoint", server->endpoint()},  {"sessions_accepted", st.sessions_accepted},
-                   {"subscribers", st.subscribers},   {"frames_out", st.frames_out},
-                   {"frames_dropped", st.frames_dropped}, {"bytes_out", st.bytes_out},
-                   {"rejected", st.rejected_total()}, {"resumed", st.resumed},
-                   {"udp", server->udp()},            {"udp_registered", st.udp_registered},
-                   {"udp_frames_out", st.udp_frames_out}, {"udp_challenges", st.udp_challenges},
-                   {"udp_wrong_address", st.udp_wrong_address}, {"udp_expired", st.udp_expired},
-                   {"sessions_open", st.sessions_open}, {"sessions_timed_out", st.sessions_timed_out},
+    j["server"] = {{"endpoint", server->endpoint()},
+                   {"sessions_accepted", st.sessions_accepted},
+                   {"subscribers", st.subscribers},
+                   {"frames_out", st.frames_out},
+                   {"frames_dropped", st.frames_dropped},
+                   {"bytes_out", st.bytes_out},
+                   {"rejected", st.rejected_total()},
+                   {"resumed", st.resumed},
+                   {"udp", server->udp()},
+                   {"udp_registered", st.udp_registered},
+                   {"udp_frames_out", st.udp_frames_out},
+                   {"udp_challenges", st.udp_challenges},
+                   {"udp_wrong_address", st.udp_wrong_address},
+                   {"udp_expired", st.udp_expired},
+                   {"sessions_open", st.sessions_open},
+                   {"sessions_timed_out", st.sessions_timed_out},
                    {"sessions_refused_per_address", st.sessions_refused_per_address},
-                   {"sessions_closed_slow", st.sessions_closed_slow}, {"model_bytes_held", st.model_bytes_held},
-                   {"key_requests", st.key_requests}, {"mesh_frames_out", st.mesh_frames_out},
-                   {"models_refused", st.models_refused}, {"mesh_topologies_refused", st.mesh_topologies_refused},
-                   {"sessions_out_of_memory", st.sessions_out_of_memory}, {"udp_own_address", st.udp_own_address},
-                   {"udp_answers_limited", st.udp_answers_limited}, {"accept_errors", st.accept_errors},
-                   {"secret_backoffs", st.secret_backoffs}, {"poll_budget_hit", st.poll_budget_hit},
+                   {"sessions_closed_slow", st.sessions_closed_slow},
+                   {"model_bytes_held", st.model_bytes_held},
+                   {"key_requests", st.key_requests},
+                   {"mesh_frames_out", st.mesh_frames_out},
+                   {"models_refused", st.models_refused},
+                   {"mesh_topologies_refused", st.mesh_topologies_refused},
+                   {"sessions_out_of_memory", st.sessions_out_of_memory},
+                   {"udp_own_address", st.udp_own_address},
+                   {"udp_answers_limited", st.udp_answers_limited},
+                   {"accept_errors", st.accept_errors},
+                   {"secret_backoffs", st.secret_backoffs},
+                   {"poll_budget_hit", st.poll_budget_hit},
                    {"max_sessions", st.max_sessions_effective}};
     for (int r = 1; r < net::kRejectCount; ++r)
-      if (st.rejected[size_t(r)]) j["server"]["rejected_by_reason"][net::reject_name(net::Reject(r))] = st.rejected[size_t(r)];
+      if (st.rejected[size_t(r)])
+        j["server"]["rejected_by_reason"][net::reject_name(net::Reject(r))] = st.rejected[size_t(r)];
   }
   if (nats) {
     const auto ns = nats->stats();
-    j["nats"] = {{"connected", ns.connected}, {"frames", ns.frames}, {"frames_dropped", ns.frames_dropped},
-                 {"models", ns.models}, {"model_failures", ns.model_failures}, {"mesh_frames", ns.mesh_frames},
-                 {"mesh_requests", ns.mesh_requests}, {"topologies", ns.topologies},
-                 {"topologies_refused", ns.topologies_refused}, {"disconnects", ns.disconnects},
-                 {"reconnects", ns.reconnects}, {"last_error", ns.last_error}};
+    j["nats"] = {{"connected", ns.connected},
+                 {"frames", ns.frames},
+                 {"frames_dropped", ns.frames_dropped},
+                 {"models", ns.models},
+                 {"model_failures", ns.model_failures},
+                 {"mesh_frames", ns.mesh_frames},
+                 {"mesh_requests", ns.mesh_requests},
+                 {"topologies", ns.topologies},
+                 {"topologies_refused", ns.topologies_refused},
+                 {"disconnects", ns.disconnects},
+                 {"reconnects", ns.reconnects},
+                 {"last_error", ns.last_error}};
   }
   return j;
 }
@@ -427,15 +459,18 @@ void start_loop(const RunOptions& o, const Outputs& out, const Pipeline& pipelin
   // Without --realtime the loop still asks for a raised priority (nice -10) where the system
   // permits it, so other work on a busy machine does not take its ticks.
   if (o.rt_priority == 0 && !raise_thread_nice(kLoopNice))
-    std::fprintf(stderr, "mimic run: raised priority refused (nice %d needs CAP_SYS_NICE or RLIMIT_NICE); "
-                 "a busy machine may delay frames (missed ticks are counted)\n", kLoopNice);
+    std::fprintf(stderr,
+                 "mimic run: raised priority refused (nice %d needs CAP_SYS_NICE or RLIMIT_NICE); "
+                 "a busy machine may delay frames (missed ticks are counted)\n",
+                 kLoopNice);
   clear_stop_request();
   g_report = false;
   install_stop_handler();
   std::signal(SIGUSR1, on_report_signal);
   std::printf("%s\n", out.where.c_str());
   std::fflush(stdout);
-  if (out.server) std::fprintf(stderr, "mimic run: watch it with: mimic view --connect %s\n", out.server->endpoint().c_str());
+  if (out.server)
+    std::fprintf(stderr, "mimic run: watch it with: mimic view --connect %s\n", out.server->endpoint().c_str());
 }
 
 // Until Ctrl-C, --duration or the remote scene ends; returns the seconds it ran.
@@ -468,7 +503,8 @@ double run_loop(const RunOptions& o, bool status_line, Pipeline& pipeline, const
     }
     if (g_report.exchange(false)) {
       // On request (SIGUSR1): the same JSON as at exit, one line on stdout.
-      std::printf("%s\n", summary(pipeline, out, loop, std::chrono::duration<double>(C::now() - start).count()).dump().c_str());
+      std::printf("%s\n",
+                  summary(pipeline, out, loop, std::chrono::duration<double>(C::now() - start).count()).dump().c_str());
       std::fflush(stdout);
     }
     if (status_line && status.due(C::now())) {
@@ -489,8 +525,9 @@ int run(const std::vector<std::string>& argv) {
   RunOptions o;
   std::string error;
   if (!take_sources(args, o.scene.sources, error)) return usage_error("run", error);
-  Args a(args, {"listen", "secret", "publish", "vmc", "vrpn", "duration", "realtime", "mesh-lod", "mesh-method", "room",
-                 "nats", "scene", "nats-name", "nats-model-ttl", "nats-mesh-hz", "lean-shift", "lean-key-interval"},
+  Args a(args,
+         {"listen", "secret", "publish", "vmc", "vrpn", "duration", "realtime", "mesh-lod", "mesh-method", "room",
+          "nats", "scene", "nats-name", "nats-model-ttl", "nats-mesh-hz", "lean-shift", "lean-key-interval"},
          {"json", "quiet", "no-udp"});
   if (a.help()) {
     std::printf("%s", kUsage);
@@ -499,7 +536,8 @@ int run(const std::vector<std::string>& argv) {
   if (int rc = parse_options(a, o); rc >= 0) return rc;
   // Setup: everything is allocated here, before the loop.
   auto scene = build_scene(o.scene);
-  if (!scene) return scene.error().usage ? usage_error("run", scene.error().message) : failure("run", scene.error().message);
+  if (!scene)
+    return scene.error().usage ? usage_error("run", scene.error().message) : failure("run", scene.error().message);
   for (const std::string& note : scene->notes) std::fprintf(stderr, "mimic run: %s\n", note.c_str());
   Outputs out;
   if (int rc = open_outputs(a, o, out); rc >= 0) return rc;
@@ -511,7 +549,8 @@ int run(const std::vector<std::string>& argv) {
   std::signal(SIGINT, SIG_DFL);
   std::signal(SIGTERM, SIG_DFL);
   std::signal(SIGUSR1, SIG_DFL);
-  std::fprintf(stderr, "mimic run: stopped after %.1f s, %llu frames\n", elapsed, static_cast<unsigned long long>(pipeline.frames()));
+  std::fprintf(stderr, "mimic run: stopped after %.1f s, %llu frames\n", elapsed,
+               static_cast<unsigned long long>(pipeline.frames()));
   if (a.has("json")) std::printf("%s\n", summary(pipeline, out, loop, elapsed).dump().c_str());
   if (out.publisher) out.publisher->close();
   out.nats.reset();  // a clean leave: this publisher's avatars leave the scene

@@ -99,7 +99,8 @@ struct RigProvider {
 
 // Samples the sensors' true world positions over the motion (at most 10 minutes of it, at
 // 20 Hz) and places the transmitter where all of them stay in front of it.
-Result<sim::FlockPlacement> place_for_motion(const std::shared_ptr<const rig::Motion>& motion, const sim::RigConfig& rc) {
+Result<sim::FlockPlacement> place_for_motion(const std::shared_ptr<const rig::Motion>& motion,
+                                             const sim::RigConfig& rc) {
   sim::RigConfig survey;
   survey.sensors = rc.sensors;
   survey.rate_hz = 20.0;
@@ -165,13 +166,15 @@ std::optional<int> ride_motion(const Options& o, const cli::Parser& p, sim::Virt
   if (!placement->fits_standard() && !o.ert && !o.no_ert) {
     if (o.birds + 1 > 14) return p.usage_error("this motion needs --ert, which leaves room for 13 birds");
     scene.ert = true;
-    std::fprintf(stderr, "mimic sim flock: the motion spans %.2f m from the transmitter, beyond the standard\n"
-                         "  36 in range: serving with an extended range controller (--no-ert to refuse)\n",
+    std::fprintf(stderr,
+                 "mimic sim flock: the motion spans %.2f m from the transmitter, beyond the standard\n"
+                 "  36 in range: serving with an extended range controller (--no-ert to refuse)\n",
                  placement->needed_range_m);
   }
   if (!(scene.ert ? placement->fits_extended() : placement->fits_standard()))
-    std::fprintf(stderr, "mimic sim flock: warning: the motion spans %.2f m from the transmitter, beyond the %s\n"
-                         "  range (%.2f m): some positions will saturate\n",
+    std::fprintf(stderr,
+                 "mimic sim flock: warning: the motion spans %.2f m from the transmitter, beyond the %s\n"
+                 "  range (%.2f m): some positions will saturate\n",
                  placement->needed_range_m, scene.ert ? "144 in" : "36 in",
                  scene.ert ? sim::kFlockExtendedRange_m : sim::kFlockStandardRange_m);
   rc.world_from_reference = scene.world_from_transmitter;
@@ -246,11 +249,13 @@ void serve(sim::VirtualFlock& flock) {
   const sim::VirtualFlockStats st = flock.stats();
   if (st.saturated_records > 0 || st.mirrored_records > 0)
     std::fprintf(stderr, "mimic sim flock: warning: %llu of %llu records saturated, %llu mirrored by the hemisphere\n",
-                 static_cast<unsigned long long>(st.saturated_records), static_cast<unsigned long long>(st.records_sent),
+                 static_cast<unsigned long long>(st.saturated_records),
+                 static_cast<unsigned long long>(st.records_sent),
                  static_cast<unsigned long long>(st.mirrored_records));
   std::fprintf(stderr, "mimic sim flock: %llu records, %llu commands (%llu invalid), %llu faults injected\n",
                static_cast<unsigned long long>(st.records_sent), static_cast<unsigned long long>(st.commands),
-               static_cast<unsigned long long>(st.invalid_commands), static_cast<unsigned long long>(st.faults_injected));
+               static_cast<unsigned long long>(st.invalid_commands),
+               static_cast<unsigned long long>(st.faults_injected));
 }
 
 int run(const std::vector<std::string>& argv) {

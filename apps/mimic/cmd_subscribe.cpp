@@ -143,8 +143,8 @@ int subscribe(const std::vector<std::string>& argv) {
   client.on_model = [&](const net::RemoteAvatar& m) {
     if (!json)
       // Names come from other peers: escaped, they cannot drive this terminal.
-      std::printf("model avatar=%u name=%s dofs=%u revision=%u bytes=%zu\n", m.id, net::printable(m.name).c_str(), m.dof_count,
-                  m.revision, m.model_bytes.size());
+      std::printf("model avatar=%u name=%s dofs=%u revision=%u bytes=%zu\n", m.id, net::printable(m.name).c_str(),
+                  m.dof_count, m.revision, m.model_bytes.size());
   };
   // Cuts and comebacks, as they happen (the client reconnects by itself).
   client.on_cut = [&](const std::string& why) {
@@ -202,7 +202,6 @@ int subscribe(const std::vector<std::string>& argv) {
 
 }  // namespace
 
-MIMIC_COMMAND(subscribe, "subscribe", "join a scene as a viewer and print or summarise what arrives",
-              subscribe);
+MIMIC_COMMAND(subscribe, "subscribe", "join a scene as a viewer and print or summarise what arrives", subscribe);
 
 }  // namespace mimic::app

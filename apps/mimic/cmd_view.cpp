@@ -174,7 +174,8 @@ int screenshot(Args& args, const ViewOptions& view) {
       request->description = "rest posture";
     }
     if (auto set = args.get("set")) {
-      if (auto s = apply_dof_settings(*set, lods->skeleton(), request->pose); !s) return usage_error(kName, s.error().message);
+      if (auto s = apply_dof_settings(*set, lods->skeleton(), request->pose); !s)
+        return usage_error(kName, s.error().message);
     }
     // Frame the body as posed: centred on its footprint, its height fitted.
     const int probe_lod = view.lod >= 0 ? view.lod : 0;
@@ -193,9 +194,9 @@ int screenshot(Args& args, const ViewOptions& view) {
     // Presets are relative to the avatar: front faces its face wherever the pose turned it.
     frame.camera = render::preset_camera(view.camera, floor_center, height_m, aspect,
                                          render::facing_yaw_rad(request->pose.root_orientation));
-    const int lod = view.lod >= 0 ? view.lod
-                                  : render::choose_lod(frame.camera.distance_m, height_m, frame.camera.fov_y_rad,
-                                                       view.height);
+    const int lod = view.lod >= 0
+                        ? view.lod
+                        : render::choose_lod(frame.camera.distance_m, height_m, frame.camera.fov_y_rad, view.height);
     t0 = std::chrono::steady_clock::now();
     const render::MeshId mesh = lods->update(lod, request->pose, *renderer);
     const double deform_ms = ms_since(t0);
@@ -236,9 +237,9 @@ int run_view(const std::vector<std::string>& argv) {
   std::string error;
   if (!take_sources(rest, view.sources, error, {.leading_defaults = true, .split_lists = true}))
     return usage_error(kName, error);
-  Args args(rest,
-            {"screenshot", "bvh", "frame", "scale", "motion", "time", "pose", "set", "camera", "size", "lod", "overlay",
-             "ray-ring", "body", "calibration", "connect", "frames", "capture", "eyes", "frame-height", "method", "room"},
+  Args args(rest, {"screenshot", "bvh",     "frame", "scale",        "motion",   "time", "pose",        "set",
+                   "camera",     "size",    "lod",   "overlay",      "ray-ring", "body", "calibration", "connect",
+                   "frames",     "capture", "eyes",  "frame-height", "method",   "room"},
             {"empty", "no-grid", "see-through", "no-vsync", "help-overlay", "no-panel", "no-lean"});
   if (args.help()) {
     std::printf("%s", kUsage);
@@ -267,7 +268,8 @@ int run_view(const std::vector<std::string>& argv) {
   view.lod = static_cast<int>(lod);
   view.ray_ring = static_cast<int>(ring);
   if (auto list = args.get("overlay"); list && !render::parse_overlays(*list, view.overlays))
-    return usage_error(kName, "--overlay takes skeleton,primitives,contours,rays,sensors, all or none; got '" + *list + "'");
+    return usage_error(kName,
+                       "--overlay takes skeleton,primitives,contours,rays,sensors, all or none; got '" + *list + "'");
   view.grid = !args.has("no-grid");
   view.see_through = args.has("see-through");
   double frame_height_m = 0;
@@ -283,7 +285,8 @@ int run_view(const std::vector<std::string>& argv) {
 
   if (args.has("screenshot")) {
     if (!view.sources.empty() || args.has("connect"))
-      return usage_error(kName, "--screenshot draws a posed body: give --bvh, --motion or --pose, not --source or --connect");
+      return usage_error(kName,
+                         "--screenshot draws a posed body: give --bvh, --motion or --pose, not --source or --connect");
     return screenshot(args, view);
   }
   if (!view.sources.empty() && args.has("connect")) return usage_error(kName, "give --source or --connect, not both");
@@ -299,8 +302,7 @@ int run_view(const std::vector<std::string>& argv) {
 
 }  // namespace
 
-MIMIC_COMMAND(view, kName, "see the avatar: the interactive viewer, or a PNG screenshot rendered offscreen",
-              run_view);
+MIMIC_COMMAND(view, kName, "see the avatar: the interactive viewer, or a PNG screenshot rendered offscreen", run_view);
 
 }  // namespace mimic::app
 

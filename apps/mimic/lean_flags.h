@@ -14,12 +14,12 @@ namespace mimic::app {
 
 inline constexpr long kMaxLeanKeyInterval = 3600;  // 40 s at 90 Hz
 
-#define MIMIC_LEAN_FLAGS_USAGE                                                                      \
-  "  --lean-shift N      precision of the lean pose stream viewers get by default: POSE steps\n"  \
-  "                      divided by 2^N, 0(lossless against POSE frames) to\n" \
-  "                      8 (angles +/-0.012 rad, root +/-1.3 mm); default 3 (angles +/-4.3e-4 rad,\n"    \
-  "                      root +/-45 um). Error bound: (2^N + 1)/2 POSE steps a value\n" \
-  "  --lean-key-interval N  a key frame to every lean viewer every N frames (1-3600; 0: only\n"   \
+#define MIMIC_LEAN_FLAGS_USAGE                                                                        \
+  "  --lean-shift N      precision of the lean pose stream viewers get by default: POSE steps\n"      \
+  "                      divided by 2^N, 0(lossless against POSE frames) to\n"                        \
+  "                      8 (angles +/-0.012 rad, root +/-1.3 mm); default 3 (angles +/-4.3e-4 rad,\n" \
+  "                      root +/-45 um). Error bound: (2^N + 1)/2 POSE steps a value\n"               \
+  "  --lean-key-interval N  a key frame to every lean viewer every N frames (1-3600; 0: only\n"       \
   "                      on joining, after lost frames and on request); default 90 (1 s)\n"
 
 // Declares both flags on a command, bounds with them; they fill `o` when parsed (`o` must outlive

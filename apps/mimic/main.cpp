@@ -20,8 +20,10 @@ std::vector<Command>& commands() {
 // terminal (text already escaped keeps its backslashes).
 int usage_error(const char* command, const std::string& message) {
   const std::string safe = terminal_safe(message, Backslash::kept);
-  if (*command == '\0') std::fprintf(stderr, "mimic: %s\n(see 'mimic --help')\n", safe.c_str());
-  else std::fprintf(stderr, "mimic %s: %s\n(see 'mimic %s --help')\n", command, safe.c_str(), command);
+  if (*command == '\0')
+    std::fprintf(stderr, "mimic: %s\n(see 'mimic --help')\n", safe.c_str());
+  else
+    std::fprintf(stderr, "mimic %s: %s\n(see 'mimic %s --help')\n", command, safe.c_str(), command);
   return 2;
 }
 
@@ -58,8 +60,10 @@ int run_top_level(const std::vector<std::string>& args) {
     return 0;
   }
   if (auto exit_code = p.parse(args)) return *exit_code;
-  if (version) std::printf("mimic %s\n", MIMIC_VERSION);
-  else std::fputs(p.help().c_str(), stdout);
+  if (version)
+    std::printf("mimic %s\n", MIMIC_VERSION);
+  else
+    std::fputs(p.help().c_str(), stdout);
   return 0;
 }
 

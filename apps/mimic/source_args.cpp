@@ -40,8 +40,10 @@ bool take_sources(std::vector<std::string>& args, std::vector<service::SourceEnt
     }
     const bool leading_default = out.empty() && rules.leading_defaults && (key == "--body" || key == "--calibration");
     if (key.empty() || leading_default) {
-      if (leading_default) rest.push_back(key), rest.push_back(value);
-      else rest.push_back(a);
+      if (leading_default)
+        rest.push_back(key), rest.push_back(value);
+      else
+        rest.push_back(a);
       continue;
     }
     if (key == "--source") {
@@ -57,7 +59,10 @@ bool take_sources(std::vector<std::string>& args, std::vector<service::SourceEnt
     }
     if (out.empty()) out.emplace_back();
     service::SourceEntry& e = out.back();
-    std::string& slot = key == "--body" ? e.body : key == "--calibration" ? e.calibration : key == "--place" ? e.place : e.navigate;
+    std::string& slot = key == "--body"          ? e.body
+                        : key == "--calibration" ? e.calibration
+                        : key == "--place"       ? e.place
+                                                 : e.navigate;
     if (!slot.empty()) {
       error = "two " + key + " options for one --source";
       return false;

@@ -150,7 +150,8 @@ int open_local(const ViewOptions& view, render::Renderer& renderer, ViewScene& s
   spec.room = view.room;
   spec.skins = false;  // skinned here, by the renderer's LODs
   auto built = service::build_scene(spec);
-  if (!built) return built.error().usage ? usage_error(kName, built.error().message) : failure(kName, built.error().message);
+  if (!built)
+    return built.error().usage ? usage_error(kName, built.error().message) : failure(kName, built.error().message);
   for (const std::string& note : built->notes) std::fprintf(stderr, "mimic view: %s\n", note.c_str());
   scene.pipeline = std::make_unique<service::Pipeline>();
   for (size_t i = 0; i < built->avatars.size(); ++i) {
@@ -273,7 +274,12 @@ void handle_keys(render::Window& window, ViewState& s, size_t avatar_count) {
       case 'T': s.see_through = !s.see_through; break;
       case 'G': s.grid = !s.grid; break;
       case 'L': s.lod_mode = s.lod_mode + 1 >= render::kLodCount ? -1 : s.lod_mode + 1; break;
-      case 'R': s.camera = s.home; s.first_person = -1; s.camera.first_person_eye.reset(); s.follow = true; break;
+      case 'R':
+        s.camera = s.home;
+        s.first_person = -1;
+        s.camera.first_person_eye.reset();
+        s.follow = true;
+        break;
       case 'C': s.follow = !s.follow; break;
       case 'F':
         s.first_person = s.first_person + 1 >= static_cast<int>(avatar_count) ? -1 : s.first_person + 1;
@@ -303,8 +309,9 @@ void frame_camera(const ViewOptions& view, long frames, float dt_s, std::vector<
     // a neighbour otherwise.
     for (ViewAvatar& a : avatars)
       if (a.in_row)
-        a.world_from_body = glm::translate(glm::mat4(1.0f), glm::vec3(a.row_position_m.x - a.pose.root_position_m.x, 0.0f,
-                                                                      a.row_position_m.z - a.pose.root_position_m.z));
+        a.world_from_body =
+            glm::translate(glm::mat4(1.0f), glm::vec3(a.row_position_m.x - a.pose.root_position_m.x, 0.0f,
+                                                      a.row_position_m.z - a.pose.root_position_m.z));
     s.camera = frame_scene(avatars, view.camera, float(view.width) / float(view.height), s.panel_right);
     s.home = s.camera;
     s.follow_offset = s.camera.target - avatars_centre(avatars);
@@ -350,7 +357,8 @@ void draw_scene(render::Window& window, render::Renderer& renderer, std::vector<
         render::append_primitives(skin, a.lods->model(), a.pose, a.world_from_body, s.see_through ? lines : xray);
       if (s.overlays & render::kOverlayRays) render::append_rays(skin, s.ray_ring, a.world_from_body, xray);
     }
-    if (s.overlays & render::kOverlaySkeleton) render::append_skeleton(a.lods->skeleton(), a.pose, a.world_from_body, xray);
+    if (s.overlays & render::kOverlaySkeleton)
+      render::append_skeleton(a.lods->skeleton(), a.pose, a.world_from_body, xray);
     if (s.overlays & render::kOverlaySensors) render::append_sensors(a.sensors, xray);
     if (static_cast<int>(i) == s.first_person) look_through(a, s.joints, s.camera);
   }
@@ -411,14 +419,16 @@ int run_interactive(Args& args, const ViewOptions& view) {
   if (!args.get_int("frames", frames_limit)) return usage_error(kName, args.error());
   const std::optional<std::string> capture = args.get("capture");
   ViewState state;
-  if (!args.get_int("eyes", state.eyes) || state.eyes < 0) return usage_error(kName, "--eyes takes an avatar number from 1");
+  if (!args.get_int("eyes", state.eyes) || state.eyes < 0)
+    return usage_error(kName, "--eyes takes an avatar number from 1");
   auto window = render::Window::open("Mimic", view.width, view.height, !args.has("no-vsync"));
   if (!window) return failure(kName, window.error().message);
   auto renderer = render::Renderer::create();
   if (!renderer) return failure(kName, renderer.error().message);
   ViewScene scene;
   scene.connect = args.get_or("connect", "");
-  if (int rc = scene.connect.empty() ? open_local(view, *renderer, scene) : open_remote(args, scene); rc >= 0) return rc;
+  if (int rc = scene.connect.empty() ? open_local(view, *renderer, scene) : open_remote(args, scene); rc >= 0)
+    return rc;
 
   state.camera = render::preset_camera(view.camera, {0, 0, 0}, 1.75f, float(view.width) / float(view.height));
   state.home = state.camera;
@@ -439,7 +449,8 @@ int run_interactive(Args& args, const ViewOptions& view) {
     const float dt_s = static_cast<float>(std::clamp(now_s - last_frame_s, 0.0, 0.25));
     last_frame_s = now_s;
     // New poses: the local pipeline's pass, or what the network brought.
-    if (scene.pipeline) update_local(scene);
+    if (scene.pipeline)
+      update_local(scene);
     else if (auto st = update_remote(view, *renderer, scene, state); !st)
       return failure(kName, "connection ended: " + st.error().message);
     frame_camera(view, frames, dt_s, scene.avatars, state);
@@ -451,7 +462,8 @@ int run_interactive(Args& args, const ViewOptions& view) {
       if (auto w = render::write_png(window->read(), *capture); !w) return failure(kName, w.error().message);
     }
     window->swap();
-    times.add(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count(), window->time_s());
+    times.add(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count(),
+              window->time_s());
   }
   std::printf("view      %ld frames, %.2f ms per frame (mean, work before the buffer swap)\n", frames,
               frames ? times.total_ms / static_cast<double>(frames) : 0.0);

@@ -21,10 +21,8 @@ namespace {
 
 glm::mat3 rotation_xyz(const glm::vec3& angles_rad) {
   // R = Rz · Ry · Rx: x applied first, matching the orientation_deg convention of the file.
-  return glm::mat3(glm::eulerAngleZ(angles_rad.z) * glm::eulerAngleY(angles_rad.y) *
-                   glm::eulerAngleX(angles_rad.x));
+  return glm::mat3(glm::eulerAngleZ(angles_rad.z) * glm::eulerAngleY(angles_rad.y) * glm::eulerAngleX(angles_rad.x));
 }
-
 
 PrimitiveState lerp_state(const PrimitiveState& a, const PrimitiveState& b, float u) {
   return {a.semi_axes_m + u * (b.semi_axes_m - a.semi_axes_m), a.center_m + u * (b.center_m - a.center_m),
@@ -44,9 +42,8 @@ glm::vec2 muscle_weights(float theta, float theta0, float theta_min, float theta
   return {falloff_value(falloff, t), 0.0f};
 }
 
-PrimitiveState deformed_state(const PrimitiveState& g0, const PrimitiveState& gmin,
-                              const PrimitiveState& gmax, Falloff falloff, float theta,
-                              float theta0, float theta_min, float theta_max) {
+PrimitiveState deformed_state(const PrimitiveState& g0, const PrimitiveState& gmin, const PrimitiveState& gmax,
+                              Falloff falloff, float theta, float theta0, float theta_min, float theta_max) {
   const glm::vec2 w = muscle_weights(theta, theta0, theta_min, theta_max, falloff);
   return theta >= theta0 ? lerp_state(g0, gmax, w.y) : lerp_state(g0, gmin, w.x);
 }
@@ -166,6 +163,5 @@ int BodyField::candidates_of_part(RigidPart part, std::span<uint16_t> out) const
     if (part_[i] == part) out[n++] = static_cast<uint16_t>(i);
   return n;
 }
-
 
 }  // namespace mimic::avatar

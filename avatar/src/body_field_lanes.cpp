@@ -87,7 +87,6 @@ struct StarBatch {
   }
 };
 
-
 }  // namespace
 
 namespace {
@@ -118,8 +117,10 @@ void march_nearest(const StarBatch& batch, v8f t_near, v8f t_lo, v8f t_hi, v8f t
     // The first pass's first sample is taken by every lane: it tells each point's side.
     for (int guard = 0; guard < 256 && ((!up && guard == 0) || !all_of(done)); ++guard) {
       v8f f, slope, step, gap, peak;
-      if (up) batch.eval<true>(t, f, slope, step, gap, peak);
-      else batch.eval<false>(t, f, slope, step, gap, peak);
+      if (up)
+        batch.eval<true>(t, f, slope, step, gap, peak);
+      else
+        batch.eval<false>(t, f, slope, step, gap, peak);
       const v8i inside = f >= iso;
       if (!up && guard == 0) {
         in0 = inside;
@@ -357,7 +358,8 @@ void BodyField::cast_star(const glm::vec3& origin, const glm::vec3& front, const
     cast_lanes(
         candidates, n,
         [&](int k, v8f& a, v8f& b, v8f& c) {
-          const v8f qx = ca * mf[k].x + sa * ml[k].x, qy = ca * mf[k].y + sa * ml[k].y, qz = ca * mf[k].z + sa * ml[k].z;
+          const v8f qx = ca * mf[k].x + sa * ml[k].x, qy = ca * mf[k].y + sa * ml[k].y,
+                    qz = ca * mf[k].z + sa * ml[k].z;
           a = qx * qx + qy * qy + qz * qz;
           b = q0[k].x * qx + q0[k].y * qy + q0[k].z * qz;
           c = splat(cc[k]);
@@ -396,7 +398,8 @@ void BodyField::cast_rays_lanes(std::span<const glm::vec3> origins, std::span<co
           b = q0x * q1x + q0y * q1y + q0z * q1z;
           c = q0x * q0x + q0y * q0y + q0z * q0z;
         },
-        nears.empty() ? nears : nears.subspan(first, static_cast<size_t>(live)), hits.subspan(first, static_cast<size_t>(live)));
+        nears.empty() ? nears : nears.subspan(first, static_cast<size_t>(live)),
+        hits.subspan(first, static_cast<size_t>(live)));
   }
 }
 

@@ -98,18 +98,20 @@ struct RayTerms {
       if (f_out >= kIsoLevel) return std::max(t_far, t_hard);
       while (t > 0.0f) {
         float step = std::numeric_limits<float>::max();
-        float below = -1.0f;  // the next support end inside, when t is in no support
+        float below = -1.0f;    // the next support end inside, when t is in no support
         float peak_in = -1.0f;  // the next peak inside
         for (int k = 0; k < n; ++k) {
-          if (t <= t1[k] && t >= t0[k]) step = std::min(step, chord[k]);
-          else if (t1[k] < t) below = std::max(below, t1[k]);
+          if (t <= t1[k] && t >= t0[k])
+            step = std::min(step, chord[k]);
+          else if (t1[k] < t)
+            below = std::max(below, t1[k]);
           if (peak[k] < t) peak_in = std::max(peak_in, peak[k]);
         }
         float next = step < std::numeric_limits<float>::max() ? t - std::max(step * 0.125f, kMinStep_m) : below;
         next = std::max(next, peak_in);
         if (next < 0.0f) {
           if (step == std::numeric_limits<float>::max()) break;  // nothing further in
-          next = 0.0f;  // the last sample at the origin
+          next = 0.0f;                                           // the last sample at the origin
         }
         t = next;
         const float f = field_at(t);
@@ -150,8 +152,10 @@ struct RayTerms {
       const float f = field_and_slope(t, slope) - kIsoLevel;
       // |f| < 5e-4 is about ten micrometres along the ray at the body's field gradients.
       if (std::abs(f) < 5e-4f || hi - lo < 1e-5f) return t;
-      if ((f >= 0.0f) == lo_inside) lo = t, flo = f;
-      else hi = t, fhi = f;
+      if ((f >= 0.0f) == lo_inside)
+        lo = t, flo = f;
+      else
+        hi = t, fhi = f;
       float next = slope != 0.0f ? t - f / slope : 0.5f * (lo + hi);
       if (!(next > lo && next < hi)) next = 0.5f * (lo + hi);
       if (std::abs(next - t) < 2e-6f) return next;
@@ -173,9 +177,12 @@ struct RayTerms {
     while (up ? t < limit : t > limit) {
       float step = inf, gap = up ? inf : -1.0f, pk = up ? inf : -1.0f;
       for (int k = 0; k < n; ++k) {
-        if (t <= t1[k] && t >= t0[k]) step = std::min(step, chord[k]);
-        else if (!up && t1[k] < t) gap = std::max(gap, t1[k]);
-        else if (up && t0[k] > t) gap = std::min(gap, t0[k]);
+        if (t <= t1[k] && t >= t0[k])
+          step = std::min(step, chord[k]);
+        else if (!up && t1[k] < t)
+          gap = std::max(gap, t1[k]);
+        else if (up && t0[k] > t)
+          gap = std::min(gap, t0[k]);
         if (!up && peak[k] < t) pk = std::max(pk, peak[k]);
         if (up && peak[k] > t) pk = std::min(pk, peak[k]);
       }
@@ -223,8 +230,10 @@ RayHit BodyField::cast_outermost(const glm::vec3& origin, const glm::vec3& dir,
   for (uint16_t idx : candidates) {
     float a, b, c;
     if (!ray_quadratic(idx, origin, dir, a, b, c)) continue;
-    if (hard_[idx]) terms.add_hard(a, b, c);
-    else terms.add(a, b, c, r2_[idx], inv_r2_[idx], weight_norm_[idx], cbrt_inv_wn_[idx]);
+    if (hard_[idx])
+      terms.add_hard(a, b, c);
+    else
+      terms.add(a, b, c, r2_[idx], inv_r2_[idx], weight_norm_[idx], cbrt_inv_wn_[idx]);
   }
   return RayHit{terms.outermost()};
 }
@@ -251,6 +260,5 @@ RayHit BodyField::cast_nearest(const glm::vec3& origin, const glm::vec3& dir, st
   if (hard_best >= 0.0f && (t < 0.0f || std::abs(hard_best - tn) < std::abs(t - tn))) t = hard_best;
   return RayHit{t};
 }
-
 
 }  // namespace mimic::avatar

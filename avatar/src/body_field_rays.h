@@ -1,5 +1,5 @@
-// Constants and the metaball term shared by the body field's ray casters (not a public header): body_field.cpp, body_field_rays.cpp
-// (one ray at a time) and body_field_lanes.cpp (eight rays in lock-step).
+// Constants and the metaball term shared by the body field's ray casters (not a public header): body_field.cpp,
+// body_field_rays.cpp (one ray at a time) and body_field_lanes.cpp (eight rays in lock-step).
 #pragma once
 
 namespace mimic::avatar::field_detail {

@@ -17,8 +17,8 @@ std::set<std::string> lower_region(const rig::SkeletonDesc& d) {
   while (grew) {
     grew = false;
     for (const auto& j : d.joints) {
-      const bool hip_chain = j.name.find("hip") != std::string::npos ||
-                             (lower.count(j.parent) && j.parent != d.joints.front().name);
+      const bool hip_chain =
+          j.name.find("hip") != std::string::npos || (lower.count(j.parent) && j.parent != d.joints.front().name);
       if (!lower.count(j.name) && hip_chain) grew = lower.insert(j.name).second;
     }
   }
@@ -44,7 +44,8 @@ rig::Pose standing_posture(const rig::Skeleton& skeleton) {
     for (float a : {-1.5707964f, 1.5707964f}) {
       p.dof_rad[dof] = a;
       rig::forward_kinematics(skeleton, p, w);
-      if (w[shoulder].apply(skeleton.tip_m(shoulder)).y < w[shoulder].translation.y - 0.5f * glm::length(skeleton.tip_m(shoulder)))
+      if (w[shoulder].apply(skeleton.tip_m(shoulder)).y <
+          w[shoulder].translation.y - 0.5f * glm::length(skeleton.tip_m(shoulder)))
         break;
       p.dof_rad[dof] = 0;
     }
@@ -70,7 +71,8 @@ rig::Pose relaxed_posture(const rig::Skeleton& skeleton) {
 }
 
 Result<BodyModel> scale_body(const BodyModel& model, const BodyScaling& s) {
-  for (float f : {s.total_height, s.frontal_scaling, s.high_lateral_scaling, s.low_lateral_scaling, s.spine_origin_ratio})
+  for (float f :
+       {s.total_height, s.frontal_scaling, s.high_lateral_scaling, s.low_lateral_scaling, s.spine_origin_ratio})
     if (!(f > 0.0f) || !std::isfinite(f) || f > 10.0f)
       return fail(Errc::invalid_argument, "scaling factors must be finite and in (0, 10]");
   auto skeleton = rig::Skeleton::build(model.skeleton);

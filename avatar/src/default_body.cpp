@@ -60,8 +60,8 @@ struct Author {
   }
 
   // Deformation given as world-space states of the zero posture, like the primitive itself.
-  void muscle(Primitive& p, const std::string& dof, glm::vec3 min_axes, glm::vec3 min_center_world,
-              glm::vec3 max_axes, glm::vec3 max_center_world, Falloff f = Falloff::linear) {
+  void muscle(Primitive& p, const std::string& dof, glm::vec3 min_axes, glm::vec3 min_center_world, glm::vec3 max_axes,
+              glm::vec3 max_center_world, Falloff f = Falloff::linear) {
     Deformation d;
     d.dof = dof;
     d.falloff = f;
@@ -95,7 +95,8 @@ void add_pelvis_and_hips(Author& a) {
     a.muscle(g, "l_hip_flexion", {0.08f, 0.095f, 0.078f}, {0.072f, 0.86f, -0.05f}, {0.085f, 0.08f, 0.06f},
              {0.075f, 0.85f, -0.04f});
   }
-  a.add("l_hip_side", "pelvis", {0.125f, 0.875f, 0.01f}, {0.055f, 0.075f, 0.075f}, G({hip, lower_torso, left_upper_leg}));
+  a.add("l_hip_side", "pelvis", {0.125f, 0.875f, 0.01f}, {0.055f, 0.075f, 0.075f},
+        G({hip, lower_torso, left_upper_leg}));
 }
 
 // Abdomen, lower back, waist.
@@ -127,7 +128,8 @@ void add_chest_back_shoulders(Author& a) {
   a.add("l_lat", "spine_upper", {0.11f, 1.24f, -0.015f}, {0.05f, 0.07f, 0.05f}, G({upper_torso, left_shoulder}));
   a.add("l_trapezius", "spine_upper", {0.07f, 1.37f, -0.01f}, {0.08f, 0.035f, 0.05f}, G({upper_torso, left_shoulder}),
         1.5f, {0, 0, -18});
-  a.add("l_clavicle_ridge", "l_clavicle", {0.1f, 1.355f, 0.035f}, {0.07f, 0.025f, 0.03f}, G({upper_torso, left_shoulder}));
+  a.add("l_clavicle_ridge", "l_clavicle", {0.1f, 1.355f, 0.035f}, {0.07f, 0.025f, 0.03f},
+        G({upper_torso, left_shoulder}));
 }
 
 // The neck, from its base to the skull.
@@ -143,7 +145,8 @@ void add_neck(Author& a) {
 void add_left_arm(Author& a) {
   using enum Group;
   // --- arm (left; mirrored below) -------------------------------------------------------------
-  a.add("l_shoulder_cap", "l_shoulder", {0.17f, 1.36f, 0.0f}, {0.05f, 0.045f, 0.05f}, G({left_shoulder, left_upper_arm}));
+  a.add("l_shoulder_cap", "l_shoulder", {0.17f, 1.36f, 0.0f}, {0.05f, 0.045f, 0.05f},
+        G({left_shoulder, left_upper_arm}));
   {
     Primitive& p = a.add("l_deltoid", "l_shoulder", {0.2f, 1.345f, 0.0f}, {0.075f, 0.055f, 0.055f},
                          G({left_shoulder, left_upper_arm}));
@@ -154,19 +157,21 @@ void add_left_arm(Author& a) {
   a.add("l_armpit", "l_shoulder", {0.16f, 1.305f, 0.0f}, {0.04f, 0.035f, 0.045f}, G({left_shoulder, left_upper_arm}));
   a.add("l_humerus", "l_shoulder", {0.28f, 1.341f, 0.0f}, {0.11f, 0.031f, 0.031f}, G({left_upper_arm}));
   {
-    Primitive& p = a.add("l_biceps", "l_shoulder", {0.29f, 1.341f, 0.018f}, {0.08f, 0.029f, 0.028f}, G({left_upper_arm}));
+    Primitive& p =
+        a.add("l_biceps", "l_shoulder", {0.29f, 1.341f, 0.018f}, {0.08f, 0.029f, 0.028f}, G({left_upper_arm}));
     a.muscle(p, "l_elbow_flexion", {0.082f, 0.028f, 0.027f}, {0.29f, 1.341f, 0.018f}, {0.06f, 0.035f, 0.041f},
              {0.28f, 1.341f, 0.03f}, Falloff::parabolic);
   }
   {
-    Primitive& p = a.add("l_triceps", "l_shoulder", {0.28f, 1.345f, -0.015f}, {0.09f, 0.031f, 0.029f}, G({left_upper_arm}));
+    Primitive& p =
+        a.add("l_triceps", "l_shoulder", {0.28f, 1.345f, -0.015f}, {0.09f, 0.031f, 0.029f}, G({left_upper_arm}));
     a.muscle(p, "l_elbow_flexion", {0.085f, 0.033f, 0.032f}, {0.28f, 1.345f, -0.017f}, {0.1f, 0.028f, 0.025f},
              {0.285f, 1.345f, -0.013f});
   }
   a.add("l_elbow", "l_elbow", {0.4f, 1.341f, 0.0f}, {0.035f, 0.031f, 0.031f}, G({left_upper_arm, left_lower_arm}));
   {
-    Primitive& p = a.add("l_forearm_muscles", "l_elbow", {0.47f, 1.338f, 0.005f}, {0.075f, 0.034f, 0.037f},
-                         G({left_lower_arm}));
+    Primitive& p =
+        a.add("l_forearm_muscles", "l_elbow", {0.47f, 1.338f, 0.005f}, {0.075f, 0.034f, 0.037f}, G({left_lower_arm}));
     a.muscle(p, "l_elbow_flexion", {0.076f, 0.033f, 0.036f}, {0.47f, 1.338f, 0.005f}, {0.068f, 0.037f, 0.041f},
              {0.465f, 1.338f, 0.008f});
   }

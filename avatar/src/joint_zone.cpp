@@ -24,8 +24,11 @@ struct ZoneFrame {
 };
 
 ZoneFrame zone_frame(const JointZone& zone) {
-  ZoneFrame f{glm::dvec3(zone.center_m), glm::normalize(glm::dvec3(zone.proximal_dir)),
-              glm::normalize(glm::dvec3(zone.distal_dir)), {}, false};
+  ZoneFrame f{glm::dvec3(zone.center_m),
+              glm::normalize(glm::dvec3(zone.proximal_dir)),
+              glm::normalize(glm::dvec3(zone.distal_dir)),
+              {},
+              false};
   const glm::dvec3 e = glm::cross(f.u, f.d);
   if (glm::length(e) > 1e-3) {
     f.e = glm::normalize(e);
@@ -80,7 +83,8 @@ double joint_zone_volume(std::span<const glm::vec3> positions, std::span<const u
 }
 
 std::optional<double> section_area(std::span<const glm::vec3> positions, std::span<const uint32_t> indices,
-                                   std::span<const uint32_t> triangles, const glm::vec3& point_f, const glm::vec3& normal_f) {
+                                   std::span<const uint32_t> triangles, const glm::vec3& point_f,
+                                   const glm::vec3& normal_f) {
   const glm::dvec3 point(point_f), n = glm::normalize(glm::dvec3(normal_f));
   auto side = [&](uint32_t v) { return glm::dot(glm::dvec3(positions[v]) - point, n); };
   auto key = [](uint32_t a, uint32_t b) { return a < b ? (uint64_t(a) << 32 | b) : (uint64_t(b) << 32 | a); };
@@ -101,7 +105,8 @@ std::optional<double> section_area(std::span<const glm::vec3> positions, std::sp
       const double sa = side(a), sb = side(b);
       if ((sa >= 0) == (sb >= 0)) continue;
       const uint64_t id = key(a, b);
-      crossing[id] = glm::dvec3(positions[a]) + (glm::dvec3(positions[b]) - glm::dvec3(positions[a])) * (sa / (sa - sb));
+      crossing[id] =
+          glm::dvec3(positions[a]) + (glm::dvec3(positions[b]) - glm::dvec3(positions[a])) * (sa / (sa - sb));
       if (k < 2) found[k++] = id;
     }
     if (k != 2) continue;
@@ -185,9 +190,12 @@ double joint_zone_section_area(std::span<const glm::vec3> positions, std::span<c
     double t0 = 0, t1 = 1;
     for (const glm::dvec3& h : {f.u, f.d}) {
       const double s0 = glm::dot(h, hit[0] - f.c) - half, s1 = glm::dot(h, hit[1] - f.c) - half;
-      if (s0 > 0 && s1 > 0) t0 = 1, t1 = 0;
-      else if (s0 > 0) t0 = std::max(t0, s0 / (s0 - s1));
-      else if (s1 > 0) t1 = std::min(t1, s0 / (s0 - s1));
+      if (s0 > 0 && s1 > 0)
+        t0 = 1, t1 = 0;
+      else if (s0 > 0)
+        t0 = std::max(t0, s0 / (s0 - s1));
+      else if (s1 > 0)
+        t1 = std::min(t1, s0 / (s0 - s1));
     }
     if (t1 <= t0) continue;
     const glm::dvec3 p = hit[0] + t0 * (hit[1] - hit[0]), q = hit[0] + t1 * (hit[1] - hit[0]);

@@ -15,7 +15,6 @@ std::vector<MeshPart> covering_parts(const Mesh& mesh) {
   return out;
 }
 
-
 std::string clean_name(std::string_view name) {
   std::string s;
   for (char c : name) s += (static_cast<unsigned char>(c) < 0x20 || c == 0x7f) ? '_' : c;

@@ -172,10 +172,10 @@ MeshTopology analyze_topology(const Mesh& mesh) {
 
   t.euler_characteristic = static_cast<long long>(t.vertex_count) - static_cast<long long>(t.edge_count) +
                            static_cast<long long>(t.face_count);
-  if (t.non_manifold_edges == 0 && t.non_manifold_vertices == 0 && t.inconsistent_edges == 0 &&
-      index_degenerate == 0 && t.face_count > 0) {
-    const long long twice_genus = 2 * static_cast<long long>(t.components) - t.euler_characteristic -
-                                  static_cast<long long>(t.boundary_loops);
+  if (t.non_manifold_edges == 0 && t.non_manifold_vertices == 0 && t.inconsistent_edges == 0 && index_degenerate == 0 &&
+      t.face_count > 0) {
+    const long long twice_genus =
+        2 * static_cast<long long>(t.components) - t.euler_characteristic - static_cast<long long>(t.boundary_loops);
     if (twice_genus >= 0 && twice_genus % 2 == 0) t.genus = static_cast<int>(twice_genus / 2);
   }
   return t;
@@ -208,7 +208,8 @@ Mesh weld_by_position(const Mesh& mesh, float tolerance) {
     }
   };
   auto key_of = [&](const glm::vec3& p) {
-    return Key{static_cast<long long>(std::floor((p.x - lo.x) / cell)), static_cast<long long>(std::floor((p.y - lo.y) / cell)),
+    return Key{static_cast<long long>(std::floor((p.x - lo.x) / cell)),
+               static_cast<long long>(std::floor((p.y - lo.y) / cell)),
                static_cast<long long>(std::floor((p.z - lo.z) / cell))};
   };
   std::unordered_map<Key, std::vector<uint32_t>, KeyHash> grid;
@@ -292,7 +293,8 @@ Disc disc_of(std::span<const glm::vec3> positions, const std::vector<uint32_t>& 
   d.normal = n / len;
   d.e1 = glm::normalize(positions[row[0]] - d.centre - glm::dot(positions[row[0]] - d.centre, d.normal) * d.normal);
   d.e2 = glm::cross(d.normal, d.e1);
-  for (uint32_t v : row) d.polygon.emplace_back(glm::dot(positions[v] - d.centre, d.e1), glm::dot(positions[v] - d.centre, d.e2));
+  for (uint32_t v : row)
+    d.polygon.emplace_back(glm::dot(positions[v] - d.centre, d.e1), glm::dot(positions[v] - d.centre, d.e2));
   d.valid = std::isfinite(d.e1.x + d.e2.x);
   return d;
 }

@@ -55,8 +55,8 @@ struct Scene {
 
 void finish(benchmark::State& state) {
   state.SetItemsProcessed(state.iterations() * kVertices);
-  state.counters["ns_per_vertex"] =
-      benchmark::Counter(double(kVertices), benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
+  state.counters["ns_per_vertex"] = benchmark::Counter(
+      double(kVertices), benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
 }
 
 std::span<const glm::vec3> maybe_in(const std::vector<glm::vec3>& v, bool on) {
@@ -69,8 +69,8 @@ std::span<glm::vec3> maybe(std::vector<glm::vec3>& v, bool on) {
 void BM_LinearBlendSkinning(benchmark::State& state) {
   Scene s;
   const bool normals = state.range(0) != 0;
-  LinearBlendSkinningJob job{s.matrices, s.joints, s.weights, s.positions, maybe_in(s.normals, normals), s.out_p,
-                             maybe(s.out_n, normals)};
+  LinearBlendSkinningJob job{
+      s.matrices, s.joints, s.weights, s.positions, maybe_in(s.normals, normals), s.out_p, maybe(s.out_n, normals)};
   for (auto _ : state) {
     job.Run();
     benchmark::DoNotOptimize(s.out_p.data());
@@ -83,8 +83,8 @@ BENCHMARK(BM_LinearBlendSkinning)->ArgName("normals")->Arg(0)->Arg(1);
 void BM_DualQuaternionSkinning(benchmark::State& state) {
   Scene s;
   const bool normals = state.range(0) != 0;
-  DualQuaternionSkinningJob job{s.dual_quats, s.joints, s.weights, s.positions, maybe_in(s.normals, normals), s.out_p,
-                                maybe(s.out_n, normals)};
+  DualQuaternionSkinningJob job{
+      s.dual_quats, s.joints, s.weights, s.positions, maybe_in(s.normals, normals), s.out_p, maybe(s.out_n, normals)};
   for (auto _ : state) {
     job.Run();
     benchmark::DoNotOptimize(s.out_p.data());
@@ -97,8 +97,15 @@ BENCHMARK(BM_DualQuaternionSkinning)->ArgName("normals")->Arg(0)->Arg(1);
 void BM_CorSkinning(benchmark::State& state) {
   Scene s;
   const bool normals = state.range(0) != 0;
-  CorSkinningJob job{s.matrices, s.rotations, s.joints, s.weights, s.centers, s.positions, maybe_in(s.normals, normals),
-                     s.out_p, maybe(s.out_n, normals)};
+  CorSkinningJob job{s.matrices,
+                     s.rotations,
+                     s.joints,
+                     s.weights,
+                     s.centers,
+                     s.positions,
+                     maybe_in(s.normals, normals),
+                     s.out_p,
+                     maybe(s.out_n, normals)};
   for (auto _ : state) {
     job.Run();
     benchmark::DoNotOptimize(s.out_p.data());

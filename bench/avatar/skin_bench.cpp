@@ -141,11 +141,15 @@ void BM_Realtime(benchmark::State& state) {
   const RealtimeBody::FrameWork w = (*body)->work_per_frame(muscles);
   state.counters["bytes_per_vertex"] = (w.bytes_read + w.bytes_written) / static_cast<double>(out.size());
   state.counters["flops_per_vertex"] = w.flops / static_cast<double>(out.size());
-  state.counters["bytes"] = benchmark::Counter(w.bytes_read + w.bytes_written, benchmark::Counter::kIsIterationInvariantRate);
+  state.counters["bytes"] =
+      benchmark::Counter(w.bytes_read + w.bytes_written, benchmark::Counter::kIsIterationInvariantRate);
   state.counters["flops"] = benchmark::Counter(w.flops, benchmark::Counter::kIsIterationInvariantRate);
   state.counters["vectorised"] = RealtimeSkin::vectorised_kernel() ? 1 : 0;
 }
-BENCHMARK(BM_Realtime)->ArgNames({"lod", "muscles"})->ArgsProduct({{0, 1, 2, 3}, {0, 1}})->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_Realtime)
+    ->ArgNames({"lod", "muscles"})
+    ->ArgsProduct({{0, 1, 2, 3}, {0, 1}})
+    ->Unit(benchmark::kMicrosecond);
 
 // The same with the scalar reference loops (what the eight-wide kernels gain).
 void BM_RealtimeScalar(benchmark::State& state) {

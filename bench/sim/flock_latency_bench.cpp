@@ -23,9 +23,8 @@ namespace {
 
 namespace fl = mimic::devices::flock;
 
-
 constexpr int kBirds = 4;
-constexpr int kSlots = 800;       // sequence numbers 0..799 ride in the Z position (1 mm apart)
+constexpr int kSlots = 800;  // sequence numbers 0..799 ride in the Z position (1 mm apart)
 constexpr double kStepM = 0.001;
 
 int seq_of_z(double z_m) { return static_cast<int>(std::lround(z_m / kStepM)) % kSlots; }

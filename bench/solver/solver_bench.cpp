@@ -168,7 +168,9 @@ void BM_Accuracy(benchmark::State& state) {
   state.counters["frames"] = r.report.frames;
   state.SetLabel(std::string(id) + " " + layout_name + " sensors");
 }
-BENCHMARK(BM_Accuracy)->ArgsProduct({benchmark::CreateDenseRange(0, 7, 1), benchmark::CreateDenseRange(0, 3, 1)})
-    ->Iterations(1)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_Accuracy)
+    ->ArgsProduct({benchmark::CreateDenseRange(0, 7, 1), benchmark::CreateDenseRange(0, 3, 1)})
+    ->Iterations(1)
+    ->Unit(benchmark::kMillisecond);
 
 }  // namespace

@@ -21,7 +21,8 @@ using mimic::client::Quat;
 using mimic::client::Vec3;
 
 // The mesh buffers are handed out as they are: the C and C++ vectors must be the same floats.
-static_assert(std::is_standard_layout_v<Vec3> && sizeof(Vec3) == sizeof(mimic_vec3) && offsetof(Vec3, z) == offsetof(mimic_vec3, z));
+static_assert(std::is_standard_layout_v<Vec3> && sizeof(Vec3) == sizeof(mimic_vec3) &&
+              offsetof(Vec3, z) == offsetof(mimic_vec3, z));
 
 mimic_vec3 c_vec(const Vec3& v) { return {v.x, v.y, v.z}; }
 mimic_quat c_quat(const Quat& q) { return {q.x, q.y, q.z, q.w}; }

@@ -17,7 +17,7 @@ enum class Kind { any, integer, number, boolean, baud, choice };
 struct KeySpec {
   const char* key;
   Kind kind;
-  long min = 0, max = 0;        // integer bounds (inclusive) when max > min
+  long min = 0, max = 0;          // integer bounds (inclusive) when max > min
   const char* choices = nullptr;  // '|'-separated for Kind::choice
 };
 
@@ -29,7 +29,9 @@ struct SchemeSpec {
 };
 
 const SchemeSpec kSchemes[] = {
-    {"flock", true, "a serial device path",
+    {"flock",
+     true,
+     "a serial device path",
      {{"birds", Kind::integer, 1, 14},
       {"baud", Kind::baud},
       {"erc", Kind::boolean},
@@ -44,7 +46,9 @@ const SchemeSpec kSchemes[] = {
       {"button", Kind::boolean},
       {"group", Kind::boolean},
       {"timeout_ms", Kind::integer, 10, 60000}}},
-    {"spaceball", true, "a serial device path",
+    {"spaceball",
+     true,
+     "a serial device path",
      {{"baud", Kind::baud},
       {"probe", Kind::number, 0, 60},
       {"dead", Kind::number, 0, 600},
@@ -52,17 +56,23 @@ const SchemeSpec kSchemes[] = {
       {"tscale", Kind::number, 1, 32768},
       {"rscale", Kind::number, 1, 32768},
       {"null", Kind::integer, 0, 1000}}},
-    {"magellan", true, "a serial device path",
+    {"magellan",
+     true,
+     "a serial device path",
      {{"baud", Kind::baud},
       {"settle", Kind::number, 0, 60},
       {"probe", Kind::number, 0, 60},
       {"dead", Kind::number, 0, 600},
       {"scale", Kind::number, 1, 32768},
       {"null", Kind::integer, 0, 1000}}},
-    {"spacemouse", false, "a hidraw path, 'sim' or empty",
+    {"spacemouse",
+     false,
+     "a hidraw path, 'sim' or empty",
      {{"vid", Kind::any}, {"pid", Kind::any}, {"seed", Kind::integer, 0, 0x7FFFFFFF}}},
     // sim/bvh/replay keys are interpreted by sim/src/open_source*.cpp (docs/log-format.md).
-    {"sim", false, "a motion name or empty",
+    {"sim",
+     false,
+     "a motion name or empty",
      {{"seed", Kind::integer, 0, 0x7FFFFFFF},
       {"rate", Kind::number, 1, 10000},
       {"sensors", Kind::choice, 0, 0, "3|6|11|all"},
@@ -74,11 +84,15 @@ const SchemeSpec kSchemes[] = {
       {"dropout", Kind::number, 0, 1},
       {"burst", Kind::integer, 1, 100000}}},
     // vmc keys are interpreted by service/src/vmc_feed.cpp (docs/hardware.md).
-    {"vmc", true, "[HOST:]PORT to listen on (VMC performer data)",
+    {"vmc",
+     true,
+     "[HOST:]PORT to listen on (VMC performer data)",
      {{"stale_ms", Kind::integer, 10, 60000}, {"map", Kind::any}}},
     // vrpn and osc-trackers keys are interpreted by service/src/vrpn_source.cpp and
     // osc_tracker_source.cpp (docs/hardware.md).
-    {"vrpn", true, "DEVICE@HOST[:PORT] or DEVICE@tcp://HOST[:PORT] (a VRPN tracker)",
+    {"vrpn",
+     true,
+     "DEVICE@HOST[:PORT] or DEVICE@tcp://HOST[:PORT] (a VRPN tracker)",
      {{"layout", Kind::choice, 0, 0, "3|6|11|all"},
       {"devices", Kind::any},
       {"map", Kind::any},
@@ -86,11 +100,17 @@ const SchemeSpec kSchemes[] = {
       {"scale", Kind::number, 0, 1000000},
       {"buttons", Kind::any},
       {"stale_ms", Kind::integer, 10, 60000}}},
-    {"osc-trackers", true, "[HOST:]PORT to listen on (VRChat-style OSC trackers)",
+    {"osc-trackers",
+     true,
+     "[HOST:]PORT to listen on (VRChat-style OSC trackers)",
      {{"map", Kind::any}, {"stale_ms", Kind::integer, 10, 60000}}},
-    {"replay", true, "a log file path",
+    {"replay",
+     true,
+     "a log file path",
      {{"speed", Kind::number, 0, 1000000}, {"loop", Kind::boolean}, {"from", Kind::number, 0, 1000000000}}},
-    {"bvh", true, "a BVH file path",
+    {"bvh",
+     true,
+     "a BVH file path",
      {{"seed", Kind::integer, 0, 0x7FFFFFFF},
       {"rate", Kind::number, 1, 10000},
       {"sensors", Kind::choice, 0, 0, "3|6|11|all"},
@@ -196,8 +216,8 @@ Result<SourceSpec> parse_source_spec(std::string_view text) {
   for (const auto& s : kSchemes)
     if (spec.scheme == s.scheme) sc = &s;
   if (!sc) {
-    return fail(Errc::invalid_argument, "source " + quoted + ": unknown scheme '" + spec.scheme +
-                                            "' (known: " + scheme_list() + ")");
+    return fail(Errc::invalid_argument,
+                "source " + quoted + ": unknown scheme '" + spec.scheme + "' (known: " + scheme_list() + ")");
   }
 
   std::string_view rest;
@@ -208,24 +228,21 @@ Result<SourceSpec> parse_source_spec(std::string_view text) {
   const size_t q = rest.find('?');
   spec.target = std::string(rest.substr(0, q));
   if (sc->needs_target && spec.target.empty()) {
-    return fail(Errc::invalid_argument,
-                "source " + quoted + ": scheme '" + spec.scheme + "' needs " + sc->target_what +
-                    " (e.g. " + spec.scheme + ":<target>)");
+    return fail(Errc::invalid_argument, "source " + quoted + ": scheme '" + spec.scheme + "' needs " + sc->target_what +
+                                            " (e.g. " + spec.scheme + ":<target>)");
   }
 
   if (q != std::string_view::npos) {
     std::string_view params = rest.substr(q + 1);
-    if (params.empty())
-      return fail(Errc::invalid_argument, "source " + quoted + ": nothing after '?'");
+    if (params.empty()) return fail(Errc::invalid_argument, "source " + quoted + ": nothing after '?'");
     while (true) {
       const size_t amp = params.find('&');
       std::string_view item = params.substr(0, amp);
       const size_t eq = item.find('=');
-      if (item.empty())
-        return fail(Errc::invalid_argument, "source " + quoted + ": empty parameter (stray '&')");
+      if (item.empty()) return fail(Errc::invalid_argument, "source " + quoted + ": empty parameter (stray '&')");
       if (eq == std::string_view::npos || eq == 0) {
-        return fail(Errc::invalid_argument, "source " + quoted + ": parameter '" + std::string(item) +
-                                                "' is not key=value");
+        return fail(Errc::invalid_argument,
+                    "source " + quoted + ": parameter '" + std::string(item) + "' is not key=value");
       }
       std::string key(item.substr(0, eq)), value(item.substr(eq + 1));
       if (value.empty())
@@ -234,8 +251,8 @@ Result<SourceSpec> parse_source_spec(std::string_view text) {
       for (const auto& k : sc->keys)
         if (key == k.key) ks = &k;
       if (!ks) {
-        return fail(Errc::invalid_argument, "source " + quoted + ": unknown parameter '" + key +
-                                                "' for " + spec.scheme + " (known: " + key_list(*sc) + ")");
+        return fail(Errc::invalid_argument, "source " + quoted + ": unknown parameter '" + key + "' for " +
+                                                spec.scheme + " (known: " + key_list(*sc) + ")");
       }
       if (spec.params.count(key))
         return fail(Errc::invalid_argument, "source " + quoted + ": parameter '" + key + "' given twice");

@@ -73,8 +73,10 @@ void Client::Impl::lose_connection() {
   if (handshake_done && !fatal && !token.empty()) {
     // Sessions cut right after their WELCOME, twice in a row (a server that takes us and drops
     // us at once): back off instead of reconnecting at once, over and over.
-    if (Clock::now() - welcome_at >= std::chrono::seconds(1)) short_sessions = 0;
-    else if (++short_sessions >= 2) failures++;
+    if (Clock::now() - welcome_at >= std::chrono::seconds(1))
+      short_sessions = 0;
+    else if (++short_sessions >= 2)
+      failures++;
     stats.cuts++;
     if (!outage_from) {
       outage_from = last_frame_at == Clock::time_point{} ? Clock::now() : last_frame_at;
@@ -108,33 +110,35 @@ void Client::Impl::schedule_retry() {
 void Client::Impl::read() {
   const uint64_t gen = generation;
   auto space = reader.write_space(16 * 1024);
-  sock->async_read_some(asio::buffer(space.data(), space.size()),
-                        [this, gen](const boost::system::error_code& ec, size_t n) {
-                          if (gen != generation) return;
-                          if (ec) {
-                            cut(ec == asio::error::eof ? "the server closed the connection" : "connection lost: " + ec.message());
-                            return;
-                          }
-                          // Bytes that waited while this thread stalled are old: dropped, resumed.
-                          if (resync_if_stalled()) return;
-                          stats.bytes_in += n;
-                          reader.commit(n);
-                          for (;;) {
-                            std::span<const uint8_t> p;
-                            const Reject e = reader.next(p);
-                            if (e != Reject::ok) {
-                              stats.rejected++;
-                              const std::string why = std::string("bad stream from server: ") + reject_name(e);
-                              if (handshake_done) cut(why);
-                              else end(Errc::parse_error, why);
-                              return;
-                            }
-                            if (p.empty()) break;
-                            on_packet(p);
-                            if (gen != generation) return;
-                          }
-                          read();
-                        });
+  sock->async_read_some(
+      asio::buffer(space.data(), space.size()), [this, gen](const boost::system::error_code& ec, size_t n) {
+        if (gen != generation) return;
+        if (ec) {
+          cut(ec == asio::error::eof ? "the server closed the connection" : "connection lost: " + ec.message());
+          return;
+        }
+        // Bytes that waited while this thread stalled are old: dropped, resumed.
+        if (resync_if_stalled()) return;
+        stats.bytes_in += n;
+        reader.commit(n);
+        for (;;) {
+          std::span<const uint8_t> p;
+          const Reject e = reader.next(p);
+          if (e != Reject::ok) {
+            stats.rejected++;
+            const std::string why = std::string("bad stream from server: ") + reject_name(e);
+            if (handshake_done)
+              cut(why);
+            else
+              end(Errc::parse_error, why);
+            return;
+          }
+          if (p.empty()) break;
+          on_packet(p);
+          if (gen != generation) return;
+        }
+        read();
+      });
 }
 
 void Client::Impl::on_welcome(const Welcome& w) {
@@ -176,14 +180,14 @@ void Client::Impl::on_welcome(const Welcome& w) {
 
 void Client::Impl::on_reject(const RejectMsg& r) {
   // The message is the server's text: shown escaped, it cannot drive the terminal.
-  const std::string why = std::string("server refused the session: ") + reject_name(r.reason) + " (" +
-                          printable(r.message) + ")";
+  const std::string why =
+      std::string("server refused the session: ") + reject_name(r.reason) + " (" + printable(r.message) + ")";
   // Refusals that another try cannot change end the session: a bad secret, no common version,
   // a mesh LOD the server does not serve, and for a publisher what it sent (it would send it
   // again). Any other REJECT of a session we
   // had (the idle timeout after a stall, a full server while it restarts) is a cut like any other.
-  const bool transient = r.reason == Reject::timeout || r.reason == Reject::server_full ||
-                         r.reason == Reject::too_many_sessions;
+  const bool transient =
+      r.reason == Reject::timeout || r.reason == Reject::server_full || r.reason == Reject::too_many_sessions;
   const bool final = r.reason == Reject::unauthorized || r.reason == Reject::unsupported_version ||
                      r.reason == Reject::unknown_version || r.reason == Reject::unavailable ||
                      (opt.role == Role::publisher && !transient);
@@ -215,8 +219,10 @@ void Client::Impl::on_packet(std::span<const uint8_t> p) {
     }
     case MsgType::bye:
       // A server that stops says goodbye; one that starts again takes us back.
-      if (handshake_done && opt.reconnect) cut("the server said goodbye");
-      else end(Errc::disconnected, "server said goodbye");
+      if (handshake_done && opt.reconnect)
+        cut("the server said goodbye");
+      else
+        end(Errc::disconnected, "server said goodbye");
       return;
     case MsgType::avatar_model: {
       AvatarModel m;
@@ -248,7 +254,8 @@ void Client::Impl::on_packet(std::span<const uint8_t> p) {
       std::vector<SceneEntry> scene;
       if (decode_scene(p, scene) != Reject::ok) break;
       for (auto it = avatars.begin(); it != avatars.end();) {
-        const bool listed = std::any_of(scene.begin(), scene.end(), [&](const SceneEntry& e) { return e.avatar == it->first; });
+        const bool listed =
+            std::any_of(scene.begin(), scene.end(), [&](const SceneEntry& e) { return e.avatar == it->first; });
         if (listed) {
           ++it;
           continue;

@@ -70,11 +70,11 @@ struct Client::Impl {
   PacketReader reader{kMaxPacketBytes};
   bool connected = false;
   bool handshake_done = false;
-  std::optional<Error> fatal;   // the session is over for good
-  bool dropped = false;         // connection lost; may resume
+  std::optional<Error> fatal;  // the session is over for good
+  bool dropped = false;        // connection lost; may resume
   SessionToken token;
   uint32_t caps = 0;
-  uint64_t generation = 0;      // handlers of an old socket ignore themselves
+  uint64_t generation = 0;  // handlers of an old socket ignore themselves
   ClientStats stats;
   std::map<uint16_t, RemoteAvatar> avatars;
   std::array<client_detail::PublishedAvatar, client_detail::kMaxSlots> published;

@@ -180,7 +180,8 @@ void Client::Impl::udp_receive() {
         on_pose(rest.first(kHeaderBytes + ph.payload_bytes), now, true);
         at += kHeaderBytes + ph.payload_bytes;
       }
-    } else if (h.type == MsgType::udp_register && decode_udp_register(d, echoed) == Reject::ok && echoed.token == token) {
+    } else if (h.type == MsgType::udp_register && decode_udp_register(d, echoed) == Reject::ok &&
+               echoed.token == token) {
       if (echoed.nonce != 0 && echoed.nonce == udp_nonce) {
         udp_ready = true;  // the server has seen us echo its nonce from this address
       } else {
@@ -197,7 +198,6 @@ void Client::Impl::udp_receive() {
     udp_receive();
   });
 }
-
 
 void Client::Impl::cut(std::string why) {
   const bool was_up = handshake_done && !fatal;
@@ -282,8 +282,11 @@ void Client::Impl::carry_over(RemoteAvatar& a) {
   if (departed.empty()) return;
   std::erase_if(departed, [now = Clock::now()](const DepartedAvatar& o) { return now - o.left > kDepartedFor; });
   const size_t hash = std::hash<std::string>{}(a.model_bytes);
-  auto same = [&](const DepartedAvatar& d) { return d.name == a.name && d.dof_count == a.dof_count && d.model_hash == hash; };
-  auto pick = std::find_if(departed.begin(), departed.end(), [&](const DepartedAvatar& d) { return same(d) && d.id == a.id; });
+  auto same = [&](const DepartedAvatar& d) {
+    return d.name == a.name && d.dof_count == a.dof_count && d.model_hash == hash;
+  };
+  auto pick =
+      std::find_if(departed.begin(), departed.end(), [&](const DepartedAvatar& d) { return same(d) && d.id == a.id; });
   if (pick == departed.end() && std::count_if(departed.begin(), departed.end(), same) == 1)
     pick = std::find_if(departed.begin(), departed.end(), same);
   if (pick == departed.end()) return;

@@ -62,9 +62,8 @@ Result<std::unique_ptr<Server>> Server::create(const ServerOptions& options) {
     if (!uec) impl->udp_local = impl->udp_sock.local_endpoint(uec);
     if (uec) impl->udp_sock.close(uec);
   }
-  impl->fanout_threads = options.fanout_threads > 0
-                             ? options.fanout_threads
-                             : int(std::clamp(std::thread::hardware_concurrency(), 1u, 4u));
+  impl->fanout_threads = options.fanout_threads > 0 ? options.fanout_threads
+                                                    : int(std::clamp(std::thread::hardware_concurrency(), 1u, 4u));
   // Each session holds a descriptor and the process needs others (listeners, logs, the broker,
   // devices): sessions stop short of the descriptor limit, so accept() keeps working and a
   // client over it is told "server full" instead of the accept loop failing with EMFILE.
@@ -105,7 +104,8 @@ Status Server::update_avatar_model(uint16_t avatar, uint16_t dof_count, std::str
   m.dof_count = dof_count;
   m.model_bytes = std::move(model_bytes);
   m.name = a->name;
-  if (!impl_->model_fits(avatar_model_packet_bytes(m), a)) return fail(Errc::out_of_range, "the server's models would pass its memory bound");
+  if (!impl_->model_fits(avatar_model_packet_bytes(m), a))
+    return fail(Errc::out_of_range, "the server's models would pass its memory bound");
   impl_->update_model(*a, m);
   return {};
 }

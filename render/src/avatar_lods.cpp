@@ -13,15 +13,16 @@ int choose_lod(float distance_m, float height_m, float fov_y_rad, int viewport_h
   return std::clamp(avatar::choose_lod_at_distance(distance_m, current, view), 0, kLodCount - 1);
 }
 
-Result<AvatarLods> AvatarLods::create(const avatar::BodyModel& model, const rig::Skeleton* skeleton,
-                                      Renderer& renderer, avatar::SkinMethod method) {
+Result<AvatarLods> AvatarLods::create(const avatar::BodyModel& model, const rig::Skeleton* skeleton, Renderer& renderer,
+                                      avatar::SkinMethod method) {
   AvatarLods lods;
   lods.model_ = model;
   lods.method_ = method;
   for (int lod = 0; lod < kLodCount; ++lod) {
     avatar::SkinOptions options;  // B-spline smoothing, one sample per span
     const avatar::BodyModel at_lod = avatar::with_skin_lod(model, lod);
-    auto skin = skeleton ? avatar::ImplicitSkin::create(at_lod, *skeleton, options) : avatar::ImplicitSkin::create(at_lod, options);
+    auto skin = skeleton ? avatar::ImplicitSkin::create(at_lod, *skeleton, options)
+                         : avatar::ImplicitSkin::create(at_lod, options);
     if (!skin) return tl::unexpected(skin.error());
     skin->evaluate(skin->skeleton().rest_pose());
     if (method == avatar::SkinMethod::realtime) {

@@ -31,7 +31,8 @@ glm::mat4 Camera::view_from_world() const {
 }
 
 glm::mat4 Camera::clip_from_view(float aspect) const {
-  return glm::perspective(first_person_eye ? first_person_fov_y_rad : fov_y_rad, std::max(aspect, 1e-3f), near_m, far_m);
+  return glm::perspective(first_person_eye ? first_person_fov_y_rad : fov_y_rad, std::max(aspect, 1e-3f), near_m,
+                          far_m);
 }
 
 void Camera::orbit(float dyaw_rad, float dpitch_rad) {
@@ -103,7 +104,7 @@ void fit_box(Camera& camera, const glm::vec3& lo, const glm::vec3& hi, float asp
   const float t = std::tan(0.5f * camera.fov_y_rad);
   // NDC half-extents the box may take: the free band's half width, the full height.
   const float band_half = kMargin * (free_x1 - free_x0);  // NDC spans 2 over the width
-  const float band_centre = (free_x0 + free_x1) - 1.0f;    // in NDC
+  const float band_centre = (free_x0 + free_x1) - 1.0f;   // in NDC
   const glm::vec3 corners[8] = {{lo.x, lo.y, lo.z}, {hi.x, lo.y, lo.z}, {lo.x, hi.y, lo.z}, {hi.x, hi.y, lo.z},
                                 {lo.x, lo.y, hi.z}, {hi.x, lo.y, hi.z}, {lo.x, hi.y, hi.z}, {hi.x, hi.y, hi.z}};
   // The smallest distance (bisection) at which every corner projects inside the band's width

@@ -15,8 +15,8 @@ namespace mimic::render {
 struct OffscreenContext::Impl {
   EGLDisplay display = EGL_NO_DISPLAY;
   EGLContext context = EGL_NO_CONTEXT;
-  GLuint fbo = 0, color = 0, depth = 0;          // the (multisampled) frame drawn into
-  GLuint resolve_fbo = 0, resolve_color = 0;     // single-sampled copy that is read back
+  GLuint fbo = 0, color = 0, depth = 0;       // the (multisampled) frame drawn into
+  GLuint resolve_fbo = 0, resolve_color = 0;  // single-sampled copy that is read back
   int width = 0, height = 0, samples = 0;
   std::string description;
 
@@ -71,15 +71,16 @@ Result<OffscreenContext> OffscreenContext::create(int width, int height, int sam
   impl->height = height;
   impl->samples = samples > 1 ? samples : 0;
   impl->display = open_display();
-  if (impl->display == EGL_NO_DISPLAY) return fail(Errc::unsupported, egl_error("EGL display (surfaceless or default)"));
+  if (impl->display == EGL_NO_DISPLAY)
+    return fail(Errc::unsupported, egl_error("EGL display (surfaceless or default)"));
   if (!eglBindAPI(EGL_OPENGL_API)) return fail(Errc::unsupported, egl_error("eglBindAPI(OpenGL)"));
   const EGLint config_attribs[] = {EGL_RENDERABLE_TYPE, EGL_OPENGL_BIT, EGL_NONE};
   EGLConfig config = nullptr;
   EGLint configs = 0;
   eglChooseConfig(impl->display, config_attribs, &config, 1, &configs);
-  const EGLint context_attribs[] = {EGL_CONTEXT_MAJOR_VERSION, 3, EGL_CONTEXT_MINOR_VERSION, 3,
-                                    EGL_CONTEXT_OPENGL_PROFILE_MASK, EGL_CONTEXT_OPENGL_CORE_PROFILE_BIT,
-                                    EGL_NONE};
+  const EGLint context_attribs[] = {
+      EGL_CONTEXT_MAJOR_VERSION,           3,       EGL_CONTEXT_MINOR_VERSION, 3, EGL_CONTEXT_OPENGL_PROFILE_MASK,
+      EGL_CONTEXT_OPENGL_CORE_PROFILE_BIT, EGL_NONE};
   // With no config (surfaceless), EGL_KHR_no_config_context lets the context exist anyway.
   impl->context = eglCreateContext(impl->display, configs > 0 ? config : EGLConfig{}, EGL_NO_CONTEXT, context_attribs);
   if (impl->context == EGL_NO_CONTEXT) return fail(Errc::unsupported, egl_error("eglCreateContext(OpenGL 3.3 core)"));
@@ -154,7 +155,8 @@ Image OffscreenContext::read() {
   // GL's row 0 is the bottom one.
   const size_t row = static_cast<size_t>(w) * 4;
   for (int y = 0; y < h; ++y)
-    std::copy_n(flipped.data() + static_cast<size_t>(h - 1 - y) * row, row, image.rgba.data() + static_cast<size_t>(y) * row);
+    std::copy_n(flipped.data() + static_cast<size_t>(h - 1 - y) * row, row,
+                image.rgba.data() + static_cast<size_t>(y) * row);
   bind();
   return image;
 }

@@ -19,13 +19,20 @@ bool parse_overlays(std::string_view list, unsigned& mask) {
   while (!list.empty()) {
     const size_t comma = list.find(',');
     const std::string_view name = list.substr(0, comma);
-    if (name == "skeleton") mask |= kOverlaySkeleton;
-    else if (name == "primitives") mask |= kOverlayPrimitives;
-    else if (name == "contours") mask |= kOverlayContours;
-    else if (name == "rays") mask |= kOverlayRays;
-    else if (name == "sensors") mask |= kOverlaySensors;
-    else if (name == "all") mask |= 0x1f;
-    else if (name != "none" && !name.empty()) return false;
+    if (name == "skeleton")
+      mask |= kOverlaySkeleton;
+    else if (name == "primitives")
+      mask |= kOverlayPrimitives;
+    else if (name == "contours")
+      mask |= kOverlayContours;
+    else if (name == "rays")
+      mask |= kOverlayRays;
+    else if (name == "sensors")
+      mask |= kOverlaySensors;
+    else if (name == "all")
+      mask |= 0x1f;
+    else if (name != "none" && !name.empty())
+      return false;
     if (comma == std::string_view::npos) break;
     list.remove_prefix(comma + 1);
   }
@@ -43,7 +50,8 @@ void append_skeleton(const rig::Skeleton& skeleton, const rig::Pose& pose, const
     if (parent >= 0) out.add(to_world(world_from_body, world_from_joint[parent].translation), p, bone);
     // End links have a tip beyond their joint (head top, finger tips, toes).
     if (glm::length(skeleton.tip_m(j)) > 1e-4f)
-      out.add(p, to_world(world_from_body, world_from_joint[j].apply(skeleton.tip_m(j))), bone * glm::vec4(1, 1, 1, 0.6f));
+      out.add(p, to_world(world_from_body, world_from_joint[j].apply(skeleton.tip_m(j))),
+              bone * glm::vec4(1, 1, 1, 0.6f));
     const float s = 0.012f;
     out.add(p - glm::vec3(s, 0, 0), p + glm::vec3(s, 0, 0), joint);
     out.add(p - glm::vec3(0, s, 0), p + glm::vec3(0, s, 0), joint);

@@ -116,15 +116,24 @@ glm::vec3 part_color(std::string_view name) {
   const float shade = left ? 1.08f : 0.94f;
   auto has = [&](const char* s) { return name.find(s) != std::string_view::npos; };
   glm::vec3 c{0.7f, 0.7f, 0.7f};
-  if (has("head") || has("neck") || has("hand")) c = {0.87f, 0.69f, 0.58f};
-  else if (has("upper_torso")) c = {0.30f, 0.50f, 0.72f};
-  else if (has("lower_torso")) c = {0.26f, 0.42f, 0.62f};
-  else if (has("torso")) c = {0.30f, 0.48f, 0.70f};
-  else if (has("upper_arm")) c = {0.36f, 0.57f, 0.78f};
-  else if (has("lower_arm") || has("forearm")) c = {0.86f, 0.67f, 0.56f};
-  else if (has("upper_leg") || has("thigh")) c = {0.34f, 0.34f, 0.40f};
-  else if (has("lower_leg") || has("shin")) c = {0.40f, 0.40f, 0.47f};
-  else if (has("foot")) c = {0.22f, 0.18f, 0.16f};
+  if (has("head") || has("neck") || has("hand"))
+    c = {0.87f, 0.69f, 0.58f};
+  else if (has("upper_torso"))
+    c = {0.30f, 0.50f, 0.72f};
+  else if (has("lower_torso"))
+    c = {0.26f, 0.42f, 0.62f};
+  else if (has("torso"))
+    c = {0.30f, 0.48f, 0.70f};
+  else if (has("upper_arm"))
+    c = {0.36f, 0.57f, 0.78f};
+  else if (has("lower_arm") || has("forearm"))
+    c = {0.86f, 0.67f, 0.56f};
+  else if (has("upper_leg") || has("thigh"))
+    c = {0.34f, 0.34f, 0.40f};
+  else if (has("lower_leg") || has("shin"))
+    c = {0.40f, 0.40f, 0.47f};
+  else if (has("foot"))
+    c = {0.22f, 0.18f, 0.16f};
   return glm::min(c * shade, glm::vec3(1.0f));
 }
 
@@ -202,12 +211,13 @@ struct Renderer::Impl {
     glBindBuffer(GL_ARRAY_BUFFER, line_vbo);
     if (n > line_capacity) {
       line_capacity = std::max(n, 2 * line_capacity);
-      glBufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(line_capacity * sizeof(LineVertex)), nullptr, GL_STREAM_DRAW);
+      glBufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(line_capacity * sizeof(LineVertex)), nullptr,
+                   GL_STREAM_DRAW);
     }
-    if (!a.empty())
-      glBufferSubData(GL_ARRAY_BUFFER, 0, static_cast<GLsizeiptr>(a.size_bytes()), a.data());
+    if (!a.empty()) glBufferSubData(GL_ARRAY_BUFFER, 0, static_cast<GLsizeiptr>(a.size_bytes()), a.data());
     if (!b.empty())
-      glBufferSubData(GL_ARRAY_BUFFER, static_cast<GLintptr>(a.size_bytes()), static_cast<GLsizeiptr>(b.size_bytes()), b.data());
+      glBufferSubData(GL_ARRAY_BUFFER, static_cast<GLintptr>(a.size_bytes()), static_cast<GLsizeiptr>(b.size_bytes()),
+                      b.data());
   }
 
   void draw_meshes(const FrameDesc& frame, const glm::mat4& clip, const glm::mat4& view, bool transparent) {
@@ -250,7 +260,8 @@ Result<Renderer> Renderer::create() {
   glGenBuffers(1, &impl->line_vbo);
   glBindBuffer(GL_ARRAY_BUFFER, impl->line_vbo);
   impl->line_capacity = 1 << 16;
-  glBufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(impl->line_capacity * sizeof(LineVertex)), nullptr, GL_STREAM_DRAW);
+  glBufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(impl->line_capacity * sizeof(LineVertex)), nullptr,
+               GL_STREAM_DRAW);
   Impl::line_layout();
   glBindVertexArray(0);
   impl->build_grid();
@@ -272,7 +283,8 @@ MeshId Renderer::add_mesh(const avatar::Mesh& mesh) {
   glBindVertexArray(m.vao);
   glGenBuffers(1, &m.positions);
   glBindBuffer(GL_ARRAY_BUFFER, m.positions);
-  glBufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(m.vertex_count * sizeof(glm::vec3)), mesh.positions.data(), GL_DYNAMIC_DRAW);
+  glBufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(m.vertex_count * sizeof(glm::vec3)), mesh.positions.data(),
+               GL_DYNAMIC_DRAW);
   glEnableVertexAttribArray(0);
   glVertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, sizeof(glm::vec3), nullptr);
   glGenBuffers(1, &m.normals);
@@ -283,7 +295,8 @@ MeshId Renderer::add_mesh(const avatar::Mesh& mesh) {
   glVertexAttribPointer(1, 3, GL_FLOAT, GL_FALSE, sizeof(glm::vec3), nullptr);
   glGenBuffers(1, &m.indices);
   glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, m.indices);
-  glBufferData(GL_ELEMENT_ARRAY_BUFFER, static_cast<GLsizeiptr>(mesh.indices.size() * sizeof(uint32_t)), mesh.indices.data(), GL_STATIC_DRAW);
+  glBufferData(GL_ELEMENT_ARRAY_BUFFER, static_cast<GLsizeiptr>(mesh.indices.size() * sizeof(uint32_t)),
+               mesh.indices.data(), GL_STATIC_DRAW);
   glBindVertexArray(0);
   glBindBuffer(GL_ARRAY_BUFFER, 0);
   glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, 0);
@@ -302,11 +315,13 @@ void Renderer::update_mesh(MeshId id, const avatar::Mesh& mesh) {
   Impl::GpuMesh& m = impl_->meshes[id.index];
   if (mesh.positions.size() != m.vertex_count) return;  // another topology: add_mesh() it
   glBindBuffer(GL_ARRAY_BUFFER, m.positions);
-  glBufferSubData(GL_ARRAY_BUFFER, 0, static_cast<GLsizeiptr>(m.vertex_count * sizeof(glm::vec3)), mesh.positions.data());
+  glBufferSubData(GL_ARRAY_BUFFER, 0, static_cast<GLsizeiptr>(m.vertex_count * sizeof(glm::vec3)),
+                  mesh.positions.data());
   m.has_normals = mesh.normals.size() == m.vertex_count;
   if (m.has_normals) {
     glBindBuffer(GL_ARRAY_BUFFER, m.normals);
-    glBufferSubData(GL_ARRAY_BUFFER, 0, static_cast<GLsizeiptr>(m.vertex_count * sizeof(glm::vec3)), mesh.normals.data());
+    glBufferSubData(GL_ARRAY_BUFFER, 0, static_cast<GLsizeiptr>(m.vertex_count * sizeof(glm::vec3)),
+                    mesh.normals.data());
   }
   glBindBuffer(GL_ARRAY_BUFFER, 0);
 }
@@ -317,7 +332,8 @@ size_t Renderer::triangle_count(MeshId id) const {
 
 void Renderer::render(const FrameDesc& frame) {
   Impl& r = *impl_;
-  const float aspect = frame.height_px > 0 ? static_cast<float>(frame.width_px) / static_cast<float>(frame.height_px) : 1.0f;
+  const float aspect =
+      frame.height_px > 0 ? static_cast<float>(frame.width_px) / static_cast<float>(frame.height_px) : 1.0f;
   const glm::mat4 view = frame.camera.view_from_world();
   const glm::mat4 clip = frame.camera.clip_from_view(aspect) * view;
 

@@ -71,7 +71,8 @@ Result<Window> Window::open(const std::string& title, int width, int height, boo
   if (!impl->window) {
     const char* description = nullptr;
     glfwGetError(&description);
-    return fail(Errc::unsupported, std::string("cannot open an OpenGL 3.3 window: ") + (description ? description : "?"));
+    return fail(Errc::unsupported,
+                std::string("cannot open an OpenGL 3.3 window: ") + (description ? description : "?"));
   }
   glfwMakeContextCurrent(impl->window);
   glfwSwapInterval(vsync ? 1 : 0);

@@ -143,20 +143,20 @@ class Parser {
   Status read_numbers(const Token& keyword, int count, double* out) {
     for (int k = 0; k < count; ++k) {
       if (at_end() || tokens_[cursor_].line != keyword.line)
-        return error(keyword.line, "expected " + std::to_string(count) + " numbers after " +
-                                       std::string(keyword.text) + ", got " + std::to_string(k));
+        return error(keyword.line, "expected " + std::to_string(count) + " numbers after " + std::string(keyword.text) +
+                                       ", got " + std::to_string(k));
       const Token& t = tokens_[cursor_++];
       const NumberStatus s = parse_number(t.text, out[k]);
       if (s == NumberStatus::non_finite)
         return error(t.line, "non-finite number " + quoted(t.text) + " after " + std::string(keyword.text));
       if (s != NumberStatus::ok)
-        return error(t.line, "expected " + std::to_string(count) + " numbers after " +
-                                 std::string(keyword.text) + ", got " + quoted(t.text));
+        return error(t.line, "expected " + std::to_string(count) + " numbers after " + std::string(keyword.text) +
+                                 ", got " + quoted(t.text));
     }
     if (!at_end() && tokens_[cursor_].line == keyword.line && tokens_[cursor_].text != "{" &&
         tokens_[cursor_].text != "}")
-      return error(keyword.line, "unexpected " + quoted(tokens_[cursor_].text) + " after " +
-                                     std::to_string(count) + " numbers of " + std::string(keyword.text));
+      return error(keyword.line, "unexpected " + quoted(tokens_[cursor_].text) + " after " + std::to_string(count) +
+                                     " numbers of " + std::string(keyword.text));
     return {};
   }
 
@@ -180,8 +180,8 @@ class Parser {
     joint.channels.clear();
     for (int k = 0; k < count; ++k) {
       if (at_end() || tokens_[cursor_].line != keyword.line)
-        return error(keyword.line, "CHANNELS " + std::to_string(count) + " lists only " + std::to_string(k) +
-                                       " channel names");
+        return error(keyword.line,
+                     "CHANNELS " + std::to_string(count) + " lists only " + std::to_string(k) + " channel names");
       const Token& t = tokens_[cursor_++];
       const auto c = channel_from_name(t.text);
       if (!c) return error(t.line, "unknown channel " + quoted(t.text) + " (expected X/Y/Zposition or X/Y/Zrotation)");
@@ -191,8 +191,8 @@ class Parser {
     }
     if (!at_end() && tokens_[cursor_].line == keyword.line && tokens_[cursor_].text != "{" &&
         tokens_[cursor_].text != "}")
-      return error(keyword.line, "CHANNELS " + std::to_string(count) + " is followed by extra " +
-                                     quoted(tokens_[cursor_].text));
+      return error(keyword.line,
+                   "CHANNELS " + std::to_string(count) + " is followed by extra " + quoted(tokens_[cursor_].text));
     return {};
   }
 
@@ -209,7 +209,7 @@ class Parser {
   }
 
   struct Open {
-    int joint;       // -1 for an End Site
+    int joint;  // -1 for an End Site
     int open_line;
     bool has_offset = false;
     bool has_channels = false;
@@ -232,8 +232,9 @@ class Parser {
     bool root_done = false;
     while (!at_end()) {
       const Token t = tokens_[cursor_++];
-      if (root_done) return error(t.line, "unexpected " + quoted(t.text) + " after the root joint closed" +
-                                              (iequals(t.text, "ROOT") ? " (only one ROOT is supported)" : ""));
+      if (root_done)
+        return error(t.line, "unexpected " + quoted(t.text) + " after the root joint closed" +
+                                 (iequals(t.text, "ROOT") ? " (only one ROOT is supported)" : ""));
       const bool is_root = iequals(t.text, "ROOT");
       if (is_root || iequals(t.text, "JOINT")) {
         if (is_root != stack.empty())
@@ -253,8 +254,7 @@ class Parser {
       if (iequals(t.text, "End")) {
         if (stack.empty()) return error(t.line, "End Site outside the ROOT");
         if (stack.back().joint < 0) return error(t.line, "End Site inside an End Site");
-        if (at_end() || !iequals(tokens_[cursor_].text, "Site"))
-          return error(t.line, "expected 'Site' after 'End'");
+        if (at_end() || !iequals(tokens_[cursor_].text, "Site")) return error(t.line, "expected 'Site' after 'End'");
         ++cursor_;
         if (auto s = expect_open_brace("End Site", t.line); !s) return s;
         stack.push_back({-1, t.line});
@@ -280,7 +280,8 @@ class Parser {
         if (auto s = parse_channels(t, clip_.joints[open.joint]); !s) return s;
         open.has_channels = true;
       } else if (t.text == "}") {
-        if (!open.has_offset) return error(t.line, owner + " (opened at line " + std::to_string(open.open_line) + ") has no OFFSET");
+        if (!open.has_offset)
+          return error(t.line, owner + " (opened at line " + std::to_string(open.open_line) + ") has no OFFSET");
         if (open.joint >= 0 && !open.has_channels)
           return error(t.line, owner + " (opened at line " + std::to_string(open.open_line) + ") has no CHANNELS");
         stack.pop_back();
@@ -336,7 +337,8 @@ class Parser {
         while (!value.empty() && is_space(value.front())) value.remove_prefix(1);
         while (!value.empty() && is_space(value.back())) value.remove_suffix(1);
         const NumberStatus s = parse_number(value, out);
-        if (s == NumberStatus::non_finite) return error(line_, "non-finite number " + quoted(value) + " after " + std::string(label) + ":");
+        if (s == NumberStatus::non_finite)
+          return error(line_, "non-finite number " + quoted(value) + " after " + std::string(label) + ":");
         if (s != NumberStatus::ok)
           return error(line_, "expected a number after '" + std::string(label) + ":', got " + quoted(value));
         return {};
@@ -400,15 +402,14 @@ class Parser {
         while (p < end && is_space(*p)) ++p;
       }
       if (n < cols)
-        return error(line_, "frame " + std::to_string(read) + " has too few values: " + std::to_string(n) +
-                                " of the " + std::to_string(cols) + " channels of the hierarchy");
+        return error(line_, "frame " + std::to_string(read) + " has too few values: " + std::to_string(n) + " of the " +
+                                std::to_string(cols) + " channels of the hierarchy");
       ++read;
       last_frame_line = line_;
     }
     if (read != declared)
-      return error(frames_line, "'Frames: " + std::to_string(declared) + "' but the file has " +
-                                    std::to_string(read) + " frame lines (last at line " +
-                                    std::to_string(last_frame_line) + ")");
+      return error(frames_line, "'Frames: " + std::to_string(declared) + "' but the file has " + std::to_string(read) +
+                                    " frame lines (last at line " + std::to_string(last_frame_line) + ")");
     clip_.frame_count = static_cast<int>(read);
     return {};
   }

@@ -92,8 +92,8 @@ glm::dquat rotation_from_dofs(std::span<const glm::dvec3> axes, std::span<const 
   return r;
 }
 
-void dofs_from_rotation(std::span<const glm::dvec3> axes, const glm::dquat& target_in,
-                        std::span<const double> previous, std::span<double> out) {
+void dofs_from_rotation(std::span<const glm::dvec3> axes, const glm::dquat& target_in, std::span<const double> previous,
+                        std::span<double> out) {
   const size_t n = axes.size();
   assert(n >= 1 && n <= kMaxJointDofs && previous.size() == n && out.size() == n);
   const glm::dquat target = glm::normalize(target_in);

@@ -167,7 +167,8 @@ class ProceduralMotion : public Motion {
     if (shoulder < 0 || target < 0 || skeleton_.dof_end(shoulder) - skeleton_.dof_begin(shoulder) != 3) return;
     std::array<glm::dvec3, 3> axes;
     for (int k = 0; k < 3; ++k) axes[k] = glm::dvec3(skeleton_.dof(skeleton_.dof_begin(shoulder) + k).axis);
-    const glm::dquat q = glm::angleAxis(-swing_rad, glm::dvec3(1, 0, 0)) * glm::angleAxis(abduction_rad, glm::dvec3(0, 0, 1));
+    const glm::dquat q =
+        glm::angleAxis(-swing_rad, glm::dvec3(1, 0, 0)) * glm::angleAxis(abduction_rad, glm::dvec3(0, 0, 1));
     // A fixed reference keeps the answer a pure function of time, on the hanging-arm branch.
     const double reference[3] = {0.0, abduction_rad, 0.0};
     double out[3];
@@ -245,7 +246,8 @@ class IdleMotion final : public ProceduralMotion {
     set(p, kHeadLateralBend, rad(2.0) * std::sin(w12 + 2.0));
     // Arms hang about 75° below the T-pose with a slight elbow bend, drifting with the sway.
     arm(p, 0, rad(4.0) + rad(2.0) * std::sin(w12), rad(-75.0) + rad(1.0) * breath, rad(14.0) + rad(3.0) * std::sin(w6));
-    arm(p, 1, rad(4.0) - rad(2.0) * std::sin(w12), rad(-75.0) + rad(1.0) * breath, rad(14.0) - rad(3.0) * std::sin(w6 + 0.5));
+    arm(p, 1, rad(4.0) - rad(2.0) * std::sin(w12), rad(-75.0) + rad(1.0) * breath,
+        rad(14.0) - rad(3.0) * std::sin(w6 + 0.5));
     set(p, kLWristFlexion, rad(5.0));
     set(p, kRWristFlexion, rad(5.0));
   }
@@ -305,9 +307,9 @@ class WalkMotion final : public ProceduralMotion {
  private:
   static constexpr double kRadius_m = 1.2;
   static constexpr double kGaitPeriod_s = 1.1;
-  static constexpr double kStance = 0.6;       // fraction of the cycle a foot is down
-  static constexpr double kHeelStrike = 12.0;  // foot pitch at heel strike, degrees toes-up
-  static constexpr double kToeOff = -38.0;     // at toe-off, heel up
+  static constexpr double kStance = 0.6;         // fraction of the cycle a foot is down
+  static constexpr double kHeelStrike = 12.0;    // foot pitch at heel strike, degrees toes-up
+  static constexpr double kToeOff = -38.0;       // at toe-off, heel up
   static constexpr double kStepWidth_m = 0.085;  // footprint centre from the path
 
   struct Leg {
@@ -316,9 +318,9 @@ class WalkMotion final : public ProceduralMotion {
     double phase_offset = 0;
   };
   struct FootState {
-    glm::dvec3 ankle;   // world
+    glm::dvec3 ankle;     // world
     glm::dquat rotation;  // foot (ankle frame) world rotation
-    double toes_rad;    // toe flexion keeping the toes flat
+    double toes_rad;      // toe flexion keeping the toes flat
   };
 
   static double smooth(double u) {
@@ -380,7 +382,8 @@ class WalkMotion final : public ProceduralMotion {
   }
 
   // Highest root height at which a leg still reaches its ankle target.
-  double reach_bound(const glm::dquat& root_rot, const glm::dvec3& root_xz, const Leg& leg, const glm::dvec3& ankle) const {
+  double reach_bound(const glm::dquat& root_rot, const glm::dvec3& root_xz, const Leg& leg,
+                     const glm::dvec3& ankle) const {
     const glm::dvec3 hip_offset(leg.side * hip_offset_.x, hip_offset_.y, hip_offset_.z);
     const glm::dvec3 hip0 = root_xz + root_rot * hip_offset;  // root at height 0
     const glm::dvec3 d = ankle - hip0;
@@ -437,10 +440,11 @@ class WalkMotion final : public ProceduralMotion {
     const glm::dquat heading = glm::angleAxis(-psi, glm::dvec3(0, 1, 0));
     const double pelvis_yaw = rad(-4.0) * c;
     const double obliquity = rad(3.0) * sn;
-    const glm::dquat root_rot = glm::normalize(heading * glm::angleAxis(pelvis_yaw, glm::dvec3(0, 1, 0)) *
-                                               glm::angleAxis(obliquity, glm::dvec3(0, 0, 1)) *
-                                               glm::angleAxis(rad(3.0), glm::dvec3(1, 0, 0)));
-    const glm::dvec3 root_xz = kRadius_m * glm::dvec3(std::cos(psi), 0, std::sin(psi)) + heading * glm::dvec3(0.02 * sn, 0, 0);
+    const glm::dquat root_rot =
+        glm::normalize(heading * glm::angleAxis(pelvis_yaw, glm::dvec3(0, 1, 0)) *
+                       glm::angleAxis(obliquity, glm::dvec3(0, 0, 1)) * glm::angleAxis(rad(3.0), glm::dvec3(1, 0, 0)));
+    const glm::dvec3 root_xz =
+        kRadius_m * glm::dvec3(std::cos(psi), 0, std::sin(psi)) + heading * glm::dvec3(0.02 * sn, 0, 0);
     const FootState fl = foot(legs_[0], t), fr = foot(legs_[1], t);
     // As high as standing allows and both legs reach (smooth minimum, never above either).
     auto smin = [](double x, double y, double k) { return -k * std::log(std::exp(-x / k) + std::exp(-y / k)); };
@@ -483,7 +487,8 @@ Result<std::unique_ptr<Motion>> make_builtin_motion(std::string_view name, const
   if (name == "idle") return std::unique_ptr<Motion>(std::make_unique<IdleMotion>(skeleton));
   if (name == "walk") {
     if (!WalkMotion::supports(skeleton))
-      return fail(Errc::invalid_argument, "walk needs Mimic's leg joints (l_/r_ hip, knee, ankle, toes; hips on the root)");
+      return fail(Errc::invalid_argument,
+                  "walk needs Mimic's leg joints (l_/r_ hip, knee, ankle, toes; hips on the root)");
     return std::unique_ptr<Motion>(std::make_unique<WalkMotion>(skeleton));
   }
   return fail(Errc::not_found, "unknown motion '" + std::string(name) + "' (built in: idle, walk)");

@@ -19,14 +19,18 @@ struct NamePair {
 };
 
 constexpr NamePair kCmuNames[] = {
-    {"pelvis", "Hips"},          {"spine_lower", "LowerBack"}, {"spine_mid", "Spine"},
-    {"spine_upper", "Spine1"},   {"neck", "Neck"},             {"neck_upper", "Neck1"},
-    {"head", "Head"},            {"l_clavicle", "LeftShoulder"}, {"l_shoulder", "LeftArm"},
-    {"l_elbow", "LeftForeArm"},  {"l_wrist", "LeftHand"},      {"l_hip", "LeftUpLeg"},
-    {"l_knee", "LeftLeg"},       {"l_ankle", "LeftFoot"},      {"l_toes", "LeftToeBase"},
-    {"r_clavicle", "RightShoulder"}, {"r_shoulder", "RightArm"}, {"r_elbow", "RightForeArm"},
-    {"r_wrist", "RightHand"},    {"r_hip", "RightUpLeg"},      {"r_knee", "RightLeg"},
-    {"r_ankle", "RightFoot"},    {"r_toes", "RightToeBase"},
+    {"pelvis", "Hips"},         {"spine_lower", "LowerBack"},
+    {"spine_mid", "Spine"},     {"spine_upper", "Spine1"},
+    {"neck", "Neck"},           {"neck_upper", "Neck1"},
+    {"head", "Head"},           {"l_clavicle", "LeftShoulder"},
+    {"l_shoulder", "LeftArm"},  {"l_elbow", "LeftForeArm"},
+    {"l_wrist", "LeftHand"},    {"l_hip", "LeftUpLeg"},
+    {"l_knee", "LeftLeg"},      {"l_ankle", "LeftFoot"},
+    {"l_toes", "LeftToeBase"},  {"r_clavicle", "RightShoulder"},
+    {"r_shoulder", "RightArm"}, {"r_elbow", "RightForeArm"},
+    {"r_wrist", "RightHand"},   {"r_hip", "RightUpLeg"},
+    {"r_knee", "RightLeg"},     {"r_ankle", "RightFoot"},
+    {"r_toes", "RightToeBase"},
 };
 
 // Two-bone chains: upper (3 DOFs), lower (hinge first, maybe a twist), end.
@@ -43,18 +47,20 @@ struct Plan {
   std::vector<glm::dquat> align;  // A_m
   bool t_pose = false;            // aligned on the frame-0 T-pose
   std::vector<Solve> kind;
-  std::vector<int> lower, end;    // for chain uppers
+  std::vector<int> lower, end;  // for chain uppers
 };
 
 bool orthogonal_triple(const Skeleton& s, int j) {
   if (s.dof_end(j) - s.dof_begin(j) != 3) return false;
-  const glm::vec3 a = s.dof(s.dof_begin(j)).axis, b = s.dof(s.dof_begin(j) + 1).axis, c = s.dof(s.dof_begin(j) + 2).axis;
+  const glm::vec3 a = s.dof(s.dof_begin(j)).axis, b = s.dof(s.dof_begin(j) + 1).axis,
+                  c = s.dof(s.dof_begin(j) + 2).axis;
   return std::abs(glm::dot(a, b)) < 1e-5f && std::abs(glm::dot(b, c)) < 1e-5f && std::abs(glm::dot(a, c)) < 1e-5f;
 }
 
 glm::dquat local_rotation_d(const Skeleton& s, int j, std::span<const float> dof_rad) {
   glm::dquat r(1, 0, 0, 0);
-  for (int i = s.dof_begin(j); i < s.dof_end(j); ++i) r = r * glm::angleAxis(double(dof_rad[i]), glm::dvec3(s.dof(i).axis));
+  for (int i = s.dof_begin(j); i < s.dof_end(j); ++i)
+    r = r * glm::angleAxis(double(dof_rad[i]), glm::dvec3(s.dof(i).axis));
   return r;
 }
 
@@ -99,7 +105,8 @@ Status map_joints(const BvhClip& clip, const Skeleton& t, Plan& plan) {
       want.clear();
       for (const auto& p : kCmuNames)
         if (t.joint_name(m) == p.mimic) want = p.cmu;
-      if (want.empty()) return fail(Errc::unsupported, "retarget: no CMU joint for Mimic joint '" + t.joint_name(m) + "'");
+      if (want.empty())
+        return fail(Errc::unsupported, "retarget: no CMU joint for Mimic joint '" + t.joint_name(m) + "'");
     }
     plan.bvh[m] = clip.find_joint(want);
     if (plan.bvh[m] < 0)
@@ -111,8 +118,9 @@ Status map_joints(const BvhClip& clip, const Skeleton& t, Plan& plan) {
     int a = clip.joints[plan.bvh[m]].parent;
     while (a >= 0 && a != plan.bvh[t.parent(m)]) a = clip.joints[a].parent;
     if (a < 0)
-      return fail(Errc::unsupported, clip.source_name + ": joint '" + clip.joints[plan.bvh[m]].name + "' is not below '" +
-                                         clip.joints[plan.bvh[t.parent(m)]].name + "' as the skeleton needs");
+      return fail(Errc::unsupported, clip.source_name + ": joint '" + clip.joints[plan.bvh[m]].name +
+                                         "' is not below '" + clip.joints[plan.bvh[t.parent(m)]].name +
+                                         "' as the skeleton needs");
   }
 
   return {};
@@ -128,10 +136,14 @@ void classify_joints(Plan& plan) {
   plan.end.assign(n, -1);
   for (int m = 0; m < n; ++m) {
     const int dofs = s.dof_end(m) - s.dof_begin(m);
-    if (m == 0) plan.kind[m] = Solve::root;
-    else if (dofs == 0) plan.kind[m] = Solve::none;
-    else if (orthogonal_triple(s, m)) plan.kind[m] = Solve::rotation;
-    else if (dofs <= 2 && glm::length(s.tip_m(m)) > 1e-6f) plan.kind[m] = Solve::aim;
+    if (m == 0)
+      plan.kind[m] = Solve::root;
+    else if (dofs == 0)
+      plan.kind[m] = Solve::none;
+    else if (orthogonal_triple(s, m))
+      plan.kind[m] = Solve::rotation;
+    else if (dofs <= 2 && glm::length(s.tip_m(m)) > 1e-6f)
+      plan.kind[m] = Solve::aim;
   }
   for (const auto& chain : kChains) {
     const int u = s.find_joint(chain[0]), l = s.find_joint(chain[1]), e = s.find_joint(chain[2]);
@@ -185,7 +197,8 @@ Result<Plan> make_plan(const BvhClip& clip) {
   };
   std::vector<int> main_child(n, -1);
   for (int c = 1; c < n; ++c)
-    if (glm::length(t.offset_m(c) - t.tip_m(t.parent(c))) < 1e-6f && main_child[t.parent(c)] < 0) main_child[t.parent(c)] = c;
+    if (glm::length(t.offset_m(c) - t.tip_m(t.parent(c))) < 1e-6f && main_child[t.parent(c)] < 0)
+      main_child[t.parent(c)] = c;
   // The clip's link vector for Mimic joint m (zero-length links defer to the next one).
   std::vector<glm::dvec3> link(n);
   for (int m = n - 1; m >= 0; --m) {  // children after parents, so walk backwards
@@ -283,11 +296,8 @@ void solve_frame(const Plan& plan, const BvhClip& clip, int frame, Scratch& sc, 
     switch (plan.kind[m]) {
       case Solve::root:
       case Solve::chain_member:
-      case Solve::none:
-        break;
-      case Solve::rotation:
-        solve_joint_dofs(s, m, parent_inv * target(m), dofs);
-        break;
+      case Solve::none: break;
+      case Solve::rotation: solve_joint_dofs(s, m, parent_inv * target(m), dofs); break;
       case Solve::aim: {
         const int begin = s.dof_begin(m), count = s.dof_end(m) - begin;
         std::array<glm::dvec3, 2> axes;

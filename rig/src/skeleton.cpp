@@ -22,9 +22,7 @@ glm::vec3 mirror_point(glm::vec3 p) { return {-p.x, p.y, p.z}; }
 // Adds a left joint and its mirror image on the right ("l_" -> "r_").
 void add_pair(SkeletonDesc& d, JointDesc left) {
   JointDesc right = left;
-  auto swap_side = [](const std::string& s) {
-    return s.rfind("l_", 0) == 0 ? "r_" + s.substr(2) : s;
-  };
+  auto swap_side = [](const std::string& s) { return s.rfind("l_", 0) == 0 ? "r_" + s.substr(2) : s; };
   right.name = swap_side(left.name);
   right.parent = swap_side(left.parent);
   right.offset_m = mirror_point(left.offset_m);
@@ -37,14 +35,12 @@ void add_pair(SkeletonDesc& d, JointDesc left) {
   d.joints.push_back(std::move(right));
 }
 
-JointDesc joint(std::string name, std::string parent, glm::vec3 offset, glm::vec3 tip,
-                std::vector<DofDesc> dofs) {
+JointDesc joint(std::string name, std::string parent, glm::vec3 offset, glm::vec3 tip, std::vector<DofDesc> dofs) {
   return JointDesc{std::move(name), std::move(parent), offset, tip, std::move(dofs)};
 }
 
 // Spine-like joint: flexion (forward), lateral bend (to the left), twist (turn left).
-std::vector<DofDesc> spine_dofs(const std::string& n, float flex, float ext, float bend,
-                                float twist) {
+std::vector<DofDesc> spine_dofs(const std::string& n, float flex, float ext, float bend, float twist) {
   return {dof(n + "_flexion", {1, 0, 0}, -ext, flex), dof(n + "_lateral_bend", {0, 0, -1}, -bend, bend),
           dof(n + "_twist", {0, 1, 0}, -twist, twist)};
 }
@@ -57,30 +53,27 @@ SkeletonDesc default_skeleton_desc() {
   SkeletonDesc d;
   const glm::vec3 X{1, 0, 0}, Y{0, 1, 0}, Z{0, 0, 1};
   d.joints.push_back(joint("pelvis", "", {0, 0, 0}, {0, 0.047f, 0}, {}));
-  d.joints.push_back(joint("spine_lower", "pelvis", {0, 0.047f, 0}, {0, 0.161f, 0.0f},
-                           spine_dofs("spine_lower", 45, 30, 25, 20)));
-  d.joints.push_back(joint("spine_mid", "spine_lower", {0, 0.161f, 0.0f}, {0, 0.153f, 0},
-                           spine_dofs("spine_mid", 35, 20, 20, 25)));
-  d.joints.push_back(joint("spine_upper", "spine_mid", {0, 0.153f, 0}, {0, 0.156f, 0},
-                           spine_dofs("spine_upper", 25, 20, 15, 20)));
-  d.joints.push_back(joint("neck", "spine_upper", {0, 0.156f, 0}, {0, 0.055f, 0},
-                           spine_dofs("neck", 40, 40, 30, 45)));
-  d.joints.push_back(joint("neck_upper", "neck", {0, 0.055f, 0}, {0, 0.054f, 0.0f},
-                           spine_dofs("neck_upper", 30, 40, 20, 45)));
-  d.joints.push_back(joint("head", "neck_upper", {0, 0.054f, 0.0f}, {0, 0.150f, 0.02f},
-                           spine_dofs("head", 30, 40, 20, 30)));
+  d.joints.push_back(
+      joint("spine_lower", "pelvis", {0, 0.047f, 0}, {0, 0.161f, 0.0f}, spine_dofs("spine_lower", 45, 30, 25, 20)));
+  d.joints.push_back(
+      joint("spine_mid", "spine_lower", {0, 0.161f, 0.0f}, {0, 0.153f, 0}, spine_dofs("spine_mid", 35, 20, 20, 25)));
+  d.joints.push_back(
+      joint("spine_upper", "spine_mid", {0, 0.153f, 0}, {0, 0.156f, 0}, spine_dofs("spine_upper", 25, 20, 15, 20)));
+  d.joints.push_back(joint("neck", "spine_upper", {0, 0.156f, 0}, {0, 0.055f, 0}, spine_dofs("neck", 40, 40, 30, 45)));
+  d.joints.push_back(
+      joint("neck_upper", "neck", {0, 0.055f, 0}, {0, 0.054f, 0.0f}, spine_dofs("neck_upper", 30, 40, 20, 45)));
+  d.joints.push_back(
+      joint("head", "neck_upper", {0, 0.054f, 0.0f}, {0, 0.150f, 0.02f}, spine_dofs("head", 30, 40, 20, 30)));
 
   // Legs (left; the right side mirrors). Thigh and shin hang along −Y, the foot points +Z.
   add_pair(d, joint("l_hip", "pelvis", {0.110f, -0.023f, 0}, {0, -0.418f, 0},
                     {dof("l_hip_flexion", -X, -30, 130), dof("l_hip_abduction", Z, -35, 70),
                      dof("l_hip_rotation", -Y, -50, 50)}));
-  add_pair(d, joint("l_knee", "l_hip", {0, -0.418f, 0}, {0, -0.376f, 0},
-                    {dof("l_knee_flexion", X, -5, 155)}));
+  add_pair(d, joint("l_knee", "l_hip", {0, -0.418f, 0}, {0, -0.376f, 0}, {dof("l_knee_flexion", X, -5, 155)}));
   add_pair(d, joint("l_ankle", "l_knee", {0, -0.376f, 0}, {0, -0.055f, 0.135f},
                     {dof("l_ankle_flexion", -X, -60, 40), dof("l_ankle_inversion", -Z, -30, 40),
                      dof("l_ankle_abduction", Y, -40, 40)}));
-  add_pair(d, joint("l_toes", "l_ankle", {0, -0.055f, 0.135f}, {0, 0, 0.065f},
-                    {dof("l_toes_flexion", X, -60, 50)}));
+  add_pair(d, joint("l_toes", "l_ankle", {0, -0.055f, 0.135f}, {0, 0, 0.065f}, {dof("l_toes_flexion", X, -60, 50)}));
 
   // Arms. Clavicles hang off the upper spine; upper arm, forearm and hand lie along +X.
   add_pair(d, joint("l_clavicle", "spine_upper", {0.020f, 0.090f, 0.040f}, {0.148f, 0, -0.040f},
@@ -107,7 +100,8 @@ Result<Skeleton> Skeleton::build(const SkeletonDesc& desc) {
     if (!by_name.emplace(j.name, i).second)
       return fail(Errc::invalid_argument, "duplicate joint name '" + j.name + "'");
     if (j.parent.empty()) {
-      if (root >= 0) return fail(Errc::invalid_argument, "two roots: '" + desc.joints[root].name + "' and '" + j.name + "'");
+      if (root >= 0)
+        return fail(Errc::invalid_argument, "two roots: '" + desc.joints[root].name + "' and '" + j.name + "'");
       root = i;
     }
   }
@@ -197,13 +191,11 @@ Pose Skeleton::zero_pose() const {
 
 glm::quat Skeleton::local_rotation(int j, std::span<const float> dof_rad) const {
   glm::quat r(1, 0, 0, 0);
-  for (int i = dof_begin_[j]; i < dof_begin_[j + 1]; ++i)
-    r = r * glm::angleAxis(dof_rad[i], dofs_[i].axis);
+  for (int i = dof_begin_[j]; i < dof_begin_[j + 1]; ++i) r = r * glm::angleAxis(dof_rad[i], dofs_[i].axis);
   return r;
 }
 
-void forward_kinematics(const Skeleton& skeleton, const Pose& pose,
-                        std::span<RigidTransform> world_from_joint) {
+void forward_kinematics(const Skeleton& skeleton, const Pose& pose, std::span<RigidTransform> world_from_joint) {
   const int n = skeleton.joint_count();
   const std::span<const float> dofs(pose.dof_rad);
   for (int j = 0; j < n; ++j) {

@@ -23,7 +23,10 @@ json dof_json(const DofDesc& d) {
 json joint_json(const JointDesc& jd) {
   json dofs = json::array();
   for (const auto& d : jd.dofs) dofs.push_back(dof_json(d));
-  return json{{"name", jd.name}, {"parent", jd.parent}, {"offset", json_vec3(jd.offset_m)}, {"tip", json_vec3(jd.tip_m)},
+  return json{{"name", jd.name},
+              {"parent", jd.parent},
+              {"offset", json_vec3(jd.offset_m)},
+              {"tip", json_vec3(jd.tip_m)},
               {"dofs", dofs}};
 }
 
@@ -51,10 +54,12 @@ JointDesc read_joint(const json& jj, const std::string& path, JsonReader& r, boo
   }
   mirror = false;
   if (const json* mj = r.member(jj, path, "mirror", false); mj) {
-    if (!mj->is_boolean()) r.fail_at(path + ".mirror", "expected true or false");
+    if (!mj->is_boolean())
+      r.fail_at(path + ".mirror", "expected true or false");
     else if (mj->get<bool>() && jd.name.rfind("l_", 0) != 0)
       r.fail_at(path + ".mirror", "only a left-side (\"l_…\") joint can be mirrored");
-    else mirror = mj->get<bool>();
+    else
+      mirror = mj->get<bool>();
   }
   return jd;
 }

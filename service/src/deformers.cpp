@@ -20,7 +20,6 @@ class FkDeformer final : public Deformer {
   std::vector<rig::RigidTransform> frames_;
 };
 
-
 class SkinDeformer final : public Deformer {
  public:
   SkinDeformer(avatar::ImplicitSkin skin, uint8_t lod) : skin_(std::move(skin)), lod_(lod) {}
@@ -56,9 +55,8 @@ std::unique_ptr<Deformer> make_fk_deformer(const rig::Skeleton& skeleton) {
   return std::make_unique<FkDeformer>(skeleton);
 }
 
-Result<std::unique_ptr<Deformer>> make_skin_deformer(const avatar::BodyModel& model,
-                                                     const rig::Skeleton& skeleton, int lod,
-                                                     avatar::SkinMethod method) {
+Result<std::unique_ptr<Deformer>> make_skin_deformer(const avatar::BodyModel& model, const rig::Skeleton& skeleton,
+                                                     int lod, avatar::SkinMethod method) {
   if (lod < 0 || lod >= kMeshLodCount)
     return fail(Errc::out_of_range, "mesh LOD must be in 0.." + std::to_string(kMeshLodCount - 1));
   if (method == avatar::SkinMethod::realtime) {

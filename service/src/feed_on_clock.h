@@ -11,7 +11,6 @@
 namespace mimic::service {
 
 Result<std::unique_ptr<PoseFeed>> open_feed_on_clock(const std::string& spec_text, const std::string& calibration_path,
-                                                     const rig::Skeleton* body,
-                                                     std::shared_ptr<const Clock> clock);
+                                                     const rig::Skeleton* body, std::shared_ptr<const Clock> clock);
 
 }  // namespace mimic::service

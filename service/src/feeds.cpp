@@ -187,7 +187,7 @@ class SolverFeed final : public PoseFeed {
     std::mutex mutex;  // guards everything below
     std::condition_variable cv;
     bool due = false, retired = false, stop = false;
-    std::unique_ptr<solver::SolverModel> ready_model;  // built, waiting to be swapped in; after a
+    std::unique_ptr<solver::SolverModel> ready_model;      // built, waiting to be swapped in; after a
     std::unique_ptr<solver::SolverContext> ready_context;  // swap (retired), the old pair to free
     std::thread thread;
     void run() {
@@ -229,8 +229,7 @@ class SolverFeed final : public PoseFeed {
 
 }  // namespace
 
-Result<std::shared_ptr<const rig::Motion>> builtin_motion(const std::string& name,
-                                                             const rig::Skeleton& skeleton) {
+Result<std::shared_ptr<const rig::Motion>> builtin_motion(const std::string& name, const rig::Skeleton& skeleton) {
   auto m = rig::make_builtin_motion(name, skeleton);
   if (!m) return tl::unexpected(m.error());
   return std::shared_ptr<const rig::Motion>(std::move(*m));
@@ -316,8 +315,7 @@ Result<std::unique_ptr<PoseFeed>> open_feed(const std::string& spec_text, const 
 }
 
 Result<std::unique_ptr<PoseFeed>> open_feed_on_clock(const std::string& spec_text, const std::string& calibration_path,
-                                                     const rig::Skeleton* body,
-                                                     std::shared_ptr<const Clock> clock) {
+                                                     const rig::Skeleton* body, std::shared_ptr<const Clock> clock) {
   auto spec = devices::parse_source_spec(spec_text);
   if (!spec) return tl::unexpected(spec.error());
   // VMC bones are poses, not tracker samples (VMC devices mapped to segments are samples).
@@ -361,7 +359,8 @@ Result<std::unique_ptr<PoseFeed>> open_feed_on_clock(const std::string& spec_tex
   }
   // A simulated wearer stands as tall as the skeleton it wears: its legs can step when untracked.
   solver::SolverOptions options;
-  if (spec->scheme == "sim" || spec->scheme == "bvh") options.standing_root_y_m = rig::standing_root_height_m(*skeleton);
+  if (spec->scheme == "sim" || spec->scheme == "bvh")
+    options.standing_root_y_m = rig::standing_root_height_m(*skeleton);
   auto model = solver::SolverModel::create(*skeleton, std::move(mounts), options);
   if (!model) return tl::unexpected(model.error());
   auto source = open_sensor(*spec, std::move(clock), body);

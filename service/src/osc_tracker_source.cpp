@@ -24,10 +24,12 @@ Result<std::array<std::string, net::kOscTrackers>> assignment(const devices::Sou
   for (const std::string& item : split_list(it->second)) {
     const size_t colon = item.find(':');
     const std::string key = item.substr(0, colon);
-    const size_t index = key == "head" || key == "0" ? 0 : key.size() == 1 && key[0] >= '1' && key[0] <= '8' ? size_t(key[0] - '0') : 99;
+    const size_t index = key == "head" || key == "0"                         ? 0
+                         : key.size() == 1 && key[0] >= '1' && key[0] <= '8' ? size_t(key[0] - '0')
+                                                                             : 99;
     if (colon == std::string::npos || colon + 1 == item.size() || index >= out.size())
-      return fail(Errc::invalid_argument, "osc-trackers map: expected TRACKER:SEGMENT with TRACKER 1-8 or head, got '" +
-                                              item + "'");
+      return fail(Errc::invalid_argument,
+                  "osc-trackers map: expected TRACKER:SEGMENT with TRACKER 1-8 or head, got '" + item + "'");
     if (!out[index].empty()) return fail(Errc::invalid_argument, "osc-trackers map: tracker " + key + " twice");
     out[index] = item.substr(colon + 1);
   }
@@ -68,9 +70,9 @@ class OscTrackerSource final : public devices::SensorSource {
   devices::DeviceStatus status() const override {
     devices::DeviceStatus s;
     s.description = description_;
-    s.state = samples_ == 0                            ? devices::DeviceState::connecting
+    s.state = samples_ == 0                          ? devices::DeviceState::connecting
               : clock_->now_s() - last_s_ > stale_s_ ? devices::DeviceState::stale
-                                                       : devices::DeviceState::streaming;
+                                                     : devices::DeviceState::streaming;
     const auto& st = rx_->stats();
     s.records = samples_;
     s.resyncs = st.refused_total() + st.non_finite;
@@ -140,9 +142,9 @@ class VmcDeviceSource final : public devices::SensorSource {
   devices::DeviceStatus status() const override {
     devices::DeviceStatus s;
     s.description = description_;
-    s.state = samples_ == 0                            ? devices::DeviceState::connecting
+    s.state = samples_ == 0                          ? devices::DeviceState::connecting
               : clock_->now_s() - last_s_ > stale_s_ ? devices::DeviceState::stale
-                                                       : devices::DeviceState::streaming;
+                                                     : devices::DeviceState::streaming;
     s.records = samples_;
     s.resyncs = rx_->stats().refused_total() + rx_->stats().non_finite;
     return s;

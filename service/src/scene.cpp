@@ -82,10 +82,14 @@ Result<NavigationSpec> parse_navigation(const std::string& text) {
       const size_t eq = kv.find('=');
       const std::string key = kv.substr(0, eq), value = eq == std::string::npos ? "" : kv.substr(eq + 1);
       bool ok = true;
-      if (key == "speed") ok = parse_number(value, 0.0f, 20.0f, out.options.translation_speed_mps);
-      else if (key == "turn") ok = parse_number(value, 0.0f, 20.0f, out.options.rotation_speed_radps);
-      else if (key == "dead") ok = parse_number(value, 0.0f, 0.95f, out.options.dead_zone);
-      else if (!kv.empty()) kept.append(kept.empty() ? "" : "&").append(kv);
+      if (key == "speed")
+        ok = parse_number(value, 0.0f, 20.0f, out.options.translation_speed_mps);
+      else if (key == "turn")
+        ok = parse_number(value, 0.0f, 20.0f, out.options.rotation_speed_radps);
+      else if (key == "dead")
+        ok = parse_number(value, 0.0f, 0.95f, out.options.dead_zone);
+      else if (!kv.empty())
+        kept.append(kept.empty() ? "" : "&").append(kv);
       if (!ok)
         return fail(Errc::invalid_argument, "--navigate " + text + ": " + key +
                                                 " must be a number (speed 0..20 m/s, turn 0..20 rad/s, dead 0..0.95)");
@@ -96,7 +100,8 @@ Result<NavigationSpec> parse_navigation(const std::string& text) {
   auto spec = devices::parse_source_spec(device);
   if (!spec) return tl::unexpected(spec.error());
   if (spec->scheme != "spaceball" && spec->scheme != "magellan" && spec->scheme != "spacemouse")
-    return fail(Errc::invalid_argument, "--navigate takes a 6-DOF device (spaceball:, magellan:, spacemouse), not " + text);
+    return fail(Errc::invalid_argument,
+                "--navigate takes a 6-DOF device (spaceball:, magellan:, spacemouse), not " + text);
   out.device = std::move(*spec);
   return out;
 }
@@ -119,8 +124,12 @@ class PlacedFeed final : public PoseFeed {
  public:
   PlacedFeed(std::unique_ptr<PoseFeed> inner, Placement place, std::shared_ptr<SceneRoster> roster, int slot,
              std::unique_ptr<devices::InputSource> navigator, NavigationOptions navigation)
-      : inner_(std::move(inner)), place_(place), roster_(std::move(roster)), slot_(slot),
-        navigator_(std::move(navigator)), navigation_(navigation) {
+      : inner_(std::move(inner)),
+        place_(place),
+        roster_(std::move(roster)),
+        slot_(slot),
+        navigator_(std::move(navigator)),
+        navigation_(navigation) {
     placed_.reserve(64);
   }
 
@@ -183,7 +192,8 @@ class PlacedFeed final : public PoseFeed {
 
 std::unique_ptr<PoseFeed> place_in_scene(std::unique_ptr<PoseFeed> feed, Placement placement,
                                          std::shared_ptr<SceneRoster> roster, int slot,
-                                         std::unique_ptr<devices::InputSource> navigator, NavigationOptions navigation) {
+                                         std::unique_ptr<devices::InputSource> navigator,
+                                         NavigationOptions navigation) {
   return std::make_unique<PlacedFeed>(std::move(feed), placement, std::move(roster), slot, std::move(navigator),
                                       navigation);
 }
@@ -201,10 +211,14 @@ Result<ActorOptions> actor_options(const std::string& spec_text, int slot_count_
     rest = rest.substr(0, q);
   }
   ActorOptions o;
-  if (rest == "wander" || rest.empty()) o.behaviour = ActorOptions::Behaviour::wander;
-  else if (rest == "follow") o.behaviour = ActorOptions::Behaviour::follow;
-  else if (rest == "greet") o.behaviour = ActorOptions::Behaviour::greet;
-  else return fail(Errc::invalid_argument, "unknown actor behaviour '" + rest + "' (wander, follow, greet)");
+  if (rest == "wander" || rest.empty())
+    o.behaviour = ActorOptions::Behaviour::wander;
+  else if (rest == "follow")
+    o.behaviour = ActorOptions::Behaviour::follow;
+  else if (rest == "greet")
+    o.behaviour = ActorOptions::Behaviour::greet;
+  else
+    return fail(Errc::invalid_argument, "unknown actor behaviour '" + rest + "' (wander, follow, greet)");
   size_t start = 0;
   while (start < query.size()) {
     size_t amp = query.find('&', start);
@@ -213,12 +227,19 @@ Result<ActorOptions> actor_options(const std::string& spec_text, int slot_count_
     const size_t eq = kv.find('=');
     const std::string key = kv.substr(0, eq), value = eq == std::string::npos ? "" : kv.substr(eq + 1);
     try {
-      if (key == "seed") o.seed = std::stoull(value);
-      else if (key == "target") o.target = std::stoi(value) - 1;
-      else if (key == "x") o.start.position_m.x = std::stof(value);
-      else if (key == "z") o.start.position_m.z = std::stof(value);
-      else if (key == "heading") o.start.heading_rad = std::stof(value) * kPi / 180.0f;
-      else return fail(Errc::invalid_argument, spec_text + ": unknown actor parameter '" + key + "' (seed, target, x, z, heading)");
+      if (key == "seed")
+        o.seed = std::stoull(value);
+      else if (key == "target")
+        o.target = std::stoi(value) - 1;
+      else if (key == "x")
+        o.start.position_m.x = std::stof(value);
+      else if (key == "z")
+        o.start.position_m.z = std::stof(value);
+      else if (key == "heading")
+        o.start.heading_rad = std::stof(value) * kPi / 180.0f;
+      else
+        return fail(Errc::invalid_argument,
+                    spec_text + ": unknown actor parameter '" + key + "' (seed, target, x, z, heading)");
     } catch (...) {
       return fail(Errc::invalid_argument, spec_text + ": '" + value + "' is not a number for " + key);
     }
@@ -322,8 +343,8 @@ void ActorBrain::step(float dt_s, SceneRoster& roster, int self) {
   if (glm::length(dir) > 1e-4f) {
     const float wanted = std::atan2(dir.x, dir.z);
     const float max_turn = 2.5f * dt_s;
-    placement_.heading_rad =
-        wrap_angle(placement_.heading_rad + std::clamp(wrap_angle(wanted - placement_.heading_rad), -max_turn, max_turn));
+    placement_.heading_rad = wrap_angle(placement_.heading_rad +
+                                        std::clamp(wrap_angle(wanted - placement_.heading_rad), -max_turn, max_turn));
   }
   walking_ = std::clamp(walking_ + (want_walk ? 2.0f : -2.0f) * dt_s, 0.0f, 1.0f);
   pos += forward_of(placement_.heading_rad) * (walk_speed_mps_ * walking_ * brake * dt_s);
@@ -347,8 +368,13 @@ class ActorFeed final : public PoseFeed {
  public:
   ActorFeed(rig::Skeleton skeleton, std::unique_ptr<rig::Motion> walk, std::unique_ptr<rig::Motion> idle,
             ActorOptions options, float speed_mps, std::shared_ptr<SceneRoster> roster, int slot, std::string text)
-      : skeleton_(std::move(skeleton)), walk_(std::move(walk)), idle_(std::move(idle)),
-        brain_(options, speed_mps), roster_(std::move(roster)), slot_(slot), text_(std::move(text)) {
+      : skeleton_(std::move(skeleton)),
+        walk_(std::move(walk)),
+        idle_(std::move(idle)),
+        brain_(options, speed_mps),
+        roster_(std::move(roster)),
+        slot_(slot),
+        text_(std::move(text)) {
     walk_pose_ = walk_->skeleton().zero_pose();
     idle_pose_ = idle_->skeleton().zero_pose();
     wave_dof_ = skeleton_.find_dof("r_shoulder_abduction");

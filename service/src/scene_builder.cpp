@@ -26,7 +26,7 @@ std::string actor_spec(const SourceEntry& entry, const Placement& place, const R
 
 // The device moving an avatar through the room (--navigate), or none.
 tl::expected<std::unique_ptr<devices::InputSource>, SceneError> open_navigator(const std::string& text,
-                                                                                NavigationOptions& options) {
+                                                                               NavigationOptions& options) {
   if (text.empty()) return nullptr;
   auto nav = parse_navigation(text);
   if (!nav) return usage("--navigate: " + nav.error().message);
@@ -66,8 +66,8 @@ tl::expected<SceneAvatar, SceneError> build_avatar(const SceneSpec& spec, const 
     NavigationOptions navigation;
     auto navigator = open_navigator(entry.navigate, navigation);
     if (!navigator) return tl::unexpected(navigator.error());
-    *feed = place_in_scene(std::move(*feed), out.place, roster, static_cast<int>(index), std::move(*navigator),
-                           navigation);
+    *feed =
+        place_in_scene(std::move(*feed), out.place, roster, static_cast<int>(index), std::move(*navigator), navigation);
   }
   out.in_row = !self_placed && entry.place.empty() && entry.navigate.empty();
   if (spec.skins) {

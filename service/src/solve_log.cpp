@@ -21,7 +21,8 @@ void settle(PoseFeed& feed, rig::Pose& pose) {
     bool stale = false;
     feed.solve(pose, capture_s, stale);
     float moved = glm::length(pose.root_position_m - before.root_position_m);
-    for (size_t d = 0; d < pose.dof_rad.size(); ++d) moved = std::max(moved, std::abs(pose.dof_rad[d] - before.dof_rad[d]));
+    for (size_t d = 0; d < pose.dof_rad.size(); ++d)
+      moved = std::max(moved, std::abs(pose.dof_rad[d] - before.dof_rad[d]));
     if (moved < kSettled_rad) return;
     before = pose;
   }
@@ -47,8 +48,9 @@ Result<SolvedTake> solve_log(const std::string& log_path, const std::string& cal
     take.samples += (*feed)->read();
     if (take.samples == 0) {
       if ((*feed)->status().state == devices::DeviceState::disconnected)
-        return fail(Errc::invalid_argument, log_path + ": no samples to solve" +
-                                                 ((*feed)->status().last_error.empty() ? "" : ": " + (*feed)->status().last_error));
+        return fail(Errc::invalid_argument,
+                    log_path + ": no samples to solve" +
+                        ((*feed)->status().last_error.empty() ? "" : ": " + (*feed)->status().last_error));
       continue;
     }
     if (first_step < 0) first_step = step;

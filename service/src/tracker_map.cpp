@@ -15,8 +15,9 @@ Result<solver::SensorMount> mount_on(const std::string& name, uint16_t sensor, c
         return m;
       }
   }
-  return fail(Errc::not_found, "no segment '" + name + "' (names: head, pelvis, chest, l_hand, l_foot, l_upper_arm, "
-                                                       "l_thigh, the r_ ones, or a joint name)");
+  return fail(Errc::not_found, "no segment '" + name +
+                                   "' (names: head, pelvis, chest, l_hand, l_foot, l_upper_arm, "
+                                   "l_thigh, the r_ ones, or a joint name)");
 }
 
 std::vector<std::string> split_list(const std::string& text) {

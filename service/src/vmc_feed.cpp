@@ -46,9 +46,9 @@ class VmcFeed final : public PoseFeed {
     const auto& st = rx_->stats();
     const auto& hips = rx_->state().bones[net::kHipsBone];
     s.description = describe();
-    s.state = !hips.present ? devices::DeviceState::connecting
+    s.state = !hips.present                                       ? devices::DeviceState::connecting
               : steady_now_s() - hips.received_s > stale_after_s_ ? devices::DeviceState::stale
-                                                                   : devices::DeviceState::streaming;
+                                                                  : devices::DeviceState::streaming;
     s.records = st.datagrams;
     s.resyncs = st.refused_total() + st.non_finite;
     if (st.refused_total() > 0) s.last_error = "malformed OSC datagrams: " + std::to_string(st.refused_total());

@@ -169,8 +169,10 @@ Result<glm::mat3> parse_axes(const std::string& text) {
     }
     const int target = item == "x" ? 0 : item == "y" ? 1 : item == "z" ? 2 : -1;
     if (target < 0 || used[target] || (axis < 2 && comma == text.size()))
-      return fail(Errc::invalid_argument, "vrpn axes: expected three signed axes naming x, y and z once each "
-                                          "(e.g. x,-z,y), got '" + text + "'");
+      return fail(Errc::invalid_argument,
+                  "vrpn axes: expected three signed axes naming x, y and z once each "
+                  "(e.g. x,-z,y), got '" +
+                      text + "'");
     used[target] = true;
     m[axis][target] = sign;  // column `axis`: where the sender's axis goes
     start = comma + 1;
@@ -234,8 +236,7 @@ Result<std::unique_ptr<devices::SensorSource>> open_vrpn_source(const devices::S
   if (auto it = spec.params.find("map"); it != spec.params.end()) {
     auto m = parse_map(it->second);
     if (!m) return tl::unexpected(m.error());
-    for (size_t i = 0; i < m->size(); ++i)
-      wiring.push_back({device_index((*m)[i].device), (*m)[i].sensor, int(i)});
+    for (size_t i = 0; i < m->size(); ++i) wiring.push_back({device_index((*m)[i].device), (*m)[i].sensor, int(i)});
   } else {
     const std::string layout = param(spec, "layout", "6");
     const int count = layout == "3" ? 3 : layout == "6" ? 6 : layout == "11" ? 11 : int(kMaxSensors);
@@ -253,8 +254,9 @@ Result<std::unique_ptr<devices::SensorSource>> open_vrpn_source(const devices::S
   if (!o.more_trackers.empty()) description += " + " + std::to_string(o.more_trackers.size()) + " more devices";
   if (!o.button_device.empty()) description += ", buttons " + o.button_device;
   description += ")";
-  return std::unique_ptr<devices::SensorSource>(
-      new VrpnSource(std::move(*remote), std::move(clock), std::move(map), *axes, scale_m, *stale_ms / 1000.0, std::move(description)));
+  return std::unique_ptr<devices::SensorSource>(new VrpnSource(std::move(*remote), std::move(clock), std::move(map),
+                                                               *axes, scale_m, *stale_ms / 1000.0,
+                                                               std::move(description)));
 }
 
 }  // namespace mimic::service

@@ -52,7 +52,9 @@ std::vector<uint8_t> FlockBus::examine_reply(Unit& u, uint8_t p) {
       r[1] = h[1];
       break;
     }
-    case 25: case 26: case 27: word(1000 + 10 * u.address + (p - 25)); break;
+    case 25:
+    case 26:
+    case 27: word(1000 + 10 * u.address + (p - 25)); break;
     case fl::param::kGroupMode: r[0] = group_mode ? 1 : 0; break;
     case fl::param::kFlockStatus:
       for (int a = 1; a <= 14; ++a) {

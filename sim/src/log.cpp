@@ -23,13 +23,12 @@ static_assert(std::endian::native == std::endian::little, "the log codec assumes
 namespace {
 
 constexpr std::array<uint8_t, 8> kMagic = {0x89, 'M', 'L', 'G', '\r', '\n', 0x1A, '\n'};
-constexpr size_t kPrefixBytes = 12;           // magic + u32 version
-constexpr size_t kFrameBytes = 9;             // u32 length + u8 type + ... + u32 crc
-constexpr uint32_t kMaxPayload = 16u << 20;   // anything longer is a corrupted length
+constexpr size_t kPrefixBytes = 12;          // magic + u32 version
+constexpr size_t kFrameBytes = 9;            // u32 length + u8 type + ... + u32 crc
+constexpr uint32_t kMaxPayload = 16u << 20;  // anything longer is a corrupted length
 constexpr size_t kSamplePayload = 54;
 
 enum RecordType : uint8_t { kHeader = 1, kSample = 2, kRaw = 3, kEnd = 4 };
-
 
 template <class T>
 void put(std::vector<uint8_t>& out, T v) {
@@ -154,11 +153,13 @@ std::string parse_header_json(std::string_view text, LogHeader& h) {
 }  // namespace
 
 std::string LogDamage::what() const {
-  std::string text = "damage at byte " + std::to_string(byte_offset) + " (record " + std::to_string(record_index) +
-                     "): " + reason;
+  std::string text =
+      "damage at byte " + std::to_string(byte_offset) + " (record " + std::to_string(record_index) + "): " + reason;
   if (bytes_skipped > 0) text += "; " + std::to_string(bytes_skipped) + " bytes skipped";
-  if (resumed) text += ", reading resumed at byte " + std::to_string(resumed_at_byte);
-  else if (bytes_skipped > 0) text += " to the end";
+  if (resumed)
+    text += ", reading resumed at byte " + std::to_string(resumed_at_byte);
+  else if (bytes_skipped > 0)
+    text += " to the end";
   return text;
 }
 
@@ -241,7 +242,10 @@ bool LogDecoder::frame_ok_at(size_t q) const {
   const uint32_t len = get<uint32_t>(d_ + q);
   const uint8_t type = d_[q + 4];
   if (len > n_ - q - kFrameBytes) return false;
-  if (type == kSample ? len != kSamplePayload : type == kEnd ? len != 8 : type == kRaw ? (len < 9 || d_[q + 5] > 1) : true)
+  if (type == kSample ? len != kSamplePayload
+      : type == kEnd  ? len != 8
+      : type == kRaw  ? (len < 9 || d_[q + 5] > 1)
+                      : true)
     return false;
   return crc32(bytes_.subspan(q, 5 + len)) == get<uint32_t>(d_ + q + 5 + len);
 }
@@ -297,7 +301,8 @@ Result<LogDecoder::Frame> LogDecoder::check_frame(uint32_t& len) {
     if (index_ == 0)
       return fail(Errc::parse_error, "Mimic log header record truncated at byte 12 (needs " + std::to_string(total) +
                                          " bytes, " + std::to_string(n_ - pos_) + " left)");
-    return damaged("truncated record (needs " + std::to_string(total) + " bytes, " + std::to_string(n_ - pos_) + " left)");
+    return damaged("truncated record (needs " + std::to_string(total) + " bytes, " + std::to_string(n_ - pos_) +
+                   " left)");
   }
   const uint32_t stored = get<uint32_t>(d_ + pos_ + 5 + len);
   if (crc32(bytes_.subspan(pos_, 5 + len)) != stored) {
@@ -314,8 +319,9 @@ bool LogDecoder::read_record(uint8_t type, const uint8_t* p, uint32_t len, size_
     skip_record("a second header record", total);
   } else if (type == kSample) {
     if (len != kSamplePayload) {
-      skip_record("sample record of " + std::to_string(len) + " bytes (expected " + std::to_string(kSamplePayload) + ")",
-                  total);
+      skip_record(
+          "sample record of " + std::to_string(len) + " bytes (expected " + std::to_string(kSamplePayload) + ")",
+          total);
     } else {
       devices::SensorSample s;
       s.sensor = get<uint16_t>(p);
@@ -409,14 +415,15 @@ Result<LogContents> decode_log(std::span<const uint8_t> bytes) {
   const uint8_t* d = bytes.data();
   if (n == 0) return fail(Errc::parse_error, "not a Mimic log: the file is empty");
   if (n < kMagic.size() || std::memcmp(d, kMagic.data(), kMagic.size()) != 0)
-    return fail(Errc::parse_error, n < kMagic.size() && std::memcmp(d, kMagic.data(), n) == 0
-                                       ? "not a complete Mimic log: it ends inside the magic number (" + std::to_string(n) + " bytes)"
-                                       : "not a Mimic log (bad magic number at byte 0)");
+    return fail(Errc::parse_error,
+                n < kMagic.size() && std::memcmp(d, kMagic.data(), n) == 0
+                    ? "not a complete Mimic log: it ends inside the magic number (" + std::to_string(n) + " bytes)"
+                    : "not a Mimic log (bad magic number at byte 0)");
   if (n < kPrefixBytes) return fail(Errc::parse_error, "Mimic log ends inside the version field at byte 8");
   const uint32_t version = get<uint32_t>(d + 8);
   if (version != kLogVersion)
-    return fail(Errc::unsupported, "Mimic log version " + std::to_string(version) + " at byte 8; this build reads version " +
-                                       std::to_string(kLogVersion));
+    return fail(Errc::unsupported, "Mimic log version " + std::to_string(version) +
+                                       " at byte 8; this build reads version " + std::to_string(kLogVersion));
   return LogDecoder(bytes).run();
 }
 

@@ -47,18 +47,20 @@ Result<std::unique_ptr<devices::InputSource>> open_input_source(const devices::S
       VirtualHidConfig cfg;
       cfg.vendor_id = *vid;
       cfg.product_id = *pid;
-      if (auto it = spec.params.find("seed"); it != spec.params.end()) cfg.seed = std::strtoull(it->second.c_str(), nullptr, 10);
+      if (auto it = spec.params.find("seed"); it != spec.params.end())
+        cfg.seed = std::strtoull(it->second.c_str(), nullptr, 10);
       return make_simulated_spacemouse(cfg);
     }
-    if (spec.params.count("seed")) return fail(Errc::invalid_argument, spec.text + ": seed applies to spacemouse:sim only");
+    if (spec.params.count("seed"))
+      return fail(Errc::invalid_argument, spec.text + ": seed applies to spacemouse:sim only");
     devices::HidSpaceMouseOptions o;
     o.path = spec.target;
     o.vendor_id = *vid;
     o.product_id = *pid;
     return devices::make_hid_spacemouse_source(o);
   }
-  return fail(Errc::invalid_argument, spec.text + ": '" + spec.scheme +
-                                          "' is not a 6-DOF input device (spaceball, magellan, spacemouse)");
+  return fail(Errc::invalid_argument,
+              spec.text + ": '" + spec.scheme + "' is not a 6-DOF input device (spaceball, magellan, spacemouse)");
 }
 
 }  // namespace mimic::sim

@@ -85,8 +85,8 @@ Result<std::unique_ptr<devices::SensorSource>> open_sensor_source(const devices:
     if (!motion) return tl::unexpected(motion.error());
     std::shared_ptr<const rig::Motion> shared;
     const auto loop = spec.params.find("loop");
-    if (loop != spec.params.end() && (loop->second == "1" || loop->second == "true" || loop->second == "yes" ||
-                                      loop->second == "on"))
+    if (loop != spec.params.end() &&
+        (loop->second == "1" || loop->second == "true" || loop->second == "yes" || loop->second == "on"))
       shared = std::make_shared<LoopedMotion>(std::move(*motion));
     else
       shared = std::shared_ptr<const rig::Motion>(std::move(*motion));
@@ -110,16 +110,18 @@ Result<std::unique_ptr<devices::SensorSource>> open_sensor_source(const devices:
     return std::unique_ptr<devices::SensorSource>(new devices::FlockSource(std::move(*config)));
 #else
     (void)tap;
-    return fail(Errc::unsupported, "source '" + spec.text + "': the Flock of Birds driver is not built into this version");
+    return fail(Errc::unsupported,
+                "source '" + spec.text + "': the Flock of Birds driver is not built into this version");
 #endif
   }
   if (spec.scheme == "spaceball" || spec.scheme == "magellan" || spec.scheme == "spacemouse")
     return fail(Errc::unsupported, "source '" + spec.text + "': a " + spec.scheme +
                                        " gives 6-DOF input (translation/rotation deflections), not tracker samples");
   if (spec.scheme == "vmc")
-    return fail(Errc::unsupported, "source '" + spec.text +
-                                       "': VMC brings poses its sender has solved, not tracker samples: it drives "
-                                       "`mimic run` and `mimic view` (recording and calibrating from VMC are not supported)");
+    return fail(Errc::unsupported,
+                "source '" + spec.text +
+                    "': VMC brings poses its sender has solved, not tracker samples: it drives "
+                    "`mimic run` and `mimic view` (recording and calibrating from VMC are not supported)");
   return fail(Errc::unsupported, "source '" + spec.text + "': scheme '" + spec.scheme + "' is not a tracker source");
 }
 

@@ -23,7 +23,8 @@ Result<double> number(const devices::SourceSpec& spec, const char* key, double f
   char* end = nullptr;
   const double v = std::strtod(it->second.c_str(), &end);
   if (it->second.empty() || *end != '\0' || !std::isfinite(v))
-    return fail(Errc::invalid_argument, "source '" + spec.text + "': " + key + " expects a number, got '" + it->second + "'");
+    return fail(Errc::invalid_argument,
+                "source '" + spec.text + "': " + key + " expects a number, got '" + it->second + "'");
   return v;
 }
 
@@ -95,8 +96,8 @@ LogHeader log_header_for(const devices::SourceSpec& spec, const devices::SensorS
     h.rate_hz = c.rate_hz;
     h.world_from_reference = c.world_from_reference;
     for (size_t i = 0; i < c.sensors.size(); ++i)
-      h.sensors.push_back({static_cast<uint16_t>(i), c.sensors[i].name, c.sensors[i].segment,
-                           c.sensors[i].segment_from_sensor});
+      h.sensors.push_back(
+          {static_cast<uint16_t>(i), c.sensors[i].name, c.sensors[i].segment, c.sensors[i].segment_from_sensor});
     h.description = "simulated: motion '" + sim->rig().motion().name() + "'";
   } else if (const auto* replay = dynamic_cast<const ReplaySource*>(&source)) {
     const LogHeader& orig = replay->log().header;
@@ -115,8 +116,7 @@ LogHeader log_header_for(const devices::SourceSpec& spec, const devices::SensorS
     for (int address : info.sensor_addresses)
       h.sensors.push_back({static_cast<uint16_t>(address), "bird" + std::to_string(address), "", {}});
     h.rate_hz = info.measurement_rate_hz;
-    if (!info.model.empty())
-      h.description = "Flock of Birds " + info.model + " software " + info.software_revision;
+    if (!info.model.empty()) h.description = "Flock of Birds " + info.model + " software " + info.software_revision;
   }
 #endif
   return h;

@@ -52,8 +52,7 @@ Result<Pty> Pty::open() {
   return p;
 }
 
-Pty::Pty(Pty&& other) noexcept
-    : fd_(std::exchange(other.fd_, -1)), slave_path_(std::move(other.slave_path_)) {}
+Pty::Pty(Pty&& other) noexcept : fd_(std::exchange(other.fd_, -1)), slave_path_(std::move(other.slave_path_)) {}
 
 Pty& Pty::operator=(Pty&& other) noexcept {
   if (this != &other) {
@@ -74,8 +73,7 @@ void Pty::close() {
 Pty::Wait Pty::wait_readable(std::chrono::microseconds timeout) const {
   pollfd pfd{fd_, POLLIN, 0};
   // ppoll for sub-millisecond timeouts: record timing at 115200 baud is tens of microseconds.
-  timespec ts{static_cast<time_t>(timeout.count() / 1000000),
-              static_cast<long>((timeout.count() % 1000000) * 1000)};
+  timespec ts{static_cast<time_t>(timeout.count() / 1000000), static_cast<long>((timeout.count() % 1000000) * 1000)};
   const int n = ::ppoll(&pfd, 1, &ts, nullptr);
   if (n <= 0) return Wait::timeout;
   if (pfd.revents & POLLIN) return Wait::readable;

@@ -14,8 +14,10 @@ namespace {
 void sanitize_times(std::vector<devices::SensorSample>& samples) {
   double last = 0;
   for (auto& s : samples) {
-    if (std::isfinite(s.host_time_s)) last = s.host_time_s;
-    else s.host_time_s = last;
+    if (std::isfinite(s.host_time_s))
+      last = s.host_time_s;
+    else
+      s.host_time_s = last;
     if (!std::isfinite(s.device_time_s)) s.device_time_s = s.host_time_s;
   }
 }
@@ -119,9 +121,12 @@ size_t ReplaySource::poll(std::span<devices::SensorSample> out) {
     devices::SensorSample& o = out[n++];
     o = s[cursor_++];
     o.device_time_s += shift;
-    if (options_.keep_log_times) o.host_time_s = log_time;
-    else if (paced) o.host_time_s = start_clock_s_ + (log_time - segment_start_s_) / options_.speed;
-    else o.host_time_s = now;
+    if (options_.keep_log_times)
+      o.host_time_s = log_time;
+    else if (paced)
+      o.host_time_s = start_clock_s_ + (log_time - segment_start_s_) / options_.speed;
+    else
+      o.host_time_s = now;
     ++status_.records;
   }
   if (!finished_ && !options_.loop && cursor_ >= s.size()) {

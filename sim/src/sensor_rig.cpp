@@ -30,8 +30,7 @@ glm::vec3 mirror(glm::vec3 p) { return {-p.x, p.y, p.z}; }
 
 // Where a strap-on sensor sits on an average adult, in the segment frames of the zero posture
 // (T-pose, palms down): the back of the hand is +Y, the front of the body +Z.
-void add_pair(std::vector<SensorMount>& out, const std::string& part, const std::string& joint,
-              glm::vec3 left_m) {
+void add_pair(std::vector<SensorMount>& out, const std::string& part, const std::string& joint, glm::vec3 left_m) {
   out.push_back(mount("l_" + part, "l_" + joint, left_m));
   out.push_back(mount("r_" + part, "r_" + joint, mirror(left_m)));
 }
@@ -48,9 +47,7 @@ void SensorRandom::reseed(uint64_t seed, uint64_t sensor_id) {
   engine_.seed(a ^ (b << 1) ^ sensor_id);
 }
 
-double SensorRandom::uniform() {
-  return (static_cast<double>(engine_() >> 11) + 0.5) * 0x1.0p-53;
-}
+double SensorRandom::uniform() { return (static_cast<double>(engine_() >> 11) + 0.5) * 0x1.0p-53; }
 
 double SensorRandom::gaussian() {
   const double u1 = uniform();
@@ -115,8 +112,7 @@ Result<SensorRig> SensorRig::create(std::shared_ptr<const rig::Motion> motion, R
   SensorRig rig;
   for (const auto& m : config.sensors) {
     const int j = skeleton.find_joint(m.segment);
-    if (j < 0)
-      return fail(Errc::not_found, "sensor '" + m.name + "': the skeleton has no segment '" + m.segment + "'");
+    if (j < 0) return fail(Errc::not_found, "sensor '" + m.name + "': the skeleton has no segment '" + m.segment + "'");
     rig.segment_joint_.push_back(j);
   }
   rig.motion_ = std::move(motion);

@@ -65,9 +65,7 @@ double SerialDevice::next_output_s() const {
 
 // --- PtyServer ---
 
-
-Result<std::unique_ptr<PtyServer>> PtyServer::start(std::unique_ptr<SerialDevice> device,
-                                                   const std::string& log_path) {
+Result<std::unique_ptr<PtyServer>> PtyServer::start(std::unique_ptr<SerialDevice> device, const std::string& log_path) {
   auto pty = Pty::open();
   if (!pty) return tl::unexpected(pty.error());
   std::FILE* log = nullptr;
@@ -121,15 +119,14 @@ void PtyServer::log(const char* dir, std::span<const uint8_t> bytes, double t) {
 void PtyServer::check_line(double t) {
   const LineSettings got = pty_.line_settings();
   const auto& want = device_->expected_line();
-  const bool ok = got.baud == want.baud && got.data_bits == 8 && !got.parity &&
-                  got.stop_bits >= want.min_stop_bits && got.stop_bits <= want.max_stop_bits &&
-                  got.rtscts == want.rtscts;
+  const bool ok = got.baud == want.baud && got.data_bits == 8 && !got.parity && got.stop_bits >= want.min_stop_bits &&
+                  got.stop_bits <= want.max_stop_bits && got.rtscts == want.rtscts;
   if (ok) return;
   ++stats_.line_mismatches;
   if (log_) {
     std::fprintf(log_, "%.6f line %d %d%c%d%s, device runs %d 8N%d%s\n", t, got.baud, got.data_bits,
-                 got.parity ? 'P' : 'N', got.stop_bits, got.rtscts ? " rtscts" : "", want.baud,
-                 want.min_stop_bits, want.rtscts ? " rtscts" : "");
+                 got.parity ? 'P' : 'N', got.stop_bits, got.rtscts ? " rtscts" : "", want.baud, want.min_stop_bits,
+                 want.rtscts ? " rtscts" : "");
     std::fflush(log_);
   }
 }

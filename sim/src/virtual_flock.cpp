@@ -25,11 +25,10 @@ using detail::Unit;
 
 namespace {
 
-
 struct Output {
-  double due_s;                 // sim time the last byte leaves the UART
+  double due_s;  // sim time the last byte leaves the UART
   std::vector<uint8_t> bytes;
-  int address;                  // bird address for records, -1 for replies and garbage
+  int address;  // bird address for records, -1 for replies and garbage
 };
 
 enum class Fault { tear, phase, drop };
@@ -217,10 +216,8 @@ struct VirtualFlock::Impl : detail::FlockBus {
         host_present = false;
         continue;
       }
-      if (cfg.on_bytes && *w > 0)
-        cfg.on_bytes(steady_now_s(), true, std::span<const uint8_t>(o.bytes.data(), *w));
-      if (o.address >= 0 && cfg.on_record_written)
-        cfg.on_record_written(steady_now_s(), o.address, o.bytes);
+      if (cfg.on_bytes && *w > 0) cfg.on_bytes(steady_now_s(), true, std::span<const uint8_t>(o.bytes.data(), *w));
+      if (o.address >= 0 && cfg.on_record_written) cfg.on_record_written(steady_now_s(), o.address, o.bytes);
     }
   }
 
@@ -234,20 +231,34 @@ struct VirtualFlock::Impl : detail::FlockBus {
     if (fl::fbb_prefix_address(c) >= 0) return 1;
     switch (c) {
       case 0xA0: return 2;
-      case '@': case 'B': case '?': case 'F': case 'G': case 'N': case '/':
-      case 'Q': case 'R': case 'S': case 'T': case fl::cmd::kXon: case fl::cmd::kXoff:
-        return 1;
-      case 'O': case 'M': case 'A': case '0': return 2;
+      case '@':
+      case 'B':
+      case '?':
+      case 'F':
+      case 'G':
+      case 'N':
+      case '/':
+      case 'Q':
+      case 'R':
+      case 'S':
+      case 'T':
+      case fl::cmd::kXon:
+      case fl::cmd::kXoff: return 1;
+      case 'O':
+      case 'M':
+      case 'A':
+      case '0': return 2;
       case 'L': return 3;
-      case 'H': case 'J': return 13;
-      case 'r': case 'q': return 7;
+      case 'H':
+      case 'J': return 13;
+      case 'r':
+      case 'q': return 7;
       case 'P': {
         if (cmd.size() < 2) return 0;
         const int n = fl::change_size(cmd[1]);
         return n > 0 ? 2 + n : -1;
       }
-      default:
-        return fl::format_from_command(c) ? 1 : -1;
+      default: return fl::format_from_command(c) ? 1 : -1;
     }
   }
 
@@ -328,7 +339,10 @@ struct VirtualFlock::Impl : detail::FlockBus {
         return;
       case fl::cmd::kXon: xoff = false; return;
       case fl::cmd::kXoff: xoff = true; return;
-      case 'Q': case 'R': case 'S': case 'T': report_divisor = fl::report_rate_divisor(c); return;
+      case 'Q':
+      case 'R':
+      case 'S':
+      case 'T': report_divisor = fl::report_rate_divisor(c); return;
       case '/':
         configured = standalone;
         running_mask = standalone ? 1u : 0u;
@@ -406,8 +420,7 @@ struct VirtualFlock::Impl : detail::FlockBus {
       double wake = now + 0.01;
       if (streaming) wake = std::min(wake, next_tick_s);
       if (!out.empty() && !xoff) wake = std::min(wake, out.front().due_s);
-      const auto timeout = std::chrono::microseconds(
-          static_cast<int64_t>(std::max(0.0, wake - now_s()) * 1e6));
+      const auto timeout = std::chrono::microseconds(static_cast<int64_t>(std::max(0.0, wake - now_s()) * 1e6));
       switch (pty.wait_readable(timeout)) {
         case Pty::Wait::readable: {
           if (!host_present) {

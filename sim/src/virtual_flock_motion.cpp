@@ -13,8 +13,8 @@ namespace mimic::sim {
 namespace {
 
 constexpr double kTwoPi = 6.283185307179586;
-constexpr const char* kSensorJoints[] = {"pelvis",  "head",    "l_wrist", "r_wrist", "l_ankle",
-                                         "r_ankle", "l_elbow", "r_elbow", "l_knee",  "r_knee",
+constexpr const char* kSensorJoints[] = {"pelvis",      "head",       "l_wrist",    "r_wrist", "l_ankle",
+                                         "r_ankle",     "l_elbow",    "r_elbow",    "l_knee",  "r_knee",
                                          "spine_upper", "l_shoulder", "r_shoulder", "neck"};
 
 struct MotionState {
@@ -57,8 +57,8 @@ FlockSampleProvider make_builtin_flock_motion(uint64_t seed) {
         const auto& d = st->skeleton.dof(static_cast<int>(i));
         st->pose.dof_rad[i] = static_cast<float>(std::clamp(v, double(d.min_rad), double(d.max_rad)));
       }
-      st->pose.root_position_m = glm::vec3(0.05f * static_cast<float>(std::sin(kTwoPi * 0.3 * t_s)),
-                                           st->root_height_m, 0.0f);
+      st->pose.root_position_m =
+          glm::vec3(0.05f * static_cast<float>(std::sin(kTwoPi * 0.3 * t_s)), st->root_height_m, 0.0f);
       rig::forward_kinematics(st->skeleton, st->pose, st->world_from_joint);
       st->last_t = t_s;
     }

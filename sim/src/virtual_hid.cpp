@@ -27,8 +27,8 @@ void VirtualHid::advance(double now_s, const Emit& emit) {
     next_s_ += period;
     const devices::InputFrame f = cfg_.input(t);
     const hid::Axes a = hid::from_frame(f, cfg_.scaling);
-    const uint32_t b = model_->buttons ? f.buttons & ((model_->buttons >= 32) ? ~0u : (1u << model_->buttons) - 1)
-                                       : f.buttons & 0x3u;
+    const uint32_t b =
+        model_->buttons ? f.buttons & ((model_->buttons >= 32) ? ~0u : (1u << model_->buttons) - 1) : f.buttons & 0x3u;
     if (b != buttons_) {
       buttons_ = b;
       std::array<uint8_t, 5> r{};
@@ -68,8 +68,7 @@ namespace {
 
 class SimulatedSpaceMouse final : public devices::InputSource {
  public:
-  explicit SimulatedSpaceMouse(VirtualHidConfig cfg)
-      : hid_(cfg), core_(description(hid_.model()), cfg.scaling) {}
+  explicit SimulatedSpaceMouse(VirtualHidConfig cfg) : hid_(cfg), core_(description(hid_.model()), cfg.scaling) {}
   ~SimulatedSpaceMouse() override { stop(); }
 
   Status start() override {

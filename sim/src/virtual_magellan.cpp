@@ -6,8 +6,7 @@ namespace mimic::sim {
 
 namespace mg = devices::magellan;
 
-MagellanDevice::MagellanDevice(VirtualMagellanConfig config)
-    : SerialDevice(config.baud, 11), cfg_(std::move(config)) {
+MagellanDevice::MagellanDevice(VirtualMagellanConfig config) : SerialDevice(config.baud, 11), cfg_(std::move(config)) {
   expect_line({9600, 2, 2, true});
   if (!cfg_.input) cfg_.input = default_input_pattern(cfg_.seed);
 }
@@ -43,8 +42,7 @@ void MagellanDevice::command(const std::string& cmd, double now_s) {
     return true;
   };
   switch (cmd[0]) {
-    case '@':
-      return;  // a Spaceball reset probe: a Magellan stays silent so the host tries Magellan next
+    case '@': return;  // a Spaceball reset probe: a Magellan stays silent so the host tries Magellan next
     case 'v':
       if (cmd == "vQ") return echo("v" + cfg_.version);
       break;
@@ -65,11 +63,12 @@ void MagellanDevice::command(const std::string& cmd, double now_s) {
     case 'n':
       if (nibbles_ok(1)) return echo(cmd);
       break;
-    case 'c': case 'q': case 'p':
+    case 'c':
+    case 'q':
+    case 'p':
       if (nibbles_ok(2)) return echo(cmd);
       break;
-    default:
-      break;
+    default: break;
   }
   std::string err = "e1";
   err.append(cmd.substr(0, 2));
@@ -98,8 +97,7 @@ void MagellanDevice::advance(double now_s) {
   send(std::span<const uint8_t>(d.data(), d.size()), now_s);
 }
 
-Result<std::unique_ptr<PtyServer>> start_virtual_magellan(VirtualMagellanConfig config,
-                                                         const std::string& log_path) {
+Result<std::unique_ptr<PtyServer>> start_virtual_magellan(VirtualMagellanConfig config, const std::string& log_path) {
   return PtyServer::start(std::make_unique<MagellanDevice>(std::move(config)), log_path);
 }
 

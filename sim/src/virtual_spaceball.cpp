@@ -146,12 +146,8 @@ void SpaceballDevice::command(std::string_view cmd, double now_s) {
       reply("\"3 V" + firmware_ + " created on " + firmware_date(cfg_.model), at);
       reply("\"4 Copyright(C) 1997 Spacetec IMC Corporation", at);
       return;
-    case 'k':
-      send_keys(buttons_, at);
-      return;
-    case '%':
-      reply(cmd, at);
-      return;
+    case 'k': send_keys(buttons_, at); return;
+    case '%': reply(cmd, at); return;
     case 'M':
       // 2003/3003: MSS… enables ball data and a bare M disables it; the 4000 FLX enables on M.
       enabled_ = flx || cmd.substr(0, 3) == "MSS";
@@ -167,9 +163,11 @@ void SpaceballDevice::command(std::string_view cmd, double now_s) {
       enabled_ = false;
       reply(cmd, at);
       return;
-    case 'C': case 'N': case 'F': case 'P': case 'Z':
-      reply(cmd, at);
-      return;
+    case 'C':
+    case 'N':
+    case 'F':
+    case 'P':
+    case 'Z': reply(cmd, at); return;
     case 'Y':
       if (!flx || (cmd != "YS" && cmd != "YC")) return unknown();
       reply(cmd, at);
@@ -190,11 +188,9 @@ void SpaceballDevice::command(std::string_view cmd, double now_s) {
       return;
     case 'S':
       if (!flx) return unknown();
-      return;  // a beep; nothing comes back
-    case 'B':
-      return;  // beep pattern
-    default:
-      unknown();
+      return;          // a beep; nothing comes back
+    case 'B': return;  // beep pattern
+    default: unknown();
   }
 }
 
@@ -250,7 +246,8 @@ void SpaceballDevice::send_displacement(const sb::Axes& axes, uint16_t period, d
       for (int tries = 0; tries < 8; ++tries) {
         const size_t i = 1 + fault_rng_() % (n - 2);
         if (wire[i] == 0x5E || wire[i - 1] == 0x5E) continue;
-        std::copy(wire.begin() + static_cast<long>(i) + 1, wire.begin() + static_cast<long>(n), wire.begin() + static_cast<long>(i));
+        std::copy(wire.begin() + static_cast<long>(i) + 1, wire.begin() + static_cast<long>(n),
+                  wire.begin() + static_cast<long>(i));
         --n;
         break;
       }
@@ -270,8 +267,7 @@ void SpaceballDevice::send_displacement(const sb::Axes& axes, uint16_t period, d
   }
 }
 
-Result<std::unique_ptr<PtyServer>> start_virtual_spaceball(VirtualSpaceballConfig config,
-                                                          const std::string& log_path) {
+Result<std::unique_ptr<PtyServer>> start_virtual_spaceball(VirtualSpaceballConfig config, const std::string& log_path) {
   return PtyServer::start(std::make_unique<SpaceballDevice>(std::move(config)), log_path);
 }
 

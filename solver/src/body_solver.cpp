@@ -39,8 +39,8 @@ struct ChainInput {
   const RigidTransform* parent_w;
   glm::vec3 start;
   const RigidTransform* end_t;
-  std::span<const float> warm;   // current DOF values (warm start of the decompositions)
-  glm::vec3 hinge_hint{0.0f};    // which way the hinge should face when over-extension is possible
+  std::span<const float> warm;  // current DOF values (warm start of the decompositions)
+  glm::vec3 hinge_hint{0.0f};   // which way the hinge should face when over-extension is possible
   const glm::vec3* last_bend = nullptr;
   const glm::quat* upper_rot = nullptr;  // the upper segment's measured orientation, if any
 };
@@ -53,8 +53,8 @@ struct ChainSolution {
   float violation = 0;  // radians cut off by the limits, summed
 };
 
-float decompose_clamped(const Skeleton& s, const int* dofs, int count, const glm::quat& q,
-                        std::span<const float> warm, std::array<float, 3>& out) {
+float decompose_clamped(const Skeleton& s, const int* dofs, int count, const glm::quat& q, std::span<const float> warm,
+                        std::array<float, 3>& out) {
   std::array<glm::vec3, 3> axes;
   std::array<float, 3> lo{}, hi{};
   for (int i = 0; i < count; ++i) {
@@ -62,8 +62,8 @@ float decompose_clamped(const Skeleton& s, const int* dofs, int count, const glm
     axes[i] = f.axis, lo[i] = f.min_rad, hi[i] = f.max_rad;
     out[i] = warm[dofs[i]];
   }
-  angles_from_rotation(q, std::span(axes.data(), count), std::span(out.data(), count),
-                       std::span(lo.data(), count), std::span(hi.data(), count));
+  angles_from_rotation(q, std::span(axes.data(), count), std::span(out.data(), count), std::span(lo.data(), count),
+                       std::span(hi.data(), count));
   float violation = 0;
   for (int i = 0; i < count; ++i) {
     const float v = std::clamp(out[i], lo[i], hi[i]);
@@ -118,7 +118,8 @@ ChainSolution solve_chain(const ChainInput& in, const glm::vec3& pole) {
   out.bend_world = b_w;
   // The upper joint as clamped, then the bend: what is left orients the hand or foot.
   glm::quat upper_local(1, 0, 0, 0);
-  for (int i = 0; i < ch.upper_dof_count; ++i) upper_local = upper_local * glm::angleAxis(out.upper[i], s.dof(ch.upper_dofs[i]).axis);
+  for (int i = 0; i < ch.upper_dof_count; ++i)
+    upper_local = upper_local * glm::angleAxis(out.upper[i], s.dof(ch.upper_dofs[i]).axis);
   const glm::quat mid_pre = in.parent_w->rotation * upper_local * glm::angleAxis(out.bend, ch.hinge);
   out.violation += decompose_clamped(s, ch.end_dofs.data(), ch.end_dof_count,
                                      glm::conjugate(mid_pre) * in.end_t->rotation, in.warm, out.end);
@@ -181,8 +182,7 @@ void keep_toes_above_floor(const SolverModel& m, int toes, float floor_y, const 
 bool SolveJob::Validate() const {
   if (!model || !context || !pose) return false;
   const Skeleton& s = model->skeleton();
-  return static_cast<int>(pose->dof_rad.size()) == s.dof_count() &&
-         context->ls_.joint_count() == s.joint_count() &&
+  return static_cast<int>(pose->dof_rad.size()) == s.dof_count() && context->ls_.joint_count() == s.joint_count() &&
          static_cast<int>(context->has_target_.size()) == s.joint_count();
 }
 
@@ -266,7 +266,8 @@ void SolveJob::AddRootTargets() {
   const glm::quat head_rot = c.has_target_[m.head_] ? c.segment_target_[m.head_].rotation : glm::quat(1, 0, 0, 0);
   glm::vec3 forward(0.0f);
   for (int leg = 2; leg < 4; ++leg)
-    if (c.has_target_[m.chains_[leg].end]) forward += c.segment_target_[m.chains_[leg].end].rotation * glm::vec3(0, 0, 1);
+    if (c.has_target_[m.chains_[leg].end])
+      forward += c.segment_target_[m.chains_[leg].end].rotation * glm::vec3(0, 0, 1);
   if (glm::length(forward) < 0.5f && c.has_target_[m.head_]) {
     forward = head_rot * glm::vec3(0, 0, 1);
     if (glm::length(glm::vec2(forward.x, forward.z)) < 0.3f) forward = head_rot * glm::vec3(0, 1, 0);
@@ -308,8 +309,8 @@ void SolveJob::AddArmTargets() {
                                     o.position_weight, o.rotation_weight});
     const int clavicle = s.parent(upper);
     if (c.has_target_[clavicle])
-      c.targets_.push_back(IkTarget{clavicle, c.segment_target_[clavicle].translation, c.segment_target_[clavicle].rotation,
-                                    o.position_weight, o.rotation_weight});
+      c.targets_.push_back(IkTarget{clavicle, c.segment_target_[clavicle].translation,
+                                    c.segment_target_[clavicle].rotation, o.position_weight, o.rotation_weight});
   }
 }
 
@@ -400,10 +401,14 @@ bool SolveJob::SolveLimb(int ci) {
   }
   ChainInput in{&s, &ch, &parent_w, start, &end_t, dof};
   if (c.has_target_[ch.upper]) in.upper_rot = &c.segment_target_[ch.upper].rotation;
-  if (c.has_target_[ch.upper]) in.hinge_hint = c.segment_target_[ch.upper].rotation * ch.hinge;
-  else if (c.has_target_[ch.mid]) in.hinge_hint = c.segment_target_[ch.mid].rotation * ch.hinge;
-  else if (c.have_previous_) in.last_bend = &c.last_bend_world_[ci];
-  else in.hinge_hint = end_t.rotation * ch.hinge;
+  if (c.has_target_[ch.upper])
+    in.hinge_hint = c.segment_target_[ch.upper].rotation * ch.hinge;
+  else if (c.has_target_[ch.mid])
+    in.hinge_hint = c.segment_target_[ch.mid].rotation * ch.hinge;
+  else if (c.have_previous_)
+    in.last_bend = &c.last_bend_world_[ci];
+  else
+    in.hinge_hint = end_t.rotation * ch.hinge;
   // Swivel: the hint first; if the limits cannot follow it (shoulder twist, forearm twist,
   // wrist, hip rotation …), the feasible swivel nearest to it.
   const glm::vec3 axis_dir = end_t.translation - start;
@@ -458,12 +463,16 @@ void SolveJob::SolveLimbsAndRest(bool trunk_observed) {
         continue;
       }
       if (!chain_solved[ci]) {
-        if (c.has_target_[j]) OrientFromTarget(j);
-        else relax(j);
+        if (c.has_target_[j])
+          OrientFromTarget(j);
+        else
+          relax(j);
       }
     } else {
-      if (c.has_target_[j]) OrientFromTarget(j);
-      else if (!solved_by_ls[j]) relax(j);
+      if (c.has_target_[j])
+        OrientFromTarget(j);
+      else if (!solved_by_ls[j])
+        relax(j);
     }
     PlaceJoint(j);
     if (const int leg = j == m.toes_[0] ? 0 : j == m.toes_[1] ? 1 : -1; leg >= 0 && std::isfinite(o.standing_root_y_m))

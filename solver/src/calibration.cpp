@@ -12,13 +12,13 @@
 
 namespace mimic::solver {
 
-using rig::RigidTransform;
-using rig::Skeleton;
-using rig::SkeletonDesc;
 using detail::angle_deg;
 using detail::Fit;
 using detail::pose_world;
 using detail::SensorStats;
+using rig::RigidTransform;
+using rig::Skeleton;
+using rig::SkeletonDesc;
 
 namespace {
 
@@ -30,9 +30,7 @@ std::string fmt(float v, const char* f = "%.1f") {
   return b;
 }
 
-bool usable(const devices::SensorSample& s) {
-  return (s.flags & devices::kSampleValid) && detail::finite_sample(s);
-}
+bool usable(const devices::SensorSample& s) { return (s.flags & devices::kSampleValid) && detail::finite_sample(s); }
 
 // Per-sensor mean pose and spread over the capture; the time span and sample count in `cal`.
 std::vector<SensorStats> measure_capture(const SensorLayout& layout, std::span<const devices::SensorSample> capture,
@@ -92,7 +90,8 @@ Status check_capture(const std::vector<SensorStats>& stats, const CalibrationOpt
                  ", " + std::to_string(st.count) + " samples)";
   }
   if (!missing.empty())
-    return fail(Errc::not_found, "calibration refused: no data from " + missing + "; check that every sensor is connected");
+    return fail(Errc::not_found,
+                "calibration refused: no data from " + missing + "; check that every sensor is connected");
   std::string moved;
   for (const auto& st : stats) {
     if (st.max_dist_m > opt.max_motion_m || st.max_angle_deg > opt.max_motion_deg)
@@ -212,14 +211,13 @@ SkeletonDesc tracking_skeleton_desc(const SkeletonDesc& base) {
       set_offset(sd + "wrist", glm::normalize(w->offset_m) * (0.389f * 0.569f * leg));
     }
     // Hip centres a hand's width below the root and a little forward of it.
-    if (rig::JointDesc* hp = find(sd + "hip"); hp) hp->offset_m = glm::vec3(x * 0.112f * leg, -0.120f * leg, 0.045f * leg);
+    if (rig::JointDesc* hp = find(sd + "hip"); hp)
+      hp->offset_m = glm::vec3(x * 0.112f * leg, -0.120f * leg, 0.045f * leg);
   }
   return d;
 }
 
-const char* calibration_pose_name(CalibrationPose pose) {
-  return pose == CalibrationPose::n_pose ? "npose" : "tpose";
-}
+const char* calibration_pose_name(CalibrationPose pose) { return pose == CalibrationPose::n_pose ? "npose" : "tpose"; }
 
 Result<CalibrationPose> parse_calibration_pose(std::string_view name) {
   if (name == "tpose" || name == "t") return CalibrationPose::t_pose;

@@ -31,9 +31,22 @@ struct SensorStats {
 // The joints the fit reads by name. Left and right limbs are two blocks in the same order, so
 // that `sided` turns a left landmark into either side's.
 enum class Landmark : uint8_t {
-  pelvis, spine_mid, spine_upper, head,
-  l_shoulder, l_elbow, l_wrist, l_hip, l_knee, l_ankle,
-  r_shoulder, r_elbow, r_wrist, r_hip, r_knee, r_ankle,
+  pelvis,
+  spine_mid,
+  spine_upper,
+  head,
+  l_shoulder,
+  l_elbow,
+  l_wrist,
+  l_hip,
+  l_knee,
+  l_ankle,
+  r_shoulder,
+  r_elbow,
+  r_wrist,
+  r_hip,
+  r_knee,
+  r_ankle,
   count
 };
 constexpr int kLandmarkCount = static_cast<int>(Landmark::count);

@@ -54,12 +54,16 @@ std::string calibration_to_json(const Calibration& cal) {
   j["heading_deg"] = cal.heading_deg;
   j["floor_y_m"] = cal.floor_y_m;
   j["standing_root_y_m"] = cal.standing_root_y_m;
-  j["capture"] = {{"samples", cal.samples}, {"duration_s", cal.duration_s},
-                  {"max_motion_mm", cal.max_motion_mm}, {"max_motion_deg", cal.max_motion_deg}};
+  j["capture"] = {{"samples", cal.samples},
+                  {"duration_s", cal.duration_s},
+                  {"max_motion_mm", cal.max_motion_mm},
+                  {"max_motion_deg", cal.max_motion_deg}};
   json sensors = json::array();
   for (const auto& sc : cal.sensors) {
     const glm::quat& q = sc.segment_from_sensor.rotation;
-    sensors.push_back({{"sensor", sc.sensor}, {"name", sc.name}, {"segment", sc.segment},
+    sensors.push_back({{"sensor", sc.sensor},
+                       {"name", sc.name},
+                       {"segment", sc.segment},
                        {"translation_m", vec(sc.segment_from_sensor.translation)},
                        {"rotation_wxyz", json::array({q.w, q.x, q.y, q.z})}});
   }
@@ -68,10 +72,16 @@ std::string calibration_to_json(const Calibration& cal) {
   for (const auto& jd : cal.skeleton.joints) {
     json dofs = json::array();
     for (const auto& f : jd.dofs)
-      dofs.push_back({{"name", f.name}, {"axis", vec(f.axis)}, {"min_deg", glm::degrees(f.min_rad)},
-                      {"max_deg", glm::degrees(f.max_rad)}, {"rest_deg", glm::degrees(f.rest_rad)}});
-    joints.push_back({{"name", jd.name}, {"parent", jd.parent}, {"offset_m", vec(jd.offset_m)},
-                      {"tip_m", vec(jd.tip_m)}, {"dofs", dofs}});
+      dofs.push_back({{"name", f.name},
+                      {"axis", vec(f.axis)},
+                      {"min_deg", glm::degrees(f.min_rad)},
+                      {"max_deg", glm::degrees(f.max_rad)},
+                      {"rest_deg", glm::degrees(f.rest_rad)}});
+    joints.push_back({{"name", jd.name},
+                      {"parent", jd.parent},
+                      {"offset_m", vec(jd.offset_m)},
+                      {"tip_m", vec(jd.tip_m)},
+                      {"dofs", dofs}});
   }
   j["skeleton"] = {{"joints", joints}};
   return j.dump(1) + "\n";
@@ -81,7 +91,8 @@ Result<Calibration> calibration_from_json(std::string_view text) {
   const json j = json::parse(text.begin(), text.end(), nullptr, false);
   if (j.is_discarded()) return fail(Errc::parse_error, "calibration: not valid JSON");
   auto bad = [](const std::string& what) { return fail(Errc::parse_error, "calibration: " + what); };
-  if (!j.is_object() || string_or(j, "format", "") != "mimic-calibration") return bad("not a mimic-calibration file (\"format\")");
+  if (!j.is_object() || string_or(j, "format", "") != "mimic-calibration")
+    return bad("not a mimic-calibration file (\"format\")");
   if (!j.contains("version") || !j["version"].is_number_integer() || j["version"].get<int64_t>() != 1)
     return bad("unsupported version (expected 1)");
   Calibration cal;
@@ -113,8 +124,10 @@ Result<Calibration> calibration_from_json(std::string_view text) {
     rig::JointDesc jd;
     jd.name = jj["name"].get<std::string>();
     if (jj.contains("parent") && jj["parent"].is_string()) jd.parent = jj["parent"].get<std::string>();
-    if (!jj.contains("offset_m") || !read_vec(jj["offset_m"], jd.offset_m)) return bad(where + " (" + jd.name + "): bad \"offset_m\"");
-    if (!jj.contains("tip_m") || !read_vec(jj["tip_m"], jd.tip_m)) return bad(where + " (" + jd.name + "): bad \"tip_m\"");
+    if (!jj.contains("offset_m") || !read_vec(jj["offset_m"], jd.offset_m))
+      return bad(where + " (" + jd.name + "): bad \"offset_m\"");
+    if (!jj.contains("tip_m") || !read_vec(jj["tip_m"], jd.tip_m))
+      return bad(where + " (" + jd.name + "): bad \"tip_m\"");
     if (jj.contains("dofs")) {
       if (!jj["dofs"].is_array()) return bad(where + " (" + jd.name + "): \"dofs\" is not an array");
       for (const json& fj : jj["dofs"]) {
@@ -142,7 +155,8 @@ Result<Calibration> calibration_from_json(std::string_view text) {
   for (const json& sj : j["sensors"]) {
     const std::string where = "sensor entry " + std::to_string(index++);
     SensorCalibration sc;
-    if (!sj.is_object() || !sj.contains("sensor") || !sj["sensor"].is_number_unsigned() || sj["sensor"].get<unsigned>() > 65535)
+    if (!sj.is_object() || !sj.contains("sensor") || !sj["sensor"].is_number_unsigned() ||
+        sj["sensor"].get<unsigned>() > 65535)
       return bad(where + ": bad \"sensor\" id");
     sc.sensor = static_cast<uint16_t>(sj["sensor"].get<unsigned>());
     if (!sj.contains("segment") || !sj["segment"].is_string()) return bad(where + ": missing \"segment\"");
@@ -151,13 +165,15 @@ Result<Calibration> calibration_from_json(std::string_view text) {
     if (!sj.contains("translation_m") || !read_vec(sj["translation_m"], sc.segment_from_sensor.translation))
       return bad(where + ": bad \"translation_m\"");
     const json& q = sj.contains("rotation_wxyz") ? sj["rotation_wxyz"] : json();
-    if (!q.is_array() || q.size() != 4 || !q[0].is_number() || !q[1].is_number() || !q[2].is_number() || !q[3].is_number())
+    if (!q.is_array() || q.size() != 4 || !q[0].is_number() || !q[1].is_number() || !q[2].is_number() ||
+        !q[3].is_number())
       return bad(where + ": bad \"rotation_wxyz\"");
     float qw = 0, qx = 0, qy = 0, qz = 0;
     if (!read_float(q[0], qw) || !read_float(q[1], qx) || !read_float(q[2], qy) || !read_float(q[3], qz))
       return bad(where + ": \"rotation_wxyz\" is not four finite numbers");
     glm::quat r(qw, qx, qy, qz);
-    if (!(glm::dot(r, r) > 0.5f && glm::dot(r, r) < 2.0f)) return bad(where + ": \"rotation_wxyz\" is not a unit quaternion");
+    if (!(glm::dot(r, r) > 0.5f && glm::dot(r, r) < 2.0f))
+      return bad(where + ": \"rotation_wxyz\" is not a unit quaternion");
     sc.segment_from_sensor.rotation = glm::normalize(r);
     cal.sensors.push_back(sc);
   }

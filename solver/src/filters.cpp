@@ -82,7 +82,8 @@ void SensorFilterBank::process(std::span<devices::SensorSample> samples) {
 
     // Where the sensor should be now, from the filtered state.
     const glm::vec3 predicted_pos = st.pos.value() + st.pos.velocity() * std::max(dt, 0.0f);
-    const glm::quat predicted_rot = glm::normalize(exp_rotation(st.rot.angular_velocity() * std::max(dt, 0.0f)) * st.rot.value());
+    const glm::quat predicted_rot =
+        glm::normalize(exp_rotation(st.rot.angular_velocity() * std::max(dt, 0.0f)) * st.rot.value());
 
     if (!usable) {
       if (st.seen && t - st.last_good_t <= config_.hold_s) {

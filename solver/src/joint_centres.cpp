@@ -63,8 +63,8 @@ void JointCentreEstimator::add(std::span<const devices::SensorSample> samples) {
   for (const auto& smp : samples) {
     if (!(smp.flags & devices::kSampleValid) || (smp.flags & kSkip)) continue;
     if (smp.sensor >= slot_of_sensor_.size() || slot_of_sensor_[smp.sensor] < 0) continue;
-    if (!std::isfinite(smp.position_m.x + smp.position_m.y + smp.position_m.z + smp.orientation.w +
-                       smp.orientation.x + smp.orientation.y + smp.orientation.z))
+    if (!std::isfinite(smp.position_m.x + smp.position_m.y + smp.position_m.z + smp.orientation.w + smp.orientation.x +
+                       smp.orientation.y + smp.orientation.z))
       continue;
     latest_[static_cast<size_t>(slot_of_sensor_[smp.sensor])] = &smp;
   }
@@ -133,11 +133,13 @@ Result<Calibration> JointCentreEstimator::refine(const Calibration& cal, int* ch
   const rig::Skeleton& s = *built;
   const int n = s.joint_count();
   std::vector<int> desc_of(n, -1);  // skeleton joint → SkeletonDesc entry
-  for (size_t i = 0; i < cal.skeleton.joints.size(); ++i) desc_of[s.find_joint(cal.skeleton.joints[i].name)] = static_cast<int>(i);
+  for (size_t i = 0; i < cal.skeleton.joints.size(); ++i)
+    desc_of[s.find_joint(cal.skeleton.joints[i].name)] = static_cast<int>(i);
   std::vector<uint8_t> has(n, 0);
   std::vector<glm::vec3> in_parent(n), in_child(n);
   const auto found = fits();
-  for (const auto& f : found) has[f.joint] = 1, in_parent[f.joint] = f.in_parent_sensor, in_child[f.joint] = f.in_child_sensor;
+  for (const auto& f : found)
+    has[f.joint] = 1, in_parent[f.joint] = f.in_parent_sensor, in_child[f.joint] = f.in_child_sensor;
   if (changed) *changed = static_cast<int>(found.size());
   Calibration out = cal;
   if (found.empty()) return out;
@@ -173,7 +175,8 @@ Result<Calibration> JointCentreEstimator::refine(const Calibration& cal, int* ch
       auto& jd = out.skeleton.joints[desc_of[k]];
       jd.offset_m = rot * (ends[c] - origin);
     }
-    if (children[seg].size() == 1) out.skeleton.joints[desc_of[seg]].tip_m = out.skeleton.joints[desc_of[children[seg][0]]].offset_m;
+    if (children[seg].size() == 1)
+      out.skeleton.joints[desc_of[seg]].tip_m = out.skeleton.joints[desc_of[children[seg][0]]].offset_m;
   }
   return out;
 }

@@ -20,8 +20,7 @@ using detail::exp_rotation;
 using detail::rotation_vector;
 
 // FK that also records every DOF's rotation axis in world space.
-void evaluate(const Skeleton& s, const Pose& pose, std::span<RigidTransform> world,
-              std::span<glm::vec3> axis_world) {
+void evaluate(const Skeleton& s, const Pose& pose, std::span<RigidTransform> world, std::span<glm::vec3> axis_world) {
   const int n = s.joint_count();
   const glm::quat root_rot = glm::normalize(pose.root_orientation);
   for (int j = 0; j < n; ++j) {
@@ -33,14 +32,12 @@ void evaluate(const Skeleton& s, const Pose& pose, std::span<RigidTransform> wor
       r = r * glm::angleAxis(pose.dof_rad[i], f.axis);
     }
     world[j].rotation = r;
-    world[j].translation = p < 0 ? pose.root_position_m + root_rot * s.offset_m(j)
-                                 : world[p].apply(s.offset_m(j));
+    world[j].translation = p < 0 ? pose.root_position_m + root_rot * s.offset_m(j) : world[p].apply(s.offset_m(j));
   }
 }
 
 // Fills residual rows in target order; returns the row count.
-int fill_residual(std::span<const IkTarget> targets, std::span<const RigidTransform> world,
-                  std::span<float> r) {
+int fill_residual(std::span<const IkTarget> targets, std::span<const RigidTransform> world, std::span<float> r) {
   int row = 0;
   for (const IkTarget& t : targets) {
     const RigidTransform& w = world[t.joint];
@@ -115,8 +112,7 @@ bool LeastSquaresIkJob::Validate() const {
   for (int d : dofs)
     if (d < 0 || d >= s.dof_count()) return false;
   for (const IkTarget& t : targets)
-    if (t.joint < 0 || t.joint >= s.joint_count() || t.position_weight < 0 || t.rotation_weight < 0)
-      return false;
+    if (t.joint < 0 || t.joint >= s.joint_count() || t.position_weight < 0 || t.rotation_weight < 0) return false;
   return max_iterations >= 0 && damping >= 0 && prior_weight >= 0;
 }
 
@@ -186,7 +182,8 @@ void LeastSquaresIkJob::FillJacobian(int root_cols) {
     for (int col = root_cols; col < n; ++col) {
       const int d = dofs[static_cast<size_t>(list[col] - root_cols)];
       const int j = s.dof(d).joint;
-      if (pos_rows) put(pos_rows, tg.position_weight, col, glm::cross(c.dof_axis_world_[d], e - c.world_[j].translation));
+      if (pos_rows)
+        put(pos_rows, tg.position_weight, col, glm::cross(c.dof_axis_world_[d], e - c.world_[j].translation));
       if (rot_rows) put(rot_rows, tg.rotation_weight, col, c.dof_axis_world_[d]);
     }
     block += static_cast<size_t>(n_rows) * n;

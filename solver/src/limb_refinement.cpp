@@ -12,8 +12,7 @@ using Mat3 = detail::SquareMatrix<3>;
 
 }  // namespace
 
-LimbLengthEstimator::LimbLengthEstimator(const SolverModel& model, LimbRefinementOptions options)
-    : options_(options) {
+LimbLengthEstimator::LimbLengthEstimator(const SolverModel& model, LimbRefinementOptions options) : options_(options) {
   for (int c = 0; c < 4; ++c) {
     const auto& ch = model.chains_[c];
     int upper = -1, mid = -1, end = -1;
@@ -111,9 +110,9 @@ LimbFit LimbLengthEstimator::fit(int chain, const SolverModel& model) const {
   out.upper_m = static_cast<float>(std::sqrt(dot3(ko, ko)));
   out.lower_m = static_cast<float>(std::sqrt(r2));
   out.valid = out.arc_spread_m >= options_.min_arc_spread_m && out.off_plane_m <= options_.max_off_plane_m &&
-              out.arc_spread_m >= options_.min_plane_ratio * out.off_plane_m &&
-              out.upper_m >= options_.min_link_m && out.upper_m <= options_.max_link_m &&
-              out.lower_m >= options_.min_link_m && out.lower_m <= options_.max_link_m;
+              out.arc_spread_m >= options_.min_plane_ratio * out.off_plane_m && out.upper_m >= options_.min_link_m &&
+              out.upper_m <= options_.max_link_m && out.lower_m >= options_.min_link_m &&
+              out.lower_m <= options_.max_link_m;
   return out;
 }
 

@@ -72,7 +72,6 @@ void lift_heel(rig::RigidTransform& ankle_t, const glm::vec3& hip, float reach_m
   ankle_t.rotation = ankle_t.rotation * glm::angleAxis(hi, glm::vec3(1, 0, 0));
 }
 
-
 }  // namespace
 
 void update_locomotion(LocomotionState& s, const LocomotionInput& in, const LocomotionOptions& o) {
@@ -146,7 +145,8 @@ void update_locomotion(LocomotionState& s, const LocomotionInput& in, const Loco
     if (!f.driven) continue;
     const float floor_y = in.floor_ankle_y_m[k];
     const FootStepState& other = s.feet[1 - k];
-    const glm::vec2 other_xz = other.driven ? xz(other.swinging ? other.ankle : other.planted) : xz(in.last_ankle[1 - k]);
+    const glm::vec2 other_xz =
+        other.driven ? xz(other.swinging ? other.ankle : other.planted) : xz(in.last_ankle[1 - k]);
     const bool other_known = other.driven || in.have_last_ankle;
     if (!f.swinging) {
       f.ankle = glm::vec3(f.planted.x, floor_y, f.planted.z);
@@ -189,8 +189,8 @@ void hang_untracked_feet(const SolverModel& m, SolverContext& c, const rig::Pose
     if (!legs[leg]) continue;
     const auto& ch = m.chains_[2 + leg];
     const glm::vec3 hip = p.root_position_m + p.root_orientation * s.offset_m(ch.upper);
-    const float hang = std::sqrt(ch.upper_m * ch.upper_m + ch.lower_m * ch.lower_m +
-                                 2.0f * ch.upper_m * ch.lower_m * std::cos(bend));
+    const float hang =
+        std::sqrt(ch.upper_m * ch.upper_m + ch.lower_m * ch.lower_m + 2.0f * ch.upper_m * ch.lower_m * std::cos(bend));
     const float floor_y = o.standing_root_y_m - m.ankle_below_root_rest_[leg];
     c.segment_target_[ch.end] = rig::RigidTransform{facing, glm::vec3(hip.x, std::max(floor_y, hip.y - hang), hip.z)};
     c.has_target_[ch.end] = 1;
@@ -255,6 +255,5 @@ void SolveJob::place_untracked_feet() {
     c.guessed_end_[2 + leg] = true;
   }
 }
-
 
 }  // namespace mimic::solver

@@ -54,10 +54,12 @@ void PoseErrorAccumulator::add(std::span<const rig::RigidTransform> truth_world,
   if (end_effectors_ > 0) ee_sum_ += ee / end_effectors_;
   if (frames_ >= 2) {
     for (size_t i = 0; i < n; ++i) {
-      const double j = glm::length(glm::dvec3(solved_now[i]) - 2.0 * glm::dvec3(prev_solved_[i]) + glm::dvec3(prev2_solved_[i]));
+      const double j =
+          glm::length(glm::dvec3(solved_now[i]) - 2.0 * glm::dvec3(prev_solved_[i]) + glm::dvec3(prev2_solved_[i]));
       jitter_sum_ += j;
       joint_jitter_sum_[i] += j;
-      jitter_truth_sum_ += glm::length(glm::dvec3(truth_now[i]) - 2.0 * glm::dvec3(prev_truth_[i]) + glm::dvec3(prev2_truth_[i]));
+      jitter_truth_sum_ +=
+          glm::length(glm::dvec3(truth_now[i]) - 2.0 * glm::dvec3(prev_truth_[i]) + glm::dvec3(prev2_truth_[i]));
     }
     jitter_terms_ += static_cast<long>(n);
   }

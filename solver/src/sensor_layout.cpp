@@ -7,8 +7,8 @@ namespace {
 glm::vec3 mirror(glm::vec3 p) { return {-p.x, p.y, p.z}; }
 
 void add(SensorLayout& l, std::string name, std::string segment, glm::vec3 placement) {
-  l.bindings.push_back(SensorBinding{static_cast<uint16_t>(l.bindings.size()), std::move(name),
-                                     std::move(segment), placement});
+  l.bindings.push_back(
+      SensorBinding{static_cast<uint16_t>(l.bindings.size()), std::move(name), std::move(segment), placement});
 }
 
 void add_pair(SensorLayout& l, const std::string& part, const std::string& joint, glm::vec3 left) {
@@ -47,8 +47,8 @@ Result<SensorLayout> standard_layout(std::string_view name, const rig::Skeleton&
   }
   for (const auto& b : l.bindings)
     if (skeleton.find_joint(b.segment) < 0)
-      return fail(Errc::not_found, "sensor layout '" + l.name + "': the skeleton has no segment '" +
-                                       b.segment + "' for sensor '" + b.name + "'");
+      return fail(Errc::not_found, "sensor layout '" + l.name + "': the skeleton has no segment '" + b.segment +
+                                       "' for sensor '" + b.name + "'");
   return l;
 }
 

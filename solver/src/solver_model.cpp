@@ -20,8 +20,7 @@ constexpr const char* kChains[4][3] = {{"l_shoulder", "l_elbow", "l_wrist"},
 
 }  // namespace
 
-Result<SolverModel> SolverModel::create(Skeleton skeleton, std::vector<SensorMount> mounts,
-                                        SolverOptions options) {
+Result<SolverModel> SolverModel::create(Skeleton skeleton, std::vector<SensorMount> mounts, SolverOptions options) {
   SolverModel m;
   m.skeleton_ = std::move(skeleton);
   m.mounts_ = std::move(mounts);
@@ -36,7 +35,9 @@ Result<SolverModel> SolverModel::create(Skeleton skeleton, std::vector<SensorMou
   for (size_t i = 0; i < m.mounts_.size(); ++i) {
     const auto& mt = m.mounts_[i];
     const int j = s.find_joint(mt.segment);
-    if (j < 0) return fail(Errc::not_found, "solver: sensor " + std::to_string(mt.sensor) + " is on unknown segment '" + mt.segment + "'");
+    if (j < 0)
+      return fail(Errc::not_found,
+                  "solver: sensor " + std::to_string(mt.sensor) + " is on unknown segment '" + mt.segment + "'");
     if (m.slot_of_sensor_[mt.sensor] >= 0)
       return fail(Errc::invalid_argument, "solver: sensor id " + std::to_string(mt.sensor) + " mounted twice");
     m.slot_of_sensor_[mt.sensor] = static_cast<int>(i);

@@ -14,9 +14,7 @@ namespace {
 constexpr float kPi = 3.14159265358979f;
 constexpr float kTwoPi = 2.0f * kPi;
 
-float unwrap_near(float angle, float previous) {
-  return previous + std::remainder(angle - previous, kTwoPi);
-}
+float unwrap_near(float angle, float previous) { return previous + std::remainder(angle - previous, kTwoPi); }
 
 float limit_violation(float v, std::span<const float> lo, std::span<const float> hi, size_t i) {
   if (i >= lo.size() || i >= hi.size()) return 0.0f;
@@ -48,7 +46,7 @@ void decompose(const glm::quat& local, std::span<const glm::vec3> axes, std::spa
   std::array<double, 3> prev{}, base{};
   for (size_t i = 0; i < n; ++i) ax[i] = glm::dvec3(axes[i]), prev[i] = angles[i];
   rig::dofs_from_rotation(std::span(ax.data(), n), glm::dquat(local), std::span(prev.data(), n),
-                             std::span(base.data(), n));
+                          std::span(base.data(), n));
   std::array<std::array<float, 3>, 2> cand{};
   for (size_t i = 0; i < n; ++i) cand[0][i] = static_cast<float>(base[i]);
   int n_cand = 1;
@@ -81,15 +79,14 @@ float twist_angle_rad(const glm::quat& q, const glm::vec3& axis) {
   return std::remainder(2.0f * std::atan2(along, q.w), kTwoPi);
 }
 
-void angles_from_rotation(const glm::quat& local, std::span<const glm::vec3> axes,
-                          std::span<float> angles_rad, std::span<const float> min_rad,
-                          std::span<const float> max_rad) {
+void angles_from_rotation(const glm::quat& local, std::span<const glm::vec3> axes, std::span<float> angles_rad,
+                          std::span<const float> min_rad, std::span<const float> max_rad) {
   assert(axes.size() == angles_rad.size() && !axes.empty() && axes.size() <= 3);
   decompose(local, axes, angles_rad, min_rad, max_rad);
 }
 
-void dofs_from_rotation(const rig::Skeleton& skeleton, std::span<const int> dofs,
-                        const glm::quat& rotation, std::span<float> dof_rad) {
+void dofs_from_rotation(const rig::Skeleton& skeleton, std::span<const int> dofs, const glm::quat& rotation,
+                        std::span<float> dof_rad) {
   const size_t n = dofs.size();
   if (n == 0) return;
   assert(n <= 3);
@@ -102,8 +99,8 @@ void dofs_from_rotation(const rig::Skeleton& skeleton, std::span<const int> dofs
     hi[i] = f.max_rad;
     angles[i] = dof_rad[dofs[i]];
   }
-  angles_from_rotation(rotation, std::span(axes.data(), n), std::span(angles.data(), n),
-                       std::span(lo.data(), n), std::span(hi.data(), n));
+  angles_from_rotation(rotation, std::span(axes.data(), n), std::span(angles.data(), n), std::span(lo.data(), n),
+                       std::span(hi.data(), n));
   for (size_t i = 0; i < n; ++i) dof_rad[dofs[i]] = std::clamp(angles[i], lo[i], hi[i]);
 }
 

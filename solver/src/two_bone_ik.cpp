@@ -23,8 +23,8 @@ glm::vec3 any_perpendicular(const glm::vec3& n) {
 }  // namespace
 
 bool TwoBoneIkJob::Validate() const {
-  return upper_m > 0 && lower_m > 0 && std::isfinite(upper_m) && std::isfinite(lower_m) &&
-         all_finite(start_m) && all_finite(target_m) && all_finite(pole_dir) && min_bend_rad <= max_bend_rad;
+  return upper_m > 0 && lower_m > 0 && std::isfinite(upper_m) && std::isfinite(lower_m) && all_finite(start_m) &&
+         all_finite(target_m) && all_finite(pole_dir) && min_bend_rad <= max_bend_rad;
 }
 
 bool TwoBoneIkJob::Run() {

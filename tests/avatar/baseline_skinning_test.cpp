@@ -31,7 +31,8 @@ struct Rig {
 
   BaselineSkinner make() {
     rig::forward_kinematics(skeleton, skeleton.zero_pose(), rest_w);
-    auto s = BaselineSkinner::create(skeleton, rest_w, rest, weights_from_links(skeleton, rest_w, rest.positions, 0.08f));
+    auto s =
+        BaselineSkinner::create(skeleton, rest_w, rest, weights_from_links(skeleton, rest_w, rest.positions, 0.08f));
     EXPECT_TRUE(s) << s.error().what();
     return std::move(*s);
   }
@@ -56,7 +57,8 @@ TEST(BaselineSkinning, LinksGiveWeightsThatSumToOneAndBlendOnlyNearTheElbow) {
   ASSERT_TRUE(validate_weights(w, 2));
   for (size_t v = 0; v < r.rest.positions.size(); ++v) {
     const float x = r.rest.positions[v].x;
-    const float w_upper = (w.joints[4 * v] == 0 ? w.weights[4 * v] : 0) + (w.joints[4 * v + 1] == 0 ? w.weights[4 * v + 1] : 0);
+    const float w_upper =
+        (w.joints[4 * v] == 0 ? w.weights[4 * v] : 0) + (w.joints[4 * v + 1] == 0 ? w.weights[4 * v + 1] : 0);
     if (x < 0.21f) {
       EXPECT_EQ(w_upper, 1.0f) << x;
     } else if (x > 0.39f) {
@@ -209,7 +211,10 @@ TEST(BaselineSkinning, AntipodalQuaternionsAreTheSameRotation) {
   for (int v = 0; v < 21; ++v) {
     const float w = 0.05f * float(v);
     // Alternate which slot holds the flipped joint, so each slot's sign test is exercised.
-    if (v % 2) joints.insert(joints.end(), {0, 1, 0, 0}); else joints.insert(joints.end(), {1, 0, 0, 0});
+    if (v % 2)
+      joints.insert(joints.end(), {0, 1, 0, 0});
+    else
+      joints.insert(joints.end(), {1, 0, 0, 0});
     weights.insert(weights.end(), {w, 1 - w, 0, 0});
     in.push_back({0.01f * float(v), 0.2f, -0.1f});
     normals.push_back(glm::normalize(glm::vec3{1, float(v), 2}));
@@ -297,7 +302,8 @@ TEST(BaselineSkinning, EveryKernelPathEqualsThePlainReference) {
         ambiguous |= std::abs(dot) < 1e-3f;
         q = q + (dot < 0 ? -w[k] : w[k]) * rots[j[k]];
         for (int c = 0; c < 4; ++c)
-          m[c] += w[k] * glm::vec4(mats[j[k]].cols[c][0], mats[j[k]].cols[c][1], mats[j[k]].cols[c][2], c == 3 ? 1.0f : 0.0f);
+          m[c] += w[k] *
+                  glm::vec4(mats[j[k]].cols[c][0], mats[j[k]].cols[c][1], mats[j[k]].cols[c][2], c == 3 ? 1.0f : 0.0f);
       }
       ASSERT_LT(glm::distance(lp[v], glm::vec3(m * glm::vec4(in[v], 1.0f))), 2e-5f) << what << " lbs vertex " << v;
       ASSERT_LT(glm::distance(ln[v], glm::vec3(m * glm::vec4(normals[v], 0.0f))), 2e-5f) << what << " lbs normal " << v;

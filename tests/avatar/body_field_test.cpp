@@ -11,7 +11,8 @@ namespace {
 rig::SkeletonDesc tiny_skeleton() {
   rig::SkeletonDesc d;
   d.joints.push_back({"root", "", {0, 0, 0}, {0, 1, 0}, {}});
-  d.joints.push_back({"arm", "root", {0, 0, 0}, {1, 0, 0}, {rig::DofDesc{"arm_flexion", {0, 0, 1}, -1.0f, 2.0f, 0.0f}}});
+  d.joints.push_back(
+      {"arm", "root", {0, 0, 0}, {1, 0, 0}, {rig::DofDesc{"arm_flexion", {0, 0, 1}, -1.0f, 2.0f, 0.0f}}});
   return d;
 }
 
@@ -80,8 +81,8 @@ TEST(BodyField, LoneMetaballSurfaceIsItsEllipsoid) {
 
 TEST(BodyField, FindsAThinPartBeyondABigOne) {
   // A big ball at the origin and a thin plate far along +x: the outermost crossing is the plate's.
-  const BodyField f = field_of(model_of({ball("big", {0, 0, 0}, glm::vec3(0.2f)),
-                                         ball("thin", {0.6f, 0, 0}, {0.004f, 0.1f, 0.1f})}));
+  const BodyField f =
+      field_of(model_of({ball("big", {0, 0, 0}, glm::vec3(0.2f)), ball("thin", {0.6f, 0, 0}, {0.004f, 0.1f, 0.1f})}));
   const RayHit h = f.cast_outermost({0, 0, 0}, {1, 0, 0}, all(f));
   ASSERT_TRUE(h.hit());
   EXPECT_NEAR(h.t, 0.604f, 1e-4f);
@@ -98,8 +99,8 @@ TEST(BodyField, NothingBehindTheOriginIsHit) {
 TEST(BodyField, BlendedNeighboursJoinAndHardEllipsoidsUnite) {
   Primitive hard = ball("hard", {0, 0.3f, 0}, {0.05f, 0.05f, 0.05f});
   hard.kind = PrimitiveKind::ellipsoid;
-  const BodyField f = field_of(model_of({ball("a", {-0.055f, 0, 0}, glm::vec3(0.05f)),
-                                         ball("b", {0.055f, 0, 0}, glm::vec3(0.05f)), hard}));
+  const BodyField f = field_of(
+      model_of({ball("a", {-0.055f, 0, 0}, glm::vec3(0.05f)), ball("b", {0.055f, 0, 0}, glm::vec3(0.05f)), hard}));
   // Alone each ball ends 5 mm short of the midpoint; blended, the midpoint is inside.
   EXPECT_LT(f.field({0, 0, 0}, group_bit(Group::hip)) * 0.5f, 1.0f);
   EXPECT_TRUE(f.inside({0, 0, 0}, group_bit(Group::hip)));
@@ -111,8 +112,9 @@ TEST(BodyField, BlendedNeighboursJoinAndHardEllipsoidsUnite) {
 }
 
 TEST(BodyField, GroupsIsolatePrimitives) {
-  const BodyField f = field_of(model_of({ball("left", {0.085f, 0, 0}, glm::vec3(0.08f), group_bit(Group::left_upper_leg)),
-                                         ball("right", {-0.085f, 0, 0}, glm::vec3(0.08f), group_bit(Group::right_upper_leg))}));
+  const BodyField f =
+      field_of(model_of({ball("left", {0.085f, 0, 0}, glm::vec3(0.08f), group_bit(Group::left_upper_leg)),
+                         ball("right", {-0.085f, 0, 0}, glm::vec3(0.08f), group_bit(Group::right_upper_leg))}));
   EXPECT_EQ(f.field({0.2f, 0, 0}, group_bit(Group::right_upper_leg)), 0.0f);
   EXPECT_GT(f.field({0.085f, 0, 0}, group_bit(Group::left_upper_leg)), 1.0f);
   // Between the two, each group alone is below the iso-level; together they would blend.

@@ -17,7 +17,8 @@ TEST(BodyModel, DefaultIsValidAndRich) {
   // Visibly deforming muscles, named as a user would look for them.
   for (const char* muscle : {"l_biceps", "r_triceps", "l_forearm_muscles", "r_quadriceps", "l_calf", "r_deltoid",
                              "l_pectoral", "r_gluteal", "l_hamstring"}) {
-    auto it = std::find_if(m.primitives.begin(), m.primitives.end(), [&](const Primitive& p) { return p.name == muscle; });
+    auto it =
+        std::find_if(m.primitives.begin(), m.primitives.end(), [&](const Primitive& p) { return p.name == muscle; });
     ASSERT_NE(it, m.primitives.end()) << muscle;
     EXPECT_TRUE(it->deformation.has_value()) << muscle;
   }
@@ -52,7 +53,8 @@ TEST(BodyModel, MirroredTwinsAreWrittenOnceAndComeBackInPlace) {
     EXPECT_EQ(a->dof(i).name, b->dof(i).name);
     EXPECT_EQ(a->dof(i).axis, b->dof(i).axis);
   }
-  auto r = std::find_if(back->primitives.begin(), back->primitives.end(), [](const Primitive& p) { return p.name == "r_biceps"; });
+  auto r = std::find_if(back->primitives.begin(), back->primitives.end(),
+                        [](const Primitive& p) { return p.name == "r_biceps"; });
   ASSERT_NE(r, back->primitives.end());
   EXPECT_LT(r->state.center_m.x, 0.0f) << "the twin is on the right (-x)";
   EXPECT_TRUE(r->deformation && r->deformation->dof == "r_elbow_flexion");
@@ -95,19 +97,24 @@ TEST(BodyModel, MalformedFilesAreRejectedWithAClearMessage) {
       {"negative axis", edited([](J& j) { j["primitives"][2]["state"]["semi_axes"][0] = -0.1; }), "semi-axes"},
       {"axes not numbers", edited([](J& j) { j["primitives"][2]["state"]["semi_axes"][1] = "x"; }),
        "$.primitives[2].state.semi_axes[1]: expected a finite number"},
-      {"axes not a triple", edited([](J& j) { j["primitives"][2]["state"]["semi_axes"] = J::array({1, 2}); }),
+      {"axes not a triple", edited([](J& j) {
+         j["primitives"][2]["state"]["semi_axes"] = J::array({1, 2});
+       }),
        "expected an array of 3 numbers"},
       {"axis beyond a float", edited([](J& j) { j["primitives"][2]["state"]["semi_axes"][0] = 1e300; }),
        "$.primitives[2].state.semi_axes[0]: expected a finite number"},
-      {"torso points beyond an int", edited([](J& j) { j["skin"]["torso_points"] = 1LL << 40; }), "integer out of range"},
+      {"torso points beyond an int", edited([](J& j) { j["skin"]["torso_points"] = 1LL << 40; }),
+       "integer out of range"},
       {"bad falloff", edited([](J& j) {
          for (auto& p : j["primitives"])
            if (p.contains("deformation")) p["deformation"]["falloff"] = "cubic";
-       }), "falloff"},
+       }),
+       "falloff"},
       {"unknown DOF", edited([](J& j) {
          for (auto& p : j["primitives"])
            if (p.contains("deformation")) p["deformation"]["dof"] = "l_tail_wag";
-       }), "unknown DOF 'l_tail_wag'"},
+       }),
+       "unknown DOF 'l_tail_wag'"},
       {"inconsistent skin", edited([](J& j) { j["skin"]["torso_points"] = 30; }), "torso_points"},
       {"missing primitives", edited([](J& j) { j.erase("primitives"); }), "missing \"primitives\""},
       {"bad influence", edited([](J& j) { j["primitives"][0]["influence"] = 0.5; }), "influence"},
@@ -123,7 +130,8 @@ TEST(BodyModel, MalformedFilesAreRejectedWithAClearMessage) {
              j["primitives"].push_back(twin);
              break;
            }
-       }), "duplicate name"},
+       }),
+       "duplicate name"},
   };
   for (const Bad& b : cases) {
     auto r = body_model_from_json(b.text, "body.json");

@@ -93,10 +93,10 @@ TEST(BodyPresets, GirthsMoveBetweenTheirLateralAndFrontalRatios) {
     const float lo = s.total_height * std::min({s.frontal_scaling, s.high_lateral_scaling, s.low_lateral_scaling});
     const float hi = s.total_height * std::max({s.frontal_scaling, s.high_lateral_scaling, s.low_lateral_scaling});
     const BodyMeasurements& m = all().at(std::string(p.name)).m;
-    for (auto [ours, base, what] : {std::tuple{m.chest_girth_m, d.m.chest_girth_m, "chest"},
-                                    std::tuple{m.waist_girth_m, d.m.waist_girth_m, "waist"},
-                                    std::tuple{m.hip_girth_m, d.m.hip_girth_m, "hips"},
-                                    std::tuple{m.thigh_girth_m, d.m.thigh_girth_m, "thigh"}}) {
+    for (auto [ours, base, what] :
+         {std::tuple{m.chest_girth_m, d.m.chest_girth_m, "chest"},
+          std::tuple{m.waist_girth_m, d.m.waist_girth_m, "waist"}, std::tuple{m.hip_girth_m, d.m.hip_girth_m, "hips"},
+          std::tuple{m.thigh_girth_m, d.m.thigh_girth_m, "thigh"}}) {
       ASSERT_TRUE(ours && base) << p.name << " " << what;
       const float r = *ours / *base;
       const float slack = std::string_view(what) == "thigh" ? 0.08f : 0.05f;

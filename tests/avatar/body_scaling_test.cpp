@@ -105,7 +105,8 @@ TEST(BodyScaling, StandingPostureLowersTheArms) {
   std::vector<rig::RigidTransform> w(s->joint_count());
   rig::forward_kinematics(*s, standing_posture(*s), w);
   for (const char* side : {"l_", "r_"}) {
-    const int shoulder = s->find_joint(std::string(side) + "shoulder"), wrist = s->find_joint(std::string(side) + "wrist");
+    const int shoulder = s->find_joint(std::string(side) + "shoulder"),
+              wrist = s->find_joint(std::string(side) + "wrist");
     const glm::vec3 down = glm::normalize(w[wrist].translation - w[shoulder].translation);
     EXPECT_LT(down.y, -0.99f) << side;
   }

@@ -36,7 +36,8 @@ struct Glb {
     const size_t off = v.value("byteOffset", size_t(0));
     std::vector<float> out(n);
     for (size_t k = 0; k < n; ++k) {
-      if (a["componentType"] == 5126) std::memcpy(&out[k], bin.data() + off + 4 * k, 4);
+      if (a["componentType"] == 5126)
+        std::memcpy(&out[k], bin.data() + off + 4 * k, 4);
       else if (a["componentType"] == 5123) {
         uint16_t u;
         std::memcpy(&u, bin.data() + off + 2 * k, 2);
@@ -160,7 +161,8 @@ TEST(GltfAnimation, StructureSkinAndWeights) {
   // Every part is a primitive; the animation has the root's translation and the rotations.
   size_t triangles = 0;
   for (const auto& m : g.doc["meshes"])
-    for (const auto& p : m["primitives"]) triangles += g.doc["accessors"][p["indices"].get<size_t>()]["count"].get<size_t>() / 3;
+    for (const auto& p : m["primitives"])
+      triangles += g.doc["accessors"][p["indices"].get<size_t>()]["count"].get<size_t>() / 3;
   EXPECT_EQ(triangles, r.anim.bind_mesh->triangle_count());
   const json& anim = g.doc["animations"][0];
   EXPECT_EQ(anim["channels"][0]["target"]["path"], "translation");
@@ -205,8 +207,10 @@ TEST(GltfAnimation, PlaybackMovesRigidPartsWithTheRealtimeSkin) {
     for (const auto& ch : anim["channels"]) {
       const auto out = g.floats(anim["samplers"][ch["sampler"].get<size_t>()]["output"].get<int>());
       const size_t node = ch["target"]["node"].get<size_t>();
-      if (ch["target"]["path"] == "translation") t[node] = {out[key * 3], out[key * 3 + 1], out[key * 3 + 2]};
-      else q[node] = glm::quat(out[key * 4 + 3], out[key * 4], out[key * 4 + 1], out[key * 4 + 2]);
+      if (ch["target"]["path"] == "translation")
+        t[node] = {out[key * 3], out[key * 3 + 1], out[key * 3 + 2]};
+      else
+        q[node] = glm::quat(out[key * 4 + 3], out[key * 4], out[key * 4 + 1], out[key * 4 + 2]);
     }
     std::vector<glm::mat4> world(nj);
     for (size_t j = 0; j < nj; ++j) {  // parents first, as the skeleton is ordered
@@ -225,7 +229,8 @@ TEST(GltfAnimation, PlaybackMovesRigidPartsWithTheRealtimeSkin) {
         if (w <= 0) continue;
         EXPECT_LT(k, 2) << "a rigid part's vertex " << v << " follows one joint or two";
         const size_t j = size_t(joints[v * 4 + size_t(k)]);
-        p += w * (world[j] * glm::make_mat4(ibm.data() + 16 * j) * glm::vec4(pos[v * 3], pos[v * 3 + 1], pos[v * 3 + 2], 1.0f));
+        p += w * (world[j] * glm::make_mat4(ibm.data() + 16 * j) *
+                  glm::vec4(pos[v * 3], pos[v * 3 + 1], pos[v * 3 + 2], 1.0f));
       }
       EXPECT_NEAR(glm::distance(glm::vec3(p), expected[v]), 0.0f, 2e-4f) << "vertex " << v << " key " << key;
       ++rigid_checked;

@@ -60,8 +60,8 @@ TEST(JointZone, SectionAreasOfACylinder) {
   // An oblique cut is an ellipse: the ring area over the cosine of the tilt (a 48-gon's
   // ellipse-like section, so within a fraction of a percent).
   const double tilt = 40 * kPi / 180;
-  auto b = section_area(m.positions, m.indices, tris, {0.3f, 0.01f, 0},
-                        {float(std::cos(tilt)), float(std::sin(tilt)), 0});
+  auto b =
+      section_area(m.positions, m.indices, tris, {0.3f, 0.01f, 0}, {float(std::cos(tilt)), float(std::sin(tilt)), 0});
   ASSERT_TRUE(b);
   EXPECT_NEAR(*b / (kRingArea / std::cos(tilt)), 1.0, 0.005);
   EXPECT_FALSE(section_area(m.positions, m.indices, tris, {0.3f, 0.2f, 0}, {1, 0, 0}));  // outside the loop
@@ -77,15 +77,17 @@ TEST(JointZone, ZoneSectionsOfACylinder) {
   // Oblique: the ring area over the cosine of the tilt (the zone's planes are beyond it).
   const double tilt = 40 * kPi / 180;
   const glm::vec3 n{float(std::cos(tilt)), float(std::sin(tilt)), 0};
-  EXPECT_NEAR(joint_zone_section_area(m.positions, m.indices, tris, z, {0.3f, 0.01f, 0}, n) / (kRingArea / std::cos(tilt)),
-              1.0, 0.005);
+  EXPECT_NEAR(
+      joint_zone_section_area(m.positions, m.indices, tris, z, {0.3f, 0.01f, 0}, n) / (kRingArea / std::cos(tilt)), 1.0,
+      0.005);
   // Lengthwise through the axis, the zone clips the cut to its 0.2 m: a 0.1 m × 0.2 m rectangle.
   EXPECT_NEAR(joint_zone_section_area(m.positions, m.indices, tris, z, {0.3f, 0, 0}, {0, 1, 0}), 0.1 * 0.2, 1e-7);
   // A wedge (planes tilted ±30° about Z): in the plane y = 0 (which holds the hinge axis Z) the
   // zone is |x − 0.3| ≤ 0.1 / cos 30°, across the cylinder's 0.1 m.
   const float s = 0.5f, c = std::sqrt(3.0f) / 2;
   const JointZone w{{0.3f, 0, 0}, {-c, s, 0}, {c, s, 0}, 0.1f};
-  EXPECT_NEAR(joint_zone_section_area(m.positions, m.indices, tris, w, {0.3f, 0, 0}, {0, 1, 0}), 0.1 * 2 * 0.1 / c, 1e-7);
+  EXPECT_NEAR(joint_zone_section_area(m.positions, m.indices, tris, w, {0.3f, 0, 0}, {0, 1, 0}), 0.1 * 2 * 0.1 / c,
+              1e-7);
 }
 
 TEST(JointZone, LinearBlendSkinningLosesVolumeAtTheBentElbow) {

@@ -171,7 +171,8 @@ TEST(Measure, CylinderBodyGirthsAreExact) {
   EXPECT_NEAR(*m.calf_girth_m, 2 * kPi * 0.05f, 0.01f * 2 * kPi * 0.05f);
   EXPECT_NEAR(*m.upper_arm_girth_m, 2 * kPi * 0.04f, 0.01f * 2 * kPi * 0.04f);
   auto vol = [](double r, double h) { return 3.14159265358979 * r * r * h; };
-  const double volume = vol(0.15, 0.71) + vol(0.08, 0.24) + 2 * (vol(0.075, 0.265) + vol(0.05, 0.465) + vol(0.04, 0.30));
+  const double volume =
+      vol(0.15, 0.71) + vol(0.08, 0.24) + 2 * (vol(0.075, 0.265) + vol(0.05, 0.465) + vol(0.04, 0.30));
   EXPECT_NEAR(m.volume_m3, volume, 0.005 * volume);
 }
 
@@ -330,7 +331,8 @@ TEST(Measure, PoseToMatchPutsMimicInTheMakeHumanAPose) {
     EXPECT_LE(pose.dof_rad[i], s->dof(i).max_rad + 1e-6f) << s->dof(i).name;
   }
   for (const char* d : {"shoulder_abduction", "shoulder_flexion", "elbow_flexion", "hip_abduction", "knee_flexion"})
-    EXPECT_NEAR(pose.dof_rad[s->find_dof(std::string("l_") + d)], pose.dof_rad[s->find_dof(std::string("r_") + d)], 0.01)
+    EXPECT_NEAR(pose.dof_rad[s->find_dof(std::string("l_") + d)], pose.dof_rad[s->find_dof(std::string("r_") + d)],
+                0.01)
         << d;
   // Upper arms about 50° below horizontal, as the data's README says.
   std::vector<rig::RigidTransform> w(s->joint_count());
@@ -348,8 +350,8 @@ TEST(Measure, PoseToMatchRecoversRandomReachablePostures) {
     rig::Pose truth = s->zero_pose();
     truth.root_position_m = {0.1f, 0.9f, -0.2f};
     for (const char* side : {"l_", "r_"})
-      for (const char* d : {"shoulder_flexion", "shoulder_abduction", "shoulder_twist", "elbow_flexion",
-                            "hip_flexion", "hip_abduction", "hip_rotation", "knee_flexion"}) {
+      for (const char* d : {"shoulder_flexion", "shoulder_abduction", "shoulder_twist", "elbow_flexion", "hip_flexion",
+                            "hip_abduction", "hip_rotation", "knee_flexion"}) {
         const int i = s->find_dof(std::string(side) + d);
         const auto& f = s->dof(i);
         // Stay clear of the limits and of a straight elbow/knee, where twist is unobservable.

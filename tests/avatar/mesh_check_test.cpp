@@ -13,7 +13,8 @@ namespace {
 // Box [0,a]x[0,b]x[0,c] with 8 shared vertices, outward counter-clockwise faces.
 Mesh box(float a, float b, float c) {
   Mesh m;
-  for (int i = 0; i < 8; ++i) m.positions.push_back({float(i & 1) * a, float((i >> 1) & 1) * b, float((i >> 2) & 1) * c});
+  for (int i = 0; i < 8; ++i)
+    m.positions.push_back({float(i & 1) * a, float((i >> 1) & 1) * b, float((i >> 2) & 1) * c});
   const uint32_t quads[6][4] = {{0, 1, 5, 4}, {2, 6, 7, 3}, {0, 4, 6, 2}, {1, 3, 7, 5}, {0, 2, 3, 1}, {4, 5, 7, 6}};
   for (const auto& q : quads) m.indices.insert(m.indices.end(), {q[0], q[1], q[2], q[0], q[2], q[3]});
   m.parts = {{"box", 0, 12}};
@@ -27,7 +28,8 @@ Mesh torus(float R, float r, int n, int k) {
   for (int i = 0; i < n; ++i)
     for (int j = 0; j < k; ++j) {
       const float u = two_pi * float(i) / float(n), v = two_pi * float(j) / float(k);
-      m.positions.push_back({(R + r * std::cos(v)) * std::cos(u), r * std::sin(v), (R + r * std::cos(v)) * std::sin(u)});
+      m.positions.push_back(
+          {(R + r * std::cos(v)) * std::cos(u), r * std::sin(v), (R + r * std::cos(v)) * std::sin(u)});
     }
   auto at = [&](int i, int j) { return static_cast<uint32_t>((i % n) * k + (j % k)); };
   for (int i = 0; i < n; ++i)

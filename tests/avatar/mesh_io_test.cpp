@@ -110,9 +110,13 @@ TEST(MeshIo, RoundTripWithoutNormalsStaysWithoutNormals) {
   Mesh m = two_part_cube();
   m.normals.clear();
   for (const char* ext : {".obj", ".ply", ".glb"}) {
-    auto bytes = ext == std::string(".obj") ? encode_obj(m) : ext == std::string(".ply") ? encode_ply(m) : encode_glb(m);
+    auto bytes = ext == std::string(".obj")   ? encode_obj(m)
+                 : ext == std::string(".ply") ? encode_ply(m)
+                                              : encode_glb(m);
     ASSERT_TRUE(bytes) << ext;
-    auto back = ext == std::string(".obj") ? parse_obj(*bytes) : ext == std::string(".ply") ? parse_ply(*bytes) : parse_glb(*bytes);
+    auto back = ext == std::string(".obj")   ? parse_obj(*bytes)
+                : ext == std::string(".ply") ? parse_ply(*bytes)
+                                             : parse_glb(*bytes);
     ASSERT_TRUE(back) << ext << " " << back.error().what();
     EXPECT_TRUE(back->normals.empty()) << ext;
     expect_same_mesh(m, *back, false);

@@ -50,7 +50,8 @@ TEST(RealtimeSkin, TheInitialPoseIsTheFullMethodVertexForVertex) {
   ASSERT_EQ(m.positions.size(), full.mesh().positions.size());
   skin.evaluate(full.skeleton().zero_pose(), m.positions);
   float worst = 0;
-  for (size_t v = 0; v < m.positions.size(); ++v) worst = std::max(worst, glm::distance(m.positions[v], full.mesh().positions[v]));
+  for (size_t v = 0; v < m.positions.size(); ++v)
+    worst = std::max(worst, glm::distance(m.positions[v], full.mesh().positions[v]));
   EXPECT_LT(worst, 1e-5f);
   EXPECT_EQ(m.indices, full.mesh().indices);
 }
@@ -158,13 +159,16 @@ TEST(RealtimeSkin, ClosedOutwardAndNearTheFullMethodThroughEverySharedClip) {
     double sum = 0;
     for (float x : d) sum += x;
     std::sort(d.begin(), d.end());
-    return std::array<double, 3>{1000 * sum / static_cast<double>(d.size()), 1000.0 * d[d.size() * 99 / 100], 1000.0 * d.back()};
+    return std::array<double, 3>{1000 * sum / static_cast<double>(d.size()), 1000.0 * d[d.size() * 99 / 100],
+                                 1000.0 * d.back()};
   };
   const auto w = stats(with), wo = stats(without);
-  std::printf("realtime vs full, %d clip poses x %zu vertices: mean / p99 / max %.2f / %.1f / %.0f mm with muscles, "
-              "%.2f / %.1f / %.0f mm without; where muscles act (%zu samples): %.2f vs %.2f mm\n",
-              poses, m.positions.size(), w[0], w[1], w[2], wo[0], wo[1], wo[2], muscle_n,
-              1000 * sum_muscle_with / static_cast<double>(muscle_n), 1000 * sum_muscle_without / static_cast<double>(muscle_n));
+  std::printf(
+      "realtime vs full, %d clip poses x %zu vertices: mean / p99 / max %.2f / %.1f / %.0f mm with muscles, "
+      "%.2f / %.1f / %.0f mm without; where muscles act (%zu samples): %.2f vs %.2f mm\n",
+      poses, m.positions.size(), w[0], w[1], w[2], wo[0], wo[1], wo[2], muscle_n,
+      1000 * sum_muscle_with / static_cast<double>(muscle_n),
+      1000 * sum_muscle_without / static_cast<double>(muscle_n));
   EXPECT_LT(w[0], 4.0) << "mean, mm";
   EXPECT_LT(w[1], 50.0) << "99th percentile, mm";
   EXPECT_LT(w[2], 450.0) << "max, mm";
@@ -178,8 +182,8 @@ TEST(RealtimeSkin, ContoursDoNotCrossAtTheJointLimits) {
   RealtimeSkin skin(body);
   const rig::Skeleton& sk = body->skeleton();
   Mesh m = body->rest_mesh();
-  for (const char* name : {"l_elbow_flexion", "r_knee_flexion", "l_hip_flexion", "r_shoulder_abduction", "l_forearm_twist",
-                           "spine_lower_flexion"}) {
+  for (const char* name : {"l_elbow_flexion", "r_knee_flexion", "l_hip_flexion", "r_shoulder_abduction",
+                           "l_forearm_twist", "spine_lower_flexion"}) {
     const int dof = sk.find_dof(name);
     if (dof < 0) continue;
     for (float theta : {sk.dof(dof).min_rad, sk.dof(dof).max_rad}) {
@@ -187,7 +191,8 @@ TEST(RealtimeSkin, ContoursDoNotCrossAtTheJointLimits) {
       p.dof_rad[dof] = theta;
       skin.evaluate(p, m.positions);
       const ContourOrder order = check_contour_order(m.positions, body->contour_rows());
-      EXPECT_EQ(order.crossing, 0u) << name << " " << theta << ": " << 1000 * order.worst_m << " mm at " << order.worst_piece;
+      EXPECT_EQ(order.crossing, 0u) << name << " " << theta << ": " << 1000 * order.worst_m << " mm at "
+                                    << order.worst_piece;
       expect_closed_outward(m, name);
     }
   }
@@ -286,7 +291,8 @@ TEST(RealtimeSkin, KeepsTheJointZonesVolumeAndSections) {
         if (m.method != "realtime") continue;
         const double bound = r.sweep.name == "forearm_twist" ? 3.0 : 2.0;
         for (const SweepSample& s : m.samples) {
-          EXPECT_LE(std::abs(s.volume_change_pct), bound) << r.sweep.name << " " << s.angle_deg << " muscles " << muscles;
+          EXPECT_LE(std::abs(s.volume_change_pct), bound)
+              << r.sweep.name << " " << s.angle_deg << " muscles " << muscles;
           EXPECT_GE(s.min_section_fraction, 0.9) << r.sweep.name << " " << s.angle_deg << " muscles " << muscles;
         }
       }
@@ -346,7 +352,8 @@ TEST(RealtimeSkin, AnInitialPoseOfTheCallersIsExactToo) {
   full.evaluate(p);
   Mesh m = (*body)->rest_mesh();
   skin.evaluate(p, m.positions);
-  for (size_t v = 0; v < m.positions.size(); ++v) ASSERT_LT(glm::distance(m.positions[v], full.mesh().positions[v]), 1e-4f) << v;
+  for (size_t v = 0; v < m.positions.size(); ++v)
+    ASSERT_LT(glm::distance(m.positions[v], full.mesh().positions[v]), 1e-4f) << v;
 }
 
 }  // namespace

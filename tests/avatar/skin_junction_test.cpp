@@ -73,7 +73,8 @@ JunctionFigures measure(const ImplicitSkin& s) {
   }
   std::map<std::pair<uint32_t, uint32_t>, uint32_t> edge_triangle;
   for (const MeshPart& part : m.parts) {
-    if (part.name == "head" || part.name.find("hand") != std::string::npos || part.name.find("foot") != std::string::npos)
+    if (part.name == "head" || part.name.find("hand") != std::string::npos ||
+        part.name.find("foot") != std::string::npos)
       continue;
     for (uint32_t t = part.first_triangle; t < part.first_triangle + part.triangle_count; ++t) {
       const uint32_t* v = &m.indices[3 * t];
@@ -93,7 +94,8 @@ JunctionFigures measure(const ImplicitSkin& s) {
         const uint32_t* w = &m.indices[3 * it->second];
         const glm::vec3 nu = glm::cross(m.positions[w[1]] - m.positions[w[0]], m.positions[w[2]] - m.positions[w[0]]);
         if (glm::length(nu) < 2.0f * kMinArea_m2) continue;
-        const float deg = glm::degrees(std::acos(std::clamp(glm::dot(glm::normalize(nt), glm::normalize(nu)), -1.0f, 1.0f)));
+        const float deg =
+            glm::degrees(std::acos(std::clamp(glm::dot(glm::normalize(nt), glm::normalize(nu)), -1.0f, 1.0f)));
         bool junction = false;
         for (int k = 0; k < 3; ++k) junction = junction || in_junction[v[k]] || in_junction[w[k]];
         if (junction && deg > 150.0f) ++out.folds, ++out.folds_by_part[part.name];
@@ -124,14 +126,15 @@ ImplicitSkin make_skin() {
 TEST(SkinJunctions, DrivenRingsStayNearTheirPointsAndTheJunctionsDoNotFold) {
   ImplicitSkin s = make_skin();
   std::vector<std::pair<std::string, rig::Pose>> poses = {{"rest", s.skeleton().rest_pose()},
-                                                     {"T-pose", s.skeleton().zero_pose()}};
+                                                          {"T-pose", s.skeleton().zero_pose()}};
   for (const char* id : test::kShared_clips) {
     auto clip = rig::load_bvh(test::clip_path(id));
     ASSERT_TRUE(clip) << clip.error().what();
     auto r = rig::retarget_bvh(*clip);
     ASSERT_TRUE(r) << r.error().what();
     for (size_t f = 0; f < r->poses.size(); f += 40)
-      poses.emplace_back(std::string(id) + " frame " + std::to_string(f), rig::transfer_pose(r->skeleton, r->poses[f], s.skeleton()));
+      poses.emplace_back(std::string(id) + " frame " + std::to_string(f),
+                         rig::transfer_pose(r->skeleton, r->poses[f], s.skeleton()));
   }
   float offset = 0, zigzag = 0;
   int folds = 0;
@@ -156,7 +159,8 @@ TEST(SkinJunctions, DrivenRingsStayNearTheirPointsAndTheJunctionsDoNotFold) {
   std::printf("%zu poses: driven points within %.2f |P - O| of P, zigzag %.2f (%s), %.1f folds a pose\n", poses.size(),
               offset, zigzag, zigzag_at.c_str(), static_cast<float>(folds) / static_cast<float>(poses.size()));
   const float clip_poses = static_cast<float>(poses.size() - 2);
-  for (const auto& [part, n] : clip_folds) std::printf("  %s: %.2f folds a clip pose\n", part.c_str(), static_cast<float>(n) / clip_poses);
+  for (const auto& [part, n] : clip_folds)
+    std::printf("  %s: %.2f folds a clip pose\n", part.c_str(), static_cast<float>(n) / clip_poses);
   EXPECT_LE(offset, 0.3f + 1e-3f);
   EXPECT_LT(zigzag, 1.0f) << zigzag_at;
   EXPECT_LT(static_cast<float>(folds) / static_cast<float>(poses.size()), 24.0f);

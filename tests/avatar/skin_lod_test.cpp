@@ -58,10 +58,10 @@ TEST(SkinLod, FewerContoursPerLinkAndFewerPointsPerContour) {
 
 // The pieces of the sample below, for naming and for varying one at a time.
 constexpr std::array<std::pair<const char*, int SkinPieceLods::*>, 5> kPieces = {{{"torso", &SkinPieceLods::torso},
-                                                                                {"neck", &SkinPieceLods::neck},
-                                                                                {"arms", &SkinPieceLods::arms},
-                                                                                {"legs", &SkinPieceLods::legs},
-                                                                                {"rigid", &SkinPieceLods::rigid}}};
+                                                                                  {"neck", &SkinPieceLods::neck},
+                                                                                  {"arms", &SkinPieceLods::arms},
+                                                                                  {"legs", &SkinPieceLods::legs},
+                                                                                  {"rigid", &SkinPieceLods::rigid}}};
 
 // Per-piece LOD combinations (4^5 in all): the whole body at each LOD, each piece alone at
 // each LOD against the rest at every other, and a seeded random set.
@@ -100,7 +100,8 @@ ImplicitSkin full_skin(const SkinPieceLods& lods, int subdivision = 0) {
                                          << " non-manifold, " << t.inconsistent_edges << " flipped edges";
   if (t.components != 6u) return ::testing::AssertionFailure() << t.components << " components";
   if (t.degenerate_triangles != 0u) return ::testing::AssertionFailure() << t.degenerate_triangles << " degenerate";
-  if (!(t.signed_volume > 0.030)) return ::testing::AssertionFailure() << "volume " << t.signed_volume << " m3 (inward?)";
+  if (!(t.signed_volume > 0.030))
+    return ::testing::AssertionFailure() << "volume " << t.signed_volume << " m3 (inward?)";
   for (const glm::vec3& p : m.positions)
     if (!std::isfinite(p.x + p.y + p.z)) return ::testing::AssertionFailure() << "non-finite vertex";
   return ::testing::AssertionSuccess();
@@ -141,9 +142,11 @@ TEST(SkinLod, EachPieceTakesItsOwnPointsPerContourAndContoursPerLink) {
     for (const char* p : torso_parts) EXPECT_EQ(tris.at(p), torso_tris.at(p)) << what << " " << p;
     for (const char* p : rigid_parts) EXPECT_EQ(tris.at(p), rigid_tris.at(p)) << what << " " << p;
     EXPECT_EQ(points_of(skin, "torso_0"), points_of(*whole[l.torso], "torso_0")) << what;
-    for (auto [limb, lod] : {std::pair{"neck", l.neck}, {"l_arm", l.arms}, {"r_arm", l.arms}, {"l_leg", l.legs}, {"r_leg", l.legs}}) {
+    for (auto [limb, lod] :
+         {std::pair{"neck", l.neck}, {"l_arm", l.arms}, {"r_arm", l.arms}, {"l_leg", l.legs}, {"r_leg", l.legs}}) {
       const std::string first = std::string(limb) + "_0", own = std::string(limb) + "_1";
-      EXPECT_EQ(points_of(skin, first), points_of(*whole[l.torso], first)) << what << ": " << limb << " starts at its loop's count";
+      EXPECT_EQ(points_of(skin, first), points_of(*whole[l.torso], first))
+          << what << ": " << limb << " starts at its loop's count";
       EXPECT_EQ(points_of(skin, own), points_of(*whole[lod], own)) << what << ": " << limb << " at its own LOD";
       if (points_of(skin, first) != points_of(skin, own)) ++mixed;
     }
@@ -187,7 +190,8 @@ TEST(SkinLod, EveryCombinationIsClosedOrientedAndOutwardAtRest) {
     ASSERT_TRUE(sound(m)) << what << " realtime";
     ASSERT_EQ(m.indices, contour.mesh().indices) << what;
     float worst = 0;
-    for (size_t v = 0; v < m.positions.size(); ++v) worst = std::max(worst, glm::distance(m.positions[v], contour.mesh().positions[v]));
+    for (size_t v = 0; v < m.positions.size(); ++v)
+      worst = std::max(worst, glm::distance(m.positions[v], contour.mesh().positions[v]));
     EXPECT_LT(worst, 1e-5f) << what;
   }
 }
@@ -202,7 +206,8 @@ TEST(SkinLod, MixedLodsStayClosedThroughTheSharedClips) {
     ASSERT_TRUE(clip) << clip.error().what();
     auto r = rig::retarget_bvh(*clip);
     ASSERT_TRUE(r) << r.error().what();
-    for (size_t f = 0; f < r->poses.size(); f += 160) poses.push_back(rig::transfer_pose(r->skeleton, r->poses[f], skeleton));
+    for (size_t f = 0; f < r->poses.size(); f += 160)
+      poses.push_back(rig::transfer_pose(r->skeleton, r->poses[f], skeleton));
   }
   ASSERT_GT(poses.size(), 40u);
   // Each piece alone at the far end from the rest, and a random set.
@@ -309,7 +314,8 @@ TEST(SkinLod, ParsesTheWholeBodyOrEachPiece) {
   EXPECT_EQ(*parse_skin_lods("arms=0,all=3"), (SkinPieceLods{3, 3, 0, 3, 3}));
   EXPECT_EQ(skin_lods_name({0, 0, 2, 1, 0}), "torso=0,neck=0,arms=2,legs=1,rigid=0");
   EXPECT_EQ(skin_lods_name(SkinPieceLods::whole(3)), "3");
-  for (const char* bad : {"", "4", "-1", "x", "arms=4", "hands=1", "arms", "arms=1,arms=2", "arms=1,,legs=2", "arms=1x"}) {
+  for (const char* bad :
+       {"", "4", "-1", "x", "arms=4", "hands=1", "arms", "arms=1,arms=2", "arms=1,,legs=2", "arms=1x"}) {
     auto r = parse_skin_lods(bad);
     EXPECT_FALSE(r) << bad;
   }

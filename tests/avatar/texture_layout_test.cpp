@@ -82,7 +82,8 @@ TEST(TextureLayout, ExportsCarryTheUvs) {
     ASSERT_TRUE(back) << back.error().what();
     ASSERT_EQ(back->uvs.size(), textured.uvs.size()) << ext;
     ASSERT_EQ(back->parts.size(), 16u) << ext;
-    for (size_t i = 0; i < textured.uvs.size(); ++i) ASSERT_NEAR(glm::distance(back->uvs[i], textured.uvs[i]), 0.0f, 1e-6f) << ext << " " << i;
+    for (size_t i = 0; i < textured.uvs.size(); ++i)
+      ASSERT_NEAR(glm::distance(back->uvs[i], textured.uvs[i]), 0.0f, 1e-6f) << ext << " " << i;
     std::filesystem::remove(path);
   }
   // The glTF file names one material per part, each with its own PNG image.

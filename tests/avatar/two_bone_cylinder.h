@@ -17,7 +17,10 @@ inline rig::Skeleton two_bone_skeleton() {
   rig::SkeletonDesc d;
   const float pi = std::numbers::pi_v<float>;
   d.joints.push_back({"upper", "", {0, 0, 0}, {0.3f, 0, 0}, {}});
-  d.joints.push_back({"lower", "upper", {0.3f, 0, 0}, {0.3f, 0, 0},
+  d.joints.push_back({"lower",
+                      "upper",
+                      {0.3f, 0, 0},
+                      {0.3f, 0, 0},
                       {rig::DofDesc{"flexion", {0, 0, 1}, -pi, pi, 0}, rig::DofDesc{"twist", {1, 0, 0}, -pi, pi, 0}}});
   auto s = rig::Skeleton::build(d);
   EXPECT_TRUE(s) << s.error().what();

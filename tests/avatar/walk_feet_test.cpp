@@ -13,7 +13,7 @@ namespace mimic::avatar {
 namespace {
 
 struct FloorContact {
-  float lowest_m = 1e9f;       // the lowest vertex over all keys
+  float lowest_m = 1e9f;        // the lowest vertex over all keys
   float highest_low_m = -1e9f;  // the largest per-key lowest vertex: a foot always down
   int keys = 0, keys_below_3mm = 0;
 };
@@ -48,8 +48,9 @@ TEST(WalkFeet, TheRealtimeSkinStaysOnTheFloorAtEveryKey) {
     return low;
   });
   EXPECT_GE(c.keys, 198);
-  std::printf("[ figure ] built-in walk, realtime skin, %d keys: lowest vertex %.1f mm, highest per-key lowest %.1f mm\n",
-              c.keys, c.lowest_m * 1e3, c.highest_low_m * 1e3);
+  std::printf(
+      "[ figure ] built-in walk, realtime skin, %d keys: lowest vertex %.1f mm, highest per-key lowest %.1f mm\n",
+      c.keys, c.lowest_m * 1e3, c.highest_low_m * 1e3);
   EXPECT_GT(c.lowest_m, -0.005f) << c.keys_below_3mm << " of " << c.keys << " keys have skin under the floor";
   EXPECT_LT(c.highest_low_m, 0.01f) << "a foot is always down";
 }

@@ -27,8 +27,8 @@
 
 namespace {
 
-using mimic::test::Proc;
 using mimic::test::endpoint_of;
+using mimic::test::Proc;
 namespace net = mimic::net;
 using mimic::net::test::Bytes;
 using mimic::net::test::Clock;
@@ -72,7 +72,8 @@ bool pump(net::Client& c, const std::function<bool()>& done, double timeout_s) {
 // The viewer receives at least `n` more frames within `timeout_s`.
 bool frames_keep_coming(net::Client& c, uint64_t n, double timeout_s) {
   const uint64_t before = c.stats().frames;
-  return pump(c, [&] { return c.stats().frames >= before + n; }, timeout_s);
+  return pump(
+      c, [&] { return c.stats().frames >= before + n; }, timeout_s);
 }
 
 Bytes hello(net::Role role) {
@@ -95,8 +96,17 @@ Bytes model(uint16_t slot, size_t bytes) {
 // encoder refuses counts a frame cannot hold; an attacker does not use it).
 Bytes topology(uint32_t vertex_count) {
   Bytes b{'M', net::kProtocolVersion, uint8_t(net::MsgType::mesh_topology), 0, 11, 0, 0, 0};
-  const uint8_t payload[11] = {0, 0, 0, uint8_t(vertex_count), uint8_t(vertex_count >> 8), uint8_t(vertex_count >> 16),
-                               uint8_t(vertex_count >> 24), 0, 0, 0, 0};
+  const uint8_t payload[11] = {0,
+                               0,
+                               0,
+                               uint8_t(vertex_count),
+                               uint8_t(vertex_count >> 8),
+                               uint8_t(vertex_count >> 16),
+                               uint8_t(vertex_count >> 24),
+                               0,
+                               0,
+                               0,
+                               0};
   b.insert(b.end(), payload, payload + 11);
   return b;
 }
@@ -144,7 +154,8 @@ TEST(Attack, ARegistrationForgedFromTheServersOwnPortFreezesNothing) {
   ASSERT_FALSE(ep.empty()) << run.err();
   auto v = viewer(ep, true);
   ASSERT_TRUE(v);
-  ASSERT_TRUE(pump(*v, [&] { return v->udp_active(); }, 10.0));
+  ASSERT_TRUE(pump(
+      *v, [&] { return v->udp_active(); }, 10.0));
   net::UdpRegister reg;
   reg.token = v->session_token();
   Bytes d(net::kUdpRegisterBytes);

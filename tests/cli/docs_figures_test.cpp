@@ -69,9 +69,10 @@ TEST(DocsFigures, LodTriangleCountsAreTheProducts) {
   const std::vector<long> product = lod_triangles();
   ASSERT_EQ(product.size(), 4u);
   // README.md's LOD pictures.
-  EXPECT_EQ(figures(repo_file("README.md"),
-                    R"(LOD 0: ([\d,]+) triangles \| LOD 1: ([\d,]+) \| LOD 2: ([\d,]+) \| LOD 3: ([\d,]+))", "README.md"),
-            product);
+  EXPECT_EQ(
+      figures(repo_file("README.md"),
+              R"(LOD 0: ([\d,]+) triangles \| LOD 1: ([\d,]+) \| LOD 2: ([\d,]+) \| LOD 3: ([\d,]+))", "README.md"),
+      product);
   // docs/viewer.md's table of LODs.
   const std::string viewer = repo_file("docs/viewer.md");
   std::vector<long> table;
@@ -90,9 +91,9 @@ TEST(DocsFigures, TheBodyModelSizeIsTheServers) {
   const Outcome r = run_mimic("run --listen 127.0.0.1:0 --duration 0.3 --quiet");
   ASSERT_EQ(r.status, 0) << r.output;
   const auto served = figures(r.output, R"(model (\d+) bytes)", "mimic run");
-  const auto documented = figures(repo_file("docs/protocol.md"),
-                                  R"(body model sent on join \(default body, compact JSON\) \| ([\d,]+) bytes)",
-                                  "docs/protocol.md");
+  const auto documented =
+      figures(repo_file("docs/protocol.md"),
+              R"(body model sent on join \(default body, compact JSON\) \| ([\d,]+) bytes)", "docs/protocol.md");
   EXPECT_EQ(documented, served);
 }
 
@@ -103,9 +104,9 @@ TEST(DocsFigures, TheExportedWalkIsWhatGltfExportSays) {
   std::filesystem::remove(glb);
   const auto product =
       figures(r.output, R"((\d+) vertices, (\d+) triangles, (\d+) joints, .*; (\d+) keyframes)", "mimic export");
-  const auto documented = figures(repo_file("docs/gltf-export.md"),
-                                  R"(--motion walk` \(([\d,]+) vertices, ([\d,]+) triangles, (\d+) joints, (\d+) keys\))",
-                                  "docs/gltf-export.md");
+  const auto documented = figures(
+      repo_file("docs/gltf-export.md"),
+      R"(--motion walk` \(([\d,]+) vertices, ([\d,]+) triangles, (\d+) joints, (\d+) keys\))", "docs/gltf-export.md");
   EXPECT_EQ(documented, product);
 }
 

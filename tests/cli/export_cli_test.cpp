@@ -61,7 +61,7 @@ TEST(ExportCli, WalkAndClipBecomeSkinnedAnimations) {
   ASSERT_EQ(j["animations"].size(), 1u);
   const auto& input = j["accessors"][j["animations"][0]["samplers"][0]["input"].get<size_t>()];
   EXPECT_NEAR(input["max"][0].get<double>(), 6.6, 0.05);  // one lap of the walk
-  EXPECT_EQ(input["count"].get<int>(), 67);                 // 10 keys a second, both ends
+  EXPECT_EQ(input["count"].get<int>(), 67);               // 10 keys a second, both ends
 
   r = mimic::test::run_mimic("export --bvh '" + mimic::test::clip_path("07_01") + "' --seconds 2 --lod 3 --out '" +
                              clip + "'");
@@ -106,7 +106,8 @@ TEST(ExportCli, EveryFrameOfAClipIsAKey) {
   const auto dir = std::filesystem::temp_directory_path() / ("mimic-export-keys-" + std::to_string(::getpid()));
   std::filesystem::create_directories(dir);
   const std::string out = (dir / "clip.glb").string();
-  const auto r = mimic::test::run_mimic("export --bvh '" + mimic::test::clip_path("07_01") + "' --fps 120 --lod 3 --out '" + out + "'");
+  const auto r = mimic::test::run_mimic("export --bvh '" + mimic::test::clip_path("07_01") +
+                                        "' --fps 120 --lod 3 --out '" + out + "'");
   ASSERT_EQ(r.status, 0) << r.output;
   const auto j = glb_json(out);
   const auto& input = j["accessors"][j["animations"][0]["samplers"][0]["input"].get<size_t>()];
@@ -162,7 +163,8 @@ TEST(ExportCli, UsageErrors) {
   EXPECT_EQ(mimic::test::run_mimic("export --motion walk --lod -1 --out /tmp/x.glb").status, 2);
   EXPECT_EQ(mimic::test::run_mimic("export --motion walk --seconds nan --out /tmp/x.glb").status, 2);
   EXPECT_EQ(mimic::test::run_mimic("export --motion walk --fps nan --out /tmp/x.glb").status, 2);
-  const auto missing = mimic::test::run_mimic("export --motion walk --lod 3 --fps 5 --out /nonexistent-mimic-dir/x.glb");
+  const auto missing =
+      mimic::test::run_mimic("export --motion walk --lod 3 --fps 5 --out /nonexistent-mimic-dir/x.glb");
   EXPECT_EQ(missing.status, 1);
   EXPECT_NE(missing.output.find("/nonexistent-mimic-dir/x.glb:"), std::string::npos) << missing.output;
   EXPECT_EQ(missing.output.find(".tmp"), std::string::npos) << missing.output;

@@ -56,9 +56,9 @@ int option_lines(const std::string& help) {
 
 TEST(CliHelp, EveryCommandIsListed) {
   const std::vector<std::string> all = every_command();
-  for (const char* expected : {"bench", "calibrate", "compare", "devices", "eval-solver", "export", "inspect", "measure",
-                               "mesh", "record", "relay", "replay", "retarget", "run", "scale", "sim", "subscribe",
-                               "view", "sim flock", "sim spaceball"})
+  for (const char* expected : {"bench",   "calibrate", "compare",   "devices", "eval-solver", "export",       "inspect",
+                               "measure", "mesh",      "record",    "relay",   "replay",      "retarget",     "run",
+                               "scale",   "sim",       "subscribe", "view",    "sim flock",   "sim spaceball"})
     EXPECT_NE(std::find(all.begin(), all.end(), expected), all.end()) << expected;
 }
 
@@ -68,11 +68,14 @@ TEST(CliHelp, EveryCommandAnswersHelpAndH) {
       const Outcome r = run_mimic(command + " " + flag);
       EXPECT_EQ(r.status, 0) << "mimic " << command << " " << flag << "\n" << r.output;
       EXPECT_NE(r.output.find("usage: mimic " + command), std::string::npos)
-          << "mimic " << command << " " << flag << "\n" << r.output;
+          << "mimic " << command << " " << flag << "\n"
+          << r.output;
       // Its options (or, for `mimic sim`, its devices) are listed.
       const bool lists_devices = command == "sim" && r.output.find("devices:") != std::string::npos;
-      EXPECT_TRUE(lists_devices || option_lines(r.output) >= 2) << "mimic " << command << " " << flag << "\n" << r.output;
-      EXPECT_EQ(r.output.find("(see 'mimic"), std::string::npos) << "mimic " << command << " " << flag << "\n" << r.output;
+      EXPECT_TRUE(lists_devices || option_lines(r.output) >= 2) << "mimic " << command << " " << flag << "\n"
+                                                                << r.output;
+      EXPECT_EQ(r.output.find("(see 'mimic"), std::string::npos) << "mimic " << command << " " << flag << "\n"
+                                                                 << r.output;
     }
   }
 }
@@ -116,7 +119,8 @@ TEST(CliHelp, AValueOutsideItsRangeIsAUsageError) {
   const std::vector<std::string> all = every_command();
   for (const auto& [args, option] : cases) {
     // A command this build leaves out (no NATS, no window) is not checked.
-    const std::string command = args.rfind("sim ", 0) == 0 ? args.substr(0, args.find(' ', 4)) : args.substr(0, args.find(' '));
+    const std::string command =
+        args.rfind("sim ", 0) == 0 ? args.substr(0, args.find(' ', 4)) : args.substr(0, args.find(' '));
     if (std::find(all.begin(), all.end(), command) == all.end()) continue;
     const Outcome r = run_mimic(args);
     EXPECT_EQ(r.status, 2) << "mimic " << args << "\n" << r.output;

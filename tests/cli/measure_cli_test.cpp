@@ -29,7 +29,7 @@ TEST(MeasureCli, MeasuresTheSharedMakeHumanMeshByDefault) {
 TEST(MeasureCli, JsonMatchesTheSharedMeshFigures) {
   const std::string data = mimic::test::shared_data("mesh/");
   const Outcome r = run_mimic("measure --json --obj '" + data + "makehuman_base_body.obj' --joints '" + data +
-                          "makehuman_base_joints.csv' --units-per-metre=10");
+                              "makehuman_base_joints.csv' --units-per-metre=10");
   ASSERT_EQ(r.status, 0) << r.output;
   const auto j = nlohmann::json::parse(r.output);
   EXPECT_EQ(j["vertices"], 13380);
@@ -62,7 +62,8 @@ TEST(MeasureCli, BadUsageAndBadInputAreReported) {
 }
 
 TEST(MeasureCli, MeshWithoutJointsGetsEstimatedLandmarks) {
-  const Outcome r = run_mimic("measure --json --obj '" + mimic::test::shared_data("mesh/makehuman_base_body.obj") + "'");
+  const Outcome r =
+      run_mimic("measure --json --obj '" + mimic::test::shared_data("mesh/makehuman_base_body.obj") + "'");
   ASSERT_EQ(r.status, 0) << r.output;
   const auto j = nlohmann::json::parse(r.output);
   EXPECT_EQ(j["joints"], "estimated");

@@ -22,7 +22,8 @@ using mimic::test::Outcome;
 using mimic::test::run_mimic;
 
 std::string temp(const std::string& name) {
-  return (std::filesystem::temp_directory_path() / ("mimic_mesh_cli_" + std::to_string(::getpid()) + "_" + name)).string();
+  return (std::filesystem::temp_directory_path() / ("mimic_mesh_cli_" + std::to_string(::getpid()) + "_" + name))
+      .string();
 }
 
 void expect_closed_body(const std::string& path) {
@@ -37,7 +38,8 @@ void expect_closed_body(const std::string& path) {
 TEST(MeshCli, WritesEachFormatFromABvhFrame) {
   for (const char* ext : {"obj", "ply", "glb"}) {
     const std::string out = temp(std::string("07_01.") + ext);
-    const Outcome r = run_mimic("mesh --bvh '" + mimic::test::clip_path("07_01") + "' --frame 120 --method full --out '" + out + "'");
+    const Outcome r =
+        run_mimic("mesh --bvh '" + mimic::test::clip_path("07_01") + "' --frame 120 --method full --out '" + out + "'");
     ASSERT_EQ(r.status, 0) << r.output;
     for (const char* stage : {"body", "skin", "pose", "contours", "B-spline", "stitch", "wrote"})
       EXPECT_NE(r.output.find(stage), std::string::npos) << stage << "\n" << r.output;
@@ -69,8 +71,9 @@ TEST(MeshCli, RealtimeMethodAtEveryLod) {
   const std::string out = temp("rt.ply");
   size_t previous = SIZE_MAX;
   for (int lod = 0; lod < 4; ++lod) {
-    const Outcome r = run_mimic("mesh --bvh '" + mimic::test::clip_path("02_05") + "' --frame 200 --method realtime --lod " +
-                                std::to_string(lod) + " --out '" + out + "'");
+    const Outcome r =
+        run_mimic("mesh --bvh '" + mimic::test::clip_path("02_05") + "' --frame 200 --method realtime --lod " +
+                  std::to_string(lod) + " --out '" + out + "'");
     ASSERT_EQ(r.status, 0) << r.output;
     EXPECT_NE(r.output.find("realtime"), std::string::npos) << r.output;
     EXPECT_EQ(r.output.find("rays"), std::string::npos) << "no ray per frame\n" << r.output;
@@ -118,7 +121,8 @@ TEST(MeshCli, PiecesAtTheirOwnLods) {
 TEST(MeshCli, UvWritesPerPartTextureCoordinates) {
   for (const char* method : {"realtime", "full"}) {
     const std::string out = temp(std::string("uv_") + method + ".glb");
-    const Outcome r = run_mimic("mesh --motion walk --time 0.5 --uv --method " + std::string(method) + " --out '" + out + "'");
+    const Outcome r =
+        run_mimic("mesh --motion walk --time 0.5 --uv --method " + std::string(method) + " --out '" + out + "'");
     ASSERT_EQ(r.status, 0) << r.output;
     auto mesh = mimic::avatar::read_mesh(out);
     ASSERT_TRUE(mesh) << mesh.error().what();
@@ -182,7 +186,8 @@ TEST(CompareCli, DefaultBodyMatchesTheReferenceWithinTenPercent) {
   EXPECT_EQ(j["pass"], true) << r.output;
   std::vector<std::string> keys;
   for (const auto& row : j["rows"]) keys.push_back(row["key"].get<std::string>());
-  for (const char* k : {"height", "chest_girth", "waist_girth", "hip_girth", "thigh_girth", "calf_girth", "upper_arm_girth"})
+  for (const char* k :
+       {"height", "chest_girth", "waist_girth", "hip_girth", "thigh_girth", "calf_girth", "upper_arm_girth"})
     EXPECT_NE(std::find(keys.begin(), keys.end(), k), keys.end()) << k << "\n" << r.output;
 }
 

@@ -32,8 +32,8 @@
 
 namespace {
 
-using mimic::test::Proc;
 using mimic::test::endpoint_of;
+using mimic::test::Proc;
 
 nlohmann::json last_json(const std::string& out) {
   const auto start = out.rfind("\n{");
@@ -73,8 +73,8 @@ bool pump(const std::vector<mimic::net::Client*>& clients, const std::function<b
   return done();
 }
 
-#define REQUIRE_NATS_SERVER()                                                                        \
-  do {                                                                                               \
+#define REQUIRE_NATS_SERVER()                                                                               \
+  do {                                                                                                      \
     ASSERT_FALSE(mimic::test::nats_server_binary().empty()) << "nats-server missing: run scripts/setup.sh"; \
   } while (0)
 
@@ -99,8 +99,8 @@ TEST(NatsCli, RunServesLocallyWhileTheBrokerIsDownThenJoinsItRelayAndSubscribeSe
   REQUIRE_NATS_SERVER();
   mimic::test::NatsBroker broker;
   broker.configure("late");  // nothing listens on its port yet
-  Proc run({"run", "--listen", "127.0.0.1:0", "--nats", broker.url_as("hostA"), "--scene", "stage", "--nats-name", "hostA",
-            "--duration", "40", "--json"});
+  Proc run({"run", "--listen", "127.0.0.1:0", "--nats", broker.url_as("hostA"), "--scene", "stage", "--nats-name",
+            "hostA", "--duration", "40", "--json"});
   ASSERT_TRUE(run.ok());
   const std::string ep = endpoint_of(run);
   ASSERT_FALSE(ep.empty()) << run.err();
@@ -112,8 +112,8 @@ TEST(NatsCli, RunServesLocallyWhileTheBrokerIsDownThenJoinsItRelayAndSubscribeSe
   ASSERT_TRUE(run.wait_for_err(" s: local only", 5.0)) << run.err();
 
   ASSERT_TRUE(broker.start());
-  Proc relay({"relay", "--nats", broker.url_as("relay"), "--scene", "stage", "--listen", "127.0.0.1:0", "--duration", "40",
-              "--json", "--quiet"});
+  Proc relay({"relay", "--nats", broker.url_as("relay"), "--scene", "stage", "--listen", "127.0.0.1:0", "--duration",
+              "40", "--json", "--quiet"});
   const std::string relay_ep = endpoint_of(relay);
   ASSERT_FALSE(relay_ep.empty()) << relay.err();
   Proc via_relay({"subscribe", "--connect", relay_ep, "--count", "60", "--json"});
@@ -156,8 +156,8 @@ TEST(NatsCli, AMeshViewerBehindARelayGetsTheDirectServersMeshFrames) {
   mimic::test::NatsBroker broker;
   broker.configure("mesh");
   ASSERT_TRUE(broker.start());
-  Proc run({"run", "--listen", "127.0.0.1:0", "--nats", broker.url_as("hostM"), "--scene", "mesh", "--nats-name", "hostM",
-            "--mesh-lod", "2", "--duration", "60", "--json", "--quiet"});
+  Proc run({"run", "--listen", "127.0.0.1:0", "--nats", broker.url_as("hostM"), "--scene", "mesh", "--nats-name",
+            "hostM", "--mesh-lod", "2", "--duration", "60", "--json", "--quiet"});
   const std::string ep = endpoint_of(run);
   ASSERT_FALSE(ep.empty()) << run.err();
   Proc relay(relay_args(broker.url_as("relay"), "mesh"));
@@ -167,7 +167,8 @@ TEST(NatsCli, AMeshViewerBehindARelayGetsTheDirectServersMeshFrames) {
   // Pose viewers only, so far: nothing asks for mesh frames, none crosses the broker.
   auto poses = viewer(relay_ep);
   ASSERT_TRUE(poses);
-  ASSERT_TRUE(pump({poses.get()}, [&] { return poses->stats().frames >= 90; }, 20));
+  ASSERT_TRUE(pump(
+      {poses.get()}, [&] { return poses->stats().frames >= 90; }, 20));
   const auto before = json_now(run);
   EXPECT_EQ(before["nats"]["mesh_requests"], 0) << run.out();
   EXPECT_EQ(before["nats"]["mesh_frames"], 0);
@@ -181,7 +182,8 @@ TEST(NatsCli, AMeshViewerBehindARelayGetsTheDirectServersMeshFrames) {
     from_relay[a.mesh_last.sequence] = a.mesh_positions_m;
     wrong_lod += a.mesh_last.lod != 2;
   };
-  ASSERT_TRUE(pump({poses.get(), via_relay.get(), other_lod.get()}, [&] { return from_relay.size() >= 20; }, 30))
+  ASSERT_TRUE(pump(
+      {poses.get(), via_relay.get(), other_lod.get()}, [&] { return from_relay.size() >= 20; }, 30))
       << relay.err();
   // Mesh frames for the broker cost the loop no allocation, nor does a direct mesh viewer
   // joining (below).
@@ -198,8 +200,10 @@ TEST(NatsCli, AMeshViewerBehindARelayGetsTheDirectServersMeshFrames) {
     return n;
   };
   const std::vector<mimic::net::Client*> all = {poses.get(), direct.get(), via_relay.get(), other_lod.get()};
-  ASSERT_TRUE(pump(all, [&] { return common() >= 30; }, 30))
-      << "relay " << from_relay.size() << " direct " << from_direct.size() << "\n" << relay.err();
+  ASSERT_TRUE(pump(
+      all, [&] { return common() >= 30; }, 30))
+      << "relay " << from_relay.size() << " direct " << from_direct.size() << "\n"
+      << relay.err();
   size_t equal = 0;
   for (const auto& [seq, p] : from_relay)
     if (auto it = from_direct.find(seq); it != from_direct.end()) equal += it->second == p;
@@ -221,11 +225,12 @@ TEST(NatsCli, AMeshViewerBehindARelayGetsTheDirectServersMeshFrames) {
   ASSERT_EQ(relay.wait(15.0), 0) << relay.err();
   const auto rj = last_json(relay.out());
   const auto pj = last_json(run.out());
-  std::printf("[ figure ] mesh LOD 2 through the broker: %llu vertices, %.0f bytes a frame; publisher sent %d mesh "
-              "frames (mesh_want received %d), relay served %d; the direct viewer got %zu, the relay's %zu\n",
-              static_cast<unsigned long long>(r.mesh_vertex_count), double(mimic::net::mesh_packet_bytes(r.mesh_vertex_count)),
-              pj["nats"]["mesh_frames"].get<int>(), pj["nats"]["mesh_requests"].get<int>(),
-              rj["nats"]["mesh_frames"].get<int>(), from_direct.size(), from_relay.size());
+  std::printf(
+      "[ figure ] mesh LOD 2 through the broker: %llu vertices, %.0f bytes a frame; publisher sent %d mesh "
+      "frames (mesh_want received %d), relay served %d; the direct viewer got %zu, the relay's %zu\n",
+      static_cast<unsigned long long>(r.mesh_vertex_count), double(mimic::net::mesh_packet_bytes(r.mesh_vertex_count)),
+      pj["nats"]["mesh_frames"].get<int>(), pj["nats"]["mesh_requests"].get<int>(),
+      rj["nats"]["mesh_frames"].get<int>(), from_direct.size(), from_relay.size());
   EXPECT_EQ(rj["nats"]["rejected"], 0);
   EXPECT_GT(rj["server"]["mesh_frames_out"].get<int>(), 0);
 }
@@ -238,9 +243,9 @@ TEST(NatsCli, ASigkilledPublishersAvatarLeavesAndItsRestartBringsItBack) {
   mimic::test::NatsBroker broker;
   broker.configure("crash");
   ASSERT_TRUE(broker.start());
-  const std::vector<std::string> run_args = {"run", "--listen", "127.0.0.1:0", "--nats", broker.url_as("hostK"), "--scene",
-                                             "crash", "--nats-name", "hostK", "--nats-model-ttl", "3",
-                                             "--duration", "60", "--quiet"};
+  const std::vector<std::string> run_args = {"run",     "--listen",   "127.0.0.1:0", "--nats", broker.url_as("hostK"),
+                                             "--scene", "crash",      "--nats-name", "hostK",  "--nats-model-ttl",
+                                             "3",       "--duration", "60",          "--quiet"};
   auto run = std::make_unique<Proc>(run_args);
   ASSERT_FALSE(endpoint_of(*run).empty()) << run->err();
   Proc relay(relay_args(broker.url_as("relay"), "crash"));
@@ -248,7 +253,8 @@ TEST(NatsCli, ASigkilledPublishersAvatarLeavesAndItsRestartBringsItBack) {
   ASSERT_FALSE(relay_ep.empty()) << relay.err();
   auto v = viewer(relay_ep);
   ASSERT_TRUE(v);
-  ASSERT_TRUE(pump({v.get()}, [&] { return v->avatars().size() == 1 && v->stats().frames >= 30; }, 20));
+  ASSERT_TRUE(pump(
+      {v.get()}, [&] { return v->avatars().size() == 1 && v->stats().frames >= 30; }, 20));
   // The bucket key is publisher.key; a relay's user may read the bucket.
   const std::string key = "hostK." + mimic::net::nats_avatar_key("hostK", "avatar1");
   mimic::test::NatsProbe probe(broker.url_as("relay"));
@@ -260,17 +266,24 @@ TEST(NatsCli, ASigkilledPublishersAvatarLeavesAndItsRestartBringsItBack) {
   run->signal(SIGKILL);
   EXPECT_EQ(run->wait(10.0), 128 + SIGKILL);
   const auto killed = std::chrono::steady_clock::now();
-  ASSERT_TRUE(pump({v.get()}, [&] { return v->avatars().empty(); }, 20)) << "the dead publisher's avatar stayed";
+  ASSERT_TRUE(pump(
+      {v.get()}, [&] { return v->avatars().empty(); }, 20))
+      << "the dead publisher's avatar stayed";
   const double gone_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - killed).count();
-  ASSERT_TRUE(pump({v.get()}, [&] { return !probe.holds(key); }, 20)) << "its model stayed in the bucket";
+  ASSERT_TRUE(pump(
+      {v.get()}, [&] { return !probe.holds(key); }, 20))
+      << "its model stayed in the bucket";
   const double expired_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - killed).count();
-  std::printf("[ figure ] SIGKILLed publisher: its avatar left the relay's viewer %.1f s later, its model the bucket "
-              "%.1f s later (heartbeat 1 s, 3 missed; TTL 3 s)\n", gone_s, expired_s);
+  std::printf(
+      "[ figure ] SIGKILLed publisher: its avatar left the relay's viewer %.1f s later, its model the bucket "
+      "%.1f s later (heartbeat 1 s, 3 missed; TTL 3 s)\n",
+      gone_s, expired_s);
 
   run = std::make_unique<Proc>(run_args);
   ASSERT_FALSE(endpoint_of(*run).empty()) << run->err();
   const uint64_t frames_before = v->stats().frames;
-  ASSERT_TRUE(pump({v.get()}, [&] { return v->avatars().size() == 1 && v->stats().frames >= frames_before + 30; }, 20));
+  ASSERT_TRUE(pump(
+      {v.get()}, [&] { return v->avatars().size() == 1 && v->stats().frames >= frames_before + 30; }, 20));
   EXPECT_EQ(v->avatars().begin()->second.name, "hostK/avatar1");
   // The relay hands out its lowest free id: with nobody else arriving, the one it had
   // (docs/scaling.md says so).

@@ -20,8 +20,8 @@
 
 namespace {
 
-using mimic::test::Proc;
 using mimic::net::VrpnTrackerRemote;
+using mimic::test::Proc;
 
 uint16_t free_port(int type) {
   const int fd = ::socket(AF_INET, type, 0);
@@ -43,9 +43,9 @@ TEST(OscTrackersSource, LibloTrackersPlaceTheSolvedAvatar) {
   ASSERT_EQ(run.first_line(30).rfind("serving on ", 0), 0u);
   // Unity's frame: +X is the person's right. Standing, facing +Z.
   const std::map<std::string, std::string> at = {
-      {"head", "0 1.62 0"},      {"1", "0 0.98 -0.05"},  {"2", "0 1.30 0.08"},     {"3", "-0.10 0.07 0.05"},
-      {"4", "0.10 0.07 0.05"},   {"5", "-0.10 0.50 0.06"}, {"6", "0.10 0.50 0.06"}, {"7", "-0.22 1.10 0"},
-      {"8", "0.22 1.10 0"}};
+      {"head", "0 1.62 0"},     {"1", "0 0.98 -0.05"},   {"2", "0 1.30 0.08"},
+      {"3", "-0.10 0.07 0.05"}, {"4", "0.10 0.07 0.05"}, {"5", "-0.10 0.50 0.06"},
+      {"6", "0.10 0.50 0.06"},  {"7", "-0.22 1.10 0"},   {"8", "0.22 1.10 0"}};
   VrpnTrackerRemote::Options o;
   o.tracker = *mimic::net::parse_vrpn_address("Avatar0@127.0.0.1:" + std::to_string(vrpn));
   auto remote = std::move(*mimic::net::VrpnTrackerRemote::create(o));

@@ -19,8 +19,8 @@
 
 namespace {
 
-using mimic::test::Proc;
 using mimic::test::endpoint_of;
+using mimic::test::Proc;
 
 nlohmann::json last_json(const std::string& out) {
   const auto start = out.rfind("\n{");

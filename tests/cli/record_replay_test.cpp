@@ -77,8 +77,8 @@ void flip_bit_in_the_middle(const std::string& from, const std::string& to) {
 
 TEST(CliRecordReplay, RecordsASimulatedWalkAndReplaysItAsCsv) {
   const std::string log = work_dir() + "/walk.mlog";
-  const ShellRun rec = run_shell(mimic() + " record --source 'sim:walk?sensors=6&rate=100' --duration 1 --seed 7 --out '" +
-                            log + "' --quiet");
+  const ShellRun rec = run_shell(
+      mimic() + " record --source 'sim:walk?sensors=6&rate=100' --duration 1 --seed 7 --out '" + log + "' --quiet");
   ASSERT_EQ(rec.exit_code, 0) << rec.err;
   EXPECT_NE(rec.err.find("samples"), std::string::npos) << rec.err;
   EXPECT_FALSE(fs::exists(log + ".part"));
@@ -126,9 +126,9 @@ TEST(CliRecordReplay, RecordsASimulatedWalkAndReplaysItAsCsv) {
 TEST(CliRecordReplay, DamagedLogReplaysTheGoodPartAndSaysWhereItStopped) {
   const std::string dir = work_dir();
   const std::string log = dir + "/whole.mlog", cut = dir + "/cut.mlog";
-  ASSERT_EQ(run_shell(mimic() + " record --source 'sim:idle?sensors=3' --duration 0.3 --out '" + log + "' --quiet")
-                .exit_code,
-            0);
+  ASSERT_EQ(
+      run_shell(mimic() + " record --source 'sim:idle?sensors=3' --duration 0.3 --out '" + log + "' --quiet").exit_code,
+      0);
   const auto whole = parse_csv(run_shell(mimic() + " replay '" + log + "' --csv --speed 0").out);
   ASSERT_GT(whole.size(), 30u);
   // Cut the file inside the fifth-last sample record (the end record is 17 bytes, samples 63).
@@ -149,9 +149,9 @@ TEST(CliRecordReplay, DamagedLogReplaysTheGoodPartAndSaysWhereItStopped) {
 TEST(CliRecordReplay, FlippedBitInTheMiddleKeepsTheRest) {
   const std::string dir = work_dir();
   const std::string log = dir + "/long.mlog", flipped = dir + "/long_flipped.mlog";
-  ASSERT_EQ(run_shell(mimic() + " record --source 'sim:idle?sensors=3' --duration 1 --out '" + log + "' --quiet")
-                .exit_code,
-            0);
+  ASSERT_EQ(
+      run_shell(mimic() + " record --source 'sim:idle?sensors=3' --duration 1 --out '" + log + "' --quiet").exit_code,
+      0);
   const auto whole = parse_csv(run_shell(mimic() + " replay '" + log + "' --csv --speed 0").out);
   ASSERT_GT(whole.size(), 200u);
   flip_bit_in_the_middle(log, flipped);
@@ -163,7 +163,8 @@ TEST(CliRecordReplay, FlippedBitInTheMiddleKeepsTheRest) {
   EXPECT_EQ(rows.back().v[0], whole.back().v[0]);
   EXPECT_NE(rep.err.find("63 bytes skipped, reading resumed at byte"), std::string::npos) << rep.err;
   EXPECT_NE(rep.err.find("1 samples lost"), std::string::npos) << rep.err;
-  const ShellRun run = run_shell(mimic() + " run --source 'replay:" + flipped + "' --duration 0.3 --quiet --listen 127.0.0.1:0");
+  const ShellRun run =
+      run_shell(mimic() + " run --source 'replay:" + flipped + "' --duration 0.3 --quiet --listen 127.0.0.1:0");
   EXPECT_EQ(run.exit_code, 0) << run.err;
   EXPECT_NE(run.err.find("damage at byte"), std::string::npos) << run.err;
 }
@@ -171,7 +172,7 @@ TEST(CliRecordReplay, FlippedBitInTheMiddleKeepsTheRest) {
 TEST(CliRecordReplay, CtrlCLeavesACompleteLog) {
   const std::string log = work_dir() + "/interrupted.mlog";
   const ShellRun rec = run_shell("( " + mimic() + " record --source sim:walk --out '" + log +
-                            "' --quiet & pid=$!; sleep 0.6; kill -INT $pid; wait $pid )");
+                                 "' --quiet & pid=$!; sleep 0.6; kill -INT $pid; wait $pid )");
   ASSERT_EQ(rec.exit_code, 0) << rec.err;
   EXPECT_NE(rec.err.find("interrupted"), std::string::npos) << rec.err;
   const ShellRun rep = run_shell(mimic() + " replay '" + log + "' --csv --speed 0");
@@ -185,11 +186,11 @@ TEST(CliRecordReplay, RecordsAVirtualFlockThroughTheDriver) {
   // `mimic record --source flock:PATH?erc=1` reads them with the real driver.
   const std::string dir = work_dir();
   const std::string log = dir + "/flock.mlog", sim_out = dir + "/sim.txt";
-  const ShellRun rec = run_shell(
-      "M=" + mimic() + "; $M sim flock --birds 3 --motion walk --seed 2 --busy 0.05 >'" + sim_out +
-      "' 2>/dev/null & S=$!; for i in $(seq 50); do [ -s '" + sim_out + "' ] && break; sleep 0.1; done; P=$(head -1 '" +
-      sim_out + "'); $M record --source \"flock:$P?birds=3&erc=1\" --duration 2 --out '" + log +
-      "' --quiet; R=$?; kill -INT $S; wait $S; exit $R");
+  const ShellRun rec = run_shell("M=" + mimic() + "; $M sim flock --birds 3 --motion walk --seed 2 --busy 0.05 >'" +
+                                 sim_out + "' 2>/dev/null & S=$!; for i in $(seq 50); do [ -s '" + sim_out +
+                                 "' ] && break; sleep 0.1; done; P=$(head -1 '" + sim_out +
+                                 "'); $M record --source \"flock:$P?birds=3&erc=1\" --duration 2 --out '" + log +
+                                 "' --quiet; R=$?; kill -INT $S; wait $S; exit $R");
   ASSERT_EQ(rec.exit_code, 0) << rec.err;
   const ShellRun rep = run_shell(mimic() + " replay '" + log + "' --csv --speed 0");
   ASSERT_EQ(rep.exit_code, 0) << rep.err;
@@ -217,11 +218,11 @@ TEST(CliRecordReplay, RecordsAVirtualFlockThroughTheDriver) {
 TEST(CliRecordReplay, RawFlockSessionReplaysThroughTheDriver) {
   const std::string dir = work_dir();
   const std::string log = dir + "/flock_raw.mlog", plain = dir + "/flock_plain.mlog", sim_out = dir + "/sim_raw.txt";
-  const ShellRun rec = run_shell(
-      "M=" + mimic() + "; $M sim flock --birds 2 --motion walk --seed 4 --busy 0.05 >'" + sim_out +
-      "' 2>/dev/null & S=$!; for i in $(seq 50); do [ -s '" + sim_out + "' ] && break; sleep 0.1; done; P=$(head -1 '" +
-      sim_out + "'); $M record --source \"flock:$P?birds=2&erc=1\" --duration 1 --raw --out '" + log +
-      "' --quiet; R=$?; kill -INT $S; wait $S; exit $R");
+  const ShellRun rec = run_shell("M=" + mimic() + "; $M sim flock --birds 2 --motion walk --seed 4 --busy 0.05 >'" +
+                                 sim_out + "' 2>/dev/null & S=$!; for i in $(seq 50); do [ -s '" + sim_out +
+                                 "' ] && break; sleep 0.1; done; P=$(head -1 '" + sim_out +
+                                 "'); $M record --source \"flock:$P?birds=2&erc=1\" --duration 1 --raw --out '" + log +
+                                 "' --quiet; R=$?; kill -INT $S; wait $S; exit $R");
   ASSERT_EQ(rec.exit_code, 0) << rec.err;
   EXPECT_NE(rec.err.find("raw bytes kept"), std::string::npos) << rec.err;
   const ShellRun rep = run_shell(mimic() + " replay '" + log + "' --through-driver --json");

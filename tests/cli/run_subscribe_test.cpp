@@ -31,8 +31,8 @@ extern char** environ;
 
 namespace {
 
-using mimic::test::Proc;
 using mimic::test::endpoint_of;
+using mimic::test::Proc;
 
 nlohmann::json last_json(const std::string& out) {
   const auto start = out.rfind("\n{");
@@ -49,8 +49,8 @@ TEST(RunSubscribe, SubscriberGetsModelAndFramesFromMimicRun) {
   ASSERT_EQ(sub.wait(15.0), 0) << sub.err();
   const auto j = last_json(sub.out());
   ASSERT_FALSE(j.is_discarded()) << sub.out();
-  for (const char* k : {"frames", "avatars", "fps", "latency_ms_p50", "latency_ms_p99", "lost", "model_bytes",
-                        "frame_bytes_mean"})
+  for (const char* k :
+       {"frames", "avatars", "fps", "latency_ms_p50", "latency_ms_p99", "lost", "model_bytes", "frame_bytes_mean"})
     EXPECT_TRUE(j.contains(k)) << k;
   EXPECT_EQ(j["frames"], 90);
   EXPECT_EQ(j["avatars"], 1);
@@ -146,8 +146,8 @@ TEST(RunSubscribe, WithoutUdpTheSubscriberIsToldAndFramesComeOnTheStream) {
 }
 
 TEST(RunSubscribe, SeveralAvatarsAndARemotePublisher) {
-  Proc host({"run", "--listen", "127.0.0.1:0", "--source", "sim:walk", "--source", "sim:idle?seed=2",
-             "--duration", "12", "--quiet"});
+  Proc host({"run", "--listen", "127.0.0.1:0", "--source", "sim:walk", "--source", "sim:idle?seed=2", "--duration",
+             "12", "--quiet"});
   const std::string ep = endpoint_of(host);
   ASSERT_FALSE(ep.empty()) << host.err();
   Proc guest({"run", "--publish", ep, "--source", "sim:walk?seed=3", "--duration", "10", "--quiet"});
@@ -291,10 +291,11 @@ TEST(RunSubscribe, LeanStreamByDefaultAtThePrecisionAndKeyIntervalMimicRunServes
   const Seen coarse = watch({"--lean-shift", "8", "--lean-key-interval", "0"});
   EXPECT_EQ(coarse.lean["lean_shift"], 8);
   EXPECT_LE(coarse.lean["lean_keys"].get<int>(), 2) << "no periodic keys: the first, and one after a loss at most";
-  std::printf("[ figure ] built-in walk, lean stream bytes per avatar-frame: shift 0 with a key every 10: %.1f, "
-              "shift 3 (default, key every 90): %.1f, shift 8 without periodic keys: %.1f; POSE: %.0f\n",
-              fine.lean["frame_bytes_mean"].get<double>(), plain.lean["frame_bytes_mean"].get<double>(),
-              coarse.lean["frame_bytes_mean"].get<double>(), plain.pose["frame_bytes_mean"].get<double>());
+  std::printf(
+      "[ figure ] built-in walk, lean stream bytes per avatar-frame: shift 0 with a key every 10: %.1f, "
+      "shift 3 (default, key every 90): %.1f, shift 8 without periodic keys: %.1f; POSE: %.0f\n",
+      fine.lean["frame_bytes_mean"].get<double>(), plain.lean["frame_bytes_mean"].get<double>(),
+      coarse.lean["frame_bytes_mean"].get<double>(), plain.pose["frame_bytes_mean"].get<double>());
   EXPECT_GT(fine.lean["frame_bytes_mean"].get<double>(), plain.lean["frame_bytes_mean"].get<double>());
   EXPECT_LT(coarse.lean["frame_bytes_mean"].get<double>(), plain.lean["frame_bytes_mean"].get<double>());
 
@@ -381,7 +382,8 @@ TEST(RunSubscribe, RunsWithACalibrationFromMimicCalibrate) {
   Proc calibrate({"calibrate", "--source", "sim:idle?sensors=6", "--out", cal, "--countdown", "0", "--seconds", "1",
                   "--max-motion-cm", "10", "--max-motion-deg", "30"});
   ASSERT_EQ(calibrate.wait(30.0), 0) << calibrate.err();
-  Proc run({"run", "--listen", "127.0.0.1:0", "--source", "sim:walk", "--calibration", cal, "--duration", "6", "--quiet"});
+  Proc run(
+      {"run", "--listen", "127.0.0.1:0", "--source", "sim:walk", "--calibration", cal, "--duration", "6", "--quiet"});
   const std::string ep = endpoint_of(run);
   ASSERT_FALSE(ep.empty()) << run.err();
   EXPECT_NE(run.err().find("calibration"), std::string::npos);
@@ -468,7 +470,8 @@ namespace {
 // Both skin methods: the realtime one (default) and the full one.
 TEST(RunSubscribe, ThinClientGetsMeshFramesAtTheOfferedLod) {
   for (const auto& [method, lod] : {std::pair{"realtime", "2"}, std::pair{"full", "3"}}) {
-    Proc run({"run", "--listen", "127.0.0.1:0", "--mesh-lod", lod, "--mesh-method", method, "--duration", "8", "--quiet"});
+    Proc run(
+        {"run", "--listen", "127.0.0.1:0", "--mesh-lod", lod, "--mesh-method", method, "--duration", "8", "--quiet"});
     const std::string ep = endpoint_of(run);
     ASSERT_FALSE(ep.empty()) << run.err();
     Proc thin({"subscribe", "--connect", ep, "--count", "30", "--mesh-lod", lod, "--json"});
@@ -535,8 +538,7 @@ TEST(RunSubscribe, SubscribersJoiningAndLeavingCostTheLoopNoAllocation) {
     ASSERT_FALSE(ep.empty()) << run.err();
     // Past the warm-up (100 frames) before anyone joins: joins during it would not count.
     nlohmann::json j;
-    for (int i = 0; i < 200 && !(j = json_now(run)).is_discarded() && j.value("frames", 0) < 120; ++i)
-      ::usleep(20000);
+    for (int i = 0; i < 200 && !(j = json_now(run)).is_discarded() && j.value("frames", 0) < 120; ++i) ::usleep(20000);
     ASSERT_GE(j.value("frames", 0), 120) << run.err();
     ASSERT_EQ(j["loop_allocations"], 0);
     auto joined = [&](const std::vector<std::string>& args, const char* who) {
@@ -548,7 +550,8 @@ TEST(RunSubscribe, SubscribersJoiningAndLeavingCostTheLoopNoAllocation) {
       EXPECT_EQ(r["loop_allocations"], 0) << who << " joined and left, at LOD " << lod;
       return s;
     };
-    const auto mesh = joined({"subscribe", "--connect", ep, "--mesh-lod", lod, "--count", "60", "--json"}, "a mesh subscriber");
+    const auto mesh =
+        joined({"subscribe", "--connect", ep, "--mesh-lod", lod, "--count", "60", "--json"}, "a mesh subscriber");
     EXPECT_GE(mesh["mesh_frames"].get<int>(), 30) << lod;
     const auto udp = joined({"subscribe", "--connect", ep, "--udp", "--count", "60", "--json"}, "a UDP subscriber");
     EXPECT_GE(udp["udp_frames"].get<int>(), 30);
@@ -556,8 +559,8 @@ TEST(RunSubscribe, SubscribersJoiningAndLeavingCostTheLoopNoAllocation) {
     {
       std::vector<std::unique_ptr<Proc>> many;
       for (int i = 0; i < 6; ++i)
-        many.push_back(std::make_unique<Proc>(std::vector<std::string>{
-            "subscribe", "--connect", ep, "--count", "90", i % 2 ? "--udp" : "--no-lean", "--json"}));
+        many.push_back(std::make_unique<Proc>(std::vector<std::string>{"subscribe", "--connect", ep, "--count", "90",
+                                                                       i % 2 ? "--udp" : "--no-lean", "--json"}));
       joined({"subscribe", "--connect", ep, "--mesh-lod", lod, "--count", "90", "--json"}, "seven subscribers");
       for (auto& p : many) EXPECT_EQ(p->wait(30.0), 0) << p->err();
     }

@@ -87,8 +87,10 @@ TEST(ScaleCli, PresetsMoveHeightAndGirthsAsTheirRatiosSay) {
 TEST(ScaleCli, OperatorsWriteABodyThatMeshesClosed) {
   const std::string dir = temp_dir();
   const std::string body = dir + "/custom.json", mesh = dir + "/custom.obj";
-  Outcome r = run_mimic("scale --total-height 1.1 --frontal 1.2 --high-lateral 0.9 --low-lateral 1.1 "
-                        "--spine-origin-ratio 1.03 --name custom --out '" + body + "'");
+  Outcome r = run_mimic(
+      "scale --total-height 1.1 --frontal 1.2 --high-lateral 0.9 --low-lateral 1.1 "
+      "--spine-origin-ratio 1.03 --name custom --out '" +
+      body + "'");
   ASSERT_EQ(r.status, 0) << r.output;
   EXPECT_NE(r.output.find("height 1.666 m -> 1.83"), std::string::npos) << r.output;
   r = run_mimic("mesh --body '" + body + "' --motion walk --time 0.4 --no-rigid --out '" + mesh + "'");

@@ -80,7 +80,8 @@ TEST(SimFlockCli, DriverReadsFourBirdsInGroupMode) {
 TEST(SimFlockCli, ExtendedRangeWithMotionAndLog) {
   const std::string mimic = mimic::test::mimic_binary();
   const auto log = std::filesystem::temp_directory_path() / ("mimic-flock-" + std::to_string(::getpid()) + ".mlog");
-  Child sim({mimic, "sim", "flock", "--birds", "3", "--ert", "--motion", "idle", "--busy", "0.05", "--log", log.string()});
+  Child sim(
+      {mimic, "sim", "flock", "--birds", "3", "--ert", "--motion", "idle", "--busy", "0.05", "--log", log.string()});
   ASSERT_GT(sim.pid, 0);
   const std::string path = sim.line();
   ASSERT_EQ(path.rfind("/dev/pts/", 0), 0u) << path;
@@ -135,14 +136,17 @@ TEST(SimFlockCli, ExtendedRangeWithMotionAndLog) {
 // forward hemisphere. Refusing the ERC (--no-ert) gets the saturation warning instead.
 TEST(SimFlockCli, WalkDefaultsKeepSensorsInRange) {
   const std::string mimic = mimic::test::mimic_binary();
-  const auto log = std::filesystem::temp_directory_path() / ("mimic-flock-walk-" + std::to_string(::getpid()) + ".mlog");
+  const auto log =
+      std::filesystem::temp_directory_path() / ("mimic-flock-walk-" + std::to_string(::getpid()) + ".mlog");
   Child sim({mimic, "sim", "flock", "--birds", "6", "--motion", "walk", "--busy", "0.05", "--log", log.string()}, true);
   ASSERT_GT(sim.pid, 0);
   std::string path, notes;
   for (int i = 0; i < 10 && path.empty(); ++i) {
     const std::string l = sim.line();
-    if (l.rfind("/dev/pts/", 0) == 0) path = l;
-    else notes += l + "\n";
+    if (l.rfind("/dev/pts/", 0) == 0)
+      path = l;
+    else
+      notes += l + "\n";
   }
   ASSERT_FALSE(path.empty()) << notes;
   EXPECT_NE(notes.find("extended range controller"), std::string::npos) << notes;
@@ -183,8 +187,10 @@ TEST(SimFlockCli, WalkDefaultsKeepSensorsInRange) {
   notes.clear();
   for (int i = 0; i < 10 && path.empty(); ++i) {
     const std::string l = standard.line();
-    if (l.rfind("/dev/pts/", 0) == 0) path = l;
-    else notes += l + "\n";
+    if (l.rfind("/dev/pts/", 0) == 0)
+      path = l;
+    else
+      notes += l + "\n";
   }
   ASSERT_FALSE(path.empty()) << notes;
   EXPECT_NE(notes.find("warning: the motion spans"), std::string::npos) << notes;

@@ -100,7 +100,7 @@ TEST(SimSpaceballCli, PluggedInByDefaultAnswersEveryOpenAtOnce) {
     ::close(fd);
     EXPECT_NE(got.find("\"1 Spaceball 4000 FLX"), std::string::npos) << "open " << open_count << ": " << got;
     EXPECT_EQ(got.find("alive and well"), std::string::npos) << got;  // no power-up banner
-    EXPECT_LT(waited_s, 1.0);  // not the 2 s of a cold start
+    EXPECT_LT(waited_s, 1.0);                                         // not the 2 s of a cold start
   }
   ASSERT_EQ(::kill(sim.pid, SIGTERM), 0);
   EXPECT_EQ(sim.wait(), 0);

@@ -104,9 +104,9 @@ TEST(EvalSolverCli, PrintsOneJsonObjectPerLayoutWithTheRequiredKeys) {
   int objects = 0;
   while (std::getline(lines, line)) {
     const auto j = nlohmann::json::parse(line);
-    for (const char* key : {"clip", "sensors", "frames", "mpjpe_cm", "mpjre_deg", "end_effector_mm", "jitter",
-                            "jitter_definition", "solve_us_p50", "solve_us_p99", "lower_body_mpjpe_cm",
-                            "foot_skate_mm", "floor_penetration_mm", "steps"})
+    for (const char* key :
+         {"clip", "sensors", "frames", "mpjpe_cm", "mpjre_deg", "end_effector_mm", "jitter", "jitter_definition",
+          "solve_us_p50", "solve_us_p99", "lower_body_mpjpe_cm", "foot_skate_mm", "floor_penetration_mm", "steps"})
       EXPECT_TRUE(j.contains(key)) << key;
     EXPECT_GE(j["steps"]["solved"].get<int>(), 0);
     EXPECT_GE(j["steps"]["truth"].get<int>(), 0);
@@ -136,7 +136,8 @@ TEST(EvalSolverCli, TableNamesTheJointSetAndJitterAndRejectsBadOptions) {
   EXPECT_NE(r.output.find("jitter = mean |p[t+1]-2p[t]+p[t-1]|"), std::string::npos) << r.output;
   EXPECT_NE(r.output.find("noise 2.00 mm / 1.00 deg"), std::string::npos) << r.output;
   // Latency (predicted away by the filters) and dropouts (bridged) still give a sane result.
-  const Outcome lat = run_mimic("eval-solver --bvh " + clip + " --sensors 6 --frames 120 --latency 20 --dropout 0.05 --json", true);
+  const Outcome lat =
+      run_mimic("eval-solver --bvh " + clip + " --sensors 6 --frames 120 --latency 20 --dropout 0.05 --json", true);
   ASSERT_EQ(lat.status, 0) << lat.output;
   const auto j = nlohmann::json::parse(lat.output);
   EXPECT_EQ(j["latency_ms"], 20.0);

@@ -84,10 +84,12 @@ TEST(StatusLine, FitsAnEightyColumnTerminalAndShowsTheLatency) {
 }
 
 TEST(StatusLine, IntoAPipeItIsWholeLinesEveryFewSeconds) {
-  mimic::test::Proc run({"run", "--listen", "127.0.0.1:0", "--source", "sim:walk", "--source", "sim:idle", "--duration", "6"});
+  mimic::test::Proc run(
+      {"run", "--listen", "127.0.0.1:0", "--source", "sim:walk", "--source", "sim:idle", "--duration", "6"});
   ASSERT_EQ(run.wait(30.0), 0) << run.err();
   int lines = 0;
-  for (size_t at = run.err().find("fps each"); at != std::string::npos; at = run.err().find("fps each", at + 1)) lines++;
+  for (size_t at = run.err().find("fps each"); at != std::string::npos; at = run.err().find("fps each", at + 1))
+    lines++;
   EXPECT_GE(lines, 1) << run.err();
   EXPECT_LE(lines, 2) << run.err();  // 6 s at one line per 5 s, not 12 rewrites
   EXPECT_EQ(run.err().find('\r'), std::string::npos);

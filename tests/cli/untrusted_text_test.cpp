@@ -81,7 +81,7 @@ std::string log_with_source(const std::string& dir, const std::string& json_valu
 void expect_inert(const std::string& text) {
   EXPECT_EQ(text.find('\x1b'), std::string::npos) << text;
   EXPECT_EQ(text.find('\x07'), std::string::npos) << text;
-  EXPECT_EQ(text.find("\xc2\x9b"), std::string::npos) << text;     // C1 CSI
+  EXPECT_EQ(text.find("\xc2\x9b"), std::string::npos) << text;      // C1 CSI
   EXPECT_EQ(text.find("\xe2\x80\xae"), std::string::npos) << text;  // U+202E
   EXPECT_EQ(text.find("\xe2\x80\x8b"), std::string::npos) << text;  // U+200B
 }
@@ -112,7 +112,10 @@ TEST(UntrustedText, SceneNameInAnErrorIsEscaped) {
   EXPECT_NE(sub.wait(30.0), 0);
   expect_inert(sub.err());
   EXPECT_NE(sub.err().find("\\u001b]0;owned\\u0007\\u202e"), std::string::npos) << sub.err();
-  Proc run({"run", "--listen", "127.0.0.1:0", "--nats", "nats://127.0.0.1:1", "--scene", "a\xc2\x9b" "2J", "--duration", "1"});
+  Proc run({"run", "--listen", "127.0.0.1:0", "--nats", "nats://127.0.0.1:1", "--scene",
+            "a\xc2\x9b"
+            "2J",
+            "--duration", "1"});
   EXPECT_NE(run.wait(30.0), 0);
   expect_inert(run.err());
   EXPECT_NE(run.err().find("a\\u009b2J"), std::string::npos) << run.err();

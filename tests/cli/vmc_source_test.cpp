@@ -22,8 +22,8 @@
 
 namespace {
 
-using mimic::test::Proc;
 using mimic::test::endpoint_of;
+using mimic::test::Proc;
 using Clock = std::chrono::steady_clock;
 
 uint16_t free_udp_port() {
@@ -104,8 +104,10 @@ TEST(VmcSource, AnotherMimicsVmcOutputDrivesTheAvatar) {
     worst_body = std::max(worst_body, best_body);
     worst_head = std::max(worst_head, best_head);
   }
-  std::printf("[ figure ] vmc: source: %d of %d frames within 5 mm of a sender's frame (head 15 mm); worst %.1f mm, head %.1f mm\n",
-              matched, compared, worst_body * 1e3, worst_head * 1e3);
+  std::printf(
+      "[ figure ] vmc: source: %d of %d frames within 5 mm of a sender's frame (head 15 mm); worst %.1f mm, head %.1f "
+      "mm\n",
+      matched, compared, worst_body * 1e3, worst_head * 1e3);
   // Every frame is one of the sender's, up to the wire's quantisation and VMC's neck split
   // (latest wins may drop a sender's frame before its viewer sees it: a few may find no twin).
   EXPECT_GE(matched, compared * 9 / 10) << "worst body " << worst_body << " m, head " << worst_head << " m";
@@ -114,7 +116,9 @@ TEST(VmcSource, AnotherMimicsVmcOutputDrivesTheAvatar) {
   sender.signal(SIGINT);
   ASSERT_EQ(sender.wait(15.0), 0);
   bool stale = false;
-  relayed->on_pose = [&](const mimic::net::RemoteAvatar& a, uint64_t) { stale |= (a.last.flags & mimic::net::kPoseStale) != 0; };
+  relayed->on_pose = [&](const mimic::net::RemoteAvatar& a, uint64_t) {
+    stale |= (a.last.flags & mimic::net::kPoseStale) != 0;
+  };
   const auto until = Clock::now() + std::chrono::seconds(10);
   while (!stale && Clock::now() < until) (void)relayed->run_until(Clock::now() + std::chrono::milliseconds(5));
   EXPECT_TRUE(stale);

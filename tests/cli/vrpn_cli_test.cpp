@@ -76,13 +76,14 @@ TEST(VrpnCli, RunServesAvatarJointsAndSensorSamples) {
 
   // The reports are the walking body: unit quaternions, the head above the pelvis by about the
   // trunk's length, the feet near the floor, timestamps on the wall clock.
-  const double now_s = double(std::chrono::duration_cast<std::chrono::seconds>(
-                                  std::chrono::system_clock::now().time_since_epoch()).count());
+  const double now_s = double(
+      std::chrono::duration_cast<std::chrono::seconds>(std::chrono::system_clock::now().time_since_epoch()).count());
   const int head = skeleton.find_joint("head"), pelvis = skeleton.find_joint("pelvis"),
             l_ankle = skeleton.find_joint("l_ankle");
   std::map<int, mimic::test::vrpn::Report> last;
   for (const auto& r : c.reports) {
-    const double qn = std::sqrt(r.quat[0] * r.quat[0] + r.quat[1] * r.quat[1] + r.quat[2] * r.quat[2] + r.quat[3] * r.quat[3]);
+    const double qn =
+        std::sqrt(r.quat[0] * r.quat[0] + r.quat[1] * r.quat[1] + r.quat[2] * r.quat[2] + r.quat[3] * r.quat[3]);
     EXPECT_NEAR(qn, 1.0, 1e-3) << r.device << " " << r.sensor;
     EXPECT_NEAR(double(r.seconds), now_s, 30.0);
     EXPECT_TRUE(r.udp);

@@ -70,8 +70,16 @@ double unix_now_s() {
 }
 
 std::vector<std::string> sender_args(uint16_t vrpn_port) {
-  return {"run", "--listen", "127.0.0.1:0", "--source", "sim:walk?sensors=6&seed=5", "--vrpn",
-          "127.0.0.1:" + std::to_string(vrpn_port), "--quiet", "--duration", "60"};
+  return {"run",
+          "--listen",
+          "127.0.0.1:0",
+          "--source",
+          "sim:walk?sensors=6&seed=5",
+          "--vrpn",
+          "127.0.0.1:" + std::to_string(vrpn_port),
+          "--quiet",
+          "--duration",
+          "60"};
 }
 
 TEST(VrpnSource, ASecondMimicSolvesTheFirstOnesTrackersOverVrpn) {

@@ -29,7 +29,9 @@ TEST(TerminalSafe, ControlsAreShownAsVisibleEscapes) {
   EXPECT_EQ(terminal_safe("a\nb\tc\rd"), "a\\u000ab\\u0009c\\u000dd");
   EXPECT_EQ(terminal_safe("del\x7f"), "del\\u007f");
   EXPECT_EQ(terminal_safe(std::string("nul\0x", 5)), "nul\\u0000x");
-  EXPECT_EQ(terminal_safe("csi\xc2\x9b" "31m"), "csi\\u009b31m");  // C1 CSI as UTF-8
+  EXPECT_EQ(terminal_safe("csi\xc2\x9b"
+                          "31m"),
+            "csi\\u009b31m");  // C1 CSI as UTF-8
   EXPECT_EQ(terminal_safe("back\\slash"), "back\\\\slash");
 }
 
@@ -46,11 +48,13 @@ TEST(TerminalSafe, BidiAndInvisibleCharactersAreShown) {
 }
 
 TEST(TerminalSafe, BytesThatAreNotUtf8AreShownInHex) {
-  EXPECT_EQ(terminal_safe("raw\x9b" "31m"), "raw\\x9b31m");       // a lone C1 byte
+  EXPECT_EQ(terminal_safe("raw\x9b"
+                          "31m"),
+            "raw\\x9b31m");  // a lone C1 byte
   EXPECT_EQ(terminal_safe("bad\xff\xfe"), "bad\\xff\\xfe");
-  EXPECT_EQ(terminal_safe("over\xc0\xaf"), "over\\xc0\\xaf");      // overlong '/'
-  EXPECT_EQ(terminal_safe("sur\xed\xa0\x80"), "sur\\xed\\xa0\\x80");  // a UTF-16 surrogate
-  EXPECT_EQ(terminal_safe("cut\xe2\x82"), "cut\\xe2\\x82");        // truncated sequence
+  EXPECT_EQ(terminal_safe("over\xc0\xaf"), "over\\xc0\\xaf");                  // overlong '/'
+  EXPECT_EQ(terminal_safe("sur\xed\xa0\x80"), "sur\\xed\\xa0\\x80");           // a UTF-16 surrogate
+  EXPECT_EQ(terminal_safe("cut\xe2\x82"), "cut\\xe2\\x82");                    // truncated sequence
   EXPECT_EQ(terminal_safe("big\xf4\x90\x80\x80"), "big\\xf4\\x90\\x80\\x80");  // above U+10FFFF
   for (const char* s : {"raw\x9b", "bad\xff", "over\xc0\xaf", "sur\xed\xa0\x80", "cut\xe2\x82"})
     EXPECT_FALSE(is_safe_name(s));

@@ -14,8 +14,7 @@ namespace {
 std::vector<uint8_t> make_record(const RecordLayout& layout, int seq, uint8_t address = 1) {
   RawRecord r;
   r.layout = layout;
-  for (int i = 0; i < word_count(layout.format); ++i)
-    r.words[i] = static_cast<int16_t>((seq * 16 + i) * 4);
+  for (int i = 0; i < word_count(layout.format); ++i) r.words[i] = static_cast<int16_t>((seq * 16 + i) * 4);
   r.address = address;
   r.button = 0x10;
   std::vector<uint8_t> out(layout.size());
@@ -155,10 +154,22 @@ TEST(FlockDecoder, RandomFaultsNeverLoseUntouchedRecords) {
       auto r = make_record(layout, s, 1);
       bool hit = false;
       switch (rng() % 8) {
-        case 0: r.erase(r.begin() + static_cast<long>(rng() % r.size())); hit = true; break;
-        case 1: r.insert(r.begin() + 1 + static_cast<long>(rng() % (r.size() - 1)), uint8_t(rng() | 0x80)); hit = true; break;
-        case 2: r[1 + rng() % (r.size() - 1)] |= 0x80; hit = true; break;
-        case 3: r.resize(1 + rng() % (r.size() - 1)); hit = true; break;
+        case 0:
+          r.erase(r.begin() + static_cast<long>(rng() % r.size()));
+          hit = true;
+          break;
+        case 1:
+          r.insert(r.begin() + 1 + static_cast<long>(rng() % (r.size() - 1)), uint8_t(rng() | 0x80));
+          hit = true;
+          break;
+        case 2:
+          r[1 + rng() % (r.size() - 1)] |= 0x80;
+          hit = true;
+          break;
+        case 3:
+          r.resize(1 + rng() % (r.size() - 1));
+          hit = true;
+          break;
         default: break;
       }
       touched.push_back(hit);

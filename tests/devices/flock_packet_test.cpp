@@ -32,10 +32,13 @@ TEST(FlockWord, RoundTripAllValuesDropsLowTwoBits) {
 }
 
 TEST(FlockRecord, SizesMatchTheManual) {
-  const std::pair<Format, size_t> sizes[] = {
-      {Format::position, 6},        {Format::angles, 6},     {Format::matrix, 18},
-      {Format::position_angles, 12}, {Format::position_matrix, 24}, {Format::quaternion, 8},
-      {Format::position_quaternion, 14}};
+  const std::pair<Format, size_t> sizes[] = {{Format::position, 6},
+                                             {Format::angles, 6},
+                                             {Format::matrix, 18},
+                                             {Format::position_angles, 12},
+                                             {Format::position_matrix, 24},
+                                             {Format::quaternion, 8},
+                                             {Format::position_quaternion, 14}};
   for (auto [f, n] : sizes) {
     EXPECT_EQ((RecordLayout{f, false, false}.size()), n) << format_name(f);
     EXPECT_EQ((RecordLayout{f, true, false}.size()), n + 1);
@@ -67,8 +70,7 @@ TEST(FlockRecord, WorkedGroupModeExampleFromTheProtocolNotes) {
   r.address = 2;
   std::array<uint8_t, kMaxRecordSize> buf{};
   const size_t n = encode_record(r, buf);
-  const std::vector<uint8_t> expected = {0x80, 0x20, 0x00, 0x70, 0x00, 0x08, 0x00,
-                                         0x20, 0x00, 0x00, 0x00, 0x70, 0x02};
+  const std::vector<uint8_t> expected = {0x80, 0x20, 0x00, 0x70, 0x00, 0x08, 0x00, 0x20, 0x00, 0x00, 0x00, 0x70, 0x02};
   ASSERT_EQ(n, expected.size());
   EXPECT_EQ(std::vector<uint8_t>(buf.begin(), buf.begin() + static_cast<long>(n)), expected);
 
@@ -137,17 +139,17 @@ TEST(FlockFrames, MatrixDefinitionMatchesTheManual) {
   const double A = 0.3, E = -0.7, R = 1.1;
   const glm::dmat3 r = transmitter_from_sensor_from_angles(glm::dvec3(A, E, R) * (180.0 / kPi));
   const glm::dmat3 M = glm::transpose(r);  // M(i,j) = M[j-1][i-1] in glm's column-major form
-  const double cA = std::cos(A), sA = std::sin(A), cE = std::cos(E), sE = std::sin(E),
-               cR = std::cos(R), sR = std::sin(R);
-  EXPECT_NEAR(M[0][0], cE * cA, 1e-12);                         // M11
-  EXPECT_NEAR(M[1][0], cE * sA, 1e-12);                         // M12
-  EXPECT_NEAR(M[2][0], -sE, 1e-12);                             // M13
-  EXPECT_NEAR(M[0][1], -cR * sA + sR * sE * cA, 1e-12);         // M21
-  EXPECT_NEAR(M[1][1], cR * cA + sR * sE * sA, 1e-12);          // M22
-  EXPECT_NEAR(M[2][1], sR * cE, 1e-12);                         // M23
-  EXPECT_NEAR(M[0][2], sR * sA + cR * sE * cA, 1e-12);          // M31
-  EXPECT_NEAR(M[1][2], -sR * cA + cR * sE * sA, 1e-12);         // M32
-  EXPECT_NEAR(M[2][2], cR * cE, 1e-12);                         // M33
+  const double cA = std::cos(A), sA = std::sin(A), cE = std::cos(E), sE = std::sin(E), cR = std::cos(R),
+               sR = std::sin(R);
+  EXPECT_NEAR(M[0][0], cE * cA, 1e-12);                  // M11
+  EXPECT_NEAR(M[1][0], cE * sA, 1e-12);                  // M12
+  EXPECT_NEAR(M[2][0], -sE, 1e-12);                      // M13
+  EXPECT_NEAR(M[0][1], -cR * sA + sR * sE * cA, 1e-12);  // M21
+  EXPECT_NEAR(M[1][1], cR * cA + sR * sE * sA, 1e-12);   // M22
+  EXPECT_NEAR(M[2][1], sR * cE, 1e-12);                  // M23
+  EXPECT_NEAR(M[0][2], sR * sA + cR * sE * cA, 1e-12);   // M31
+  EXPECT_NEAR(M[1][2], -sR * cA + cR * sE * sA, 1e-12);  // M32
+  EXPECT_NEAR(M[2][2], cR * cE, 1e-12);                  // M33
   const glm::dvec3 back = angles_from_transmitter_from_sensor(r) * (kPi / 180.0);
   EXPECT_NEAR(back.x, A, 1e-12);
   EXPECT_NEAR(back.y, E, 1e-12);
@@ -235,8 +237,7 @@ TEST(FlockRoundTrip, SampleThroughTheWireInMimicFrame) {
       SensorSample s;
       s.sensor = 3;
       s.position_m = glm::vec3(glm::dvec3(unit(rng), unit(rng), unit(rng)) * 0.8);
-      s.orientation = glm::normalize(glm::quat(float(unit(rng)), float(unit(rng)), float(unit(rng)),
-                                               float(unit(rng))));
+      s.orientation = glm::normalize(glm::quat(float(unit(rng)), float(unit(rng)), float(unit(rng)), float(unit(rng))));
       const RecordLayout layout{f, false, true};
       const RawRecord raw = to_raw(measurement_from_sample(s), layout, PositionRange::in36);
       std::array<uint8_t, kMaxRecordSize> buf{};
@@ -291,8 +292,8 @@ TEST(FlockCommands, Encoders) {
 }
 
 TEST(FlockCommands, HemisphereBytes) {
-  for (Hemisphere h : {Hemisphere::forward, Hemisphere::aft, Hemisphere::upper, Hemisphere::lower,
-                       Hemisphere::left, Hemisphere::right}) {
+  for (Hemisphere h : {Hemisphere::forward, Hemisphere::aft, Hemisphere::upper, Hemisphere::lower, Hemisphere::left,
+                       Hemisphere::right}) {
     const auto b = hemisphere_bytes(h);
     EXPECT_EQ(hemisphere_from_bytes(b[0], b[1]), h);
     EXPECT_EQ(parse_hemisphere(hemisphere_name(h)), h);

@@ -42,8 +42,7 @@ TEST(SourceSpec, TargetsOptionalWhereTheSchemeAllows) {
 void expect_error(const char* text, const char* fragment) {
   auto s = parse_source_spec(text);
   ASSERT_FALSE(s) << text;
-  EXPECT_NE(s.error().message.find(fragment), std::string::npos)
-      << text << " -> " << s.error().message;
+  EXPECT_NE(s.error().message.find(fragment), std::string::npos) << text << " -> " << s.error().message;
 }
 
 TEST(SourceSpec, ClearErrors) {

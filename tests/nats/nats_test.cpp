@@ -59,7 +59,8 @@ TEST(Nats, TwoPublishersOneSceneTwoRelaysSameAvatarsAndLatency) {
   TestPublisher a(options(broker.url_as("hostA"), "hostA"), 1), b(options(broker.url_as("hostB"), "hostB"), 2);
   TestRelay r1(options(broker.url_as("relay"), "relay1")), r2(options(broker.url_as("relay"), "relay2"));
   auto v1 = viewer(r1.endpoint()), v2 = viewer(r2.endpoint());
-  ASSERT_TRUE(test::pump({v1.get(), v2.get()}, [&] { return sees_all(*v1, 3, 30) && sees_all(*v2, 3, 30); }, 15))
+  ASSERT_TRUE(test::pump(
+      {v1.get(), v2.get()}, [&] { return sees_all(*v1, 3, 30) && sees_all(*v2, 3, 30); }, 15))
       << v1->avatars().size() << " " << v2->avatars().size() << " " << r1.feed().stats().last_error << broker.log();
   std::vector<std::string> n1, n2;
   for (const auto& [id, m] : v1->avatars()) n1.push_back(m.name + "|" + m.model_bytes);
@@ -73,12 +74,15 @@ TEST(Nats, TwoPublishersOneSceneTwoRelaysSameAvatarsAndLatency) {
   // A viewer joining late gets every model at once from the bucket.
   TestRelay late(options(broker.url_as("relay"), "relay3"));
   auto v3 = viewer(late.endpoint());
-  ASSERT_TRUE(test::pump({v3.get()}, [&] { return v3->avatars().size() == 3; }, 10));
+  ASSERT_TRUE(test::pump(
+      {v3.get()}, [&] { return v3->avatars().size() == 3; }, 10));
 
   // Publish (wall clock in the frame) to arrival at a viewer through one relay: an upper bound
   // of publish-to-relay. A figure, not an assertion (a shared machine).
   std::vector<double> latency_ms;
-  v1->on_pose = [&](const RemoteAvatar& m, uint64_t now_us) { latency_ms.push_back(double(now_us - m.last.time_us) * 1e-3); };
+  v1->on_pose = [&](const RemoteAvatar& m, uint64_t now_us) {
+    latency_ms.push_back(double(now_us - m.last.time_us) * 1e-3);
+  };
   test::pump_for({v1.get(), v2.get(), v3.get()}, 3.0);
   ASSERT_GT(latency_ms.size(), 200u);
   std::printf("[ figure ] publish -> nats-server -> relay -> viewer latency over %zu frames: p50 %.3f ms p99 %.3f ms\n",
@@ -97,24 +101,30 @@ TEST(Nats, BrokerThroughputFigure) {
   broker.configure("solo");
   ASSERT_TRUE(broker.start());
   std::vector<std::unique_ptr<TestRelay>> relays;
-  for (int i = 0; i < 3; ++i) relays.push_back(std::make_unique<TestRelay>(options(broker.url_as("relay"), "relay" + std::to_string(i))));
+  for (int i = 0; i < 3; ++i)
+    relays.push_back(std::make_unique<TestRelay>(options(broker.url_as("relay"), "relay" + std::to_string(i))));
   TestPublisher a(options(broker.url_as("hostA"), "hostA"), 50), b(options(broker.url_as("hostB"), "hostB"), 50);
   auto v = viewer(relays[0]->endpoint());
-  ASSERT_TRUE(test::pump({v.get()}, [&] { return sees_all(*v, 100, 10); }, 20));
-  const uint64_t in0 = relays[0]->feed().stats().frames + relays[1]->feed().stats().frames + relays[2]->feed().stats().frames;
+  ASSERT_TRUE(test::pump(
+      {v.get()}, [&] { return sees_all(*v, 100, 10); }, 20));
+  const uint64_t in0 =
+      relays[0]->feed().stats().frames + relays[1]->feed().stats().frames + relays[2]->feed().stats().frames;
   const uint64_t pub0 = a.get().stats().frames + b.get().stats().frames;
   const double cpu0 = broker.cpu_seconds();
   const auto t0 = Clock::now();
   test::pump_for({v.get()}, 3.0);
   const double dt = std::chrono::duration<double>(Clock::now() - t0).count();
-  const uint64_t in1 = relays[0]->feed().stats().frames + relays[1]->feed().stats().frames + relays[2]->feed().stats().frames;
+  const uint64_t in1 =
+      relays[0]->feed().stats().frames + relays[1]->feed().stats().frames + relays[2]->feed().stats().frames;
   const uint64_t pub1 = a.get().stats().frames + b.get().stats().frames;
   const double cpu = (broker.cpu_seconds() - cpu0) / dt;
   const auto rs = relays[0]->feed().stats();
-  std::printf("[ figure ] broker: %.0f frames/s in, %.0f frames/s out to 3 relays (100 avatars at 90 Hz) at %.0f%% of one core; "
-              "relay p50 %.3f ms p99 %.3f ms; viewer lost %llu of %llu\n",
-              double(pub1 - pub0) / dt, double(in1 - in0) / dt, cpu * 100, rs.latency_ms_p50, rs.latency_ms_p99,
-              static_cast<unsigned long long>(v->stats().lost), static_cast<unsigned long long>(v->stats().frames));
+  std::printf(
+      "[ figure ] broker: %.0f frames/s in, %.0f frames/s out to 3 relays (100 avatars at 90 Hz) at %.0f%% of one "
+      "core; "
+      "relay p50 %.3f ms p99 %.3f ms; viewer lost %llu of %llu\n",
+      double(pub1 - pub0) / dt, double(in1 - in0) / dt, cpu * 100, rs.latency_ms_p50, rs.latency_ms_p99,
+      static_cast<unsigned long long>(v->stats().lost), static_cast<unsigned long long>(v->stats().frames));
   EXPECT_GT(in1, in0);
 }
 
@@ -152,7 +162,8 @@ TEST(Nats, BrokerDownAtStartIsJoinedWhenItComesUp) {
   test::pump_for({v.get()}, 0.5);
   EXPECT_EQ(v->avatars().size(), 0u);
   ASSERT_TRUE(broker.start());
-  ASSERT_TRUE(test::pump({v.get()}, [&] { return sees_all(*v, 1, 20); }, 15))
+  ASSERT_TRUE(test::pump(
+      {v.get()}, [&] { return sees_all(*v, 1, 20); }, 15))
       << "publisher: " << pub.get().stats().last_error << " relay: " << relay.feed().stats().last_error;
   EXPECT_TRUE(pub.get().connected());
   EXPECT_GT(pub.get().stats().frames_dropped, 0u) << "frames of the outage are dropped, not queued";
@@ -181,14 +192,17 @@ TEST(Nats, ClusterNodeKilledWhileFramesFlow) {
   ASSERT_TRUE(pub);
   TestRelay relay(ro);
   auto v = viewer(relay.endpoint());
-  ASSERT_TRUE(test::pump({v.get()}, [&] { return sees_all(*v, 2, 90); }, 30)) << relay.feed().stats().last_error;
+  ASSERT_TRUE(test::pump(
+      {v.get()}, [&] { return sees_all(*v, 2, 90); }, 30))
+      << relay.feed().stats().last_error;
   const uint64_t frames_before = v->stats().frames, lost_before = v->stats().lost;
 
   // Kill the node both are on: they move to the others.
   ASSERT_EQ(pub->get().connected_url(), n[0].url());
   ASSERT_EQ(relay.feed().connected_url(), n[0].url());
   cluster.nodes[0].kill();
-  ASSERT_TRUE(test::pump({v.get()}, [&] { return v->stats().frames > frames_before + 180; }, 20))
+  ASSERT_TRUE(test::pump(
+      {v.get()}, [&] { return v->stats().frames > frames_before + 180; }, 20))
       << "frames stopped after node 1 died: " << pub->get().stats().last_error;
   EXPECT_NE(pub->get().connected_url(), n[0].url());
   EXPECT_NE(relay.feed().connected_url(), n[0].url());
@@ -200,12 +214,15 @@ TEST(Nats, ClusterNodeKilledWhileFramesFlow) {
   // Only the outages' frames are lost: at 90 Hz and two avatars, a few seconds' worth at most.
   const uint64_t lost = v->stats().lost - lost_before;
   std::printf("[ figure ] a node failure: viewer lost %llu frames (of 2 avatars at 90 Hz), publisher dropped %llu\n",
-              static_cast<unsigned long long>(lost), static_cast<unsigned long long>(pub->get().stats().frames_dropped));
+              static_cast<unsigned long long>(lost),
+              static_cast<unsigned long long>(pub->get().stats().frames_dropped));
   EXPECT_LT(lost, 2u * 90u * 3u);
   // A late viewer after the failures still gets both models from the surviving node.
   TestRelay late(options(n[2].url_as("relay"), "late"));
   auto v2 = viewer(late.endpoint());
-  EXPECT_TRUE(test::pump({v2.get()}, [&] { return sees_all(*v2, 2, 1); }, 15)) << late.feed().stats().last_error;
+  EXPECT_TRUE(test::pump(
+      {v2.get()}, [&] { return sees_all(*v2, 2, 1); }, 15))
+      << late.feed().stats().last_error;
 }
 
 TEST(Nats, RelayRestartedViewersReconnectAndResume) {
@@ -217,12 +234,14 @@ TEST(Nats, RelayRestartedViewersReconnectAndResume) {
   auto relay = std::make_unique<TestRelay>(options(broker.url_as("relay"), "relay"));
   const uint16_t port = relay->port();
   auto v = viewer(relay->endpoint());
-  ASSERT_TRUE(test::pump({v.get()}, [&] { return sees_all(*v, 1, 30); }, 15));
+  ASSERT_TRUE(test::pump(
+      {v.get()}, [&] { return sees_all(*v, 1, 30); }, 15));
   relay.reset();  // the relay process goes away
   test::pump_for({v.get()}, 0.3);
   const uint64_t frames_down = v->stats().frames;
   relay = std::make_unique<TestRelay>(options(broker.url_as("relay"), "relay"), port);
-  ASSERT_TRUE(test::pump({v.get()}, [&] { return v->stats().frames > frames_down + 60 && v->avatars().size() == 1; }, 15));
+  ASSERT_TRUE(test::pump(
+      {v.get()}, [&] { return v->stats().frames > frames_down + 60 && v->avatars().size() == 1; }, 15));
   EXPECT_GE(v->stats().reconnects, 1u);
 }
 
@@ -237,13 +256,16 @@ TEST(Nats, PublisherRestartKeepsItsAvatarKeys) {
   {
     TestPublisher pub(options(broker.url_as("hostA"), "hostA"), 1);
     key_before = pub.get().key(0);
-    ASSERT_TRUE(test::pump({v.get()}, [&] { return sees_all(*v, 1, 20); }, 15));
+    ASSERT_TRUE(test::pump(
+        {v.get()}, [&] { return sees_all(*v, 1, 20); }, 15));
   }
   // A clean stop takes the avatar out of the scene.
-  ASSERT_TRUE(test::pump({v.get()}, [&] { return v->avatars().empty(); }, 10));
+  ASSERT_TRUE(test::pump(
+      {v.get()}, [&] { return v->avatars().empty(); }, 10));
   TestPublisher again(options(broker.url_as("hostA"), "hostA"), 1);
   EXPECT_EQ(again.get().key(0), key_before);
-  ASSERT_TRUE(test::pump({v.get()}, [&] { return sees_all(*v, 1, 20); }, 15));
+  ASSERT_TRUE(test::pump(
+      {v.get()}, [&] { return sees_all(*v, 1, 20); }, 15));
   EXPECT_EQ(v->avatars().begin()->second.name, "hostA/avatar1");
   EXPECT_EQ(relay.feed().stats().rejected, 0u) << "sequence numbers starting again are accepted";
 }
@@ -255,7 +277,8 @@ TEST(Nats, OneBrokerThreeRelaysTwoPublishersManyViewers) {
   ASSERT_TRUE(broker.start());
   TestPublisher a(options(broker.url_as("hostA"), "hostA"), 2), b(options(broker.url_as("hostB"), "hostB"), 2);
   std::vector<std::unique_ptr<TestRelay>> relays;
-  for (int i = 0; i < 3; ++i) relays.push_back(std::make_unique<TestRelay>(options(broker.url_as("relay"), "relay" + std::to_string(i))));
+  for (int i = 0; i < 3; ++i)
+    relays.push_back(std::make_unique<TestRelay>(options(broker.url_as("relay"), "relay" + std::to_string(i))));
   constexpr int kViewersPerRelay = 20;
   std::vector<std::unique_ptr<Client>> viewers;
   std::vector<Client*> all;
@@ -264,9 +287,8 @@ TEST(Nats, OneBrokerThreeRelaysTwoPublishersManyViewers) {
       viewers.push_back(viewer(r->endpoint()));
       all.push_back(viewers.back().get());
     }
-  ASSERT_TRUE(test::pump(all, [&] {
-    return std::all_of(all.begin(), all.end(), [](Client* c) { return sees_all(*c, 4, 20); });
-  }, 30));
+  ASSERT_TRUE(test::pump(
+      all, [&] { return std::all_of(all.begin(), all.end(), [](Client* c) { return sees_all(*c, 4, 20); }); }, 30));
   // The arithmetic of docs/scaling.md at small scale, by counts over a few seconds: every relay
   // takes each published frame once (the broker sends P frames to R relays: R·P), and every
   // viewer behind it gets each of them (V·P per relay).
@@ -286,10 +308,10 @@ TEST(Nats, OneBrokerThreeRelaysTwoPublishersManyViewers) {
     EXPECT_GT(in, 0.9 * p) << "relay " << i << " took " << in << " of " << p << " published frames";
   }
   const double got = double(viewer_frames1 - viewer_frames0);
-  std::printf("[ figure ] 2 publishers x 2 avatars, 3 relays x %d viewers: published %.0f frames, broker out %.0f (%.2f x 3 "
-              "relays), viewers got %.0f (%.2f x %d viewers)\n",
-              kViewersPerRelay, p, relays_in, relays_in / p / 3, got, got / p / double(all.size()),
-              int(all.size()));
+  std::printf(
+      "[ figure ] 2 publishers x 2 avatars, 3 relays x %d viewers: published %.0f frames, broker out %.0f (%.2f x 3 "
+      "relays), viewers got %.0f (%.2f x %d viewers)\n",
+      kViewersPerRelay, p, relays_in, relays_in / p / 3, got, got / p / double(all.size()), int(all.size()));
   EXPECT_GT(got, 0.9 * p * double(all.size()));
 }
 
@@ -306,7 +328,8 @@ TEST(Nats, MeshFramesFlowOnlyWhileARelayViewerAsksForTheirLod) {
   TestPublisher pub(po, 1, 90, /*mesh_lod=*/1);
   TestRelay relay(options(broker.url_as("relay"), "relay"));
   auto poses = viewer(relay.endpoint());
-  ASSERT_TRUE(test::pump({poses.get()}, [&] { return sees_all(*poses, 1, 90); }, 15));
+  ASSERT_TRUE(test::pump(
+      {poses.get()}, [&] { return sees_all(*poses, 1, 90); }, 15));
   EXPECT_EQ(pub.get().stats().mesh_requests, 0u) << "nobody asked";
   EXPECT_EQ(pub.mesh_sent(), 0u);
   EXPECT_EQ(pub.get().stats().mesh_frames, 0u);
@@ -323,11 +346,13 @@ TEST(Nats, MeshFramesFlowOnlyWhileARelayViewerAsksForTheirLod) {
   mesh->on_mesh = [&](const RemoteAvatar& a) {
     const auto sent = test_positions(a.mesh_last.sequence);
     bool same = a.mesh_last.lod == 1 && a.mesh_positions_m.size() == sent.size();
-    for (size_t i = 0; same && i < sent.size(); ++i) same = glm::length(a.mesh_positions_m[i] - sent[i]) < 1e-4f;  // 16-bit steps
+    for (size_t i = 0; same && i < sent.size(); ++i)
+      same = glm::length(a.mesh_positions_m[i] - sent[i]) < 1e-4f;  // 16-bit steps
     wrong_lod += !same;
   };
   auto mesh_frames = [&] { return mesh->avatars().empty() ? 0 : mesh->avatars().begin()->second.mesh_frames; };
-  ASSERT_TRUE(test::pump({poses.get(), other.get(), mesh.get()}, [&] { return mesh_frames() >= 20; }, 15))
+  ASSERT_TRUE(test::pump(
+      {poses.get(), other.get(), mesh.get()}, [&] { return mesh_frames() >= 20; }, 15))
       << "publisher: " << pub.get().stats().last_error << " relay: " << relay.feed().stats().last_error;
   const RemoteAvatar& a = mesh->avatars().begin()->second;
   EXPECT_EQ(a.mesh_indices, test_topology(1).indices);
@@ -345,11 +370,14 @@ TEST(Nats, MeshFramesFlowOnlyWhileARelayViewerAsksForTheirLod) {
 
   // The mesh viewer leaves: the relay stops asking, the publisher stops sending.
   mesh.reset();
-  ASSERT_TRUE(test::pump({poses.get(), other.get()}, [&] {
-    const uint64_t before = pub.mesh_sent();
-    test::pump_for({poses.get(), other.get()}, 0.5);
-    return pub.mesh_sent() == before;
-  }, 15));
+  ASSERT_TRUE(test::pump(
+      {poses.get(), other.get()},
+      [&] {
+        const uint64_t before = pub.mesh_sent();
+        test::pump_for({poses.get(), other.get()}, 0.5);
+        return pub.mesh_sent() == before;
+      },
+      15));
   EXPECT_EQ(relay.feed().stats().rejected, 0u);
 }
 
@@ -370,7 +398,8 @@ TEST(Nats, APublishersTickIsOneMessageAndOneRelayFanOut) {
   std::set<std::string> keys;
   for (int i = 0; i < kAvatars; ++i) keys.insert(pub.get().key(i));
   auto v = viewer(relay.endpoint());
-  ASSERT_TRUE(test::pump({v.get()}, [&] { return sees_all(*v, kAvatars, 20); }, 20));
+  ASSERT_TRUE(test::pump(
+      {v.get()}, [&] { return sees_all(*v, kAvatars, 20); }, 20));
 
   // On the wire: each message holds one frame of every avatar, all of the same tick.
   std::vector<uint8_t> m;
@@ -406,17 +435,21 @@ TEST(Nats, APublishersTickIsOneMessageAndOneRelayFanOut) {
   pub.pause(true);
   const auto sent = [&] { return pub.get().stats().frames - sent0; };
   const auto arrived = [&] { return relay.feed().stats().frames - in0; };
-  ASSERT_TRUE(test::pump({v.get()}, [&] { return arrived() >= sent(); }, 10)) << arrived() << " of " << sent();
+  ASSERT_TRUE(test::pump(
+      {v.get()}, [&] { return arrived() >= sent(); }, 10))
+      << arrived() << " of " << sent();
   test::pump_for({v.get()}, 0.2);  // a tick that was under way when the pause came
   const uint64_t fanouts = relay.fanouts() - f0, ticks = pub.ticks() - t0, frames = arrived();
-  std::printf("[ figure ] %d avatars at 90 Hz: %llu ticks published, %llu frames sent, %llu into the relay, %llu relay "
-              "fan-outs (%.2f per tick)\n",
-              kAvatars, static_cast<unsigned long long>(ticks), static_cast<unsigned long long>(sent()),
-              static_cast<unsigned long long>(frames), static_cast<unsigned long long>(fanouts),
-              double(fanouts) / double(std::max<uint64_t>(ticks, 1)));
+  std::printf(
+      "[ figure ] %d avatars at 90 Hz: %llu ticks published, %llu frames sent, %llu into the relay, %llu relay "
+      "fan-outs (%.2f per tick)\n",
+      kAvatars, static_cast<unsigned long long>(ticks), static_cast<unsigned long long>(sent()),
+      static_cast<unsigned long long>(frames), static_cast<unsigned long long>(fanouts),
+      double(fanouts) / double(std::max<uint64_t>(ticks, 1)));
   EXPECT_GT(ticks, 90u);
   EXPECT_EQ(frames, sent());
-  EXPECT_GE(sent() + (pub.get().stats().frames_dropped - dropped0), ticks * kAvatars);  // sent, or superseded in the publisher
+  EXPECT_GE(sent() + (pub.get().stats().frames_dropped - dropped0),
+            ticks * kAvatars);    // sent, or superseded in the publisher
   EXPECT_LE(fanouts, ticks + 1);  // the start of the window may catch a tick in flight
   pub.pause(false);
 
@@ -424,7 +457,8 @@ TEST(Nats, APublishersTickIsOneMessageAndOneRelayFanOut) {
   const uint64_t rejected = relay.feed().stats().rejected;
   ::mimic::test::NatsProbe junk(broker.url_as("hostX"));  // a publisher of its own, on its own subject
   ASSERT_TRUE(junk.publish("mimic.lobby.poses.hostX", std::string(40, 'x')));
-  ASSERT_TRUE(test::pump({v.get()}, [&] { return relay.feed().stats().rejected > rejected; }, 10));
+  ASSERT_TRUE(test::pump(
+      {v.get()}, [&] { return relay.feed().stats().rejected > rejected; }, 10));
   EXPECT_EQ(v->avatars().size(), size_t(kAvatars));
 }
 
@@ -451,13 +485,16 @@ TEST(Nats, AnAvatarIsServedWhileItsPublisherHeartbeatsAndLeavesAfterMissedOnes) 
 
   TestRelay relay(options(broker.url_as("relay"), "relay"));
   auto v = viewer(relay.endpoint());
-  ASSERT_TRUE(test::pump({v.get()}, [&] { return relay.feed().stats().held == 1; }, 10)) << relay.feed().stats().last_error;
+  ASSERT_TRUE(test::pump(
+      {v.get()}, [&] { return relay.feed().stats().held == 1; }, 10))
+      << relay.feed().stats().last_error;
   test::pump_for({v.get()}, 4.0);  // longer than three missed heartbeats
   EXPECT_TRUE(v->avatars().empty()) << "a model without a living publisher is not shown";
 
   const std::string beat = R"({"publisher":"ghost","period_ms":300,"avatars":[")" + key + R"("]})";
   ASSERT_TRUE(probe.publish("mimic.lobby.status.ghost", beat));
-  ASSERT_TRUE(test::pump({v.get()}, [&] { return v->avatars().size() == 1; }, 10));
+  ASSERT_TRUE(test::pump(
+      {v.get()}, [&] { return v->avatars().size() == 1; }, 10));
   EXPECT_EQ(v->avatars().begin()->second.name, "ghost/avatar1");
   // Heartbeats keep it (300 ms apart, for 2 s: well past three periods of 300 ms).
   for (int i = 0; i < 8; ++i) {
@@ -467,8 +504,10 @@ TEST(Nats, AnAvatarIsServedWhileItsPublisherHeartbeatsAndLeavesAfterMissedOnes) 
   EXPECT_EQ(v->avatars().size(), 1u);
   EXPECT_EQ(relay.feed().stats().expired, 0u);
   // They stop: three periods later it is gone, and counted.
-  ASSERT_TRUE(test::pump({v.get()}, [&] { return v->avatars().empty(); }, 10));
-  EXPECT_TRUE(test::pump({v.get()}, [&] { return relay.feed().stats().held == 1; }, 5))
+  ASSERT_TRUE(test::pump(
+      {v.get()}, [&] { return v->avatars().empty(); }, 10));
+  EXPECT_TRUE(test::pump(
+      {v.get()}, [&] { return relay.feed().stats().held == 1; }, 5))
       << "still in the bucket, held until its publisher speaks again";
   EXPECT_EQ(relay.feed().stats().expired, 1u);
 }

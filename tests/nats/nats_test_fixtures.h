@@ -29,8 +29,8 @@ using namespace std::chrono_literals;
 
 constexpr uint16_t kDofs = 12;
 
-#define REQUIRE_NATS()                                                                  \
-  do {                                                                                  \
+#define REQUIRE_NATS()                                                                                        \
+  do {                                                                                                        \
     ASSERT_FALSE(::mimic::test::nats_server_binary().empty()) << "nats-server missing: run scripts/setup.sh"; \
   } while (0)
 
@@ -58,10 +58,12 @@ class TestPublisher {
     if (!p) throw std::runtime_error(p.error().what());
     pub_ = std::move(*p);
     for (int i = 0; i < avatars; ++i) {
-      auto idx = pub_->add_avatar("avatar" + std::to_string(i + 1), kDofs, "model of " + o.name + " " + std::to_string(i));
+      auto idx =
+          pub_->add_avatar("avatar" + std::to_string(i + 1), kDofs, "model of " + o.name + " " + std::to_string(i));
       if (!idx) throw std::runtime_error(idx.error().what());
       if (mesh_lod >= 0)
-        if (auto st = pub_->add_mesh(*idx, test_topology(uint8_t(mesh_lod))); !st) throw std::runtime_error(st.error().what());
+        if (auto st = pub_->add_mesh(*idx, test_topology(uint8_t(mesh_lod))); !st)
+          throw std::runtime_error(st.error().what());
     }
     thread_ = std::thread([this, avatars, hz, mesh_lod] {
       rig::Pose pose;
@@ -85,7 +87,8 @@ class TestPublisher {
           const size_t n = encode_pose(h, pose, buf);
           pub_->publish_pose(i, std::span<const uint8_t>(buf.data(), n));
           if (mesh_lod >= 0 && pub_->mesh_wanted(i)) {
-            const size_t m = encode_mesh({0, uint8_t(mesh_lod), h.sequence, h.time_us}, test_positions(h.sequence), mesh);
+            const size_t m =
+                encode_mesh({0, uint8_t(mesh_lod), h.sequence, h.time_us}, test_positions(h.sequence), mesh);
             pub_->publish_mesh(i, std::span<const uint8_t>(mesh.data(), m));
             mesh_sent_++;
           }
@@ -159,7 +162,8 @@ class TestRelay {
   return std::move(*c);
 }
 
-[[maybe_unused]] NatsOptions options(const std::string& servers, const std::string& name, const std::string& scene = "lobby") {
+[[maybe_unused]] NatsOptions options(const std::string& servers, const std::string& name,
+                                     const std::string& scene = "lobby") {
   NatsOptions o;
   o.servers = servers;
   o.name = name;

@@ -39,7 +39,6 @@ TEST(NatsLinkState, StatusLineText) {
   EXPECT_EQ(format_nats_state(s, buf, 8), 7) << "cut to the buffer";
 }
 
-
 // A tick message of one avatar as a publisher sends it: the key's value, then its POSE packet.
 std::string poses_message(const std::string& key_hex, uint32_t sequence) {
   rig::Pose pose;
@@ -68,7 +67,9 @@ std::vector<uint8_t> model_packet(const std::string& name, size_t model_bytes) {
 }
 
 // The newest sequence a viewer has of its (only) avatar.
-uint32_t newest_sequence(const Client& c) { return c.avatars().empty() ? 0 : c.avatars().begin()->second.last.sequence; }
+uint32_t newest_sequence(const Client& c) {
+  return c.avatars().empty() ? 0 : c.avatars().begin()->second.last.sequence;
+}
 
 TEST(NatsTrust, EachPublisherWritesOnlyItsOwnSubjectsAndKeysAndRelaysOnlyRead) {
   REQUIRE_NATS();
@@ -78,7 +79,9 @@ TEST(NatsTrust, EachPublisherWritesOnlyItsOwnSubjectsAndKeysAndRelaysOnlyRead) {
   TestPublisher pub(options(broker.url_as("hostA"), "hostA"), 1);
   TestRelay relay(options(broker.url_as("relay"), "relay"));
   auto v = viewer(relay.endpoint());
-  ASSERT_TRUE(test::pump({v.get()}, [&] { return sees_all(*v, 1, 30); }, 15)) << relay.feed().stats().last_error;
+  ASSERT_TRUE(test::pump(
+      {v.get()}, [&] { return sees_all(*v, 1, 30); }, 15))
+      << relay.feed().stats().last_error;
   const std::string key = pub.get().key(0), owned = "hostA." + key;
   ::mimic::test::NatsProbe reader(broker.url_as("relay"));
   ASSERT_TRUE(reader.ok());
@@ -105,9 +108,13 @@ TEST(NatsTrust, EachPublisherWritesOnlyItsOwnSubjectsAndKeysAndRelaysOnlyRead) {
   relay_user.publish("mimic.lobby.poses.hostA", poses_message(key, ahead + 100));
   relay_user.publish("mimic.lobby.status.hostA", R"({"publisher":"hostA","avatars":[]})");
 
-  ASSERT_TRUE(test::pump({v.get()}, [&] { return relay.feed().stats().foreign >= 16; }, 10)) << relay.feed().stats().foreign;
+  ASSERT_TRUE(test::pump(
+      {v.get()}, [&] { return relay.feed().stats().foreign >= 16; }, 10))
+      << relay.feed().stats().foreign;
   const uint64_t frames = v->stats().frames;
-  ASSERT_TRUE(test::pump({v.get()}, [&] { return v->stats().frames > frames + 90; }, 15)) << "hostA's frames stopped";
+  ASSERT_TRUE(test::pump(
+      {v.get()}, [&] { return v->stats().frames > frames + 90; }, 15))
+      << "hostA's frames stopped";
   EXPECT_LT(newest_sequence(*v), ahead) << "a frame of another user reached the viewer";
   EXPECT_TRUE(reader.holds(owned));
   // Nothing but hostA's own frames on hostA's subject (the broker dropped the others).
@@ -120,7 +127,8 @@ TEST(NatsTrust, EachPublisherWritesOnlyItsOwnSubjectsAndKeysAndRelaysOnlyRead) {
     EXPECT_LT(h.sequence, ahead);
     ++i;
   }
-  EXPECT_NE(broker.log().find("Publish Violation - User \"mallory\", Subject \"mimic.lobby.poses.hostA\""), std::string::npos);
+  EXPECT_NE(broker.log().find("Publish Violation - User \"mallory\", Subject \"mimic.lobby.poses.hostA\""),
+            std::string::npos);
   EXPECT_NE(broker.log().find("Publish Violation - User \"relay\""), std::string::npos);
   EXPECT_EQ(v->avatars().begin()->second.name, "hostA/avatar1");
 }
@@ -137,16 +145,21 @@ TEST(NatsTrust, ARelayRefusesASequenceJumpBesideALiveStream) {
   TestPublisher pub(options(broker.url_as("hostA"), "hostA"), 1);
   TestRelay relay(options(broker.url_as("relay"), "relay"));
   auto v = viewer(relay.endpoint());
-  ASSERT_TRUE(test::pump({v.get()}, [&] { return sees_all(*v, 1, 30); }, 15));
+  ASSERT_TRUE(test::pump(
+      {v.get()}, [&] { return sees_all(*v, 1, 30); }, 15));
   const std::string key = pub.get().key(0);
   ::mimic::test::NatsProbe same_user(broker.url_as("hostA"));
   ASSERT_TRUE(same_user.ok());
   const uint32_t ahead = newest_sequence(*v) + 1'000'000;
-  for (uint32_t i = 0; i < 16; ++i) ASSERT_TRUE(same_user.publish("mimic.lobby.poses.hostA", poses_message(key, ahead + i)));
-  ASSERT_TRUE(test::pump({v.get()}, [&] { return relay.feed().stats().seq_jumps_refused >= 16; }, 10))
+  for (uint32_t i = 0; i < 16; ++i)
+    ASSERT_TRUE(same_user.publish("mimic.lobby.poses.hostA", poses_message(key, ahead + i)));
+  ASSERT_TRUE(test::pump(
+      {v.get()}, [&] { return relay.feed().stats().seq_jumps_refused >= 16; }, 10))
       << relay.feed().stats().seq_jumps_refused;
   const uint64_t frames = v->stats().frames;
-  ASSERT_TRUE(test::pump({v.get()}, [&] { return v->stats().frames > frames + 90; }, 15)) << "the live stream was frozen";
+  ASSERT_TRUE(test::pump(
+      {v.get()}, [&] { return v->stats().frames > frames + 90; }, 15))
+      << "the live stream was frozen";
   EXPECT_LT(newest_sequence(*v), ahead);
 
   // The live stream stops; a stream far ahead comes: it is followed.
@@ -157,7 +170,9 @@ TEST(NatsTrust, ARelayRefusesASequenceJumpBesideALiveStream) {
     ASSERT_TRUE(same_user.publish("mimic.lobby.poses.hostA", poses_message(key, later + i)));
     test::pump_for({v.get()}, 0.02);
   }
-  EXPECT_TRUE(test::pump({v.get()}, [&] { return newest_sequence(*v) >= later + 9; }, 10)) << newest_sequence(*v);
+  EXPECT_TRUE(test::pump(
+      {v.get()}, [&] { return newest_sequence(*v) >= later + 9; }, 10))
+      << newest_sequence(*v);
 }
 
 // Models are bounded at the relay (one model's size, all it keeps), refused ones counted, and
@@ -182,17 +197,22 @@ TEST(NatsTrust, ARelayBoundsTheModelsItKeepsAndGivesThemBack) {
     keys.push_back("mallory." + nats_avatar_key("mallory", "junk" + std::to_string(i)));
     ASSERT_TRUE(mallory.put(keys.back(), model_packet("mallory/junk", 3000)));
   }
-  ASSERT_TRUE(test::pump({v.get()}, [&] { return relay.feed().stats().models_refused >= 2 + 24; }, 15))
+  ASSERT_TRUE(test::pump(
+      {v.get()}, [&] { return relay.feed().stats().models_refused >= 2 + 24; }, 15))
       << relay.feed().stats().models_refused;
-  EXPECT_TRUE(test::pump({v.get()}, [&] { return relay.feed().stats().held == 16; }, 5)) << "kept, waiting for a heartbeat";
+  EXPECT_TRUE(test::pump(
+      {v.get()}, [&] { return relay.feed().stats().held == 16; }, 5))
+      << "kept, waiting for a heartbeat";
   auto st = relay.feed().stats();
   EXPECT_EQ(st.models, 16u);
   EXPECT_EQ(st.model_bytes, 16u * 3000u);
   EXPECT_TRUE(v->avatars().empty());
   for (const auto& k : keys) ASSERT_TRUE(mallory.remove(k));
-  ASSERT_TRUE(test::pump({v.get()}, [&] { return relay.feed().stats().model_bytes == 0; }, 15))
+  ASSERT_TRUE(test::pump(
+      {v.get()}, [&] { return relay.feed().stats().model_bytes == 0; }, 15))
       << relay.feed().stats().model_bytes;
-  EXPECT_TRUE(test::pump({v.get()}, [&] { return relay.feed().stats().held == 0; }, 5));
+  EXPECT_TRUE(test::pump(
+      {v.get()}, [&] { return relay.feed().stats().held == 0; }, 5));
 }
 
 // A relay's two-byte mesh request with the topology flag, repeated: the publisher sends the
@@ -222,9 +242,10 @@ TEST(NatsTrust, MeshRequestsCannotMakeAPublisherFloodTheBroker) {
     frames += h.type == MsgType::mesh;
   }
   const auto st = pub.get().stats();
-  std::printf("[ figure ] 19 topology requests over %.1f s: %d topologies and %d mesh frames sent, %llu requests "
-              "over the topology bound\n",
-              elapsed_s, topologies, frames, static_cast<unsigned long long>(st.topologies_refused));
+  std::printf(
+      "[ figure ] 19 topology requests over %.1f s: %d topologies and %d mesh frames sent, %llu requests "
+      "over the topology bound\n",
+      elapsed_s, topologies, frames, static_cast<unsigned long long>(st.topologies_refused));
   EXPECT_GE(topologies, 1);
   EXPECT_LE(topologies, 2 + int(elapsed_s / 5.0) + 1);
   EXPECT_GT(st.topologies_refused, 0u);
@@ -243,11 +264,13 @@ TEST(NatsTrust, ABrokerRestartedWithAnEmptyStoreGetsTheModelsBack) {
   TestPublisher pub(options(broker->url_as("hostA"), "hostA"), 1);
   TestRelay relay(options(broker->url_as("relay"), "relay"));
   auto v = viewer(relay.endpoint());
-  ASSERT_TRUE(test::pump({v.get()}, [&] { return sees_all(*v, 1, 30); }, 15));
+  ASSERT_TRUE(test::pump(
+      {v.get()}, [&] { return sees_all(*v, 1, 30); }, 15));
   EXPECT_EQ(pub.get().link_state().disconnects, 0u);
 
   broker.reset();  // killed, its store removed
-  ASSERT_TRUE(test::pump({v.get()}, [&] { return !pub.get().link_state().connected; }, 10));
+  ASSERT_TRUE(test::pump(
+      {v.get()}, [&] { return !pub.get().link_state().connected; }, 10));
   test::pump_for({v.get()}, 3.5);  // long enough for the publisher's sequence to move far ahead
   EXPECT_GT(pub.get().link_state().down_s, 1.0);
   const uint32_t seq_down = newest_sequence(*v);
@@ -258,10 +281,12 @@ TEST(NatsTrust, ABrokerRestartedWithAnEmptyStoreGetsTheModelsBack) {
 
   TestRelay late(options(again->url_as("relay"), "late"));
   auto v2 = viewer(late.endpoint());
-  ASSERT_TRUE(test::pump({v.get(), v2.get()}, [&] { return sees_all(*v2, 1, 30); }, 20))
+  ASSERT_TRUE(test::pump(
+      {v.get(), v2.get()}, [&] { return sees_all(*v2, 1, 30); }, 20))
       << "publisher: " << pub.get().stats().last_error << " late relay: " << late.feed().stats().last_error;
   EXPECT_EQ(v2->avatars().begin()->second.name, "hostA/avatar1");
-  ASSERT_TRUE(test::pump({v.get(), v2.get()}, [&] { return newest_sequence(*v) > seq_down + 300; }, 15))
+  ASSERT_TRUE(test::pump(
+      {v.get(), v2.get()}, [&] { return newest_sequence(*v) > seq_down + 300; }, 15))
       << "the first relay did not follow the publisher's frames after the outage";
   const auto link = pub.get().link_state();
   EXPECT_TRUE(link.connected);
@@ -298,7 +323,9 @@ TEST(NatsTrust, AModelPutWaitingForJetStreamDoesNotHoldBackPoseFrames) {
   ASSERT_TRUE(pub);
   TestRelay relay(ro);
   auto v = viewer(relay.endpoint());
-  ASSERT_TRUE(test::pump({v.get()}, [&] { return sees_all(*v, 2, 90); }, 30)) << relay.feed().stats().last_error;
+  ASSERT_TRUE(test::pump(
+      {v.get()}, [&] { return sees_all(*v, 2, 90); }, 30))
+      << relay.feed().stats().last_error;
   ASSERT_EQ(pub->get().connected_url(), cluster.nodes[0].url());
   // Counted from the moment the nodes hang: the first put after it (the models are put again
   // every second) is one that waits.
@@ -340,7 +367,9 @@ TEST(NatsTrust, ClusterFailoversCostWellUnderASecond) {
   ASSERT_TRUE(pub);
   TestRelay relay(ro);
   auto v = viewer(relay.endpoint());
-  ASSERT_TRUE(test::pump({v.get()}, [&] { return sees_all(*v, 2, 90); }, 30)) << relay.feed().stats().last_error;
+  ASSERT_TRUE(test::pump(
+      {v.get()}, [&] { return sees_all(*v, 2, 90); }, 30))
+      << relay.feed().stats().last_error;
   uint64_t last_us = 0, worst_us = 0;
   v->on_pose = [&](const RemoteAvatar&, uint64_t now_us) {
     if (last_us) worst_us = std::max(worst_us, now_us - last_us);
@@ -358,14 +387,17 @@ TEST(NatsTrust, ClusterFailoversCostWellUnderASecond) {
     worst_us = 0;
     const uint64_t frames = v->stats().frames;
     cluster.nodes[node].kill();
-    ASSERT_TRUE(test::pump({v.get()}, [&] { return v->stats().frames > frames + 360; }, 20))
+    ASSERT_TRUE(test::pump(
+        {v.get()}, [&] { return v->stats().frames > frames + 360; }, 20))
         << "frames stopped: " << pub->get().stats().last_error;
     pauses_ms.push_back(double(worst_us) * 1e-3);
-    worst_outage_s = std::max({worst_outage_s, pub->get().link_state().last_outage_s, relay.feed().link_state().last_outage_s});
-    std::printf("[ figure ] failover %d: node %d killed, relay %s; viewer pause %.0f ms, publisher outage %.0f ms, relay "
-                "outage %.0f ms\n",
-                kill + 1, node + 1, relay.feed().connected_url() == on ? "was on it" : "elsewhere", pauses_ms.back(),
-                pub->get().link_state().last_outage_s * 1e3, relay.feed().link_state().last_outage_s * 1e3);
+    worst_outage_s =
+        std::max({worst_outage_s, pub->get().link_state().last_outage_s, relay.feed().link_state().last_outage_s});
+    std::printf(
+        "[ figure ] failover %d: node %d killed, relay %s; viewer pause %.0f ms, publisher outage %.0f ms, relay "
+        "outage %.0f ms\n",
+        kill + 1, node + 1, relay.feed().connected_url() == on ? "was on it" : "elsewhere", pauses_ms.back(),
+        pub->get().link_state().last_outage_s * 1e3, relay.feed().link_state().last_outage_s * 1e3);
     ASSERT_TRUE(cluster.nodes[node].start());
     test::pump_for({v.get()}, 3.0);  // it rejoins, and JetStream catches up
   }
@@ -379,7 +411,6 @@ TEST(NatsTrust, ClusterFailoversCostWellUnderASecond) {
   EXPECT_LT(*std::max_element(pauses_ms.begin(), pauses_ms.end()), 1500.0);
   EXPECT_GE(pub->get().link_state().disconnects, 4u);
 }
-
 
 }  // namespace
 }  // namespace mimic::net

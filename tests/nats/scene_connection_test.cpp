@@ -26,7 +26,9 @@ TEST(SceneConnection, ABrokersSceneIsServedByARelayTheClientHolds) {
   o.name = "viewer";
   auto c = open_scene_connection(o);
   ASSERT_TRUE(c) << c.error().what();
-  ASSERT_TRUE(test::pump({c->get()}, [&] { return sees_all(**c, 2, 30); }, 15)) << broker.log();
+  ASSERT_TRUE(test::pump(
+      {c->get()}, [&] { return sees_all(**c, 2, 30); }, 15))
+      << broker.log();
   EXPECT_EQ((*c)->stats().rejected, 0u);
   c->reset();  // stops the relay it held: nothing left running
 }

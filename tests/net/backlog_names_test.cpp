@@ -54,7 +54,8 @@ TEST(Backlog, StalledSubscribersShareTheNewestModel) {
   RawPeer raw_pub(st.port());
   ASSERT_TRUE(raw_pub.send(hello_packet(Role::publisher)));
   for (int r = 0; r < 20; ++r) ASSERT_TRUE(raw_pub.send(model_packet(0, kDofs, kModel)));
-  ASSERT_TRUE(pump({pub.get()}, [&] { return st.stats().model_bytes_out >= 100u * 2 * kModel; }, 10.0));
+  ASSERT_TRUE(pump(
+      {pub.get()}, [&] { return st.stats().model_bytes_out >= 100u * 2 * kModel; }, 10.0));
   pump_for({pub.get()}, 0.3);
   const ServerStats s = st.stats();
   EXPECT_EQ(s.sessions_closed_slow, 0u);
@@ -84,7 +85,8 @@ TEST(Backlog, OldRevisionsPinnedOverTheCapCutOffTheirHolders) {
     ASSERT_TRUE(raw_pub.send(model_packet(0, kDofs, kModel)));
     ASSERT_TRUE(pump({}, [&] { return st.stats().avatars == 1 && st.stats().model_bytes_out >= (r + 1) * kModel; }));
   }
-  ASSERT_TRUE(pump({}, [&] { return st.stats().model_bytes_held <= o.max_model_bytes_held; }, 5.0))
+  ASSERT_TRUE(pump(
+      {}, [&] { return st.stats().model_bytes_held <= o.max_model_bytes_held; }, 5.0))
       << st.stats().model_bytes_held << " held, " << st.stats().sessions_closed_slow << " cut off, "
       << st.stats().subscribers << " subscribers, " << st.stats().model_bytes_out << " out";
   EXPECT_GE(st.stats().sessions_closed_slow, 1u);
@@ -117,7 +119,8 @@ TEST(Names, TheServerRefusesControlCharactersInNames) {
   auto pub = connect_as(st, Role::publisher);
   ASSERT_TRUE(sub && pub);
   ASSERT_TRUE(pub->add_avatar("\x1b]0;hijacked\x07", kDofs, "m"));
-  EXPECT_TRUE(pump({sub.get(), pub.get()}, [&] { return !pub->connected() || !pub->poll(); }, 3.0));
+  EXPECT_TRUE(pump(
+      {sub.get(), pub.get()}, [&] { return !pub->connected() || !pub->poll(); }, 3.0));
   pump_for({sub.get()}, 0.2);
   EXPECT_TRUE(sub->avatars().empty());
   EXPECT_GE(st.stats().rejected[size_t(Reject::malformed)], 2u);
@@ -164,7 +167,8 @@ TEST(Receivers, AClientRefusesAPoseWithTheWrongDofCount) {
   auto c = Client::connect(o);
   ASSERT_TRUE(c) << c.error().what();
   Client& client = **c;
-  pump({&client}, [&] { return client.stats().frames >= 1; }, 2.0);
+  pump(
+      {&client}, [&] { return client.stats().frames >= 1; }, 2.0);
   EXPECT_EQ(client.stats().wrong_dof_count, 1u);
   EXPECT_EQ(client.stats().frames, 1u);
   ASSERT_EQ(client.avatars().size(), 1u);

@@ -78,7 +78,7 @@ void stalled_viewer_comes_back(bool udp) {
   // last few still on their way to the server on a loaded machine), not the one after the
   // last seen before it, ~300 frames older.
   EXPECT_GE(after.front() + 10, newest_at_wake) << "first frame after the stall " << after.front() << ", newest "
-                                           << newest_at_wake << ", last seen before " << seen_before;
+                                                << newest_at_wake << ", last seen before " << seen_before;
   // What was skipped is counted, by sequence.
   EXPECT_GE(sub->stats().lost, uint64_t(after.front() - seen_before - 1));
   EXPECT_EQ(sub->stats().outages, 1u);

@@ -258,11 +258,14 @@ TEST(Hostile, AJoinerGetsASceneLargerThanTheControlBacklog) {
   constexpr int kAvatars = 40;
   for (int i = 0; i < kAvatars; ++i)
     ASSERT_TRUE(st.call([&] {
-      return st.server().add_avatar("a" + std::to_string(i), kDofs, std::string(17 * 1024, char('a' + i % 26))).has_value();
+      return st.server()
+          .add_avatar("a" + std::to_string(i), kDofs, std::string(17 * 1024, char('a' + i % 26)))
+          .has_value();
     }));
   auto joiner = connect_client(st, Role::subscriber);
   ASSERT_TRUE(joiner);
-  EXPECT_TRUE(pump({joiner.get()}, [&] { return joiner->avatars().size() == size_t(kAvatars); }, 10.0));
+  EXPECT_TRUE(pump(
+      {joiner.get()}, [&] { return joiner->avatars().size() == size_t(kAvatars); }, 10.0));
   EXPECT_EQ(st.stats().sessions_closed_slow, 0u);
   EXPECT_EQ(st.stats().subscribers, 1u);
 }
@@ -302,7 +305,8 @@ TEST(Hostile, ModelsAreBoundedInTotal) {
   EXPECT_FALSE(pub.closed());
   EXPECT_LE(st.stats().model_bytes_held, o.max_model_bytes_held);
   // Local avatars are held to it too.
-  EXPECT_FALSE(st.call([&] { return st.server().add_avatar("local", kDofs, std::string(400 * 1024, 'l')).has_value(); }));
+  EXPECT_FALSE(
+      st.call([&] { return st.server().add_avatar("local", kDofs, std::string(400 * 1024, 'l')).has_value(); }));
 }
 
 std::string reject_message(RawPeer& peer) {

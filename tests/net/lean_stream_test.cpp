@@ -87,7 +87,8 @@ TEST(LeanStream, OldAndLeanSubscribersGetEveryFrameLeanOnesInAThirdOfTheBytes) {
   EXPECT_EQ(lean_sub->stats().lean_keys, 3u);
   EXPECT_EQ(lean_sub->stats().lean_unreferenced, 0u);
   const double lean_bytes = double(lean_sub->stats().frame_bytes) / n;
-  std::printf("  walk: %.1f bytes per avatar-frame on the lean stream, %zu as POSE\n", lean_bytes, pose_packet_bytes(dofs));
+  std::printf("  walk: %.1f bytes per avatar-frame on the lean stream, %zu as POSE\n", lean_bytes,
+              pose_packet_bytes(dofs));
   EXPECT_LT(lean_bytes, double(pose_packet_bytes(dofs)) / 2);
   const auto stats = st.stats();
   EXPECT_EQ(stats.lean_keys_out, 3u);
@@ -219,7 +220,7 @@ TEST(LeanStream, UdpDatagramsCarryEveryAvatarOfATick) {
   EXPECT_EQ(sub.stats().lost, 0u);
   EXPECT_EQ(sub.stats().lean_unreferenced, 0u);
   EXPECT_EQ(st.stats().udp_send_calls - calls_before, ticks);  // one sendmmsg per tick...
-  EXPECT_EQ(st.stats().udp_frames_out, ticks * ids.size());     // ... of one datagram with 5 frames
+  EXPECT_EQ(st.stats().udp_frames_out, ticks * ids.size());    // ... of one datagram with 5 frames
   for (const auto& [id, a] : sub.avatars()) EXPECT_EQ(a.last.sequence, ticks) << id;
 }
 

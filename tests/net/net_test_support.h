@@ -77,9 +77,9 @@ inline bool pump(std::vector<Client*> clients, const std::function<bool()>& done
 }
 
 inline void pump_for(std::vector<Client*> clients, double seconds) {
-  pump(clients, [] { return false; }, seconds);
+  pump(
+      clients, [] { return false; }, seconds);
 }
-
 
 // A received byte stream into a reader, whose next() then gives its packets one by one.
 inline void feed(PacketReader& r, const Bytes& bytes) {

@@ -47,11 +47,14 @@ void publish_range(Client& pub, uint8_t slot, uint32_t first, uint32_t last, std
     std::vector<uint64_t> before;
     for (Client* c : others) before.push_back(c->stats().frames);
     ASSERT_TRUE(pub.publish_pose(slot, {0, 0, s, wall_clock_us()}, pose_with(0.001f * float(s))));
-    pump(all, [&] {
-      for (size_t i = 0; i < others.size(); ++i)
-        if (others[i]->stats().frames <= before[i]) return false;
-      return true;
-    }, 2.0);
+    pump(
+        all,
+        [&] {
+          for (size_t i = 0; i < others.size(); ++i)
+            if (others[i]->stats().frames <= before[i]) return false;
+          return true;
+        },
+        2.0);
     if (others.empty()) pump_for(all, 0.0005);
   }
 }
@@ -115,7 +118,8 @@ TEST(Server, LateJoinerGetsModelAndLatestPoseAtOnce) {
   publish_range(*pub, *slot, 1, 30, {witness.get()});
   EXPECT_EQ(st.stats().frames_in, 30u);
   auto late = subscriber(st);
-  ASSERT_TRUE(pump({late.get()}, [&] { return late->stats().frames >= 1; }, 2.0));
+  ASSERT_TRUE(pump(
+      {late.get()}, [&] { return late->stats().frames >= 1; }, 2.0));
   ASSERT_EQ(late->avatars().size(), 1u);
   EXPECT_EQ(late->avatars().begin()->second.last.sequence, 30u);
   EXPECT_EQ(late->stats().frames, 1u);
@@ -139,8 +143,10 @@ TEST(Server, StalledSubscriberDropsItsOwnFramesOthersGetAll) {
   uint64_t stalled_dropped = 0, healthy_dropped = 0;
   for (const auto& s : st.sessions()) {
     if (s.role != Role::subscriber) continue;
-    if (s.name == "raw") stalled_dropped = s.frames_dropped;
-    else healthy_dropped = s.frames_dropped;
+    if (s.name == "raw")
+      stalled_dropped = s.frames_dropped;
+    else
+      healthy_dropped = s.frames_dropped;
   }
   EXPECT_GT(stalled_dropped, 0u);
   EXPECT_EQ(healthy_dropped, 0u);
@@ -171,7 +177,8 @@ TEST(Server, SubscriberResumesWithoutTheModelAgain) {
   publish_range(*pub, *slot, 1, 5, {sub.get()});
   sub->drop_connection();
   publish_range(*pub, *slot, 6, 10, {});
-  ASSERT_TRUE(pump({sub.get(), pub.get()}, [&] { return sub->stats().resumed == 1 && sub->avatars().begin()->second.last.sequence == 10; }));
+  ASSERT_TRUE(pump({sub.get(), pub.get()},
+                   [&] { return sub->stats().resumed == 1 && sub->avatars().begin()->second.last.sequence == 10; }));
   EXPECT_EQ(sub->session_token(), token);
   EXPECT_EQ(sub->stats().models, 1u);  // the model was not sent again
   EXPECT_EQ(st.stats().resumed, 1u);
@@ -425,7 +432,8 @@ TEST(Server, MeshFramesAtTheChosenLod) {
   auto thin = subscriber(st, 1);
   auto plain = subscriber(st);
   uint16_t id = st.call([&] { return *st.server().add_avatar("local", kDofs, "model"); });
-  ASSERT_TRUE(pump({thin.get(), plain.get()}, [&] { return thin->avatars().size() == 1 && plain->avatars().size() == 1; }));
+  ASSERT_TRUE(
+      pump({thin.get(), plain.get()}, [&] { return thin->avatars().size() == 1 && plain->avatars().size() == 1; }));
   EXPECT_EQ(st.call([&] { return st.server().mesh_lods_wanted(id); }), 1u << 1);
   MeshTopology topo{id, 1, 4, {0, 1, 2, 0, 2, 3}};
   ASSERT_TRUE(st.call([&] { return st.server().set_mesh_topology(topo).has_value(); }));
@@ -436,7 +444,8 @@ TEST(Server, MeshFramesAtTheChosenLod) {
   Bytes pose(pose_packet_bytes(kDofs));
   encode_pose({id, 0, 1, wall_clock_us()}, pose_with(0.5f), pose);
   EXPECT_EQ(st.call([&] { return st.server().publish_pose(id, pose); }), Reject::ok);
-  ASSERT_TRUE(pump({thin.get(), plain.get()}, [&] { return thin->stats().mesh_frames == 1 && plain->stats().frames == 1; }));
+  ASSERT_TRUE(
+      pump({thin.get(), plain.get()}, [&] { return thin->stats().mesh_frames == 1 && plain->stats().frames == 1; }));
   const RemoteAvatar& a = thin->avatars().begin()->second;
   EXPECT_EQ(a.mesh_indices, topo.indices);
   ASSERT_EQ(a.mesh_positions_m.size(), 4u);

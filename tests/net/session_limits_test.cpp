@@ -127,7 +127,8 @@ TEST(SessionLimits, IdleFloodFromOneAddressIsBoundedInCountAndTime) {
     flood.push_back(std::make_unique<RawPeer>(st.port()));
     flood.back()->send(hello_packet(Role::subscriber));
   }
-  ASSERT_TRUE(pump({}, [&] { return st.stats().sessions_refused_per_address == 300 - 64; }, 5.0))
+  ASSERT_TRUE(pump(
+      {}, [&] { return st.stats().sessions_refused_per_address == 300 - 64; }, 5.0))
       << st.stats().sessions_refused_per_address;
   EXPECT_LE(st.stats().sessions_open, 64u);
   // Another host is not locked out.
@@ -137,7 +138,9 @@ TEST(SessionLimits, IdleFloodFromOneAddressIsBoundedInCountAndTime) {
   EXPECT_EQ(decode_welcome(read_packet(other), w), Reject::ok);
   // Every idle session is gone well within a second of its timeout.
   const auto t0 = Clock::now();
-  ASSERT_TRUE(pump({}, [&] { return st.stats().sessions_open == 0; }, 5.0)) << st.stats().sessions_open;
+  ASSERT_TRUE(pump(
+      {}, [&] { return st.stats().sessions_open == 0; }, 5.0))
+      << st.stats().sessions_open;
   EXPECT_LT(std::chrono::duration<double>(Clock::now() - t0).count(), 2.0);
   const ServerStats s = st.stats();
   EXPECT_EQ(s.sessions_timed_out, 65u);

@@ -127,7 +127,7 @@ TEST(UdpRegistration, AnAddressThatNeverEchoesGetsNoFrames) {
   EXPECT_EQ(pose_datagrams(at_victim), 0u) << "frames were reflected at an address that never asked";
   ASSERT_EQ(at_victim.size(), 1u);
   EXPECT_EQ(at_victim[0].size(), kUdpRegisterBytes);  // no amplification
-  EXPECT_GT(sub->stats().udp_frames, seq / 2);          // the subscriber's own registration stands
+  EXPECT_GT(sub->stats().udp_frames, seq / 2);        // the subscriber's own registration stands
   const ServerStats s = st.stats();
   EXPECT_EQ(s.udp_registered, 1u);
   EXPECT_GE(s.udp_challenges, 2u);
@@ -175,7 +175,8 @@ TEST(UdpRegistration, RegistrationsExpireUnlessRefreshed) {
   ASSERT_TRUE(pub->publish_pose(*slot, {0, 0, 1, wall_clock_us()}, pose_with(0.1f)));
   pump_for({pub.get()}, 0.05);
   EXPECT_EQ(pose_datagrams(udp.drain(0.2)), 1u);
-  ASSERT_TRUE(pump({pub.get()}, [&] { return st.stats().udp_expired == 1; }, 3.0));
+  ASSERT_TRUE(pump(
+      {pub.get()}, [&] { return st.stats().udp_expired == 1; }, 3.0));
   ASSERT_TRUE(pub->publish_pose(*slot, {0, 0, 2, wall_clock_us()}, pose_with(0.2f)));
   pump_for({pub.get()}, 0.05);
   EXPECT_EQ(pose_datagrams(udp.drain(0.3)), 0u);
@@ -204,7 +205,8 @@ TEST(UdpRegistration, ATokenIsGoneForUdpAfterBye) {
     ASSERT_TRUE(stream.send(bye));
     // The server ends the session on BYE.
     const auto until = Clock::now() + std::chrono::seconds(2);
-    while (st.stats().subscribers != 0 && Clock::now() < until) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    while (st.stats().subscribers != 0 && Clock::now() < until)
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
     ASSERT_EQ(st.stats().subscribers, 0u);
   }
   const uint64_t unauthorized_before = st.stats().rejected[static_cast<size_t>(Reject::unauthorized)];

@@ -36,11 +36,15 @@ void publish_range(Client& pub, uint8_t slot, uint32_t first, uint32_t last, std
   all.push_back(&pub);
   for (uint32_t s = first; s <= last; ++s) {
     ASSERT_TRUE(pub.publish_pose(slot, {0, 0, s, wall_clock_us()}, pose_with(0.001f * float(s))));
-    ASSERT_TRUE(pump(all, [&] {
-      for (Client* c : subs)
-        if (c->avatars().empty() || c->avatars().begin()->second.last.sequence < s) return false;
-      return true;
-    }, 2.0)) << "frame " << s;
+    ASSERT_TRUE(pump(
+        all,
+        [&] {
+          for (Client* c : subs)
+            if (c->avatars().empty() || c->avatars().begin()->second.last.sequence < s) return false;
+          return true;
+        },
+        2.0))
+        << "frame " << s;
   }
 }
 
@@ -274,19 +278,19 @@ TEST(UdpPoses, HostileDatagramsAreCountedAndOnlyKnownTokensAnswered) {
   const uint64_t before = st.stats().udp_datagrams_in;
 
   RawUdp raw(st.port());
-  raw.send({'M', 1});                              // truncated header
+  raw.send({'M', 1});  // truncated header
   Bytes wrong_magic = register_packet(sub->session_token());
   wrong_magic[0] = 'X';
   raw.send(wrong_magic);
   Bytes long_register = register_packet(token_of(42));
   long_register.resize(40, 0);
-  long_register[4] = 32;                           // a payload longer than the type allows
+  long_register[4] = 32;  // a payload longer than the type allows
   raw.send(long_register);
   Bytes bye(16);
   bye.resize(encode_bye(bye));
-  raw.send(bye);                                   // a TCP message on the UDP socket
-  raw.send(register_packet(token_of(0x5a)));         // nobody's token
-  raw.send(register_packet(pub->session_token()));   // a publisher's token: no UDP for publishers
+  raw.send(bye);                                    // a TCP message on the UDP socket
+  raw.send(register_packet(token_of(0x5a)));        // nobody's token
+  raw.send(register_packet(pub->session_token()));  // a publisher's token: no UDP for publishers
   EXPECT_TRUE(raw.receive(0.3).empty()) << "the server answered a datagram it should not have";
   ASSERT_TRUE(pump({pub.get(), sub.get()}, [&] { return st.stats().udp_datagrams_in >= before + 6; }));
   const ServerStats s = st.stats();
@@ -319,10 +323,13 @@ TEST(UdpPoses, HostileDatagramsAreCountedAndOnlyKnownTokensAnswered) {
   EXPECT_EQ(h.sequence, 1u);
   // The subscriber's own next registration (within a second) takes its frames back.
   uint32_t seq = 1;
-  ASSERT_TRUE(pump({pub.get(), sub.get()}, [&] {
-    (void)pub->publish_pose(*slot, {0, 0, ++seq, wall_clock_us()}, pose_with(0.25f));
-    return sub->stats().udp_frames >= 1;
-  }, 5.0));
+  ASSERT_TRUE(pump(
+      {pub.get(), sub.get()},
+      [&] {
+        (void)pub->publish_pose(*slot, {0, 0, ++seq, wall_clock_us()}, pose_with(0.25f));
+        return sub->stats().udp_frames >= 1;
+      },
+      5.0));
 }
 
 }  // namespace

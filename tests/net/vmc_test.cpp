@@ -84,8 +84,10 @@ OscLine parse(const std::string& text) {
   OscLine l;
   std::string first;
   is >> first;
-  if (!first.empty() && first[0] != '/') is >> l.address;
-  else l.address = first;
+  if (!first.empty() && first[0] != '/')
+    is >> l.address;
+  else
+    l.address = first;
   is >> l.types;
   std::string a;
   while (is >> a) {
@@ -108,9 +110,12 @@ DumpedFrame read_frame(OscDump& dump, size_t bones_expected, size_t times_wanted
     const std::string s = dump.line();
     if (s.empty()) break;
     const OscLine l = parse(s);
-    if (l.address == "/VMC/Ext/Bone/Pos" && !l.args.empty()) f.bones[l.args[0]] = l;
-    else if (l.address == "/VMC/Ext/Root/Pos") f.root = l;
-    else if (l.address == "/VMC/Ext/OK") f.ok = l;
+    if (l.address == "/VMC/Ext/Bone/Pos" && !l.args.empty())
+      f.bones[l.args[0]] = l;
+    else if (l.address == "/VMC/Ext/Root/Pos")
+      f.root = l;
+    else if (l.address == "/VMC/Ext/OK")
+      f.ok = l;
     else if (l.address == "/VMC/Ext/T") {
       f.t = l;
       if (!l.args.empty()) f.times.push_back(std::stod(l.args[0]));
@@ -168,9 +173,9 @@ TEST(Vmc, OscdumpReceivesEveryBoneRootOkAndTime) {
   auto& bones = f.bones;
 
   EXPECT_EQ(expected, 22u);
-  for (const char* b : {"Hips", "Spine", "Chest", "UpperChest", "Neck", "Head", "LeftShoulder", "LeftUpperArm",
-                        "LeftLowerArm", "LeftHand", "RightUpperArm", "LeftUpperLeg", "RightLowerLeg", "LeftFoot",
-                        "RightToes"})
+  for (const char* b :
+       {"Hips", "Spine", "Chest", "UpperChest", "Neck", "Head", "LeftShoulder", "LeftUpperArm", "LeftLowerArm",
+        "LeftHand", "RightUpperArm", "LeftUpperLeg", "RightLowerLeg", "LeftFoot", "RightToes"})
     EXPECT_TRUE(bones.count(b)) << b;
   ASSERT_EQ(f.root.types, "sfffffff");
   EXPECT_EQ(f.root.args[0], "root");
@@ -251,7 +256,8 @@ std::vector<std::string> bundle_addresses(const uint8_t* data, size_t size) {
   EXPECT_EQ(size % 4, 0u);
   size_t pos = 16;
   while (pos + 4 <= size) {
-    const uint32_t n = uint32_t(data[pos]) << 24 | uint32_t(data[pos + 1]) << 16 | uint32_t(data[pos + 2]) << 8 | data[pos + 3];
+    const uint32_t n =
+        uint32_t(data[pos]) << 24 | uint32_t(data[pos + 1]) << 16 | uint32_t(data[pos + 2]) << 8 | data[pos + 3];
     EXPECT_EQ(n % 4, 0u);
     addresses.emplace_back(reinterpret_cast<const char*>(data + pos + 4));
     pos += 4 + n;

@@ -76,16 +76,20 @@ void expect_samples_read_back(bool tcp_only) {
   auto remote = VrpnTrackerRemote::create(o);
   ASSERT_TRUE(remote) << remote.error().what();
   std::vector<VrpnReport> got;
-  ASSERT_TRUE(run_until(**remote, s.server.get(), [&] { return (*remote)->link() == VrpnLink::connected; }, got))
+  ASSERT_TRUE(run_until(
+      **remote, s.server.get(), [&] { return (*remote)->link() == VrpnLink::connected; }, got))
       << (*remote)->last_error();
   // Until the server has the remote's UDP description (in call-back mode) reports may go on TCP;
   // either way every one must come back exact.
   int sent = 0;
-  ASSERT_TRUE(run_until(**remote, s.server.get(), [&] {
-    s.server->send_sample(0, sensor, p, q, 1700000000.5 + 0.01 * sent++);
-    s.server->flush();
-    return got.size() >= 5;
-  }, got));
+  ASSERT_TRUE(run_until(
+      **remote, s.server.get(),
+      [&] {
+        s.server->send_sample(0, sensor, p, q, 1700000000.5 + 0.01 * sent++);
+        s.server->flush();
+        return got.size() >= 5;
+      },
+      got));
   for (const auto& r : got) {
     EXPECT_EQ(r.sensor, sensor);
     EXPECT_NEAR(r.position.x, p.x, 1e-6);
@@ -104,12 +108,12 @@ void expect_samples_read_back(bool tcp_only) {
     EXPECT_GT((*remote)->stats().udp_datagrams, 0u) << "reports should come by UDP";
   }
   // Pings are answered by the server's sender of the same name.
-  ASSERT_TRUE(run_until(**remote, s.server.get(), [&] { return (*remote)->stats().pongs > 0; }, got));
+  ASSERT_TRUE(run_until(
+      **remote, s.server.get(), [&] { return (*remote)->stats().pongs > 0; }, got));
 }
 
 TEST(VrpnTrackerRemote, ReadsMimicsVrpnServerThroughTheCallBack) { expect_samples_read_back(false); }
 TEST(VrpnTrackerRemote, ReadsMimicsVrpnServerOverTcp) { expect_samples_read_back(true); }
-
 
 // The independent peer numbers its senders and types unlike Mimic's server: the remote maps them
 // by name. Reports, button changes and pongs, in both connection modes.
@@ -117,8 +121,8 @@ void expect_peer_read(bool tcp_only) {
   PeerServer peer({"Buttons0", "Tracker0"});
   ASSERT_TRUE(peer.ok());
   VrpnTrackerRemote::Options o;
-  o.tracker = *parse_vrpn_address(std::string("Tracker0@") + (tcp_only ? "tcp://" : "") + "127.0.0.1:" +
-                                  std::to_string(peer.port()));
+  o.tracker = *parse_vrpn_address(std::string("Tracker0@") + (tcp_only ? "tcp://" : "") +
+                                  "127.0.0.1:" + std::to_string(peer.port()));
   o.button_device = "Buttons0";
   auto remote = std::move(*VrpnTrackerRemote::create(o));
   std::array<VrpnReport, 64> reports;
@@ -170,16 +174,22 @@ TEST(VrpnTrackerRemote, APeerKilledAndRestartedIsCountedAndRecovered) {
   o.silent_after_s = 1.0;
   auto remote = std::move(*VrpnTrackerRemote::create(o));
   std::vector<VrpnReport> got;
-  ASSERT_TRUE(run_until(*remote, nullptr, [&] { return remote->link() == VrpnLink::connected; }, got));
+  ASSERT_TRUE(run_until(
+      *remote, nullptr, [&] { return remote->link() == VrpnLink::connected; }, got));
   peer.reset();
-  ASSERT_TRUE(run_until(*remote, nullptr, [&] { return remote->stats().drops == 1; }, got));
+  ASSERT_TRUE(run_until(
+      *remote, nullptr, [&] { return remote->stats().drops == 1; }, got));
   peer = std::make_unique<PeerServer>(std::vector<std::string>{"Tracker0"}, port);
   ASSERT_TRUE(peer->ok());
   const double pos[3] = {0, 1, 0}, quat[4] = {0, 0, 0, 1};
-  ASSERT_TRUE(run_until(*remote, nullptr, [&] {
-    if (remote->link() == VrpnLink::connected) peer->send_pos_quat("Tracker0", 0, pos, quat, 1, 0);
-    return !got.empty();
-  }, got)) << remote->last_error();
+  ASSERT_TRUE(run_until(
+      *remote, nullptr,
+      [&] {
+        if (remote->link() == VrpnLink::connected) peer->send_pos_quat("Tracker0", 0, pos, quat, 1, 0);
+        return !got.empty();
+      },
+      got))
+      << remote->last_error();
   EXPECT_EQ(remote->stats().connects, 2u);
   EXPECT_EQ(remote->stats().drops, 1u);
 }
@@ -194,16 +204,20 @@ TEST(VrpnTrackerRemote, ReadsSeveralTrackerDevicesOnOneConnection) {
   auto remote = std::move(*VrpnTrackerRemote::create(o));
   std::vector<VrpnReport> got;
   const double head[3] = {0, 1.7, 0}, hand[3] = {0.3, 1.0, 0.2}, q[4] = {0, 0, 0, 1};
-  ASSERT_TRUE(run_until(*remote, nullptr, [&] {
-    if (remote->link() == VrpnLink::connected) {
-      peer.send_pos_quat("Head", 0, head, q, 1, 0);
-      peer.send_pos_quat("LeftHand", 0, hand, q, 1, 0);
-      peer.send_pos_quat("Prop", 0, hand, q, 1, 0);  // not asked for
-    }
-    bool h = false, l = false;
-    for (const auto& r : got) (r.device == 0 ? h : l) = true;
-    return h && l && got.size() >= 6;
-  }, got)) << remote->last_error();
+  ASSERT_TRUE(run_until(
+      *remote, nullptr,
+      [&] {
+        if (remote->link() == VrpnLink::connected) {
+          peer.send_pos_quat("Head", 0, head, q, 1, 0);
+          peer.send_pos_quat("LeftHand", 0, hand, q, 1, 0);
+          peer.send_pos_quat("Prop", 0, hand, q, 1, 0);  // not asked for
+        }
+        bool h = false, l = false;
+        for (const auto& r : got) (r.device == 0 ? h : l) = true;
+        return h && l && got.size() >= 6;
+      },
+      got))
+      << remote->last_error();
   for (const auto& r : got) {
     ASSERT_TRUE(r.device == 0 || r.device == 1);
     EXPECT_EQ(r.position.y, r.device == 0 ? 1.7 : 1.0);
@@ -218,9 +232,11 @@ TEST(VrpnTrackerRemote, ReconnectsWhenTheServerGoesAwayAndComesBack) {
   o.retry_after_s = 0.05;
   auto remote = std::move(*VrpnTrackerRemote::create(o));
   std::vector<VrpnReport> got;
-  ASSERT_TRUE(run_until(*remote, s->server.get(), [&] { return remote->link() == VrpnLink::connected; }, got));
+  ASSERT_TRUE(run_until(
+      *remote, s->server.get(), [&] { return remote->link() == VrpnLink::connected; }, got));
   s.reset();  // the server goes away
-  ASSERT_TRUE(run_until(*remote, nullptr, [&] { return remote->link() != VrpnLink::connected; }, got));
+  ASSERT_TRUE(run_until(
+      *remote, nullptr, [&] { return remote->link() != VrpnLink::connected; }, got));
   EXPECT_EQ(remote->stats().drops, 1u);
   EXPECT_FALSE(remote->last_error().empty());
   // A new server on the same port: the remote finds it by itself.
@@ -228,14 +244,18 @@ TEST(VrpnTrackerRemote, ReconnectsWhenTheServerGoesAwayAndComesBack) {
   ASSERT_TRUE(again) << again.error().what();
   rig::Skeleton sk = *rig::Skeleton::build(rig::default_skeleton_desc());
   ASSERT_TRUE((*again)->add_avatar(sk));
-  ASSERT_TRUE(run_until(*remote, again->get(), [&] { return remote->stats().connects == 2; }, got))
+  ASSERT_TRUE(run_until(
+      *remote, again->get(), [&] { return remote->stats().connects == 2; }, got))
       << remote->last_error();
   rig::Pose pose = sk.zero_pose();
-  ASSERT_TRUE(run_until(*remote, again->get(), [&] {
-    (*again)->send_pose(0, pose, 1700000000.0);
-    (*again)->flush();
-    return !got.empty();
-  }, got));
+  ASSERT_TRUE(run_until(
+      *remote, again->get(),
+      [&] {
+        (*again)->send_pose(0, pose, 1700000000.0);
+        (*again)->flush();
+        return !got.empty();
+      },
+      got));
   EXPECT_EQ(got.front().sensor >= 0 && got.front().sensor < sk.joint_count(), true);
 }
 
@@ -272,8 +292,8 @@ TEST(VrpnTrackerRemote, RefusesAServerThatIsNotVrpnAndDropsOneThatGoesSilent) {
     std::this_thread::sleep_for(std::chrono::milliseconds(500));
     ::close(c);
   });
-  ASSERT_TRUE(run_until(*remote, nullptr, [&] { return remote->link() == VrpnLink::waiting && remote->stats().drops > 0; },
-                        got));
+  ASSERT_TRUE(run_until(
+      *remote, nullptr, [&] { return remote->link() == VrpnLink::waiting && remote->stats().drops > 0; }, got));
   peer.join();
   EXPECT_NE(remote->last_error().find("cookie"), std::string::npos) << remote->last_error();
   EXPECT_EQ(remote->stats().connects, 0u);
@@ -292,7 +312,8 @@ TEST(VrpnTrackerRemote, AServerThatNeverAnswersTheHandshakeIsDropped) {
     std::this_thread::sleep_for(std::chrono::milliseconds(1500));
     ::close(c);
   });
-  ASSERT_TRUE(run_until(*remote, nullptr, [&] { return remote->stats().drops > 0; }, got));
+  ASSERT_TRUE(run_until(
+      *remote, nullptr, [&] { return remote->stats().drops > 0; }, got));
   peer.join();
   EXPECT_NE(remote->last_error().find("handshake"), std::string::npos) << remote->last_error();
 }

@@ -133,9 +133,9 @@ TEST(VrpnServer, RefusesBadCookiesAndMalformedRequests) {
 TEST(VrpnServer, DocumentedSensorOrderOfTheDefaultSkeleton) {
   const auto s = *rig::Skeleton::build(rig::default_skeleton_desc());
   const std::vector<std::string> documented = {
-      "pelvis",      "spine_lower", "l_hip",      "r_hip",      "spine_mid",  "l_knee",     "r_knee",  "spine_upper",
-      "l_ankle",     "r_ankle",     "neck",       "l_clavicle", "r_clavicle", "l_toes",     "r_toes",  "neck_upper",
-      "l_shoulder",  "r_shoulder",  "head",       "l_elbow",    "r_elbow",    "l_wrist",    "r_wrist"};
+      "pelvis",     "spine_lower", "l_hip", "r_hip",      "spine_mid",  "l_knee",  "r_knee", "spine_upper",
+      "l_ankle",    "r_ankle",     "neck",  "l_clavicle", "r_clavicle", "l_toes",  "r_toes", "neck_upper",
+      "l_shoulder", "r_shoulder",  "head",  "l_elbow",    "r_elbow",    "l_wrist", "r_wrist"};
   std::vector<std::string> names;
   for (int j = 0; j < s.joint_count(); ++j) names.push_back(s.joint_name(j));
   EXPECT_EQ(names, documented);
@@ -147,7 +147,7 @@ TEST(VrpnServer, BadListenAddressesFail) {
   auto a = VrpnServer::create("127.0.0.1:0");
   ASSERT_TRUE(a);
   auto b = VrpnServer::create("127.0.0.1:" + std::to_string((*a)->port()));
-  EXPECT_FALSE(b);  // the port is taken
+  EXPECT_FALSE(b);                   // the port is taken
   auto c = VrpnServer::create("0");  // a bare port: loopback
   ASSERT_TRUE(c);
   EXPECT_EQ((*c)->endpoint().rfind("127.0.0.1:", 0), 0u);

@@ -125,7 +125,8 @@ TEST(CameraFollow, KeepsASteadyWalkerInTheMiddleWithoutSwayingWithItsSteps) {
     const glm::vec3 hips = path + 0.04f * std::sin(2.0f * 3.14159265f * 2.0f * t) * side;
     follow.update(camera, hips, 1.0f / 60.0f);
     if (t > 3.0f) {
-      worst_after_3s = std::max(worst_after_3s, glm::length(glm::vec2(camera.target.x - path.x, camera.target.z - path.z)));
+      worst_after_3s =
+          std::max(worst_after_3s, glm::length(glm::vec2(camera.target.x - path.x, camera.target.z - path.z)));
       worst_sway = std::max(worst_sway, std::abs(glm::dot(camera.target - path, side)));
     }
   }

@@ -167,9 +167,9 @@ TEST(Overlays, SensorsShowTheirAxesAndAStaleOneItsBox) {
   const glm::quat turned = glm::angleAxis(1.5707964f, glm::vec3(0, 0, 1));  // x axis onto +y
   const render::SensorMark fresh{{0, 1, 0}, turned, false}, stale{{1, 1, 0}, glm::quat(1, 0, 0, 0), true};
   render::append_sensors(std::span<const render::SensorMark>(&fresh, 1), lines);
-  ASSERT_EQ(lines.vertices.size(), 6u);  // three axes
+  ASSERT_EQ(lines.vertices.size(), 6u);                     // three axes
   EXPECT_NEAR(lines.vertices[1].position.y, 1.08f, 1e-5f);  // the sensor's x axis, turned up
-  EXPECT_GT(lines.vertices[1].color.x, 0.9f);                // drawn red
+  EXPECT_GT(lines.vertices[1].color.x, 0.9f);               // drawn red
   lines.clear();
   render::append_sensors(std::span<const render::SensorMark>(&stale, 1), lines);
   EXPECT_EQ(lines.vertices.size(), 6u + 24u);  // and the twelve edges of a box

@@ -22,7 +22,8 @@ using mimic::test::run_mimic;
 constexpr uint8_t kBackground[3] = {237, 240, 245};  // FrameDesc's default background
 
 std::string temp(const std::string& name) {
-  return (std::filesystem::temp_directory_path() / ("mimic_view_cli_" + std::to_string(::getpid()) + "_" + name)).string();
+  return (std::filesystem::temp_directory_path() / ("mimic_view_cli_" + std::to_string(::getpid()) + "_" + name))
+      .string();
 }
 
 mimic::render::Image shoot(const std::string& name, const std::string& options) {
@@ -112,7 +113,8 @@ TEST(ViewCli, TheRaisedLeftArmShowsOnTheBodysLeft) {
   EXPECT_GT(top_column(front, 12), 0.6 * front.width);
   EXPECT_LT(top_column(back, 12), 0.4 * back.width);
   // The right arm instead: mirrored.
-  const mimic::render::Image right = shoot("right_front.png", "--pose rest --set r_shoulder_abduction=1.2 --size 320x360 --no-grid --camera front");
+  const mimic::render::Image right =
+      shoot("right_front.png", "--pose rest --set r_shoulder_abduction=1.2 --size 320x360 --no-grid --camera front");
   EXPECT_LT(top_column(right, 12), 0.4 * right.width);
 }
 
@@ -126,7 +128,8 @@ TEST(ViewCli, BodiesShotAtOneFrameHeightShowTheirSizes) {
     const Outcome made = run_mimic(std::string("scale --preset ") + presets[i] + " --out '" + body + "'");
     ASSERT_EQ(made.status, 0) << made.output;
     const mimic::render::Image image =
-        shoot(std::string(presets[i]) + ".png", "--body '" + body + "' --pose rest --frame-height 2.2 --size 200x400 --no-grid");
+        shoot(std::string(presets[i]) + ".png",
+              "--body '" + body + "' --pose rest --frame-height 2.2 --size 200x400 --no-grid");
     const mimic::render::Coverage c = mimic::render::coverage(image, kBackground);
     pixels_tall[i] = c.max_y - c.min_y;
     std::filesystem::remove(body);
@@ -147,7 +150,8 @@ TEST(ViewCli, TheRealtimeAndTheFullMethodDrawTheSameBody) {
     return std::abs(p[0] - kBackground[0]) + std::abs(p[1] - kBackground[1]) + std::abs(p[2] - kBackground[2]) > 24;
   };
   for (int lod = 0; lod < 4; ++lod) {
-    const std::string pose = "--motion walk --time 0.4 --camera side --size 240x300 --no-grid --lod " + std::to_string(lod);
+    const std::string pose =
+        "--motion walk --time 0.4 --camera side --size 240x300 --no-grid --lod " + std::to_string(lod);
     const mimic::render::Image full = shoot("full.png", pose + " --method full");
     const mimic::render::Image realtime = shoot("realtime.png", pose + " --method realtime");
     ASSERT_EQ(full.width, realtime.width);
@@ -191,8 +195,8 @@ TEST(ViewCli, EveryLodEveryCameraAndTheOverlaysRender) {
 }
 
 TEST(ViewCli, AClipFrameRenders) {
-  const mimic::render::Image image =
-      shoot("bvh.png", "--bvh '" + mimic::test::clip_path("07_01") + "' --frame 120 --size 200x240 --camera three-quarter");
+  const mimic::render::Image image = shoot(
+      "bvh.png", "--bvh '" + mimic::test::clip_path("07_01") + "' --frame 120 --size 200x240 --camera three-quarter");
   EXPECT_GT(mimic::render::coverage(image, kBackground).count, 3000);
 }
 

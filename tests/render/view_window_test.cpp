@@ -75,7 +75,8 @@ class VirtualDisplay {
 };
 
 std::string temp(const std::string& name) {
-  return (std::filesystem::temp_directory_path() / ("mimic_view_window_" + std::to_string(::getpid()) + "_" + name)).string();
+  return (std::filesystem::temp_directory_path() / ("mimic_view_window_" + std::to_string(::getpid()) + "_" + name))
+      .string();
 }
 
 // Pixels of the avatar's shirt (blue) and of the ImGui panel (dark, top-left corner).
@@ -136,8 +137,8 @@ TEST(ViewWindow, TheOrbitCameraKeepsAWalkerInTheMiddle) {
   ASSERT_FALSE(x.display().empty()) << "Xvfb did not start (scripts/setup.sh installs it)";
   ::setenv("DISPLAY", x.display().c_str(), 1);
   const std::string out = temp("follow.png");
-  const Outcome r = run_mimic("view --source 'sim:walk?sensors=11' --frames 500 --lod 3 --size 400x300 --no-panel --capture '" +
-                              out + "'");
+  const Outcome r = run_mimic(
+      "view --source 'sim:walk?sensors=11' --frames 500 --lod 3 --size 400x300 --no-panel --capture '" + out + "'");
   ASSERT_EQ(r.status, 0) << r.output;
   auto image = mimic::render::read_png(out);
   ASSERT_TRUE(image) << r.output;
@@ -155,8 +156,10 @@ TEST(ViewWindow, TwoAvatarsAreFramedWholeBesideThePanel) {
   ASSERT_FALSE(display.display().empty()) << "Xvfb did not start (scripts/setup.sh installs it)";
   ::setenv("DISPLAY", display.display().c_str(), 1);
   const std::string out = temp("two.png");
-  const Outcome r = run_mimic("view --source 'sim:walk?sensors=11;sim:idle?sensors=6' --frames 12 --no-vsync --no-grid "
-                              "--lod 3 --size 640x480 --capture '" + out + "'");
+  const Outcome r = run_mimic(
+      "view --source 'sim:walk?sensors=11;sim:idle?sensors=6' --frames 12 --no-vsync --no-grid "
+      "--lod 3 --size 640x480 --capture '" +
+      out + "'");
   ASSERT_EQ(r.status, 0) << r.output;
   auto image = mimic::render::read_png(out);
   ASSERT_TRUE(image) << r.output;
@@ -202,7 +205,8 @@ TEST(ViewWindow, ConnectsToMimicRunAndDrawsEveryAvatarItServes) {
   ASSERT_EQ(line.rfind("serving on ", 0), 0u) << line;
   const std::string endpoint = line.substr(std::string("serving on ").size());
   const std::string out = temp("connected.png");
-  const Outcome r = run_mimic("view --connect " + endpoint + " --frames 40 --no-vsync --size 400x300 --capture '" + out + "'");
+  const Outcome r =
+      run_mimic("view --connect " + endpoint + " --frames 40 --no-vsync --size 400x300 --capture '" + out + "'");
   ASSERT_EQ(r.status, 0) << r.output;
   // Both avatars arrived as body models and are deformed here from pose frames.
   EXPECT_NE(r.output.find("avatar1#"), std::string::npos) << r.output;
@@ -265,14 +269,15 @@ TEST(ViewWindow, ConnectsToASceneOnANatsBroker) {
   VirtualDisplay x;
   ASSERT_FALSE(x.display().empty()) << "Xvfb did not start (scripts/setup.sh installs it)";
   ::setenv("DISPLAY", x.display().c_str(), 1);
-  mimic::test::Child host({mimic::test::mimic_binary(), "run", "--listen", "127.0.0.1:0", "--nats", broker.url_as("hostV"),
-                           "--scene", "stage", "--nats-name", "hostV", "--source", "sim:walk", "--source",
-                           "sim:idle?seed=2", "--duration", "30", "--quiet"});
+  mimic::test::Child host({mimic::test::mimic_binary(), "run", "--listen", "127.0.0.1:0", "--nats",
+                           broker.url_as("hostV"), "--scene", "stage", "--nats-name", "hostV", "--source", "sim:walk",
+                           "--source", "sim:idle?seed=2", "--duration", "30", "--quiet"});
   const std::string line = host.line();
   ASSERT_NE(line.find("publishing scene 'stage'"), std::string::npos) << line;
   const std::string out = temp("nats.png");
   const std::string target = broker.url_as("relay") + "/stage";  // a viewer reads as a relay does
-  const Outcome r = run_mimic("view --connect " + target + " --frames 120 --no-vsync --size 400x300 --capture '" + out + "'");
+  const Outcome r =
+      run_mimic("view --connect " + target + " --frames 120 --no-vsync --size 400x300 --capture '" + out + "'");
   ASSERT_EQ(r.status, 0) << r.output;
   // Both avatars came through the broker, under their publisher's names, deformed here from
   // pose frames of the lean stream.
@@ -338,9 +343,9 @@ TEST(ViewWindow, TakesEverySourceFormMimicRunTakes) {
     ASSERT_EQ(view.status, 0) << "mimic view " << form << "\n" << view.output;
     EXPECT_EQ(count_of(view.output, "avatar    avatar"), avatars) << form << "\n" << view.output;
   }
-  for (const std::string bad : {"--source nope:x", "--source 'sim:walk?brids=4'", "--source sim:walk --place 1",
-                                "--source 'actor:dance'", "--source sim:walk --navigate 'sim:walk'",
-                                "--source sim:walk --body a.json --body b.json"}) {
+  for (const std::string bad :
+       {"--source nope:x", "--source 'sim:walk?brids=4'", "--source sim:walk --place 1", "--source 'actor:dance'",
+        "--source sim:walk --navigate 'sim:walk'", "--source sim:walk --body a.json --body b.json"}) {
     EXPECT_EQ(run_mimic("run --listen 127.0.0.1:0 --duration 0.3 --quiet " + bad).status, 2) << "mimic run " << bad;
     EXPECT_EQ(run_mimic("view --frames 1 --no-vsync " + bad).status, 2) << "mimic view " << bad;
   }

@@ -12,9 +12,7 @@ namespace mimic::rig {
 namespace {
 
 // Hand-written edge-case files live beside the tests (tests/data/bvh).
-std::string local_data(const std::string& name) {
-  return mimic::test::repo_test_data("bvh/" + name).string();
-}
+std::string local_data(const std::string& name) { return mimic::test::repo_test_data("bvh/" + name).string(); }
 
 BvhClip load_ok(const std::string& path, double metres_per_unit = kCmuMetresPerUnit) {
   auto clip = load_bvh(path, BvhParseOptions{metres_per_unit});
@@ -43,7 +41,7 @@ glm::vec3 pos(const BvhClip& clip, const std::vector<RigidTransform>& w, const c
 }
 
 TEST(Bvh, ParsesEverySharedClip) {
-  const std::map<std::string, int> frames = {{"07_01", 317}, {"09_11", 166}, {"02_04", 484}, {"02_05", 1855},
+  const std::map<std::string, int> frames = {{"07_01", 317},  {"09_11", 166},  {"02_04", 484}, {"02_05", 1855},
                                              {"02_06", 2236}, {"05_02", 1124}, {"06_04", 397}, {"13_26", 3029}};
   for (const char* id : test::kShared_clips) {
     SCOPED_TRACE(id);
@@ -111,7 +109,8 @@ TEST(Bvh, CrlfTabsTrailingSpacesAndOddChannelOrders) {
 
   // Chest lists Xrotation Zrotation Yrotation: its local rotation is Rx · Rz · Ry.
   const double k = glm::pi<double>() / 180.0;
-  const glm::dquat expect = glm::angleAxis(12 * k, glm::dvec3(1, 0, 0)) * glm::angleAxis(-0.25 * k, glm::dvec3(0, 0, 1)) *
+  const glm::dquat expect = glm::angleAxis(12 * k, glm::dvec3(1, 0, 0)) *
+                            glm::angleAxis(-0.25 * k, glm::dvec3(0, 0, 1)) *
                             glm::angleAxis(10 * k, glm::dvec3(0, 1, 0));
   const glm::dquat got = bvh_local_rotation(clip, clip.find_joint("Chest"), 1);
   EXPECT_NEAR(std::abs(glm::dot(got, expect)), 1.0, 1e-12);
@@ -160,11 +159,13 @@ TEST(Bvh, NonFiniteNumbersAreRejected) {
   const std::string m = load_error("bad_nan.bvh");
   EXPECT_NE(m.find("bad_nan.bvh:20:"), std::string::npos) << m;
   EXPECT_NE(m.find("non-finite value 'nan' in column 7"), std::string::npos) << m;
-  auto overflow = parse_bvh("HIERARCHY\nROOT A\n{\nOFFSET 0 1e999 0\nCHANNELS 0\n}\nMOTION\nFrames: 0\nFrame Time: 1\n", "x.bvh");
+  auto overflow =
+      parse_bvh("HIERARCHY\nROOT A\n{\nOFFSET 0 1e999 0\nCHANNELS 0\n}\nMOTION\nFrames: 0\nFrame Time: 1\n", "x.bvh");
   ASSERT_FALSE(overflow);
   EXPECT_NE(overflow.error().message.find("x.bvh:4: non-finite number '1e999'"), std::string::npos)
       << overflow.error().message;
-  auto inf = parse_bvh("HIERARCHY\nROOT A\n{\nOFFSET 0 0 0\nCHANNELS 1 Xrotation\n}\nMOTION\nFrames: 1\nFrame Time: 1\ninf\n", "y.bvh");
+  auto inf = parse_bvh(
+      "HIERARCHY\nROOT A\n{\nOFFSET 0 0 0\nCHANNELS 1 Xrotation\n}\nMOTION\nFrames: 1\nFrame Time: 1\ninf\n", "y.bvh");
   ASSERT_FALSE(inf);
   EXPECT_NE(inf.error().message.find("y.bvh:10:"), std::string::npos) << inf.error().message;
 }
@@ -190,17 +191,24 @@ TEST(Bvh, OtherStructuralErrorsNameTheirLine) {
   };
   const Case cases[] = {
       {"", "t.bvh:1: expected HIERARCHY, got end of file"},
-      {"HIERARCHY\nROOT A\n{\nCHANNELS 0\n}\nMOTION\nFrames: 0\nFrame Time: 1\n", "t.bvh:5: joint 'A' (opened at line 2) has no OFFSET"},
+      {"HIERARCHY\nROOT A\n{\nCHANNELS 0\n}\nMOTION\nFrames: 0\nFrame Time: 1\n",
+       "t.bvh:5: joint 'A' (opened at line 2) has no OFFSET"},
       {"HIERARCHY\nROOT A\n{\nOFFSET 0 0\nCHANNELS 0\n}\n", "t.bvh:4: expected 3 numbers after OFFSET, got 2"},
       {"HIERARCHY\nROOT A\n{\nOFFSET 0 0 0\nCHANNELS 7 Xrotation\n}\n", "t.bvh:5: expected a channel count 0..6"},
       {"HIERARCHY\nROOT A\n{\nOFFSET 0 0 0\nCHANNELS 2 Xrotation\n}\n", "t.bvh:5: CHANNELS 2 lists only 1"},
-      {"HIERARCHY\nROOT A\n{\nOFFSET 0 0 0\nCHANNELS 2 Xrotation Xrotation\n}\n", "t.bvh:5: channel 'Xrotation' listed twice"},
-      {"HIERARCHY\nROOT A\n{\nOFFSET 0 0 0\nCHANNELS 0\nJOINT A\n{\nOFFSET 0 0 0\nCHANNELS 0\n}\n}\n", "t.bvh:6: duplicate joint name 'A'"},
+      {"HIERARCHY\nROOT A\n{\nOFFSET 0 0 0\nCHANNELS 2 Xrotation Xrotation\n}\n",
+       "t.bvh:5: channel 'Xrotation' listed twice"},
+      {"HIERARCHY\nROOT A\n{\nOFFSET 0 0 0\nCHANNELS 0\nJOINT A\n{\nOFFSET 0 0 0\nCHANNELS 0\n}\n}\n",
+       "t.bvh:6: duplicate joint name 'A'"},
       {"HIERARCHY\nROOT A\n{\nOFFSET 0 0 0\nCHANNELS 0\n}\n", "t.bvh:6: expected MOTION"},
-      {"HIERARCHY\nROOT A\n{\nOFFSET 0 0 0\nCHANNELS 0\n}\nMOTION\nFrames: x\n", "t.bvh:8: expected a number after 'Frames:', got 'x'"},
-      {"HIERARCHY\nROOT A\n{\nOFFSET 0 0 0\nCHANNELS 0\n}\nMOTION\nFrames: 1\nFrame Time: 0\n", "t.bvh:9: Frame Time must be positive"},
-      {"HIERARCHY\nROOT A\n{\nOFFSET 0 0 0\nCHANNELS 0\n}\nMOTION\nFrames: 1.5\n", "t.bvh:8: frame count must be a whole number"},
-      {"HIERARCHY\nROOT A\n{\nOFFSET 0 0 0\nCHANNELS 1 Xrotation\n}\nMOTION\nFrames: 1\nFrame Time: 1\n0 x\n", "t.bvh:10: frame 0: expected a number in column 2, got 'x'"},
+      {"HIERARCHY\nROOT A\n{\nOFFSET 0 0 0\nCHANNELS 0\n}\nMOTION\nFrames: x\n",
+       "t.bvh:8: expected a number after 'Frames:', got 'x'"},
+      {"HIERARCHY\nROOT A\n{\nOFFSET 0 0 0\nCHANNELS 0\n}\nMOTION\nFrames: 1\nFrame Time: 0\n",
+       "t.bvh:9: Frame Time must be positive"},
+      {"HIERARCHY\nROOT A\n{\nOFFSET 0 0 0\nCHANNELS 0\n}\nMOTION\nFrames: 1.5\n",
+       "t.bvh:8: frame count must be a whole number"},
+      {"HIERARCHY\nROOT A\n{\nOFFSET 0 0 0\nCHANNELS 1 Xrotation\n}\nMOTION\nFrames: 1\nFrame Time: 1\n0 x\n",
+       "t.bvh:10: frame 0: expected a number in column 2, got 'x'"},
       {"HIERARCHY\nROOT A\n{\nOFFSET 0 0 0\nCHANNELS 0\nWHAT\n}\n", "t.bvh:6: unexpected 'WHAT' in joint 'A'"},
   };
   for (const Case& c : cases) {
@@ -211,8 +219,10 @@ TEST(Bvh, OtherStructuralErrorsNameTheirLine) {
 }
 
 TEST(Bvh, BracesMayShareALineAndFramesMayBeEmpty) {
-  auto r = parse_bvh("HIERARCHY\nROOT Hips {\n OFFSET 0 0 0\n CHANNELS 3 Xposition Yposition Zposition\n End Site { OFFSET 0 1 0 }\n}\nMOTION\nFrames:0\nFrame Time: 0.5\n",
-                     "b.bvh");
+  auto r = parse_bvh(
+      "HIERARCHY\nROOT Hips {\n OFFSET 0 0 0\n CHANNELS 3 Xposition Yposition Zposition\n End Site { OFFSET 0 1 0 "
+      "}\n}\nMOTION\nFrames:0\nFrame Time: 0.5\n",
+      "b.bvh");
   ASSERT_TRUE(r) << r.error().what();
   EXPECT_EQ(r->frame_count, 0);
   EXPECT_EQ(r->joints[0].end_sites.size(), 1u);

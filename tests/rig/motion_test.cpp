@@ -117,7 +117,8 @@ TEST(Motion, IdleStandsRelaxedWithFeetPlanted) {
       const glm::vec3 toes_dir = w[s.find_joint(foot)].rotation * glm::vec3(0, 0, 1);
       EXPECT_GT(toes_dir.z, std::cos(glm::radians(1.0f))) << foot << " keeps pointing ahead, t=" << t;
     }
-    const glm::vec3 arm = glm::normalize(w[s.find_joint("l_elbow")].translation - w[s.find_joint("l_shoulder")].translation);
+    const glm::vec3 arm =
+        glm::normalize(w[s.find_joint("l_elbow")].translation - w[s.find_joint("l_shoulder")].translation);
     EXPECT_LT(arm.y, -0.9f) << "arms hang down";
     EXPECT_GT(glm::degrees(p.dof_rad[s.find_dof("l_elbow_flexion")]), 5.0f);
     const float chest = p.dof_rad[s.find_dof("spine_upper_flexion")];

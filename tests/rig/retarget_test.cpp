@@ -42,7 +42,8 @@ TEST(Retarget, EverySharedClipMatchesItsOwnJointPositionsWithin1cm) {
     ASSERT_EQ(static_cast<int>(r->poses.size()), clip->frame_count);
     EXPECT_DOUBLE_EQ(r->frame_time_s, clip->frame_time_s);
     const ClipError e = max_joint_error(*clip, *r);
-    std::printf("  %s: %d frames, max joint error %.3f mm (%s)\n", id, clip->frame_count, e.max_m * 1000, e.where.c_str());
+    std::printf("  %s: %d frames, max joint error %.3f mm (%s)\n", id, clip->frame_count, e.max_m * 1000,
+                e.where.c_str());
     EXPECT_LT(e.max_m, 0.01) << id << " at " << e.where;
   }
 }
@@ -208,7 +209,8 @@ TEST(Retarget, ExportedClipsRetargetBackToTheSamePositions) {
     std::printf("  %s round trip: max joint difference %.4f mm over %zu frames\n", id, worst * 1000, r->poses.size());
     EXPECT_LT(worst, 0.001) << id;
     for (int j = 0; j < r->skeleton.joint_count(); ++j)
-      EXPECT_LT(glm::length(r->skeleton.offset_m(j) - r2->skeleton.offset_m(j)), 1e-5f) << id << " " << r->skeleton.joint_name(j);
+      EXPECT_LT(glm::length(r->skeleton.offset_m(j) - r2->skeleton.offset_m(j)), 1e-5f)
+          << id << " " << r->skeleton.joint_name(j);
   }
 }
 
@@ -230,14 +232,18 @@ TEST(Retarget, TransferPoseScalesTheRootToTheOtherBody) {
   std::vector<RigidTransform> wa(r->skeleton.joint_count()), wb(body->joint_count());
   forward_kinematics(r->skeleton, src, wa);
   forward_kinematics(*body, p, wb);
-  const float fa = std::min(wa[r->skeleton.find_joint("l_ankle")].translation.y, wa[r->skeleton.find_joint("r_ankle")].translation.y);
-  const float fb = std::min(wb[body->find_joint("l_ankle")].translation.y, wb[body->find_joint("r_ankle")].translation.y);
+  const float fa = std::min(wa[r->skeleton.find_joint("l_ankle")].translation.y,
+                            wa[r->skeleton.find_joint("r_ankle")].translation.y);
+  const float fb =
+      std::min(wb[body->find_joint("l_ankle")].translation.y, wb[body->find_joint("r_ankle")].translation.y);
   EXPECT_NEAR(fa, fb, 0.03f);
 }
 
 TEST(Retarget, RejectsUnknownSkeletonsAndEmptyClips) {
-  auto clip = parse_bvh("HIERARCHY\nROOT Hips\n{\nOFFSET 0 0 0\nCHANNELS 3 Zrotation Yrotation Xrotation\n}\nMOTION\nFrames: 1\nFrame Time: 0.1\n0 0 0\n",
-                        "tiny.bvh");
+  auto clip = parse_bvh(
+      "HIERARCHY\nROOT Hips\n{\nOFFSET 0 0 0\nCHANNELS 3 Zrotation Yrotation Xrotation\n}\nMOTION\nFrames: 1\nFrame "
+      "Time: 0.1\n0 0 0\n",
+      "tiny.bvh");
   ASSERT_TRUE(clip);
   auto r = retarget_bvh(*clip);
   ASSERT_FALSE(r);
@@ -262,7 +268,8 @@ TEST(BvhMotion, PlaysTheClipWithInterpolation) {
   motion.sample(10.5 * 0.0083333, p);
   for (size_t i = 0; i < p.dof_rad.size(); ++i)
     EXPECT_NEAR(p.dof_rad[i], 0.5f * (r->poses[10].dof_rad[i] + r->poses[11].dof_rad[i]), 1e-5);
-  EXPECT_LT(glm::length(p.root_position_m - 0.5f * (r->poses[10].root_position_m + r->poses[11].root_position_m)), 1e-5f);
+  EXPECT_LT(glm::length(p.root_position_m - 0.5f * (r->poses[10].root_position_m + r->poses[11].root_position_m)),
+            1e-5f);
   motion.sample(1e9, p);  // clamped to the last frame
   EXPECT_LT(glm::length(p.root_position_m - r->poses.back().root_position_m), 1e-6f);
   motion.sample(-5, p);

@@ -22,12 +22,11 @@ glm::vec3 joint_pos(const Skeleton& s, const Pose& p, const char* name) {
 
 TEST(Skeleton, DefaultHasTheRequiredJointsAndDofs) {
   const Skeleton s = default_skeleton();
-  for (const char* j : {"pelvis", "spine_lower", "spine_mid", "spine_upper", "neck", "head",
-                        "l_clavicle", "r_clavicle", "l_shoulder", "l_elbow", "l_wrist", "l_hip",
-                        "l_knee", "l_ankle", "l_toes", "r_toes"})
+  for (const char* j : {"pelvis", "spine_lower", "spine_mid", "spine_upper", "neck", "head", "l_clavicle", "r_clavicle",
+                        "l_shoulder", "l_elbow", "l_wrist", "l_hip", "l_knee", "l_ankle", "l_toes", "r_toes"})
     EXPECT_GE(s.find_joint(j), 0) << j;
-  for (const char* d : {"l_elbow_flexion", "r_shoulder_abduction", "l_forearm_twist",
-                        "l_shoulder_flexion", "l_shoulder_twist", "r_hip_rotation", "l_knee_flexion"})
+  for (const char* d : {"l_elbow_flexion", "r_shoulder_abduction", "l_forearm_twist", "l_shoulder_flexion",
+                        "l_shoulder_twist", "r_hip_rotation", "l_knee_flexion"})
     EXPECT_GE(s.find_dof(d), 0) << d;
   EXPECT_EQ(s.dof_begin(s.find_joint("l_shoulder")) + 3, s.dof_end(s.find_joint("l_shoulder")));
   EXPECT_EQ(s.dof_begin(s.find_joint("l_hip")) + 3, s.dof_end(s.find_joint("l_hip")));

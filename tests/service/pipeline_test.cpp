@@ -56,8 +56,8 @@ class RecordingSink final : public PoseSink {
   Status add_avatar(AvatarJoin&) override { return {}; }
   bool send(const FrameOut& f) noexcept override {
     if (count < frames.size())
-      frames[count] = {f.header.sequence, f.header.flags, f.header.time_us, f.packet.size(), f.samples.size(),
-                       f.stale_repeat};
+      frames[count] = {f.header.sequence, f.header.flags,   f.header.time_us,
+                       f.packet.size(),   f.samples.size(), f.stale_repeat};
     ++count;
     return true;
   }
@@ -79,7 +79,7 @@ class RecordingSink final : public PoseSink {
 struct Rig {
   std::shared_ptr<ManualClock> clock = std::make_shared<ManualClock>(100.0);
   std::shared_ptr<ScriptedTracker::Shared> tracker = std::make_shared<ScriptedTracker::Shared>();
-  RecordingSink* stream = nullptr;  // forwards stale repeats (as the scene server does)
+  RecordingSink* stream = nullptr;     // forwards stale repeats (as the scene server does)
   RecordingSink* live_only = nullptr;  // does not (as VMC and VRPN)
   std::unique_ptr<Pipeline> pipeline;
   std::vector<devices::SensorSample> cycle;  // the six sensors of the standard layout at rest

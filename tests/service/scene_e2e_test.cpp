@@ -32,7 +32,9 @@ std::map<uint16_t, std::vector<glm::vec3>> watch(const std::string& endpoint, do
   auto client = mimic::net::Client::connect(o);
   EXPECT_TRUE(client) << (client ? "" : client.error().what());
   if (!client) return track;
-  (*client)->on_pose = [&](const mimic::net::RemoteAvatar& a, uint64_t) { track[a.id].push_back(a.pose.root_position_m); };
+  (*client)->on_pose = [&](const mimic::net::RemoteAvatar& a, uint64_t) {
+    track[a.id].push_back(a.pose.root_position_m);
+  };
   (*client)->run_until(Clock::now() + std::chrono::milliseconds(static_cast<int>(seconds * 1000)));
   return track;
 }
@@ -64,8 +66,9 @@ TEST(SceneE2e, ActorsWalkTheRoomKeepApartAndFollow) {
   EXPECT_NEAR(tracks[0]->back().z, 1.5f, 0.3f);
   EXPECT_GT(path_m(*tracks[1]), 3.0f);
   // The follower ends up near the participant (it started 3 m away and walks at ~1 m/s).
-  EXPECT_LT(glm::length(glm::vec2(tracks[2]->back().x - tracks[0]->back().x, tracks[2]->back().z - tracks[0]->back().z)),
-            2.6f);
+  EXPECT_LT(
+      glm::length(glm::vec2(tracks[2]->back().x - tracks[0]->back().x, tracks[2]->back().z - tracks[0]->back().z)),
+      2.6f);
   // Nobody walks into anybody: frames of different avatars at about the same index.
   float closest = 1e9f;
   const size_t n = std::min({tracks[0]->size(), tracks[1]->size(), tracks[2]->size(), tracks[3]->size()});
@@ -102,8 +105,8 @@ TEST(SceneE2e, BodiesOfEverySizeStandOnTheFloor) {
   // was sent with the poses it gets finds the soles on the floor, tall or small, standing or
   // walking (solved on the default skeleton instead, the tall body sank ~0.2 m, the child floated).
   mimic::test::Child run({mimic::test::mimic_binary(), "run", "--listen", "127.0.0.1:0", "--source", "sim:idle",
-                          "--body", "preset:tall", "--source", "sim:idle?seed=2", "--body", "preset:child",
-                          "--source", "actor:wander", "--body", "preset:heavy", "--duration", "20", "--quiet"});
+                          "--body", "preset:tall", "--source", "sim:idle?seed=2", "--body", "preset:child", "--source",
+                          "actor:wander", "--body", "preset:heavy", "--duration", "20", "--quiet"});
   const std::string ep = endpoint_of(run);
   ASSERT_FALSE(ep.empty());
   mimic::net::ClientOptions o;

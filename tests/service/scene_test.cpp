@@ -105,7 +105,7 @@ TEST(Actors, WanderersStayInTheRoomAndKeepApart) {
       for (int j = i + 1; j < roster.size(); ++j)
         closest_m = std::min(closest_m, glm::length(roster.position(i) - roster.position(j)));
   }
-  EXPECT_GT(closest_m, 0.45f);                 // nobody walks into anybody
+  EXPECT_GT(closest_m, 0.45f);                    // nobody walks into anybody
   EXPECT_GT(travelled_m, 4 * 300 * 1.1f * 0.4f);  // and they do walk, most of the time
 }
 

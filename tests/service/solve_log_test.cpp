@@ -21,8 +21,8 @@ namespace {
 std::string recorded_walk(double seconds) {
   const std::string path =
       (std::filesystem::temp_directory_path() / ("mimic_solve_log_" + std::to_string(::getpid()) + ".mlog")).string();
-  const test::Outcome r = test::run_mimic("record --source 'sim:walk?sensors=all' --duration " + std::to_string(seconds) +
-                                          " --out '" + path + "'");
+  const test::Outcome r = test::run_mimic("record --source 'sim:walk?sensors=all' --duration " +
+                                          std::to_string(seconds) + " --out '" + path + "'");
   EXPECT_EQ(r.status, 0) << r.output;
   return path;
 }

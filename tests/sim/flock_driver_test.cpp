@@ -353,7 +353,8 @@ TEST(FlockDriver, ClearErrorsWhenNothingAnswers) {
 }
 
 TEST(FlockDriver, ConfigFromSourceSpec) {
-  auto spec = parse_source_spec("flock:/dev/ttyS3?birds=4&baud=38400&format=pos_matrix&mode=point&hemisphere=lower&erc=1");
+  auto spec =
+      parse_source_spec("flock:/dev/ttyS3?birds=4&baud=38400&format=pos_matrix&mode=point&hemisphere=lower&erc=1");
   ASSERT_TRUE(spec);
   auto c = flock_config_from_spec(*spec);
   ASSERT_TRUE(c) << c.error().what();

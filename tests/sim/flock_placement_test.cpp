@@ -55,7 +55,7 @@ TEST(FlockPlacement, WalkNeedsTheExtendedRangeAndStaysInFront) {
   }
   EXPECT_NEAR(max_axis, needed_m, 1e-5);
   EXPECT_NEAR(min_z, 0.1, 1e-5);  // the margin behind the rearmost sample
-  EXPECT_NEAR(at.x, 0.0, 0.2);     // centred on the circle across
+  EXPECT_NEAR(at.x, 0.0, 0.2);    // centred on the circle across
 }
 
 TEST(FlockPlacement, StandingBodyFitsTheStandardRange) {

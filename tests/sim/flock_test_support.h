@@ -37,9 +37,7 @@ class RawHost {
     if (fd_ >= 0) ::close(fd_);
   }
   bool ok() const { return fd_ >= 0; }
-  void send(const std::vector<uint8_t>& bytes) {
-    [[maybe_unused]] auto n = ::write(fd_, bytes.data(), bytes.size());
-  }
+  void send(const std::vector<uint8_t>& bytes) { [[maybe_unused]] auto n = ::write(fd_, bytes.data(), bytes.size()); }
   // Reads until `n` bytes arrived or `timeout` passed.
   std::vector<uint8_t> read(size_t n, std::chrono::milliseconds timeout = std::chrono::milliseconds(500)) {
     std::vector<uint8_t> out;
@@ -69,8 +67,8 @@ inline devices::SensorSample static_pose(int bird) {
   devices::SensorSample s;
   s.position_m = glm::vec3(0.05f * static_cast<float>(bird) - 0.1f, 0.2f - 0.03f * static_cast<float>(bird),
                            0.3f + 0.04f * static_cast<float>(bird));
-  s.orientation = glm::normalize(glm::angleAxis(0.3f + 0.2f * static_cast<float>(bird),
-                                                glm::normalize(glm::vec3(1.0f, 2.0f, 0.5f + static_cast<float>(bird)))));
+  s.orientation = glm::normalize(glm::angleAxis(
+      0.3f + 0.2f * static_cast<float>(bird), glm::normalize(glm::vec3(1.0f, 2.0f, 0.5f + static_cast<float>(bird)))));
   s.buttons = (bird % 2) ? 0x10u : 0u;
   return s;
 }

@@ -210,7 +210,7 @@ struct SmallLog {
   std::vector<uint8_t> bytes;
   std::vector<size_t> record_ends;  // end offset of every record (header first)
   std::vector<SensorSample> samples;
-  std::vector<int> samples_after;   // samples complete once record k is complete
+  std::vector<int> samples_after;  // samples complete once record k is complete
 };
 
 SmallLog small_log() {
@@ -477,7 +477,8 @@ std::vector<uint8_t> make_golden_log() {
   h.seed = c.seed;
   h.rate_hz = c.rate_hz;
   for (size_t i = 0; i < c.sensors.size(); ++i)
-    h.sensors.push_back({static_cast<uint16_t>(i), c.sensors[i].name, c.sensors[i].segment, c.sensors[i].segment_from_sensor});
+    h.sensors.push_back(
+        {static_cast<uint16_t>(i), c.sensors[i].name, c.sensors[i].segment, c.sensors[i].segment_from_sensor});
   std::vector<uint8_t> out;
   encode_log_prefix(h, out);
   std::vector<SensorSample> tick(3);
@@ -504,7 +505,8 @@ TEST(GoldenLog, VersionOneLogStillReadsTheSame) {
   const fs::path mlog = golden_dir() / "golden_v1.mlog", csv = golden_dir() / "golden_v1.csv";
   if (std::getenv("MIMIC_REGENERATE_GOLDEN")) {
     const auto bytes = make_golden_log();
-    ASSERT_TRUE(write_file_atomic(mlog.string(), std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size())));
+    ASSERT_TRUE(
+        write_file_atomic(mlog.string(), std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size())));
     ASSERT_TRUE(write_file_atomic(csv.string(), csv_of(decode_log(bytes).value())));
   }
   auto log = read_log(mlog.string());

@@ -59,7 +59,8 @@ TEST(RawByteRecorder, KeepsBothDirectionsInOrderThroughTheLog) {
   rec.on_bytes(true, b, 1.1);
   rec.on_bytes(true, c, 1.1005);  // the same burst: one chunk
   EXPECT_EQ(rec.bytes_seen(), 6u);
-  const std::string path = (std::filesystem::temp_directory_path() / ("raw_rec_" + std::to_string(::getpid()) + ".mlog")).string();
+  const std::string path =
+      (std::filesystem::temp_directory_path() / ("raw_rec_" + std::to_string(::getpid()) + ".mlog")).string();
   LogHeader h;
   h.source = "flock:/dev/null";
   h.sensors.push_back({1, "bird1", "", {}});
@@ -103,7 +104,8 @@ TEST(RecordedSerialDevice, ReplaysAFlockSessionToTheDriverSampleForSample) {
   (*flock)->stop();
   ASSERT_GE(recorded.size(), 90u);
   {
-    const std::string path = (std::filesystem::temp_directory_path() / ("raw_flock_" + std::to_string(::getpid()) + ".mlog")).string();
+    const std::string path =
+        (std::filesystem::temp_directory_path() / ("raw_flock_" + std::to_string(::getpid()) + ".mlog")).string();
     LogHeader h;
     h.source = "flock:x?birds=3";
     h.sensors.push_back({1, "bird1", "", {}});
@@ -137,7 +139,8 @@ TEST(RecordedSerialDevice, ReplaysAFlockSessionToTheDriverSampleForSample) {
     // Everything is sent; the driver may still be decoding it (a loaded machine): take what it
     // gives until it has given nothing for 300 ms.
     for (auto last = std::chrono::steady_clock::now();
-         std::chrono::steady_clock::now() - last < std::chrono::milliseconds(300) && std::chrono::steady_clock::now() < until;) {
+         std::chrono::steady_clock::now() - last < std::chrono::milliseconds(300) &&
+         std::chrono::steady_clock::now() < until;) {
       const size_t n = driver.poll(buf);
       if (n > 0) last = std::chrono::steady_clock::now();
       got.insert(got.end(), buf.begin(), buf.begin() + static_cast<long>(n));
@@ -164,7 +167,8 @@ TEST(RecordedSerialDevice, ReplaysAFlockSessionToTheDriverSampleForSample) {
   const auto changed = replay(tampered);
   size_t differing = 0;
   for (size_t i = 0; i < std::min(changed.size(), again.size()); ++i)
-    differing += (changed[i].position_m != again[i].position_m || changed[i].orientation != again[i].orientation) ? 1 : 0;
+    differing +=
+        (changed[i].position_m != again[i].position_m || changed[i].orientation != again[i].orientation) ? 1 : 0;
   EXPECT_GE(differing, 1u);
 }
 

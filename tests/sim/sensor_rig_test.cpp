@@ -163,9 +163,11 @@ TEST(SensorRig, TruePoseIsForwardKinematicsComposedWithTheMount) {
       EXPECT_LT(glm::length(truth.translation - expect_p), 1e-5f);
       EXPECT_GT(std::abs(glm::dot(truth.rotation, expect_q)), 1.0f - 1e-6f);
       // No faults configured: the sample is the truth seen from the reference frame.
-      const glm::vec3 ref_p = glm::inverse(c.world_from_reference.rotation) * (expect_p - c.world_from_reference.translation);
+      const glm::vec3 ref_p =
+          glm::inverse(c.world_from_reference.rotation) * (expect_p - c.world_from_reference.translation);
       EXPECT_LT(glm::length(out[i].position_m - ref_p), 1e-5f);
-      EXPECT_GT(std::abs(glm::dot(out[i].orientation, glm::inverse(c.world_from_reference.rotation) * expect_q)), 1.0f - 1e-6f);
+      EXPECT_GT(std::abs(glm::dot(out[i].orientation, glm::inverse(c.world_from_reference.rotation) * expect_q)),
+                1.0f - 1e-6f);
       EXPECT_EQ(out[i].flags, devices::kSampleValid);
       EXPECT_EQ(out[i].sensor, i);
     }
@@ -188,7 +190,8 @@ TEST(SensorRig, NoiseStatisticsMatchTheConfiguration) {
     for (int i = 0; i < 11; ++i) {
       const auto& truth = rig.true_reference_from_sensor(i);
       const glm::dvec3 e_mm = glm::dvec3(out[i].position_m - truth.translation) * 1000.0;
-      const glm::dvec3 e_deg = rotation_vector(glm::inverse(truth.rotation) * out[i].orientation) * (180.0 / 3.14159265358979);
+      const glm::dvec3 e_deg =
+          rotation_vector(glm::inverse(truth.rotation) * out[i].orientation) * (180.0 / 3.14159265358979);
       sum_p += e_mm;
       sum_p2 += e_mm * e_mm;
       sum_r += e_deg;

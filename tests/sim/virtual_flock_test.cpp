@@ -92,8 +92,8 @@ TEST(VirtualFlock, PointRecordIsTheWorkedExampleOfTheManual) {
   // roll -45 -> 80 20 00 70 00 08 00 20 00 00 00 70 02.
   VirtualFlockConfig cfg = test::fast_sim(2);
   cfg.provider = [](double, int, devices::SensorSample& out) {
-    const fl::Measurement m = fl::measurement_from_pose(
-        glm::dvec3(18, -9, 4.5), fl::transmitter_from_sensor_from_angles({90, 0, -45}));
+    const fl::Measurement m =
+        fl::measurement_from_pose(glm::dvec3(18, -9, 4.5), fl::transmitter_from_sensor_from_angles({90, 0, -45}));
     const glm::dmat3 c = fl::mimic_from_flock();
     out.position_m = glm::vec3(c * m.position_in * 0.0254);
     out.orientation = glm::quat(glm::quat_cast(c * glm::transpose(m.matrix) * glm::transpose(c)));
@@ -122,7 +122,7 @@ TEST(VirtualFlock, FlockNeedsAutoConfigurationAndReportsItsUnits) {
   EXPECT_EQ(fs[0], fl::kUnitAccessible | fl::kUnitErc | fl::kUnitTransmitter);  // not running yet
   EXPECT_EQ(fs[1], fl::kUnitAccessible | fl::kUnitSensor);
   EXPECT_EQ(fs[4], 0);  // nobody at address 5
-  h.send({'B'});  // not configured: no record (drivers send B first just to stop a stream)
+  h.send({'B'});        // not configured: no record (drivers send B first just to stop a stream)
   EXPECT_TRUE(h.drain(80ms).empty());
   EXPECT_EQ(examine(h, fl::param::kErrorCode), (Bytes{0}));
   h.send({'@'});  // streaming needs a configured flock: error 8 (no birds active)
@@ -341,7 +341,8 @@ TEST(VirtualFlock, BuiltinMotionMovesAndStaysInRange) {
     EXPECT_TRUE(fl::in_hemisphere(fl::Hemisphere::forward, m.position_in)) << bird;
     EXPECT_LT(glm::length(m.position_in), 72.0) << bird;
     if (bird != 0) {
-      EXPECT_GT(glm::length(a.position_m - b.position_m) + (1.0f - std::abs(glm::dot(a.orientation, b.orientation))), 1e-4f)
+      EXPECT_GT(glm::length(a.position_m - b.position_m) + (1.0f - std::abs(glm::dot(a.orientation, b.orientation))),
+                1e-4f)
           << bird;
     }
   }

@@ -130,11 +130,14 @@ TEST(VirtualMagellan, DriverOverPty) {
   auto source = mimic::devices::make_magellan_source(fast_driver((*server)->path()));
   ASSERT_TRUE(source->start());
   InputFrame f;
-  ASSERT_TRUE(wait_until([&] {
-    InputFrame g;
-    if (source->poll(g)) f = g;
-    return f.translation.x != 0.0f && f.buttons != 0 && source->status().state == DeviceState::streaming;
-  }, 5.0)) << source->status().last_error;
+  ASSERT_TRUE(wait_until(
+      [&] {
+        InputFrame g;
+        if (source->poll(g)) f = g;
+        return f.translation.x != 0.0f && f.buttons != 0 && source->status().state == DeviceState::streaming;
+      },
+      5.0))
+      << source->status().last_error;
   const InputFrame want = constant_frame();
   for (int k = 0; k < 3; ++k) {
     EXPECT_NEAR(f.translation[k], want.translation[k], 1e-3f);
@@ -179,8 +182,7 @@ TEST(VirtualMagellan, DriverReconnectsWhenDeviceComesBack) {
   ASSERT_TRUE(wait_until([&] { return source->poll(f); }, 5.0));
   (*server)->set_muted(true);
   ASSERT_TRUE(wait_until([&] { return source->status().reconnects >= 1; }, 5.0));
-  while (source->poll(f)) {
-  }
+  while (source->poll(f)) {}
   (*server)->set_muted(false);
   ASSERT_TRUE(wait_until([&] { return source->poll(f); }, 5.0));
   ASSERT_TRUE(wait_until([&] { return source->status().state == DeviceState::streaming; }, 2.0));

@@ -191,8 +191,8 @@ TEST(VirtualSpaceball, ModelQueriesPerModel) {
     sb::Model model;
     std::string firmware;
   };
-  for (const auto& [model, fw] : {Case{sb::Model::sb2003, ""}, Case{sb::Model::sb3003, ""},
-                                  Case{sb::Model::sb4000flx, "2.42"}}) {
+  for (const auto& [model, fw] :
+       {Case{sb::Model::sb2003, ""}, Case{sb::Model::sb3003, ""}, Case{sb::Model::sb4000flx, "2.42"}}) {
     auto cfg = fast_config(model);
     cfg.firmware = fw;
     cfg.right_handed = false;
@@ -298,15 +298,17 @@ TEST_P(SpaceballOverPty, DriverReceivesWhatTheDeviceSends) {
 
   InputFrame f;
   bool got = false;
-  ASSERT_TRUE(wait_until([&] {
-    InputFrame g;
-    if (source->poll(g)) {
-      f = g;
-      got = true;
-    }
-    return got && f.buttons == 0x3u && f.translation.x != 0.0f &&
-           source->status().state == DeviceState::streaming;
-  }, 5.0)) << source->status().description << " / " << source->status().last_error;
+  ASSERT_TRUE(wait_until(
+      [&] {
+        InputFrame g;
+        if (source->poll(g)) {
+          f = g;
+          got = true;
+        }
+        return got && f.buttons == 0x3u && f.translation.x != 0.0f && source->status().state == DeviceState::streaming;
+      },
+      5.0))
+      << source->status().description << " / " << source->status().last_error;
   const InputFrame want = constant_frame();
   for (int k = 0; k < 3; ++k) {
     EXPECT_NEAR(f.translation[k], want.translation[k], 1e-3f);
@@ -350,8 +352,7 @@ TEST(SpaceballOverPtyRecovery, DeviceStopsAnsweringAndComesBack) {
   // Silence → probe → still silence → the port is reopened (and keeps being retried).
   ASSERT_TRUE(wait_until([&] { return source->status().reconnects >= 1; }, 5.0));
   EXPECT_NE(source->status().state, DeviceState::streaming);
-  while (source->poll(f)) {
-  }
+  while (source->poll(f)) {}
 
   (*server)->set_muted(false);
   ASSERT_TRUE(wait_until([&] { return source->poll(f); }, 5.0)) << source->status().last_error;
@@ -374,18 +375,21 @@ TEST(SpaceballOverPtyRecovery, DriverResyncsOnLineNoiseAndLostBytes) {
   // half-decoded.
   const InputFrame want = constant_frame();
   int frames = 0;
-  ASSERT_TRUE(wait_until([&] {
-    InputFrame g;
-    while (source->poll(g)) {
-      if (g.translation.x == 0.0f) continue;  // a K packet before the first D
-      ++frames;
-      for (int k = 0; k < 3; ++k) {
-        EXPECT_NEAR(g.translation[k], want.translation[k], 1e-3f);
-        EXPECT_NEAR(g.rotation[k], want.rotation[k], 1e-3f);
-      }
-    }
-    return frames >= 30 && source->status().resyncs >= 5;
-  }, 8.0)) << frames << " frames, " << source->status().resyncs << " resyncs";
+  ASSERT_TRUE(wait_until(
+      [&] {
+        InputFrame g;
+        while (source->poll(g)) {
+          if (g.translation.x == 0.0f) continue;  // a K packet before the first D
+          ++frames;
+          for (int k = 0; k < 3; ++k) {
+            EXPECT_NEAR(g.translation[k], want.translation[k], 1e-3f);
+            EXPECT_NEAR(g.rotation[k], want.rotation[k], 1e-3f);
+          }
+        }
+        return frames >= 30 && source->status().resyncs >= 5;
+      },
+      8.0))
+      << frames << " frames, " << source->status().resyncs << " resyncs";
   EXPECT_EQ(source->status().reconnects, 0u);
   source->stop();
 }

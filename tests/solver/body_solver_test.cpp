@@ -61,7 +61,8 @@ TEST(BodySolver, OneSensorPerSegmentRecoversEveryJoint) {
     }
     const auto wt = fk(f.skeleton, truth), ws = fk(f.skeleton, solved);
     for (int j = 0; j < f.skeleton.joint_count(); ++j)
-      EXPECT_LT(glm::length(wt[j].translation - ws[j].translation), 4e-3f) << f.skeleton.joint_name(j) << " trial " << trial;
+      EXPECT_LT(glm::length(wt[j].translation - ws[j].translation), 4e-3f)
+          << f.skeleton.joint_name(j) << " trial " << trial;
     expect_inside_limits(f.skeleton, solved);
   }
 }
@@ -109,14 +110,15 @@ TEST(BodySolver, SixSensorsReachTheEndEffectors) {
       SolveJob job{&f.model, samples, &ctx, &solved};
       ASSERT_TRUE(job.Run());
       float moved = glm::length(solved.root_position_m - before.root_position_m);
-      for (size_t k = 0; k < solved.dof_rad.size(); ++k) moved = std::max(moved, std::abs(solved.dof_rad[k] - before.dof_rad[k]));
+      for (size_t k = 0; k < solved.dof_rad.size(); ++k)
+        moved = std::max(moved, std::abs(solved.dof_rad[k] - before.dof_rad[k]));
       if (moved < 1e-6f) break;
     }
     const auto wt = fk(f.skeleton, truth), ws = fk(f.skeleton, solved);
     for (const char* e : effectors) {
       const int j = f.skeleton.find_joint(e);
-      EXPECT_LT(glm::length(wt[j].translation - ws[j].translation), 5e-3f) << e << " trial " << trial << " settled after "
-                                                                           << frame << " frames";
+      EXPECT_LT(glm::length(wt[j].translation - ws[j].translation), 5e-3f)
+          << e << " trial " << trial << " settled after " << frame << " frames";
       // The hand's orientation can need a twist the limits refuse under the solved (not the
       // true) clavicle and spine, which six sensors cannot see; mostly it is exact.
       const float dot = std::abs(glm::dot(wt[j].rotation, ws[j].rotation));
@@ -184,7 +186,7 @@ TEST(BodySolver, LegsNobodyTracksHangUnderTheHipsAboveTheFloor) {
   auto& model = h.model;
   auto& ctx = h.ctx;
   const float floor_ankle_y = standing_root_y - (fk(s, s.zero_pose())[0].translation.y -
-                                                fk(s, s.zero_pose())[s.find_joint("l_ankle")].translation.y);
+                                                 fk(s, s.zero_pose())[s.find_joint("l_ankle")].translation.y);
   for (const float drop_m : {0.0f, 0.25f}) {
     Pose truth = s.zero_pose();
     truth.root_orientation = glm::angleAxis(0.7f, glm::vec3(0, 1, 0));
@@ -307,7 +309,8 @@ TEST(BodySolver, WarmStartedSequenceHasNoJumps) {
     if (k < 2) continue;
     const auto w0 = fk(f.skeleton, previous), w1 = fk(f.skeleton, solved);
     for (int j = 0; j < f.skeleton.joint_count(); ++j)
-      EXPECT_LT(glm::length(w1[j].translation - w0[j].translation), 0.05f) << f.skeleton.joint_name(j) << " frame " << k;
+      EXPECT_LT(glm::length(w1[j].translation - w0[j].translation), 0.05f)
+          << f.skeleton.joint_name(j) << " frame " << k;
   }
 }
 

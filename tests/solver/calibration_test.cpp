@@ -65,7 +65,9 @@ TEST(Calibration, RecoversKnownOffsetsFromASimulatedTPose) {
       EXPECT_EQ(cal->sensors[i].segment, mounts[i].segment);
       EXPECT_LT(angle_deg(cal->sensors[i].segment_from_sensor.rotation, mounts[i].segment_from_sensor.rotation), 3.0f)
           << layout_name << " " << cal->sensors[i].name;
-      EXPECT_LT(glm::length(cal->sensors[i].segment_from_sensor.translation - mounts[i].segment_from_sensor.translation), 0.03f)
+      EXPECT_LT(
+          glm::length(cal->sensors[i].segment_from_sensor.translation - mounts[i].segment_from_sensor.translation),
+          0.03f)
           << layout_name << " " << cal->sensors[i].name;
     }
     // The fitted skeleton has the wearer's limb lengths (within a centimetre or two).
@@ -92,7 +94,8 @@ TEST(Calibration, TrunkLeaningBackLeavesTheArmsStraight) {
   ASSERT_TRUE(cal) << cal.error().what();
   for (size_t i = 0; i < mounts.size(); ++i) {
     if (cal->sensors[i].segment.find("wrist") == std::string::npos) continue;
-    const float turned = angle_deg(cal->sensors[i].segment_from_sensor.rotation, mounts[i].segment_from_sensor.rotation);
+    const float turned =
+        angle_deg(cal->sensors[i].segment_from_sensor.rotation, mounts[i].segment_from_sensor.rotation);
     const float moved = glm::length(cal->sensors[i].segment_from_sensor.inverse().translation -
                                     mounts[i].segment_from_sensor.inverse().translation);
     std::printf("  %s: strap turned %.2f deg, wrist %.1f mm off\n", cal->sensors[i].name.c_str(), turned, 1000 * moved);
@@ -122,11 +125,14 @@ TEST(Calibration, CalibratedSolverReproducesTheStandingPose) {
   forward_kinematics(model->skeleton(), solved, ws);
   forward_kinematics(w.skeleton, w.pose, wt);
   for (const char* j : {"pelvis", "head", "l_wrist", "r_wrist", "l_ankle", "r_ankle", "r_knee"}) {
-    EXPECT_LT(glm::length(ws[model->skeleton().find_joint(j)].translation - wt[w.skeleton.find_joint(j)].translation), 0.02f) << j;
+    EXPECT_LT(glm::length(ws[model->skeleton().find_joint(j)].translation - wt[w.skeleton.find_joint(j)].translation),
+              0.02f)
+        << j;
   }
   // Where the elbow sits along the arm a stand-still cannot show (anthropometric split).
   EXPECT_LT(glm::length(ws[model->skeleton().find_joint("l_elbow")].translation -
-                        wt[w.skeleton.find_joint("l_elbow")].translation), 0.04f);
+                        wt[w.skeleton.find_joint("l_elbow")].translation),
+            0.04f);
 }
 
 TEST(Calibration, RefusesAMissingSensorNamingIt) {
@@ -178,8 +184,11 @@ TEST(Calibration, JsonRoundTrip) {
   }
   ASSERT_EQ(back->sensors.size(), cal->sensors.size());
   for (size_t i = 0; i < cal->sensors.size(); ++i) {
-    EXPECT_LT(glm::length(back->sensors[i].segment_from_sensor.translation - cal->sensors[i].segment_from_sensor.translation), 1e-6f);
-    EXPECT_LT(angle_deg(back->sensors[i].segment_from_sensor.rotation, cal->sensors[i].segment_from_sensor.rotation), 1e-3f);
+    EXPECT_LT(
+        glm::length(back->sensors[i].segment_from_sensor.translation - cal->sensors[i].segment_from_sensor.translation),
+        1e-6f);
+    EXPECT_LT(angle_deg(back->sensors[i].segment_from_sensor.rotation, cal->sensors[i].segment_from_sensor.rotation),
+              1e-3f);
   }
   EXPECT_FLOAT_EQ(back->standing_root_y_m, cal->standing_root_y_m);
   EXPECT_FLOAT_EQ(back->floor_y_m, cal->floor_y_m);
@@ -237,7 +246,8 @@ TEST(TrackingSkeleton, UnmarkedJointsFollowTheMotionCaptureConvention) {
     EXPECT_EQ(glm::length(s.offset_m(s.find_joint(at_parent))), 0.0f) << at_parent;
   // Limbs untouched in length where a stand-still measures them, hips below the root.
   const float leg = glm::length(s.offset_m(s.find_joint("l_knee"))) + glm::length(s.offset_m(s.find_joint("l_ankle")));
-  EXPECT_NEAR(leg, glm::length(d.offset_m(d.find_joint("l_knee"))) + glm::length(d.offset_m(d.find_joint("l_ankle"))), 1e-5f);
+  EXPECT_NEAR(leg, glm::length(d.offset_m(d.find_joint("l_knee"))) + glm::length(d.offset_m(d.find_joint("l_ankle"))),
+              1e-5f);
   EXPECT_LT(s.offset_m(s.find_joint("l_hip")).y, -0.08f);
   // The solver accepts it (straight limbs, bend axes across them).
   EXPECT_TRUE(SolverModel::create(s, {}));
@@ -250,14 +260,15 @@ void mid_link_calibration_places_the_wearers_joints(CalibrationPose calibration_
   auto desc = tracking_skeleton_desc();
   for (auto& j : desc.joints) {  // a wearer 6 % taller, long-legged, with a short neck
     const float k = j.name.find("knee") != std::string::npos || j.name.find("ankle") != std::string::npos ? 1.12f
-                    : j.name == "neck_upper" || j.name == "head"                                         ? 0.85f
-                                                                                                         : 1.06f;
+                    : j.name == "neck_upper" || j.name == "head"                                          ? 0.85f
+                                                                                                          : 1.06f;
     j.offset_m *= k;
     j.tip_m *= k;
   }
   for (auto& j : desc.joints)  // tips follow the links they lie along
     for (const auto& c : desc.joints)
-      if (c.parent == j.name && glm::length(c.offset_m) > 1e-4f && std::abs(glm::dot(glm::normalize(c.offset_m), glm::normalize(j.tip_m)) - 1.0f) < 1e-3f)
+      if (c.parent == j.name && glm::length(c.offset_m) > 1e-4f &&
+          std::abs(glm::dot(glm::normalize(c.offset_m), glm::normalize(j.tip_m)) - 1.0f) < 1e-3f)
         j.tip_m = c.offset_m;
   Wearer w(1.0f, 20.0f);
   w.skeleton = *Skeleton::build(desc);

@@ -25,8 +25,8 @@ struct ClipEvalConfig {
   float noise_mm = 1.0f;
   float noise_deg = 0.5f;
   float mount_tilt_deg = 20.0f;
-  int first_frame = 1;   // frame 0 is the T-pose
-  int max_frames = -1;   // all
+  int first_frame = 1;  // frame 0 is the T-pose
+  int max_frames = -1;  // all
   int stride = 1;
   uint64_t seed = 1;
   bool filter = true;
@@ -73,7 +73,8 @@ inline ClipEval evaluate_clip(const rig::RetargetedClip& clip, const ClipEvalCon
   PoseErrorAccumulator acc(truth, model->skeleton());
   std::vector<rig::RigidTransform> wt(truth.joint_count()), ws(model->skeleton().joint_count());
   const int last = cfg.max_frames < 0 ? static_cast<int>(clip.poses.size())
-                                      : std::min<int>(static_cast<int>(clip.poses.size()), cfg.first_frame + cfg.max_frames * cfg.stride);
+                                      : std::min<int>(static_cast<int>(clip.poses.size()),
+                                                      cfg.first_frame + cfg.max_frames * cfg.stride);
   for (int f = cfg.first_frame; f < last; f += cfg.stride) {
     sense(truth, clip.poses[f], mounts, tick, &rng, noise_m, noise_rad, f * clip.frame_time_s);
     const auto t0 = std::chrono::steady_clock::now();

@@ -64,7 +64,8 @@ TEST(LeastSquaresIk, UnreachableTargetsStayFiniteAndInsideTheLimits) {
   LeastSquaresIkContext ctx(s, static_cast<int>(dofs.size()), 2);
   const int head = s.find_joint("head");
   // Far behind and below: the spine bends back as far as its limits allow, no further.
-  const IkTarget targets[] = {{head, glm::vec3(0, -1.0f, -2.0f), glm::angleAxis(3.0f, glm::vec3(0, 1, 0)), 10.0f, 1.0f}};
+  const IkTarget targets[] = {
+      {head, glm::vec3(0, -1.0f, -2.0f), glm::angleAxis(3.0f, glm::vec3(0, 1, 0)), 10.0f, 1.0f}};
   Pose p = s.zero_pose();
   LeastSquaresIkJob job;
   job.skeleton = &s;

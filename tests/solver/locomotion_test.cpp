@@ -139,8 +139,10 @@ TEST(Locomotion, WalkingFeetStepStayPlantedAndAboveTheFloor) {
       const bool in_reach = glm::length(hip - loco.feet[leg].ankle) < 0.999f * w.leg_m(leg);
       if (k > 30 && planted && was_planted[leg]) {
         const float slide_m = horizontal(w.ball(leg), last[leg]);
-        if (in_reach) worst_slide_m = std::max(worst_slide_m, slide_m);
-        else dragged_m += slide_m;
+        if (in_reach)
+          worst_slide_m = std::max(worst_slide_m, slide_m);
+        else
+          dragged_m += slide_m;
       }
       was_planted[leg] = planted;
       last[leg] = w.ball(leg);
@@ -152,10 +154,11 @@ TEST(Locomotion, WalkingFeetStepStayPlantedAndAboveTheFloor) {
     EXPECT_GE(w.ankle(1).y, floor_y - 1e-4f);
   }
   const auto& loco = w.ctx.locomotion();
-  std::printf("  walk: %ld steps in %.1f s, worst planted slide %.2f mm within reach (%.0f mm dragged out of "
-              "reach in all), lowest foot point %.1f mm below the flat foot's ankle, narrowest %.1f cm\n",
-              loco.steps, frames / kRateHz, 1000 * worst_slide_m, 1000 * dragged_m, 1000 * (floor_y - lowest_m),
-              100 * worst_cross_m);
+  std::printf(
+      "  walk: %ld steps in %.1f s, worst planted slide %.2f mm within reach (%.0f mm dragged out of "
+      "reach in all), lowest foot point %.1f mm below the flat foot's ankle, narrowest %.1f cm\n",
+      loco.steps, frames / kRateHz, 1000 * worst_slide_m, 1000 * dragged_m, 1000 * (floor_y - lowest_m),
+      100 * worst_cross_m);
   EXPECT_GE(loco.steps, 6);  // a walk of six seconds steps, about twice a second
   // (A few millimetres: a guessed foot's chain is clamped to the hip's and ankle's limits.)
   EXPECT_LT(worst_slide_m, 0.005f);
@@ -179,8 +182,10 @@ TEST(Locomotion, AFootWhoseSensorIsLostSteps) {
   for (int k = 0; k < int(5 * kRateHz); ++k) {
     (*walk)->sample(k / kRateHz, truth);
     const bool lost = k > kRateHz;
-    if (lost) w.step(truth, {l_foot});
-    else w.step(truth);
+    if (lost)
+      w.step(truth, {l_foot});
+    else
+      w.step(truth);
     EXPECT_EQ(w.ctx.locomotion().feet[0].driven, lost);
     EXPECT_FALSE(w.ctx.locomotion().feet[1].driven);
     EXPECT_GE(w.ankle(0).y, floor_y - 0.005f);

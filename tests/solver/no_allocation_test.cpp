@@ -27,7 +27,8 @@ TEST(NoAllocation, FilterAndSolveFramesForEveryLayout) {
     const rig::Pose a = testing::random_pose(s, rng, 0.4f), b = testing::random_pose(s, rng, 0.4f);
     for (int k = 0; k < 30; ++k) {
       rig::Pose p = a;
-      for (int d = 0; d < s.dof_count(); ++d) p.dof_rad[d] += (b.dof_rad[d] - a.dof_rad[d]) * static_cast<float>(k) / 30.0f;
+      for (int d = 0; d < s.dof_count(); ++d)
+        p.dof_rad[d] += (b.dof_rad[d] - a.dof_rad[d]) * static_cast<float>(k) / 30.0f;
       testing::sense(s, p, mounts, tick, &rng, 0.001f, 0.01f, 0.01 * k);
       frames.push_back(tick);
     }

@@ -80,7 +80,9 @@ TEST(PoseError, LagIsTheDelayBehindTheTruth) {
     acc.set_rate_hz(kRate);
     std::vector<RigidTransform> wt(s.joint_count()), ws(s.joint_count());
     Pose truth = s.zero_pose(), solved = s.zero_pose();
-    auto at = [](int k) { return glm::vec3(0.3f * std::sin(0.05f * static_cast<float>(k)), 0.9f, 0.01f * static_cast<float>(k)); };
+    auto at = [](int k) {
+      return glm::vec3(0.3f * std::sin(0.05f * static_cast<float>(k)), 0.9f, 0.01f * static_cast<float>(k));
+    };
     for (int k = 0; k < 200; ++k) {
       truth.root_position_m = at(k);
       solved.root_position_m = at(k - delay);

@@ -40,7 +40,7 @@ TEST(Steering, PushingAwayWalksForwardAtTheConfiguredSpeed) {
   c.max_speed_m_s = 2.0f;
   Steering s(c);
   for (int k = 0; k < 50; ++k) s.update(frame({0, 0, -1}), 0.02);  // 1 s at full deflection
-  EXPECT_NEAR(s.offset_m().z, 2.0f, 1e-4f);  // the avatar faces +Z
+  EXPECT_NEAR(s.offset_m().z, 2.0f, 1e-4f);                        // the avatar faces +Z
   EXPECT_NEAR(s.offset_m().x, 0.0f, 1e-6f);
   rig::Pose p = standing_at({1, 0.9f, 1});
   s.apply(p);
@@ -59,7 +59,7 @@ TEST(Steering, TwistingTurnsInPlaceAndWalkingFollowsTheHeading) {
   c.dead_zone = 0.0f;
   Steering s(c);
   rig::Pose p = standing_at({2, 0.9f, -1});
-  s.apply(p);  // latch the pivot where the wearer stands
+  s.apply(p);                                                                 // latch the pivot where the wearer stands
   for (int k = 0; k < 100; ++k) s.update(frame({0, 0, 0}, {0, 1, 0}), 0.01);  // 1 s: a quarter turn left
   EXPECT_NEAR(s.heading_rad(), glm::radians(90.0f), 1e-4f);
   p = standing_at({2, 0.9f, -1});

@@ -87,12 +87,12 @@ TEST(SwingTwist, NoFlipsWhenTurningPast180Degrees) {
 TEST(SwingTwist, GimbalLockKeepsThePreviousFirstAngle) {
   const std::array<glm::vec3, 3> axes{glm::vec3(1, 0, 0), glm::vec3(0, 1, 0), glm::vec3(0, 0, 1)};
   std::array<float, 3> angles{0.3f, 0.0f, 0.0f};
-  const glm::quat q = glm::angleAxis(0.3f, axes[0]) * glm::angleAxis(glm::radians(90.0f), axes[1]) *
-                      glm::angleAxis(0.2f, axes[2]);
+  const glm::quat q =
+      glm::angleAxis(0.3f, axes[0]) * glm::angleAxis(glm::radians(90.0f), axes[1]) * glm::angleAxis(0.2f, axes[2]);
   angles_from_rotation(q, axes, angles);
   for (float a : angles) EXPECT_TRUE(std::isfinite(a));
-  const glm::quat back = glm::angleAxis(angles[0], axes[0]) * glm::angleAxis(angles[1], axes[1]) *
-                         glm::angleAxis(angles[2], axes[2]);
+  const glm::quat back =
+      glm::angleAxis(angles[0], axes[0]) * glm::angleAxis(angles[1], axes[1]) * glm::angleAxis(angles[2], axes[2]);
   EXPECT_LT(quat_angle_deg(back, q), 0.1f);
   EXPECT_NEAR(angles[0], 0.3f, 1e-3f);
 }
@@ -100,8 +100,8 @@ TEST(SwingTwist, GimbalLockKeepsThePreviousFirstAngle) {
 TEST(SwingTwist, TwoAxesGiveTheNearestExpressibleRotation) {
   // Wrist: flexion about −Z then deviation about −Y, asked for a rotation with a twist on top.
   const std::array<glm::vec3, 2> axes{glm::vec3(0, 0, -1), glm::vec3(0, -1, 0)};
-  const glm::quat q = glm::angleAxis(0.5f, axes[0]) * glm::angleAxis(0.2f, axes[1]) *
-                      glm::angleAxis(0.3f, glm::vec3(1, 0, 0));
+  const glm::quat q =
+      glm::angleAxis(0.5f, axes[0]) * glm::angleAxis(0.2f, axes[1]) * glm::angleAxis(0.3f, glm::vec3(1, 0, 0));
   std::array<float, 2> a{0, 0};
   angles_from_rotation(q, axes, a);
   auto misfit = [&](float f, float d) {

@@ -32,8 +32,8 @@ inline std::vector<SensorMount> mounts_for(const SensorLayout& layout, float til
 }
 
 inline void sense(const rig::Skeleton& s, const rig::Pose& pose, const std::vector<SensorMount>& mounts,
-                  std::vector<devices::SensorSample>& out, std::mt19937_64* noise = nullptr,
-                  float noise_m = 0, float noise_rad = 0, double t_s = 0) {
+                  std::vector<devices::SensorSample>& out, std::mt19937_64* noise = nullptr, float noise_m = 0,
+                  float noise_rad = 0, double t_s = 0) {
   std::vector<rig::RigidTransform> w(s.joint_count());
   rig::forward_kinematics(s, pose, w);
   out.clear();
@@ -66,8 +66,8 @@ inline rig::Pose random_pose(const rig::Skeleton& s, std::mt19937_64& rng, float
     p.dof_rad[d] = lo + (hi - lo) * u(rng);
   }
   p.root_position_m = {4.0f * u(rng) - 2.0f, 0.8f + 0.2f * u(rng), 4.0f * u(rng) - 2.0f};
-  p.root_orientation = glm::angleAxis(6.28f * u(rng), glm::vec3(0, 1, 0)) *
-                       glm::angleAxis(0.3f * (u(rng) - 0.5f), glm::vec3(1, 0, 0));
+  p.root_orientation =
+      glm::angleAxis(6.28f * u(rng), glm::vec3(0, 1, 0)) * glm::angleAxis(0.3f * (u(rng) - 0.5f), glm::vec3(1, 0, 0));
   return p;
 }
 

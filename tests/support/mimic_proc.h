@@ -93,8 +93,7 @@ class Proc {
         exited_ = true;
         // Everything it wrote, to the end of both pipes (a chatty child leaves more than one
         // read's worth); bounded, should a grandchild hold the pipes open and keep writing.
-        for (int i = 0; i < 4096 && drain(0) > 0; ++i) {
-        }
+        for (int i = 0; i < 4096 && drain(0) > 0; ++i) {}
         return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
       }
     }

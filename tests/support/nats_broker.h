@@ -68,7 +68,8 @@ struct NatsAuth {
 
 // The users every test broker knows: publishers (their --nats-name) and the relays' user.
 inline const std::vector<std::string>& nats_test_publishers() {
-  static const std::vector<std::string> names = {"hostA", "hostB", "hostC", "hostK", "hostM", "hostT", "hostV", "hostX", "ghost", "mallory"};
+  static const std::vector<std::string> names = {"hostA", "hostB", "hostC", "hostK", "hostM",
+                                                 "hostT", "hostV", "hostX", "ghost", "mallory"};
   return names;
 }
 inline constexpr const char* kNatsRelayUser = "relay";
@@ -89,7 +90,8 @@ inline std::string nats_test_password(const std::string& user) {
 // MIMIC_NATS_PASSWORD_<USER>, as scripts/nats_auth_conf.sh names it.
 inline std::string nats_password_variable(const std::string& user) {
   std::string v = "MIMIC_NATS_PASSWORD_";
-  for (char c : user) v += (c >= 'a' && c <= 'z') ? char(c - 'a' + 'A') : ((c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9')) ? c : '_';
+  for (char c : user)
+    v += (c >= 'a' && c <= 'z') ? char(c - 'a' + 'A') : ((c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9')) ? c : '_';
   return v;
 }
 // nats://USER:PASSWORD@HOST:PORT for each address of a comma-separated list.
@@ -134,7 +136,8 @@ class NatsBroker {
       c << "listen: 127.0.0.1:" << port << "\n";
       c << "jetstream { store_dir: \"" << dir_ << "/js\" }\n";
       if (!auth.token.empty()) c << "authorization { token: \"" << auth.token << "\" }\n";
-      if (!auth.user.empty()) c << "authorization { user: \"" << auth.user << "\", password: \"" << auth.password << "\" }\n";
+      if (!auth.user.empty())
+        c << "authorization { user: \"" << auth.user << "\", password: \"" << auth.password << "\" }\n";
     }
     c << "server_name: " << name << "\n";
     if (cluster_port) {

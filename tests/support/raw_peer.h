@@ -40,13 +40,12 @@ class RawPeer {
   bool connected() const { return connected_; }
 
   bool send(const Bytes& b) { return send(b.data(), b.size()); }
-  bool send(const void* p, size_t n) {
-    return ::send(fd_, p, n, MSG_NOSIGNAL) == static_cast<ssize_t>(n);
-  }
+  bool send(const void* p, size_t n) { return ::send(fd_, p, n, MSG_NOSIGNAL) == static_cast<ssize_t>(n); }
   // Bytes received within `timeout_s` (stops early at EOF: closed() turns true).
   Bytes read(double timeout_s, size_t want = 1) {
     Bytes out;
-    const auto end = Clock::now() + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(timeout_s));
+    const auto end =
+        Clock::now() + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(timeout_s));
     while (Clock::now() < end && out.size() < want && !closed_) {
       pollfd p{fd_, POLLIN, 0};
       if (::poll(&p, 1, 10) <= 0) continue;

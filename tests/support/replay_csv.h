@@ -27,8 +27,8 @@ inline std::vector<CsvSample> parse_csv(const std::string& text) {
   while (std::getline(in, line)) {
     CsvSample s{};
     int consumed = 0;
-    const int fields = std::sscanf(line.c_str(), "%lf,%d,%lf,%lf,%lf,%lf,%lf,%lf,%lf%n", &s.t, &s.sensor, &s.v[0], &s.v[1],
-                                   &s.v[2], &s.v[3], &s.v[4], &s.v[5], &s.v[6], &consumed);
+    const int fields = std::sscanf(line.c_str(), "%lf,%d,%lf,%lf,%lf,%lf,%lf,%lf,%lf%n", &s.t, &s.sensor, &s.v[0],
+                                   &s.v[1], &s.v[2], &s.v[3], &s.v[4], &s.v[5], &s.v[6], &consumed);
     EXPECT_EQ(fields, 9) << "line: " << line;
     EXPECT_EQ(static_cast<size_t>(consumed), line.size()) << "trailing text in line: " << line;
     rows.push_back(s);

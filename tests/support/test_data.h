@@ -29,8 +29,7 @@ inline std::filesystem::path repo_test_data(const std::string& relative = "") {
   return relative.empty() ? root : root / relative;
 }
 
-inline const char* kShared_clips[] = {"02_04", "02_05", "02_06", "05_02",
-                                      "06_04", "07_01", "09_11", "13_26"};
+inline const char* kShared_clips[] = {"02_04", "02_05", "02_06", "05_02", "06_04", "07_01", "09_11", "13_26"};
 
 inline std::string clip_path(const std::string& id) { return shared_data("bvh/" + id + ".bvh"); }
 

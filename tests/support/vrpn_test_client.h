@@ -36,9 +36,7 @@ struct Report {
 inline uint32_t be32(const uint8_t* p) {
   return uint32_t(p[0]) << 24 | uint32_t(p[1]) << 16 | uint32_t(p[2]) << 8 | uint32_t(p[3]);
 }
-inline double be_f64(const uint8_t* p) {
-  return std::bit_cast<double>(uint64_t(be32(p)) << 32 | be32(p + 4));
-}
+inline double be_f64(const uint8_t* p) { return std::bit_cast<double>(uint64_t(be32(p)) << 32 | be32(p + 4)); }
 inline void put32(std::vector<uint8_t>& out, uint32_t v) {
   for (int s = 24; s >= 0; s -= 8) out.push_back(uint8_t(v >> s));
 }

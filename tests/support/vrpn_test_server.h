@@ -124,8 +124,10 @@ class Server {
     std::lock_guard<std::mutex> lock(mutex_);
     for (auto& c : clients_) {
       if (!c.cookie) continue;
-      if (c.udp) ::sendto(udp_, m.data(), m.size(), 0, reinterpret_cast<sockaddr*>(&c.udp_to), sizeof c.udp_to);
-      else (void)!::send(c.fd, m.data(), m.size(), MSG_NOSIGNAL);
+      if (c.udp)
+        ::sendto(udp_, m.data(), m.size(), 0, reinterpret_cast<sockaddr*>(&c.udp_to), sizeof c.udp_to);
+      else
+        (void)!::send(c.fd, m.data(), m.size(), MSG_NOSIGNAL);
     }
   }
 
@@ -218,8 +220,10 @@ class Server {
             c.fd = ::socket(AF_INET, SOCK_STREAM, 0);
             sockaddr_in to = from;
             to.sin_port = htons(uint16_t(std::atoi(space + 1)));
-            if (::connect(c.fd, reinterpret_cast<sockaddr*>(&to), sizeof to) == 0) greet(clients_.emplace_back(std::move(c)));
-            else ::close(c.fd);
+            if (::connect(c.fd, reinterpret_cast<sockaddr*>(&to), sizeof to) == 0)
+              greet(clients_.emplace_back(std::move(c)));
+            else
+              ::close(c.fd);
           }
         }
       }

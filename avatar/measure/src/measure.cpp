@@ -102,9 +102,11 @@ Result<BodyLandmarks> parse_makehuman_joints(std::string_view csv, float metres_
         break;
       }
       s = comma + 1;
-      if (n == 3) return fail(Errc::parse_error, std::string(source) + ":" + std::to_string(line_no) + ": more than 4 fields");
+      if (n == 3)
+        return fail(Errc::parse_error, std::string(source) + ":" + std::to_string(line_no) + ": more than 4 fields");
     }
-    if (n != 4) return fail(Errc::parse_error, std::string(source) + ":" + std::to_string(line_no) + ": expected name,x,y,z");
+    if (n != 4)
+      return fail(Errc::parse_error, std::string(source) + ":" + std::to_string(line_no) + ": expected name,x,y,z");
     if (trim(f[0]) == "name") continue;  // header row
     glm::vec3 p;
     for (int k = 0; k < 3; ++k)
@@ -149,8 +151,8 @@ Result<BodyLandmarks> load_makehuman_joints(const std::string& csv_path, float m
 }
 
 std::string format_landmarks_csv(const BodyLandmarks& lm, float units_per_metre) {
-  std::string out = "# Body landmarks (joint centres), MakeHuman joint names, " +
-                    std::to_string(units_per_metre) + " units per metre; +Y up, facing +Z, left +X\nname,x,y,z\n";
+  std::string out = "# Body landmarks (joint centres), MakeHuman joint names, " + std::to_string(units_per_metre) +
+                    " units per metre; +Y up, facing +Z, left +X\nname,x,y,z\n";
   auto row = [&](const std::string& name, glm::vec3 p) {
     char buf[160];
     p *= units_per_metre;
@@ -318,7 +320,8 @@ BodyMeasurements measure_body(const Mesh& mesh, const BodyLandmarks& lm) {
   m.hip_level_m = hips.level;
 
   // Leg slices: the loop around this leg's axis that holds neither the torso axis nor the other leg.
-  auto leg_girth = [&](float y, const glm::vec3& a, const glm::vec3& b, const glm::vec3& oa, const glm::vec3& ob) -> std::optional<float> {
+  auto leg_girth = [&](float y, const glm::vec3& a, const glm::vec3& b, const glm::vec3& oa,
+                       const glm::vec3& ob) -> std::optional<float> {
     const auto axis = segment_at(a, b, y, true);
     if (!axis) return std::nullopt;
     std::vector<glm::vec3> refuse{torso_axis_at(lm, y)};
@@ -377,8 +380,7 @@ std::string format_measurements(const BodyMeasurements& m) {
                   r.value, r.unit.c_str());
     out += buf;
   }
-  std::snprintf(buf, sizeof buf,
-                "levels above ground (cm): chest %.1f, waist %.1f, hips %.1f, thigh %.1f, calf %.1f\n",
+  std::snprintf(buf, sizeof buf, "levels above ground (cm): chest %.1f, waist %.1f, hips %.1f, thigh %.1f, calf %.1f\n",
                 100.0 * m.chest_level_m, 100.0 * m.waist_level_m, 100.0 * m.hip_level_m, 100.0 * m.thigh_level_m,
                 100.0 * m.calf_level_m);
   out += buf;

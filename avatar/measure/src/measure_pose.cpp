@@ -29,8 +29,8 @@ glm::dquat local_rotation(const rig::Skeleton& s, int j, const std::vector<doubl
 // redundant twist stays near its neutral value.
 constexpr double kRegularisation = 0.02;
 
-void residuals(const rig::Skeleton& s, const Chain& c, const glm::dquat& world_from_parent, const std::vector<double>& dof,
-               double* r) {
+void residuals(const rig::Skeleton& s, const Chain& c, const glm::dquat& world_from_parent,
+               const std::vector<double>& dof, double* r) {
   const glm::dquat wu = world_from_parent * local_rotation(s, c.upper, dof);
   const glm::dquat wl = wu * local_rotation(s, c.lower, dof);
   const glm::dvec3 d1 = glm::normalize(wu * glm::dvec3(s.offset_m(c.lower)));
@@ -44,7 +44,8 @@ void residuals(const rig::Skeleton& s, const Chain& c, const glm::dquat& world_f
     for (int i = s.dof_begin(j); i < s.dof_end(j); ++i) r[n++] = kRegularisation * dof[static_cast<size_t>(i)];
 }
 
-double solve_chain(const rig::Skeleton& s, const Chain& c, const glm::dquat& world_from_parent, std::vector<double>& dof) {
+double solve_chain(const rig::Skeleton& s, const Chain& c, const glm::dquat& world_from_parent,
+                   std::vector<double>& dof) {
   std::vector<int> vars;
   for (int j : {c.upper, c.lower})
     for (int i = s.dof_begin(j); i < s.dof_end(j); ++i) vars.push_back(i);
@@ -57,7 +58,9 @@ double solve_chain(const rig::Skeleton& s, const Chain& c, const glm::dquat& wor
     return e;
   };
   auto clamp = [&](std::vector<double>& x) {
-    for (int i : vars) x[static_cast<size_t>(i)] = std::clamp(x[static_cast<size_t>(i)], double(s.dof(i).min_rad), double(s.dof(i).max_rad));
+    for (int i : vars)
+      x[static_cast<size_t>(i)] =
+          std::clamp(x[static_cast<size_t>(i)], double(s.dof(i).min_rad), double(s.dof(i).max_rad));
   };
   double e = cost(dof, r), lambda = 1e-3;
   for (int iter = 0; iter < 200 && e > 1e-14; ++iter) {
@@ -123,13 +126,13 @@ rig::Pose pose_to_match(const rig::Skeleton& s, const BodyLandmarks& lm) {
   auto unit = [](glm::vec3 v) { return glm::normalize(glm::dvec3(v)); };
   for (auto [side, limb] : {std::pair{"l_", &lm.left}, std::pair{"r_", &lm.right}}) {
     const std::string p(side);
-    const Chain chains[2] = {
-        {s.find_joint(p + "shoulder"), s.find_joint(p + "elbow"), s.find_joint(p + "wrist"),
-         unit(limb->elbow_m - limb->shoulder_m), unit(limb->wrist_m - limb->elbow_m)},
-        {s.find_joint(p + "hip"), s.find_joint(p + "knee"), s.find_joint(p + "ankle"),
-         unit(limb->knee_m - limb->hip_m), unit(limb->ankle_m - limb->knee_m)}};
+    const Chain chains[2] = {{s.find_joint(p + "shoulder"), s.find_joint(p + "elbow"), s.find_joint(p + "wrist"),
+                              unit(limb->elbow_m - limb->shoulder_m), unit(limb->wrist_m - limb->elbow_m)},
+                             {s.find_joint(p + "hip"), s.find_joint(p + "knee"), s.find_joint(p + "ankle"),
+                              unit(limb->knee_m - limb->hip_m), unit(limb->ankle_m - limb->knee_m)}};
     for (const Chain& c : chains) {
-      if (c.upper < 0 || c.lower < 0 || c.end < 0 || s.parent(c.lower) != c.upper || s.parent(c.end) != c.lower) continue;
+      if (c.upper < 0 || c.lower < 0 || c.end < 0 || s.parent(c.lower) != c.upper || s.parent(c.end) != c.lower)
+        continue;
       if (!std::isfinite(c.dir_upper.x) || !std::isfinite(c.dir_lower.x)) continue;
       const glm::dquat world_from_parent = glm::dquat(world[s.parent(c.upper)].rotation);
       // A few starts, since the shoulder's twist and the elbow's bend trade off.
@@ -143,7 +146,8 @@ rig::Pose pose_to_match(const rig::Skeleton& s, const BodyLandmarks& lm) {
           if (count >= 3) x[static_cast<size_t>(first + 2)] = twist;
           for (int j : {c.upper, c.lower})
             for (int i = s.dof_begin(j); i < s.dof_end(j); ++i)
-              x[static_cast<size_t>(i)] = std::clamp(x[static_cast<size_t>(i)], double(s.dof(i).min_rad), double(s.dof(i).max_rad));
+              x[static_cast<size_t>(i)] =
+                  std::clamp(x[static_cast<size_t>(i)], double(s.dof(i).min_rad), double(s.dof(i).max_rad));
           const double e = solve_chain(s, c, world_from_parent, x);
           if (e < best_e - 1e-12) {
             best_e = e;

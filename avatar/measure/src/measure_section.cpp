@@ -43,9 +43,8 @@ double cross2(const glm::dvec2& o, const glm::dvec2& a, const glm::dvec2& b) {
 
 // Perimeter of the convex hull (Andrew's monotone chain).
 double hull_perimeter(std::vector<glm::dvec2> pts) {
-  std::sort(pts.begin(), pts.end(), [](const glm::dvec2& a, const glm::dvec2& b) {
-    return a.x != b.x ? a.x < b.x : a.y < b.y;
-  });
+  std::sort(pts.begin(), pts.end(),
+            [](const glm::dvec2& a, const glm::dvec2& b) { return a.x != b.x ? a.x < b.x : a.y < b.y; });
   pts.erase(std::unique(pts.begin(), pts.end()), pts.end());
   if (pts.size() < 2) return 0;
   std::vector<glm::dvec2> h(2 * pts.size());

@@ -27,9 +27,10 @@ std::vector<JointSweep> standard_joint_sweeps(const BodyModel& model) {
     twist.push_back(float(-a));
     twist.push_back(float(a));
   }
-  return {{"elbow_flexion", "l_elbow_flexion", "l_elbow", {"left_upper_arm", "left_lower_arm"}, half("l_elbow"), flexion},
-          {"knee_flexion", "l_knee_flexion", "l_knee", {"left_upper_leg", "left_lower_leg"}, half("l_knee"), flexion},
-          {"forearm_twist", "l_forearm_twist", "l_elbow", {"left_upper_arm", "left_lower_arm"}, half("l_elbow"), twist}};
+  return {
+      {"elbow_flexion", "l_elbow_flexion", "l_elbow", {"left_upper_arm", "left_lower_arm"}, half("l_elbow"), flexion},
+      {"knee_flexion", "l_knee_flexion", "l_knee", {"left_upper_leg", "left_lower_leg"}, half("l_knee"), flexion},
+      {"forearm_twist", "l_forearm_twist", "l_elbow", {"left_upper_arm", "left_lower_arm"}, half("l_elbow"), twist}};
 }
 
 namespace {
@@ -47,7 +48,8 @@ Measures measure(std::span<const glm::vec3> positions, const Mesh& topology, std
   m.volume = joint_zone_volume(positions, topology.indices, tris, zone);
   const auto stations = joint_zone_stations(zone);
   for (size_t k = 0; k < stations.size(); ++k)
-    m.sections[k] = joint_zone_section_area(positions, topology.indices, tris, zone, stations[k].first, stations[k].second);
+    m.sections[k] =
+        joint_zone_section_area(positions, topology.indices, tris, zone, stations[k].first, stations[k].second);
   return m;
 }
 
@@ -71,7 +73,8 @@ Result<std::vector<SweepResult>> inspect_joint_zones(const BodyModel& base_model
   const Mesh& rest = (*body)->rest_mesh();
   std::vector<rig::RigidTransform> w(skeleton.joint_count());
   rig::forward_kinematics(skeleton, skeleton.zero_pose(), w);
-  auto baselines = baselines::BaselineSkinner::create(skeleton, w, rest, baselines::from_influences((*body)->weights()));
+  auto baselines =
+      baselines::BaselineSkinner::create(skeleton, w, rest, baselines::from_influences((*body)->weights()));
   if (!baselines) return tl::unexpected(baselines.error());
   std::vector<glm::vec3> positions(rest.positions.size());
 
@@ -105,7 +108,8 @@ Result<std::vector<SweepResult>> inspect_joint_zones(const BodyModel& base_model
     const int dof = skeleton.find_dof(sweep.dof), joint = skeleton.find_joint(sweep.joint);
     if (dof < 0 || joint < 0 || skeleton.parent(joint) < 0)
       return fail(Errc::not_found, "inspect: sweep " + sweep.name + " names an unknown DOF or joint");
-    if (sweep.angles_deg.empty()) return fail(Errc::invalid_argument, "inspect: sweep " + sweep.name + " has no angles");
+    if (sweep.angles_deg.empty())
+      return fail(Errc::invalid_argument, "inspect: sweep " + sweep.name + " has no angles");
     SweepResult r{sweep, {}};
     for (Method& method : methods) {
       const Mesh& topology = method.topology ? *method.topology : full->mesh();
@@ -125,7 +129,8 @@ Result<std::vector<SweepResult>> inspect_joint_zones(const BodyModel& base_model
         if (k == 0) relaxed = m;
         SweepSample s{sweep.angles_deg[k], 100.0 * (m.volume / relaxed.volume - 1.0), INFINITY};
         for (size_t i = 0; i < m.sections.size(); ++i)
-          if (relaxed.sections[i] > 0) s.min_section_fraction = std::min(s.min_section_fraction, m.sections[i] / relaxed.sections[i]);
+          if (relaxed.sections[i] > 0)
+            s.min_section_fraction = std::min(s.min_section_fraction, m.sections[i] / relaxed.sections[i]);
         if (!std::isfinite(s.min_section_fraction)) s.min_section_fraction = 0;
         ms.samples.push_back(s);
       }

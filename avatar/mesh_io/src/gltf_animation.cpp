@@ -55,8 +55,8 @@ Status check_animation(const SkinnedAnimation& a) {
   if (auto st = validate_mesh(mesh); !st) return tl::unexpected(st.error());
   const size_t nv = mesh.positions.size();
   if (a.influences.size() != nv)
-    return fail(Errc::invalid_argument, "glTF: " + std::to_string(a.influences.size()) + " influences for " +
-                                            std::to_string(nv) + " vertices");
+    return fail(Errc::invalid_argument,
+                "glTF: " + std::to_string(a.influences.size()) + " influences for " + std::to_string(nv) + " vertices");
   if (a.times_s.empty() || a.times_s.size() != a.poses.size())
     return fail(Errc::invalid_argument, "glTF: the animation needs one pose per keyframe time, at least one");
   for (size_t k = 1; k < a.times_s.size(); ++k)
@@ -64,7 +64,8 @@ Status check_animation(const SkinnedAnimation& a) {
   if (a.bind_pose.dof_rad.size() != size_t(sk.dof_count()))
     return fail(Errc::invalid_argument, "glTF: bind pose of another skeleton");
   for (const rig::Pose& p : a.poses)
-    if (p.dof_rad.size() != size_t(sk.dof_count())) return fail(Errc::invalid_argument, "glTF: a pose of another skeleton");
+    if (p.dof_rad.size() != size_t(sk.dof_count()))
+      return fail(Errc::invalid_argument, "glTF: a pose of another skeleton");
   return {};
 }
 
@@ -163,8 +164,8 @@ int joint_nodes(const rig::Skeleton& sk, const rig::Pose& bind_pose, BinaryBuild
       t = bind_pose.root_position_m + bind_pose.root_orientation * t;
       r = glm::normalize(bind_pose.root_orientation) * r;
     }
-    json node = {{"name", sk.joint_name(jj)}, {"translation", vec_json(t)},
-                 {"rotation", json::array({r.x, r.y, r.z, r.w})}};
+    json node = {
+        {"name", sk.joint_name(jj)}, {"translation", vec_json(t)}, {"rotation", json::array({r.x, r.y, r.z, r.w})}};
     json children = json::array();
     for (size_t c = 0; c < nj; ++c)
       if (sk.parent(int(c)) == jj) children.push_back(c);
@@ -254,7 +255,9 @@ Result<std::string> encode_skinned_glb(const SkinnedAnimation& a) {
       {"nodes", nodes},
       {"meshes", meshes},
       {"materials", materials},
-      {"skins", json::array({{{"name", a.name + "_skeleton"}, {"joints", skin_joints}, {"skeleton", root},
+      {"skins", json::array({{{"name", a.name + "_skeleton"},
+                              {"joints", skin_joints},
+                              {"skeleton", root},
                               {"inverseBindMatrices", ibm_acc}}})},
       {"animations", animations},
       {"accessors", b.accessors()},

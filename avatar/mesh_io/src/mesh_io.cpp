@@ -13,8 +13,7 @@ namespace mimic::avatar {
 
 namespace detail {
 
-void gather_parts(Mesh& mesh, const std::vector<uint32_t>& tri_group,
-                  const std::vector<std::string>& names) {
+void gather_parts(Mesh& mesh, const std::vector<uint32_t>& tri_group, const std::vector<std::string>& names) {
   const size_t tris = tri_group.size();
   std::vector<uint32_t> first_seen_rank(names.size(), UINT32_MAX);
   std::vector<uint32_t> order_of_groups;
@@ -61,16 +60,14 @@ std::string lower_extension(const std::string& path) {
 
 Status validate_mesh(const Mesh& mesh) {
   if (mesh.indices.size() % 3 != 0)
-    return fail(Errc::invalid_argument, "mesh index count " + std::to_string(mesh.indices.size()) +
-                                            " is not a multiple of 3");
+    return fail(Errc::invalid_argument,
+                "mesh index count " + std::to_string(mesh.indices.size()) + " is not a multiple of 3");
   if (!mesh.normals.empty() && mesh.normals.size() != mesh.positions.size())
-    return fail(Errc::invalid_argument, "mesh has " + std::to_string(mesh.normals.size()) +
-                                            " normals for " + std::to_string(mesh.positions.size()) +
-                                            " positions");
+    return fail(Errc::invalid_argument, "mesh has " + std::to_string(mesh.normals.size()) + " normals for " +
+                                            std::to_string(mesh.positions.size()) + " positions");
   if (!mesh.uvs.empty() && mesh.uvs.size() != mesh.positions.size())
-    return fail(Errc::invalid_argument, "mesh has " + std::to_string(mesh.uvs.size()) +
-                                            " texture coordinates for " + std::to_string(mesh.positions.size()) +
-                                            " positions");
+    return fail(Errc::invalid_argument, "mesh has " + std::to_string(mesh.uvs.size()) + " texture coordinates for " +
+                                            std::to_string(mesh.positions.size()) + " positions");
   // Every writer stores 32-bit floats: a value that is not one could not be read back.
   const auto finite = [](auto v) {
     for (int k = 0; k < v.length(); ++k)
@@ -85,15 +82,15 @@ Status validate_mesh(const Mesh& mesh) {
       return fail(Errc::invalid_argument, "mesh texture coordinate " + std::to_string(i) + " is not finite");
   for (size_t i = 0; i < mesh.indices.size(); ++i)
     if (mesh.indices[i] >= mesh.positions.size())
-      return fail(Errc::invalid_argument, "mesh index " + std::to_string(i) + " = " +
-                                              std::to_string(mesh.indices[i]) + " is out of range (" +
-                                              std::to_string(mesh.positions.size()) + " positions)");
+      return fail(Errc::invalid_argument, "mesh index " + std::to_string(i) + " = " + std::to_string(mesh.indices[i]) +
+                                              " is out of range (" + std::to_string(mesh.positions.size()) +
+                                              " positions)");
   uint64_t next = 0;
   for (const auto& p : mesh.parts) {
     const uint64_t end = uint64_t{p.first_triangle} + p.triangle_count;
     if (p.first_triangle < next || end > mesh.triangle_count())
-      return fail(Errc::invalid_argument, "mesh part '" + p.name +
-                                              "' overlaps another part or runs past the triangles");
+      return fail(Errc::invalid_argument,
+                  "mesh part '" + p.name + "' overlaps another part or runs past the triangles");
     next = end;
   }
   return {};
@@ -113,8 +110,8 @@ Status write_mesh(const Mesh& mesh, const std::string& path) {
   else if (ext == ".glb")
     bytes = encode_glb(mesh);
   else
-    return fail(Errc::unsupported, "cannot write mesh '" + path + "': unknown extension '" + ext +
-                                       "' (use .obj, .ply or .glb)");
+    return fail(Errc::unsupported,
+                "cannot write mesh '" + path + "': unknown extension '" + ext + "' (use .obj, .ply or .glb)");
   if (!bytes) return tl::unexpected(bytes.error());
   return write_file_atomic(path, *bytes);
 }
@@ -153,8 +150,8 @@ Result<Mesh> read_mesh(const std::string& path, float metres_per_unit) {
   if (ext == ".obj") return read_obj(path, metres_per_unit);
   if (ext == ".ply") return read_ply(path, metres_per_unit);
   if (ext == ".glb") return read_glb(path, metres_per_unit);
-  return fail(Errc::unsupported, "cannot read mesh '" + path + "': unknown extension '" + ext +
-                                     "' (use .obj, .ply or .glb)");
+  return fail(Errc::unsupported,
+              "cannot read mesh '" + path + "': unknown extension '" + ext + "' (use .obj, .ply or .glb)");
 }
 
 }  // namespace mimic::avatar

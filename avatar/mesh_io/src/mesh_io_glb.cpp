@@ -69,8 +69,12 @@ Result<std::string> encode_glb(const Mesh& mesh) {
   if (normals)
     views.push_back({{"buffer", 0}, {"byteOffset", nv * 12}, {"byteLength", nv * 12}, {"target", kArrayBuffer}});
   json accessors = json::array();
-  accessors.push_back({{"bufferView", 0}, {"componentType", kFloat}, {"count", nv}, {"type", "VEC3"},
-                       {"min", {lo.x, lo.y, lo.z}}, {"max", {hi.x, hi.y, hi.z}}});
+  accessors.push_back({{"bufferView", 0},
+                       {"componentType", kFloat},
+                       {"count", nv},
+                       {"type", "VEC3"},
+                       {"min", {lo.x, lo.y, lo.z}},
+                       {"max", {hi.x, hi.y, hi.z}}});
   if (normals) accessors.push_back({{"bufferView", 1}, {"componentType", kFloat}, {"count", nv}, {"type", "VEC3"}});
   int uv_accessor = -1;
   if (uvs) {
@@ -86,13 +90,17 @@ Result<std::string> encode_glb(const Mesh& mesh) {
   const bool has_triangles = !mesh.indices.empty();
   if (has_triangles) {
     const int index_view = static_cast<int>(views.size());
-    views.push_back({{"buffer", 0}, {"byteOffset", index_offset}, {"byteLength", mesh.indices.size() * 4},
+    views.push_back({{"buffer", 0},
+                     {"byteOffset", index_offset},
+                     {"byteLength", mesh.indices.size() * 4},
                      {"target", kElementArrayBuffer}});
     for (const auto& part : parts) {
       if (part.triangle_count == 0) continue;
       json attributes = {{"POSITION", 0}};
       if (normals) attributes["NORMAL"] = 1;
-      json prim = {{"attributes", attributes}, {"indices", accessors.size()}, {"mode", kTriangles},
+      json prim = {{"attributes", attributes},
+                   {"indices", accessors.size()},
+                   {"mode", kTriangles},
                    {"extras", {{"name", part.name}}}};
       if (uvs) {
         prim["attributes"]["TEXCOORD_0"] = uv_accessor;
@@ -105,14 +113,18 @@ Result<std::string> encode_glb(const Mesh& mesh) {
         bin += png;
         images.push_back({{"bufferView", views.size() - 1}, {"mimeType", "image/png"}, {"name", part.name}});
         textures.push_back({{"source", k}, {"sampler", 0}});
-        materials.push_back({{"name", part.name},
-                             {"pbrMetallicRoughness",
-                              {{"baseColorTexture", {{"index", k}}}, {"metallicFactor", 0.0}, {"roughnessFactor", 0.8}}}});
+        materials.push_back(
+            {{"name", part.name},
+             {"pbrMetallicRoughness",
+              {{"baseColorTexture", {{"index", k}}}, {"metallicFactor", 0.0}, {"roughnessFactor", 0.8}}}});
         prim["material"] = k;
       }
       primitives.push_back(prim);
-      accessors.push_back({{"bufferView", index_view}, {"byteOffset", size_t{part.first_triangle} * 12},
-                           {"componentType", kUInt}, {"count", size_t{part.triangle_count} * 3}, {"type", "SCALAR"}});
+      accessors.push_back({{"bufferView", index_view},
+                           {"byteOffset", size_t{part.first_triangle} * 12},
+                           {"componentType", kUInt},
+                           {"count", size_t{part.triangle_count} * 3},
+                           {"type", "SCALAR"}});
     }
   } else {
     // A point set still needs a primitive to carry its vertices.
@@ -178,9 +190,7 @@ class GlbReader {
  public:
   GlbReader(const Glb& g, std::string source) : g_(g), src_(std::move(source)) {}
 
-  tl::unexpected<Error> error(const std::string& what) const {
-    return fail(Errc::parse_error, src_ + ": " + what);
-  }
+  tl::unexpected<Error> error(const std::string& what) const { return fail(Errc::parse_error, src_ + ": " + what); }
 
   // Bytes of accessor `a`: element count, component type, components per element, and the
   // address of element i's first component (honouring byteStride).
@@ -200,12 +210,14 @@ class GlbReader {
     const std::string type = acc.at("type").get<std::string>();
     v.components = type == "SCALAR" ? 1 : type == "VEC2" ? 2 : type == "VEC3" ? 3 : type == "VEC4" ? 4 : 0;
     if (v.components == 0) return error("accessor " + std::to_string(a) + " has unsupported type " + type);
-    const size_t csize = v.component == kFloat || v.component == kUInt ? 4
+    const size_t csize = v.component == kFloat || v.component == kUInt   ? 4
                          : v.component == kUShort || v.component == 5122 ? 2
-                         : v.component == kUByte || v.component == 5120 ? 1 : 0;
+                         : v.component == kUByte || v.component == 5120  ? 1
+                                                                         : 0;
     if (csize == 0) return error("accessor " + std::to_string(a) + " has unknown componentType");
     v.elem_size = csize * static_cast<size_t>(v.components);
-    if (!acc.contains("bufferView")) return error("accessor " + std::to_string(a) + " has no bufferView (sparse/zero accessors unsupported)");
+    if (!acc.contains("bufferView"))
+      return error("accessor " + std::to_string(a) + " has no bufferView (sparse/zero accessors unsupported)");
     const json& views = g_.doc.at("bufferViews");
     const size_t vi = acc.at("bufferView").get<size_t>();
     if (vi >= views.size()) return error("bufferView " + std::to_string(vi) + " does not exist");
@@ -231,10 +243,26 @@ class GlbReader {
   double component(const View& v, size_t i, int k) const {
     const char* p = v.base + i * v.stride;
     switch (v.component) {
-      case kFloat: { float f; std::memcpy(&f, p + 4 * k, 4); return f; }
-      case kUInt: { uint32_t u; std::memcpy(&u, p + 4 * k, 4); return u; }
-      case kUShort: { uint16_t u; std::memcpy(&u, p + 2 * k, 2); return u; }
-      case 5122: { int16_t u; std::memcpy(&u, p + 2 * k, 2); return u; }
+      case kFloat: {
+        float f;
+        std::memcpy(&f, p + 4 * k, 4);
+        return f;
+      }
+      case kUInt: {
+        uint32_t u;
+        std::memcpy(&u, p + 4 * k, 4);
+        return u;
+      }
+      case kUShort: {
+        uint16_t u;
+        std::memcpy(&u, p + 2 * k, 2);
+        return u;
+      }
+      case 5122: {
+        int16_t u;
+        std::memcpy(&u, p + 2 * k, 2);
+        return u;
+      }
       case kUByte: return static_cast<unsigned char>(p[k]);
       case 5120: return static_cast<signed char>(p[k]);
       default: return 0;
@@ -306,7 +334,8 @@ Result<Mesh> decode_glb(const Glb& g, const std::string& src) {
         if (nv->component != kFloat || nv->components != 3 || nv->count != pv->count)
           return r.error("NORMAL must be float VEC3 with one per POSITION");
         for (size_t i = 0; i < nv->count; ++i)
-          normals.push_back(detail::unit_or_up({r.component(*nv, i, 0), r.component(*nv, i, 1), r.component(*nv, i, 2)}));
+          normals.push_back(
+              detail::unit_or_up({r.component(*nv, i, 0), r.component(*nv, i, 1), r.component(*nv, i, 2)}));
       } else {
         normals.resize(mesh.positions.size(), glm::vec3(0, 1, 0));
       }
@@ -333,7 +362,8 @@ Result<Mesh> decode_glb(const Glb& g, const std::string& src) {
     }
     if (local.size() % 3) return r.error("primitive " + std::to_string(pi) + " index count is not a multiple of 3");
     for (uint32_t i : local) {
-      if (i >= vcount) return r.error("primitive " + std::to_string(pi) + " index " + std::to_string(i) + " is out of range");
+      if (i >= vcount)
+        return r.error("primitive " + std::to_string(pi) + " index " + std::to_string(i) + " is out of range");
       mesh.indices.push_back(base + i);
     }
     tri_group.insert(tri_group.end(), local.size() / 3, group);
@@ -360,7 +390,8 @@ Result<Mesh> parse_glb(std::string_view bytes, std::string_view source) {
   int chunk = 0;
   while (at + 8 <= total) {
     const uint32_t len = get_u32(bytes, at), type = get_u32(bytes, at + 4);
-    if (len > total - at - 8) return error("chunk " + std::to_string(chunk) + " at byte " + std::to_string(at) + " runs past the end");
+    if (len > total - at - 8)
+      return error("chunk " + std::to_string(chunk) + " at byte " + std::to_string(at) + " runs past the end");
     const std::string_view data = bytes.substr(at + 8, len);
     if (chunk == 0) {
       if (type != kChunkJson) return error("first chunk is not JSON");

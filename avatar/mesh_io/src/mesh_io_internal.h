@@ -14,8 +14,7 @@ namespace mimic::avatar::detail {
 // Collects triangles tagged with a group number into contiguous parts, groups in order of
 // first appearance; `tri_group` holds one group per triangle, `names` one name per group.
 // Reorders mesh.indices accordingly and fills mesh.parts (groups without triangles dropped).
-void gather_parts(Mesh& mesh, const std::vector<uint32_t>& tri_group,
-                  const std::vector<std::string>& names);
+void gather_parts(Mesh& mesh, const std::vector<uint32_t>& tri_group, const std::vector<std::string>& names);
 
 // Unit normal, or +Y when the vector is zero or not finite (formats want unit normals).
 glm::vec3 unit_or_up(glm::vec3 n);

@@ -99,12 +99,12 @@ Result<std::string> encode_obj(const Mesh& mesh) {
   for (const auto& part : covering_parts(mesh)) {
     out += "g " + part.name + "\n";
     for (uint32_t t = part.first_triangle; t < part.first_triangle + part.triangle_count; ++t) {
-      const uint32_t a = mesh.indices[3 * t] + 1, b = mesh.indices[3 * t + 1] + 1,
-                     c = mesh.indices[3 * t + 2] + 1;
-      const int n = normals && uvs ? std::snprintf(buf, sizeof buf, "f %u/%u/%u %u/%u/%u %u/%u/%u\n", a, a, a, b, b, b, c, c, c)
-                    : normals    ? std::snprintf(buf, sizeof buf, "f %u//%u %u//%u %u//%u\n", a, a, b, b, c, c)
-                    : uvs        ? std::snprintf(buf, sizeof buf, "f %u/%u %u/%u %u/%u\n", a, a, b, b, c, c)
-                                 : std::snprintf(buf, sizeof buf, "f %u %u %u\n", a, b, c);
+      const uint32_t a = mesh.indices[3 * t] + 1, b = mesh.indices[3 * t + 1] + 1, c = mesh.indices[3 * t + 2] + 1;
+      const int n = normals && uvs
+                        ? std::snprintf(buf, sizeof buf, "f %u/%u/%u %u/%u/%u %u/%u/%u\n", a, a, a, b, b, b, c, c, c)
+                    : normals ? std::snprintf(buf, sizeof buf, "f %u//%u %u//%u %u//%u\n", a, a, b, b, c, c)
+                    : uvs     ? std::snprintf(buf, sizeof buf, "f %u/%u %u/%u %u/%u\n", a, a, b, b, c, c)
+                              : std::snprintf(buf, sizeof buf, "f %u %u %u\n", a, b, c);
       out.append(buf, static_cast<size_t>(n));
     }
   }
@@ -138,8 +138,7 @@ std::string read_face(std::string_view line, size_t v_count, size_t vt_count, si
       if (nf == 3) return "face corner '" + std::string(item) + "' has too many '/'";
     }
     Corner c;
-    if (!parse_int(fields[0], c.v) || c.v == 0)
-      return "bad vertex index '" + std::string(item) + "' in f";
+    if (!parse_int(fields[0], c.v) || c.v == 0) return "bad vertex index '" + std::string(item) + "' in f";
     if (nf >= 2 && !fields[1].empty() && (!parse_int(fields[1], c.vt) || c.vt == 0))
       return "bad texture index '" + std::string(item) + "' in f";
     if (c.vt < 0) {
@@ -243,8 +242,7 @@ Result<Mesh> parse_obj(std::string_view text, std::string_view source) {
       glm::vec2 t(0.0f);
       if (n < 2) return error(line_no, "vt needs at least 1 number");
       for (int k = 0; k < std::min(n - 1, 2); ++k)
-        if (!parse_float(tok[1 + k], t[k]))
-          return error(line_no, "bad number '" + std::string(tok[1 + k]) + "' in vt");
+        if (!parse_float(tok[1 + k], t[k])) return error(line_no, "bad number '" + std::string(tok[1 + k]) + "' in vt");
       vt.push_back(t);
     } else if (key == "f") {
       if (std::string why = read_face(line, mesh.positions.size(), vt.size(), vn.size(), corners); !why.empty())
@@ -275,8 +273,7 @@ Result<Mesh> parse_obj(std::string_view text, std::string_view source) {
   for (size_t i = 0; i < mesh.indices.size(); ++i) {
     if (mesh.indices[i] >= mesh.positions.size())
       return error(pending_line[i], "vertex index " + std::to_string(uint64_t{mesh.indices[i]} + 1) +
-                                        " is out of range (" + std::to_string(mesh.positions.size()) +
-                                        " vertices)");
+                                        " is out of range (" + std::to_string(mesh.positions.size()) + " vertices)");
     if (corner_vt[i] > static_cast<long long>(vt.size()))
       return error(pending_line[i], "texture index " + std::to_string(corner_vt[i]) + " is out of range (" +
                                         std::to_string(vt.size()) + " texture coordinates)");

@@ -40,9 +40,13 @@ Type type_of(std::string_view s) {
 
 size_t size_of(Type t) {
   switch (t) {
-    case Type::i8: case Type::u8: return 1;
-    case Type::i16: case Type::u16: return 2;
-    case Type::i32: case Type::u32: case Type::f32: return 4;
+    case Type::i8:
+    case Type::u8: return 1;
+    case Type::i16:
+    case Type::u16: return 2;
+    case Type::i32:
+    case Type::u32:
+    case Type::f32: return 4;
     case Type::f64: return 8;
     default: return 0;
   }
@@ -73,21 +77,50 @@ class Reader {
     if (format_ == Format::ascii) return read_text();
     const size_t n = size_of(t);
     if (pos_ + n > body_.size())
-      return fail(Errc::parse_error, std::string(source_) + ": data ends early at byte " + std::to_string(base_ + pos_));
+      return fail(Errc::parse_error,
+                  std::string(source_) + ": data ends early at byte " + std::to_string(base_ + pos_));
     unsigned char b[8];
     std::memcpy(b, body_.data() + pos_, n);
     if (format_ == Format::binary_be)
       for (size_t i = 0; i < n / 2; ++i) std::swap(b[i], b[n - 1 - i]);
     pos_ += n;
     switch (t) {
-      case Type::i8: { int8_t v; std::memcpy(&v, b, 1); return v; }
+      case Type::i8: {
+        int8_t v;
+        std::memcpy(&v, b, 1);
+        return v;
+      }
       case Type::u8: return b[0];
-      case Type::i16: { int16_t v; std::memcpy(&v, b, 2); return v; }
-      case Type::u16: { uint16_t v; std::memcpy(&v, b, 2); return v; }
-      case Type::i32: { int32_t v; std::memcpy(&v, b, 4); return v; }
-      case Type::u32: { uint32_t v; std::memcpy(&v, b, 4); return v; }
-      case Type::f32: { float v; std::memcpy(&v, b, 4); return v; }
-      case Type::f64: { double v; std::memcpy(&v, b, 8); return v; }
+      case Type::i16: {
+        int16_t v;
+        std::memcpy(&v, b, 2);
+        return v;
+      }
+      case Type::u16: {
+        uint16_t v;
+        std::memcpy(&v, b, 2);
+        return v;
+      }
+      case Type::i32: {
+        int32_t v;
+        std::memcpy(&v, b, 4);
+        return v;
+      }
+      case Type::u32: {
+        uint32_t v;
+        std::memcpy(&v, b, 4);
+        return v;
+      }
+      case Type::f32: {
+        float v;
+        std::memcpy(&v, b, 4);
+        return v;
+      }
+      case Type::f64: {
+        double v;
+        std::memcpy(&v, b, 8);
+        return v;
+      }
       default: return 0.0;
     }
   }
@@ -111,8 +144,8 @@ class Reader {
     if (!tok.empty() && tok.front() == '+') tok.remove_prefix(1);
     auto [p, ec] = std::from_chars(tok.data(), tok.data() + tok.size(), v);
     if (ec != std::errc() || p != tok.data() + tok.size())
-      return fail(Errc::parse_error, std::string(source_) + ": data line " + std::to_string(line_) +
-                                         ": bad number '" + std::string(body_.substr(pos_, end - pos_)) + "'");
+      return fail(Errc::parse_error, std::string(source_) + ": data line " + std::to_string(line_) + ": bad number '" +
+                                         std::string(body_.substr(pos_, end - pos_)) + "'");
     pos_ = end;
     return v;
   }
@@ -200,10 +233,14 @@ Result<PlyHeader> parse_ply_header(std::string_view bytes, const std::string& sr
     if (tok.empty()) continue;
     if (tok[0] == "format") {
       if (tok.size() < 2) return at("format needs a value");
-      if (tok[1] == "ascii") format = Format::ascii;
-      else if (tok[1] == "binary_little_endian") format = Format::binary_le;
-      else if (tok[1] == "binary_big_endian") format = Format::binary_be;
-      else return at("unknown format '" + std::string(tok[1]) + "'");
+      if (tok[1] == "ascii")
+        format = Format::ascii;
+      else if (tok[1] == "binary_little_endian")
+        format = Format::binary_le;
+      else if (tok[1] == "binary_big_endian")
+        format = Format::binary_be;
+      else
+        return at("unknown format '" + std::string(tok[1]) + "'");
       have_format = true;
     } else if (tok[0] == "comment") {
       if (tok.size() >= 4 && tok[1] == "part") {
@@ -219,9 +256,11 @@ Result<PlyHeader> parse_ply_header(std::string_view bytes, const std::string& sr
       if (tok.size() != 3) return at("element needs a name and a count");
       uint64_t count = 0;
       auto [p, ec] = std::from_chars(tok[2].data(), tok[2].data() + tok[2].size(), count);
-      if (ec != std::errc() || p != tok[2].data() + tok[2].size()) return at("bad element count '" + std::string(tok[2]) + "'");
+      if (ec != std::errc() || p != tok[2].data() + tok[2].size())
+        return at("bad element count '" + std::string(tok[2]) + "'");
       // One vertex list: a second one could carry other attributes than the first.
-      if (tok[1] == "vertex" && std::any_of(elements.begin(), elements.end(), [](const Element& e) { return e.name == "vertex"; }))
+      if (tok[1] == "vertex" &&
+          std::any_of(elements.begin(), elements.end(), [](const Element& e) { return e.name == "vertex"; }))
         return at("a second vertex element");
       elements.push_back({std::string(tok[1]), count, {}});
     } else if (tok[0] == "property") {
@@ -253,7 +292,6 @@ Result<PlyHeader> parse_ply_header(std::string_view bytes, const std::string& sr
   if (!have_format) return error("header has no format line");
   h.body_at = pos;
   return h;
-
 }
 
 // What the elements read so far hold: the mesh's vertices, faces as triangles (index values not
@@ -281,10 +319,22 @@ Status read_element(const Element& el, const PlyHeader& h, Reader& in, const std
     const auto& n = el.props[i].name;
     const bool list = el.props[i].is_list;
     if (is_vertex && !list) {
-      if (n == "x") ix = i; else if (n == "y") iy = i; else if (n == "z") iz = i;
-      else if (n == "nx") inx = i; else if (n == "ny") iny = i; else if (n == "nz") inz = i;
-      else if (n == "s" || n == "u" || n == "texture_u") is = i;
-      else if (n == "t" || n == "v" || n == "texture_v") itc = i;
+      if (n == "x")
+        ix = i;
+      else if (n == "y")
+        iy = i;
+      else if (n == "z")
+        iz = i;
+      else if (n == "nx")
+        inx = i;
+      else if (n == "ny")
+        iny = i;
+      else if (n == "nz")
+        inz = i;
+      else if (n == "s" || n == "u" || n == "texture_u")
+        is = i;
+      else if (n == "t" || n == "v" || n == "texture_v")
+        itc = i;
     }
     if (is_face && list && (n == "vertex_indices" || n == "vertex_index")) iidx = i;
     if (is_face && !list && n == "part") ipart = i;
@@ -325,8 +375,7 @@ Status read_element(const Element& el, const PlyHeader& h, Reader& in, const std
         if (i >= 0 && !(std::abs(vals[i]) <= std::numeric_limits<float>::max()))
           return error("vertex " + std::to_string(e) + " has a value that is not a finite float");
       mesh.positions.emplace_back(vals[ix], vals[iy], vals[iz]);
-      if (has_normals)
-        mesh.normals.push_back(detail::unit_or_up(glm::vec3(vals[inx], vals[iny], vals[inz])));
+      if (has_normals) mesh.normals.push_back(detail::unit_or_up(glm::vec3(vals[inx], vals[iny], vals[inz])));
       if (has_uvs) mesh.uvs.emplace_back(vals[is], vals[itc]);
     } else if (is_face) {
       if (poly.size() < 3) return error("face " + std::to_string(e) + " has fewer than 3 vertices");
@@ -338,8 +387,7 @@ Status read_element(const Element& el, const PlyHeader& h, Reader& in, const std
       auto [it, inserted] = group_of_id.emplace(id, static_cast<uint32_t>(names.size()));
       if (inserted) {
         auto nm = part_names.find(id);
-        names.push_back(nm != part_names.end() ? nm->second
-                                               : (ipart >= 0 ? "part" + std::to_string(id) : "mesh"));
+        names.push_back(nm != part_names.end() ? nm->second : (ipart >= 0 ? "part" + std::to_string(id) : "mesh"));
       }
       for (size_t k = 1; k + 1 < poly.size(); ++k) {
         for (double v : {poly[0], poly[k], poly[k + 1]}) face_index_values.push_back(v);
@@ -367,8 +415,8 @@ Result<Mesh> parse_ply(std::string_view bytes, std::string_view source) {
   for (size_t i = 0; i < b.face_index_values.size(); ++i) {
     const double v = b.face_index_values[i];
     if (!(v >= 0) || v >= static_cast<double>(mesh.positions.size()) || v != std::floor(v))
-      return error("face " + std::to_string(i / 3) + " (after triangulation) has vertex index " +
-                   std::to_string(v) + " out of range (" + std::to_string(mesh.positions.size()) + " vertices)");
+      return error("face " + std::to_string(i / 3) + " (after triangulation) has vertex index " + std::to_string(v) +
+                   " out of range (" + std::to_string(mesh.positions.size()) + " vertices)");
     mesh.indices.push_back(static_cast<uint32_t>(v));
   }
   detail::gather_parts(mesh, b.tri_group, b.names);

@@ -116,16 +116,17 @@ int add_ring(Data& d, Ring r, int count) {
   return static_cast<int>(d.rings.size()) - 1;
 }
 
-constexpr const char* kSkinJoints[] = {"pelvis",     "spine_lower", "spine_mid", "spine_upper", "neck",
-                                       "neck_upper", "head",        "l_shoulder", "l_elbow",    "l_wrist",
-                                       "r_shoulder", "r_elbow",     "r_wrist",    "l_hip",      "l_knee",
+constexpr const char* kSkinJoints[] = {"pelvis",     "spine_lower", "spine_mid",  "spine_upper", "neck",
+                                       "neck_upper", "head",        "l_shoulder", "l_elbow",     "l_wrist",
+                                       "r_shoulder", "r_elbow",     "r_wrist",    "l_hip",       "l_knee",
                                        "l_ankle",    "r_hip",       "r_knee",     "r_ankle"};
 
 Chain torso_chain(const rig::Skeleton& sk, const SkinLayout& L) {
   Chain torso;
   const int pelvis = sk.find_joint("pelvis"), su = sk.find_joint("spine_upper");
-  torso.nodes = {{pelvis, {0, -L.crotch_drop_m, 0}}, {pelvis, {0, 0, 0}}, {sk.find_joint("spine_lower"), {0, 0, 0}},
-                 {sk.find_joint("spine_mid"), {0, 0, 0}}, {su, {0, 0, 0}}, {su, L.chest_ring * sk.tip_m(su)}};
+  torso.nodes = {
+      {pelvis, {0, -L.crotch_drop_m, 0}},      {pelvis, {0, 0, 0}}, {sk.find_joint("spine_lower"), {0, 0, 0}},
+      {sk.find_joint("spine_mid"), {0, 0, 0}}, {su, {0, 0, 0}},     {su, L.chest_ring * sk.tip_m(su)}};
   torso.start_normal_from_y = true;
   torso.beyond = {sk.find_joint("neck"), {0, 0, 0}};
   torso.resize();
@@ -145,8 +146,10 @@ Chain three_joint_chain(const rig::Skeleton& sk, const std::string& a, const std
 // Chains: 0 torso, 1 neck, 2/3 arms, 4/5 legs.
 std::vector<Chain> make_chains(const rig::Skeleton& sk, const SkinLayout& L) {
   std::vector<Chain> chains{torso_chain(sk, L), three_joint_chain(sk, "neck", "neck_upper", "head")};
-  for (const std::string side : {"l_", "r_"}) chains.push_back(three_joint_chain(sk, side + "shoulder", side + "elbow", side + "wrist"));
-  for (const std::string side : {"l_", "r_"}) chains.push_back(three_joint_chain(sk, side + "hip", side + "knee", side + "ankle"));
+  for (const std::string side : {"l_", "r_"})
+    chains.push_back(three_joint_chain(sk, side + "shoulder", side + "elbow", side + "wrist"));
+  for (const std::string side : {"l_", "r_"})
+    chains.push_back(three_joint_chain(sk, side + "hip", side + "knee", side + "ankle"));
   return chains;
 }
 
@@ -193,8 +196,8 @@ std::vector<int> add_torso_rings(Data& d) {
     at_length(s, r.segment, r.u);
     r.angles = torso_directions;
     // The waist ring is shared by both torso pieces: it sees both groups.
-    r.mask = i < 2             ? group_bit(Group::hip)
-             : i < lower_n - 1 ? group_bit(Group::lower_torso)
+    r.mask = i < 2              ? group_bit(Group::hip)
+             : i < lower_n - 1  ? group_bit(Group::lower_torso)
              : i == lower_n - 1 ? GroupMask(group_bit(Group::lower_torso) | group_bit(Group::upper_torso))
                                 : group_bit(Group::upper_torso);
     ids.push_back(add_ring(d, std::move(r), L.torso_points));
@@ -220,7 +223,8 @@ int add_arc(Data& d, const std::string& name, GroupMask mask, uint32_t from, uin
   r.up_ring = up_ring;
   r.flip_up = flip;
   std::vector<float> arc_angles(static_cast<size_t>(std::max(segs - 1, 0)));
-  for (int k = 1; k < segs; ++k) arc_angles[static_cast<size_t>(k - 1)] = kPi * static_cast<float>(k) / static_cast<float>(segs);
+  for (int k = 1; k < segs; ++k)
+    arc_angles[static_cast<size_t>(k - 1)] = kPi * static_cast<float>(k) / static_cast<float>(segs);
   r.angles = add_directions(d, arc_angles);
   const int id = add_ring(d, std::move(r), segs - 1);
   d.bridges.push_back(Bridge{id, 0, 0, {}, {}});
@@ -315,7 +319,7 @@ struct LimbSpec {
   float start_u;               // S ring position along the first link
   const char* upper_part;
   const char* lower_part;
-  int points;                  // of the rings after S; 0: the loop's
+  int points;  // of the rings after S; 0: the loop's
 };
 
 std::array<LimbSpec, 5> limb_specs(const SkinLayout& L, const Loops& loops) {
@@ -343,13 +347,16 @@ std::vector<std::pair<int, float>> limb_ring_positions(const LimbSpec& spec, con
     const float s0 = spec.start_u * l0, total = l0 + l1;
     for (int i = 0; i < star_upper; ++i) {
       const float s = s0 + (total - s0) * static_cast<float>(i) / static_cast<float>(star_upper - 1);
-      positions.push_back(s <= l0 && l0 > 0 ? std::pair{0, s / l0} : std::pair{1, l1 > 0 ? std::min(1.0f, (s - l0) / l1) : 1.0f});
+      positions.push_back(s <= l0 && l0 > 0 ? std::pair{0, s / l0}
+                                            : std::pair{1, l1 > 0 ? std::min(1.0f, (s - l0) / l1) : 1.0f});
     }
     return positions;
   }
   for (int i = 0; i < star_upper; ++i)
-    positions.push_back({0, spec.start_u + (1.0f - spec.start_u) * static_cast<float>(i) / static_cast<float>(star_upper - 1)});
-  for (int i = 1; i < spec.lower_rows; ++i) positions.push_back({1, static_cast<float>(i) / static_cast<float>(spec.lower_rows - 1)});
+    positions.push_back(
+        {0, spec.start_u + (1.0f - spec.start_u) * static_cast<float>(i) / static_cast<float>(star_upper - 1)});
+  for (int i = 1; i < spec.lower_rows; ++i)
+    positions.push_back({1, static_cast<float>(i) / static_cast<float>(spec.lower_rows - 1)});
   return positions;
 }
 
@@ -476,7 +483,8 @@ Status check_inputs(const BodyModel& model, const ContourLayoutOptions& options)
 
 Status check_joints(const rig::Skeleton& skeleton) {
   for (const char* name : kSkinJoints)
-    if (skeleton.find_joint(name) < 0) return fail(Errc::invalid_argument, std::string("skin needs joint '") + name + "'");
+    if (skeleton.find_joint(name) < 0)
+      return fail(Errc::invalid_argument, std::string("skin needs joint '") + name + "'");
   return {};
 }
 

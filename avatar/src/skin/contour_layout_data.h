@@ -57,10 +57,14 @@ struct Chain {
       const glm::vec3 fallback = w[nodes[i].joint].apply_vector({0, 1, 0});
       glm::vec3 in = i > 0 ? safe_normalize(point[i] - point[i - 1], fallback) : glm::vec3(0);
       glm::vec3 out(0);
-      if (i + 1 < n) out = safe_normalize(point[i + 1] - point[i], fallback);
-      else if (beyond.joint >= 0) out = safe_normalize(w[beyond.joint].apply(beyond.offset) - point[i], in);
-      if (i == 0) normal[i] = start_normal_from_y ? fallback : out;
-      else normal[i] = safe_normalize(in + out, in);
+      if (i + 1 < n)
+        out = safe_normalize(point[i + 1] - point[i], fallback);
+      else if (beyond.joint >= 0)
+        out = safe_normalize(w[beyond.joint].apply(beyond.offset) - point[i], in);
+      if (i == 0)
+        normal[i] = start_normal_from_y ? fallback : out;
+      else
+        normal[i] = safe_normalize(in + out, in);
       // The angular reference: each joint frame's +Z (the body's front in the zero posture),
       // averaged with the previous node's at interior nodes so twist spreads along links.
       const glm::vec3 z = w[nodes[i].joint].apply_vector({0, 0, 1});
@@ -112,14 +116,14 @@ struct Ring {
   float alpha_step = 0;  // between consecutive driven rings of the junction, 1/(k+1)
   // arc (bridge): interior points on a half circle from `from` through `up` to `to`
   uint32_t from = 0, to = 0;
-  int up_ring = -1;    // ring whose normal gives "up" (arc bulges towards −normal if flip_up)
+  int up_ring = -1;  // ring whose normal gives "up" (arc bulges towards −normal if flip_up)
   bool flip_up = false;
 };
 
 struct Surface {
   std::string name;
-  std::vector<int> rows;               // ring ids, control rows
-  std::vector<uint32_t> first_row;     // control slots of row 0 when it is a loop of others' points
+  std::vector<int> rows;            // ring ids, control rows
+  std::vector<uint32_t> first_row;  // control slots of row 0 when it is a loop of others' points
   bool loop_start = false;
   bool cap = false;
   std::vector<std::pair<std::string, int>> parts;  // part name, first control row
@@ -247,7 +251,7 @@ inline void cut_neck_loop(const std::vector<uint32_t>& full, std::span<const Nec
 }
 
 struct Bridge {
-  int ring = -1;                 // the arc ring (interior control points)
+  int ring = -1;                      // the arc ring (interior control points)
   uint32_t out_from = 0, out_to = 0;  // output vertices of the end points (on the torso)
   std::vector<uint32_t> out_interior;
   std::vector<BsplineTap> taps;  // over [from, interior…, to]

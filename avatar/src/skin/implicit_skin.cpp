@@ -35,7 +35,8 @@ Result<ImplicitSkin> ImplicitSkin::create(const BodyModel& model, const SkinOpti
   return create(model, *skeleton, options);
 }
 
-Result<ImplicitSkin> ImplicitSkin::create(const BodyModel& model, const rig::Skeleton& skeleton, const SkinOptions& options) {
+Result<ImplicitSkin> ImplicitSkin::create(const BodyModel& model, const rig::Skeleton& skeleton,
+                                          const SkinOptions& options) {
   auto layout = ContourLayout::build(model, skeleton, {options.subdivision, options.rigid_parts});
   if (!layout) return tl::unexpected(layout.error());
   return create(model, *layout, options.normals);

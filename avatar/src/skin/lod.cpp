@@ -22,7 +22,9 @@ constexpr LodScale kScale[kSkinLodCount] = {{1.0f, 1.0f}, {0.55f, 0.6f}, {0.32f,
 constexpr float kThreshold_px[kSkinLodCount - 1] = {500.0f, 200.0f, 80.0f};
 constexpr float kHysteresis = 0.1f;
 
-int scaled(int n, float f, int at_least) { return std::max(at_least, static_cast<int>(std::lround(static_cast<float>(n) * f))); }
+int scaled(int n, float f, int at_least) {
+  return std::max(at_least, static_cast<int>(std::lround(static_cast<float>(n) * f)));
+}
 LodScale scale_of(int lod) { return kScale[std::clamp(lod, 0, kSkinLodCount - 1)]; }
 
 // The torso's rings and the bridges at points factor p (the loops follow from them).
@@ -64,7 +66,9 @@ SkinLayout skin_layout_for_lods(const SkinLayout& base, const SkinPieceLods& lod
   const float k = scale_of(std::min({lods.neck, lods.arms, lods.legs})).contours;
   l.boundary_contours = k < 1.0f ? scaled(base.boundary_contours, k, 1) : base.boundary_contours;
   const int limb_min = l.boundary_contours + 3;
-  auto contours = [](int n, float f, int at_least) { return f < 1.0f ? scaled(n, f, at_least) : std::max(n, at_least); };
+  auto contours = [](int n, float f, int at_least) {
+    return f < 1.0f ? scaled(n, f, at_least) : std::max(n, at_least);
+  };
   l.lower_torso_contours = contours(base.lower_torso_contours, scale_of(lods.torso).contours, 3);
   l.upper_torso_contours = contours(base.upper_torso_contours, scale_of(lods.torso).contours, 3);
   l.neck_contours = contours(base.neck_contours, scale_of(lods.neck).contours, limb_min);
@@ -97,10 +101,10 @@ BodyModel with_skin_lods(BodyModel model, const SkinPieceLods& lods) {
 namespace {
 
 constexpr std::array<std::pair<const char*, int SkinPieceLods::*>, 5> kPieces = {{{"torso", &SkinPieceLods::torso},
-                                                                                {"neck", &SkinPieceLods::neck},
-                                                                                {"arms", &SkinPieceLods::arms},
-                                                                                {"legs", &SkinPieceLods::legs},
-                                                                                {"rigid", &SkinPieceLods::rigid}}};
+                                                                                  {"neck", &SkinPieceLods::neck},
+                                                                                  {"arms", &SkinPieceLods::arms},
+                                                                                  {"legs", &SkinPieceLods::legs},
+                                                                                  {"rigid", &SkinPieceLods::rigid}}};
 
 Result<int> parse_level(std::string_view text, std::string_view what) {
   int v = -1;
@@ -139,7 +143,8 @@ Result<SkinPieceLods> parse_skin_lods(std::string_view text) {
     size_t i = 0;
     while (i < kPieces.size() && key != kPieces[i].first) ++i;
     if (i == kPieces.size())
-      return fail(Errc::invalid_argument, "unknown skin piece '" + std::string(key) + "' (torso, neck, arms, legs, rigid, all)");
+      return fail(Errc::invalid_argument,
+                  "unknown skin piece '" + std::string(key) + "' (torso, neck, arms, legs, rigid, all)");
     if (named[i]) return fail(Errc::invalid_argument, "skin piece '" + std::string(key) + "' named twice");
     named[i] = true;
     out.*kPieces[i].second = *v;

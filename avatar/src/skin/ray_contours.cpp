@@ -52,7 +52,8 @@ void RingCaster::span_arc(size_t m, const Directions& dir) {
   // Upper hull, monotone in angle: a vertex that does not turn left lies in a hollow.
   size_t h = 0;
   for (size_t i = 0; i < np; ++i) {
-    while (h >= 2 && cross(point(arc_hull[h - 1]) - point(arc_hull[h - 2]), point(i) - point(arc_hull[h - 1])) <= 0.0f) --h;
+    while (h >= 2 && cross(point(arc_hull[h - 1]) - point(arc_hull[h - 2]), point(i) - point(arc_hull[h - 1])) <= 0.0f)
+      --h;
     arc_hull[h++] = static_cast<uint32_t>(i);
   }
   for (size_t e = 0; e + 1 < h; ++e) {

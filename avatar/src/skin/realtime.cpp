@@ -29,7 +29,8 @@ Result<SkinMethod> parse_skin_method(std::string_view name) {
 RealtimeBody::RealtimeBody(std::unique_ptr<Data> data) : data_(std::move(data)) {}
 RealtimeBody::~RealtimeBody() = default;
 
-Result<std::shared_ptr<const RealtimeBody>> RealtimeBody::create(const BodyModel& model, const RealtimeOptions& options) {
+Result<std::shared_ptr<const RealtimeBody>> RealtimeBody::create(const BodyModel& model,
+                                                                 const RealtimeOptions& options) {
   auto skeleton = rig::Skeleton::build(model.skeleton);
   if (!skeleton) return tl::unexpected(skeleton.error());
   return create(model, *skeleton, options);
@@ -109,7 +110,8 @@ void ring_centres(Data& d) {
       const double cr = double(d.lx[i]) * d.ly[j] - double(d.lx[j]) * d.ly[i];
       a2 += cr, cx += (d.lx[i] + d.lx[j]) * cr, cy += (d.ly[i] + d.ly[j]) * cr;
     }
-    if (std::abs(a2) > 1e-12) r.centre = glm::vec2(static_cast<float>(cx / (3 * a2)), static_cast<float>(cy / (3 * a2)));
+    if (std::abs(a2) > 1e-12)
+      r.centre = glm::vec2(static_cast<float>(cx / (3 * a2)), static_cast<float>(cy / (3 * a2)));
   }
 }
 
@@ -161,7 +163,8 @@ Result<std::shared_ptr<const RealtimeBody>> RealtimeBody::create(const BodyModel
                                                                  const RealtimeOptions& options) {
   const ContourLayout::Data& L = layout.data();
   const rig::Skeleton& skeleton = L.skeleton;
-  if (L.options.subdivision != 0) return fail(Errc::invalid_argument, "a realtime body needs a layout of subdivision 0");
+  if (L.options.subdivision != 0)
+    return fail(Errc::invalid_argument, "a realtime body needs a layout of subdivision 0");
   auto skin = ImplicitSkin::create(model, layout, true);
   if (!skin) return tl::unexpected(skin.error());
   const rig::Pose base = options.initial_pose ? *options.initial_pose : skeleton.zero_pose();
@@ -211,8 +214,8 @@ int RealtimeBody::missed_rays() const { return data_->missed_rays; }
 
 RealtimeBody::FrameWork RealtimeBody::work_per_frame(bool muscles) const {
   // Per point, as realtime_points.cpp does it (eight lanes or one, the same operations).
-  constexpr double kStarRead = 9 * 4, kStarFlops = 55;    // coordinates, columns; scale … plane
-  constexpr double kMuscleRead = 9 * 4, kMuscleFlops = 15;  // one block: offset, to_min, to_max
+  constexpr double kStarRead = 9 * 4, kStarFlops = 55;           // coordinates, columns; scale … plane
+  constexpr double kMuscleRead = 9 * 4, kMuscleFlops = 15;       // one block: offset, to_min, to_max
   constexpr double kDrivenRead = 3 * 12 + 4, kDrivenFlops = 27;  // S, G (gathered), offset, index
   constexpr double kArcRead = 12, kArcFlops = 21;
   constexpr double kRigidRead = 12, kRigidFlops = 18;
@@ -232,7 +235,8 @@ RealtimeBody::FrameWork RealtimeBody::work_per_frame(bool muscles) const {
     w.bytes_written += n * 12;
   }
   for (const Data::Cap& c : d.caps) w.bytes_read += c.count * 12.0, w.flops += c.count * 3.0, w.bytes_written += 12;
-  for (const Data::Rigid& rg : d.rigid) w.bytes_read += rg.count * kRigidRead, w.flops += rg.count * kRigidFlops, w.bytes_written += rg.count * 12.0;
+  for (const Data::Rigid& rg : d.rigid)
+    w.bytes_read += rg.count * kRigidRead, w.flops += rg.count * kRigidFlops, w.bytes_written += rg.count * 12.0;
   return w;
 }
 
@@ -241,12 +245,14 @@ size_t RealtimeBody::shared_bytes() const {
   size_t b = sizeof(Data) + d.rings.capacity() * sizeof(Data::RingOp) + d.goals.capacity() * 4 +
              (d.lx.capacity() + d.ly.capacity() + d.lz.capacity()) * 4 +
              (d.lo_x.capacity() + d.lo_y.capacity() + d.hi_x.capacity() + d.hi_y.capacity() + d.dh_lo.capacity() +
-              d.dh_hi.capacity()) * 4 +
+              d.dh_hi.capacity()) *
+                 4 +
              d.muscle_blocks.capacity() * sizeof(Data::MuscleBlock) + d.muscle_data.capacity() * 4 +
              d.frame_runs.capacity() * sizeof(Data::FrameRun) + (d.run_rings.capacity() + d.run_u.capacity()) * 4 +
              d.rigid_local.capacity() * sizeof(glm::vec3) + d.weights.capacity() * sizeof(JointInfluences) +
              d.toe_vertex.capacity() * 4 + d.toe_weight.capacity() * 4 + d.toe_local.capacity() * sizeof(glm::vec3) +
-             d.texture.source.capacity() * 4 + d.texture.uv.capacity() * sizeof(glm::vec2) + d.texture.indices.capacity() * 4;
+             d.texture.source.capacity() * 4 + d.texture.uv.capacity() * sizeof(glm::vec2) +
+             d.texture.indices.capacity() * 4;
   for (const Data::Band& band : d.bands)
     b += sizeof(Data::Band) + (band.bend_rad.capacity() + band.scale[0].capacity() + band.scale[1].capacity()) * 4;
   b += d.rest_mesh.positions.capacity() * sizeof(glm::vec3) + d.rest_mesh.normals.capacity() * sizeof(glm::vec3) +
@@ -273,7 +279,8 @@ size_t RealtimeSkin::instance_bytes() const { return sizeof(*this) + sizeof(Stat
 
 void RealtimeSkin::use_scalar_reference(bool scalar) { state_->vectorised = !scalar; }
 
-void RealtimeSkin::evaluate(const rig::Pose& pose, std::span<glm::vec3> pos, std::span<glm::vec3> normals, bool muscles) {
+void RealtimeSkin::evaluate(const rig::Pose& pose, std::span<glm::vec3> pos, std::span<glm::vec3> normals,
+                            bool muscles) {
   const RealtimeBody::Data& d = body_->data();
   if (pos.size() < d.rest_mesh.positions.size() || pose.dof_rad.size() != static_cast<size_t>(d.skeleton.dof_count()))
     return;  // a caller's sizing error; documented sizes

@@ -15,7 +15,7 @@ namespace mimic::avatar {
 
 namespace realtime_detail {
 
-inline constexpr int kTorsoChain = 0;        // contour_layout.cpp builds the torso chain first
+inline constexpr int kTorsoChain = 0;  // contour_layout.cpp builds the torso chain first
 
 // The frame a ring's points are measured in this frame: the ring plane's orthonormal axes
 // (front, left, normal) and, for star rings, the link the ring cuts.
@@ -76,11 +76,11 @@ struct RealtimeBody::Data {
     uint32_t first = 0, count = 0;  // the ring's slots (contiguous) = its vertices
     int chain = -1, segment = 0;    // star
     float u = 0;
-    int prev_star = -1;             // star: the star ring before it on its surface
-    int s_ring = -1;                // driven
+    int prev_star = -1;  // star: the star ring before it on its surface
+    int s_ring = -1;     // driven
     float alpha = 0;
-    uint32_t goal_first = 0;        // driven: offset in `goals`
-    uint32_t from = 0, to = 0;      // arc
+    uint32_t goal_first = 0;    // driven: offset in `goals`
+    uint32_t from = 0, to = 0;  // arc
     int up_ring = -1;
     bool flip_up = false;
     // Star: the initial pose's plane against the link (Frame::rise, along_per_normal), from
@@ -183,7 +183,7 @@ struct State {
   std::vector<float> band_scale;    // per band, this frame
   // Build time only: the bands' scales forced (the calibration); empty otherwise.
   std::vector<float> band_scale_forced;
-  bool vectorised = true;  // the eight-wide kernels where the build has them
+  bool vectorised = true;    // the eight-wide kernels where the build has them
   std::vector<Reach> reach;  // per ring, this frame (star rings)
   RealtimeTimings timings;
 

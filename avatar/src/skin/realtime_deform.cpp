@@ -124,7 +124,8 @@ size_t State::heap_bytes() const {
              muscle_w.capacity() * sizeof(glm::vec2) + chains.capacity() * sizeof(Chain) +
              (band_scale.capacity() + band_scale_forced.capacity()) * sizeof(float) + reach.capacity() * sizeof(Reach);
   for (const Chain& c : chains)
-    b += c.nodes.capacity() * sizeof(Chain::Node) + (c.point.capacity() + c.normal.capacity() + c.ref.capacity()) * sizeof(glm::vec3);
+    b += c.nodes.capacity() * sizeof(Chain::Node) +
+         (c.point.capacity() + c.normal.capacity() + c.ref.capacity()) * sizeof(glm::vec3);
   return b;
 }
 
@@ -138,8 +139,9 @@ void deform(const Data& d, State& st, const rig::Pose& pose, std::span<glm::vec3
                              : glm::vec2(0.0f);
   }
   for (size_t b = 0; b < d.bands.size(); ++b)
-    st.band_scale[b] = !st.band_scale_forced.empty() ? st.band_scale_forced[b]
-                                                      : d.bands[b].scale_at(chain_bend(st.chains[d.bands[b].chain]), muscles);
+    st.band_scale[b] = !st.band_scale_forced.empty()
+                           ? st.band_scale_forced[b]
+                           : d.bands[b].scale_at(chain_bend(st.chains[d.bands[b].chain]), muscles);
   star_frames(d, st, kHasAvx2Kernel && st.vectorised);
   const double t1 = steady_now_s();
 
@@ -155,7 +157,7 @@ void deform(const Data& d, State& st, const rig::Pose& pose, std::span<glm::vec3
         s.scale = r.band >= 0 ? 1.0f + r.band_weight * (st.band_scale[r.band] - 1.0f) : 1.0f;
         const glm::vec2* w = muscles && r.muscle_count > 0 ? st.muscle_w.data() : nullptr;
         st.reach[ri] = kHasAvx2Kernel && st.vectorised ? star_points_avx2(d, r, s, w, pos.data() + r.first)
-                                                        : star_points_scalar(d, r, s, w, pos.data() + r.first);
+                                                       : star_points_scalar(d, r, s, w, pos.data() + r.first);
         if (r.prev_star >= 0)
           crease(r, d.rings[r.prev_star], f, st.frames[r.prev_star], st.reach[ri], st.reach[r.prev_star], pos);
         break;

@@ -51,7 +51,8 @@ std::vector<std::vector<int>> limb_star_rings(const RestContours& m) {
   for (const Surface& s : m.layout.surfaces) {
     std::vector<int> stars;
     for (int id : s.rows)
-      if (id >= 0 && m.layout.rings[id].kind == RingKind::star && m.layout.rings[id].chain != kTorsoChain) stars.push_back(id);
+      if (id >= 0 && m.layout.rings[id].kind == RingKind::star && m.layout.rings[id].chain != kTorsoChain)
+        stars.push_back(id);
     if (!stars.empty()) out.push_back(std::move(stars));
   }
   return out;
@@ -88,8 +89,10 @@ void measure_columns(const RestContours& m, Data& d) {
           if (step < 0 ? dh > -1e-4f : dh < 1e-4f) continue;
           const glm::vec2 slope = (glm::vec2(b) - glm::vec2(a)) / dh;
           const uint32_t s = r.first + k;
-          if (step < 0) d.lo_x[s] = slope.x, d.lo_y[s] = slope.y, d.dh_lo[s] = dh;
-          else d.hi_x[s] = slope.x, d.hi_y[s] = slope.y, d.dh_hi[s] = dh;
+          if (step < 0)
+            d.lo_x[s] = slope.x, d.lo_y[s] = slope.y, d.dh_lo[s] = dh;
+          else
+            d.hi_x[s] = slope.x, d.hi_y[s] = slope.y, d.dh_hi[s] = dh;
         }
       }
     }
@@ -216,7 +219,6 @@ Status calibrate_bands(const RestContours& m, const rig::Pose& base, Data& d) {
   return {};
 }
 
-
 namespace {
 
 // Every DOF that deforms a primitive, once, with the range the primitive's shape follows.
@@ -251,7 +253,8 @@ void pack_muscle_blocks(const std::vector<std::vector<Term>>& ring_terms, Data& 
       float* out = d.muscle_data.data() + at;
       for (uint32_t j = 0; j < r.count; ++j) {
         const Term& t = terms[j];
-        const float v[9] = {t.offset.x, t.offset.y, t.offset.z, t.to_min.x, t.to_min.y, t.to_min.z, t.to_max.x, t.to_max.y, t.to_max.z};
+        const float v[9] = {t.offset.x, t.offset.y, t.offset.z, t.to_min.x, t.to_min.y,
+                            t.to_min.z, t.to_max.x, t.to_max.y, t.to_max.z};
         for (int c = 0; c < 9; ++c) out[size_t(c) * r.count + j] = v[c];
       }
     }
@@ -263,7 +266,8 @@ void pack_muscle_blocks(const std::vector<std::vector<Term>>& ring_terms, Data& 
 
 // Muscles: the contours with the primitives of every DOF that deforms one at θ0, θmin and
 // θmax; what moves in the rings' frames is what the muscles do there.
-void measure_muscles(const BodyModel& model, ImplicitSkin& skin, const RestContours& m, const rig::Pose& base, Data& d) {
+void measure_muscles(const BodyModel& model, ImplicitSkin& skin, const RestContours& m, const rig::Pose& base,
+                     Data& d) {
   find_muscle_dofs(model, d.skeleton, d);
   const size_t n = m.ctrl.size();
   std::vector<glm::vec3> at0(n), at_min(n), at_max(n);

@@ -61,7 +61,6 @@ Reach star_points_scalar(const Data& d, const Data::RingOp& r, const StarRing& s
   return reach;
 }
 
-
 void driven_points_scalar(const Data& d, const Data::RingOp& r, const Frame& f, std::span<glm::vec3> pos) {
   const uint32_t s_first = d.rings[r.s_ring].first;
   const uint32_t* goal = d.goals.data() + r.goal_first;
@@ -109,7 +108,8 @@ inline V3 cross(const V3& a, const V3& b) {
           _mm256_fmsub_ps(a.x, b.y, _mm256_mul_ps(a.y, b.x))};
 }
 inline V3 select(__m256 mask, const V3& yes, const V3& no) {
-  return {_mm256_blendv_ps(no.x, yes.x, mask), _mm256_blendv_ps(no.y, yes.y, mask), _mm256_blendv_ps(no.z, yes.z, mask)};
+  return {_mm256_blendv_ps(no.x, yes.x, mask), _mm256_blendv_ps(no.y, yes.y, mask),
+          _mm256_blendv_ps(no.z, yes.z, mask)};
 }
 // v/|v| where |v|² > 1e-20, else the fallback (as unit_or in realtime_deform.cpp).
 inline V3 unit_or(const V3& v, const V3& fallback) {
@@ -122,7 +122,8 @@ inline V3 unit_or(const V3& v, const V3& fallback) {
 void star_frames(const Data& d, State& st, bool vectorised) {
   if (!vectorised) return star_frames_scalar(d, st);
   constexpr float kMinLinkCos = 0.3f;  // as star_frame
-  const __m256 min_cos = _mm256_set1_ps(kMinLinkCos), sin_min = _mm256_set1_ps(std::sqrt(1.0f - kMinLinkCos * kMinLinkCos));
+  const __m256 min_cos = _mm256_set1_ps(kMinLinkCos),
+               sin_min = _mm256_set1_ps(std::sqrt(1.0f - kMinLinkCos * kMinLinkCos));
   const __m256 zero = _mm256_setzero_ps(), one = _mm256_set1_ps(1.0f);
   alignas(32) float out[22][8];
   for (const Data::FrameRun& run : d.frame_runs) {
@@ -142,7 +143,8 @@ void star_frames(const Data& d, State& st, bool vectorised) {
       // Reference along the normal (a degenerate posture): any perpendicular.
       const __m256 degenerate = _mm256_cmp_ps(dot(front, front), _mm256_set1_ps(1e-10f), _CMP_LT_OQ);
       if (_mm256_movemask_ps(degenerate)) {
-        const __m256 use_x = _mm256_cmp_ps(_mm256_andnot_ps(_mm256_set1_ps(-0.0f), n.x), _mm256_set1_ps(0.9f), _CMP_LT_OQ);
+        const __m256 use_x =
+            _mm256_cmp_ps(_mm256_andnot_ps(_mm256_set1_ps(-0.0f), n.x), _mm256_set1_ps(0.9f), _CMP_LT_OQ);
         const V3 other{_mm256_blendv_ps(zero, one, use_x), _mm256_blendv_ps(one, zero, use_x), zero};
         front = select(degenerate, cross(n, other), front);
       }
@@ -150,7 +152,8 @@ void star_frames(const Data& d, State& st, bool vectorised) {
       const V3 y = cross(n, x);
       V3 axis = run.along_link && link_ok ? link_dir : n;
       const __m256 flip = _mm256_cmp_ps(dot(axis, n), zero, _CMP_LT_OQ);
-      axis = select(flip, V3{_mm256_sub_ps(zero, axis.x), _mm256_sub_ps(zero, axis.y), _mm256_sub_ps(zero, axis.z)}, axis);
+      axis =
+          select(flip, V3{_mm256_sub_ps(zero, axis.x), _mm256_sub_ps(zero, axis.y), _mm256_sub_ps(zero, axis.z)}, axis);
       const __m256 cos_tilt = dot(axis, n);
       const __m256 too_tilted = _mm256_cmp_ps(cos_tilt, min_cos, _CMP_LT_OQ);
       if (_mm256_movemask_ps(too_tilted)) {
@@ -163,9 +166,9 @@ void star_frames(const Data& d, State& st, bool vectorised) {
       const __m256 along_per_normal = _mm256_div_ps(one, dot(axis, n));
       const V3 px = unit_or(sub_scaled(x, dot(x, axis), axis), y);
       const V3 py = cross(axis, px);
-      const __m256* fields[22] = {&origin.x, &origin.y, &origin.z, &x.x, &x.y, &x.z, &y.x, &y.y, &y.z, &n.x, &n.y,
-                                  &n.z, &axis.x, &axis.y, &axis.z, &px.x, &px.y, &px.z, &py.x, &py.y, &py.z,
-                                  &along_per_normal};
+      const __m256* fields[22] = {
+          &origin.x, &origin.y, &origin.z, &x.x,    &x.y,  &x.z,  &y.x,  &y.y,  &y.z,  &n.x,  &n.y,
+          &n.z,      &axis.x,   &axis.y,   &axis.z, &px.x, &px.y, &px.z, &py.x, &py.y, &py.z, &along_per_normal};
       for (int f = 0; f < 22; ++f) _mm256_store_ps(out[f], *fields[f]);
       const uint32_t lanes = std::min<uint32_t>(8, run.count - j);
       for (uint32_t l = 0; l < lanes; ++l) {
@@ -198,11 +201,13 @@ void driven_points(const Data& d, const Data::RingOp& r, const Frame& f, std::sp
     const uint32_t k = r.first + j;
     __m256 sx, sy, sz;
     simd::load8(&pos[s_first + j].x, sx, sy, sz);
-    const __m256i g3 = _mm256_mullo_epi32(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(goal + j)), _mm256_set1_epi32(3));
+    const __m256i g3 =
+        _mm256_mullo_epi32(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(goal + j)), _mm256_set1_epi32(3));
     const __m256 gx = _mm256_i32gather_ps(base, g3, 4);
     const __m256 gy = _mm256_i32gather_ps(base + 1, g3, 4);
     const __m256 gz = _mm256_i32gather_ps(base + 2, g3, 4);
-    const __m256 lx = _mm256_loadu_ps(d.lx.data() + k), ly = _mm256_loadu_ps(d.ly.data() + k), lz = _mm256_loadu_ps(d.lz.data() + k);
+    const __m256 lx = _mm256_loadu_ps(d.lx.data() + k), ly = _mm256_loadu_ps(d.ly.data() + k),
+                 lz = _mm256_loadu_ps(d.lz.data() + k);
     const __m256 ox = _mm256_fmadd_ps(alpha, _mm256_sub_ps(gx, sx), sx);
     const __m256 oy = _mm256_fmadd_ps(alpha, _mm256_sub_ps(gy, sy), sy);
     const __m256 oz = _mm256_fmadd_ps(alpha, _mm256_sub_ps(gz, sz), sz);
@@ -248,23 +253,25 @@ Reach star_points_avx2(const Data& d, const Data::RingOp& r, const StarRing& s, 
   for (uint32_t i = 0; i < n; i += 8) {
     __m256 x = _mm256_loadu_ps(lx + i), y = _mm256_loadu_ps(ly + i), z = _mm256_loadu_ps(lz + i);
     for (uint32_t b = 0; b < block_count; ++b) {
-        const glm::vec2 w2 = muscle_w[blocks[b].dof];
-        const __m256 wx = _mm256_set1_ps(w2.x), wy = _mm256_set1_ps(w2.y);
-        const float* m = muscle_data + blocks[b].data + i;
-        x = _mm256_add_ps(x, _mm256_fmadd_ps(wy, _mm256_loadu_ps(m + 6 * n),
-                                             _mm256_fmadd_ps(wx, _mm256_loadu_ps(m + 3 * n), _mm256_loadu_ps(m))));
-        y = _mm256_add_ps(y, _mm256_fmadd_ps(wy, _mm256_loadu_ps(m + 7 * n),
-                                             _mm256_fmadd_ps(wx, _mm256_loadu_ps(m + 4 * n), _mm256_loadu_ps(m + n))));
-        z = _mm256_add_ps(z, _mm256_fmadd_ps(wy, _mm256_loadu_ps(m + 8 * n),
-                                             _mm256_fmadd_ps(wx, _mm256_loadu_ps(m + 5 * n), _mm256_loadu_ps(m + 2 * n))));
-      }
+      const glm::vec2 w2 = muscle_w[blocks[b].dof];
+      const __m256 wx = _mm256_set1_ps(w2.x), wy = _mm256_set1_ps(w2.y);
+      const float* m = muscle_data + blocks[b].data + i;
+      x = _mm256_add_ps(x, _mm256_fmadd_ps(wy, _mm256_loadu_ps(m + 6 * n),
+                                           _mm256_fmadd_ps(wx, _mm256_loadu_ps(m + 3 * n), _mm256_loadu_ps(m))));
+      y = _mm256_add_ps(y, _mm256_fmadd_ps(wy, _mm256_loadu_ps(m + 7 * n),
+                                           _mm256_fmadd_ps(wx, _mm256_loadu_ps(m + 4 * n), _mm256_loadu_ps(m + n))));
+      z = _mm256_add_ps(z,
+                        _mm256_fmadd_ps(wy, _mm256_loadu_ps(m + 8 * n),
+                                        _mm256_fmadd_ps(wx, _mm256_loadu_ps(m + 5 * n), _mm256_loadu_ps(m + 2 * n))));
+    }
     x = _mm256_fmadd_ps(_mm256_sub_ps(x, cx), scale, cx);
     y = _mm256_fmadd_ps(_mm256_sub_ps(y, cy), scale, cy);
     const __m256 shear = _mm256_fmsub_ps(z, shear_z, _mm256_fmadd_ps(x, shear_qx, _mm256_mul_ps(y, shear_qy)));
     const __m256 lo = _mm256_cmp_ps(shear, zero, _CMP_LT_OQ);
     const __m256 sx = _mm256_blendv_ps(_mm256_loadu_ps(hi_x + i), _mm256_loadu_ps(lo_x + i), lo);
     const __m256 sy = _mm256_blendv_ps(_mm256_loadu_ps(hi_y + i), _mm256_loadu_ps(lo_y + i), lo);
-    const __m256 divisor = _mm256_max_ps(_mm256_fmadd_ps(a, _mm256_fmadd_ps(sx, rx, _mm256_mul_ps(sy, ry)), one), min_div);
+    const __m256 divisor =
+        _mm256_max_ps(_mm256_fmadd_ps(a, _mm256_fmadd_ps(sx, rx, _mm256_mul_ps(sy, ry)), one), min_div);
     const __m256 along = _mm256_min_ps(_mm256_max_ps(_mm256_div_ps(shear, divisor), _mm256_loadu_ps(dh_lo + i)),
                                        _mm256_loadu_ps(dh_hi + i));
     x = _mm256_fmadd_ps(sx, along, x);
@@ -274,7 +281,8 @@ Reach star_points_avx2(const Data& d, const Data::RingOp& r, const StarRing& s, 
     const __m256 wy = _mm256_fmadd_ps(h, axy, _mm256_fmadd_ps(y, pyy, _mm256_fmadd_ps(x, pxy, oy)));
     const __m256 wz = _mm256_fmadd_ps(h, axz, _mm256_fmadd_ps(y, pyz, _mm256_fmadd_ps(x, pxz, oz)));
     const __m256 valid = _mm256_cmp_ps(lane, _mm256_set1_ps(static_cast<float>(n - i)), _CMP_LT_OQ);
-    radius2 = _mm256_max_ps(radius2, _mm256_and_ps(valid, _mm256_fmadd_ps(h, h, _mm256_fmadd_ps(y, y, _mm256_mul_ps(x, x)))));
+    radius2 =
+        _mm256_max_ps(radius2, _mm256_and_ps(valid, _mm256_fmadd_ps(h, h, _mm256_fmadd_ps(y, y, _mm256_mul_ps(x, x)))));
     height = _mm256_max_ps(height, _mm256_and_ps(valid, _mm256_and_ps(z, abs_mask)));
     if (i + 8 <= n) {
       simd::store8(&out[i].x, wx, wy, wz);
@@ -287,7 +295,8 @@ Reach star_points_avx2(const Data& d, const Data::RingOp& r, const StarRing& s, 
   _mm256_store_ps(r2, radius2);
   _mm256_store_ps(hz, height);
   Reach reach;
-  for (int l = 0; l < 8; ++l) reach.radius = std::max(reach.radius, r2[l]), reach.height = std::max(reach.height, hz[l]);
+  for (int l = 0; l < 8; ++l)
+    reach.radius = std::max(reach.radius, r2[l]), reach.height = std::max(reach.height, hz[l]);
   reach.radius = std::sqrt(reach.radius);
   return reach;
 }
@@ -326,7 +335,8 @@ Reach star_points_avx2(const Data& d, const Data::RingOp& r, const StarRing& s, 
   return star_points_scalar(d, r, s, muscle_w, out);
 }
 
-void rigid_points(const glm::mat3& rot, const glm::vec3& t, const glm::vec3* local, uint32_t count, glm::vec3* out, bool) {
+void rigid_points(const glm::mat3& rot, const glm::vec3& t, const glm::vec3* local, uint32_t count, glm::vec3* out,
+                  bool) {
   for (uint32_t i = 0; i < count; ++i) out[i] = rot * local[i] + t;
 }
 

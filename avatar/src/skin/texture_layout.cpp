@@ -81,8 +81,9 @@ TextureLayout texture_layout(const ContourLayout& layout) {
           const std::vector<uint32_t>& row = *rows[k.row];
           b.corner(row[k.col % row.size()], frac(k.col, row.size()), v[k.row]);
         };
-        for_each_band_triangle(static_cast<uint32_t>(rows[0]->size()), static_cast<uint32_t>(rows[1]->size()),
-                               [&](BandCorner c0, BandCorner c1, BandCorner c2) { corner(c0), corner(c1), corner(c2); });
+        for_each_band_triangle(
+            static_cast<uint32_t>(rows[0]->size()), static_cast<uint32_t>(rows[1]->size()),
+            [&](BandCorner c0, BandCorner c1, BandCorner c2) { corner(c0), corner(c1), corner(c2); });
       }
       if (capped) {
         const auto& last = s.out_rows.back();
@@ -102,7 +103,8 @@ TextureLayout texture_layout(const ContourLayout& layout) {
     auto pole_u = [&](size_t j) { return (static_cast<float>(j) + 0.5f) / static_cast<float>(pts); };
     for (size_t j = 0; j < pts; ++j) {
       const float v = frac(1, rings + 1);
-      b.corner(at(0, j + 1), frac(j + 1, pts), v), b.corner(at(0, j), frac(j, pts), v), b.corner(south, pole_u(j), 0.0f);
+      b.corner(at(0, j + 1), frac(j + 1, pts), v), b.corner(at(0, j), frac(j, pts), v),
+          b.corner(south, pole_u(j), 0.0f);
     }
     for (size_t r = 0; r + 1 < rings; ++r) {
       const float v0 = frac(r + 1, rings + 1), v1 = frac(r + 2, rings + 1);

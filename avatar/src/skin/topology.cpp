@@ -37,7 +37,8 @@ int plan_runs(Surface& s, const std::vector<Ring>& rings, int sub) {
     run.first_out = out;
     const int outs = (run.rows - 1) * sub + 1;
     run.around = periodic_cubic_taps(static_cast<int>(n), sub);
-    run.along = run.rows > 1 ? clamped_cubic_taps(run.rows, outs) : std::vector<BsplineTap>{BsplineTap{{0, 0, 0, 0}, {1, 0, 0, 0}}};
+    run.along = run.rows > 1 ? clamped_cubic_taps(run.rows, outs)
+                             : std::vector<BsplineTap>{BsplineTap{{0, 0, 0, 0}, {1, 0, 0, 0}}};
     for (int i = 0; i < run.rows; ++i) s.out_row_of_control[r + static_cast<size_t>(i)] = out + i * sub;
     out += outs;
     s.runs.push_back(std::move(run));
@@ -104,7 +105,8 @@ void bridge_rows(Data& d, const Marks& k) {
   const int sub = d.options.subdivision;
   const std::vector<uint32_t>& bottom = d.surfaces[0].out_rows.front();
   const std::vector<uint32_t>& top = d.surfaces[0].out_rows.back();
-  const std::pair<uint32_t, uint32_t> ends[3] = {{bottom[0], bottom[k.half]}, {top[k.fl], top[k.kl]}, {top[k.fr], top[k.kr]}};
+  const std::pair<uint32_t, uint32_t> ends[3] = {
+      {bottom[0], bottom[k.half]}, {top[k.fl], top[k.kl]}, {top[k.fr], top[k.kr]}};
   for (int b = 0; b < 3; ++b) {
     Bridge& br = d.bridges[b];
     const int segs = static_cast<int>(d.rings[br.ring].slots.size()) + 1;
@@ -126,7 +128,9 @@ std::vector<std::vector<uint32_t>> junction_loops(Data& d, const Marks& k) {
     if (reversed) std::reverse(v.begin(), v.end());
     return v;
   };
-  auto append = [](std::vector<uint32_t>& to, const std::vector<uint32_t>& v) { to.insert(to.end(), v.begin(), v.end()); };
+  auto append = [](std::vector<uint32_t>& to, const std::vector<uint32_t>& v) {
+    to.insert(to.end(), v.begin(), v.end());
+  };
   auto top_range = [&](int from, int to) {  // inclusive, increasing, wrapping
     std::vector<uint32_t> v;
     for (int j = from;; j = (j + 1) % k.cols) {
@@ -217,7 +221,8 @@ void surface_triangles(Data& d, Triangles& tri) {
 
 // Head, hands, feet: a fan at each pole and bands between their latitude rings.
 void rigid_triangles(const Data& d, Triangles& tri) {
-  const uint32_t rings_n = static_cast<uint32_t>(d.counts.rigid_rings), pts = static_cast<uint32_t>(d.counts.rigid_points);
+  const uint32_t rings_n = static_cast<uint32_t>(d.counts.rigid_rings),
+                 pts = static_cast<uint32_t>(d.counts.rigid_points);
   for (const RigidMesh& rm : d.rigid) {
     tri.begin_part(rigid_part_name(rm.part));
     const uint32_t south = rm.first_vertex;
@@ -240,8 +245,10 @@ void rigid_triangles(const Data& d, Triangles& tri) {
 
 void build_topology(ContourLayout::Data& d) {
   d.vertex_count = 0;
-  if (d.options.subdivision == 0) control_rows(d);
-  else smoothed_rows(d);
+  if (d.options.subdivision == 0)
+    control_rows(d);
+  else
+    smoothed_rows(d);
   for (Surface& s : d.surfaces)
     if (s.cap) s.cap_vertex = new_vertices(d, 1);
   for (RigidMesh& rm : d.rigid) rm.first_vertex = new_vertices(d, rm.local.size());

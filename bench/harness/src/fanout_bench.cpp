@@ -75,7 +75,8 @@ Result<FanoutCapacity> measure_fanout_capacity(const FanoutOptions& o) {
     const auto t0 = Clock::now();
     if (t0 - due > period) m.late_ticks++;
     srv.begin_batch();
-    for (int a = 0; a < o.avatars; ++a) srv.publish_pose(ids[size_t(a)], walkers->frame(a, k, o.rate_hz, ids[size_t(a)]));
+    for (int a = 0; a < o.avatars; ++a)
+      srv.publish_pose(ids[size_t(a)], walkers->frame(a, k, o.rate_hz, ids[size_t(a)]));
     srv.end_batch();
     m.tick_us.push_back(std::chrono::duration<double, std::micro>(Clock::now() - t0).count());
   }

@@ -258,8 +258,8 @@ Result<FanoutResult> measure_fanout(int subscribers, int avatars, double rate_hz
   r.late_ticks = late;
   // The last tick is due (ticks - 1) periods after the first and takes one more to send.
   r.achieved_rate_hz = double(ticks) / std::max(elapsed_s, 1e-9);
-  r.kept_up = r.frames_received == expected && r.lost == 0 && r.frames_dropped == 0 &&
-              r.achieved_rate_hz >= 0.99 * rate_hz;
+  r.kept_up =
+      r.frames_received == expected && r.lost == 0 && r.frames_dropped == 0 && r.achieved_rate_hz >= 0.99 * rate_hz;
   return r;
 }
 

@@ -40,26 +40,26 @@ struct Quat {
 };
 
 struct Joint {
-  std::string name;       // e.g. "pelvis", "l_elbow" (docs/body-model.md)
-  int parent = -1;        // index in Avatar::joints, -1 for the root
-  Vec3 position_m;        // world position of the joint centre
-  Quat orientation;       // world_from_joint rotation
+  std::string name;  // e.g. "pelvis", "l_elbow" (docs/body-model.md)
+  int parent = -1;   // index in Avatar::joints, -1 for the root
+  Vec3 position_m;   // world position of the joint centre
+  Quat orientation;  // world_from_joint rotation
 };
 
 struct Avatar {
-  uint16_t id = 0;                  // scene-wide id
-  std::string name;                 // as published, e.g. "avatar1"
-  std::vector<Joint> joints;        // parents before children
+  uint16_t id = 0;            // scene-wide id
+  std::string name;           // as published, e.g. "avatar1"
+  std::vector<Joint> joints;  // parents before children
   std::vector<std::string> dof_names;
-  std::vector<float> dof_rad;       // the pose frame's joint angles, in dof_names order
+  std::vector<float> dof_rad;  // the pose frame's joint angles, in dof_names order
   Vec3 root_position_m;
   Quat root_orientation;
-  uint32_t sequence = 0;            // of the latest pose frame
-  uint64_t time_us = 0;             // its capture time, µs since the Unix epoch (publisher's clock)
-  bool stale = false;               // the publisher's trackers had no fresh data
-  bool has_pose = false;            // false until the first pose frame (joints at rest until then)
-  uint64_t frames = 0;              // pose frames received
-  uint64_t lost = 0;                // frames superseded before they reached us (latest wins)
+  uint32_t sequence = 0;  // of the latest pose frame
+  uint64_t time_us = 0;   // its capture time, µs since the Unix epoch (publisher's clock)
+  bool stale = false;     // the publisher's trackers had no fresh data
+  bool has_pose = false;  // false until the first pose frame (joints at rest until then)
+  uint64_t frames = 0;    // pose frames received
+  uint64_t lost = 0;      // frames superseded before they reached us (latest wins)
 };
 
 // The deformed skin of an avatar at one LOD, as the server deforms it (mesh frames, for clients
@@ -69,12 +69,12 @@ struct Avatar {
 struct Mesh {
   uint16_t avatar = 0;
   int lod = 0;
-  std::vector<uint32_t> indices;    // triangles, counter-clockwise seen from outside
-  std::vector<Vec3> positions_m;    // world positions (16-bit quantised in the frame's box)
-  std::vector<Vec3> normals;        // unit, area-weighted over each vertex's triangles
-  uint32_t sequence = 0;            // of the latest mesh frame
-  uint64_t time_us = 0;             // its capture time, µs since the Unix epoch
-  uint64_t frames = 0;              // mesh frames received
+  std::vector<uint32_t> indices;  // triangles, counter-clockwise seen from outside
+  std::vector<Vec3> positions_m;  // world positions (16-bit quantised in the frame's box)
+  std::vector<Vec3> normals;      // unit, area-weighted over each vertex's triangles
+  uint32_t sequence = 0;          // of the latest mesh frame
+  uint64_t time_us = 0;           // its capture time, µs since the Unix epoch
+  uint64_t frames = 0;            // mesh frames received
 };
 
 // How the connection has fared so far.
@@ -105,10 +105,10 @@ class MIMIC_CLIENT_API Subscriber {
   Subscriber(const Subscriber&) = delete;
   Subscriber& operator=(const Subscriber&) = delete;
 
-  std::function<void(const Avatar&)> on_avatar;    // an avatar joined (or a new body revision)
-  std::function<void(const Avatar&)> on_frame;     // a new pose: joints are posed
-  std::function<void(uint16_t id)> on_removed;     // an avatar left
-  std::function<void(const Mesh&)> on_mesh;        // a new mesh frame (Options::mesh_lod)
+  std::function<void(const Avatar&)> on_avatar;  // an avatar joined (or a new body revision)
+  std::function<void(const Avatar&)> on_frame;   // a new pose: joints are posed
+  std::function<void(uint16_t id)> on_removed;   // an avatar left
+  std::function<void(const Mesh&)> on_mesh;      // a new mesh frame (Options::mesh_lod)
 
   // Handles what the network has, without blocking. false: the session ended (reason in *error).
   bool poll(std::string* error = nullptr);

@@ -61,18 +61,18 @@ typedef struct mimic_joint {
 } mimic_joint;
 
 typedef struct mimic_avatar {
-  uint16_t id;               /* scene-wide */
-  const char* name;          /* as published, e.g. "avatar1" */
+  uint16_t id;      /* scene-wide */
+  const char* name; /* as published, e.g. "avatar1" */
   uint32_t joint_count;
   const mimic_joint* joints; /* parents before children */
   uint32_t dof_count;
-  const float* dof_rad;      /* the pose frame's joint angles */
+  const float* dof_rad; /* the pose frame's joint angles */
   mimic_vec3 root_position_m;
   mimic_quat root_orientation;
-  uint32_t sequence;         /* of the latest pose frame */
-  uint64_t time_us;          /* its capture time, µs since the Unix epoch */
-  int32_t stale;             /* the publisher's trackers had no fresh data */
-  int32_t has_pose;          /* 0 until the first pose frame (joints at rest until then) */
+  uint32_t sequence; /* of the latest pose frame */
+  uint64_t time_us;  /* its capture time, µs since the Unix epoch */
+  int32_t stale;     /* the publisher's trackers had no fresh data */
+  int32_t has_pose;  /* 0 until the first pose frame (joints at rest until then) */
   uint64_t frames, lost;
 } mimic_avatar;
 
@@ -81,20 +81,20 @@ typedef struct mimic_mesh {
   int32_t lod;
   uint32_t vertex_count;
   const mimic_vec3* positions_m;
-  const mimic_vec3* normals;    /* unit, area-weighted */
-  uint32_t index_count;         /* 3 per triangle */
-  const uint32_t* indices;      /* the same until the topology changes */
+  const mimic_vec3* normals; /* unit, area-weighted */
+  uint32_t index_count;      /* 3 per triangle */
+  const uint32_t* indices;   /* the same until the topology changes */
   uint32_t sequence;
   uint64_t time_us;
   uint64_t frames;
 } mimic_mesh;
 
 typedef struct mimic_options {
-  const char* server;        /* "HOST:PORT"; default "127.0.0.1:7777" */
-  const char* name;          /* shown in the server's session list; default "mimic-c" */
-  int32_t udp;               /* pose frames as UDP datagrams when offered */
-  int32_t mesh_lod;          /* 0..7: also the deformed skin at this LOD; -1 (default): joints only */
-  double connect_timeout_s;  /* default 3 */
+  const char* server;       /* "HOST:PORT"; default "127.0.0.1:7777" */
+  const char* name;         /* shown in the server's session list; default "mimic-c" */
+  int32_t udp;              /* pose frames as UDP datagrams when offered */
+  int32_t mesh_lod;         /* 0..7: also the deformed skin at this LOD; -1 (default): joints only */
+  double connect_timeout_s; /* default 3 */
 } mimic_options;
 
 typedef struct mimic_subscriber mimic_subscriber;

@@ -75,14 +75,18 @@ std::optional<Format> parse_format(std::string_view name) {
     Format f;
   };
   static constexpr Alias kAliases[] = {
-      {"position", Format::position},       {"pos", Format::position},
-      {"angles", Format::angles},           {"ang", Format::angles},
-      {"matrix", Format::matrix},           {"mat", Format::matrix},
+      {"position", Format::position},
+      {"pos", Format::position},
+      {"angles", Format::angles},
+      {"ang", Format::angles},
+      {"matrix", Format::matrix},
+      {"mat", Format::matrix},
       {"position_angles", Format::position_angles},
       {"pos_angles", Format::position_angles},
       {"position_matrix", Format::position_matrix},
       {"pos_matrix", Format::position_matrix},
-      {"quaternion", Format::quaternion},   {"quat", Format::quaternion},
+      {"quaternion", Format::quaternion},
+      {"quat", Format::quaternion},
       {"position_quaternion", Format::position_quaternion},
       {"pos_quat", Format::position_quaternion},
   };
@@ -269,10 +273,26 @@ Measurement measurement_from_sample(const SensorSample& s) {
 
 int change_size(uint8_t parameter) {
   switch (parameter) {
-    case 3: case 4: case 6: case 7: case 22: case 32: return 2;
-    case 5: case 12: case 13: return 14;
-    case 8: case 9: case 11: case 14: case 17: case 18: case 20: case 35: case 50: return 1;
-    case 23: case 24: return 6;
+    case 3:
+    case 4:
+    case 6:
+    case 7:
+    case 22:
+    case 32: return 2;
+    case 5:
+    case 12:
+    case 13: return 14;
+    case 8:
+    case 9:
+    case 11:
+    case 14:
+    case 17:
+    case 18:
+    case 20:
+    case 35:
+    case 50: return 1;
+    case 23:
+    case 24: return 6;
     case 33: return 5;
     default: return 0;
   }
@@ -280,14 +300,39 @@ int change_size(uint8_t parameter) {
 
 int examine_size(uint8_t parameter) {
   switch (parameter) {
-    case 0: case 1: case 2: case 3: case 4: case 6: case 7: case 16: case 22:
-    case 25: case 26: case 27: case 32: return 2;
-    case 5: case 12: case 13: case 36: return 14;
-    case 8: case 9: case 10: case 11: case 14: case 17: case 18: case 19: case 20:
-    case 21: case 35: return 1;
+    case 0:
+    case 1:
+    case 2:
+    case 3:
+    case 4:
+    case 6:
+    case 7:
+    case 16:
+    case 22:
+    case 25:
+    case 26:
+    case 27:
+    case 32: return 2;
+    case 5:
+    case 12:
+    case 13:
+    case 36: return 14;
+    case 8:
+    case 9:
+    case 10:
+    case 11:
+    case 14:
+    case 17:
+    case 18:
+    case 19:
+    case 20:
+    case 21:
+    case 35: return 1;
     case 15: return 10;
-    case 23: case 24: return 6;
-    case 33: case 50: return 5;
+    case 23:
+    case 24: return 6;
+    case 33:
+    case 50: return 5;
     default: return 0;
   }
 }
@@ -305,8 +350,8 @@ std::array<uint8_t, 2> hemisphere_bytes(Hemisphere h) {
 }
 
 std::optional<Hemisphere> hemisphere_from_bytes(uint8_t axis, uint8_t sign) {
-  for (Hemisphere h : {Hemisphere::forward, Hemisphere::aft, Hemisphere::upper, Hemisphere::lower,
-                       Hemisphere::left, Hemisphere::right}) {
+  for (Hemisphere h : {Hemisphere::forward, Hemisphere::aft, Hemisphere::upper, Hemisphere::lower, Hemisphere::left,
+                       Hemisphere::right}) {
     const auto b = hemisphere_bytes(h);
     if (b[0] == axis && b[1] == sign) return h;
   }
@@ -326,8 +371,8 @@ const char* hemisphere_name(Hemisphere h) {
 }
 
 std::optional<Hemisphere> parse_hemisphere(std::string_view name) {
-  for (Hemisphere h : {Hemisphere::forward, Hemisphere::aft, Hemisphere::upper, Hemisphere::lower,
-                       Hemisphere::left, Hemisphere::right})
+  for (Hemisphere h : {Hemisphere::forward, Hemisphere::aft, Hemisphere::upper, Hemisphere::lower, Hemisphere::left,
+                       Hemisphere::right})
     if (name == hemisphere_name(h)) return h;
   return std::nullopt;
 }
@@ -385,8 +430,7 @@ void append_examine(std::vector<uint8_t>& out, uint8_t parameter, int address) {
   out.push_back(parameter);
 }
 
-void append_change(std::vector<uint8_t>& out, uint8_t parameter, std::span<const uint8_t> data,
-                   int address) {
+void append_change(std::vector<uint8_t>& out, uint8_t parameter, std::span<const uint8_t> data, int address) {
   append_command(out, cmd::kChange, address);
   out.push_back(parameter);
   out.insert(out.end(), data.begin(), data.end());
@@ -412,9 +456,7 @@ void append_hemisphere(std::vector<uint8_t>& out, Hemisphere h, int address) {
   out.insert(out.end(), b.begin(), b.end());
 }
 
-void append_group_mode(std::vector<uint8_t>& out, bool on) {
-  append_change_byte(out, param::kGroupMode, on ? 1 : 0);
-}
+void append_group_mode(std::vector<uint8_t>& out, bool on) { append_change_byte(out, param::kGroupMode, on ? 1 : 0); }
 
 void append_auto_config(std::vector<uint8_t>& out, int units) {
   append_change_byte(out, param::kAutoConfig, static_cast<uint8_t>(units));

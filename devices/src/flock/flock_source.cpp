@@ -42,25 +42,36 @@ Result<FlockConfig> flock_config_from_spec(const SourceSpec& spec) {
   FlockConfig c;
   c.path = spec.target;
   for (const auto& [k, v] : spec.params) {
-    if (k == "birds") c.birds = std::stoi(v);
-    else if (k == "baud") c.baud = std::stoi(v);
-    else if (k == "erc") c.erc = parse_bool(v);
+    if (k == "birds")
+      c.birds = std::stoi(v);
+    else if (k == "baud")
+      c.baud = std::stoi(v);
+    else if (k == "erc")
+      c.erc = parse_bool(v);
     else if (k == "format") {
       auto f = fl::parse_format(v);
       if (!f) return fail(Errc::invalid_argument, "flock: unknown format '" + v + "'");
       c.format = *f;
-    } else if (k == "mode") c.stream = v != "point";
+    } else if (k == "mode")
+      c.stream = v != "point";
     else if (k == "hemisphere") {
       auto h = fl::parse_hemisphere(v);
       if (!h) return fail(Errc::invalid_argument, "flock: unknown hemisphere '" + v + "'");
       c.hemisphere = *h;
-    } else if (k == "rate") c.measurement_rate_hz = std::stod(v);
-    else if (k == "report") c.report_every = std::stoi(v);
-    else if (k == "range") c.range_72in = v == "72";
-    else if (k == "button") c.button = parse_bool(v);
-    else if (k == "group") c.group = parse_bool(v);
-    else if (k == "timeout_ms") c.stale_after = milliseconds(std::stoi(v));
-    else return fail(Errc::invalid_argument, "flock: unknown parameter '" + k + "'");
+    } else if (k == "rate")
+      c.measurement_rate_hz = std::stod(v);
+    else if (k == "report")
+      c.report_every = std::stoi(v);
+    else if (k == "range")
+      c.range_72in = v == "72";
+    else if (k == "button")
+      c.button = parse_bool(v);
+    else if (k == "group")
+      c.group = parse_bool(v);
+    else if (k == "timeout_ms")
+      c.stale_after = milliseconds(std::stoi(v));
+    else
+      return fail(Errc::invalid_argument, "flock: unknown parameter '" + k + "'");
   }
   return c;
 }
@@ -132,9 +143,9 @@ struct FlockSource::Impl {
     if (auto r = port->read_exact(reply, cfg.reply_timeout); !r) {
       if (r.error().code == Errc::timeout) {
         return fail(Errc::timeout, "flock: no answer to EXAMINE " + std::to_string(parameter) +
-                                       (address >= 0 ? " at FBB address " + std::to_string(address) : "") +
-                                       " on " + cfg.path + " (powered, cabled, at " +
-                                       std::to_string(cfg.baud) + " baud?): " + r.error().message);
+                                       (address >= 0 ? " at FBB address " + std::to_string(address) : "") + " on " +
+                                       cfg.path + " (powered, cabled, at " + std::to_string(cfg.baud) +
+                                       " baud?): " + r.error().message);
       }
       return tl::unexpected(r.error());
     }
@@ -219,8 +230,7 @@ struct FlockSource::Impl {
         const uint8_t need = fl::kUnitAccessible | fl::kUnitRunning | fl::kUnitSensor;
         if ((b & need) != need) {
           return fail(Errc::io_error, "flock: bird at FBB address " + std::to_string(a) +
-                                          " is not running after auto-configuration (flock status " +
-                                          hex2(b) + ")");
+                                          " is not running after auto-configuration (flock status " + hex2(b) + ")");
         }
       }
     }
@@ -233,8 +243,9 @@ struct FlockSource::Impl {
       if (!cfg.erc) fl::append_change_word(c, fl::param::kPositionScaling, cfg.range_72in ? 1 : 0, addr(a));
     }
     if (cfg.measurement_rate_hz > 0) {
-      fl::append_change_word(c, fl::param::kMeasurementRateCount,
-                             static_cast<int16_t>(fl::measurement_rate_count(cfg.measurement_rate_hz, found.crystal_mhz)));
+      fl::append_change_word(
+          c, fl::param::kMeasurementRateCount,
+          static_cast<int16_t>(fl::measurement_rate_count(cfg.measurement_rate_hz, found.crystal_mhz)));
     }
     c.push_back(*fl::report_rate_command(cfg.report_every));
     if (!standalone) fl::append_group_mode(c, cfg.group);
@@ -242,7 +253,8 @@ struct FlockSource::Impl {
 
     auto count = examine(fl::param::kMeasurementRateCount, -1);
     if (!count) return tl::unexpected(count.error());
-    found.measurement_rate_hz = fl::measurement_rate_hz(static_cast<uint16_t>(fl::get_le16(count->data())), found.crystal_mhz);
+    found.measurement_rate_hz =
+        fl::measurement_rate_hz(static_cast<uint16_t>(fl::get_le16(count->data())), found.crystal_mhz);
     auto err = examine(fl::param::kExpandedErrorCode, -1);
     if (!err) return tl::unexpected(err.error());
     if ((*err)[0] != 0) {
@@ -338,7 +350,8 @@ struct FlockSource::Impl {
       pump(milliseconds(10), 0);
     } else {
       // Point mode: one request in flight at a time (the flock objects otherwise).
-      const auto next = now + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / cfg.point_rate_hz));
+      const auto next =
+          now + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / cfg.point_rate_hz));
       const bool per_bird = !standalone && !cfg.group;
       const std::vector<int> targets = per_bird ? sensors : std::vector<int>{standalone ? -1 : 1};
       for (int target : targets) {
@@ -383,8 +396,7 @@ struct FlockSource::Impl {
       if (!port) continue;
       const auto silent = Clock::now() - last_record;
       if (silent > cfg.reinit_after) {
-        set_error("flock: no records for " +
-                  std::to_string(std::chrono::duration_cast<milliseconds>(silent).count()) +
+        set_error("flock: no records for " + std::to_string(std::chrono::duration_cast<milliseconds>(silent).count()) +
                   " ms; restarting the device");
         state = DeviceState::disconnected;
         need_init = true;
@@ -470,8 +482,7 @@ FlockInfo FlockSource::info() const {
   return impl_->info;
 }
 
-Result<std::vector<uint8_t>> FlockSource::examine(uint8_t parameter, int address,
-                                                 std::chrono::milliseconds timeout) {
+Result<std::vector<uint8_t>> FlockSource::examine(uint8_t parameter, int address, std::chrono::milliseconds timeout) {
   Impl& m = *impl_;
   if (fl::examine_size(parameter) == 0)
     return fail(Errc::invalid_argument, "flock: no EXAMINE parameter " + std::to_string(parameter));

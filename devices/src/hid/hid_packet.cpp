@@ -45,9 +45,7 @@ float scale(int16_t raw, const Scaling& s) {
   return std::clamp(static_cast<float>(raw) / s.full_scale, -1.0f, 1.0f);
 }
 
-int16_t clamp16(float v) {
-  return static_cast<int16_t>(std::clamp(std::round(v), -32768.0f, 32767.0f));
-}
+int16_t clamp16(float v) { return static_cast<int16_t>(std::clamp(std::round(v), -32768.0f, 32767.0f)); }
 
 }  // namespace
 
@@ -100,8 +98,7 @@ uint32_t Decoder::feed(std::span<const uint8_t> r) noexcept {
       if (r.size() < 2) break;
       battery_ = std::min<int>(r[1], 100);
       return kChangedBattery;
-    default:
-      break;
+    default: break;
   }
   ++unknown_;
   return kUnknownReport;

@@ -14,7 +14,6 @@
 
 namespace mimic::devices {
 
-
 HidReportSource::HidReportSource(std::string description, hid::Scaling scaling) : scaling_(scaling) {
   status_.description = std::move(description);
 }
@@ -98,8 +97,8 @@ bool hidapi_ready() {
 class HidSpaceMouse final : public InputSource {
  public:
   explicit HidSpaceMouse(HidSpaceMouseOptions o)
-      : opt_(std::move(o)), core_("spacemouse:" + (opt_.path.empty() ? std::string("(first found)") : opt_.path),
-                                  opt_.scaling) {}
+      : opt_(std::move(o)),
+        core_("spacemouse:" + (opt_.path.empty() ? std::string("(first found)") : opt_.path), opt_.scaling) {}
   ~HidSpaceMouse() override { stop(); }
 
   Status start() override {

@@ -87,9 +87,7 @@ class MagellanDriver final : public detail::SerialInputDriver {
         set_last_error("device reported an error: " +
                        std::string(reinterpret_cast<const char*>(raw.data()), raw.size()));
         break;
-      case PacketKind::none:
-        count_resync();
-        break;
+      case PacketKind::none: count_resync(); break;
     }
   }
 

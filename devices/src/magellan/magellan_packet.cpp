@@ -8,17 +8,14 @@ namespace mimic::devices::magellan {
 
 namespace {
 
-constexpr char kNibble[16] = {'0', 'A', 'B', '3', 'D', '5', '6', 'G',
-                              'H', '9', ':', 'K', '<', 'M', 'N', '?'};
+constexpr char kNibble[16] = {'0', 'A', 'B', '3', 'D', '5', '6', 'G', 'H', '9', ':', 'K', '<', 'M', 'N', '?'};
 constexpr uint8_t kCr = 0x0D;
 
 bool all_valid(std::span<const uint8_t> s) {
   return std::all_of(s.begin(), s.end(), [](uint8_t c) { return valid_nibble_char(c); });
 }
 
-int16_t clamp16(float v) {
-  return static_cast<int16_t>(std::clamp(std::round(v), -32768.0f, 32767.0f));
-}
+int16_t clamp16(float v) { return static_cast<int16_t>(std::clamp(std::round(v), -32768.0f, 32767.0f)); }
 
 float scale(int16_t raw, const Scaling& s) {
   if (std::abs(static_cast<int>(raw)) <= s.null_radius) return 0.0f;
@@ -52,8 +49,10 @@ bool Framer::push(uint8_t b) noexcept {
     return true;
   }
   if (b == 0x0A && len_ == 0) return false;
-  if (len_ < buf_.size()) buf_[len_++] = b;
-  else overflow_ = true;
+  if (len_ < buf_.size())
+    buf_[len_++] = b;
+  else
+    overflow_ = true;
   return false;
 }
 
@@ -81,18 +80,19 @@ Packet decode(std::span<const uint8_t> p) noexcept {
       out.buttons = m;
       return out;
     }
-    case 'v':
-      out.kind = PacketKind::version;
-      return out;
-    case 'z': case 'b': case 'm': case 'n': case 'q': case 'p': case 'c':
+    case 'v': out.kind = PacketKind::version; return out;
+    case 'z':
+    case 'b':
+    case 'm':
+    case 'n':
+    case 'q':
+    case 'p':
+    case 'c':
       out.kind = PacketKind::echo;
       out.echo_type = static_cast<char>(p[0]);
       return out;
-    case 'e':
-      out.kind = PacketKind::error;
-      return out;
-    default:
-      return out;
+    case 'e': out.kind = PacketKind::error; return out;
+    default: return out;
   }
 }
 

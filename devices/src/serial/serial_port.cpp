@@ -84,8 +84,7 @@ Result<std::unique_ptr<SerialPort>> SerialPort::open(const std::string& path, co
   if (ec) return fail(Errc::io_error, path + ": baud " + std::to_string(o.baud) + ": " + ec.message());
   impl->port.set_option(sp::character_size(8), ec);
   if (!ec) impl->port.set_option(sp::parity(sp::parity::none), ec);
-  if (!ec)
-    impl->port.set_option(sp::stop_bits(o.stop_bits == 2 ? sp::stop_bits::two : sp::stop_bits::one), ec);
+  if (!ec) impl->port.set_option(sp::stop_bits(o.stop_bits == 2 ? sp::stop_bits::two : sp::stop_bits::one), ec);
   if (!ec)
     impl->port.set_option(sp::flow_control(o.rtscts    ? sp::flow_control::hardware
                                            : o.xonxoff ? sp::flow_control::software
@@ -108,9 +107,9 @@ Result<std::unique_ptr<SerialPort>> SerialPort::open(const std::string& path, co
 
 Result<size_t> SerialPort::read_some(std::span<uint8_t> out, std::chrono::microseconds timeout) {
   bool timed_out = false;
-  auto r = impl_->run_read(
-      [&](auto handler) { impl_->port.async_read_some(asio::buffer(out.data(), out.size()), handler); },
-      timeout, timed_out);
+  auto r =
+      impl_->run_read([&](auto handler) { impl_->port.async_read_some(asio::buffer(out.data(), out.size()), handler); },
+                      timeout, timed_out);
   if (!r) return r;
   const size_t n = timed_out ? size_t{0} : *r;
   impl_->tapped(true, out.data(), n);
@@ -120,13 +119,13 @@ Result<size_t> SerialPort::read_some(std::span<uint8_t> out, std::chrono::micros
 Status SerialPort::read_exact(std::span<uint8_t> out, std::chrono::microseconds timeout) {
   bool timed_out = false;
   auto r = impl_->run_read(
-      [&](auto handler) { asio::async_read(impl_->port, asio::buffer(out.data(), out.size()), handler); },
-      timeout, timed_out);
+      [&](auto handler) { asio::async_read(impl_->port, asio::buffer(out.data(), out.size()), handler); }, timeout,
+      timed_out);
   if (!r) return tl::unexpected(r.error());
   impl_->tapped(true, out.data(), std::min(*r, out.size()));
   if (timed_out || *r < out.size()) {
-    return fail(Errc::timeout, impl_->path + ": expected " + std::to_string(out.size()) +
-                                   " bytes, got " + std::to_string(*r));
+    return fail(Errc::timeout,
+                impl_->path + ": expected " + std::to_string(out.size()) + " bytes, got " + std::to_string(*r));
   }
   return {};
 }

@@ -8,8 +8,7 @@
 
 namespace mimic::devices::detail {
 
-SerialInputDriver::SerialInputDriver(std::string scheme, std::string path, LineSettings line,
-                                     SerialTiming timing)
+SerialInputDriver::SerialInputDriver(std::string scheme, std::string path, LineSettings line, SerialTiming timing)
     : scheme_(std::move(scheme)), path_(std::move(path)), line_settings_(line), timing_(timing) {}
 
 SerialInputDriver::~SerialInputDriver() { shutdown(); }

@@ -43,8 +43,8 @@ class SerialInputDriver : public InputSource {
   // Helpers for the hooks.
   void write(std::string_view bytes);
   void publish(const InputFrame& frame);
-  void set_ready();                            // start-up finished: data may flow
-  void set_identity(std::string text);         // appended to the status description
+  void set_ready();                     // start-up finished: data may flow
+  void set_identity(std::string text);  // appended to the status description
   void set_last_error(std::string text);
   void count_record() { records_.fetch_add(1, std::memory_order_relaxed); }
   void count_resync(uint64_t n = 1) { resyncs_.fetch_add(n, std::memory_order_relaxed); }

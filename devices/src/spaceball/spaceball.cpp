@@ -106,14 +106,9 @@ class SpaceballDriver final : public detail::SerialInputDriver {
         set_last_error(text);
         break;
       }
-      case PacketKind::bad_command:
-        set_last_error("device rejected a command");
-        break;
-      case PacketKind::echo:
-        break;
-      case PacketKind::none:
-        count_resync();
-        break;
+      case PacketKind::bad_command: set_last_error("device rejected a command"); break;
+      case PacketKind::echo: break;
+      case PacketKind::none: count_resync(); break;
     }
   }
 

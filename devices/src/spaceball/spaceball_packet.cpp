@@ -18,9 +18,7 @@ bool needs_escape(uint8_t b) { return b == kCr || b == kXon || b == kXoff || b =
 
 uint16_t be16(const uint8_t* p) { return static_cast<uint16_t>((p[0] << 8) | p[1]); }
 
-std::string_view as_text(std::span<const uint8_t> p) {
-  return {reinterpret_cast<const char*>(p.data()), p.size()};
-}
+std::string_view as_text(std::span<const uint8_t> p) { return {reinterpret_cast<const char*>(p.data()), p.size()}; }
 
 // "… version 2.42 …" or "V2.42": the first d.dd after `key` → 242; 0 when absent.
 uint16_t parse_version(std::string_view text, std::string_view key) {
@@ -88,8 +86,10 @@ bool Framer::push(uint8_t b) noexcept {
       corrupt_ = true;  // decoders disagree on what this means, so the packet is not trusted
       return false;
     }
-    if (len_ < buf_.size()) buf_[len_++] = v;
-    else corrupt_ = true;
+    if (len_ < buf_.size())
+      buf_[len_++] = v;
+    else
+      corrupt_ = true;
     return false;
   }
   if (b == kXon || b == kXoff) return false;  // flow control, never data
@@ -98,16 +98,24 @@ bool Framer::push(uint8_t b) noexcept {
     escape_ = true;
     return false;
   }
-  if (len_ < buf_.size()) buf_[len_++] = b;
-  else corrupt_ = true;
+  if (len_ < buf_.size())
+    buf_[len_++] = b;
+  else
+    corrupt_ = true;
   return false;
 }
 
 Model model_from_firmware(uint16_t fw) noexcept {
   switch (fw) {
-    case 235: case 262: case 263: return Model::sb3003;
-    case 243: case 245: return Model::sb4000flx;
-    case 202: case 213: case 215: case 242: return Model::sb2003;
+    case 235:
+    case 262:
+    case 263: return Model::sb3003;
+    case 243:
+    case 245: return Model::sb4000flx;
+    case 202:
+    case 213:
+    case 215:
+    case 242: return Model::sb2003;
     default: return Model::unknown;
   }
 }
@@ -128,12 +136,12 @@ Packet decode(std::span<const uint8_t> p) noexcept {
     case 'K': {
       if (p.size() != 3) return out;
       const uint8_t b1 = p[1], b2 = p[2];
-      uint32_t m = b2 & 0x0Fu;                  // buttons 1–4
-      if (b2 & 0x10) m |= 1u << 0;              // 3003 left
-      if (b2 & 0x20) m |= 1u << 1;              // 3003 right
+      uint32_t m = b2 & 0x0Fu;                     // buttons 1–4
+      if (b2 & 0x10) m |= 1u << 0;                 // 3003 left
+      if (b2 & 0x20) m |= 1u << 1;                 // 3003 right
       m |= static_cast<uint32_t>(b1 & 0x07) << 4;  // buttons 5–7
-      if (b1 & 0x28) m |= 1u << 7;              // rezero: 2003 (08h) or 3003 (20h)
-      if (b1 & 0x10) m |= 1u << 8;              // 2003 pick button
+      if (b1 & 0x28) m |= 1u << 7;                 // rezero: 2003 (08h) or 3003 (20h)
+      if (b1 & 0x10) m |= 1u << 8;                 // 2003 pick button
       out.kind = PacketKind::keys;
       out.buttons = m;
       return out;
@@ -141,8 +149,8 @@ Packet decode(std::span<const uint8_t> p) noexcept {
     case '.': {
       if (p.size() != 3) return out;
       const uint8_t b1 = p[1], b2 = p[2];
-      uint32_t m = b2 & 0x3Fu;                  // buttons 1–6
-      if (b2 & 0x80) m |= 1u << 6;              // button 7
+      uint32_t m = b2 & 0x3Fu;                     // buttons 1–6
+      if (b2 & 0x80) m |= 1u << 6;                 // button 7
       m |= static_cast<uint32_t>(b1 & 0x1F) << 7;  // buttons 8–12
       out.kind = PacketKind::advanced_keys;
       out.buttons = m;
@@ -160,9 +168,12 @@ Packet decode(std::span<const uint8_t> p) noexcept {
     case 'H': {
       out.kind = PacketKind::model;
       if (text.substr(0, 2) == "Hm") {
-        if (text.find("3003") != std::string_view::npos) out.model = Model::sb3003;
-        else if (text.find("2003") != std::string_view::npos) out.model = Model::sb2003;
-        else if (text.find("4000") != std::string_view::npos) out.model = Model::sb4000flx;
+        if (text.find("3003") != std::string_view::npos)
+          out.model = Model::sb3003;
+        else if (text.find("2003") != std::string_view::npos)
+          out.model = Model::sb2003;
+        else if (text.find("4000") != std::string_view::npos)
+          out.model = Model::sb4000flx;
       } else if (text.substr(0, 2) == "Hv") {
         // Only the 4000 FLX answers `hm` with its firmware line.
         out.model = Model::sb4000flx;
@@ -180,9 +191,8 @@ Packet decode(std::span<const uint8_t> p) noexcept {
     case 'E': {
       out.kind = PacketKind::error;
       const auto body = p.subspan(1);
-      const bool letters = !body.empty() && std::all_of(body.begin(), body.end(), [](uint8_t c) {
-        return c >= '@' && c <= 'H';
-      });
+      const bool letters =
+          !body.empty() && std::all_of(body.begin(), body.end(), [](uint8_t c) { return c >= '@' && c <= 'H'; });
       if (letters) {
         for (uint8_t c : body) out.error_bits = static_cast<uint16_t>(out.error_bits | (1u << (c - '@')));
       } else if (body.size() == 2) {
@@ -190,9 +200,7 @@ Packet decode(std::span<const uint8_t> p) noexcept {
       }
       return out;
     }
-    case '?':
-      out.kind = PacketKind::bad_command;
-      return out;
+    case '?': out.kind = PacketKind::bad_command; return out;
     default:
       // Replies start with a printable command letter; anything else is line noise.
       if (type >= 0x20 && type < 0x7F) out.kind = PacketKind::echo;

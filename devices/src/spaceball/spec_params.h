@@ -19,8 +19,10 @@ class SpecParams {
       char* end = nullptr;
       errno = 0;
       const double d = std::strtod(v->c_str(), &end);
-      if (v->empty() || *end != '\0' || errno != 0 || !(d >= 0)) bad(key, *v, "a non-negative number");
-      else out = d;
+      if (v->empty() || *end != '\0' || errno != 0 || !(d >= 0))
+        bad(key, *v, "a non-negative number");
+      else
+        out = d;
     }
   }
   void float_param(const std::string& key, float& out) {
@@ -32,8 +34,10 @@ class SpecParams {
     if (const auto* v = find(key)) {
       char* end = nullptr;
       const long l = std::strtol(v->c_str(), &end, 10);
-      if (v->empty() || *end != '\0' || l < 0 || l > 32767) bad(key, *v, "an integer 0-32767");
-      else out = static_cast<int>(l);
+      if (v->empty() || *end != '\0' || l < 0 || l > 32767)
+        bad(key, *v, "an integer 0-32767");
+      else
+        out = static_cast<int>(l);
     }
   }
   void unsigned_param(const std::string& key, unsigned& out) {
@@ -41,8 +45,10 @@ class SpecParams {
     if (const auto* v = find(key)) {
       char* end = nullptr;
       const long l = std::strtol(v->c_str(), &end, 10);
-      if (v->empty() || *end != '\0' || l <= 0 || l > 4000000) bad(key, *v, "a positive integer");
-      else i = static_cast<int>(l);
+      if (v->empty() || *end != '\0' || l <= 0 || l > 4000000)
+        bad(key, *v, "a positive integer");
+      else
+        i = static_cast<int>(l);
     }
     out = static_cast<unsigned>(i);
   }

@@ -250,8 +250,10 @@ bool DeviceInventory::nothing_to_use() const { return usb.recognised.empty() && 
 
 DeviceInventory scan_devices(const SerialScan& scan) {
   DeviceInventory inv;
-  if (auto u = list_usb_devices()) inv.usb = std::move(*u);
-  else inv.usb_error = u.error().message;
+  if (auto u = list_usb_devices())
+    inv.usb = std::move(*u);
+  else
+    inv.usb_error = u.error().message;
   if (auto h = list_hid_devices()) {
     for (auto& d : *h) {
       if (d.model) inv.hid.push_back(std::move(d));
@@ -266,8 +268,8 @@ DeviceInventory scan_devices(const SerialScan& scan) {
 std::vector<std::string> inventory_lines(const DeviceInventory& inv) {
   std::vector<std::string> out;
   for (const auto& u : inv.usb.recognised) {
-    out.push_back("usb " + hex_ids(u.vendor_id, u.product_id) + " " + u.name + " (bus " +
-                  std::to_string(u.bus) + " address " + std::to_string(u.address) + ")");
+    out.push_back("usb " + hex_ids(u.vendor_id, u.product_id) + " " + u.name + " (bus " + std::to_string(u.bus) +
+                  " address " + std::to_string(u.address) + ")");
   }
   for (const auto& h : inv.hid) {
     out.push_back("hid " + hex_ids(h.vendor_id, h.product_id) + " " + (h.model ? h.model->name : h.product.c_str()) +

@@ -21,8 +21,8 @@ int format_nats_state(const NatsLinkState& s, char* out, size_t size) noexcept {
   else if (s.disconnects == 0)
     n = std::snprintf(out, size, " | nats up");
   else
-    n = std::snprintf(out, size, " | nats up (%llu outage%s, last %.3f s)", static_cast<unsigned long long>(s.disconnects),
-                      s.disconnects == 1 ? "" : "s", s.last_outage_s);
+    n = std::snprintf(out, size, " | nats up (%llu outage%s, last %.3f s)",
+                      static_cast<unsigned long long>(s.disconnects), s.disconnects == 1 ? "" : "s", s.last_outage_s);
   return std::clamp(n, 0, size ? int(size) - 1 : 0);
 }
 
@@ -30,11 +30,9 @@ bool is_nats_url(std::string_view text) { return text.starts_with("nats://") || 
 
 Status check_scene_name(std::string_view scene) {
   // A subject token and a bucket name: no dots, wildcards or spaces.
-  if (scene.empty() || scene.size() > 64)
-    return fail(Errc::invalid_argument, "scene name must be 1 to 64 characters");
+  if (scene.empty() || scene.size() > 64) return fail(Errc::invalid_argument, "scene name must be 1 to 64 characters");
   for (char c : scene)
-    if (!((c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_' || c == '-'))
-    {
+    if (!((c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_' || c == '-')) {
       std::string msg = "scene name '";
       msg.append(scene).append("' may only hold A-Z a-z 0-9 _ -");
       return fail(Errc::invalid_argument, msg);

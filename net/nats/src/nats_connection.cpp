@@ -25,13 +25,16 @@ std::string subject_token(const std::string& name) {
     if (!((c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_' || c == '-')) c = '_';
   return s;
 }
-std::string owned_key(const std::string& publisher_token, const std::string& key) { return publisher_token + "." + key; }
+std::string owned_key(const std::string& publisher_token, const std::string& key) {
+  return publisher_token + "." + key;
+}
 bool is_owned_key(std::string_view text) {
   const size_t dot = text.find('.');
   if (dot == 0 || dot == std::string_view::npos || dot > 64 || text.size() != dot + 17) return false;
   for (size_t i = 0; i < dot; ++i) {
     const char c = text[i];
-    if (!((c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_' || c == '-')) return false;
+    if (!((c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_' || c == '-'))
+      return false;
   }
   for (size_t i = dot + 1; i < text.size(); ++i)
     if (!((text[i] >= '0' && text[i] <= '9') || (text[i] >= 'a' && text[i] <= 'f'))) return false;
@@ -116,7 +119,8 @@ std::string Connection::connected_url() const {
   if (!connected() || natsConnection_GetConnectedUrl(nc_, buf, sizeof buf) != NATS_OK) return {};
   // Without the credentials an address may carry (nats://USER:PASSWORD@HOST:PORT): this is shown.
   std::string url = buf;
-  if (const size_t scheme = url.find("://"), at = url.rfind('@'); scheme != std::string::npos && at != std::string::npos && at > scheme)
+  if (const size_t scheme = url.find("://"), at = url.rfind('@');
+      scheme != std::string::npos && at != std::string::npos && at > scheme)
     url.erase(scheme + 3, at - scheme - 2);
   return url;
 }
@@ -183,9 +187,9 @@ Status Connection::open(const NatsOptions& options) {
   const bool refused = s == NATS_CONNECTION_AUTH_FAILED || s == NATS_NOT_PERMITTED ||
                        why.find("uthorization") != std::string::npos || why.find("uthentication") != std::string::npos;
   if (refused)
-    return fail(Errc::invalid_argument,
-                "the NATS broker at " + redact_urls(options.servers) + " refused the credentials (" + why +
-                    "); set MIMIC_NATS_USER and MIMIC_NATS_PASSWORD, or MIMIC_NATS_TOKEN");
+    return fail(Errc::invalid_argument, "the NATS broker at " + redact_urls(options.servers) +
+                                            " refused the credentials (" + why +
+                                            "); set MIMIC_NATS_USER and MIMIC_NATS_PASSWORD, or MIMIC_NATS_TOKEN");
   if (s != NATS_NO_SERVER && s != NATS_TIMEOUT && s != NATS_IO_ERROR)
     return fail(Errc::io_error, "cannot connect to the NATS broker at " + redact_urls(options.servers) + ": " + why);
   // Nobody answers yet: keep trying in the background; the callback reports the connect.
@@ -195,7 +199,8 @@ Status Connection::open(const NatsOptions& options) {
   natsOptions_SetRetryOnFailedConnect(o, true, reconnected_cb, this);
   s = natsConnection_Connect(&nc_, o);
   if (s == NATS_OK || s == NATS_NOT_YET_CONNECTED) return {};
-  return fail(Errc::io_error, "cannot connect to the NATS broker at " + redact_urls(options.servers) + ": " + describe(s));
+  return fail(Errc::io_error,
+              "cannot connect to the NATS broker at " + redact_urls(options.servers) + ": " + describe(s));
 }
 
 void Connection::close() {

@@ -48,7 +48,7 @@ struct NatsPublisher::Impl {
     std::string subject, want_subject;
     std::vector<uint8_t> topology;  // encoded once at setup
     std::mutex m;
-    std::vector<uint8_t> frame;     // sized at setup: publish_mesh never allocates
+    std::vector<uint8_t> frame;  // sized at setup: publish_mesh never allocates
     size_t size = 0;
     bool dirty = false;
     std::atomic<int64_t> wanted_until_us{0};
@@ -73,14 +73,14 @@ struct NatsPublisher::Impl {
     std::unique_ptr<Mesh> mesh;
   };
   std::vector<std::unique_ptr<Slot>> slots;
-  std::mutex slots_mutex;  // the vector itself (grows at setup while the threads run)
+  std::mutex slots_mutex;             // the vector itself (grows at setup while the threads run)
   std::vector<uint8_t> mesh_scratch;  // sender thread; sized at setup under slots_mutex
   // A tick's frames are committed together and taken together, so one message carries them
   // all: held for memcpy by either side, never across I/O.
   std::mutex frames_mutex;
-  bool in_tick = false;             // publishing thread: between begin_tick and end_tick
-  std::vector<Slot*> staged;        // publishing thread; capacity reserved by add_avatar
-  std::vector<uint8_t> batch;       // sender thread; sized by add_avatar for every avatar
+  bool in_tick = false;        // publishing thread: between begin_tick and end_tick
+  std::vector<Slot*> staged;   // publishing thread; capacity reserved by add_avatar
+  std::vector<uint8_t> batch;  // sender thread; sized by add_avatar for every avatar
   std::string poses_subject;
 
   std::atomic<uint32_t> wake{0};
@@ -125,8 +125,8 @@ struct NatsPublisher::Impl {
   void send_mesh(Mesh& mesh) {
     if (mesh.topology_asked.exchange(false, std::memory_order_relaxed)) {
       const int64_t now = monotonic_us();
-      mesh.topology_tokens = std::min(kTopologyBurst, mesh.topology_tokens + double(now - mesh.topology_tokens_at_us) /
-                                                                                double(kTopologyRefill_us));
+      mesh.topology_tokens = std::min(
+          kTopologyBurst, mesh.topology_tokens + double(now - mesh.topology_tokens_at_us) / double(kTopologyRefill_us));
       mesh.topology_tokens_at_us = now;
       if (mesh.topology_tokens < 1) {
         topologies_refused++;  // the relay asks again while it lacks it
@@ -148,7 +148,8 @@ struct NatsPublisher::Impl {
       std::memcpy(mesh_scratch.data(), mesh.frame.data(), n);
       mesh.dirty = false;
     }
-    if (conn.connected() && natsConnection_Publish(conn.get(), mesh.subject.c_str(), mesh_scratch.data(), int(n)) == NATS_OK)
+    if (conn.connected() &&
+        natsConnection_Publish(conn.get(), mesh.subject.c_str(), mesh_scratch.data(), int(n)) == NATS_OK)
       mesh_frames++;
   }
 
@@ -355,8 +356,10 @@ struct NatsPublisher::Impl {
     for (auto& s : slots) {
       if (!s->mesh || !s->mesh->want_sub) continue;
       natsSubscription* sub = s->mesh->want_sub;
-      if (natsSubscription_Drain(sub) == NATS_OK) natsSubscription_WaitForDrainCompletion(sub, 2000);
-      else natsSubscription_Unsubscribe(sub);
+      if (natsSubscription_Drain(sub) == NATS_OK)
+        natsSubscription_WaitForDrainCompletion(sub, 2000);
+      else
+        natsSubscription_Unsubscribe(sub);
     }
     // A clean leave removes this publisher's avatars from the scene.
     if (conn.connected() && kv) {
@@ -422,7 +425,8 @@ Result<int> NatsPublisher::add_avatar(const std::string& avatar_name, uint16_t d
 
 Status NatsPublisher::add_mesh(int index, const MeshTopology& topology) {
   std::lock_guard lock(impl_->slots_mutex);
-  if (index < 0 || size_t(index) >= impl_->slots.size()) return fail(Errc::not_found, "no avatar " + std::to_string(index));
+  if (index < 0 || size_t(index) >= impl_->slots.size())
+    return fail(Errc::not_found, "no avatar " + std::to_string(index));
   Impl::Slot& slot = *impl_->slots[size_t(index)];
   if (slot.mesh) return fail(Errc::invalid_argument, "the avatar's mesh is set already");
   if (topology.lod >= 8) return fail(Errc::out_of_range, "LOD must be below 8");
@@ -450,7 +454,8 @@ void NatsPublisher::publish_pose(int index, std::span<const uint8_t> packet) noe
   // The slots vector only grows at setup, before the loop publishes.
   if (index < 0 || size_t(index) >= impl_->slots.size() || packet.size() > kMaxDatagramBytes) return;
   Header h;
-  if (decode_header(packet, h) != Reject::ok || h.type != MsgType::pose || kHeaderBytes + h.payload_bytes != packet.size())
+  if (decode_header(packet, h) != Reject::ok || h.type != MsgType::pose ||
+      kHeaderBytes + h.payload_bytes != packet.size())
     return;
   Impl::Slot& s = *impl_->slots[size_t(index)];
   if (impl_->in_tick) {
@@ -488,7 +493,8 @@ bool NatsPublisher::mesh_wanted(int index) const noexcept {
   const Impl::Mesh* m = impl_->slots[size_t(index)]->mesh.get();
   if (!m) return false;
   const int64_t now = monotonic_us();
-  return now < m->wanted_until_us.load(std::memory_order_relaxed) && now >= m->next_due_us.load(std::memory_order_relaxed);
+  return now < m->wanted_until_us.load(std::memory_order_relaxed) &&
+         now >= m->next_due_us.load(std::memory_order_relaxed);
 }
 
 void NatsPublisher::publish_mesh(int index, std::span<const uint8_t> packet) noexcept {

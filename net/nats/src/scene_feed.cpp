@@ -107,8 +107,8 @@ void NatsSceneFeed::Impl::on_status_msg(natsConnection*, natsSubscription*, nats
   auto* f = static_cast<Impl*>(self);
   // {"publisher":..., "period_ms":P, "avatars":["<key>", ...], "mesh_lods":[L or -1, ...], ...}:
   // anything else is ignored.
-  const auto j = nlohmann::json::parse(std::string_view(natsMsg_GetData(msg), size_t(natsMsg_GetDataLength(msg))), nullptr,
-                                       false);
+  const auto j =
+      nlohmann::json::parse(std::string_view(natsMsg_GetData(msg), size_t(natsMsg_GetDataLength(msg))), nullptr, false);
   // Keys of the subject's publisher only (see on_poses_msg).
   const std::string prefix = std::string(nats_detail::last_token(natsMsg_GetSubject(msg))) + ".";
   natsMsg_Destroy(msg);
@@ -123,8 +123,8 @@ void NatsSceneFeed::Impl::on_status_msg(natsConnection*, natsSubscription*, nats
       if (!keys[i].is_string() || keys[i].get_ref<const std::string&>().size() != 16) continue;
       hb.keys.push_back(prefix + keys[i].get<std::string>());
       const auto& lod = with_lods ? (*lods)[i] : nlohmann::json();
-      hb.mesh_lods.push_back(lod.is_number_integer() && lod.get<int>() >= 0 && lod.get<int>() < 8 ? int8_t(lod.get<int>())
-                                                                                              : int8_t(-1));
+      hb.mesh_lods.push_back(
+          lod.is_number_integer() && lod.get<int>() >= 0 && lod.get<int>() < 8 ? int8_t(lod.get<int>()) : int8_t(-1));
     }
   }
   if (hb.keys.empty()) return;
@@ -173,8 +173,10 @@ void NatsSceneFeed::Impl::tick() {
     }
     // Repeated while wanted (the publisher stops after three periods without); at every tick
     // while the topology is missing (a request may beat the subscription to a cluster node).
-    if (!fresh && !w.need_topology && now - it->second.last_request_us < nats_detail::kMeshWantPeriod_ms * 1000) continue;
-    const uint8_t request[nats_detail::kMeshWantBytes] = {w.lod, w.need_topology ? nats_detail::kMeshWantTopology : uint8_t(0)};
+    if (!fresh && !w.need_topology && now - it->second.last_request_us < nats_detail::kMeshWantPeriod_ms * 1000)
+      continue;
+    const uint8_t request[nats_detail::kMeshWantBytes] = {
+        w.lod, w.need_topology ? nats_detail::kMeshWantTopology : uint8_t(0)};
     const std::string subject = nats_detail::mesh_want_subject(opt.scene, w.key);
     if (natsConnection_Publish(conn.get(), subject.c_str(), request, int(sizeof request)) == NATS_OK) {
       it->second.last_request_us = now;
@@ -290,8 +292,10 @@ NatsSceneFeed::Impl::~Impl() {
   for (auto& [key, m] : mesh_subs) subs.push_back(m.sub);
   for (natsSubscription* s : subs) {
     if (!s) continue;
-    if (natsSubscription_Drain(s) == NATS_OK) natsSubscription_WaitForDrainCompletion(s, 2000);
-    else natsSubscription_Unsubscribe(s);
+    if (natsSubscription_Drain(s) == NATS_OK)
+      natsSubscription_WaitForDrainCompletion(s, 2000);
+    else
+      natsSubscription_Unsubscribe(s);
   }
   conn.close();
   for (natsSubscription* s : subs)
@@ -318,7 +322,8 @@ Result<std::unique_ptr<NatsSceneFeed>> NatsSceneFeed::create(const NatsOptions& 
   // Pose frames are small and frequent: let many wait rather than dropping them in the client.
   natsSubscription_SetPendingLimits(impl->sub, 1 << 16, 64 << 20);
   const std::string status = nats_detail::status_subject(options.scene, "*");
-  if (natsStatus s = natsConnection_Subscribe(&impl->status_sub, impl->conn.get(), status.c_str(), Impl::on_status_msg, p);
+  if (natsStatus s =
+          natsConnection_Subscribe(&impl->status_sub, impl->conn.get(), status.c_str(), Impl::on_status_msg, p);
       s != NATS_OK)
     return fail(Errc::io_error, "subscribe " + status + ": " + describe(s));
   impl->watcher = std::thread([p] { p->watch_loop(); });

@@ -72,8 +72,8 @@ struct NatsSceneFeed::Impl {
   // and mesh frames come on, which broker permissions tie to that publisher's user) and avatar
   // key K. A frame on another publisher's subject naming K finds nothing.
   struct Known {
-    bool shown = false;       // served (added to the server), once its publisher showed life
-    uint16_t id = 0;          // on the server, while shown
+    bool shown = false;  // served (added to the server), once its publisher showed life
+    uint16_t id = 0;     // on the server, while shown
     uint32_t revision = 0;
     uint16_t dof_count = 0;
     uint64_t packet_hash = 0;  // of the packet as in the bucket: a put again unchanged is no update
@@ -84,10 +84,10 @@ struct NatsSceneFeed::Impl {
     uint32_t seq = 0, jump_last = 0;
     int jump_frames = 0;
     Clock::time_point seq_at{}, jump_since{};
-    Clock::time_point alive_at{};  // its publisher's last heartbeat naming it, or its last frame
-    Clock::time_point put_at{};    // its last put in the bucket (a live publisher's come every TTL/3)
-    int period_ms = 1000;          // its publisher's heartbeat period
-    int8_t mesh_lod = -1;          // the LOD its publisher offers mesh frames at (heartbeat)
+    Clock::time_point alive_at{};             // its publisher's last heartbeat naming it, or its last frame
+    Clock::time_point put_at{};               // its last put in the bucket (a live publisher's come every TTL/3)
+    int period_ms = 1000;                     // its publisher's heartbeat period
+    int8_t mesh_lod = -1;                     // the LOD its publisher offers mesh frames at (heartbeat)
     std::array<uint32_t, 8> mesh_vertices{};  // per LOD: the topology set on the server (0: none)
   };
   std::map<std::string, Known> avatars;

@@ -98,7 +98,8 @@ void NatsSceneFeed::Impl::forget(std::map<std::string, Known>::iterator it) {
   hide(it->second);
   model_bytes_held -= it->second.model_bytes.size();
   model_bytes_freed += it->second.model_bytes.size();
-  if (auto o = key_owners.find(std::string_view(it->first).substr(it->first.size() - 16)); o != key_owners.end() && --o->second == 0)
+  if (auto o = key_owners.find(std::string_view(it->first).substr(it->first.size() - 16));
+      o != key_owners.end() && --o->second == 0)
     key_owners.erase(o);
   avatars.erase(it);
 }
@@ -190,8 +191,10 @@ void NatsSceneFeed::Impl::apply_frame(Frame& f, Clock::time_point now) {
   if (it == avatars.end()) {
     // Another publisher's avatar named on this one's subject, or its model has not arrived yet
     // (or it has left).
-    if (key_owners.count(std::string_view(f.key).substr(f.key.size() - 16))) foreign++;
-    else early++;
+    if (key_owners.count(std::string_view(f.key).substr(f.key.size() - 16)))
+      foreign++;
+    else
+      early++;
     return;
   }
   Known& k = it->second;
@@ -282,8 +285,10 @@ void NatsSceneFeed::Impl::apply_mesh(Frame& f) {
     early++;
     return;
   }
-  if (server->publish_mesh(k.id, f.lod, f.packet) == Reject::ok) mesh_frames++;
-  else rejected++;
+  if (server->publish_mesh(k.id, f.lod, f.packet) == Reject::ok)
+    mesh_frames++;
+  else
+    rejected++;
 }
 
 void NatsSceneFeed::Impl::housekeeping() {
@@ -318,8 +323,10 @@ void NatsSceneFeed::Impl::housekeeping() {
   std::vector<MeshWant> want;
   const Known* any_shown = nullptr;
   for (const auto& [key, k] : avatars) {
-    if (!k.shown) waiting++;
-    else if (!any_shown) any_shown = &k;
+    if (!k.shown)
+      waiting++;
+    else if (!any_shown)
+      any_shown = &k;
   }
   held = waiting;
 #if defined(__GLIBC__)
@@ -342,7 +349,8 @@ void NatsSceneFeed::Impl::housekeeping() {
 
 void NatsSceneFeed::Impl::latency_percentiles(double& p50, double& p99) const {
   std::lock_guard lock(latency_mutex);
-  std::vector<float> v(latency_ms.begin(), latency_ms.begin() + long(std::min<uint64_t>(latency_next, latency_ms.size())));
+  std::vector<float> v(latency_ms.begin(),
+                       latency_ms.begin() + long(std::min<uint64_t>(latency_next, latency_ms.size())));
   if (v.empty()) return;
   auto at = [&v](double q) {
     const size_t k = std::min(v.size() - 1, size_t(q * double(v.size() - 1) + 0.5));

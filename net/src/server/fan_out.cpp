@@ -157,8 +157,10 @@ std::span<const uint8_t> Session::frame_bytes(Avatar& a, FanoutLane& lane) {
   uint32_t& sent = lean_sent[a.id];
   const auto p = a.lean.packet_for(sent);
   sent = a.sequence;
-  if (lean_pose_is_key(p)) lane.lean_keys_out++;
-  else lane.lean_deltas_out++;
+  if (lean_pose_is_key(p))
+    lane.lean_keys_out++;
+  else
+    lane.lean_deltas_out++;
   return p;
 }
 
@@ -318,8 +320,10 @@ void Session::flush() {
   pending_mesh.clear();
   if (lane.iov.empty()) return;
   int error = 0;
-  if (send_now(lane, error)) start_async();
-  else if (error) fail();
+  if (send_now(lane, error))
+    start_async();
+  else if (error)
+    fail();
 }
 
 // Straight to the kernel, without waiting: on a healthy connection the whole batch fits the
@@ -335,7 +339,8 @@ bool Session::send_now(FanoutLane& lane, int& error) {
   size_t sent = 0;
   for (size_t first = 0; first < lane.iov.size();) {
     size_t end = first, bytes = 0;
-    while (end < lane.iov.size() && end - first < IOV_MAX && (end == first || bytes + lane.iov[end].iov_len <= call_bytes))
+    while (end < lane.iov.size() && end - first < IOV_MAX &&
+           (end == first || bytes + lane.iov[end].iov_len <= call_bytes))
       bytes += lane.iov[end++].iov_len;
     msghdr m{};
     m.msg_iov = lane.iov.data() + first;
@@ -418,8 +423,10 @@ void Session::start_async() {
   // Asio allocates an operation for each asynchronous call, from memory it recycles only when
   // called on the event loop's own thread; from elsewhere (the realtime loop) it waits for the
   // next poll.
-  if (srv.io.get_executor().running_in_this_thread()) continue_async();
-  else srv.deferred.push_back(shared_from_this());
+  if (srv.io.get_executor().running_in_this_thread())
+    continue_async();
+  else
+    srv.deferred.push_back(shared_from_this());
 }
 
 // A connection that failed under a write. Closing it takes memory (its resume record, the
@@ -452,8 +459,10 @@ void Session::continue_async() {
     self->flush();
   };
   // Nothing but frames left (now pending again): wait until the socket takes more.
-  if (out_buffers.empty()) sock.async_wait(tcp::socket::wait_write, done);
-  else asio::async_write(sock, out_buffers, done);
+  if (out_buffers.empty())
+    sock.async_wait(tcp::socket::wait_write, done);
+  else
+    asio::async_write(sock, out_buffers, done);
 }
 
 void ServerImpl::start_deferred() {
@@ -564,7 +573,10 @@ void ServerImpl::flush_subscribers() {
     lanes[size_t(k)].end = ready.size() * size_t(k + 1) / size_t(n);
   }
   const int ran = pool.run(
-      n, [](void* self, int k) { static_cast<ServerImpl*>(self)->write_lane(static_cast<ServerImpl*>(self)->lanes[size_t(k)]); },
+      n,
+      [](void* self, int k) {
+        static_cast<ServerImpl*>(self)->write_lane(static_cast<ServerImpl*>(self)->lanes[size_t(k)]);
+      },
       this);
   // Lanes whose worker could not be started are written here.
   for (int k = ran; k < n; ++k) write_lane(lanes[size_t(k)]);

@@ -26,7 +26,9 @@ class FanoutPool {
   int run(int lanes, Job job, void* context) noexcept;
   // Starts the workers for `lanes` lanes now, not on first use (starting a thread allocates:
   // not for a realtime tick). Returns the lanes available.
-  int prepare(int lanes) noexcept { return lanes > 1 && int(workers_.size()) < lanes - 1 ? 1 + start_workers(lanes - 1) : lanes; }
+  int prepare(int lanes) noexcept {
+    return lanes > 1 && int(workers_.size()) < lanes - 1 ? 1 + start_workers(lanes - 1) : lanes;
+  }
 
  private:
   void work(int lane);

@@ -46,8 +46,8 @@ void Session::on_hello(std::span<const uint8_t> packet) {
         if (!served.empty()) served += ',';
         served += std::to_string(l);
       }
-    const std::string why = "mesh LOD " + std::to_string(h.mesh_lod) + " is not served here (served: " +
-                            (served.empty() ? "none" : served) + ")";
+    const std::string why = "mesh LOD " + std::to_string(h.mesh_lod) +
+                            " is not served here (served: " + (served.empty() ? "none" : served) + ")";
     count(Reject::unavailable);
     refuse(Reject::unavailable, why.c_str());
     return;
@@ -66,8 +66,10 @@ void Session::on_hello(std::span<const uint8_t> packet) {
     if (it != srv.resume.end() && it->second.role == role) {
       resumed = true;
       token = h.resume_token;
-      if (role == Role::subscriber) models_known = std::move(it->second.models_known);
-      else reattach(it->second.slots);
+      if (role == Role::subscriber)
+        models_known = std::move(it->second.models_known);
+      else
+        reattach(it->second.slots);
       srv.resume.erase(it);
       srv.stats.resumed++;
     }
@@ -77,8 +79,10 @@ void Session::on_hello(std::span<const uint8_t> packet) {
   if (caps & kCapUdpPose) srv.udp_sessions[token] = this;
   // Any larger packet is a model or mesh, which only publishers send.
   reader.set_max_packet_bytes(role == Role::publisher ? kMaxPacketBytes : kMaxHelloBytes);
-  if (role == Role::publisher) srv.stats.publishers++;
-  else srv.stats.subscribers++;
+  if (role == Role::publisher)
+    srv.stats.publishers++;
+  else
+    srv.stats.subscribers++;
 
   Welcome w;
   w.capabilities = caps;

@@ -69,8 +69,10 @@ void ServerImpl::schedule_housekeeping() {
     if (ec) return;
     const auto now = Clock::now();
     for (auto it = resume.begin(); it != resume.end();) {
-      if (it->second.expires <= now) it = resume.erase(it);
-      else ++it;
+      if (it->second.expires <= now)
+        it = resume.erase(it);
+      else
+        ++it;
     }
     const auto grace = seconds(opt.resume_grace_s);
     for (auto& a : avatars)

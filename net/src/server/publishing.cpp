@@ -59,8 +59,8 @@ Reject Session::on_mesh(std::span<const uint8_t> packet) {
   return srv.accept_mesh(*a, h.lod, packet);
 }
 
-Result<uint16_t> ServerImpl::new_avatar(const std::string& name, uint16_t dof_count,
-                                        std::string model_bytes, Session* owner) {
+Result<uint16_t> ServerImpl::new_avatar(const std::string& name, uint16_t dof_count, std::string model_bytes,
+                                        Session* owner) {
   if (dof_count > kMaxPoseDofs) return fail(Errc::out_of_range, "too many DOFs for a pose frame");
   if (model_bytes.size() > kMaxModelBytes) return fail(Errc::out_of_range, "body model too large");
   if (!name_is_printable(name)) return fail(Errc::invalid_argument, "avatar name has control characters");

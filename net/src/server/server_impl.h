@@ -51,10 +51,10 @@ struct Session;
 using SharedBytes = std::shared_ptr<const std::vector<uint8_t>>;
 
 struct MeshSlot {
-  SharedBytes topology;         // encoded packet, shared by the writes that carry it
-  std::vector<uint8_t> frame;   // latest encoded mesh frame, sized for the topology
+  SharedBytes topology;        // encoded packet, shared by the writes that carry it
+  std::vector<uint8_t> frame;  // latest encoded mesh frame, sized for the topology
   size_t frame_size = 0;
-  size_t frame_capacity = 0;    // mesh_packet_bytes of the topology's vertex count
+  size_t frame_capacity = 0;  // mesh_packet_bytes of the topology's vertex count
   uint32_t sequence = 0;
 };
 
@@ -73,8 +73,8 @@ struct Avatar {
   // most once, both shared by every subscriber (lean_ok: the skeleton fits the lean stream).
   LeanPoseEncoder lean;
   bool lean_ok = false;
-  Session* owner = nullptr;     // remote publisher, or nullptr for a local avatar
-  SessionToken owner_token;     // to re-attach on resume
+  Session* owner = nullptr;  // remote publisher, or nullptr for a local avatar
+  SessionToken owner_token;  // to re-attach on resume
   Clock::time_point orphaned_at{};
   bool orphaned = false;
   std::array<MeshSlot, kMaxLods> mesh;
@@ -175,14 +175,14 @@ struct ServerImpl {
   // Model revisions are unique across the server's life, so an avatar id reused after a removal
   // never looks like a model a resuming subscriber already holds.
   uint32_t next_revision = 1;
-  bool batching = false;  // between begin_batch and end_batch: mark, flush once at the end
+  bool batching = false;     // between begin_batch and end_batch: mark, flush once at the end
   bool fanning_out = false;  // in flush_subscribers: datagrams wait for its end
   // Fan-out threads: lanes[0] is the server's thread, the others the pool's workers.
   std::vector<FanoutLane> lanes = std::vector<FanoutLane>(1);
   FanoutPool pool;
-  int fanout_threads = 1;  // opt.fanout_threads resolved
-  std::vector<Session*> ready;  // subscribers with only pose frames to write this tick
-  std::vector<Session*> rest;   // everyone else flush()es on the server's thread
+  int fanout_threads = 1;               // opt.fanout_threads resolved
+  std::vector<Session*> ready;          // subscribers with only pose frames to write this tick
+  std::vector<Session*> rest;           // everyone else flush()es on the server's thread
   std::array<float, 4096> fanout_us{};  // the last fan-outs' wall times (Server::fanout_times)
   uint64_t fanouts = 0;
   // Asynchronous writes (and waits for a full socket), and closes after a failed write, wanted
@@ -213,8 +213,7 @@ struct ServerImpl {
   SessionToken new_token() const;
   // publishing.cpp
   Avatar* avatar(uint16_t id) { return id < avatars.size() && avatars[id].live ? &avatars[id] : nullptr; }
-  Result<uint16_t> new_avatar(const std::string& name, uint16_t dof_count, std::string model_bytes,
-                              Session* owner);
+  Result<uint16_t> new_avatar(const std::string& name, uint16_t dof_count, std::string model_bytes, Session* owner);
   void update_model(Avatar& a, const AvatarModel& m);
   // Whether the scene's current models stay within opt.max_model_bytes_held with a model packet
   // of `packet_bytes` in place of `replacing`'s (or added); counts a refusal.
@@ -239,7 +238,6 @@ struct ServerImpl {
   void reserve_fanout();
   void start_deferred();
 };
-
 
 // The most bytes a subscriber can be sent for one frame of an avatar with `dofs` DOFs.
 size_t frame_bytes_bound(uint16_t dofs);
@@ -277,15 +275,15 @@ struct Session : std::enable_shared_from_this<Session> {
   // but a newer model replaces an older one of the same avatar), and one pending frame slot per
   // avatar (latest wins). Every vector here is sized on the event loop (ensure_slot,
   // reserve_buffers), never by a fan-out.
-  std::vector<ControlItem> out_shared;  // packets of the write in flight (models marked), kept alive
+  std::vector<ControlItem> out_shared;          // packets of the write in flight (models marked), kept alive
   std::vector<asio::const_buffer> out_buffers;  // what an asynchronous write still has to send
   std::vector<ControlItem> control;
   size_t control_bytes = 0;
-  std::vector<uint16_t> pending;        // avatars with a pose frame waiting
-  std::vector<uint8_t> pending_flag;    // by avatar id
+  std::vector<uint16_t> pending;      // avatars with a pose frame waiting
+  std::vector<uint8_t> pending_flag;  // by avatar id
   std::vector<uint16_t> pending_mesh;
   std::vector<uint8_t> pending_mesh_flag;
-  std::vector<uint8_t> topology_sent;   // by avatar id, for mesh subscribers
+  std::vector<uint8_t> topology_sent;  // by avatar id, for mesh subscribers
   // Lean stream: by avatar id, the sequence of the last frame this subscriber was sent (its
   // receiver's reference; 0: none, so the next frame goes as a key).
   std::vector<uint32_t> lean_sent;
@@ -294,7 +292,7 @@ struct Session : std::enable_shared_from_this<Session> {
   bool failed = false;  // a write failed off the event loop; it closes the session (fail())
 
   // Inbound
-  std::map<uint8_t, uint16_t> slots;     // publisher slot -> avatar id
+  std::map<uint8_t, uint16_t> slots;          // publisher slot -> avatar id
   std::map<uint16_t, uint32_t> models_known;  // subscriber: avatar -> revision delivered
   double tokens = 0;
   Clock::time_point last_refill;

@@ -6,8 +6,7 @@
 
 namespace mimic::net {
 
-Session::Session(ServerImpl& s, tcp::socket socket)
-    : srv(s), sock(std::move(socket)), hello_timer(s.io) {
+Session::Session(ServerImpl& s, tcp::socket socket) : srv(s), sock(std::move(socket)), hello_timer(s.io) {
   boost::system::error_code ec;
   const auto remote = sock.remote_endpoint(ec);
   if (!ec) peer_address = remote.address();
@@ -31,10 +30,9 @@ void Session::start() {
 void Session::read() {
   if (closed) return;
   auto space = reader.write_space(4096);
-  sock.async_read_some(asio::buffer(space.data(), space.size()),
-                       [self = shared_from_this()](const boost::system::error_code& ec, size_t n) {
-                         self->on_read(ec, n);
-                       });
+  sock.async_read_some(
+      asio::buffer(space.data(), space.size()),
+      [self = shared_from_this()](const boost::system::error_code& ec, size_t n) { self->on_read(ec, n); });
 }
 
 void Session::on_read(const boost::system::error_code& ec, size_t n) {
@@ -131,9 +129,7 @@ void Session::handle(std::span<const uint8_t> packet) {
       return;
     case MsgType::avatar_model: e = role == Role::publisher ? on_model(packet) : Reject::unexpected; break;
     case MsgType::pose: e = role == Role::publisher ? on_pose(packet) : Reject::unexpected; break;
-    case MsgType::mesh_topology:
-      e = role == Role::publisher ? on_mesh_topology(packet) : Reject::unexpected;
-      break;
+    case MsgType::mesh_topology: e = role == Role::publisher ? on_mesh_topology(packet) : Reject::unexpected; break;
     case MsgType::mesh: e = role == Role::publisher ? on_mesh(packet) : Reject::unexpected; break;
     default: e = Reject::unexpected; break;
   }
@@ -179,8 +175,10 @@ void Session::close(bool clean) {
   sock.shutdown(tcp::socket::shutdown_both, ec);
   sock.close(ec);
   if (active) {
-    if (role == Role::publisher) srv.stats.publishers--;
-    else srv.stats.subscribers--;
+    if (role == Role::publisher)
+      srv.stats.publishers--;
+    else
+      srv.stats.subscribers--;
   }
   if (counted_per_address) {
     auto it = srv.sessions_per_address.find(peer_address);

@@ -43,8 +43,10 @@ void ServerImpl::on_datagram(std::span<const uint8_t> datagram) {
   Session* s = nullptr;
   if (e == Reject::ok) {
     auto it = udp_sessions.find(reg.token);
-    if (reg.token.empty() || it == udp_sessions.end() || it->second->closed) e = Reject::unauthorized;
-    else s = it->second;
+    if (reg.token.empty() || it == udp_sessions.end() || it->second->closed)
+      e = Reject::unauthorized;
+    else
+      s = it->second;
   }
   if (e == Reject::ok && !opt.udp_from_any_address && udp_from.address() != s->peer_address) {
     stats.udp_wrong_address++;

@@ -25,8 +25,8 @@ namespace {
 constexpr size_t kMaxRemoteIds = 512;      // ids a server may describe; VRPN's own tables hold 2,000
 constexpr size_t kMaxPayload = 64 * 1024;  // larger messages break the connection, as the server does
 constexpr size_t kReportsPerDatagram = vrpn::kUdpDatagramBytes / vrpn::message_bytes(vrpn::kPosQuatBytes) + 1;
-constexpr double kPingEvery_s = 1.0;       // vrpn_BaseClass's rate
-constexpr double kLobEvery_s = 1.0;        // how often a call-back request is repeated
+constexpr double kPingEvery_s = 1.0;  // vrpn_BaseClass's rate
+constexpr double kLobEvery_s = 1.0;   // how often a call-back request is repeated
 
 // Our senders: the button device first (if any), then the trackers; one message type, ping.
 enum Local : int32_t { kPingType = 0 };
@@ -71,8 +71,8 @@ std::string VrpnAddress::text() const {
 Result<VrpnAddress> parse_vrpn_address(std::string_view text) {
   const size_t at = text.find('@');
   if (at == std::string_view::npos || at == 0 || at + 1 == text.size())
-    return fail(Errc::invalid_argument, "expected DEVICE@HOST[:PORT] or DEVICE@tcp://HOST[:PORT], got '" +
-                                            std::string(text) + "'");
+    return fail(Errc::invalid_argument,
+                "expected DEVICE@HOST[:PORT] or DEVICE@tcp://HOST[:PORT], got '" + std::string(text) + "'");
   VrpnAddress a;
   a.device = std::string(text.substr(0, at));
   if (a.device.size() + 1 > vrpn::kMaxNameBytes)
@@ -374,8 +374,8 @@ struct VrpnTrackerRemote::Impl {
     while (udp_fd >= 0 && out.room()) {
       sockaddr_in from{};
       socklen_t len = sizeof from;
-      const ssize_t n = ::recvfrom(udp_fd, datagram.data(), datagram.size(), MSG_DONTWAIT,
-                                   reinterpret_cast<sockaddr*>(&from), &len);
+      const ssize_t n =
+          ::recvfrom(udp_fd, datagram.data(), datagram.size(), MSG_DONTWAIT, reinterpret_cast<sockaddr*>(&from), &len);
       if (n < 0) return;
       if (from.sin_addr.s_addr != server.sin_addr.s_addr) {  // only the server's reports count
         ++stats.malformed;
@@ -460,8 +460,10 @@ size_t VrpnTrackerRemote::poll(std::span<VrpnReport> reports, std::span<VrpnButt
       if (d.now() >= d.next_attempt_s) d.start_attempt();
       break;
     case VrpnLink::connecting:
-      if (d.options.tracker.tcp_only) d.await_connect();
-      else d.await_call_back();
+      if (d.options.tracker.tcp_only)
+        d.await_connect();
+      else
+        d.await_call_back();
       break;
     case VrpnLink::handshaking:
       if (d.flush()) d.read_cookie();

@@ -35,9 +35,7 @@ constexpr const char* kTypeNames[kTypeCount] = {"vrpn_Tracker Pos_Quat", "vrpn_B
                                                 "vrpn_Base pong_message"};
 
 double wall_s() { return double(wall_clock_us()) * 1e-6; }
-double mono_s() {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
-}
+double mono_s() { return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count(); }
 
 bool set_nonblocking(int fd) {
   const int fl = ::fcntl(fd, F_GETFL, 0);
@@ -159,7 +157,8 @@ struct VrpnServer::Impl {
   // A system or control message on the client's TCP stream.
   bool queue_message(Client& c, int32_t sender, int32_t type, std::span<const uint8_t> payload) {
     std::array<uint8_t, vrpn::kHeaderBytes + 256> buf{};
-    const size_t n = vrpn::write_message(buf, vrpn::timestamp_from_seconds(wall_s()), sender, type, c.tcp_seq++, payload);
+    const size_t n =
+        vrpn::write_message(buf, vrpn::timestamp_from_seconds(wall_s()), sender, type, c.tcp_seq++, payload);
     return n > 0 && queue(c, std::span<const uint8_t>(buf.data(), n));
   }
 
@@ -237,7 +236,8 @@ struct VrpnServer::Impl {
       char msg[200];
       sockaddr_in from{};
       socklen_t len = sizeof from;
-      const ssize_t n = ::recvfrom(udp_listen, msg, sizeof msg - 1, MSG_DONTWAIT, reinterpret_cast<sockaddr*>(&from), &len);
+      const ssize_t n =
+          ::recvfrom(udp_listen, msg, sizeof msg - 1, MSG_DONTWAIT, reinterpret_cast<sockaddr*>(&from), &len);
       if (n < 0) return;
       stats.lob_requests++;
       uint16_t port = 0;
@@ -320,8 +320,10 @@ struct VrpnServer::Impl {
     size_t used = 0;
     if (c.state == Client::State::cookie) {
       if (c.in_len < vrpn::kCookieBytes) {
-        if (mono_s() - c.since_s > kConnectTimeout_s) close_client(c);
-        else flush_tcp(c);
+        if (mono_s() - c.since_s > kConnectTimeout_s)
+          close_client(c);
+        else
+          flush_tcp(c);
         return;
       }
       if (!vrpn::cookie_ok(std::span<const uint8_t, vrpn::kCookieBytes>(c.in.data(), vrpn::kCookieBytes))) {
@@ -446,8 +448,8 @@ Result<std::unique_ptr<VrpnServer>> VrpnServer::create(const std::string& listen
   socklen_t len = sizeof addr;
   ::getsockname(impl->tcp_listen, reinterpret_cast<sockaddr*>(&addr), &len);
   if (::bind(impl->udp_listen, reinterpret_cast<const sockaddr*>(&addr), sizeof addr) != 0)
-    return fail(Errc::io_error, "VRPN: cannot bind UDP port " + std::to_string(ntohs(addr.sin_port)) + ": " +
-                                    std::strerror(errno));
+    return fail(Errc::io_error,
+                "VRPN: cannot bind UDP port " + std::to_string(ntohs(addr.sin_port)) + ": " + std::strerror(errno));
   if (::listen(impl->tcp_listen, 16) != 0 || !set_nonblocking(impl->tcp_listen) || !set_nonblocking(impl->udp_listen))
     return fail(Errc::io_error, std::string("VRPN: cannot listen: ") + std::strerror(errno));
   sockaddr_in data = addr;
@@ -473,8 +475,8 @@ Status VrpnServer::add_avatar(const rig::Skeleton& skeleton) {
   impl_->avatars.push_back({skeleton, std::vector<rig::RigidTransform>(size_t(skeleton.joint_count()))});
   impl_->senders.push_back("Avatar" + std::to_string(i));
   impl_->senders.push_back("Sensors" + std::to_string(i));
-  impl_->frame.resize(impl_->frame.size() +
-                      (size_t(skeleton.joint_count()) + kMaxSamplesPerAvatar) * vrpn::message_bytes(vrpn::kPosQuatBytes));
+  impl_->frame.resize(impl_->frame.size() + (size_t(skeleton.joint_count()) + kMaxSamplesPerAvatar) *
+                                                vrpn::message_bytes(vrpn::kPosQuatBytes));
   return {};
 }
 
@@ -491,8 +493,7 @@ void VrpnServer::poll() {
   impl_->accept_tcp();
   // Whatever clients send to our UDP port is not needed: drain it.
   std::array<uint8_t, 2048> sink{};
-  for (int k = 0; k < 64 && ::recv(impl_->udp_data, sink.data(), sink.size(), MSG_DONTWAIT) >= 0; ++k) {
-  }
+  for (int k = 0; k < 64 && ::recv(impl_->udp_data, sink.data(), sink.size(), MSG_DONTWAIT) >= 0; ++k) {}
   for (auto& c : impl_->clients)
     if (c.state != Impl::Client::State::free) impl_->service(c);
 }

@@ -16,9 +16,9 @@ namespace mimic::net {
 using namespace codec_detail;
 
 uint64_t wall_clock_us() {
-  return static_cast<uint64_t>(std::chrono::duration_cast<std::chrono::microseconds>(
-                                   std::chrono::system_clock::now().time_since_epoch())
-                                   .count());
+  return static_cast<uint64_t>(
+      std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::system_clock::now().time_since_epoch())
+          .count());
 }
 
 bool SessionToken::empty() const noexcept {
@@ -96,8 +96,8 @@ Reject decode_header(std::span<const uint8_t> bytes, Header& out) noexcept {
   out.version = bytes[1];
   out.type = static_cast<MsgType>(bytes[2]);
   out.flags = bytes[3];
-  out.payload_bytes = uint32_t(bytes[4]) | (uint32_t(bytes[5]) << 8) | (uint32_t(bytes[6]) << 16) |
-                      (uint32_t(bytes[7]) << 24);
+  out.payload_bytes =
+      uint32_t(bytes[4]) | (uint32_t(bytes[5]) << 8) | (uint32_t(bytes[6]) << 16) | (uint32_t(bytes[7]) << 24);
   if (out.payload_bytes > limit - kHeaderBytes) return Reject::oversized;
   return Reject::ok;
 }
@@ -230,8 +230,7 @@ size_t encode_mesh_topology(const MeshTopology& m, std::span<uint8_t> out) noexc
   return finish(w);
 }
 
-size_t encode_mesh(const MeshFrameHeader& h, std::span<const glm::vec3> positions_m,
-                   std::span<uint8_t> out) noexcept {
+size_t encode_mesh(const MeshFrameHeader& h, std::span<const glm::vec3> positions_m, std::span<uint8_t> out) noexcept {
   glm::vec3 lo(std::numeric_limits<float>::max()), hi(-std::numeric_limits<float>::max());
   for (const auto& p : positions_m) {
     lo = glm::min(lo, p);

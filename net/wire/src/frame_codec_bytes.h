@@ -72,8 +72,8 @@ struct Reader {
   }
   uint32_t u32() {
     if (!need(4)) return 0;
-    const uint32_t v = uint32_t(in[pos]) | (uint32_t(in[pos + 1]) << 8) |
-                       (uint32_t(in[pos + 2]) << 16) | (uint32_t(in[pos + 3]) << 24);
+    const uint32_t v = uint32_t(in[pos]) | (uint32_t(in[pos + 1]) << 8) | (uint32_t(in[pos + 2]) << 16) |
+                       (uint32_t(in[pos + 3]) << 24);
     pos += 4;
     return v;
   }

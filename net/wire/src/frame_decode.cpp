@@ -166,8 +166,7 @@ Reject decode_mesh_topology(std::span<const uint8_t> packet, MeshTopology& out) 
   return close(r);
 }
 
-Reject decode_mesh(std::span<const uint8_t> packet, MeshFrameHeader& h,
-                   std::vector<glm::vec3>& positions_m) {
+Reject decode_mesh(std::span<const uint8_t> packet, MeshFrameHeader& h, std::vector<glm::vec3>& positions_m) {
   Reader r;
   if (const Reject e = open(packet, MsgType::mesh, r); e != Reject::ok) return e;
   h.avatar = r.u16();

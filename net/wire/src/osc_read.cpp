@@ -53,10 +53,20 @@ bool argument_bytes(char tag, std::span<const uint8_t> bytes, size_t at, size_t&
   unknown = false;
   const size_t left = bytes.size() - at;
   switch (tag) {
-    case 'i': case 'f': case 'c': case 'r': case 'm': size = 4; return left >= 4;
-    case 'h': case 'd': case 't': size = 8; return left >= 8;
-    case 'T': case 'F': case 'N': case 'I': size = 0; return true;
-    case 's': case 'S': {
+    case 'i':
+    case 'f':
+    case 'c':
+    case 'r':
+    case 'm': size = 4; return left >= 4;
+    case 'h':
+    case 'd':
+    case 't': size = 8; return left >= 8;
+    case 'T':
+    case 'F':
+    case 'N':
+    case 'I': size = 0; return true;
+    case 's':
+    case 'S': {
       std::string_view s;
       size = read_string(bytes, at, s);
       return size > 0;
@@ -81,7 +91,8 @@ Error parse_message(std::span<const uint8_t> bytes, uint64_t timetag, Message& o
   at += address_bytes;
   std::string_view tags;
   const size_t tag_bytes = read_string(bytes, at, tags);
-  if (tag_bytes == 0 || tags.empty() || tags[0] != ',') return at >= bytes.size() ? Error::truncated : Error::bad_type_tags;
+  if (tag_bytes == 0 || tags.empty() || tags[0] != ',')
+    return at >= bytes.size() ? Error::truncated : Error::bad_type_tags;
   at += tag_bytes;
   out.tags = tags.substr(1);
   const size_t args_start = at;

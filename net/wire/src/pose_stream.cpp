@@ -9,7 +9,7 @@ namespace mimic::net {
 
 namespace {
 
-constexpr size_t kGroup = 4;       // values sharing one width code
+constexpr size_t kGroup = 4;        // values sharing one width code
 constexpr unsigned kWideBits = 20;  // width code 15: any residual of i16-range values fits
 
 uint64_t zigzag(int64_t v) { return (uint64_t(v) << 1) ^ uint64_t(v >> 63); }
@@ -141,9 +141,7 @@ bool get_groups(BitIn& r, int64_t* v, size_t count) {
   return true;
 }
 
-int64_t shifted(int64_t q, uint8_t shift) {
-  return shift == 0 ? q : (q + (int64_t(1) << (shift - 1))) >> shift;
-}
+int64_t shifted(int64_t q, uint8_t shift) { return shift == 0 ? q : (q + (int64_t(1) << (shift - 1))) >> shift; }
 
 int16_t read_i16(const uint8_t* p) { return int16_t(uint16_t(p[0] | (p[1] << 8))); }
 int32_t read_i32(const uint8_t* p) {
@@ -223,13 +221,11 @@ bool LeanPoseEncoder::update(std::span<const uint8_t> packet) noexcept {
 
   // A delta needs the receiver's two previous frames: only for the frame right after the last
   // one, of the same skeleton, and not on a periodic key.
-  const bool follows = state_.valid && seq == state_.sequence + 1 && n == state_.dof_count &&
-                       avatar == state_.avatar;
+  const bool follows = state_.valid && seq == state_.sequence + 1 && n == state_.dof_count && avatar == state_.avatar;
   const bool periodic_key = key_interval_ != 0 && seq % key_interval_ == 0;
   if (follows && !periodic_key) {
     std::array<int64_t, LeanPoseState::kMaxValues> residual;
-    for (size_t i = 0; i < count; ++i)
-      residual[i] = scratch_[i] - (2 * state_.current[i] - state_.previous[i]);
+    for (size_t i = 0; i < count; ++i) residual[i] = scratch_[i] - (2 * state_.current[i] - state_.previous[i]);
     ByteOut w{delta_};
     begin_packet(w, uint8_t((flags_ & kPoseStale) ? kLeanStale : 0));
     w.le(avatar, 2);
@@ -277,8 +273,7 @@ void lean_state_pose(const LeanPoseState& s, rig::Pose& out) noexcept {
   for (size_t i = 0; i < n; ++i) out.dof_rad[i] = float(double(s.current[7 + i]) * unit * double(kAngleStep_rad));
 }
 
-Reject decode_lean_pose(std::span<const uint8_t> packet, LeanPoseState& state, PoseHeader& h,
-                        rig::Pose& out) noexcept {
+Reject decode_lean_pose(std::span<const uint8_t> packet, LeanPoseState& state, PoseHeader& h, rig::Pose& out) noexcept {
   Header hdr;
   if (const Reject e = decode_header(packet, hdr); e != Reject::ok) return e;
   if (hdr.type != MsgType::pose_delta) return Reject::unexpected;
@@ -312,11 +307,13 @@ Reject decode_lean_pose(std::span<const uint8_t> packet, LeanPoseState& state, P
     next.time_us = state.time_us + uint64_t(unzigzag(r.varint()));
     const size_t n = next.value_count();
     for (int i = 0; i < 3; ++i)
-      next.current[size_t(i)] = wrapping_add(2 * state.current[size_t(i)] - state.previous[size_t(i)], unzigzag(r.varint()));
+      next.current[size_t(i)] =
+          wrapping_add(2 * state.current[size_t(i)] - state.previous[size_t(i)], unzigzag(r.varint()));
     if (!r.ok) return Reject::truncated;
     BitIn bits{r};
     if (!get_groups(bits, next.current.data() + 3, n - 3)) return Reject::truncated;
-    for (size_t i = 3; i < n; ++i) next.current[i] = wrapping_add(next.current[i], 2 * state.current[i] - state.previous[i]);
+    for (size_t i = 3; i < n; ++i)
+      next.current[i] = wrapping_add(next.current[i], 2 * state.current[i] - state.previous[i]);
     std::copy_n(state.current.begin(), n, next.previous.begin());
   }
   // Nothing may follow the last value.
@@ -347,8 +344,6 @@ uint32_t lean_pose_sequence(std::span<const uint8_t> packet) noexcept {
   return uint32_t(p[0]) | (uint32_t(p[1]) << 8) | (uint32_t(p[2]) << 16) | (uint32_t(p[3]) << 24);
 }
 
-bool lean_pose_is_key(std::span<const uint8_t> packet) noexcept {
-  return packet.size() > 3 && (packet[3] & kLeanKey);
-}
+bool lean_pose_is_key(std::span<const uint8_t> packet) noexcept { return packet.size() > 3 && (packet[3] & kLeanKey); }
 
 }  // namespace mimic::net

@@ -82,9 +82,12 @@ bool apply_osc_tracker(const osc::Message& m, double now_s, VmcState& s, VmcRece
   if (slash == std::string_view::npos) return false;
   const std::string_view which = rest.substr(0, slash), what = rest.substr(slash + 1);
   size_t index = 0;
-  if (which == "head") index = 0;
-  else if (which.size() == 1 && which[0] >= '1' && which[0] <= '8') index = size_t(which[0] - '0');
-  else return false;
+  if (which == "head")
+    index = 0;
+  else if (which.size() == 1 && which[0] >= '1' && which[0] <= '8')
+    index = size_t(which[0] - '0');
+  else
+    return false;
   if (what != "position" && what != "rotation") return false;
   glm::vec3 v;
   if (!read_vec3(m, v)) {
@@ -96,8 +99,10 @@ bool apply_osc_tracker(const osc::Message& m, double now_s, VmcState& s, VmcRece
     return true;
   }
   TrackedPose& t = s.osc_trackers[index];
-  if (what == "position") t.position_m = from_unity(v);
-  else t.orientation = from_unity(unity_euler_deg(v));
+  if (what == "position")
+    t.position_m = from_unity(v);
+  else
+    t.orientation = from_unity(unity_euler_deg(v));
   t.present = true;
   t.received_s = now_s;
   stats.osc_tracker_messages++;
@@ -115,8 +120,10 @@ void apply_message(const osc::Message& m, double now_s, VmcState& s, VmcReceiveS
   if (a == "/VMC/Ext/T") {
     float t = 0;
     osc::Args args(m);
-    if (args.get(t) && std::isfinite(t)) s.sender_time_s = t;
-    else stats.refused[size_t(osc::Error::wrong_arguments)]++;
+    if (args.get(t) && std::isfinite(t))
+      s.sender_time_s = t;
+    else
+      stats.refused[size_t(osc::Error::wrong_arguments)]++;
     return;
   }
   const bool bone = a == "/VMC/Ext/Bone/Pos", root = a == "/VMC/Ext/Root/Pos";

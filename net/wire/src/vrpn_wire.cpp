@@ -30,9 +30,7 @@ void store_be_f64(uint8_t* p, double v) {
   store_be32(p + 4, uint32_t(b));
 }
 
-double load_be_f64(const uint8_t* p) {
-  return std::bit_cast<double>(uint64_t(load_be32(p)) << 32 | load_be32(p + 4));
-}
+double load_be_f64(const uint8_t* p) { return std::bit_cast<double>(uint64_t(load_be32(p)) << 32 | load_be32(p + 4)); }
 
 Timestamp timestamp_from_seconds(double unix_s) {
   if (!(unix_s > 0)) return {};

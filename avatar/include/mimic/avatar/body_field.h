@@ -75,15 +75,13 @@ class BodyField {
   // no longer than a fraction of the thinnest primitive crossed are sampled before refining,
   // so thin parts are not stepped over; only t ≥ 0 is considered, so nothing behind the
   // origin is hit.
-  RayHit cast_outermost(const glm::vec3& origin, const glm::vec3& dir,
-                        std::span<const uint16_t> candidates) const;
+  RayHit cast_outermost(const glm::vec3& origin, const glm::vec3& dir, std::span<const uint16_t> candidates) const;
 
   // A star of rays from one origin within a plane: ray j runs along cos_a[j]·front + sin_a[j]·left
   // (front, left orthonormal; a contour's angles are fixed, so their cosines and sines are kept).
   // Same result as cast_outermost per ray, with the per-primitive work shared by the contour.
-  void cast_star(const glm::vec3& origin, const glm::vec3& front, const glm::vec3& left,
-                 std::span<const float> cos_a, std::span<const float> sin_a,
-                 std::span<const uint16_t> candidates, std::span<RayHit> hits) const;
+  void cast_star(const glm::vec3& origin, const glm::vec3& front, const glm::vec3& left, std::span<const float> cos_a,
+                 std::span<const float> sin_a, std::span<const uint16_t> candidates, std::span<RayHit> hits) const;
   // Rays of their own (origins[j] + t·dirs[j], unit dirs), eight at a time in lock-step: the
   // same result as cast_outermost per ray.
   void cast_rays(std::span<const glm::vec3> origins, std::span<const glm::vec3> dirs,
@@ -144,8 +142,7 @@ class BodyField {
 glm::vec2 muscle_weights(float theta, float theta0, float theta_min, float theta_max, Falloff falloff);
 
 // State of a deformable primitive at DOF value θ (the paper's interpolation).
-PrimitiveState deformed_state(const PrimitiveState& g0, const PrimitiveState& gmin,
-                              const PrimitiveState& gmax, Falloff falloff, float theta,
-                              float theta0, float theta_min, float theta_max);
+PrimitiveState deformed_state(const PrimitiveState& g0, const PrimitiveState& gmin, const PrimitiveState& gmax,
+                              Falloff falloff, float theta, float theta0, float theta_min, float theta_max);
 
 }  // namespace mimic::avatar

@@ -24,11 +24,21 @@ namespace mimic::avatar {
 // The fifteen groups of the paper. A contour sees only the primitives of its group, so the two
 // legs never blend; primitives near a joint may sit in several groups.
 enum class Group : uint8_t {
-  upper_torso, lower_torso, hip,
-  left_shoulder, right_shoulder,
-  left_upper_arm, right_upper_arm, left_lower_arm, right_lower_arm,
-  left_upper_leg, right_upper_leg, left_lower_leg, right_lower_leg,
-  left_ankle, right_ankle,
+  upper_torso,
+  lower_torso,
+  hip,
+  left_shoulder,
+  right_shoulder,
+  left_upper_arm,
+  right_upper_arm,
+  left_lower_arm,
+  right_lower_arm,
+  left_upper_leg,
+  right_upper_leg,
+  left_lower_leg,
+  right_lower_leg,
+  left_ankle,
+  right_ankle,
 };
 inline constexpr int kGroupCount = 15;
 using GroupMask = uint16_t;
@@ -49,9 +59,9 @@ enum class PrimitiveKind : uint8_t {
 
 // The paper's nine-parameter state G = {a, b, c, centre, orientation}.
 struct PrimitiveState {
-  glm::vec3 semi_axes_m{0.05f};       // a, b, c along the primitive's own x, y, z
-  glm::vec3 center_m{0.0f};           // in the joint frame
-  glm::vec3 orientation_rad{0.0f};    // rotation R = Rz·Ry·Rx (x applied first), joint frame
+  glm::vec3 semi_axes_m{0.05f};     // a, b, c along the primitive's own x, y, z
+  glm::vec3 center_m{0.0f};         // in the joint frame
+  glm::vec3 orientation_rad{0.0f};  // rotation R = Rz·Ry·Rx (x applied first), joint frame
 };
 
 enum class Falloff : uint8_t { linear, parabolic, hyperbolic };  // f(t) = t, t², √t
@@ -72,8 +82,8 @@ struct Primitive {
   std::string name;
   std::string joint;  // the proximal joint whose frame the state is given in
   PrimitiveKind kind = PrimitiveKind::metaball;
-  PrimitiveState state;  // G0, at the DOF's relaxed value θ0
-  float weight = 1.0f;   // field strength; 1 makes a lone primitive's surface its ellipsoid
+  PrimitiveState state;    // G0, at the DOF's relaxed value θ0
+  float weight = 1.0f;     // field strength; 1 makes a lone primitive's surface its ellipsoid
   float influence = 1.6f;  // radius of influence, in units of the semi-axes (> 1)
   GroupMask groups = 0;
   RigidPart part = RigidPart::none;
@@ -84,31 +94,31 @@ struct Primitive {
 // whose bottom ring splits into two leg loops joined by a crotch bridge, whose top (chest) ring
 // splits into two arm loops and a neck loop joined by bridges over the shoulders.
 struct SkinLayout {
-  int torso_points = 36;        // points per torso ring (even; split as below)
-  int chest_front_arc = 10;     // chest-ring segments across the front (between the arm loops)
-  int chest_side_arc = 8;       // segments along each side under an arm (part of the arm loop)
-  int shoulder_bridge = 16;     // segments of each bridge over a shoulder, front armpit to back
-  int crotch_bridge = 6;        // segments of the bridge under the crotch, front to back
-  int lower_torso_contours = 7;   // rings from the crotch ring up to the waist ring
-  int upper_torso_contours = 7;   // rings from the waist ring up to the chest ring
-  int neck_contours = 9;          // rings from the neck loop to the skull base
-  int upper_arm_contours = 12;    // rings from the arm loop to the elbow
-  int lower_arm_contours = 10;    // rings from the elbow to the wrist
-  int upper_leg_contours = 14;    // rings from the leg loop to the knee
-  int lower_leg_contours = 12;    // rings from the knee to the ankle
-  int boundary_contours = 4;      // k: boundary-driven rings at each junction (part of the above)
+  int torso_points = 36;         // points per torso ring (even; split as below)
+  int chest_front_arc = 10;      // chest-ring segments across the front (between the arm loops)
+  int chest_side_arc = 8;        // segments along each side under an arm (part of the arm loop)
+  int shoulder_bridge = 16;      // segments of each bridge over a shoulder, front armpit to back
+  int crotch_bridge = 6;         // segments of the bridge under the crotch, front to back
+  int lower_torso_contours = 7;  // rings from the crotch ring up to the waist ring
+  int upper_torso_contours = 7;  // rings from the waist ring up to the chest ring
+  int neck_contours = 9;         // rings from the neck loop to the skull base
+  int upper_arm_contours = 12;   // rings from the arm loop to the elbow
+  int lower_arm_contours = 10;   // rings from the elbow to the wrist
+  int upper_leg_contours = 14;   // rings from the leg loop to the knee
+  int lower_leg_contours = 12;   // rings from the knee to the ankle
+  int boundary_contours = 4;     // k: boundary-driven rings at each junction (part of the above)
   // Points per contour of each limb's own rings; 0: its loop's count. A limb whose count differs
   // from its loop's keeps the loop's through its boundary-driven rings and first ring (the
   // transition band, at the junction's resolution), then a zipper strip to its own count.
   int neck_points = 0;
   int arm_points = 0;
   int leg_points = 0;
-  int rigid_rings = 16;           // latitude rings of the rigid head, hand and foot meshes
-  int rigid_points = 24;          // longitude points of those meshes
+  int rigid_rings = 16;   // latitude rings of the rigid head, hand and foot meshes
+  int rigid_points = 24;  // longitude points of those meshes
   // Heights, as fractions along their links, of the special rings.
-  float crotch_drop_m = 0.085f;   // crotch ring below the pelvis joint (pelvis frame)
-  float chest_ring = 0.15f;       // chest ring position along the spine_upper link (0..1)
-  float neck_start = 0.35f;       // first true neck ring along the neck link (0..1)
+  float crotch_drop_m = 0.085f;  // crotch ring below the pelvis joint (pelvis frame)
+  float chest_ring = 0.15f;      // chest ring position along the spine_upper link (0..1)
+  float neck_start = 0.35f;      // first true neck ring along the neck link (0..1)
 };
 
 struct BodyModel {

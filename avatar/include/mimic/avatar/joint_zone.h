@@ -60,7 +60,8 @@ double joint_zone_section_area(std::span<const glm::vec3> positions, std::span<c
 // closed loops that contain it once projected, the largest; nullopt when none does. Not limited
 // to a zone.
 std::optional<double> section_area(std::span<const glm::vec3> positions, std::span<const uint32_t> indices,
-                                   std::span<const uint32_t> triangles, const glm::vec3& point, const glm::vec3& normal);
+                                   std::span<const uint32_t> triangles, const glm::vec3& point,
+                                   const glm::vec3& normal);
 
 // The five stations of the zone, proximal to distal: (point, normal).
 std::array<std::pair<glm::vec3, glm::vec3>, 5> joint_zone_stations(const JointZone& zone);

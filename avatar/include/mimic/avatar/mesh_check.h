@@ -13,17 +13,17 @@
 namespace mimic::avatar {
 
 struct MeshTopology {
-  size_t vertex_count = 0;        // positions referenced by at least one triangle
+  size_t vertex_count = 0;  // positions referenced by at least one triangle
   size_t unreferenced_vertices = 0;
-  size_t edge_count = 0;          // distinct undirected edges
-  size_t face_count = 0;          // triangles
-  size_t boundary_edges = 0;      // used by one triangle
-  size_t boundary_loops = 0;      // connected groups of boundary edges (holes)
-  size_t non_manifold_edges = 0;  // used by three or more triangles
-  size_t inconsistent_edges = 0;  // used by two triangles running it the same way (a flipped face)
-  size_t non_manifold_vertices = 0;  // incident triangles form more than one fan (a bow tie)
-  size_t components = 0;          // edge-connected pieces
-  size_t degenerate_triangles = 0;   // a repeated index or zero area
+  size_t edge_count = 0;               // distinct undirected edges
+  size_t face_count = 0;               // triangles
+  size_t boundary_edges = 0;           // used by one triangle
+  size_t boundary_loops = 0;           // connected groups of boundary edges (holes)
+  size_t non_manifold_edges = 0;       // used by three or more triangles
+  size_t inconsistent_edges = 0;       // used by two triangles running it the same way (a flipped face)
+  size_t non_manifold_vertices = 0;    // incident triangles form more than one fan (a bow tie)
+  size_t components = 0;               // edge-connected pieces
+  size_t degenerate_triangles = 0;     // a repeated index or zero area
   long long euler_characteristic = 0;  // V − E + F
   // Sum over components of the genus, from χ = 2C − 2g − B; −1 unless the surface is an
   // oriented manifold (possibly with boundary).

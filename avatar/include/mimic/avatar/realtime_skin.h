@@ -57,9 +57,9 @@ const char* skin_method_name(SkinMethod m);
 Result<SkinMethod> parse_skin_method(std::string_view name);  // "full" or "realtime"
 
 struct RealtimeOptions {
-  int lod = 0;                        // skin_lod.h: 0 finest … kSkinLodCount − 1 coarsest
-  std::optional<rig::Pose> initial_pose;   // where the contours are ray-cast; default the zero posture
-  bool rigid_parts = true;            // head, hands, feet
+  int lod = 0;                            // skin_lod.h: 0 finest … kSkinLodCount − 1 coarsest
+  std::optional<rig::Pose> initial_pose;  // where the contours are ray-cast; default the zero posture
+  bool rigid_parts = true;                // head, hands, feet
 };
 
 class RealtimeBody {

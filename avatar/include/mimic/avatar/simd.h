@@ -127,10 +127,14 @@ inline void transpose8x8(const __m256* in, __m256* out) {
   const __m256 t2 = _mm256_unpacklo_ps(in[2], in[3]), t3 = _mm256_unpackhi_ps(in[2], in[3]);
   const __m256 t4 = _mm256_unpacklo_ps(in[4], in[5]), t5 = _mm256_unpackhi_ps(in[4], in[5]);
   const __m256 t6 = _mm256_unpacklo_ps(in[6], in[7]), t7 = _mm256_unpackhi_ps(in[6], in[7]);
-  const __m256 u0 = _mm256_shuffle_ps(t0, t2, _MM_SHUFFLE(1, 0, 1, 0)), u1 = _mm256_shuffle_ps(t0, t2, _MM_SHUFFLE(3, 2, 3, 2));
-  const __m256 u2 = _mm256_shuffle_ps(t1, t3, _MM_SHUFFLE(1, 0, 1, 0)), u3 = _mm256_shuffle_ps(t1, t3, _MM_SHUFFLE(3, 2, 3, 2));
-  const __m256 u4 = _mm256_shuffle_ps(t4, t6, _MM_SHUFFLE(1, 0, 1, 0)), u5 = _mm256_shuffle_ps(t4, t6, _MM_SHUFFLE(3, 2, 3, 2));
-  const __m256 u6 = _mm256_shuffle_ps(t5, t7, _MM_SHUFFLE(1, 0, 1, 0)), u7 = _mm256_shuffle_ps(t5, t7, _MM_SHUFFLE(3, 2, 3, 2));
+  const __m256 u0 = _mm256_shuffle_ps(t0, t2, _MM_SHUFFLE(1, 0, 1, 0)),
+               u1 = _mm256_shuffle_ps(t0, t2, _MM_SHUFFLE(3, 2, 3, 2));
+  const __m256 u2 = _mm256_shuffle_ps(t1, t3, _MM_SHUFFLE(1, 0, 1, 0)),
+               u3 = _mm256_shuffle_ps(t1, t3, _MM_SHUFFLE(3, 2, 3, 2));
+  const __m256 u4 = _mm256_shuffle_ps(t4, t6, _MM_SHUFFLE(1, 0, 1, 0)),
+               u5 = _mm256_shuffle_ps(t4, t6, _MM_SHUFFLE(3, 2, 3, 2));
+  const __m256 u6 = _mm256_shuffle_ps(t5, t7, _MM_SHUFFLE(1, 0, 1, 0)),
+               u7 = _mm256_shuffle_ps(t5, t7, _MM_SHUFFLE(3, 2, 3, 2));
   out[0] = _mm256_permute2f128_ps(u0, u4, 0x20), out[1] = _mm256_permute2f128_ps(u1, u5, 0x20);
   out[2] = _mm256_permute2f128_ps(u2, u6, 0x20), out[3] = _mm256_permute2f128_ps(u3, u7, 0x20);
   out[4] = _mm256_permute2f128_ps(u0, u4, 0x31), out[5] = _mm256_permute2f128_ps(u1, u5, 0x31);
@@ -152,7 +156,8 @@ inline void rotate8(__m256 qx, __m256 qy, __m256 qz, __m256 qw, __m256 two_over_
 
 // 2 / |q|², eight lanes.
 inline __m256 two_over_norm2(__m256 qx, __m256 qy, __m256 qz, __m256 qw) {
-  const __m256 n2 = _mm256_add_ps(_mm256_fmadd_ps(qx, qx, _mm256_mul_ps(qy, qy)), _mm256_fmadd_ps(qz, qz, _mm256_mul_ps(qw, qw)));
+  const __m256 n2 =
+      _mm256_add_ps(_mm256_fmadd_ps(qx, qx, _mm256_mul_ps(qy, qy)), _mm256_fmadd_ps(qz, qz, _mm256_mul_ps(qw, qw)));
   return _mm256_div_ps(_mm256_set1_ps(2.0f), n2);
 }
 
@@ -180,12 +185,13 @@ struct HemisphereFlips {
     }
     const __m256 sign = _mm256_set1_ps(-0.0f);
     for (size_t a = 0; a < joints; ++a) {
-      const __m256 ax = _mm256_set1_ps(x[a]), ay = _mm256_set1_ps(y[a]), az = _mm256_set1_ps(z[a]), aw = _mm256_set1_ps(w[a]);
+      const __m256 ax = _mm256_set1_ps(x[a]), ay = _mm256_set1_ps(y[a]), az = _mm256_set1_ps(z[a]),
+                   aw = _mm256_set1_ps(w[a]);
       for (size_t b = 0; b < padded; b += 8) {
-        const __m256 dot = _mm256_fmadd_ps(ax, _mm256_load_ps(x + b),
-                                           _mm256_fmadd_ps(ay, _mm256_load_ps(y + b),
-                                                           _mm256_fmadd_ps(az, _mm256_load_ps(z + b),
-                                                                           _mm256_mul_ps(aw, _mm256_load_ps(w + b)))));
+        const __m256 dot = _mm256_fmadd_ps(
+            ax, _mm256_load_ps(x + b),
+            _mm256_fmadd_ps(ay, _mm256_load_ps(y + b),
+                            _mm256_fmadd_ps(az, _mm256_load_ps(z + b), _mm256_mul_ps(aw, _mm256_load_ps(w + b)))));
         _mm256_store_ps(mask + a * kMaxJoints + b, _mm256_and_ps(dot, sign));  // as flips_by_dots
       }
     }
@@ -223,8 +229,8 @@ inline void flips_of(const HemisphereFlips* table, const uint16_t* j, Quat&& qua
 // 1 / sqrt(x), eight lanes: the estimate and one Newton step.
 inline __m256 rsqrt8(__m256 x) {
   const __m256 y = _mm256_rsqrt_ps(x);
-  return _mm256_mul_ps(y, _mm256_fnmadd_ps(_mm256_mul_ps(_mm256_set1_ps(0.5f), x), _mm256_mul_ps(y, y),
-                                           _mm256_set1_ps(1.5f)));
+  return _mm256_mul_ps(
+      y, _mm256_fnmadd_ps(_mm256_mul_ps(_mm256_set1_ps(0.5f), x), _mm256_mul_ps(y, y), _mm256_set1_ps(1.5f)));
 }
 
 }  // namespace mimic::avatar::simd

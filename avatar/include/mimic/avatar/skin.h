@@ -51,11 +51,11 @@ struct SkinTimings {
 };
 
 struct SkinStats {
-  int contours = 0;      // rings and bridges sampled per frame
-  int rays = 0;          // rays cast per frame
-  int missed_rays = 0;   // rays that found no surface last frame (placed by fallback)
-  int windowed_rays = 0; // boundary-driven rays whose surface lay outside their window around
-                         // P last frame (placed at the window's nearer end)
+  int contours = 0;       // rings and bridges sampled per frame
+  int rays = 0;           // rays cast per frame
+  int missed_rays = 0;    // rays that found no surface last frame (placed by fallback)
+  int windowed_rays = 0;  // boundary-driven rays whose surface lay outside their window around
+                          // P last frame (placed at the window's nearer end)
 };
 
 class ImplicitSkin {

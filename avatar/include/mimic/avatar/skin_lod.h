@@ -21,9 +21,9 @@ inline constexpr int kSkinLodCount = 4;
 
 // The LOD of each piece, 0 (finest) .. kSkinLodCount − 1.
 struct SkinPieceLods {
-  int torso = 0;  // torso rings and bridges: their points per contour make the limbs' loops
+  int torso = 0;                     // torso rings and bridges: their points per contour make the limbs' loops
   int neck = 0, arms = 0, legs = 0;  // each limb's contours per link and points per contour
-  int rigid = 0;  // head, hands, feet
+  int rigid = 0;                     // head, hands, feet
 
   static constexpr SkinPieceLods whole(int lod) { return {lod, lod, lod, lod, lod}; }
   bool uniform() const { return neck == torso && arms == torso && legs == torso && rigid == torso; }

@@ -15,8 +15,9 @@ const char* method_name(SkinningMethod m) {
   return "?";
 }
 
-Result<BaselineSkinner> BaselineSkinner::create(const rig::Skeleton& skeleton, std::span<const rig::RigidTransform> rest_w,
-                                                const Mesh& rest, SkinWeights weights) {
+Result<BaselineSkinner> BaselineSkinner::create(const rig::Skeleton& skeleton,
+                                                std::span<const rig::RigidTransform> rest_w, const Mesh& rest,
+                                                SkinWeights weights) {
   if (rest_w.size() != static_cast<size_t>(skeleton.joint_count()))
     return fail(Errc::invalid_argument, "baseline skinning: one rest transform per joint is needed");
   if (weights.vertex_count() != rest.positions.size())
@@ -49,16 +50,19 @@ void BaselineSkinner::deform(SkinningMethod method, std::span<glm::vec3> out_p, 
       LinearBlendSkinningJob{matrices_, weights_.joints, weights_.weights, rest_positions_, in_n, out_p, out_n}.Run();
       break;
     case SkinningMethod::dqs:
-      DualQuaternionSkinningJob{dual_quats_, weights_.joints, weights_.weights, rest_positions_, in_n, out_p, out_n}.Run();
+      DualQuaternionSkinningJob{dual_quats_, weights_.joints, weights_.weights, rest_positions_, in_n, out_p, out_n}
+          .Run();
       break;
     case SkinningMethod::cor:
-      CorSkinningJob{matrices_, rotations_, weights_.joints, weights_.weights, centers_, rest_positions_, in_n, out_p, out_n}
+      CorSkinningJob{matrices_, rotations_, weights_.joints, weights_.weights, centers_, rest_positions_, in_n,
+                     out_p,     out_n}
           .Run();
       break;
   }
 }
 
-Result<BaselineSkinner> bind_to_links(const rig::Skeleton& skeleton, const rig::Pose& rest_pose, const Mesh& rest, float band_m) {
+Result<BaselineSkinner> bind_to_links(const rig::Skeleton& skeleton, const rig::Pose& rest_pose, const Mesh& rest,
+                                      float band_m) {
   std::vector<rig::RigidTransform> rest_w(skeleton.joint_count());
   rig::forward_kinematics(skeleton, rest_pose, rest_w);
   return BaselineSkinner::create(skeleton, rest_w, rest, weights_from_links(skeleton, rest_w, rest.positions, band_m));

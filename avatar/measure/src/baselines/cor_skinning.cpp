@@ -61,7 +61,8 @@ void compute_centers_of_rotation(std::span<const glm::vec3> rest, std::span<cons
       }
     const Sparse& s = tri_w[t];
     for (int i = 0; i < s.count; ++i)
-      for (int k = i + 1; k < s.count; ++k) by_pair[pair_key(s.joint[i], s.joint[k])].push_back(static_cast<uint32_t>(t));
+      for (int k = i + 1; k < s.count; ++k)
+        by_pair[pair_key(s.joint[i], s.joint[k])].push_back(static_cast<uint32_t>(t));
   }
   const float inv_sigma2 = 1.0f / (sigma * sigma);
   std::vector<size_t> stamp(tri_count, SIZE_MAX);
@@ -101,8 +102,8 @@ bool CorSkinningJob::Validate() const {
   const size_t n = in_positions.size();
   return !skinning_matrices.empty() && skinning_rotations.size() == skinning_matrices.size() &&
          joint_indices.size() == n * kInfluences && joint_weights.size() == n * kInfluences &&
-         centers_of_rotation.size() == n && out_positions.size() >= n && (in_normals.empty() || in_normals.size() == n) &&
-         out_normals.size() >= in_normals.size();
+         centers_of_rotation.size() == n && out_positions.size() >= n &&
+         (in_normals.empty() || in_normals.size() == n) && out_normals.size() >= in_normals.size();
 }
 
 namespace {
@@ -186,7 +187,8 @@ size_t skin_blocks(const PackedJoints& packed, const glm::quat* __restrict rots,
       const uint16_t* j = ji + (v + i) * kInfluences;
       const float* w = wi + (v + i) * kInfluences;
       __m256 f1, f2, f3;
-      simd::flips_of(flips, j, [&](int k) { return _mm_loadu_ps(&rots[j[k]].x); }, f1, f2, f3);
+      simd::flips_of(
+          flips, j, [&](int k) { return _mm_loadu_ps(&rots[j[k]].x); }, f1, f2, f3);
       // A flip negates the weight in the quaternion lanes only: the matrices blend as LBS's.
       const __m256 w0 = _mm256_broadcast_ss(w);
       const __m256 w1 = _mm256_xor_ps(_mm256_broadcast_ss(w + 1), _mm256_and_ps(f1, q_lanes));
@@ -231,13 +233,14 @@ bool CorSkinningJob::Run() const {
     PackedJoints packed;
     pack(skinning_matrices, skinning_rotations, packed);
     simd::HemisphereFlips table;
-    const simd::HemisphereFlips* flips = table.fill(&skinning_rotations[0].x, 4, skinning_rotations.size()) ? &table : nullptr;
-    done = in_normals.empty()
-               ? skin_blocks<false>(packed, skinning_rotations.data(), flips, joint_indices.data(), joint_weights.data(),
-                                    centers_of_rotation.data(), in_positions.data(), nullptr, out_positions.data(), nullptr, n)
-               : skin_blocks<true>(packed, skinning_rotations.data(), flips, joint_indices.data(), joint_weights.data(),
-                                   centers_of_rotation.data(), in_positions.data(), in_normals.data(), out_positions.data(),
-                                   out_normals.data(), n);
+    const simd::HemisphereFlips* flips =
+        table.fill(&skinning_rotations[0].x, 4, skinning_rotations.size()) ? &table : nullptr;
+    done = in_normals.empty() ? skin_blocks<false>(packed, skinning_rotations.data(), flips, joint_indices.data(),
+                                                   joint_weights.data(), centers_of_rotation.data(),
+                                                   in_positions.data(), nullptr, out_positions.data(), nullptr, n)
+                              : skin_blocks<true>(packed, skinning_rotations.data(), flips, joint_indices.data(),
+                                                  joint_weights.data(), centers_of_rotation.data(), in_positions.data(),
+                                                  in_normals.data(), out_positions.data(), out_normals.data(), n);
   }
 #endif
   const uint16_t* ji = joint_indices.data() + done * kInfluences;

@@ -48,9 +48,9 @@ void skin(const DualQuat* __restrict dqs, const uint16_t* __restrict ji, const f
     const __m128 inv = simd::rsqrt(simd::dot4(r, r));
     r = _mm_mul_ps(r, inv), d = _mm_mul_ps(d, inv);
     // Translation 2 (r_w d − d_w r + r × d); rotation p + 2 r × (r × p + r_w p).
-    const __m128 t = _mm_mul_ps(_mm_set1_ps(2.0f),
-                                _mm_add_ps(_mm_fmsub_ps(simd::splat<3>(r), d, _mm_mul_ps(simd::splat<3>(d), r)),
-                                           simd::cross(r, d)));
+    const __m128 t =
+        _mm_mul_ps(_mm_set1_ps(2.0f),
+                   _mm_add_ps(_mm_fmsub_ps(simd::splat<3>(r), d, _mm_mul_ps(simd::splat<3>(d), r)), simd::cross(r, d)));
     simd::store3(out_p[v], _mm_add_ps(simd::rotate(r, simd::load3(in_p[v])), t));
     if constexpr (kNormals) simd::store3(out_n[v], simd::rotate(r, simd::load3(in_n[v])));
 #else
@@ -94,7 +94,8 @@ size_t skin_blocks(const DualQuat* __restrict dqs, const simd::HemisphereFlips* 
       const __m256 d[4] = {_mm256_load_ps(dqs[j[0]].real), _mm256_load_ps(dqs[j[1]].real),
                            _mm256_load_ps(dqs[j[2]].real), _mm256_load_ps(dqs[j[3]].real)};
       __m256 f1, f2, f3;
-      simd::flips_of(flips, j, [&](int k) { return _mm256_castps256_ps128(d[k]); }, f1, f2, f3);
+      simd::flips_of(
+          flips, j, [&](int k) { return _mm256_castps256_ps128(d[k]); }, f1, f2, f3);
       __m256 acc = _mm256_mul_ps(_mm256_broadcast_ss(w), d[0]);
       acc = _mm256_fmadd_ps(_mm256_broadcast_ss(w + 1), _mm256_xor_ps(d[1], f1), acc);
       acc = _mm256_fmadd_ps(_mm256_broadcast_ss(w + 2), _mm256_xor_ps(d[2], f2), acc);
@@ -135,8 +136,9 @@ bool DualQuaternionSkinningJob::Run() const {
 #ifdef MIMIC_SIMD_AVX2
   simd::HemisphereFlips table;
   const simd::HemisphereFlips* flips =
-      n >= 8 && table.fill(skinning_dual_quats[0].real, sizeof(DualQuat) / sizeof(float), skinning_dual_quats.size()) ? &table
-                                                                                                                      : nullptr;
+      n >= 8 && table.fill(skinning_dual_quats[0].real, sizeof(DualQuat) / sizeof(float), skinning_dual_quats.size())
+          ? &table
+          : nullptr;
   done = in_normals.empty()
              ? skin_blocks<false>(skinning_dual_quats.data(), flips, joint_indices.data(), joint_weights.data(),
                                   in_positions.data(), nullptr, out_positions.data(), nullptr, n)
@@ -146,8 +148,8 @@ bool DualQuaternionSkinningJob::Run() const {
   const uint16_t* ji = joint_indices.data() + done * kInfluences;
   const float* wi = joint_weights.data() + done * kInfluences;
   if (in_normals.empty())
-    skin<false>(skinning_dual_quats.data(), ji, wi, in_positions.data() + done, nullptr, out_positions.data() + done, nullptr,
-                n - done);
+    skin<false>(skinning_dual_quats.data(), ji, wi, in_positions.data() + done, nullptr, out_positions.data() + done,
+                nullptr, n - done);
   else
     skin<true>(skinning_dual_quats.data(), ji, wi, in_positions.data() + done, in_normals.data() + done,
                out_positions.data() + done, out_normals.data() + done, n - done);

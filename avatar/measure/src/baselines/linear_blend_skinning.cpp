@@ -7,9 +7,9 @@ namespace mimic::avatar::baselines {
 
 bool LinearBlendSkinningJob::Validate() const {
   const size_t n = in_positions.size();
-  return !skinning_matrices.empty() && joint_indices.size() == n * kInfluences && joint_weights.size() == n * kInfluences &&
-         out_positions.size() >= n && (in_normals.empty() || in_normals.size() == n) &&
-         out_normals.size() >= in_normals.size();
+  return !skinning_matrices.empty() && joint_indices.size() == n * kInfluences &&
+         joint_weights.size() == n * kInfluences && out_positions.size() >= n &&
+         (in_normals.empty() || in_normals.size() == n) && out_normals.size() >= in_normals.size();
 }
 
 namespace {
@@ -50,8 +50,8 @@ bool LinearBlendSkinningJob::Run() const {
     skin<false>(skinning_matrices.data(), joint_indices.data(), joint_weights.data(), in_positions.data(), nullptr,
                 out_positions.data(), nullptr, in_positions.size());
   else
-    skin<true>(skinning_matrices.data(), joint_indices.data(), joint_weights.data(), in_positions.data(), in_normals.data(),
-               out_positions.data(), out_normals.data(), in_positions.size());
+    skin<true>(skinning_matrices.data(), joint_indices.data(), joint_weights.data(), in_positions.data(),
+               in_normals.data(), out_positions.data(), out_normals.data(), in_positions.size());
   return true;
 }
 

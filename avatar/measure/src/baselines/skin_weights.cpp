@@ -17,12 +17,13 @@ Status validate_weights(const SkinWeights& w, int joint_count, float tolerance) 
         return fail(Errc::out_of_range, "skin weights: vertex " + std::to_string(v) + " names joint " +
                                             std::to_string(w.joints[i]) + " of " + std::to_string(joint_count));
       if (!std::isfinite(w.weights[i]) || w.weights[i] < 0)
-        return fail(Errc::invalid_argument, "skin weights: vertex " + std::to_string(v) + " has a negative or non-finite weight");
+        return fail(Errc::invalid_argument,
+                    "skin weights: vertex " + std::to_string(v) + " has a negative or non-finite weight");
       sum += w.weights[i];
     }
     if (std::abs(sum - 1.0f) > tolerance)
-      return fail(Errc::invalid_argument,
-                  "skin weights: the weights of vertex " + std::to_string(v) + " sum to " + std::to_string(sum) + ", not 1");
+      return fail(Errc::invalid_argument, "skin weights: the weights of vertex " + std::to_string(v) + " sum to " +
+                                              std::to_string(sum) + ", not 1");
   }
   return {};
 }
@@ -36,8 +37,8 @@ float smoothstep01(float x) {
 
 }  // namespace
 
-SkinWeights weights_from_links(const rig::Skeleton& s, std::span<const rig::RigidTransform> rest, std::span<const glm::vec3> positions,
-                               float band_m) {
+SkinWeights weights_from_links(const rig::Skeleton& s, std::span<const rig::RigidTransform> rest,
+                               std::span<const glm::vec3> positions, float band_m) {
   const int n = s.joint_count();
   struct Link {
     glm::vec3 a, b;
@@ -50,7 +51,8 @@ SkinWeights weights_from_links(const rig::Skeleton& s, std::span<const rig::Rigi
   }
   for (int c = 0; c < n; ++c) {
     const int p = s.parent(c);
-    if (p >= 0 && glm::distance(rest[c].translation, links[p].b) < 0.01f && links[p].nearest_child < 0) links[p].nearest_child = c;
+    if (p >= 0 && glm::distance(rest[c].translation, links[p].b) < 0.01f && links[p].nearest_child < 0)
+      links[p].nearest_child = c;
   }
   SkinWeights out;
   out.joints.assign(positions.size() * kInfluences, 0);
@@ -66,8 +68,8 @@ SkinWeights weights_from_links(const rig::Skeleton& s, std::span<const rig::Rigi
       const float d = glm::distance(p, links[j].a + std::clamp(t, 0.0f, 1.0f) * ab);
       if (d < best_d) best_d = d, best = j, best_t = t;
     }
-    const float along_m = best_t * links[best].length;                  // from the link's start
-    const float to_end_m = (1.0f - best_t) * links[best].length;        // to the link's tip
+    const float along_m = best_t * links[best].length;            // from the link's start
+    const float to_end_m = (1.0f - best_t) * links[best].length;  // to the link's tip
     int other = -1;
     float other_w = 0;
     if (s.parent(best) >= 0 && along_m < band_m) {

@@ -19,14 +19,16 @@ DualQuat to_dual_quat(const rig::RigidTransform& t) {
   return DualQuat{{q.x, q.y, q.z, q.w}, {d.x, d.y, d.z, d.w}};
 }
 
-void invert_transforms(std::span<const rig::RigidTransform> world_from_joint_rest, std::span<rig::RigidTransform> joint_from_rest) {
+void invert_transforms(std::span<const rig::RigidTransform> world_from_joint_rest,
+                       std::span<rig::RigidTransform> joint_from_rest) {
   assert(world_from_joint_rest.size() == joint_from_rest.size());
   for (size_t j = 0; j < world_from_joint_rest.size() && j < joint_from_rest.size(); ++j)
     joint_from_rest[j] = world_from_joint_rest[j].inverse();
 }
 
-void skinning_transforms(std::span<const rig::RigidTransform> world_from_joint, std::span<const rig::RigidTransform> joint_from_rest,
-                         std::span<SkinningMatrix> matrices, std::span<DualQuat> dual_quats, std::span<glm::quat> rotations) {
+void skinning_transforms(std::span<const rig::RigidTransform> world_from_joint,
+                         std::span<const rig::RigidTransform> joint_from_rest, std::span<SkinningMatrix> matrices,
+                         std::span<DualQuat> dual_quats, std::span<glm::quat> rotations) {
   const size_t n = std::min(world_from_joint.size(), joint_from_rest.size());
   assert(matrices.empty() || matrices.size() == n);
   assert(dual_quats.empty() || dual_quats.size() == n);

@@ -194,7 +194,8 @@ Status Swarm::join(const FanoutOptions& o, uint16_t port, bool udp, const Server
   const auto join_deadline = Clock::now() + std::chrono::seconds(60);
   while (server.stats().subscribers < uint64_t(o.subscribers) && Clock::now() < join_deadline)
     server.wait(std::chrono::milliseconds(5));
-  if (server.stats().subscribers < uint64_t(o.subscribers)) return fail(Errc::timeout, "fan-out: not every subscriber joined");
+  if (server.stats().subscribers < uint64_t(o.subscribers))
+    return fail(Errc::timeout, "fan-out: not every subscriber joined");
   Counts setup;  // frames sent on joining are not part of the measurement
   auto inbox = std::make_unique<UdpInbox>();
   if (udp) {
@@ -255,7 +256,8 @@ void Swarm::start_receiving(const FanoutOptions& o) {
     }
     receivers_.push_back(std::move(rx));
   }
-  for (auto& rx : receivers_) rx->thread = std::thread([this, r = rx.get(), p = o.realtime_priority] { receive(*r, p); });
+  for (auto& rx : receivers_)
+    rx->thread = std::thread([this, r = rx.get(), p = o.realtime_priority] { receive(*r, p); });
 }
 
 // Below the server's priority: the receivers stand for viewers on other hosts, so they read
@@ -275,8 +277,10 @@ void Swarm::receive(Receiver& rx, int realtime_priority) {
     for (int e = 0; e < n; ++e) {
       const uint64_t tag = events[size_t(e)].data.u64;
       Sub& s = subs_[tag / 2];
-      if (tag % 2) drain_udp(s, c, *in);
-      else drain_tcp(s, c);
+      if (tag % 2)
+        drain_udp(s, c, *in);
+      else
+        drain_tcp(s, c);
     }
     rx.frames = c.frames;
     rx.bytes = c.bytes;
@@ -301,7 +305,8 @@ double Swarm::receivers_cpu_s() const {
     clockid_t id{};
     timespec ts{};
     if (!rx->thread.joinable()) continue;
-    if (pthread_getcpuclockid(const_cast<std::thread&>(rx->thread).native_handle(), &id) == 0 && clock_gettime(id, &ts) == 0)
+    if (pthread_getcpuclockid(const_cast<std::thread&>(rx->thread).native_handle(), &id) == 0 &&
+        clock_gettime(id, &ts) == 0)
       t += double(ts.tv_sec) + 1e-9 * double(ts.tv_nsec);
   }
   return t;

@@ -89,8 +89,8 @@ struct Measured {
   double elapsed_s = 0;
   std::vector<double> tick_us;
   uint64_t late_ticks = 0;
-  uint64_t dropped = 0;      // latest-wins drops at the server (or relay)
-  double server_cpu_s = 0;   // the server's (relay's) threads
+  uint64_t dropped = 0;     // latest-wins drops at the server (or relay)
+  double server_cpu_s = 0;  // the server's (relay's) threads
   double receivers_cpu_s = 0;
   double process_cpu_s = 0;
   bool realtime = false;

@@ -26,30 +26,30 @@
 namespace mimic::devices {
 
 struct FlockConfig {
-  std::string path;                 // serial device, e.g. /dev/ttyUSB0
+  std::string path;  // serial device, e.g. /dev/ttyUSB0
   int baud = 115200;
-  int birds = 1;                    // sensors; 1 without an ERC = standalone (no FBB addressing)
-  bool erc = false;                 // extended range controller at address 1 (144 in scale)
+  int birds = 1;     // sensors; 1 without an ERC = standalone (no FBB addressing)
+  bool erc = false;  // extended range controller at address 1 (144 in scale)
   flock::Format format = flock::Format::position_quaternion;
-  bool button = false;              // append the button byte (BUTTON MODE 1)
-  bool stream = true;               // false: point mode, one 'B' per cycle at point_rate_hz
+  bool button = false;  // append the button byte (BUTTON MODE 1)
+  bool stream = true;   // false: point mode, one 'B' per cycle at point_rate_hz
   double point_rate_hz = 100.0;
-  bool group = true;                // group mode for a multi-bird flock (stream mode needs it)
+  bool group = true;  // group mode for a multi-bird flock (stream mode needs it)
   flock::Hemisphere hemisphere = flock::Hemisphere::forward;
-  double measurement_rate_hz = 0;   // 0 keeps the device's rate; else 14–144 Hz
-  int report_every = 1;             // 1, 2, 8 or 32 (Q/R/S/T)
-  bool range_72in = false;          // standard transmitter at 72 in full scale (half resolution)
+  double measurement_rate_hz = 0;  // 0 keeps the device's rate; else 14–144 Hz
+  int report_every = 1;            // 1, 2, 8 or 32 (Q/R/S/T)
+  bool range_72in = false;         // standard transmitter at 72 in full scale (half resolution)
 
   // Timing. The defaults follow the real hardware; tests against the simulator shorten them.
-  std::chrono::milliseconds reply_timeout{500};      // EXAMINE answers
-  std::chrono::milliseconds settle{100};             // after 'B' before flushing stale output
-  std::chrono::milliseconds auto_config_wait{700};   // after P 50 N (the unit is deaf meanwhile)
-  std::chrono::milliseconds reset_hold{1000};        // RTS asserted (real lines only)
-  std::chrono::milliseconds reset_settle{2000};      // after RTS drops
-  std::chrono::milliseconds stale_after{250};        // no record this long: status stale
-  std::chrono::milliseconds reinit_after{1000};      // no record this long: start-up again
-  std::chrono::milliseconds retry_every{500};        // between failed start-up attempts
-  size_t queue_capacity = 1024;                      // samples between reader and poll()
+  std::chrono::milliseconds reply_timeout{500};     // EXAMINE answers
+  std::chrono::milliseconds settle{100};            // after 'B' before flushing stale output
+  std::chrono::milliseconds auto_config_wait{700};  // after P 50 N (the unit is deaf meanwhile)
+  std::chrono::milliseconds reset_hold{1000};       // RTS asserted (real lines only)
+  std::chrono::milliseconds reset_settle{2000};     // after RTS drops
+  std::chrono::milliseconds stale_after{250};       // no record this long: status stale
+  std::chrono::milliseconds reinit_after{1000};     // no record this long: start-up again
+  std::chrono::milliseconds retry_every{500};       // between failed start-up attempts
+  size_t queue_capacity = 1024;                     // samples between reader and poll()
   // SCHED_FIFO priority (1-99) for the reader thread, so records are stamped and handed over
   // promptly on a loaded machine; 0 leaves the normal scheduler. Needs CAP_SYS_NICE; without it
   // the thread runs normally and info().realtime says so. The thread blocks in reads, so it
@@ -65,8 +65,8 @@ Result<FlockConfig> flock_config_from_spec(const SourceSpec& spec);
 
 // What the start-up sequence learned from the device.
 struct FlockInfo {
-  std::string model;             // parameter 15, trimmed: "6DFOB", "6DERC" ...
-  std::string software_revision; // "3.67"
+  std::string model;              // parameter 15, trimmed: "6DFOB", "6DERC" ...
+  std::string software_revision;  // "3.67"
   double crystal_mhz = 0;
   double measurement_rate_hz = 0;
   std::vector<int> sensor_addresses;
@@ -77,8 +77,8 @@ struct FlockInfo {
 // One answer to an error-code query (parameters 10/16 of the master).
 struct FlockError {
   int code = 0;
-  int extra = 0;      // for code 13, the FBB address that did not answer
-  std::string text;   // error_name(code)
+  int extra = 0;     // for code 13, the FBB address that did not answer
+  std::string text;  // error_name(code)
 };
 
 class FlockSource final : public SensorSource {

@@ -48,8 +48,8 @@ enum class Format : uint8_t {
 };
 
 inline constexpr std::array<Format, 7> kAllFormats = {
-    Format::position,        Format::angles,     Format::matrix,
-    Format::position_angles, Format::position_matrix, Format::quaternion,
+    Format::position,           Format::angles,          Format::matrix,
+    Format::position_angles,    Format::position_matrix, Format::quaternion,
     Format::position_quaternion};
 
 // Number of 16-bit words a record of this format carries (3, 3, 9, 6, 12, 4, 7).
@@ -72,9 +72,7 @@ struct RecordLayout {
   bool button = false;
   bool group = false;
 
-  size_t size() const {
-    return static_cast<size_t>(word_count(format)) * 2 + (button ? 1 : 0) + (group ? 1 : 0);
-  }
+  size_t size() const { return static_cast<size_t>(word_count(format)) * 2 + (button ? 1 : 0) + (group ? 1 : 0); }
   bool operator==(const RecordLayout&) const = default;
 };
 
@@ -94,9 +92,7 @@ inline int16_t decode_word(uint8_t b0, uint8_t b1) {
   return static_cast<int16_t>(static_cast<uint16_t>(((b1 & 0x7F) << 9) | ((b0 & 0x7F) << 2)));
 }
 // The value a word has after a trip over the wire (low two bits cleared).
-inline int16_t quantize_word(int16_t v) {
-  return static_cast<int16_t>(static_cast<uint16_t>(v) & 0xFFFC);
-}
+inline int16_t quantize_word(int16_t v) { return static_cast<int16_t>(static_cast<uint16_t>(v) & 0xFFFC); }
 
 // Parameter data (CHANGE/EXAMINE) is plain binary, LSB first, no phasing bits.
 inline void put_le16(int16_t v, uint8_t* out) {
@@ -104,9 +100,7 @@ inline void put_le16(int16_t v, uint8_t* out) {
   out[0] = static_cast<uint8_t>(u & 0xFF);
   out[1] = static_cast<uint8_t>(u >> 8);
 }
-inline int16_t get_le16(const uint8_t* in) {
-  return static_cast<int16_t>(static_cast<uint16_t>(in[0] | (in[1] << 8)));
-}
+inline int16_t get_le16(const uint8_t* in) { return static_cast<int16_t>(static_cast<uint16_t>(in[0] | (in[1] << 8))); }
 
 // ---------------------------------------------------------------------------------------------
 // Raw records (device units) and measurements (physical units, Flock frame)
@@ -133,9 +127,9 @@ inline double full_scale_in(PositionRange r) { return static_cast<double>(static
 // format; `from_raw` fills every orientation field it can derive, `to_raw` reads the ones the
 // format carries.
 struct Measurement {
-  glm::dvec3 position_in{0.0};    // +X forward, +Y right, +Z down
-  glm::dvec3 angles_deg{0.0};     // azimuth (Z), elevation (Y), roll (X)
-  glm::dmat3 matrix{1.0};         // M = sensor_from_transmitter; glm is column-major: matrix[col][row]
+  glm::dvec3 position_in{0.0};        // +X forward, +Y right, +Z down
+  glm::dvec3 angles_deg{0.0};         // azimuth (Z), elevation (Y), roll (X)
+  glm::dmat3 matrix{1.0};             // M = sensor_from_transmitter; glm is column-major: matrix[col][row]
   glm::dquat quaternion{1, 0, 0, 0};  // the quaternion of M (w = q0)
   uint8_t button = 0;
   uint8_t address = 0;
@@ -182,7 +176,10 @@ class StreamDecoder {
   const RecordLayout& layout() const { return layout_; }
   // Bit i set = address i accepted in the group byte; all accepted by default.
   void set_valid_addresses(uint32_t mask) { valid_addresses_ = mask; }
-  void reset() { fill_ = 0; in_garbage_ = false; }
+  void reset() {
+    fill_ = 0;
+    in_garbage_ = false;
+  }
 
   // Feeds bytes; calls on_record(const RawRecord&, size_t end) for each complete record, where
   // `end` is the offset in `bytes` just past its last byte. Never allocates.
@@ -311,14 +308,13 @@ int fbb_prefix_address(uint8_t byte);
 // Command encoders append to `out`. `address` < 0 sends to the master (no prefix).
 void append_command(std::vector<uint8_t>& out, uint8_t command, int address = -1);
 void append_examine(std::vector<uint8_t>& out, uint8_t parameter, int address = -1);
-void append_change(std::vector<uint8_t>& out, uint8_t parameter, std::span<const uint8_t> data,
-                   int address = -1);
+void append_change(std::vector<uint8_t>& out, uint8_t parameter, std::span<const uint8_t> data, int address = -1);
 void append_change_word(std::vector<uint8_t>& out, uint8_t parameter, int16_t value, int address = -1);
 void append_change_byte(std::vector<uint8_t>& out, uint8_t parameter, uint8_t value, int address = -1);
 void append_format(std::vector<uint8_t>& out, Format f, int address = -1);
 void append_hemisphere(std::vector<uint8_t>& out, Hemisphere h, int address = -1);
-void append_group_mode(std::vector<uint8_t>& out, bool on);       // P 35 on, to the master
-void append_auto_config(std::vector<uint8_t>& out, int units);    // P 50 N, to the master
+void append_group_mode(std::vector<uint8_t>& out, bool on);     // P 35 on, to the master
+void append_auto_config(std::vector<uint8_t>& out, int units);  // P 50 N, to the master
 void append_button_mode(std::vector<uint8_t>& out, bool on, int address = -1);
 
 // ---------------------------------------------------------------------------------------------
@@ -333,8 +329,8 @@ uint16_t encode_status(const BirdStatus& s);
 BirdStatus decode_status(uint16_t word);
 
 // Flock system status byte (parameter 36).
-inline constexpr uint8_t kUnitAccessible = 0x80, kUnitRunning = 0x40, kUnitSensor = 0x20,
-                         kUnitErc = 0x10, kUnitTransmitter = 0x01;
+inline constexpr uint8_t kUnitAccessible = 0x80, kUnitRunning = 0x40, kUnitSensor = 0x20, kUnitErc = 0x10,
+                         kUnitTransmitter = 0x01;
 
 // Measurement rate from the transmitter time count C (parameter 6) and the crystal in MHz:
 // rate_Hz = 1000 / (4·C·(8/f)/1000 + 0.3), and back.

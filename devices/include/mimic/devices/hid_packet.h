@@ -20,8 +20,8 @@ struct Model {
   uint16_t vendor_id;
   uint16_t product_id;
   const char* name;
-  uint8_t buttons;        // as VRPN counts them; 0 when unknown
-  bool combined_axes;     // sends one 13-byte report 1 instead of reports 1 + 2
+  uint8_t buttons;     // as VRPN counts them; 0 when unknown
+  bool combined_axes;  // sends one 13-byte report 1 instead of reports 1 + 2
 };
 
 // All known 6-DOF devices (§4.1). CadMouse, keyboards and numpads are not in it.
@@ -48,7 +48,7 @@ class Decoder {
   uint32_t feed(std::span<const uint8_t> report) noexcept;
 
   const Axes& axes() const noexcept { return axes_; }
-  uint32_t buttons() const noexcept { return buttons_; }  // bit n = button n+1 (report 3 bit n)
+  uint32_t buttons() const noexcept { return buttons_; }     // bit n = button n+1 (report 3 bit n)
   int battery_percent() const noexcept { return battery_; }  // -1 until a 17h report
   uint64_t unknown_reports() const noexcept { return unknown_; }
 
@@ -60,9 +60,9 @@ class Decoder {
 };
 
 // --- Encoding (simulator, tests) ---
-std::array<uint8_t, 7> translation_report(const Axes& a) noexcept;   // 01 X Y Z
-std::array<uint8_t, 7> rotation_report(const Axes& a) noexcept;      // 02 RX RY RZ
-std::array<uint8_t, 13> combined_report(const Axes& a) noexcept;     // 01 X Y Z RX RY RZ
+std::array<uint8_t, 7> translation_report(const Axes& a) noexcept;  // 01 X Y Z
+std::array<uint8_t, 7> rotation_report(const Axes& a) noexcept;     // 02 RX RY RZ
+std::array<uint8_t, 13> combined_report(const Axes& a) noexcept;    // 01 X Y Z RX RY RZ
 // 03 + button bytes, LSB first; `button_count` rounds up to whole bytes (at least one).
 size_t button_report(uint32_t buttons, unsigned button_count, std::span<uint8_t, 5> out) noexcept;
 

@@ -47,7 +47,7 @@ class HidReportSource : public InputSource {
 };
 
 struct HidSpaceMouseOptions {
-  std::string path;  // hidraw path as hidapi lists it; empty: first known device
+  std::string path;         // hidraw path as hidapi lists it; empty: first known device
   uint16_t vendor_id = 0;   // with path empty: only this vendor (0 = any known)
   uint16_t product_id = 0;  // with path empty: only this product (0 = any known)
   hid::Scaling scaling;

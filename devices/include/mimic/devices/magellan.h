@@ -19,8 +19,8 @@ struct MagellanOptions {
   std::string path;
   magellan::Scaling scaling;
   unsigned baud = 9600;
-  double settle_s = 0.5;              // after opening, before the first command (VRPN waits 1 s)
-  double query_retry_s = 1.0;         // `vQ` is repeated until answered
+  double settle_s = 0.5;       // after opening, before the first command (VRPN waits 1 s)
+  double query_retry_s = 1.0;  // `vQ` is repeated until answered
   double probe_after_s = 1.0;
   double dead_after_s = 3.5;
   double reconnect_interval_s = 0.5;

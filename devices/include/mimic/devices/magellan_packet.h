@@ -40,12 +40,12 @@ class Framer {
 using Axes = std::array<int16_t, 6>;  // X, Y, Z, A (RX), B (RY), C (RZ)
 
 enum class PacketKind : uint8_t {
-  none,       // empty, malformed, or a data character with the wrong parity (dropped, as Linux does)
-  data,       // d
-  keys,       // k
-  version,    // v: reply to vQ
-  echo,       // z b m n q p c: command echoes
-  error,      // e
+  none,     // empty, malformed, or a data character with the wrong parity (dropped, as Linux does)
+  data,     // d
+  keys,     // k
+  version,  // v: reply to vQ
+  echo,     // z b m n q p c: command echoes
+  error,    // e
 };
 
 struct Packet {
@@ -55,7 +55,7 @@ struct Packet {
   // Plus XT left/right (n3 bits 1–2), 12 = n3 bit 3 (meaning unknown, kept), 13–16 = the
   // optional 4th nibble.
   uint32_t buttons = 0;
-  char echo_type = 0;    // for echo: the command letter
+  char echo_type = 0;  // for echo: the command letter
 };
 
 // Decodes one packet without its CR.

@@ -13,17 +13,17 @@ namespace mimic::devices {
 
 enum SampleFlags : uint32_t {
   kSampleValid = 1u << 0,
-  kSampleStale = 1u << 1,     // no fresh data: the last good value is repeated
-  kSampleButton = 1u << 2,    // `buttons` holds a button state
-  kSampleOutlier = 1u << 3,   // rejected downstream as physically impossible
+  kSampleStale = 1u << 1,    // no fresh data: the last good value is repeated
+  kSampleButton = 1u << 2,   // `buttons` holds a button state
+  kSampleOutlier = 1u << 3,  // rejected downstream as physically impossible
 };
 
 struct SensorSample {
-  uint16_t sensor = 0;                 // sensor id (FBB address, or index in a layout)
-  double device_time_s = 0;            // device clock, when known; otherwise derived from rate
-  double host_time_s = 0;              // host monotonic clock at the record's last byte
-  glm::vec3 position_m{0.0f};          // reference_from_sensor translation
-  glm::quat orientation{1, 0, 0, 0};   // reference_from_sensor rotation
+  uint16_t sensor = 0;                // sensor id (FBB address, or index in a layout)
+  double device_time_s = 0;           // device clock, when known; otherwise derived from rate
+  double host_time_s = 0;             // host monotonic clock at the record's last byte
+  glm::vec3 position_m{0.0f};         // reference_from_sensor translation
+  glm::quat orientation{1, 0, 0, 0};  // reference_from_sensor rotation
   uint32_t buttons = 0;
   uint32_t flags = kSampleValid;
 };
@@ -43,7 +43,7 @@ struct DeviceStatus {
   std::string description;  // human-readable, e.g. "flock:/dev/ttyUSB0 4 birds, 115200 baud"
   std::string last_error;
   uint64_t records = 0;
-  uint64_t resyncs = 0;       // phase errors / garbage skipped
+  uint64_t resyncs = 0;  // phase errors / garbage skipped
   uint64_t reconnects = 0;
 };
 

@@ -28,9 +28,9 @@ class ByteTap {
 
 struct SerialOptions {
   int baud = 115200;
-  int stop_bits = 1;             // 1 or 2
-  bool xonxoff = false;          // software flow control (Spaceball); never for a Flock
-  bool rtscts = false;           // hardware handshake (Magellan)
+  int stop_bits = 1;     // 1 or 2
+  bool xonxoff = false;  // software flow control (Spaceball); never for a Flock
+  bool rtscts = false;   // hardware handshake (Magellan)
 };
 
 class SerialPort {

@@ -18,7 +18,7 @@
 namespace mimic::devices {
 
 struct SpaceballOptions {
-  std::string path;                   // serial device, e.g. /dev/ttyS0 or a pty
+  std::string path;  // serial device, e.g. /dev/ttyS0 or a pty
   spaceball::Scaling scaling;
   unsigned baud = 9600;
   double reset_timeout_s = 2.5;       // wait for "@1" before the reset is sent again

@@ -64,14 +64,14 @@ enum class PacketKind : uint8_t {
 
 struct Packet {
   PacketKind kind = PacketKind::none;
-  uint16_t period_16th_ms = 0;  // D: time since the previous D packet, in 1/16 ms
-  Axes axes{};                  // D
-  uint32_t buttons = 0;         // K / .: InputFrame convention, bit i = button i+1
-  bool right_handed = true;     // .: handedness bit
-  bool banner_reset = false;    // @1 line (device came out of a reset)
-  Model model = Model::unknown; // H or @2/"… lines that name a model or firmware
-  uint16_t firmware_x100 = 0;   // from "Firmware version 2.42" → 242; 0 when absent
-  uint16_t error_bits = 0;      // E
+  uint16_t period_16th_ms = 0;   // D: time since the previous D packet, in 1/16 ms
+  Axes axes{};                   // D
+  uint32_t buttons = 0;          // K / .: InputFrame convention, bit i = button i+1
+  bool right_handed = true;      // .: handedness bit
+  bool banner_reset = false;     // @1 line (device came out of a reset)
+  Model model = Model::unknown;  // H or @2/"… lines that name a model or firmware
+  uint16_t firmware_x100 = 0;    // from "Firmware version 2.42" → 242; 0 when absent
+  uint16_t error_bits = 0;       // E
 };
 
 // Decodes one unescaped packet (type byte + body, no CR). Malformed packets (wrong length for

@@ -68,7 +68,7 @@ std::vector<SerialPortInfo> list_serial_ports(const SerialScan& scan = {});
 
 struct DeviceInventory {
   UsbListing usb;
-  std::string usb_error;  // why USB could not be listed; empty when it was
+  std::string usb_error;           // why USB could not be listed; empty when it was
   std::vector<HidDeviceInfo> hid;  // known 6-DOF devices only
   std::string hid_error;
   std::vector<SerialPortInfo> serial;

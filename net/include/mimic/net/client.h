@@ -33,12 +33,12 @@ struct ClientOptions {
   std::string connect = "127.0.0.1:7777";
   Role role = Role::subscriber;
   std::string name = "mimic";
-  std::string secret;              // publishers, when the server asks for one
-  uint8_t mesh_lod = kNoMesh;      // subscribers: also receive mesh frames at this LOD
+  std::string secret;          // publishers, when the server asks for one
+  uint8_t mesh_lod = kNoMesh;  // subscribers: also receive mesh frames at this LOD
   // Subscribers: pose frames as UDP datagrams when the server offers them (models, meshes and
   // control stay on TCP; until the address is registered, frames keep coming over TCP).
   bool udp = false;
-  bool reconnect = true;           // reconnect and resume after a dropped connection
+  bool reconnect = true;  // reconnect and resume after a dropped connection
   // Subscribers: the lean pose stream (key and delta frames, ~60 bytes instead of ~150) when the
   // server offers it, at the server's precision (coarser than POSE frames: docs/protocol.md).
   bool lean = false;
@@ -55,18 +55,18 @@ struct RemoteAvatar {
   uint32_t revision = 0;
   std::string model_bytes;
   bool has_pose = false;
-  PoseHeader last;                 // of the latest pose frame
-  rig::Pose pose;               // dequantised
+  PoseHeader last;  // of the latest pose frame
+  rig::Pose pose;   // dequantised
   uint64_t frames = 0;
-  uint64_t lost = 0;               // sequence gaps (frames superseded before they reached us)
+  uint64_t lost = 0;  // sequence gaps (frames superseded before they reached us)
   // Mesh frames, when asked for.
   std::vector<uint32_t> mesh_indices;
   std::vector<glm::vec3> mesh_positions_m;
   uint32_t mesh_vertex_count = 0;
   uint64_t mesh_frames = 0;
-  MeshFrameHeader mesh_last;       // of the latest mesh frame (its LOD, sequence, time)
-  LeanPoseState lean;              // the lean stream's reference frames of this avatar
-  bool key_requested = false;      // a KEY_REQUEST is out and no key has come yet
+  MeshFrameHeader mesh_last;   // of the latest mesh frame (its LOD, sequence, time)
+  LeanPoseState lean;          // the lean stream's reference frames of this avatar
+  bool key_requested = false;  // a KEY_REQUEST is out and no key has come yet
   // The same avatar (same name, DOF count and model) came back after it left the scene (removed,
   // or the scene came back as a new session after a cut; within 10 minutes): its last frame
   // then. Its first frame here counts the frames in between as lost (when the sequence moved
@@ -77,30 +77,30 @@ struct RemoteAvatar {
 };
 
 struct ClientStats {
-  uint64_t frames = 0;            // pose frames received
-  uint64_t lost = 0;              // sum of sequence gaps
-  uint64_t out_of_order = 0;      // frames not newer than the last one (dropped)
-  uint64_t model_bytes = 0;       // bytes of model packets received
+  uint64_t frames = 0;        // pose frames received
+  uint64_t lost = 0;          // sum of sequence gaps
+  uint64_t out_of_order = 0;  // frames not newer than the last one (dropped)
+  uint64_t model_bytes = 0;   // bytes of model packets received
   uint64_t models = 0;
-  uint64_t frame_bytes = 0;       // bytes of pose packets received
+  uint64_t frame_bytes = 0;  // bytes of pose packets received
   uint64_t mesh_frames = 0;
   uint64_t mesh_bytes = 0;
   uint64_t bytes_in = 0;
   uint64_t reconnects = 0;
   uint64_t resumed = 0;
-  uint64_t rejected = 0;          // malformed packets from the server
-  uint64_t wrong_dof_count = 0;   // pose frames whose DOF count is not their model's (refused)
-  uint64_t udp_frames = 0;        // pose frames that came as datagrams (also in frames)
-  uint64_t udp_early = 0;         // datagram frames of an avatar whose model had not arrived
-  uint64_t lean_keys = 0;         // lean stream: key frames applied (also in frames)
-  uint64_t lean_unreferenced = 0; // lean stream: deltas whose reference frame we lack (dropped)
-  uint64_t key_requests = 0;      // KEY_REQUESTs sent after such a delta
+  uint64_t rejected = 0;           // malformed packets from the server
+  uint64_t wrong_dof_count = 0;    // pose frames whose DOF count is not their model's (refused)
+  uint64_t udp_frames = 0;         // pose frames that came as datagrams (also in frames)
+  uint64_t udp_early = 0;          // datagram frames of an avatar whose model had not arrived
+  uint64_t lean_keys = 0;          // lean stream: key frames applied (also in frames)
+  uint64_t lean_unreferenced = 0;  // lean stream: deltas whose reference frame we lack (dropped)
+  uint64_t key_requests = 0;       // KEY_REQUESTs sent after such a delta
   // Cuts (subscribers and publishers) and what they cost.
-  uint64_t cuts = 0;               // established sessions that lost their connection, any cause
-  uint64_t stall_resyncs = 0;      // of them: this side stalled, buffered frames dropped to resume
-  uint64_t stale_datagrams = 0;    // datagrams dropped as stale on such a resync
-  uint64_t outages = 0;            // cuts after which frames flowed again
-  double outage_s = 0;             // time without frames over those: last frame before to first after
+  uint64_t cuts = 0;             // established sessions that lost their connection, any cause
+  uint64_t stall_resyncs = 0;    // of them: this side stalled, buffered frames dropped to resume
+  uint64_t stale_datagrams = 0;  // datagrams dropped as stale on such a resync
+  uint64_t outages = 0;          // cuts after which frames flowed again
+  double outage_s = 0;           // time without frames over those: last frame before to first after
   double outage_max_s = 0;
   uint64_t lost_across_sessions = 0;  // part of `lost`: frames missed while an avatar was gone and came back
 };

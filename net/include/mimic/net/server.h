@@ -6,9 +6,9 @@
 // Frames are latest-wins: each subscriber has one write in flight and one pending slot per
 // avatar, so a slow or stalled subscriber overwrites (and counts) its own old frames and never
 // delays anyone else. Models are latest-wins too: one shared packet per revision, only the
-// newest per avatar queued for a subscriber, and a cap on what old revisions may pin. Hostile input (malformed, truncated, oversized, out-of-order packets,
-// unknown versions, floods) is refused, counted in ServerStats and, where it breaks the stream,
-// ends only that session.
+// newest per avatar queued for a subscriber, and a cap on what old revisions may pin. Hostile input (malformed,
+// truncated, oversized, out-of-order packets, unknown versions, floods) is refused, counted in ServerStats and, where
+// it breaks the stream, ends only that session.
 //
 // Threading: a Server is driven by one thread (run, run_until or poll) and every call except
 // stop() and port() must come from that thread. Local avatars (the in-process pipeline) publish
@@ -34,12 +34,12 @@ struct ServerOptions {
   // Publishers must present it. Required when `listen` is not a loopback address.
   std::string secret;
   size_t max_sessions = 4096;
-  size_t max_sessions_per_address = 256;  // from one peer IP address (idle floods stop there)
-  double hello_timeout_s = 2.0;       // a connection that does not say HELLO in time is closed
-  double idle_timeout_s = 10.0;       // a session that sends nothing (not even PING) is closed; 0: never
-  double resume_grace_s = 10.0;       // how long a dropped session's token (and avatars) live
-  double max_packets_per_s = 1000;    // per session, with one second of burst
-  int send_buffer_bytes = 32 * 1024;  // kernel send buffer per session (bounds staleness)
+  size_t max_sessions_per_address = 256;        // from one peer IP address (idle floods stop there)
+  double hello_timeout_s = 2.0;                 // a connection that does not say HELLO in time is closed
+  double idle_timeout_s = 10.0;                 // a session that sends nothing (not even PING) is closed; 0: never
+  double resume_grace_s = 10.0;                 // how long a dropped session's token (and avatars) live
+  double max_packets_per_s = 1000;              // per session, with one second of burst
+  int send_buffer_bytes = 32 * 1024;            // kernel send buffer per session (bounds staleness)
   size_t max_control_backlog_bytes = 8u << 20;  // models/meshes queued for a stalled client
   // Model packets held in memory, all avatars and revisions; over it, subscribers whose stalled
   // writes pin old revisions are disconnected.
@@ -96,37 +96,37 @@ struct ServerStats {
   uint64_t packets_in = 0;
   uint64_t bytes_in = 0;
   uint64_t bytes_out = 0;
-  uint64_t frames_in = 0;        // pose frames accepted from publishers (local or remote)
-  uint64_t frames_out = 0;       // pose frames written to subscribers
-  uint64_t frames_dropped = 0;   // latest-wins: overwritten before a subscriber could take them
+  uint64_t frames_in = 0;       // pose frames accepted from publishers (local or remote)
+  uint64_t frames_out = 0;      // pose frames written to subscribers
+  uint64_t frames_dropped = 0;  // latest-wins: overwritten before a subscriber could take them
   uint64_t mesh_frames_out = 0;
   uint64_t model_bytes_out = 0;
-  uint64_t sessions_closed_for_input = 0;  // ended because of what the peer sent
-  uint64_t sessions_closed_slow = 0;       // control backlog overflow, or pinning old models over the cap
-  uint64_t sessions_timed_out = 0;         // no HELLO in time, or idle past the idle timeout
-  uint64_t sessions_refused_per_address = 0;  // over max_sessions_per_address
-  uint64_t model_bytes_held = 0;           // model packets in memory (shared by all sessions)
-  uint64_t udp_datagrams_in = 0;           // received on the UDP socket, valid or not
-  uint64_t udp_registered = 0;             // registrations completed (the address echoed its nonce)
-  uint64_t udp_challenges = 0;             // nonces sent to addresses not (yet) registered
-  uint64_t udp_wrong_address = 0;          // registrations from another IP than the TCP peer's
-  uint64_t udp_expired = 0;                // registrations not refreshed in time
-  uint64_t udp_frames_out = 0;             // pose frames sent as datagrams (also in frames_out)
-  uint64_t lean_keys_out = 0;              // lean stream: key frames sent (also in frames_out)
-  uint64_t lean_deltas_out = 0;            // lean stream: delta frames sent (also in frames_out)
-  uint64_t key_requests = 0;               // KEY_REQUESTs from subscribers
-  uint64_t udp_send_calls = 0;             // sendmmsg calls (each sends a batch of datagrams)
-  uint64_t fanout_shared = 0;              // fan-outs whose writes several threads shared
-  uint64_t models_refused = 0;             // models over max_model_bytes_held
-  uint64_t mesh_topologies_refused = 0;    // topologies over max_mesh_bytes (or out of memory)
-  uint64_t mesh_bytes_held = 0;            // mesh frame buffers sized by topologies
-  uint64_t sessions_out_of_memory = 0;     // sessions dropped because memory for them ran out
-  uint64_t udp_own_address = 0;            // datagrams claiming the server's own address, ignored
-  uint64_t udp_answers_limited = 0;        // registrations over udp_answers_per_s, unanswered
-  uint64_t accept_errors = 0;              // accept() failures (EMFILE, ENFILE, ...), retried later
-  uint64_t secret_backoffs = 0;            // publisher HELLOs refused while their address waits
-  uint64_t poll_budget_hit = 0;            // poll() calls that left work for the next one
-  uint64_t max_sessions_effective = 0;     // max_sessions, lowered to what descriptors allow
+  uint64_t sessions_closed_for_input = 0;         // ended because of what the peer sent
+  uint64_t sessions_closed_slow = 0;              // control backlog overflow, or pinning old models over the cap
+  uint64_t sessions_timed_out = 0;                // no HELLO in time, or idle past the idle timeout
+  uint64_t sessions_refused_per_address = 0;      // over max_sessions_per_address
+  uint64_t model_bytes_held = 0;                  // model packets in memory (shared by all sessions)
+  uint64_t udp_datagrams_in = 0;                  // received on the UDP socket, valid or not
+  uint64_t udp_registered = 0;                    // registrations completed (the address echoed its nonce)
+  uint64_t udp_challenges = 0;                    // nonces sent to addresses not (yet) registered
+  uint64_t udp_wrong_address = 0;                 // registrations from another IP than the TCP peer's
+  uint64_t udp_expired = 0;                       // registrations not refreshed in time
+  uint64_t udp_frames_out = 0;                    // pose frames sent as datagrams (also in frames_out)
+  uint64_t lean_keys_out = 0;                     // lean stream: key frames sent (also in frames_out)
+  uint64_t lean_deltas_out = 0;                   // lean stream: delta frames sent (also in frames_out)
+  uint64_t key_requests = 0;                      // KEY_REQUESTs from subscribers
+  uint64_t udp_send_calls = 0;                    // sendmmsg calls (each sends a batch of datagrams)
+  uint64_t fanout_shared = 0;                     // fan-outs whose writes several threads shared
+  uint64_t models_refused = 0;                    // models over max_model_bytes_held
+  uint64_t mesh_topologies_refused = 0;           // topologies over max_mesh_bytes (or out of memory)
+  uint64_t mesh_bytes_held = 0;                   // mesh frame buffers sized by topologies
+  uint64_t sessions_out_of_memory = 0;            // sessions dropped because memory for them ran out
+  uint64_t udp_own_address = 0;                   // datagrams claiming the server's own address, ignored
+  uint64_t udp_answers_limited = 0;               // registrations over udp_answers_per_s, unanswered
+  uint64_t accept_errors = 0;                     // accept() failures (EMFILE, ENFILE, ...), retried later
+  uint64_t secret_backoffs = 0;                   // publisher HELLOs refused while their address waits
+  uint64_t poll_budget_hit = 0;                   // poll() calls that left work for the next one
+  uint64_t max_sessions_effective = 0;            // max_sessions, lowered to what descriptors allow
   std::array<uint64_t, kRejectCount> rejected{};  // by Reject code
 
   uint64_t rejected_total() const {
@@ -156,7 +156,7 @@ class Server {
   Server& operator=(const Server&) = delete;
 
   uint16_t port() const;
-  bool udp() const;  // pose frames offered as UDP datagrams (ServerOptions::udp and the port was free)
+  bool udp() const;              // pose frames offered as UDP datagrams (ServerOptions::udp and the port was free)
   std::string endpoint() const;  // "127.0.0.1:7777"
   int fanout_threads() const;    // ServerOptions::fanout_threads, 0 resolved
 

@@ -68,12 +68,12 @@ enum class VrpnLink : uint8_t {
 const char* vrpn_link_name(VrpnLink link);
 
 struct VrpnClientStats {
-  uint64_t connects = 0;     // handshakes completed
-  uint64_t drops = 0;        // connections lost (closed, broken, silent, bad cookie)
-  uint64_t reports = 0;      // Pos_Quat reports of the device
-  uint64_t buttons = 0;      // button changes of the button device
+  uint64_t connects = 0;  // handshakes completed
+  uint64_t drops = 0;     // connections lost (closed, broken, silent, bad cookie)
+  uint64_t reports = 0;   // Pos_Quat reports of the device
+  uint64_t buttons = 0;   // button changes of the button device
   uint64_t udp_datagrams = 0;
-  uint64_t malformed = 0;    // bad lengths, bad reports, datagrams from elsewhere
+  uint64_t malformed = 0;  // bad lengths, bad reports, datagrams from elsewhere
   uint64_t pongs = 0;
 };
 

@@ -39,14 +39,14 @@
 namespace mimic::net {
 
 struct VrpnServerStats {
-  uint64_t connections = 0;     // clients that completed the handshake
-  uint64_t lob_requests = 0;    // UDP connection requests received
-  uint64_t refused = 0;         // bad cookies, malformed requests, no free slot
-  uint64_t reports = 0;         // Pos_Quat messages sent (all clients)
+  uint64_t connections = 0;   // clients that completed the handshake
+  uint64_t lob_requests = 0;  // UDP connection requests received
+  uint64_t refused = 0;       // bad cookies, malformed requests, no free slot
+  uint64_t reports = 0;       // Pos_Quat messages sent (all clients)
   uint64_t udp_datagrams = 0;
   uint64_t frames_dropped = 0;  // frames a client missed because its TCP buffer was full
   uint64_t pongs = 0;
-  int clients = 0;              // connected now
+  int clients = 0;  // connected now
 };
 
 class VrpnServer {

@@ -33,8 +33,8 @@ class AvatarLods {
  public:
   // Skins for `model` (on `skeleton`, e.g. a fitted one, or the model's own when null); each
   // LOD's mesh goes to `renderer`. Fails when the model does not build a skin.
-  static Result<AvatarLods> create(const avatar::BodyModel& model, const rig::Skeleton* skeleton,
-                                   Renderer& renderer, avatar::SkinMethod method = avatar::SkinMethod::full);
+  static Result<AvatarLods> create(const avatar::BodyModel& model, const rig::Skeleton* skeleton, Renderer& renderer,
+                                   avatar::SkinMethod method = avatar::SkinMethod::full);
   int count() const { return static_cast<int>(skins_.size()); }
   avatar::SkinMethod method() const { return method_; }
   // Deforms LOD `lod` to `pose` by the method and uploads it; returns that LOD's mesh.

@@ -50,9 +50,13 @@ struct Camera {
 // and distance stay the user's. reset() forgets the point's history (after a pause or a jump).
 class CameraFollow {
  public:
-  explicit CameraFollow(float follow_s = 0.4f, float velocity_s = 0.5f) : follow_s_(follow_s), velocity_s_(velocity_s) {}
+  explicit CameraFollow(float follow_s = 0.4f, float velocity_s = 0.5f)
+      : follow_s_(follow_s), velocity_s_(velocity_s) {}
   void update(Camera& camera, const glm::vec3& centre, float dt_s);
-  void reset() { primed_ = false; velocity_ = glm::vec3(0.0f); }
+  void reset() {
+    primed_ = false;
+    velocity_ = glm::vec3(0.0f);
+  }
 
  private:
   float follow_s_, velocity_s_;

@@ -20,12 +20,12 @@ struct HudAvatar {
 };
 
 struct HudState {
-  double frame_ms = 0;        // mean over the last second
+  double frame_ms = 0;  // mean over the last second
   double fps = 0;
-  std::string lod_mode;       // "auto (by distance)" or "fixed 1"
-  std::string camera;         // "orbit" or "first person: <avatar>"
-  std::string overlays;       // names in use
-  std::string connection;     // "local pipeline" or "connected to HOST:PORT, N frames"
+  std::string lod_mode;    // "auto (by distance)" or "fixed 1"
+  std::string camera;      // "orbit" or "first person: <avatar>"
+  std::string overlays;    // names in use
+  std::string connection;  // "local pipeline" or "connected to HOST:PORT, N frames"
   std::vector<HudAvatar> avatars;
   bool help = false;
 };

@@ -40,8 +40,8 @@ void append_contours(const avatar::ImplicitSkin& skin, const glm::mat4& world_fr
 void append_rays(const avatar::ImplicitSkin& skin, int ring, const glm::mat4& world_from_body, Lines& out);
 
 struct SensorMark {
-  glm::vec3 position_m;    // world
-  glm::quat orientation;   // world_from_sensor
+  glm::vec3 position_m;   // world
+  glm::quat orientation;  // world_from_sensor
   bool stale = false;
 };
 // Axes (x red, y green, z blue) of each sensor; a stale one gets a magenta box around it.

@@ -52,10 +52,10 @@ struct FrameDesc {
   int width_px = 0, height_px = 0;
   Camera camera;
   glm::vec3 background{0.93f, 0.94f, 0.96f};
-  bool grid = true;                          // 10 m × 10 m floor, a line every 0.5 m
+  bool grid = true;  // 10 m × 10 m floor, a line every 0.5 m
   std::span<const MeshDraw> meshes;
-  std::span<const LineVertex> lines;         // depth-tested, in pairs
-  std::span<const LineVertex> xray_lines;    // drawn over everything (skeleton, rays)
+  std::span<const LineVertex> lines;       // depth-tested, in pairs
+  std::span<const LineVertex> xray_lines;  // drawn over everything (skeleton, rays)
 };
 
 // Colour of an avatar part by name ("l_upper_arm", "head", ...): skin for head, neck and

@@ -36,11 +36,11 @@ const char* bvh_channel_name(BvhChannel c);  // "Xposition" … "Zrotation"
 
 struct BvhJoint {
   std::string name;
-  int parent = -1;                      // index into BvhClip::joints, -1 for the root
-  glm::dvec3 offset{0.0};               // from the parent, file units
-  std::vector<BvhChannel> channels;     // in file order
-  int first_channel = 0;                // column of channels[0] in a frame row
-  std::vector<glm::dvec3> end_sites;    // End Site offsets, file units (usually 0 or 1)
+  int parent = -1;                    // index into BvhClip::joints, -1 for the root
+  glm::dvec3 offset{0.0};             // from the parent, file units
+  std::vector<BvhChannel> channels;   // in file order
+  int first_channel = 0;              // column of channels[0] in a frame row
+  std::vector<glm::dvec3> end_sites;  // End Site offsets, file units (usually 0 or 1)
 };
 
 struct BvhClip {
@@ -63,8 +63,7 @@ struct BvhParseOptions {
 };
 
 // Parses BVH text. `source_name` (usually the file name) prefixes every error message.
-Result<BvhClip> parse_bvh(std::string_view text, std::string_view source_name,
-                          const BvhParseOptions& options = {});
+Result<BvhClip> parse_bvh(std::string_view text, std::string_view source_name, const BvhParseOptions& options = {});
 Result<BvhClip> load_bvh(const std::string& path, const BvhParseOptions& options = {});
 
 // world_from_joint for every clip joint at frame f, translations in metres.

@@ -27,7 +27,7 @@
 namespace mimic::rig {
 
 struct DofDesc {
-  std::string name;       // e.g. "l_elbow_flexion"
+  std::string name;         // e.g. "l_elbow_flexion"
   glm::vec3 axis{1, 0, 0};  // unit axis in the joint frame
   float min_rad = -3.14159265f;
   float max_rad = 3.14159265f;
@@ -35,8 +35,8 @@ struct DofDesc {
 };
 
 struct JointDesc {
-  std::string name;         // e.g. "l_elbow"
-  std::string parent;       // empty for the root
+  std::string name;          // e.g. "l_elbow"
+  std::string parent;        // empty for the root
   glm::vec3 offset_m{0.0f};  // joint position in the parent frame, zero posture
   glm::vec3 tip_m{0.0f};     // far end of this joint's link in its own frame (the link's axis)
   std::vector<DofDesc> dofs;
@@ -47,9 +47,9 @@ struct SkeletonDesc {
 };
 
 struct Pose {
-  glm::vec3 root_position_m{0.0f};                   // world position of the root joint
+  glm::vec3 root_position_m{0.0f};                     // world position of the root joint
   glm::quat root_orientation{1.0f, 0.0f, 0.0f, 0.0f};  // world_from_root rotation
-  std::vector<float> dof_rad;                        // one value per skeleton DOF
+  std::vector<float> dof_rad;                          // one value per skeleton DOF
 };
 
 struct Dof {
@@ -104,8 +104,7 @@ class Skeleton {
 
 // world_from_joint[j] for every joint; world_from_joint.size() == skeleton.joint_count().
 // Never allocates.
-void forward_kinematics(const Skeleton& skeleton, const Pose& pose,
-                        std::span<RigidTransform> world_from_joint);
+void forward_kinematics(const Skeleton& skeleton, const Pose& pose, std::span<RigidTransform> world_from_joint);
 
 // Clamps every DOF into [min, max].
 void clamp_to_limits(const Skeleton& skeleton, Pose& pose);
@@ -116,13 +115,13 @@ SkeletonDesc default_skeleton_desc();
 
 // Segment lengths that fit a skeleton to a performer. A zero entry keeps the default.
 struct Proportions {
-  float hip_width_m = 0;        // between hip joint centres
+  float hip_width_m = 0;  // between hip joint centres
   float thigh_m = 0, shin_m = 0, foot_m = 0;
   float spine_lower_m = 0, spine_mid_m = 0, spine_upper_m = 0;
   float neck_m = 0, head_m = 0;
-  float shoulder_width_m = 0;   // between shoulder joint centres
+  float shoulder_width_m = 0;  // between shoulder joint centres
   float upper_arm_m = 0, forearm_m = 0, hand_m = 0;
-  float pelvis_height_m = 0;    // root height above the floor in the zero posture
+  float pelvis_height_m = 0;  // root height above the floor in the zero posture
 };
 
 Proportions measure_proportions(const Skeleton& skeleton);

@@ -110,8 +110,7 @@ Result<std::unique_ptr<PoseFeed>> make_tracker_feed(std::unique_ptr<devices::Sen
 inline constexpr double kCycleWait_s = 0.025;
 
 // Built-in motion by name ("walk", "idle").
-Result<std::shared_ptr<const rig::Motion>> builtin_motion(const std::string& name,
-                                                             const rig::Skeleton& skeleton);
+Result<std::shared_ptr<const rig::Motion>> builtin_motion(const std::string& name, const rig::Skeleton& skeleton);
 
 std::unique_ptr<Deformer> make_fk_deformer(const rig::Skeleton& skeleton);
 
@@ -129,9 +128,8 @@ inline constexpr int kMeshLodCount = avatar::kSkinLodCount;
 // The skin deformer for `model` on the feed's `skeleton` at `lod`: the realtime method
 // (avatar/realtime_skin.h, contours moved) or the full one (avatar/skin.h, contours ray-cast every
 // frame); fails when the skeleton lacks the model's joints or DOFs.
-Result<std::unique_ptr<Deformer>> make_skin_deformer(const avatar::BodyModel& model,
-                                                     const rig::Skeleton& skeleton, int lod,
-                                                     avatar::SkinMethod method = avatar::SkinMethod::realtime);
+Result<std::unique_ptr<Deformer>> make_skin_deformer(const avatar::BodyModel& model, const rig::Skeleton& skeleton,
+                                                     int lod, avatar::SkinMethod method = avatar::SkinMethod::realtime);
 
 class Pipeline {
  public:
@@ -174,8 +172,8 @@ class Pipeline {
     uint64_t time_us = 0;  // capture time of the current frame
     std::vector<uint8_t> packet;
     std::vector<uint8_t> mesh_packet;  // sized when the topology is announced (add_avatar)
-    double last_send_s = 0;  // clock time of the last frame sent
-    bool silent = false;     // the source has gone quiet: stale repeats
+    double last_send_s = 0;            // clock time of the last frame sent
+    bool silent = false;               // the source has gone quiet: stale repeats
   };
   void send_mesh(size_t index, Avatar& a);
   // The pose frame encoded in a.packet (`bytes` long, 0 if the encoder refused it) to every sink

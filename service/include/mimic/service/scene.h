@@ -86,7 +86,7 @@ std::unique_ptr<PoseFeed> place_in_scene(std::unique_ptr<PoseFeed> feed, Placeme
 // standing), on Mimic's default skeleton.
 struct ActorOptions {
   enum class Behaviour { wander, follow, greet } behaviour = Behaviour::wander;
-  int target = -1;    // follow: the roster slot followed
+  int target = -1;  // follow: the roster slot followed
   uint64_t seed = 1;
   Placement start;
 };

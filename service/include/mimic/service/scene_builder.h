@@ -42,7 +42,7 @@ struct SceneAvatar {
   BodyAsset body;
   std::unique_ptr<Deformer> deformer;  // null without SceneSpec::skins
   Placement place;                     // where it starts
-  bool in_row = true;  // placed by the row (no --place, --navigate, not an actor)
+  bool in_row = true;                  // placed by the row (no --place, --navigate, not an actor)
 };
 
 struct Scene {

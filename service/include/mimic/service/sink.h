@@ -56,13 +56,13 @@ struct AvatarJoin {
 
 // One avatar's new pose, as every sink receives it.
 struct FrameOut {
-  size_t avatar = 0;                // the pipeline's avatar index
-  const net::PoseHeader& header;    // as encoded in `packet` (avatar = the wire id)
-  const rig::Pose& pose;         // in the scene's world frame
-  std::span<const uint8_t> packet;  // the pose frame, encoded once; empty if the encoder refused it
+  size_t avatar = 0;                               // the pipeline's avatar index
+  const net::PoseHeader& header;                   // as encoded in `packet` (avatar = the wire id)
+  const rig::Pose& pose;                           // in the scene's world frame
+  std::span<const uint8_t> packet;                 // the pose frame, encoded once; empty if the encoder refused it
   std::span<const devices::SensorSample> samples;  // the tracker samples the pose was solved from
-  double time_s = 0;                // capture time, seconds since the Unix epoch (header.time_us)
-  bool stale_repeat = false;        // the last pose again: the source is silent
+  double time_s = 0;                               // capture time, seconds since the Unix epoch (header.time_us)
+  bool stale_repeat = false;                       // the last pose again: the source is silent
 };
 
 // One avatar's deformed mesh (at the deformer's LOD), encoded once for the sinks that asked.

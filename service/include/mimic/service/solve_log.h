@@ -13,12 +13,12 @@
 namespace mimic::service {
 
 struct SolvedTake {
-  rig::Skeleton skeleton;      // what the poses are for: the calibration's fitted skeleton,
-                                  // else the body's (or the default one)
-  std::vector<double> times_s;    // from the first solved frame, 1/fps apart
+  rig::Skeleton skeleton;       // what the poses are for: the calibration's fitted skeleton,
+                                // else the body's (or the default one)
+  std::vector<double> times_s;  // from the first solved frame, 1/fps apart
   std::vector<rig::Pose> poses;
-  std::string description;        // the source, for reports
-  size_t samples = 0;             // samples read from the log
+  std::string description;  // the source, for reports
+  size_t samples = 0;       // samples read from the log
 };
 
 // Steps at `fps` (0 < fps ≤ 1000) from the first sample to the last, at most `max_seconds` of

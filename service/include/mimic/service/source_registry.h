@@ -24,11 +24,11 @@ namespace mimic::service {
 
 // What opening one avatar's source needs besides the spec.
 struct SourceRequest {
-  std::string text;         // the spec as given
-  std::string calibration;  // the wearer's calibration (mimic calibrate), or empty
+  std::string text;                     // the spec as given
+  std::string calibration;              // the wearer's calibration (mimic calibrate), or empty
   const rig::Skeleton* body = nullptr;  // the avatar's body skeleton (solved on, walked with)
-  std::shared_ptr<SceneRoster> roster;     // where every avatar stands (actors read it)
-  int slot = 0;                            // this avatar's slot in the roster
+  std::shared_ptr<SceneRoster> roster;  // where every avatar stands (actors read it)
+  int slot = 0;                         // this avatar's slot in the roster
 };
 
 struct SourceScheme {

@@ -26,7 +26,7 @@ inline constexpr double kFlockExtendedRange_m = 144 * 0.0254;  // 3.6576 m
 
 struct FlockPlacement {
   rig::RigidTransform world_from_transmitter;  // rotation identity: facing +Z
-  double needed_range_m = 0;  // max over samples and axes of |position in the transmitter frame|
+  double needed_range_m = 0;                   // max over samples and axes of |position in the transmitter frame|
   bool fits_standard() const { return needed_range_m <= kFlockStandardRange_m; }
   bool fits_extended() const { return needed_range_m <= kFlockExtendedRange_m; }
 };

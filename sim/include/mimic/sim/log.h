@@ -25,21 +25,21 @@ namespace mimic::sim {
 inline constexpr uint32_t kLogVersion = 1;
 
 struct LogSensor {
-  uint16_t id = 0;                             // SensorSample::sensor
-  std::string name;                            // e.g. "head"
-  std::string segment;                         // skeleton joint it rides on; empty if unknown
+  uint16_t id = 0;                          // SensorSample::sensor
+  std::string name;                         // e.g. "head"
+  std::string segment;                      // skeleton joint it rides on; empty if unknown
   rig::RigidTransform segment_from_sensor;  // mounting offset, when known (identity otherwise)
 };
 
 struct LogHeader {
   std::vector<LogSensor> sensors;
-  std::string source;            // the source spec as given, e.g. "sim:walk?sensors=6"
-  std::string device;            // device information, e.g. "Flock of Birds, 4 birds, 115200 baud"
-  std::string description;       // free-form
-  std::optional<uint64_t> seed;  // simulated sources
-  double rate_hz = 0;            // nominal sample rate per sensor; 0 if unknown
+  std::string source;                        // the source spec as given, e.g. "sim:walk?sensors=6"
+  std::string device;                        // device information, e.g. "Flock of Birds, 4 birds, 115200 baud"
+  std::string description;                   // free-form
+  std::optional<uint64_t> seed;              // simulated sources
+  double rate_hz = 0;                        // nominal sample rate per sensor; 0 if unknown
   rig::RigidTransform world_from_reference;  // tracker frame in Mimic's world, when known
-  std::string calibration_json;  // a calibration in force while recording; empty if none
+  std::string calibration_json;              // a calibration in force while recording; empty if none
 };
 
 enum class RawDirection : uint8_t { from_device = 0, to_device = 1 };
@@ -53,9 +53,9 @@ struct RawChunk {
 
 // One damaged stretch of a log: where, why, and how much was skipped to the next good record.
 struct LogDamage {
-  uint64_t byte_offset = 0;   // start of the first record that could not be read
-  uint64_t record_index = 0;  // records read before it (the header is record 0)
-  std::string reason;         // e.g. "CRC mismatch", "truncated record (needs 63 bytes, 20 left)"
+  uint64_t byte_offset = 0;      // start of the first record that could not be read
+  uint64_t record_index = 0;     // records read before it (the header is record 0)
+  std::string reason;            // e.g. "CRC mismatch", "truncated record (needs 63 bytes, 20 left)"
   uint64_t bytes_skipped = 0;    // from byte_offset to where reading resumed (or the end)
   uint64_t resumed_at_byte = 0;  // the next good record, or the file size if none
   uint64_t samples_before = 0;   // samples read before the damage
@@ -68,12 +68,12 @@ struct LogContents {
   LogHeader header;
   std::vector<devices::SensorSample> samples;  // in file order
   std::vector<RawChunk> raw;
-  bool complete = false;           // the end record was present (the writer closed the log)
-  std::optional<LogDamage> damage; // the first damage (or a missing end record), if any
-  std::vector<LogDamage> damages;  // every damaged stretch, in file order
-  uint64_t bytes_skipped = 0;      // over all damages
-  uint64_t samples_lost = 0;       // end record's count minus samples read, when it survived
-  uint64_t records = 0;            // records read, header included
+  bool complete = false;            // the end record was present (the writer closed the log)
+  std::optional<LogDamage> damage;  // the first damage (or a missing end record), if any
+  std::vector<LogDamage> damages;   // every damaged stretch, in file order
+  uint64_t bytes_skipped = 0;       // over all damages
+  uint64_t samples_lost = 0;        // end record's count minus samples read, when it survived
+  uint64_t records = 0;             // records read, header included
 };
 
 // Decodes a whole log. Fails (parse_error, naming the offset) only when no valid header can be

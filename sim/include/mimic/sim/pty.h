@@ -19,7 +19,7 @@ namespace mimic::sim {
 
 // What the driver configured on the slave side.
 struct LineSettings {
-  int baud = 0;         // 0 when the speed is not a standard rate
+  int baud = 0;  // 0 when the speed is not a standard rate
   int data_bits = 8;
   bool parity = false;
   int stop_bits = 1;

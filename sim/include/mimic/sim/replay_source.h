@@ -28,7 +28,7 @@
 namespace mimic::sim {
 
 struct ReplayOptions {
-  double speed = 1.0;           // 2 = twice as fast; 0 = unpaced
+  double speed = 1.0;  // 2 = twice as fast; 0 = unpaced
   bool loop = false;
   double from_s = 0.0;          // seconds after the first sample
   bool keep_log_times = false;  // host_time_s as recorded (plus the loop shift)
@@ -62,9 +62,9 @@ class ReplaySource final : public devices::SensorSource {
   ReplayOptions options_;
   std::shared_ptr<const Clock> clock_;
   devices::DeviceStatus status_;
-  size_t begin_ = 0;     // first sample of the segment
-  size_t cursor_ = 0;    // next sample to release
-  uint64_t loop_ = 0;    // passes completed
+  size_t begin_ = 0;   // first sample of the segment
+  size_t cursor_ = 0;  // next sample to release
+  uint64_t loop_ = 0;  // passes completed
   double segment_start_s_ = 0;
   double cycle_s_ = 0;
   double start_clock_s_ = 0;

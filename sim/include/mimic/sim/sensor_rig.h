@@ -52,8 +52,8 @@
 namespace mimic::sim {
 
 struct SensorMount {
-  std::string name;                            // e.g. "head", "l_hand"
-  std::string segment;                         // skeleton joint whose frame carries the sensor
+  std::string name;                         // e.g. "head", "l_hand"
+  std::string segment;                      // skeleton joint whose frame carries the sensor
   rig::RigidTransform segment_from_sensor;  // mounting offset in the segment (joint) frame
 };
 
@@ -73,13 +73,13 @@ std::vector<std::string> layout_names();
 struct RigConfig {
   std::vector<SensorMount> sensors;
   double rate_hz = 100.0;
-  double position_noise_mm = 0.0;        // std dev per axis
-  double orientation_noise_deg = 0.0;    // std dev per rotation-vector axis
-  double bias_walk_mm_per_sqrt_s = 0.0;  // random-walk drift of the position bias
-  double bias_walk_deg_per_sqrt_s = 0.0; // random-walk drift of the orientation bias
-  double latency_s = 0.0;                // host_time − device_time
-  double dropout_probability = 0.0;      // chance per tick that a dropout burst starts
-  int dropout_burst = 1;                 // ticks per burst (≥ 1)
+  double position_noise_mm = 0.0;         // std dev per axis
+  double orientation_noise_deg = 0.0;     // std dev per rotation-vector axis
+  double bias_walk_mm_per_sqrt_s = 0.0;   // random-walk drift of the position bias
+  double bias_walk_deg_per_sqrt_s = 0.0;  // random-walk drift of the orientation bias
+  double latency_s = 0.0;                 // host_time − device_time
+  double dropout_probability = 0.0;       // chance per tick that a dropout burst starts
+  int dropout_burst = 1;                  // ticks per burst (≥ 1)
   uint64_t seed = 1;
   rig::RigidTransform world_from_reference;  // identity: the tracker frame is Mimic's world
 };

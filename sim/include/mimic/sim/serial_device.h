@@ -86,7 +86,7 @@ struct PtyServeStats {
 class PtyServer {
  public:
   static Result<std::unique_ptr<PtyServer>> start(std::unique_ptr<SerialDevice> device,
-                                                 const std::string& log_path = {});
+                                                  const std::string& log_path = {});
   ~PtyServer();
   PtyServer(const PtyServer&) = delete;
   PtyServer& operator=(const PtyServer&) = delete;

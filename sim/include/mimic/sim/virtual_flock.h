@@ -37,10 +37,10 @@ using FlockSampleProvider = std::function<void(double t_s, int bird, devices::Se
 FlockSampleProvider make_builtin_flock_motion(uint64_t seed);
 
 struct VirtualFlockConfig {
-  int birds = 1;           // sensors; with 1 and no ERC the unit is standalone (address 0)
-  bool erc = false;        // an extended range controller at address 1 (144 in scale), sensors after
-  int baud = 115200;       // the DIP-switch baud; output is paced at it
-  bool pace_output = true; // false: write records as soon as they are measured
+  int birds = 1;            // sensors; with 1 and no ERC the unit is standalone (address 0)
+  bool erc = false;         // an extended range controller at address 1 (144 in scale), sensors after
+  int baud = 115200;        // the DIP-switch baud; output is paced at it
+  bool pace_output = true;  // false: write records as soon as they are measured
   double measurement_rate_hz = 103.3;
   double crystal_mhz = 25.0;
   uint16_t software_revision = 0x4303;  // 3.67
@@ -74,14 +74,14 @@ struct VirtualFlockStats {
   // the transmitter (the Flock cannot tell the two apart).
   uint64_t mirrored_records = 0;
   uint64_t commands = 0;
-  uint64_t invalid_commands = 0;      // set error 6
-  uint64_t dropped_while_busy = 0;    // bytes ignored during auto-configuration
+  uint64_t invalid_commands = 0;    // set error 6
+  uint64_t dropped_while_busy = 0;  // bytes ignored during auto-configuration
   uint64_t faults_injected = 0;
-  uint64_t host_opens = 0;            // times a process opened the slave
-  uint64_t line_mismatches = 0;       // the host's termios did not match the unit's baud/8N1
+  uint64_t host_opens = 0;       // times a process opened the slave
+  uint64_t line_mismatches = 0;  // the host's termios did not match the unit's baud/8N1
   bool streaming = false;
   bool group_mode = false;
-  bool configured = false;            // FBB auto-configuration done (or standalone)
+  bool configured = false;  // FBB auto-configuration done (or standalone)
   bool sleeping = false;
 };
 

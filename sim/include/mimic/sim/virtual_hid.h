@@ -21,7 +21,7 @@ struct VirtualHidConfig {
   uint16_t vendor_id = devices::hid::kVendorLogitech;
   uint16_t product_id = 0xC626;  // SpaceNavigator
   uint64_t seed = 1;
-  InputPattern input;            // empty: default_input_pattern(seed)
+  InputPattern input;  // empty: default_input_pattern(seed)
   devices::hid::Scaling scaling;
   double battery_period_s = 10.0;
 };
@@ -42,7 +42,7 @@ class VirtualHid {
   double next_s_ = 0;
   double next_battery_s_ = 0;
   bool rotation_next_ = false;  // 7-byte models alternate reports 1 and 2
-  int zero_repeats_left_ = 6;  // zero reports still to send once at rest
+  int zero_repeats_left_ = 6;   // zero reports still to send once at rest
   uint32_t buttons_ = 0;
   int battery_ = 100;
 };

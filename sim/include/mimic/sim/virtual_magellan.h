@@ -21,7 +21,7 @@ struct VirtualMagellanConfig {
   double data_period_s = 0.02;  // d packets at most this often while the values change [?]
   unsigned baud = 9600;         // 0 sends at once
   uint64_t seed = 1;
-  InputPattern input;           // empty: default_input_pattern(seed)
+  InputPattern input;  // empty: default_input_pattern(seed)
   devices::magellan::Scaling scaling;
 };
 
@@ -49,6 +49,6 @@ class MagellanDevice final : public SerialDevice {
 };
 
 Result<std::unique_ptr<PtyServer>> start_virtual_magellan(VirtualMagellanConfig config,
-                                                         const std::string& log_path = {});
+                                                          const std::string& log_path = {});
 
 }  // namespace mimic::sim

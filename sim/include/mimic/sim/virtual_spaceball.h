@@ -19,8 +19,8 @@ namespace mimic::sim {
 
 struct VirtualSpaceballConfig {
   devices::spaceball::Model model = devices::spaceball::Model::sb4000flx;
-  std::string firmware;        // "2.42" style; empty: the model's usual version
-  bool right_handed = true;    // 4000 FLX handedness bit and descriptor
+  std::string firmware;      // "2.42" style; empty: the model's usual version
+  bool right_handed = true;  // 4000 FLX handedness bit and descriptor
   // false: a device that was already plugged in and running when the simulator started (its
   // power-up banner went to a closed port long ago): a host that opens the port is answered at
   // once, and finds it in whatever state the last host left it. true: a cold start on every
@@ -33,7 +33,7 @@ struct VirtualSpaceballConfig {
   double data_period_s = 0.03;    // D packets while enabled and the ball is deflected [?]
   unsigned baud = 9600;           // pacing of output; 0 sends at once
   uint64_t seed = 1;
-  InputPattern input;             // empty: default_input_pattern(seed)
+  InputPattern input;  // empty: default_input_pattern(seed)
   devices::spaceball::Scaling scaling;
   // Line faults, per D packet, drawn from the seed: line noise (high-bit bytes and a CR) before
   // the packet, a byte of the packet lost, or a corrupt `^` escape inside it.
@@ -65,12 +65,12 @@ class SpaceballDevice final : public SerialDevice {
 
   VirtualSpaceballConfig cfg_;
   std::string firmware_;
-  std::string line_;           // host command being assembled
+  std::string line_;  // host command being assembled
   bool enabled_ = false;
   bool banner_pending_ = false;
   double banner_at_s_ = 0;
   const char* banner_word_ = "poweron ";
-  double power_on_s_ = 0;      // pattern time origin
+  double power_on_s_ = 0;  // pattern time origin
   double next_data_s_ = 0;
   double last_data_s_ = -1;
   bool at_rest_sent_ = false;
@@ -90,6 +90,6 @@ Result<devices::spaceball::Model> parse_spaceball_model(std::string_view name);
 
 // The engine served on a new pseudo-terminal; path() is what a driver opens.
 Result<std::unique_ptr<PtyServer>> start_virtual_spaceball(VirtualSpaceballConfig config,
-                                                          const std::string& log_path = {});
+                                                           const std::string& log_path = {});
 
 }  // namespace mimic::sim

@@ -41,9 +41,9 @@
 namespace mimic::solver {
 
 struct SensorMount {
-  uint16_t sensor = 0;                          // SensorSample::sensor
-  std::string segment;                          // skeleton joint carrying the sensor
-  rig::RigidTransform segment_from_sensor;   // where the sensor sits on the segment
+  uint16_t sensor = 0;                      // SensorSample::sensor
+  std::string segment;                      // skeleton joint carrying the sensor
+  rig::RigidTransform segment_from_sensor;  // where the sensor sits on the segment
 };
 
 struct SolverOptions {
@@ -55,14 +55,14 @@ struct SolverOptions {
   // less (3.6 mm) but left the head and hands of poses far from upright off their sensors;
   // without a pelvis sensor a stiff spine cannot lean to the head and the hips go astray.
   float prior_weight_with_pelvis = 1.0f;
-  float damping = 0.05f;           // Levenberg–Marquardt λ
-  int iterations = 4;              // least-squares steps per frame at most (warm starts carry on)
+  float damping = 0.05f;  // Levenberg–Marquardt λ
+  int iterations = 4;     // least-squares steps per frame at most (warm starts carry on)
   // Root height of the wearer standing (world y, from calibration; NaN = unknown). With neither
   // pelvis nor foot sensors the root is held near it — a body bends at spine and hips rather
   // than sinking with its head — unless the head comes down while staying upright (a squat, a
   // seat): then the root comes down with it, less `crouch_allowance_m`.
   float standing_root_y_m = std::numeric_limits<float>::quiet_NaN();
-  float standing_weight = 3.0f;    // per metre: a gentle pull
+  float standing_weight = 3.0f;  // per metre: a gentle pull
   // Legs nobody tracks hang under the hips with the knees soft rather than locked, feet facing
   // the heading and never below the floor, and the root is held that much below the
   // locked-knee height of the stand-still (people in motion rarely lock their knees).
@@ -94,16 +94,16 @@ class SolverModel {
   std::span<const SensorMount> mounts() const { return mounts_; }
   const SolverOptions& options() const { return options_; }
 
-  struct Chain {        // shoulder–elbow–wrist or hip–knee–ankle
+  struct Chain {  // shoulder–elbow–wrist or hip–knee–ankle
     int upper = -1, mid = -1, end = -1;
     int flex_dof = -1;  // the middle joint's first DOF: its bend
     std::array<int, 3> upper_dofs{};
     int upper_dof_count = 0;
     std::array<int, 3> end_dofs{};  // DOFs after the bend that orient the end segment
     int end_dof_count = 0;
-    glm::vec3 upper_dir{0};   // unit upper link in the upper joint's frame
-    glm::vec3 bend_dir{0};    // where the lower link swings when the bend grows (upper frame)
-    glm::vec3 hinge{0};       // bend axis (upper frame); (upper_dir, bend_dir, hinge) right-handed
+    glm::vec3 upper_dir{0};  // unit upper link in the upper joint's frame
+    glm::vec3 bend_dir{0};   // where the lower link swings when the bend grows (upper frame)
+    glm::vec3 hinge{0};      // bend axis (upper frame); (upper_dir, bend_dir, hinge) right-handed
     float upper_m = 0, lower_m = 0;
     glm::vec3 default_pole{0};  // mid-joint direction with nothing else to go on (root frame)
   };
@@ -119,18 +119,18 @@ class SolverModel {
   rig::Skeleton skeleton_;
   std::vector<SensorMount> mounts_;
   SolverOptions options_;
-  std::vector<int> slot_of_sensor_;               // sensor id → mount index or -1
-  std::vector<int> mount_joint_;                  // per mount
+  std::vector<int> slot_of_sensor_;                       // sensor id → mount index or -1
+  std::vector<int> mount_joint_;                          // per mount
   std::vector<rig::RigidTransform> sensor_from_segment_;  // per mount
-  std::vector<int> trunk_dofs_;                   // spine, neck, head
+  std::vector<int> trunk_dofs_;                           // spine, neck, head
   std::vector<int> trunk_joints_;
-  std::vector<int> leg_dofs_;                     // hips and knees (root placed from the feet)
-  std::array<std::vector<int>, 2> arm_dofs_;      // clavicle, shoulder, elbow bend
-  std::array<Chain, 4> chains_{};                 // l arm, r arm, l leg, r leg
-  std::vector<int8_t> chain_of_joint_;            // chain index for upper/mid/end joints, else -1
-  std::vector<float> prior_rad_;                  // relaxed values
+  std::vector<int> leg_dofs_;                 // hips and knees (root placed from the feet)
+  std::array<std::vector<int>, 2> arm_dofs_;  // clavicle, shoulder, elbow bend
+  std::array<Chain, 4> chains_{};             // l arm, r arm, l leg, r leg
+  std::vector<int8_t> chain_of_joint_;        // chain index for upper/mid/end joints, else -1
+  std::vector<float> prior_rad_;              // relaxed values
   int head_ = -1;
-  glm::vec3 head_from_root_rest_{0.0f};  // head joint relative to the root, relaxed posture
+  glm::vec3 head_from_root_rest_{0.0f};           // head joint relative to the root, relaxed posture
   std::array<float, 2> ankle_below_root_rest_{};  // root height above each ankle, zero posture
   std::array<glm::vec3, 2> ball_in_ankle_{};      // toes joint (ball of the foot) in the ankle frame
   std::array<int, 2> toes_{-1, -1};
@@ -141,7 +141,7 @@ class SolverContext {
   friend void hang_untracked_feet(const SolverModel&, SolverContext&, const rig::Pose&, std::array<bool, 2>);
 
  public:
-  explicit SolverContext(const SolverModel& model);  // allocates; call at setup
+  explicit SolverContext(const SolverModel& model);           // allocates; call at setup
   void reset() { have_previous_ = false, locomotion_ = {}; }  // forget the warm start and steps
   const LocomotionState& locomotion() const { return locomotion_; }
 
@@ -152,8 +152,8 @@ class SolverContext {
   std::vector<int> ls_dofs_;
   std::vector<float> prior_;
   std::vector<rig::RigidTransform> segment_target_;  // per joint
-  std::vector<uint8_t> has_target_;                      // per joint
-  std::array<bool, 4> guessed_end_{};                    // per chain: its end target is a guess
+  std::vector<uint8_t> has_target_;                  // per joint
+  std::array<bool, 4> guessed_end_{};                // per chain: its end target is a guess
   std::vector<rig::RigidTransform> world_;
   std::array<glm::vec3, 4> last_bend_world_{};
   bool have_previous_ = false;

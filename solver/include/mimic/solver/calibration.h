@@ -31,10 +31,10 @@ enum class CalibrationPose { t_pose, n_pose };
 
 struct CalibrationOptions {
   CalibrationPose pose = CalibrationPose::t_pose;
-  float max_motion_m = 0.03f;     // largest distance of a sensor from its mean over the capture
-  float max_motion_deg = 6.0f;    // largest angle of a sensor from its mean orientation
-  int min_samples = 5;            // per sensor
-  float floor_y_m = 0.0f;         // floor height when no foot sensor shows it
+  float max_motion_m = 0.03f;   // largest distance of a sensor from its mean over the capture
+  float max_motion_deg = 6.0f;  // largest angle of a sensor from its mean orientation
+  int min_samples = 5;          // per sensor
+  float floor_y_m = 0.0f;       // floor height when no foot sensor shows it
 };
 
 struct SensorCalibration {
@@ -48,10 +48,10 @@ struct Calibration {
   rig::SkeletonDesc skeleton;  // Mimic's skeleton fitted to the wearer
   std::vector<SensorCalibration> sensors;
   CalibrationPose pose = CalibrationPose::t_pose;
-  float height_m = 0;             // floor to top of the head, estimated
-  float heading_deg = 0;          // which way the wearer faced (0 = +Z, turning left positive)
-  float floor_y_m = 0;            // floor height in tracker coordinates, estimated
-  float standing_root_y_m = 0;    // root (pelvis joint) height while standing, tracker coordinates
+  float height_m = 0;           // floor to top of the head, estimated
+  float heading_deg = 0;        // which way the wearer faced (0 = +Z, turning left positive)
+  float floor_y_m = 0;          // floor height in tracker coordinates, estimated
+  float standing_root_y_m = 0;  // root (pelvis joint) height while standing, tracker coordinates
   // Capture statistics: how still the wearer stood.
   int samples = 0;
   double duration_s = 0;
@@ -69,8 +69,7 @@ rig::SkeletonDesc tracking_skeleton_desc(const rig::SkeletonDesc& base = rig::de
 // [in] base: the skeleton to fit (tracking_skeleton_desc() usually); layout: which sensor is
 // where; capture: every sample received during the stand-still (any order, any mix of sensors).
 Result<Calibration> calibrate(const rig::SkeletonDesc& base, const SensorLayout& layout,
-                              std::span<const devices::SensorSample> capture,
-                              const CalibrationOptions& options = {});
+                              std::span<const devices::SensorSample> capture, const CalibrationOptions& options = {});
 
 // The fitted skeleton and sensor mounts as the solver wants them.
 Result<SolverModel> make_solver_model(const Calibration& calibration, SolverOptions options = {});

@@ -32,8 +32,8 @@
 namespace mimic::solver {
 
 struct OneEuroParams {
-  float min_cutoff_hz = 1.0f;   // cutoff of a still signal
-  float beta = 0.5f;            // cutoff increase per unit of speed (per m/s or per rad/s)
+  float min_cutoff_hz = 1.0f;  // cutoff of a still signal
+  float beta = 0.5f;           // cutoff increase per unit of speed (per m/s or per rad/s)
   float derivative_cutoff_hz = 1.0f;
 };
 
@@ -82,10 +82,10 @@ struct SensorFilterConfig {
   bool compensate_lag = true;                 // extrapolate by each filter's own lag
   float max_speed_m_s = 12.0f;                // faster than any limb moves
   float max_angular_speed_deg_s = 3000.0f;
-  float jump_allowance_m = 0.05f;             // noise and sample-timing slack on top
-  int accept_after = 12;                      // consecutive outliers that move the filter
-  float hold_s = 0.25f;                       // bridge dropouts this long
-  bool enabled = true;                        // false: only outlier rejection and dropout bridging
+  float jump_allowance_m = 0.05f;  // noise and sample-timing slack on top
+  int accept_after = 12;           // consecutive outliers that move the filter
+  float hold_s = 0.25f;            // bridge dropouts this long
+  bool enabled = true;             // false: only outlier rejection and dropout bridging
 };
 
 class SensorFilterBank {

@@ -41,10 +41,8 @@ struct GaitOptions {
 
 class GaitAccumulator {
  public:
-  GaitAccumulator(const rig::Skeleton& truth, const rig::Skeleton& solved, double rate_hz,
-                  GaitOptions options = {});
-  void add(std::span<const rig::RigidTransform> truth_world,
-           std::span<const rig::RigidTransform> solved_world);
+  GaitAccumulator(const rig::Skeleton& truth, const rig::Skeleton& solved, double rate_hz, GaitOptions options = {});
+  void add(std::span<const rig::RigidTransform> truth_world, std::span<const rig::RigidTransform> solved_world);
   GaitReport report() const;
 
  private:

@@ -26,16 +26,16 @@
 namespace mimic::solver {
 
 struct JointCentreOptions {
-  double prior_weight = 2.0;   // pull towards the calibrated centres, in samples' worth
-  int min_samples = 120;       // per joint before it is used
+  double prior_weight = 2.0;  // pull towards the calibrated centres, in samples' worth
+  int min_samples = 120;      // per joint before it is used
 };
 
 struct JointCentreFit {
-  int joint = -1;              // skeleton joint (the child segment of the pair)
+  int joint = -1;  // skeleton joint (the child segment of the pair)
   int samples = 0;
   glm::vec3 in_parent_sensor{0.0f}, in_child_sensor{0.0f};
-  float rms_m = 0;             // residual: how far the two sensors disagree about the centre
-  float min_excitation = 0;    // smallest eigenvalue of the normal matrix per sample, 0..2
+  float rms_m = 0;           // residual: how far the two sensors disagree about the centre
+  float min_excitation = 0;  // smallest eigenvalue of the normal matrix per sample, 0..2
 };
 
 class JointCentreEstimator {
@@ -65,7 +65,7 @@ class JointCentreEstimator {
   };
   JointCentreOptions options_;
   std::vector<Pair> pairs_;
-  std::vector<int> slot_of_sensor_;               // sensor id → index into latest_, or -1
+  std::vector<int> slot_of_sensor_;  // sensor id → index into latest_, or -1
   std::vector<const devices::SensorSample*> latest_;
 };
 

@@ -19,11 +19,11 @@
 namespace mimic::solver {
 
 struct IkTarget {
-  int joint = -1;                               // skeleton joint index
-  glm::vec3 position_m{0.0f};                   // wanted world_from_joint translation
-  glm::quat rotation{1.0f, 0.0f, 0.0f, 0.0f};   // wanted world_from_joint rotation
-  float position_weight = 0;                    // residual weight per metre; 0 ignores position
-  float rotation_weight = 0;                    // residual weight per radian; 0 ignores rotation
+  int joint = -1;                              // skeleton joint index
+  glm::vec3 position_m{0.0f};                  // wanted world_from_joint translation
+  glm::quat rotation{1.0f, 0.0f, 0.0f, 0.0f};  // wanted world_from_joint rotation
+  float position_weight = 0;                   // residual weight per metre; 0 ignores position
+  float rotation_weight = 0;                   // residual weight per radian; 0 ignores rotation
 };
 
 class LeastSquaresIkContext {
@@ -46,33 +46,33 @@ class LeastSquaresIkContext {
   std::vector<glm::vec3> dof_axis_world_;  // per skeleton DOF
   std::vector<float> jacobian_;            // per target a block: its rows × its columns, row-major
   std::vector<float> residual_;
-  std::vector<float> normal_;              // cols × cols
+  std::vector<float> normal_;  // cols × cols
   std::vector<float> rhs_;
-  std::vector<float> normal0_, rhs0_;      // undamped system, kept across rejected steps
-  std::vector<float> saved_;               // DOF values before a trial step
-  std::vector<int> columns_;               // per target, its non-zero Jacobian columns, ascending
+  std::vector<float> normal0_, rhs0_;             // undamped system, kept across rejected steps
+  std::vector<float> saved_;                      // DOF values before a trial step
+  std::vector<int> columns_;                      // per target, its non-zero Jacobian columns, ascending
   std::vector<int> column_begin_, column_count_;  // per target: where its columns start, how many
-  float lambda_ = 0;                       // damping the last solve ended with
+  float lambda_ = 0;                              // damping the last solve ended with
 };
 
 struct LeastSquaresIkJob {
   // [in]
   const rig::Skeleton* skeleton = nullptr;
-  std::span<const int> dofs;           // skeleton DOF indices to solve for (distinct)
-  bool solve_root = false;             // root position and orientation are unknowns too
+  std::span<const int> dofs;  // skeleton DOF indices to solve for (distinct)
+  bool solve_root = false;    // root position and orientation are unknowns too
   std::span<const IkTarget> targets;
-  std::span<const float> prior_rad;    // empty, or one preferred value per skeleton DOF
-  float prior_weight = 0.05f;          // pull towards prior_rad, per radian
-  float damping = 0.02f;               // smallest λ (grows on rejected steps)
+  std::span<const float> prior_rad;  // empty, or one preferred value per skeleton DOF
+  float prior_weight = 0.05f;        // pull towards prior_rad, per radian
+  float damping = 0.02f;             // smallest λ (grows on rejected steps)
   int max_iterations = 10;
-  float step_tolerance = 5e-4f;        // stop when no unknown moves more than this (or the
-                                       // objective drops by less than 0.01 %)
+  float step_tolerance = 5e-4f;  // stop when no unknown moves more than this (or the
+                                 // objective drops by less than 0.01 %)
   LeastSquaresIkContext* context = nullptr;
   // [in, out] warm start in, solution (inside the joint limits) out
   rig::Pose* pose = nullptr;
   // [out]
-  int iterations = 0;                  // linear solves done
-  float residual_norm = 0;             // weighted residual after the last iteration
+  int iterations = 0;       // linear solves done
+  float residual_norm = 0;  // weighted residual after the last iteration
 
   bool Validate() const;
   bool Run();

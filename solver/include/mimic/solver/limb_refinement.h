@@ -9,8 +9,9 @@
 //
 // Observable for a limb whose upper segment and end segment (hand, foot) carry sensors and the
 // middle one does not (layout 11; with a sensor on every segment joint_centres.h sees more).
-// Positions are kept in the upper sensor's frame, so a model refined meanwhile loses nothing. A fit is used only once the arc is wide enough and the points lie in a
-// plane; the lengths then replace the calibrated ones (`refine`), in place, without allocating.
+// Positions are kept in the upper sensor's frame, so a model refined meanwhile loses nothing. A fit is used only once
+// the arc is wide enough and the points lie in a plane; the lengths then replace the calibrated ones (`refine`), in
+// place, without allocating.
 #pragma once
 
 #include <array>
@@ -22,17 +23,17 @@
 namespace mimic::solver {
 
 struct LimbFit {
-  bool valid = false;     // wide enough arc, points in a plane, lengths within a body's range
+  bool valid = false;  // wide enough arc, points in a plane, lengths within a body's range
   int samples = 0;
-  float upper_m = 0;      // upper joint to hinge centre
-  float lower_m = 0;      // hinge centre to the end joint (circle radius)
-  float arc_spread_m = 0; // spread of the end joint across the arc (its narrower in-plane axis)
-  float off_plane_m = 0;  // spread of the end joint out of the fitted plane (noise, wrong hinge)
+  float upper_m = 0;       // upper joint to hinge centre
+  float lower_m = 0;       // hinge centre to the end joint (circle radius)
+  float arc_spread_m = 0;  // spread of the end joint across the arc (its narrower in-plane axis)
+  float off_plane_m = 0;   // spread of the end joint out of the fitted plane (noise, wrong hinge)
 };
 
 struct LimbRefinementOptions {
-  float min_arc_spread_m = 0.01f;     // standard deviation across the arc
-  float min_plane_ratio = 3.0f;       // arc spread over off-plane spread: the plane is known
+  float min_arc_spread_m = 0.01f;  // standard deviation across the arc
+  float min_plane_ratio = 3.0f;    // arc spread over off-plane spread: the plane is known
   float max_off_plane_m = 0.012f;
   int min_samples = 60;
   float min_link_m = 0.12f, max_link_m = 0.75f;
@@ -57,10 +58,10 @@ class LimbLengthEstimator {
  private:
   struct Moments {
     int n = 0;
-    std::array<double, 3> s1{};   // Σx
-    std::array<double, 6> s2{};   // Σ x xᵀ (xx xy xz yy yz zz)
-    std::array<double, 3> s3{};   // Σ x |x|²
-    double s4 = 0;                // Σ |x|²
+    std::array<double, 3> s1{};  // Σx
+    std::array<double, 6> s2{};  // Σ x xᵀ (xx xy xz yy yz zz)
+    std::array<double, 3> s3{};  // Σ x |x|²
+    double s4 = 0;               // Σ |x|²
   };
   struct ChainState {
     int upper_slot = -1, end_slot = -1;  // mount indices

@@ -26,14 +26,14 @@ struct LocomotionOptions {
   float swing_s_slow = 0.42f;       // swing duration standing …
   float swing_s_fast = 0.30f;       // … and at `fast_mps`
   float fast_mps = 2.5f;
-  float stance_lead_s = 0.30f;      // a step lands where the hip is that long after touchdown
-  float max_step_m = 0.85f;         // a step never reaches further than this from the hip
-  float velocity_tau_s = 0.12f;     // smoothing of the pelvis velocity
-  float reach_fraction = 1.10f;     // a planted foot further than this much of the leg (flat) is due
-  bool flight = true;               // … and past this much it lifts while the other swings
+  float stance_lead_s = 0.30f;   // a step lands where the hip is that long after touchdown
+  float max_step_m = 0.85f;      // a step never reaches further than this from the hip
+  float velocity_tau_s = 0.12f;  // smoothing of the pelvis velocity
+  float reach_fraction = 1.10f;  // a planted foot further than this much of the leg (flat) is due
+  bool flight = true;            // … and past this much it lifts while the other swings
   float flight_reach_fraction = 1.30f;
-  float min_width_m = 0.10f;        // feet never closer side to side (ankle centres)
-  float arc_height_m = 0.10f;       // swing arc height for a 0.6 m step (in proportion, ≥ 2 cm)
+  float min_width_m = 0.10f;   // feet never closer side to side (ankle centres)
+  float arc_height_m = 0.10f;  // swing arc height for a 0.6 m step (in proportion, ≥ 2 cm)
   // Walking (faster than `sway_speed_mps`), the body rests on the foot the head sways over: a
   // foot lifts only while the head is at least `sway_gate_m` over to the other side of its
   // mean path (tau `sway_tau_s`). Negative gate: off.
@@ -48,7 +48,7 @@ struct LocomotionOptions {
 };
 
 struct FootStepState {
-  bool driven = false;    // this foot is placed by the stepper this frame
+  bool driven = false;  // this foot is placed by the stepper this frame
   bool swinging = false;
   glm::vec3 planted{0.0f};  // ankle, world, while planted (and where a swing ends)
   float planted_yaw_rad = 0;
@@ -66,20 +66,20 @@ struct LocomotionState {
   bool have_root = false;
   double last_time_s = -1;
   int last_stepped = -1;
-  long steps = 0;  // steps started so far
-  glm::vec2 sway_centre{0.0f};          // the head's mean horizontal path
+  long steps = 0;               // steps started so far
+  glm::vec2 sway_centre{0.0f};  // the head's mean horizontal path
   bool have_sway = false;
 };
 
 struct LocomotionInput {
   float dt_s = 1.0f / 120;
-  glm::vec3 root{0.0f};           // pelvis position, world
-  float root_yaw_rad = 0;         // pelvis heading
-  std::array<glm::vec3, 2> hip{};  // hip joint centres, world
-  std::array<float, 2> reach_m{};  // hip to ankle, leg straight
+  glm::vec3 root{0.0f};                    // pelvis position, world
+  float root_yaw_rad = 0;                  // pelvis heading
+  std::array<glm::vec3, 2> hip{};          // hip joint centres, world
+  std::array<float, 2> reach_m{};          // hip to ankle, leg straight
   std::array<float, 2> floor_ankle_y_m{};  // ankle height of a flat foot on the floor
-  std::array<bool, 2> drive{};     // which feet the stepper places
-  std::array<glm::vec3, 2> last_ankle{};  // solved ankles of the previous frame (take-over)
+  std::array<bool, 2> drive{};             // which feet the stepper places
+  std::array<glm::vec3, 2> last_ankle{};   // solved ankles of the previous frame (take-over)
   bool have_last_ankle = false;
   glm::vec3 head{0.0f};  // head joint, world
   bool have_head = false;

@@ -40,7 +40,7 @@ struct PoseErrorReport {
   double solve_us_max = 0;
   double lag_ms = 0;  // needs the sample rate: set_rate_hz()
   std::vector<std::string> joint_names;
-  std::vector<double> joint_mpjpe_cm;  // per joint of the set
+  std::vector<double> joint_mpjpe_cm;   // per joint of the set
   std::vector<double> joint_jitter_mm;  // per joint of the set
 };
 
@@ -53,8 +53,8 @@ class PoseErrorAccumulator {
   PoseErrorAccumulator(const rig::Skeleton& truth, const rig::Skeleton& solved);
 
   // World transforms of every joint of each skeleton for one frame; solve_us < 0 if untimed.
-  void add(std::span<const rig::RigidTransform> truth_world,
-           std::span<const rig::RigidTransform> solved_world, double solve_us = -1);
+  void add(std::span<const rig::RigidTransform> truth_world, std::span<const rig::RigidTransform> solved_world,
+           double solve_us = -1);
   PoseErrorReport report() const;
   void set_rate_hz(double rate_hz) { rate_hz_ = rate_hz; }
 

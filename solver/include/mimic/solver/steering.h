@@ -22,13 +22,13 @@
 namespace mimic::solver {
 
 struct SteeringConfig {
-  float dead_zone = 0.08f;          // fraction of full deflection ignored, per axis
-  float exponent = 2.0f;            // response curve: 1 linear, 2 gentle near centre
-  float max_speed_m_s = 1.5f;       // at full deflection
-  float max_turn_deg_s = 90.0f;     // at full twist
-  bool vertical = false;            // lifting/pressing the cap moves the avatar up/down
-  int recalibrate_button = 1;       // 1-based button number; 0 = none
-  int reset_button = 2;             // 1-based button number; 0 = none
+  float dead_zone = 0.08f;       // fraction of full deflection ignored, per axis
+  float exponent = 2.0f;         // response curve: 1 linear, 2 gentle near centre
+  float max_speed_m_s = 1.5f;    // at full deflection
+  float max_turn_deg_s = 90.0f;  // at full twist
+  bool vertical = false;         // lifting/pressing the cap moves the avatar up/down
+  int recalibrate_button = 1;    // 1-based button number; 0 = none
+  int reset_button = 2;          // 1-based button number; 0 = none
 };
 
 struct SteeringEvents {

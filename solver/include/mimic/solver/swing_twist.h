@@ -26,9 +26,8 @@ float twist_angle_rad(const glm::quat& q, const glm::vec3& axis);
 // [in] angles_rad: previous values (the warm start); [out] the new values. With fewer than three
 // axes, the nearest rotation the axes can express (one axis: the twist about it).
 // min_rad/max_rad (same size, may be empty) steer the branch choice; values are not clamped.
-void angles_from_rotation(const glm::quat& local, std::span<const glm::vec3> axes,
-                          std::span<float> angles_rad, std::span<const float> min_rad = {},
-                          std::span<const float> max_rad = {});
+void angles_from_rotation(const glm::quat& local, std::span<const glm::vec3> axes, std::span<float> angles_rad,
+                          std::span<const float> min_rad = {}, std::span<const float> max_rad = {});
 
 // Joint j's DOFs from its local rotation, written into dof_rad (indexed by skeleton DOF, the
 // current values are the warm start), clamped to the joint limits.
@@ -38,7 +37,7 @@ void joint_dofs_from_rotation(const rig::Skeleton& skeleton, int joint, const gl
 // Up to three skeleton DOFs (indices, in the order their rotations compose, possibly spanning
 // joints along one chain) from one rotation, clamped to their limits. Used for forearm twist +
 // wrist, which together orient the hand.
-void dofs_from_rotation(const rig::Skeleton& skeleton, std::span<const int> dofs,
-                        const glm::quat& rotation, std::span<float> dof_rad);
+void dofs_from_rotation(const rig::Skeleton& skeleton, std::span<const int> dofs, const glm::quat& rotation,
+                        std::span<float> dof_rad);
 
 }  // namespace mimic::solver

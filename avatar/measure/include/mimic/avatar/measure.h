@@ -114,11 +114,9 @@ std::string measurements_json(const BodyMeasurements& m);
 
 // Ours against a reference: columns measurement, ours, reference, difference %, PASS/FAIL
 // (|difference| ≤ tolerance, default ±10%). A measurement missing on either side FAILs.
-std::string format_comparison(const BodyMeasurements& ours, const BodyMeasurements& reference,
-                              double tolerance = 0.10);
+std::string format_comparison(const BodyMeasurements& ours, const BodyMeasurements& reference, double tolerance = 0.10);
 // {"tolerance": 0.1, "pass": bool, "rows": [{"key", "unit", "ours", "reference", "difference", "pass"}]}
-std::string comparison_json(const BodyMeasurements& ours, const BodyMeasurements& reference,
-                            double tolerance = 0.10);
+std::string comparison_json(const BodyMeasurements& ours, const BodyMeasurements& reference, double tolerance = 0.10);
 bool comparison_passes(const BodyMeasurements& ours, const BodyMeasurements& reference, double tolerance = 0.10);
 
 // A pose of `skeleton` in the posture of the landmarks: the root at the landmarks' pelvis,

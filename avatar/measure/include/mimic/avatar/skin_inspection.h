@@ -35,7 +35,7 @@ struct SweepSample {
 };
 
 struct MethodSweep {
-  std::string method;  // "full", "realtime", "lbs", "dqs", "cor"
+  std::string method;                // "full", "realtime", "lbs", "dqs", "cor"
   std::vector<SweepSample> samples;  // one per JointSweep::angles_deg
 };
 

@@ -27,12 +27,12 @@
 namespace mimic::avatar {
 
 struct SkinnedAnimation {
-  const Mesh* bind_mesh = nullptr;                // positions in the bind pose
-  std::span<const JointInfluences> influences;    // one per vertex of bind_mesh
+  const Mesh* bind_mesh = nullptr;              // positions in the bind pose
+  std::span<const JointInfluences> influences;  // one per vertex of bind_mesh
   const rig::Skeleton* skeleton = nullptr;
-  rig::Pose bind_pose;                                 // the pose bind_mesh was made in
-  std::vector<double> times_s;                    // strictly increasing, from 0
-  std::vector<rig::Pose> poses;                        // one per time, of `skeleton`
+  rig::Pose bind_pose;           // the pose bind_mesh was made in
+  std::vector<double> times_s;   // strictly increasing, from 0
+  std::vector<rig::Pose> poses;  // one per time, of `skeleton`
   std::string name = "mimic";
 };
 

@@ -23,14 +23,14 @@ Result<LatencyResult> measure_loopback_latency(int frames, uint16_t dof_count, b
 struct FanoutResult {
   int subscribers = 0, avatars = 0;
   double rate_hz = 0, seconds = 0;
-  uint64_t frames_expected = 0;   // subscribers × avatars × ticks
-  uint64_t frames_received = 0;   // pose frames the subscribers decoded
-  uint64_t frames_dropped = 0;    // server latest-wins drops
-  uint64_t lost = 0;              // sequence gaps seen by subscribers
+  uint64_t frames_expected = 0;             // subscribers × avatars × ticks
+  uint64_t frames_received = 0;             // pose frames the subscribers decoded
+  uint64_t frames_dropped = 0;              // server latest-wins drops
+  uint64_t lost = 0;                        // sequence gaps seen by subscribers
   double tick_p50_us = 0, tick_p99_us = 0;  // publish + fan-out of one tick on the server thread
-  double achieved_rate_hz = 0;    // ticks / time from the first tick to the last frame sent
-  uint64_t late_ticks = 0;        // ticks started more than one period after they were due
-  bool kept_up = false;           // nothing lost or dropped, and at least 99% of the rate
+  double achieved_rate_hz = 0;              // ticks / time from the first tick to the last frame sent
+  uint64_t late_ticks = 0;                  // ticks started more than one period after they were due
+  bool kept_up = false;                     // nothing lost or dropped, and at least 99% of the rate
 };
 
 // `subscribers` raw TCP subscribers (read by one extra thread) and `avatars` local avatars
@@ -62,8 +62,8 @@ struct FanoutOptions {
   // ticks instead of taking a core from one). Needs the privilege; without it the run goes on
   // at normal priority.
   int realtime_priority = 0;
-  int sender_threads = 0;     // ServerOptions::fanout_threads (0: one per core, at most 4)
-  int receiver_threads = 2;   // threads reading the subscribers' sockets, each its own share
+  int sender_threads = 0;    // ServerOptions::fanout_threads (0: one per core, at most 4)
+  int receiver_threads = 2;  // threads reading the subscribers' sockets, each its own share
   // Called once, just before the first tick of the timed window (tests: a fault injected while
   // the window runs).
   std::function<void()> on_window_start;
@@ -71,22 +71,22 @@ struct FanoutOptions {
 
 struct FanoutCapacity {
   FanoutOptions options;
-  uint64_t streams = 0;            // subscribers × avatars
-  FanoutResult result;             // frames, drops, lost (from sequence numbers), tick times
-  double bytes_per_avatar_frame = 0;  // mean pose packet size the subscribers received
-  double cpu_percent = 0;          // the server's threads' CPU time / wall time while publishing
-  double cpu_us_per_tick = 0;      // the server's threads' CPU time per tick (less load-dependent than wall time)
+  uint64_t streams = 0;                 // subscribers × avatars
+  FanoutResult result;                  // frames, drops, lost (from sequence numbers), tick times
+  double bytes_per_avatar_frame = 0;    // mean pose packet size the subscribers received
+  double cpu_percent = 0;               // the server's threads' CPU time / wall time while publishing
+  double cpu_us_per_tick = 0;           // the server's threads' CPU time per tick (less load-dependent than wall time)
   double receiver_cpu_us_per_tick = 0;  // the receiving threads' CPU time per tick
-  double process_cpu_percent = 0;  // the whole process (server and receiving threads), of one core
-  double load_average_1m = 0;      // the machine's, when the run ended
+  double process_cpu_percent = 0;       // the whole process (server and receiving threads), of one core
+  double load_average_1m = 0;           // the machine's, when the run ended
   // nats rows: the frame's time stamp (just before publishing) to its arrival at the relay,
   // the broker process's CPU, and the relay's fan-outs per published tick (the frames of a
   // tick may reach it in more than one batch).
   double publish_to_relay_ms_p50 = 0, publish_to_relay_ms_p99 = 0;
   double broker_cpu_percent = 0;
   double fanouts_per_tick = 0;
-  bool realtime = false;           // the server's threads did run SCHED_FIFO
-  int sender_threads = 1;          // threads sharing a tick's writes (Server::fanout_threads)
+  bool realtime = false;   // the server's threads did run SCHED_FIFO
+  int sender_threads = 1;  // threads sharing a tick's writes (Server::fanout_threads)
   int receiver_threads = 1;
 };
 

@@ -45,9 +45,9 @@ namespace mimic::net {
 class Server;
 
 struct NatsOptions {
-  std::string servers;            // "nats://HOST:PORT[,nats://HOST:PORT...]"
+  std::string servers;  // "nats://HOST:PORT[,nats://HOST:PORT...]"
   std::string scene = "default";
-  std::string name = "mimic";     // publisher name (part of every avatar key) and connection name
+  std::string name = "mimic";  // publisher name (part of every avatar key) and connection name
   // Credentials: user + password, or a token. From the environment (nats_credentials_from_env),
   // never from the command line.
   std::string user, password, token;
@@ -55,9 +55,9 @@ struct NatsOptions {
   // of the list waits at most this for a node that does not answer (a refused connection
   // fails at once).
   double connect_timeout_s = 1.0;
-  int reconnect_wait_ms = 250;    // after every server of the list failed once; never gives up
-  bool randomize = true;          // try the servers in random order (spreads clients over a cluster)
-  int kv_replicas = 0;            // copies of the model bucket; 0: 3 when 3+ servers are given, else 1
+  int reconnect_wait_ms = 250;  // after every server of the list failed once; never gives up
+  bool randomize = true;        // try the servers in random order (spreads clients over a cluster)
+  int kv_replicas = 0;          // copies of the model bucket; 0: 3 when 3+ servers are given, else 1
   // Publisher: its status heartbeat period. Relay: an avatar whose publisher has sent neither a
   // heartbeat nor a frame for `missed_heartbeats` periods (the publisher's own) leaves the scene.
   int heartbeat_ms = 1000;
@@ -120,7 +120,7 @@ struct NatsLinkStats {
   uint64_t seq_jumps_refused = 0;
   uint64_t models_refused = 0;
   uint64_t foreign = 0;
-  uint64_t model_bytes = 0;     // relay: body model bytes it keeps (shown and held)
+  uint64_t model_bytes = 0;  // relay: body model bytes it keeps (shown and held)
   // Publisher: topologies sent on relays' asks, and asks beyond the topology rate bound.
   uint64_t topologies = 0, topologies_refused = 0;
   // Relay: the frame's time stamp (capture time, publisher's wall clock) to its arrival at the

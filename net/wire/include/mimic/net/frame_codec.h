@@ -28,15 +28,15 @@ namespace mimic::net {
 inline constexpr uint8_t kMagic = 'M';
 // Version 2: 128-bit session tokens and UDP registration by echoed nonce (version 1 had 64-bit
 // tokens and registered any address that presented one).
-inline constexpr uint8_t kProtocolVersion = 2;      // the only version this build speaks
+inline constexpr uint8_t kProtocolVersion = 2;  // the only version this build speaks
 inline constexpr uint8_t kMinProtocolVersion = 2;
 inline constexpr size_t kHeaderBytes = 8;
 
 // Size limits (whole packet, header included).
-inline constexpr size_t kMaxDatagramBytes = 1200;        // pose packets always fit one datagram
+inline constexpr size_t kMaxDatagramBytes = 1200;  // pose packets always fit one datagram
 inline constexpr size_t kMaxHelloBytes = 512;
-inline constexpr size_t kMaxModelBytes = 1u << 20;       // opaque body model payload
-inline constexpr size_t kMaxMeshBytes = 8u << 20;        // mesh topology / mesh frame
+inline constexpr size_t kMaxModelBytes = 1u << 20;  // opaque body model payload
+inline constexpr size_t kMaxMeshBytes = 8u << 20;   // mesh topology / mesh frame
 inline constexpr size_t kMaxPacketBytes = kMaxMeshBytes + 64;
 inline constexpr size_t kMaxNameBytes = 64;
 inline constexpr size_t kMaxSecretBytes = 128;
@@ -49,30 +49,30 @@ inline constexpr uint16_t kNoMesh = 0xFF;
 inline constexpr uint32_t kMaxMeshVertices = (kMaxMeshBytes - kHeaderBytes - 36) / 6;
 
 enum class MsgType : uint8_t {
-  hello = 1,           // client -> server: versions, role, capabilities, resume token, secret
-  welcome = 2,         // server -> client: chosen version, agreed capabilities, session token
-  reject = 3,          // server -> client: why the session was refused (then the server closes)
-  bye = 4,             // either way: clean leave (the session cannot be resumed)
-  udp_register = 5,    // over UDP, client -> server: session token and the last nonce it got;
-                       // server -> client: the same token and the nonce to echo (docs/protocol.md)
-  ping = 6,            // client -> server: keep-alive of an otherwise silent session
-  key_request = 7,     // subscriber -> server (kCapLeanPose): u16 avatar; its next frame goes as a key
-  avatar_model = 10,   // publisher -> server (avatar = publisher's slot) and server -> subscriber
-  avatar_removed = 11, // server -> subscriber
-  scene = 12,          // server -> subscriber after WELCOME: every live avatar (id, revision)
-  pose = 20,           // quantised joint values; one datagram
-  pose_delta = 21,     // server -> subscriber with kCapLeanPose: key or delta frame (pose_stream.h)
-  mesh_topology = 30,  // fixed index array of one avatar at one LOD
-  mesh = 31,           // vertex positions at that LOD
+  hello = 1,            // client -> server: versions, role, capabilities, resume token, secret
+  welcome = 2,          // server -> client: chosen version, agreed capabilities, session token
+  reject = 3,           // server -> client: why the session was refused (then the server closes)
+  bye = 4,              // either way: clean leave (the session cannot be resumed)
+  udp_register = 5,     // over UDP, client -> server: session token and the last nonce it got;
+                        // server -> client: the same token and the nonce to echo (docs/protocol.md)
+  ping = 6,             // client -> server: keep-alive of an otherwise silent session
+  key_request = 7,      // subscriber -> server (kCapLeanPose): u16 avatar; its next frame goes as a key
+  avatar_model = 10,    // publisher -> server (avatar = publisher's slot) and server -> subscriber
+  avatar_removed = 11,  // server -> subscriber
+  scene = 12,           // server -> subscriber after WELCOME: every live avatar (id, revision)
+  pose = 20,            // quantised joint values; one datagram
+  pose_delta = 21,      // server -> subscriber with kCapLeanPose: key or delta frame (pose_stream.h)
+  mesh_topology = 30,   // fixed index array of one avatar at one LOD
+  mesh = 31,            // vertex positions at that LOD
 };
 
 enum class Role : uint8_t { publisher = 1, subscriber = 2 };
 
 enum Capability : uint32_t {
-  kCapPose = 1u << 0,    // pose frames (always on in v1)
-  kCapMesh = 1u << 1,    // mesh topology + mesh frames at a chosen LOD
-  kCapResume = 1u << 2,  // the session token may be presented again after a disconnect
-  kCapUdpPose = 1u << 3, // subscribers: pose frames as UDP datagrams (docs/protocol.md)
+  kCapPose = 1u << 0,      // pose frames (always on in v1)
+  kCapMesh = 1u << 1,      // mesh topology + mesh frames at a chosen LOD
+  kCapResume = 1u << 2,    // the session token may be presented again after a disconnect
+  kCapUdpPose = 1u << 3,   // subscribers: pose frames as UDP datagrams (docs/protocol.md)
   kCapLeanPose = 1u << 4,  // subscribers: POSE_DELTA key and delta frames instead of POSE
 };
 inline constexpr uint32_t kServerCapabilities = kCapPose | kCapMesh | kCapResume | kCapUdpPose | kCapLeanPose;
@@ -101,21 +101,21 @@ inline constexpr size_t kUdpRegisterBytes = kHeaderBytes + kTokenBytes + 8;
 // Why a packet or a session was refused. Numeric values are on the wire (REJECT) and stable.
 enum class Reject : uint16_t {
   ok = 0,
-  truncated = 1,         // shorter than its header or its fields say
+  truncated = 1,  // shorter than its header or its fields say
   bad_magic = 2,
-  unknown_version = 3,   // header version this build does not speak
+  unknown_version = 3,  // header version this build does not speak
   unknown_type = 4,
-  oversized = 5,         // longer than the type's limit
-  malformed = 6,         // a field out of range (bad lengths, zero quaternion, trailing bytes)
-  out_of_order = 7,      // sequence number not newer than the last one accepted
+  oversized = 5,            // longer than the type's limit
+  malformed = 6,            // a field out of range (bad lengths, zero quaternion, trailing bytes)
+  out_of_order = 7,         // sequence number not newer than the last one accepted
   unsupported_version = 8,  // no common version in HELLO
-  unauthorized = 9,      // publisher without the shared secret
-  unexpected = 10,       // valid packet in the wrong state or role
-  flood = 11,            // over the session's packet rate
+  unauthorized = 9,         // publisher without the shared secret
+  unexpected = 10,          // valid packet in the wrong state or role
+  flood = 11,               // over the session's packet rate
   server_full = 12,
-  timeout = 13,          // no HELLO in time, or silent for longer than the idle timeout
+  timeout = 13,            // no HELLO in time, or silent for longer than the idle timeout
   too_many_sessions = 14,  // over the per-address session limit
-  unavailable = 15,      // asks for what this server does not offer (a mesh LOD it does not serve)
+  unavailable = 15,        // asks for what this server does not offer (a mesh LOD it does not serve)
 };
 inline constexpr int kRejectCount = 16;
 const char* reject_name(Reject r) noexcept;
@@ -139,11 +139,11 @@ struct Hello {
   uint8_t min_version = kMinProtocolVersion;
   uint8_t max_version = kProtocolVersion;
   Role role = Role::subscriber;
-  uint8_t mesh_lod = kNoMesh;     // subscribers: mesh frames at this LOD, or kNoMesh
+  uint8_t mesh_lod = kNoMesh;  // subscribers: mesh frames at this LOD, or kNoMesh
   uint32_t capabilities = kCapPose | kCapResume;
-  SessionToken resume_token;      // empty: a new session
-  std::string name;               // for logs, ≤ kMaxNameBytes, no control characters
-  std::string secret;             // publishers on a non-loopback server, ≤ kMaxSecretBytes
+  SessionToken resume_token;  // empty: a new session
+  std::string name;           // for logs, ≤ kMaxNameBytes, no control characters
+  std::string secret;         // publishers on a non-loopback server, ≤ kMaxSecretBytes
 };
 
 struct Welcome {
@@ -174,9 +174,9 @@ struct AvatarModel {
 // Pose frame fields besides the pose itself.
 struct PoseHeader {
   uint16_t avatar = 0;
-  uint16_t flags = 0;        // kPoseStale when the source had no fresh data
-  uint32_t sequence = 0;     // per avatar, +1 per frame
-  uint64_t time_us = 0;      // capture time, publisher's wall clock (µs since the Unix epoch)
+  uint16_t flags = 0;     // kPoseStale when the source had no fresh data
+  uint32_t sequence = 0;  // per avatar, +1 per frame
+  uint64_t time_us = 0;   // capture time, publisher's wall clock (µs since the Unix epoch)
 };
 inline constexpr uint16_t kPoseStale = 1u << 0;
 
@@ -203,7 +203,7 @@ struct MeshFrameHeader {
 };
 
 // Quantisation steps (the round-trip tolerances).
-inline constexpr float kRootPositionStep_m = 1e-5f;          // ±21 km range
+inline constexpr float kRootPositionStep_m = 1e-5f;              // ±21 km range
 inline constexpr float kAngleStep_rad = 3.14159265f / 32767.0f;  // angles wrap into [-π, π]
 inline constexpr float kQuatStep = 1.0f / 32767.0f;
 
@@ -225,8 +225,7 @@ size_t encode_scene(std::span<const SceneEntry> entries, std::span<uint8_t> out)
 size_t encode_pose(const PoseHeader& h, const rig::Pose& pose, std::span<uint8_t> out) noexcept;
 size_t encode_mesh_topology(const MeshTopology& m, std::span<uint8_t> out) noexcept;
 // Positions are quantised to 16 bits per axis inside their bounding box.
-size_t encode_mesh(const MeshFrameHeader& h, std::span<const glm::vec3> positions_m,
-                   std::span<uint8_t> out) noexcept;
+size_t encode_mesh(const MeshFrameHeader& h, std::span<const glm::vec3> positions_m, std::span<uint8_t> out) noexcept;
 
 inline size_t mesh_packet_bytes(size_t vertex_count) { return kHeaderBytes + 36 + 6 * vertex_count; }
 inline size_t mesh_topology_packet_bytes(size_t index_count) { return kHeaderBytes + 11 + 4 * index_count; }
@@ -247,8 +246,7 @@ Reject decode_scene(std::span<const uint8_t> packet, std::vector<SceneEntry>& ou
 // `out.dof_rad` is resized to the packet's DOF count (no allocation when it already fits).
 Reject decode_pose(std::span<const uint8_t> packet, PoseHeader& header, rig::Pose& out);
 Reject decode_mesh_topology(std::span<const uint8_t> packet, MeshTopology& out);
-Reject decode_mesh(std::span<const uint8_t> packet, MeshFrameHeader& header,
-                   std::vector<glm::vec3>& positions_m);
+Reject decode_mesh(std::span<const uint8_t> packet, MeshFrameHeader& header, std::vector<glm::vec3>& positions_m);
 
 // Names (publishers', avatars') are shown in terminals and logs: a name that is not valid UTF-8
 // or holds a control, bidi or invisible format character (mimic::is_safe_name) makes the HELLO

@@ -62,7 +62,10 @@ class LeanPoseEncoder {
   // A validated POSE packet (decode_pose accepted it). False when its skeleton is too large for
   // the lean stream (subscribers then get the POSE packet itself).
   bool update(std::span<const uint8_t> pose_packet) noexcept;
-  void reset() noexcept { state_.valid = false; delta_size_ = key_size_ = 0; }
+  void reset() noexcept {
+    state_.valid = false;
+    delta_size_ = key_size_ = 0;
+  }
 
   bool valid() const { return state_.valid; }
   uint32_t sequence() const { return state_.sequence; }

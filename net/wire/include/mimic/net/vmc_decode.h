@@ -34,10 +34,10 @@ namespace mimic::net {
 
 // Unity's HumanBodyBones that carry the body (fingers, eyes and jaw are read and ignored).
 inline constexpr std::array<std::string_view, 24> kUnityBodyBones = {
-    "Hips",         "Spine",         "Chest",        "UpperChest",   "Neck",          "Head",
-    "LeftShoulder", "LeftUpperArm",  "LeftLowerArm", "LeftHand",     "RightShoulder", "RightUpperArm",
-    "RightLowerArm", "RightHand",    "LeftUpperLeg", "LeftLowerLeg", "LeftFoot",      "LeftToes",
-    "RightUpperLeg", "RightLowerLeg", "RightFoot",   "RightToes",    "LeftEye",       "RightEye"};
+    "Hips",          "Spine",         "Chest",        "UpperChest",   "Neck",          "Head",
+    "LeftShoulder",  "LeftUpperArm",  "LeftLowerArm", "LeftHand",     "RightShoulder", "RightUpperArm",
+    "RightLowerArm", "RightHand",     "LeftUpperLeg", "LeftLowerLeg", "LeftFoot",      "LeftToes",
+    "RightUpperLeg", "RightLowerLeg", "RightFoot",    "RightToes",    "LeftEye",       "RightEye"};
 int unity_bone_index(std::string_view name);  // -1 when not a body bone
 inline constexpr size_t kHipsBone = 0;        // kUnityBodyBones[0]: the bone that places the body
 static_assert(kUnityBodyBones[kHipsBone] == "Hips");
@@ -50,32 +50,32 @@ struct TrackedPose {
 };
 
 inline constexpr size_t kMaxVmcDevices = 16;  // Tra/Hmd/Con serials remembered
-inline constexpr size_t kOscTrackers = 9;      // /tracking/trackers/1..8, and head (index 0)
+inline constexpr size_t kOscTrackers = 9;     // /tracking/trackers/1..8, and head (index 0)
 
 struct VmcState {
-  TrackedPose root;                                   // /VMC/Ext/Root/Pos, Mimic's frame
+  TrackedPose root;                                       // /VMC/Ext/Root/Pos, Mimic's frame
   std::array<TrackedPose, kUnityBodyBones.size()> bones;  // local to the parent bone, Mimic's frame
   struct Device {
-    char kind = 0;                // 'T' tracker, 'H' HMD, 'C' controller
+    char kind = 0;                  // 'T' tracker, 'H' HMD, 'C' controller
     std::array<char, 32> serial{};  // NUL-terminated, cut to fit
     TrackedPose pose;
   };
   std::array<Device, kMaxVmcDevices> devices;
   size_t device_count = 0;
   std::array<TrackedPose, kOscTrackers> osc_trackers;  // [0] head, [1..8] trackers
-  uint64_t frames = 0;          // /VMC/Ext/OK received (a VMC frame is complete)
-  double sender_time_s = 0;     // the last /VMC/Ext/T
+  uint64_t frames = 0;                                 // /VMC/Ext/OK received (a VMC frame is complete)
+  double sender_time_s = 0;                            // the last /VMC/Ext/T
 };
 
 struct VmcReceiveStats {
   uint64_t datagrams = 0, bytes = 0, messages = 0;
   uint64_t bones = 0, devices = 0, osc_tracker_messages = 0;
-  uint64_t unknown_bones = 0;     // bone names that are not body bones (fingers: expected)
-  uint64_t other_addresses = 0;   // addresses this reader does not use (counted, ignored)
-  uint64_t non_finite = 0;        // NaN or infinite values (the message is dropped)
-  uint64_t devices_dropped = 0;   // Tra/Hmd/Con serials past kMaxVmcDevices
-  uint64_t oversized = 0;         // datagrams longer than the receive buffer (cut by the kernel)
-  uint64_t budget_hit = 0;        // polls that left datagrams for the next one
+  uint64_t unknown_bones = 0;                        // bone names that are not body bones (fingers: expected)
+  uint64_t other_addresses = 0;                      // addresses this reader does not use (counted, ignored)
+  uint64_t non_finite = 0;                           // NaN or infinite values (the message is dropped)
+  uint64_t devices_dropped = 0;                      // Tra/Hmd/Con serials past kMaxVmcDevices
+  uint64_t oversized = 0;                            // datagrams longer than the receive buffer (cut by the kernel)
+  uint64_t budget_hit = 0;                           // polls that left datagrams for the next one
   std::array<uint64_t, osc::kErrorCount> refused{};  // by osc::Error
   uint64_t refused_total() const {
     uint64_t n = 0;

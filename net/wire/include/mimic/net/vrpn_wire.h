@@ -21,8 +21,8 @@ namespace mimic::net::vrpn {
 inline constexpr size_t kCookieBytes = 24;
 inline constexpr size_t kHeaderBytes = 24;
 inline constexpr size_t kPosQuatBytes = 64;
-inline constexpr size_t kMaxNameBytes = 100;      // vrpn_CNAME, NUL included
-inline constexpr size_t kUdpDatagramBytes = 1472; // vrpn_CONNECTION_UDP_BUFLEN
+inline constexpr size_t kMaxNameBytes = 100;       // vrpn_CNAME, NUL included
+inline constexpr size_t kUdpDatagramBytes = 1472;  // vrpn_CONNECTION_UDP_BUFLEN
 inline constexpr int32_t kSenderDescription = -1;
 inline constexpr int32_t kTypeDescription = -2;
 inline constexpr int32_t kUdpDescription = -3;

@@ -27,8 +27,9 @@ class BaselineSkinner {
   // `rest`: the mesh (positions in metres; normals optional) in the posture `world_from_joint_rest`
   // of `skeleton`; `weights`: one set per rest position. Fails when the weights do not validate.
   // Allocates (the centres of rotation cost most).
-  static Result<BaselineSkinner> create(const rig::Skeleton& skeleton, std::span<const rig::RigidTransform> world_from_joint_rest,
-                                        const Mesh& rest, SkinWeights weights);
+  static Result<BaselineSkinner> create(const rig::Skeleton& skeleton,
+                                        std::span<const rig::RigidTransform> world_from_joint_rest, const Mesh& rest,
+                                        SkinWeights weights);
 
   size_t vertex_count() const { return rest_positions_.size(); }
   const SkinWeights& weights() const { return weights_; }

@@ -31,14 +31,14 @@ void compute_centers_of_rotation(std::span<const glm::vec3> rest_positions_m, st
 
 struct CorSkinningJob {
   std::span<const SkinningMatrix> skinning_matrices;  // [in] world_from_rest, one per joint
-  std::span<const glm::quat> skinning_rotations;  // [in] the same transforms' rotations
-  std::span<const uint16_t> joint_indices;        // [in] kInfluences per vertex
-  std::span<const float> joint_weights;           // [in] kInfluences per vertex
-  std::span<const glm::vec3> centers_of_rotation; // [in] compute_centers_of_rotation, per vertex
-  std::span<const glm::vec3> in_positions;        // [in] rest positions (m)
-  std::span<const glm::vec3> in_normals;          // [in] optional
-  std::span<glm::vec3> out_positions;             // [out]
-  std::span<glm::vec3> out_normals;               // [out] as many as in_normals
+  std::span<const glm::quat> skinning_rotations;      // [in] the same transforms' rotations
+  std::span<const uint16_t> joint_indices;            // [in] kInfluences per vertex
+  std::span<const float> joint_weights;               // [in] kInfluences per vertex
+  std::span<const glm::vec3> centers_of_rotation;     // [in] compute_centers_of_rotation, per vertex
+  std::span<const glm::vec3> in_positions;            // [in] rest positions (m)
+  std::span<const glm::vec3> in_normals;              // [in] optional
+  std::span<glm::vec3> out_positions;                 // [out]
+  std::span<glm::vec3> out_normals;                   // [out] as many as in_normals
 
   bool Validate() const;
   // Never allocates (with AVX2, per-frame tables of up to 256 joints' matrices and 64 joints'

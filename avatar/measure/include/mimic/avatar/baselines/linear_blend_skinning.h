@@ -17,12 +17,12 @@ namespace mimic::avatar::baselines {
 
 struct LinearBlendSkinningJob {
   std::span<const SkinningMatrix> skinning_matrices;  // [in] world_from_rest, one per joint
-  std::span<const uint16_t> joint_indices;       // [in] kInfluences per vertex
-  std::span<const float> joint_weights;          // [in] kInfluences per vertex, summing to 1
-  std::span<const glm::vec3> in_positions;       // [in] rest positions (m), one per vertex
-  std::span<const glm::vec3> in_normals;         // [in] optional: empty, or one per vertex
-  std::span<glm::vec3> out_positions;            // [out] world positions (m), one per vertex
-  std::span<glm::vec3> out_normals;              // [out] as many as in_normals
+  std::span<const uint16_t> joint_indices;            // [in] kInfluences per vertex
+  std::span<const float> joint_weights;               // [in] kInfluences per vertex, summing to 1
+  std::span<const glm::vec3> in_positions;            // [in] rest positions (m), one per vertex
+  std::span<const glm::vec3> in_normals;              // [in] optional: empty, or one per vertex
+  std::span<glm::vec3> out_positions;                 // [out] world positions (m), one per vertex
+  std::span<glm::vec3> out_normals;                   // [out] as many as in_normals
 
   // Shapes agree (indices are not range-checked per frame: validate_weights does that once).
   bool Validate() const;

@@ -37,7 +37,8 @@ Status validate_weights(const SkinWeights& weights, int joint_count, float toler
 // at the joint (so the two sides meet continuously). At most two influences per vertex.
 // `world_from_joint_rest`: the joints in the posture of `rest_positions_m` (forward_kinematics).
 // Allocates.
-SkinWeights weights_from_links(const rig::Skeleton& skeleton, std::span<const rig::RigidTransform> world_from_joint_rest,
+SkinWeights weights_from_links(const rig::Skeleton& skeleton,
+                               std::span<const rig::RigidTransform> world_from_joint_rest,
                                std::span<const glm::vec3> rest_positions_m, float blend_band_m = 0.06f);
 
 // The contour-derived influences of a skin (contour_skin_weights, RealtimeBody::weights) in the

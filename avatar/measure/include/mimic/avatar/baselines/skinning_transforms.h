@@ -31,11 +31,13 @@ SkinningMatrix to_skinning_matrix(const rig::RigidTransform& t);
 DualQuat to_dual_quat(const rig::RigidTransform& t);
 
 // joint_from_rest[j] = inverse(world_from_joint_rest[j]), once per body. Sizes must match.
-void invert_transforms(std::span<const rig::RigidTransform> world_from_joint_rest, std::span<rig::RigidTransform> joint_from_rest);
+void invert_transforms(std::span<const rig::RigidTransform> world_from_joint_rest,
+                       std::span<rig::RigidTransform> joint_from_rest);
 
 // The skinning transforms of one frame, written into the spans that are not empty (each either
 // empty or joint-sized). Never allocates.
-void skinning_transforms(std::span<const rig::RigidTransform> world_from_joint, std::span<const rig::RigidTransform> joint_from_rest,
-                         std::span<SkinningMatrix> matrices, std::span<DualQuat> dual_quats, std::span<glm::quat> rotations);
+void skinning_transforms(std::span<const rig::RigidTransform> world_from_joint,
+                         std::span<const rig::RigidTransform> joint_from_rest, std::span<SkinningMatrix> matrices,
+                         std::span<DualQuat> dual_quats, std::span<glm::quat> rotations);
 
 }  // namespace mimic::avatar::baselines
