@@ -115,6 +115,23 @@ struct Run {
   double reach_mm = 0;     // mean distance of the solved end effectors from their sensors' targets
 };
 
+// The solver's view of the layout: which sensor is on which segment, and where the wearer was
+// told to strap it (from its own layout table, matched by sensor name).
+Result<solver::SensorLayout> nominal_layout(const std::string& layout_name, const auto& mounts) {
+  const rig::Skeleton base = *rig::Skeleton::build(solver::tracking_skeleton_desc());
+  auto nominal = solver::standard_layout(layout_name, base);
+  if (!nominal) return tl::unexpected(nominal.error());
+  solver::SensorLayout layout;
+  layout.name = layout_name;
+  for (size_t i = 0; i < mounts.size(); ++i) {
+    solver::SensorBinding b{static_cast<uint16_t>(i), mounts[i].name, mounts[i].segment, glm::vec3(0.0f)};
+    for (const auto& nb : nominal->bindings)
+      if (nb.name == b.name) b.placement_m = nb.placement_m, b.link_fraction = nb.link_fraction;
+    layout.bindings.push_back(b);
+  }
+  return layout;
+}
+
 Run evaluate(const std::shared_ptr<const rig::Motion>& motion, double frame_time_s, const std::string& layout_name,
              const Settings& st) {
   const rig::Skeleton& truth = motion->skeleton();
@@ -126,21 +143,11 @@ Run evaluate(const std::shared_ptr<const rig::Motion>& motion, double frame_time
   for (auto& m : *mounts) {
     glm::vec3 axis(u(rng), u(rng), u(rng));
     if (glm::length(axis) < 1e-3f) axis = {0, 0, 1};
-    m.segment_from_sensor.rotation = glm::angleAxis(glm::radians(static_cast<float>(st.tilt_deg)) * u(rng), glm::normalize(axis));
+    m.segment_from_sensor.rotation =
+        glm::angleAxis(glm::radians(static_cast<float>(st.tilt_deg)) * u(rng), glm::normalize(axis));
   }
-  // The solver's view of the layout: which sensor is on which segment, and where the wearer
-  // was told to strap it (from its own layout table, matched by sensor name).
-  const rig::Skeleton base = *rig::Skeleton::build(solver::tracking_skeleton_desc());
-  auto nominal = solver::standard_layout(layout_name, base);
-  if (!nominal) return {{}, nominal.error().message};
-  solver::SensorLayout layout;
-  layout.name = layout_name;
-  for (size_t i = 0; i < mounts->size(); ++i) {
-    solver::SensorBinding b{static_cast<uint16_t>(i), (*mounts)[i].name, (*mounts)[i].segment, glm::vec3(0.0f)};
-    for (const auto& nb : nominal->bindings)
-      if (nb.name == b.name) b.placement_m = nb.placement_m, b.link_fraction = nb.link_fraction;
-    layout.bindings.push_back(b);
-  }
+  auto layout = nominal_layout(layout_name, *mounts);
+  if (!layout) return {{}, layout.error().message};
 
   sim::RigConfig cfg;
   cfg.sensors = *mounts;
@@ -159,7 +166,7 @@ Run evaluate(const std::shared_ptr<const rig::Motion>& motion, double frame_time
     cal_rig->step(tick);
     capture.insert(capture.end(), tick.begin(), tick.end());
   }
-  auto cal = solver::calibrate(solver::tracking_skeleton_desc(), layout, capture);
+  auto cal = solver::calibrate(solver::tracking_skeleton_desc(), *layout, capture);
   if (!cal) return {{}, "calibration failed: " + cal.error().message};
   solver::SolverOptions options;
   options.step = st.step;
@@ -195,7 +202,7 @@ Run evaluate(const std::shared_ptr<const rig::Motion>& motion, double frame_time
     rig->step(tick);
     const auto t0 = std::chrono::steady_clock::now();
     if (st.refine && refiner.add(tick, *model)) {  // raw samples, before the filters
-      if (auto next = refiner.rebuild()) {  // a new model and its scratch; the pose carries over
+      if (auto next = refiner.rebuild()) {         // a new model and its scratch; the pose carries over
         model = std::move(*next);
         ctx = std::make_unique<solver::SolverContext>(*model);
       }
@@ -229,7 +236,11 @@ Run evaluate(const std::shared_ptr<const rig::Motion>& motion, double frame_time
       gait.add(rig->true_world_from_joint(), solved_world);
     }
   }
-  return {acc.report(), {}, gait.report(), refiner.refined_limbs(), refiner.refined_joints(),
+  return {acc.report(),
+          {},
+          gait.report(),
+          refiner.refined_limbs(),
+          refiner.refined_joints(),
           reach_n > 0 ? 1000.0 * reach_sum_m / static_cast<double>(reach_n) : 0.0};
 }
 
@@ -317,10 +328,13 @@ int run_eval_solver(const std::vector<std::string>& argv) {
   const std::string name = base_name(*clip_path);
   const bool json = o.json;
   if (!json) {
-    std::printf("clip %s: %.2f s at %.0f Hz; noise %.2f mm / %.2f deg; mounting tilt up to %.0f deg; filter %s; limb refinement %s; seed %llu\n",
-                name.c_str(), shared->duration_s(), st.rate_hz, st.noise_mm, st.noise_deg, st.tilt_deg,
-                st.filter ? "on" : "off", st.refine ? "on" : "off", static_cast<unsigned long long>(st.seed));
-    std::printf("joint set: every joint but the toes; world space, no alignment. jitter = mean |p[t+1]-2p[t]+p[t-1]|\n");
+    std::printf(
+        "clip %s: %.2f s at %.0f Hz; noise %.2f mm / %.2f deg; mounting tilt up to %.0f deg; filter %s; limb "
+        "refinement %s; seed %llu\n",
+        name.c_str(), shared->duration_s(), st.rate_hz, st.noise_mm, st.noise_deg, st.tilt_deg,
+        st.filter ? "on" : "off", st.refine ? "on" : "off", static_cast<unsigned long long>(st.seed));
+    std::printf(
+        "joint set: every joint but the toes; world space, no alignment. jitter = mean |p[t+1]-2p[t]+p[t-1]|\n");
     std::printf("%-7s %7s %9s %10s %8s %8s %8s %8s %9s %11s %13s %11s %11s\n", "sensors", "frames", "mpjpe_cm",
                 "mpjre_deg", "ee_mm", "lower_cm", "skate_mm", "floor_mm", "steps", "jitter_mm", "(truth_mm)",
                 "solve_p50", "solve_p99");
@@ -387,6 +401,7 @@ int run_eval_solver(const std::vector<std::string>& argv) {
 
 }  // namespace
 
-MIMIC_COMMAND(eval_solver, "eval-solver", "measure the joint-angle solver on a BVH clip (MPJPE, MPJRE, jitter, time)", run_eval_solver);
+MIMIC_COMMAND(eval_solver, "eval-solver", "measure the joint-angle solver on a BVH clip (MPJPE, MPJRE, jitter, time)",
+              run_eval_solver);
 
 }  // namespace mimic::app

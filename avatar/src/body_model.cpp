@@ -13,12 +13,13 @@ namespace mimic::avatar {
 
 namespace {
 
-constexpr const char* kGroupNames[kGroupCount] = {
-    "upper_torso",     "lower_torso",     "hip",             "left_shoulder",  "right_shoulder",
-    "left_upper_arm",  "right_upper_arm", "left_lower_arm",  "right_lower_arm", "left_upper_leg",
-    "right_upper_leg", "left_lower_leg",  "right_lower_leg", "left_ankle",      "right_ankle"};
+constexpr const char* kGroupNames[kGroupCount] = {"upper_torso",     "lower_torso",     "hip",
+                                                  "left_shoulder",   "right_shoulder",  "left_upper_arm",
+                                                  "right_upper_arm", "left_lower_arm",  "right_lower_arm",
+                                                  "left_upper_leg",  "right_upper_leg", "left_lower_leg",
+                                                  "right_lower_leg", "left_ankle",      "right_ankle"};
 
-constexpr const char* kPartNames[kRigidPartCount + 1] = {"none",      "head",      "left_hand",
+constexpr const char* kPartNames[kRigidPartCount + 1] = {"none",       "head",      "left_hand",
                                                          "right_hand", "left_foot", "right_foot"};
 
 constexpr int kFormatVersion = 1;
@@ -52,12 +53,10 @@ PrimitiveState mirror_state(PrimitiveState s) {
   return s;
 }
 
-
 using nlohmann::json;
 
 double rounded(float v) { return json_rounded(v); }
 json vec(const glm::vec3& v) { return json_vec3(v); }
-
 
 // Defaults are left out: kind metaball, weight 1, zero orientation; a deformation state's centre
 // and orientation when they equal G0's.
@@ -74,7 +73,10 @@ json primitive_json(const Primitive& p) {
   json groups = json::array();
   for (int g = 0; g < kGroupCount; ++g)
     if (p.groups & (1u << g)) groups.push_back(kGroupNames[g]);
-  json pj{{"name", p.name}, {"joint", p.joint}, {"influence", rounded(p.influence)}, {"groups", groups},
+  json pj{{"name", p.name},
+          {"joint", p.joint},
+          {"influence", rounded(p.influence)},
+          {"groups", groups},
           {"state", state_json(p.state)}};
   if (p.kind != PrimitiveKind::metaball) pj["kind"] = "ellipsoid";
   if (rounded(p.weight) != 1.0) pj["weight"] = rounded(p.weight);
@@ -95,7 +97,6 @@ PrimitiveState read_state(JsonReader& r, const json& obj, const std::string& pat
   s.orientation_rad = glm::radians(r.vec3(obj, path, "orientation_deg", glm::degrees(fallback.orientation_rad)));
   return s;
 }
-
 
 }  // namespace
 
@@ -188,8 +189,7 @@ Status validate(const BodyModel& model) {
     if (!(covered & (1u << g)))
       return fail(Errc::invalid_argument, std::string("group '") + kGroupNames[g] + "' has no primitive");
   const SkinLayout& s = model.skin;
-  if (s.torso_points != 2 * s.chest_front_arc + 2 * s.chest_side_arc ||
-      s.chest_front_arc < 2 || s.chest_side_arc < 2)
+  if (s.torso_points != 2 * s.chest_front_arc + 2 * s.chest_side_arc || s.chest_front_arc < 2 || s.chest_side_arc < 2)
     return fail(Errc::invalid_argument,
                 "skin: torso_points must equal 2*chest_front_arc + 2*chest_side_arc (front and back "
                 "arcs have chest_front_arc segments each), both at least 2");
@@ -212,7 +212,8 @@ Status validate(const BodyModel& model) {
                          {s.upper_leg_contours, "upper_leg_contours"}})
     if (n < k + 3)
       return fail(Errc::invalid_argument, std::string("skin: ") + what + " must exceed boundary_contours + 2");
-  for (auto [n, what] : {std::pair{s.neck_points, "neck_points"}, {s.arm_points, "arm_points"}, {s.leg_points, "leg_points"}})
+  for (auto [n, what] :
+       {std::pair{s.neck_points, "neck_points"}, {s.arm_points, "arm_points"}, {s.leg_points, "leg_points"}})
     if (n != 0 && (n < 3 || n > 512))
       return fail(Errc::invalid_argument, std::string("skin: ") + what + " must be 0 (the loop's) or in [3, 512]");
   if (s.rigid_rings < 3 || s.rigid_points < 4 || s.rigid_rings > 256 || s.rigid_points > 256)
@@ -240,7 +241,8 @@ std::string to_json(const BodyModel& model, bool pretty) {
     if (p.name.rfind("l_", 0) == 0) {
       const json twin = primitive_json(mirrored(p));
       for (size_t k = 0; k < model.primitives.size(); ++k)
-        if (!written_as_mirror[k] && model.primitives[k].name == twin["name"] && primitive_json(model.primitives[k]) == twin) {
+        if (!written_as_mirror[k] && model.primitives[k].name == twin["name"] &&
+            primitive_json(model.primitives[k]) == twin) {
           written_as_mirror[k] = 1;
           pj["mirror"] = true;
           break;
@@ -250,10 +252,9 @@ std::string to_json(const BodyModel& model, bool pretty) {
   }
   j["primitives"] = prims;
   const SkinLayout& s = model.skin;
-  j["skin"] = json{{"pieces", json::array({"neck", "upper_torso", "lower_torso", "left_upper_arm",
-                                           "right_upper_arm", "left_lower_arm", "right_lower_arm",
-                                           "left_upper_leg", "right_upper_leg", "left_lower_leg",
-                                           "right_lower_leg"})},
+  j["skin"] = json{{"pieces", json::array({"neck", "upper_torso", "lower_torso", "left_upper_arm", "right_upper_arm",
+                                           "left_lower_arm", "right_lower_arm", "left_upper_leg", "right_upper_leg",
+                                           "left_lower_leg", "right_lower_leg"})},
                    {"torso_points", s.torso_points},
                    {"chest_front_arc", s.chest_front_arc},
                    {"chest_side_arc", s.chest_side_arc},
@@ -274,9 +275,36 @@ std::string to_json(const BodyModel& model, bool pretty) {
                    {"neck_start", rounded(s.neck_start)}};
   // Per-limb point counts only when set (a layout made by skin_layout_for_lods), so files of
   // ordinary bodies stay as they were.
-  for (auto [n, key] : {std::pair{s.neck_points, "neck_points"}, {s.arm_points, "arm_points"}, {s.leg_points, "leg_points"}})
+  for (auto [n, key] :
+       {std::pair{s.neck_points, "neck_points"}, {s.arm_points, "arm_points"}, {s.leg_points, "leg_points"}})
     if (n != 0) j["skin"][key] = n;
   return j.dump(pretty ? 1 : -1, ' ');
+}
+
+// The optional "skin" section: the contour layout's counts (docs/body-model.md).
+void read_skin_layout(const json& sj, JsonReader& r, SkinLayout& s) {
+  const std::string path = "$.skin";
+  s.torso_points = r.integer(sj, path, "torso_points", s.torso_points);
+  s.chest_front_arc = r.integer(sj, path, "chest_front_arc", s.chest_front_arc);
+  s.chest_side_arc = r.integer(sj, path, "chest_side_arc", s.chest_side_arc);
+  s.shoulder_bridge = r.integer(sj, path, "shoulder_bridge", s.shoulder_bridge);
+  s.crotch_bridge = r.integer(sj, path, "crotch_bridge", s.crotch_bridge);
+  s.lower_torso_contours = r.integer(sj, path, "lower_torso_contours", s.lower_torso_contours);
+  s.upper_torso_contours = r.integer(sj, path, "upper_torso_contours", s.upper_torso_contours);
+  s.neck_contours = r.integer(sj, path, "neck_contours", s.neck_contours);
+  s.upper_arm_contours = r.integer(sj, path, "upper_arm_contours", s.upper_arm_contours);
+  s.lower_arm_contours = r.integer(sj, path, "lower_arm_contours", s.lower_arm_contours);
+  s.upper_leg_contours = r.integer(sj, path, "upper_leg_contours", s.upper_leg_contours);
+  s.lower_leg_contours = r.integer(sj, path, "lower_leg_contours", s.lower_leg_contours);
+  s.boundary_contours = r.integer(sj, path, "boundary_contours", s.boundary_contours);
+  s.neck_points = r.integer(sj, path, "neck_points", s.neck_points);
+  s.arm_points = r.integer(sj, path, "arm_points", s.arm_points);
+  s.leg_points = r.integer(sj, path, "leg_points", s.leg_points);
+  s.rigid_rings = r.integer(sj, path, "rigid_rings", s.rigid_rings);
+  s.rigid_points = r.integer(sj, path, "rigid_points", s.rigid_points);
+  s.crotch_drop_m = r.number(sj, path, "crotch_drop_m", s.crotch_drop_m);
+  s.chest_ring = r.number(sj, path, "chest_ring", s.chest_ring);
+  s.neck_start = r.number(sj, path, "neck_start", s.neck_start);
 }
 
 Result<BodyModel> body_model_from_json(std::string_view text, std::string_view source_name) {
@@ -314,9 +342,12 @@ Result<BodyModel> body_model_from_json(std::string_view text, std::string_view s
       p.name = r.string(pj, path, "name", true);
       p.joint = r.string(pj, path, "joint", true);
       const std::string kind = r.string(pj, path, "kind", false, "metaball");
-      if (kind == "metaball") p.kind = PrimitiveKind::metaball;
-      else if (kind == "ellipsoid") p.kind = PrimitiveKind::ellipsoid;
-      else r.fail_at(path + ".kind", "expected \"metaball\" or \"ellipsoid\", got \"" + kind + "\"");
+      if (kind == "metaball")
+        p.kind = PrimitiveKind::metaball;
+      else if (kind == "ellipsoid")
+        p.kind = PrimitiveKind::ellipsoid;
+      else
+        r.fail_at(path + ".kind", "expected \"metaball\" or \"ellipsoid\", got \"" + kind + "\"");
       p.weight = r.number(pj, path, "weight", 1.0f);
       p.influence = r.number(pj, path, "influence", 1.6f);
       if (const json* groups = r.member(pj, path, "groups", false); groups) {
@@ -324,23 +355,31 @@ Result<BodyModel> body_model_from_json(std::string_view text, std::string_view s
         for (size_t g = 0; r.ok() && groups->is_array() && g < groups->size(); ++g) {
           const json& gj = (*groups)[g];
           auto grp = gj.is_string() ? group_from_name(gj.get<std::string>()) : std::nullopt;
-          if (!grp) r.fail_at(path + ".groups[" + std::to_string(g) + "]", "unknown group " + gj.dump());
-          else p.groups |= group_bit(*grp);
+          if (!grp)
+            r.fail_at(path + ".groups[" + std::to_string(g) + "]", "unknown group " + gj.dump());
+          else
+            p.groups |= group_bit(*grp);
         }
       }
       const std::string part = r.string(pj, path, "part", false, "none");
-      if (auto rp = rigid_part_from_name(part)) p.part = *rp;
-      else r.fail_at(path + ".part", "unknown rigid part \"" + part + "\"");
+      if (auto rp = rigid_part_from_name(part))
+        p.part = *rp;
+      else
+        r.fail_at(path + ".part", "unknown rigid part \"" + part + "\"");
       if (const json* st = r.member(pj, path, "state", true); st && r.ok())
         p.state = read_state(r, *st, path + ".state", PrimitiveState{});
       if (const json* dj = r.member(pj, path, "deformation", false); dj && r.ok()) {
         Deformation d;
         d.dof = r.string(*dj, path + ".deformation", "dof", true);
         const std::string f = r.string(*dj, path + ".deformation", "falloff", false, "linear");
-        if (f == "linear") d.falloff = Falloff::linear;
-        else if (f == "parabolic") d.falloff = Falloff::parabolic;
-        else if (f == "hyperbolic") d.falloff = Falloff::hyperbolic;
-        else r.fail_at(path + ".deformation.falloff", "expected linear, parabolic or hyperbolic");
+        if (f == "linear")
+          d.falloff = Falloff::linear;
+        else if (f == "parabolic")
+          d.falloff = Falloff::parabolic;
+        else if (f == "hyperbolic")
+          d.falloff = Falloff::hyperbolic;
+        else
+          r.fail_at(path + ".deformation.falloff", "expected linear, parabolic or hyperbolic");
         if (const json* mn = r.member(*dj, path + ".deformation", "min", true); mn && r.ok())
           d.at_min = read_state(r, *mn, path + ".deformation.min", p.state);
         if (const json* mx = r.member(*dj, path + ".deformation", "max", true); mx && r.ok())
@@ -348,41 +387,19 @@ Result<BodyModel> body_model_from_json(std::string_view text, std::string_view s
         p.deformation = d;
       }
       if (const json* mj = r.member(pj, path, "mirror", false); mj) {
-        if (!mj->is_boolean()) r.fail_at(path + ".mirror", "expected true or false");
+        if (!mj->is_boolean())
+          r.fail_at(path + ".mirror", "expected true or false");
         else if (mj->get<bool>() && p.name.rfind("l_", 0) != 0)
           r.fail_at(path + ".mirror", "only a left-side (\"l_…\") primitive can be mirrored");
-        else if (mj->get<bool>()) mirrors.push_back(mirrored(p));
+        else if (mj->get<bool>())
+          mirrors.push_back(mirrored(p));
       }
       m.primitives.push_back(std::move(p));
     }
     for (Primitive& q : mirrors) m.primitives.push_back(std::move(q));
   }
 
-  if (const json* sj = r.member(root, "$", "skin", false); sj && r.ok()) {
-    SkinLayout& s = m.skin;
-    const std::string path = "$.skin";
-    s.torso_points = r.integer(*sj, path, "torso_points", s.torso_points);
-    s.chest_front_arc = r.integer(*sj, path, "chest_front_arc", s.chest_front_arc);
-    s.chest_side_arc = r.integer(*sj, path, "chest_side_arc", s.chest_side_arc);
-    s.shoulder_bridge = r.integer(*sj, path, "shoulder_bridge", s.shoulder_bridge);
-    s.crotch_bridge = r.integer(*sj, path, "crotch_bridge", s.crotch_bridge);
-    s.lower_torso_contours = r.integer(*sj, path, "lower_torso_contours", s.lower_torso_contours);
-    s.upper_torso_contours = r.integer(*sj, path, "upper_torso_contours", s.upper_torso_contours);
-    s.neck_contours = r.integer(*sj, path, "neck_contours", s.neck_contours);
-    s.upper_arm_contours = r.integer(*sj, path, "upper_arm_contours", s.upper_arm_contours);
-    s.lower_arm_contours = r.integer(*sj, path, "lower_arm_contours", s.lower_arm_contours);
-    s.upper_leg_contours = r.integer(*sj, path, "upper_leg_contours", s.upper_leg_contours);
-    s.lower_leg_contours = r.integer(*sj, path, "lower_leg_contours", s.lower_leg_contours);
-    s.boundary_contours = r.integer(*sj, path, "boundary_contours", s.boundary_contours);
-    s.neck_points = r.integer(*sj, path, "neck_points", s.neck_points);
-    s.arm_points = r.integer(*sj, path, "arm_points", s.arm_points);
-    s.leg_points = r.integer(*sj, path, "leg_points", s.leg_points);
-    s.rigid_rings = r.integer(*sj, path, "rigid_rings", s.rigid_rings);
-    s.rigid_points = r.integer(*sj, path, "rigid_points", s.rigid_points);
-    s.crotch_drop_m = r.number(*sj, path, "crotch_drop_m", s.crotch_drop_m);
-    s.chest_ring = r.number(*sj, path, "chest_ring", s.chest_ring);
-    s.neck_start = r.number(*sj, path, "neck_start", s.neck_start);
-  }
+  if (const json* sj = r.member(root, "$", "skin", false); sj && r.ok()) read_skin_layout(*sj, r, m.skin);
   if (!r.ok()) return fail(Errc::parse_error, r.error());
   if (auto st = validate(m); !st) return fail(Errc::parse_error, src + ": " + st.error().message);
   return m;

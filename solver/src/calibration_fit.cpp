@@ -18,18 +18,12 @@ namespace {
 
 constexpr float kPi = 3.14159265358979f;
 
-constexpr const char* kLandmarkNames[kLandmarkCount] = {
-    "pelvis",     "spine_mid", "spine_upper", "head",
-    "l_shoulder", "l_elbow",   "l_wrist",     "l_hip", "l_knee", "l_ankle",
-    "r_shoulder", "r_elbow",   "r_wrist",     "r_hip", "r_knee", "r_ankle"};
-
 void scale_desc(SkeletonDesc& d, float k) {
   for (auto& j : d.joints) {
     j.offset_m *= k;
     j.tip_m *= k;
   }
 }
-
 
 // Sensors strapped at a known fraction f along their segment's link (layout "all": the middle)
 // mark both ends of it only together: s = near + f·(far − near). Walking up each leg from the
@@ -104,7 +98,9 @@ void mark_by_link_fractions(const Skeleton& base, const std::vector<SensorStats>
         pos[k] = pos[j], known[k] = 1, a[k] = a[j], from_root[k] = from_root[j];
   };
   reach_origin_children(0);
-  struct Link { int near, far; };
+  struct Link {
+    int near, far;
+  };
   std::vector<Link> links;
   for (int pass = 0; pass < n; ++pass) {
     bool more = false;
@@ -133,8 +129,9 @@ void mark_by_link_fractions(const Skeleton& base, const std::vector<SensorStats>
       if (std::abs(g) < 1e-4f || is_zero(base.tip_m(l.near))) continue;
       // In an N-pose the arms hang: only the trunk's and legs' links have their zero-pose direction.
       const std::string& near_name = base.joint_name(l.near);
-      if (!arms_spread && (near_name.find("clavicle") != std::string::npos || near_name.find("shoulder") != std::string::npos ||
-                           near_name.find("elbow") != std::string::npos || near_name.find("wrist") != std::string::npos))
+      if (!arms_spread &&
+          (near_name.find("clavicle") != std::string::npos || near_name.find("shoulder") != std::string::npos ||
+           near_name.find("elbow") != std::string::npos || near_name.find("wrist") != std::string::npos))
         continue;
       const glm::vec3 v0 = pos[l.far] - pos[l.near];
       const glm::vec3 want = glm::length(v0) * (heading * glm::normalize(base.tip_m(l.near)));
@@ -160,8 +157,12 @@ class BodyFitter {
  public:
   BodyFitter(const SkeletonDesc& base, const std::vector<SensorStats>& stats, const glm::quat& heading,
              const CalibrationOptions& opt)
-      : base_skeleton_(*Skeleton::build(base)), stats_(stats), heading_(heading), opt_(opt),
-        marks_(base_skeleton_), by_fraction_(base_skeleton_) {
+      : base_skeleton_(*Skeleton::build(base)),
+        stats_(stats),
+        heading_(heading),
+        opt_(opt),
+        marks_(base_skeleton_),
+        by_fraction_(base_skeleton_) {
     out_.desc = base;
   }
 
@@ -186,7 +187,8 @@ class BodyFitter {
   // Where the root sits: the pelvis sensor, else hanging below the head.
   glm::vec3 root_position(const Skeleton& sk, const std::vector<RigidTransform>& wz) const {
     if (marks_.has(Landmark::pelvis)) return marks_.at(Landmark::pelvis);
-    if (marks_.has(Landmark::head)) return marks_.at(Landmark::head) - heading_ * (jpos(sk, wz, "head") - wz[0].translation);
+    if (marks_.has(Landmark::head))
+      return marks_.at(Landmark::head) - heading_ * (jpos(sk, wz, "head") - wz[0].translation);
     return glm::vec3(0, rig::standing_root_height_m(sk) + opt_.floor_y_m, 0);
   }
   // Joint position of the fitted skeleton standing at `root_`.
@@ -262,7 +264,9 @@ void BodyFitter::fit_trunk() {
       const float upper_y = glm::dot(m.at(Landmark::spine_upper) - pelvis, up);
       prop.spine_lower_m = std::clamp(mid_y, 0.03f, 0.4f);
       prop.spine_mid_m = std::clamp(upper_y - mid_y, 0.03f, 0.4f);
-      if (prop.spine_upper_m > 0) prop.spine_upper_m *= std::clamp((want - upper_y) / std::max(0.05f, prop.spine_upper_m + prop.neck_m), 0.3f, 2.5f);
+      if (prop.spine_upper_m > 0)
+        prop.spine_upper_m *=
+            std::clamp((want - upper_y) / std::max(0.05f, prop.spine_upper_m + prop.neck_m), 0.3f, 2.5f);
       prop.neck_m = std::clamp(want - upper_y - prop.spine_upper_m, 0.03f, 0.5f);
     } else if (m.has(Landmark::spine_upper)) {
       const float lower_want = glm::dot(m.at(Landmark::spine_upper) - pelvis, up);
@@ -281,7 +285,8 @@ void BodyFitter::fit_trunk() {
   }
   if (m.has(Landmark::l_shoulder) && m.has(Landmark::r_shoulder))
     prop.shoulder_width_m = glm::length(m.at(Landmark::l_shoulder) - m.at(Landmark::r_shoulder));
-  if (m.has(Landmark::l_hip) && m.has(Landmark::r_hip)) prop.hip_width_m = glm::length(m.at(Landmark::l_hip) - m.at(Landmark::r_hip));
+  if (m.has(Landmark::l_hip) && m.has(Landmark::r_hip))
+    prop.hip_width_m = glm::length(m.at(Landmark::l_hip) - m.at(Landmark::r_hip));
   rig::apply_proportions(out_.desc, prop);
 }
 
@@ -312,7 +317,8 @@ void BodyFitter::place_hips_and_shoulders() {
   if (m.has(Landmark::pelvis)) {
     PairOffsets hips;
     if (m.has(Landmark::l_hip)) hips.push_back({true, inv_h * (m.at(Landmark::l_hip) - m.at(Landmark::pelvis))});
-    if (m.has(Landmark::r_hip)) hips.push_back({false, mirror(inv_h * (m.at(Landmark::r_hip) - m.at(Landmark::pelvis)))});
+    if (m.has(Landmark::r_hip))
+      hips.push_back({false, mirror(inv_h * (m.at(Landmark::r_hip) - m.at(Landmark::pelvis)))});
     set_pair_offset("hip", hips);
   }
   if (m.has(Landmark::l_shoulder) || m.has(Landmark::r_shoulder)) {
@@ -404,16 +410,18 @@ void BodyFitter::fit_each_limb(int n_arm, int n_leg) {
   };
   for (int side = 0; side < 2; ++side) {
     for (const auto& [upper, mid, end, both] :
-         {std::tuple{sided(side, Landmark::l_shoulder), sided(side, Landmark::l_elbow), sided(side, Landmark::l_wrist), n_arm == 2},
-          std::tuple{sided(side, Landmark::l_hip), sided(side, Landmark::l_knee), sided(side, Landmark::l_ankle), n_leg == 2}}) {
+         {std::tuple{sided(side, Landmark::l_shoulder), sided(side, Landmark::l_elbow), sided(side, Landmark::l_wrist),
+                     n_arm == 2},
+          std::tuple{sided(side, Landmark::l_hip), sided(side, Landmark::l_knee), sided(side, Landmark::l_ankle),
+                     n_leg == 2}}) {
       if (!both || !marks_.has(end)) continue;
       // With the middle joint marked too, each link as marked (a bent limb's links are longer
       // than the straight line between its ends); else the straight line, split as before.
       const bool mid_marked = marks_.has(mid) && fraction_of(upper) && fraction_of(mid);
       const float upper_m = mid_marked ? glm::length(marks_.at(mid) - placed(landmark_name(upper))) : 0.0f;
       const float lower_m = mid_marked ? glm::length(marks_.at(end) - marks_.at(mid)) : 0.0f;
-      const float total = mid_marked ? std::clamp(upper_m + lower_m, 0.2f, 1.5f)
-                                     : std::clamp(limb_length(upper, end), 0.2f, 1.5f);
+      const float total =
+          mid_marked ? std::clamp(upper_m + lower_m, 0.2f, 1.5f) : std::clamp(limb_length(upper, end), 0.2f, 1.5f);
       const float share = mid_marked && upper_m + lower_m > 0.1f ? upper_m / (upper_m + lower_m) : -1.0f;
       rig::JointDesc* jm = find_desc(landmark_name(mid));
       rig::JointDesc* je = find_desc(landmark_name(end));
@@ -489,7 +497,8 @@ void BodyFitter::fit_posture_to_marks() {
     if (moves_a_mark[static_cast<size_t>(j)] || s.dof_begin(j) == s.dof_end(j)) continue;
     const std::string& name = s.joint_name(j);
     if (name.find("wrist") != std::string::npos || name.find("toes") != std::string::npos) {
-      for (int d = s.dof_begin(j); d < s.dof_end(j); ++d) held[static_cast<size_t>(d)] = 1;  // in line with the forearm, foot
+      for (int d = s.dof_begin(j); d < s.dof_end(j); ++d)
+        held[static_cast<size_t>(d)] = 1;  // in line with the forearm, foot
     } else {
       targets.push_back(IkTarget{j, {}, heading_, 0.0f, 3.0f});
     }
@@ -526,7 +535,8 @@ Fit BodyFitter::finish() {
   if (marks_.has(Landmark::l_ankle) || marks_.has(Landmark::r_ankle)) {
     const glm::vec3 a = marks_.has(Landmark::l_ankle) ? marks_.at(Landmark::l_ankle) : marks_.at(Landmark::r_ankle);
     const auto wp = pose_world(s, out_.pose);
-    floor = a.y - (wp[s.find_joint("l_ankle")].translation.y - (out_.pose.root_position_m.y - rig::standing_root_height_m(s)));
+    floor = a.y - (wp[s.find_joint("l_ankle")].translation.y -
+                   (out_.pose.root_position_m.y - rig::standing_root_height_m(s)));
   }
   out_.height_m = marks_.has(Landmark::head) ? head_top - floor : 0.0f;
   out_.floor_y_m = floor;
@@ -534,36 +544,6 @@ Fit BodyFitter::finish() {
 }
 
 }  // namespace
-
-const char* landmark_name(Landmark l) { return kLandmarkNames[static_cast<size_t>(l)]; }
-
-JointMarks::JointMarks(const Skeleton& skeleton)
-    : pos_(static_cast<size_t>(skeleton.joint_count()), glm::vec3(0.0f)),
-      present_(static_cast<size_t>(skeleton.joint_count()), 0) {
-  for (int l = 0; l < kLandmarkCount; ++l) joint_of_[static_cast<size_t>(l)] = skeleton.find_joint(kLandmarkNames[l]);
-}
-
-glm::vec3 JointMarks::at(Landmark l) const {
-  if (!has(l)) throw std::logic_error(std::string("calibration: no mark for ") + landmark_name(l));
-  return pos_[static_cast<size_t>(joint_of_[static_cast<size_t>(l)])];
-}
-
-void JointMarks::set(Landmark l, const glm::vec3& p) {
-  const int j = joint_of_[static_cast<size_t>(l)];
-  if (j < 0) throw std::logic_error(std::string("calibration: the skeleton has no joint ") + landmark_name(l));
-  set_joint(j, p);
-}
-
-glm::vec3 JointMarks::at_joint(int j) const {
-  if (!has_joint(j)) throw std::logic_error("calibration: no mark for joint " + std::to_string(j));
-  return pos_[static_cast<size_t>(j)];
-}
-
-void JointMarks::set_joint(int j, const glm::vec3& p) {
-  if (j < 0 || j >= joint_count()) throw std::logic_error("calibration: no joint " + std::to_string(j) + " to mark");
-  pos_[static_cast<size_t>(j)] = p;
-  present_[static_cast<size_t>(j)] = 1;
-}
 
 std::vector<RigidTransform> pose_world(const Skeleton& s, const Pose& pose) {
   std::vector<RigidTransform> w(s.joint_count());

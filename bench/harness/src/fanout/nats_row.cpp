@@ -89,7 +89,7 @@ class Broker {
     if (bin.empty() || !::mkdtemp(tmpl)) return fail(Errc::io_error, "fan-out nats: cannot set up nats-server");
     dir_ = tmpl;
     std::ofstream(dir_ + "/nats.conf") << "host: 127.0.0.1\nport: -1\nports_file_dir: \"" << dir_
-                                        << "\"\njetstream { store_dir: \"" << dir_ << "/js\" }\n";
+                                       << "\"\njetstream { store_dir: \"" << dir_ << "/js\" }\n";
     std::vector<std::string> args = {bin, "-c", dir_ + "/nats.conf", "-l", dir_ + "/nats.log"};
     std::vector<char*> argv;
     for (auto& a : args) argv.push_back(a.data());
@@ -130,6 +130,14 @@ auto on_server(Server& srv, F fn) {
   auto result = p->get_future();
   srv.dispatch([p, fn] { p->set_value(fn()); });
   return result.get();
+}
+
+// Realtime: every thread on the path, the broker's included; the receivers (started next) put
+// themselves one below.
+void realtime_path(pid_t broker, int priority) {
+  if (priority <= 0) return;
+  set_process_threads_fifo(broker, priority);
+  set_process_threads_fifo(::getpid(), priority);
 }
 
 }  // namespace
@@ -180,15 +188,12 @@ Result<FanoutCapacity> measure_nats(const FanoutOptions& o) {
     return fail(Errc::timeout, "fan-out nats: the relay did not get every model from the broker");
 
   Swarm swarm;
-  const ServerAccess access{[](Clock::duration d) { std::this_thread::sleep_for(std::max(d, Clock::duration(std::chrono::microseconds(200)))); },
+  const ServerAccess access{[](Clock::duration d) {
+                              std::this_thread::sleep_for(std::max(d, Clock::duration(std::chrono::microseconds(200))));
+                            },
                             [&] { return on_server(srv, [&] { return srv.stats(); }); }};
   if (auto st = swarm.join(o, srv.port(), false, access); !st) return tl::unexpected(st.error());
-  // Realtime: every thread on the path, the broker's included; the receivers (started next)
-  // put themselves one below.
-  if (o.realtime_priority > 0) {
-    set_process_threads_fifo(broker.pid(), o.realtime_priority);
-    set_process_threads_fifo(::getpid(), o.realtime_priority);
-  }
+  realtime_path(broker.pid(), o.realtime_priority);
   swarm.start_receiving(o);
 
   const auto period = std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / o.rate_hz));
@@ -224,7 +229,8 @@ Result<FanoutCapacity> measure_nats(const FanoutOptions& o) {
   // ticks' grace for the frames in flight), the relay's fan-out times and rate in it. A relay
   // that fell behind catches up afterwards, and counting that made such a row say "kept up".
   const auto window_end = Clock::now() + std::max(3 * period, Clock::duration(std::chrono::milliseconds(50)));
-  while (swarm.frames() < expected && Clock::now() < window_end) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  while (swarm.frames() < expected && Clock::now() < window_end)
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
   m.frames_received = int64_t(swarm.frames());
   m.lost = int64_t(swarm.lost());
   const auto times = on_server(srv, [&] { return srv.fanout_times(); });
@@ -233,7 +239,8 @@ Result<FanoutCapacity> measure_nats(const FanoutOptions& o) {
               (*publisher)->stats().frames_dropped + relay_link.frames_dropped - link_before;
   // Then the rest drains before the subscribers stop (not counted).
   const auto drain_deadline = Clock::now() + std::chrono::seconds(5);
-  while (swarm.frames() < expected && Clock::now() < drain_deadline) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  while (swarm.frames() < expected && Clock::now() < drain_deadline)
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
   swarm.stop();
   if (o.realtime_priority > 0) set_process_threads_fifo(::getpid(), 0);
 
