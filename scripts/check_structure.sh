@@ -6,7 +6,12 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 max_file=${MIMIC_MAX_FILE_LINES:-600}
 max_function=${MIMIC_MAX_FUNCTION_LINES:-120}
-mapfile -t files < <(git ls-files -- '*.cpp' '*.h' | grep -vE '^(tests|fuzz)/')
+if git rev-parse --is-inside-work-tree > /dev/null 2>&1; then
+  mapfile -t files < <(git ls-files -- '*.cpp' '*.h' | grep -vE '^(tests|fuzz)/')
+else  # an exported tree: every source below the product's folders
+  mapfile -t files < <(find . -path ./build -prune -o -path './build-*' -prune -o \( -name '*.cpp' -o -name '*.h' \) -print |
+    sed 's|^\./||' | grep -vE '^(tests|fuzz|examples)/' | sort)
+fi
 breaches=0
 for f in "${files[@]}"; do
   [[ -f $f ]] || continue

@@ -48,16 +48,14 @@ constexpr const char* kAbout =
     "stderr says when that happens.";
 
 struct Options {
-  int birds = 1, baud = 115200;
+  sim::VirtualFlockConfig flock;  // birds, baud, seed, rate, faults and busy window, as parsed
   std::string motion, bvh, log;
   bool ert = false, no_ert = false;
-  uint64_t seed = 1;
-  double rate_hz = 103.3, faults = 0, busy_s = 0.35;
 };
 
 std::optional<int> parse(cli::Parser& p, const std::vector<std::string>& argv, Options& o) {
   p->footer("Try: mimic sim flock --birds 4 &   then open flock:<path>?birds=4");
-  p->add_option("--birds", o.birds, "sensors (13 at most with --ert); 1 without --ert is a standalone unit")
+  p->add_option("--birds", o.flock.birds, "sensors (13 at most with --ert); 1 without --ert is a standalone unit")
       ->check(CLI::Range(1, 14));
   auto* motion = p->add_option("--motion", o.motion,
                                "built-in motion of the sensor rig. Without --motion or --bvh every\n"
@@ -66,27 +64,27 @@ std::optional<int> parse(cli::Parser& p, const std::vector<std::string>& argv, O
   p->add_option("--bvh", o.bvh, "a BVH clip retargeted onto Mimic's skeleton (does not loop)")
       ->type_name("CLIP")
       ->excludes(motion);
-  p->add_option("--baud", o.baud, "the line's rate; the driver must use the same")
+  p->add_option("--baud", o.flock.baud, "the line's rate; the driver must use the same")
       ->check(CLI::IsMember({2400, 4800, 9600, 19200, 38400, 57600, 115200}));
   auto* ert = p->add_flag("--ert", o.ert,
                           "an extended range controller at FBB address 1 (144 in full scale); the\n"
                           "birds follow at addresses 2..N+1. Default: only when the motion needs it");
   p->add_flag("--no-ert", o.no_ert, "standard range (36 in) even when the motion needs more")->excludes(ert);
-  p->add_option("--seed", o.seed, "seed of the motion and of line faults");
+  p->add_option("--seed", o.flock.seed, "seed of the motion and of line faults");
   p->add_option("--log", o.log,
                 "write a Mimic log (*.mlog): the poses served (ground truth, one sample\n"
                 "per bird per record, on the simulator's clock) and every byte that\n"
                 "crossed the line in either direction")
       ->type_name("FILE");
-  p->add_option("--rate", o.rate_hz, "measurement rate in Hz")->check(cli::finite_range(14, 144));
-  p->add_option("--faults", o.faults,
+  p->add_option("--rate", o.flock.measurement_rate_hz, "measurement rate in Hz")->check(cli::finite_range(14, 144));
+  p->add_option("--faults", o.flock.fault_rate,
                 "probability per record of a line fault: a lost byte, a stray phased\n"
                 "byte, a cut record")
       ->check(cli::finite_range(0, 1));
-  p->add_option("--busy", o.busy_s, "seconds the master ignores commands after auto-configuration")
+  p->add_option("--busy", o.flock.auto_config_busy_s, "seconds the master ignores commands after auto-configuration")
       ->check(cli::finite_range(0, 60));
   if (auto exit_code = p.parse(argv)) return exit_code;
-  if (o.ert && o.birds > 13) return p.usage_error("--birds must be 1-13 with --ert (the ERC takes an address)");
+  if (o.ert && o.flock.birds > 13) return p.usage_error("--birds must be 1-13 with --ert (the ERC takes an address)");
   return std::nullopt;
 }
 
@@ -149,22 +147,22 @@ std::optional<int> ride_motion(const Options& o, const cli::Parser& p, sim::Virt
   std::vector<sim::SensorMount> mounts;
   for (const char* layout : {"3", "6", "11", "all"}) {
     auto l = sim::make_layout(layout, (*motion)->skeleton());
-    if (l && l->size() >= static_cast<size_t>(o.birds)) {
-      mounts.assign(l->begin(), l->begin() + o.birds);
+    if (l && l->size() >= static_cast<size_t>(o.flock.birds)) {
+      mounts.assign(l->begin(), l->begin() + o.flock.birds);
       break;
     }
   }
-  if (mounts.empty()) return p.failure("no sensor layout has " + std::to_string(o.birds) + " sensors");
+  if (mounts.empty()) return p.failure("no sensor layout has " + std::to_string(o.flock.birds) + " sensors");
   for (const auto& m : mounts) scene.sensor_names.push_back(m.name);
   sim::RigConfig rc;
   rc.sensors = std::move(mounts);
-  rc.rate_hz = o.rate_hz;
-  rc.seed = o.seed;
+  rc.rate_hz = o.flock.measurement_rate_hz;
+  rc.seed = o.flock.seed;
   auto placement = place_for_motion(*motion, rc);
   if (!placement) return p.failure(placement.error().what());
   scene.world_from_transmitter = placement->world_from_transmitter;
   if (!placement->fits_standard() && !o.ert && !o.no_ert) {
-    if (o.birds + 1 > 14) return p.usage_error("this motion needs --ert, which leaves room for 13 birds");
+    if (o.flock.birds + 1 > 14) return p.usage_error("this motion needs --ert, which leaves room for 13 birds");
     scene.ert = true;
     std::fprintf(stderr,
                  "mimic sim flock: the motion spans %.2f m from the transmitter, beyond the standard\n"
@@ -181,7 +179,7 @@ std::optional<int> ride_motion(const Options& o, const cli::Parser& p, sim::Virt
   auto rig = sim::SensorRig::create(*motion, std::move(rc));
   if (!rig) return p.failure(rig.error().what());
   auto state = std::make_shared<RigProvider>(RigProvider{std::move(*rig), {}});
-  state->tick.resize(static_cast<size_t>(o.birds));
+  state->tick.resize(static_cast<size_t>(o.flock.birds));
   cfg.provider = [state](double t_s, int bird, devices::SensorSample& out) {
     while (state->rig.next_device_time_s() <= t_s) state->rig.step(state->tick);
     const auto& s = state->tick[static_cast<size_t>(bird)];
@@ -200,18 +198,19 @@ struct LogTap {
 
 Status attach_log(const Options& o, const Scene& scene, sim::VirtualFlockConfig& cfg, LogTap& tap) {
   sim::LogHeader h;
-  for (int i = 0; i < o.birds; ++i) {
+  for (int i = 0; i < o.flock.birds; ++i) {
     sim::LogSensor s;
-    s.id = static_cast<uint16_t>(o.birds == 1 && !scene.ert ? 1 : i + 1 + (scene.ert ? 1 : 0));
+    s.id = static_cast<uint16_t>(o.flock.birds == 1 && !scene.ert ? 1 : i + 1 + (scene.ert ? 1 : 0));
     s.name = size_t(i) < scene.sensor_names.size() ? scene.sensor_names[size_t(i)] : "bird" + std::to_string(s.id);
     h.sensors.push_back(s);
   }
   h.source = "sim flock " + scene.motion_what;
-  h.device = "virtual Flock of Birds, " + std::to_string(o.birds) + (o.birds == 1 ? " bird, " : " birds, ") +
-             std::to_string(o.baud) + " baud" + (scene.ert ? ", ERC" : "");
+  h.device = "virtual Flock of Birds, " + std::to_string(o.flock.birds) +
+             (o.flock.birds == 1 ? " bird, " : " birds, ") + std::to_string(o.flock.baud) + " baud" +
+             (scene.ert ? ", ERC" : "");
   h.description = "poses served by mimic sim flock (ground truth, transmitter frame)";
-  h.seed = o.seed;
-  h.rate_hz = o.rate_hz;
+  h.seed = o.flock.seed;
+  h.rate_hz = o.flock.measurement_rate_hz;
   h.world_from_reference = scene.world_from_transmitter;
   auto w = sim::LogWriter::create(o.log, h);
   if (!w) return tl::unexpected(w.error());
@@ -262,13 +261,7 @@ int run(const std::vector<std::string>& argv) {
   cli::Parser p(kName, kAbout);
   Options o;
   if (auto exit_code = parse(p, argv, o)) return *exit_code;
-  sim::VirtualFlockConfig cfg;
-  cfg.birds = o.birds;
-  cfg.baud = o.baud;
-  cfg.seed = o.seed;
-  cfg.measurement_rate_hz = o.rate_hz;
-  cfg.fault_rate = o.faults;
-  cfg.auto_config_busy_s = o.busy_s;
+  sim::VirtualFlockConfig cfg = o.flock;
   // Without a motion: the transmitter behind the pelvis, facing +Z, the joints on sinusoids.
   Scene scene;
   scene.world_from_transmitter.translation = glm::vec3(0.0f, 1.0f, -0.5f);
@@ -287,9 +280,10 @@ int run(const std::vector<std::string>& argv) {
   if (auto s = (*flock)->start(); !s) return p.failure(s.error().what());
   std::printf("%s\n", (*flock)->slave_path().c_str());
   std::fflush(stdout);
-  std::fprintf(stderr, "mimic sim flock: %d %s at %d baud%s, %s; open flock:%s?birds=%d&baud=%d%s\n", o.birds,
-               o.birds == 1 ? "bird" : "birds", o.baud, scene.ert ? " with ERC" : "", scene.motion_what.c_str(),
-               (*flock)->slave_path().c_str(), o.birds, o.baud, scene.ert ? "&erc=1" : "");
+  std::fprintf(stderr, "mimic sim flock: %d %s at %d baud%s, %s; open flock:%s?birds=%d&baud=%d%s\n", o.flock.birds,
+               o.flock.birds == 1 ? "bird" : "birds", o.flock.baud, scene.ert ? " with ERC" : "",
+               scene.motion_what.c_str(), (*flock)->slave_path().c_str(), o.flock.birds, o.flock.baud,
+               scene.ert ? "&erc=1" : "");
   serve(**flock);
   if (tap.log) {
     std::lock_guard lock(tap.mu);

@@ -418,7 +418,12 @@ int run_interactive(Args& args, const ViewOptions& view) {
   long frames_limit = -1;
   if (!args.get_int("frames", frames_limit)) return usage_error(kName, args.error());
   const std::optional<std::string> capture = args.get("capture");
-  ViewState state;
+  // The toggles start as the command line set them.
+  ViewState state{.overlays = view.overlays,
+                  .lod_mode = view.lod,
+                  .grid = view.grid,
+                  .see_through = view.see_through,
+                  .ray_ring = view.ray_ring};
   if (!args.get_int("eyes", state.eyes) || state.eyes < 0)
     return usage_error(kName, "--eyes takes an avatar number from 1");
   auto window = render::Window::open("Mimic", view.width, view.height, !args.has("no-vsync"));
@@ -432,11 +437,6 @@ int run_interactive(Args& args, const ViewOptions& view) {
 
   state.camera = render::preset_camera(view.camera, {0, 0, 0}, 1.75f, float(view.width) / float(view.height));
   state.home = state.camera;
-  state.overlays = view.overlays;
-  state.lod_mode = view.lod;
-  state.grid = view.grid;
-  state.see_through = view.see_through;
-  state.ray_ring = view.ray_ring;
   double last_frame_s = window->time_s();
   FrameTimes times;
   times.window_start_s = window->time_s();

@@ -36,36 +36,15 @@ Result<std::array<std::string, net::kOscTrackers>> assignment(const devices::Sou
   return out;
 }
 
-class OscTrackerSource final : public devices::SensorSource {
+// What the two receiver sources share: the socket, the clock the stale time is read on, and
+// the counters; a tracked pose becomes a sample when it changed since it was last handed out.
+class ReceiverSource : public devices::SensorSource {
  public:
-  OscTrackerSource(std::unique_ptr<net::VmcReceiver> rx, std::array<bool, net::kOscTrackers> worn,
-                   std::shared_ptr<const Clock> clock, double stale_s)
-      : rx_(std::move(rx)), worn_(worn), clock_(std::move(clock)), stale_s_(stale_s) {
-    description_ = "osc-trackers:" + rx_->endpoint() + " (VRChat OSC trackers)";
-  }
+  ReceiverSource(std::unique_ptr<net::VmcReceiver> rx, std::shared_ptr<const Clock> clock, double stale_s,
+                 std::string description)
+      : rx_(std::move(rx)), clock_(std::move(clock)), stale_s_(stale_s), description_(std::move(description)) {}
   Status start() override { return {}; }
   void stop() override {}
-
-  size_t poll(std::span<devices::SensorSample> out) override {
-    rx_->poll();
-    size_t k = 0;
-    const auto& trackers = rx_->state().osc_trackers;
-    for (size_t i = 0; i < trackers.size() && k < out.size(); ++i) {
-      const net::TrackedPose& t = trackers[i];
-      if (!t.present || !worn_[i] || t.received_s == emitted_s_[i]) continue;
-      emitted_s_[i] = t.received_s;
-      devices::SensorSample& s = out[k++];
-      s = {};
-      s.sensor = static_cast<uint16_t>(i);
-      s.device_time_s = t.received_s;
-      s.host_time_s = t.received_s;
-      s.position_m = t.position_m;
-      s.orientation = t.orientation;
-      last_s_ = t.received_s;
-      ++samples_;
-    }
-    return k;
-  }
 
   devices::DeviceStatus status() const override {
     devices::DeviceStatus s;
@@ -80,15 +59,52 @@ class OscTrackerSource final : public devices::SensorSource {
     return s;
   }
 
- private:
+ protected:
+  void rename(std::string description) { description_ = std::move(description); }
+  // `pose` as sensor `id` into `out` when it changed since `emitted_s` (then updated).
+  bool emit(const net::TrackedPose& pose, int id, double& emitted_s, devices::SensorSample& out) {
+    if (!pose.present || pose.received_s == emitted_s) return false;
+    emitted_s = pose.received_s;
+    out = {};
+    out.sensor = static_cast<uint16_t>(id);
+    out.device_time_s = out.host_time_s = pose.received_s;
+    out.position_m = pose.position_m;
+    out.orientation = pose.orientation;
+    last_s_ = pose.received_s;
+    ++samples_;
+    return true;
+  }
+
   std::unique_ptr<net::VmcReceiver> rx_;
-  std::array<bool, net::kOscTrackers> worn_;
+
+ private:
   std::shared_ptr<const Clock> clock_;
   double stale_s_;
   std::string description_;
-  std::array<double, net::kOscTrackers> emitted_s_{};
   double last_s_ = 0;
   uint64_t samples_ = 0;
+};
+
+class OscTrackerSource final : public ReceiverSource {
+ public:
+  OscTrackerSource(std::unique_ptr<net::VmcReceiver> rx, std::array<bool, net::kOscTrackers> worn,
+                   std::shared_ptr<const Clock> clock, double stale_s)
+      : ReceiverSource(std::move(rx), std::move(clock), stale_s, std::string()), worn_(worn) {
+    rename("osc-trackers:" + rx_->endpoint() + " (VRChat OSC trackers)");
+  }
+
+  size_t poll(std::span<devices::SensorSample> out) override {
+    rx_->poll();
+    size_t k = 0;
+    const auto& trackers = rx_->state().osc_trackers;
+    for (size_t i = 0; i < trackers.size() && k < out.size(); ++i)
+      if (worn_[i] && emit(trackers[i], int(i), emitted_s_[i], out[k])) ++k;
+    return k;
+  }
+
+ private:
+  std::array<bool, net::kOscTrackers> worn_;
+  std::array<double, net::kOscTrackers> emitted_s_{};
 };
 
 // (serial, segment) pairs of a vmc: map=.
@@ -107,47 +123,25 @@ Result<std::vector<std::pair<std::string, std::string>>> device_map(const device
   return out;
 }
 
-class VmcDeviceSource final : public devices::SensorSource {
+class VmcDeviceSource final : public ReceiverSource {
  public:
   VmcDeviceSource(std::unique_ptr<net::VmcReceiver> rx, std::vector<std::string> serials,
                   std::shared_ptr<const Clock> clock, double stale_s)
-      : rx_(std::move(rx)), serials_(std::move(serials)), clock_(std::move(clock)), stale_s_(stale_s) {
-    description_ = "vmc:" + rx_->endpoint() + " (VMC devices: " + std::to_string(serials_.size()) + ")";
-    emitted_s_.assign(serials_.size(), 0.0);
+      : ReceiverSource(std::move(rx), std::move(clock), stale_s, std::string()),
+        serials_(std::move(serials)),
+        emitted_s_(serials_.size(), 0.0) {
+    rename("vmc:" + rx_->endpoint() + " (VMC devices: " + std::to_string(serials_.size()) + ")");
   }
-  Status start() override { return {}; }
-  void stop() override {}
 
   size_t poll(std::span<devices::SensorSample> out) override {
     rx_->poll();
     const auto& st = rx_->state();
     size_t k = 0;
     for (size_t d = 0; d < st.device_count && k < out.size(); ++d) {
-      const auto& dev = st.devices[d];
-      const int id = sensor_of(dev);
-      if (id < 0 || !dev.pose.present || dev.pose.received_s == emitted_s_[size_t(id)]) continue;
-      emitted_s_[size_t(id)] = dev.pose.received_s;
-      devices::SensorSample& s = out[k++];
-      s = {};
-      s.sensor = static_cast<uint16_t>(id);
-      s.device_time_s = s.host_time_s = dev.pose.received_s;
-      s.position_m = dev.pose.position_m;
-      s.orientation = dev.pose.orientation;
-      last_s_ = dev.pose.received_s;
-      ++samples_;
+      const int id = sensor_of(st.devices[d]);
+      if (id >= 0 && emit(st.devices[d].pose, id, emitted_s_[size_t(id)], out[k])) ++k;
     }
     return k;
-  }
-
-  devices::DeviceStatus status() const override {
-    devices::DeviceStatus s;
-    s.description = description_;
-    s.state = samples_ == 0                          ? devices::DeviceState::connecting
-              : clock_->now_s() - last_s_ > stale_s_ ? devices::DeviceState::stale
-                                                     : devices::DeviceState::streaming;
-    s.records = samples_;
-    s.resyncs = rx_->stats().refused_total() + rx_->stats().non_finite;
-    return s;
   }
 
  private:
@@ -165,14 +159,8 @@ class VmcDeviceSource final : public devices::SensorSource {
     return -1;
   }
 
-  std::unique_ptr<net::VmcReceiver> rx_;
   std::vector<std::string> serials_;
-  std::shared_ptr<const Clock> clock_;
-  double stale_s_;
-  std::string description_;
   std::vector<double> emitted_s_;
-  double last_s_ = 0;
-  uint64_t samples_ = 0;
 };
 
 double stale_of(const devices::SourceSpec& spec) {

@@ -7,6 +7,8 @@
 
 namespace mimic::solver::detail {
 
+using rig::Skeleton;
+
 namespace {
 
 constexpr const char* kLandmarkNames[kLandmarkCount] = {

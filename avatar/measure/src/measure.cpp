@@ -1,5 +1,6 @@
 // Landmarks, body measurements and their comparison tables.
 #include <algorithm>
+#include <tuple>
 #include <charconv>
 #include <cmath>
 #include <cstdio>
@@ -312,12 +313,9 @@ BodyMeasurements measure_body(const Mesh& mesh, const BodyLandmarks& lm) {
   // tape round both thighs (wrapping them everywhere would let spreading legs win).
   Best hips = search(0.45f, 0.54f, true, [&](float y) { return torso_girth(y, false); });
   if (!hips.girth) hips = search(0.45f, 0.54f, true, [&](float y) { return torso_girth(y, true); });
-  m.chest_girth_m = chest.girth;
-  m.chest_level_m = chest.level;
-  m.waist_girth_m = waist.girth;
-  m.waist_level_m = waist.level;
-  m.hip_girth_m = hips.girth;
-  m.hip_level_m = hips.level;
+  std::tie(m.chest_girth_m, m.chest_level_m) = std::pair(chest.girth, chest.level);
+  std::tie(m.waist_girth_m, m.waist_level_m) = std::pair(waist.girth, waist.level);
+  std::tie(m.hip_girth_m, m.hip_level_m) = std::pair(hips.girth, hips.level);
 
   // Leg slices: the loop around this leg's axis that holds neither the torso axis nor the other leg.
   auto leg_girth = [&](float y, const glm::vec3& a, const glm::vec3& b, const glm::vec3& oa,

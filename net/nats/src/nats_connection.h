@@ -95,4 +95,21 @@ std::string subject_token(const std::string& name);
 // Monotonic microseconds (rate bounds and timeouts; never the wall clock).
 int64_t monotonic_us() noexcept;
 
+// The counters a publisher and a relay feed share, from their impl (which holds the
+// connection `conn` and the counters by these names): the rest of NatsLinkStats is each one's own.
+template <class Impl>
+NatsLinkStats common_link_stats(const Impl& impl) {
+  NatsLinkStats s;
+  s.connected = impl.conn.connected();
+  s.disconnects = impl.conn.disconnects();
+  s.reconnects = impl.conn.reconnects();
+  s.frames = impl.frames;
+  s.frames_dropped = impl.dropped;
+  s.models = impl.models;
+  s.model_failures = impl.model_failures;
+  s.mesh_frames = impl.mesh_frames;
+  s.mesh_requests = impl.mesh_requests;
+  return s;
+}
+
 }  // namespace mimic::net::nats_detail

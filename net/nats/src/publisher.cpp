@@ -525,16 +525,7 @@ std::string NatsPublisher::key(int index) const {
 }
 
 NatsLinkStats NatsPublisher::stats() const {
-  NatsLinkStats s;
-  s.connected = impl_->conn.connected();
-  s.disconnects = impl_->conn.disconnects();
-  s.reconnects = impl_->conn.reconnects();
-  s.frames = impl_->frames;
-  s.frames_dropped = impl_->dropped;
-  s.models = impl_->models;
-  s.model_failures = impl_->model_failures;
-  s.mesh_frames = impl_->mesh_frames;
-  s.mesh_requests = impl_->mesh_requests;
+  NatsLinkStats s = nats_detail::common_link_stats(*impl_);
   s.topologies = impl_->topologies;
   s.topologies_refused = impl_->topologies_refused;
   std::lock_guard lock(impl_->error_mutex);

@@ -338,18 +338,9 @@ NatsLinkState NatsSceneFeed::link_state() const noexcept { return impl_->conn.st
 std::string NatsSceneFeed::connected_url() const { return impl_->conn.connected_url(); }
 
 NatsLinkStats NatsSceneFeed::stats() const {
-  NatsLinkStats s;
-  s.connected = impl_->conn.connected();
-  s.disconnects = impl_->conn.disconnects();
-  s.reconnects = impl_->conn.reconnects();
-  s.frames = impl_->frames;
-  s.frames_dropped = impl_->dropped;
-  s.models = impl_->models;
-  s.model_failures = impl_->model_failures;
+  NatsLinkStats s = nats_detail::common_link_stats(*impl_);
   s.rejected = impl_->rejected;
   s.early_frames = impl_->early;
-  s.mesh_frames = impl_->mesh_frames;
-  s.mesh_requests = impl_->mesh_requests;
   s.expired = impl_->expired;
   s.held = impl_->held;
   s.seq_jumps_refused = impl_->seq_jumps_refused;
