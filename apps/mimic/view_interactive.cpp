@@ -15,6 +15,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include <glm/gtc/matrix_transform.hpp>
@@ -418,12 +419,10 @@ int run_interactive(Args& args, const ViewOptions& view) {
   long frames_limit = -1;
   if (!args.get_int("frames", frames_limit)) return usage_error(kName, args.error());
   const std::optional<std::string> capture = args.get("capture");
+  ViewState state;
   // The toggles start as the command line set them.
-  ViewState state{.overlays = view.overlays,
-                  .lod_mode = view.lod,
-                  .grid = view.grid,
-                  .see_through = view.see_through,
-                  .ray_ring = view.ray_ring};
+  std::tie(state.overlays, state.lod_mode, state.grid, state.see_through, state.ray_ring) =
+      std::tie(view.overlays, view.lod, view.grid, view.see_through, view.ray_ring);
   if (!args.get_int("eyes", state.eyes) || state.eyes < 0)
     return usage_error(kName, "--eyes takes an avatar number from 1");
   auto window = render::Window::open("Mimic", view.width, view.height, !args.has("no-vsync"));

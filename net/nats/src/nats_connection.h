@@ -99,17 +99,16 @@ int64_t monotonic_us() noexcept;
 // connection `conn` and the counters by these names): the rest of NatsLinkStats is each one's own.
 template <class Impl>
 NatsLinkStats common_link_stats(const Impl& impl) {
-  NatsLinkStats s;
-  s.connected = impl.conn.connected();
-  s.disconnects = impl.conn.disconnects();
-  s.reconnects = impl.conn.reconnects();
-  s.frames = impl.frames;
-  s.frames_dropped = impl.dropped;
-  s.models = impl.models;
-  s.model_failures = impl.model_failures;
-  s.mesh_frames = impl.mesh_frames;
-  s.mesh_requests = impl.mesh_requests;
-  return s;
+  return NatsLinkStats{.connected = impl.conn.connected(),
+                       .disconnects = impl.conn.disconnects(),
+                       .reconnects = impl.conn.reconnects(),
+                       .frames = impl.frames,
+                       .frames_dropped = impl.dropped,
+                       .models = impl.models,
+                       .model_failures = impl.model_failures,
+                       .mesh_frames = impl.mesh_frames,
+                       .mesh_requests = impl.mesh_requests,
+                       .last_error = {}};
 }
 
 }  // namespace mimic::net::nats_detail
