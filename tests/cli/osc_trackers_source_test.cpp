@@ -16,6 +16,7 @@
 #include <thread>
 
 #include "mimic/net/vrpn_client.h"
+#include "free_port.h"
 #include "mimic_proc.h"
 
 namespace {
@@ -23,21 +24,9 @@ namespace {
 using mimic::net::VrpnTrackerRemote;
 using mimic::test::Proc;
 
-uint16_t free_port(int type) {
-  const int fd = ::socket(AF_INET, type, 0);
-  sockaddr_in a{};
-  a.sin_family = AF_INET;
-  a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  ::bind(fd, reinterpret_cast<sockaddr*>(&a), sizeof a);
-  socklen_t n = sizeof a;
-  ::getsockname(fd, reinterpret_cast<sockaddr*>(&a), &n);
-  ::close(fd);
-  return ntohs(a.sin_port);
-}
-
 TEST(OscTrackersSource, LibloTrackersPlaceTheSolvedAvatar) {
   if (std::system("command -v oscsend > /dev/null") != 0) GTEST_SKIP() << "oscsend (liblo-tools) missing";
-  const uint16_t osc = free_port(SOCK_DGRAM), vrpn = free_port(SOCK_STREAM);
+  const uint16_t osc = mimic::test::free_port(SOCK_DGRAM), vrpn = mimic::test::free_port(SOCK_STREAM);
   Proc run({"run", "--listen", "127.0.0.1:0", "--source", "osc-trackers:127.0.0.1:" + std::to_string(osc), "--vrpn",
             "127.0.0.1:" + std::to_string(vrpn), "--duration", "60"});
   ASSERT_EQ(run.first_line(30).rfind("serving on ", 0), 0u);

@@ -18,6 +18,7 @@
 
 #include "mimic/rig/skeleton.h"
 #include "mimic/net/client.h"
+#include "free_port.h"
 #include "mimic_proc.h"
 
 namespace {
@@ -25,18 +26,6 @@ namespace {
 using mimic::test::endpoint_of;
 using mimic::test::Proc;
 using Clock = std::chrono::steady_clock;
-
-uint16_t free_udp_port() {
-  const int fd = ::socket(AF_INET, SOCK_DGRAM, 0);
-  sockaddr_in a{};
-  a.sin_family = AF_INET;
-  a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  ::bind(fd, reinterpret_cast<sockaddr*>(&a), sizeof a);
-  socklen_t n = sizeof a;
-  ::getsockname(fd, reinterpret_cast<sockaddr*>(&a), &n);
-  ::close(fd);
-  return ntohs(a.sin_port);
-}
 
 std::unique_ptr<mimic::net::Client> viewer(const std::string& ep) {
   mimic::net::ClientOptions o;
@@ -54,7 +43,7 @@ std::vector<glm::vec3> joints(const mimic::rig::Skeleton& s, const mimic::rig::P
 }
 
 TEST(VmcSource, AnotherMimicsVmcOutputDrivesTheAvatar) {
-  const uint16_t port = free_udp_port();
+  const uint16_t port = mimic::test::free_port(SOCK_DGRAM);
   const std::string target = "127.0.0.1:" + std::to_string(port);
   Proc receiver({"run", "--listen", "127.0.0.1:0", "--source", "vmc:" + target, "--duration", "60", "--quiet"});
   const std::string rx_ep = endpoint_of(receiver);

@@ -18,6 +18,7 @@
 #include <thread>
 
 #include "mimic/rig/skeleton.h"
+#include "free_port.h"
 #include "run_mimic.h"
 #include "vrpn_test_client.h"
 
@@ -25,26 +26,8 @@ namespace {
 
 using mimic::test::Child;
 
-// A port free for both TCP and UDP on loopback.
-uint16_t free_port() {
-  for (int tries = 0; tries < 50; ++tries) {
-    const int t = ::socket(AF_INET, SOCK_STREAM, 0), u = ::socket(AF_INET, SOCK_DGRAM, 0);
-    sockaddr_in a{};
-    a.sin_family = AF_INET;
-    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-    socklen_t len = sizeof a;
-    ::bind(t, reinterpret_cast<sockaddr*>(&a), sizeof a);
-    ::getsockname(t, reinterpret_cast<sockaddr*>(&a), &len);
-    const bool ok = ::bind(u, reinterpret_cast<sockaddr*>(&a), sizeof a) == 0;
-    ::close(t);
-    ::close(u);
-    if (ok) return ntohs(a.sin_port);
-  }
-  return 0;
-}
-
 TEST(VrpnCli, RunServesAvatarJointsAndSensorSamples) {
-  const uint16_t port = free_port();
+  const uint16_t port = mimic::test::free_tcp_udp_port();
   ASSERT_NE(port, 0);
   Child run({mimic::test::mimic_binary(), "run", "--listen", "127.0.0.1:0", "--vrpn", std::to_string(port), "--quiet",
              "--duration", "20", "--json"});

@@ -20,6 +20,7 @@
 
 #include "mimic/net/vrpn_client.h"
 #include "mimic/rig/skeleton.h"
+#include "free_port.h"
 #include "mimic_proc.h"
 
 namespace {
@@ -27,23 +28,6 @@ namespace {
 using mimic::net::VrpnReport;
 using mimic::net::VrpnTrackerRemote;
 using mimic::test::Proc;
-
-uint16_t free_tcp_udp_port() {
-  for (int tries = 0; tries < 50; ++tries) {
-    const int t = ::socket(AF_INET, SOCK_STREAM, 0), u = ::socket(AF_INET, SOCK_DGRAM, 0);
-    sockaddr_in a{};
-    a.sin_family = AF_INET;
-    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-    socklen_t len = sizeof a;
-    ::bind(t, reinterpret_cast<sockaddr*>(&a), sizeof a);
-    ::getsockname(t, reinterpret_cast<sockaddr*>(&a), &len);
-    const bool ok = ::bind(u, reinterpret_cast<sockaddr*>(&a), sizeof a) == 0;
-    ::close(t);
-    ::close(u);
-    if (ok) return ntohs(a.sin_port);
-  }
-  return 0;
-}
 
 // Avatar0's frames served on `port`, by capture time: every joint's world position.
 struct Watch {
@@ -83,7 +67,7 @@ std::vector<std::string> sender_args(uint16_t vrpn_port) {
 }
 
 TEST(VrpnSource, ASecondMimicSolvesTheFirstOnesTrackersOverVrpn) {
-  const uint16_t a_port = free_tcp_udp_port(), b_port = free_tcp_udp_port();
+  const uint16_t a_port = mimic::test::free_tcp_udp_port(), b_port = mimic::test::free_tcp_udp_port();
   ASSERT_NE(a_port, 0);
   ASSERT_NE(b_port, 0);
   auto a = std::make_unique<Proc>(sender_args(a_port));

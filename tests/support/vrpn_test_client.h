@@ -177,8 +177,8 @@ class Client {
   static void description(std::vector<uint8_t>& out, int32_t id, int32_t kind, const std::string& name) {
     std::vector<uint8_t> p;
     put32(p, uint32_t(name.size() + 1));
-    p.insert(p.end(), name.begin(), name.end());
-    p.push_back(0);
+    p.resize(4 + name.size() + 1, 0);
+    std::memcpy(p.data() + 4, name.data(), name.size());
     message(out, id, kind, p.data(), p.size());
   }
   // Decodes whole messages; returns the bytes used.
