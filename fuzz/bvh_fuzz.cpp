@@ -9,7 +9,7 @@
 #include "mimic/rig/bvh.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
-  using namespace mimic::avatar;
+  using namespace mimic;
   const std::string_view text(reinterpret_cast<const char*>(data), size);
   auto clip = rig::parse_bvh(text, "fuzz.bvh");
   if (!clip) {
