@@ -28,22 +28,14 @@
 #include <thread>
 #include <vector>
 
+#include "free_port.h"
+
 extern char** environ;
 
 namespace mimic::test {
 
 // A port nobody listens on right now (the kernel's pick for an ephemeral bind).
-inline uint16_t free_loopback_port() {
-  const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
-  sockaddr_in a{};
-  a.sin_family = AF_INET;
-  a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  ::bind(fd, reinterpret_cast<sockaddr*>(&a), sizeof a);
-  socklen_t n = sizeof a;
-  ::getsockname(fd, reinterpret_cast<sockaddr*>(&a), &n);
-  ::close(fd);
-  return ntohs(a.sin_port);
-}
+inline uint16_t free_loopback_port() { return free_port(SOCK_STREAM); }
 
 inline bool port_accepts(uint16_t port) {
   const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
