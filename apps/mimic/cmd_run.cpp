@@ -147,6 +147,21 @@ void write_status(StatusLine& line, Pipeline& pipeline, net::Server* server, net
   else
     line.add(0, "%zu avatars %5.1f fps each", n, fps);
   if (pipeline.silent_sources() > 0) line.add(0, "%zu source(s) SILENT: sending stale", pipeline.silent_sources());
+  // A source not (or no longer) connected says so, with why: a VRPN server that does not answer,
+  // a device that went away.
+  for (size_t i = 0; i < n; ++i) {
+    const devices::DeviceStatus st = pipeline.feed(i).status();
+    if (st.state != devices::DeviceState::connecting && st.state != devices::DeviceState::disconnected &&
+        st.state != devices::DeviceState::error)
+      continue;
+    const char* state = st.state == devices::DeviceState::connecting ? "connecting"
+                        : st.state == devices::DeviceState::error    ? "ERROR"
+                                                                     : "disconnected";
+    if (st.last_error.empty())
+      line.add(0, "source %zu %s", i, state);
+    else
+      line.add(0, "source %zu %s: %.60s", i, state, st.last_error.c_str());
+  }
   const auto latency = pipeline.timer(kStageLatency).summary();
   line.add(1, "latency %.1f/%.1f ms", latency.p50_us * 1e-3, latency.p99_us * 1e-3);
   if (missed_ticks > 0)
