@@ -108,7 +108,8 @@ TEST(NatsCli, RunServesLocallyWhileTheBrokerIsDownThenJoinsItRelayAndSubscribeSe
   Proc local({"subscribe", "--connect", ep, "--count", "30", "--json"});
   ASSERT_EQ(local.wait(15.0), 0) << local.err();
   EXPECT_EQ(last_json(local.out())["frames"], 30);
-  // The status line says the broker is away before it comes (redrawn twice a second; a loaded machine under the sanitizers can take seconds).
+  // The status line says the broker is away before it comes (redrawn twice a second; a loaded
+  // machine under the sanitizers can take seconds).
   ASSERT_TRUE(run.wait_for_err(" s: local only", 20.0)) << run.err();
 
   ASSERT_TRUE(broker.start());
