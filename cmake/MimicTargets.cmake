@@ -41,6 +41,10 @@ function(mimic_add_tests lib)
     <gtest/gtest.h> <nlohmann/json.hpp> <algorithm> <chrono> <cmath> <cstdio> <filesystem> <map>
     <random> <string> <vector>)
   mimic_warnings(mimic_${lib}_tests)
+  # Eight test files per translation unit: GoogleTest's and JSON's templates are instantiated
+  # once per batch instead of once per file (each file wraps its contents in a namespace named
+  # after it, so batched helpers cannot collide).
+  set_target_properties(mimic_${lib}_tests PROPERTIES UNITY_BUILD ON UNITY_BUILD_BATCH_SIZE 8)
   gtest_discover_tests(mimic_${lib}_tests
     # One variable only: gtest_discover_tests splits a list here. Tests find the `mimic`
     # program beside their own binary (tests/support/test_data.h).

@@ -27,7 +27,7 @@
 #include "mimic/solver/filters.h"
 #include "mimic/service/pipeline.h"
 
-namespace mimic::app {
+namespace mimic::app::cmd_bench {
 using namespace ::mimic::service;
 namespace {
 
@@ -581,4 +581,4 @@ int bench(const std::vector<std::string>& argv) {
 
 MIMIC_COMMAND(bench, "bench", "measure latency, throughput and sizes on this machine", bench);
 
-}  // namespace mimic::app
+}  // namespace mimic::app::cmd_bench

@@ -19,7 +19,7 @@
 #include "mimic/solver/model_refiner.h"
 #include "mimic/solver/sensor_layout.h"
 
-namespace mimic::app {
+namespace mimic::app::cmd_calibrate {
 namespace {
 
 constexpr const char* kName = "calibrate";
@@ -246,4 +246,4 @@ int run_calibrate(const std::vector<std::string>& argv) {
 MIMIC_COMMAND(calibrate, "calibrate", "measure sensor offsets and body proportions from a stand-still (T- or N-pose)",
               run_calibrate);
 
-}  // namespace mimic::app
+}  // namespace mimic::app::cmd_calibrate

@@ -9,7 +9,7 @@
 #include "mimic/avatar/mesh_io.h"
 #include "mimic/avatar/skin.h"
 
-namespace mimic::app {
+namespace mimic::app::cmd_compare {
 namespace {
 
 constexpr const char* kName = "compare";
@@ -79,4 +79,4 @@ int run_compare(const std::vector<std::string>& argv) {
 
 MIMIC_COMMAND(compare, kName, "measure the body against a reference mesh (height and girths)", run_compare);
 
-}  // namespace mimic::app
+}  // namespace mimic::app::cmd_compare

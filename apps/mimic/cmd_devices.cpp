@@ -17,7 +17,7 @@
 #include "mimic/devices/usb_discovery.h"
 #include "mimic/sim/open_input.h"
 
-namespace mimic::app {
+namespace mimic::app::cmd_devices {
 namespace {
 
 constexpr const char* kName = "devices";
@@ -274,4 +274,4 @@ int run(const std::vector<std::string>& argv) {
 
 MIMIC_COMMAND(devices, kName, "list connected trackers, SpaceMice and serial ports (--watch for hot-plug)", run);
 
-}  // namespace mimic::app
+}  // namespace mimic::app::cmd_devices

@@ -27,7 +27,7 @@
 #include "mimic/solver/pose_error.h"
 #include "mimic/solver/sensor_layout.h"
 
-namespace mimic::app {
+namespace mimic::app::cmd_eval_solver {
 namespace {
 
 constexpr const char* kName = "eval-solver";
@@ -404,4 +404,4 @@ int run_eval_solver(const std::vector<std::string>& argv) {
 MIMIC_COMMAND(eval_solver, "eval-solver", "measure the joint-angle solver on a BVH clip (MPJPE, MPJRE, jitter, time)",
               run_eval_solver);
 
-}  // namespace mimic::app
+}  // namespace mimic::app::cmd_eval_solver

@@ -20,7 +20,7 @@
 #include "mimic/core/file.h"
 #include "mimic/service/solve_log.h"
 
-namespace mimic::app {
+namespace mimic::app::cmd_export {
 namespace {
 
 constexpr const char* kName = "export";
@@ -148,4 +148,4 @@ int run(const std::vector<std::string>& argv) {
 MIMIC_COMMAND(export_, kName,
               "write a rigged, animated glTF (.glb) of the avatar on a BVH clip, a motion or a recorded session", run);
 
-}  // namespace mimic::app
+}  // namespace mimic::app::cmd_export

@@ -13,7 +13,7 @@
 #include "mimic/avatar/skin_inspection.h"
 #include "mimic/avatar/skin_lod.h"
 
-namespace mimic::app {
+namespace mimic::app::cmd_inspect {
 namespace {
 
 constexpr const char* kName = "inspect";
@@ -137,4 +137,4 @@ int run_inspect(const std::vector<std::string>& argv) {
 MIMIC_COMMAND(inspect, kName, "joint-zone volume and sections as joints bend and twist: contour skin vs LBS/DQS/CoR",
               run_inspect);
 
-}  // namespace mimic::app
+}  // namespace mimic::app::cmd_inspect

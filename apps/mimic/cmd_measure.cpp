@@ -11,7 +11,7 @@
 #include "mimic/avatar/mesh_check.h"
 #include "mimic/avatar/mesh_io.h"
 
-namespace mimic::app {
+namespace mimic::app::cmd_measure {
 namespace {
 
 constexpr const char* kName = "measure";
@@ -98,4 +98,4 @@ int run_measure(const std::vector<std::string>& argv) {
 
 MIMIC_COMMAND(measure, kName, "measure a body mesh: height, tape girths, volume, area", run_measure);
 
-}  // namespace mimic::app
+}  // namespace mimic::app::cmd_measure

@@ -13,7 +13,7 @@
 #include "mimic/avatar/skin_lod.h"
 #include "mimic/avatar/texture_layout.h"
 
-namespace mimic::app {
+namespace mimic::app::cmd_mesh {
 namespace {
 
 constexpr const char* kName = "mesh";
@@ -161,4 +161,4 @@ int run_mesh(const std::vector<std::string>& argv) {
 
 MIMIC_COMMAND(mesh, kName, "pose the metaball body and write its skin as OBJ, PLY or glTF", run_mesh);
 
-}  // namespace mimic::app
+}  // namespace mimic::app::cmd_mesh

@@ -19,7 +19,7 @@
 #include "mimic/sim/raw_session.h"
 #include "mimic/sim/replay_source.h"
 
-namespace mimic::app {
+namespace mimic::app::cmd_record {
 namespace {
 
 constexpr const char* kName = "record";
@@ -200,4 +200,4 @@ int run(const std::vector<std::string>& argv) {
 
 MIMIC_COMMAND(record, "record", "record tracker samples from a source into a log file", run);
 
-}  // namespace mimic::app
+}  // namespace mimic::app::cmd_record

@@ -17,7 +17,7 @@
 #include "mimic/net/nats.h"
 #include "mimic/net/server.h"
 
-namespace mimic::app {
+namespace mimic::app::cmd_relay {
 namespace {
 
 constexpr const char* kAbout =
@@ -166,5 +166,5 @@ int relay(const std::vector<std::string>& argv) {
 
 MIMIC_COMMAND(relay, "relay", "serve a scene from a NATS broker to local viewers (an edge relay)", relay);
 
-}  // namespace mimic::app
+}  // namespace mimic::app::cmd_relay
 #endif  // MIMIC_HAVE_NATS

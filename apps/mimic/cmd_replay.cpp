@@ -25,7 +25,7 @@
 
 #include <nlohmann/json.hpp>
 
-namespace mimic::app {
+namespace mimic::app::cmd_replay {
 namespace {
 
 constexpr const char* kName = "replay";
@@ -258,4 +258,4 @@ int run(const std::vector<std::string>& argv) {
 
 MIMIC_COMMAND(replay, "replay", "play a recorded log back in time, or dump it as CSV", run);
 
-}  // namespace mimic::app
+}  // namespace mimic::app::cmd_replay

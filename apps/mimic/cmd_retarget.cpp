@@ -10,7 +10,7 @@
 #include "mimic/rig/retarget.h"
 #include "mimic/core/file.h"
 
-namespace mimic::app {
+namespace mimic::app::cmd_retarget {
 namespace {
 
 constexpr const char* kName = "retarget";
@@ -101,4 +101,4 @@ int run_retarget(const std::vector<std::string>& argv) {
 
 MIMIC_COMMAND(retarget, kName, "retarget a BVH clip onto Mimic's skeleton and write it as BVH", run_retarget);
 
-}  // namespace mimic::app
+}  // namespace mimic::app::cmd_retarget

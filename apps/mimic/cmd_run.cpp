@@ -34,7 +34,7 @@ class NatsPublisher {};  // absent: run refuses --nats
 #include "mimic/service/scene_builder.h"
 #include "source_args.h"
 
-namespace mimic::app {
+namespace mimic::app::cmd_run {
 using namespace ::mimic::service;
 namespace {
 
@@ -579,4 +579,4 @@ int run(const std::vector<std::string>& argv) {
 
 MIMIC_COMMAND(run, "run", "run the realtime pipeline and serve the avatars", run);
 
-}  // namespace mimic::app
+}  // namespace mimic::app::cmd_run

@@ -9,7 +9,7 @@
 #include "mimic/avatar/body_model.h"
 #include "mimic/avatar/body_presets.h"
 
-namespace mimic::app {
+namespace mimic::app::cmd_scale {
 namespace {
 
 constexpr const char* kName = "scale";
@@ -120,4 +120,4 @@ int run_scale(const std::vector<std::string>& argv) {
 MIMIC_COMMAND(scale, kName, "scale a body model (five operators or a preset: child, adult, tall, heavy ...)",
               run_scale);
 
-}  // namespace mimic::app
+}  // namespace mimic::app::cmd_scale

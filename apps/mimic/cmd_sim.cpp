@@ -16,6 +16,10 @@ std::vector<SimSubcommand>& sim_subcommands() {
   return all;
 }
 
+}  // namespace mimic::app
+
+namespace mimic::app::cmd_sim {
+
 namespace {
 
 constexpr const char* kName = "sim";
@@ -44,4 +48,4 @@ int run(const std::vector<std::string>& argv) {
 
 MIMIC_COMMAND(sim, kName, "serve a virtual device (Spaceball, Magellan ...) on a pseudo-terminal", run);
 
-}  // namespace mimic::app
+}  // namespace mimic::app::cmd_sim

@@ -23,7 +23,7 @@
 #include "mimic/sim/virtual_flock.h"
 #include "sim_command.h"
 
-namespace mimic::app {
+namespace mimic::app::cmd_sim_flock {
 namespace {
 
 constexpr const char* kName = "sim flock";
@@ -296,4 +296,4 @@ int run(const std::vector<std::string>& argv) {
 
 MIMIC_SIM_SUBCOMMAND(flock, "flock", "virtual Ascension Flock of Birds (RS-232, 1-14 birds, FBB)", run);
 
-}  // namespace mimic::app
+}  // namespace mimic::app::cmd_sim_flock

@@ -15,7 +15,7 @@
 #include "mimic/sim/virtual_spaceball.h"
 #include "sim_command.h"
 
-namespace mimic::app {
+namespace mimic::app::cmd_sim_spaceball {
 namespace {
 
 constexpr const char* kSpaceballAbout =
@@ -114,4 +114,4 @@ int run_magellan(const std::vector<std::string>& argv) {
 MIMIC_SIM_SUBCOMMAND(spaceball, "spaceball", "virtual serial Spaceball 2003/3003/4000 FLX", run_spaceball);
 MIMIC_SIM_SUBCOMMAND(magellan, "magellan", "virtual serial Magellan / SpaceMouse", run_magellan);
 
-}  // namespace mimic::app
+}  // namespace mimic::app::cmd_sim_spaceball

@@ -15,7 +15,7 @@
 #include "mimic/net/client.h"
 #include "mimic/net/server.h"
 
-namespace mimic::app {
+namespace mimic::app::cmd_subscribe {
 namespace {
 
 constexpr const char* kAbout =
@@ -204,4 +204,4 @@ int subscribe(const std::vector<std::string>& argv) {
 
 MIMIC_COMMAND(subscribe, "subscribe", "join a scene as a viewer and print or summarise what arrives", subscribe);
 
-}  // namespace mimic::app
+}  // namespace mimic::app::cmd_subscribe

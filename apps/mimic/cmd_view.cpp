@@ -18,7 +18,7 @@
 #include "source_args.h"
 #include "view_interactive.h"
 
-namespace mimic::app {
+namespace mimic::app::cmd_view {
 namespace {
 
 constexpr const char* kName = "view";
@@ -304,6 +304,6 @@ int run_view(const std::vector<std::string>& argv) {
 
 MIMIC_COMMAND(view, kName, "see the avatar: the interactive viewer, or a PNG screenshot rendered offscreen", run_view);
 
-}  // namespace mimic::app
+}  // namespace mimic::app::cmd_view
 
 #endif  // MIMIC_HAVE_RENDER

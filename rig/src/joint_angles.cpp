@@ -51,7 +51,7 @@ void refine(std::span<const glm::dvec3> axes, const glm::dquat& target, std::spa
 // Exact decomposition for three mutually orthogonal unit axes. Writes both Euler branches
 // (each unwrapped towards previous) into a and b.
 void euler3(std::span<const glm::dvec3> axes, const glm::dquat& target, std::span<const double> previous,
-            std::array<double, 3>& a, std::array<double, 3>& b) {
+            double lock_cos, std::array<double, 3>& a, std::array<double, 3>& b) {
   // Change of basis to x, y, z: B has the axes as columns, made right-handed by flipping a2.
   const double s2 = glm::dot(glm::cross(axes[0], axes[1]), axes[2]) < 0 ? -1.0 : 1.0;
   const glm::dmat3 basis(axes[0], axes[1], s2 * axes[2]);
@@ -60,7 +60,7 @@ void euler3(std::span<const glm::dvec3> axes, const glm::dquat& target, std::spa
   // m = Rx(t0) · Ry(t1) · Rz(t2): m02 = sin t1, m12 = −sin t0 cos t1, m22 = cos t0 cos t1.
   const double t1 = std::asin(std::clamp(e(m, 0, 2), -1.0, 1.0));
   const double c1 = std::sqrt(std::max(0.0, 1.0 - e(m, 0, 2) * e(m, 0, 2)));
-  const double t0 = c1 < 1e-9 ? p0 : std::atan2(-e(m, 1, 2), e(m, 2, 2));
+  const double t0 = c1 < lock_cos ? p0 : std::atan2(-e(m, 1, 2), e(m, 2, 2));
   // t2 from the residual, so it is exact even in (or near) gimbal lock.
   auto residual_t2 = [&](double x0, double x1) {
     const glm::dmat3 r = glm::transpose(glm::mat3_cast(glm::angleAxis(x0, glm::dvec3(1, 0, 0)) *
@@ -71,7 +71,7 @@ void euler3(std::span<const glm::dvec3> axes, const glm::dquat& target, std::spa
   const double t2 = residual_t2(t0, t1);
   a = {unwrap_near(t0, p0), unwrap_near(t1, p1), unwrap_near(t2, p2)};
   // Second branch: (t0 + π, π − t1, t2 + π) is the same rotation.
-  if (c1 < 1e-9) {
+  if (c1 < lock_cos) {
     b = a;
   } else {
     b = {unwrap_near(t0 + kPi, p0), unwrap_near(kPi - t1, p1), unwrap_near(t2 + kPi, p2)};
@@ -93,7 +93,7 @@ glm::dquat rotation_from_dofs(std::span<const glm::dvec3> axes, std::span<const 
 }
 
 void dofs_from_rotation(std::span<const glm::dvec3> axes, const glm::dquat& target_in, std::span<const double> previous,
-                        std::span<double> out) {
+                        std::span<double> out, double lock_cos) {
   const size_t n = axes.size();
   assert(n >= 1 && n <= kMaxJointDofs && previous.size() == n && out.size() == n);
   const glm::dquat target = glm::normalize(target_in);
@@ -103,7 +103,7 @@ void dofs_from_rotation(std::span<const glm::dvec3> axes, const glm::dquat& targ
   }
   if (n == 3 && orthogonal(axes[0], axes[1]) && orthogonal(axes[1], axes[2]) && orthogonal(axes[0], axes[2])) {
     std::array<double, 3> a, b;
-    euler3(axes, target, previous, a, b);
+    euler3(axes, target, previous, lock_cos, a, b);
     const auto& best = distance2(a, previous) <= distance2(b, previous) ? a : b;
     std::copy(best.begin(), best.end(), out.begin());
     return;
@@ -114,7 +114,7 @@ void dofs_from_rotation(std::span<const glm::dvec3> axes, const glm::dquat& targ
     const glm::dvec3 full[3] = {axes[0], axes[1], glm::cross(axes[0], axes[1])};
     const double prev3[3] = {previous[0], previous[1], 0.0};
     std::array<double, 3> a, b;
-    euler3(full, target, prev3, a, b);
+    euler3(full, target, prev3, lock_cos, a, b);
     double va[2] = {a[0], a[1]}, vb[2] = {b[0], b[1]};
     refine(axes, target, va, 8);
     refine(axes, target, vb, 8);

@@ -46,7 +46,7 @@ void decompose(const glm::quat& local, std::span<const glm::vec3> axes, std::spa
   std::array<double, 3> prev{}, base{};
   for (size_t i = 0; i < n; ++i) ax[i] = glm::dvec3(axes[i]), prev[i] = angles[i];
   rig::dofs_from_rotation(std::span(ax.data(), n), glm::dquat(local), std::span(prev.data(), n),
-                          std::span(base.data(), n));
+                          std::span(base.data(), n), rig::kFloatLockCos);
   std::array<std::array<float, 3>, 2> cand{};
   for (size_t i = 0; i < n; ++i) cand[0][i] = static_cast<float>(base[i]);
   int n_cand = 1;

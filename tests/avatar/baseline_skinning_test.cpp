@@ -15,7 +15,7 @@
 #include "mimic/avatar/mesh_check.h"
 #include "two_bone_cylinder.h"
 
-namespace mimic::avatar::baselines {
+namespace mimic::avatar::baselines::baseline_skinning_test {
 namespace {
 
 using avatar::testing::cylinder_mesh;
@@ -334,4 +334,4 @@ TEST(BaselineSkinning, JobsRejectMismatchedSpans) {
 }
 
 }  // namespace
-}  // namespace mimic::avatar::baselines
+}  // namespace mimic::avatar::baselines::baseline_skinning_test

@@ -4,7 +4,7 @@
 
 #include "mimic/avatar/body_field.h"
 
-namespace mimic::avatar {
+namespace mimic::avatar::body_field_test {
 namespace {
 
 // A one-joint skeleton with one rotational DOF, enough to carry test primitives.
@@ -183,9 +183,9 @@ TEST(BodyField, NearestCrossingStaysOnItsOwnThigh) {
 }
 
 }  // namespace
-}  // namespace mimic::avatar
+}  // namespace mimic::avatar::body_field_test
 
-namespace mimic::avatar {
+namespace mimic::avatar::body_field_test {
 namespace {
 
 // The default body's field in random postures (every DOF within ±0.5 rad), for comparing one
@@ -358,4 +358,4 @@ TEST(BodyField, NearestCrossingBatchedAgreesWithSingleAndEndsTheSolidAroundThePo
 }
 
 }  // namespace
-}  // namespace mimic::avatar
+}  // namespace mimic::avatar::body_field_test

@@ -7,7 +7,7 @@
 
 #include <nlohmann/json.hpp>
 
-namespace mimic::avatar {
+namespace mimic::avatar::body_model_test {
 namespace {
 
 TEST(BodyModel, DefaultIsValidAndRich) {
@@ -148,4 +148,4 @@ TEST(BodyModel, MissingFileIsAnIoError) {
 }
 
 }  // namespace
-}  // namespace mimic::avatar
+}  // namespace mimic::avatar::body_model_test

@@ -12,7 +12,7 @@
 #include "mimic/rig/motion.h"
 #include "mimic/avatar/skin.h"
 
-namespace mimic::avatar {
+namespace mimic::avatar::body_presets_test {
 namespace {
 
 struct Measured {
@@ -139,4 +139,4 @@ TEST(BodyPresets, APresetOrAFileByName) {
 }
 
 }  // namespace
-}  // namespace mimic::avatar
+}  // namespace mimic::avatar::body_presets_test

@@ -6,7 +6,7 @@
 #include "mimic/avatar/mesh_check.h"
 #include "mimic/avatar/skin.h"
 
-namespace mimic::avatar {
+namespace mimic::avatar::body_scaling_test {
 namespace {
 
 struct Figures {
@@ -122,4 +122,4 @@ TEST(BodyScaling, RejectsNonsense) {
 }
 
 }  // namespace
-}  // namespace mimic::avatar
+}  // namespace mimic::avatar::body_scaling_test

@@ -4,7 +4,7 @@
 
 #include "mimic/avatar/bspline.h"
 
-namespace mimic::avatar {
+namespace mimic::avatar::bspline_test {
 namespace {
 
 TEST(Bspline, PeriodicWeightsArePartitionOfUnity) {
@@ -65,4 +65,4 @@ TEST(Bspline, PeriodicSmoothsACircleInward) {
 }
 
 }  // namespace
-}  // namespace mimic::avatar
+}  // namespace mimic::avatar::bspline_test

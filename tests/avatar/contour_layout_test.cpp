@@ -13,7 +13,7 @@
 #include "mimic/avatar/skin_weights.h"
 #include "mimic/avatar/texture_layout.h"
 
-namespace mimic::avatar {
+namespace mimic::avatar::contour_layout_test {
 namespace {
 
 ContourLayout build_layout(const BodyModel& model, int subdivision, bool rigid = true) {
@@ -132,4 +132,4 @@ TEST(ContourLayout, RejectsABadSubdivisionAndARealtimeBodyOfSmoothedRows) {
 }
 
 }  // namespace
-}  // namespace mimic::avatar
+}  // namespace mimic::avatar::contour_layout_test

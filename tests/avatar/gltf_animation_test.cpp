@@ -19,7 +19,7 @@
 #include "mimic/avatar/realtime_skin.h"
 #include "mimic/avatar/skin_lod.h"
 
-namespace mimic::avatar {
+namespace mimic::avatar::gltf_animation_test {
 namespace {
 
 using nlohmann::json;
@@ -257,4 +257,4 @@ TEST(GltfAnimation, RefusesBadInput) {
 }
 
 }  // namespace
-}  // namespace mimic::avatar
+}  // namespace mimic::avatar::gltf_animation_test

@@ -10,7 +10,7 @@
 #include "mimic/avatar/mesh_check.h"
 #include "two_bone_cylinder.h"
 
-namespace mimic::avatar {
+namespace mimic::avatar::joint_zone_test {
 namespace {
 
 using testing::cylinder_mesh;
@@ -122,4 +122,4 @@ TEST(JointZone, LinearBlendSkinningLosesVolumeAtTheBentElbow) {
 }
 
 }  // namespace
-}  // namespace mimic::avatar
+}  // namespace mimic::avatar::joint_zone_test

@@ -11,7 +11,7 @@
 #include "mimic/avatar/mesh_io.h"
 #include "test_data.h"
 
-namespace mimic::avatar {
+namespace mimic::avatar::measure_test {
 namespace {
 
 constexpr float kPi = 3.14159265358979f;
@@ -401,4 +401,4 @@ TEST(Measure, LandmarksFromSkeletonStandOnTheGround) {
 }
 
 }  // namespace
-}  // namespace mimic::avatar
+}  // namespace mimic::avatar::measure_test

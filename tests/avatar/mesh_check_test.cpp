@@ -7,7 +7,7 @@
 #include "mimic/avatar/mesh_io.h"
 #include "test_data.h"
 
-namespace mimic::avatar {
+namespace mimic::avatar::mesh_check_test {
 namespace {
 
 // Box [0,a]x[0,b]x[0,c] with 8 shared vertices, outward counter-clockwise faces.
@@ -194,4 +194,4 @@ TEST(MeshCheck, MakeHumanBodyIsClosedGenusZero) {
 }
 
 }  // namespace
-}  // namespace mimic::avatar
+}  // namespace mimic::avatar::mesh_check_test

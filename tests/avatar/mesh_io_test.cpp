@@ -14,7 +14,7 @@
 #include "mimic/core/file.h"
 #include "test_data.h"
 
-namespace mimic::avatar {
+namespace mimic::avatar::mesh_io_test {
 namespace {
 
 namespace fs = std::filesystem;
@@ -477,4 +477,4 @@ TEST(MeshIo, MissingFileIsAnIoError) {
 }
 
 }  // namespace
-}  // namespace mimic::avatar
+}  // namespace mimic::avatar::mesh_io_test

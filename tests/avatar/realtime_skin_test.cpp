@@ -14,7 +14,7 @@
 #include "mimic/avatar/skin_lod.h"
 #include "test_data.h"
 
-namespace mimic::avatar {
+namespace mimic::avatar::realtime_skin_test {
 namespace {
 
 std::shared_ptr<const RealtimeBody> make_body(int lod = 0) {
@@ -357,4 +357,4 @@ TEST(RealtimeSkin, AnInitialPoseOfTheCallersIsExactToo) {
 }
 
 }  // namespace
-}  // namespace mimic::avatar
+}  // namespace mimic::avatar::realtime_skin_test

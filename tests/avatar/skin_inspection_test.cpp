@@ -6,7 +6,7 @@
 
 #include "mimic/avatar/skin_inspection.h"
 
-namespace mimic::avatar {
+namespace mimic::avatar::skin_inspection_test {
 namespace {
 
 const std::vector<SweepResult>& results() {
@@ -76,4 +76,4 @@ TEST(SkinInspection, UnknownDofIsAnError) {
 }
 
 }  // namespace
-}  // namespace mimic::avatar
+}  // namespace mimic::avatar::skin_inspection_test

@@ -13,7 +13,7 @@
 #include "mimic/avatar/skin.h"
 #include "test_data.h"
 
-namespace mimic::avatar {
+namespace mimic::avatar::skin_junction_test {
 namespace {
 
 // The rings of a junction: boundary-driven rings, the limb's first two star rings (S and the
@@ -169,4 +169,4 @@ TEST(SkinJunctions, DrivenRingsStayNearTheirPointsAndTheJunctionsDoNotFold) {
 }
 
 }  // namespace
-}  // namespace mimic::avatar
+}  // namespace mimic::avatar::skin_junction_test

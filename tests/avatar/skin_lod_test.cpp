@@ -14,7 +14,7 @@
 #include "mimic/avatar/texture_layout.h"
 #include "test_data.h"
 
-namespace mimic::avatar {
+namespace mimic::avatar::skin_lod_test {
 namespace {
 
 TEST(SkinLod, FourLevelsFromAboutTenThousandToAboutThreeHundredTriangles) {
@@ -383,4 +383,4 @@ TEST(SkinLod, ChoosesByDistance) {
 }
 
 }  // namespace
-}  // namespace mimic::avatar
+}  // namespace mimic::avatar::skin_lod_test

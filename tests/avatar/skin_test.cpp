@@ -8,7 +8,7 @@
 #include "mimic/avatar/skin.h"
 #include "test_data.h"
 
-namespace mimic::avatar {
+namespace mimic::avatar::skin_test {
 namespace {
 
 ImplicitSkin make_skin(int subdivision) {
@@ -152,9 +152,9 @@ TEST(Skin, MusclesDeformWithTheirJoint) {
 }
 
 }  // namespace
-}  // namespace mimic::avatar
+}  // namespace mimic::avatar::skin_test
 
-namespace mimic::avatar {
+namespace mimic::avatar::skin_test {
 namespace {
 
 // Poses the default body through every shared clip (every 40th frame, frame 0 included) and
@@ -182,4 +182,4 @@ TEST(Skin, ClosedAndOutwardThroughEverySharedClip) {
 }
 
 }  // namespace
-}  // namespace mimic::avatar
+}  // namespace mimic::avatar::skin_test

@@ -5,7 +5,7 @@
 #include "mimic/rig/motion.h"
 #include "mimic/avatar/skin.h"
 
-namespace mimic::avatar {
+namespace mimic::avatar::skin_weights_test {
 namespace {
 
 ImplicitSkin realtime_resolution() {
@@ -126,4 +126,4 @@ TEST(SkinWeights, NeedTheRealtimeResolution) {
 }
 
 }  // namespace
-}  // namespace mimic::avatar
+}  // namespace mimic::avatar::skin_weights_test

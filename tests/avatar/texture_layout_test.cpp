@@ -10,7 +10,7 @@
 #include "mimic/avatar/realtime_skin.h"
 #include "mimic/avatar/skin.h"
 
-namespace mimic::avatar {
+namespace mimic::avatar::texture_layout_test {
 namespace {
 
 ImplicitSkin skin_at(int subdivision) {
@@ -97,4 +97,4 @@ TEST(TextureLayout, ExportsCarryTheUvs) {
 }
 
 }  // namespace
-}  // namespace mimic::avatar
+}  // namespace mimic::avatar::texture_layout_test

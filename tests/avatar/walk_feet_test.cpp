@@ -9,7 +9,7 @@
 #include "mimic/avatar/realtime_skin.h"
 #include "mimic/avatar/skin.h"
 
-namespace mimic::avatar {
+namespace mimic::avatar::walk_feet_test {
 namespace {
 
 struct FloorContact {
@@ -74,4 +74,4 @@ TEST(WalkFeet, TheFullSkinStaysOnTheFloorAtEveryKey) {
 }
 
 }  // namespace
-}  // namespace mimic::avatar
+}  // namespace mimic::avatar::walk_feet_test

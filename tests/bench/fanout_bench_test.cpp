@@ -12,7 +12,7 @@
 
 #include "mimic/bench/loopback_bench.h"
 
-namespace mimic::bench {
+namespace mimic::bench::fanout_bench_test {
 namespace {
 
 TEST(FanoutBench, EverySubscriberReceivesEveryFrameOverTcpAndUdp) {
@@ -113,4 +113,4 @@ TEST(FanoutBench, ABrokerRowThatFellBehindDoesNotSayKeptUp) {
 }
 
 }  // namespace
-}  // namespace mimic::bench
+}  // namespace mimic::bench::fanout_bench_test

@@ -25,6 +25,8 @@
 #include "mimic_proc.h"
 #include "raw_peer.h"
 
+namespace attack_test {
+
 namespace {
 
 using mimic::test::endpoint_of;
@@ -249,3 +251,5 @@ TEST(Attack, CredentialsInABrokerAddressAreNeverShown) {
 }
 
 }  // namespace
+
+}  // namespace attack_test

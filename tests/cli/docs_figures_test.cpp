@@ -13,6 +13,8 @@
 
 #include "run_mimic.h"
 
+namespace docs_figures_test {
+
 namespace {
 
 using mimic::test::Outcome;
@@ -111,3 +113,5 @@ TEST(DocsFigures, TheExportedWalkIsWhatGltfExportSays) {
 }
 
 }  // namespace
+
+}  // namespace docs_figures_test

@@ -15,6 +15,8 @@
 #include "run_mimic.h"
 #include "test_data.h"
 
+namespace export_cli_test {
+
 namespace {
 
 nlohmann::json glb_json(const std::string& path) {
@@ -171,3 +173,5 @@ TEST(ExportCli, UsageErrors) {
 }
 
 }  // namespace
+
+}  // namespace export_cli_test

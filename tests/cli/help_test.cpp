@@ -11,6 +11,8 @@
 
 #include "run_mimic.h"
 
+namespace help_test {
+
 namespace {
 
 using mimic::test::Outcome;
@@ -129,3 +131,5 @@ TEST(CliHelp, AValueOutsideItsRangeIsAUsageError) {
 }
 
 }  // namespace
+
+}  // namespace help_test

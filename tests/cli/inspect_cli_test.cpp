@@ -7,6 +7,8 @@
 
 #include "run_mimic.h"
 
+namespace inspect_cli_test {
+
 namespace {
 
 using mimic::test::Outcome;
@@ -44,3 +46,5 @@ TEST(InspectCli, TableAndOptions) {
 }
 
 }  // namespace
+
+}  // namespace inspect_cli_test

@@ -11,6 +11,8 @@
 #include "run_mimic.h"
 #include "test_data.h"
 
+namespace measure_cli_test {
+
 namespace {
 
 using mimic::test::Outcome;
@@ -83,3 +85,5 @@ TEST(MeasureCli, HelpListsEveryOption) {
 }
 
 }  // namespace
+
+}  // namespace measure_cli_test

@@ -16,6 +16,8 @@
 #include "run_mimic.h"
 #include "test_data.h"
 
+namespace mesh_cli_test {
+
 namespace {
 
 using mimic::test::Outcome;
@@ -192,3 +194,5 @@ TEST(CompareCli, DefaultBodyMatchesTheReferenceWithinTenPercent) {
 }
 
 }  // namespace
+
+}  // namespace mesh_cli_test

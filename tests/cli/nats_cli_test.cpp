@@ -30,6 +30,8 @@
 #include "test_data.h"
 #include "nats_kv.h"
 
+namespace nats_cli_test {
+
 namespace {
 
 using mimic::test::endpoint_of;
@@ -301,3 +303,5 @@ TEST(NatsCli, ASigkilledPublishersAvatarLeavesAndItsRestartBringsItBack) {
 
 }  // namespace
 #endif  // MIMIC_HAVE_NATS
+
+}  // namespace nats_cli_test

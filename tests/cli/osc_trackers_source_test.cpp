@@ -19,6 +19,8 @@
 #include "free_port.h"
 #include "mimic_proc.h"
 
+namespace osc_trackers_source_test {
+
 namespace {
 
 using mimic::net::VrpnTrackerRemote;
@@ -65,3 +67,5 @@ TEST(OscTrackersSource, LibloTrackersPlaceTheSolvedAvatar) {
 }
 
 }  // namespace
+
+}  // namespace osc_trackers_source_test

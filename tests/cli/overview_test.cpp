@@ -9,6 +9,8 @@
 
 #include "run_mimic.h"
 
+namespace overview_test {
+
 namespace {
 
 TEST(Overview, BareMimicPrintsTheCommandsAndServesNothing) {
@@ -48,3 +50,5 @@ TEST(Overview, BadOptionsAreNamedEvenWhenThePortIsTaken) {
 }
 
 }  // namespace
+
+}  // namespace overview_test

@@ -17,6 +17,8 @@
 
 #include "mimic_proc.h"
 
+namespace reconnect_cli_test {
+
 namespace {
 
 using mimic::test::endpoint_of;
@@ -118,3 +120,5 @@ TEST(ReconnectCli, StoppedViewersComeBackWithTheNewestFrames) {
 }
 
 }  // namespace
+
+}  // namespace reconnect_cli_test

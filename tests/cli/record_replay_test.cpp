@@ -20,6 +20,8 @@
 #include "replay_csv.h"
 #include "test_data.h"
 
+namespace record_replay_test {
+
 namespace {
 
 namespace fs = std::filesystem;
@@ -275,3 +277,5 @@ TEST(CliRecordReplay, UsageErrorsAreClear) {
 }
 
 }  // namespace
+
+}  // namespace record_replay_test

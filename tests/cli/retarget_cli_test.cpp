@@ -11,6 +11,8 @@
 #include "run_mimic.h"
 #include "test_data.h"
 
+namespace retarget_cli_test {
+
 namespace {
 
 using mimic::test::Outcome;
@@ -72,3 +74,5 @@ TEST(RetargetCli, BadUsageAndBadInputAreReported) {
 }
 
 }  // namespace
+
+}  // namespace retarget_cli_test

@@ -29,6 +29,8 @@
 
 extern char** environ;
 
+namespace run_subscribe_test {
+
 namespace {
 
 using mimic::test::endpoint_of;
@@ -577,3 +579,5 @@ TEST(RunSubscribe, SubscribersJoiningAndLeavingCostTheLoopNoAllocation) {
 }
 
 }  // namespace
+
+}  // namespace run_subscribe_test

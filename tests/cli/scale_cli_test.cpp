@@ -12,6 +12,8 @@
 
 #include "run_mimic.h"
 
+namespace scale_cli_test {
+
 namespace {
 
 using mimic::test::Outcome;
@@ -119,3 +121,5 @@ TEST(ScaleCli, BadUsageIsReported) {
 }
 
 }  // namespace
+
+}  // namespace scale_cli_test

@@ -24,6 +24,8 @@
 
 extern char** environ;
 
+namespace sim_flock_cli_test {
+
 namespace {
 
 using namespace std::chrono_literals;
@@ -230,3 +232,5 @@ TEST(SimFlockCli, HelpAndBadOptions) {
 }
 
 }  // namespace
+
+}  // namespace sim_flock_cli_test

@@ -23,6 +23,8 @@
 
 extern char** environ;
 
+namespace sim_spaceball_cli_test {
+
 namespace {
 
 // A child process whose stdout we read line by line.
@@ -192,3 +194,5 @@ TEST(DevicesCli, WatchStopsAfterDurationAndReadsMagellan) {
   ::kill(sim.pid, SIGINT);
   EXPECT_EQ(sim.wait(), 0);
 }
+
+}  // namespace sim_spaceball_cli_test

@@ -15,6 +15,8 @@
 #include "run_mimic.h"
 #include "test_data.h"
 
+namespace solver_cli_test {
+
 namespace {
 
 using mimic::test::Outcome;
@@ -150,3 +152,5 @@ TEST(EvalSolverCli, TableNamesTheJointSetAndJitterAndRejectsBadOptions) {
 }
 
 }  // namespace
+
+}  // namespace solver_cli_test

@@ -20,6 +20,8 @@
 
 extern char** environ;
 
+namespace status_line_test {
+
 namespace {
 
 using Clock = std::chrono::steady_clock;
@@ -97,3 +99,5 @@ TEST(StatusLine, IntoAPipeItIsWholeLinesEveryFewSeconds) {
 }
 
 }  // namespace
+
+}  // namespace status_line_test

@@ -14,6 +14,8 @@
 #include "mimic_proc.h"
 #include "replay_csv.h"
 
+namespace untrusted_text_test {
+
 namespace {
 
 namespace fs = std::filesystem;
@@ -140,3 +142,5 @@ TEST(UntrustedText, BytesAfterTheEndRecordAreReported) {
 }
 
 }  // namespace
+
+}  // namespace untrusted_text_test

@@ -21,6 +21,8 @@
 #include "free_port.h"
 #include "mimic_proc.h"
 
+namespace vmc_source_test {
+
 namespace {
 
 using mimic::test::endpoint_of;
@@ -122,3 +124,5 @@ TEST(VmcSource, BadSpecsGetClearErrors) {
 }
 
 }  // namespace
+
+}  // namespace vmc_source_test

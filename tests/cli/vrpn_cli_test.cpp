@@ -22,6 +22,8 @@
 #include "run_mimic.h"
 #include "vrpn_test_client.h"
 
+namespace vrpn_cli_test {
+
 namespace {
 
 using mimic::test::Child;
@@ -95,3 +97,5 @@ TEST(VrpnCli, RunServesAvatarJointsAndSensorSamples) {
 }
 
 }  // namespace
+
+}  // namespace vrpn_cli_test

@@ -23,6 +23,8 @@
 #include "free_port.h"
 #include "mimic_proc.h"
 
+namespace vrpn_source_test {
+
 namespace {
 
 using mimic::net::VrpnReport;
@@ -131,3 +133,5 @@ TEST(VrpnSource, ASecondMimicSolvesTheFirstOnesTrackersOverVrpn) {
 }
 
 }  // namespace
+
+}  // namespace vrpn_source_test

@@ -13,7 +13,7 @@
 #include "mimic/core/host_port.h"
 #include "mimic/core/percentile.h"
 
-namespace mimic {
+namespace mimic::helpers_test {
 namespace {
 
 std::span<const uint8_t> bytes_of(const char* text) {
@@ -82,4 +82,4 @@ TEST(Clock, ManualClockMovesOnlyWhenTold) {
 }
 
 }  // namespace
-}  // namespace mimic
+}  // namespace mimic::helpers_test

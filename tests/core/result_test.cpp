@@ -5,7 +5,7 @@
 #include "mimic/core/file.h"
 #include "mimic/core/result.h"
 
-namespace mimic {
+namespace mimic::result_test {
 
 TEST(Result, CarriesCodeAndMessage) {
   Result<int> r = fail(Errc::parse_error, "clip.bvh:3: expected '{'");
@@ -43,4 +43,4 @@ TEST(File, MissingFileIsAnIoError) {
   EXPECT_NE(r.error().message.find("/nonexistent/dir/file"), std::string::npos);
 }
 
-}  // namespace mimic
+}  // namespace mimic::result_test

@@ -5,7 +5,7 @@
 #include <random>
 #include <string>
 
-namespace mimic {
+namespace mimic::text_test {
 namespace {
 
 // No byte the output holds can start a terminal control: nothing below 0x20, no DEL, and the
@@ -75,4 +75,4 @@ TEST(TerminalSafe, RandomBytesAlwaysComeOutInert) {
 }
 
 }  // namespace
-}  // namespace mimic
+}  // namespace mimic::text_test

@@ -7,7 +7,7 @@
 
 #include "mimic/devices/flock_packet.h"
 
-namespace mimic::devices::flock {
+namespace mimic::devices::flock::flock_decoder_test {
 namespace {
 
 // A record whose words carry its sequence number, so a test can tell which ones came through.
@@ -197,4 +197,4 @@ TEST(FlockDecoder, RandomFaultsNeverLoseUntouchedRecords) {
 }
 
 }  // namespace
-}  // namespace mimic::devices::flock
+}  // namespace mimic::devices::flock::flock_decoder_test

@@ -6,7 +6,7 @@
 
 #include "mimic/devices/flock_packet.h"
 
-namespace mimic::devices::flock {
+namespace mimic::devices::flock::flock_packet_test {
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
@@ -337,4 +337,4 @@ TEST(FlockParameters, SizesStatusRatesRevision) {
 }
 
 }  // namespace
-}  // namespace mimic::devices::flock
+}  // namespace mimic::devices::flock::flock_packet_test

@@ -6,6 +6,8 @@
 #include <set>
 #include <vector>
 
+namespace hid_packet_test {
+
 namespace hid = mimic::devices::hid;
 using Bytes = std::vector<uint8_t>;
 
@@ -107,3 +109,5 @@ TEST(HidPacket, FrameMappingFollowsSpacenavdConvention) {
     }
   }
 }
+
+}  // namespace hid_packet_test

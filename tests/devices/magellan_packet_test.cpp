@@ -6,6 +6,8 @@
 #include <string>
 #include <vector>
 
+namespace magellan_packet_test {
+
 namespace mg = mimic::devices::magellan;
 using Bytes = std::vector<uint8_t>;
 
@@ -131,3 +133,5 @@ TEST(MagellanPacket, FrameMappingRoundTrip) {
     }
   }
 }
+
+}  // namespace magellan_packet_test

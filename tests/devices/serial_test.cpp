@@ -14,7 +14,7 @@
 
 #include "mimic/devices/serial.h"
 
-namespace mimic::devices {
+namespace mimic::devices::serial_test {
 namespace {
 
 using namespace std::chrono_literals;
@@ -138,4 +138,4 @@ TEST(SerialPort, HangUpIsReportedAsDisconnected) {
 }
 
 }  // namespace
-}  // namespace mimic::devices
+}  // namespace mimic::devices::serial_test

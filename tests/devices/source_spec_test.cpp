@@ -3,7 +3,7 @@
 
 #include "mimic/devices/source.h"
 
-namespace mimic::devices {
+namespace mimic::devices::source_spec_test {
 namespace {
 
 TEST(SourceSpec, FlockWithParameters) {
@@ -75,4 +75,4 @@ TEST(SourceSpec, ErrorCodes) {
 }
 
 }  // namespace
-}  // namespace mimic::devices
+}  // namespace mimic::devices::source_spec_test

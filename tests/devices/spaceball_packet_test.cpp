@@ -6,6 +6,8 @@
 #include <string>
 #include <vector>
 
+namespace spaceball_packet_test {
+
 namespace sb = mimic::devices::spaceball;
 using Bytes = std::vector<uint8_t>;
 
@@ -263,3 +265,5 @@ TEST(SpaceballPacket, FrameMappingRoundTripAndConventions) {
   EXPECT_FLOAT_EQ(f.rotation.x, 1.0f);
   EXPECT_FLOAT_EQ(f.rotation.y, -1.0f);
 }
+
+}  // namespace spaceball_packet_test

@@ -11,6 +11,8 @@
 #include <set>
 #include <string>
 
+namespace usb_discovery_test {
+
 namespace dev = mimic::devices;
 namespace fs = std::filesystem;
 
@@ -137,3 +139,5 @@ TEST(UsbDiscovery, InventoryDiffIsASetDifference) {
   EXPECT_NE(c.arrived[0].find("SpaceNavigator"), std::string::npos);
   EXPECT_NE(c.departed[0].find("FTDI"), std::string::npos);
 }
+
+}  // namespace usb_discovery_test

@@ -13,7 +13,7 @@
 #include "../net/net_test_support.h"
 #include "nats_kv.h"
 
-namespace mimic::net {
+namespace mimic::net::nats_hostile_test {
 namespace {
 
 // A MESH_TOPOLOGY of `vertices` vertices and no triangles, written byte by byte (the encoder
@@ -49,4 +49,4 @@ TEST(NatsHostile, AMeshTopologyNoFrameCanCarryDoesNotKillARelay) {
 }
 
 }  // namespace
-}  // namespace mimic::net
+}  // namespace mimic::net::nats_hostile_test

@@ -17,7 +17,7 @@
 #include "../net/net_test_support.h"
 #include "nats_kv.h"
 
-namespace mimic::net {
+namespace mimic::net::nats_test {
 namespace {
 
 using ::mimic::test::NatsBroker;
@@ -513,4 +513,4 @@ TEST(Nats, AnAvatarIsServedWhileItsPublisherHeartbeatsAndLeavesAfterMissedOnes) 
 }
 
 }  // namespace
-}  // namespace mimic::net
+}  // namespace mimic::net::nats_test

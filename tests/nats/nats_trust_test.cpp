@@ -19,7 +19,7 @@
 #include "../net/net_test_support.h"
 #include "nats_kv.h"
 
-namespace mimic::net {
+namespace mimic::net::nats_trust_test {
 namespace {
 
 TEST(NatsLinkState, StatusLineText) {
@@ -413,4 +413,4 @@ TEST(NatsTrust, ClusterFailoversCostWellUnderASecond) {
 }
 
 }  // namespace
-}  // namespace mimic::net
+}  // namespace mimic::net::nats_trust_test

@@ -10,7 +10,7 @@
 #include "nats_test_fixtures.h"
 #include "../net/net_test_support.h"
 
-namespace mimic::net {
+namespace mimic::net::scene_connection_test {
 namespace {
 
 using ::mimic::test::NatsBroker;
@@ -59,4 +59,4 @@ TEST(SceneConnection, TheClientItselfRefusesABrokerUrlWithoutShowingIt) {
 }
 
 }  // namespace
-}  // namespace mimic::net
+}  // namespace mimic::net::scene_connection_test

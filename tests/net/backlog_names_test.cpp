@@ -7,7 +7,7 @@
 
 #include "net_test_support.h"
 
-namespace mimic::net {
+namespace mimic::net::backlog_names_test {
 namespace {
 
 using namespace mimic::net::test;
@@ -179,4 +179,4 @@ TEST(Receivers, AClientRefusesAPoseWithTheWrongDofCount) {
 }
 
 }  // namespace
-}  // namespace mimic::net
+}  // namespace mimic::net::backlog_names_test

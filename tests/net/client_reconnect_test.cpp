@@ -8,7 +8,7 @@
 #include "mimic/net/pose_stream.h"
 #include "net_test_support.h"
 
-namespace mimic::net {
+namespace mimic::net::client_reconnect_test {
 namespace {
 
 using namespace mimic::net::test;
@@ -219,4 +219,4 @@ TEST(ClientReconnect, NoKeyRequestBetweenSessions) {
 }
 
 }  // namespace
-}  // namespace mimic::net
+}  // namespace mimic::net::client_reconnect_test

@@ -4,7 +4,7 @@
 
 #include "mimic/net/frame_codec.h"
 
-namespace mimic::net {
+namespace mimic::net::frame_codec_test {
 namespace {
 
 using Bytes = std::vector<uint8_t>;
@@ -356,4 +356,4 @@ TEST(FrameCodec, RandomBytesNeverCrashDecoders) {
 }
 
 }  // namespace
-}  // namespace mimic::net
+}  // namespace mimic::net::frame_codec_test

@@ -12,7 +12,7 @@
 #include "forged_udp.h"
 #include "net_test_support.h"
 
-namespace mimic::net {
+namespace mimic::net::hostile_test {
 namespace {
 
 using namespace mimic::net::test;
@@ -399,9 +399,9 @@ TEST(Hostile, AnUnservedMeshLodIsRefusedWithTheLodsServed) {
 }
 
 }  // namespace
-}  // namespace mimic::net
+}  // namespace mimic::net::hostile_test
 
-namespace mimic::net {
+namespace mimic::net::hostile_test {
 namespace {
 
 size_t open_descriptors() {
@@ -448,4 +448,4 @@ TEST(Hostile, AcceptBacksOffWhenOutOfDescriptors) {
 }
 
 }  // namespace
-}  // namespace mimic::net
+}  // namespace mimic::net::hostile_test

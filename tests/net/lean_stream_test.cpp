@@ -8,7 +8,7 @@
 #include "mimic/net/pose_stream.h"
 #include "net_test_support.h"
 
-namespace mimic::net {
+namespace mimic::net::lean_stream_test {
 namespace {
 
 using namespace test;
@@ -225,4 +225,4 @@ TEST(LeanStream, UdpDatagramsCarryEveryAvatarOfATick) {
 }
 
 }  // namespace
-}  // namespace mimic::net
+}  // namespace mimic::net::lean_stream_test

@@ -13,7 +13,7 @@
 #include "mimic/net/pose_stream.h"
 #include "net_test_support.h"
 
-namespace mimic::net {
+namespace mimic::net::parallel_fanout_test {
 namespace {
 
 using namespace test;
@@ -207,4 +207,4 @@ TEST(ParallelFanout, WorkersFollowThePublishingThreadsPolicy) {
 }
 
 }  // namespace
-}  // namespace mimic::net
+}  // namespace mimic::net::parallel_fanout_test

@@ -11,7 +11,7 @@
 #include "mimic/net/pose_stream.h"
 #include "test_data.h"
 
-namespace mimic::net {
+namespace mimic::net::pose_stream_test {
 namespace {
 
 using Bytes = std::vector<uint8_t>;
@@ -34,8 +34,8 @@ struct Clip {
 
 std::vector<Clip> shared_clips_at_90hz() {
   std::vector<Clip> clips;
-  for (const char* id : test::kShared_clips) {
-    auto m = rig::load_bvh_motion(test::clip_path(id));
+  for (const char* id : ::mimic::test::kShared_clips) {
+    auto m = rig::load_bvh_motion(::mimic::test::clip_path(id));
     EXPECT_TRUE(m) << id << ": " << m.error().what();
     if (!m) continue;
     Clip c{id, {}};
@@ -71,7 +71,7 @@ void expect_within_bound(const rig::Pose& got, const rig::Pose& want, uint8_t sh
 
 TEST(PoseStream, EverySharedClipRoundTripsWithinTheBoundUnder64BytesPerFrame) {
   const auto clips = shared_clips_at_90hz();
-  ASSERT_EQ(clips.size(), std::size(test::kShared_clips));
+  ASSERT_EQ(clips.size(), std::size(::mimic::test::kShared_clips));
   uint64_t total_bytes = 0, total_frames = 0, keys = 0;
   for (const Clip& c : clips) {
     LeanPoseEncoder enc;  // default precision, a key every 90 frames
@@ -280,4 +280,4 @@ TEST(PoseStream, LargeSkeletonsStayOnPoseFrames) {
 }
 
 }  // namespace
-}  // namespace mimic::net
+}  // namespace mimic::net::pose_stream_test

@@ -3,7 +3,7 @@
 #include "mimic/rig/skeleton.h"
 #include "net_test_support.h"
 
-namespace mimic::net {
+namespace mimic::net::server_test {
 namespace {
 
 using namespace mimic::net::test;
@@ -456,4 +456,4 @@ TEST(Server, MeshFramesAtTheChosenLod) {
 }
 
 }  // namespace
-}  // namespace mimic::net
+}  // namespace mimic::net::server_test

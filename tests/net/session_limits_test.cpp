@@ -7,7 +7,7 @@
 
 #include "net_test_support.h"
 
-namespace mimic::net {
+namespace mimic::net::session_limits_test {
 namespace {
 
 using namespace mimic::net::test;
@@ -198,4 +198,4 @@ TEST(SessionLimits, LocalhostListensOnLoopback) {
 }
 
 }  // namespace
-}  // namespace mimic::net
+}  // namespace mimic::net::session_limits_test

@@ -6,7 +6,7 @@
 
 #include "net_test_support.h"
 
-namespace mimic::net {
+namespace mimic::net::udp_registration_test {
 namespace {
 
 using namespace mimic::net::test;
@@ -217,4 +217,4 @@ TEST(UdpRegistration, ATokenIsGoneForUdpAfterBye) {
 }
 
 }  // namespace
-}  // namespace mimic::net
+}  // namespace mimic::net::udp_registration_test

@@ -6,7 +6,7 @@
 
 #include "net_test_support.h"
 
-namespace mimic::net {
+namespace mimic::net::udp_test {
 namespace {
 
 using namespace mimic::net::test;
@@ -333,4 +333,4 @@ TEST(UdpPoses, HostileDatagramsAreCountedAndOnlyKnownTokensAnswered) {
 }
 
 }  // namespace
-}  // namespace mimic::net
+}  // namespace mimic::net::udp_test

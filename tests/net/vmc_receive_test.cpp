@@ -9,7 +9,7 @@
 #include "mimic/net/vmc.h"
 #include "mimic/net/vmc_receive.h"
 
-namespace mimic::net {
+namespace mimic::net::vmc_receive_test {
 namespace {
 
 using Bytes = std::vector<uint8_t>;
@@ -229,4 +229,4 @@ TEST(VmcReceive, MalformedInputIsCountedByReasonAndIgnored) {
 }
 
 }  // namespace
-}  // namespace mimic::net
+}  // namespace mimic::net::vmc_receive_test

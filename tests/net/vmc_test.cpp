@@ -19,7 +19,7 @@
 
 extern char** environ;
 
-namespace mimic::net {
+namespace mimic::net::vmc_test {
 namespace {
 
 uint16_t free_udp_port() {
@@ -334,4 +334,4 @@ TEST(Vmc, DatagramsOnLoopbackStayUnderTheLimit) {
 }
 
 }  // namespace
-}  // namespace mimic::net
+}  // namespace mimic::net::vmc_test

@@ -17,10 +17,10 @@
 #include "mimic/net/vrpn_server.h"
 #include "vrpn_test_server.h"
 
-namespace mimic::net {
+namespace mimic::net::vrpn_client_test {
 namespace {
 
-using PeerServer = test::vrpn::Server;
+using PeerServer = ::mimic::test::vrpn::Server;
 
 TEST(VrpnAddress, ParsesTheFormsVrpnClientsWrite) {
   auto a = parse_vrpn_address("Tracker0@localhost");
@@ -327,4 +327,4 @@ TEST(VrpnTrackerRemote, AnUnknownHostIsAClearError) {
 }
 
 }  // namespace
-}  // namespace mimic::net
+}  // namespace mimic::net::vrpn_client_test

@@ -10,10 +10,10 @@
 
 #include "vrpn_test_client.h"
 
-namespace mimic::net {
+namespace mimic::net::vrpn_server_test {
 namespace {
 
-using test::vrpn::Client;
+using ::mimic::test::vrpn::Client;
 
 struct Fixture {
   std::unique_ptr<VrpnServer> server;
@@ -39,7 +39,7 @@ struct Fixture {
 // Every joint of the avatar arrives once per frame as Avatar0's sensor <joint index>, with the
 // joint's world position and orientation.
 void expect_frame(const Fixture& f, const Client& c, bool udp) {
-  std::map<int, test::vrpn::Report> by_sensor;
+  std::map<int, ::mimic::test::vrpn::Report> by_sensor;
   for (const auto& r : c.reports)
     if (r.device == "Avatar0") by_sensor[r.sensor] = r;
   ASSERT_EQ(by_sensor.size(), size_t(f.skeleton.joint_count()));
@@ -154,4 +154,4 @@ TEST(VrpnServer, BadListenAddressesFail) {
 }
 
 }  // namespace
-}  // namespace mimic::net
+}  // namespace mimic::net::vrpn_server_test

@@ -5,6 +5,8 @@
 #include "mimic/render/avatar_lods.h"
 #include "mimic/render/camera.h"
 
+namespace camera_test {
+
 namespace {
 
 using mimic::render::Camera;
@@ -171,3 +173,5 @@ TEST(Lod, FinerAsTheBodyComesCloser) {
 }
 
 }  // namespace
+
+}  // namespace camera_test

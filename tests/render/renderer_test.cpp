@@ -14,6 +14,8 @@
 #include "mimic/render/overlays.h"
 #include "mimic/render/renderer.h"
 
+namespace renderer_test {
+
 namespace {
 
 using namespace mimic;
@@ -196,3 +198,5 @@ TEST(Overlays, ParseNamesAndMeasureMuscles) {
 }
 
 }  // namespace
+
+}  // namespace renderer_test

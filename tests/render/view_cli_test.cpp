@@ -14,6 +14,8 @@
 #include "run_mimic.h"
 #include "test_data.h"
 
+namespace view_cli_test {
+
 namespace {
 
 using mimic::test::Outcome;
@@ -243,3 +245,5 @@ TEST(ViewCli, WithoutADisplayTheWindowSaysSoAndPointsToScreenshots) {
 }
 
 }  // namespace
+
+}  // namespace view_cli_test

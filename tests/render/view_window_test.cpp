@@ -21,6 +21,8 @@
 #include "run_mimic.h"
 #include "test_data.h"
 
+namespace view_window_test {
+
 namespace {
 
 using mimic::test::Outcome;
@@ -353,3 +355,5 @@ TEST(ViewWindow, TakesEverySourceFormMimicRunTakes) {
 }
 
 }  // namespace
+
+}  // namespace view_window_test

@@ -8,7 +8,7 @@
 #include "mimic/core/file.h"
 #include "test_data.h"
 
-namespace mimic::rig {
+namespace mimic::rig::bvh_test {
 namespace {
 
 // Hand-written edge-case files live beside the tests (tests/data/bvh).
@@ -312,4 +312,4 @@ TEST(Bvh, ExportRejectsSkewAxesAndMismatchedPoses) {
 }
 
 }  // namespace
-}  // namespace mimic::rig
+}  // namespace mimic::rig::bvh_test

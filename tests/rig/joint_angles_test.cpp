@@ -6,7 +6,7 @@
 
 #include "mimic/rig/joint_angles.h"
 
-namespace mimic::rig {
+namespace mimic::rig::joint_angles_test {
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
@@ -186,4 +186,4 @@ TEST(JointAngles, UnwrapNear) {
 }
 
 }  // namespace
-}  // namespace mimic::rig
+}  // namespace mimic::rig::joint_angles_test

@@ -6,7 +6,7 @@
 #include "mimic/rig/retarget.h"
 #include "test_data.h"
 
-namespace mimic::rig {
+namespace mimic::rig::motion_test {
 namespace {
 
 Skeleton default_skeleton() {
@@ -226,4 +226,4 @@ TEST(Motion, BuiltinsDriveAPerformersSkeletonToo) {
 }
 
 }  // namespace
-}  // namespace mimic::rig
+}  // namespace mimic::rig::motion_test

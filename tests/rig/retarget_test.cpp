@@ -7,7 +7,7 @@
 #include "mimic/rig/retarget.h"
 #include "test_data.h"
 
-namespace mimic::rig {
+namespace mimic::rig::retarget_test {
 namespace {
 
 struct ClipError {
@@ -297,4 +297,4 @@ TEST(BvhMotion, CanDriveAnotherBody) {
 }
 
 }  // namespace
-}  // namespace mimic::rig
+}  // namespace mimic::rig::retarget_test

@@ -5,7 +5,7 @@
 
 #include "mimic/rig/skeleton.h"
 
-namespace mimic::rig {
+namespace mimic::rig::skeleton_test {
 namespace {
 
 Skeleton default_skeleton() {
@@ -124,4 +124,4 @@ TEST(Skeleton, DefaultStandsAbout167Tall) {
 }
 
 }  // namespace
-}  // namespace mimic::rig
+}  // namespace mimic::rig::skeleton_test

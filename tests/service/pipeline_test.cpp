@@ -13,6 +13,8 @@
 #include "mimic/service/sink.h"
 #include "mimic/solver/sensor_layout.h"
 
+namespace pipeline_test {
+
 namespace {
 
 using namespace mimic;
@@ -238,3 +240,5 @@ TEST(Pipeline, APassAllocatesNothingWithFramesStaleRepeatsAndMeshFrames) {
 }
 
 }  // namespace
+
+}  // namespace pipeline_test

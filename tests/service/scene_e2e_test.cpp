@@ -13,6 +13,8 @@
 #include "run_mimic.h"
 #include "test_data.h"
 
+namespace scene_e2e_test {
+
 namespace {
 
 using Clock = std::chrono::steady_clock;
@@ -163,3 +165,5 @@ TEST(SceneE2e, BadSceneOptionsGetClearErrors) {
 }
 
 }  // namespace
+
+}  // namespace scene_e2e_test

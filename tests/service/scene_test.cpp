@@ -6,6 +6,8 @@
 
 #include "mimic/service/scene.h"
 
+namespace scene_test {
+
 namespace {
 
 using namespace mimic::service;
@@ -145,3 +147,5 @@ TEST(Actors, AGreeterWalksUpAndWaves) {
 }
 
 }  // namespace
+
+}  // namespace scene_test

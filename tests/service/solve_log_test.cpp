@@ -15,7 +15,7 @@
 #include "mimic/sim/log.h"
 #include "run_mimic.h"
 
-namespace mimic::service {
+namespace mimic::service::solve_log_test {
 namespace {
 
 std::string recorded_walk(double seconds) {
@@ -93,4 +93,4 @@ TEST(SolveLog, BadInputsAreRefusedByName) {
 }
 
 }  // namespace
-}  // namespace mimic::service
+}  // namespace mimic::service::solve_log_test

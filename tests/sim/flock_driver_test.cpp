@@ -10,7 +10,7 @@
 #include "mimic/devices/flock.h"
 #include "mimic/devices/source.h"
 
-namespace mimic::devices {
+namespace mimic::devices::flock_driver_test {
 namespace {
 
 namespace fl = flock;
@@ -386,4 +386,4 @@ TEST(FlockDriver, PollNeverBlocksAndStopIsClean) {
 }
 
 }  // namespace
-}  // namespace mimic::devices
+}  // namespace mimic::devices::flock_driver_test

@@ -10,6 +10,8 @@
 #include "mimic/rig/skeleton.h"
 #include "mimic/sim/sensor_rig.h"
 
+namespace flock_placement_test {
+
 namespace {
 
 using mimic::sim::place_flock_transmitter;
@@ -78,3 +80,5 @@ TEST(FlockPlacement, ExtentOfAFewPoints) {
 }
 
 }  // namespace
+
+}  // namespace flock_placement_test

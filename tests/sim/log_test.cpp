@@ -19,7 +19,7 @@
 #include "test_data.h"
 #include "test_motion.h"
 
-namespace mimic::sim {
+namespace mimic::sim::log_test {
 namespace {
 
 namespace fs = std::filesystem;
@@ -535,4 +535,4 @@ TEST(GoldenLog, VersionOneLogStillReadsTheSame) {
 }
 
 }  // namespace
-}  // namespace mimic::sim
+}  // namespace mimic::sim::log_test

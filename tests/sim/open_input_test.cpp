@@ -5,6 +5,8 @@
 #include <chrono>
 #include <thread>
 
+namespace open_input_test {
+
 namespace {
 
 mimic::Result<std::unique_ptr<mimic::devices::InputSource>> open(const char* text) {
@@ -53,3 +55,5 @@ TEST(OpenInput, ClearErrors) {
   auto seed_on_real = open("spacemouse?seed=1");
   ASSERT_FALSE(seed_on_real);
 }
+
+}  // namespace open_input_test

@@ -6,7 +6,7 @@
 #include "test_data.h"
 #include "test_motion.h"
 
-namespace mimic::sim {
+namespace mimic::sim::open_source_test {
 namespace {
 
 devices::SourceSpec spec(const char* text) {
@@ -103,9 +103,9 @@ TEST(SourceParams, LogHeaderOfAReplayKeepsTheOriginalLayout) {
 }
 
 }  // namespace
-}  // namespace mimic::sim
+}  // namespace mimic::sim::open_source_test
 
-namespace mimic::sim {
+namespace mimic::sim::open_source_test {
 namespace {
 
 std::vector<devices::SensorSample> poll_all(devices::SensorSource& source) {
@@ -156,4 +156,4 @@ TEST(OpenSensorSource, NonTrackerSchemesSayWhy) {
 }
 
 }  // namespace
-}  // namespace mimic::sim
+}  // namespace mimic::sim::open_source_test

@@ -10,7 +10,7 @@
 #include "mimic/sim/raw_session.h"
 #include "mimic/sim/virtual_flock.h"
 
-namespace mimic::sim {
+namespace mimic::sim::raw_session_test {
 namespace {
 
 std::string take(SerialDevice& d, double now_s) {
@@ -173,4 +173,4 @@ TEST(RecordedSerialDevice, ReplaysAFlockSessionToTheDriverSampleForSample) {
 }
 
 }  // namespace
-}  // namespace mimic::sim
+}  // namespace mimic::sim::raw_session_test

@@ -10,7 +10,7 @@
 #include "mimic/core/alloc_counter.h"
 #include "mimic/core/file.h"
 
-namespace mimic::sim {
+namespace mimic::sim::replay_test {
 namespace {
 
 using devices::SensorSample;
@@ -216,4 +216,4 @@ TEST(ReplaySource, EmptyLogFinishesAtOnceAndPollNeverAllocates) {
 }
 
 }  // namespace
-}  // namespace mimic::sim
+}  // namespace mimic::sim::replay_test

@@ -10,7 +10,7 @@
 #include "mimic/core/alloc_counter.h"
 #include "test_motion.h"
 
-namespace mimic::sim {
+namespace mimic::sim::sensor_rig_test {
 namespace {
 
 using devices::SensorSample;
@@ -338,9 +338,9 @@ TEST(SensorRig, StepNeverAllocates) {
 }
 
 }  // namespace
-}  // namespace mimic::sim
+}  // namespace mimic::sim::sensor_rig_test
 
-namespace mimic::sim {
+namespace mimic::sim::sensor_rig_test {
 namespace {
 
 TEST(SensorRig, BuiltInWalkStepsWithoutAllocating) {
@@ -358,4 +358,4 @@ TEST(SensorRig, BuiltInWalkStepsWithoutAllocating) {
 }
 
 }  // namespace
-}  // namespace mimic::sim
+}  // namespace mimic::sim::sensor_rig_test

@@ -7,7 +7,7 @@
 #include "mimic/core/alloc_counter.h"
 #include "test_motion.h"
 
-namespace mimic::sim {
+namespace mimic::sim::sim_source_test {
 namespace {
 
 using devices::SensorSample;
@@ -96,4 +96,4 @@ TEST(SimSource, StopSilencesAndStartRestartsTheTimeLine) {
 }
 
 }  // namespace
-}  // namespace mimic::sim
+}  // namespace mimic::sim::sim_source_test

@@ -7,7 +7,7 @@
 #include "flock_test_support.h"
 #include "mimic/devices/flock_packet.h"
 
-namespace mimic::sim {
+namespace mimic::sim::virtual_flock_test {
 namespace {
 
 namespace fl = devices::flock;
@@ -349,4 +349,4 @@ TEST(VirtualFlock, BuiltinMotionMovesAndStaysInRange) {
 }
 
 }  // namespace
-}  // namespace mimic::sim
+}  // namespace mimic::sim::virtual_flock_test

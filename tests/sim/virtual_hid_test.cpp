@@ -11,6 +11,8 @@
 
 #include "mimic/devices/hid_spacemouse.h"
 
+namespace virtual_hid_test {
+
 namespace hid = mimic::devices::hid;
 using mimic::devices::InputFrame;
 using mimic::sim::VirtualHid;
@@ -159,3 +161,5 @@ TEST(VirtualHid, SimulatedSpaceMouseIsAnInputSource) {
   unknown.vendor_id = 0x1234;
   EXPECT_FALSE(mimic::sim::make_simulated_spacemouse(unknown).has_value());
 }
+
+}  // namespace virtual_hid_test

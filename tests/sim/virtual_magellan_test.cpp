@@ -14,6 +14,8 @@
 
 #include "mimic/devices/magellan.h"
 
+namespace virtual_magellan_test {
+
 namespace mg = mimic::devices::magellan;
 using mimic::devices::DeviceState;
 using mimic::devices::InputFrame;
@@ -188,3 +190,5 @@ TEST(VirtualMagellan, DriverReconnectsWhenDeviceComesBack) {
   ASSERT_TRUE(wait_until([&] { return source->status().state == DeviceState::streaming; }, 2.0));
   source->stop();
 }
+
+}  // namespace virtual_magellan_test

@@ -11,6 +11,8 @@
 
 #include "mimic/devices/spaceball.h"
 
+namespace virtual_spaceball_test {
+
 namespace sb = mimic::devices::spaceball;
 using mimic::devices::DeviceState;
 using mimic::devices::InputFrame;
@@ -419,3 +421,5 @@ TEST(SpaceballOverPtyRecovery, MissingDeviceIsDisconnectedNotAnError) {
   EXPECT_NE(st.last_error.find("nonexistent-spaceball"), std::string::npos) << st.last_error;
   source->stop();
 }
+
+}  // namespace virtual_spaceball_test

@@ -9,7 +9,7 @@
 
 #include "synthetic_sensors.h"
 
-namespace mimic::solver {
+namespace mimic::solver::body_solver_test {
 namespace {
 
 using rig::Pose;
@@ -322,4 +322,4 @@ TEST(BodySolver, ModelRejectsBadMounts) {
 }
 
 }  // namespace
-}  // namespace mimic::solver
+}  // namespace mimic::solver::body_solver_test

@@ -6,7 +6,7 @@
 
 #include "../../solver/src/calibration_fit.h"
 
-namespace mimic::solver::detail {
+namespace mimic::solver::detail::calibration_marks_test {
 namespace {
 
 TEST(JointMarks, AMissingMarkIsAnErrorNotAZero) {
@@ -49,4 +49,4 @@ TEST(JointMarks, ALandmarkTheSkeletonLacksCannotBeSet) {
 }
 
 }  // namespace
-}  // namespace mimic::solver::detail
+}  // namespace mimic::solver::detail::calibration_marks_test

@@ -8,7 +8,7 @@
 
 #include "synthetic_sensors.h"
 
-namespace mimic::solver {
+namespace mimic::solver::calibration_test {
 namespace {
 
 using rig::Pose;
@@ -230,9 +230,9 @@ TEST(Calibration, MalformedJsonGivesAClearError) {
 }
 
 }  // namespace
-}  // namespace mimic::solver
+}  // namespace mimic::solver::calibration_test
 
-namespace mimic::solver {
+namespace mimic::solver::calibration_test {
 namespace {
 
 TEST(TrackingSkeleton, UnmarkedJointsFollowTheMotionCaptureConvention) {
@@ -316,4 +316,4 @@ TEST(Calibration, MidLinkSensorsMarkTheWearersJointsInAnNPose) {
 }
 
 }  // namespace
-}  // namespace mimic::solver
+}  // namespace mimic::solver::calibration_test

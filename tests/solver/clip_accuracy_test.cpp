@@ -11,7 +11,7 @@
 #include "mimic/rig/bvh.h"
 #include "test_data.h"
 
-namespace mimic::solver {
+namespace mimic::solver::clip_accuracy_test {
 namespace {
 
 const rig::RetargetedClip* load(const std::string& id) {
@@ -60,4 +60,4 @@ TEST(ClipAccuracy, SimulatedSensorsOnSharedClipsStayWithinBounds) {
 }
 
 }  // namespace
-}  // namespace mimic::solver
+}  // namespace mimic::solver::clip_accuracy_test

@@ -5,7 +5,7 @@
 #include <cmath>
 #include <random>
 
-namespace mimic::solver {
+namespace mimic::solver::filters_test {
 namespace {
 
 devices::SensorSample sample_at(double t, glm::vec3 p, glm::quat q = glm::quat(1, 0, 0, 0)) {
@@ -126,4 +126,4 @@ TEST(SensorFilterBank, DisabledFilteringPassesSamplesThrough) {
 }
 
 }  // namespace
-}  // namespace mimic::solver
+}  // namespace mimic::solver::filters_test

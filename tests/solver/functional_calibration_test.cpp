@@ -10,7 +10,7 @@
 #include "mimic/solver/model_refiner.h"
 #include "synthetic_sensors.h"
 
-namespace mimic::solver {
+namespace mimic::solver::functional_calibration_test {
 namespace {
 
 using rig::Pose;
@@ -241,4 +241,4 @@ TEST(ModelRefiner, RefinedCalibrationCarriesTheLimbLengths) {
 }
 
 }  // namespace
-}  // namespace mimic::solver
+}  // namespace mimic::solver::functional_calibration_test

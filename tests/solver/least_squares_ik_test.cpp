@@ -5,7 +5,7 @@
 #include <cmath>
 #include <random>
 
-namespace mimic::solver {
+namespace mimic::solver::least_squares_ik_test {
 namespace {
 
 using rig::Pose;
@@ -123,4 +123,4 @@ TEST(LeastSquaresIk, ValidateRejectsMismatchedInputs) {
 }
 
 }  // namespace
-}  // namespace mimic::solver
+}  // namespace mimic::solver::least_squares_ik_test

@@ -10,7 +10,7 @@
 #include "mimic/solver/body_solver.h"
 #include "synthetic_sensors.h"
 
-namespace mimic::solver {
+namespace mimic::solver::locomotion_test {
 namespace {
 
 using rig::Pose;
@@ -194,4 +194,4 @@ TEST(Locomotion, AFootWhoseSensorIsLostSteps) {
 }
 
 }  // namespace
-}  // namespace mimic::solver
+}  // namespace mimic::solver::locomotion_test

@@ -9,7 +9,7 @@
 #include "mimic/solver/steering.h"
 #include "synthetic_sensors.h"
 
-namespace mimic::solver {
+namespace mimic::solver::no_allocation_test {
 namespace {
 
 TEST(NoAllocation, FilterAndSolveFramesForEveryLayout) {
@@ -48,4 +48,4 @@ TEST(NoAllocation, FilterAndSolveFramesForEveryLayout) {
 }
 
 }  // namespace
-}  // namespace mimic::solver
+}  // namespace mimic::solver::no_allocation_test

@@ -4,7 +4,7 @@
 
 #include <cmath>
 
-namespace mimic::solver {
+namespace mimic::solver::pose_error_test {
 namespace {
 
 using rig::Pose;
@@ -95,4 +95,4 @@ TEST(PoseError, LagIsTheDelayBehindTheTruth) {
 }
 
 }  // namespace
-}  // namespace mimic::solver
+}  // namespace mimic::solver::pose_error_test

@@ -4,7 +4,7 @@
 
 #include <cmath>
 
-namespace mimic::solver {
+namespace mimic::solver::steering_test {
 namespace {
 
 devices::InputFrame frame(glm::vec3 t, glm::vec3 r = glm::vec3(0.0f), uint32_t buttons = 0) {
@@ -96,4 +96,4 @@ TEST(Steering, AStalledLoopDoesNotTeleport) {
 }
 
 }  // namespace
-}  // namespace mimic::solver
+}  // namespace mimic::solver::steering_test

@@ -5,7 +5,7 @@
 #include <cmath>
 #include <random>
 
-namespace mimic::solver {
+namespace mimic::solver::swing_twist_test {
 namespace {
 
 using rig::Skeleton;
@@ -118,4 +118,4 @@ TEST(SwingTwist, TwoAxesGiveTheNearestExpressibleRotation) {
 }
 
 }  // namespace
-}  // namespace mimic::solver
+}  // namespace mimic::solver::swing_twist_test

@@ -5,7 +5,7 @@
 #include <cmath>
 #include <random>
 
-namespace mimic::solver {
+namespace mimic::solver::two_bone_ik_test {
 namespace {
 
 bool finite(glm::vec3 v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
@@ -88,4 +88,4 @@ TEST(TwoBoneIk, DegenerateInputsGiveNoNaN) {
 }
 
 }  // namespace
-}  // namespace mimic::solver
+}  // namespace mimic::solver::two_bone_ik_test

@@ -34,8 +34,16 @@ glm::dquat rotation_from_dofs(std::span<const glm::dvec3> axes, std::span<const 
 
 // DOF values that make rotation_from_dofs(axes, out) equal (or nearest) `target`.
 // [in] axes, target (need not be normalised), previous_rad; [out] out_rad.
+// lock_cos: for three orthogonal axes, the cosine of the middle angle under which the first and
+// third axes count as aligned (gimbal lock): the first angle keeps its previous value and the
+// third takes the rest of the rotation. Below the input's rounding noise the first angle is
+// noise: a double's rounding moves that cosine by ~2e-8 at lock, a float's by ~4e-4, so a
+// rotation that was computed in floats needs kFloatLockCos.
+inline constexpr double kDoubleLockCos = 1e-7;
+inline constexpr double kFloatLockCos = 1e-3;
 void dofs_from_rotation(std::span<const glm::dvec3> axes, const glm::dquat& target,
-                        std::span<const double> previous_rad, std::span<double> out_rad);
+                        std::span<const double> previous_rad, std::span<double> out_rad,
+                        double lock_cos = kDoubleLockCos);
 
 // 1 or 2 DOFs: values that turn direction `from` (joint frame, zero posture) onto `to` (same
 // frame), e.g. a clavicle's link onto a measured shoulder position. Returns false (and the
