@@ -9,6 +9,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "bench_pipeline.h"
 #include "cli.h"
 #include "command.h"
 #include "mimic/core/percentile.h"
@@ -82,59 +83,6 @@ Status loopback_latency(const BenchOptions& opt, const rig::Skeleton& sk, nlohma
   return {};
 }
 
-// Sensor record -> frame leaving the socket: the pipeline of `mimic run` on the simulated
-// walk (tracker sample through solver, deformer, encoder and server), one subscriber reading.
-// The loop is run's: it sleeps `slice_us` between passes; at SCHED_FIFO `rt_priority` (mimic run
-// --realtime) when that is not 0 and the system allows it ({"refused": true} otherwise).
-Result<nlohmann::json> pipeline_latency(const BenchOptions& opt, int slice_us, int rt_priority) {
-  auto server = net::Server::create({});
-  if (!server) return tl::unexpected(server.error());
-  auto feed = open_feed("sim:walk?rate=90");
-  if (!feed) return tl::unexpected(feed.error());
-  auto body = load_body("");
-  if (!body) return tl::unexpected(body.error());
-  auto skin = make_skin_deformer(body->model, (*feed)->skeleton(), 2);
-  if (!skin) return tl::unexpected(skin.error());
-  SinkList sinks;
-  sinks.push_back(make_server_sink(**server));
-  Pipeline pipeline(std::move(sinks));
-  if (auto st = pipeline.add_avatar("bench", std::move(*feed), std::move(body->bytes), std::move(*skin)); !st)
-    return tl::unexpected(st.error());
-  std::atomic<bool> stop{false};
-  const std::string ep = (*server)->endpoint();
-  std::thread viewer([&] {
-    net::ClientOptions co;
-    co.connect = ep;
-    auto c = net::Client::connect(co);
-    while (c && !stop) (void)(*c)->run_until(std::chrono::steady_clock::now() + std::chrono::milliseconds(20));
-  });
-  using C = std::chrono::steady_clock;
-  const bool rt = rt_priority > 0 && set_thread_fifo(rt_priority);
-  if (rt_priority > 0 && !rt) {
-    stop = true;
-    viewer.join();
-    return nlohmann::json{{"refused", true}};
-  }
-  const auto end = C::now() + std::chrono::duration<double>(opt.quick ? 1.0 : opt.seconds);
-  while (C::now() < end) {
-    pipeline.tick();
-    (void)pipeline.service_network(slice_us);
-  }
-  if (rt) set_thread_fifo(0);
-  stop = true;
-  viewer.join();
-  const auto s = pipeline.timer(kStageLatency).summary();
-  nlohmann::json stages;
-  for (int k = 0; k < kStageCount; ++k) {
-    const auto ks = pipeline.timer(k).summary();
-    stages[stage_name(k)] = {{"p50_us", ks.p50_us}, {"p99_us", ks.p99_us}};
-  }
-  std::fprintf(stderr, "sensor record -> frame leaving the socket (%s): p50 %.0f us, p99 %.0f us (%llu frames)\n",
-               rt ? "mimic run --realtime 50" : "mimic run loop", s.p50_us, s.p99_us,
-               static_cast<unsigned long long>(s.count));
-  return nlohmann::json{{"p50", s.p50_us}, {"p99", s.p99_us}, {"frames", s.count}, {"stages", stages}};
-}
-
 // Fan-out at 90 Hz: subscribers x avatars streams with no lost latest frame.
 Status fanout_sweep(const BenchOptions& opt, nlohmann::json& j) {
   nlohmann::json sweep = nlohmann::json::array();
@@ -179,12 +127,19 @@ Result<nlohmann::json> bench_net(const BenchOptions& opt) {
   if (!sk) return tl::unexpected(sk.error());
   if (auto st = bytes_per_frame(*sk, j); !st) return tl::unexpected(st.error());
   if (auto st = loopback_latency(opt, *sk, j); !st) return tl::unexpected(st.error());
-  auto run_loop = pipeline_latency(opt, 100, 0);
+  const double seconds = opt.quick ? 1.0 : opt.seconds;
+  auto run_loop = pipeline_latency("sim", seconds, 100, 0);
   if (!run_loop) return tl::unexpected(run_loop.error());
   j["record_to_socket_us"] = *run_loop;
-  auto prioritised = pipeline_latency(opt, 100, 50);
+  auto prioritised = pipeline_latency("sim", seconds, 100, 50);
   if (!prioritised) return tl::unexpected(prioritised.error());
   j["record_to_socket_realtime_us"] = *prioritised;
+  // The trackers people own: a VRPN report, a VMC bundle read from the socket -> frame out.
+  for (const char* input : {"vrpn", "vmc"}) {
+    auto r = pipeline_latency(input, seconds, 100, 0);
+    if (!r) return tl::unexpected(r.error());
+    j[std::string(input) + "_to_socket_us"] = *r;
+  }
   if (auto st = fanout_sweep(opt, j); !st) return tl::unexpected(st.error());
   return j;
 }
@@ -504,7 +459,9 @@ constexpr const char* kSectionsHelp =
     "sections:\n"
     "  net   bytes per avatar-frame (Mimic pose frame vs VMC vs raw floats); server -> subscriber\n"
     "        latency on loopback (TCP, and UDP datagrams); sensor record -> frame leaving the\n"
-    "        socket through the mimic run pipeline (p50/p99); subscribers x avatars the server\n"
+    "        socket through the mimic run pipeline (p50/p99), from the simulated walk, from a\n"
+    "        VRPN tracker's report and from a VMC sender's bundle (its six sensors over\n"
+    "        loopback UDP into vrpn: and vmc: sources); subscribers x avatars the server\n"
     "        holds at 90 Hz with no lost latest frame\n"
     "  skin  the skin on the built-in walk at every LOD, one row each: the full method\n"
     "        (contours ray-cast), the realtime method without and with muscles, and the\n"

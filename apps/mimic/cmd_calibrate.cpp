@@ -14,7 +14,7 @@
 #include "cli.h"
 #include "command.h"
 #include "mimic/devices/source.h"
-#include "mimic/sim/open_source.h"
+#include "mimic/service/tracker_source.h"
 #include "mimic/solver/calibration.h"
 #include "mimic/solver/model_refiner.h"
 #include "mimic/solver/sensor_layout.h"
@@ -49,11 +49,14 @@ struct Options {
 std::optional<int> parse(cli::Parser& p, const std::vector<std::string>& argv, Options& o) {
   p->footer("exit status: 0 written, 1 refused or source failure, 2 usage error");
   p->add_option("--source", o.source,
-                "tracker source, e.g. flock:/dev/ttyUSB0?birds=6, replay:stand.mlog,\nsim:idle?sensors=6")
+                "tracker source, e.g. flock:/dev/ttyUSB0?birds=6, replay:stand.mlog,\nsim:idle?sensors=6, "
+                "vrpn:Tracker0@localhost?layout=6, osc-trackers:9000\n(docs/hardware.md)")
       ->type_name("SRC")
       ->required();
   p->add_option("--out", o.out, "file to write (written atomically)")->type_name("CALIB.json")->required();
-  p->add_option("--layout", o.layout, "the sensor layout (default: the source's sensors= parameter, else 6)")
+  p->add_option(
+       "--layout", o.layout,
+       "the sensor layout (default: the source's sensors= parameter, a network tracker's\nlayout= or map=, else 6)")
       ->check(CLI::IsMember(solver::standard_layout_names()));
   p->add_option("--pose", o.pose, "the pose stood in")
       ->check(cli::parsed_by(solver::parse_calibration_pose, "tpose|npose"));
@@ -207,12 +210,15 @@ int run_calibrate(const std::vector<std::string>& argv) {
   const auto pose = *solver::parse_calibration_pose(o.pose);
   auto spec = devices::parse_source_spec(o.source);
   if (!spec) return p.usage_error(spec.error().message);
-  const std::string layout_name = o.layout.empty() ? layout_from_spec(*spec) : o.layout;
   const rig::Skeleton base = *rig::Skeleton::build(solver::tracking_skeleton_desc());
-  auto layout = solver::standard_layout(layout_name, base);
+  // A network tracker says in its spec where its sensors are worn (layout= or map=).
+  const bool from_spec = o.layout.empty() && service::is_network_tracker(*spec);
+  auto layout = from_spec ? service::network_tracker_layout(*spec, base)
+                          : solver::standard_layout(o.layout.empty() ? layout_from_spec(*spec) : o.layout, base);
   if (!layout) return p.usage_error(layout.error().message);
+  const std::string layout_name = layout->name;
 
-  auto source = sim::open_sensor_source(*spec);
+  auto source = service::open_tracker_source(*spec);
   if (!source) return p.failure(source.error().message);
   if (auto st = (*source)->start(); !st) return p.failure(st.error().message);
   const char* end_status = isatty(fileno(stdout)) != 0 ? "\r" : "\n";

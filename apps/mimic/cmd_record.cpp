@@ -18,6 +18,8 @@
 #include "mimic/sim/open_source.h"
 #include "mimic/sim/raw_session.h"
 #include "mimic/sim/replay_source.h"
+#include "mimic/service/tracker_source.h"
+#include "mimic/rig/skeleton.h"
 
 namespace mimic::app::cmd_record {
 namespace {
@@ -65,6 +67,10 @@ std::optional<int> parse(cli::Parser& p, const std::vector<std::string>& argv, O
                 "  bvh:CLIP     virtual body on a BVH clip\n"
                 "  replay:FILE  another log\n"
                 "  flock:PATH   Flock of Birds on a serial port\n"
+                "  vrpn:DEVICE@HOST[:PORT]   a VRPN tracker (OptiTrack, Vicon, vrpn_server)\n"
+                "  osc-trackers:[HOST:]PORT  VRChat-style OSC trackers (SlimeVR)\n"
+                "  vmc:[HOST:]PORT?map=SERIAL:SEGMENT,...  a VMC sender's devices\n"
+                "(see docs/hardware.md for their parameters)\n"
                 "sim/bvh parameters: sensors=3|6|11|all rate=HZ noise_mm=MM noise_deg=DEG\n"
                 "drift_mm=MM drift_deg=DEG latency_ms=MS dropout=P burst=TICKS seed=N,\n"
                 "e.g. sim:walk?sensors=11&rate=120&noise_mm=2")
@@ -114,12 +120,13 @@ int run(const std::vector<std::string>& argv) {
   if (!spec) return p.usage_error(spec.error().message);
   std::shared_ptr<sim::RawByteRecorder> raw;
   if (o.raw) raw = std::make_shared<sim::RawByteRecorder>();
-  auto source = sim::open_sensor_source(*spec, nullptr, raw);
+  auto source = service::open_tracker_source(*spec, nullptr, raw);
   if (!source) return failure(kName, source.error().what());
+  const rig::Skeleton skeleton = *rig::Skeleton::build(rig::default_skeleton_desc());
   if (auto st = (*source)->start(); !st) return failure(kName, st.error().what());
   const auto* replay = dynamic_cast<const sim::ReplaySource*>(source->get());
 
-  const sim::LogHeader header = sim::log_header_for(*spec, **source);
+  const sim::LogHeader header = service::tracker_log_header(*spec, **source, skeleton);
   auto writer = sim::LogWriter::create(out_path, header);
   if (!writer) {
     (*source)->stop();

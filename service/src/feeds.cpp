@@ -1,7 +1,6 @@
 // The feeds (read + solve) of the pipeline: tracker samples through the sensor filters and the
 // body solver, and the motion-driven stand-in; the spec → feed step for the trackers.
-#include "osc_tracker_source.h"
-#include "vrpn_source.h"
+#include "tracker_map.h"
 #include "feed_on_clock.h"
 #include "vmc_feed.h"
 
@@ -14,6 +13,7 @@
 
 #include "mimic/avatar/body_presets.h"
 #include "mimic/service/pipeline.h"
+#include "mimic/service/tracker_source.h"
 #include "mimic/sim/log.h"
 #include "mimic/sim/open_source.h"
 #include "mimic/solver/body_solver.h"
@@ -284,27 +284,11 @@ Result<std::unique_ptr<PoseFeed>> make_tracker_feed(std::unique_ptr<devices::Sen
 
 namespace {
 
-// Tracker sources that speak a network protocol (VRPN, OSC trackers, VMC devices): opened here
-// rather than by sim::open_sensor_source, which knows the devices and the simulators.
-bool network_tracker(const devices::SourceSpec& spec) {
-  return spec.scheme == "vrpn" || spec.scheme == "osc-trackers" ||
-         (spec.scheme == "vmc" && spec.params.count("map") > 0);
-}
-
-Result<std::unique_ptr<devices::SensorSource>> open_sensor(const devices::SourceSpec& spec,
-                                                           std::shared_ptr<const Clock> clock,
-                                                           const rig::Skeleton* body) {
-  if (spec.scheme == "vrpn") return open_vrpn_source(spec, std::move(clock));
-  if (spec.scheme == "osc-trackers") return open_osc_tracker_source(spec, std::move(clock));
-  if (spec.scheme == "vmc") return open_vmc_device_source(spec, std::move(clock));
-  return sim::open_sensor_source(spec, std::move(clock), nullptr, body);
-}
-
 Result<std::vector<solver::SensorMount>> network_mounts(const devices::SourceSpec& spec,
                                                         const rig::Skeleton& skeleton) {
-  if (spec.scheme == "vrpn") return vrpn_mounts(spec, skeleton);
-  if (spec.scheme == "osc-trackers") return osc_tracker_mounts(spec, skeleton);
-  return vmc_device_mounts(spec, skeleton);
+  auto layout = network_tracker_layout(spec, skeleton);
+  if (!layout) return tl::unexpected(layout.error());
+  return mounts_of(*layout);
 }
 
 }  // namespace
@@ -319,13 +303,13 @@ Result<std::unique_ptr<PoseFeed>> open_feed_on_clock(const std::string& spec_tex
   auto spec = devices::parse_source_spec(spec_text);
   if (!spec) return tl::unexpected(spec.error());
   // VMC bones are poses, not tracker samples (VMC devices mapped to segments are samples).
-  if (spec->scheme == "vmc" && !network_tracker(*spec)) return open_vmc_feed(*spec, body);
+  if (spec->scheme == "vmc" && !is_network_tracker(*spec)) return open_vmc_feed(*spec, body);
   if (!calibration_path.empty()) {
     auto cal = solver::load_calibration(calibration_path);
     if (!cal) return tl::unexpected(cal.error());
     auto model = solver::make_solver_model(*cal);
     if (!model) return tl::unexpected(model.error());
-    auto source = open_sensor(*spec, clock, nullptr);
+    auto source = open_tracker_source(*spec, clock, nullptr);
     if (!source) return tl::unexpected(source.error());
     std::string desc = (*source)->status().description;
     if (desc.empty()) desc = spec_text;
@@ -347,7 +331,7 @@ Result<std::unique_ptr<PoseFeed>> open_feed_on_clock(const std::string& spec_tex
       mounts.push_back({static_cast<uint16_t>(i), rig->sensors[i].segment, rig->sensors[i].segment_from_sensor});
   } else if (recorded) {
     mounts = std::move(*recorded);
-  } else if (network_tracker(*spec)) {
+  } else if (is_network_tracker(*spec)) {
     auto m = network_mounts(*spec, *skeleton);
     if (!m) return tl::unexpected(m.error());
     mounts = std::move(*m);
@@ -363,7 +347,7 @@ Result<std::unique_ptr<PoseFeed>> open_feed_on_clock(const std::string& spec_tex
     options.standing_root_y_m = rig::standing_root_height_m(*skeleton);
   auto model = solver::SolverModel::create(*skeleton, std::move(mounts), options);
   if (!model) return tl::unexpected(model.error());
-  auto source = open_sensor(*spec, std::move(clock), body);
+  auto source = open_tracker_source(*spec, std::move(clock), nullptr, body);
   if (!source) return tl::unexpected(source.error());
   std::string desc = (*source)->status().description;
   if (desc.empty()) desc = spec_text;

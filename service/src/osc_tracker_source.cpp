@@ -170,17 +170,17 @@ double stale_of(const devices::SourceSpec& spec) {
 
 }  // namespace
 
-Result<std::vector<solver::SensorMount>> vmc_device_mounts(const devices::SourceSpec& spec,
-                                                           const rig::Skeleton& skeleton) {
+Result<solver::SensorLayout> vmc_device_layout(const devices::SourceSpec& spec, const rig::Skeleton& skeleton) {
   auto map = device_map(spec);
   if (!map) return tl::unexpected(map.error());
-  std::vector<solver::SensorMount> mounts;
+  solver::SensorLayout layout;
+  layout.name = "map";
   for (size_t i = 0; i < map->size(); ++i) {
-    auto m = mount_on((*map)[i].second, static_cast<uint16_t>(i), skeleton);
-    if (!m) return fail(m.error().code, "vmc map: " + m.error().message);
-    mounts.push_back(std::move(*m));
+    auto b = binding_on((*map)[i].second, static_cast<uint16_t>(i), skeleton);
+    if (!b) return fail(b.error().code, "vmc map: " + b.error().message);
+    layout.bindings.push_back(std::move(*b));
   }
-  return mounts;
+  return layout;
 }
 
 Result<std::unique_ptr<devices::SensorSource>> open_vmc_device_source(const devices::SourceSpec& spec,
@@ -196,18 +196,18 @@ Result<std::unique_ptr<devices::SensorSource>> open_vmc_device_source(const devi
       new VmcDeviceSource(std::move(*rx), std::move(serials), std::move(clock), stale_of(spec)));
 }
 
-Result<std::vector<solver::SensorMount>> osc_tracker_mounts(const devices::SourceSpec& spec,
-                                                            const rig::Skeleton& skeleton) {
+Result<solver::SensorLayout> osc_tracker_layout(const devices::SourceSpec& spec, const rig::Skeleton& skeleton) {
   auto names = assignment(spec);
   if (!names) return tl::unexpected(names.error());
-  std::vector<solver::SensorMount> mounts;
+  solver::SensorLayout layout;
+  layout.name = spec.params.count("map") > 0 ? "map" : "slimevr";
   for (size_t i = 0; i < names->size(); ++i) {
     if ((*names)[i].empty()) continue;
-    auto m = mount_on((*names)[i], static_cast<uint16_t>(i), skeleton);
-    if (!m) return fail(m.error().code, "osc-trackers map: " + m.error().message);
-    mounts.push_back(std::move(*m));
+    auto b = binding_on((*names)[i], static_cast<uint16_t>(i), skeleton);
+    if (!b) return fail(b.error().code, "osc-trackers map: " + b.error().message);
+    layout.bindings.push_back(std::move(*b));
   }
-  return mounts;
+  return layout;
 }
 
 Result<std::unique_ptr<devices::SensorSource>> open_osc_tracker_source(const devices::SourceSpec& spec,

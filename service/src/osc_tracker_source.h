@@ -16,7 +16,7 @@
 #include "mimic/core/result.h"
 #include "mimic/devices/source.h"
 #include "mimic/rig/skeleton.h"
-#include "mimic/solver/body_solver.h"
+#include "mimic/solver/sensor_layout.h"
 
 namespace mimic::service {
 
@@ -27,14 +27,12 @@ namespace mimic::service {
 // map item.
 Result<std::unique_ptr<devices::SensorSource>> open_vmc_device_source(const devices::SourceSpec& spec,
                                                                       std::shared_ptr<const Clock> clock = nullptr);
-Result<std::vector<solver::SensorMount>> vmc_device_mounts(const devices::SourceSpec& spec,
-                                                           const rig::Skeleton& skeleton);
+Result<solver::SensorLayout> vmc_device_layout(const devices::SourceSpec& spec, const rig::Skeleton& skeleton);
 
 Result<std::unique_ptr<devices::SensorSource>> open_osc_tracker_source(const devices::SourceSpec& spec,
                                                                        std::shared_ptr<const Clock> clock = nullptr);
 
-// Where the trackers sit (sensor id = tracker number, head 0), for the solver model.
-Result<std::vector<solver::SensorMount>> osc_tracker_mounts(const devices::SourceSpec& spec,
-                                                            const rig::Skeleton& skeleton);
+// Where the trackers are worn (sensor id = tracker number, head 0).
+Result<solver::SensorLayout> osc_tracker_layout(const devices::SourceSpec& spec, const rig::Skeleton& skeleton);
 
 }  // namespace mimic::service

@@ -9,12 +9,18 @@
 #include "mimic/core/result.h"
 #include "mimic/rig/skeleton.h"
 #include "mimic/solver/body_solver.h"
+#include "mimic/solver/sensor_layout.h"
 
 namespace mimic::service {
 
-// The mount of sensor `sensor` worn on `segment_name`; fails (not_found, listing the names) for a
-// name neither a layout binding nor a joint.
-Result<solver::SensorMount> mount_on(const std::string& segment_name, uint16_t sensor, const rig::Skeleton& skeleton);
+// Sensor `sensor` worn on `segment_name`: the standard layouts' binding of that name (its
+// instructed placement) or, for any other joint of the skeleton, a sensor at the joint; fails
+// (not_found, listing the names) for a name that is neither.
+Result<solver::SensorBinding> binding_on(const std::string& segment_name, uint16_t sensor,
+                                         const rig::Skeleton& skeleton);
+
+// The solver's mounts of a layout's sensors: each at its binding's instructed placement.
+std::vector<solver::SensorMount> mounts_of(const solver::SensorLayout& layout);
 
 // "a,b,,c" → {"a", "b", "c"}.
 std::vector<std::string> split_list(const std::string& text);

@@ -181,27 +181,20 @@ Result<glm::mat3> parse_axes(const std::string& text) {
   return m;
 }
 
-Result<std::vector<solver::SensorMount>> vrpn_mounts(const devices::SourceSpec& spec, const rig::Skeleton& skeleton) {
-  std::vector<solver::SensorMount> mounts;
-  auto mount_of = [](const solver::SensorBinding& b, uint16_t sensor) {
-    solver::SensorMount m{sensor, b.segment, {}};
-    m.segment_from_sensor.translation = b.placement_m;
-    return m;
-  };
+Result<solver::SensorLayout> vrpn_layout(const devices::SourceSpec& spec, const rig::Skeleton& skeleton) {
   if (auto it = spec.params.find("map"); it != spec.params.end()) {
     auto map = parse_map(it->second);
     if (!map) return tl::unexpected(map.error());
+    solver::SensorLayout layout;
+    layout.name = "map";
     for (size_t i = 0; i < map->size(); ++i) {  // map items are sensors 0, 1, … in order
-      auto m = mount_on((*map)[i].segment, static_cast<uint16_t>(i), skeleton);
-      if (!m) return fail(m.error().code, "vrpn map: " + m.error().message);
-      mounts.push_back(std::move(*m));
+      auto b = binding_on((*map)[i].segment, static_cast<uint16_t>(i), skeleton);
+      if (!b) return fail(b.error().code, "vrpn map: " + b.error().message);
+      layout.bindings.push_back(std::move(*b));
     }
-    return mounts;
+    return layout;
   }
-  auto layout = solver::standard_layout(param(spec, "layout", "6"), skeleton);
-  if (!layout) return tl::unexpected(layout.error());
-  for (const auto& b : layout->bindings) mounts.push_back(mount_of(b, b.sensor));
-  return mounts;
+  return solver::standard_layout(param(spec, "layout", "6"), skeleton);
 }
 
 Result<std::unique_ptr<devices::SensorSource>> open_vrpn_source(const devices::SourceSpec& spec,

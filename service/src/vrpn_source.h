@@ -22,15 +22,15 @@
 #include "mimic/core/result.h"
 #include "mimic/devices/source.h"
 #include "mimic/rig/skeleton.h"
-#include "mimic/solver/body_solver.h"
+#include "mimic/solver/sensor_layout.h"
 
 namespace mimic::service {
 
 Result<std::unique_ptr<devices::SensorSource>> open_vrpn_source(const devices::SourceSpec& spec,
                                                                 std::shared_ptr<const Clock> clock = nullptr);
 
-// Where the spec's sensors sit on `skeleton` (from layout= or map=), for the solver model.
-Result<std::vector<solver::SensorMount>> vrpn_mounts(const devices::SourceSpec& spec, const rig::Skeleton& skeleton);
+// Where the spec's sensors are worn on `skeleton` (layout= or map=).
+Result<solver::SensorLayout> vrpn_layout(const devices::SourceSpec& spec, const rig::Skeleton& skeleton);
 
 // The signed axis mapping of an axes= value: column i is where the sender's axis i goes.
 Result<glm::mat3> parse_axes(const std::string& text);

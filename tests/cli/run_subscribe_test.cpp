@@ -330,6 +330,13 @@ TEST(Bench, NetSectionReportsItsFigures) {
        {"loopback_latency_us", "loopback_latency_udp_us", "record_to_socket_us", "fanout_90hz", "max_streams_kept_up"})
     EXPECT_TRUE(n.contains(k)) << k;
   EXPECT_GT(n["record_to_socket_us"]["frames"].get<int>(), 0);
+  // The network trackers' samples reached the avatar's frames: a VRPN report and a VMC bundle
+  // read from the socket, each to a frame out.
+  for (const char* k : {"vrpn_to_socket_us", "vmc_to_socket_us"}) {
+    ASSERT_TRUE(n.contains(k)) << k;
+    EXPECT_GT(n[k]["frames"].get<int>(), 10) << k;
+    EXPECT_GT(n[k]["p99"].get<double>(), 0) << k;
+  }
   // Every fan-out point delivered what it could account for: received + lost = expected.
   for (const auto& f : n["fanout_90hz"])
     EXPECT_EQ(f["received"].get<uint64_t>() + f["lost"].get<uint64_t>(), f["expected"].get<uint64_t>());

@@ -144,6 +144,9 @@ TEST(VmcReceive, LibloSenderIsUnderstood) {
   EXPECT_NEAR(st.osc_trackers[3].position_m.z, 0.3f, 1e-6f);
   // Unity's Euler (0, 90, 0) turns +Z to +X (the right); in Mimic's frame that is −X.
   EXPECT_NEAR(glm::length(st.osc_trackers[0].orientation * glm::vec3(0, 0, 1) - glm::vec3(-1, 0, 0)), 0.0f, 1e-5f);
+  // A tracker is placed by its position: the head's rotation alone does not stand it at the origin.
+  EXPECT_TRUE(st.osc_trackers[3].present);
+  EXPECT_FALSE(st.osc_trackers[0].present);
 }
 
 Bytes osc_string(const std::string& s) {

@@ -99,11 +99,14 @@ bool apply_osc_tracker(const osc::Message& m, double now_s, VmcState& s, VmcRece
     return true;
   }
   TrackedPose& t = s.osc_trackers[index];
-  if (what == "position")
+  // A tracker is placed once its position has come: a rotation alone (its position's datagram
+  // lost, or a receiver started between the two) would stand it at the origin.
+  if (what == "position") {
     t.position_m = from_unity(v);
-  else
+    t.present = true;
+  } else {
     t.orientation = from_unity(unity_euler_deg(v));
-  t.present = true;
+  }
   t.received_s = now_s;
   stats.osc_tracker_messages++;
   return true;

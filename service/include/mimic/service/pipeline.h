@@ -45,7 +45,8 @@ class StageTimer {
     double p50_us = 0, p99_us = 0, max_us = 0;
     uint64_t count = 0;
   };
-  Summary summary();  // uses preallocated scratch: no allocation
+  Summary summary();                                 // uses preallocated scratch: no allocation
+  void clear() { next_ = filled_ = 0, count_ = 0; }  // e.g. after a warm-up
 
  private:
   std::vector<float> ring_;
