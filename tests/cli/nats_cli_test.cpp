@@ -146,7 +146,7 @@ TEST(NatsCli, RunServesLocallyWhileTheBrokerIsDownThenJoinsItRelayAndSubscribeSe
   EXPECT_GT(summary["nats"]["frames_dropped"].get<double>(), 0.0) << "frames of the outage are dropped, not queued";
   // A clean leave takes the avatar out of the scene: the relay's viewers see it go.
   relay.signal(SIGINT);
-  ASSERT_EQ(relay.wait(10.0), 0);
+  ASSERT_EQ(relay.wait(10.0), 0) << relay.err();
   const auto rj = last_json(relay.out());
   EXPECT_EQ(rj["nats"]["avatars"], 0) << relay.out();
   EXPECT_EQ(rj["nats"]["rejected"], 0);

@@ -231,7 +231,7 @@ TEST(ViewWindow, FirstPersonSeesTheAvatarOppositeAndNotItself) {
   // Two avatars 3 m apart facing each other, and a third one behind the first.
   mimic::test::Child host({mimic::test::mimic_binary(), "run", "--listen", "127.0.0.1:0", "--source", "sim:idle",
                            "--place", "0,0", "--source", "sim:idle?seed=2", "--place", "0,3,180", "--source",
-                           "sim:idle?seed=3", "--place", "0,-2", "--duration", "20", "--quiet"});
+                           "sim:idle?seed=3", "--place", "0,-2", "--duration", "300", "--quiet"});
   const std::string line = host.line();
   ASSERT_EQ(line.rfind("serving on ", 0), 0u) << line;
   const std::string endpoint = line.substr(std::string("serving on ").size());

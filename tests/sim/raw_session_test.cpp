@@ -130,17 +130,19 @@ TEST(RecordedSerialDevice, ReplaysAFlockSessionToTheDriverSampleForSample) {
     auto st = driver.start();
     EXPECT_TRUE(st) << st.error().what();
     std::vector<devices::SensorSample> got, buf(64);
-    const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+    const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(30);
     while (std::chrono::steady_clock::now() < until && (*server)->stats().bytes_out < to_send) {
       const size_t n = driver.poll(buf);
       got.insert(got.end(), buf.begin(), buf.begin() + static_cast<long>(n));
       std::this_thread::sleep_for(std::chrono::milliseconds(2));
     }
     // Everything is sent; the driver may still be decoding it (a loaded machine): take what it
-    // gives until it has given nothing for 300 ms.
+    // gives until it has given nothing for 300 ms (bounded on its own: sending may have taken
+    // most of the first deadline).
+    const auto drained_by = std::chrono::steady_clock::now() + std::chrono::seconds(30);
     for (auto last = std::chrono::steady_clock::now();
          std::chrono::steady_clock::now() - last < std::chrono::milliseconds(300) &&
-         std::chrono::steady_clock::now() < until;) {
+         std::chrono::steady_clock::now() < drained_by;) {
       const size_t n = driver.poll(buf);
       if (n > 0) last = std::chrono::steady_clock::now();
       got.insert(got.end(), buf.begin(), buf.begin() + static_cast<long>(n));

@@ -201,13 +201,18 @@ void NatsSceneFeed::Impl::watch_loop() {
   // Keys only (the models themselves are kept once, on the server thread): this watch's view,
   // to spot deletions on rewatch.
   std::set<std::string> seen, current;
-  int64_t next_tick = 0;
+  int64_t next_tick = 0, rewatch_at = 0;
   while (!stopping) {
-    if (const int64_t now = monotonic_us(); now >= next_tick) {
+    const int64_t now = monotonic_us();
+    if (now >= next_tick) {
       next_tick = now + kTickPeriod_ms * 1000;
       tick();
     }
-    if (rewatch.exchange(false)) {
+    // After a reconnect libnats resets the watch's ordered consumer on a thread of its own:
+    // the old watch is destroyed once that has settled, not while it runs (see parked_watch).
+    if (rewatch.exchange(false) && rewatch_at == 0) rewatch_at = w ? now + kRewatchSettle_us : now;
+    if (rewatch_at > 0 && now >= rewatch_at) {
+      rewatch_at = 0;
       reset();
       current.clear();
     }
@@ -241,6 +246,7 @@ void NatsSceneFeed::Impl::watch_loop() {
     if (s != NATS_OK) {
       set_error("model watch: " + describe(s));
       rewatch = true;
+      std::this_thread::sleep_for(std::chrono::milliseconds(50));  // it fails at once until rewatched
       continue;
     }
     if (!e) {
@@ -281,7 +287,7 @@ void NatsSceneFeed::Impl::watch_loop() {
     models_in.push_back(std::move(ev));
     schedule_pump_locked();
   }
-  reset();
+  parked_watch = w, parked_kv = kv, parked_js = js;  // destroyed once the connection is closed
 }
 
 NatsSceneFeed::Impl::~Impl() {
@@ -300,6 +306,9 @@ NatsSceneFeed::Impl::~Impl() {
   conn.close();
   for (natsSubscription* s : subs)
     if (s) natsSubscription_Destroy(s);
+  if (parked_watch) kvWatcher_Destroy(parked_watch);
+  if (parked_kv) kvStore_Destroy(parked_kv);
+  if (parked_js) jsCtx_Destroy(parked_js);
   *alive = false;
 }
 

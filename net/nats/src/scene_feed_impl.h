@@ -24,7 +24,8 @@ class Server;
 
 struct NatsSceneFeed::Impl {
   using Clock = std::chrono::steady_clock;
-  static constexpr int kTickPeriod_ms = 250;  // liveness checks and mesh requests
+  static constexpr int kTickPeriod_ms = 250;               // liveness checks and mesh requests
+  static constexpr int64_t kRewatchSettle_us = 2'000'000;  // a reconnect's consumer reset is done by then
   static constexpr size_t kMaxQueuedFrames = 1 << 16;
   static constexpr size_t kMaxQueuedMeshes = 64;
   // Sequence continuity (apply_frame): a frame more than kMaxSeqStep from the avatar's newest
@@ -136,6 +137,13 @@ struct NatsSceneFeed::Impl {
   std::thread watcher;
   std::atomic<bool> stopping{false};
   std::atomic<bool> rewatch{true};
+  // The model watch as the watcher thread left it at stop, destroyed after the connection has
+  // closed (libnats can free an ordered consumer's name while a concurrent destroy still reads
+  // it: its consumer reset after a reconnect or missed heartbeats runs on a thread of its own,
+  // and a closed connection stops it).
+  jsCtx* parked_js = nullptr;
+  kvStore* parked_kv = nullptr;
+  kvWatcher* parked_watch = nullptr;
   std::atomic<int64_t> bucket_ttl_ns{0};  // the model bucket's TTL (0: none), read when watching
   mutable std::mutex error_mutex;
   std::string last_error;
