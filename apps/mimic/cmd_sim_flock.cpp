@@ -200,8 +200,10 @@ Status attach_log(const Options& o, const Scene& scene, sim::VirtualFlockConfig&
   sim::LogHeader h;
   for (int i = 0; i < o.flock.birds; ++i) {
     sim::LogSensor s;
-    s.id = static_cast<uint16_t>(o.flock.birds == 1 && !scene.ert ? 1 : i + 1 + (scene.ert ? 1 : 0));
-    s.name = size_t(i) < scene.sensor_names.size() ? scene.sensor_names[size_t(i)] : "bird" + std::to_string(s.id);
+    // Numbered as the driver numbers its samples (devices/flock.h): the bird's place in address order.
+    const int address = o.flock.birds == 1 && !scene.ert ? 1 : i + 1 + (scene.ert ? 1 : 0);
+    s.id = static_cast<uint16_t>(i);
+    s.name = size_t(i) < scene.sensor_names.size() ? scene.sensor_names[size_t(i)] : "bird" + std::to_string(address);
     h.sensors.push_back(s);
   }
   h.source = "sim flock " + scene.motion_what;
@@ -219,6 +221,7 @@ Status attach_log(const Options& o, const Scene& scene, sim::VirtualFlockConfig&
   cfg.provider = [inner = cfg.provider, &tap](double t_s, int bird, devices::SensorSample& out) {
     inner(t_s, bird, out);
     devices::SensorSample s = out;
+    s.sensor = static_cast<uint16_t>(bird);
     s.host_time_s = t_s;
     s.device_time_s = t_s;
     std::lock_guard lock(tap.mu);

@@ -113,8 +113,8 @@ LogHeader log_header_for(const devices::SourceSpec& spec, const devices::SensorS
   else if (const auto* flock = dynamic_cast<const devices::FlockSource*>(&source)) {
     // Known once start() has configured the flock: one sensor per bird, named by FBB address.
     const devices::FlockInfo info = flock->info();
-    for (int address : info.sensor_addresses)
-      h.sensors.push_back({static_cast<uint16_t>(address), "bird" + std::to_string(address), "", {}});
+    for (size_t i = 0; i < info.sensor_addresses.size(); ++i)
+      h.sensors.push_back({static_cast<uint16_t>(i), "bird" + std::to_string(info.sensor_addresses[i]), "", {}});
     h.rate_hz = info.measurement_rate_hz;
     if (!info.model.empty()) h.description = "Flock of Birds " + info.model + " software " + info.software_revision;
   }

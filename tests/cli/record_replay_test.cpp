@@ -199,8 +199,8 @@ TEST(CliRecordReplay, RecordsAVirtualFlockThroughTheDriver) {
   const auto rows = parse_csv(rep.out);
   int counts[5] = {};
   for (const auto& r : rows) {
-    ASSERT_GE(r.sensor, 2) << "the ERC holds FBB address 1";
-    ASSERT_LE(r.sensor, 4);
+    ASSERT_GE(r.sensor, 0);
+    ASSERT_LE(r.sensor, 2) << "three birds, at FBB addresses 2..4 behind the ERC";
     ++counts[r.sensor];
     const double qn = std::sqrt(r.v[3] * r.v[3] + r.v[4] * r.v[4] + r.v[5] * r.v[5] + r.v[6] * r.v[6]);
     EXPECT_NEAR(qn, 1.0, 1e-3);
@@ -208,7 +208,7 @@ TEST(CliRecordReplay, RecordsAVirtualFlockThroughTheDriver) {
     EXPECT_GE(r.v[2], 0.0) << "behind the transmitter (mirrored by the hemisphere)";
   }
   // About 103 records per second per bird once the driver has configured the flock.
-  for (int b = 2; b <= 4; ++b) EXPECT_GE(counts[b], 60) << "bird " << b;
+  for (int b = 0; b < 3; ++b) EXPECT_GE(counts[b], 60) << "bird " << b;
   // The header names the birds the driver found.
   const ShellRun info = run_shell(mimic() + " replay '" + log + "' --speed 0");
   EXPECT_EQ(info.exit_code, 0) << info.err;

@@ -12,6 +12,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "mimic_proc.h"
 #include "run_mimic.h"
 #include "test_data.h"
 
@@ -41,6 +42,25 @@ TEST(CalibrateCli, StandingStillWritesACalibrationTheSolverLoads) {
   const auto j = nlohmann::json::parse(in);
   EXPECT_EQ(j["format"], "mimic-calibration");
   EXPECT_EQ(j["sensors"].size(), 6u);
+  EXPECT_GT(j["height_m"].get<double>(), 1.4);
+  EXPECT_LT(j["height_m"].get<double>(), 2.0);
+  std::filesystem::remove(out);
+}
+
+// A Flock behind its extended range controller (birds at FBB addresses 2..7) is the layout's
+// sensors 0..5 in address order: all six calibrate, through the real driver on a pty.
+TEST(CalibrateCli, AFlockBehindItsRangeControllerIsTheLayoutsSensors) {
+  mimic::test::Proc sim({"sim", "flock", "--birds", "6", "--motion", "idle", "--ert", "--busy", "0.05"});
+  const std::string pty = sim.first_line(10.0);
+  ASSERT_EQ(pty.rfind("/dev/", 0), 0u) << pty << sim.err();
+  const std::string out = temp_path("calib_flock.json");
+  std::filesystem::remove(out);
+  const Outcome r = run_mimic("calibrate --source 'flock:" + pty + "?birds=6&erc=1' --out " + out +
+                              " --countdown 0.5 --seconds 0.5 --max-motion-deg 15");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("sensors 6/6"), std::string::npos) << r.output;
+  std::ifstream in(out);
+  const auto j = nlohmann::json::parse(in);
   EXPECT_GT(j["height_m"].get<double>(), 1.4);
   EXPECT_LT(j["height_m"].get<double>(), 2.0);
   std::filesystem::remove(out);

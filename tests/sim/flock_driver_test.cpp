@@ -35,9 +35,9 @@ Rig start(sim::VirtualFlockConfig sc, const std::function<void(FlockConfig&)>& t
   return r;
 }
 
-// Checks a sample against the static pose of its bird (sensor = address; first bird at `first`).
-void expect_pose(const SensorSample& s, fl::Format f, int first, float scale = 1.0f) {
-  const SensorSample truth = test::static_pose(s.sensor - first);
+// Checks a sample against the static pose of its bird (sensor = the bird's place in address order).
+void expect_pose(const SensorSample& s, fl::Format f, float scale = 1.0f) {
+  const SensorSample truth = test::static_pose(s.sensor);
   EXPECT_TRUE(s.flags & kSampleValid);
   if (fl::has_position(f)) {
     EXPECT_LT(glm::length(s.position_m - truth.position_m * scale), 0.0006f * scale)
@@ -55,8 +55,8 @@ TEST(FlockDriver, EveryRecordFormatStandaloneStream) {
     const auto got = test::collect(*r.driver, 5);
     ASSERT_GE(got.size(), 5u) << fl::format_name(f);
     for (const auto& s : got) {
-      EXPECT_EQ(s.sensor, 1);
-      expect_pose(s, f, 1);
+      EXPECT_EQ(s.sensor, 0);  // the standalone bird (address 1) is sensor 0
+      expect_pose(s, f);
       EXPECT_GT(s.host_time_s, 0.0);
     }
     for (size_t i = 1; i < got.size(); ++i) EXPECT_GE(got[i].host_time_s, got[i - 1].host_time_s);
@@ -78,12 +78,12 @@ TEST(FlockDriver, FourBirdsGroupModeEveryFormatWithButtons) {
     std::map<int, int> per_bird;
     for (const auto& s : got) {
       ++per_bird[s.sensor];
-      expect_pose(s, f, 1);
+      expect_pose(s, f);
       EXPECT_TRUE(s.flags & kSampleButton);
-      EXPECT_EQ(s.buttons, test::static_pose(s.sensor - 1).buttons);
+      EXPECT_EQ(s.buttons, test::static_pose(s.sensor).buttons);
     }
     EXPECT_EQ(per_bird.size(), 4u);
-    for (int a = 1; a <= 4; ++a) EXPECT_GE(per_bird[a], 4) << a;
+    for (int i = 0; i < 4; ++i) EXPECT_GE(per_bird[i], 4) << i;
     if (f == fl::Format::matrix) {
       // Query a slave bird through its FBB address while the group streams.
       auto st = r.driver->query_status(3);
@@ -113,9 +113,8 @@ TEST(FlockDriver, ExtendedRangeControllerScalesTo144Inches) {
   const auto got = test::collect(*r.driver, 12);
   ASSERT_GE(got.size(), 12u);
   for (const auto& s : got) {
-    EXPECT_GE(s.sensor, 2);  // the ERC holds address 1
-    EXPECT_LE(s.sensor, 4);
-    expect_pose(s, fl::Format::position_quaternion, 2, 3.0f);
+    EXPECT_LE(s.sensor, 2);  // the ERC holds address 1; the birds at 2..4 are sensors 0..2
+    expect_pose(s, fl::Format::position_quaternion, 3.0f);
   }
   EXPECT_EQ(r.driver->info().model, "6DERC");
 }
@@ -130,7 +129,7 @@ TEST(FlockDriver, Range72InchesAndRates) {
   });
   const auto got = test::collect(*r.driver, 4);
   ASSERT_GE(got.size(), 4u);
-  for (const auto& s : got) expect_pose(s, fl::Format::position_quaternion, 1, 2.0f);
+  for (const auto& s : got) expect_pose(s, fl::Format::position_quaternion, 2.0f);
   EXPECT_NEAR(r.driver->info().measurement_rate_hz, 60.0, 0.5);
 }
 
@@ -149,7 +148,7 @@ TEST(FlockDriver, HemisphereSelectsWhichMirrorImageIsReported) {
     const auto got = test::collect(*r.driver, 6);
     ASSERT_GE(got.size(), 6u);
     for (const auto& s : got) {
-      const glm::vec3 p = test::static_pose(s.sensor - 1).position_m;
+      const glm::vec3 p = test::static_pose(s.sensor).position_m;
       const glm::vec3 truth(p.x, p.y, -p.z);
       const glm::vec3 expected = h == fl::Hemisphere::aft ? truth : -truth;
       EXPECT_LT(glm::length(s.position_m - expected), 0.0006f) << fl::hemisphere_name(h);
@@ -165,7 +164,7 @@ TEST(FlockDriver, PointModeStandaloneGroupAndPerBird) {
     });
     const auto got = test::collect(*r.driver, 5);
     ASSERT_GE(got.size(), 5u);
-    for (const auto& s : got) expect_pose(s, fl::Format::position_quaternion, 1);
+    for (const auto& s : got) expect_pose(s, fl::Format::position_quaternion);
     EXPECT_FALSE(r.sim->stats().streaming);
   }
   {
@@ -179,7 +178,7 @@ TEST(FlockDriver, PointModeStandaloneGroupAndPerBird) {
     std::map<int, int> per_bird;
     for (const auto& s : got) {
       ++per_bird[s.sensor];
-      expect_pose(s, fl::Format::position_matrix, 1);
+      expect_pose(s, fl::Format::position_matrix);
     }
     EXPECT_EQ(per_bird.size(), 4u);
   }
@@ -197,7 +196,7 @@ TEST(FlockDriver, PointModeStandaloneGroupAndPerBird) {
     std::map<int, int> per_bird;
     for (const auto& s : got) {
       ++per_bird[s.sensor];
-      expect_pose(s, fl::Format::position_angles, 1);
+      expect_pose(s, fl::Format::position_angles);
     }
     EXPECT_EQ(per_bird.size(), 3u);
     EXPECT_FALSE(r.sim->stats().group_mode);
@@ -219,8 +218,8 @@ TEST(FlockDriver, GarbageTornRecordsAndPhaseErrorsAreSkipped) {
   ASSERT_GE(got.size(), 60u);
   int wrong = 0;
   for (const auto& s : got) {
-    const SensorSample truth = test::static_pose(s.sensor - 1);
-    if (s.sensor < 1 || s.sensor > 4 || glm::length(s.position_m - truth.position_m) > 0.001f) ++wrong;
+    const SensorSample truth = test::static_pose(s.sensor);
+    if (s.sensor > 3 || glm::length(s.position_m - truth.position_m) > 0.001f) ++wrong;
   }
   // The protocol has no checksum: a stray phased byte right after a record's first byte can
   // splice a well-formed record; everything else must be rejected.
@@ -292,7 +291,7 @@ TEST(FlockDriver, ResetDeviceIsReinitialised) {
   r.driver->poll(flush);
   const auto got = test::collect(*r.driver, 9);
   ASSERT_GE(got.size(), 9u);
-  for (const auto& s : got) expect_pose(s, fl::Format::position_quaternion, 1);
+  for (const auto& s : got) expect_pose(s, fl::Format::position_quaternion);
   EXPECT_TRUE(r.sim->stats().configured);
 }
 

@@ -117,6 +117,7 @@ struct FlockSource::Impl {
 
   int master() const { return standalone ? -1 : 1; }
   int addr(int a) const { return standalone ? -1 : a; }  // prefix argument for a sensor
+  int first_bird_address() const { return cfg.erc && !standalone ? 2 : 1; }
   double byte_time_s() const { return 10.0 / cfg.baud; }
 
   void set_error(std::string e) {
@@ -285,6 +286,9 @@ struct FlockSource::Impl {
   void handle_record(const fl::RawRecord& r, double host_time_s, int polled_address) {
     const fl::Measurement m = fl::from_raw(r, range);
     SensorSample s = fl::to_sample(m, r.layout, static_cast<uint16_t>(standalone ? 1 : polled_address));
+    // Sensors are numbered as the layouts number them, in address order: the first bird is
+    // sensor 0 (the ERC, when there is one, holds address 1 and carries no sensor).
+    s.sensor = static_cast<uint16_t>(s.sensor - first_bird_address());
     if (r.layout.group && r.address <= last_address) ++cycles;
     if (!r.layout.group) ++cycles;
     last_address = r.address;

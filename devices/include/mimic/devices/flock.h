@@ -8,7 +8,8 @@
 // When the device falls silent (unplugged, powered off, reset) the status goes stale, then
 // disconnected, and the thread re-runs the start-up sequence until the device answers again.
 //
-// Samples: sensor = FBB address (1 for a standalone bird), position in metres and
+// Samples: sensor = the bird's place in address order (0 for the first bird, at address 1, or 2
+// behind an ERC), as the sensor layouts number sensors; position in metres and
 // reference_from_sensor in Mimic's axes, the reference being the transmitter (flock_packet.h).
 #pragma once
 
@@ -69,7 +70,7 @@ struct FlockInfo {
   std::string software_revision;  // "3.67"
   double crystal_mhz = 0;
   double measurement_rate_hz = 0;
-  std::vector<int> sensor_addresses;
+  std::vector<int> sensor_addresses;  // FBB address of sensor i
   std::vector<uint8_t> flock_status;  // parameter 36, one byte per address 1..14 (empty standalone)
   bool realtime = false;              // the reader thread got its SCHED_FIFO priority
 };

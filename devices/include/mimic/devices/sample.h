@@ -19,7 +19,7 @@ enum SampleFlags : uint32_t {
 };
 
 struct SensorSample {
-  uint16_t sensor = 0;                // sensor id (FBB address, or index in a layout)
+  uint16_t sensor = 0;                // sensor id: its index in a layout (a Flock's bird in address order)
   double device_time_s = 0;           // device clock, when known; otherwise derived from rate
   double host_time_s = 0;             // host monotonic clock at the record's last byte
   glm::vec3 position_m{0.0f};         // reference_from_sensor translation
