@@ -192,6 +192,7 @@ void add_nats_options(cli::Parser& p, CLI::Option* publish, RunOptions& o) {
 
 std::optional<int> parse_run_options(cli::Parser& p, const std::vector<std::string>& argv, RunOptions& o) {
   p->footer(kFooter);
+  // Read once, right after the parse: `p` is not parsed again after this returns.
   cli::OptionGroups sources(p.app(), "--source",
                             "tracker source of one avatar; repeat for several avatars (the forms\n"
                             "below; default sim:walk)",
