@@ -20,11 +20,6 @@ Result<avatar::BodyModel> body_from_path(const std::string& path) {
   return avatar::default_body_model();
 }
 
-Result<avatar::BodyModel> body_from_args(const Args& args) {
-  if (auto path = args.get("body")) return avatar::load_body_or_preset(*path);
-  return avatar::default_body_model();
-}
-
 void add_pose_options(CLI::App& app, PoseOptions& o) {
   auto* bvh = app.add_option("--bvh", o.bvh,
                              "pose: frame --frame N of a BVH clip (frames count from 0, the clip's first\n"
@@ -83,27 +78,6 @@ Result<PoseRequest> pose_from(const PoseOptions& o, const rig::Skeleton& skeleto
   }
   req.load_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   return req;
-}
-
-Result<PoseRequest> pose_from_args(const Args& a, const rig::Skeleton& skeleton) {
-  Args args = a;
-  const int sources = int(args.has("bvh")) + int(args.has("motion")) + int(args.has("pose"));
-  if (sources > 1) return fail(Errc::invalid_argument, "give one of --bvh, --motion or --pose");
-  PoseOptions o;
-  o.bvh = args.get_or("bvh", "");
-  o.motion = args.get_or("motion", "");
-  o.pose = args.get_or("pose", "");
-  o.scale = rig::kCmuMetresPerUnit;
-  if (!args.get_double("scale", o.scale) || !args.get_int("frame", o.frame) || !args.get_double("time", o.time_s))
-    return fail(Errc::invalid_argument, args.error());
-  if (!(std::isfinite(o.scale) && o.scale > 0))
-    return fail(Errc::invalid_argument, "--scale must be a positive number of metres per unit");
-  if (args.has("frame") && o.frame < 0) return fail(Errc::invalid_argument, "--frame counts from 0");
-  // strtod takes "nan" and "inf"; a motion has no pose there (and loops far from 1e9 s).
-  if (!(o.time_s >= 0 && o.time_s <= kMaxTime_s))
-    return fail(Errc::invalid_argument, "--time must be 0.." + std::to_string(int(kMaxTime_s)) + " seconds, got '" +
-                                            args.get_or("time", "") + "'");
-  return pose_from(o, skeleton);
 }
 
 }  // namespace mimic::app

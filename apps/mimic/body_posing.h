@@ -6,7 +6,6 @@
 #include <string>
 
 #include "cli.h"
-#include "command.h"
 #include "mimic/avatar/body_model.h"
 #include "mimic/rig/skeleton.h"
 #include "mimic/core/result.h"
@@ -15,8 +14,6 @@ namespace mimic::app {
 
 // --body FILE (a path or preset:NAME), or the built-in default body when `path` is empty.
 Result<avatar::BodyModel> body_from_path(const std::string& path);
-// The same from the old parser's --body (mimic view).
-Result<avatar::BodyModel> body_from_args(const Args& args);
 
 struct PoseRequest {
   std::string description;  // what was asked for, for the report ("07_01.bvh frame 120" ...)
@@ -38,7 +35,5 @@ void add_pose_options(CLI::App& app, PoseOptions& o);
 // The pose the options ask for, for `skeleton`. Errors name the option at fault; a request that
 // does not make sense is Errc::invalid_argument (a usage error), a clip that does not load is not.
 Result<PoseRequest> pose_from(const PoseOptions& o, const rig::Skeleton& skeleton);
-// The same from the old parser's words (mimic view).
-Result<PoseRequest> pose_from_args(const Args& args, const rig::Skeleton& skeleton);
 
 }  // namespace mimic::app

@@ -116,6 +116,11 @@ std::string message_of(const CLI::ParseError& e, CLI::App& app) {
   }
   // "--lod: 1 required INT:INT in [0 - 3] missing"
   const std::string what = e.what();
+  // A validator that wrote a whole sentence about its option ("--lean-shift must be 0 to 8,
+  // got 9") is printed as written, without CLI11's "--lean-shift: " before it.
+  if (const size_t colon = what.find(": "); colon != std::string::npos && colon > 2 && what[0] == '-' &&
+                                            what.compare(colon + 2, colon + 1, what.substr(0, colon) + " ") == 0)
+    return what.substr(colon + 2);
   if (dynamic_cast<const CLI::ArgumentMismatch*>(&e) && what.find(" required ") != std::string::npos &&
       what.size() > 8 && what.compare(what.size() - 8, 8, " missing") == 0)
     return "option " + what.substr(0, what.find(':')) + " needs a value";
@@ -189,7 +194,7 @@ void OptionGroups::collect() {
     }
     if (std::find(members_.begin(), members_.end(), opt) == members_.end()) continue;
     const std::string name = opt->get_single_name();
-    if (groups_.empty()) groups_.push_back({implicit_head_, {}});
+    if (groups_.empty()) groups_.push_back({implicit_head_, {}, true});
     if (!groups_.back().members.emplace(name, value).second)
       throw CLI::ValidationError("two --" + name + " options for one " + head_->get_name());
   }

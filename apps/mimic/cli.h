@@ -64,6 +64,7 @@ class OptionGroups {
   struct Group {
     std::string head;
     std::map<std::string, std::string> members;  // by long name without dashes: "body"
+    bool implicit = false;                       // opened by a member before any head
     // The member's value, or "" when it was not given.
     std::string get(const std::string& name) const;
   };

@@ -9,6 +9,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "cli.h"
 #include "command.h"
 #include "status_line.h"
 #include "stop_signal.h"
@@ -28,11 +29,10 @@ class NatsPublisher {};  // absent: run refuses --nats
 #include "mimic/net/vmc.h"
 #include "mimic/net/vrpn_server.h"
 #include "mimic/core/alloc_counter.h"
-#include "lean_flags.h"
 #include "mimic/service/pipeline.h"
 #include "mimic/service/scene.h"
 #include "mimic/service/scene_builder.h"
-#include "source_args.h"
+#include "run_options.h"
 
 namespace mimic::app::cmd_run {
 using namespace ::mimic::service;
@@ -45,95 +45,6 @@ constexpr std::chrono::milliseconds kTickPeriod{10};
 
 std::atomic<bool> g_report{false};
 extern "C" void on_report_signal(int) { g_report = true; }
-
-const char* kUsage =
-    "usage: mimic run [--source SPEC [--body FILE] [--calibration FILE]]... [--listen ADDR:PORT]\n"
-    "                 [--secret S] [--lean-shift N] [--lean-key-interval N]\n"
-    "                 [--publish HOST:PORT] [--nats URL[,URL...] [--scene NAME] [--nats-name N]\n"
-    "                 [--nats-model-ttl S] [--nats-mesh-hz HZ]]\n"
-    "                 [--vmc HOST:PORT] [--vrpn [HOST:]PORT] [--duration S] [--realtime PRIO]\n"
-    "                 [--json] [--quiet]\n"
-    "\n"
-    "Runs the realtime pipeline (read -> solve -> deform -> encode -> send) and serves the avatars\n"
-    "to subscribers (mimic subscribe, VR scenes). With no arguments: simulated trackers on the\n"
-    "built-in walk, the default body, serving on 127.0.0.1:7777. Watch it with\n"
-    "`mimic view --connect 127.0.0.1:7777` (every avatar, deformed in the viewer).\n"
-    "\n"
-    "options:\n"
-    "  --source SPEC       tracker source of one avatar; repeat for several avatars\n"
-    "                      (default sim:walk; e.g. sim:idle?rate=90&sensors=11&seed=2)\n"
-    "                      or actor:wander | actor:follow?target=K | actor:greet: an autonomous\n"
-    "                      actor walking the room (avoids the others, stays inside; seed=N)\n"
-    "                      Hardware and other programs (docs/hardware.md):\n"
-    "                        flock:/dev/ttyUSB0?birds=4   a Flock of Birds on RS-232\n"
-    "                        vrpn:Tracker0@host?layout=6  a VRPN tracker (OptiTrack, Vicon,\n"
-    "                                                     Polhemus/ART/Vive via vrpn_server)\n"
-    "                        vmc:39539                    VMC performer data on UDP (SlimeVR,\n"
-    "                                                     mocopi, VSeeFace, mimic run --vmc)\n"
-    "                        osc-trackers:9000            VRChat-style OSC trackers (SlimeVR)\n"
-    "                        replay:session.mlog          a recorded session\n"
-    "  --body FILE         body model of the avatar of the preceding --source (default body\n"
-    "                      otherwise), or preset:NAME (mimic scale --list); sent once to every\n"
-    "                      subscriber as it joins. Its source is solved on the body's skeleton\n"
-    "  --place X,Z[,DEG]   where the preceding --source stands in the room (metres, heading in\n"
-    "                      degrees; default: the avatars side by side along X, 1.5 m apart)\n"
-    "  --navigate SPEC     move the preceding --source's avatar through the room with a 6-DOF\n"
-    "                      device: spaceball:PATH, magellan:PATH, spacemouse[:sim] (?speed=M/S\n"
-    "                      at full push, default 1.2; turn=RAD/S, 1.6; dead=dead zone, 0.08)\n"
-    "  --room WxD          the room's size in metres (default 8x8), centred on the origin\n"
-    "  --calibration FILE  sensor calibration of the preceding --source (from mimic calibrate):\n"
-    "                      the wearer's fitted skeleton and sensor offsets. Without it, simulated\n"
-    "                      sources use their exact mounts, trackers the standard layout's placements\n"
-    "  --listen ADDR:PORT  where to serve (default 127.0.0.1:7777; port 0 picks one; localhost\n"
-    "                      is 127.0.0.1). Any\n"
-    "                      non-loopback address requires --secret. Subscribers may take their\n"
-    "                      pose frames as UDP datagrams from the same port (mimic subscribe --udp)\n"
-    "  --no-udp            frames over TCP only (no UDP socket; subscribers asking for UDP are\n"
-    "                      told so in the handshake and get their frames on the stream)\n" MIMIC_LEAN_FLAGS_USAGE
-    "  --secret S          shared secret publishers must present. On the command line it shows\n"
-    "                      in 'ps' to every user of this machine: prefer the MIMIC_SECRET\n"
-    "                      environment variable\n"
-    "  --publish HOST:PORT do not host: publish the avatars into the scene served there\n"
-    "  --nats URL[,URL]    also publish every avatar through the NATS broker(s) nats://HOST:PORT\n"
-    "                      (docs/scaling.md): models latest-wins in the scene's key-value bucket,\n"
-    "                      each pass's pose frames in one message on mimic.SCENE.poses.NAME.\n"
-    "                      Local listeners are served as usual; a broker that is down is\n"
-    "                      joined when it comes up. Credentials\n"
-    "                      from MIMIC_NATS_USER + MIMIC_NATS_PASSWORD, or MIMIC_NATS_TOKEN\n"
-    "  --scene NAME        the scene on the broker (default 'default'; A-Z a-z 0-9 _ -)\n"
-    "  --nats-name N       this publisher's name (default: the host name); with the avatar's\n"
-    "                      name it makes the avatar's key, the same on every restart. Two\n"
-    "                      processes on one host publishing into one scene need different names\n"
-    "  --nats-model-ttl S  when this publisher creates the scene's bucket: a model not put again\n"
-    "                      for S seconds leaves it (3-86400, default 60; 0: never). A live\n"
-    "                      publisher puts its models again every S/3 s, so only a crashed one's\n"
-    "                      expire; relays drop a crashed publisher's avatars after 3 missed\n"
-    "                      heartbeats (one a second) anyway\n"
-    "  --nats-mesh-hz HZ   mesh frames per avatar per second at most (1-240, default 30), sent\n"
-    "                      at the --mesh-lod only while a relay with mesh viewers at that LOD\n"
-    "                      asks for them\n"
-    "  --vmc HOST:PORT     also send every avatar as VMC (OSC over UDP), e.g. 127.0.0.1:39539;\n"
-    "                      avatar i (counting from 0) goes to PORT + i\n"
-    "  --vrpn [HOST:]PORT  also serve every avatar as VRPN trackers (VRPN 07.35 over TCP + UDP;\n"
-    "                      docs/vrpn.md): Avatar<i>, one sensor per joint, and Sensors<i>, its\n"
-    "                      tracker samples; e.g. vrpn_print_devices Avatar0@localhost:3883.\n"
-    "                      HOST defaults to 127.0.0.1\n"
-    "  --mesh-lod L        skin level of detail deformed every frame and offered as mesh frames\n"
-    "                      to thin clients (mimic subscribe --mesh-lod L): 0 the body's own\n"
-    "                      contours (finest, default) to 3 (438 triangles)\n"
-    "  --mesh-method M     realtime (default): contours measured once, moved with the joints\n"
-    "                      (muscles kept); full: every contour ray-cast every frame\n"
-    "  --duration S        stop by itself after S seconds (default: run until Ctrl-C)\n"
-    "  --realtime PRIO     run the loop at SCHED_FIFO priority PRIO (1-99; needs CAP_SYS_NICE),\n"
-    "                      so a busy machine does not delay frames\n"
-    "  --json              print a JSON summary (stage timings p50/p99 in microseconds, frames,\n"
-    "                      fps, loop_allocations, server counters) on stdout at exit; the same\n"
-    "                      line is printed whenever the process receives SIGUSR1\n"
-    "  --quiet             no live status line on stderr\n"
-    "\n"
-    "The first line on stdout says where the scene is served: 'serving on ADDR:PORT'. The live\n"
-    "status line (stderr) shows fps, subscribers, dropped and rejected frames and p50/p99 of each\n"
-    "stage in microseconds. Ctrl-C stops cleanly.\n";
 
 // The live status line, most useful first: the frame rate (per avatar) and a silent source
 // always show; then end-to-end latency, missed ticks and the broker; then the subscribers; the
@@ -195,54 +106,6 @@ void write_status(StatusLine& line, Pipeline& pipeline, net::Server* server, net
   line.emit();
 }
 
-// Everything the command line says, checked before anything is opened.
-struct RunOptions {
-  SceneSpec scene;
-  double duration_s = 0;
-  long rt_priority = 0;
-  std::string secret;
-#if MIMIC_HAVE_NATS
-  net::NatsOptions nats;
-#endif
-};
-
-// -1 when the options are good, else the exit code (the error printed).
-int parse_options(Args& a, RunOptions& o) {
-  if (!a.ok()) return usage_error("run", a.error());
-  if (!a.positionals().empty()) return usage_error("run", "unexpected argument '" + a.positionals()[0] + "'");
-  long mesh_lod = 0;
-  if (!a.get_double("duration", o.duration_s) || !a.get_int("realtime", o.rt_priority) ||
-      !a.get_int("mesh-lod", mesh_lod))
-    return usage_error("run", a.error());
-  if (mesh_lod < 0 || mesh_lod >= kMeshLodCount)
-    return usage_error("run", "--mesh-lod must be in 0.." + std::to_string(kMeshLodCount - 1));
-  o.scene.mesh_lod = int(mesh_lod);
-  const auto mesh_method = avatar::parse_skin_method(a.get_or("mesh-method", "realtime"));
-  if (!mesh_method) return usage_error("run", "--mesh-method: " + mesh_method.error().message);
-  o.scene.skin_method = *mesh_method;
-  if (o.rt_priority < 0 || o.rt_priority > 99) return usage_error("run", "--realtime takes a priority 1-99");
-  if (auto r = a.get("room"); r && !parse_room(*r, o.scene.room))
-    return usage_error("run", "--room must be WxD in metres (2..100 each), got '" + *r + "'");
-  o.secret = a.get_or("secret", "");
-  if (o.secret.empty())
-    if (const char* env = std::getenv("MIMIC_SECRET")) o.secret = env;
-  if (a.has("nats") && a.has("publish")) return usage_error("run", "--nats and --publish do not go together");
-  if ((a.has("scene") || a.has("nats-name") || a.has("nats-model-ttl") || a.has("nats-mesh-hz")) && !a.has("nats"))
-    return usage_error("run", "--scene, --nats-name, --nats-model-ttl and --nats-mesh-hz need --nats");
-#if MIMIC_HAVE_NATS
-  if (!a.get_double("nats-model-ttl", o.nats.model_ttl_s) || !a.get_double("nats-mesh-hz", o.nats.mesh_max_hz))
-    return usage_error("run", a.error());
-  if (!(o.nats.model_ttl_s == 0 ||
-        (o.nats.model_ttl_s >= net::kMinModelTtl_s && o.nats.model_ttl_s <= net::kMaxModelTtl_s)))
-    return usage_error("run", "--nats-model-ttl must be 0 (never) or 3 to 86400 seconds");
-  if (!(o.nats.mesh_max_hz >= net::kMinMeshHz && o.nats.mesh_max_hz <= net::kMaxMeshHz))
-    return usage_error("run", "--nats-mesh-hz must be 1 to 240");
-#else
-  if (a.has("nats")) return failure("run", "this build has no NATS support (configure with -DMIMIC_WITH_NATS=ON)");
-#endif
-  return -1;
-}
-
 // The network outputs, each also a pose sink of the pipeline.
 struct Outputs {
   std::unique_ptr<net::Server> server;
@@ -267,14 +130,12 @@ struct Outputs {
 };
 
 // Host the scene here (--listen) or publish into a remote one (--publish); -1 when done.
-int open_scene_output(Args& a, const RunOptions& o, Outputs& out) {
-  if (a.has("publish") && (a.has("lean-shift") || a.has("lean-key-interval")))
-    return usage_error("run", "--lean-shift and --lean-key-interval set what this process serves: not with --publish");
-  if (a.has("publish")) {
+int open_scene_output(const RunOptions& o, Outputs& out) {
+  if (o.publishing) {
     net::ClientOptions co;
-    co.connect = *a.get("publish");
+    co.connect = o.publish;
     co.role = net::Role::publisher;
-    co.secret = o.secret;
+    co.secret = o.server.secret;
     co.name = "mimic run";
     auto c = net::Client::connect(co);
     if (!c) return failure("run", c.error().what());
@@ -282,15 +143,11 @@ int open_scene_output(Args& a, const RunOptions& o, Outputs& out) {
     out.where = "publishing into " + co.connect;
     return -1;
   }
-  net::ServerOptions so;
+  net::ServerOptions so = o.server;
   // Sessions are bounded by the descriptors the process may hold: as many as the system allows.
   raise_descriptor_limit();
-  so.listen = a.get_or("listen", "127.0.0.1:7777");
   // Mesh frames are deformed at one LOD: a subscriber asking for another is told so.
   so.mesh_lods_served = static_cast<uint8_t>(1u << o.scene.mesh_lod);
-  so.secret = o.secret;
-  so.udp = !a.has("no-udp");
-  if (const std::string e = take_lean_flags(a, so); !e.empty()) return usage_error("run", e);
   auto s = net::Server::create(so);
   if (!s) return failure("run", s.error().what());
   out.server = std::move(*s);
@@ -300,15 +157,14 @@ int open_scene_output(Args& a, const RunOptions& o, Outputs& out) {
 
 // Everything after the scene: the network last, so every option and source is checked before a
 // port is taken (a bad one is named as such even when another program holds the port).
-int open_outputs(Args& a, const RunOptions& o, Outputs& out) {
-  if (int rc = open_scene_output(a, o, out); rc >= 0) return rc;
+int open_outputs(const RunOptions& o, Outputs& out) {
+  if (int rc = open_scene_output(o, out); rc >= 0) return rc;
 #if MIMIC_HAVE_NATS
-  if (a.has("nats")) {
-    net::NatsOptions no = o.nats;
-    no.servers = *a.get("nats");
-    no.scene = a.get_or("scene", "default");
+  if (o.nats_out) {
+    net::NatsOptions no = o.nats_options;
+    no.servers = o.nats;
     char host[256] = {};
-    no.name = a.get_or("nats-name", ::gethostname(host, sizeof host - 1) == 0 && host[0] ? host : "mimic");
+    if (no.name.empty()) no.name = ::gethostname(host, sizeof host - 1) == 0 && host[0] ? host : "mimic";
     net::nats_credentials_from_env(no);
     auto p = net::NatsPublisher::create(no);
     if (!p) return failure("run", p.error().what());
@@ -321,13 +177,13 @@ int open_outputs(Args& a, const RunOptions& o, Outputs& out) {
           shown.c_str());
   }
 #endif
-  if (a.has("vmc")) {
-    auto v = net::VmcSender::open(*a.get("vmc"));
+  if (o.vmc_out) {
+    auto v = net::VmcSender::open(o.vmc);
     if (!v) return failure("run", v.error().what());
     out.vmc = std::move(*v);
   }
-  if (a.has("vrpn")) {
-    auto v = net::VrpnServer::create(*a.get("vrpn"));
+  if (o.vrpn_out) {
+    auto v = net::VrpnServer::create(o.vrpn);
     if (!v) return failure("run", v.error().what());
     out.vrpn = std::move(*v);
   }
@@ -447,6 +303,7 @@ nlohmann::json summary(Pipeline& pipeline, const Outputs& out, const LoopStats& 
       if (st.rejected[size_t(r)])
         j["server"]["rejected_by_reason"][net::reject_name(net::Reject(r))] = st.rejected[size_t(r)];
   }
+#if MIMIC_HAVE_NATS
   if (nats) {
     const auto ns = nats->stats();
     j["nats"] = {{"connected", ns.connected},
@@ -462,6 +319,9 @@ nlohmann::json summary(Pipeline& pipeline, const Outputs& out, const LoopStats& 
                  {"reconnects", ns.reconnects},
                  {"last_error", ns.last_error}};
   }
+#else
+  (void)nats;
+#endif
   return j;
 }
 
@@ -539,37 +399,27 @@ double run_loop(const RunOptions& o, bool status_line, Pipeline& pipeline, const
 }
 
 int run(const std::vector<std::string>& argv) {
-  std::vector<std::string> args = argv;
+  cli::Parser p("run", kRunAbout);
   RunOptions o;
-  std::string error;
-  if (!take_sources(args, o.scene.sources, error)) return usage_error("run", error);
-  Args a(args,
-         {"listen", "secret", "publish", "vmc", "vrpn", "duration", "realtime", "mesh-lod", "mesh-method", "room",
-          "nats", "scene", "nats-name", "nats-model-ttl", "nats-mesh-hz", "lean-shift", "lean-key-interval"},
-         {"json", "quiet", "no-udp"});
-  if (a.help()) {
-    std::printf("%s", kUsage);
-    return 0;
-  }
-  if (int rc = parse_options(a, o); rc >= 0) return rc;
+  if (auto exit_code = parse_run_options(p, argv, o)) return *exit_code;
   // Setup: everything is allocated here, before the loop.
   auto scene = build_scene(o.scene);
   if (!scene)
     return scene.error().usage ? usage_error("run", scene.error().message) : failure("run", scene.error().message);
   for (const std::string& note : scene->notes) std::fprintf(stderr, "mimic run: %s\n", note.c_str());
   Outputs out;
-  if (int rc = open_outputs(a, o, out); rc >= 0) return rc;
+  if (int rc = open_outputs(o, out); rc >= 0) return rc;
   Pipeline pipeline(out.sinks());
   LoopStats loop;
   if (int rc = add_avatars(*scene, o.scene.mesh_lod, pipeline, loop.model_bytes); rc >= 0) return rc;
   start_loop(o, out, pipeline);
-  const double elapsed = run_loop(o, !a.has("quiet"), pipeline, out, loop);
+  const double elapsed = run_loop(o, !o.quiet, pipeline, out, loop);
   std::signal(SIGINT, SIG_DFL);
   std::signal(SIGTERM, SIG_DFL);
   std::signal(SIGUSR1, SIG_DFL);
   std::fprintf(stderr, "mimic run: stopped after %.1f s, %llu frames\n", elapsed,
                static_cast<unsigned long long>(pipeline.frames()));
-  if (a.has("json")) std::printf("%s\n", summary(pipeline, out, loop, elapsed).dump().c_str());
+  if (o.json) std::printf("%s\n", summary(pipeline, out, loop, elapsed).dump().c_str());
   if (out.publisher) out.publisher->close();
   out.nats.reset();  // a clean leave: this publisher's avatars leave the scene
   return 0;

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "body_posing.h"
+#include "cli.h"
 #include "command.h"
 #include "mimic/render/avatar_lods.h"
 #include "mimic/render/camera.h"
@@ -23,77 +24,45 @@ namespace {
 
 constexpr const char* kName = "view";
 
-constexpr const char* kUsage =
-    "usage: mimic view --screenshot OUT.png [pose] [options]   one frame offscreen, as a PNG\n"
-    "       mimic view [--source SPEC | --connect HOST:PORT | --connect nats://HOST:PORT/SCENE] [options]\n"
-    "                                                              the interactive viewer\n"
+constexpr const char* kAbout =
+    "  mimic view --screenshot OUT.png [pose] [options]   one frame offscreen, as a PNG\n"
+    "  mimic view [--source SPEC... | --connect HOST:PORT | --connect nats://HOST:PORT/SCENE]\n"
+    "             [options]                              the interactive viewer\n"
     "\n"
     "Draws the deformed body: smooth shading with one colour per skin piece, a floor grid (1 m\n"
-    "squares, the X axis red, the Z axis — where the body faces — blue), and overlays that show\n"
+    "squares, the X axis red, the Z axis (where the body faces) blue), and overlays that show\n"
     "the method: the skeleton, the primitives as ellipsoids (muscles coloured by their current\n"
     "f(t), blue at rest to red at full deformation), the contour rings, the rays cast for one\n"
     "ring, and the sensors with their axes (a magenta box when stale).\n"
     "\n"
-    "pose, for screenshots (one of):\n"
-    "  --bvh CLIP --frame N  frame N of a BVH clip, retargeted onto the body (--scale M per unit)\n"
-    "  --motion NAME         a built-in motion: idle or walk ...\n"
-    "  --time S              ... at S seconds (default 0)\n"
-    "  --pose zero|rest      the T-pose or the relaxed posture (default rest)\n"
-    "  --set DOF=RAD,...     then set these joint DOFs (radians), e.g. l_shoulder_abduction=2.5\n"
-    "  --empty               no avatar: the floor alone\n"
-    "\n"
-    "interactive sources (default: sim:walk, as mimic run: the built-in walk on six simulated\n"
-    "trackers); the scene is built as `mimic run` builds it:\n"
-    "  --source SPEC         any source `mimic run` takes: sim:walk?sensors=11, replay:FILE.mlog,\n"
-    "                        bvh:CLIP, flock:/dev/ttyUSB0?birds=4, vmc:PORT, actor:wander ...;\n"
-    "                        repeat for several avatars (or separate specs with ';'). After a\n"
-    "                        --source, these options are its own:\n"
-    "    --body FILE         its body model (before any --source: every avatar's)\n"
-    "    --calibration FILE  its wearer's calibration (mimic calibrate; before any --source:\n"
-    "                        every tracker's)\n"
-    "    --place X,Z[,DEG]   where it stands (default: side by side along X, 1.5 m apart)\n"
-    "    --navigate SPEC     move it with a 6-DOF device: spaceball:PATH, magellan:PATH,\n"
-    "                        spacemouse[:sim] (?speed=M/S&turn=RAD/S&dead=ZONE)\n"
-    "  --room WxD            the room's size in metres (default 8x8; actors stay inside)\n"
-    "  --connect HOST:PORT   view the scene a `mimic run` (or `mimic relay`) serves: body models\n"
-    "                        once, then pose frames, every avatar deformed here\n"
-    "  --connect nats://HOST:PORT[,nats://HOST:PORT...]/SCENE\n"
-    "                        view a scene published through a NATS broker (mimic run --nats):\n"
-    "                        a relay inside this process takes it from the broker (credentials\n"
-    "                        from MIMIC_NATS_USER + MIMIC_NATS_PASSWORD, or MIMIC_NATS_TOKEN);\n"
-    "                        avatars appear as their models arrive, also if the broker comes\n"
-    "                        up later\n"
-    "  --no-lean             with --connect: POSE frames instead of the lean pose stream asked\n"
-    "                        for by default (key and delta frames at the server's precision)\n"
-    "\n"
-    "options:\n"
-    "  --camera NAME         where from, relative to where the avatar faces: front (its face,\n"
-    "                        the default), side (its left), back, three-quarter (front left)\n"
-    "  --size WxH            image or window size in pixels (default 640x720, window 960x720)\n"
-    "  --lod N               skin level of detail, 0 (finest) .. 3; default: by distance\n"
-    "  --overlay LIST        skeleton,primitives,contours,rays,sensors | all | none (default none)\n"
-    "  --ray-ring N          the ring whose rays the rays overlay shows (default 40)\n"
-    "  --body FILE           body model (JSON, docs/body-model.md) or preset:NAME (mimic scale\n"
-    "                        --list); default: the built-in body\n"
-    "  --see-through         draw the body translucent (to see overlays inside it)\n"
-    "  --method M            realtime (default): contours measured once and moved with the joints,\n"
-    "                        muscles kept; full: every contour ray-cast and smoothed each frame\n"
-    "  --frame-height M      screenshots: frame M metres of height around the origin instead of\n"
-    "                        fitting the body, so bodies of different sizes share one scale\n"
-    "  --no-grid             leave out the floor grid\n"
-    "  --frames N            interactive: quit after N frames (and print the mean frame time)\n"
-    "  --capture FILE.png    interactive: save the window's last frame (with --frames)\n"
-    "  --no-vsync            interactive: do not wait for the display's refresh\n"
-    "  --help-overlay        interactive: start with the help overlay shown\n"
-    "  --no-panel            interactive: no status panel (clean captures)\n"
-    "  --eyes K              interactive: start in first person, at avatar K's head (from 1)\n"
-    "  -h, --help            this text\n"
+    "The interactive scene (default: sim:walk, as mimic run: the built-in walk on six simulated\n"
+    "trackers) is built as `mimic run` builds it: --source takes any source `mimic run` takes\n"
+    "(sim:walk?sensors=11, replay:FILE.mlog, bvh:CLIP, flock:/dev/ttyUSB0?birds=4, vmc:PORT,\n"
+    "actor:wander ...; mimic run --help lists them); repeat it for several avatars, or separate\n"
+    "specs with ';'. --body, --calibration, --place and --navigate after a --source are its own;\n"
+    "--body and --calibration before any --source are every avatar's (and --body poses\n"
+    "screenshots).";
+
+constexpr const char* kFooter =
+    "examples:\n"
+    "  mimic view --screenshot walk.png --motion walk --time 0.4 --camera side --overlay all\n"
+    "  mimic view --source sim:walk --source actor:wander --place 2,0\n"
+    "  mimic view --connect 127.0.0.1:7777\n"
     "\n"
     "interactive keys: H or F1 help, 1-5 overlays, L cycle LOD (auto, 0..3), T translucent,\n"
     "G grid, F first-person at the next avatar's head, R reset camera (every avatar framed beside\n"
     "the panel, facing them), Esc quit; left drag orbit, right or middle drag pan, wheel zoom.\n"
     "\n"
-    "exit status: 0 done, 1 rendering or input failure, 2 usage error\n";
+    "exit status: 0 done, 1 rendering or input failure, 2 usage error";
+
+// What a screenshot shows, beside the drawing options.
+struct ShotOptions {
+  std::string out;  // --screenshot OUT.png; "": the interactive viewer
+  PoseOptions pose;
+  std::string set;  // --set DOF=RAD,...
+  bool empty = false;
+  std::string body;  // --body before any --source
+};
 
 double ms_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
@@ -136,8 +105,8 @@ Status apply_dof_settings(const std::string& list, const rig::Skeleton& skeleton
   return {};
 }
 
-int screenshot(Args& args, const ViewOptions& view) {
-  const std::string out = *args.get("screenshot");
+int screenshot(const ShotOptions& shot, const ViewOptions& view) {
+  const std::string& out = shot.out;
   auto t0 = std::chrono::steady_clock::now();
   auto context = render::OffscreenContext::create(view.width, view.height);
   if (!context) return failure(kName, context.error().message);
@@ -155,26 +124,21 @@ int screenshot(Args& args, const ViewOptions& view) {
   glm::vec3 floor_center(0.0f);
   float height_m = 1.75f;
 
-  if (!args.has("empty")) {
-    auto body = body_from_args(args);
+  if (!shot.empty) {
+    auto body = body_from_path(shot.body);
     if (!body) return failure(kName, body.error().message);
     t0 = std::chrono::steady_clock::now();
     auto lods = render::AvatarLods::create(*body, nullptr, *renderer, view.method);
     if (!lods) return failure(kName, lods.error().message);
     std::printf("skin      %d LODs built                                            %8.2f ms\n", lods->count(),
                 ms_since(t0));
-    auto request = pose_from_args(args, lods->skeleton());
+    auto request = pose_from(shot.pose, lods->skeleton());
     if (!request) {
       const bool usage = request.error().code == Errc::invalid_argument;
       return usage ? usage_error(kName, request.error().message) : failure(kName, request.error().message);
     }
-    if (!args.has("bvh") && !args.has("motion") && !args.has("pose")) {
-      request->pose = avatar::relaxed_posture(lods->skeleton());
-      request->pose.root_position_m.y = rig::standing_root_height_m(lods->skeleton());
-      request->description = "rest posture";
-    }
-    if (auto set = args.get("set")) {
-      if (auto s = apply_dof_settings(*set, lods->skeleton(), request->pose); !s)
+    if (!shot.set.empty()) {
+      if (auto s = apply_dof_settings(shot.set, lods->skeleton(), request->pose); !s)
         return usage_error(kName, s.error().message);
     }
     // Frame the body as posed: centred on its footprint, its height fitted.
@@ -229,75 +193,192 @@ int screenshot(Args& args, const ViewOptions& view) {
   return 0;
 }
 
-int run_view(const std::vector<std::string>& argv) {
-  // The --source groups first (as mimic run takes them); --body and --calibration before any
-  // --source stay here, for every avatar (and --body for screenshots).
-  std::vector<std::string> rest = argv;
-  ViewOptions view;
-  std::string error;
-  if (!take_sources(rest, view.sources, error, {.leading_defaults = true, .split_lists = true}))
-    return usage_error(kName, error);
-  Args args(rest, {"screenshot", "bvh",     "frame", "scale",        "motion",   "time", "pose",        "set",
-                   "camera",     "size",    "lod",   "overlay",      "ray-ring", "body", "calibration", "connect",
-                   "frames",     "capture", "eyes",  "frame-height", "method",   "room"},
-            {"empty", "no-grid", "see-through", "no-vsync", "help-overlay", "no-panel", "no-lean"});
-  if (args.help()) {
-    std::printf("%s", kUsage);
-    return 0;
-  }
-  if (!args.ok()) return usage_error(kName, args.error());
-  if (!args.positionals().empty()) return usage_error(kName, "unexpected argument '" + args.positionals()[0] + "'");
-  for (service::SourceEntry& e : view.sources) {
-    if (e.body.empty()) e.body = args.get_or("body", "");
-    if (e.calibration.empty()) e.calibration = args.get_or("calibration", "");
-  }
-  if (auto r = args.get("room"); r && !service::parse_room(*r, view.room))
-    return usage_error(kName, "--room must be WxD in metres (2..100 each), got '" + *r + "'");
-  if (auto cam = args.get("camera")) {
-    auto preset = render::parse_camera_preset(*cam);
-    if (!preset) return usage_error(kName, "--camera must be front, side, back or three-quarter, got '" + *cam + "'");
-    view.camera = *preset;
-  }
-  if (auto size = args.get("size"); size && !parse_size(*size, view.width, view.height))
-    return usage_error(kName, "--size must be WxH, 16..8192 each, got '" + *size + "'");
-  long lod = -1, ring = view.ray_ring;
-  if (!args.get_int("lod", lod) || !args.get_int("ray-ring", ring)) return usage_error(kName, args.error());
-  if (args.has("lod") && (lod < 0 || lod >= render::kLodCount))
-    return usage_error(kName, "--lod must be in 0.." + std::to_string(render::kLodCount - 1));
-  if (ring < 0 || ring > 100000) return usage_error(kName, "--ray-ring must be a ring number from 0");
-  view.lod = static_cast<int>(lod);
-  view.ray_ring = static_cast<int>(ring);
-  if (auto list = args.get("overlay"); list && !render::parse_overlays(*list, view.overlays))
-    return usage_error(kName,
-                       "--overlay takes skeleton,primitives,contours,rays,sensors, all or none; got '" + *list + "'");
-  view.grid = !args.has("no-grid");
-  view.see_through = args.has("see-through");
-  double frame_height_m = 0;
-  if (!args.get_double("frame-height", frame_height_m)) return usage_error(kName, args.error());
-  if (args.has("frame-height") && !(frame_height_m >= 0.5 && frame_height_m <= 20))
-    return usage_error(kName, "--frame-height must be 0.5..20 metres");
-  view.frame_height_m = static_cast<float>(frame_height_m);
-  if (auto method = args.get("method")) {
-    auto m = avatar::parse_skin_method(*method);
-    if (!m) return usage_error(kName, "--method: " + m.error().message);
-    view.method = *m;
-  }
+// A check from a parser that says yes or no ("WxH", the overlay list, the camera preset).
+template <typename Accepts>
+CLI::Validator accepted_by(Accepts accepts, std::string expects, std::string shown) {
+  return CLI::Validator(
+      [accepts, expects](std::string& input) -> std::string {
+        return accepts(input) ? std::string() : expects + ", got '" + input + "'";
+      },
+      std::move(shown));
+}
 
-  if (args.has("screenshot")) {
-    if (!view.sources.empty() || args.has("connect"))
-      return usage_error(kName,
-                         "--screenshot draws a posed body: give --bvh, --motion or --pose, not --source or --connect");
-    return screenshot(args, view);
+// The screenshot, its pose (mimic mesh's pose options, the relaxed posture by default) and --set.
+CLI::Option* add_shot_options(cli::Parser& p, ShotOptions& shot) {
+  const std::string group = "pose, for screenshots (one of)";
+  auto* out =
+      p->add_option("--screenshot", shot.out, "render one frame offscreen (no display needed) and write it as a PNG")
+          ->type_name("OUT.png");
+  shot.pose.pose = "rest";
+  add_pose_options(p.app(), shot.pose);
+  for (const char* name : {"--bvh", "--frame", "--scale", "--motion", "--time", "--pose"})
+    p->get_option(name)->group(group);
+  p->get_option("--pose")
+      ->description("pose: the T-pose the body is authored in (zero), or the relaxed posture (rest)")
+      ->default_str("rest");
+  p->add_option("--set", shot.set, "then set these joint DOFs (radians), e.g. l_shoulder_abduction=2.5")
+      ->type_name("DOF=RAD,...")
+      ->group(group);
+  p->add_flag("--empty", shot.empty, "no avatar: the floor alone")->group(group);
+  return out;
+}
+
+// The local scene's sources (or --connect) and the interactive window's options.
+void add_interactive_options(cli::Parser& p, cli::OptionGroups& sources, ViewOptions& view) {
+  const std::string group = "interactive";
+  CLI::Option* head = sources.head()->group(group);
+  sources
+      .member("--body",
+              "that --source's body model (JSON, docs/body-model.md) or preset:NAME\n"
+              "(mimic scale --list); before any --source: every avatar's, and the\n"
+              "screenshot's. Default: the built-in body")
+      ->type_name("FILE")
+      ->group(group);
+  sources
+      .member("--calibration",
+              "that --source's wearer's calibration (mimic calibrate); before any\n"
+              "--source: every tracker's")
+      ->type_name("FILE")
+      ->group(group);
+  sources.member("--place", "where it stands (default: side by side along X, 1.5 m apart)")
+      ->type_name("X,Z[,DEG]")
+      ->group(group);
+  sources
+      .member("--navigate",
+              "move it with a 6-DOF device: spaceball:PATH, magellan:PATH,\n"
+              "spacemouse[:sim] (?speed=M/S&turn=RAD/S&dead=ZONE)")
+      ->type_name("SPEC")
+      ->group(group);
+  p->add_option_function<std::string>(
+       "--room", [&view](const std::string& text) { service::parse_room(text, view.room); },
+       "the room's size in metres (default 8x8; actors stay inside)")
+      ->check(accepted_by(
+          [](const std::string& t) {
+            service::Room r;
+            return service::parse_room(t, r);
+          },
+          "must be WxD in metres (2..100 each)", "WxD"))
+      ->group(group);
+  p->add_option("--connect", view.connect,
+                "view the scene a `mimic run` (or `mimic relay`) serves: body models once,\n"
+                "then pose frames, every avatar deformed here.\n"
+                "nats://HOST:PORT[,nats://...]/SCENE: a scene published through a NATS\n"
+                "broker (mimic run --nats), taken from it by a relay inside this process\n"
+                "(credentials from MIMIC_NATS_USER + MIMIC_NATS_PASSWORD, or\n"
+                "MIMIC_NATS_TOKEN); avatars appear as their models arrive, also if the\n"
+                "broker comes up later")
+      ->type_name("HOST:PORT")
+      ->excludes(head)
+      ->group(group);
+  p->add_flag_function(
+       "--no-lean", [&view](std::int64_t) { view.lean = false; },
+       "with --connect: POSE frames instead of the lean pose stream asked for by\n"
+       "default (key and delta frames at the server's precision)")
+      ->group(group);
+  p->add_option("--frames", view.frames, "quit after N frames (and print the mean frame time)")
+      ->default_str("")
+      ->check(CLI::NonNegativeNumber)
+      ->group(group);
+  p->add_option("--capture", view.capture, "save the window's last frame (with --frames)")
+      ->type_name("FILE.png")
+      ->group(group);
+  p->add_flag_function(
+       "--no-vsync", [&view](std::int64_t) { view.vsync = false; }, "do not wait for the display's refresh")
+      ->group(group);
+  p->add_flag("--help-overlay", view.help_overlay, "start with the help overlay shown")->group(group);
+  p->add_flag_function(
+       "--no-panel", [&view](std::int64_t) { view.panel = false; }, "no status panel (clean captures)")
+      ->group(group);
+  p->add_option("--eyes", view.eyes, "start in first person, at avatar K's head (from 1)")
+      ->type_name("K")
+      ->default_str("")
+      ->check(CLI::NonNegativeNumber)
+      ->group(group);
+}
+
+// How either mode draws.
+void add_drawing_options(cli::Parser& p, ViewOptions& view) {
+  p->add_option_function<std::string>(
+       "--camera", [&view](const std::string& name) { view.camera = *render::parse_camera_preset(name); },
+       "where from, relative to where the avatar faces: front (its face, the\n"
+       "default), side (its left), back, three-quarter (front left)")
+      ->check(accepted_by([](const std::string& t) { return render::parse_camera_preset(t).has_value(); },
+                          "must be front, side, back or three-quarter", "NAME"));
+  p->add_option_function<std::string>(
+       "--size", [&view](const std::string& text) { parse_size(text, view.width, view.height); },
+       "image or window size in pixels (default 640x720, window 960x720)")
+      ->check(accepted_by(
+          [](const std::string& t) {
+            int w = 0, h = 0;
+            return parse_size(t, w, h);
+          },
+          "must be WxH, 16..8192 each", "WxH"));
+  p->add_option("--lod", view.lod, "skin level of detail, 0 (finest) .. 3; default: by distance")
+      ->default_str("")
+      ->check(CLI::Range(0, render::kLodCount - 1));
+  p->add_option_function<std::string>(
+       "--overlay", [&view](const std::string& list) { render::parse_overlays(list, view.overlays); },
+       "skeleton,primitives,contours,rays,sensors | all | none (default none)")
+      ->check(accepted_by(
+          [](const std::string& t) {
+            unsigned m = 0;
+            return render::parse_overlays(t, m);
+          },
+          "takes skeleton,primitives,contours,rays,sensors, all or none", "LIST"));
+  p->add_option("--ray-ring", view.ray_ring, "the ring whose rays the rays overlay shows")
+      ->check(CLI::Range(0, 100000));
+  p->add_flag("--see-through", view.see_through, "draw the body translucent (to see overlays inside it)");
+  p->add_option_function<std::string>(
+       "--method", [&view](const std::string& name) { view.method = *avatar::parse_skin_method(name); },
+       "realtime (default): contours measured once and moved with the joints,\n"
+       "muscles kept; full: every contour ray-cast and smoothed each frame")
+      ->check(cli::parsed_by(avatar::parse_skin_method, "realtime|full"));
+  p->add_option_function<double>(
+       "--frame-height", [&view](const double& m) { view.frame_height_m = static_cast<float>(m); },
+       "screenshots: frame M metres of height around the origin instead of fitting\n"
+       "the body, so bodies of different sizes share one scale")
+      ->type_name("M")
+      ->check(cli::finite_range(0.5, 20));
+  p->add_flag_function(
+      "--no-grid", [&view](std::int64_t) { view.grid = false; }, "leave out the floor grid");
+}
+
+int run_view(const std::vector<std::string>& argv) {
+  cli::Parser p(kName, kAbout);
+  p->footer(kFooter);
+  ViewOptions view;
+  ShotOptions shot;
+  CLI::Option* screenshot_option = add_shot_options(p, shot);
+  cli::OptionGroups sources(p.app(), "--source",
+                            "any source `mimic run` takes; repeat for several avatars (or separate\n"
+                            "specs with ';'). The options after it are its own",
+                            "sim:walk");
+  add_interactive_options(p, sources, view);
+  add_drawing_options(p, view);
+  screenshot_option->excludes(sources.head())->excludes(p->get_option("--connect"));
+  if (auto exit_code = p.parse(argv)) return *exit_code;
+  service::SourceEntry defaults;
+  if (std::string e = sources_from_groups(sources.groups(), {.leading_defaults = true, .split_lists = true},
+                                          view.sources, defaults);
+      !e.empty())
+    return p.usage_error(e);
+  shot.body = defaults.body;
+  if (!shot.out.empty()) {
+    // --place or --navigate before any --source make a source too: not for a screenshot.
+    if (!view.sources.empty())
+      return p.usage_error(
+          "--screenshot draws a posed body: give --bvh, --motion or --pose, not --source or --connect");
+    return screenshot(shot, view);
   }
-  if (!view.sources.empty() && args.has("connect")) return usage_error(kName, "give --source or --connect, not both");
-  if (view.sources.empty() && !args.has("connect")) {
+  if (!view.sources.empty() && !view.connect.empty()) return p.usage_error("give --source or --connect, not both");
+  if (view.sources.empty() && view.connect.empty()) {
     view.sources.emplace_back();  // sim:walk
-    view.sources.back().body = args.get_or("body", "");
-    view.sources.back().calibration = args.get_or("calibration", "");
+    view.sources.back().body = defaults.body;
+    view.sources.back().calibration = defaults.calibration;
   }
   // A window is wider than a portrait screenshot: room for the status panel beside the body.
-  if (!args.has("size")) view.width = 960;
-  return run_interactive(args, view);
+  if (p->count("--size") == 0) view.width = 960;
+  return run_interactive(view);
 }
 
 }  // namespace

@@ -6,7 +6,6 @@
 #include <string>
 
 #include "cli.h"
-#include "command.h"
 #include "mimic/net/pose_stream.h"
 #include "mimic/net/server.h"
 
@@ -14,13 +13,20 @@ namespace mimic::app {
 
 inline constexpr long kMaxLeanKeyInterval = 3600;  // 40 s at 90 Hz
 
-#define MIMIC_LEAN_FLAGS_USAGE                                                                        \
-  "  --lean-shift N      precision of the lean pose stream viewers get by default: POSE steps\n"      \
-  "                      divided by 2^N, 0(lossless against POSE frames) to\n"                        \
-  "                      8 (angles +/-0.012 rad, root +/-1.3 mm); default 3 (angles +/-4.3e-4 rad,\n" \
-  "                      root +/-45 um). Error bound: (2^N + 1)/2 POSE steps a value\n"               \
-  "  --lean-key-interval N  a key frame to every lean viewer every N frames (1-3600; 0: only\n"       \
-  "                      on joining, after lost frames and on request); default 90 (1 s)\n"
+// An integer from 0 to `max`, its errors worded as Mimic's always were: "--lean-shift must be 0
+// to 8, got 9", "--lean-key-interval expects an integer, got 'often'" (cli::Parser prints a
+// message that names its option as written).
+inline CLI::Validator lean_bound(const std::string& name, long max, const std::string& zero) {
+  return CLI::Validator(
+      [name, max, zero](std::string& input) -> std::string {
+        long value = 0;
+        if (!CLI::detail::lexical_cast(input, value)) return name + " expects an integer, got '" + input + "'";
+        if (value < 0 || value > max)
+          return name + " must be 0" + zero + " to " + std::to_string(max) + ", got " + input;
+        return {};
+      },
+      "INT in [0 - " + std::to_string(max) + "]");
+}
 
 // Declares both flags on a command, bounds with them; they fill `o` when parsed (`o` must outlive
 // the parse).
@@ -32,26 +38,13 @@ inline void add_lean_flags(CLI::App& app, net::ServerOptions& o) {
          "root +/-1.3 mm); default 3 (angles +/-4.3e-4 rad, root +/-45 um).\n"
          "Error bound: (2^N + 1)/2 POSE steps a value")
       ->type_name("N")
-      ->check(CLI::Range(0, int(net::kMaxPoseShift)));
+      ->check(lean_bound("--lean-shift", net::kMaxPoseShift, ""));
   app.add_option_function<long>(
          "--lean-key-interval", [&o](const long& frames) { o.lean_key_interval = uint32_t(frames); },
          "a key frame to every lean viewer every N frames (0: only on joining,\n"
          "after lost frames and on request); default 90 (1 s)")
       ->type_name("N")
-      ->check(CLI::Range(0L, kMaxLeanKeyInterval));
-}
-
-// The old parser's form (mimic run): reads both flags into `o`; an error message naming the flag
-// and its bounds, or "".
-inline std::string take_lean_flags(Args& a, net::ServerOptions& o) {
-  long shift = o.lean_pose_shift, interval = long(o.lean_key_interval);
-  if (!a.get_int("lean-shift", shift) || !a.get_int("lean-key-interval", interval)) return a.error();
-  if (shift < 0 || shift > net::kMaxPoseShift) return "--lean-shift must be 0 to 8, got " + std::to_string(shift);
-  if (interval < 0 || interval > kMaxLeanKeyInterval)
-    return "--lean-key-interval must be 0 (no periodic key frames) to 3600 frames, got " + std::to_string(interval);
-  o.lean_pose_shift = uint8_t(shift);
-  o.lean_key_interval = uint32_t(interval);
-  return "";
+      ->check(lean_bound("--lean-key-interval", kMaxLeanKeyInterval, " (no periodic key frames)"));
 }
 
 }  // namespace mimic::app

@@ -3,8 +3,6 @@
 namespace mimic::app {
 namespace {
 
-constexpr const char* kGroupOptions[] = {"--source", "--body", "--calibration", "--place", "--navigate"};
-
 std::vector<std::string> split_list(const std::string& list) {
   std::vector<std::string> out;
   size_t start = 0;
@@ -19,58 +17,33 @@ std::vector<std::string> split_list(const std::string& list) {
 
 }  // namespace
 
-bool take_sources(std::vector<std::string>& args, std::vector<service::SourceEntry>& out, std::string& error,
-                  SourceArgsRules rules) {
-  std::vector<std::string> rest;
-  for (size_t i = 0; i < args.size(); ++i) {
-    const std::string a = args[i];
-    std::string key, value;
-    for (const char* k : kGroupOptions) {
-      if (a == k) {
-        if (i + 1 >= args.size()) {
-          error = std::string("option ") + k + " needs a value";
-          return false;
-        }
-        key = k;
-        value = args[++i];
-      } else if (a.rfind(std::string(k) + "=", 0) == 0) {
-        key = k;
-        value = a.substr(std::string(k).size() + 1);
-      }
+std::string sources_from_groups(const std::vector<cli::OptionGroups::Group>& groups, SourceArgsRules rules,
+                                std::vector<service::SourceEntry>& out, service::SourceEntry& defaults) {
+  for (const cli::OptionGroups::Group& g : groups) {
+    service::SourceEntry entry;
+    entry.body = g.get("body");
+    entry.calibration = g.get("calibration");
+    entry.place = g.get("place");
+    entry.navigate = g.get("navigate");
+    if (g.implicit && rules.leading_defaults) {
+      defaults.body = entry.body;
+      defaults.calibration = entry.calibration;
+      if (entry.place.empty() && entry.navigate.empty()) continue;
     }
-    const bool leading_default = out.empty() && rules.leading_defaults && (key == "--body" || key == "--calibration");
-    if (key.empty() || leading_default) {
-      if (leading_default)
-        rest.push_back(key), rest.push_back(value);
-      else
-        rest.push_back(a);
-      continue;
+    const std::vector<std::string> specs = rules.split_lists ? split_list(g.head) : std::vector<std::string>{g.head};
+    if (specs.empty()) return "--source needs a source spec";
+    for (size_t i = 0; i + 1 < specs.size(); ++i) {
+      out.emplace_back();
+      out.back().spec = specs[i];
     }
-    if (key == "--source") {
-      for (const std::string& spec : rules.split_lists ? split_list(value) : std::vector<std::string>{value}) {
-        out.emplace_back();
-        out.back().spec = spec;
-      }
-      if (out.empty()) {
-        error = "--source needs a source spec";
-        return false;
-      }
-      continue;
-    }
-    if (out.empty()) out.emplace_back();
-    service::SourceEntry& e = out.back();
-    std::string& slot = key == "--body"          ? e.body
-                        : key == "--calibration" ? e.calibration
-                        : key == "--place"       ? e.place
-                                                 : e.navigate;
-    if (!slot.empty()) {
-      error = "two " + key + " options for one --source";
-      return false;
-    }
-    slot = value;
+    entry.spec = specs.back();
+    out.push_back(std::move(entry));
   }
-  args = rest;
-  return true;
+  for (service::SourceEntry& e : out) {
+    if (e.body.empty()) e.body = defaults.body;
+    if (e.calibration.empty()) e.calibration = defaults.calibration;
+  }
+  return {};
 }
 
 }  // namespace mimic::app

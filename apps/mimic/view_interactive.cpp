@@ -174,11 +174,11 @@ int open_local(const ViewOptions& view, render::Renderer& renderer, ViewScene& s
   return -1;
 }
 
-int open_remote(const Args& args, ViewScene& scene) {
+int open_remote(const ViewOptions& view, ViewScene& scene) {
   net::ClientOptions options;
   options.connect = scene.connect;
   options.name = "mimic-view";
-  options.lean = !args.has("no-lean");  // ~60 bytes a frame instead of 150: docs/protocol.md
+  options.lean = view.lean;  // ~60 bytes a frame instead of 150: docs/protocol.md
   auto c = connect_scene(options);
   if (!c) return failure(kName, "cannot connect to " + scene.connect + ": " + c.error().message);
   scene.client = std::move(*c);
@@ -396,7 +396,7 @@ struct FrameTimes {
   }
 };
 
-void draw_panel(const Args& args, const ViewScene& scene, const FrameTimes& times, ViewState& s) {
+void draw_panel(const ViewOptions& view, const ViewScene& scene, const FrameTimes& times, ViewState& s) {
   render::HudState hud;
   hud.frame_ms = times.shown_ms;
   hud.fps = times.fps_shown;
@@ -406,32 +406,31 @@ void draw_panel(const Args& args, const ViewScene& scene, const FrameTimes& time
                                    : "orbit";
   hud.overlays = overlay_names(s.overlays);
   hud.connection = scene.connection;
-  hud.help = s.help || args.has("help-overlay");
+  hud.help = s.help || view.help_overlay;
   for (const ViewAvatar& a : scene.avatars)
     hud.avatars.push_back({a.name, a.source, a.status, a.stale, a.lod, a.lods->triangle_count(a.lod), a.deform_ms,
                            glm::length(s.camera.eye() - root_in_world(a))});
-  if (!args.has("no-panel")) s.panel_right = render::draw_hud(hud);
+  if (view.panel) s.panel_right = render::draw_hud(hud);
 }
 
 }  // namespace
 
-int run_interactive(Args& args, const ViewOptions& view) {
-  long frames_limit = -1;
-  if (!args.get_int("frames", frames_limit)) return usage_error(kName, args.error());
-  const std::optional<std::string> capture = args.get("capture");
+int run_interactive(const ViewOptions& view) {
+  const long frames_limit = view.frames;
+  const std::optional<std::string> capture =
+      view.capture.empty() ? std::nullopt : std::optional<std::string>(view.capture);
   ViewState state;
   // The toggles start as the command line set them.
   std::tie(state.overlays, state.lod_mode, state.grid, state.see_through, state.ray_ring) =
       std::tie(view.overlays, view.lod, view.grid, view.see_through, view.ray_ring);
-  if (!args.get_int("eyes", state.eyes) || state.eyes < 0)
-    return usage_error(kName, "--eyes takes an avatar number from 1");
-  auto window = render::Window::open("Mimic", view.width, view.height, !args.has("no-vsync"));
+  state.eyes = view.eyes;
+  auto window = render::Window::open("Mimic", view.width, view.height, view.vsync);
   if (!window) return failure(kName, window.error().message);
   auto renderer = render::Renderer::create();
   if (!renderer) return failure(kName, renderer.error().message);
   ViewScene scene;
-  scene.connect = args.get_or("connect", "");
-  if (int rc = scene.connect.empty() ? open_local(view, *renderer, scene) : open_remote(args, scene); rc >= 0)
+  scene.connect = view.connect;
+  if (int rc = scene.connect.empty() ? open_local(view, *renderer, scene) : open_remote(view, scene); rc >= 0)
     return rc;
 
   state.camera = render::preset_camera(view.camera, {0, 0, 0}, 1.75f, float(view.width) / float(view.height));
@@ -454,7 +453,7 @@ int run_interactive(Args& args, const ViewOptions& view) {
       return failure(kName, "connection ended: " + st.error().message);
     frame_camera(view, frames, dt_s, scene.avatars, state);
     draw_scene(*window, *renderer, scene.avatars, state);
-    draw_panel(args, scene, times, state);
+    draw_panel(view, scene, times, state);
     window->render_ui();
     ++frames;
     if (capture && frames == frames_limit) {

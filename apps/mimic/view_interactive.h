@@ -4,6 +4,9 @@
 
 #include "mimic/avatar/realtime_skin.h"
 
+#include <string>
+#include <vector>
+
 #include "command.h"
 #include "mimic/render/camera.h"
 #include "mimic/render/overlays.h"
@@ -24,8 +27,15 @@ struct ViewOptions {
   // The local scene (without --connect): what `mimic run` would serve (service/scene_builder.h).
   std::vector<service::SourceEntry> sources;
   service::Room room;
+  // The interactive window.
+  std::string connect;  // --connect HOST:PORT or nats://...: view that scene instead of a local one
+  bool lean = true;     // with --connect: the lean pose stream (--no-lean: POSE frames)
+  long frames = -1;     // quit after this many frames; -1: when the window closes
+  std::string capture;  // save the last frame (with --frames) as this PNG
+  long eyes = 0;        // start in first person at avatar K's head (from 1); 0: orbit
+  bool vsync = true, help_overlay = false, panel = true;
 };
 
-int run_interactive(Args& args, const ViewOptions& view);
+int run_interactive(const ViewOptions& view);
 
 }  // namespace mimic::app

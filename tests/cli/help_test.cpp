@@ -117,6 +117,8 @@ TEST(CliHelp, AValueOutsideItsRangeIsAUsageError) {
       {"sim spaceball --faults 2", "--faults"},
       {"sim magellan --period 0", "--period"},
       {"subscribe --mesh-lod 8", "--mesh-lod"},
+      {"run --listen 127.0.0.1:0 --duration 1 --mesh-lod 4", "--mesh-lod"},
+      {"view --screenshot x.png --ray-ring -5", "--ray-ring"},
   };
   const std::vector<std::string> all = every_command();
   for (const auto& [args, option] : cases) {
@@ -127,6 +129,139 @@ TEST(CliHelp, AValueOutsideItsRangeIsAUsageError) {
     const Outcome r = run_mimic(args);
     EXPECT_EQ(r.status, 2) << "mimic " << args << "\n" << r.output;
     EXPECT_NE(r.output.find(option), std::string::npos) << "mimic " << args << "\n" << r.output;
+  }
+}
+
+// mimic run and mimic view: every option they take is listed in their generated help (the
+// sources' forms, the exit codes too), and a wrong use is a usage error that says what is wrong.
+TEST(CliHelp, RunListsItsOptionsAndRefusesWrongUses) {
+  const Outcome help = run_mimic("run --help");
+  ASSERT_EQ(help.status, 0) << help.output;
+  for (const char* expected : {"--source SPEC",
+                               "--body FILE",
+                               "--place X,Z[,DEG]",
+                               "--navigate SPEC",
+                               "--calibration FILE",
+                               "--room WxD",
+                               "--listen ADDR:PORT",
+                               "--no-udp",
+                               "--lean-shift",
+                               "--lean-key-interval",
+                               "--secret S",
+                               "--publish HOST:PORT",
+                               "--vmc HOST:PORT",
+                               "--vrpn [HOST:]PORT",
+                               "--mesh-lod INT in [0 - 3]",
+                               "--mesh-method",
+                               "--duration",
+                               "--realtime",
+                               "--json",
+                               "--quiet",
+                               "flock:/dev/ttyUSB0?birds=4",
+                               "vrpn:Tracker0@host",
+                               "replay:",
+                               "actor:wander",
+                               "exit status:",
+                               "serving on ADDR:PORT"})
+    EXPECT_NE(help.output.find(expected), std::string::npos) << expected << " in\n" << help.output;
+  const bool nats = help.output.find("--nats URL") != std::string::npos;
+  if (nats) {
+    for (const char* expected : {"--scene NAME", "--nats-name", "--nats-model-ttl", "--nats-mesh-hz", "(needs --nats)"})
+      EXPECT_NE(help.output.find(expected), std::string::npos) << expected << " in\n" << help.output;
+  }
+
+  struct Case {
+    std::string args;
+    std::vector<std::string> says;
+  };
+  std::vector<Case> cases = {
+      {"--mesh-lod 4", {"--mesh-lod", "0 to 3"}},
+      {"--realtime 100", {"--realtime"}},
+      {"--room 1x1", {"--room", "WxD"}},
+      {"--mesh-method raytrace", {"--mesh-method"}},
+      {"--duration nan", {"--duration"}},
+      {"--lean-shift 2 --publish 127.0.0.1:1", {"--lean-shift", "--publish"}},
+      {"--source sim:walk --body a.json --body b.json", {"two --body options for one --source"}},
+      // Before any --source a member opens the default source: once, like any other.
+      {"--place 1,0 --place 2,0 --source sim:idle", {"two --place options for one --source"}},
+      {"--no-such-option", {"unknown option --no-such-option"}},
+      {"stray", {"unexpected argument 'stray'"}},
+      {"--source", {"--source needs a value"}},
+  };
+  if (nats) {
+    cases.push_back({"--nats nats://127.0.0.1:1 --publish 127.0.0.1:1", {"--nats", "--publish", "excludes"}});
+    cases.push_back({"--scene stage", {"--scene requires --nats"}});
+    cases.push_back({"--nats nats://127.0.0.1:1 --nats-mesh-hz 500", {"--nats-mesh-hz"}});
+    cases.push_back({"--nats nats://127.0.0.1:1 --nats-model-ttl 1", {"--nats-model-ttl", "3 to 86400"}});
+  }
+  for (const Case& c : cases) {
+    const Outcome r = run_mimic("run --listen 127.0.0.1:0 --quiet --duration 1 " + c.args);
+    EXPECT_EQ(r.status, 2) << "mimic run " << c.args << "\n" << r.output;
+    EXPECT_NE(r.output.find("mimic run: "), std::string::npos) << r.output;
+    EXPECT_NE(r.output.find("(see 'mimic run --help')"), std::string::npos) << r.output;
+    for (const std::string& s : c.says) EXPECT_NE(r.output.find(s), std::string::npos) << s << " in\n" << r.output;
+  }
+}
+
+TEST(CliHelp, ViewListsItsOptionsAndRefusesWrongUses) {
+  const std::vector<std::string> all = every_command();
+  if (std::find(all.begin(), all.end(), "view") == all.end()) GTEST_SKIP() << "built without the viewer";
+  const Outcome help = run_mimic("view --help");
+  ASSERT_EQ(help.status, 0) << help.output;
+  for (const char* expected : {"--screenshot OUT.png",
+                               "--bvh CLIP",
+                               "--frame",
+                               "--motion",
+                               "--time",
+                               "--pose",
+                               "--set",
+                               "--empty",
+                               "--source SPEC",
+                               "--body FILE",
+                               "--calibration FILE",
+                               "--place X,Z[,DEG]",
+                               "--navigate SPEC",
+                               "--room WxD",
+                               "--connect HOST:PORT",
+                               "--no-lean",
+                               "--camera",
+                               "--size WxH",
+                               "--lod",
+                               "--overlay",
+                               "--ray-ring",
+                               "--see-through",
+                               "--method",
+                               "--frame-height",
+                               "--no-grid",
+                               "--frames",
+                               "--capture",
+                               "--no-vsync",
+                               "--help-overlay",
+                               "--no-panel",
+                               "--eyes",
+                               "interactive keys:",
+                               "exit status:"})
+    EXPECT_NE(help.output.find(expected), std::string::npos) << expected << " in\n" << help.output;
+  const std::vector<std::pair<std::string, std::vector<std::string>>> cases = {
+      {"--screenshot x.png --lod 4", {"--lod"}},
+      {"--screenshot x.png --size 8x8", {"--size", "WxH"}},
+      {"--screenshot x.png --camera top", {"--camera", "front, side, back or three-quarter"}},
+      {"--screenshot x.png --overlay bones", {"--overlay"}},
+      {"--screenshot x.png --frame-height 30", {"--frame-height"}},
+      {"--screenshot x.png --motion walk --bvh x.bvh", {"--bvh", "--motion"}},
+      {"--screenshot x.png --source sim:walk", {"--screenshot", "--source"}},
+      {"--screenshot x.png --place 1,0", {"--screenshot draws a posed body"}},
+      {"--source sim:walk --connect 127.0.0.1:1", {"--connect", "--source"}},
+      {"--source ';' --frames 1", {"--source needs a source spec"}},
+      {"--source sim:walk --place 1,0 --place 2,0 --frames 1", {"two --place options for one --source"}},
+      {"--frames -1", {"--frames"}},
+      {"--no-such-option", {"unknown option --no-such-option"}},
+  };
+  for (const auto& [args, says] : cases) {
+    const Outcome r = run_mimic("view " + args);
+    EXPECT_EQ(r.status, 2) << "mimic view " << args << "\n" << r.output;
+    EXPECT_NE(r.output.find("(see 'mimic view --help')"), std::string::npos) << r.output;
+    for (const std::string& s : says) EXPECT_NE(r.output.find(s), std::string::npos) << s << " in\n" << r.output;
   }
 }
 

@@ -302,6 +302,6 @@ TEST(NatsCli, ASigkilledPublishersAvatarLeavesAndItsRestartBringsItBack) {
 }
 
 }  // namespace
-#endif  // MIMIC_HAVE_NATS
 
 }  // namespace nats_cli_test
+#endif  // MIMIC_HAVE_NATS
