@@ -11,6 +11,10 @@
 
 #include "run_mimic.h"
 
+#ifndef MIMIC_HAVE_NATS
+#define MIMIC_HAVE_NATS 0
+#endif
+
 namespace help_test {
 
 namespace {
@@ -61,7 +65,8 @@ TEST(CliHelp, EveryCommandIsListed) {
   for (const char* expected : {"bench",   "calibrate", "compare",   "devices", "eval-solver", "export",       "inspect",
                                "measure", "mesh",      "record",    "relay",   "replay",      "retarget",     "run",
                                "scale",   "sim",       "subscribe", "view",    "sim flock",   "sim spaceball"})
-    EXPECT_NE(std::find(all.begin(), all.end(), expected), all.end()) << expected;
+    if (MIMIC_HAVE_NATS || std::string(expected) != "relay")  // the relay takes its scene from a broker
+      EXPECT_NE(std::find(all.begin(), all.end(), expected), all.end()) << expected;
 }
 
 TEST(CliHelp, EveryCommandAnswersHelpAndH) {
