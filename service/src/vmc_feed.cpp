@@ -1,5 +1,7 @@
 #include "vmc_feed.h"
 
+#include "mimic/core/text.h"
+
 #include "mimic/core/clock.h"
 #include "mimic/net/vmc.h"
 #include "mimic/net/vmc_receive.h"
@@ -52,10 +54,27 @@ class VmcFeed final : public PoseFeed {
     s.records = st.datagrams;
     s.resyncs = st.refused_total() + st.non_finite;
     if (st.refused_total() > 0) s.last_error = "malformed OSC datagrams: " + std::to_string(st.refused_total());
+    if (!hips.present) s.last_error = what_else_it_sends();
     return s;
   }
 
  private:
+  // A sender that sends no bones may be sending what another source reads: say which, and how.
+  std::string what_else_it_sends() const {
+    const net::VmcState& state = rx_->state();
+    if (state.device_count > 0) {
+      std::string serials;
+      for (size_t i = 0; i < state.device_count && i < 4; ++i)
+        serials += std::string(serials.empty() ? "" : ", ") + state.devices[i].kind + ":" +
+                   terminal_safe(state.devices[i].serial.data());  // the sender's text
+      return "the sender sends 6-DOF devices (" + serials +
+             "), no bones: read them as trackers with vmc:PORT?map=SERIAL:SEGMENT,...";
+    }
+    if (rx_->stats().osc_tracker_messages > 0)
+      return "the sender sends VRChat OSC trackers, no bones: read them with osc-trackers:PORT";
+    return {};
+  }
+
   rig::Skeleton skeleton_;
   std::vector<net::VmcBone> bones_;
   std::unique_ptr<net::VmcReceiver> rx_;

@@ -13,6 +13,7 @@
 #include <chrono>
 #include <memory>
 #include <cstdio>
+#include <cstdlib>
 #include <string>
 #include <vector>
 
@@ -115,6 +116,28 @@ TEST(VmcSource, AnotherMimicsVmcOutputDrivesTheAvatar) {
   EXPECT_TRUE(stale);
   receiver.signal(SIGINT);
   EXPECT_EQ(receiver.wait(15.0), 0) << receiver.err();
+}
+
+// A VMC sender that sends devices and no bones (SteamVR trackers relayed over VMC): the bones
+// source says what the sender sends and how to read it, in --json's sources and on the status line.
+TEST(VmcSource, ASenderOfDevicesOnlyIsToldHowToReadThem) {
+  if (std::system("command -v oscsend > /dev/null") != 0) GTEST_SKIP() << "oscsend (liblo-tools) missing";
+  const uint16_t port = mimic::test::free_port(SOCK_DGRAM);
+  Proc run({"run", "--listen", "127.0.0.1:0", "--source", "vmc:127.0.0.1:" + std::to_string(port), "--duration", "4",
+            "--quiet", "--json"});
+  ASSERT_FALSE(endpoint_of(run).empty()) << run.err();
+  for (int i = 0; i < 5; ++i)
+    ASSERT_EQ(std::system(("oscsend 127.0.0.1 " + std::to_string(port) +
+                           " /VMC/Ext/Tra/Pos sfffffff LHR-1A2B 0.1 1.0 0.2 0 0 0 1")
+                              .c_str()),
+              0);
+  ASSERT_EQ(run.wait(30.0), 0) << run.err();
+  // The summary is the last line on stdout.
+  std::string out = run.out();
+  while (!out.empty() && out.back() == '\n') out.pop_back();
+  const std::string summary = out.substr(out.rfind('\n') + 1);
+  EXPECT_NE(summary.find("T:LHR-1A2B"), std::string::npos) << summary;
+  EXPECT_NE(summary.find("vmc:PORT?map=SERIAL:SEGMENT"), std::string::npos) << summary;
 }
 
 TEST(VmcSource, BadSpecsGetClearErrors) {
