@@ -194,7 +194,9 @@ class ProceduralMotion : public Motion {
 };
 
 // Relaxed standing: arms down with a slight elbow bend, breathing (4 s), a slow weight shift
-// from foot to foot with the feet planted (12 s), and the head looking around (6 s, 4 s).
+// from foot to foot with the feet planted (12 s), and the head glancing about (6 s, 4 s). As
+// still as a person asked to stand still: a calibration's stand-still (3 cm and 6° per sensor
+// over its 2 s capture) accepts any stretch of it.
 class IdleMotion final : public ProceduralMotion {
  public:
   explicit IdleMotion(const Skeleton& s) : ProceduralMotion(s, "idle", 12.0) {
@@ -214,9 +216,9 @@ class IdleMotion final : public ProceduralMotion {
     const double breath = 0.5 - 0.5 * std::cos(w4);  // 0 exhaled .. 1 inhaled
     // Weight shift: the pelvis moves sideways over one foot, then the other; legs lean to keep
     // the feet where they are, ankles keep the soles flat.
-    const double shift_m = 0.025 * std::sin(w12);
+    const double shift_m = 0.012 * std::sin(w12);
     const double lean = std::asin(std::clamp(shift_m / leg_m_, -0.5, 0.5));
-    const double yaw = rad(2.0) * std::sin(w12 + 0.7);
+    const double yaw = rad(1.0) * std::sin(w12 + 0.7);
     p.root_orientation = glm::quat(glm::angleAxis(yaw, glm::dvec3(0, 1, 0)));
     p.root_position_m = glm::vec3(glm::dquat(p.root_orientation) * glm::dvec3(shift_m, 0, 0));
     set(p, kLHipAbduction, -lean);
@@ -238,16 +240,16 @@ class IdleMotion final : public ProceduralMotion {
     set(p, kSpineUpperLateralBend, rad(1.0) * std::sin(w12));
     set(p, kLClavicleElevation, rad(1.5) * breath);
     set(p, kRClavicleElevation, rad(1.5) * breath);
-    // Head looks around slowly, nodding a little.
-    set(p, kNeckTwist, rad(12.0) * std::sin(w6) - 0.4 * yaw);
-    set(p, kHeadTwist, rad(6.0) * std::sin(w6 + 0.3));
-    set(p, kNeckFlexion, rad(5.0) + rad(3.0) * std::sin(w4 + 1.0));
-    set(p, kHeadFlexion, rad(-3.0) + rad(2.0) * std::sin(w3));
+    // The head glances about slowly, nodding a little.
+    set(p, kNeckTwist, rad(2.0) * std::sin(w6) - 0.4 * yaw);
+    set(p, kHeadTwist, rad(1.0) * std::sin(w6 + 0.3));
+    set(p, kNeckFlexion, rad(5.0) + rad(1.0) * std::sin(w4 + 1.0));
+    set(p, kHeadFlexion, rad(-3.0) + rad(0.5) * std::sin(w3));
     set(p, kHeadLateralBend, rad(2.0) * std::sin(w12 + 2.0));
     // Arms hang about 75° below the T-pose with a slight elbow bend, drifting with the sway.
-    arm(p, 0, rad(4.0) + rad(2.0) * std::sin(w12), rad(-75.0) + rad(1.0) * breath, rad(14.0) + rad(3.0) * std::sin(w6));
-    arm(p, 1, rad(4.0) - rad(2.0) * std::sin(w12), rad(-75.0) + rad(1.0) * breath,
-        rad(14.0) - rad(3.0) * std::sin(w6 + 0.5));
+    arm(p, 0, rad(4.0) + rad(1.0) * std::sin(w12), rad(-75.0) + rad(1.0) * breath, rad(14.0) + rad(1.0) * std::sin(w6));
+    arm(p, 1, rad(4.0) - rad(1.0) * std::sin(w12), rad(-75.0) + rad(1.0) * breath,
+        rad(14.0) - rad(1.0) * std::sin(w6 + 0.5));
     set(p, kLWristFlexion, rad(5.0));
     set(p, kRWristFlexion, rad(5.0));
   }
