@@ -67,11 +67,10 @@ class VmcFeed final : public PoseFeed {
       for (size_t i = 0; i < state.device_count && i < 4; ++i)
         serials += std::string(serials.empty() ? "" : ", ") + state.devices[i].kind + ":" +
                    terminal_safe(state.devices[i].serial.data());  // the sender's text
-      return "the sender sends 6-DOF devices (" + serials +
-             "), no bones: read them as trackers with vmc:PORT?map=SERIAL:SEGMENT,...";
+      // What to do first: a status line narrower than the message cuts the serials, not the advice.
+      return "devices, no bones: use vmc:PORT?map=SERIAL:SEGMENT,... (" + serials + ")";
     }
-    if (rx_->stats().osc_tracker_messages > 0)
-      return "the sender sends VRChat OSC trackers, no bones: read them with osc-trackers:PORT";
+    if (rx_->stats().osc_tracker_messages > 0) return "VRChat OSC trackers, no bones: use osc-trackers:PORT";
     return {};
   }
 

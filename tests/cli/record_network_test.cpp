@@ -13,12 +13,14 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <optional>
 #include <string>
 #include <thread>
 
 #include <nlohmann/json.hpp>
 
 #include "free_port.h"
+#include "mimic/net/vrpn_client.h"
 #include "mimic/sim/log.h"
 #include "mimic_proc.h"
 #include "run_mimic.h"
@@ -96,9 +98,31 @@ TEST(RecordNetwork, AVrpnTrackerRecordsWithItsMountsAndReplaysIdentically) {
   ASSERT_EQ(replayed->header.sensors.size(), 3u);
   EXPECT_EQ(replayed->header.sensors[0].segment, h.sensors[0].segment);
 
-  // And the log drives the solver: the head stands where its sensor was.
-  const Outcome run = run_mimic("run --listen 127.0.0.1:0 --quiet --json --source 'replay:" + log + "' --duration 1");
-  ASSERT_EQ(run.status, 0) << run.output;
+  // And the log drives the solver: the solved head stands under its sensor (read back over VRPN).
+  const uint16_t out = mimic::test::free_port(SOCK_STREAM);
+  Proc run({"run", "--listen", "127.0.0.1:0", "--quiet", "--source", "replay:" + log + "?loop=1", "--vrpn",
+            "127.0.0.1:" + std::to_string(out), "--duration", "30"});
+  ASSERT_EQ(run.first_line(30).rfind("serving on ", 0), 0u) << run.err();
+  mimic::net::VrpnTrackerRemote::Options o;
+  o.tracker = *mimic::net::parse_vrpn_address("Avatar0@127.0.0.1:" + std::to_string(out));
+  auto remote = std::move(*mimic::net::VrpnTrackerRemote::create(o));
+  const int head = 18;  // docs/vrpn.md: Avatar<i>'s sensor numbers are joint indices
+  std::optional<glm::dvec3> head_at;
+  std::array<mimic::net::VrpnReport, 64> reports;
+  std::array<mimic::net::VrpnButtonEvent, 2> buttons;
+  const auto end = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+  while (!head_at && std::chrono::steady_clock::now() < end) {
+    size_t nb = 0;
+    const size_t n = remote->poll(reports, buttons, nb);
+    for (size_t i = 0; i < n; ++i)
+      if (reports[i].sensor == head) head_at = reports[i].position;
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  ASSERT_TRUE(head_at) << run.err();
+  // The head sensor sits 16 cm above the head joint (the layout's strap place).
+  EXPECT_NEAR(head_at->x, kSenderMm[0][0] / 1000, 0.1);
+  EXPECT_NEAR(head_at->y, kSenderMm[0][2] / 1000 - 0.16, 0.1);
+  EXPECT_NEAR(head_at->z, -kSenderMm[0][1] / 1000, 0.1);
   std::filesystem::remove(log);
   std::filesystem::remove(again);
 }

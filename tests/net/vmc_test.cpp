@@ -16,23 +16,14 @@
 #include <thread>
 
 #include "mimic/net/vmc.h"
+#include "free_port.h"
 
 extern char** environ;
 
 namespace mimic::net::vmc_test {
 namespace {
 
-uint16_t free_udp_port() {
-  const int fd = ::socket(AF_INET, SOCK_DGRAM, 0);
-  sockaddr_in a{};
-  a.sin_family = AF_INET;
-  a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  ::bind(fd, reinterpret_cast<sockaddr*>(&a), sizeof a);
-  socklen_t len = sizeof a;
-  ::getsockname(fd, reinterpret_cast<sockaddr*>(&a), &len);
-  ::close(fd);
-  return ntohs(a.sin_port);
-}
+uint16_t free_udp_port() { return ::mimic::test::free_port(SOCK_DGRAM); }
 
 // oscdump as a child process with its stdout on a pipe.
 class OscDump {
