@@ -5,9 +5,11 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <fstream>
 #include <memory>
 #include <optional>
 #include <random>
+#include <span>
 #include <sstream>
 #include <string>
 #include <tuple>
@@ -97,6 +99,7 @@ struct Settings {
   bool filter = true;
   bool refine = true;
   bool step = true;
+  std::ostream* trace = nullptr;  // --trace: every joint of every frame, truth and solved
 };
 
 std::string base_name(const std::string& path) {
@@ -130,6 +133,20 @@ Result<solver::SensorLayout> nominal_layout(const std::string& layout_name, cons
     layout.bindings.push_back(b);
   }
   return layout;
+}
+
+// One CSV row per joint the solved skeleton shares with the truth: where each was and where the
+// solver put it, for plotting a clip frame by frame.
+void write_trace(std::ostream& out, const std::string& layout, double t_s, const rig::Skeleton& solved,
+                 const rig::Skeleton& truth, std::span<const rig::RigidTransform> truth_world,
+                 std::span<const rig::RigidTransform> solved_world) {
+  for (int j = 0; j < solved.joint_count(); ++j) {
+    const int tj = truth.find_joint(solved.joint_name(j));
+    if (tj < 0) continue;
+    const glm::vec3 a = truth_world[tj].translation, b = solved_world[j].translation;
+    out << layout << ',' << t_s << ',' << solved.joint_name(j) << ',' << a.x << ',' << a.y << ',' << a.z << ',' << b.x
+        << ',' << b.y << ',' << b.z << '\n';
+  }
 }
 
 Run evaluate(const std::shared_ptr<const rig::Motion>& motion, double frame_time_s, const std::string& layout_name,
@@ -235,6 +252,10 @@ Run evaluate(const std::shared_ptr<const rig::Motion>& motion, double frame_time
       acc.add(rig->true_world_from_joint(), solved_world, solve_us);
       gait.add(rig->true_world_from_joint(), solved_world);
     }
+    if (st.trace)
+      write_trace(*st.trace, layout_name, static_cast<double>(k) / st.rate_hz, model->skeleton(), truth,
+                  st.latency_ms > 0 ? std::span<const rig::RigidTransform>(truth_world) : rig->true_world_from_joint(),
+                  solved_world);
   }
   return {acc.report(),
           {},
@@ -263,6 +284,7 @@ struct Options {
   std::vector<std::string> layouts = {"3", "6", "11", "all"};
   long seed = 1, frames = -1;
   bool no_filter = false, no_refine = false, no_step = false, joints = false, json = false;
+  std::string trace_path;
 };
 
 std::optional<int> parse(cli::Parser& p, const std::vector<std::string>& argv, Options& o, Settings& st) {
@@ -292,6 +314,9 @@ std::optional<int> parse(cli::Parser& p, const std::vector<std::string>& argv, O
   p->add_flag("--no-filter", o.no_filter, "solve the raw samples (no One Euro filtering)");
   p->add_flag("--no-refine", o.no_refine, "keep the stand-still calibration (no refinement from the motion)");
   p->add_flag("--no-step", o.no_step, "untracked legs hang under the hips instead of stepping");
+  p->add_option("--trace", o.trace_path,
+                "write every frame's joints as CSV: layout,t_s,joint,true x,y,z,solved x,y,z (m)")
+      ->type_name("FILE.csv");
   p->add_flag("--joints", o.joints, "also print the position error of every joint (table output)");
   p->add_flag("--json", o.json,
               "one JSON object per layout on stdout instead of the table; keys: clip,\n"
@@ -327,6 +352,13 @@ int run_eval_solver(const std::vector<std::string>& argv) {
   if (!clip) return failure(kName, clip.error().message);
   const std::string name = base_name(*clip_path);
   const bool json = o.json;
+  std::ofstream trace;
+  if (!o.trace_path.empty()) {
+    trace.open(o.trace_path);
+    if (!trace) return failure(kName, "cannot write " + o.trace_path);
+    trace << "layout,t_s,joint,true_x,true_y,true_z,solved_x,solved_y,solved_z\n";
+    st.trace = &trace;
+  }
   if (!json) {
     std::printf(
         "clip %s: %.2f s at %.0f Hz; noise %.2f mm / %.2f deg; mounting tilt up to %.0f deg; filter %s; limb "

@@ -392,6 +392,12 @@ bool SolveJob::SolveLimb(int ci) {
     pole = c.segment_target_[ch.mid].translation - start;
   } else if (c.has_target_[ch.upper]) {
     pole = ch.upper_m * (c.segment_target_[ch.upper].rotation * ch.upper_dir);
+  } else if (ci >= 2 && c.guessed_end_[ci]) {
+    // A foot the stepper placed: the knee faces where the foot points (its heading; a lifted heel
+    // pitches the foot, and a pole taken from the pitched foot turned the straight leg over).
+    const glm::vec3 toe = end_t.rotation * glm::vec3(0, 0, 1);
+    const glm::vec3 ahead = glm::length(glm::vec2(toe.x, toe.z)) > 0.2f ? glm::vec3(toe.x, 0, toe.z) : default_pole;
+    pole = glm::normalize(ahead);
   } else {
     // The hand (foot) rarely bends far from its forearm (shin): guess the middle joint
     // one lower link back along it, leaning on the natural direction when that is vague.

@@ -72,6 +72,71 @@ void lift_heel(rig::RigidTransform& ankle_t, const glm::vec3& hip, float reach_m
   ankle_t.rotation = ankle_t.rotation * glm::angleAxis(hi, glm::vec3(1, 0, 0));
 }
 
+// Follows the head's height; true on the frame a low is found (LocomotionState::Bob).
+bool track_bob(LocomotionState::Bob& b, float head_y, float dt, const LocomotionOptions& o) {
+  b.clock_s += dt;
+  if (!b.have) {
+    b.y_m = b.extreme_y_m = head_y, b.have = true, b.descending = false;
+    return false;
+  }
+  b.y_m += (1.0f - std::exp(-dt / o.bob_tau_s)) * (head_y - b.y_m);
+  if (!b.descending) {
+    if (b.y_m > b.extreme_y_m) b.extreme_y_m = b.y_m;
+    if (b.y_m < b.extreme_y_m - o.bob_rise_m) b.descending = true, b.extreme_y_m = b.y_m, b.low_s = b.clock_s;
+    return false;
+  }
+  if (b.y_m < b.extreme_y_m) b.extreme_y_m = b.y_m, b.low_s = b.clock_s;
+  if (b.y_m < b.extreme_y_m + o.bob_rise_m) return false;
+  const double since = b.last_low_s >= 0 ? b.low_s - b.last_low_s : 0.0;
+  b.period_s = since >= o.bob_min_period_s && since <= o.bob_max_period_s ? static_cast<float>(since) : 0.0f;
+  b.last_low_s = b.low_s;
+  b.descending = false, b.extreme_y_m = b.y_m;
+  return true;
+}
+
+// A swing hurried to end `remaining_s` from now: the phase stays (the foot does not jump) and
+// runs faster.
+void retime_swing(FootStepState& f, float remaining_s) {
+  if ((1.0f - f.phase) * f.duration_s <= remaining_s) return;
+  f.duration_s = std::max(1e-3f, remaining_s / std::max(1e-3f, 1.0f - f.phase));
+}
+
+// Foot k this frame: held where planted, or carried along its swing towards a landing spot that
+// follows the body for the first part of the swing.
+void advance_foot(LocomotionState& s, const LocomotionInput& in, const LocomotionOptions& o, int k, float dt) {
+  FootStepState& f = s.feet[k];
+  if (!f.driven) return;
+  const float floor_y = in.floor_ankle_y_m[k];
+  const FootStepState& other = s.feet[1 - k];
+  const glm::vec2 other_xz = other.driven ? xz(other.swinging ? other.ankle : other.planted) : xz(in.last_ankle[1 - k]);
+  const bool other_known = other.driven || in.have_last_ankle;
+  if (!f.swinging) {
+    f.ankle = glm::vec3(f.planted.x, floor_y, f.planted.z);
+    f.yaw_rad = f.planted_yaw_rad;
+    return;
+  }
+  f.phase = std::min(1.0f, f.phase + dt / f.duration_s);
+  // The landing spot follows the body during the first part of the swing, then is committed.
+  if (f.phase < 0.7f) {
+    glm::vec2 to = landing(in, s, o, k, (1.0f - f.phase) * f.duration_s);
+    if (other_known) to = beside(to, other_xz, in.root_yaw_rad, k, o.min_width_m);
+    f.planted = glm::vec3(to.x, floor_y, to.y);
+    f.planted_yaw_rad = in.root_yaw_rad;
+  }
+  const float t = smooth01(f.phase);
+  glm::vec2 h = xz(f.from) + t * (xz(f.planted) - xz(f.from));
+  if (other_known) h = beside(h, other_xz, in.root_yaw_rad, k, o.min_width_m);
+  const float step_m = glm::length(xz(f.planted) - xz(f.from));
+  const float arc_m = std::max(0.02f, o.arc_height_m * step_m / 0.6f);
+  const float y = f.from.y + t * (floor_y - f.from.y) + std::min(arc_m, 0.15f) * std::sin(kPi * f.phase);
+  f.ankle = glm::vec3(h.x, std::max(floor_y, y), h.y);
+  f.yaw_rad = f.from_yaw_rad + t * wrap_rad(f.planted_yaw_rad - f.from_yaw_rad);
+  if (f.phase >= 1.0f) {
+    f.swinging = false;
+    f.planted = glm::vec3(h.x, floor_y, h.y);
+  }
+}
+
 }  // namespace
 
 void update_locomotion(LocomotionState& s, const LocomotionInput& in, const LocomotionOptions& o) {
@@ -89,15 +154,26 @@ void update_locomotion(LocomotionState& s, const LocomotionInput& in, const Loco
   if (in.have_head) {
     if (!s.have_sway) s.sway_centre = xz(in.head), s.have_sway = true;
     s.sway_centre += (1.0f - std::exp(-dt / o.sway_tau_s)) * (xz(in.head) - s.sway_centre);
-    sway_m = glm::dot(xz(in.head) - s.sway_centre, glm::vec2(std::cos(in.root_yaw_rad), -std::sin(in.root_yaw_rad)));
+    // The mean path trails a walking head by its velocity times the time constant; seen from a
+    // heading a few degrees off the path, that trail would read as sway of several centimetres.
+    const glm::vec2 mean_now = s.sway_centre + o.sway_tau_s * s.velocity_mps;
+    sway_m = glm::dot(xz(in.head) - mean_now, glm::vec2(std::cos(in.root_yaw_rad), -std::sin(in.root_yaw_rad)));
   }
   const bool gate = in.have_head && o.sway_gate_m >= 0 && speed > o.sway_speed_mps;
+  const bool low = in.have_head && track_bob(s.bob, in.head.y, dt, o);
+  const bool bob_walk = gate && o.bob_timing && s.bob.period_s > 0;
+  if (low && bob_walk) {
+    // Both feet are down at the head's low: the swinging foot lands; the trailing one lifts soon.
+    for (auto& f : s.feet)
+      if (f.driven && f.swinging) retime_swing(f, 0.04f);
+    s.bob.lift_at_s = s.bob.low_s + o.bob_lift_fraction * s.bob.period_s;
+  }
   const float swing_s = o.swing_s_slow + (o.swing_s_fast - o.swing_s_slow) * std::clamp(speed / o.fast_mps, 0.0f, 1.0f);
 
   for (int k = 0; k < 2; ++k) {
     FootStepState& f = s.feet[k];
     if (!in.drive[k]) {
-      f.driven = f.swinging = false;
+      f.driven = f.swinging = f.have_target = false;
       continue;
     }
     if (!f.driven) take_over(f, in, k);
@@ -124,6 +200,11 @@ void update_locomotion(LocomotionState& s, const LocomotionInput& in, const Loco
     float score = std::max(off_m / trigger_m, turn / o.turn_threshold_rad);
     if (reach_used > o.reach_fraction) score = std::max(score, o.sway_override);
     if (k == s.last_stepped) score *= 0.8f;  // alternate when both feet are due
+    if (bob_walk && score < o.sway_override) {
+      // Walking to the head's bob: the foot that did not step last lifts when its time comes.
+      if (k == s.last_stepped || s.bob.lift_at_s < 0 || s.bob.clock_s < s.bob.lift_at_s) continue;
+      score = std::max(score, best_score + 1e-3f);
+    }
     // Walking, the foot the body rests on (the head sways over it) does not lift, unless it has
     // been left far behind: the sway is a hint, not a clock.
     if (gate && (k == 0 ? 1.0f : -1.0f) * sway_m > -o.sway_gate_m && score < o.sway_override) continue;
@@ -134,46 +215,22 @@ void update_locomotion(LocomotionState& s, const LocomotionInput& in, const Loco
     f.swinging = true;
     f.phase = 0;
     f.duration_s = swing_s;
+    if (bob_walk) {
+      // … to land at the next low of the head.
+      const double next_low_s = s.bob.last_low_s + 0.97 * s.bob.period_s;
+      f.duration_s = std::clamp(static_cast<float>(next_low_s - s.bob.clock_s), 0.6f * swing_s, 1.5f * swing_s);
+      s.bob.lift_at_s = -1;
+    }
+    // From where the foot is: a trailing foot has lifted its heel off the planted spot.
     f.from = f.planted;
+    if (in.have_last_ankle)
+      f.from = glm::vec3(in.last_ankle[best].x, std::max(in.last_ankle[best].y, f.planted.y), in.last_ankle[best].z);
     f.from_yaw_rad = f.planted_yaw_rad;
     s.last_stepped = best;
     ++s.steps;
   }
 
-  for (int k = 0; k < 2; ++k) {
-    FootStepState& f = s.feet[k];
-    if (!f.driven) continue;
-    const float floor_y = in.floor_ankle_y_m[k];
-    const FootStepState& other = s.feet[1 - k];
-    const glm::vec2 other_xz =
-        other.driven ? xz(other.swinging ? other.ankle : other.planted) : xz(in.last_ankle[1 - k]);
-    const bool other_known = other.driven || in.have_last_ankle;
-    if (!f.swinging) {
-      f.ankle = glm::vec3(f.planted.x, floor_y, f.planted.z);
-      f.yaw_rad = f.planted_yaw_rad;
-      continue;
-    }
-    f.phase = std::min(1.0f, f.phase + dt / f.duration_s);
-    // The landing spot follows the body during the first part of the swing, then is committed.
-    if (f.phase < 0.7f) {
-      glm::vec2 to = landing(in, s, o, k, (1.0f - f.phase) * f.duration_s);
-      if (other_known) to = beside(to, other_xz, in.root_yaw_rad, k, o.min_width_m);
-      f.planted = glm::vec3(to.x, floor_y, to.y);
-      f.planted_yaw_rad = in.root_yaw_rad;
-    }
-    const float t = smooth01(f.phase);
-    glm::vec2 h = xz(f.from) + t * (xz(f.planted) - xz(f.from));
-    if (other_known) h = beside(h, other_xz, in.root_yaw_rad, k, o.min_width_m);
-    const float step_m = glm::length(xz(f.planted) - xz(f.from));
-    const float arc_m = std::max(0.02f, o.arc_height_m * step_m / 0.6f);
-    const float y = f.from.y + t * (floor_y - f.from.y) + std::min(arc_m, 0.15f) * std::sin(kPi * f.phase);
-    f.ankle = glm::vec3(h.x, std::max(floor_y, y), h.y);
-    f.yaw_rad = f.from_yaw_rad + t * wrap_rad(f.planted_yaw_rad - f.from_yaw_rad);
-    if (f.phase >= 1.0f) {
-      f.swinging = false;
-      f.planted = glm::vec3(h.x, floor_y, h.y);
-    }
-  }
+  for (int k = 0; k < 2; ++k) advance_foot(s, in, o, k, dt);
 }
 
 // Without stepping (SolverOptions::step off): each untracked foot under its hip, knee soft, on
@@ -246,6 +303,14 @@ void SolveJob::place_untracked_feet() {
     const glm::quat yaw = glm::angleAxis(f.yaw_rad, glm::vec3(0, 1, 0));
     c.segment_target_[e] = rig::RigidTransform{yaw, f.ankle};
     if (!f.swinging) lift_heel(c.segment_target_[e], in.hip[leg], in.reach_m[leg], m.ball_in_ankle_[leg]);
+    auto& fs = c.locomotion_.feet[leg];
+    if (fs.have_target) {
+      const glm::vec3 move = c.segment_target_[e].translation - fs.target;
+      const float most_m = o.locomotion.max_foot_speed_mps * in.dt_s;
+      if (glm::length(move) > most_m)
+        c.segment_target_[e].translation = fs.target + move * (most_m / glm::length(move));
+    }
+    fs.target = c.segment_target_[e].translation, fs.have_target = true;
     // The toes stay flat on the floor under a lifted heel.
     if (const int toes = m.toes_[leg]; toes >= 0 && !c.has_target_[toes]) {
       c.segment_target_[toes] = rig::RigidTransform{yaw, c.segment_target_[e].apply(m.ball_in_ankle_[leg])};

@@ -165,6 +165,41 @@ TEST(Locomotion, WalkingFeetStepStayPlantedAndAboveTheFloor) {
   EXPECT_GT(worst_cross_m, 0.0f);
 }
 
+// A stepped foot moves as a foot can: it never jumps from one frame to the next (a landing spot
+// that moves with the body, a heel that lifts or drops, a swing hurried to the head's bob), and
+// the leg never turns over (the knee stays below the hip).
+TEST(Locomotion, SteppedFeetNeverJumpAndKneesStayDown) {
+  Wearer w("3");
+  auto walk = rig::make_builtin_motion("walk", w.s);
+  ASSERT_TRUE(walk.has_value());
+  Pose truth = w.s.zero_pose();
+  std::array<glm::vec3, 2> last{};
+  float fastest_mps = 0, highest_knee_m = -1e9f;
+  const int frames = int(8 * kRateHz);
+  for (int k = 0; k < frames; ++k) {
+    // Walking, with a turn of the whole body half-way (the clip turned about the origin).
+    (*walk)->sample(k / kRateHz, truth);
+    if (k > frames / 2) {
+      const glm::quat turn = glm::angleAxis(0.8f * (k - frames / 2) / float(frames / 2), glm::vec3(0, 1, 0));
+      truth.root_orientation = turn * truth.root_orientation;
+      truth.root_position_m = turn * truth.root_position_m;
+    }
+    w.step(truth);
+    for (int leg = 0; leg < 2; ++leg) {
+      if (k > 0) fastest_mps = std::max(fastest_mps, float(glm::length(w.ankle(leg) - last[leg]) * kRateHz));
+      last[leg] = w.ankle(leg);
+      const glm::vec3 hip = w.world[w.s.find_joint(leg == 0 ? "l_hip" : "r_hip")].translation;
+      const glm::vec3 knee = w.world[w.s.find_joint(leg == 0 ? "l_knee" : "r_knee")].translation;
+      highest_knee_m = std::max(highest_knee_m, knee.y - hip.y);
+    }
+  }
+  std::printf("  walk and turn: fastest ankle %.2f m/s, highest knee %.1f cm relative to its hip\n", fastest_mps,
+              100 * highest_knee_m);
+  // The stepper's own limit (8 m/s), with a margin for the chain's clamping to the joint limits.
+  EXPECT_LT(fastest_mps, 1.25f * LocomotionOptions{}.max_foot_speed_mps);
+  EXPECT_LT(highest_knee_m, -0.1f);
+}
+
 // Six sensors, the left foot's sensor lost while walking: the stepper takes the foot over from
 // where it was; it steps, and stays on or above the floor (within 5 mm: the hip's and ankle's
 // limits may keep the chain a few millimetres off a planted target).

@@ -41,6 +41,19 @@ struct LocomotionOptions {
   float sway_gate_m = 0.004f;
   float sway_tau_s = 0.5f;
   float sway_override = 1.5f;  // a foot this many trigger distances behind steps regardless
+  // Walking, the head is lowest when a foot strikes the floor (both feet down) and highest over
+  // the supporting foot: its bob times the steps. Each low of the head (found once it has risen
+  // `bob_rise_m` past it, heights smoothed over `bob_tau_s`) lands the swinging foot, and the
+  // trailing foot lifts `bob_lift_fraction` of the time between lows later, to land at the next
+  // low. Lows further apart than the bounds are no gait.
+  bool bob_timing = true;
+  float bob_rise_m = 0.004f;
+  float bob_tau_s = 0.03f;
+  float bob_min_period_s = 0.3f, bob_max_period_s = 0.9f;
+  float bob_lift_fraction = 0.25f;
+  // A stepped foot never moves faster than this (a walking foot swings at 4–5 m/s): a landing
+  // spot that moves with the body or a heel that lifts does not make it jump.
+  float max_foot_speed_mps = 8.0f;
   // Walking, the hips ride this much lower per m/s (at most `max_walk_drop_m`): strides need
   // the reach a locked-knee stance does not have.
   float walk_drop_m_per_mps = 0.025f;
@@ -55,8 +68,10 @@ struct FootStepState {
   glm::vec3 from{0.0f};
   float from_yaw_rad = 0;
   float phase = 0, duration_s = 0.4f;
-  glm::vec3 ankle{0.0f};  // output: this frame's ankle target
-  float yaw_rad = 0;      // output: this frame's foot heading (about +Y, 0 = +Z)
+  glm::vec3 ankle{0.0f};   // output: this frame's ankle target
+  float yaw_rad = 0;       // output: this frame's foot heading (about +Y, 0 = +Z)
+  glm::vec3 target{0.0f};  // the ankle target given to the leg last frame (heel lift included)
+  bool have_target = false;
 };
 
 struct LocomotionState {
@@ -69,6 +84,17 @@ struct LocomotionState {
   long steps = 0;               // steps started so far
   glm::vec2 sway_centre{0.0f};  // the head's mean horizontal path
   bool have_sway = false;
+  // The head's bob (see LocomotionOptions::bob_timing).
+  struct Bob {
+    double clock_s = 0;  // time since the stepper started
+    float y_m = 0;       // smoothed head height
+    bool have = false, descending = false;
+    float extreme_y_m = 0;  // lowest since descending began, or highest since it ended
+    double low_s = 0;       // when that lowest was
+    double last_low_s = -1;
+    float period_s = 0;     // between the last two lows (half a stride); 0: no gait
+    double lift_at_s = -1;  // the trailing foot lifts then
+  } bob;
 };
 
 struct LocomotionInput {
