@@ -2,10 +2,12 @@
 // Mimic's skeleton, is the ground truth; the simulator's sensor rig wears it (noise, mounting
 // offsets); the solver calibrates on the clip's frame-0 T-pose and then sees only the sensor
 // stream.
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <limits>
 #include <memory>
 #include <optional>
 #include <random>
@@ -61,20 +63,65 @@ constexpr const char* kAbout =
     "                   the ground truth\n"
     "  solve_us         wall time of filtering + solving one frame, p50 and p99";
 
-// The motion frozen at one instant: the wearer holding the calibration pose.
+// The motion frozen at one instant, raised by `lift_m`: the wearer holding the calibration pose.
 class FrozenMotion final : public rig::Motion {
  public:
-  FrozenMotion(std::shared_ptr<const rig::Motion> m, double t_s) : m_(std::move(m)), t_(t_s) {}
+  FrozenMotion(std::shared_ptr<const rig::Motion> m, double t_s, float lift_m = 0)
+      : m_(std::move(m)), t_(t_s), lift_m_(lift_m) {}
   const rig::Skeleton& skeleton() const override { return m_->skeleton(); }
   double duration_s() const override { return 1e9; }
   bool loops() const override { return false; }
-  void sample(double, rig::Pose& out) const override { m_->sample(t_, out); }
+  void sample(double, rig::Pose& out) const override {
+    m_->sample(t_, out);
+    out.root_position_m.y += lift_m_;
+  }
   std::string name() const override { return m_->name() + "@frozen"; }
 
  private:
   std::shared_ptr<const rig::Motion> m_;
   double t_;
+  float lift_m_;
 };
+
+// The lowest point of either foot (ankle, ball, toe tip), world y.
+float lowest_foot_y(const rig::Skeleton& s, std::span<const rig::RigidTransform> world) {
+  float low = std::numeric_limits<float>::infinity();
+  for (const char* side : {"l_", "r_"}) {
+    const int ankle = s.find_joint(std::string(side) + "ankle"), toes = s.find_joint(std::string(side) + "toes");
+    if (ankle >= 0) low = std::min(low, world[ankle].translation.y);
+    if (toes >= 0) low = std::min({low, world[toes].translation.y, world[toes].apply(s.tip_m(toes)).y});
+  }
+  return low;
+}
+
+// CMU's frame 0 is a synthetic rest pose whose feet float or sink centimetres off the floor the
+// performer then moves on. A wearer calibrates standing on the floor they will walk on, and the
+// tracking system knows where that floor is: the T-pose is raised so that its feet rest on the
+// clip's floor (the lowest its feet reach), and the calibration is told the floor's height.
+struct CalibrationStand {
+  float lift_m = 0;   // added to the T-pose's height
+  float floor_y = 0;  // the floor under it (soles), world
+};
+
+CalibrationStand calibration_stand(const rig::Motion& motion, double after_s, double rate_hz) {
+  const rig::Skeleton& s = motion.skeleton();
+  rig::Pose pose = s.zero_pose();
+  std::vector<rig::RigidTransform> world(s.joint_count());
+  motion.sample(0.0, pose);
+  rig::forward_kinematics(s, pose, world);
+  const float tpose_low = lowest_foot_y(s, world);
+  // The straight-legged rest pose's soles, where the skeleton's standing height puts them.
+  const float tpose_sole = pose.root_position_m.y - rig::standing_root_height_m(s);
+  float clip_low = std::numeric_limits<float>::infinity();
+  for (double t = after_s; t <= motion.duration_s(); t += 1.0 / rate_hz) {
+    motion.sample(t, pose);
+    rig::forward_kinematics(s, pose, world);
+    clip_low = std::min(clip_low, lowest_foot_y(s, world));
+  }
+  if (!std::isfinite(clip_low) || !std::isfinite(tpose_low)) return {};
+  const float lift = clip_low - tpose_low;
+  return {lift, tpose_sole + lift};
+}
 
 // The motion from a later start (the clip after its T-pose).
 class ShiftedMotion final : public rig::Motion {
@@ -174,8 +221,9 @@ Run evaluate(const std::shared_ptr<const rig::Motion>& motion, double frame_time
   cfg.seed = st.seed;
   cfg.latency_s = st.latency_ms / 1000.0;
 
-  // Calibration: one second of the frame-0 T-pose.
-  auto cal_rig = sim::SensorRig::create(std::make_shared<FrozenMotion>(motion, 0.0), cfg);
+  // Calibration: one second of the frame-0 T-pose, standing on the clip's floor.
+  const CalibrationStand stand = calibration_stand(*motion, frame_time_s, st.rate_hz);
+  auto cal_rig = sim::SensorRig::create(std::make_shared<FrozenMotion>(motion, 0.0, stand.lift_m), cfg);
   if (!cal_rig) return {{}, cal_rig.error().message};
   std::vector<devices::SensorSample> tick(mounts->size()), capture;
   const int cal_ticks = static_cast<int>(std::lround(st.rate_hz));
@@ -183,7 +231,9 @@ Run evaluate(const std::shared_ptr<const rig::Motion>& motion, double frame_time
     cal_rig->step(tick);
     capture.insert(capture.end(), tick.begin(), tick.end());
   }
-  auto cal = solver::calibrate(solver::tracking_skeleton_desc(), *layout, capture);
+  solver::CalibrationOptions cal_options;
+  cal_options.floor_y_m = stand.floor_y;
+  auto cal = solver::calibrate(solver::tracking_skeleton_desc(), *layout, capture, cal_options);
   if (!cal) return {{}, "calibration failed: " + cal.error().message};
   solver::SolverOptions options;
   options.step = st.step;

@@ -427,8 +427,10 @@ bool SolveJob::SolveLimb(int ci) {
   e1 = glm::normalize(e1);
   const glm::vec3 e2 = glm::cross(n, e1);
   ChainSolution best = solve_chain(in, e1);
-  // (A guessed foot is not worth a search for the swivel the limits allow.)
-  if (best.ok && best.violation > 1e-4f && !c.guessed_end_[ci]) best = search_swivel(in, e1, e2, best);
+  // A guessed foot is searched only when the limits would cut a lot (0.2 rad) off the swivel's
+  // leg: clamped that far, a stretched leg turned up off the floor (a pirouette's planted foot).
+  const float search_above = c.guessed_end_[ci] ? 0.2f : 1e-4f;
+  if (best.ok && best.violation > search_above) best = search_swivel(in, e1, e2, best);
   if (!best.ok) return false;
   for (int i = 0; i < ch.upper_dof_count; ++i) dof[ch.upper_dofs[i]] = best.upper[i];
   dof[ch.flex_dof] = best.bend;

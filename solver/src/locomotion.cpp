@@ -89,6 +89,8 @@ bool track_bob(LocomotionState::Bob& b, float head_y, float dt, const Locomotion
   if (b.y_m < b.extreme_y_m + o.bob_rise_m) return false;
   const double since = b.last_low_s >= 0 ? b.low_s - b.last_low_s : 0.0;
   b.period_s = since >= o.bob_min_period_s && since <= o.bob_max_period_s ? static_cast<float>(since) : 0.0f;
+  // The first low of a walk: a step of a usual length in time, until the next low measures it.
+  if (b.last_low_s < 0) b.period_s = o.bob_first_period_s;
   b.last_low_s = b.low_s;
   b.descending = false, b.extreme_y_m = b.y_m;
   return true;
@@ -167,6 +169,9 @@ void update_locomotion(LocomotionState& s, const LocomotionInput& in, const Loco
     for (auto& f : s.feet)
       if (f.driven && f.swinging) retime_swing(f, 0.04f);
     s.bob.lift_at_s = s.bob.low_s + o.bob_lift_fraction * s.bob.period_s;
+    // At a foot's strike the head is still over the other, trailing foot (its sway lags the
+    // body's weight by about a quarter stride): that foot lifts next.
+    s.bob.lifter = std::abs(sway_m) > o.sway_gate_m ? (sway_m > 0 ? 0 : 1) : -1;
   }
   const float swing_s = o.swing_s_slow + (o.swing_s_fast - o.swing_s_slow) * std::clamp(speed / o.fast_mps, 0.0f, 1.0f);
 
@@ -200,14 +205,17 @@ void update_locomotion(LocomotionState& s, const LocomotionInput& in, const Loco
     float score = std::max(off_m / trigger_m, turn / o.turn_threshold_rad);
     if (reach_used > o.reach_fraction) score = std::max(score, o.sway_override);
     if (k == s.last_stepped) score *= 0.8f;  // alternate when both feet are due
-    if (bob_walk && score < o.sway_override) {
-      // Walking to the head's bob: the foot that did not step last lifts when its time comes.
-      if (k == s.last_stepped || s.bob.lift_at_s < 0 || s.bob.clock_s < s.bob.lift_at_s) continue;
+    if (bob_walk) {
+      // Walking to the head's bob: the trailing foot lifts when its time comes; another only
+      // when its leg can no longer reach it, even on tiptoe.
+      const int lifter = s.bob.lifter >= 0 ? s.bob.lifter : 1 - s.last_stepped;
+      const bool lost = reach_used > o.bob_lost_reach_fraction;
+      if (!lost && (k != lifter || s.bob.lift_at_s < 0 || s.bob.clock_s < s.bob.lift_at_s)) continue;
       score = std::max(score, best_score + 1e-3f);
     }
     // Walking, the foot the body rests on (the head sways over it) does not lift, unless it has
     // been left far behind: the sway is a hint, not a clock.
-    if (gate && (k == 0 ? 1.0f : -1.0f) * sway_m > -o.sway_gate_m && score < o.sway_override) continue;
+    if (gate && !bob_walk && (k == 0 ? 1.0f : -1.0f) * sway_m > -o.sway_gate_m && score < o.sway_override) continue;
     if (score > best_score) best = k, best_score = score;
   }
   if (best >= 0) {

@@ -51,6 +51,10 @@ struct LocomotionOptions {
   float bob_tau_s = 0.03f;
   float bob_min_period_s = 0.3f, bob_max_period_s = 0.9f;
   float bob_lift_fraction = 0.25f;
+  float bob_first_period_s = 0.55f;  // before two lows have been seen (a step at 110 a minute)
+  // Walking to the bob, another foot than the trailing one lifts only when its leg is this far
+  // out of reach (flat; the heel lifts up to here): a reach rule that fired earlier broke the beat.
+  float bob_lost_reach_fraction = 1.15f;
   // A stepped foot never moves faster than this (a walking foot swings at 4–5 m/s): a landing
   // spot that moves with the body or a heel that lifts does not make it jump.
   float max_foot_speed_mps = 8.0f;
@@ -94,6 +98,7 @@ struct LocomotionState {
     double last_low_s = -1;
     float period_s = 0;     // between the last two lows (half a stride); 0: no gait
     double lift_at_s = -1;  // the trailing foot lifts then
+    int lifter = -1;        // … which (the side the head is over at the low), -1: alternate
   } bob;
 };
 
