@@ -1,6 +1,7 @@
 #include "mimic/solver/locomotion.h"
 
 #include <algorithm>
+#include <cstdio>
 
 #include "mimic/solver/body_solver.h"
 
@@ -160,10 +161,17 @@ void update_locomotion(LocomotionState& s, const LocomotionInput& in, const Loco
     // heading a few degrees off the path, that trail would read as sway of several centimetres.
     const glm::vec2 mean_now = s.sway_centre + o.sway_tau_s * s.velocity_mps;
     sway_m = glm::dot(xz(in.head) - mean_now, glm::vec2(std::cos(in.root_yaw_rad), -std::sin(in.root_yaw_rad)));
+    // On a curved path the mean path cuts the corner: a steady offset, taken out.
+    s.sway_bias_m += (1.0f - std::exp(-dt / o.sway_bias_tau_s)) * (sway_m - s.sway_bias_m);
+    sway_m -= s.sway_bias_m;
   }
   const bool gate = in.have_head && o.sway_gate_m >= 0 && speed > o.sway_speed_mps;
   const bool low = in.have_head && track_bob(s.bob, in.head.y, dt, o);
   const bool bob_walk = gate && o.bob_timing && s.bob.period_s > 0;
+  if (!gate) s.bob.beats = 0;  // a new walk takes its first beats from the sway again
+  if (low)
+    fprintf(stderr, "LOW t=%.3f period=%.3f speed=%.2f gate=%d sway=%.3f\n", s.bob.clock_s, s.bob.period_s, speed,
+            int(gate), sway_m);
   if (low && bob_walk) {
     // Both feet are down at the head's low: the swinging foot lands; the trailing one lifts soon.
     for (auto& f : s.feet)
@@ -171,7 +179,8 @@ void update_locomotion(LocomotionState& s, const LocomotionInput& in, const Loco
     s.bob.lift_at_s = s.bob.low_s + o.bob_lift_fraction * s.bob.period_s;
     // At a foot's strike the head is still over the other, trailing foot (its sway lags the
     // body's weight by about a quarter stride): that foot lifts next.
-    s.bob.lifter = std::abs(sway_m) > o.sway_gate_m ? (sway_m > 0 ? 0 : 1) : -1;
+    s.bob.lifter = s.bob.beats < o.bob_sway_beats && std::abs(sway_m) > o.bob_sway_choice_m ? (sway_m > 0 ? 0 : 1) : -1;
+    ++s.bob.beats;
   }
   const float swing_s = o.swing_s_slow + (o.swing_s_fast - o.swing_s_slow) * std::clamp(speed / o.fast_mps, 0.0f, 1.0f);
 
@@ -218,6 +227,9 @@ void update_locomotion(LocomotionState& s, const LocomotionInput& in, const Loco
     if (gate && !bob_walk && (k == 0 ? 1.0f : -1.0f) * sway_m > -o.sway_gate_m && score < o.sway_override) continue;
     if (score > best_score) best = k, best_score = score;
   }
+  if (best >= 0)
+    fprintf(stderr, "LIFT t=%.3f foot=%d bob=%d reach=%.2f\n", s.bob.clock_s, best, int(bob_walk),
+            glm::length(in.hip[best] - s.feet[best].planted) / in.reach_m[best]);
   if (best >= 0) {
     FootStepState& f = s.feet[best];
     f.swinging = true;

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdio>
 #include <random>
+#include <vector>
 
 #include "mimic/rig/motion.h"
 #include "mimic/solver/body_solver.h"
@@ -198,6 +199,52 @@ TEST(Locomotion, SteppedFeetNeverJumpAndKneesStayDown) {
   // The stepper's own limit (8 m/s), with a margin for the chain's clamping to the joint limits.
   EXPECT_LT(fastest_mps, 1.25f * LocomotionOptions{}.max_foot_speed_mps);
   EXPECT_LT(highest_knee_m, -0.1f);
+}
+
+// Walking, the head is lowest as a foot strikes: the stepper keeps that beat (a foot lifts
+// shortly after each low of the head, the feet alternating) rather than a rhythm of its own.
+TEST(Locomotion, WalkingStepsKeepTheHeadsBeat) {
+  Wearer w("3");
+  auto walk = rig::make_builtin_motion("walk", w.s);
+  ASSERT_TRUE(walk.has_value());
+  Pose truth = w.s.zero_pose();
+  std::vector<RigidTransform> truth_world(w.s.joint_count());
+  const int head = w.s.find_joint("head");
+  std::vector<float> head_y;
+  std::vector<int> lift_frames, lifted;
+  const int frames = int(8 * kRateHz);
+  for (int k = 0; k < frames; ++k) {
+    (*walk)->sample(k / kRateHz, truth);
+    rig::forward_kinematics(w.s, truth, truth_world);
+    head_y.push_back(truth_world[head].translation.y);
+    const long before = w.ctx.locomotion().steps;
+    w.step(truth);
+    if (w.ctx.locomotion().steps > before) lift_frames.push_back(k), lifted.push_back(w.ctx.locomotion().last_stepped);
+  }
+  // Lows of the true head; the beat is measured after the first two seconds.
+  const int from = int(2 * kRateHz), half = int(0.15 * kRateHz);
+  std::vector<int> lows;
+  for (int k = half; k + half < frames; ++k) {
+    bool lowest = true;
+    for (int d = -half; d <= half && lowest; ++d) lowest = head_y[k + d] >= head_y[k];
+    if (lowest) lows.push_back(k);
+  }
+  int on_beat = 0, counted = 0, repeats = 0;
+  for (size_t i = 0; i < lift_frames.size(); ++i) {
+    if (lift_frames[i] < from) continue;
+    ++counted;
+    if (i > 0 && lifted[i] == lifted[i - 1]) ++repeats;
+    // Within the first 40 % of the time from the last low to the next.
+    for (size_t l = 0; l + 1 < lows.size(); ++l)
+      if (lift_frames[i] >= lows[l] && lift_frames[i] < lows[l] + 0.4 * (lows[l + 1] - lows[l])) ++on_beat;
+  }
+  std::printf(
+      "  walk: %zu lows of the head, %d steps after 2 s, %d of them soon after a low; %d times a foot "
+      "stepped twice running\n",
+      lows.size(), counted, on_beat, repeats);
+  ASSERT_GE(counted, 6);
+  EXPECT_GE(on_beat, 0.7 * counted);
+  EXPECT_LE(repeats, 1);
 }
 
 // Six sensors, the left foot's sensor lost while walking: the stepper takes the foot over from

@@ -40,7 +40,8 @@ struct LocomotionOptions {
   float sway_speed_mps = 0.4f;
   float sway_gate_m = 0.004f;
   float sway_tau_s = 0.5f;
-  float sway_override = 1.5f;  // a foot this many trigger distances behind steps regardless
+  float sway_bias_tau_s = 1.5f;  // the sway's own mean (a curved path's offset) is removed over this
+  float sway_override = 1.5f;    // a foot this many trigger distances behind steps regardless
   // Walking, the head is lowest when a foot strikes the floor (both feet down) and highest over
   // the supporting foot: its bob times the steps. Each low of the head (found once it has risen
   // `bob_rise_m` past it, heights smoothed over `bob_tau_s`) lands the swinging foot, and the
@@ -51,6 +52,8 @@ struct LocomotionOptions {
   float bob_tau_s = 0.03f;
   float bob_min_period_s = 0.3f, bob_max_period_s = 0.9f;
   float bob_lift_fraction = 0.25f;
+  int bob_sway_beats = 2;            // … for the first lows of a walk; then the feet alternate
+  float bob_sway_choice_m = 0.015f;  // the head this far to one side at a low picks that foot; else alternate
   float bob_first_period_s = 0.55f;  // before two lows have been seen (a step at 110 a minute)
   // Walking to the bob, another foot than the trailing one lifts only when its leg is this far
   // out of reach (flat; the heel lifts up to here): a reach rule that fired earlier broke the beat.
@@ -88,6 +91,7 @@ struct LocomotionState {
   long steps = 0;               // steps started so far
   glm::vec2 sway_centre{0.0f};  // the head's mean horizontal path
   bool have_sway = false;
+  float sway_bias_m = 0;  // the sway's slow mean
   // The head's bob (see LocomotionOptions::bob_timing).
   struct Bob {
     double clock_s = 0;  // time since the stepper started
@@ -98,6 +102,7 @@ struct LocomotionState {
     double last_low_s = -1;
     float period_s = 0;     // between the last two lows (half a stride); 0: no gait
     double lift_at_s = -1;  // the trailing foot lifts then
+    int beats = 0;          // lows since the walk began
     int lifter = -1;        // … which (the side the head is over at the low), -1: alternate
   } bob;
 };
