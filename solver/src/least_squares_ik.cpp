@@ -57,14 +57,21 @@ int fill_residual(std::span<const IkTarget> targets, std::span<const RigidTransf
   return row;
 }
 
-// In-place Cholesky solve of the SPD n×n system a·x = b (x overwrites b); false if not SPD. Only
-// the upper triangle of `a` is read; it becomes U with UᵀU = a. Right-looking, row by row: once
-// row j is scaled, every later row i it touches (u_ji ≠ 0) takes a contiguous axpy of it, which
-// vectorises and does not wait on a running sum; rows j does not touch are skipped, so the work
-// follows the normal equations' zeros (one arm's DOFs never touch the other arm's).
-bool cholesky_solve(float* a, float* b, int n) {
+// Row stride of the normal equations for `cols` unknowns: a multiple of kLanes with at least
+// kLanes − 1 zeros after each row, so that every row operation below runs in whole blocks of
+// kLanes (no remainder loop; the zeros past column n stay zero).
+constexpr int kLanes = 8;
+int stride_for(int cols) { return (cols + 2 * kLanes - 2) / kLanes * kLanes; }
+
+// In-place Cholesky solve of the SPD n×n system a·x = b (x overwrites b; b padded with zeros like
+// the rows); false if not SPD. Only the upper triangle of `a` is read; it becomes U with UᵀU = a.
+// Right-looking, row by row: once row j is scaled, every later row i it touches (u_ji ≠ 0)
+// takes an axpy of it, which vectorises and does not wait on a running sum; rows j does not touch
+// are skipped, so the work follows the normal equations' zeros (one arm's DOFs never touch the
+// other arm's).
+bool cholesky_solve(float* a, float* b, int n, int stride) {
   for (int j = 0; j < n; ++j) {
-    float* __restrict aj = a + static_cast<ptrdiff_t>(j) * n;
+    float* __restrict aj = a + static_cast<ptrdiff_t>(j) * stride;
     if (!(aj[j] > 1e-12f)) return false;
     const float d = std::sqrt(aj[j]);
     aj[j] = d;
@@ -73,24 +80,24 @@ bool cholesky_solve(float* a, float* b, int n) {
     for (int i = j + 1; i < n; ++i) {
       const float u = aj[i];
       if (u == 0.0f) continue;
-      float* __restrict ai = a + static_cast<ptrdiff_t>(i) * n;
-      for (int k = i; k < n; ++k) ai[k] -= u * aj[k];
+      float* __restrict ai = a + static_cast<ptrdiff_t>(i) * stride;
+      for (int k = i; k < n; k += kLanes)
+        for (int q = 0; q < kLanes; ++q) ai[k + q] -= u * aj[k + q];
     }
   }
   for (int j = 0; j < n; ++j) {  // Uᵀ·y = b
-    const float* __restrict aj = a + static_cast<ptrdiff_t>(j) * n;
+    const float* __restrict aj = a + static_cast<ptrdiff_t>(j) * stride;
     const float y = b[j] / aj[j];
     b[j] = y;
     if (y != 0.0f)
-      for (int k = j + 1; k < n; ++k) b[k] -= aj[k] * y;
+      for (int k = j + 1; k < n; k += kLanes)
+        for (int q = 0; q < kLanes; ++q) b[k + q] -= aj[k + q] * y;
   }
-  for (int j = n - 1; j >= 0; --j) {  // U·x = y, the dot products over eight running sums
-    const float* __restrict aj = a + static_cast<ptrdiff_t>(j) * n;
-    float part[8] = {};
-    int k = j + 1;
-    for (; k + 8 <= n; k += 8)
-      for (int q = 0; q < 8; ++q) part[q] += aj[k + q] * b[k + q];
-    for (int q = 0; k < n; ++k, ++q) part[q] += aj[k] * b[k];
+  for (int j = n - 1; j >= 0; --j) {  // U·x = y, the dot products over kLanes running sums
+    const float* __restrict aj = a + static_cast<ptrdiff_t>(j) * stride;
+    float part[kLanes] = {};
+    for (int k = j + 1; k < n; k += kLanes)
+      for (int q = 0; q < kLanes; ++q) part[q] += aj[k + q] * b[k + q];
     const float dot = ((part[0] + part[1]) + (part[2] + part[3])) + ((part[4] + part[5]) + (part[6] + part[7]));
     b[j] = (b[j] - dot) / aj[j];
   }
@@ -107,10 +114,10 @@ LeastSquaresIkContext::LeastSquaresIkContext(const Skeleton& skeleton, int max_d
   dof_axis_world_.resize(skeleton.dof_count());
   jacobian_.resize(static_cast<size_t>(rows) * cols);
   residual_.resize(rows);
-  normal_.resize(static_cast<size_t>(cols) * cols);
-  rhs_.resize(cols);
-  normal0_.resize(static_cast<size_t>(cols) * cols);
-  rhs0_.resize(cols);
+  normal_.resize(static_cast<size_t>(cols) * stride_for(cols));
+  rhs_.resize(stride_for(cols));
+  normal0_.resize(static_cast<size_t>(cols) * stride_for(cols));
+  rhs0_.resize(stride_for(cols));
   saved_.resize(cols);
   columns_.resize(static_cast<size_t>(max_targets) * cols);
   column_begin_.resize(max_targets);
@@ -234,13 +241,13 @@ namespace {
 
 // One target's share of JᵀJ (upper triangle) and Jᵀr: its block is n columns of R rows each.
 template <int R>
-void accumulate_block(const float* block, const float* res, const int* list, int n, float* a0, int cols, float* g0) {
+void accumulate_block(const float* block, const float* res, const int* list, int n, float* a0, int stride, float* g0) {
   for (int ii = 0; ii < n; ++ii) {
     const float* vi = block + static_cast<ptrdiff_t>(ii) * R;
     float g = 0;
     for (int r = 0; r < R; ++r) g += vi[r] * res[r];
     g0[list[ii]] += g;
-    float* ai = a0 + static_cast<ptrdiff_t>(list[ii]) * cols;
+    float* ai = a0 + static_cast<ptrdiff_t>(list[ii]) * stride;
     for (int kk = ii; kk < n; ++kk) {
       const float* vk = block + static_cast<ptrdiff_t>(kk) * R;
       float v = 0;
@@ -263,16 +270,17 @@ void LeastSquaresIkJob::BuildNormalEquations(int cols, float prior2) {
   FillJacobian(cols - static_cast<int>(dofs.size()));
   float* a0 = c.normal0_.data();
   float* g0 = c.rhs0_.data();
-  std::fill(a0, a0 + static_cast<size_t>(cols) * cols, 0.0f);
-  std::fill(g0, g0 + cols, 0.0f);
+  const int stride = stride_for(cols);
+  std::fill(a0, a0 + static_cast<size_t>(cols) * stride, 0.0f);
+  std::fill(g0, g0 + stride, 0.0f);
   const float* block = c.jacobian_.data();
   const float* res = c.residual_.data();
   for (size_t t = 0; t < targets.size(); ++t) {
     const int n = c.column_count_[t];
     const int* list = c.columns_.data() + c.column_begin_[t];
     const int n_rows = (targets[t].position_weight > 0 ? 3 : 0) + (targets[t].rotation_weight > 0 ? 3 : 0);
-    if (n_rows == 3) accumulate_block<3>(block, res, list, n, a0, cols, g0);
-    if (n_rows == 6) accumulate_block<6>(block, res, list, n, a0, cols, g0);
+    if (n_rows == 3) accumulate_block<3>(block, res, list, n, a0, stride, g0);
+    if (n_rows == 6) accumulate_block<6>(block, res, list, n, a0, stride, g0);
     block += static_cast<ptrdiff_t>(n_rows) * n;
     res += n_rows;
   }
@@ -280,7 +288,7 @@ void LeastSquaresIkJob::BuildNormalEquations(int cols, float prior2) {
     const int col = c.position_of_[k];
     const int d = dofs[k];
     if (prior2 > 0) {
-      a0[col * cols + col] += prior2;
+      a0[col * stride + col] += prior2;
       g0[col] += prior2 * (prior_rad[d] - p.dof_rad[d]);
     }
     // A DOF pinned at a limit with the gradient pushing outwards leaves the step.
@@ -288,9 +296,9 @@ void LeastSquaresIkJob::BuildNormalEquations(int cols, float prior2) {
     const bool at_min = p.dof_rad[d] <= f.min_rad + 1e-6f && g0[col] < 0;
     const bool at_max = p.dof_rad[d] >= f.max_rad - 1e-6f && g0[col] > 0;
     if (at_min || at_max) {
-      for (int i = 0; i < col; ++i) a0[i * cols + col] = 0.0f;
-      for (int i = col + 1; i < cols; ++i) a0[col * cols + i] = 0.0f;
-      a0[col * cols + col] = 1.0f;
+      for (int i = 0; i < col; ++i) a0[i * stride + col] = 0.0f;
+      for (int i = col + 1; i < cols; ++i) a0[col * stride + i] = 0.0f;
+      a0[col * stride + col] = 1.0f;
       g0[col] = 0.0f;
     }
   }
@@ -336,11 +344,12 @@ bool LeastSquaresIkJob::Run() {
     rebuild = false;
     float* a = c.normal_.data();
     float* b = c.rhs_.data();
-    std::copy(c.normal0_.data(), c.normal0_.data() + static_cast<size_t>(cols) * cols, a);
-    std::copy(c.rhs0_.data(), c.rhs0_.data() + cols, b);
-    for (int i = 0; i < cols; ++i) a[i * cols + i] += lambda * lambda;
+    const int stride = stride_for(cols);
+    std::copy(c.normal0_.data(), c.normal0_.data() + static_cast<size_t>(cols) * stride, a);
+    std::copy(c.rhs0_.data(), c.rhs0_.data() + stride, b);
+    for (int i = 0; i < cols; ++i) a[i * stride + i] += lambda * lambda;
     ++iterations;
-    if (!cholesky_solve(a, b, cols)) break;
+    if (!cholesky_solve(a, b, cols, stride)) break;
     float biggest = 0;
     for (int i = 0; i < cols; ++i) biggest = std::max(biggest, std::abs(b[i]));
     if (!std::isfinite(biggest)) break;
