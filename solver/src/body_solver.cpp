@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include <glm/gtx/quaternion.hpp>
 
@@ -53,6 +54,9 @@ struct ChainSolution {
   float violation = 0;  // radians cut off by the limits, summed
 };
 
+// Limits first, then closeness to the hinted swivel.
+float chain_cost(const ChainSolution& c, float phi) { return 40.0f * c.violation + 0.1f * phi * phi; }
+
 float decompose_clamped(const Skeleton& s, const int* dofs, int count, const glm::quat& q, std::span<const float> warm,
                         std::array<float, 3>& out) {
   std::array<glm::vec3, 3> axes;
@@ -73,7 +77,10 @@ float decompose_clamped(const Skeleton& s, const int* dofs, int count, const glm
   return violation;
 }
 
-ChainSolution solve_chain(const ChainInput& in, const glm::vec3& pole) {
+// `phi` and `give_up_at`: a swivel search's candidate stops (not ok) as soon as the violation so
+// far makes its chain_cost reach give_up_at — the violations only add up, so it cannot win.
+ChainSolution solve_chain(const ChainInput& in, const glm::vec3& pole, float phi = 0.0f,
+                          float give_up_at = std::numeric_limits<float>::infinity()) {
   const Skeleton& s = *in.s;
   const SolverModel::Chain& ch = *in.ch;
   ChainSolution out;
@@ -116,6 +123,7 @@ ChainSolution solve_chain(const ChainInput& in, const glm::vec3& pole) {
   out.bend = std::clamp(bend, flex.min_rad, flex.max_rad);
   out.violation += std::abs(out.bend - bend);
   out.bend_world = b_w;
+  if (chain_cost(out, phi) >= give_up_at) return out;
   // The upper joint as clamped, then the bend: what is left orients the hand or foot.
   glm::quat upper_local(1, 0, 0, 0);
   for (int i = 0; i < ch.upper_dof_count; ++i)
@@ -127,9 +135,6 @@ ChainSolution solve_chain(const ChainInput& in, const glm::vec3& pole) {
   return out;
 }
 
-// Limits first, then closeness to the hinted swivel.
-float chain_cost(const ChainSolution& c, float phi) { return 40.0f * c.violation + 0.1f * phi * phi; }
-
 // The swivel the limits allow nearest to the hinted one (e1): 16 samples round the axis, then
 // halving steps about the best.
 ChainSolution search_swivel(const ChainInput& in, const glm::vec3& e1, const glm::vec3& e2, ChainSolution best) {
@@ -138,13 +143,15 @@ ChainSolution search_swivel(const ChainInput& in, const glm::vec3& e1, const glm
   constexpr int kSamples = 16;
   for (int k = 1; k < kSamples; ++k) {
     const float phi = 6.2831853f * static_cast<float>(k) / kSamples - (k > kSamples / 2 ? 6.2831853f : 0.0f);
-    const ChainSolution cand = solve_chain(in, std::cos(phi) * e1 + std::sin(phi) * e2);
+    if (0.1f * phi * phi >= best_cost) continue;  // chain_cost(·, phi) cannot beat the best
+    const ChainSolution cand = solve_chain(in, std::cos(phi) * e1 + std::sin(phi) * e2, phi, best_cost);
     const float cost = chain_cost(cand, phi);
     if (cand.ok && cost < best_cost) best = cand, best_cost = cost, best_phi = phi;
   }
   for (float step = 6.2831853f / (2 * kSamples); step > 0.005f; step *= 0.5f) {
     for (float phi : {best_phi - step, best_phi + step}) {
-      const ChainSolution cand = solve_chain(in, std::cos(phi) * e1 + std::sin(phi) * e2);
+      if (0.1f * phi * phi >= best_cost) continue;
+      const ChainSolution cand = solve_chain(in, std::cos(phi) * e1 + std::sin(phi) * e2, phi, best_cost);
       const float cost = chain_cost(cand, phi);
       if (cand.ok && cost < best_cost) best = cand, best_cost = cost, best_phi = phi;
     }

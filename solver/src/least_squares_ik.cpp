@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cassert>
 #include <cmath>
+#include <cstddef>
 
 #include "rotation_vector.h"
 
@@ -19,11 +20,14 @@ constexpr int kRootUnknowns = 6;
 using detail::exp_rotation;
 using detail::rotation_vector;
 
-// FK that also records every DOF's rotation axis in world space.
-void evaluate(const Skeleton& s, const Pose& pose, std::span<RigidTransform> world, std::span<glm::vec3> axis_world) {
+// FK that also records every DOF's rotation axis in world space, for the joints in `mask` only
+// (a set closed under parents: the targets' chains).
+void evaluate(const Skeleton& s, const Pose& pose, uint64_t mask, std::span<RigidTransform> world,
+              std::span<glm::vec3> axis_world) {
   const int n = s.joint_count();
   const glm::quat root_rot = glm::normalize(pose.root_orientation);
   for (int j = 0; j < n; ++j) {
+    if (!(mask >> j & 1u)) continue;
     const int p = s.parent(j);
     glm::quat r = p < 0 ? root_rot : world[p].rotation;
     for (int i = s.dof_begin(j); i < s.dof_end(j); ++i) {
@@ -53,29 +57,49 @@ int fill_residual(std::span<const IkTarget> targets, std::span<const RigidTransf
   return row;
 }
 
-// In-place Cholesky solve of the SPD n×n system a·x = b (x overwrites b). False if not SPD.
-bool cholesky_solve(std::span<float> a, std::span<float> b, int n) {
+// Row stride of the normal equations for `cols` unknowns: a multiple of kLanes with at least
+// kLanes − 1 zeros after each row, so that every row operation below runs in whole blocks of
+// kLanes (no remainder loop; the zeros past column n stay zero).
+constexpr int kLanes = 8;
+int stride_for(int cols) { return (cols + 2 * kLanes - 2) / kLanes * kLanes; }
+
+// In-place Cholesky solve of the SPD n×n system a·x = b (x overwrites b; b padded with zeros like
+// the rows); false if not SPD. Only the upper triangle of `a` is read; it becomes U with UᵀU = a.
+// Right-looking, row by row: once row j is scaled, every later row i it touches (u_ji ≠ 0)
+// takes an axpy of it, which vectorises and does not wait on a running sum; rows j does not touch
+// are skipped, so the work follows the normal equations' zeros (one arm's DOFs never touch the
+// other arm's).
+bool cholesky_solve(float* a, float* b, int n, int stride) {
   for (int j = 0; j < n; ++j) {
-    float d = a[j * n + j];
-    for (int k = 0; k < j; ++k) d -= a[j * n + k] * a[j * n + k];
-    if (!(d > 1e-12f)) return false;
-    d = std::sqrt(d);
-    a[j * n + j] = d;
+    float* __restrict aj = a + static_cast<ptrdiff_t>(j) * stride;
+    if (!(aj[j] > 1e-12f)) return false;
+    const float d = std::sqrt(aj[j]);
+    aj[j] = d;
+    const float inv_d = 1.0f / d;
+    for (int k = j + 1; k < n; ++k) aj[k] *= inv_d;
     for (int i = j + 1; i < n; ++i) {
-      float v = a[i * n + j];
-      for (int k = 0; k < j; ++k) v -= a[i * n + k] * a[j * n + k];
-      a[i * n + j] = v / d;
+      const float u = aj[i];
+      if (u == 0.0f) continue;
+      float* __restrict ai = a + static_cast<ptrdiff_t>(i) * stride;
+      for (int k = i; k < n; k += kLanes)
+        for (int q = 0; q < kLanes; ++q) ai[k + q] -= u * aj[k + q];
     }
   }
-  for (int i = 0; i < n; ++i) {  // L·y = b
-    float v = b[i];
-    for (int k = 0; k < i; ++k) v -= a[i * n + k] * b[k];
-    b[i] = v / a[i * n + i];
+  for (int j = 0; j < n; ++j) {  // Uᵀ·y = b
+    const float* __restrict aj = a + static_cast<ptrdiff_t>(j) * stride;
+    const float y = b[j] / aj[j];
+    b[j] = y;
+    if (y != 0.0f)
+      for (int k = j + 1; k < n; k += kLanes)
+        for (int q = 0; q < kLanes; ++q) b[k + q] -= aj[k + q] * y;
   }
-  for (int i = n - 1; i >= 0; --i) {  // Lᵀ·x = y
-    float v = b[i];
-    for (int k = i + 1; k < n; ++k) v -= a[k * n + i] * b[k];
-    b[i] = v / a[i * n + i];
+  for (int j = n - 1; j >= 0; --j) {  // U·x = y, the dot products over kLanes running sums
+    const float* __restrict aj = a + static_cast<ptrdiff_t>(j) * stride;
+    float part[kLanes] = {};
+    for (int k = j + 1; k < n; k += kLanes)
+      for (int q = 0; q < kLanes; ++q) part[q] += aj[k + q] * b[k + q];
+    const float dot = ((part[0] + part[1]) + (part[2] + part[3])) + ((part[4] + part[5]) + (part[6] + part[7]));
+    b[j] = (b[j] - dot) / aj[j];
   }
   return true;
 }
@@ -90,14 +114,16 @@ LeastSquaresIkContext::LeastSquaresIkContext(const Skeleton& skeleton, int max_d
   dof_axis_world_.resize(skeleton.dof_count());
   jacobian_.resize(static_cast<size_t>(rows) * cols);
   residual_.resize(rows);
-  normal_.resize(static_cast<size_t>(cols) * cols);
-  rhs_.resize(cols);
-  normal0_.resize(static_cast<size_t>(cols) * cols);
-  rhs0_.resize(cols);
+  normal_.resize(static_cast<size_t>(cols) * stride_for(cols));
+  rhs_.resize(stride_for(cols));
+  normal0_.resize(static_cast<size_t>(cols) * stride_for(cols));
+  rhs0_.resize(stride_for(cols));
   saved_.resize(cols);
   columns_.resize(static_cast<size_t>(max_targets) * cols);
   column_begin_.resize(max_targets);
   column_count_.resize(max_targets);
+  position_of_.resize(max_dofs);
+  dof_at_.resize(max_dofs);
 }
 
 bool LeastSquaresIkJob::Validate() const {
@@ -116,20 +142,37 @@ bool LeastSquaresIkJob::Validate() const {
   return max_iterations >= 0 && damping >= 0 && prior_weight >= 0;
 }
 
-// Per target, the Jacobian columns it touches: the root's, then the DOFs along its joint's chain
-// (a hand's row touches the spine and its arm, not the other arm). Fixed for one Run().
+// The columns' order: DOFs of deeper joints first (joints are numbered parents first), the root's
+// six last. A target's rows touch its joint's chain, so two columns are coupled in JᵀJ only when
+// one's joint is an ancestor of the other's; eliminating children before parents then couples
+// only ancestors that a target below already coupled — no fill-in, so the factor keeps the
+// zeros between the arms (and between an arm and the neck) that cholesky_solve skips. Then, per target, the columns
+// it touches, ascending: the DOFs along its joint's chain (a hand's row touches the spine and its
+// arm, not the other arm), then the root's. Fixed for one Run().
 void LeastSquaresIkJob::ListColumns(int root_cols) {
   const Skeleton& s = *skeleton;
   LeastSquaresIkContext& c = *context;
+  const int n_dofs = static_cast<int>(dofs.size());
+  // Counting sort by joint, deepest first (stable: a joint's DOFs keep their order).
+  int start[65] = {};
+  for (int d : dofs) ++start[s.joint_count() - 1 - s.dof(d).joint + 1];
+  for (int j = 1; j <= s.joint_count(); ++j) start[j] += start[j - 1];
+  for (int k = 0; k < n_dofs; ++k) {
+    const int pos = start[s.joint_count() - 1 - s.dof(dofs[k]).joint]++;
+    c.position_of_[k] = pos;
+    c.dof_at_[pos] = k;
+  }
   int* list = c.columns_.data();
+  c.joint_mask_ = 0;
   for (size_t t = 0; t < targets.size(); ++t) {
     uint64_t mask = 0;
     for (int j = targets[t].joint; j >= 0; j = s.parent(j)) mask |= uint64_t{1} << j;
+    c.joint_mask_ |= mask;
     int n = 0;
     c.column_begin_[t] = static_cast<int>(list - c.columns_.data());
-    for (int k = 0; k < root_cols; ++k) list[n++] = k;
-    for (size_t k = 0; k < dofs.size(); ++k)
-      if (mask >> s.dof(dofs[k]).joint & 1u) list[n++] = root_cols + static_cast<int>(k);
+    for (int pos = 0; pos < n_dofs; ++pos)
+      if (mask >> s.dof(dofs[c.dof_at_[pos]]).joint & 1u) list[n++] = pos;
+    for (int k = 0; k < root_cols; ++k) list[n++] = n_dofs + k;
     c.column_count_[t] = n;
     list += n;
   }
@@ -139,7 +182,7 @@ void LeastSquaresIkJob::ListColumns(int root_cols) {
 float LeastSquaresIkJob::Objective(float prior2) {
   LeastSquaresIkContext& c = *context;
   const Pose& p = *pose;
-  evaluate(*skeleton, p, c.world_, c.dof_axis_world_);
+  evaluate(*skeleton, p, c.joint_mask_, c.world_, c.dof_axis_world_);
   const int rows = fill_residual(targets, c.world_, c.residual_);
   float sum = 0;
   for (int r = 0; r < rows; ++r) sum += c.residual_[r] * c.residual_[r];
@@ -149,7 +192,7 @@ float LeastSquaresIkJob::Objective(float prior2) {
 }
 
 // Each target's block of the Jacobian at the current pose (world and axes evaluated there), over
-// its own columns only: rows × its column count, row-major, blocks one after another.
+// its own columns only: per column its rows (3 or 6) together, blocks one after another.
 void LeastSquaresIkJob::FillJacobian(int root_cols) {
   const Skeleton& s = *skeleton;
   LeastSquaresIkContext& c = *context;
@@ -159,79 +202,93 @@ void LeastSquaresIkJob::FillJacobian(int root_cols) {
     const IkTarget& tg = targets[t];
     const int n = c.column_count_[t];
     const int* list = c.columns_.data() + c.column_begin_[t];
-    const int n_rows = (tg.position_weight > 0 ? 3 : 0) + (tg.rotation_weight > 0 ? 3 : 0);
-    std::fill(block, block + static_cast<size_t>(n_rows) * n, 0.0f);
-    float* pos_rows = tg.position_weight > 0 ? block : nullptr;
-    float* rot_rows = tg.rotation_weight > 0 ? block + (pos_rows ? 3 * n : 0) : nullptr;
-    auto put = [n](float* rows, float w, int col, const glm::vec3& v) {
-      rows[0 * n + col] = w * v.x;
-      rows[1 * n + col] = w * v.y;
-      rows[2 * n + col] = w * v.z;
+    const bool pos = tg.position_weight > 0, rot = tg.rotation_weight > 0;
+    const int n_rows = (pos ? 3 : 0) + (rot ? 3 : 0);
+    // Column `col`: its position rows (w·∂e/∂θ), then its rotation rows (w·axis).
+    auto put = [&](int col, const glm::vec3& dpos, const glm::vec3& drot) {
+      float* v = block + static_cast<ptrdiff_t>(col) * n_rows;
+      if (pos) {
+        const glm::vec3 w = tg.position_weight * dpos;
+        v[0] = w.x, v[1] = w.y, v[2] = w.z;
+        v += 3;
+      }
+      if (rot) {
+        const glm::vec3 w = tg.rotation_weight * drot;
+        v[0] = w.x, v[1] = w.y, v[2] = w.z;
+      }
     };
     const glm::vec3 e = c.world_[tg.joint].translation;
+    const int first_root = n - root_cols;
+    for (int col = 0; col < first_root; ++col) {
+      const int d = dofs[static_cast<size_t>(c.dof_at_[list[col]])];
+      const glm::vec3& axis = c.dof_axis_world_[d];
+      put(col, glm::cross(axis, e - c.world_[s.dof(d).joint].translation), axis);
+    }
     if (root_cols > 0) {
       const glm::vec3 arm = e - p.root_position_m;
       for (int k = 0; k < 3; ++k) {
         glm::vec3 unit(0.0f);
         unit[k] = 1.0f;
-        if (pos_rows) put(pos_rows, tg.position_weight, k, unit);
-        if (pos_rows) put(pos_rows, tg.position_weight, 3 + k, glm::cross(unit, arm));
-        if (rot_rows) put(rot_rows, tg.rotation_weight, 3 + k, unit);
+        put(first_root + k, unit, glm::vec3(0.0f));
+        put(first_root + 3 + k, glm::cross(unit, arm), unit);
       }
     }
-    for (int col = root_cols; col < n; ++col) {
-      const int d = dofs[static_cast<size_t>(list[col] - root_cols)];
-      const int j = s.dof(d).joint;
-      if (pos_rows)
-        put(pos_rows, tg.position_weight, col, glm::cross(c.dof_axis_world_[d], e - c.world_[j].translation));
-      if (rot_rows) put(rot_rows, tg.rotation_weight, col, c.dof_axis_world_[d]);
-    }
-    block += static_cast<size_t>(n_rows) * n;
+    block += static_cast<ptrdiff_t>(n_rows) * n;
   }
 }
 
-// Undamped normal equations JᵀJ·δ = Jᵀr (+ the prior) at the current pose, accumulated from each
-// target's block over its own columns. Every sum runs over the rows in order, so the figures
-// do not depend on how the blocks are laid out.
-void LeastSquaresIkJob::BuildNormalEquations(int cols, int root_cols, float prior2) {
+namespace {
+
+// One target's share of JᵀJ (upper triangle) and Jᵀr: its block is n columns of R rows each.
+template <int R>
+void accumulate_block(const float* block, const float* res, const int* list, int n, float* a0, int stride, float* g0) {
+  for (int ii = 0; ii < n; ++ii) {
+    const float* vi = block + static_cast<ptrdiff_t>(ii) * R;
+    float g = 0;
+    for (int r = 0; r < R; ++r) g += vi[r] * res[r];
+    g0[list[ii]] += g;
+    float* ai = a0 + static_cast<ptrdiff_t>(list[ii]) * stride;
+    for (int kk = ii; kk < n; ++kk) {
+      const float* vk = block + static_cast<ptrdiff_t>(kk) * R;
+      float v = 0;
+      for (int r = 0; r < R; ++r) v += vi[r] * vk[r];
+      ai[list[kk]] += v;
+    }
+  }
+}
+
+}  // namespace
+
+// Undamped normal equations JᵀJ·δ = Jᵀr (+ the prior) at the current pose, upper triangle in
+// the elimination order, accumulated from each target's block over its own columns.
+void LeastSquaresIkJob::BuildNormalEquations(int cols, float prior2) {
   const Skeleton& s = *skeleton;
   LeastSquaresIkContext& c = *context;
   const Pose& p = *pose;
   // The residual is the last objective's: it was evaluated at the current pose (the first, or
   // the step just accepted).
-  FillJacobian(root_cols);
+  FillJacobian(cols - static_cast<int>(dofs.size()));
   float* a0 = c.normal0_.data();
   float* g0 = c.rhs0_.data();
-  std::fill(a0, a0 + static_cast<size_t>(cols) * cols, 0.0f);
-  std::fill(g0, g0 + cols, 0.0f);
+  const int stride = stride_for(cols);
+  std::fill(a0, a0 + static_cast<size_t>(cols) * stride, 0.0f);
+  std::fill(g0, g0 + stride, 0.0f);
   const float* block = c.jacobian_.data();
   const float* res = c.residual_.data();
   for (size_t t = 0; t < targets.size(); ++t) {
     const int n = c.column_count_[t];
     const int* list = c.columns_.data() + c.column_begin_[t];
     const int n_rows = (targets[t].position_weight > 0 ? 3 : 0) + (targets[t].rotation_weight > 0 ? 3 : 0);
-    for (int ii = 0; ii < n; ++ii) {
-      const int i = list[ii];
-      float g = g0[i];
-      for (int r = 0; r < n_rows; ++r) g += block[r * n + ii] * res[r];
-      g0[i] = g;
-      float* ai = a0 + static_cast<size_t>(i) * cols;
-      for (int kk = 0; kk <= ii; ++kk) {
-        float v = ai[list[kk]];
-        for (int r = 0; r < n_rows; ++r) v += block[r * n + ii] * block[r * n + kk];
-        ai[list[kk]] = v;
-      }
-    }
-    block += static_cast<size_t>(n_rows) * n;
+    if (n_rows == 3) accumulate_block<3>(block, res, list, n, a0, stride, g0);
+    if (n_rows == 6) accumulate_block<6>(block, res, list, n, a0, stride, g0);
+    block += static_cast<ptrdiff_t>(n_rows) * n;
     res += n_rows;
   }
-  for (int i = 0; i < cols; ++i)
-    for (int k = 0; k < i; ++k) a0[k * cols + i] = a0[i * cols + k];
   for (size_t k = 0; k < dofs.size(); ++k) {
-    const int col = root_cols + static_cast<int>(k);
+    const int col = c.position_of_[k];
     const int d = dofs[k];
     if (prior2 > 0) {
-      a0[col * cols + col] += prior2;
+      a0[col * stride + col] += prior2;
       g0[col] += prior2 * (prior_rad[d] - p.dof_rad[d]);
     }
     // A DOF pinned at a limit with the gradient pushing outwards leaves the step.
@@ -239,25 +296,30 @@ void LeastSquaresIkJob::BuildNormalEquations(int cols, int root_cols, float prio
     const bool at_min = p.dof_rad[d] <= f.min_rad + 1e-6f && g0[col] < 0;
     const bool at_max = p.dof_rad[d] >= f.max_rad - 1e-6f && g0[col] > 0;
     if (at_min || at_max) {
-      for (int i = 0; i < cols; ++i) a0[col * cols + i] = a0[i * cols + col] = 0.0f;
-      a0[col * cols + col] = 1.0f;
+      for (int i = 0; i < col; ++i) a0[i * stride + col] = 0.0f;
+      for (int i = col + 1; i < cols; ++i) a0[col * stride + i] = 0.0f;
+      a0[col * stride + col] = 1.0f;
       g0[col] = 0.0f;
     }
   }
 }
 
-// The pose moved by the step δ (root first when it is an unknown), DOFs clamped to their limits.
+// The pose moved by the step δ (in column order: DOFs, then the root's six when it is an
+// unknown), DOFs clamped to their limits.
 void LeastSquaresIkJob::ApplyStep(std::span<const float> step, int root_cols) {
   const Skeleton& s = *skeleton;
+  const LeastSquaresIkContext& c = *context;
   Pose& p = *pose;
+  const size_t n_dofs = dofs.size();
   if (root_cols > 0) {
-    p.root_position_m += glm::vec3(step[0], step[1], step[2]);
-    p.root_orientation = glm::normalize(exp_rotation(glm::vec3(step[3], step[4], step[5])) * p.root_orientation);
+    p.root_position_m += glm::vec3(step[n_dofs + 0], step[n_dofs + 1], step[n_dofs + 2]);
+    p.root_orientation = glm::normalize(exp_rotation(glm::vec3(step[n_dofs + 3], step[n_dofs + 4], step[n_dofs + 5])) *
+                                        p.root_orientation);
   }
-  for (size_t k = 0; k < dofs.size(); ++k) {
+  for (size_t k = 0; k < n_dofs; ++k) {
     const int d = dofs[k];
     const auto& f = s.dof(d);
-    p.dof_rad[d] = std::clamp(p.dof_rad[d] + step[root_cols + k], f.min_rad, f.max_rad);
+    p.dof_rad[d] = std::clamp(p.dof_rad[d] + step[static_cast<size_t>(c.position_of_[k])], f.min_rad, f.max_rad);
   }
 }
 
@@ -278,15 +340,16 @@ bool LeastSquaresIkJob::Run() {
   bool rebuild = true;
   bool world_current = true;  // world and axes are those of the pose (the last objective's)
   for (int it = 0; it < max_iterations && cols > 0; ++it) {
-    if (rebuild) BuildNormalEquations(cols, root_cols, prior2);
+    if (rebuild) BuildNormalEquations(cols, prior2);
     rebuild = false;
     float* a = c.normal_.data();
     float* b = c.rhs_.data();
-    std::copy(c.normal0_.data(), c.normal0_.data() + static_cast<size_t>(cols) * cols, a);
-    std::copy(c.rhs0_.data(), c.rhs0_.data() + cols, b);
-    for (int i = 0; i < cols; ++i) a[i * cols + i] += lambda * lambda;
+    const int stride = stride_for(cols);
+    std::copy(c.normal0_.data(), c.normal0_.data() + static_cast<size_t>(cols) * stride, a);
+    std::copy(c.rhs0_.data(), c.rhs0_.data() + stride, b);
+    for (int i = 0; i < cols; ++i) a[i * stride + i] += lambda * lambda;
     ++iterations;
-    if (!cholesky_solve(std::span(a, static_cast<size_t>(cols) * cols), std::span(b, cols), cols)) break;
+    if (!cholesky_solve(a, b, cols, stride)) break;
     float biggest = 0;
     for (int i = 0; i < cols; ++i) biggest = std::max(biggest, std::abs(b[i]));
     if (!std::isfinite(biggest)) break;
@@ -314,7 +377,7 @@ bool LeastSquaresIkJob::Run() {
     }
   }
   c.lambda_ = lambda;
-  if (!world_current) evaluate(*skeleton, p, c.world_, c.dof_axis_world_);
+  if (!world_current) evaluate(*skeleton, p, c.joint_mask_, c.world_, c.dof_axis_world_);
   const int rows = fill_residual(targets, c.world_, c.residual_);
   float sum = 0;
   for (int r = 0; r < rows; ++r) sum += c.residual_[r] * c.residual_[r];

@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <random>
 
@@ -102,6 +103,61 @@ TEST(LeastSquaresIk, SolvesTheRootWhenAsked) {
   ASSERT_TRUE(job.Run());
   EXPECT_LT(glm::length(p.root_position_m - glm::vec3(1, 0.9f, -2)), 1e-4f);
   EXPECT_GT(std::abs(glm::dot(p.root_orientation, want)), 0.99999f);
+}
+
+// Head and both hands with the root, the trunk and both arms unknown (the body solver's trunk
+// solve for head and hands, warm-started), the DOFs listed in a shuffled order: the elimination order the
+// solve picks (children first, the root last) and the zeros its Cholesky skips between the arms
+// must still give the targets.
+TEST(LeastSquaresIk, ReachesHeadAndHandsWithRootAndArms) {
+  const Skeleton s = default_skeleton();
+  std::vector<int> dofs = dofs_of(s, {"spine_lower", "spine_mid", "spine_upper", "neck", "neck_upper", "head",
+                                      "l_clavicle", "l_shoulder", "r_clavicle", "r_shoulder"});
+  dofs.push_back(s.find_dof("l_elbow_flexion"));
+  dofs.push_back(s.find_dof("r_elbow_flexion"));
+  std::mt19937_64 rng(5);
+  LeastSquaresIkContext ctx(s, static_cast<int>(dofs.size()), 3);
+  std::vector<RigidTransform> w(s.joint_count()), ws(s.joint_count());
+  const int head = s.find_joint("head"), l_hand = s.find_joint("l_wrist"), r_hand = s.find_joint("r_wrist");
+  for (int trial = 0; trial < 20; ++trial) {
+    std::shuffle(dofs.begin(), dofs.end(), rng);
+    Pose truth = s.zero_pose();
+    truth.root_position_m = glm::vec3(0.3f, 1.0f, -0.2f);
+    truth.root_orientation = glm::angleAxis(0.4f, glm::vec3(0, 1, 0));
+    for (int d : dofs) {
+      std::uniform_real_distribution<float> u(0.4f * s.dof(d).min_rad, 0.4f * s.dof(d).max_rad);
+      truth.dof_rad[d] = u(rng);
+    }
+    forward_kinematics(s, truth, w);
+    const IkTarget targets[] = {{head, w[head].translation, w[head].rotation, 100.0f, 10.0f},
+                                {l_hand, w[l_hand].translation, {}, 100.0f, 0.0f},
+                                {r_hand, w[r_hand].translation, {}, 100.0f, 0.0f}};
+    // Warm-started near the truth, as frame after frame: every DOF off by up to 0.1 rad, the
+    // root by 3 cm and 0.1 rad.
+    Pose solved = truth;
+    solved.root_position_m += glm::vec3(0.02f, 0.03f, -0.02f);
+    solved.root_orientation = glm::angleAxis(0.1f, glm::normalize(glm::vec3(1, 1, 0))) * truth.root_orientation;
+    std::uniform_real_distribution<float> off(-0.1f, 0.1f);
+    for (int d : dofs) solved.dof_rad[d] = std::clamp(truth.dof_rad[d] + off(rng), s.dof(d).min_rad, s.dof(d).max_rad);
+    LeastSquaresIkJob job;
+    job.skeleton = &s;
+    job.dofs = dofs;
+    job.solve_root = true;
+    // A weak pull towards the warm start keeps the redundant system positive definite.
+    const std::vector<float> prior = solved.dof_rad;
+    job.prior_rad = prior;
+    job.prior_weight = 0.3f;  // the body solver's
+    job.damping = 0.05f;
+    job.targets = targets;
+    job.context = &ctx;
+    job.pose = &solved;
+    job.max_iterations = 60;
+    ASSERT_TRUE(job.Run());
+    forward_kinematics(s, solved, ws);
+    for (int j : {head, l_hand, r_hand})
+      EXPECT_LT(glm::length(ws[j].translation - w[j].translation), 2e-3f) << trial << " " << s.joint_name(j);
+    EXPECT_GT(std::abs(glm::dot(ws[head].rotation, w[head].rotation)), std::cos(glm::radians(0.5f))) << trial;
+  }
 }
 
 TEST(LeastSquaresIk, ValidateRejectsMismatchedInputs) {

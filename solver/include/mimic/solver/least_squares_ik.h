@@ -36,7 +36,8 @@ class LeastSquaresIkContext {
   int joint_count() const { return joints_; }
   int max_dofs() const { return max_dofs_; }
   int max_targets() const { return max_targets_; }
-  // World transforms of the last evaluated pose (valid after Run()).
+  // World transforms of the last evaluated pose (valid after Run()) for the joints the targets
+  // hang from (the targets' joints and their ancestors); the others are not evaluated.
   std::span<const rig::RigidTransform> world_from_joint() const { return world_; }
 
  private:
@@ -44,15 +45,22 @@ class LeastSquaresIkContext {
   int joints_ = 0, max_dofs_ = 0, max_targets_ = 0;
   std::vector<rig::RigidTransform> world_;
   std::vector<glm::vec3> dof_axis_world_;  // per skeleton DOF
-  std::vector<float> jacobian_;            // per target a block: its rows × its columns, row-major
+  std::vector<float> jacobian_;            // per target a block: its columns × its rows, column-major
   std::vector<float> residual_;
-  std::vector<float> normal_;  // cols × cols
+  std::vector<float> normal_;  // cols × cols, upper triangle (in elimination order)
   std::vector<float> rhs_;
   std::vector<float> normal0_, rhs0_;             // undamped system, kept across rejected steps
   std::vector<float> saved_;                      // DOF values before a trial step
   std::vector<int> columns_;                      // per target, its non-zero Jacobian columns, ascending
   std::vector<int> column_begin_, column_count_;  // per target: where its columns start, how many
-  float lambda_ = 0;                              // damping the last solve ended with
+  // Elimination order: the DOFs deepest in the skeleton first, the root's six last, so that the
+  // Cholesky factor of the normal equations has no fill-in (see least_squares_ik.cpp).
+  std::vector<int> position_of_;          // per entry of `dofs`, its column
+  std::vector<int> dof_at_;               // per DOF column, its entry of `dofs`
+  std::vector<int> below_, below_count_;  // per column j, the rows i > j where the factor is non-zero
+  std::vector<float> factor_column_;      // one column of the factor, gathered
+  uint64_t joint_mask_ = 0;               // joints the targets hang from (evaluated by the FK)
+  float lambda_ = 0;                      // damping the last solve ended with
 };
 
 struct LeastSquaresIkJob {
@@ -82,7 +90,7 @@ struct LeastSquaresIkJob {
   void ListColumns(int root_cols);
   float Objective(float prior2);
   void FillJacobian(int root_cols);
-  void BuildNormalEquations(int cols, int root_cols, float prior2);
+  void BuildNormalEquations(int cols, float prior2);
   void ApplyStep(std::span<const float> step, int root_cols);
 };
 
