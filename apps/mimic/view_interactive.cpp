@@ -85,12 +85,15 @@ struct ViewScene {
 // What the user changed with keys and mouse, and the camera that follows the avatars.
 struct ViewState {
   render::Camera camera, home;
-  bool framed = false;         // the camera has been fitted to the scene once its avatars stood somewhere
-  float panel_right = 0.0f;    // the status panel's right edge, a fraction of the width
-  glm::vec3 follow_offset{0};  // the framed target's offset from the avatars' centre
-  // The orbit camera keeps the avatars in view as they walk (the built-in walk leaves the first
-  // framing within seconds); panning by hand stops that until R or C.
+  bool framed = false;       // the camera has been fitted to the scene once its avatars stood somewhere
+  float panel_right = 0.0f;  // the status panel's right edge, a fraction of the width
+  // The orbit camera keeps every avatar in view beside the panel as they walk (the built-in walk
+  // leaves the first framing within seconds, and circles away from an avatar standing beside
+  // it): it is fitted again each frame from where the user turned it, and glides there. Panning
+  // by hand stops that until R or C; the wheel's zoom is kept as a factor on the fitted distance.
   bool follow = true;
+  float zoom = 1.0f;      // the user's distance over the fitted one
+  float fitted_m = 0.0f;  // the distance last fitted, 0 before the first fit
   render::CameraFollow follower;
   unsigned overlays = 0;
   int lod_mode = -1;  // -1 auto
@@ -108,13 +111,9 @@ glm::vec3 root_in_world(const ViewAvatar& a) {
   return glm::vec3(a.world_from_body * glm::vec4(a.pose.root_position_m, 1.0f));
 }
 
-// The orbit camera for the scene as it stands: every avatar's skin (as last deformed) inside
-// the part of the window the status panel leaves free, seen from `preset` relative to where the
-// avatars face on average (front: their faces).
-render::Camera frame_scene(const std::vector<ViewAvatar>& avatars, render::CameraPreset preset, float aspect,
-                           float panel_right) {
-  glm::vec3 lo(1e9f), hi(-1e9f);
-  glm::vec2 facing(0.0f);  // sum of unit headings (sin, cos)
+// The box around every avatar's skin as last deformed, in world metres, from the floor up.
+void scene_box(const std::vector<ViewAvatar>& avatars, glm::vec3& lo, glm::vec3& hi) {
+  lo = glm::vec3(1e9f), hi = glm::vec3(-1e9f);
   for (const ViewAvatar& a : avatars) {
     if (a.deform_ms <= 0) continue;  // arrived this frame: its skin is not posed yet
     for (const glm::vec3& p : a.lods->mesh(a.lod).positions) {
@@ -122,16 +121,33 @@ render::Camera frame_scene(const std::vector<ViewAvatar>& avatars, render::Camer
       lo = glm::min(lo, w);
       hi = glm::max(hi, w);
     }
-    const float yaw = render::facing_yaw_rad(glm::quat_cast(glm::mat3(a.world_from_body)) * a.pose.root_orientation);
-    facing += glm::vec2(std::sin(yaw), std::cos(yaw));
   }
   if (lo.x > hi.x) lo = glm::vec3(-0.5f, 0.0f, -0.5f), hi = glm::vec3(0.5f, 1.8f, 0.5f);  // nobody posed yet
   lo.y = std::min(lo.y, 0.0f);  // the feet on the floor, whatever the skin's lowest point
+}
+
+// `c` turned as it is, moved and zoomed so every avatar fits the part of the window the status
+// panel leaves free (a panel wider than half the window is left out: the scene gets the middle).
+void fit_scene(render::Camera& c, const std::vector<ViewAvatar>& avatars, float aspect, float panel_right) {
+  glm::vec3 lo, hi;
+  scene_box(avatars, lo, hi);
+  render::fit_box(c, lo, hi, aspect, panel_right < 0.5f ? panel_right + 0.01f : 0.0f, 1.0f);
+}
+
+// The orbit camera for the scene as it stands, seen from `preset` relative to where the avatars
+// face on average (front: their faces).
+render::Camera frame_scene(const std::vector<ViewAvatar>& avatars, render::CameraPreset preset, float aspect,
+                           float panel_right) {
+  glm::vec2 facing(0.0f);  // sum of unit headings (sin, cos)
+  for (const ViewAvatar& a : avatars) {
+    if (a.deform_ms <= 0) continue;
+    const float yaw = render::facing_yaw_rad(glm::quat_cast(glm::mat3(a.world_from_body)) * a.pose.root_orientation);
+    facing += glm::vec2(std::sin(yaw), std::cos(yaw));
+  }
   render::Camera c;
   c.yaw_rad = render::preset_yaw_rad(preset, glm::length(facing) > 1e-3f ? std::atan2(facing.x, facing.y) : 0.0f);
   c.pitch_rad = avatars.size() > 1 ? 0.3f : 0.12f;
-  // A panel wider than half the window is left out of the reckoning: the scene gets the middle.
-  render::fit_box(c, lo, hi, aspect, panel_right < 0.5f ? panel_right + 0.01f : 0.0f, 1.0f);
+  fit_scene(c, avatars, aspect, panel_right);
   return c;
 }
 
@@ -259,6 +275,7 @@ Status update_remote(const ViewOptions& view, render::Renderer& renderer, ViewSc
 
 void handle_keys(render::Window& window, ViewState& s, size_t avatar_count) {
   const glm::vec3 target_before = s.camera.target;
+  const float distance_before = s.camera.distance_m;
   for (int key : window.begin_frame(s.camera)) {
     switch (key) {
       case render::kKeyEscape:
@@ -280,6 +297,7 @@ void handle_keys(render::Window& window, ViewState& s, size_t avatar_count) {
         s.first_person = -1;
         s.camera.first_person_eye.reset();
         s.follow = true;
+        s.zoom = 1.0f;
         break;
       case 'C': s.follow = !s.follow; break;
       case 'F':
@@ -290,13 +308,25 @@ void handle_keys(render::Window& window, ViewState& s, size_t avatar_count) {
     }
   }
   if (s.camera.target != target_before) s.follow = false;  // the user panned
+  if (s.camera.distance_m != distance_before && s.fitted_m > 0.0f && s.first_person < 0)
+    s.zoom = s.camera.distance_m / s.fitted_m;  // the wheel
   if (!s.follow) s.follower.reset();
 }
 
-glm::vec3 avatars_centre(const std::vector<ViewAvatar>& avatars) {
-  glm::vec3 centre(0.0f);
-  for (const ViewAvatar& a : avatars) centre += root_in_world(a);
-  return centre / static_cast<float>(avatars.size());
+// Following: the camera fitted again to where the avatars are now (from the user's angle), and a
+// glide there: the floor point through CameraFollow (aimed ahead of a walker), the height and the
+// distance with the same time constant when the scene grows and a slower one when it shrinks, so
+// a stride's swing does not make the view breathe.
+void follow_scene(const ViewOptions& view, float dt_s, const std::vector<ViewAvatar>& avatars, ViewState& s) {
+  render::Camera fit = s.camera;
+  fit_scene(fit, avatars, float(view.width) / float(view.height), s.panel_right);
+  s.fitted_m = fit.distance_m;
+  s.follower.update(s.camera, fit.target, dt_s);
+  const float k = 1.0f - std::exp(-dt_s / 0.4f);
+  const float want_m = fit.distance_m * s.zoom;
+  const float k_distance = want_m > s.camera.distance_m ? k : 1.0f - std::exp(-dt_s / 2.0f);
+  s.camera.target.y += k * (fit.target.y - s.camera.target.y);
+  s.camera.distance_m += k_distance * (want_m - s.camera.distance_m);
 }
 
 // Once the avatars have poses and skins (a few frames in), fit the orbit camera to the whole
@@ -315,11 +345,10 @@ void frame_camera(const ViewOptions& view, long frames, float dt_s, std::vector<
                                                       a.row_position_m.z - a.pose.root_position_m.z));
     s.camera = frame_scene(avatars, view.camera, float(view.width) / float(view.height), s.panel_right);
     s.home = s.camera;
-    s.follow_offset = s.camera.target - avatars_centre(avatars);
-    s.follow_offset.y = 0.0f;
+    s.fitted_m = s.camera.distance_m;
     s.framed = true;
   } else if (s.framed && s.follow && s.first_person < 0 && !avatars.empty()) {
-    s.follower.update(s.camera, avatars_centre(avatars) + s.follow_offset, dt_s);
+    follow_scene(view, dt_s, avatars, s);
   }
 }
 

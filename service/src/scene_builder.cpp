@@ -55,8 +55,10 @@ tl::expected<SceneAvatar, SceneError> build_avatar(const SceneSpec& spec, const 
   SourceRequest request{self_placed ? actor_spec(entry, out.place, spec.room) : entry.spec, entry.calibration,
                         &*skeleton, roster, static_cast<int>(index)};
   auto feed = open_source(request);
-  // A spec that does not parse is a usage error (2); a source that cannot be opened is not (1).
-  if (!feed && feed.error().code == Errc::invalid_argument) return usage(feed.error().what());
+  // A spec that does not parse or asks for a value out of its range (sensors=7) is a usage error
+  // (2), as record and calibrate say; a source that cannot be opened is not (1).
+  if (!feed && (feed.error().code == Errc::invalid_argument || feed.error().code == Errc::out_of_range))
+    return usage(feed.error().what());
   if (!feed) return failed(feed.error().what());
   // A source that opened with a problem (e.g. a replayed log with damage) says so up front:
   // otherwise it would play what it can and then fall silent without a word.

@@ -112,6 +112,34 @@ TEST(DocsFigures, TheExportedWalkIsWhatGltfExportSays) {
   EXPECT_EQ(documented, product);
 }
 
+// docs/troubleshooting.md quotes error messages for readers to search for: each one quoted
+// there is what the command prints (and exits with), word for word.
+TEST(DocsFigures, TroubleshootingQuotesWhatTheProductPrints) {
+  // The guide wraps its lines: compare with every run of white space as one space.
+  std::string doc = std::regex_replace(repo_file("docs/troubleshooting.md"), std::regex(R"(\s+)"), " ");
+  const std::string out = temp("missing-folder") + "/x.obj";
+  struct Case {
+    std::string command, quote;
+    int status;
+  };
+  const Case cases[] = {
+      {"run --listen 127.0.0.1:0 --duration 1 --source bogus",
+       "source 'bogus': unknown scheme 'bogus' (sources: sim, bvh, replay, flock, vmc, vrpn, osc-trackers, actor)", 2},
+      {"mesh --time 1e9 --out x.obj", "--time: expects a finite number [0 - 3600], got '1e9'", 2},
+      {"export --motion walk --lod 7 --out x.glb", "--lod: Value 7 not in range 0 to 3", 2},
+      {"export --motion walk --fps 0 --out x.glb", "--fps: expects a finite number (0 - 240], got '0'", 2},
+      {"mesh --bogus", "unknown option --bogus", 2},
+      {"mesh --out '" + out + "'", ": cannot create: No such file or directory", 1},
+  };
+  for (const Case& c : cases) {
+    SCOPED_TRACE("mimic " + c.command);
+    EXPECT_NE(doc.find(c.quote), std::string::npos) << "docs/troubleshooting.md does not quote: " << c.quote;
+    const Outcome r = run_mimic(c.command);
+    EXPECT_EQ(r.status, c.status) << r.output;
+    EXPECT_NE(r.output.find(c.quote), std::string::npos) << r.output;
+  }
+}
+
 }  // namespace
 
 }  // namespace docs_figures_test

@@ -42,6 +42,11 @@ TEST(Overview, BadOptionsAreNamedEvenWhenThePortIsTaken) {
   EXPECT_EQ(r.output.find("in use"), std::string::npos) << r.output;
   r = mimic::test::run_mimic("run " + listen + " --source actor:dance --duration 1");
   EXPECT_EQ(r.status, 2) << r.output;
+  // A known source with a value out of its range is as much a usage error as an unknown one.
+  r = mimic::test::run_mimic("run " + listen + " --source 'sim:walk?sensors=7' --duration 1");
+  EXPECT_EQ(r.status, 2) << r.output;
+  EXPECT_NE(r.output.find("sensors=7"), std::string::npos) << r.output;
+  EXPECT_EQ(r.output.find("in use"), std::string::npos) << r.output;
   // Good options on the held port: the port is the problem, and it says so.
   r = mimic::test::run_mimic("run " + listen + " --duration 1");
   EXPECT_EQ(r.status, 1) << r.output;
