@@ -20,7 +20,17 @@ packages=(
   libnats-dev nats-server          # broker transport (mimic run --nats, mimic relay); tests start brokers
   libcli11-dev zlib1g-dev          # command-line parsing and usage text; CRC-32
   universal-ctags clang-format     # the size rules (scripts/check_structure.sh) and the tree's format
+  nodejs npm                       # tests load the glTF/VRM exports with third-party readers
 )
+
+# Those readers come from npm (scripts/node_tools.sh, pinned; into build/node where the tests
+# look). Optional: without the registry the tests that need them skip and say why.
+node_tools() {
+  if [ "${MIMIC_SKIP_NODE_TOOLS:-0}" != 1 ] && command -v npm >/dev/null; then
+    scripts/node_tools.sh build/node || echo "setup: npm packages not installed (the VRM/validator tests will skip)"
+  fi
+}
+cd "$(dirname "$0")/.."
 
 missing=()
 for p in "${packages[@]}"; do
@@ -28,6 +38,7 @@ for p in "${packages[@]}"; do
 done
 if [ ${#missing[@]} -eq 0 ]; then
   echo "setup: all ${#packages[@]} packages present"
+  node_tools
   exit 0
 fi
 SUDO=""
@@ -36,3 +47,4 @@ echo "setup: installing ${missing[*]}"
 export DEBIAN_FRONTEND=noninteractive
 $SUDO apt-get update -qq
 $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}"
+node_tools

@@ -17,6 +17,7 @@
 #include "mimic/avatar/realtime_skin.h"
 #include "mimic/rig/retarget.h"
 #include "mimic/avatar/skin_lod.h"
+#include "mimic/avatar/vrm.h"
 #include "mimic/core/file.h"
 #include "mimic/service/solve_log.h"
 
@@ -30,15 +31,17 @@ constexpr const char* kAbout =
     "vertices), a skin with the skeleton's joints as a node hierarchy and their inverse bind\n"
     "matrices, up to four joint weights per vertex derived from the contours, and the motion as\n"
     "one animation (root translation, joint rotations, linear keys). glTF players (three.js,\n"
-    "Blender, the Khronos validator) play it without Mimic.";
+    "Blender, the Khronos validator) play it without Mimic. --vrm writes the same body as a\n"
+    "VRM 1.0 avatar (humanoid bones, meta, no animation) for VRM apps (three-vrm, VSeeFace).";
 
 struct Options {
-  std::string bvh, motion, log, calibration, body, out;
+  std::string bvh, motion, log, calibration, body, out, vrm;
+  std::vector<std::string> authors;
   double fps = 30, seconds = 0;
   int lod = 0;
 };
 
-// One of --bvh, --motion or --log; the rest shape the file.
+// One of --bvh, --motion or --log for --out; --vrm alone needs none (the body's skeleton).
 std::optional<int> parse(cli::Parser& p, const std::vector<std::string>& argv, Options& o) {
   auto& app = p.app();
   auto* bvh =
@@ -60,11 +63,64 @@ std::optional<int> parse(cli::Parser& p, const std::vector<std::string>& argv, O
   app.add_option("--seconds", o.seconds, "at most S seconds of the motion (default: all of it)")
       ->check(cli::finite_range(0, INFINITY));
   app.add_option("--lod", o.lod, "skin level of detail, 0 finest")->check(CLI::Range(0, avatar::kSkinLodCount - 1));
-  app.add_option("--out", o.out, "the .glb to write")->type_name("FILE")->required();
+  auto* out = app.add_option("--out", o.out, "the animated .glb to write")->type_name("FILE");
+  auto* vrm = app.add_option("--vrm", o.vrm,
+                             "a VRM 1.0 avatar to write (the body in its T-pose, on --log's fitted\n"
+                             "skeleton when --calibration is given)")
+                  ->type_name("FILE.vrm");
+  app.add_option("--author", o.authors, "the VRM's author (repeatable; default: Mimic)")->type_name("NAME")->needs(vrm);
   if (auto exit_code = p.parse(argv)) return exit_code;
-  if (bvh->count() + motion->count() + log->count() != 1)
+  if (out->count() + vrm->count() == 0) return p.usage_error("give --out FILE.glb, --vrm FILE.vrm or both");
+  const size_t sources = bvh->count() + motion->count() + log->count();
+  if (sources > 1 || (sources == 0 && out->count() > 0))
     return p.usage_error("give one of --bvh CLIP, --motion NAME or --log SESSION.mlog");
   return std::nullopt;
+}
+
+// The animation's keys: a motion sampled every 1/fps and once at its very end.
+void sample_motion(const rig::Motion& motion, const Options& o, avatar::SkinnedAnimation& anim) {
+  const double span_s = o.seconds > 0 ? std::min(o.seconds, motion.duration_s()) : motion.duration_s();
+  // A clip whose length is not a whole number of key intervals (a BVH's frame time is rounded:
+  // 0.008333 s) keeps its last frame.
+  const long keys = std::max(2L, static_cast<long>(std::ceil(span_s * o.fps - 1e-6)) + 1);
+  rig::Pose pose = motion.skeleton().zero_pose();
+  for (long k = 0; k < keys; ++k) {
+    const double t = std::min(span_s, double(k) / o.fps);
+    if (k > 0 && !(t > anim.times_s.back())) break;
+    motion.sample(t, pose);
+    anim.times_s.push_back(t);
+    anim.poses.push_back(pose);
+  }
+}
+
+int write_vrm(const Options& o, const avatar::BodyModel& body, const avatar::SkinnedAnimation& anim) {
+  avatar::VrmMeta meta;
+  meta.name = body.name;
+  if (!o.authors.empty()) meta.authors = o.authors;
+  meta.version = "Mimic, " + std::to_string(anim.bind_mesh->positions.size()) + " vertices";
+  auto bytes = avatar::encode_vrm(anim, meta);
+  if (!bytes) return failure(kName, bytes.error().what());
+  if (auto st = write_file_atomic(o.vrm, *bytes); !st) return failure(kName, st.error().what());
+  std::printf("%s: VRM 1.0, %zu vertices, %zu triangles, %zu humanoid bones of %d joints; %zu bytes\n", o.vrm.c_str(),
+              anim.bind_mesh->positions.size(), anim.bind_mesh->triangle_count(),
+              avatar::vrm_humanoid_bones(*anim.skeleton).size(), anim.skeleton->joint_count(), bytes->size());
+  return 0;
+}
+
+int write_glb(const Options& o, const avatar::SkinnedAnimation& anim, const std::string& what) {
+  auto bytes = avatar::encode_skinned_glb(anim);
+  if (!bytes) return failure(kName, bytes.error().what());
+  if (auto st = write_file_atomic(o.out, *bytes); !st) return failure(kName, st.error().what());
+  size_t influenced = 0;
+  for (const auto& in : anim.influences)
+    influenced = std::max<size_t>(
+        influenced, size_t(std::count_if(in.weight.begin(), in.weight.end(), [](float w) { return w > 0; })));
+  std::printf(
+      "%s: %zu vertices, %zu triangles, %d joints, up to %zu influences per vertex; %zu keyframes over %.2f s "
+      "(%s); %zu bytes\n",
+      o.out.c_str(), anim.bind_mesh->positions.size(), anim.bind_mesh->triangle_count(), anim.skeleton->joint_count(),
+      influenced, anim.times_s.size(), anim.times_s.back(), what.c_str(), bytes->size());
+  return 0;
 }
 
 int run(const std::vector<std::string>& argv) {
@@ -89,13 +145,13 @@ int run(const std::vector<std::string>& argv) {
     auto m = rig::make_builtin_motion(o.motion, *skeleton);
     if (!m) return usage_error(kName, m.error().message);
     motion = std::move(*m);
-  } else {
+  } else if (!o.log.empty()) {
     auto t = service::solve_log(o.log, o.calibration, o.fps, &*skeleton, o.seconds);
     if (!t) return failure(kName, t.error().what());
     if (t->poses.size() < 2) return failure(kName, o.log + ": too short for an animation (under two frames)");
     take = std::move(*t);
   }
-  const rig::Skeleton& sk = motion ? motion->skeleton() : take->skeleton;
+  const rig::Skeleton& sk = motion ? motion->skeleton() : take ? take->skeleton : *skeleton;
 
   avatar::RealtimeOptions ro;
   ro.lod = o.lod;
@@ -108,44 +164,26 @@ int run(const std::vector<std::string>& argv) {
   anim.skeleton = &sk;
   anim.bind_pose = ro.initial_pose ? *ro.initial_pose : sk.zero_pose();
   anim.name = body->name;
+  if (!o.vrm.empty())
+    if (const int st = write_vrm(o, *body, anim); st != 0) return st;
+  if (o.out.empty()) return 0;
   std::string what;
   if (motion) {
-    const double span_s = o.seconds > 0 ? std::min(o.seconds, motion->duration_s()) : motion->duration_s();
-    // Keys every 1/fps and one at the very end: a clip whose length is not a whole number of
-    // key intervals (a BVH's frame time is rounded: 0.008333 s) keeps its last frame.
-    const long keys = std::max(2L, static_cast<long>(std::ceil(span_s * o.fps - 1e-6)) + 1);
-    rig::Pose pose = sk.zero_pose();
-    for (long k = 0; k < keys; ++k) {
-      const double t = std::min(span_s, double(k) / o.fps);
-      if (k > 0 && !(t > anim.times_s.back())) break;
-      motion->sample(t, pose);
-      anim.times_s.push_back(t);
-      anim.poses.push_back(pose);
-    }
+    sample_motion(*motion, o, anim);
     what = motion->name();
   } else {
     anim.times_s = std::move(take->times_s);
     anim.poses = std::move(take->poses);
     what = take->description + ", " + std::to_string(take->samples) + " samples solved";
   }
-  auto bytes = avatar::encode_skinned_glb(anim);
-  if (!bytes) return failure(kName, bytes.error().what());
-  if (auto st = write_file_atomic(o.out, *bytes); !st) return failure(kName, st.error().what());
-  size_t influenced = 0;
-  for (const auto& in : anim.influences)
-    influenced = std::max<size_t>(
-        influenced, size_t(std::count_if(in.weight.begin(), in.weight.end(), [](float w) { return w > 0; })));
-  std::printf(
-      "%s: %zu vertices, %zu triangles, %d joints, up to %zu influences per vertex; %zu keyframes over %.2f s "
-      "(%s); %zu bytes\n",
-      o.out.c_str(), anim.bind_mesh->positions.size(), anim.bind_mesh->triangle_count(), sk.joint_count(), influenced,
-      anim.times_s.size(), anim.times_s.back(), what.c_str(), bytes->size());
-  return 0;
+  return write_glb(o, anim, what);
 }
 
 }  // namespace
 
 MIMIC_COMMAND(export_, kName,
-              "write a rigged, animated glTF (.glb) of the avatar on a BVH clip, a motion or a recorded session", run);
+              "write a rigged, animated glTF (.glb) of the avatar on a BVH clip, a motion or a recorded session, or a "
+              "VRM 1.0 avatar",
+              run);
 
 }  // namespace mimic::app::cmd_export

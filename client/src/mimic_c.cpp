@@ -18,11 +18,14 @@ namespace {
 using mimic::client::Avatar;
 using mimic::client::Mesh;
 using mimic::client::Quat;
+using mimic::client::Vec2;
 using mimic::client::Vec3;
 
 // The mesh buffers are handed out as they are: the C and C++ vectors must be the same floats.
 static_assert(std::is_standard_layout_v<Vec3> && sizeof(Vec3) == sizeof(mimic_vec3) &&
               offsetof(Vec3, z) == offsetof(mimic_vec3, z));
+static_assert(std::is_standard_layout_v<Vec2> && sizeof(Vec2) == sizeof(mimic_vec2) &&
+              offsetof(Vec2, v) == offsetof(mimic_vec2, v));
 
 mimic_vec3 c_vec(const Vec3& v) { return {v.x, v.y, v.z}; }
 mimic_quat c_quat(const Quat& q) { return {q.x, q.y, q.z, q.w}; }
@@ -89,6 +92,7 @@ struct mimic_subscriber {
     v.sequence = m.sequence;
     v.time_us = m.time_us;
     v.frames = m.frames;
+    v.uvs = m.uvs.empty() ? nullptr : reinterpret_cast<const mimic_vec2*>(m.uvs.data());
     return v;
   }
 };

@@ -40,46 +40,74 @@ struct Subscriber::Impl {
   };
   std::unique_ptr<net::Client> client;
   std::map<uint16_t, Entry> avatars;
-  std::map<uint16_t, Mesh> meshes;
+  // A mesh as the callbacks see it, and the welded skin it is gathered from each frame.
+  struct MeshEntry {
+    Mesh view;
+    uint64_t topology = 0;           // net::RemoteAvatar::mesh_topologies it was shaped by
+    std::vector<uint32_t> source;    // per view vertex, the wire vertex it copies
+    std::vector<uint32_t> welded;    // the wire's triangles
+    std::vector<glm::vec3> normals;  // on the wire's (welded) vertices
+  };
+  std::map<uint16_t, MeshEntry> meshes;
 
-  // A new topology sizes the buffers; every frame then fills them in place.
+  // A new topology shapes the buffers; every frame then fills them in place.
   Mesh& mesh(const net::RemoteAvatar& r) {
-    Mesh& m = meshes[r.id];
-    if (m.indices.size() != r.mesh_indices.size() || m.positions_m.size() != r.mesh_positions_m.size() ||
-        !std::equal(m.indices.begin(), m.indices.end(), r.mesh_indices.begin())) {
-      m.avatar = r.id;
-      m.indices = r.mesh_indices;
-      m.positions_m.assign(r.mesh_positions_m.size(), Vec3{});
-      m.normals.assign(r.mesh_positions_m.size(), Vec3{});
-    }
+    MeshEntry& e = meshes[r.id];
+    const size_t n = r.mesh_positions_m.size();
+    if (e.topology != r.mesh_topologies || e.normals.size() != n || e.view.avatar != r.id) shape(e, r);
+    Mesh& m = e.view;
     m.lod = r.mesh_last.lod;
-    for (size_t i = 0; i < m.positions_m.size(); ++i) m.positions_m[i] = to_vec3(r.mesh_positions_m[i]);
-    vertex_normals(m);
+    vertex_normals(r.mesh_positions_m, e.welded, e.normals);
+    for (size_t i = 0; i < e.source.size(); ++i) {
+      const uint32_t s = e.source[i] < n ? e.source[i] : 0;
+      m.positions_m[i] = to_vec3(r.mesh_positions_m[s]);
+      m.normals[i] = to_vec3(e.normals[s]);
+    }
     m.sequence = r.mesh_last.sequence;
     m.time_us = r.mesh_last.time_us;
     m.frames = r.mesh_frames;
     return m;
   }
 
-  static void vertex_normals(Mesh& m) {
-    std::fill(m.normals.begin(), m.normals.end(), Vec3{});
-    const size_t n = m.positions_m.size();
-    for (size_t t = 0; t + 2 < m.indices.size(); t += 3) {
-      const uint32_t a = m.indices[t], b = m.indices[t + 1], c = m.indices[t + 2];
-      if (a >= n || b >= n || c >= n) continue;
-      const glm::vec3 pa(m.positions_m[a].x, m.positions_m[a].y, m.positions_m[a].z);
-      const glm::vec3 pb(m.positions_m[b].x, m.positions_m[b].y, m.positions_m[b].z);
-      const glm::vec3 pc(m.positions_m[c].x, m.positions_m[c].y, m.positions_m[c].z);
-      const glm::vec3 face = glm::cross(pb - pa, pc - pa);  // length = twice the area: area weights
-      for (uint32_t v : {a, b, c}) {
-        m.normals[v].x += face.x;
-        m.normals[v].y += face.y;
-        m.normals[v].z += face.z;
-      }
+  static void shape(MeshEntry& e, const net::RemoteAvatar& r) {
+    const size_t n = r.mesh_positions_m.size();
+    // The decoder checked the texture section against the topology (sources, same triangles).
+    const bool textured = !r.mesh_uvs.empty() && r.mesh_uv_indices.size() == r.mesh_indices.size();
+    e.topology = r.mesh_topologies;
+    e.welded = r.mesh_indices;
+    e.normals.assign(n, glm::vec3(0));
+    e.view = Mesh{};
+    e.view.avatar = r.id;
+    if (textured) {
+      e.source = r.mesh_uv_source;
+      e.view.indices = r.mesh_uv_indices;
+      e.view.uvs.reserve(r.mesh_uvs.size());
+      for (const auto& uv : r.mesh_uvs) e.view.uvs.push_back({uv.x, uv.y});
+    } else {
+      e.source.resize(n);
+      for (size_t i = 0; i < n; ++i) e.source[i] = uint32_t(i);
+      e.view.indices = r.mesh_indices;
     }
-    for (auto& v : m.normals) {
-      const float len = std::sqrt(v.x * v.x + v.y * v.y + v.z * v.z);
-      if (len > 0) v = {v.x / len, v.y / len, v.z / len};
+    e.view.positions_m.assign(e.source.size(), Vec3{});
+    e.view.normals.assign(e.source.size(), Vec3{});
+  }
+
+  // Unit, area-weighted normals of the welded skin.
+  static void vertex_normals(const std::vector<glm::vec3>& p, const std::vector<uint32_t>& indices,
+                             std::vector<glm::vec3>& normals) {
+    std::fill(normals.begin(), normals.end(), glm::vec3(0));
+    const size_t n = p.size();
+    for (size_t t = 0; t + 2 < indices.size(); t += 3) {
+      const uint32_t a = indices[t], b = indices[t + 1], c = indices[t + 2];
+      if (a >= n || b >= n || c >= n) continue;
+      const glm::vec3 face = glm::cross(p[b] - p[a], p[c] - p[a]);  // length = twice the area: area weights
+      normals[a] += face;
+      normals[b] += face;
+      normals[c] += face;
+    }
+    for (auto& v : normals) {
+      const float len = glm::length(v);
+      if (len > 0) v /= len;
     }
   }
 
@@ -203,7 +231,7 @@ const Avatar* Subscriber::avatar(uint16_t id) const {
 
 const Mesh* Subscriber::mesh(uint16_t id) const {
   auto it = impl_->meshes.find(id);
-  return it == impl_->meshes.end() ? nullptr : &it->second;
+  return it == impl_->meshes.end() ? nullptr : &it->second.view;
 }
 
 Link Subscriber::link() const {

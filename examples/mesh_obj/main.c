@@ -1,5 +1,6 @@
 /* Subscribes to a Mimic scene's deformed skin and writes each received mesh frame as an OBJ
- * file (vertices, normals, triangles), as an engine plugin would upload its vertex buffer:
+ * file (vertices, normals, texture coordinates when the server sends them, triangles), as an
+ * engine plugin would upload its vertex buffer:
  *
  *   mesh_obj HOST:PORT [--lod L] [--frames N] [--out DIR]     (defaults: LOD 0, 3 frames, .)
  *
@@ -33,9 +34,14 @@ static void write_obj(void* user, const mimic_mesh* m) {
     fprintf(f, "v %.5f %.5f %.5f\n", m->positions_m[i].x, m->positions_m[i].y, m->positions_m[i].z);
   for (uint32_t i = 0; i < m->vertex_count; ++i)
     fprintf(f, "vn %.4f %.4f %.4f\n", m->normals[i].x, m->normals[i].y, m->normals[i].z);
+  if (m->uvs)
+    for (uint32_t i = 0; i < m->vertex_count; ++i) fprintf(f, "vt %.5f %.5f\n", m->uvs[i].u, m->uvs[i].v);
   for (uint32_t t = 0; t + 2 < m->index_count; t += 3) {
     const uint32_t a = m->indices[t] + 1, b = m->indices[t + 1] + 1, c = m->indices[t + 2] + 1;
-    fprintf(f, "f %u//%u %u//%u %u//%u\n", a, a, b, b, c, c);
+    if (m->uvs)
+      fprintf(f, "f %u/%u/%u %u/%u/%u %u/%u/%u\n", a, a, a, b, b, b, c, c, c);
+    else
+      fprintf(f, "f %u//%u %u//%u %u//%u\n", a, a, b, b, c, c);
   }
   fclose(f);
   printf("%s\n", path);

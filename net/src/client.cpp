@@ -49,7 +49,7 @@ void Client::Impl::start_connection() {
     h.name = opt.name.substr(0, kMaxNameBytes);
     h.secret = opt.secret;
     h.mesh_lod = opt.mesh_lod;
-    h.capabilities = kCapPose | kCapResume | (opt.mesh_lod != kNoMesh ? uint32_t(kCapMesh) : 0u) |
+    h.capabilities = kCapPose | kCapResume | (opt.mesh_lod != kNoMesh ? uint32_t(kCapMesh | kCapMeshUv) : 0u) |
                      (opt.udp && opt.role == Role::subscriber ? uint32_t(kCapUdpPose) : 0u) |
                      (opt.lean && opt.role == Role::subscriber ? uint32_t(kCapLeanPose) : 0u);
     h.resume_token = token;
@@ -283,6 +283,10 @@ void Client::Impl::on_packet(std::span<const uint8_t> p) {
       if (it == avatars.end()) break;
       it->second.mesh_indices = scratch_topology.indices;
       it->second.mesh_vertex_count = scratch_topology.vertex_count;
+      it->second.mesh_uv_source = scratch_topology.uv_source;
+      it->second.mesh_uvs = scratch_topology.uvs;
+      it->second.mesh_uv_indices = scratch_topology.uv_indices;
+      it->second.mesh_topologies++;
       return;
     }
     case MsgType::mesh: {

@@ -4,6 +4,7 @@
 
 #include "mimic/avatar/realtime_skin.h"
 #include "mimic/avatar/skin.h"
+#include "mimic/avatar/texture_layout.h"
 #include "mimic/service/pipeline.h"
 
 namespace mimic::service {
@@ -22,13 +23,16 @@ class FkDeformer final : public Deformer {
 
 class SkinDeformer final : public Deformer {
  public:
-  SkinDeformer(avatar::ImplicitSkin skin, uint8_t lod) : skin_(std::move(skin)), lod_(lod) {}
+  SkinDeformer(avatar::ImplicitSkin skin, uint8_t lod)
+      : skin_(std::move(skin)), texture_(avatar::texture_layout(skin_)), lod_(lod) {}
   void deform(const rig::Pose& pose) override { skin_.evaluate(pose); }
   const avatar::Mesh* mesh() const override { return &skin_.mesh(); }
   uint8_t lod() const override { return lod_; }
+  const avatar::TextureLayout* texture() const override { return &texture_; }
 
  private:
   avatar::ImplicitSkin skin_;
+  avatar::TextureLayout texture_;
   uint8_t lod_;
 };
 
@@ -36,14 +40,16 @@ class SkinDeformer final : public Deformer {
 class RealtimeDeformer final : public Deformer {
  public:
   explicit RealtimeDeformer(std::shared_ptr<const avatar::RealtimeBody> body)
-      : skin_(body), mesh_(body->rest_mesh()), lod_(static_cast<uint8_t>(body->lod())) {
+      : body_(body), skin_(body), mesh_(body->rest_mesh()), lod_(static_cast<uint8_t>(body->lod())) {
     mesh_.normals.clear();  // receivers that want normals compute them from the fixed topology
   }
   void deform(const rig::Pose& pose) override { skin_.evaluate(pose, mesh_.positions); }
   const avatar::Mesh* mesh() const override { return &mesh_; }
   uint8_t lod() const override { return lod_; }
+  const avatar::TextureLayout* texture() const override { return &body_->texture_layout(); }
 
  private:
+  std::shared_ptr<const avatar::RealtimeBody> body_;
   avatar::RealtimeSkin skin_;
   avatar::Mesh mesh_;
   uint8_t lod_;

@@ -63,6 +63,11 @@ Status Pipeline::add_avatar(const std::string& name, std::unique_ptr<PoseFeed> f
     t.lod = a.deformer->lod();
     t.vertex_count = static_cast<uint32_t>(mesh.positions.size());
     t.indices = mesh.indices;
+    if (const avatar::TextureLayout* tex = a.deformer->texture()) {
+      t.uv_source = tex->source;
+      t.uvs = tex->uv;
+      t.uv_indices = tex->indices;
+    }
     a.mesh_packet.resize(net::mesh_packet_bytes(mesh.positions.size()));
     const size_t n = net::encode_mesh({a.wire_id, t.lod, 0, 0}, mesh.positions, a.mesh_packet);
     for (auto& sink : sinks_)

@@ -84,7 +84,8 @@ check_output "$work/find_package.out"
 "$work/subscribe_print_pc" "$endpoint" --frames 5 > "$work/pkg_config.out" || fail "pkg-config example failed"
 check_output "$work/pkg_config.out"
 # The C program writes three mesh frames as OBJ files: every triangle's indices in range, as
-# many normals as vertices, unit length; the body about 1.5-2 m tall.
+# many normals and texture coordinates as vertices (the seams split), normals of unit length, coordinates in [0, 1] and each triangle's corners naming the
+# same vertex, normal and coordinate; the body about 1.5-2 m tall.
 mkdir -p "$work/objs"
 "$work/mesh_obj/mesh_obj" "$endpoint" --lod 1 --frames 3 --out "$work/objs" > "$work/mesh_obj.out" \
   || fail "C mesh example failed: $(cat "$work/mesh_obj.out")"
@@ -92,9 +93,10 @@ mkdir -p "$work/objs"
 for obj in "$work/objs"/*.obj; do
   awk '/^v / { v++; if (min == "" || $3 < min) min = $3; if (max == "" || $3 > max) max = $3 }
        /^vn / { n++; l = sqrt($2*$2 + $3*$3 + $4*$4); if (l < 0.99 || l > 1.01) bad++ }
-       /^f / { f++; for (i = 2; i <= 4; i++) { split($i, k, "/"); if (k[1] < 1 || k[1] > v) bad++ } }
-       END { if (v < 500 || n != v || f < 500 || bad > 0 || max - min < 1.4 || max - min > 2.2) {
-               print "v " v " vn " n " f " f " bad " bad " height " max - min; exit 1 } }' "$obj" \
+       /^vt / { t++; if ($2 < 0 || $2 > 1 || $3 < 0 || $3 > 1) bad++ }
+       /^f / { f++; for (i = 2; i <= 4; i++) { split($i, k, "/"); if (k[1] < 1 || k[1] > v || k[2] != k[1] || k[3] != k[1]) bad++ } }
+       END { if (v < 500 || n != v || t != v || f < 500 || bad > 0 || max - min < 1.4 || max - min > 2.2) {
+               print "v " v " vn " n " vt " t " f " f " bad " bad " height " max - min; exit 1 } }' "$obj" \
     || fail "$obj is not a whole body"
 done
 # A LOD the scene does not deform: refused with the LODs served.

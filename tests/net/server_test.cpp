@@ -67,7 +67,7 @@ TEST(Server, HandshakeNegotiatesCapabilities) {
   EXPECT_FALSE(sub->session_token().empty());
   EXPECT_EQ(sub->negotiated_capabilities(), kCapPose | kCapResume);  // mesh not asked for
   auto mesh_sub = subscriber(st, 0);
-  EXPECT_EQ(mesh_sub->negotiated_capabilities(), kCapPose | kCapResume | kCapMesh);
+  EXPECT_EQ(mesh_sub->negotiated_capabilities(), kCapPose | kCapResume | kCapMesh | kCapMeshUv);
   EXPECT_TRUE(pump({}, [&] { return st.stats().subscribers == 2; }));
 }
 

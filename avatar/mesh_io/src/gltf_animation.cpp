@@ -9,6 +9,7 @@
 #include <glm/gtc/type_ptr.hpp>
 #include <nlohmann/json.hpp>
 
+#include "gltf_document.h"
 #include "mesh_io_internal.h"
 #include "mimic/avatar/mesh_io.h"
 
@@ -48,21 +49,22 @@ class BinaryBuilder {
 
 json vec_json(const glm::vec3& v) { return json::array({v.x, v.y, v.z}); }
 
-Status check_animation(const SkinnedAnimation& a) {
+Status check_animation(const SkinnedAnimation& a, bool animate) {
   if (!a.bind_mesh || !a.skeleton) return fail(Errc::invalid_argument, "glTF: no mesh or no skeleton");
   const Mesh& mesh = *a.bind_mesh;
   const rig::Skeleton& sk = *a.skeleton;
   if (auto st = validate_mesh(mesh); !st) return tl::unexpected(st.error());
   const size_t nv = mesh.positions.size();
+  if (a.bind_pose.dof_rad.size() != size_t(sk.dof_count()))
+    return fail(Errc::invalid_argument, "glTF: bind pose of another skeleton");
   if (a.influences.size() != nv)
     return fail(Errc::invalid_argument,
                 "glTF: " + std::to_string(a.influences.size()) + " influences for " + std::to_string(nv) + " vertices");
+  if (!animate) return {};
   if (a.times_s.empty() || a.times_s.size() != a.poses.size())
     return fail(Errc::invalid_argument, "glTF: the animation needs one pose per keyframe time, at least one");
   for (size_t k = 1; k < a.times_s.size(); ++k)
     if (!(a.times_s[k] > a.times_s[k - 1])) return fail(Errc::invalid_argument, "glTF: keyframe times must increase");
-  if (a.bind_pose.dof_rad.size() != size_t(sk.dof_count()))
-    return fail(Errc::invalid_argument, "glTF: bind pose of another skeleton");
   for (const rig::Pose& p : a.poses)
     if (p.dof_rad.size() != size_t(sk.dof_count()))
       return fail(Errc::invalid_argument, "glTF: a pose of another skeleton");
@@ -220,8 +222,10 @@ json motion(const SkinnedAnimation& a, int root, BinaryBuilder& b) {
 
 }  // namespace
 
-Result<std::string> encode_skinned_glb(const SkinnedAnimation& a) {
-  if (auto st = check_animation(a); !st) return tl::unexpected(st.error());
+namespace detail {
+
+Result<GltfDocument> skinned_gltf(const SkinnedAnimation& a, bool animate) {
+  if (auto st = check_animation(a, animate); !st) return tl::unexpected(st.error());
   const rig::Skeleton& sk = *a.skeleton;
   const size_t nj = size_t(sk.joint_count());
   // The bind pose raised (or lowered) so it stands on the floor.
@@ -245,10 +249,9 @@ Result<std::string> encode_skinned_glb(const SkinnedAnimation& a) {
   for (size_t j = 0; j < nj; ++j) skin_joints.push_back(j);
   json scene_nodes = json::array({root, nodes.size()});
   nodes.push_back({{"name", a.name + "_body"}, {"mesh", 0}, {"skin", 0}});
-  json animations = motion(a, root, b);
 
-  while (b.bin().size() % 4) b.bin().push_back(0);
-  json doc = {
+  GltfDocument out;
+  out.doc = {
       {"asset", {{"version", "2.0"}, {"generator", "Mimic"}}},
       {"scene", 0},
       {"scenes", json::array({{{"name", a.name}, {"nodes", scene_nodes}}})},
@@ -259,13 +262,23 @@ Result<std::string> encode_skinned_glb(const SkinnedAnimation& a) {
                               {"joints", skin_joints},
                               {"skeleton", root},
                               {"inverseBindMatrices", ibm_acc}}})},
-      {"animations", animations},
-      {"accessors", b.accessors()},
-      {"bufferViews", b.views()},
-      {"buffers", json::array({{{"byteLength", b.bin().size()}}})},
   };
-  return detail::glb_container(doc.dump(),
-                               std::string_view(reinterpret_cast<const char*>(b.bin().data()), b.bin().size()));
+  if (animate) out.doc["animations"] = motion(a, root, b);
+  while (b.bin().size() % 4) b.bin().push_back(0);
+  out.doc["accessors"] = b.accessors();
+  out.doc["bufferViews"] = b.views();
+  out.doc["buffers"] = json::array({{{"byteLength", b.bin().size()}}});
+  out.bin = std::move(b.bin());
+  return out;
+}
+
+}  // namespace detail
+
+Result<std::string> encode_skinned_glb(const SkinnedAnimation& a) {
+  auto gltf = detail::skinned_gltf(a, true);
+  if (!gltf) return tl::unexpected(gltf.error());
+  return detail::glb_container(gltf->doc.dump(),
+                               std::string_view(reinterpret_cast<const char*>(gltf->bin.data()), gltf->bin.size()));
 }
 
 }  // namespace mimic::avatar

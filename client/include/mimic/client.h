@@ -38,6 +38,9 @@ struct Vec3 {
 struct Quat {
   float x = 0, y = 0, z = 0, w = 1;
 };
+struct Vec2 {
+  float u = 0, v = 0;
+};
 
 struct Joint {
   std::string name;  // e.g. "pelvis", "l_elbow" (docs/body-model.md)
@@ -63,18 +66,26 @@ struct Avatar {
 };
 
 // The deformed skin of an avatar at one LOD, as the server deforms it (mesh frames, for clients
-// that draw Mimic's body without deforming it themselves). The index array comes once per
-// topology; each frame moves the vertices. Buffers are sized when the topology arrives and
-// reused for every frame: receiving a frame does not allocate.
+// that draw Mimic's body without deforming it themselves). The index array and the texture
+// coordinates come once per topology; each frame moves the vertices. Buffers are sized when the
+// topology arrives and reused for every frame: receiving a frame does not allocate.
+//
+// With texture coordinates (from a server that sends them: capability bit 5, docs/protocol.md),
+// the mesh comes with its seams split, as a vertex buffer needs it: a point where u wraps round
+// a limb or two parts meet is one vertex per side, each with its own (u, v) and the same
+// position and normal (normals are computed on the welded skin, so no seam shows in shading).
 struct Mesh {
   uint16_t avatar = 0;
   int lod = 0;
   std::vector<uint32_t> indices;  // triangles, counter-clockwise seen from outside
   std::vector<Vec3> positions_m;  // world positions (16-bit quantised in the frame's box)
   std::vector<Vec3> normals;      // unit, area-weighted over each vertex's triangles
-  uint32_t sequence = 0;          // of the latest mesh frame
-  uint64_t time_us = 0;           // its capture time, µs since the Unix epoch
-  uint64_t frames = 0;            // mesh frames received
+  // Per vertex (u around a part, v along it), each part its own square of [0, 1]² (the skin's
+  // texture layout); empty when the server sends none. Fixed until the topology changes.
+  std::vector<Vec2> uvs;
+  uint32_t sequence = 0;  // of the latest mesh frame
+  uint64_t time_us = 0;   // its capture time, µs since the Unix epoch
+  uint64_t frames = 0;    // mesh frames received
 };
 
 // How the connection has fared so far.

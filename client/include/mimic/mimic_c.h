@@ -49,6 +49,10 @@ typedef struct mimic_vec3 {
   float x, y, z;
 } mimic_vec3;
 
+typedef struct mimic_vec2 {
+  float u, v;
+} mimic_vec2;
+
 typedef struct mimic_quat {
   float x, y, z, w;
 } mimic_quat;
@@ -87,6 +91,9 @@ typedef struct mimic_mesh {
   uint32_t sequence;
   uint64_t time_us;
   uint64_t frames;
+  /* Texture coordinates, vertex_count of them, the same until the topology changes; NULL when
+   * the server sends none. With them the mesh has its seams split (client.h's Mesh). */
+  const mimic_vec2* uvs;
 } mimic_mesh;
 
 typedef struct mimic_options {

@@ -308,9 +308,10 @@ void Session::flush() {
     const auto& m = a->mesh[mesh_lod];
     if (!m.topology || m.frame_size == 0) continue;
     if (!topology_sent[aid]) {
-      lane.iov.push_back({const_cast<uint8_t*>(m.topology->data()), m.topology->size()});
+      const SharedBytes& topo = (caps & kCapMeshUv) && m.topology_uv ? m.topology_uv : m.topology;
+      lane.iov.push_back({const_cast<uint8_t*>(topo->data()), topo->size()});
       lane.pieces.push_back({OutPiece::shared, aid, 0});
-      out_shared.push_back({m.topology, 0});
+      out_shared.push_back({topo, 0});
       topology_sent[aid] = 1;
     }
     lane.iov.push_back({const_cast<uint8_t*>(m.frame.data()), m.frame_size});

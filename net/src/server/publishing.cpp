@@ -192,9 +192,15 @@ Reject ServerImpl::set_topology(Avatar& a, const MeshTopology& t) {
   try {
     auto packet = std::make_shared<std::vector<uint8_t>>(mesh_topology_packet_bytes(t.indices.size()));
     if (encode_mesh_topology(t, *packet) == 0) return Reject::oversized;
+    std::shared_ptr<std::vector<uint8_t>> textured;
+    if (!t.uvs.empty()) {
+      textured = std::make_shared<std::vector<uint8_t>>(mesh_topology_packet_bytes(t.indices.size(), t.uvs.size()));
+      if (encode_mesh_topology_with_uvs(t, *textured) == 0) return Reject::oversized;
+    }
     // The frame buffer (and every mesh subscriber's) is sized here, not by the first frame.
     std::vector<uint8_t> frame(frame_capacity);
     slot.topology = std::move(packet);
+    slot.topology_uv = std::move(textured);
     slot.frame = std::move(frame);
   } catch (const std::bad_alloc&) {
     stats.mesh_topologies_refused++;

@@ -52,6 +52,7 @@ using SharedBytes = std::shared_ptr<const std::vector<uint8_t>>;
 
 struct MeshSlot {
   SharedBytes topology;        // encoded packet, shared by the writes that carry it
+  SharedBytes topology_uv;     // the same with its texture section (kCapMeshUv), or null
   std::vector<uint8_t> frame;  // latest encoded mesh frame, sized for the topology
   size_t frame_size = 0;
   size_t frame_capacity = 0;  // mesh_packet_bytes of the topology's vertex count

@@ -219,15 +219,34 @@ size_t encode_pose(const PoseHeader& h, const rig::Pose& pose, std::span<uint8_t
   return finish(w);
 }
 
-size_t encode_mesh_topology(const MeshTopology& m, std::span<uint8_t> out) noexcept {
+static size_t encode_topology(const MeshTopology& m, std::span<uint8_t> out, bool texture) noexcept {
   if (m.vertex_count > kMaxMeshVertices) return 0;
+  texture = texture && !m.uvs.empty();
+  if (texture && (m.uv_source.size() != m.uvs.size() || m.uv_indices.size() != m.indices.size())) return 0;
   Writer w = begin(out, MsgType::mesh_topology);
   w.u16(m.avatar);
   w.u8(m.lod);
   w.u32(m.vertex_count);
   w.u32(static_cast<uint32_t>(m.indices.size()));
   for (uint32_t i : m.indices) w.u32(i);
+  if (texture) {
+    w.u32(static_cast<uint32_t>(m.uvs.size()));
+    for (size_t v = 0; v < m.uvs.size(); ++v) {
+      w.u32(m.uv_source[v]);
+      w.f32(m.uvs[v].x);
+      w.f32(m.uvs[v].y);
+    }
+    for (uint32_t i : m.uv_indices) w.u32(i);
+  }
   return finish(w);
+}
+
+size_t encode_mesh_topology(const MeshTopology& m, std::span<uint8_t> out) noexcept {
+  return encode_topology(m, out, false);
+}
+
+size_t encode_mesh_topology_with_uvs(const MeshTopology& m, std::span<uint8_t> out) noexcept {
+  return encode_topology(m, out, true);
 }
 
 size_t encode_mesh(const MeshFrameHeader& h, std::span<const glm::vec3> positions_m, std::span<uint8_t> out) noexcept {

@@ -147,6 +147,32 @@ Reject decode_pose(std::span<const uint8_t> packet, PoseHeader& h, rig::Pose& ou
   return close(r);
 }
 
+// The texture section after a topology's indices: u32 count, per textured vertex u32 source,
+// f32 u, f32 v; then u32 uv_indices[index count]. Each corner must copy the skin vertex the
+// plain triangle has there, so the textured triangles are the same triangles.
+static Reject decode_mesh_texture(Reader& r, MeshTopology& out) {
+  const uint32_t count = r.u32();
+  if (!r.ok) return Reject::truncated;
+  if (count == 0 || count > kMaxMeshVertices) return count ? Reject::oversized : Reject::malformed;
+  const uint64_t want = 12ull * count + 4ull * out.indices.size();
+  if (r.left() != want) return r.left() < want ? Reject::truncated : Reject::malformed;
+  out.uv_source.resize(count);
+  out.uvs.resize(count);
+  for (uint32_t v = 0; v < count; ++v) {
+    out.uv_source[v] = r.u32();
+    out.uvs[v].x = r.f32();
+    out.uvs[v].y = r.f32();
+    const bool in_square = out.uvs[v].x >= 0 && out.uvs[v].x <= 1 && out.uvs[v].y >= 0 && out.uvs[v].y <= 1;
+    if (out.uv_source[v] >= out.vertex_count || !in_square) return Reject::malformed;
+  }
+  out.uv_indices.resize(out.indices.size());
+  for (size_t i = 0; i < out.indices.size(); ++i) {
+    out.uv_indices[i] = r.u32();
+    if (out.uv_indices[i] >= count || out.uv_source[out.uv_indices[i]] != out.indices[i]) return Reject::malformed;
+  }
+  return close(r);
+}
+
 Reject decode_mesh_topology(std::span<const uint8_t> packet, MeshTopology& out) {
   Reader r;
   if (const Reject e = open(packet, MsgType::mesh_topology, r); e != Reject::ok) return e;
@@ -156,14 +182,18 @@ Reject decode_mesh_topology(std::span<const uint8_t> packet, MeshTopology& out) 
   const uint32_t n = r.u32();
   if (!r.ok) return Reject::truncated;
   if (out.vertex_count > kMaxMeshVertices) return Reject::oversized;
-  if (r.left() != 4ull * n) return r.left() < 4ull * n ? Reject::truncated : Reject::malformed;
+  if (r.left() < 4ull * n) return Reject::truncated;
   if (n % 3 != 0) return Reject::malformed;
   out.indices.resize(n);
   for (uint32_t i = 0; i < n; ++i) {
     out.indices[i] = r.u32();
     if (out.indices[i] >= out.vertex_count) return Reject::malformed;
   }
-  return close(r);
+  out.uv_source.clear();
+  out.uvs.clear();
+  out.uv_indices.clear();
+  if (r.left() == 0) return close(r);
+  return decode_mesh_texture(r, out);
 }
 
 Reject decode_mesh(std::span<const uint8_t> packet, MeshFrameHeader& h, std::vector<glm::vec3>& positions_m) {

@@ -62,6 +62,10 @@ struct RemoteAvatar {
   // Mesh frames, when asked for.
   std::vector<uint32_t> mesh_indices;
   std::vector<glm::vec3> mesh_positions_m;
+  // The topology's texture section (MeshTopology), when the server sends one: empty otherwise.
+  std::vector<uint32_t> mesh_uv_source, mesh_uv_indices;
+  std::vector<glm::vec2> mesh_uvs;
+  uint64_t mesh_topologies = 0;  // topologies received: a change means the buffers change shape
   uint32_t mesh_vertex_count = 0;
   uint64_t mesh_frames = 0;
   MeshFrameHeader mesh_last;   // of the latest mesh frame (its LOD, sequence, time)

@@ -84,6 +84,8 @@ class Deformer {
   virtual void deform(const rig::Pose& pose) = 0;
   virtual const avatar::Mesh* mesh() const { return nullptr; }
   virtual uint8_t lod() const { return 0; }
+  // The mesh's texture coordinates (its seams split), sent once with the topology; or none.
+  virtual const avatar::TextureLayout* texture() const { return nullptr; }
 };
 
 // A sensor source on a virtual body following `motion`; the solve stage poses the avatar from

@@ -4,12 +4,12 @@
 // Khronos validator) play the avatar without Mimic.
 //
 // Layout: node j is skeleton joint j (same names, same parents; translation = the joint's
-// offset, rotation identity: Mimic's zero posture is the bind pose), then one node per non-empty
-// part of the mesh, named after the part ("lower_torso", "left_foot" ...; "neck_skin",
-// "head_skin" where a joint has the part's name: node names stay unique), holding a mesh of the
-// same name and the one skin; the scene's roots are the root joint and the part nodes. Each
-// part's mesh is one primitive (the name also in extras.name) sharing POSITION, NORMAL (when
-// present), JOINTS_0 (unsigned short) and WEIGHTS_0 (float) with the others. The animation "motion" has a
+// offset, rotation identity: Mimic's zero posture is the bind pose), then one node holding the
+// one skinned mesh ("<name>_body"); the scene's roots are the root joint and that node. The
+// mesh has a primitive per non-empty part of the body ("lower_torso", "left_foot" ...), each
+// with a material of the part's name and colour (the name also in the primitive's
+// extras.name), all sharing POSITION, NORMAL (when present), JOINTS_0 (unsigned short) and
+// WEIGHTS_0 (float). The animation "motion" has a
 // LINEAR translation channel on the root joint and a LINEAR rotation channel on every joint
 // that has DOFs, one keyframe per pose, quaternions kept on one hemisphere from key to key.
 // Frames: metres, +Y up, the body faces +Z (glTF's own axes: +Y up, +Z forward).

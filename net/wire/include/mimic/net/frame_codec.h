@@ -16,6 +16,7 @@
 #include <span>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 #include <glm/glm.hpp>
@@ -74,8 +75,10 @@ enum Capability : uint32_t {
   kCapResume = 1u << 2,    // the session token may be presented again after a disconnect
   kCapUdpPose = 1u << 3,   // subscribers: pose frames as UDP datagrams (docs/protocol.md)
   kCapLeanPose = 1u << 4,  // subscribers: POSE_DELTA key and delta frames instead of POSE
+  kCapMeshUv = 1u << 5,    // MESH_TOPOLOGY may carry texture coordinates (its texture section)
 };
-inline constexpr uint32_t kServerCapabilities = kCapPose | kCapMesh | kCapResume | kCapUdpPose | kCapLeanPose;
+inline constexpr uint32_t kServerCapabilities =
+    kCapPose | kCapMesh | kCapResume | kCapUdpPose | kCapLeanPose | kCapMeshUv;
 
 // A session token: 128 bits from the OS's CSPRNG, all zero for "none". Equality takes the same
 // time whatever the bytes, so a guess learns nothing from how fast it was refused.
@@ -189,10 +192,22 @@ struct SceneEntry {
 inline constexpr size_t kMaxSceneBytes = 64 * 1024;
 
 struct MeshTopology {
+  MeshTopology() = default;
+  // The plain topology (no texture section), as written before texture coordinates.
+  MeshTopology(uint16_t avatar_id, uint8_t lod_, uint32_t vertices, std::vector<uint32_t> triangles)
+      : avatar(avatar_id), lod(lod_), vertex_count(vertices), indices(std::move(triangles)) {}
   uint16_t avatar = 0;
   uint8_t lod = 0;
   uint32_t vertex_count = 0;
   std::vector<uint32_t> indices;  // 3 per triangle, each < vertex_count
+  // Texture coordinates, only between peers that agreed kCapMeshUv: empty, or the skin with its
+  // seams split (a vertex where u wraps or two parts meet has a coordinate on each side). Per
+  // textured vertex the skin vertex it copies (< vertex_count) and its (u, v) in [0, 1]; then
+  // the same triangles, in the same order, over the textured vertices
+  // (uv_source[uv_indices[i]] == indices[i]).
+  std::vector<uint32_t> uv_source;
+  std::vector<glm::vec2> uvs;
+  std::vector<uint32_t> uv_indices;
 };
 
 struct MeshFrameHeader {
@@ -224,11 +239,17 @@ size_t encode_scene(std::span<const SceneEntry> entries, std::span<uint8_t> out)
 // Also 0 when pose.dof_rad.size() > kMaxPoseDofs.
 size_t encode_pose(const PoseHeader& h, const rig::Pose& pose, std::span<uint8_t> out) noexcept;
 size_t encode_mesh_topology(const MeshTopology& m, std::span<uint8_t> out) noexcept;
+// For receivers that agreed kCapMeshUv: the texture section follows the indices (when m.uvs is
+// not empty); 0 also when the texture fields disagree in size.
+size_t encode_mesh_topology_with_uvs(const MeshTopology& m, std::span<uint8_t> out) noexcept;
 // Positions are quantised to 16 bits per axis inside their bounding box.
 size_t encode_mesh(const MeshFrameHeader& h, std::span<const glm::vec3> positions_m, std::span<uint8_t> out) noexcept;
 
 inline size_t mesh_packet_bytes(size_t vertex_count) { return kHeaderBytes + 36 + 6 * vertex_count; }
-inline size_t mesh_topology_packet_bytes(size_t index_count) { return kHeaderBytes + 11 + 4 * index_count; }
+// `uv_count` textured vertices (0: no texture section).
+inline size_t mesh_topology_packet_bytes(size_t index_count, size_t uv_count = 0) {
+  return kHeaderBytes + 11 + 4 * index_count + (uv_count ? 4 + 12 * uv_count + 4 * index_count : 0);
+}
 inline size_t scene_packet_bytes(size_t entries) { return kHeaderBytes + 2 + 6 * entries; }
 inline size_t avatar_model_packet_bytes(const AvatarModel& m) {
   return kHeaderBytes + 14 + m.name.size() + m.model_bytes.size();
@@ -245,6 +266,7 @@ Reject decode_key_request(std::span<const uint8_t> packet, uint16_t& avatar) noe
 Reject decode_scene(std::span<const uint8_t> packet, std::vector<SceneEntry>& out);
 // `out.dof_rad` is resized to the packet's DOF count (no allocation when it already fits).
 Reject decode_pose(std::span<const uint8_t> packet, PoseHeader& header, rig::Pose& out);
+// Takes the texture section when the packet has one (out's texture fields are cleared otherwise).
 Reject decode_mesh_topology(std::span<const uint8_t> packet, MeshTopology& out);
 Reject decode_mesh(std::span<const uint8_t> packet, MeshFrameHeader& header, std::vector<glm::vec3>& positions_m);
 
