@@ -54,6 +54,7 @@ struct VirtualFlock::Impl : detail::FlockBus {
   int report_divisor = 1;
   double silent_until_s = -1;
   int pending_prefix = -1;
+  bool answered_once = false;  // an EXAMINE was answered since the start
   std::vector<uint8_t> cmd;
   double next_tick_s = 0;
   uint64_t tick_index = 0;
@@ -366,6 +367,11 @@ struct VirtualFlock::Impl : detail::FlockBus {
   }
 
   void examine(Unit& u, uint8_t p, double reply_at) {
+    // The first answer after power-up may be late (a slow adapter): the host must not read the
+    // next answer one behind.
+    if (!answered_once && cfg.first_reply_delay_s > cfg.reply_delay_s)
+      reply_at += cfg.first_reply_delay_s - cfg.reply_delay_s;
+    answered_once = true;
     if (std::vector<uint8_t> r = examine_reply(u, p); !r.empty()) queue(reply_at, std::move(r), -1);
   }
 

@@ -66,6 +66,20 @@ TEST(FlockDriver, EveryRecordFormatStandaloneStream) {
   }
 }
 
+// The unit's first answer comes later than the driver waits (a slow USB adapter, a loaded
+// host): the driver asks again, and the late answer must not shift every later one (the model
+// and revision read from the wrong bytes).
+TEST(FlockDriver, ALateFirstAnswerDoesNotShiftTheOthers) {
+  sim::VirtualFlockConfig sc = test::fast_sim(1);
+  sc.first_reply_delay_s = 0.36;  // the driver waits 0.3 s
+  Rig r = start(sc);
+  const auto got = test::collect(*r.driver, 5);
+  ASSERT_GE(got.size(), 5u);
+  for (const auto& s : got) expect_pose(s, fl::Format::position_quaternion);
+  const DeviceStatus st = r.driver->status();
+  EXPECT_NE(st.description.find("6DFOB 3.67"), std::string::npos) << st.description;
+}
+
 TEST(FlockDriver, FourBirdsGroupModeEveryFormatWithButtons) {
   for (fl::Format f : fl::kAllFormats) {
     Rig r = start(test::fast_sim(4), [f](FlockConfig& c) {

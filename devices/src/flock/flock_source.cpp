@@ -192,6 +192,10 @@ struct FlockSource::Impl {
     for (int attempt = 0; attempt < 3 && !stop.load(); ++attempt) {
       st = examine(fl::param::kStatus, -1);
       if (st || st.error().code != Errc::timeout) break;
+      // A reply that was only late (a loaded host, a slow adapter) still arrives: let it come in
+      // and go, or every later reply would be read one behind.
+      if (!sleep_interruptible(std::max<milliseconds>(cfg.settle, cfg.reply_timeout / 2)))
+        return fail(Errc::disconnected, "stopped");
       port->flush_input();
     }
     if (!st) return tl::unexpected(st.error());

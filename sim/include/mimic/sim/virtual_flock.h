@@ -46,6 +46,7 @@ struct VirtualFlockConfig {
   uint16_t software_revision = 0x4303;  // 3.67
   double auto_config_busy_s = 0.35;     // commands arriving this long after P 50 N are dropped
   double reply_delay_s = 0.0002;        // firmware latency before a reply starts
+  double first_reply_delay_s = 0;       // the first EXAMINE answer, if later than that
   uint64_t seed = 1;
   // Random faults per record sent (seeded): probability that a record loses a byte, gains a
   // stray byte, or is cut short. 0 = a clean line.
