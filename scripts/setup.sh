@@ -20,6 +20,8 @@ packages=(
   libnats-dev nats-server          # broker transport (mimic run --nats, mimic relay); tests start brokers
   libcli11-dev zlib1g-dev          # command-line parsing and usage text; CRC-32
   universal-ctags clang-format     # the size rules (scripts/check_structure.sh) and the tree's format
+  emscripten                       # the browser viewer's skin: the C++ realtime skin as WebAssembly
+  chromium                         # the browser viewer's tests: the page in headless Chromium
 )
 
 missing=()
