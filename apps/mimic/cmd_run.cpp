@@ -328,6 +328,7 @@ nlohmann::json summary(Pipeline& pipeline, const Outputs& out, const LoopStats& 
                  {"ws_accepted", ws.ws_accepted},
                  {"ws_refused", ws.ws_refused},
                  {"ws_bad_messages", ws.ws_bad_messages},
+                 {"ws_not_subscriber", ws.ws_not_subscriber},
                  {"ws_open", ws.ws_open},
                  {"scene_unreachable", ws.scene_unreachable},
                  {"bytes_to_browsers", ws.bytes_to_browsers},

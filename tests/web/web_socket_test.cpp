@@ -94,9 +94,9 @@ std::string frame(uint8_t opcode, const std::string& payload, bool masked = true
   return f;
 }
 
-std::string hello_packet() {
+std::string hello_packet(mimic::net::Role role = mimic::net::Role::subscriber) {
   mimic::net::Hello h;
-  h.role = mimic::net::Role::subscriber;
+  h.role = role;
   h.capabilities = mimic::net::kCapPose | mimic::net::kCapLeanPose;
   h.name = "test";
   std::array<uint8_t, 512> buf{};
@@ -145,11 +145,23 @@ TEST(BrowserWebSocket, RefusesAndCountsBadHandshakesAndHostileFrames) {
     p.send(bad);
     p.read_all(5);  // closed by the server
   }
-  {  // A binary message the scene server refuses: bad magic, then REJECT and the end.
+  // First messages that are not a subscriber's HELLO: a publisher's (over the WebSocket nobody
+  // publishes: the scene server sees it from loopback, where publishers need no secret), and
+  // bytes that are no packet at all. Closed by the web server.
+  for (const std::string& first :
+       {hello_packet(mimic::net::Role::publisher), std::string("XX\x01\x00\x00\x00\x00\x00", 8)}) {
     Peer p(port);
     p.send(upgrade(port, kKey));
     ASSERT_TRUE(p.read_until("\r\n\r\n", got = ""));
-    p.send(frame(0x2, "XX\x01\x00\x00\x00\x00\x00"));
+    p.send(frame(0x2, first));
+    p.read_all(5);
+  }
+  {  // A subscriber, then a packet with a bad magic byte: the scene server REJECTs and counts it.
+    Peer p(port);
+    p.send(upgrade(port, kKey));
+    ASSERT_TRUE(p.read_until("\r\n\r\n", got = ""));
+    p.send(frame(0x2, hello_packet()));
+    p.send(frame(0x2, std::string("XX\x01\x00\x00\x00\x00\x00", 8)));
     p.read_all(5);
   }
   {  // A real subscriber over the WebSocket: WELCOME and the avatar's model arrive.
@@ -169,7 +181,8 @@ TEST(BrowserWebSocket, RefusesAndCountsBadHandshakesAndHostileFrames) {
   EXPECT_EQ(h["ws_refused"].get<int>(), 2) << h.dump();
   EXPECT_EQ(h["not_found"].get<int>(), 1) << h.dump();
   EXPECT_EQ(h["ws_bad_messages"].get<int>(), 3) << h.dump();
-  EXPECT_EQ(h["ws_accepted"].get<int>(), 5) << h.dump();
+  EXPECT_EQ(h["ws_not_subscriber"].get<int>(), 2) << h.dump();
+  EXPECT_EQ(h["ws_accepted"].get<int>(), 7) << h.dump();
   EXPECT_EQ(j["server"]["rejected_by_reason"]["bad_magic"].get<int>(), 1) << j["server"].dump();
 }
 

@@ -111,6 +111,7 @@ function flushOut() {
 }
 
 function connect() {
+  M._mw_reset();
   ws = new WebSocket((location.protocol === 'https:' ? 'wss://' : 'ws://') + location.host + '/scene');
   ws.binaryType = 'arraybuffer';
   ws.onopen = () => { report.connected = true; M._mw_hello(params.get('lean') === '0' ? 0 : 1); flushOut(); };

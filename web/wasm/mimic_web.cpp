@@ -222,6 +222,18 @@ EMSCRIPTEN_KEEPALIVE int mw_hello(int lean) {
   return int(n);
 }
 
+// A new connection: the last one's partial packet, avatars and replies are dropped (the scene
+// arrives anew after the next HELLO).
+EMSCRIPTEN_KEEPALIVE void mw_reset() {
+  State& s = state();
+  s.reader = net::PacketReader{net::kMaxPacketBytes};
+  s.avatars.clear();
+  s.order.clear();
+  s.out.clear();
+  s.welcomed = 0;
+  s.reject_message.clear();
+}
+
 EMSCRIPTEN_KEEPALIVE uint8_t* mw_out() { return state().out.data(); }
 EMSCRIPTEN_KEEPALIVE int mw_out_size() { return int(state().out.size()); }
 EMSCRIPTEN_KEEPALIVE void mw_out_clear() { state().out.clear(); }

@@ -17,6 +17,7 @@
 
 #include "mimic/core/file.h"
 #include "mimic/core/host_port.h"
+#include "mimic/net/frame_codec.h"
 
 namespace mimic::net {
 
@@ -53,7 +54,8 @@ struct WebServer::Impl {
   std::thread thread;
   struct Counters {
     std::atomic<uint64_t> http_requests{0}, files_served{0}, not_found{0}, bad_requests{0}, ws_accepted{0},
-        ws_refused{0}, ws_bad_messages{0}, ws_open{0}, scene_unreachable{0}, bytes_to{0}, bytes_from{0};
+        ws_refused{0}, ws_bad_messages{0}, ws_not_subscriber{0}, ws_open{0}, scene_unreachable{0}, bytes_to{0},
+        bytes_from{0};
   } n;
 
   void accept();
@@ -75,7 +77,7 @@ struct WsClient : std::enable_shared_from_this<WsClient> {
   tcp::socket scene;
   beast::flat_buffer in;
   std::array<uint8_t, 64 * 1024> down{};
-  bool open = false, closed = false;
+  bool open = false, closed = false, hello_seen = false;
 
   WsClient(WebServer::Impl& s, tcp::socket sock) : srv(s), ws(std::move(sock)), scene(s.io) {}
 
@@ -120,6 +122,12 @@ struct WsClient : std::enable_shared_from_this<WsClient> {
         return;
       }
       self->srv.n.bytes_from += n;
+      if (!self->hello_seen && !self->subscriber_hello()) {
+        self->srv.n.ws_not_subscriber++;
+        self->close();
+        return;
+      }
+      self->hello_seen = true;
       asio::async_write(self->scene, self->in.data(), [self](beast::error_code wec, size_t written) {
         self->in.consume(written);
         if (wec || self->closed) {
@@ -129,6 +137,19 @@ struct WsClient : std::enable_shared_from_this<WsClient> {
         self->read_browser();
       });
     });
+  }
+
+  // The first message must be one whole HELLO of a subscriber. The scene server sees every
+  // WebSocket come from loopback, where publishers need no secret: a browser must not publish
+  // (and so reach --http from elsewhere to put avatars into the scene).
+  bool subscriber_hello() const {
+    const auto bytes = in.data();
+    const std::span<const uint8_t> packet(static_cast<const uint8_t*>(bytes.data()), bytes.size());
+    Header h;
+    Hello hello;
+    return decode_header(packet, h) == Reject::ok && h.type == MsgType::hello &&
+           packet.size() == kHeaderBytes + h.payload_bytes && decode_hello(packet, hello) == Reject::ok &&
+           hello.role == Role::subscriber;
   }
 
   void read_scene() {
@@ -316,6 +337,7 @@ WebServerStats WebServer::stats() const {
   s.ws_accepted = c.ws_accepted;
   s.ws_refused = c.ws_refused;
   s.ws_bad_messages = c.ws_bad_messages;
+  s.ws_not_subscriber = c.ws_not_subscriber;
   s.ws_open = c.ws_open;
   s.scene_unreachable = c.scene_unreachable;
   s.bytes_to_browsers = c.bytes_to;

@@ -5,7 +5,8 @@
 // itself (HELLO, then body models and the lean pose stream), so every limit and check of the
 // server applies to it unchanged (hostile packets are refused and counted in ServerStats, the
 // session ends). What is the WebSocket's own — bad HTTP, refused upgrades, text or oversized
-// messages, foreign origins — is refused here and counted in WebServerStats.
+// messages, foreign origins — is refused here and counted in WebServerStats, and so is a first
+// message that is not a subscriber's HELLO: over the WebSocket nobody publishes.
 //
 // Threading: the server runs on a thread of its own; stats() may be read from any thread.
 #pragma once
@@ -36,6 +37,7 @@ struct WebServerStats {
   uint64_t ws_accepted = 0;        // WebSocket handshakes completed
   uint64_t ws_refused = 0;         // upgrades refused: bad handshake, foreign Origin, over max_clients
   uint64_t ws_bad_messages = 0;    // text, oversized or malformed WebSocket frames (the client is closed)
+  uint64_t ws_not_subscriber = 0;  // first message not a subscriber's HELLO (a browser may not publish)
   uint64_t ws_open = 0;            // WebSocket clients now
   uint64_t scene_unreachable = 0;  // WebSockets closed because the scene server refused the connection
   uint64_t bytes_to_browsers = 0;
