@@ -233,6 +233,25 @@ struct LoopStats {
   size_t model_bytes = 0;
 };
 
+// The browser viewer's part of the summary: where, and what it served and refused.
+nlohmann::json web_summary(const net::WebServer& web) {
+  const auto ws = web.stats();
+  return {{"endpoint", web.endpoint()},
+          {"skin", web.has_skin()},
+          {"requests", ws.http_requests},
+          {"files_served", ws.files_served},
+          {"not_found", ws.not_found},
+          {"bad_requests", ws.bad_requests},
+          {"ws_accepted", ws.ws_accepted},
+          {"ws_refused", ws.ws_refused},
+          {"ws_bad_messages", ws.ws_bad_messages},
+          {"ws_not_subscriber", ws.ws_not_subscriber},
+          {"ws_open", ws.ws_open},
+          {"scene_unreachable", ws.scene_unreachable},
+          {"bytes_to_browsers", ws.bytes_to_browsers},
+          {"bytes_from_browsers", ws.bytes_from_browsers}};
+}
+
 // The --json summary (also printed on SIGUSR1).
 nlohmann::json summary(Pipeline& pipeline, const Outputs& out, const LoopStats& loop, double elapsed) {
   const net::VrpnServer* vrpn = out.vrpn.get();
@@ -317,23 +336,7 @@ nlohmann::json summary(Pipeline& pipeline, const Outputs& out, const LoopStats& 
       if (st.rejected[size_t(r)])
         j["server"]["rejected_by_reason"][net::reject_name(net::Reject(r))] = st.rejected[size_t(r)];
   }
-  if (out.web) {
-    const auto ws = out.web->stats();
-    j["http"] = {{"endpoint", out.web->endpoint()},
-                 {"skin", out.web->has_skin()},
-                 {"requests", ws.http_requests},
-                 {"files_served", ws.files_served},
-                 {"not_found", ws.not_found},
-                 {"bad_requests", ws.bad_requests},
-                 {"ws_accepted", ws.ws_accepted},
-                 {"ws_refused", ws.ws_refused},
-                 {"ws_bad_messages", ws.ws_bad_messages},
-                 {"ws_not_subscriber", ws.ws_not_subscriber},
-                 {"ws_open", ws.ws_open},
-                 {"scene_unreachable", ws.scene_unreachable},
-                 {"bytes_to_browsers", ws.bytes_to_browsers},
-                 {"bytes_from_browsers", ws.bytes_from_browsers}};
-  }
+  if (out.web) j["http"] = web_summary(*out.web);
 #if MIMIC_HAVE_NATS
   if (nats) {
     const auto ns = nats->stats();
