@@ -174,9 +174,9 @@ TEST(BrowserWebSocket, RefusesAndCountsBadHandshakesAndHostileFrames) {
   run.signal(SIGINT);
   ASSERT_EQ(run.wait(30), 0) << run.err();
   const std::string& out = run.out();
-  const auto j = nlohmann::json::parse(out.substr(out.rfind("\n{") + 1), nullptr, false);
+  auto j = nlohmann::json::parse(out.substr(out.rfind("\n{") + 1), nullptr, false);
   ASSERT_TRUE(j.is_object()) << out;
-  const auto& h = j["http"];
+  auto& h = j["http"];
   EXPECT_GE(h["bad_requests"].get<int>(), 1) << h.dump();
   EXPECT_EQ(h["ws_refused"].get<int>(), 2) << h.dump();
   EXPECT_EQ(h["not_found"].get<int>(), 1) << h.dump();

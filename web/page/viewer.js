@@ -331,9 +331,13 @@ async function setupXR() {
       const layer = session.renderState.baseLayer;
       gl.bindFramebuffer(gl.FRAMEBUFFER, layer.framebuffer);
       gl.clearColor(...background, 1); gl.clear(gl.COLOR_BUFFER_BIT | gl.DEPTH_BUFFER_BIT); gl.enable(gl.DEPTH_TEST);
+      // The scene is moved (not scaled: metres stay metres) so its centre stands 2 m ahead of
+      // the user; the LOD distance is measured from the head in the scene's own coordinates.
+      const offset = [-cam.target[0], 0, -cam.target[2] - 2];
       const head = pose.transform.position;
-      const shown = deformAll([head.x, head.y, head.z], layer.framebufferHeight, Math.PI / 2);
-      const world = translation(-cam.target[0], 0, -cam.target[2] - 2);  // metres: no scaling
+      const headInScene = [head.x - offset[0], head.y - offset[1], head.z - offset[2]];
+      const shown = deformAll(headInScene, layer.framebufferHeight, Math.PI / 2);
+      const world = translation(...offset);
       for (const view of pose.views) {
         const vp = layer.getViewport(view);
         gl.viewport(vp.x, vp.y, vp.width, vp.height);
