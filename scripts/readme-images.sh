@@ -49,4 +49,9 @@ if command -v xvfb-run >/dev/null; then
   rm -f "$log"
   echo "wrote $out/scene.png"
 fi
+# The browser viewer (docs/browser.md): its end-to-end test saves the page as headless Chromium drew it.
+if [ -x "$(dirname "$mimic")/mimic_web_tests" ] && command -v chromium >/dev/null; then
+  MIMIC_BROWSER_SCREENSHOT="$out/browser.png" "$(dirname "$mimic")/mimic_web_tests" --gtest_filter='BrowserViewer.*' >/dev/null &&
+    echo "wrote $out/browser.png"
+fi
 du -ch "$out"/*.png | tail -1

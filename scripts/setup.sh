@@ -21,6 +21,8 @@ packages=(
   libcli11-dev zlib1g-dev          # command-line parsing and usage text; CRC-32
   universal-ctags clang-format     # the size rules (scripts/check_structure.sh) and the tree's format
   nodejs npm                       # tests load the glTF/VRM exports with third-party readers
+  emscripten                       # the browser viewer's skin: the C++ realtime skin as WebAssembly
+  chromium                         # the browser viewer's tests: the page in headless Chromium
 )
 
 # Those readers come from npm (scripts/node_tools.sh, pinned; into build/node where the tests

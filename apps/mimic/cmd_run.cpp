@@ -28,6 +28,7 @@ class NatsPublisher {};  // absent: run refuses --nats
 #include "mimic/net/server.h"
 #include "mimic/net/vmc.h"
 #include "mimic/net/vrpn_server.h"
+#include "mimic/net/web_server.h"
 #include "mimic/core/alloc_counter.h"
 #include "mimic/service/pipeline.h"
 #include "mimic/service/scene.h"
@@ -113,7 +114,8 @@ struct Outputs {
   std::unique_ptr<net::NatsPublisher> nats;
   std::unique_ptr<net::VmcSender> vmc;
   std::unique_ptr<net::VrpnServer> vrpn;
-  std::string where;  // the first line on stdout
+  std::unique_ptr<net::WebServer> web;  // the browser viewer, a subscriber of `server`
+  std::string where;                    // the first line on stdout
 
   // The scene server first: it numbers the avatars for every sink (service/sink.h).
   SinkList sinks() const {
@@ -152,6 +154,18 @@ int open_scene_output(const RunOptions& o, Outputs& out) {
   if (!s) return failure("run", s.error().what());
   out.server = std::move(*s);
   out.where = "serving on " + out.server->endpoint();
+  if (o.http_out) {
+    net::WebServerOptions wo;
+    wo.listen = o.http;
+    wo.scene = out.server->endpoint();
+    wo.root = net::default_web_root("/proc/self/exe");
+    auto w = net::WebServer::create(wo);
+    if (!w) return failure("run", w.error().what());
+    out.web = std::move(*w);
+    out.where += "; browser viewer on http://" + out.web->endpoint() + "/";
+    if (!out.web->has_skin())
+      std::fprintf(stderr, "mimic run: this build has no WebAssembly skin (no Emscripten): the page says so\n");
+  }
   return -1;
 }
 
@@ -218,6 +232,25 @@ struct LoopStats {
   double longest_gap_ms = 0;
   size_t model_bytes = 0;
 };
+
+// The browser viewer's part of the summary: where, and what it served and refused.
+nlohmann::json web_summary(const net::WebServer& web) {
+  const auto ws = web.stats();
+  return {{"endpoint", web.endpoint()},
+          {"skin", web.has_skin()},
+          {"requests", ws.http_requests},
+          {"files_served", ws.files_served},
+          {"not_found", ws.not_found},
+          {"bad_requests", ws.bad_requests},
+          {"ws_accepted", ws.ws_accepted},
+          {"ws_refused", ws.ws_refused},
+          {"ws_bad_messages", ws.ws_bad_messages},
+          {"ws_not_subscriber", ws.ws_not_subscriber},
+          {"ws_open", ws.ws_open},
+          {"scene_unreachable", ws.scene_unreachable},
+          {"bytes_to_browsers", ws.bytes_to_browsers},
+          {"bytes_from_browsers", ws.bytes_from_browsers}};
+}
 
 // The --json summary (also printed on SIGUSR1).
 nlohmann::json summary(Pipeline& pipeline, const Outputs& out, const LoopStats& loop, double elapsed) {
@@ -303,6 +336,7 @@ nlohmann::json summary(Pipeline& pipeline, const Outputs& out, const LoopStats& 
       if (st.rejected[size_t(r)])
         j["server"]["rejected_by_reason"][net::reject_name(net::Reject(r))] = st.rejected[size_t(r)];
   }
+  if (out.web) j["http"] = web_summary(*out.web);
 #if MIMIC_HAVE_NATS
   if (nats) {
     const auto ns = nats->stats();

@@ -129,6 +129,12 @@ CLI::Option* add_output_options(cli::Parser& p, RunOptions& o) {
                 "tracker samples; e.g. vrpn_print_devices Avatar0@localhost:3883. HOST\n"
                 "defaults to 127.0.0.1")
       ->type_name("[HOST:]PORT");
+  p->add_option("--http", o.http,
+                "also serve the browser viewer (docs/browser.md): a page showing every\n"
+                "avatar, deformed in the browser from the lean pose stream, with an Enter\n"
+                "VR button (WebXR). HOST defaults to 127.0.0.1; port 0 picks one")
+      ->type_name("[HOST:]PORT")
+      ->excludes(publish);
   return publish;
 }
 
@@ -222,6 +228,8 @@ std::optional<int> parse_run_options(cli::Parser& p, const std::vector<std::stri
   o.vmc_out = p->count("--vmc") > 0;
   o.vrpn_out = p->count("--vrpn") > 0;
   o.nats_out = p->count("--nats") > 0;
+  o.http_out = p->count("--http") > 0;
+  if (o.http_out && o.http.find(':') == std::string::npos) o.http = "127.0.0.1:" + o.http;
   if (o.server.secret.empty())
     if (const char* env = std::getenv("MIMIC_SECRET")) o.server.secret = env;
 #if !MIMIC_HAVE_NATS

@@ -19,9 +19,11 @@ struct RunOptions {
   service::SceneSpec scene;
   net::ServerOptions server;  // --listen, --secret (or MIMIC_SECRET), --no-udp and the lean flags
   std::string publish, vmc, vrpn, nats;
+  std::string http;  // --http: the browser viewer's [HOST:]PORT, HOST 127.0.0.1 when left out
   bool publishing = false, vmc_out = false, vrpn_out = false, nats_out = false;  // given on the command line
-  double duration_s = 0;                                                         // 0: until Ctrl-C
-  long rt_priority = 0;                                                          // 0: not SCHED_FIFO
+  bool http_out = false;
+  double duration_s = 0;  // 0: until Ctrl-C
+  long rt_priority = 0;   // 0: not SCHED_FIFO
   bool json = false, quiet = false;
 #if MIMIC_HAVE_NATS
   net::NatsOptions nats_options;  // --scene, --nats-name (empty: the host name), the TTL and mesh rate
