@@ -12,6 +12,7 @@
 #include <string>
 
 #include "replay_csv.h"
+#include "glb_json.h"
 #include "run_mimic.h"
 #include "test_data.h"
 
@@ -19,16 +20,7 @@ namespace export_cli_test {
 
 namespace {
 
-nlohmann::json glb_json(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  const std::string b = ss.str();
-  if (b.size() < 20 || b.compare(0, 4, "glTF") != 0) return {};
-  uint32_t n = 0;
-  std::memcpy(&n, b.data() + 12, 4);
-  return nlohmann::json::parse(b.substr(20, n));
-}
+using ::mimic::test::glb_json;
 
 // The floats of accessor `index` of a .glb (every component, in order).
 std::vector<float> glb_floats(const std::string& path, size_t index) {

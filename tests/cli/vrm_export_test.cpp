@@ -14,22 +14,14 @@
 #include <string>
 
 #include "node_tools.h"
+#include "glb_json.h"
 #include "run_mimic.h"
 
 namespace vrm_export_test {
 
 namespace {
 
-nlohmann::json glb_json(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  const std::string b = ss.str();
-  if (b.size() < 20 || b.compare(0, 4, "glTF") != 0) return {};
-  uint32_t n = 0;
-  std::memcpy(&n, b.data() + 12, 4);
-  return nlohmann::json::parse(b.substr(20, n));
-}
+using ::mimic::test::glb_json;
 
 // The JSON line a gltf_check.mjs run printed (three.js may warn on lines before it).
 nlohmann::json check_json(const std::string& output) {
