@@ -98,8 +98,9 @@ class Chromium {
     if (!profile_.empty()) std::filesystem::remove_all(profile_, ec);
   }
 
-  // Opens `url` in the browser's page; false when the browser did not answer.
-  bool open(const std::string& url) {
+  // Opens `url` in the browser's page, `init_script` run before the page's own scripts; false
+  // when the browser did not answer.
+  bool open(const std::string& url, const std::string& init_script = {}) {
     const auto targets = call("Target.getTargets", nlohmann::json::object(), false);
     for (const auto& t : targets.value("targetInfos", nlohmann::json::array()))
       if (t.value("type", "") == "page") {
@@ -108,6 +109,9 @@ class Chromium {
         break;
       }
     if (session_.empty()) return false;
+    if (!init_script.empty() && (!call("Page.enable", nlohmann::json::object()).is_object() ||
+                                 !call("Page.addScriptToEvaluateOnNewDocument", {{"source", init_script}}).is_object()))
+      return false;
     return call("Page.navigate", {{"url", url}}).is_object();
   }
 
