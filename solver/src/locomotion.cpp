@@ -1,7 +1,6 @@
 #include "mimic/solver/locomotion.h"
 
 #include <algorithm>
-#include <cstdio>
 
 #include "mimic/solver/body_solver.h"
 
@@ -169,9 +168,6 @@ void update_locomotion(LocomotionState& s, const LocomotionInput& in, const Loco
   const bool low = in.have_head && track_bob(s.bob, in.head.y, dt, o);
   const bool bob_walk = gate && o.bob_timing && s.bob.period_s > 0;
   if (!gate) s.bob.beats = 0;  // a new walk takes its first beats from the sway again
-  if (low)
-    fprintf(stderr, "LOW t=%.3f period=%.3f speed=%.2f gate=%d sway=%.3f\n", s.bob.clock_s, s.bob.period_s, speed,
-            int(gate), sway_m);
   if (low && bob_walk) {
     // Both feet are down at the head's low: the swinging foot lands; the trailing one lifts soon.
     for (auto& f : s.feet)
@@ -227,9 +223,6 @@ void update_locomotion(LocomotionState& s, const LocomotionInput& in, const Loco
     if (gate && !bob_walk && (k == 0 ? 1.0f : -1.0f) * sway_m > -o.sway_gate_m && score < o.sway_override) continue;
     if (score > best_score) best = k, best_score = score;
   }
-  if (best >= 0)
-    fprintf(stderr, "LIFT t=%.3f foot=%d bob=%d reach=%.2f\n", s.bob.clock_s, best, int(bob_walk),
-            glm::length(in.hip[best] - s.feet[best].planted) / in.reach_m[best]);
   if (best >= 0) {
     FootStepState& f = s.feet[best];
     f.swinging = true;
