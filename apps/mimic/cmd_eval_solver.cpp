@@ -147,6 +147,7 @@ struct Settings {
   bool refine = true;
   bool step = true;
   std::ostream* trace = nullptr;  // --trace: every joint of every frame, truth and solved
+  CalibrationStand stand;         // where the clip's T-pose stands to calibrate (once per clip)
 };
 
 std::string base_name(const std::string& path) {
@@ -222,7 +223,7 @@ Run evaluate(const std::shared_ptr<const rig::Motion>& motion, double frame_time
   cfg.latency_s = st.latency_ms / 1000.0;
 
   // Calibration: one second of the frame-0 T-pose, standing on the clip's floor.
-  const CalibrationStand stand = calibration_stand(*motion, frame_time_s, st.rate_hz);
+  const CalibrationStand& stand = st.stand;
   auto cal_rig = sim::SensorRig::create(std::make_shared<FrozenMotion>(motion, 0.0, stand.lift_m), cfg);
   if (!cal_rig) return {{}, cal_rig.error().message};
   std::vector<devices::SensorSample> tick(mounts->size()), capture;
@@ -376,7 +377,9 @@ std::optional<int> parse(cli::Parser& p, const std::vector<std::string>& argv, O
               "jitter_mm, jitter_truth_mm, lag_ms,\n"
               "jitter_definition, solve_us_p50, solve_us_p99, solve_us_max, noise_mm,\n"
               "noise_deg, tilt_deg, rate_hz, latency_ms, dropout, seed, filter,\n"
-              "refine, refined_limbs, refined_joints");
+              "refine, refined_limbs, refined_joints, lower_body_mpjpe_cm, foot_skate_mm,\n"
+              "floor_penetration_mm, steps {solved, truth}, largest_ankle_move_mm (the\n"
+              "furthest a solved ankle moves in one sample; _truth_mm: the truth's)");
   if (auto exit_code = p.parse(argv)) return exit_code;
   std::tie(st.noise_mm, st.noise_deg) = *parse_noise(o.noise);
   st.seed = static_cast<uint64_t>(o.seed);
@@ -421,6 +424,7 @@ int run_eval_solver(const std::vector<std::string>& argv) {
                 "mpjre_deg", "ee_mm", "lower_cm", "skate_mm", "floor_mm", "steps", "jitter_mm", "(truth_mm)",
                 "solve_p50", "solve_p99");
   }
+  st.stand = calibration_stand(*shared, clip->frame_time_s, st.rate_hz);
   int status = 0;
   for (const auto& layout : layouts) {
     const Run r = evaluate(shared, clip->frame_time_s, layout, st);
@@ -443,6 +447,8 @@ int run_eval_solver(const std::vector<std::string>& argv) {
                        {"lower_body_mpjpe_cm", r.gait.lower_body_mpjpe_cm},
                        {"foot_skate_mm", r.gait.foot_skate_mm},
                        {"floor_penetration_mm", r.gait.floor_penetration_mm},
+                       {"largest_ankle_move_mm", r.gait.largest_ankle_move_mm},
+                       {"largest_ankle_move_truth_mm", r.gait.largest_ankle_move_truth_mm},
                        {"steps", {{"solved", r.gait.steps_solved}, {"truth", r.gait.steps_truth}}},
                        {"jitter", p.jitter_mm},
                        {"jitter_mm", p.jitter_mm},

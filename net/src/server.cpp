@@ -8,6 +8,7 @@
 #include "mimic/core/host_port.h"
 #include "mimic/core/process_limits.h"
 #include "server/server_impl.h"
+#include "tcp_listen.h"
 
 namespace mimic::net {
 
@@ -45,10 +46,7 @@ Result<std::unique_ptr<Server>> Server::create(const ServerOptions& options) {
                 "serving on " + options.listen +
                     " exposes the scene beyond this machine: give publishers a shared secret (--secret)");
   const tcp::endpoint ep(addr, hp->port);
-  impl->acceptor.open(ep.protocol(), ec);
-  if (!ec) impl->acceptor.set_option(tcp::acceptor::reuse_address(true), ec);
-  if (!ec) impl->acceptor.bind(ep, ec);
-  if (!ec) impl->acceptor.listen(asio::socket_base::max_listen_connections, ec);
+  ec = detail::listen_tcp(impl->acceptor, ep);
   if (ec) return fail(Errc::io_error, "cannot listen on " + options.listen + ": " + ec.message());
   if (options.udp) {
     // Same address and port as the listener. If another program holds the UDP port, the server

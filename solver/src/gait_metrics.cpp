@@ -117,6 +117,15 @@ GaitReport GaitAccumulator::report() const {
     for (float y : solved_low_y_) deepest = std::max(deepest, floor_y - y);
     r.floor_penetration_mm = 1000.0 * deepest;
   }
+  auto largest_move_mm = [](const std::vector<glm::vec3>& path) {
+    float most = 0;
+    for (size_t i = 1; i < path.size(); ++i) most = std::max(most, glm::length(path[i] - path[i - 1]));
+    return 1000.0 * most;
+  };
+  for (size_t k = 0; k < feet_.size(); ++k) {
+    r.largest_ankle_move_mm = std::max(r.largest_ankle_move_mm, largest_move_mm(solved_ankle_[k]));
+    r.largest_ankle_move_truth_mm = std::max(r.largest_ankle_move_truth_mm, largest_move_mm(truth_ankle_[k]));
+  }
   double skate_sum = 0;
   for (size_t k = 0; k < feet_.size(); ++k) {
     const auto& truth = truth_ankle_[k];

@@ -233,15 +233,9 @@ TEST(ViewCli, BadRequestsGetClearErrors) {
 TEST(ViewCli, WithoutADisplayTheWindowSaysSoAndPointsToScreenshots) {
   // run_mimic runs a shell fragment: `env -u` takes the display away from the program only.
   const std::string mimic = mimic::test::mimic_binary();
-  const std::string cmd = "env -u DISPLAY -u WAYLAND_DISPLAY '" + mimic + "' view --frames 1 2>&1";
-  FILE* p = ::popen(cmd.c_str(), "r");
-  ASSERT_NE(p, nullptr);
-  std::string out;
-  char buf[512];
-  while (std::fgets(buf, sizeof buf, p)) out += buf;
-  const int st = ::pclose(p);
-  EXPECT_EQ(WEXITSTATUS(st), 1) << out;
-  EXPECT_NE(out.find("--screenshot"), std::string::npos) << out;
+  const Outcome r = mimic::test::run_shell("env -u DISPLAY -u WAYLAND_DISPLAY '" + mimic + "' view --frames 1 2>&1");
+  EXPECT_EQ(r.status, 1) << r.output;
+  EXPECT_NE(r.output.find("--screenshot"), std::string::npos) << r.output;
 }
 
 }  // namespace

@@ -48,17 +48,8 @@ inline NodeTools node_tools() {
 
 // Runs tests/support/gltf_check.mjs (mode "validate" or "vrm") on `file`: its JSON line.
 inline Outcome gltf_check(const NodeTools& tools, const std::string& mode, const std::string& file) {
-  Outcome r;
-  const std::string cmd = "node '" MIMIC_SOURCE_DIR "/tests/support/gltf_check.mjs' '" + tools.modules + "' " + mode +
-                          " '" + file + "' 2>&1";
-  FILE* p = ::popen(cmd.c_str(), "r");
-  if (!p) return r;
-  char buf[4096];
-  size_t n;
-  while ((n = std::fread(buf, 1, sizeof buf, p)) > 0) r.output.append(buf, n);
-  const int st = ::pclose(p);
-  r.status = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
-  return r;
+  return run_shell("node '" MIMIC_SOURCE_DIR "/tests/support/gltf_check.mjs' '" + tools.modules + "' " + mode + " '" +
+                   file + "' 2>&1");
 }
 
 }  // namespace mimic::test

@@ -21,12 +21,11 @@ struct Outcome {
   std::string output;  // stdout, and stderr unless asked to leave it out
 };
 
-// `args` is a shell fragment (quote paths). With stdout_only, stderr goes to /dev/null.
-inline Outcome run_mimic(const std::string& args, bool stdout_only = false) {
+// Runs a shell command line: its exit status and what it wrote on stdout (redirect stderr in
+// `command` to have it too).
+inline Outcome run_shell(const std::string& command) {
   Outcome r;
-  std::string cmd = "'";  // built by appending: GCC 12 warns falsely on chained + (-Wrestrict)
-  cmd.append(mimic_binary()).append("' ").append(args).append(stdout_only ? " 2>/dev/null" : " 2>&1");
-  FILE* p = ::popen(cmd.c_str(), "r");
+  FILE* p = ::popen(command.c_str(), "r");
   if (!p) return r;
   char buf[4096];
   size_t n;
@@ -34,6 +33,13 @@ inline Outcome run_mimic(const std::string& args, bool stdout_only = false) {
   const int st = ::pclose(p);
   r.status = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
   return r;
+}
+
+// `args` is a shell fragment (quote paths). With stdout_only, stderr goes to /dev/null.
+inline Outcome run_mimic(const std::string& args, bool stdout_only = false) {
+  std::string cmd = "'";  // built by appending: GCC 12 warns falsely on chained + (-Wrestrict)
+  cmd.append(mimic_binary()).append("' ").append(args).append(stdout_only ? " 2>/dev/null" : " 2>&1");
+  return run_shell(cmd);
 }
 
 // A program running in the background (e.g. `mimic sim flock`) whose stdout, and optionally

@@ -18,6 +18,7 @@
 #include "mimic/core/file.h"
 #include "mimic/core/host_port.h"
 #include "mimic/net/frame_codec.h"
+#include "../tcp_listen.h"
 
 namespace mimic::net {
 
@@ -297,10 +298,7 @@ Result<std::unique_ptr<WebServer>> WebServer::create(const WebServerOptions& opt
   if (ec) return fail(Errc::invalid_argument, "bad scene address '" + scene_hp->host + "'");
   impl->scene = tcp::endpoint(scene_addr, scene_hp->port);
   const tcp::endpoint ep(addr, hp->port);
-  impl->acceptor.open(ep.protocol(), ec);
-  if (!ec) impl->acceptor.set_option(tcp::acceptor::reuse_address(true), ec);
-  if (!ec) impl->acceptor.bind(ep, ec);
-  if (!ec) impl->acceptor.listen(asio::socket_base::max_listen_connections, ec);
+  ec = detail::listen_tcp(impl->acceptor, ep);
   if (ec) return fail(Errc::io_error, "cannot listen on " + options.listen + ": " + ec.message());
   impl->accept();
   Impl* raw = impl.get();

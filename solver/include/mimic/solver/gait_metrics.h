@@ -13,6 +13,8 @@
 //   floor_penetration_mm  deepest point of a solved foot (ankle, toes, toe tip) under the floor,
 //                         the floor being the lowest the truth's foot points reach
 //   steps_solved / steps_truth
+//   largest_ankle_move_mm the largest distance a solved ankle moves from one sample to the next
+//                         (a foot that jumps; the truth's own largest is beside it)
 // Feed every frame with add(), then call report() (after the last frame). Allocates.
 #pragma once
 
@@ -30,6 +32,8 @@ struct GaitReport {
   double floor_penetration_mm = 0;
   int steps_solved = 0;
   int steps_truth = 0;
+  double largest_ankle_move_mm = 0;
+  double largest_ankle_move_truth_mm = 0;
 };
 
 struct GaitOptions {
