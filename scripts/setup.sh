@@ -36,6 +36,9 @@ cd "$(dirname "$0")/.."
 
 missing=()
 for p in "${packages[@]}"; do
+  # A Node.js from outside Debian (NodeSource's, as some machine images carry) bundles its own
+  # npm, and Debian's npm package cannot be installed beside it: a working npm is enough.
+  if [ "$p" = npm ] && command -v npm >/dev/null; then continue; fi
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q 'install ok installed' || missing+=("$p")
 done
 if [ ${#missing[@]} -eq 0 ]; then
