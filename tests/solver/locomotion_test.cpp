@@ -181,7 +181,7 @@ TEST(Locomotion, SteppedFeetNeverJumpAndKneesStayDown) {
     // Walking, with a turn of the whole body half-way (the clip turned about the origin).
     (*walk)->sample(k / kRateHz, truth);
     if (k > frames / 2) {
-      const glm::quat turn = glm::angleAxis(0.8f * (k - frames / 2) / float(frames / 2), glm::vec3(0, 1, 0));
+      const glm::quat turn = glm::angleAxis(0.8f * float(k - frames / 2) / float(frames / 2), glm::vec3(0, 1, 0));
       truth.root_orientation = turn * truth.root_orientation;
       truth.root_position_m = turn * truth.root_position_m;
     }

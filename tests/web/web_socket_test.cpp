@@ -42,31 +42,27 @@ struct Peer {
     if (fd >= 0) ::close(fd);
   }
   void send(const std::string& bytes) const { (void)!::write(fd, bytes.data(), bytes.size()); }
+  // Appends what arrives within 100 ms; false once the peer has closed.
+  bool read_some(std::string& got) const {
+    pollfd p{fd, POLLIN, 0};
+    if (::poll(&p, 1, 100) <= 0) return true;
+    char b[8192];
+    const ssize_t n = ::read(fd, b, sizeof b);
+    if (n <= 0) return false;
+    got.append(b, size_t(n));
+    return true;
+  }
   // Everything that arrives until the peer closes or `timeout_s` passes.
   std::string read_all(double timeout_s = 10) const {
     std::string got;
     const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
-    while (std::chrono::steady_clock::now() < end) {
-      pollfd p{fd, POLLIN, 0};
-      if (::poll(&p, 1, 100) <= 0) continue;
-      char b[8192];
-      const ssize_t n = ::read(fd, b, sizeof b);
-      if (n <= 0) break;
-      got.append(b, size_t(n));
-    }
+    while (std::chrono::steady_clock::now() < end && read_some(got)) {}
     return got;
   }
   // Reads until `text` arrived (true) or the timeout.
   bool read_until(const std::string& text, std::string& got, double timeout_s = 10) const {
     const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
-    while (got.find(text) == std::string::npos && std::chrono::steady_clock::now() < end) {
-      pollfd p{fd, POLLIN, 0};
-      if (::poll(&p, 1, 100) <= 0) continue;
-      char b[8192];
-      const ssize_t n = ::read(fd, b, sizeof b);
-      if (n <= 0) break;
-      got.append(b, size_t(n));
-    }
+    while (got.find(text) == std::string::npos && std::chrono::steady_clock::now() < end && read_some(got)) {}
     return got.find(text) != std::string::npos;
   }
 };
