@@ -13,6 +13,7 @@
 #include <boost/beast/websocket.hpp>
 #include <filesystem>
 #include <map>
+#include <sstream>
 #include <thread>
 
 #include "mimic/core/file.h"
@@ -82,11 +83,15 @@ struct WsClient : std::enable_shared_from_this<WsClient> {
 
   WsClient(WebServer::Impl& s, tcp::socket sock) : srv(s), ws(std::move(sock)), scene(s.io) {}
 
-  void start(http::request<http::string_body> req) {
+  // `early` holds what the client sent after its upgrade request without waiting for the 101
+  // (legal, though browsers never do it): the handshake then runs over the request's own bytes
+  // followed by those, so that the first frame reaches the stream's reader instead of being lost
+  // with the HTTP connection's buffer.
+  void start(http::request<http::string_body> req, const std::string& early) {
     ws.set_option(websocket::stream_base::timeout::suggested(beast::role_type::server));
     ws.read_message_max(srv.opt.max_message_bytes);
     ws.binary(true);
-    ws.async_accept(req, [self = shared_from_this()](beast::error_code ec) {
+    auto on_accept = [self = shared_from_this()](beast::error_code ec) {
       if (ec) {
         self->srv.n.ws_refused++;
         return;
@@ -105,7 +110,16 @@ struct WsClient : std::enable_shared_from_this<WsClient> {
         self->read_browser();
         self->read_scene();
       });
-    });
+    };
+    if (early.empty()) {
+      ws.async_accept(req, std::move(on_accept));
+      return;
+    }
+    std::ostringstream raw;
+    raw << req;
+    // The stream's own read buffer holds what async_accept is given; more than fits is refused
+    // (buffer_overflow) as any other failed handshake.
+    ws.async_accept(asio::buffer(raw.str() + early), std::move(on_accept));
   }
 
   void read_browser() {
@@ -217,7 +231,8 @@ struct HttpConn : std::enable_shared_from_this<HttpConn> {
         return;
       }
       stream.expires_never();
-      std::make_shared<WsClient>(srv, stream.release_socket())->start(std::move(req));
+      std::make_shared<WsClient>(srv, stream.release_socket())
+          ->start(std::move(req), beast::buffers_to_string(buf.data()));
       return;
     }
     if (req.method() != http::verb::get && req.method() != http::verb::head) {
