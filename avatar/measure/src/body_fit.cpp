@@ -240,11 +240,17 @@ void move_state(PrimitiveState& st, const glm::vec3& dc, const glm::vec3& dlog) 
     st.semi_axes_m[i] = std::clamp(st.semi_axes_m[i] * std::exp(dlog[i]), kMinAxis_m, kMaxAxis_m);
 }
 
-BodyModel stepped(const BodyModel& model, const std::vector<double>& x) {
+// The model moved by the step x, except the primitives marked `frozen`.
+BodyModel stepped(const BodyModel& model, const std::vector<double>& x, const std::vector<uint8_t>& frozen) {
   BodyModel out = model;
   int param = 0;
-  for (Primitive& p : out.primitives) {
+  for (size_t k = 0; k < out.primitives.size(); ++k) {
+    Primitive& p = out.primitives[k];
     if (p.kind == PrimitiveKind::ellipsoid) continue;
+    if (frozen[k]) {
+      param += kParams;
+      continue;
+    }
     glm::vec3 dc, dl;
     for (int i = 0; i < 3; ++i) {
       dc[i] = std::clamp(float(x[size_t(param + i)]), -kMaxCentreStep_m, kMaxCentreStep_m);
@@ -263,9 +269,16 @@ struct Measured {
   PosedBody posed;
   SurfaceDistance distance;
   double score() const { return distance.body_to_reference.mean_m + distance.reference_to_body.mean_m; }
-  // Good enough to keep: closed, no more folds or missed rays than `than`.
+  // Good enough to keep: closed, no more folds in any part and no more missed rays than `than`.
   bool sound(const Measured& than) const {
-    return posed.closed && posed.folds <= than.posed.folds && posed.missed_rays <= than.posed.missed_rays;
+    return posed.closed && new_fold_parts(than).empty() && posed.missed_rays <= than.posed.missed_rays;
+  }
+  // Names of the mesh parts with more folds than in `than`.
+  std::vector<std::string> new_fold_parts(const Measured& than) const {
+    std::vector<std::string> out;
+    for (size_t k = 0; k < posed.part_folds.size() && k < than.posed.part_folds.size(); ++k)
+      if (posed.part_folds[k] > than.posed.part_folds[k]) out.push_back(posed.mesh.parts[k].name);
+    return out;
   }
 };
 
@@ -282,7 +295,7 @@ struct Context {
     m.posed.mesh = m.skinned.skin.mesh();
     m.posed.landmarks = landmarks_from_skeleton(m.skinned.skin.skeleton(), m.skinned.pose);
     m.posed.pose = m.skinned.pose;
-    m.posed.folds = count_folds(m.posed.mesh);
+    m.posed.folds = count_folds(m.posed.mesh, 1e-5f, &m.posed.part_folds, &m.posed.fold_points);
     m.posed.closed = is_closed_oriented_manifold(analyze_topology(m.posed.mesh));
     m.posed.missed_rays = m.skinned.skin.stats().missed_rays;
     m.distance.body_to_reference = directed_distance(m.posed.mesh, m.posed.landmarks, ref_tree, options.samples);
@@ -294,6 +307,23 @@ struct Context {
     if (options.progress) options.progress({stage, iteration, options.iterations, d, accepted});
   }
 };
+
+// Marks the fitted primitives whose support reaches a fold of `m` that `than` did not have (none
+// within 3 mm); false when none was left to mark.
+bool freeze(const BodyModel& model, const Measured& m, const Measured& than, std::vector<uint8_t>& frozen) {
+  const std::vector<Geometry> geo = geometry(model, m.skinned.skin.skeleton(), m.skinned.pose);
+  bool any = false;
+  for (const glm::vec3& f : m.posed.fold_points) {
+    bool old = false;
+    for (const glm::vec3& g : than.posed.fold_points) old = old || glm::distance(f, g) < 0.003f;
+    if (old) continue;
+    for (size_t i = 0; i < geo.size(); ++i) {
+      const glm::vec3 d = f - geo[i].center;
+      if (geo[i].param >= 0 && !frozen[i] && glm::dot(d, d) < geo[i].bound2) frozen[i] = 1, any = true;
+    }
+  }
+  return any;
+}
 
 // Levenberg–Marquardt over the shapes; `cur` holds the best body so far.
 void fit_shapes(const Context& ctx, BodyModel& body, Measured& cur, FitResult& result) {
@@ -308,15 +338,21 @@ void fit_shapes(const Context& ctx, BodyModel& body, Measured& cur, FitResult& r
     Normal ne(unknowns);
     add_residuals(ne, lin, cur.posed.mesh, ctx.ref_tree, ref_samples, ctx.options.samples);
     bool improved = false;
-    for (int attempt = 0; attempt < 4 && !improved; ++attempt) {
+    std::vector<uint8_t> frozen(body.primitives.size(), 0);
+    for (int attempt = 0; attempt < 8 && !improved; ++attempt) {
       std::vector<double> x;
       if (!solve_damped(ne, lambda, x)) {
         lambda *= 10;
         continue;
       }
-      BodyModel candidate = stepped(body, x);
+      BodyModel candidate = stepped(body, x, frozen);
       auto m = ctx.measure(candidate);
       improved = m && m->sound(cur) && m->score() < cur.score();
+      if (m && !improved && m->posed.closed && freeze(candidate, *m, cur, frozen)) {
+        // The step folded the skin somewhere: the same step without the primitives there.
+        ctx.report("shapes", it, m->distance, false);
+        continue;
+      }
       if (improved) {
         body = std::move(candidate);
         cur = std::move(*m);

@@ -26,7 +26,7 @@ Result<SkinnedLike> skin_like(const BodyModel& model, const BodyLandmarks& refer
 
 }  // namespace fit_detail
 
-int count_folds(const Mesh& mesh, float min_area_m2) {
+int count_folds(const Mesh& mesh, float min_area_m2, std::vector<int>* per_part, std::vector<glm::vec3>* where) {
   const size_t n = mesh.triangle_count();
   std::vector<glm::vec3> normal(n);
   std::vector<float> area(n);
@@ -41,6 +41,8 @@ int count_folds(const Mesh& mesh, float min_area_m2) {
   std::unordered_map<uint64_t, uint32_t> first;
   first.reserve(3 * n);
   int folds = 0;
+  if (per_part) per_part->assign(mesh.parts.size(), 0);
+  if (where) where->clear();
   const float cos_150 = -0.8660254f;
   for (size_t t = 0; t < n; ++t)
     for (int e = 0; e < 3; ++e) {
@@ -49,7 +51,13 @@ int count_folds(const Mesh& mesh, float min_area_m2) {
       auto [it, inserted] = first.emplace(key, static_cast<uint32_t>(t));
       if (inserted) continue;
       const uint32_t u = it->second;
-      if (area[u] >= min_area_m2 && area[t] >= min_area_m2 && glm::dot(normal[u], normal[t]) < cos_150) ++folds;
+      if (!(area[u] >= min_area_m2 && area[t] >= min_area_m2 && glm::dot(normal[u], normal[t]) < cos_150)) continue;
+      ++folds;
+      if (where) where->push_back(0.5f * (mesh.positions[i] + mesh.positions[j]));
+      if (per_part)
+        for (size_t k = 0; k < mesh.parts.size(); ++k)
+          if (t >= mesh.parts[k].first_triangle && t < mesh.parts[k].first_triangle + mesh.parts[k].triangle_count)
+            (*per_part)[k]++;
     }
   return folds;
 }
@@ -61,7 +69,7 @@ Result<PosedBody> pose_body_like(const BodyModel& model, const BodyLandmarks& re
   b.mesh = s->skin.mesh();
   b.landmarks = landmarks_from_skeleton(s->skin.skeleton(), s->pose);
   b.pose = s->pose;
-  b.folds = count_folds(b.mesh);
+  b.folds = count_folds(b.mesh, 1e-5f, &b.part_folds, &b.fold_points);
   b.closed = is_closed_oriented_manifold(analyze_topology(b.mesh));
   b.missed_rays = s->skin.stats().missed_rays;
   return b;

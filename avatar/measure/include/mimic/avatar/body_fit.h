@@ -24,6 +24,7 @@
 
 #include <functional>
 #include <string>
+#include <vector>
 
 #include "mimic/avatar/body_model.h"
 #include "mimic/avatar/measure.h"
@@ -39,15 +40,20 @@ struct PosedBody {
   Mesh mesh;
   BodyLandmarks landmarks;
   rig::Pose pose;
-  int folds = 0;        // adjacent triangles (≥ 10 mm² each) whose normals turn > 150°
-  bool closed = false;  // a closed, oriented manifold
-  int missed_rays = 0;  // contour rays that found no surface
+  int folds = 0;                       // adjacent triangles (≥ 10 mm² each) whose normals turn > 150°
+  std::vector<int> part_folds;         // the same per mesh part (mesh.parts order)
+  std::vector<glm::vec3> fold_points;  // each fold's shared edge's midpoint
+  bool closed = false;                 // a closed, oriented manifold
+  int missed_rays = 0;                 // contour rays that found no surface
 };
 Result<PosedBody> pose_body_like(const BodyModel& model, const BodyLandmarks& reference, int subdivision = 2);
 
 // Folds of a mesh: pairs of edge-adjacent triangles, each of at least `min_area_m2`, whose
-// normals turn by more than 150°.
-int count_folds(const Mesh& mesh, float min_area_m2 = 1e-5f);
+// normals turn by more than 150°. With `per_part`, also the count per mesh part (a fold counts
+// in the part of the pair's second triangle).
+// With `where`, each fold's shared edge's midpoint.
+int count_folds(const Mesh& mesh, float min_area_m2 = 1e-5f, std::vector<int>* per_part = nullptr,
+                std::vector<glm::vec3>* where = nullptr);
 
 // Step 1 alone: the body with its skeleton fitted to the landmarks (primitives following).
 Result<BodyModel> fit_skeleton(const BodyModel& model, const BodyLandmarks& reference);
