@@ -202,14 +202,18 @@ void add_residuals(Normal& ne, const Linearisation& lin, const Mesh& body, const
   }
 }
 
-// (A + λ·diag(A) + ε) x = b by Cholesky; false when not positive definite.
-bool solve_damped(const Normal& ne, double lambda, std::vector<double>& x) {
+// (A + λ·diag(A) + ε) x = b by Cholesky, the unknowns marked `fixed` held at 0; false when not
+// positive definite.
+bool solve_damped(const Normal& ne, double lambda, const std::vector<uint8_t>& fixed, std::vector<double>& x) {
   const int n = ne.n;
   double trace = 0;
   for (int i = 0; i < n; ++i) trace += ne.a[size_t(i) * n + i];
   const double eps = 1e-6 * trace / std::max(n, 1) + 1e-12;
   std::vector<double> l(ne.a);
   for (int i = 0; i < n; ++i) l[size_t(i) * n + i] += lambda * ne.a[size_t(i) * n + i] + eps;
+  for (int i = 0; i < n; ++i)
+    if (fixed[size_t(i)])
+      for (int k = 0; k < n; ++k) l[size_t(i) * n + k] = l[size_t(k) * n + i] = i == k ? 1.0 : 0.0;
   for (int j = 0; j < n; ++j) {
     double d = l[size_t(j) * n + j];
     for (int k = 0; k < j; ++k) d -= l[size_t(j) * n + k] * l[size_t(j) * n + k];
@@ -223,6 +227,8 @@ bool solve_damped(const Normal& ne, double lambda, std::vector<double>& x) {
     }
   }
   x = ne.b;
+  for (int i = 0; i < n; ++i)
+    if (fixed[size_t(i)]) x[size_t(i)] = 0;
   for (int i = 0; i < n; ++i) {
     for (int k = 0; k < i; ++k) x[i] -= l[size_t(i) * n + k] * x[k];
     x[i] /= l[size_t(i) * n + i];
@@ -325,6 +331,14 @@ bool freeze(const BodyModel& model, const Measured& m, const Measured& than, std
   return any;
 }
 
+// The unknowns of the frozen primitives.
+std::vector<uint8_t> fixed_unknowns(const BodyModel& model, const std::vector<uint8_t>& frozen) {
+  std::vector<uint8_t> out;
+  for (size_t i = 0; i < model.primitives.size(); ++i)
+    if (model.primitives[i].kind != PrimitiveKind::ellipsoid) out.insert(out.end(), kParams, frozen[i]);
+  return out;
+}
+
 // Levenberg–Marquardt over the shapes; `cur` holds the best body so far.
 void fit_shapes(const Context& ctx, BodyModel& body, Measured& cur, FitResult& result) {
   const std::vector<SurfaceSample> ref_samples = sample_surface(ctx.reference, ctx.options.samples, 3);
@@ -337,19 +351,21 @@ void fit_shapes(const Context& ctx, BodyModel& body, Measured& cur, FitResult& r
     const Linearisation lin = linearise(body, cur.skinned);
     Normal ne(unknowns);
     add_residuals(ne, lin, cur.posed.mesh, ctx.ref_tree, ref_samples, ctx.options.samples);
-    bool improved = false;
+    bool improved = false, froze = false;
+    // Primitives whose steps folded the skin stay where they are for the rest of this iteration.
     std::vector<uint8_t> frozen(body.primitives.size(), 0);
     for (int attempt = 0; attempt < 8 && !improved; ++attempt) {
       std::vector<double> x;
-      if (!solve_damped(ne, lambda, x)) {
+      if (!solve_damped(ne, lambda, fixed_unknowns(body, frozen), x)) {
         lambda *= 10;
         continue;
       }
       BodyModel candidate = stepped(body, x, frozen);
       auto m = ctx.measure(candidate);
       improved = m && m->sound(cur) && m->score() < cur.score();
-      if (m && !improved && m->posed.closed && freeze(candidate, *m, cur, frozen)) {
-        // The step folded the skin somewhere: the same step without the primitives there.
+      if (m && !improved && m->posed.closed && m->score() < cur.score() && freeze(candidate, *m, cur, frozen)) {
+        // A step that helps but folds the skin: again without the primitives that reach the folds.
+        froze = true;
         ctx.report("shapes", it, m->distance, false);
         continue;
       }
@@ -363,7 +379,7 @@ void fit_shapes(const Context& ctx, BodyModel& body, Measured& cur, FitResult& r
       }
       ctx.report("shapes", it, improved ? cur.distance : (m ? m->distance : cur.distance), improved);
     }
-    if (!improved) break;  // no step of any damping helps: converged
+    if (!improved && !froze) break;  // no step of any damping helps: converged
   }
 }
 
