@@ -62,9 +62,10 @@ int option_lines(const std::string& help) {
 
 TEST(CliHelp, EveryCommandIsListed) {
   const std::vector<std::string> all = every_command();
-  for (const char* expected : {"bench",   "calibrate", "compare",   "devices", "eval-solver", "export",       "inspect",
-                               "measure", "mesh",      "record",    "relay",   "replay",      "retarget",     "run",
-                               "scale",   "sim",       "subscribe", "view",    "sim flock",   "sim spaceball"})
+  for (const char* expected :
+       {"bench",   "calibrate", "compare", "devices",   "eval-solver", "export",    "fit",
+        "inspect", "measure",   "mesh",    "record",    "relay",       "replay",    "retarget",
+        "run",     "scale",     "sim",     "subscribe", "view",        "sim flock", "sim spaceball"})
     if (MIMIC_HAVE_NATS || std::string(expected) != "relay")  // the relay takes its scene from a broker
       EXPECT_NE(std::find(all.begin(), all.end(), expected), all.end()) << expected;
 }

@@ -1,0 +1,89 @@
+// Fitting the metaball body to a person's surface mesh (a scan, a MakeHuman export): the body's
+// skeleton to the person's joints first, then its primitives' shapes to the surface, by
+// optimisation against the surface distance `mimic compare` reports (surface_distance.h).
+//
+//   1. skeleton  the spine, neck and head links scaled to the reference's pelvis, neck, head and
+//                head top heights; hips and shoulders moved onto the reference's; upper arm,
+//                forearm, thigh and shin given the reference's lengths. Each primitive follows
+//                its link: the part of its centre along the link and its semi-axis along the
+//                link scale with the link's length.
+//   2. shapes    Levenberg–Marquardt over every metaball's centre (joint frame) and the logarithm
+//                of its three semi-axes (hard ellipsoids, orientations, weights and radii of
+//                influence are kept; a muscle's deformed states move and scale with its relaxed
+//                one). The residuals are point-to-plane distances both ways between the skin
+//                mesh (the body posed like the reference, at the LOD measured) and the reference:
+//                area-weighted samples of each surface against the other, robustly weighted
+//                (Huber). How a residual changes with a primitive comes from the body field at
+//                the nearest contour point (or rigid-part vertex): the surface moves along its
+//                normal by (∂F/∂θ) / |∇F|, F summed over that contour's group (or the rigid
+//                part). A step is kept only when the measured mean distance both ways drops and
+//                the skin stays a closed, oriented manifold without new folds.
+//
+// Metres, +Y up, the reference faces +Z (the skin is posed like it with pose_to_match).
+#pragma once
+
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "mimic/avatar/body_model.h"
+#include "mimic/avatar/measure.h"
+#include "mimic/avatar/mesh.h"
+#include "mimic/avatar/surface_distance.h"
+#include "mimic/rig/skeleton.h"
+#include "mimic/core/result.h"
+
+namespace mimic::avatar {
+
+// The body skinned in the reference's posture, as `mimic compare` measures it.
+struct PosedBody {
+  Mesh mesh;
+  BodyLandmarks landmarks;
+  rig::Pose pose;
+  int folds = 0;                       // adjacent triangles (≥ 10 mm² each) whose normals turn > 150°
+  std::vector<int> part_folds;         // the same per mesh part (mesh.parts order)
+  std::vector<glm::vec3> fold_points;  // each fold's shared edge's midpoint
+  bool closed = false;                 // a closed, oriented manifold
+  int missed_rays = 0;                 // contour rays that found no surface
+};
+Result<PosedBody> pose_body_like(const BodyModel& model, const BodyLandmarks& reference, int subdivision = 2);
+
+// Folds of a mesh: pairs of edge-adjacent triangles, each of at least `min_area_m2`, whose
+// normals turn by more than 150°. With `per_part`, also the count per mesh part (a fold counts
+// in the part of the pair's second triangle).
+// With `where`, each fold's shared edge's midpoint.
+int count_folds(const Mesh& mesh, float min_area_m2 = 1e-5f, std::vector<int>* per_part = nullptr,
+                std::vector<glm::vec3>* where = nullptr);
+
+// Step 1 alone: the body with its skeleton fitted to the landmarks (primitives following).
+Result<BodyModel> fit_skeleton(const BodyModel& model, const BodyLandmarks& reference);
+
+struct FitProgress {
+  std::string stage;  // "start", "skeleton", "shapes"
+  int iteration = 0, iterations = 0;
+  SurfaceDistance distance;
+  bool accepted = true;
+};
+
+struct FitOptions {
+  int iterations = 30;   // shape iterations (each one skin and one measurement, or a few when
+                         // a step is refused)
+  int samples = 8000;    // area-weighted samples per surface, per iteration
+  int subdivision = 2;   // skin LOD measured (compare's)
+  bool skeleton = true;  // step 1
+  bool shapes = true;    // step 2
+  std::function<void(const FitProgress&)> progress;
+};
+
+struct FitResult {
+  BodyModel body;
+  SurfaceDistance before, after;  // measured with FitOptions::samples per side
+  int iterations = 0, accepted = 0;
+  int folds_before = 0, folds_after = 0;
+};
+
+// Fails with invalid_argument on an empty reference or a body that does not skin.
+Result<FitResult> fit_body(const BodyModel& start, const Mesh& reference_m, const BodyLandmarks& reference_landmarks,
+                           const FitOptions& options = {});
+
+}  // namespace mimic::avatar

@@ -1,0 +1,141 @@
+// The fit on meshes it was not tuned on: the MakeHuman mesh made wider and shorter, and with one
+// thigh inflated. The fitted body must lie within 5 mm of each, both ways, and still skin as a
+// closed, outward surface. A coarse fit (few iterations, fewer samples); `mimic fit` runs the full one.
+#include "mimic/avatar/body_fit.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "mimic/avatar/mesh_check.h"
+#include "mimic/avatar/mesh_io.h"
+#include "test_data.h"
+
+namespace mimic::avatar::body_fit_test {
+namespace {
+
+struct Reference {
+  Mesh mesh;
+  BodyLandmarks landmarks;
+};
+
+Reference makehuman() {
+  Reference r;
+  auto mesh = read_obj(::mimic::test::shared_data("mesh/makehuman_base_body.obj"), 0.1f);
+  auto lm = load_makehuman_joints(::mimic::test::shared_data("mesh/makehuman_base_joints.csv"));
+  EXPECT_TRUE(mesh && lm);
+  if (mesh) r.mesh = std::move(*mesh);
+  if (lm) r.landmarks = std::move(*lm);
+  return r;
+}
+
+// Everything, joints included, scaled per axis about the origin.
+void scale(Reference& r, glm::vec3 k) {
+  for (glm::vec3& v : r.mesh.positions) v *= k;
+  BodyLandmarks& l = r.landmarks;
+  l.ground_y_m *= k.y;
+  for (glm::vec3* p : {&l.pelvis_m, &l.neck_m, &l.head_m, &l.head_top_m}) *p *= k;
+  for (glm::vec3& p : l.spine_m) p *= k;
+  for (LimbLandmarks* limb : {&l.left, &l.right})
+    for (glm::vec3* p :
+         {&limb->hip_m, &limb->knee_m, &limb->ankle_m, &limb->shoulder_m, &limb->elbow_m, &limb->wrist_m})
+      *p *= k;
+}
+
+// The left thigh pushed out along its normals by up to `depth` (a smooth bulge between hip and knee).
+void inflate_left_thigh(Reference& r, float depth) {
+  std::vector<glm::vec3> normals(r.mesh.positions.size(), glm::vec3(0));
+  for (size_t t = 0; t < r.mesh.triangle_count(); ++t) {
+    const uint32_t* i = &r.mesh.indices[3 * t];
+    const glm::vec3 n =
+        glm::cross(r.mesh.positions[i[1]] - r.mesh.positions[i[0]], r.mesh.positions[i[2]] - r.mesh.positions[i[0]]);
+    for (int c = 0; c < 3; ++c) normals[i[c]] += n;
+  }
+  const RegionClassifier regions(r.landmarks);
+  const float hip = r.landmarks.left.hip_m.y, knee = r.landmarks.left.knee_m.y;
+  for (size_t v = 0; v < r.mesh.positions.size(); ++v) {
+    glm::vec3& p = r.mesh.positions[v];
+    if (p.x <= 0 || regions.classify(p) != BodyRegion::legs || p.y > hip || p.y < knee) continue;
+    p += depth * std::sin(3.14159265f * (p.y - knee) / (hip - knee)) * glm::normalize(normals[v]);
+  }
+}
+
+FitOptions coarse() {
+  FitOptions o;
+  o.iterations = 8;
+  o.samples = 4000;
+  return o;
+}
+
+// The fitted body as `mimic compare` measures it.
+void expect_within(const BodyModel& body, const Reference& ref, double limit_m) {
+  auto posed = pose_body_like(body, ref.landmarks);
+  ASSERT_TRUE(posed) << posed.error().what();
+  const SurfaceDistance d = surface_distance(posed->mesh, posed->landmarks, ref.mesh, ref.landmarks);
+  EXPECT_LE(d.body_to_reference.mean_m, limit_m) << format_surface_distance(d);
+  EXPECT_LE(d.reference_to_body.mean_m, limit_m) << format_surface_distance(d);
+  const MeshTopology t = analyze_topology(posed->mesh);
+  EXPECT_TRUE(is_closed_oriented_manifold(t));
+  EXPECT_GT(t.signed_volume, 0.04);  // outward, and a body's volume
+  EXPECT_EQ(posed->missed_rays, 0);
+}
+
+TEST(BodyFit, AWiderShorterPersonIsFittedWithinFiveMillimetres) {
+  Reference ref = makehuman();
+  scale(ref, {1.1f, 0.95f, 1.0f});
+  const BodyModel start = default_body_model();
+  auto before = pose_body_like(start, ref.landmarks);
+  ASSERT_TRUE(before);
+  auto fit = fit_body(start, ref.mesh, ref.landmarks, coarse());
+  ASSERT_TRUE(fit) << fit.error().what();
+  EXPECT_GT(fit->before.worst_mean_m(), 0.010) << "the start should be well off this person";
+  EXPECT_GE(fit->accepted, 3);
+  EXPECT_LE(fit->folds_after, fit->folds_before + 1);
+  expect_within(fit->body, ref, 0.005);
+  // The result is an ordinary body file.
+  auto again = body_model_from_json(to_json(fit->body));
+  ASSERT_TRUE(again) << again.error().what();
+  EXPECT_TRUE(validate(*again));
+}
+
+TEST(BodyFit, AnInflatedThighIsFollowed) {
+  Reference ref = makehuman();
+  inflate_left_thigh(ref, 0.015f);
+  auto fit = fit_body(default_body_model(), ref.mesh, ref.landmarks, coarse());
+  ASSERT_TRUE(fit) << fit.error().what();
+  expect_within(fit->body, ref, 0.005);
+  EXPECT_LT(fit->after.body_to_reference.region_mean_m[int(BodyRegion::legs)],
+            fit->before.body_to_reference.region_mean_m[int(BodyRegion::legs)]);
+}
+
+TEST(BodyFit, TheSkeletonTakesThePersonsJoints) {
+  Reference ref = makehuman();
+  scale(ref, {1.0f, 1.08f, 1.0f});
+  auto body = fit_skeleton(default_body_model(), ref.landmarks);
+  ASSERT_TRUE(body) << body.error().what();
+  auto s = rig::Skeleton::build(body->skeleton);
+  ASSERT_TRUE(s);
+  const rig::Pose pose = pose_to_match(*s, ref.landmarks);
+  const BodyLandmarks ours = landmarks_from_skeleton(*s, pose);
+  for (auto [a, b] :
+       {std::pair{ours.neck_m, ref.landmarks.neck_m}, std::pair{ours.left.knee_m, ref.landmarks.left.knee_m},
+        std::pair{ours.right.ankle_m, ref.landmarks.right.ankle_m},
+        std::pair{ours.left.shoulder_m, ref.landmarks.left.shoulder_m},
+        std::pair{ours.right.wrist_m, ref.landmarks.right.wrist_m}})
+    EXPECT_LT(glm::distance(a, b), 0.01f)
+        << a.x << " " << a.y << " " << a.z << " vs " << b.x << " " << b.y << " " << b.z;
+}
+
+TEST(BodyFit, BadInputIsRefused) {
+  const Reference ref = makehuman();
+  auto r = fit_body(default_body_model(), Mesh{}, ref.landmarks);
+  ASSERT_FALSE(r);
+  EXPECT_EQ(r.error().code, Errc::invalid_argument);
+  EXPECT_NE(r.error().message.find("no triangles"), std::string::npos);
+  BodyModel broken = default_body_model();
+  broken.skeleton.joints.pop_back();  // r_wrist, which primitives hang from
+  EXPECT_FALSE(fit_body(broken, ref.mesh, ref.landmarks));
+}
+
+}  // namespace
+}  // namespace mimic::avatar::body_fit_test

@@ -1,0 +1,91 @@
+// End-to-end: `mimic compare` reports the surface distance, `mimic fit` writes a body that the
+// other commands take, and refuses bad input with a clear message.
+#include <gtest/gtest.h>
+
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "run_mimic.h"
+#include "test_data.h"
+
+namespace fit_cli_test {
+
+namespace {
+
+using ::mimic::test::Outcome;
+using ::mimic::test::run_mimic;
+
+std::string temp(const std::string& name) {
+  return (std::filesystem::temp_directory_path() / ("mimic_fit_cli_" + std::to_string(::getpid()) + "_" + name))
+      .string();
+}
+
+nlohmann::json distance_of(const std::string& body_args) {
+  const Outcome r = run_mimic("compare --json --samples 5000 " + body_args, true);
+  EXPECT_EQ(r.status, 0) << r.output;
+  const auto j = nlohmann::json::parse(r.output, nullptr, false);
+  return j.is_discarded() ? nlohmann::json() : j["surface_distance"];
+}
+
+TEST(FitCli, CompareReportsTheSurfaceDistanceBothWaysAndPerRegion) {
+  const auto d = distance_of("");
+  ASSERT_TRUE(d.is_object());
+  for (const char* side : {"body_to_reference_mm", "reference_to_body_mm"}) {
+    // The built-in body lies about 9 mm from the MakeHuman mesh (docs/fit.md).
+    EXPECT_GT(d[side]["mean"].get<double>(), 5.0) << d.dump();
+    EXPECT_LT(d[side]["mean"].get<double>(), 12.0) << d.dump();
+    for (const char* region : {"head", "torso", "arms", "hands", "legs", "feet"})
+      EXPECT_TRUE(d[side]["regions"].contains(region)) << region << " " << d.dump();
+  }
+  const Outcome table = run_mimic("compare --samples 2000");
+  EXPECT_EQ(table.status, 0) << table.output;
+  EXPECT_NE(table.output.find("mean, hands"), std::string::npos) << table.output;
+}
+
+TEST(FitCli, AFittedBodyIsNearerAndWorksEverywhere) {
+  const std::string out = temp("body.json"), obj = temp("fitted.obj");
+  const Outcome r = run_mimic("fit --iterations 3 --samples 3000 --json --out " + out, true);
+  ASSERT_EQ(r.status, 0) << r.output;
+  const auto j = nlohmann::json::parse(r.output);
+  EXPECT_EQ(j["closed"], true) << r.output;
+  EXPECT_EQ(j["missed_rays"], 0) << r.output;
+  const auto before = distance_of(""), after = distance_of("--body " + out);
+  // Even a three-step fit brings the built-in body within 5 mm of the MakeHuman mesh both ways.
+  for (const char* side : {"body_to_reference_mm", "reference_to_body_mm"}) {
+    EXPECT_LT(after[side]["mean"].get<double>(), 0.7 * before[side]["mean"].get<double>()) << after.dump();
+    EXPECT_LE(after[side]["mean"].get<double>(), 5.0) << after.dump();
+  }
+  const Outcome mesh = run_mimic("mesh --body " + out + " --motion walk --time 0.4 --out " + obj);
+  EXPECT_EQ(mesh.status, 0) << mesh.output;
+  std::filesystem::remove(out);
+  std::filesystem::remove(obj);
+}
+
+TEST(FitCli, BadInputGetsAClearError) {
+  const std::string out = temp("never.json");
+  Outcome r = run_mimic("fit --mesh /nonexistent-mimic-dir/person.obj --joints x.csv --out " + out);
+  EXPECT_EQ(r.status, 1) << r.output;
+  EXPECT_NE(r.output.find("/nonexistent-mimic-dir/person.obj"), std::string::npos) << r.output;
+  const std::string empty = temp("empty.obj");
+  std::ofstream(empty) << "# nothing\n";
+  r = run_mimic("fit --mesh " + empty + " --joints " + ::mimic::test::shared_data("mesh/makehuman_base_joints.csv") +
+                " --out " + out);
+  EXPECT_EQ(r.status, 1) << r.output;
+  EXPECT_NE(r.output.find("no triangles"), std::string::npos) << r.output;
+  r = run_mimic("fit --mesh " + empty + " --out " + out);  // a mesh of one's own needs its joints
+  EXPECT_EQ(r.status, 2) << r.output;
+  EXPECT_NE(r.output.find("--joints"), std::string::npos) << r.output;
+  r = run_mimic("fit");  // --out is required
+  EXPECT_EQ(r.status, 2) << r.output;
+  EXPECT_FALSE(std::filesystem::exists(out));
+  std::filesystem::remove(empty);
+}
+
+}  // namespace
+
+}  // namespace fit_cli_test
