@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 
 #include "bench_pipeline.h"
+#include "bench_web.h"
 #include "cli.h"
 #include "command.h"
 #include "mimic/core/percentile.h"
@@ -441,16 +442,16 @@ Result<nlohmann::json> bench_fanout(const BenchOptions& opt) {
   return rows;
 }
 
+Result<nlohmann::json> bench_web_section(const BenchOptions& opt) { return bench_web::run(opt.quick); }
+
 struct Section {
   const char* name;
   Result<nlohmann::json> (*run)(const BenchOptions&);
 };
 
 const Section kSections[] = {
-    {"net", bench_net},
-    {"skin", bench_skin},
-    {"solver", bench_solver},
-    {"fanout", bench_fanout},
+    {"net", bench_net},       {"skin", bench_skin},       {"solver", bench_solver},
+    {"fanout", bench_fanout}, {"web", bench_web_section},
 };
 
 constexpr const char* kAbout = "Measures this machine (figures, not pass/fail; a loaded machine measures worse).";
@@ -479,7 +480,14 @@ constexpr const char* kSectionsHelp =
     "        and through a broker (nats): the bench starts nats-server on a free loopback port,\n"
     "        publishes into it and a relay in-process serves the subscribers (tick = the relay's\n"
     "        fan-out; publish-to-relay latency p50/p99); skipped, saying why, without NATS or\n"
-    "        nats-server; with --json alone, one JSON object per configuration per line";
+    "        nats-server; with --json alone, one JSON object per configuration per line\n"
+    "  web   the browser viewer, against a mimic run --http child of the bench (sim:walk) on\n"
+    "        loopback: the page's WebAssembly skin timed in headless Chromium at every LOD\n"
+    "        against the native realtime skin on the same body and poses (page_over_native);\n"
+    "        bytes a second per avatar read by subscribers of that run: lean pose stream, POSE\n"
+    "        frames, mesh frames at each LOD; the page's latency from a pose's capture to its\n"
+    "        draw calls submitted (p50/p99); without Chromium or the WebAssembly skin the\n"
+    "        page's part says why it skipped ({\"skipped\": ...}) and the bench exits 0";
 
 // The options; `only` the one section asked for ("" for all), `json` whether to print figures.
 std::optional<int> parse(cli::Parser& p, const std::vector<std::string>& argv, BenchOptions& opt, std::string& only,

@@ -242,6 +242,29 @@ function capture() {
 }
 
 let lastCapture = 0, lastReport = 0, drawnAvatars = 0, fittedFor = 0;
+
+// End-to-end latency: a pose's capture time (the publisher's wall clock, µs since the epoch, in
+// every frame on the wire) to this page having deformed that pose and submitted its draw calls
+// (the clock stops when drawScene returns; the GPU's work and the compositor come after). The
+// page's wall clock is performance.timeOrigin + now(): the figure means something only when page
+// and publisher share a clock (the same machine). Each pose counts once, when first drawn.
+const latency = { ms: new Float64Array(4096), n: 0, drawn: new Map() };
+function noteDrawn(shown) {
+  const nowUs = (performance.timeOrigin + performance.now()) * 1000;
+  for (const s of shown) {
+    const t = M._mw_time_us(s.id);
+    if (!t || latency.drawn.get(s.id) === t) continue;
+    latency.drawn.set(s.id, t);
+    latency.ms[latency.n++ % latency.ms.length] = (nowUs - t) / 1000;
+  }
+}
+function latencySummary() {
+  const n = Math.min(latency.n, latency.ms.length);
+  if (!n) return null;
+  const v = Array.from(latency.ms.subarray(0, n)).sort((a, b) => a - b);
+  const at = (q) => +v[Math.min(n - 1, Math.floor(q * n))].toFixed(2);
+  return { poses: latency.n, p50_ms: at(0.5), p99_ms: at(0.99), max_ms: +v[n - 1].toFixed(2) };
+}
 function frame(now) {
   const w = canvas.clientWidth * devicePixelRatio, h = canvas.clientHeight * devicePixelRatio;
   if (canvas.width !== w || canvas.height !== h) { canvas.width = w; canvas.height = h; }
@@ -267,6 +290,7 @@ function frame(now) {
     const shown = deformAll(e, canvas.height, cam.fovY);
     drawScene(viewProj, shown, translation(0, 0, 0));
     drawnAvatars = shown.length;
+    noteDrawn(shown);
     const tNow = performance.now();
     if (tNow - lastCapture > 500 && shown.length) {
       lastCapture = tNow;
@@ -289,6 +313,7 @@ function updateReport(shown) {
   report.bytes_in = M._mw_counter(10);
   report.lods = {};
   for (const s of shown) report.lods[s.id] = { lod: s.lod, triangles: s.m.triangles, distance_m: +s.dist.toFixed(2) };
+  report.latency = latencySummary();
   if (deformCount) { report.deform_us = +(deformUs / deformCount).toFixed(1); deformUs = 0; deformCount = 0; }
   statsEl.textContent = JSON.stringify(report);
   setStatus(report.welcomed ? `${report.avatars} avatar(s), ${report.frames} frames` : 'connecting…');

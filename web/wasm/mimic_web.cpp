@@ -45,6 +45,7 @@ struct WebAvatar {
   bool has_pose = false, key_requested = false;
   uint64_t frames = 0;
   uint32_t sequence = 0;
+  uint64_t time_us = 0;    // the latest pose's capture time (the publisher's wall clock, µs since the epoch)
   float height_m = 1.75f;  // of the first skin built, standing in its initial pose
 };
 
@@ -144,6 +145,7 @@ void on_pose(std::span<const uint8_t> p, bool lean) {
   a->has_pose = true;
   a->frames++;
   a->sequence = h.sequence;
+  a->time_us = h.time_us;
   s.n.frames++;
   s.n.frame_bytes += p.size();
 }
@@ -265,6 +267,9 @@ EMSCRIPTEN_KEEPALIVE int mw_avatar_id(int i) {
 EMSCRIPTEN_KEEPALIVE uint32_t mw_revision(int id) { return find(id) ? find(id)->revision : 0; }
 EMSCRIPTEN_KEEPALIVE int mw_has_pose(int id) { return find(id) && find(id)->has_pose; }
 EMSCRIPTEN_KEEPALIVE double mw_frames(int id) { return find(id) ? double(find(id)->frames) : 0; }
+// The capture time of the avatar's latest pose, µs since the Unix epoch on the publisher's wall
+// clock (exact in a double until the year 2255): the page's end-to-end latency starts there.
+EMSCRIPTEN_KEEPALIVE double mw_time_us(int id) { return find(id) ? double(find(id)->time_us) : 0; }
 // Root position (metres, world): where the page aims its camera and measures LOD distance.
 EMSCRIPTEN_KEEPALIVE float mw_root(int id, int axis) {
   WebAvatar* a = find(id);
