@@ -151,6 +151,29 @@ BENCHMARK(BM_Realtime)
     ->ArgsProduct({{0, 1, 2, 3}, {0, 1}})
     ->Unit(benchmark::kMicrosecond);
 
+// The realtime frame with its vertex normals (what a renderer or the browser page asks for) at
+// LOD range(0).
+void BM_RealtimeWithNormals(benchmark::State& state) {
+  RealtimeOptions o;
+  o.lod = static_cast<int>(state.range(0));
+  auto body = RealtimeBody::create(default_body_model(), o);
+  if (!body) {
+    state.SkipWithError(body.error().what().c_str());
+    return;
+  }
+  RealtimeSkin skin(*body);
+  std::vector<glm::vec3> out((*body)->vertex_count()), normals(out.size());
+  const auto ps = poses((*body)->skeleton(), 16);
+  size_t i = 0;
+  for (auto _ : state) {
+    skin.evaluate(ps[i++ % ps.size()], out, normals, true);
+    benchmark::DoNotOptimize(normals.data());
+  }
+  state.counters["normals_us"] = skin.timings().normals_us;
+  state.counters["vertices"] = static_cast<double>(out.size());
+}
+BENCHMARK(BM_RealtimeWithNormals)->ArgName("lod")->DenseRange(0, 3)->Unit(benchmark::kMicrosecond);
+
 // The same with the scalar reference loops (what the eight-wide kernels gain).
 void BM_RealtimeScalar(benchmark::State& state) {
   auto body = RealtimeBody::create(default_body_model(), RealtimeOptions{});

@@ -10,6 +10,7 @@
 #include "mimic/rig/skeleton_json.h"
 #include "mimic/rig/skeleton.h"
 #include "mimic/client.h"
+#include "mimic/core/vertex_normals.h"
 #include "mimic/net/client.h"
 
 namespace mimic::client {
@@ -57,7 +58,7 @@ struct Subscriber::Impl {
     if (e.topology != r.mesh_topologies || e.normals.size() != n || e.view.avatar != r.id) shape(e, r);
     Mesh& m = e.view;
     m.lod = r.mesh_last.lod;
-    vertex_normals(r.mesh_positions_m, e.welded, e.normals);
+    ::mimic::vertex_normals(r.mesh_positions_m, e.welded, e.normals);
     for (size_t i = 0; i < e.source.size(); ++i) {
       const uint32_t s = e.source[i] < n ? e.source[i] : 0;
       m.positions_m[i] = to_vec3(r.mesh_positions_m[s]);
@@ -90,25 +91,6 @@ struct Subscriber::Impl {
     }
     e.view.positions_m.assign(e.source.size(), Vec3{});
     e.view.normals.assign(e.source.size(), Vec3{});
-  }
-
-  // Unit, area-weighted normals of the welded skin.
-  static void vertex_normals(const std::vector<glm::vec3>& p, const std::vector<uint32_t>& indices,
-                             std::vector<glm::vec3>& normals) {
-    std::fill(normals.begin(), normals.end(), glm::vec3(0));
-    const size_t n = p.size();
-    for (size_t t = 0; t + 2 < indices.size(); t += 3) {
-      const uint32_t a = indices[t], b = indices[t + 1], c = indices[t + 2];
-      if (a >= n || b >= n || c >= n) continue;
-      const glm::vec3 face = glm::cross(p[b] - p[a], p[c] - p[a]);  // length = twice the area: area weights
-      normals[a] += face;
-      normals[b] += face;
-      normals[c] += face;
-    }
-    for (auto& v : normals) {
-      const float len = glm::length(v);
-      if (len > 0) v /= len;
-    }
   }
 
   Entry& model(const net::RemoteAvatar& r) {

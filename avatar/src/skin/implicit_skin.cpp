@@ -20,7 +20,6 @@ ImplicitSkin::Impl::Impl(ContourLayout layout_in, BodyField field_in, bool norma
   }
   if (normals) {
     mesh.normals.assign(L.vertex_count, glm::vec3(0, 1, 0));
-    normal_sums.assign(L.vertex_count, glm::vec4(0));
   }
 }
 

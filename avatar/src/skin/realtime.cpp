@@ -8,6 +8,7 @@
 #include "mimic/avatar/skin_lod.h"
 #include "mimic/avatar/texture_layout.h"
 #include "mimic/core/clock.h"
+#include "mimic/core/vertex_normals.h"
 #include "realtime_data.h"
 
 namespace mimic::avatar {
@@ -286,18 +287,8 @@ void RealtimeSkin::evaluate(const rig::Pose& pose, std::span<glm::vec3> pos, std
     return;  // a caller's sizing error; documented sizes
   deform(d, *state_, pose, pos, muscles);
   const double t2 = steady_now_s();
-  if (normals.size() >= pos.size()) {
-    std::fill(normals.begin(), normals.end(), glm::vec3(0.0f));
-    const auto& idx = d.rest_mesh.indices;
-    for (size_t t = 0; t + 2 < idx.size(); t += 3) {
-      const glm::vec3 a = pos[idx[t]], b = pos[idx[t + 1]], c = pos[idx[t + 2]];
-      const glm::vec3 n = glm::cross(b - a, c - a);
-      normals[idx[t]] += n;
-      normals[idx[t + 1]] += n;
-      normals[idx[t + 2]] += n;
-    }
-    for (size_t v = 0; v < d.rest_mesh.positions.size(); ++v) normals[v] = safe_normalize(normals[v], {0, 1, 0});
-  }
+  if (normals.size() >= pos.size())
+    vertex_normals(pos.first(d.rest_mesh.positions.size()), d.rest_mesh.indices, normals);
   state_->timings.normals_us = normals.size() >= pos.size() ? (steady_now_s() - t2) * 1e6 : 0.0;
 }
 

@@ -69,7 +69,6 @@ struct ImplicitSkin::Impl {
 
   Mesh mesh;
   std::vector<glm::vec3> scratch_grid, scratch_rows, scratch_poly;
-  std::vector<glm::vec4> normal_sums;  // per vertex, while the normals are summed
   SkinTimings timings;
 
   Impl(ContourLayout layout_in, BodyField field_in, bool normals_in);

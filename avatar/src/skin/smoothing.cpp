@@ -1,5 +1,6 @@
 // Per frame after the contours: cubic B-spline smoothing of the control rows (or a copy in the
 // realtime resolution) and area-weighted vertex normals.
+#include "mimic/core/vertex_normals.h"
 #include "skin_impl.h"
 
 namespace mimic::avatar {
@@ -61,22 +62,6 @@ void ImplicitSkin::Impl::evaluate_bspline() {
   }
 }
 
-void ImplicitSkin::Impl::update_normals() {
-  // Summed in 16-byte slots: neighbouring triangles share vertices, and a 12-byte vec3 read
-  // back right after its two-part store cannot be forwarded (half the frame went there).
-  std::vector<glm::vec4>& acc = normal_sums;
-  std::fill(acc.begin(), acc.end(), glm::vec4(0));
-  const auto& pos = mesh.positions;
-  const auto& idx = mesh.indices;
-  for (size_t t = 0; t + 2 < idx.size(); t += 3) {
-    const glm::vec3 a = pos[idx[t]], b = pos[idx[t + 1]], c = pos[idx[t + 2]];
-    const glm::vec4 n(glm::cross(b - a, c - a), 0.0f);  // length = twice the area: area weighting
-    acc[idx[t]] += n;
-    acc[idx[t + 1]] += n;
-    acc[idx[t + 2]] += n;
-  }
-  std::vector<glm::vec3>& nrm = mesh.normals;
-  for (size_t v = 0; v < nrm.size(); ++v) nrm[v] = safe_normalize(glm::vec3(acc[v]), {0, 1, 0});
-}
+void ImplicitSkin::Impl::update_normals() { vertex_normals(mesh.positions, mesh.indices, mesh.normals); }
 
 }  // namespace mimic::avatar
