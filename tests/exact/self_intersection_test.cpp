@@ -1,0 +1,139 @@
+#include "mimic/avatar/self_intersection.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <numeric>
+
+#include "mimic/avatar/mesh_check.h"
+#include "mimic/avatar/realtime_skin.h"
+#include "mimic/rig/motion.h"
+
+namespace mimic::avatar::self_intersection_test {
+namespace {
+
+// Appends an axis-aligned box (outward, counter-clockwise) as a part of its own.
+void add_box(Mesh& m, const std::string& name, glm::vec3 centre, glm::vec3 half) {
+  const auto base = static_cast<uint32_t>(m.positions.size());
+  for (int i = 0; i < 8; ++i)
+    m.positions.push_back(centre + half * glm::vec3(i & 1 ? 1 : -1, i & 2 ? 1 : -1, i & 4 ? 1 : -1));
+  const uint32_t faces[12][3] = {{0, 4, 6}, {0, 6, 2}, {1, 3, 7}, {1, 7, 5}, {0, 1, 5}, {0, 5, 4},
+                                 {2, 6, 7}, {2, 7, 3}, {0, 2, 3}, {0, 3, 1}, {4, 5, 7}, {4, 7, 6}};
+  m.parts.push_back({name, static_cast<uint32_t>(m.triangle_count()), 12});
+  for (const auto& f : faces)
+    for (uint32_t i : f) m.indices.push_back(base + i);
+}
+
+// A closed UV sphere of radius r (metres), one part, wound outward.
+Mesh sphere(float r, int rings = 12, int around = 16) {
+  Mesh m;
+  m.positions.push_back({0, r, 0});
+  for (int i = 1; i < rings; ++i)
+    for (int j = 0; j < around; ++j) {
+      const float theta = float(M_PI) * float(i) / float(rings), phi = 2 * float(M_PI) * float(j) / float(around);
+      m.positions.push_back(
+          {r * std::sin(theta) * std::cos(phi), r * std::cos(theta), r * std::sin(theta) * std::sin(phi)});
+    }
+  m.positions.push_back({0, -r, 0});
+  const auto south = static_cast<uint32_t>(m.positions.size() - 1);
+  auto at = [&](int i, int j) { return static_cast<uint32_t>(1 + (i - 1) * around + (j % around)); };
+  for (int j = 0; j < around; ++j) {
+    m.indices.insert(m.indices.end(), {0u, at(1, j + 1), at(1, j)});
+    m.indices.insert(m.indices.end(), {south, at(rings - 1, j), at(rings - 1, j + 1)});
+    for (int i = 1; i + 1 < rings; ++i) {
+      m.indices.insert(m.indices.end(), {at(i, j), at(i, j + 1), at(i + 1, j + 1)});
+      m.indices.insert(m.indices.end(), {at(i, j), at(i + 1, j + 1), at(i + 1, j)});
+    }
+  }
+  if (analyze_topology(m).signed_volume < 0)
+    for (size_t t = 0; t < m.triangle_count(); ++t) std::swap(m.indices[3 * t + 1], m.indices[3 * t + 2]);
+  m.parts.push_back({"ball", 0, static_cast<uint32_t>(m.triangle_count())});
+  return m;
+}
+
+IntersectionReport check(const Mesh& m, const IntersectionRules& rules = IntersectionRules::none()) {
+  auto checker = SelfIntersectionChecker::create(m, rules);
+  EXPECT_TRUE(checker) << checker.error().what();
+  return checker ? checker->check(m.positions) : IntersectionReport{};
+}
+
+TEST(SelfIntersection, AClosedSphereHasNone) {
+  const Mesh m = sphere(0.1f);
+  ASSERT_TRUE(is_closed_oriented_manifold(analyze_topology(m)));
+  const IntersectionReport r = check(m);
+  EXPECT_EQ(r.fold_pairs, 0u);
+  EXPECT_EQ(r.between_pairs, 0u);
+  EXPECT_EQ(r.deepest_m, 0.0);
+  EXPECT_TRUE(r.by_parts.empty());
+  EXPECT_GT(r.sharpest_crease_deg, 5.0);  // a polyhedron's edges, not a fold
+  EXPECT_LT(r.sharpest_crease_deg, 30.0);
+}
+
+TEST(SelfIntersection, InterpenetratingBoxesGivePairsAndTheirDepth) {
+  // B's near face is 30 mm inside A: 30 mm from A's +x face, 50 mm from its sides.
+  Mesh m;
+  add_box(m, "a", {0, 0, 0}, {0.1f, 0.1f, 0.1f});
+  add_box(m, "b", {0.17f, 0, 0}, {0.1f, 0.05f, 0.05f});
+  const IntersectionReport r = check(m);
+  EXPECT_EQ(r.fold_pairs, 0u);
+  EXPECT_GT(r.between_pairs, 0u);
+  ASSERT_EQ(r.by_parts.size(), 1u);
+  EXPECT_EQ(r.by_parts[0].a, "a");
+  EXPECT_EQ(r.by_parts[0].b, "b");
+  EXPECT_NEAR(r.deepest_m, 0.030, 1e-6);
+  EXPECT_EQ(r.deepest_part, "b");
+  EXPECT_EQ(r.deepest_inside, "a");
+  EXPECT_NEAR(r.sharpest_crease_deg, 90.0, 1e-3);
+
+  // Apart, nothing; by design (the rules name the pair), counted apart and no depth.
+  Mesh apart;
+  add_box(apart, "a", {0, 0, 0}, {0.1f, 0.1f, 0.1f});
+  add_box(apart, "b", {0.25f, 0, 0}, {0.1f, 0.05f, 0.05f});
+  EXPECT_EQ(check(apart).between_pairs, 0u);
+  IntersectionRules rules;
+  rules.by_design = {{"b", "a"}};
+  const IntersectionReport designed = check(m, rules);
+  EXPECT_EQ(designed.between_pairs, 0u);
+  EXPECT_EQ(designed.by_design_pairs, r.between_pairs);
+  EXPECT_EQ(designed.deepest_m, 0.0);
+}
+
+TEST(SelfIntersection, ASphereWithItsPolePushedThroughFoldsInsideOnePiece) {
+  Mesh m = sphere(0.1f);
+  m.positions[0] = {0.01f, -0.15f, 0.005f};  // the north pole out through the south cap
+  const IntersectionReport r = check(m);
+  EXPECT_GT(r.fold_pairs, 0u);
+  EXPECT_EQ(r.between_pairs, 0u);
+  ASSERT_FALSE(r.by_parts.empty());
+  EXPECT_EQ(r.by_parts[0].a, "ball");
+  EXPECT_EQ(r.by_parts[0].b, "ball");
+  EXPECT_GT(r.sharpest_crease_deg, 90.0);
+}
+
+TEST(SelfIntersection, NeighboursThatOnlyShareAVertexOrAnEdgeDoNotCount) {
+  // Two triangles on one edge folded nearly flat back (179 deg crease), and a third on a shared
+  // vertex only, touching it there.
+  Mesh m;
+  const float a = glm::radians(1.0f);  // the second triangle 1 deg from the first
+  m.positions = {{0, 0, 0}, {1, 0, 0}, {0.5f, 1, 0}, {0.5f, std::cos(a), std::sin(a)}, {-1, 0.2f, 0}, {-1, -0.2f, 0}};
+  m.indices = {0, 1, 2, 1, 0, 3, 0, 5, 4};
+  m.parts = {{"sheet", 0, 3}};
+  IntersectionReport r = check(m);
+  EXPECT_EQ(r.fold_pairs, 0u);
+  EXPECT_NEAR(r.sharpest_crease_deg, 179.0, 0.01);
+  // Folded exactly flat back, the two overlap beyond their edge: that counts.
+  m.positions[3] = {0.5f, 1, 0};
+  EXPECT_EQ(check(m).fold_pairs, 1u);
+}
+
+TEST(SelfIntersection, RefusesNonManifoldTopology) {
+  Mesh m;
+  m.positions = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {0, -1, 0}};
+  m.indices = {0, 1, 2, 0, 1, 3, 0, 1, 4};  // one edge, three triangles, two running it one way
+  EXPECT_FALSE(SelfIntersectionChecker::create(m));
+  m.indices = {0, 1, 9};
+  EXPECT_FALSE(SelfIntersectionChecker::create(m));
+}
+
+}  // namespace
+}  // namespace mimic::avatar::self_intersection_test
