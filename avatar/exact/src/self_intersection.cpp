@@ -134,7 +134,7 @@ void SelfIntersectionChecker::Impl::count_pairs(std::span<const glm::vec3> posit
   }
   for (size_t a = 0; a < names.size(); ++a)
     for (size_t b = a; b < names.size(); ++b)
-      if (pairs[a][b] > 0) r.by_parts.push_back({names[a], names[b], pairs[a][b]});
+      if (pairs[a][b] > 0) r.by_parts.push_back({names[a], names[b], pairs[a][b], by_design[a][b] != 0});
   std::stable_sort(r.by_parts.begin(), r.by_parts.end(),
                    [](const PartPairCount& x, const PartPairCount& y) { return x.pairs > y.pairs; });
 }

@@ -39,6 +39,7 @@ struct IntersectionRules {
 struct PartPairCount {
   std::string a, b;  // part names; a == b for folds
   size_t pairs = 0;
+  bool by_design = false;  // IntersectionRules::by_design names the two
 };
 
 struct IntersectionReport {
