@@ -215,10 +215,10 @@ struct Summary {
   std::string source, method;
   int lod = 0;
   size_t triangles = 0, frames = 0, frames_folding = 0, frames_crossing = 0, frames_creased = 0;
-  double folds = 0, between = 0, by_design = 0, deepest_mm = 0, crease_deg = 0;  // sums
+  double folds = 0, between = 0, by_design = 0, deepest_mm = 0, envelope_mm = 0, crease_deg = 0;  // sums
   size_t folds_max = 0, between_max = 0;
-  double deepest_mm_max = 0, crease_deg_max = 0;
-  std::string deepest_where, crease_where;
+  double deepest_mm_max = 0, envelope_mm_max = 0, crease_deg_max = 0;
+  std::string deepest_where, envelope_where, crease_where;
   std::map<std::pair<std::string, std::string>, size_t> by_parts;  // by-design pairs left out
 
   void add(const avatar::IntersectionReport& r, const std::string& frame) {
@@ -228,7 +228,12 @@ struct Summary {
     frames_crossing += r.between_pairs > 0;
     frames_creased += r.sharpest_crease_deg > 90;
     folds += double(r.fold_pairs), between += double(r.between_pairs), by_design += double(r.by_design_pairs);
-    deepest_mm += 1000 * r.deepest_m, crease_deg += r.sharpest_crease_deg;
+    deepest_mm += 1000 * r.deepest_m, envelope_mm += 1000 * r.deepest_envelope_m;
+    crease_deg += r.sharpest_crease_deg;
+    if (1000 * r.deepest_envelope_m > envelope_mm_max) {
+      envelope_mm_max = 1000 * r.deepest_envelope_m;
+      envelope_where = r.deepest_envelope_part + " in " + r.deepest_envelope_inside + ", " + frame;
+    }
     folds_max = std::max(folds_max, r.fold_pairs), between_max = std::max(between_max, r.between_pairs);
     if (1000 * r.deepest_m > deepest_mm_max) {
       deepest_mm_max = 1000 * r.deepest_m;
@@ -244,6 +249,8 @@ struct Summary {
     frames += s.frames, frames_folding += s.frames_folding, frames_crossing += s.frames_crossing;
     frames_creased += s.frames_creased;
     folds += s.folds, between += s.between, by_design += s.by_design, deepest_mm += s.deepest_mm;
+    envelope_mm += s.envelope_mm;
+    if (s.envelope_mm_max > envelope_mm_max) envelope_mm_max = s.envelope_mm_max, envelope_where = s.envelope_where;
     crease_deg += s.crease_deg;
     folds_max = std::max(folds_max, s.folds_max), between_max = std::max(between_max, s.between_max);
     if (s.deepest_mm_max > deepest_mm_max) deepest_mm_max = s.deepest_mm_max, deepest_where = s.deepest_where;
@@ -273,6 +280,9 @@ nlohmann::ordered_json frame_json(const Summary& where, long frame, const avatar
                            {"deepest_mm", 1000 * r.deepest_m},
                            {"deepest_part", r.deepest_part},
                            {"deepest_inside", r.deepest_inside},
+                           {"deepest_envelope_mm", 1000 * r.deepest_envelope_m},
+                           {"deepest_envelope_part", r.deepest_envelope_part},
+                           {"deepest_envelope_inside", r.deepest_envelope_inside},
                            {"sharpest_crease_deg", r.sharpest_crease_deg},
                            {"crease_part", r.crease_part}};
   auto& parts = j["by_parts"] = nlohmann::ordered_json::array();
@@ -286,6 +296,9 @@ void print_frame(const Summary& where, long frame, const avatar::IntersectionRep
               where.method.c_str(), where.lod, frame, r.fold_pairs, r.between_pairs, r.by_design_pairs,
               1000 * r.deepest_m);
   if (r.deepest_m > 0) std::printf(" (%s in %s)", r.deepest_part.c_str(), r.deepest_inside.c_str());
+  if (r.deepest_envelope_m > 0 && r.deepest_envelope_m < r.deepest_m)
+    std::printf(", between skin pieces %.1f mm (%s in %s)", 1000 * r.deepest_envelope_m,
+                r.deepest_envelope_part.c_str(), r.deepest_envelope_inside.c_str());
   std::printf(", crease %.1f deg (%s)", r.sharpest_crease_deg, r.crease_part.c_str());
   int shown = 0;  // the three part pairs with most intersections, by-design pairs left out
   for (const auto& p : r.by_parts) {
@@ -313,6 +326,9 @@ nlohmann::ordered_json summary_json(const Summary& s) {
                            {"deepest_mm_mean", s.deepest_mm / n},
                            {"deepest_mm_max", s.deepest_mm_max},
                            {"deepest_where", s.deepest_where},
+                           {"deepest_envelope_mm_mean", s.envelope_mm / n},
+                           {"deepest_envelope_mm_max", s.envelope_mm_max},
+                           {"deepest_envelope_where", s.envelope_where},
                            {"sharpest_crease_deg_mean", s.crease_deg / n},
                            {"sharpest_crease_deg_max", s.crease_deg_max},
                            {"crease_where", s.crease_where},
@@ -322,22 +338,27 @@ nlohmann::ordered_json summary_json(const Summary& s) {
 }
 
 void print_summaries(const std::vector<Summary>& all) {
-  std::printf("\n%-10s %-8s %3s %6s %6s | %-13s | %-13s | %-9s | %-9s | %s\n", "source", "method", "lod", "tris",
-              "frames", "folds mean/max", "between m/max", "deep mm", "crease",
+  std::printf("\n%-10s %-8s %3s %6s %6s | %-13s | %-13s | %-9s | %-9s | %-9s | %s\n", "source", "method", "lod", "tris",
+              "frames", "folds mean/max", "between m/max", "deep mm", "skin mm", "crease",
               "frames folding / crossing / crease > 90");
   for (const Summary& s : all) {
     const double n = double(std::max<size_t>(s.frames, 1));
-    std::printf("%-10s %-8s %3d %6zu %6zu | %6.1f %6zu | %6.1f %6zu | %4.1f %4.0f | %4.0f %4.0f | %zu / %zu / %zu\n",
-                s.source.c_str(), s.method.c_str(), s.lod, s.triangles, s.frames, s.folds / n, s.folds_max,
-                s.between / n, s.between_max, s.deepest_mm / n, s.deepest_mm_max, s.crease_deg / n, s.crease_deg_max,
-                s.frames_folding, s.frames_crossing, s.frames_creased);
+    std::printf(
+        "%-10s %-8s %3d %6zu %6zu | %6.1f %6zu | %6.1f %6zu | %4.1f %4.0f | %4.1f %4.0f | %4.0f %4.0f | %zu / %zu / "
+        "%zu\n",
+        s.source.c_str(), s.method.c_str(), s.lod, s.triangles, s.frames, s.folds / n, s.folds_max, s.between / n,
+        s.between_max, s.deepest_mm / n, s.deepest_mm_max, s.envelope_mm / n, s.envelope_mm_max, s.crease_deg / n,
+        s.crease_deg_max, s.frames_folding, s.frames_crossing, s.frames_creased);
   }
   std::printf(
-      "(deep mm and crease: mean and max; targets: folds 0, between <= 5 mean, deepest <= 5 mm, crease <= 90)\n");
+      "(mean and max a frame; deep: any part in another, skin: between skin pieces only, no rigid part;\n"
+      " targets: folds 0, between <= 5 mean, deepest <= 5 mm, crease <= 90 deg)\n");
   for (const Summary& s : all) {
-    std::printf("%s %s lod %d: deepest %.1f mm (%s); sharpest %.1f deg (%s); pairs a frame:", s.source.c_str(),
-                s.method.c_str(), s.lod, s.deepest_mm_max, s.deepest_where.c_str(), s.crease_deg_max,
-                s.crease_where.c_str());
+    std::printf(
+        "%s %s lod %d: deepest %.1f mm (%s), between skin pieces %.1f mm (%s); sharpest %.1f deg (%s); "
+        "pairs a frame:",
+        s.source.c_str(), s.method.c_str(), s.lod, s.deepest_mm_max, s.deepest_where.c_str(), s.envelope_mm_max,
+        s.envelope_where.c_str(), s.crease_deg_max, s.crease_where.c_str());
     for (const auto& [k, v] : s.top(5)) std::printf(" %s %.1f", k.c_str(), v);
     std::printf("\n");
   }

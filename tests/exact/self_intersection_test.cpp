@@ -7,6 +7,7 @@
 
 #include "mimic/avatar/mesh_check.h"
 #include "mimic/avatar/realtime_skin.h"
+#include "mimic/avatar/skin.h"
 #include "mimic/rig/motion.h"
 
 namespace mimic::avatar::self_intersection_test {
@@ -133,6 +134,131 @@ TEST(SelfIntersection, RefusesNonManifoldTopology) {
   EXPECT_FALSE(SelfIntersectionChecker::create(m));
   m.indices = {0, 1, 9};
   EXPECT_FALSE(SelfIntersectionChecker::create(m));
+}
+
+// The default body's realtime skin: what the checker finds must hang together (every pair is
+// counted once and in one class, a depth comes with a pair of the two parts, only rigid parts and
+// the pieces they attach to are by design), the authored posture is clean, and a hand pushed into
+// the chest is found with its depth.
+class DefaultBody : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    auto b = RealtimeBody::create(default_body_model());
+    ASSERT_TRUE(b) << b.error().what();
+    body_ = new std::shared_ptr<const RealtimeBody>(*b);
+  }
+  static void TearDownTestSuite() { delete body_; }
+  static const RealtimeBody& body() { return **body_; }
+  static std::shared_ptr<const RealtimeBody> shared() { return *body_; }
+  static void expect_consistent(const IntersectionReport& r, const std::string& what) {
+    size_t folds = 0, between = 0, designed = 0;
+    bool depth_has_pair = r.deepest_m == 0;
+    for (const PartPairCount& p : r.by_parts) {
+      (p.a == p.b ? folds : p.by_design ? designed : between) += p.pairs;
+      if (p.by_design) {
+        const bool rigid_a = p.a == "head" || p.a.ends_with("_hand") || p.a.ends_with("_foot");
+        const std::string& rigid = rigid_a ? p.a : p.b;
+        const std::string& piece = rigid_a ? p.b : p.a;
+        EXPECT_TRUE(rigid == "head" ? piece == "neck" : piece.ends_with("_lower_arm") || piece.ends_with("_lower_leg"))
+            << what << ": " << p.a << "/" << p.b;
+      }
+      depth_has_pair |= !p.by_design && ((p.a == r.deepest_part && p.b == r.deepest_inside) ||
+                                         (p.b == r.deepest_part && p.a == r.deepest_inside));
+    }
+    EXPECT_EQ(folds, r.fold_pairs) << what;
+    EXPECT_EQ(between, r.between_pairs) << what;
+    EXPECT_EQ(designed, r.by_design_pairs) << what;
+    EXPECT_TRUE(depth_has_pair) << what << ": " << r.deepest_part << " in " << r.deepest_inside;
+    EXPECT_LT(r.deepest_m, 0.1) << what;
+    EXPECT_LE(r.sharpest_crease_deg, 180.0) << what;
+  }
+  static inline std::shared_ptr<const RealtimeBody>* body_ = nullptr;
+};
+
+TEST_F(DefaultBody, TheAuthoredPostureIsCleanAndTheRigidPartsSinkByDesign) {
+  auto checker = SelfIntersectionChecker::create(body().rest_mesh());
+  ASSERT_TRUE(checker) << checker.error().what();
+  EXPECT_EQ(checker->part_count(), 16u);  // eleven skin pieces, head, hands and feet
+  const IntersectionReport r = checker->check(body().rest_mesh().positions);
+  expect_consistent(r, "zero posture");
+  EXPECT_EQ(r.fold_pairs, 0u);
+  EXPECT_EQ(r.between_pairs, 0u);
+  EXPECT_EQ(r.deepest_m, 0.0);
+  EXPECT_GT(r.by_design_pairs, 100u);  // head, hands and feet sink into their pieces
+  EXPECT_EQ(r.triangles, body().rest_mesh().triangle_count());
+}
+
+TEST_F(DefaultBody, AHandPushedIntoTheChestIsFoundWithItsDepth) {
+  auto checker = SelfIntersectionChecker::create(body().rest_mesh());
+  ASSERT_TRUE(checker) << checker.error().what();
+  Mesh m = body().rest_mesh();
+  const auto part =
+      std::find_if(m.parts.begin(), m.parts.end(), [](const MeshPart& p) { return p.name == "left_hand"; });
+  ASSERT_NE(part, m.parts.end());
+  std::vector<uint32_t> hand(m.indices.begin() + 3 * part->first_triangle,
+                             m.indices.begin() + 3 * (part->first_triangle + part->triangle_count));
+  std::sort(hand.begin(), hand.end());
+  hand.erase(std::unique(hand.begin(), hand.end()), hand.end());
+  // The chest's front: the upper torso's vertex furthest along +Z (the body faces +Z).
+  glm::vec3 chest(0, 0, -1e9f), centre(0);
+  const auto torso =
+      std::find_if(m.parts.begin(), m.parts.end(), [](const MeshPart& p) { return p.name == "upper_torso"; });
+  for (uint32_t t = torso->first_triangle; t < torso->first_triangle + torso->triangle_count; ++t)
+    for (int k = 0; k < 3; ++k)
+      if (m.positions[m.indices[3 * t + k]].z > chest.z) chest = m.positions[m.indices[3 * t + k]];
+  for (uint32_t v : hand) centre += m.positions[v] / float(hand.size());
+  float reach = 0;  // the hand's farthest point from its centre along -Z, so it straddles the skin
+  for (uint32_t v : hand) reach = std::max(reach, centre.z - m.positions[v].z);
+  const glm::vec3 shift = chest - centre + glm::vec3(0, 0, -0.5f * reach);
+  for (uint32_t v : hand) m.positions[v] += shift;
+  const IntersectionReport r = checker->check(m.positions);
+  expect_consistent(r, "hand in the chest");
+  const auto pair = std::find_if(r.by_parts.begin(), r.by_parts.end(),
+                                 [](const PartPairCount& p) { return p.a == "upper_torso" && p.b == "left_hand"; });
+  ASSERT_NE(pair, r.by_parts.end());
+  EXPECT_GT(pair->pairs, 0u);
+  EXPECT_FALSE(pair->by_design);
+  EXPECT_EQ(r.between_pairs, pair->pairs);
+  EXPECT_EQ(r.deepest_part, "left_hand");
+  EXPECT_EQ(r.deepest_inside, "upper_torso");
+  // The hand reaches 1.5 reach behind the chest's front: from there a ray along +Z leaves the
+  // torso within that (no torso point is further forward), so no hand vertex is deeper.
+  EXPECT_GT(r.deepest_m, 0.5 * reach);
+  EXPECT_LT(r.deepest_m, 1.5 * reach + 1e-4);
+}
+
+// Two frames of the built-in walk with both methods (the same mesh at subdivision 0): what is
+// found hangs together, and the rigid parts sink into their pieces in every frame.
+TEST_F(DefaultBody, TwoFramesOfTheWalk) {
+  auto checker = SelfIntersectionChecker::create(body().rest_mesh());
+  ASSERT_TRUE(checker) << checker.error().what();
+  RealtimeSkin skin(shared());
+  SkinOptions so;
+  so.subdivision = 0;
+  so.normals = false;
+  auto full = ImplicitSkin::create(default_body_model(), so);
+  ASSERT_TRUE(full) << full.error().what();
+  ASSERT_EQ(full->mesh().indices, body().rest_mesh().indices);
+  auto walk = rig::make_builtin_motion("walk", body().skeleton());
+  ASSERT_TRUE(walk) << walk.error().what();
+  Mesh m = body().rest_mesh();
+  rig::Pose pose = body().skeleton().zero_pose();
+  for (double t_s : {0.0, 0.5}) {
+    (*walk)->sample(t_s, pose);
+    skin.evaluate(pose, m.positions);
+    full->evaluate(pose);
+    const std::vector<glm::vec3>* both[] = {&m.positions, &full->mesh().positions};
+    for (const std::vector<glm::vec3>* positions : both) {
+      const IntersectionReport r = checker->check(*positions);
+      const std::string what =
+          std::string(positions == &m.positions ? "realtime" : "full") + ", walk at " + std::to_string(t_s) + " s";
+      expect_consistent(r, what);
+      std::printf("%s: folds %zu, between %zu, by design %zu, deepest %.1f mm (%s in %s), crease %.1f deg\n",
+                  what.c_str(), r.fold_pairs, r.between_pairs, r.by_design_pairs, 1000 * r.deepest_m,
+                  r.deepest_part.c_str(), r.deepest_inside.c_str(), r.sharpest_crease_deg);
+      EXPECT_GT(r.by_design_pairs, 100u) << what;
+    }
+  }
 }
 
 }  // namespace

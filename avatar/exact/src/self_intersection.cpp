@@ -61,6 +61,7 @@ struct SelfIntersectionChecker::Impl {
   std::vector<uint32_t> part_of_triangle;
   std::vector<std::string> names;
   std::vector<std::vector<uint8_t>> by_design;  // part × part
+  std::vector<uint8_t> rigid;                   // per part
   std::vector<exact_detail::ClosedPart> closed;
   std::vector<std::array<uint32_t, 2>> crease_edges;
   SurfaceMesh surface;  // the whole mesh's connectivity; a check copies it with its positions
@@ -88,6 +89,7 @@ Result<SelfIntersectionChecker> SelfIntersectionChecker::create(const Mesh& topo
       return fail(Errc::invalid_argument, "part '" + part.name + "' runs past the triangles");
     d.names.push_back(part.name);
     const bool rigid = std::find(rules.rigid.begin(), rules.rigid.end(), part.name) != rules.rigid.end();
+    d.rigid.push_back(rigid);
     for (uint32_t t = part.first_triangle; t < part.first_triangle + part.triangle_count; ++t)
       d.part_of_triangle[t] = p, envelope[t] = !rigid;
     d.closed.push_back(exact_detail::close_part(d.indices, d.vertex_count, part.first_triangle, part.triangle_count));
@@ -172,6 +174,8 @@ void SelfIntersectionChecker::Impl::deepest(std::span<const glm::vec3> positions
         if (!CGAL::do_overlap(box, p.bbox()) || !inside(tree, p)) continue;
         const double depth = std::sqrt(tree.squared_distance(p));
         if (depth > r.deepest_m) r.deepest_m = depth, r.deepest_part = names[a], r.deepest_inside = names[b];
+        if (!rigid[a] && !rigid[b] && depth > r.deepest_envelope_m)
+          r.deepest_envelope_m = depth, r.deepest_envelope_part = names[a], r.deepest_envelope_inside = names[b];
       }
   }
 }

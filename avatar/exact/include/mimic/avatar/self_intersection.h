@@ -52,6 +52,10 @@ struct IntersectionReport {
   // metres; 0 when no vertex is inside another part. By-design pairs are left out.
   double deepest_m = 0;
   std::string deepest_part, deepest_inside;  // the vertex's part and the part it is inside
+  // The same between envelope pieces only (no rigid part): what the skin itself can change, where
+  // the deepest above may be a hand the motion puts into the body.
+  double deepest_envelope_m = 0;
+  std::string deepest_envelope_part, deepest_envelope_inside;
   // Sharpest crease: the largest angle between the normals of two envelope triangles sharing an
   // edge (0 flat, 180 folded flat back), degrees; rigid parts and zero-area triangles left out.
   double sharpest_crease_deg = 0;
