@@ -8,7 +8,10 @@
 #include "mimic/avatar/mesh_check.h"
 #include "mimic/avatar/realtime_skin.h"
 #include "mimic/avatar/skin.h"
+#include "mimic/rig/bvh.h"
 #include "mimic/rig/motion.h"
+#include "mimic/rig/retarget.h"
+#include "test_data.h"
 
 namespace mimic::avatar::self_intersection_test {
 namespace {
@@ -259,6 +262,37 @@ TEST_F(DefaultBody, TwoFramesOfTheWalk) {
       EXPECT_GT(r.by_design_pairs, 100u) << what;
     }
   }
+}
+
+// Every shared clip, sampled (the full sweep is `mimic intersect`, docs/skin.md): the T-pose each
+// CMU clip opens with is clean, and what two frames a clip show hangs together.
+TEST_F(DefaultBody, EverySharedClipSampled) {
+  auto checker = SelfIntersectionChecker::create(body().rest_mesh());
+  ASSERT_TRUE(checker) << checker.error().what();
+  RealtimeSkin skin(shared());
+  Mesh m = body().rest_mesh();
+  size_t folds = 0, between = 0, frames = 0;
+  for (const char* id : ::mimic::test::kShared_clips) {
+    auto clip = rig::load_bvh(::mimic::test::clip_path(id));
+    ASSERT_TRUE(clip) << clip.error().what();
+    auto r = rig::retarget_bvh(*clip);
+    ASSERT_TRUE(r) << r.error().what();
+    const size_t n = r->poses.size();
+    for (size_t f : {size_t(0), n / 3, 2 * n / 3}) {
+      skin.evaluate(rig::transfer_pose(r->skeleton, r->poses[f], body().skeleton()), m.positions);
+      const IntersectionReport report = checker->check(m.positions);
+      const std::string what = std::string(id) + " frame " + std::to_string(f);
+      expect_consistent(report, what);
+      if (f == 0) {
+        EXPECT_EQ(report.fold_pairs, 0u) << what;
+        EXPECT_EQ(report.between_pairs, 0u) << what;
+      } else {
+        folds += report.fold_pairs, between += report.between_pairs, ++frames;
+      }
+    }
+  }
+  std::printf("shared clips, %zu frames: %.1f folds and %.1f pairs between pieces a frame\n", frames,
+              double(folds) / double(frames), double(between) / double(frames));
 }
 
 }  // namespace
