@@ -32,19 +32,19 @@ namespace {
 constexpr const char* kName = "intersect";
 constexpr const char* kAbout =
     "Checks the posed skin for self-intersection with exact predicates, every Nth frame of BVH\n"
-    "clips, a built-in motion or a recorded session: pairs of intersecting triangles inside one\n"
-    "skin piece (folds), pairs between two pieces, the deepest interpenetration (how far a vertex\n"
-    "of one piece lies inside another piece's closed surface) and the sharpest crease between\n"
-    "neighbouring envelope triangles. The rigid head, hands and feet sinking into the piece they\n"
-    "attach to (neck, forearm, calf) is by design: counted apart, not as an intersection\n"
-    "(docs/skin.md, \"Self-intersection\"). One line per frame, then a summary per source, method\n"
-    "and LOD; progress on stderr every 10 s.\n"
+    "clips, a built-in motion or a recorded session, or one posture: pairs of intersecting\n"
+    "triangles inside one skin piece (folds), pairs between two pieces, the deepest\n"
+    "interpenetration (how far a vertex of one piece lies inside another piece's closed surface)\n"
+    "and the sharpest crease between neighbouring envelope triangles. The rigid head, hands and\n"
+    "feet sinking into the piece they attach to (neck, forearm, calf) is by design: counted apart,\n"
+    "not as an intersection (docs/skin.md, \"Self-intersection\"). One line per frame, then a\n"
+    "summary per source, method and LOD; progress on stderr every 10 s.\n"
     "Targets: 0 folds, <= 5 pairs between pieces a frame on average, no interpenetration deeper\n"
     "than 5 mm, no crease sharper than 90 deg.";
 
 struct Options {
   std::vector<std::string> bvh;
-  std::string motion, log, calibration, body, lods = "0", methods = "realtime";
+  std::string motion, log, calibration, pose, body, lods = "0", methods = "realtime";
   long every = 10, max_frames = 0;
   double fps = 30, seconds = 0;
   int subdivision = 0;
@@ -86,8 +86,11 @@ std::optional<int> parse(cli::Parser& p, const std::vector<std::string>& argv, O
   app.add_option("--calibration", o.calibration, "the wearer's calibration for --log (their fitted skeleton)")
       ->type_name("FILE")
       ->needs(log);
-  bvh->excludes(motion)->excludes(log);
-  motion->excludes(log);
+  auto* pose = app.add_option("--pose", o.pose, "one posture: zero (the T-pose the body is authored in) or rest")
+                   ->check(CLI::IsMember({"zero", "rest"}));
+  bvh->excludes(motion)->excludes(log)->excludes(pose);
+  motion->excludes(log)->excludes(pose);
+  log->excludes(pose);
   app.add_option("--body", o.body, "body model or preset:NAME (default: the built-in body)")->type_name("FILE");
   app.add_option("--lod", o.lods, "skin levels of detail: 0-3, a list (0,2) or all (default 0)")
       ->type_name("LODS")
@@ -109,8 +112,8 @@ std::optional<int> parse(cli::Parser& p, const std::vector<std::string>& argv, O
   app.add_flag("--json", o.json, "one JSON object a line: each frame, then each summary");
   app.add_flag("--summary", o.summary_only, "only the summaries, no line per frame");
   if (auto exit_code = p.parse(argv)) return exit_code;
-  if (bvh->count() + motion->count() + log->count() == 0)
-    return p.usage_error("give --bvh CLIP..., --motion NAME or --log SESSION.mlog");
+  if (bvh->count() + motion->count() + log->count() + pose->count() == 0)
+    return p.usage_error("give --bvh CLIP..., --motion NAME, --log SESSION.mlog or --pose zero|rest");
   return std::nullopt;
 }
 
@@ -152,6 +155,11 @@ Result<std::vector<Source>> load_sources(const Options& o, rig::Skeleton& skelet
       s.frames.push_back(k);
     }
     sources.push_back(std::move(s));
+  }
+  if (!o.pose.empty()) {
+    rig::Pose pose = o.pose == "zero" ? skeleton.zero_pose() : avatar::relaxed_posture(skeleton);
+    pose.root_position_m.y = rig::standing_root_height_m(skeleton);
+    sources.push_back(Source{o.pose, {pose}, {0}});
   }
   if (!o.log.empty()) {
     auto take = service::solve_log(o.log, o.calibration, o.fps, &skeleton, o.seconds);
@@ -338,13 +346,13 @@ nlohmann::ordered_json summary_json(const Summary& s) {
 }
 
 void print_summaries(const std::vector<Summary>& all) {
-  std::printf("\n%-10s %-8s %3s %6s %6s | %-13s | %-13s | %-9s | %-9s | %-9s | %s\n", "source", "method", "lod", "tris",
-              "frames", "folds mean/max", "between m/max", "deep mm", "skin mm", "crease",
+  std::printf("\n%-10s %-8s %3s %6s %6s | %-13s | %-13s | %-10s | %-10s | %-9s | %s\n", "source", "method", "lod",
+              "tris", "frames", "folds mean/max", "between m/max", "deep mm", "skin mm", "crease",
               "frames folding / crossing / crease > 90");
   for (const Summary& s : all) {
     const double n = double(std::max<size_t>(s.frames, 1));
     std::printf(
-        "%-10s %-8s %3d %6zu %6zu | %6.1f %6zu | %6.1f %6zu | %4.1f %4.0f | %4.1f %4.0f | %4.0f %4.0f | %zu / %zu / "
+        "%-10s %-8s %3d %6zu %6zu | %6.1f %6zu | %6.1f %6zu | %4.1f %5.1f | %4.1f %5.1f | %4.0f %4.0f | %zu / %zu / "
         "%zu\n",
         s.source.c_str(), s.method.c_str(), s.lod, s.triangles, s.frames, s.folds / n, s.folds_max, s.between / n,
         s.between_max, s.deepest_mm / n, s.deepest_mm_max, s.envelope_mm / n, s.envelope_mm_max, s.crease_deg / n,

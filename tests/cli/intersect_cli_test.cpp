@@ -65,11 +65,26 @@ TEST(IntersectCli, AClipAtTwoLodsWithBothMethods) {
     EXPECT_NE(r.output.find(row), std::string::npos) << row << "\n" << r.output;
 }
 
+TEST(IntersectCli, TheAuthoredPostureIsClean) {
+  if (!built()) GTEST_SKIP() << "built without CGAL";
+  const Outcome r = run_mimic("intersect --pose zero --method both --json", true);
+  ASSERT_EQ(r.status, 0) << r.output;
+  const auto lines = json_lines(r.output);
+  ASSERT_EQ(lines.size(), 4u) << r.output;  // a frame and a summary a method
+  for (const auto& f : {lines[0], lines[1]}) {
+    EXPECT_EQ(f["source"], "zero");
+    EXPECT_EQ(f["fold_pairs"], 0) << f.dump();
+    EXPECT_EQ(f["between_pairs"], 0) << f.dump();
+    EXPECT_EQ(f["deepest_mm"], 0.0) << f.dump();
+  }
+}
+
 TEST(IntersectCli, UsageErrorsAndBadInput) {
   if (!built()) GTEST_SKIP() << "built without CGAL";
-  for (const char* args : {"intersect", "intersect --motion walk --lod 4", "intersect --motion walk --lod 0,x",
-                           "intersect --motion walk --method lbs", "intersect --motion walk --every 0",
-                           "intersect --motion walk --bvh x.bvh"}) {
+  for (const char* args :
+       {"intersect", "intersect --motion walk --lod 4", "intersect --motion walk --lod 0,x",
+        "intersect --motion walk --method lbs", "intersect --motion walk --every 0",
+        "intersect --motion walk --bvh x.bvh", "intersect --pose zero --motion walk", "intersect --pose sitting"}) {
     const Outcome r = run_mimic(args);
     EXPECT_EQ(r.status, 2) << args << "\n" << r.output;
     EXPECT_NE(r.output.find("mimic intersect"), std::string::npos) << args << "\n" << r.output;
