@@ -143,7 +143,7 @@ TEST(SelfIntersection, RefusesNonManifoldTopology) {
 // counted once and in one class, a depth comes with a pair of the two parts, only rigid parts and
 // the pieces they attach to are by design), the authored posture is clean, and a hand pushed into
 // the chest is found with its depth.
-class DefaultBody : public ::testing::Test {
+class BodySelfIntersection : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
     auto b = RealtimeBody::create(default_body_model());
@@ -178,7 +178,7 @@ class DefaultBody : public ::testing::Test {
   static inline std::shared_ptr<const RealtimeBody>* body_ = nullptr;
 };
 
-TEST_F(DefaultBody, TheAuthoredPostureIsCleanAndTheRigidPartsSinkByDesign) {
+TEST_F(BodySelfIntersection, TheAuthoredPostureIsCleanAndTheRigidPartsSinkByDesign) {
   auto checker = SelfIntersectionChecker::create(body().rest_mesh());
   ASSERT_TRUE(checker) << checker.error().what();
   EXPECT_EQ(checker->part_count(), 16u);  // eleven skin pieces, head, hands and feet
@@ -191,7 +191,7 @@ TEST_F(DefaultBody, TheAuthoredPostureIsCleanAndTheRigidPartsSinkByDesign) {
   EXPECT_EQ(r.triangles, body().rest_mesh().triangle_count());
 }
 
-TEST_F(DefaultBody, AHandPushedIntoTheChestIsFoundWithItsDepth) {
+TEST_F(BodySelfIntersection, AHandPushedIntoTheChestIsFoundWithItsDepth) {
   auto checker = SelfIntersectionChecker::create(body().rest_mesh());
   ASSERT_TRUE(checker) << checker.error().what();
   Mesh m = body().rest_mesh();
@@ -232,7 +232,7 @@ TEST_F(DefaultBody, AHandPushedIntoTheChestIsFoundWithItsDepth) {
 
 // Two frames of the built-in walk with both methods (the same mesh at subdivision 0): what is
 // found hangs together, and the rigid parts sink into their pieces in every frame.
-TEST_F(DefaultBody, TwoFramesOfTheWalk) {
+TEST_F(BodySelfIntersection, TwoFramesOfTheWalk) {
   auto checker = SelfIntersectionChecker::create(body().rest_mesh());
   ASSERT_TRUE(checker) << checker.error().what();
   RealtimeSkin skin(shared());
@@ -266,7 +266,7 @@ TEST_F(DefaultBody, TwoFramesOfTheWalk) {
 
 // Every shared clip, sampled (the full sweep is `mimic intersect`, docs/skin.md): the T-pose each
 // CMU clip opens with is clean, and what two frames a clip show hangs together.
-TEST_F(DefaultBody, EverySharedClipSampled) {
+TEST_F(BodySelfIntersection, EverySharedClipSampled) {
   auto checker = SelfIntersectionChecker::create(body().rest_mesh());
   ASSERT_TRUE(checker) << checker.error().what();
   RealtimeSkin skin(shared());
