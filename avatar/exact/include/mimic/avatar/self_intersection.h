@@ -73,7 +73,8 @@ class SelfIntersectionChecker {
   SelfIntersectionChecker& operator=(SelfIntersectionChecker&&) noexcept;
   ~SelfIntersectionChecker();
 
-  // `positions`: one per vertex of the topology, metres. Allocates; not for the realtime path.
+  // `positions`: one per vertex of the topology, metres (fewer: an empty report with no
+  // triangles). Allocates; not for the realtime path.
   IntersectionReport check(std::span<const glm::vec3> positions) const;
 
   size_t part_count() const;
