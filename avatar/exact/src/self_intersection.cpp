@@ -183,8 +183,8 @@ void SelfIntersectionChecker::Impl::deepest(std::span<const glm::vec3> positions
 IntersectionReport SelfIntersectionChecker::check(std::span<const glm::vec3> positions) const {
   const Impl& d = *impl_;
   IntersectionReport r;
-  r.triangles = d.indices.size() / 3;
   if (positions.size() < d.vertex_count) return r;
+  r.triangles = d.indices.size() / 3;
   std::vector<std::vector<size_t>> pairs;
   d.count_pairs(positions, r, pairs);
   d.deepest(positions, pairs, r);
