@@ -19,6 +19,7 @@ packages=(
   clang libclang-rt-14-dev         # the second compiler CI builds with; libFuzzer and sanitizers
   libnats-dev nats-server          # broker transport (mimic run --nats, mimic relay); tests start brokers
   libcli11-dev zlib1g-dev          # command-line parsing and usage text; CRC-32
+  libcgal-dev                      # exact self-intersection of the skin (mimic intersect, tests only)
   universal-ctags clang-format     # the size rules (scripts/check_structure.sh) and the tree's format
   nodejs npm                       # tests load the glTF/VRM exports with third-party readers
   emscripten                       # the browser viewer's skin: the C++ realtime skin as WebAssembly

@@ -113,6 +113,7 @@ TEST(CliHelp, AValueOutsideItsRangeIsAUsageError) {
       {"export --motion walk" + out + " --fps nan", "--fps"},
       {"export --motion dance" + out, "--motion"},
       {"inspect --lod 4", "--lod"},
+      {"intersect --motion walk --every 0", "--every"},
       {"measure --units-per-metre 0", "--units-per-metre"},
       {"mesh --pose zero --method full --subdivision 17" + out, "--subdivision"},
       {"record --source sim:walk" + out + " --duration -1", "--duration"},
