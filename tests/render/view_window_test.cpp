@@ -5,12 +5,16 @@
 
 #include <signal.h>
 #include <spawn.h>
+#include <sys/socket.h>
+#include <sys/un.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
 #include <fcntl.h>
 
+#include <cstddef>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <string>
 #include <utility>
@@ -29,10 +33,25 @@ using mimic::test::Outcome;
 using mimic::test::run_mimic;
 
 // An Xvfb server on a display number it picks itself (-displayfd: no race between tests run in
-// parallel); stopped at the end of the test.
+// parallel); stopped at the end of the test. Another suite's Xvfb on the same number that was
+// still shutting down can leave the new server without a reachable socket (seen once with two
+// suites side by side): a server no client can reach is replaced by a fresh one.
 class VirtualDisplay {
  public:
   VirtualDisplay() {
+    for (int attempt = 0; attempt < 5; ++attempt) {
+      start();
+      if (!display_.empty() && reachable()) return;
+      stop();
+      display_.clear();
+      ::usleep(300 * 1000);
+    }
+  }
+  ~VirtualDisplay() { stop(); }
+  const std::string& display() const { return display_; }
+
+ private:
+  void start() {
     int fds[2];
     if (::pipe(fds) != 0) return;
     const std::string fd = std::to_string(fds[1]);
@@ -60,10 +79,23 @@ class VirtualDisplay {
     ::close(fds[0]);
     if (!number.empty()) display_ = ":" + number;
   }
-  ~VirtualDisplay() { stop(); }
-  const std::string& display() const { return display_; }
-
- private:
+  // A client can connect: through the socket file or the abstract socket of the same name, as
+  // Xlib and xcb try them.
+  bool reachable() const {
+    const std::string path = "/tmp/.X11-unix/X" + display_.substr(1);
+    for (const bool abstract : {false, true}) {
+      sockaddr_un addr{};
+      addr.sun_family = AF_UNIX;
+      std::memcpy(addr.sun_path + (abstract ? 1 : 0), path.data(), path.size());
+      const socklen_t size = socklen_t(offsetof(sockaddr_un, sun_path) + path.size() + (abstract ? 1 : 0));
+      const int fd = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
+      if (fd < 0) return false;
+      const bool connected = ::connect(fd, reinterpret_cast<const sockaddr*>(&addr), size) == 0;
+      ::close(fd);
+      if (connected) return true;
+    }
+    return false;
+  }
   void stop() {
     if (pid_ > 0) {
       ::kill(pid_, SIGTERM);
