@@ -381,6 +381,7 @@ nlohmann::json fanout_row(const bench::FanoutCapacity& c) {
     row["publish_to_relay_ms_p99"] = c.publish_to_relay_ms_p99;
     row["broker_cpu_percent"] = c.broker_cpu_percent;
     row["relay_fanouts_per_tick"] = c.fanouts_per_tick;
+    row["settled_after_window"] = c.settled_after_window;
   }
   return row;
 }

@@ -12,6 +12,7 @@
 #include "command.h"
 #include "mimic/render/avatar_lods.h"
 #include "mimic/render/camera.h"
+#include "mimic/render/first_person.h"
 #include "mimic/render/image.h"
 #include "mimic/render/offscreen.h"
 #include "mimic/render/overlays.h"
@@ -46,12 +47,14 @@ constexpr const char* kAbout =
 constexpr const char* kFooter =
     "examples:\n"
     "  mimic view --screenshot walk.png --motion walk --time 0.4 --camera side --overlay all\n"
+    "  mimic view --screenshot eyes.png --pose rest --eyes 1 --look 0,-50   its own body, looking down\n"
     "  mimic view --source sim:walk --source actor:wander --place 2,0\n"
     "  mimic view --connect 127.0.0.1:7777\n"
     "\n"
     "interactive keys: H or F1 help, 1-5 overlays, L cycle LOD (auto, 0..3), T translucent,\n"
-    "G grid, F first-person at the next avatar's head, R reset camera (every avatar framed beside\n"
-    "the panel, facing them), Esc quit; left drag orbit, right or middle drag pan, wheel zoom.\n"
+    "G grid, F first person through the next avatar's eyes (a drag turns the look), R reset camera\n"
+    "(every avatar framed beside the panel, facing them), Esc quit; left drag orbit, right or\n"
+    "middle drag pan, wheel zoom.\n"
     "\n"
     "exit status: 0 done, 1 rendering or input failure, 2 usage error";
 
@@ -81,6 +84,30 @@ bool parse_size(const std::string& text, int& w, int& h) {
     return false;
   }
   return w >= 16 && h >= 16 && w <= 8192 && h <= 8192;
+}
+
+// "YAW[,PITCH]" in degrees (left and up positive, |YAW| ≤ 180, |PITCH| ≤ 85) into radians.
+bool parse_look(const std::string& text, float& yaw_rad, float& pitch_rad) {
+  const size_t comma = text.find(',');
+  double yaw = 0, pitch = 0;
+  try {
+    size_t used = 0;
+    const std::string first = text.substr(0, comma);
+    yaw = std::stod(first, &used);
+    if (used != first.size()) return false;
+    if (comma != std::string::npos) {
+      const std::string second = text.substr(comma + 1);
+      pitch = std::stod(second, &used);
+      if (used != second.size()) return false;
+    }
+  } catch (...) {
+    return false;
+  }
+  if (!(std::abs(yaw) <= 180.0 && std::abs(pitch) <= 85.0)) return false;  // NaN fails too
+  constexpr double kRadPerDeg = 3.14159265358979 / 180.0;
+  yaw_rad = static_cast<float>(yaw * kRadPerDeg);
+  pitch_rad = static_cast<float>(pitch * kRadPerDeg);
+  return true;
 }
 
 // "l_shoulder_abduction=2.5,r_elbow_flexion=1" onto the pose; errors name the DOF.
@@ -176,6 +203,16 @@ int screenshot(const ShotOptions& shot, const ViewOptions& view) {
     }
     if (view.overlays & render::kOverlaySkeleton)
       render::append_skeleton(lods->skeleton(), request->pose, glm::mat4(1.0f), xray);
+    if (view.eyes > 0) {  // through the body's own eyes, its head left out
+      std::vector<rig::RigidTransform> joints(static_cast<size_t>(lods->skeleton().joint_count()));
+      rig::forward_kinematics(lods->skeleton(), request->pose, joints);
+      const auto eyes = render::avatar_eyes(lods->skeleton(), joints, glm::mat4(1.0f));
+      if (!eyes) return failure(kName, "--eyes: the body's skeleton has no head");
+      render::look_through(frame.camera, *eyes);
+      frame.camera.look(view.look_yaw_rad, view.look_pitch_rad);
+      draws.back().hidden_parts = render::parts_hidden_from_own_eyes(lods->mesh(lod));
+      frame.ground = view.grid;
+    }
   } else {
     frame.camera = render::preset_camera(view.camera, floor_center, height_m, aspect);
     std::printf("scene     empty\n");
@@ -289,10 +326,25 @@ void add_interactive_options(cli::Parser& p, cli::OptionGroups& sources, ViewOpt
   p->add_flag_function(
        "--no-panel", [&view](std::int64_t) { view.panel = false; }, "no status panel (clean captures)")
       ->group(group);
-  p->add_option("--eyes", view.eyes, "start in first person, at avatar K's head (from 1)")
+  p->add_option("--eyes", view.eyes,
+                "first person: through avatar K's eyes (from 1; a screenshot's body is 1),\n"
+                "its head not drawn, a headset's field of view")
       ->type_name("K")
       ->default_str("")
       ->check(CLI::NonNegativeNumber)
+      ->group(group);
+  p->add_option_function<std::string>(
+       "--look",
+       [&view](const std::string& text) { view.look_given = parse_look(text, view.look_yaw_rad, view.look_pitch_rad); },
+       "with --eyes: the look turned YAW degrees left (negative: right) and PITCH up\n"
+       "from where the head looks, as a drag in the window turns it")
+      ->check(accepted_by(
+          [](const std::string& t) {
+            float yaw = 0, pitch = 0;
+            return parse_look(t, yaw, pitch);
+          },
+          "must be YAW[,PITCH] in degrees (|YAW| <= 180, |PITCH| <= 85)", "YAW[,PITCH]"))
+      ->needs(p->get_option("--eyes"))
       ->group(group);
 }
 
@@ -368,6 +420,8 @@ int run_view(const std::vector<std::string>& argv) {
     if (!view.sources.empty())
       return p.usage_error(
           "--screenshot draws a posed body: give --bvh, --motion or --pose, not --source or --connect");
+    if (view.eyes > 1) return p.usage_error("--eyes " + std::to_string(view.eyes) + ": a screenshot has one body, 1");
+    if (view.eyes > 0 && shot.empty) return p.usage_error("--eyes: --empty has no body to look through");
     return screenshot(shot, view);
   }
   if (!view.sources.empty() && !view.connect.empty()) return p.usage_error("give --source or --connect, not both");

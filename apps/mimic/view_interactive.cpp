@@ -25,6 +25,7 @@
 #include "mimic/net/client.h"
 #include "mimic/render/avatar_lods.h"
 #include "mimic/render/camera.h"
+#include "mimic/render/first_person.h"
 #include "mimic/render/hud.h"
 #include "mimic/render/image.h"
 #include "mimic/render/overlays.h"
@@ -101,10 +102,15 @@ struct ViewState {
   int ray_ring = 40;
   int first_person = -1;  // avatar index, or -1: orbit
   long eyes = 0;          // --eyes K: start looking through avatar K's eyes (once it is there)
+  // Entering an avatar's eyes: once the scene stands in place, turn the look to the nearest
+  // other avatar if nobody is in view (render::yaw_towards_others), as a wearer would.
+  bool turn_to_others = false;
+  bool look_given = false;  // --look: the user chose the look; no turn
   // Per-frame buffers, kept for their capacity.
   render::Lines lines, xray;
   std::vector<render::MeshDraw> draws;
   std::vector<rig::RigidTransform> joints;
+  std::vector<glm::vec3> others_m;
 };
 
 glm::vec3 root_in_world(const ViewAvatar& a) {
@@ -296,6 +302,7 @@ void handle_keys(render::Window& window, ViewState& s, size_t avatar_count) {
         s.camera = s.home;
         s.first_person = -1;
         s.camera.first_person_eye.reset();
+        s.camera.look_yaw_rad = s.camera.look_pitch_rad = 0.0f;
         s.follow = true;
         s.zoom = 1.0f;
         break;
@@ -303,6 +310,8 @@ void handle_keys(render::Window& window, ViewState& s, size_t avatar_count) {
       case 'F':
         s.first_person = s.first_person + 1 >= static_cast<int>(avatar_count) ? -1 : s.first_person + 1;
         if (s.first_person < 0) s.camera.first_person_eye.reset();
+        s.camera.look_yaw_rad = s.camera.look_pitch_rad = 0.0f;  // new eyes look where their head looks
+        s.turn_to_others = s.first_person >= 0;
         break;
       default: break;
     }
@@ -332,8 +341,11 @@ void follow_scene(const ViewOptions& view, float dt_s, const std::vector<ViewAva
 // Once the avatars have poses and skins (a few frames in), fit the orbit camera to the whole
 // scene, facing the avatars, beside the status panel; then follow them as they move.
 void frame_camera(const ViewOptions& view, long frames, float dt_s, std::vector<ViewAvatar>& avatars, ViewState& s) {
-  if (s.eyes > 0 && s.first_person < 0 && static_cast<long>(avatars.size()) >= s.eyes)
+  if (s.eyes > 0 && s.first_person < 0 && static_cast<long>(avatars.size()) >= s.eyes) {
     s.first_person = static_cast<int>(s.eyes - 1);
+    s.turn_to_others = !s.look_given;
+    s.eyes = 0;  // once: F and R take over from here
+  }
   if (!s.framed && frames >= 5 && !avatars.empty()) {
     // Avatars of the default row stand in it 1.5 m apart where they are now: a motion that
     // starts away from its own origin (the built-in walk circles 1.2 m from it) would stand in
@@ -343,8 +355,10 @@ void frame_camera(const ViewOptions& view, long frames, float dt_s, std::vector<
         a.world_from_body =
             glm::translate(glm::mat4(1.0f), glm::vec3(a.row_position_m.x - a.pose.root_position_m.x, 0.0f,
                                                       a.row_position_m.z - a.pose.root_position_m.z));
+    const float look_yaw_rad = s.camera.look_yaw_rad, look_pitch_rad = s.camera.look_pitch_rad;
     s.camera = frame_scene(avatars, view.camera, float(view.width) / float(view.height), s.panel_right);
     s.home = s.camera;
+    s.camera.look_yaw_rad = look_yaw_rad, s.camera.look_pitch_rad = look_pitch_rad;  // --look, or a drag
     s.fitted_m = s.camera.distance_m;
     s.framed = true;
   } else if (s.framed && s.follow && s.first_person < 0 && !avatars.empty()) {
@@ -352,16 +366,12 @@ void frame_camera(const ViewOptions& view, long frames, float dt_s, std::vector<
   }
 }
 
-// The eyes of an avatar: a little in front of its face, looking where its head looks.
+// The eyes of an avatar, as a headset shows them (render/first_person.h).
 void look_through(const ViewAvatar& a, std::vector<rig::RigidTransform>& joints, render::Camera& camera) {
   joints.resize(a.lods->skeleton().joint_count());
   rig::forward_kinematics(a.lods->skeleton(), a.pose, joints);
-  const int head = a.lods->skeleton().find_joint("head");
-  if (head < 0) return;
-  const rig::RigidTransform& h = joints[head];
-  const glm::vec3 forward = h.apply_vector({0, 0, 1});
-  camera.first_person_eye = glm::vec3(a.world_from_body * glm::vec4(h.apply({0, 0.09f, 0.14f}), 1.0f));
-  camera.first_person_forward = glm::vec3(a.world_from_body * glm::vec4(forward, 0.0f));
+  if (auto eyes = render::avatar_eyes(a.lods->skeleton(), joints, a.world_from_body))
+    render::look_through(camera, *eyes);
 }
 
 // Deforms each avatar at the LOD its distance calls for, gathers the overlays, renders.
@@ -379,7 +389,10 @@ void draw_scene(render::Window& window, render::Renderer& renderer, std::vector<
     const auto d0 = std::chrono::steady_clock::now();
     const render::MeshId mesh = a.lods->update(a.lod, a.pose, renderer);
     a.deform_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - d0).count();
-    draws.push_back({mesh, a.world_from_body, s.see_through ? 0.35f : 1.0f});
+    // Through this avatar's eyes: its head (around the eye) is left out, the rest of it shows.
+    const bool own = static_cast<int>(i) == s.first_person;
+    draws.push_back({mesh, a.world_from_body, s.see_through ? 0.35f : 1.0f,
+                     own ? render::parts_hidden_from_own_eyes(a.lods->mesh(a.lod)) : 0});
     if (s.overlays & (render::kOverlayContours | render::kOverlayPrimitives | render::kOverlayRays)) {
       const avatar::ImplicitSkin& skin = a.lods->overlay_skin(a.lod, a.pose);
       if (s.overlays & render::kOverlayContours) render::append_contours(skin, a.world_from_body, lines);
@@ -390,13 +403,25 @@ void draw_scene(render::Window& window, render::Renderer& renderer, std::vector<
     if (s.overlays & render::kOverlaySkeleton)
       render::append_skeleton(a.lods->skeleton(), a.pose, a.world_from_body, xray);
     if (s.overlays & render::kOverlaySensors) render::append_sensors(a.sensors, xray);
-    if (static_cast<int>(i) == s.first_person) look_through(a, s.joints, s.camera);
+    if (own) look_through(a, s.joints, s.camera);
+  }
+  if (s.turn_to_others && s.framed && s.first_person >= 0 && s.camera.first_person_eye) {
+    s.others_m.clear();
+    for (size_t i = 0; i < avatars.size(); ++i)
+      if (static_cast<int>(i) != s.first_person) s.others_m.push_back(root_in_world(avatars[i]));
+    // The middle two thirds of the view's width: someone at its very edge is not "in view".
+    const float half_width_rad =
+        std::atan(std::tan(0.5f * s.camera.first_person_fov_y_rad) * float(fb_w) / float(std::max(fb_h, 1)));
+    s.camera.look_yaw_rad = render::yaw_towards_others(*s.camera.first_person_eye, s.camera.first_person_forward,
+                                                       s.others_m, 0.67f * half_width_rad);
+    s.turn_to_others = false;
   }
   render::FrameDesc frame;
   frame.width_px = fb_w;
   frame.height_px = fb_h;
   frame.camera = s.camera;
   frame.grid = s.grid;
+  frame.ground = s.grid && s.first_person >= 0;
   frame.meshes = draws;
   frame.lines = lines.vertices;
   frame.xray_lines = xray.vertices;
@@ -453,6 +478,7 @@ int run_interactive(const ViewOptions& view) {
   std::tie(state.overlays, state.lod_mode, state.grid, state.see_through, state.ray_ring) =
       std::tie(view.overlays, view.lod, view.grid, view.see_through, view.ray_ring);
   state.eyes = view.eyes;
+  state.look_given = view.look_given;
   auto window = render::Window::open("Mimic", view.width, view.height, view.vsync);
   if (!window) return failure(kName, window.error().message);
   auto renderer = render::Renderer::create();
@@ -464,6 +490,7 @@ int run_interactive(const ViewOptions& view) {
 
   state.camera = render::preset_camera(view.camera, {0, 0, 0}, 1.75f, float(view.width) / float(view.height));
   state.home = state.camera;
+  state.camera.look(view.look_yaw_rad, view.look_pitch_rad);
   double last_frame_s = window->time_s();
   FrameTimes times;
   times.window_start_s = window->time_s();

@@ -33,6 +33,9 @@ struct ViewOptions {
   long frames = -1;     // quit after this many frames; -1: when the window closes
   std::string capture;  // save the last frame (with --frames) as this PNG
   long eyes = 0;        // start in first person at avatar K's head (from 1); 0: orbit
+  // --look YAW[,PITCH]: in first person, the look turned from where the head looks (left, up).
+  float look_yaw_rad = 0.0f, look_pitch_rad = 0.0f;
+  bool look_given = false;  // without --look, the eyes turn to the nearest other avatar if none is in view
   bool vsync = true, help_overlay = false, panel = true;
 };
 

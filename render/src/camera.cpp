@@ -25,14 +25,32 @@ glm::mat4 Camera::view_from_world() const {
   if (first_person_eye) {
     glm::vec3 f = first_person_forward;
     if (glm::length(f) < 1e-6f) f = {0, 0, 1};
-    return glm::lookAt(*first_person_eye, *first_person_eye + glm::normalize(f), glm::vec3(0, 1, 0));
+    f = glm::normalize(f);
+    // The up vector made square to the gaze; a head facing straight up or down keeps the world's.
+    glm::vec3 up = first_person_up - glm::dot(first_person_up, f) * f;
+    if (glm::length(up) < 1e-3f) up = std::abs(f.y) < 0.99f ? glm::vec3(0, 1, 0) - f.y * f : glm::vec3(0, 0, 1);
+    up = glm::normalize(up);
+    // The user's look: turned about the world's vertical, then tilted about the view's right.
+    const glm::quat yaw = glm::angleAxis(look_yaw_rad, glm::vec3(0, 1, 0));
+    f = yaw * f;
+    up = yaw * up;
+    const glm::quat pitch = glm::angleAxis(look_pitch_rad, glm::normalize(glm::cross(f, up)));
+    f = pitch * f;
+    up = pitch * up;
+    return glm::lookAt(*first_person_eye, *first_person_eye + f, up);
   }
   return glm::lookAt(eye(), target, glm::vec3(0, 1, 0));
 }
 
 glm::mat4 Camera::clip_from_view(float aspect) const {
-  return glm::perspective(first_person_eye ? first_person_fov_y_rad : fov_y_rad, std::max(aspect, 1e-3f), near_m,
-                          far_m);
+  if (first_person_eye)
+    return glm::perspective(first_person_fov_y_rad, std::max(aspect, 1e-3f), first_person_near_m, far_m);
+  return glm::perspective(fov_y_rad, std::max(aspect, 1e-3f), near_m, far_m);
+}
+
+void Camera::look(float dyaw_rad, float dpitch_rad) {
+  look_yaw_rad = std::remainder(look_yaw_rad + dyaw_rad, 6.2831853f);
+  look_pitch_rad = std::clamp(look_pitch_rad + dpitch_rad, -1.5f, 1.5f);
 }
 
 void Camera::orbit(float dyaw_rad, float dpitch_rad) {

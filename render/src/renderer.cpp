@@ -197,6 +197,13 @@ struct Renderer::Impl {
       v.push_back({{s, 0, half_m}, cz});
     }
     grid_vertices = static_cast<GLsizei>(v.size());
+    // The ground beyond the grid, out to the far plane's reach: in first person the eye looks
+    // across it to the horizon, and a floor that ends 5 m away reads as a void.
+    const glm::vec4 ground{0.86f, 0.87f, 0.89f, 1.0f};
+    const float far_m = 200.0f;
+    for (const glm::vec2& c :
+         {glm::vec2(-1, -1), glm::vec2(1, -1), glm::vec2(1, 1), glm::vec2(-1, -1), glm::vec2(1, 1), glm::vec2(-1, 1)})
+      v.push_back({{c.x * far_m, 0.0f, c.y * far_m}, ground});
     glGenVertexArrays(1, &grid_vao);
     glBindVertexArray(grid_vao);
     glGenBuffers(1, &grid_vbo);
@@ -231,7 +238,9 @@ struct Renderer::Impl {
       glUniformMatrix4fv(mesh_model, 1, GL_FALSE, &d.world_from_mesh[0][0]);
       glUniform1f(mesh_alpha, d.alpha);
       glUniform1i(mesh_has_normals, m.has_normals ? 1 : 0);
-      for (const Part& p : m.parts) {
+      for (size_t i = 0; i < m.parts.size(); ++i) {
+        const Part& p = m.parts[i];
+        if (i < 64 && (d.hidden_parts >> i) & 1u) continue;
         glUniform3fv(mesh_color, 1, &p.color[0]);
         glDrawElements(GL_TRIANGLES, static_cast<GLsizei>(p.index_count), GL_UNSIGNED_INT,
                        offset(p.first_index * sizeof(uint32_t)));
@@ -347,11 +356,19 @@ void Renderer::render(const FrameDesc& frame) {
   glDisable(GL_BLEND);
   glDisable(GL_SCISSOR_TEST);
 
+  glUseProgram(r.line_program);
+  glUniformMatrix4fv(r.line_clip, 1, GL_FALSE, &clip[0][0]);
+  if (frame.ground) {  // behind everything: no depth, as the clear colour is
+    glDisable(GL_DEPTH_TEST);
+    glBindVertexArray(r.grid_vao);
+    glDrawArrays(GL_TRIANGLES, r.grid_vertices, 6);
+    glEnable(GL_DEPTH_TEST);
+  }
+
   r.draw_meshes(frame, clip, view, false);
 
   r.upload_lines(frame.lines, frame.xray_lines);
   glUseProgram(r.line_program);
-  glUniformMatrix4fv(r.line_clip, 1, GL_FALSE, &clip[0][0]);
   glEnable(GL_BLEND);
   glBlendFunc(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA);
   if (frame.grid) {

@@ -114,7 +114,9 @@ std::vector<int> Window::begin_frame(Camera& camera) {
   glfwGetWindowSize(w.window, &width, &height);
   if (w.have_last && !io.WantCaptureMouse) {
     const float dx = static_cast<float>(x - w.last_x), dy = static_cast<float>(y - w.last_y);
-    if (glfwGetMouseButton(w.window, GLFW_MOUSE_BUTTON_LEFT) == GLFW_PRESS && !camera.first_person_eye) {
+    if (glfwGetMouseButton(w.window, GLFW_MOUSE_BUTTON_LEFT) == GLFW_PRESS && camera.first_person_eye) {
+      camera.look(-dx * 0.005f, -dy * 0.005f);  // turn the head: drag right looks right
+    } else if (glfwGetMouseButton(w.window, GLFW_MOUSE_BUTTON_LEFT) == GLFW_PRESS) {
       camera.orbit(-dx * 0.008f, dy * 0.008f);
     } else if (glfwGetMouseButton(w.window, GLFW_MOUSE_BUTTON_RIGHT) == GLFW_PRESS ||
                glfwGetMouseButton(w.window, GLFW_MOUSE_BUTTON_MIDDLE) == GLFW_PRESS) {

@@ -372,7 +372,11 @@ TEST(Bench, FanoutSectionPrintsOneRowPerTransport) {
                           "cpu_percent", "lost", "sender_threads"})
       EXPECT_TRUE(r.contains(k)) << r["transport"] << " " << k;
     EXPECT_EQ(r["streams"].get<uint64_t>(), 100u);
-    EXPECT_EQ(r["received"].get<uint64_t>() + r["lost"].get<uint64_t>(), r["expected"].get<uint64_t>());
+    // Every frame counted once: a broker row's window closes a few ticks after the last publish,
+    // and what a loaded machine still had on the way then is counted after it.
+    const uint64_t after_window = r.contains("settled_after_window") ? r["settled_after_window"].get<uint64_t>() : 0;
+    EXPECT_EQ(r["received"].get<uint64_t>() + r["lost"].get<uint64_t>() + after_window, r["expected"].get<uint64_t>())
+        << r.dump();
     EXPECT_LT(r["bytes_per_avatar_frame"].get<double>(), 64.0);
     if (r["transport"] == "nats") {
       EXPECT_GT(r["publish_to_relay_ms_p50"].get<double>(), 0.0);

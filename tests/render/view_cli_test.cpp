@@ -202,6 +202,43 @@ TEST(ViewCli, AClipFrameRenders) {
   EXPECT_GT(mimic::render::coverage(image, kBackground).count, 3000);
 }
 
+// Skin-coloured pixels (head, neck, forearms and hands) in a box of the image, in fractions of it.
+int skin_pixels(const mimic::render::Image& image, double x0, double x1, double y0, double y1) {
+  int n = 0;
+  for (int y = int(y0 * image.height); y < int(y1 * image.height); ++y)
+    for (int x = int(x0 * image.width); x < int(x1 * image.width); ++x) {
+      const uint8_t* p = image.pixel(x, y);
+      n += p[0] > p[2] + 35 && p[1] > p[2] + 10 && p[0] > 120;
+    }
+  return n;
+}
+
+// Through the body's own eyes (--eyes 1), as a headset shows its wearer: looking ahead, nothing
+// of the body (its head is around the eye and is not drawn: its inside would cover the whole
+// image, a face's front the middle); looking down with the elbows bent, the forearms and hands
+// in front, the left ones on the image's left; and the view is not an orbit camera's.
+TEST(ViewCli, FirstPersonShowsTheOwnHandsAndNotTheInsideOfTheHead) {
+  const std::string eyes = "--size 400x300 --no-grid --lod 1 --eyes 1 ";
+  const mimic::render::Image ahead = shoot("ahead.png", eyes + "--pose rest");
+  ASSERT_EQ(ahead.width, 400);
+  EXPECT_LT(mimic::render::coverage(ahead, kBackground).count, 400 * 300 / 100);
+  const std::string bent = "--pose rest --set l_elbow_flexion=1.6,r_elbow_flexion=1.6 ";
+  const mimic::render::Image down = shoot("down.png", eyes + bent + "--look 0,-40");
+  EXPECT_GT(skin_pixels(down, 0.0, 0.3, 0.45, 0.85), 300) << "the left forearm and hand";
+  EXPECT_GT(skin_pixels(down, 0.7, 1.0, 0.45, 0.85), 300) << "the right forearm and hand";
+  EXPECT_LT(skin_pixels(down, 0.0, 1.0, 0.0, 0.4), 20) << "nothing of the body above the hands";
+  // Only the left elbow bent: the left forearm shows, the right arm hangs out of view.
+  const mimic::render::Image left = shoot("left.png", eyes + "--pose rest --set l_elbow_flexion=1.6 --look 0,-40");
+  EXPECT_GT(skin_pixels(left, 0.0, 0.3, 0.45, 0.85), 300);
+  EXPECT_LT(skin_pixels(left, 0.7, 1.0, 0.45, 0.85), 20);
+  // One body: --eyes 1 only; --look needs --eyes and takes degrees within bounds.
+  for (const char* bad : {"--eyes 2", "--look 30", "--eyes 1 --look 200", "--eyes 1 --look 0,90", "--eyes 1 --look x",
+                          "--eyes 1 --empty"}) {
+    const Outcome r = run_mimic(std::string("view --screenshot /tmp/x.png ") + bad);
+    EXPECT_EQ(r.status, 2) << bad << "\n" << r.output;
+  }
+}
+
 TEST(ViewCli, BadRequestsGetClearErrors) {
   Outcome r = run_mimic("view --screenshot /tmp/x.png --camera top");
   EXPECT_EQ(r.status, 2);

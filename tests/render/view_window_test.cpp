@@ -5,12 +5,16 @@
 
 #include <signal.h>
 #include <spawn.h>
+#include <sys/socket.h>
+#include <sys/un.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
 #include <fcntl.h>
 
+#include <cstddef>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <string>
 #include <utility>
@@ -29,10 +33,25 @@ using mimic::test::Outcome;
 using mimic::test::run_mimic;
 
 // An Xvfb server on a display number it picks itself (-displayfd: no race between tests run in
-// parallel); stopped at the end of the test.
+// parallel); stopped at the end of the test. Another suite's Xvfb on the same number that was
+// still shutting down can leave the new server without a reachable socket (seen once with two
+// suites side by side): a server no client can reach is replaced by a fresh one.
 class VirtualDisplay {
  public:
   VirtualDisplay() {
+    for (int attempt = 0; attempt < 5; ++attempt) {
+      start();
+      if (!display_.empty() && reachable()) return;
+      stop();
+      display_.clear();
+      ::usleep(300 * 1000);
+    }
+  }
+  ~VirtualDisplay() { stop(); }
+  const std::string& display() const { return display_; }
+
+ private:
+  void start() {
     int fds[2];
     if (::pipe(fds) != 0) return;
     const std::string fd = std::to_string(fds[1]);
@@ -60,10 +79,23 @@ class VirtualDisplay {
     ::close(fds[0]);
     if (!number.empty()) display_ = ":" + number;
   }
-  ~VirtualDisplay() { stop(); }
-  const std::string& display() const { return display_; }
-
- private:
+  // A client can connect: through the socket file or the abstract socket of the same name, as
+  // Xlib and xcb try them.
+  bool reachable() const {
+    const std::string path = "/tmp/.X11-unix/X" + display_.substr(1);
+    for (const bool abstract : {false, true}) {
+      sockaddr_un addr{};
+      addr.sun_family = AF_UNIX;
+      std::memcpy(addr.sun_path + (abstract ? 1 : 0), path.data(), path.size());
+      const socklen_t size = socklen_t(offsetof(sockaddr_un, sun_path) + path.size() + (abstract ? 1 : 0));
+      const int fd = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
+      if (fd < 0) return false;
+      const bool connected = ::connect(fd, reinterpret_cast<const sockaddr*>(&addr), size) == 0;
+      ::close(fd);
+      if (connected) return true;
+    }
+    return false;
+  }
   void stop() {
     if (pid_ > 0) {
       ::kill(pid_, SIGTERM);
@@ -252,7 +284,7 @@ TEST(ViewWindow, FirstPersonSeesTheAvatarOppositeAndNotItself) {
   auto look = [&](int avatar) {
     const std::string out = temp("eyes.png");
     const Outcome r = run_mimic("view --connect " + endpoint + " --eyes " + std::to_string(avatar) +
-                                " --frames 20 --no-vsync --no-panel --size 320x240 --capture '" + out + "'");
+                                " --frames 20 --no-vsync --no-panel --size 480x360 --capture '" + out + "'");
     EXPECT_EQ(r.status, 0) << r.output;
     auto image = mimic::render::read_png(out);
     std::filesystem::remove(out);
@@ -271,6 +303,67 @@ TEST(ViewWindow, FirstPersonSeesTheAvatarOppositeAndNotItself) {
   EXPECT_GT(shirt_pixels(second), 300);
   // An orbit view of the same scene is not what any of them sees.
   EXPECT_NE(first.rgba, second.rgba);
+}
+
+// Pixels that differ from the background (with --no-grid: avatars), and their mean column.
+struct Figure {
+  int pixels = 0;
+  double centre_x = -1;
+  int top = -1, bottom = -1;  // rows
+};
+Figure figure_of(const mimic::render::Image& image) {
+  constexpr uint8_t kBackground[3] = {237, 240, 245};
+  Figure f;
+  double sum = 0;
+  for (int y = 0; y < image.height; ++y)
+    for (int x = 0; x < image.width; ++x) {
+      const uint8_t* p = image.pixel(x, y);
+      if (std::abs(p[0] - kBackground[0]) + std::abs(p[1] - kBackground[1]) + std::abs(p[2] - kBackground[2]) <= 24)
+        continue;
+      ++f.pixels;
+      sum += x;
+      if (f.top < 0) f.top = y;
+      f.bottom = y;
+    }
+  if (f.pixels > 0) f.centre_x = sum / f.pixels;
+  return f;
+}
+
+// First person in the side-by-side row, as a headset wearer standing in it sees: straight
+// ahead (--look 0), nobody (the neighbour stands beside it, and its own head is not drawn around
+// the eye); entering the eyes without --look, the look turned to the neighbour as nobody is
+// ahead; and so with the look turned by hand (a drag, or --look). The neighbour whole in
+// profile, 1.5 m away, in the middle of the view and a sane part of it; from either side.
+TEST(ViewWindow, FirstPersonInTheRowSeesTheNeighbourWhenLookingAtIt) {
+  VirtualDisplay x;
+  ASSERT_FALSE(x.display().empty()) << "Xvfb did not start (scripts/setup.sh installs it)";
+  ::setenv("DISPLAY", x.display().c_str(), 1);
+  auto look = [&](const std::string& options) {
+    const std::string out = temp("row_eyes.png");
+    const Outcome r =
+        run_mimic("view --source 'sim:idle?sensors=6;sim:idle?sensors=6&seed=2' " + options +
+                  " --frames 12 --no-vsync --no-panel --no-grid --lod 2 --size 480x360 --capture '" + out + "'");
+    EXPECT_EQ(r.status, 0) << r.output;
+    auto image = mimic::render::read_png(out);
+    std::filesystem::remove(out);
+    EXPECT_TRUE(image) << r.output;
+    return image ? figure_of(*image) : Figure{};
+  };
+  const int all = 480 * 360;
+  const Figure ahead = look("--eyes 1 --look 0");
+  EXPECT_LT(ahead.pixels, all / 100) << "avatar 1 sees itself or someone ahead";
+  // The second avatar stands 1.5 m to the first one's left (+X): 90° to the left.
+  for (const char* options : {"--eyes 1", "--eyes 2", "--eyes 1 --look 90", "--eyes 2 --look=-90"}) {
+    SCOPED_TRACE(options);
+    const Figure f = look(options);
+    EXPECT_GT(f.pixels, all * 15 / 1000);
+    EXPECT_LT(f.pixels, all * 40 / 100);
+    EXPECT_NEAR(f.centre_x, 240.0, 80.0);
+    // Seen from eye height: the head above the middle of the view, the feet near its bottom.
+    EXPECT_GT(f.top, 360 / 4);
+    EXPECT_LT(f.top, 360 / 2);
+    EXPECT_GT(f.bottom, 360 * 8 / 10);
+  }
 }
 
 // A scene published through a NATS broker: `mimic view --connect nats://HOST:PORT/SCENE` takes

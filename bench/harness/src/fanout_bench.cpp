@@ -86,7 +86,7 @@ Result<FanoutCapacity> measure_fanout_capacity(const FanoutOptions& o) {
   m.server_cpu_s = std::max(0.0, m.process_cpu_s - m.receivers_cpu_s);  // the server's threads
   if (m.realtime) set_thread_fifo(0);
   const uint64_t expected = uint64_t(o.subscribers) * uint64_t(o.avatars) * uint64_t(m.ticks);
-  const auto drain_deadline = Clock::now() + std::chrono::seconds(5);
+  const auto drain_deadline = Clock::now() + std::chrono::seconds(10);
   while (swarm.frames() < expected && Clock::now() < drain_deadline)
     srv.run_until(Clock::now() + std::chrono::milliseconds(5));
   srv.run_until(Clock::now() + std::chrono::milliseconds(50));

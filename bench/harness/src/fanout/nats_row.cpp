@@ -237,11 +237,12 @@ Result<FanoutCapacity> measure_nats(const FanoutOptions& o) {
   const NatsLinkStats relay_link = (*feed)->stats();
   m.dropped = on_server(srv, [&] { return srv.stats().frames_dropped; }) - dropped_before +
               (*publisher)->stats().frames_dropped + relay_link.frames_dropped - link_before;
-  // Then the rest drains before the subscribers stop (not counted).
-  const auto drain_deadline = Clock::now() + std::chrono::seconds(5);
+  // Then the rest drains before the subscribers stop (counted apart from the window).
+  const auto drain_deadline = Clock::now() + std::chrono::seconds(10);
   while (swarm.frames() < expected && Clock::now() < drain_deadline)
     std::this_thread::sleep_for(std::chrono::milliseconds(5));
   swarm.stop();
+  const uint64_t settled = swarm.frames() + swarm.lost() - uint64_t(m.frames_received + m.lost);
   if (o.realtime_priority > 0) set_process_threads_fifo(::getpid(), 0);
 
   m.sender_threads = srv.fanout_threads();
@@ -258,6 +259,7 @@ Result<FanoutCapacity> measure_nats(const FanoutOptions& o) {
   cap.publish_to_relay_ms_p99 = relay_link.latency_ms_p99;
   cap.broker_cpu_percent = 100.0 * broker_cpu_s / std::max(m.elapsed_s, 1e-9);
   cap.fanouts_per_tick = double(times.count - fanouts_before) / double(m.ticks);
+  cap.settled_after_window = settled;
   return cap;
 }
 

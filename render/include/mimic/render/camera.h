@@ -27,10 +27,17 @@ struct Camera {
   float fov_y_rad = 0.6f;
   float near_m = 0.05f, far_m = 100.0f;
 
-  // First person: when set, the eye sits here looking along `first_person_forward`.
+  // First person: when set, the eye sits here looking along `first_person_forward`, its
+  // `first_person_up` the top of the image (an avatar's head: render/first_person.h), turned
+  // further by the user's look (a drag: left/up positive) as a headset wearer turns the head.
   std::optional<glm::vec3> first_person_eye;
   glm::vec3 first_person_forward{0.0f, 0.0f, 1.0f};
-  float first_person_fov_y_rad = 1.1f;  // wider, as eyes see: the floor a few steps ahead shows
+  glm::vec3 first_person_up{0.0f, 1.0f, 0.0f};
+  float look_yaw_rad = 0.0f, look_pitch_rad = 0.0f;  // about the world's up, then the view's right
+  // As wide as a headset's (about 90° high, 106° wide in a 4:3 window): the own hands show when
+  // they come in front of the face and the own body when looking down.
+  float first_person_fov_y_rad = 1.5708f;
+  float first_person_near_m = 0.02f;  // the own hands may come close to the eyes
 
   glm::vec3 eye() const;
   glm::mat4 view_from_world() const;
@@ -42,6 +49,9 @@ struct Camera {
   void orbit(float dyaw_rad, float dpitch_rad);
   void pan(float dx_view, float dy_view);
   void zoom(float factor);
+  // A drag in first person: the look turned left by `dyaw_rad` and up by `dpitch_rad` (pitch
+  // clamped to ±1.5 rad).
+  void look(float dyaw_rad, float dpitch_rad);
 };
 
 // Keeps an orbit camera's target on a moving point of the floor (the avatars' centre): a glide

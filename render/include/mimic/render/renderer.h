@@ -46,13 +46,17 @@ struct MeshDraw {
   MeshId mesh;
   glm::mat4 world_from_mesh{1.0f};
   float alpha = 1.0f;  // < 1: see-through, for overlays inside the body
+  // Parts left out, bit i for the mesh's part i (the first 64): a wearer's own head, seen
+  // from the eyes inside it (render/first_person.h).
+  uint64_t hidden_parts = 0;
 };
 
 struct FrameDesc {
   int width_px = 0, height_px = 0;
   Camera camera;
   glm::vec3 background{0.93f, 0.94f, 0.96f};
-  bool grid = true;  // 10 m × 10 m floor, a line every 0.5 m
+  bool grid = true;     // 10 m × 10 m floor, a line every 0.5 m
+  bool ground = false;  // the floor shaded out to the horizon (first person), under the grid
   std::span<const MeshDraw> meshes;
   std::span<const LineVertex> lines;       // depth-tested, in pairs
   std::span<const LineVertex> xray_lines;  // drawn over everything (skeleton, rays)

@@ -1,7 +1,7 @@
 // The interactive viewer's window: GLFW (window, OpenGL 3.3 core context, input) with Dear
 // ImGui on top (its GLFW and OpenGL3 backends). The mouse drives a Camera unless ImGui wants
-// it: left drag orbits, right or middle drag pans, the wheel zooms. Keys pressed since the last
-// frame are queued for the caller, again unless ImGui has the keyboard: printable keys as their
+// it: left drag orbits (in first person: turns the look), right or middle drag pans, the wheel zooms. Keys pressed
+// since the last frame are queued for the caller, again unless ImGui has the keyboard: printable keys as their
 // upper-case ASCII code ('A', '1', '['), others as the constants below.
 #pragma once
 

@@ -85,6 +85,10 @@ struct FanoutCapacity {
   double publish_to_relay_ms_p50 = 0, publish_to_relay_ms_p99 = 0;
   double broker_cpu_percent = 0;
   double fanouts_per_tick = 0;
+  // nats rows: frames accounted for only after the timed window, in the drain that follows it
+  // (arrived late, or shown lost by a later one): with `received` and `lost`, every frame
+  // published is counted once, however slow a loaded machine made the path.
+  uint64_t settled_after_window = 0;
   bool realtime = false;   // the server's threads did run SCHED_FIFO
   int sender_threads = 1;  // threads sharing a tick's writes (Server::fanout_threads)
   int receiver_threads = 1;
