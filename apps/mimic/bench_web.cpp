@@ -41,6 +41,7 @@ class RunChild {
     posix_spawn_file_actions_t fa;
     posix_spawn_file_actions_init(&fa);
     posix_spawn_file_actions_adddup2(&fa, out[1], 1);
+    posix_spawn_file_actions_addclose(&fa, out[0]);  // the run must not hold its own pipe's read end
     posix_spawn_file_actions_addopen(&fa, 2, "/dev/null", O_WRONLY, 0);
     std::vector<std::string> args = {"/proc/self/exe", "run",      "--quiet",    "--listen",
                                      "127.0.0.1:0",    "--no-udp", "--http",     "127.0.0.1:0",
