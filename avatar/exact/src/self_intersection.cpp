@@ -123,7 +123,9 @@ void SelfIntersectionChecker::Impl::count_pairs(std::span<const glm::vec3> posit
   std::vector<std::pair<SurfaceMesh::Face_index, SurfaceMesh::Face_index>> found;
   CGAL::Polygon_mesh_processing::self_intersections(mesh, std::back_inserter(found));
   pairs.assign(names.size(), std::vector<size_t>(names.size(), 0));
+  r.triangle_pairs.reserve(found.size());
   for (const auto& [f, g] : found) {
+    r.triangle_pairs.emplace_back(uint32_t(f), uint32_t(g));
     uint32_t a = part_of_triangle[size_t(f)], b = part_of_triangle[size_t(g)];
     if (a > b) std::swap(a, b);
     ++pairs[a][b];

@@ -189,6 +189,7 @@ Result<std::shared_ptr<const RealtimeBody>> RealtimeBody::create(const BodyModel
   d->lx.resize(local.size()), d->ly.resize(local.size()), d->lz.resize(local.size());
   for (size_t k = 0; k < local.size(); ++k) d->lx[k] = local[k].x, d->ly[k] = local[k].y, d->lz[k] = local[k].z;
   measure_columns(rest, *d);
+  measure_driven_columns(rest, *d);
   group_frame_runs(*d);
   ring_centres(*d);
   copy_caps_and_rigid(L, *d);
@@ -217,7 +218,7 @@ RealtimeBody::FrameWork RealtimeBody::work_per_frame(bool muscles) const {
   // Per point, as realtime_points.cpp does it (eight lanes or one, the same operations).
   constexpr double kStarRead = 9 * 4, kStarFlops = 55;           // coordinates, columns; scale … plane
   constexpr double kMuscleRead = 9 * 4, kMuscleFlops = 15;       // one block: offset, to_min, to_max
-  constexpr double kDrivenRead = 3 * 12 + 4, kDrivenFlops = 27;  // S, G (gathered), offset, index
+  constexpr double kDrivenRead = 3 * 12 + 8, kDrivenFlops = 35;  // S, G (gathered), offset, index, 1/len²
   constexpr double kArcRead = 12, kArcFlops = 21;
   constexpr double kRigidRead = 12, kRigidFlops = 18;
   const Data& d = *data_;
@@ -246,7 +247,7 @@ size_t RealtimeBody::shared_bytes() const {
   size_t b = sizeof(Data) + d.rings.capacity() * sizeof(Data::RingOp) + d.goals.capacity() * 4 +
              (d.lx.capacity() + d.ly.capacity() + d.lz.capacity()) * 4 +
              (d.lo_x.capacity() + d.lo_y.capacity() + d.hi_x.capacity() + d.hi_y.capacity() + d.dh_lo.capacity() +
-              d.dh_hi.capacity()) *
+              d.dh_hi.capacity() + d.column_inv_len2.capacity()) *
                  4 +
              d.muscle_blocks.capacity() * sizeof(Data::MuscleBlock) + d.muscle_data.capacity() * 4 +
              d.frame_runs.capacity() * sizeof(Data::FrameRun) + (d.run_rings.capacity() + d.run_u.capacity()) * 4 +

@@ -103,6 +103,11 @@ struct RealtimeBody::Data {
   // previous ring on the same link (lo) and the next (hi): the change of (x, y) per metre along
   // the link, and how far along the link the neighbour is (beyond it, the column runs straight).
   std::vector<float> lo_x, lo_y, hi_x, hi_y, dh_lo, dh_hi;
+  // Per boundary-driven slot: 1 / |G − S|² of its column in the initial pose. The point's rest
+  // offset from P shrinks with the square of its column's length this frame over that (never
+  // grows): where a bend squeezes the band between the loop and S (the armpit and groin side), an
+  // offset as long as the column itself would carry the point past its neighbours.
+  std::vector<float> column_inv_len2;
 
   struct MuscleDof {
     int dof = -1;
@@ -206,7 +211,8 @@ Reach star_points_avx2(const RealtimeBody::Data& d, const RealtimeBody::Data::Ri
 struct State;
 void star_frames(const RealtimeBody::Data& d, State& st, bool vectorised);
 
-// A boundary-driven ring's points: P = S + α(G − S) + the rest offset turned with S's frame.
+// A boundary-driven ring's points: P = S + α(G − S) + the rest offset turned with S's frame,
+// scaled by min(1, |G − S|² · column_inv_len2).
 void driven_points(const RealtimeBody::Data& d, const RealtimeBody::Data::RingOp& r, const Frame& f,
                    std::span<glm::vec3> pos, bool vectorised);
 // Rigid vertices: out[i] = rotation·local[i] + translation.
@@ -235,6 +241,8 @@ void measure_local(const RestContours& m, const RealtimeBody::Data& d, std::vect
 // The columns (Data::lo_x …): in the initial pose, each limb point's neighbours on the previous
 // and next star ring of the same link, in the point's own ring frame.
 void measure_columns(const RestContours& m, RealtimeBody::Data& d);
+// The boundary-driven slots' rest column lengths (Data::column_inv_len2).
+void measure_driven_columns(const RestContours& m, RealtimeBody::Data& d);
 // Joint bands at the elbows and knees and their scales over each joint's bend.
 Status calibrate_bands(const RestContours& m, const rig::Pose& base, RealtimeBody::Data& d);
 // The muscle terms: `skin` (the layout's implicit skin) ray-casts the contours with each

@@ -43,6 +43,20 @@ void measure_local(const RestContours& m, const Data& d, std::vector<glm::vec3>&
   }
 }
 
+void measure_driven_columns(const RestContours& m, Data& d) {
+  d.column_inv_len2.assign(m.ctrl.size(), 0.0f);
+  for (const Data::RingOp& r : d.rings) {
+    if (r.kind != RingKind::driven) continue;
+    const uint32_t s_first = d.rings[r.s_ring].first;
+    for (uint32_t k = 0; k < r.count; ++k) {
+      const glm::vec3 column = m.ctrl[d.goals[r.goal_first + k]] - m.ctrl[s_first + k];
+      const float len2 = glm::dot(column, column);
+      // A column of no length at rest: its offset never shrinks.
+      d.column_inv_len2[r.first + k] = len2 > 1e-12f ? 1.0f / len2 : 0.0f;
+    }
+  }
+}
+
 namespace {
 
 // The limbs' star rings, surface by surface, in order along the limb.

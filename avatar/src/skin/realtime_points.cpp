@@ -67,7 +67,8 @@ void driven_points_scalar(const Data& d, const Data::RingOp& r, const Frame& f, 
   for (uint32_t j = 0; j < r.count; ++j) {
     const uint32_t k = r.first + j;
     const glm::vec3 sp = pos[s_first + j], g = pos[goal[j]];
-    pos[k] = sp + r.alpha * (g - sp) + d.lx[k] * f.x + d.ly[k] * f.y + d.lz[k] * f.z;
+    const float shrink = std::min(1.0f, glm::dot(g - sp, g - sp) * d.column_inv_len2[k]);
+    pos[k] = sp + r.alpha * (g - sp) + shrink * (d.lx[k] * f.x + d.ly[k] * f.y + d.lz[k] * f.z);
   }
 }
 
@@ -191,7 +192,7 @@ void driven_points(const Data& d, const Data::RingOp& r, const Frame& f, std::sp
   if (!vectorised) return driven_points_scalar(d, r, f, pos);
   const uint32_t s_first = d.rings[r.s_ring].first;
   const uint32_t* goal = d.goals.data() + r.goal_first;
-  const __m256 alpha = _mm256_set1_ps(r.alpha);
+  const __m256 alpha = _mm256_set1_ps(r.alpha), one = _mm256_set1_ps(1.0f);
   const __m256 fxx = _mm256_set1_ps(f.x.x), fxy = _mm256_set1_ps(f.x.y), fxz = _mm256_set1_ps(f.x.z);
   const __m256 fyx = _mm256_set1_ps(f.y.x), fyy = _mm256_set1_ps(f.y.y), fyz = _mm256_set1_ps(f.y.z);
   const __m256 fzx = _mm256_set1_ps(f.z.x), fzy = _mm256_set1_ps(f.z.y), fzz = _mm256_set1_ps(f.z.z);
@@ -208,18 +209,25 @@ void driven_points(const Data& d, const Data::RingOp& r, const Frame& f, std::sp
     const __m256 gz = _mm256_i32gather_ps(base + 2, g3, 4);
     const __m256 lx = _mm256_loadu_ps(d.lx.data() + k), ly = _mm256_loadu_ps(d.ly.data() + k),
                  lz = _mm256_loadu_ps(d.lz.data() + k);
-    const __m256 ox = _mm256_fmadd_ps(alpha, _mm256_sub_ps(gx, sx), sx);
-    const __m256 oy = _mm256_fmadd_ps(alpha, _mm256_sub_ps(gy, sy), sy);
-    const __m256 oz = _mm256_fmadd_ps(alpha, _mm256_sub_ps(gz, sz), sz);
-    const __m256 wx = _mm256_fmadd_ps(lz, fzx, _mm256_fmadd_ps(ly, fyx, _mm256_fmadd_ps(lx, fxx, ox)));
-    const __m256 wy = _mm256_fmadd_ps(lz, fzy, _mm256_fmadd_ps(ly, fyy, _mm256_fmadd_ps(lx, fxy, oy)));
-    const __m256 wz = _mm256_fmadd_ps(lz, fzz, _mm256_fmadd_ps(ly, fyz, _mm256_fmadd_ps(lx, fxz, oz)));
+    const __m256 cx = _mm256_sub_ps(gx, sx), cy = _mm256_sub_ps(gy, sy), cz = _mm256_sub_ps(gz, sz);
+    const __m256 len2 = _mm256_fmadd_ps(cz, cz, _mm256_fmadd_ps(cy, cy, _mm256_mul_ps(cx, cx)));
+    const __m256 shrink = _mm256_min_ps(one, _mm256_mul_ps(len2, _mm256_loadu_ps(d.column_inv_len2.data() + k)));
+    const __m256 ox = _mm256_fmadd_ps(alpha, cx, sx);
+    const __m256 oy = _mm256_fmadd_ps(alpha, cy, sy);
+    const __m256 oz = _mm256_fmadd_ps(alpha, cz, sz);
+    const __m256 rx = _mm256_fmadd_ps(lz, fzx, _mm256_fmadd_ps(ly, fyx, _mm256_mul_ps(lx, fxx)));
+    const __m256 ry = _mm256_fmadd_ps(lz, fzy, _mm256_fmadd_ps(ly, fyy, _mm256_mul_ps(lx, fxy)));
+    const __m256 rz = _mm256_fmadd_ps(lz, fzz, _mm256_fmadd_ps(ly, fyz, _mm256_mul_ps(lx, fxz)));
+    const __m256 wx = _mm256_fmadd_ps(shrink, rx, ox);
+    const __m256 wy = _mm256_fmadd_ps(shrink, ry, oy);
+    const __m256 wz = _mm256_fmadd_ps(shrink, rz, oz);
     simd::store8(&pos[k].x, wx, wy, wz);
   }
   for (; j < r.count; ++j) {
     const uint32_t k = r.first + j;
     const glm::vec3 sp = pos[s_first + j], g = pos[goal[j]];
-    pos[k] = sp + r.alpha * (g - sp) + d.lx[k] * f.x + d.ly[k] * f.y + d.lz[k] * f.z;
+    const float shrink = std::min(1.0f, glm::dot(g - sp, g - sp) * d.column_inv_len2[k]);
+    pos[k] = sp + r.alpha * (g - sp) + shrink * (d.lx[k] * f.x + d.ly[k] * f.y + d.lz[k] * f.z);
   }
 }
 

@@ -61,6 +61,9 @@ struct IntersectionReport {
   double sharpest_crease_deg = 0;
   std::string crease_part;              // the part of the first of the two triangles
   std::vector<PartPairCount> by_parts;  // every part pair with intersections, most pairs first
+  // Every intersecting pair of triangles (indices into the topology's triangles), by-design
+  // pairs included: where a fold or a crossing is.
+  std::vector<std::pair<uint32_t, uint32_t>> triangle_pairs;
 };
 
 // Built once per topology (indices and parts), then checks any positions of that topology.
