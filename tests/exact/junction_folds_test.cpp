@@ -56,8 +56,8 @@ Folds clip_folds(int lod, size_t every) {
 }
 
 // Mean folds a frame over every 80th frame of the clips, per LOD. Before the driven points'
-// offsets shrank with their column and the arms' S moved to 0.4 of the first link: 77.5 at LOD 0
-// (about 33 / 28 / 10 at LODs 1-3); now 38.4 / 15.9 / 13.8 / 5.5. The bounds sit between.
+// offsets shrank with their column and the arms' S moved to 0.4 of the first link: 77.5 / 32.2 /
+// 27.3 / 9.8; now 38.4 / 15.9 / 13.8 / 5.5. The bounds sit between.
 TEST(JunctionFolds, RealtimeFoldsOverTheSharedClipsStayUnderTheirBound) {
   const double bound[kSkinLodCount] = {45.0, 20.0, 20.0, 8.0};
   for (int lod = 0; lod < kSkinLodCount; ++lod) {
@@ -99,8 +99,9 @@ TEST(JunctionFolds, RealtimeFoldsAtTheJointLimits) {
   std::printf("joint limits, %zu postures: %.1f folds a posture, at most %zu (%s)\n", folds.frames, folds.mean(),
               folds.worst, worst.c_str());
   EXPECT_GT(folds.frames, 20u);
-  // What the band gives now (8.8 a posture, 51 at most: the arm straight up, the hip flexed to
-  // 130 degrees, the shoulder adducted across the chest or twisted to 120 degrees).
+  // What the band gives now: 8.8 a posture, 51 at most (the arm straight up, the hip flexed to
+  // 130 degrees, the shoulder adducted across the chest or twisted to 120 degrees); 10.5 and 71
+  // (the shoulder adducted) before.
   EXPECT_LT(folds.mean(), 12.0);
   EXPECT_LE(folds.worst, 60u);
 }
