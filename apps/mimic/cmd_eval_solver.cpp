@@ -144,6 +144,7 @@ struct Settings {
   uint64_t seed = 1;
   long max_frames = -1;
   bool filter = true;
+  bool smooth = true;
   bool refine = true;
   bool step = true;
   std::ostream* trace = nullptr;  // --trace: every joint of every frame, truth and solved
@@ -255,6 +256,7 @@ Run evaluate(const std::shared_ptr<const rig::Motion>& motion, double frame_time
   auto ctx = std::make_unique<solver::SolverContext>(*model);
   solver::SensorFilterConfig fc;
   fc.enabled = st.filter;
+  if (!st.smooth) fc.position_smoother.window = fc.rotation_smoother.window = 1;
   fc.predict_s = static_cast<float>(st.latency_ms / 1000.0);  // the tracker's known latency
   solver::SensorFilterBank filters(static_cast<int>(mounts->size()), fc);
   rig::Pose pose = model->skeleton().zero_pose();
@@ -334,7 +336,7 @@ struct Options {
   std::string clip_path, noise = "1,0.5";
   std::vector<std::string> layouts = {"3", "6", "11", "all"};
   long seed = 1, frames = -1;
-  bool no_filter = false, no_refine = false, no_step = false, joints = false, json = false;
+  bool no_filter = false, no_smooth = false, no_refine = false, no_step = false, joints = false, json = false;
   std::string trace_path;
 };
 
@@ -363,6 +365,8 @@ std::optional<int> parse(cli::Parser& p, const std::vector<std::string>& argv, O
   p->add_option("--dropout", st.dropout, "chance per sample that a sensor falls silent for 3 samples")
       ->check(cli::finite_range(0, 1));
   p->add_flag("--no-filter", o.no_filter, "solve the raw samples (no One Euro filtering)");
+  p->add_flag("--no-smooth", o.no_smooth,
+              "no fixed-lag smoothing after the One Euro filters (a sample earlier, more shake)");
   p->add_flag("--no-refine", o.no_refine, "keep the stand-still calibration (no refinement from the motion)");
   p->add_flag("--no-step", o.no_step, "untracked legs hang under the hips instead of stepping");
   p->add_option("--trace", o.trace_path,
@@ -385,6 +389,7 @@ std::optional<int> parse(cli::Parser& p, const std::vector<std::string>& argv, O
   st.seed = static_cast<uint64_t>(o.seed);
   st.max_frames = o.frames;
   st.filter = !o.no_filter;
+  st.smooth = !o.no_smooth;
   st.refine = !o.no_refine;
   st.step = !o.no_step;
   return std::nullopt;
