@@ -77,7 +77,11 @@ std::array<float, kMaxSmootherTaps> fixed_lag_taps(SmootherParams p) {
   for (int i = 0; i < n; ++i) {
     for (int j = 0; j < n; ++j) {
       const int d = std::abs(i - j);
-      m[i][j] = 2.0 * ((d == 0 ? 6.0 : d == 1 ? -4.0 : d == 2 ? 1.0 : 0.0) + p.curvature_weight * i * i * j * j);
+      m[i][j] = 2.0 * ((d == 0   ? 6.0
+                        : d == 1 ? -4.0
+                        : d == 2 ? 1.0
+                                 : 0.0) +
+                       static_cast<double>(p.curvature_weight) * i * i * j * j);
     }
     m[i][n] = m[n][i] = 1.0;
     m[i][n + 1] = m[n + 1][i] = static_cast<double>(i);
@@ -99,14 +103,36 @@ std::array<float, kMaxSmootherTaps> fixed_lag_taps(SmootherParams p) {
   return taps;
 }
 
+FixedLagSmoother::Channel FixedLagSmoother::channel(const SmootherParams& p) {
+  Channel c;
+  c.window = std::clamp(p.window, 1, kMaxSmootherTaps);
+  c.taps = fixed_lag_taps(p);
+  c.bend = std::max(0.0f, p.bend);
+  if (c.bend > 0) c.sharp = fixed_lag_taps({p.window, p.lag_samples, p.sharp_curvature_weight});
+  return c;
+}
+
 FixedLagSmoother::FixedLagSmoother(SmootherParams position, SmootherParams rotation)
-    : pos_taps_(fixed_lag_taps(position)),
-      rot_taps_(fixed_lag_taps(rotation)),
-      pos_window_(std::clamp(position.window, 1, kMaxSmootherTaps)),
-      rot_window_(std::clamp(rotation.window, 1, kMaxSmootherTaps)) {}
+    : pos_ch_(channel(position)), rot_ch_(channel(rotation)) {}
+
+template <class Offset>
+glm::vec3 FixedLagSmoother::offset(const Channel& c, Offset&& offset_of) const {
+  glm::vec3 smooth(0.0f), sharp(0.0f);
+  for (int k = 1; k < c.window; ++k) {
+    const glm::vec3 d = offset_of(static_cast<size_t>((newest_ - k + kMaxSmootherTaps) % kMaxSmootherTaps));
+    smooth += c.taps[static_cast<size_t>(k)] * d;
+    sharp += c.sharp[static_cast<size_t>(k)] * d;
+  }
+  if (!(c.bend > 0)) return smooth;
+  // A soft switch: the smooth taps' curvature bias grows with the bend, the noise they take out
+  // does not, so a large disagreement is the motion's.
+  const glm::vec3 diff = smooth - sharp;
+  const float b2 = c.bend * c.bend;
+  return sharp + diff * (b2 / (b2 + glm::dot(diff, diff)));
+}
 
 void FixedLagSmoother::filter(glm::vec3& position, glm::quat& orientation) {
-  if (pos_window_ == 1 && rot_window_ == 1) return;
+  if (pos_ch_.window == 1 && rot_ch_.window == 1) return;
   const glm::quat q = glm::normalize(orientation);
   if (count_ == 0) {
     pos_.fill(position);
@@ -120,18 +146,13 @@ void FixedLagSmoother::filter(glm::vec3& position, glm::quat& orientation) {
   // rotation vectors from the newest, taken as 2·(x, y, z) of the relative quaternion: a window
   // apart is a small angle (0.5 rad at 8.6 rad/s, where that is 1 % short), and it spares an atan2
   // per tap.
-  glm::vec3 dp(0.0f), dr(0.0f);
+  const glm::vec3 p = position;
+  position += offset(pos_ch_, [&](size_t i) { return pos_[i] - p; });
   const glm::quat from_newest = glm::conjugate(q);
-  for (int k = 1; k < pos_window_; ++k) {
-    const auto i = static_cast<size_t>((newest_ - k + kMaxSmootherTaps) % kMaxSmootherTaps);
-    dp += pos_taps_[static_cast<size_t>(k)] * (pos_[i] - position);
-  }
-  for (int k = 1; k < rot_window_; ++k) {
-    const auto i = static_cast<size_t>((newest_ - k + kMaxSmootherTaps) % kMaxSmootherTaps);
+  const glm::vec3 dr = offset(rot_ch_, [&](size_t i) {
     const glm::quat d = rot_[i] * from_newest;
-    dr += (d.w < 0 ? -2.0f : 2.0f) * rot_taps_[static_cast<size_t>(k)] * glm::vec3(d.x, d.y, d.z);
-  }
-  position += dp;
+    return (d.w < 0 ? -2.0f : 2.0f) * glm::vec3(d.x, d.y, d.z);
+  });
   orientation = glm::normalize(exp_rotation(dr) * q);
 }
 

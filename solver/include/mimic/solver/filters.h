@@ -92,6 +92,12 @@ struct SmootherParams {
   // Weight of the taps' second moment (Σk²·h[k])², which sets the bias under acceleration
   // (a·dt²·Σk²h/2): 0 leaves it free, larger keeps curves on their path at more shake.
   float curvature_weight = 0.0f;
+  // A second, sharper tap set on the same samples (curvature weight `sharp_curvature_weight`).
+  // Where the two disagree by more than `bend` (m, or rad for orientations) the motion really
+  // bends and the output follows the sharp one; below it the difference is noise and the smooth
+  // one stands: out = sharp + (smooth − sharp)·bend²/(bend² + |smooth − sharp|²). 0: smooth only.
+  float sharp_curvature_weight = 0.1f;
+  float bend = 0.0f;
 };
 
 // FIR taps h[0 … window) (h[0] on the newest sample, zero past the window) with Σh = 1 and
@@ -101,8 +107,8 @@ struct SmootherParams {
 std::array<float, kMaxSmootherTaps> fixed_lag_taps(SmootherParams p);
 
 // One sensor's FIR over its last samples, positions and orientations each with its own taps
-// (fixed_lag_taps). Orientations are averaged as rotation vectors relative to the newest (a few
-// samples are small angles apart). Fixed storage: never allocates.
+// (fixed_lag_taps, and the sharp set where SmootherParams::bend > 0). Orientations are averaged as rotation vectors
+// relative to the newest (a few samples are small angles apart). Fixed storage: never allocates.
 class FixedLagSmoother {
  public:
   explicit FixedLagSmoother(SmootherParams position = {}, SmootherParams rotation = {});
@@ -112,10 +118,19 @@ class FixedLagSmoother {
   void reset() { count_ = 0; }
 
  private:
-  std::array<float, kMaxSmootherTaps> pos_taps_{}, rot_taps_{};
+  struct Channel {
+    std::array<float, kMaxSmootherTaps> taps{}, sharp{};
+    int window = 1;
+    float bend = 0;
+  };
+  static Channel channel(const SmootherParams& p);
+  // The smooth and sharp sums of offsets from the newest sample, blended.
+  template <class Offset>
+  glm::vec3 offset(const Channel& c, Offset&& offset_of) const;
+
+  Channel pos_ch_, rot_ch_;
   std::array<glm::vec3, kMaxSmootherTaps> pos_{};
   std::array<glm::quat, kMaxSmootherTaps> rot_{};
-  int pos_window_ = 1, rot_window_ = 1;
   int newest_ = 0;  // index of the newest sample in the ring of kMaxSmootherTaps
   int count_ = 0;
 };
@@ -131,10 +146,11 @@ struct SensorFilterConfig {
   int accept_after = 12;           // consecutive outliers that move the filter
   float hold_s = 0.25f;            // bridge dropouts this long
   bool enabled = true;             // false: only outlier rejection and dropout bridging
-  // After the One Euro stage (window 1: none). 8 samples, straight lines on time; the weights keep
-  // the bias under acceleration down (see docs/solver.md, Jitter).
-  SmootherParams position_smoother{8, 0.0f, 0.002f};
-  SmootherParams rotation_smoother{8, 0.0f, 0.01f};
+  // After the One Euro stage (window 1: none): 8 samples, straight lines on time; positions turn
+  // to the sharp taps on bends beyond 1 cm, orientations beyond 0.05 rad (chosen on the shared
+  // clips, docs/solver.md: Jitter).
+  SmootherParams position_smoother{8, 0.0f, 0.0003f, 0.1f, 0.01f};
+  SmootherParams rotation_smoother{8, 0.0f, 0.001f, 0.1f, 0.05f};
 };
 
 class SensorFilterBank {
