@@ -19,10 +19,12 @@
 // Fixed-lag smoothing: after the One Euro stage each sensor's pose passes a short FIR
 // (FixedLagSmoother) whose taps reproduce a straight-line motion `lag_samples` late and, of all
 // such taps over `window` samples, pass the least white noise into the second difference — the
-// sample-to-sample shake a viewer sees. The One Euro filter cannot do that at walking speed: its
-// cutoff rises to 60 Hz there, so the sensors' noise passes almost untouched. window 3, lag 1
-// (taps 2/7, 3/7, 2/7: the reported pose is the one of the previous sample) cuts the noise's
-// second difference 4.6×.
+// sample-to-sample shake a viewer sees. A One Euro filter cannot do that while the body moves:
+// its cutoff rises with speed, so the noise passes almost untouched. The defaults keep straight
+// lines on time (lag 0) over 8 samples, cutting the noise's second difference about 6×; a
+// second, sharper tap set takes over where the motion bends (SmootherParams::bend), so a
+// swinging foot is not cut short. A one-sample lag would shake less still but costs a walking
+// hand or foot about a centimetre of accuracy (docs/solver.md, Jitter).
 //
 // Time is the sample's device_time_s when it advances, else host_time_s. Nothing allocates after
 // construction; process() never throws.
@@ -107,8 +109,9 @@ struct SmootherParams {
 std::array<float, kMaxSmootherTaps> fixed_lag_taps(SmootherParams p);
 
 // One sensor's FIR over its last samples, positions and orientations each with its own taps
-// (fixed_lag_taps, and the sharp set where SmootherParams::bend > 0). Orientations are averaged as rotation vectors
-// relative to the newest (a few samples are small angles apart). Fixed storage: never allocates.
+// (fixed_lag_taps, and the sharp set where SmootherParams::bend > 0). Orientations are averaged
+// as rotation vectors relative to the newest (a few samples are small angles apart). Fixed
+// storage: never allocates.
 class FixedLagSmoother {
  public:
   explicit FixedLagSmoother(SmootherParams position = {}, SmootherParams rotation = {});
