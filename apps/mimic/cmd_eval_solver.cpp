@@ -42,8 +42,10 @@ constexpr const char* kAbout =
     "the layout, each strap turned by a random mounting rotation, Gaussian noise). The solver\n"
     "calibrates on one second of the clip's frame-0 T-pose, then solves every later frame from\n"
     "the sensor stream alone (it never sees the clip's skeleton or angles), through the input\n"
-    "filters unless --no-filter. As the wearer moves, the arm and leg link lengths are refined\n"
-    "from the stream (functional calibration, solver/limb_refinement.h) unless --no-refine.\n"
+    "filters (One Euro, then a fixed-lag smoother that keeps straight motion on time) unless\n"
+    "--no-filter (--no-smooth: the One Euro filters alone). As the wearer moves, the arm and leg\n"
+    "link lengths are refined from the stream (functional calibration, solver/limb_refinement.h)\n"
+    "unless --no-refine.\n"
     "\n"
     "Reported per layout, over every joint but the toes (Mimic's skeleton has no fingers), in world\n"
     "space without alignment:\n"
@@ -144,6 +146,7 @@ struct Settings {
   uint64_t seed = 1;
   long max_frames = -1;
   bool filter = true;
+  bool smooth = true;
   bool refine = true;
   bool step = true;
   std::ostream* trace = nullptr;  // --trace: every joint of every frame, truth and solved
@@ -255,6 +258,7 @@ Run evaluate(const std::shared_ptr<const rig::Motion>& motion, double frame_time
   auto ctx = std::make_unique<solver::SolverContext>(*model);
   solver::SensorFilterConfig fc;
   fc.enabled = st.filter;
+  if (!st.smooth) fc.position_smoother.window = fc.rotation_smoother.window = 1;
   fc.predict_s = static_cast<float>(st.latency_ms / 1000.0);  // the tracker's known latency
   solver::SensorFilterBank filters(static_cast<int>(mounts->size()), fc);
   rig::Pose pose = model->skeleton().zero_pose();
@@ -334,7 +338,7 @@ struct Options {
   std::string clip_path, noise = "1,0.5";
   std::vector<std::string> layouts = {"3", "6", "11", "all"};
   long seed = 1, frames = -1;
-  bool no_filter = false, no_refine = false, no_step = false, joints = false, json = false;
+  bool no_filter = false, no_smooth = false, no_refine = false, no_step = false, joints = false, json = false;
   std::string trace_path;
 };
 
@@ -363,6 +367,7 @@ std::optional<int> parse(cli::Parser& p, const std::vector<std::string>& argv, O
   p->add_option("--dropout", st.dropout, "chance per sample that a sensor falls silent for 3 samples")
       ->check(cli::finite_range(0, 1));
   p->add_flag("--no-filter", o.no_filter, "solve the raw samples (no One Euro filtering)");
+  p->add_flag("--no-smooth", o.no_smooth, "no fixed-lag smoothing after the One Euro filters (more shake)");
   p->add_flag("--no-refine", o.no_refine, "keep the stand-still calibration (no refinement from the motion)");
   p->add_flag("--no-step", o.no_step, "untracked legs hang under the hips instead of stepping");
   p->add_option("--trace", o.trace_path,
@@ -376,7 +381,7 @@ std::optional<int> parse(cli::Parser& p, const std::vector<std::string>& argv, O
               "distance from their own sensors' targets: the IK's share), jitter,\n"
               "jitter_mm, jitter_truth_mm, lag_ms,\n"
               "jitter_definition, solve_us_p50, solve_us_p99, solve_us_max, noise_mm,\n"
-              "noise_deg, tilt_deg, rate_hz, latency_ms, dropout, seed, filter,\n"
+              "noise_deg, tilt_deg, rate_hz, latency_ms, dropout, seed, filter, smooth,\n"
               "refine, refined_limbs, refined_joints, lower_body_mpjpe_cm, foot_skate_mm,\n"
               "floor_penetration_mm, steps {solved, truth}, largest_ankle_move_mm (the\n"
               "furthest a solved ankle moves in one sample; _truth_mm: the truth's)");
@@ -385,6 +390,7 @@ std::optional<int> parse(cli::Parser& p, const std::vector<std::string>& argv, O
   st.seed = static_cast<uint64_t>(o.seed);
   st.max_frames = o.frames;
   st.filter = !o.no_filter;
+  st.smooth = !o.no_smooth;
   st.refine = !o.no_refine;
   st.step = !o.no_step;
   return std::nullopt;
@@ -466,6 +472,7 @@ int run_eval_solver(const std::vector<std::string>& argv) {
                        {"dropout", st.dropout},
                        {"seed", st.seed},
                        {"filter", st.filter},
+                       {"smooth", st.filter && st.smooth},
                        {"refine", st.refine},
                        {"step", st.step},
                        {"refined_limbs", r.refined_limbs},

@@ -97,6 +97,34 @@ void BM_SolveFrame(benchmark::State& state) {
 }
 BENCHMARK(BM_SolveFrame)->DenseRange(0, 3)->Unit(benchmark::kMicrosecond);
 
+// The input filters alone on one frame of 07_01 (layout 11), with (1) and without (0) the
+// fixed-lag smoother after the One Euro stage: what the smoother costs per frame.
+void BM_FilterFrame(benchmark::State& state) {
+  auto worn = wear_07_01("11");
+  if (!worn) {
+    state.SkipWithError("shared clip 07_01 not found (set MIMIC_SHARED_DATA)");
+    return;
+  }
+  solver::SensorFilterConfig config;
+  if (state.range(0) == 0) config.position_smoother.window = config.rotation_smoother.window = 1;
+  solver::SensorFilterBank filters(static_cast<int>(worn->mounts.size()), config);
+  const auto& frames = worn->frames;
+  std::vector<devices::SensorSample> work(worn->mounts.size());
+  size_t f = 0;
+  for (auto _ : state) {
+    std::copy(frames[f].begin(), frames[f].end(), work.begin());
+    filters.process(work);
+    benchmark::DoNotOptimize(work.data());
+    if (++f == frames.size()) {
+      f = 0;
+      filters.reset();
+    }
+  }
+  state.SetItemsProcessed(state.iterations());
+  state.SetLabel(state.range(0) ? "11 sensors, smoothed" : "11 sensors, One Euro only");
+}
+BENCHMARK(BM_FilterFrame)->Arg(0)->Arg(1)->Unit(benchmark::kMicrosecond);
+
 // The functional calibration's per-tick cost (raw samples into the limb and joint-centre
 // estimators; the in-place limb refit twice a second included), 07_01, layouts 11 and all.
 void BM_RefinerAdd(benchmark::State& state) {

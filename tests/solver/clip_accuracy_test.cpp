@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <string_view>
 
 #include "clip_eval.h"
 #include "mimic/rig/bvh.h"
@@ -51,10 +52,14 @@ TEST(ClipAccuracy, SimulatedSensorsOnSharedClipsStayWithinBounds) {
                   p.mpjpe_cm, p.end_effector_mm, p.jitter_mm, p.jitter_truth_mm);
       EXPECT_LT(p.mpjpe_cm, b.mpjpe_cm) << id << " " << b.layout;
       EXPECT_LT(p.end_effector_mm, b.end_effector_mm) << id << " " << b.layout;
-      // No shaking. The figure moves with rounding: 07_01 with 6 sensors measures 5.90 mm at -O3
-      // (GCC) and 6.22 mm under Clang's sanitizers, for 1.04 mm in the truth; the bound leaves
-      // room for that spread and still catches a solver that starts to shake (tens of mm).
-      EXPECT_LT(p.jitter_mm, p.jitter_truth_mm + 6.5) << id << " " << b.layout;
+      // No shaking. With every limb tracked the fixed-lag smoother holds the shake near the
+      // truth's (07_01, 6 sensors: 1.70 mm for 1.04; 5.9 mm without it); the bound leaves room for
+      // rounding across compilers. Guessed legs (3 sensors) shake with their steps.
+      if (std::string_view(b.layout) == "3") {
+        EXPECT_LT(p.jitter_mm, p.jitter_truth_mm + 6.5) << id << " " << b.layout;
+      } else {
+        EXPECT_LT(p.jitter_mm, 2.0 * p.jitter_truth_mm + 0.8) << id << " " << b.layout;
+      }
     }
   }
 }

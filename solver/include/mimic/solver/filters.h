@@ -16,10 +16,21 @@
 // the filter restarts there. Invalid samples (dropouts) are likewise bridged by the prediction
 // for at most `hold_s`, then passed on invalid.
 //
+// Fixed-lag smoothing: after the One Euro stage each sensor's pose passes a short FIR
+// (FixedLagSmoother) whose taps reproduce a straight-line motion `lag_samples` late and, of all
+// such taps over `window` samples, pass the least white noise into the second difference — the
+// sample-to-sample shake a viewer sees. A One Euro filter cannot do that while the body moves:
+// its cutoff rises with speed, so the noise passes almost untouched. The defaults keep straight
+// lines on time (lag 0) over 8 samples, cutting the noise's second difference about 6×; a
+// second, sharper tap set takes over where the motion bends (SmootherParams::bend), so a
+// swinging foot is not cut short. A one-sample lag would shake less still but costs a walking
+// hand or foot about a centimetre of accuracy (docs/solver.md, Jitter).
+//
 // Time is the sample's device_time_s when it advances, else host_time_s. Nothing allocates after
 // construction; process() never throws.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <span>
 #include <vector>
@@ -75,17 +86,74 @@ class OneEuroQuat {
   bool primed_ = false;
 };
 
+inline constexpr int kMaxSmootherTaps = 8;
+
+struct SmootherParams {
+  int window = 8;            // samples; 1 turns smoothing off
+  float lag_samples = 0.0f;  // how late a straight-line motion comes out, 0 … window − 1
+  // Weight of the taps' second moment (Σk²·h[k])², which sets the bias under acceleration
+  // (a·dt²·Σk²h/2): 0 leaves it free, larger keeps curves on their path at more shake.
+  float curvature_weight = 0.0f;
+  // A second, sharper tap set on the same samples (curvature weight `sharp_curvature_weight`).
+  // Where the two disagree by more than `bend` (m, or rad for orientations) the motion really
+  // bends and the output follows the sharp one; below it the difference is noise and the smooth
+  // one stands: out = sharp + (smooth − sharp)·bend²/(bend² + |smooth − sharp|²). 0: smooth only.
+  float sharp_curvature_weight = 0.1f;
+  float bend = 0.0f;
+};
+
+// FIR taps h[0 … window) (h[0] on the newest sample, zero past the window) with Σh = 1 and
+// Σk·h[k] = lag_samples, minimising the white-noise gain of the second difference,
+// Σ_t (h[t] − 2h[t−1] + h[t−2])², plus curvature_weight·(Σk²·h[k])². The window is clamped to
+// 1 … kMaxSmootherTaps.
+std::array<float, kMaxSmootherTaps> fixed_lag_taps(SmootherParams p);
+
+// One sensor's FIR over its last samples, positions and orientations each with its own taps
+// (fixed_lag_taps, and the sharp set where SmootherParams::bend > 0). Orientations are averaged
+// as rotation vectors relative to the newest (a few samples are small angles apart). Fixed
+// storage: never allocates.
+class FixedLagSmoother {
+ public:
+  explicit FixedLagSmoother(SmootherParams position = {}, SmootherParams rotation = {});
+  // Adds a sample and returns the smoothed pose in place. The first sample after reset() fills
+  // the whole history (a still start).
+  void filter(glm::vec3& position, glm::quat& orientation);
+  void reset() { count_ = 0; }
+
+ private:
+  struct Channel {
+    std::array<float, kMaxSmootherTaps> taps{}, sharp{};
+    int window = 1;
+    float bend = 0;
+  };
+  static Channel channel(const SmootherParams& p);
+  // The smooth and sharp sums of offsets from the newest sample, blended.
+  template <class Offset>
+  glm::vec3 offset(const Channel& c, Offset&& offset_of) const;
+
+  Channel pos_ch_, rot_ch_;
+  std::array<glm::vec3, kMaxSmootherTaps> pos_{};
+  std::array<glm::quat, kMaxSmootherTaps> rot_{};
+  int newest_ = 0;  // index of the newest sample in the ring of kMaxSmootherTaps
+  int count_ = 0;
+};
+
 struct SensorFilterConfig {
-  OneEuroParams position{3.0f, 40.0f, 1.0f};  // beta per m/s
-  OneEuroParams rotation{3.0f, 8.0f, 1.0f};   // beta per rad/s
-  float predict_s = 0.0f;                     // extrapolation horizon beyond the filter lag
-  bool compensate_lag = true;                 // extrapolate by each filter's own lag
-  float max_speed_m_s = 12.0f;                // faster than any limb moves
+  OneEuroParams position{3.0f, 160.0f, 1.0f};  // beta per m/s
+  OneEuroParams rotation{3.0f, 16.0f, 1.0f};   // beta per rad/s
+  float predict_s = 0.0f;                      // extrapolation horizon beyond the filter lag
+  bool compensate_lag = true;                  // extrapolate by each filter's own lag
+  float max_speed_m_s = 12.0f;                 // faster than any limb moves
   float max_angular_speed_deg_s = 3000.0f;
   float jump_allowance_m = 0.05f;  // noise and sample-timing slack on top
   int accept_after = 12;           // consecutive outliers that move the filter
   float hold_s = 0.25f;            // bridge dropouts this long
   bool enabled = true;             // false: only outlier rejection and dropout bridging
+  // After the One Euro stage (window 1: none): 8 samples, straight lines on time; positions turn
+  // to the sharp taps on bends beyond 1 cm, orientations beyond 0.05 rad (chosen on the shared
+  // clips, docs/solver.md: Jitter).
+  SmootherParams position_smoother{8, 0.0f, 0.0003f, 0.1f, 0.01f};
+  SmootherParams rotation_smoother{8, 0.0f, 0.001f, 0.1f, 0.05f};
 };
 
 class SensorFilterBank {
@@ -103,6 +171,7 @@ class SensorFilterBank {
   struct State {
     OneEuroVec3 pos;
     OneEuroQuat rot;
+    FixedLagSmoother smooth;
     double last_t = 0;
     double last_good_t = 0;
     bool seen = false;
@@ -110,6 +179,8 @@ class SensorFilterBank {
     glm::vec3 last_raw_pos{0.0f};
     glm::quat last_raw_rot{1, 0, 0, 0};
   };
+  void smooth(State& st, devices::SensorSample& smp) const;
+
   SensorFilterConfig config_;
   std::vector<State> state_;
   uint64_t outliers_ = 0;
