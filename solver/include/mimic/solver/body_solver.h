@@ -187,6 +187,7 @@ struct SolveJob {
   void place_untracked_feet();
   void SolveLimbsAndRest(bool trunk_observed);
   bool SolveLimb(int chain);
+  void LiftSteppedFootOffFloor(int chain);  // locomotion.cpp
   void PlaceJoint(int joint);
   void OrientFromTarget(int joint);
 };
