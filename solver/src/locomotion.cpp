@@ -353,7 +353,10 @@ void SolveJob::LiftSteppedFootOffFloor(int ci) {
   const SolverModel::Chain& ch = m.chains_[ci];
   if (s.parent(ch.mid) != ch.upper || s.parent(ch.end) != ch.mid) return;
   FootStepState& fs = c.locomotion_.feet[leg];
-  const float floor_y = m.options().standing_root_y_m - m.toe_tip_below_root_rest_[leg];  // the sole
+  // The ball no lower than on a flat foot or the sole, whichever is lower, with a few millimetres
+  // to spare: a flat foot's ball rests there, and lifting it for a noise's worth would shake it.
+  const float floor_y =
+      m.options().standing_root_y_m - std::max(m.ball_below_root_rest_[leg], m.toe_tip_below_root_rest_[leg]) - 0.003f;
   const rig::Pose& p = *pose;
   glm::vec3& target = c.segment_target_[ch.end].translation;
   // Each pass raises the target by what the ball is under the floor. A raise the ball does not

@@ -275,7 +275,8 @@ TEST(Locomotion, SquattingFeetStayAboveTheFloor) {
   std::printf("  squat: hips down to %.0f cm, lowest foot point %.1f mm above the sole's floor\n", 100 * lowest_root_m,
               1000 * (lowest_m - sole_y));
   EXPECT_LT(lowest_root_m, w.standing_root_y - 0.3f);  // it did squat
-  EXPECT_GE(lowest_m, sole_y - 0.002f);
+  // (Without the lift: 5 cm under. A ball lifts once it is 3 mm under a flat foot's.)
+  EXPECT_GE(lowest_m, sole_y - 0.005f);
 }
 
 // Walking, the feet land nearer the midline than the hips (people walk on a narrow track; the
