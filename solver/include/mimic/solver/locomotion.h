@@ -23,7 +23,7 @@ namespace mimic::solver {
 struct LocomotionOptions {
   float step_threshold_m = 0.14f;   // foot this far from its (predicted) home: step
   float turn_threshold_rad = 0.6f;  // body turned this far past the foot (34°): step
-  float swing_s_slow = 0.42f;       // swing duration standing …
+  float swing_s_slow = 0.35f;       // swing duration standing …
   float swing_s_fast = 0.30f;       // … and at `fast_mps`
   float fast_mps = 2.5f;
   float stance_lead_s = 0.30f;   // a step lands where the hip is that long after touchdown
