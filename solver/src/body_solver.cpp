@@ -473,6 +473,7 @@ void SolveJob::SolveLimbsAndRest(bool trunk_observed) {
     } else if (ci >= 0) {
       const SolverModel::Chain& ch = m.chains_[ci];
       if (j == ch.upper && c.has_target_[ch.end] && SolveLimb(ci)) {
+        LiftSteppedFootOffFloor(ci);
         PlaceJoint(j);
         chain_solved[ci] = true;
         continue;

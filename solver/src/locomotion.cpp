@@ -18,13 +18,19 @@ float smooth01(float t) {
 }
 
 // Where a step that starts now lands: under the hip, half a stance past touchdown at the pelvis'
-// velocity, no further than `max_step_m` from the hip.
+// velocity, no further than `max_step_m` from the hip. Walking, the feet land nearer the body's
+// midline than the hips do (CMU walks: ankles 9–12 cm apart, hips 18–20 cm).
 glm::vec2 landing(const LocomotionInput& in, const LocomotionState& s, const LocomotionOptions& o, int k,
                   float remaining_s) {
   glm::vec2 lead = s.velocity_mps * (remaining_s + o.stance_lead_s);
   const float len = glm::length(lead);
   if (len > o.max_step_m) lead *= o.max_step_m / len;
-  return xz(in.hip[k]) + lead;
+  const glm::vec2 left(std::cos(in.root_yaw_rad), -std::sin(in.root_yaw_rad));
+  const float lateral = glm::dot(xz(in.hip[k]) - xz(in.root), left);
+  const float walking = std::clamp((glm::length(s.velocity_mps) - o.narrow_from_mps) / o.narrow_over_mps, 0.0f, 1.0f);
+  const float side = k == 0 ? 1.0f : -1.0f;
+  const float narrowed = walking * (lateral - side * 0.5f * o.walk_width_m);
+  return xz(in.hip[k]) - narrowed * left + lead;
 }
 
 // Keeps foot k on its own side of the other foot by `min_width_m` (feet never cross).
@@ -317,12 +323,13 @@ void SolveJob::place_untracked_feet() {
     c.segment_target_[e] = rig::RigidTransform{yaw, f.ankle};
     if (!f.swinging) lift_heel(c.segment_target_[e], in.hip[leg], in.reach_m[leg], m.ball_in_ankle_[leg]);
     auto& fs = c.locomotion_.feet[leg];
+    fs.most_move_m = o.locomotion.max_foot_speed_mps * in.dt_s;
     if (fs.have_target) {
       const glm::vec3 move = c.segment_target_[e].translation - fs.target;
-      const float most_m = o.locomotion.max_foot_speed_mps * in.dt_s;
-      if (glm::length(move) > most_m)
-        c.segment_target_[e].translation = fs.target + move * (most_m / glm::length(move));
+      if (glm::length(move) > fs.most_move_m)
+        c.segment_target_[e].translation = fs.target + move * (fs.most_move_m / glm::length(move));
     }
+    fs.last_target = fs.have_target ? fs.target : c.segment_target_[e].translation;
     fs.target = c.segment_target_[e].translation, fs.have_target = true;
     // The toes stay flat on the floor under a lifted heel.
     if (const int toes = m.toes_[leg]; toes >= 0 && !c.has_target_[toes]) {
@@ -332,6 +339,56 @@ void SolveJob::place_untracked_feet() {
     c.has_target_[e] = 1;
     c.guessed_end_[2 + leg] = true;
   }
+}
+
+// A stepped foot whose leg the limits bend (a deep squat: the ankle at its flexion limit pitches
+// the foot toes-down) would push the ball of the foot through the floor: the ankle's target rises
+// until the ball is on the floor, as a heel does.
+void SolveJob::LiftSteppedFootOffFloor(int ci) {
+  const SolverModel& m = *model;
+  SolverContext& c = *context;
+  const rig::Skeleton& s = m.skeleton();
+  const int leg = ci - 2;
+  if (leg < 0 || !c.guessed_end_[ci] || m.toes_[leg] < 0 || !std::isfinite(m.options().standing_root_y_m)) return;
+  const SolverModel::Chain& ch = m.chains_[ci];
+  if (s.parent(ch.mid) != ch.upper || s.parent(ch.end) != ch.mid) return;
+  FootStepState& fs = c.locomotion_.feet[leg];
+  // The ball no lower than on a flat foot or the sole, whichever is lower, with a few millimetres
+  // to spare: a flat foot's ball rests there, and lifting it for a noise's worth would shake it.
+  const float floor_y =
+      m.options().standing_root_y_m - std::max(m.ball_below_root_rest_[leg], m.toe_tip_below_root_rest_[leg]) - 0.003f;
+  const rig::Pose& p = *pose;
+  glm::vec3& target = c.segment_target_[ch.end].translation;
+  // Each pass raises the target by what the ball is under the floor. A raise the ball does not
+  // follow (a stretched leg, a foot the ankle's limits hold pitched) is taken back. The foot
+  // never jumps: the lifted target stays within a frame's move of the last one, and no more than
+  // `kMostLiftM` above where the stepper put it.
+  constexpr float kMostLiftM = 0.15f;
+  const float unlifted_y = target.y;
+  float last_ball_y = 0.0f, last_raise_m = 0.0f;
+  for (int pass = 0; pass < 4; ++pass) {
+    rig::RigidTransform w = c.world_[s.parent(ch.upper)];
+    for (int j : {ch.upper, ch.mid, ch.end})
+      w = rig::RigidTransform{w.rotation * s.local_rotation(j, p.dof_rad), w.apply(s.offset_m(j))};
+    const float ball_y = w.apply(m.ball_in_ankle_[leg]).y;
+    if (pass > 0 && ball_y - last_ball_y < 0.1f * last_raise_m) {
+      target.y -= last_raise_m;
+      SolveLimb(ci);
+      break;
+    }
+    const float below_m = floor_y - ball_y;
+    if (below_m <= 0.0f || !std::isfinite(below_m)) break;
+    const glm::vec3 d = target - fs.last_target;
+    const float h2 = fs.most_move_m * fs.most_move_m - d.x * d.x - d.z * d.z;
+    if (h2 <= 0.0f) break;
+    const float top_y = std::min(fs.last_target.y + std::sqrt(h2), unlifted_y + kMostLiftM);
+    const float raise_m = std::min(below_m + 0.001f, top_y - target.y);
+    if (raise_m <= 1e-4f) break;
+    target.y += raise_m;
+    last_ball_y = ball_y, last_raise_m = raise_m;
+    if (!SolveLimb(ci)) break;  // the last solution stays
+  }
+  fs.target = target;
 }
 
 }  // namespace mimic::solver

@@ -109,6 +109,7 @@ Result<SolverModel> SolverModel::create(Skeleton skeleton, std::vector<SensorMou
       if (toes >= 0 && s.parent(toes) == m.chains_[2 + leg].end) {
         m.ball_in_ankle_[leg] = s.offset_m(toes), m.toes_[leg] = toes;
         m.toe_tip_below_root_rest_[leg] = w[0].translation.y - w[toes].apply(s.tip_m(toes)).y;
+        m.ball_below_root_rest_[leg] = w[0].translation.y - w[toes].translation.y;
       }
     }
   }

@@ -64,6 +64,15 @@ struct Wearer {
     rig::forward_kinematics(s, s.zero_pose(), w);
     return standing_root_y - (w[0].translation.y - w[s.find_joint("l_ankle")].translation.y);
   }
+  // The sole of a flat foot: the lowest point (toe tip) of the standing skeleton.
+  float sole_y() const {
+    std::vector<RigidTransform> w(s.joint_count());
+    rig::forward_kinematics(s, s.rest_pose(), w);
+    float low = 1e9f;
+    for (const char* side : {"l_toes", "r_toes"})
+      low = std::min(low, w[s.find_joint(side)].apply(s.tip_m(s.find_joint(side))).y);
+    return standing_root_y - (w[0].translation.y - low);
+  }
   // Lowest point of either foot: ankle, toes, toe tip.
   float lowest_foot_point_y() const {
     float y = 1e9f;
@@ -245,6 +254,55 @@ TEST(Locomotion, WalkingStepsKeepTheHeadsBeat) {
   ASSERT_GE(counted, 6);
   EXPECT_GE(on_beat, 0.7 * counted);
   EXPECT_LE(repeats, 1);
+}
+
+// Squatting deep (the head comes down upright: the hips follow it), the knee's and ankle's limits
+// pitch a stepped foot toes-down: its heel lifts rather than the ball or toes going through the
+// floor.
+TEST(Locomotion, SquattingFeetStayAboveTheFloor) {
+  Wearer w("3");
+  for (int k = 0; k < 30; ++k) w.step(standing(w, {0, 0, 0}, 0.0f));
+  const float sole_y = w.sole_y();
+  float lowest_m = 1e9f, lowest_root_m = 1e9f;
+  for (int k = 0; k < int(3 * kRateHz); ++k) {
+    // Down by 45 cm over 1.5 s, then held (only head and hands are seen: the legs are the solver's).
+    Pose truth = standing(w, {0, 0, 0}, 0.0f);
+    truth.root_position_m.y -= 0.45f * std::min(1.0f, static_cast<float>(k / (1.5 * kRateHz)));
+    w.step(truth);
+    lowest_m = std::min(lowest_m, w.lowest_foot_point_y());
+    lowest_root_m = std::min(lowest_root_m, w.solved.root_position_m.y);
+  }
+  std::printf("  squat: hips down to %.0f cm, lowest foot point %.1f mm above the sole's floor\n", 100 * lowest_root_m,
+              1000 * (lowest_m - sole_y));
+  EXPECT_LT(lowest_root_m, w.standing_root_y - 0.3f);  // it did squat
+  // (Without the lift: 5 cm under. A ball lifts once it is 3 mm under a flat foot's.)
+  EXPECT_GE(lowest_m, sole_y - 0.005f);
+}
+
+// Walking, the feet land nearer the midline than the hips (people walk on a narrow track; the
+// walk above checks that they never cross).
+TEST(Locomotion, WalkingFeetLandNearerTheMidlineThanTheHips) {
+  Wearer w("3");
+  auto walk = rig::make_builtin_motion("walk", w.s);
+  ASSERT_TRUE(walk.has_value());
+  Pose truth = w.s.zero_pose();
+  const float hip_width_m = glm::length(w.s.offset_m(w.s.find_joint("l_hip")) - w.s.offset_m(w.s.find_joint("r_hip")));
+  double width_sum_m = 0;
+  int n = 0;
+  for (int k = 0; k < int(6 * kRateHz); ++k) {
+    (*walk)->sample(k / kRateHz, truth);
+    w.step(truth);
+    const auto& feet = w.ctx.locomotion().feet;
+    if (k < 2 * kRateHz || feet[0].swinging || feet[1].swinging) continue;
+    const glm::vec3 left_dir = w.solved.root_orientation * glm::vec3(1, 0, 0);
+    width_sum_m += glm::dot(w.ankle(0) - w.ankle(1), left_dir);
+    ++n;
+  }
+  ASSERT_GT(n, 30);
+  const double width_m = width_sum_m / n;
+  std::printf("  walk: planted feet %.1f cm apart side to side (hips %.1f cm)\n", 100 * width_m, 100 * hip_width_m);
+  EXPECT_LT(width_m, 0.8 * hip_width_m);
+  EXPECT_GT(width_m, 0.05);
 }
 
 // Six sensors, the left foot's sensor lost while walking: the stepper takes the foot over from

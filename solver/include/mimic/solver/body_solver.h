@@ -135,6 +135,7 @@ class SolverModel {
   std::array<glm::vec3, 2> ball_in_ankle_{};      // toes joint (ball of the foot) in the ankle frame
   std::array<int, 2> toes_{-1, -1};
   std::array<float, 2> toe_tip_below_root_rest_{};  // root height above each toe tip, zero posture
+  std::array<float, 2> ball_below_root_rest_{};     // … above each ball of the foot
 };
 
 class SolverContext {
@@ -187,6 +188,7 @@ struct SolveJob {
   void place_untracked_feet();
   void SolveLimbsAndRest(bool trunk_observed);
   bool SolveLimb(int chain);
+  void LiftSteppedFootOffFloor(int chain);  // locomotion.cpp
   void PlaceJoint(int joint);
   void OrientFromTarget(int joint);
 };

@@ -23,7 +23,7 @@ namespace mimic::solver {
 struct LocomotionOptions {
   float step_threshold_m = 0.14f;   // foot this far from its (predicted) home: step
   float turn_threshold_rad = 0.6f;  // body turned this far past the foot (34°): step
-  float swing_s_slow = 0.42f;       // swing duration standing …
+  float swing_s_slow = 0.35f;       // swing duration standing …
   float swing_s_fast = 0.30f;       // … and at `fast_mps`
   float fast_mps = 2.5f;
   float stance_lead_s = 0.30f;   // a step lands where the hip is that long after touchdown
@@ -32,7 +32,11 @@ struct LocomotionOptions {
   float reach_fraction = 1.10f;  // a planted foot further than this much of the leg (flat) is due
   bool flight = true;            // … and past this much it lifts while the other swings
   float flight_reach_fraction = 1.30f;
-  float min_width_m = 0.10f;   // feet never closer side to side (ankle centres)
+  float min_width_m = 0.10f;  // feet never closer side to side (ankle centres)
+  // Walking, steps land `walk_width_m` apart (ankle centres) about the pelvis' midline, blending
+  // in from under the hips between `narrow_from_mps` and that plus `narrow_over_mps`.
+  float walk_width_m = 0.12f;
+  float narrow_from_mps = 0.3f, narrow_over_mps = 0.5f;
   float arc_height_m = 0.10f;  // swing arc height for a 0.6 m step (in proportion, ≥ 2 cm)
   // Walking (faster than `sway_speed_mps`), the body rests on the foot the head sways over: a
   // foot lifts only while the head is at least `sway_gate_m` over to the other side of its
@@ -79,6 +83,8 @@ struct FootStepState {
   float yaw_rad = 0;       // output: this frame's foot heading (about +Y, 0 = +Z)
   glm::vec3 target{0.0f};  // the ankle target given to the leg last frame (heel lift included)
   bool have_target = false;
+  glm::vec3 last_target{0.0f};  // … and the frame before (a foot lifted off the floor moves from it)
+  float most_move_m = 0;        // the furthest the target may move this frame
 };
 
 struct LocomotionState {
