@@ -57,9 +57,9 @@ float ring(float radius, float reach) {
   return sum / 8.0;
 }
 void main() {
-  float centre = 1.0 - smoothstep(0.0, 0.06, max(height_at(v_xz), 0.0));
-  float occlusion = 0.30 * centre + 0.30 * ring(0.04, 0.12) + 0.25 * ring(0.12, 0.35) + 0.15 * ring(0.28, 0.65);
-  out_color = vec4(0.0, 0.0, 0.02, 0.7 * occlusion);
+  float centre = 1.0 - smoothstep(0.0, 0.08, max(height_at(v_xz), 0.0));
+  float occlusion = 0.35 * centre + 0.30 * ring(0.04, 0.15) + 0.20 * ring(0.12, 0.40) + 0.15 * ring(0.28, 0.70);
+  out_color = vec4(0.0, 0.0, 0.02, 0.8 * occlusion);
 }
 )";
 
