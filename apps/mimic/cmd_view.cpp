@@ -196,6 +196,7 @@ int screenshot(const ShotOptions& shot, const ViewOptions& view) {
   frame.height_px = view.height;
   frame.grid = view.grid;
   frame.unlit = view.unlit;
+  frame.ambient_occlusion = view.ambient_occlusion;
   std::vector<render::MeshDraw> draws;
   render::Lines lines, xray;
   glm::vec3 floor_center(0.0f);
@@ -448,6 +449,9 @@ void add_drawing_options(cli::Parser& p, ViewOptions& view) {
        "--shading", [&view](const std::string& mode) { view.unlit = mode == "albedo"; },
        "lit (default): key, fill and rim lights; albedo: the materials' colours alone")
       ->check(CLI::IsMember({"lit", "albedo"}));
+  p->add_flag_function(
+      "--no-ao", [&view](std::int64_t) { view.ambient_occlusion = false; },
+      "without the screen-space ambient occlusion (for comparison, or a slow GPU)");
   p->add_option_function<std::string>(
        "--method", [&view](const std::string& name) { view.method = *avatar::parse_skin_method(name); },
        "realtime (default): contours measured once and moved with the joints,\n"

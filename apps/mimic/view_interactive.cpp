@@ -103,7 +103,7 @@ struct ViewState {
   bool reframe = false;  // a preset key: fit the camera again from that preset
   unsigned overlays = 0;
   int lod_mode = -1;  // -1 auto
-  bool grid = true, see_through = false, help = false, unlit = false;
+  bool grid = true, see_through = false, help = false, unlit = false, ambient_occlusion = true;
   int ray_ring = 40;
   int first_person = -1;  // avatar index, or -1: orbit
   long eyes = 0;          // --eyes K: start looking through avatar K's eyes (once it is there)
@@ -473,6 +473,7 @@ void draw_scene(render::Window& window, render::Renderer& renderer, std::vector<
   frame.camera = s.camera;
   frame.grid = s.grid;
   frame.unlit = s.unlit;
+  frame.ambient_occlusion = s.ambient_occlusion;
   frame.ground = s.grid && s.first_person >= 0;
   frame.meshes = draws;
   frame.lines = lines.vertices;
@@ -542,6 +543,7 @@ int run_interactive(const ViewOptions& view) {
 
   state.preset = view.camera;
   state.unlit = view.unlit;
+  state.ambient_occlusion = view.ambient_occlusion;
   state.camera = render::preset_camera(view.camera, {0, 0, 0}, 1.75f, float(view.width) / float(view.height));
   state.home = state.camera;
   state.camera.look(view.look_yaw_rad, view.look_pitch_rad);

@@ -47,10 +47,10 @@ float height_at(vec2 xz) {
   vec2 uv = (xz - u_region.xy) / (u_region.zw - u_region.xy);
   return texture(u_heights, uv).r * u_span - u_below;
 }
-float ring(float radius, float reach) {
+float ring(float radius, float reach, float turn) {
   float sum = 0.0;
   for (int i = 0; i < 8; ++i) {
-    float a = 6.2831853 * (float(i) + 0.5 * float(int(radius * 100.0) % 2)) / 8.0;
+    float a = 6.2831853 * (float(i) + turn) / 8.0;
     float h = height_at(v_xz + radius * vec2(cos(a), sin(a)));
     sum += 1.0 - smoothstep(0.0, reach, max(h, 0.0));
   }
@@ -58,7 +58,10 @@ float ring(float radius, float reach) {
 }
 void main() {
   float centre = 1.0 - smoothstep(0.0, 0.08, max(height_at(v_xz), 0.0));
-  float occlusion = 0.35 * centre + 0.30 * ring(0.04, 0.15) + 0.20 * ring(0.12, 0.40) + 0.15 * ring(0.28, 0.70);
+  // Each pixel turns the rings its own way, so the samples blur the body instead of repeating it.
+  float turn = fract(52.9829189 * fract(dot(gl_FragCoord.xy, vec2(0.06711056, 0.00583715))));
+  float occlusion = 0.35 * centre + 0.30 * ring(0.04, 0.15, turn) + 0.20 * ring(0.12, 0.40, turn) +
+                    0.15 * ring(0.28, 0.70, turn);
   out_color = vec4(0.0, 0.0, 0.02, 0.8 * occlusion);
 }
 )";

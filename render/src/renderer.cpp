@@ -8,6 +8,7 @@
 #include <string>
 
 #include "contact_shadow.h"
+#include "depth_prepass.h"
 #include "gl_program.h"
 
 namespace mimic::render {
@@ -51,7 +52,35 @@ uniform vec3 u_up_view;
 uniform float u_alpha;
 uniform int u_unlit;
 uniform int u_has_normals;
+uniform sampler2D u_depth;
+uniform int u_ao;
+uniform vec2 u_frame_px;
+uniform vec4 u_proj;  // the projection's [0][0], [1][1], [2][2], [3][2]
 out vec4 out_color;
+// A view-space point from the half-resolution depth of the frame (depth_prepass.h).
+vec3 view_point(vec2 uv) {
+  float z_ndc = texture(u_depth, uv).r * 2.0 - 1.0;
+  float distance_m = u_proj.w / (z_ndc + u_proj.z);
+  return vec3((uv * 2.0 - 1.0) / u_proj.xy * distance_m, -distance_m);
+}
+// Screen-space ambient occlusion: how much of the hemisphere over the surface other surfaces
+// within 25 cm fill, from 12 samples over a disc of 12 cm (turned per pixel).
+float ambient_occlusion(vec3 n) {
+  if (u_ao == 0) return 1.0;
+  vec2 uv = gl_FragCoord.xy / u_frame_px;
+  float distance_m = -v_position_view.z;
+  vec2 radius_uv = 0.12 * u_proj.xy / (2.0 * distance_m);
+  float turn = 6.2831853 * fract(52.9829189 * fract(dot(gl_FragCoord.xy, vec2(0.06711056, 0.00583715))));
+  float hidden = 0.0;
+  for (int i = 0; i < 12; ++i) {
+    float a = 2.3999632 * float(i) + turn;
+    vec2 offset = sqrt((float(i) + 0.5) / 12.0) * radius_uv * vec2(cos(a), sin(a));
+    vec3 s = view_point(uv + offset) - v_position_view;
+    float len = length(s);
+    hidden += max(dot(n, s) / max(len, 1e-4) - 0.15, 0.0) * (1.0 - smoothstep(0.12, 0.25, len));
+  }
+  return clamp(1.0 - 1.6 * hidden / 12.0, 0.0, 1.0);
+}
 void main() {
   vec3 n = u_has_normals != 0 ? normalize(v_normal_view)
                               : normalize(cross(dFdx(v_position_view), dFdy(v_position_view)));
@@ -67,7 +96,10 @@ void main() {
   float ndv = max(dot(n, v), 0.0);
   float rim = pow(1.0 - ndv, 2.5) * clamp(dot(n, rim_dir) + 0.35, 0.0, 1.0);
   float specular = pow(max(dot(n, normalize(key_dir + v)), 0.0), 36.0) * 0.07;
-  vec3 light = ambient + vec3(1.0, 0.96, 0.90) * 0.66 * key + vec3(0.86, 0.92, 1.0) * 0.32 * fill;
+  // Occlusion darkens what light comes from all round (ambient, fill) fully, the key half.
+  float ao = ambient_occlusion(n);
+  vec3 light = ambient * ao + vec3(1.0, 0.96, 0.90) * 0.66 * key * (0.5 + 0.5 * ao) +
+               vec3(0.86, 0.92, 1.0) * 0.32 * fill * ao;
   vec3 c = v_albedo * light + vec3(specular) + vec3(0.95, 0.97, 1.0) * 0.30 * rim;
   out_color = vec4(u_unlit != 0 ? v_albedo : c, u_alpha);
 }
@@ -106,7 +138,7 @@ struct Renderer::Impl {
 
   GLuint mesh_program = 0, line_program = 0;
   GLint mesh_clip = -1, mesh_view = -1, mesh_model = -1, mesh_up = -1, mesh_alpha = -1, mesh_has_normals = -1,
-        mesh_unlit = -1;
+        mesh_unlit = -1, mesh_depth = -1, mesh_ao = -1, mesh_frame_px = -1, mesh_proj = -1;
   GLint line_clip = -1;
   GLuint line_vao = 0, line_vbo = 0;
   size_t line_capacity = 0;  // vertices
@@ -114,6 +146,7 @@ struct Renderer::Impl {
   GLsizei grid_vertices = 0;
   std::vector<GpuMesh> meshes;
   detail::ContactShadow shadow;
+  detail::DepthPrepass depth;
 
   ~Impl() {
     for (GpuMesh& m : meshes) {
@@ -184,8 +217,16 @@ struct Renderer::Impl {
                       b.data());
   }
 
-  void draw_meshes(const FrameDesc& frame, const glm::mat4& clip, const glm::mat4& view, bool transparent) {
+  void draw_meshes(const FrameDesc& frame, const glm::mat4& clip, const glm::mat4& view, const glm::mat4& projection,
+                   bool ao, bool transparent) {
     glUseProgram(mesh_program);
+    glActiveTexture(GL_TEXTURE1);
+    glBindTexture(GL_TEXTURE_2D, depth.texture());
+    glActiveTexture(GL_TEXTURE0);
+    glUniform1i(mesh_depth, 1);
+    glUniform1i(mesh_ao, ao && !transparent && !frame.unlit ? 1 : 0);
+    glUniform2f(mesh_frame_px, static_cast<float>(frame.width_px), static_cast<float>(frame.height_px));
+    glUniform4f(mesh_proj, projection[0][0], projection[1][1], projection[2][2], projection[3][2]);
     glUniformMatrix4fv(mesh_clip, 1, GL_FALSE, &clip[0][0]);
     glUniformMatrix4fv(mesh_view, 1, GL_FALSE, &view[0][0]);
     const glm::vec3 up_view = glm::mat3(view) * glm::vec3(0.0f, 1.0f, 0.0f);
@@ -233,6 +274,25 @@ struct Renderer::Impl {
     return true;
   }
 
+  // The opaque meshes' depth for the ambient occlusion (depth_prepass.h).
+  bool depth_prepass(const FrameDesc& frame, const glm::mat4& clip) {
+    GLint framebuffer = 0, viewport[4] = {};
+    glGetIntegerv(GL_DRAW_FRAMEBUFFER_BINDING, &framebuffer);
+    glGetIntegerv(GL_VIEWPORT, viewport);
+    depth.begin(frame.width_px, frame.height_px, clip);
+    bool any = false;
+    for (const MeshDraw& d : frame.meshes) {
+      if (!d.mesh.valid() || d.mesh.index >= meshes.size() || d.alpha < 1.0f) continue;
+      const GpuMesh& m = meshes[d.mesh.index];
+      glBindVertexArray(m.vao);
+      depth.set_model(d.world_from_mesh);
+      draw_parts(m, d.hidden_parts);
+      any = true;
+    }
+    depth.end(framebuffer, viewport);
+    return any;
+  }
+
   // The bodies' heights above the floor for the contact shadow (contact_shadow.h).
   bool shadow_heights(const FrameDesc& frame) {
     glm::vec3 lo, hi;
@@ -276,10 +336,15 @@ Result<Renderer> Renderer::create() {
   impl->mesh_model = glGetUniformLocation(impl->mesh_program, "u_world_from_mesh");
   impl->mesh_up = glGetUniformLocation(impl->mesh_program, "u_up_view");
   impl->mesh_unlit = glGetUniformLocation(impl->mesh_program, "u_unlit");
+  impl->mesh_depth = glGetUniformLocation(impl->mesh_program, "u_depth");
+  impl->mesh_ao = glGetUniformLocation(impl->mesh_program, "u_ao");
+  impl->mesh_frame_px = glGetUniformLocation(impl->mesh_program, "u_frame_px");
+  impl->mesh_proj = glGetUniformLocation(impl->mesh_program, "u_proj");
   impl->mesh_alpha = glGetUniformLocation(impl->mesh_program, "u_alpha");
   impl->mesh_has_normals = glGetUniformLocation(impl->mesh_program, "u_has_normals");
   impl->line_clip = glGetUniformLocation(impl->line_program, "u_clip_from_world");
   if (auto shadow = impl->shadow.create(); !shadow) return tl::unexpected(shadow.error());
+  if (auto depth = impl->depth.create(); !depth) return tl::unexpected(depth.error());
   glGenVertexArrays(1, &impl->line_vao);
   glBindVertexArray(impl->line_vao);
   glGenBuffers(1, &impl->line_vbo);
@@ -371,9 +436,11 @@ void Renderer::render(const FrameDesc& frame) {
   const float aspect =
       frame.height_px > 0 ? static_cast<float>(frame.width_px) / static_cast<float>(frame.height_px) : 1.0f;
   const glm::mat4 view = frame.camera.view_from_world();
-  const glm::mat4 clip = frame.camera.clip_from_view(aspect) * view;
+  const glm::mat4 projection = frame.camera.clip_from_view(aspect);
+  const glm::mat4 clip = projection * view;
   // A floor to fall on: the grid's or the ground's.
   const bool shadow = frame.contact_shadow && (frame.grid || frame.ground) && r.shadow_heights(frame);
+  const bool ao = frame.ambient_occlusion && !frame.unlit && r.depth_prepass(frame, clip);
 
   glViewport(0, 0, frame.width_px, frame.height_px);
   glClearColor(frame.background.x, frame.background.y, frame.background.z, 1.0f);
@@ -402,7 +469,7 @@ void Renderer::render(const FrameDesc& frame) {
   }
   if (shadow) r.shadow.draw_floor(clip);
 
-  r.draw_meshes(frame, clip, view, false);
+  r.draw_meshes(frame, clip, view, projection, ao, false);
 
   r.upload_lines(frame.lines, frame.xray_lines);
   glUseProgram(r.line_program);
@@ -413,7 +480,7 @@ void Renderer::render(const FrameDesc& frame) {
 
   // See-through meshes after the opaque ones, without writing depth, so lines inside show.
   glDepthMask(GL_FALSE);
-  r.draw_meshes(frame, clip, view, true);
+  r.draw_meshes(frame, clip, view, projection, ao, true);
   glDepthMask(GL_TRUE);
 
   if (!frame.xray_lines.empty()) {
@@ -426,6 +493,9 @@ void Renderer::render(const FrameDesc& frame) {
   // Leave the context as we found it for whoever draws next.
   glBindVertexArray(0);
   glBindBuffer(GL_ARRAY_BUFFER, 0);
+  glActiveTexture(GL_TEXTURE1);
+  glBindTexture(GL_TEXTURE_2D, 0);
+  glActiveTexture(GL_TEXTURE0);
   glUseProgram(0);
   glDisable(GL_BLEND);
   glDisable(GL_DEPTH_TEST);

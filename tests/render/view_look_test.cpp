@@ -140,6 +140,29 @@ TEST(ViewLook, EdgesAreAntialiased) {
   EXPECT_GT(blended, silhouette / 6) << blended << " of " << silhouette;
 }
 
+TEST(ViewLook, AmbientOcclusionDarkensCreasesAndNothingElse) {
+  // The forearm bent across the belly, the legs together at the thighs: with the screen-space
+  // occlusion, the hidden parts darken; no pixel gets brighter, and most of the body is as it was.
+  const std::string pose =
+      "--pose rest --set l_elbow_flexion=1.5 --size 320x400 --no-grid --lod 0 --camera three-quarter";
+  const mimic::render::Image with = shoot("ao.png", pose);
+  const mimic::render::Image without = shoot("no_ao.png", pose + " --no-ao");
+  ASSERT_EQ(with.rgba.size(), without.rgba.size());
+  int darker = 0, brighter = 0, body = 0;
+  for (int y = 0; y < with.height; ++y)
+    for (int x = 0; x < with.width; ++x) {
+      if (!is_body(without, x, y)) continue;
+      ++body;
+      const uint8_t *a = with.pixel(x, y), *b = without.pixel(x, y);
+      const int d = (a[0] + a[1] + a[2]) - (b[0] + b[1] + b[2]);
+      darker += d < -9;
+      brighter += d > 9;
+    }
+  EXPECT_GT(darker, 200) << "of " << body;
+  EXPECT_LT(darker, body / 3);
+  EXPECT_LT(brighter, 10);
+}
+
 TEST(ViewLook, TheFloorShowsAContactShadowUnderTheFeet) {
   // With the floor (the grid) drawn: darker under the feet than beside them; the floor's far
   // side is untouched.

@@ -56,10 +56,11 @@ struct FrameDesc {
   int width_px = 0, height_px = 0;
   Camera camera;
   glm::vec3 background{0.93f, 0.94f, 0.96f};
-  bool grid = true;            // 10 m × 10 m floor, a line every 0.5 m
-  bool ground = false;         // the floor shaded out to the horizon (first person), under the grid
-  bool contact_shadow = true;  // the meshes' soft shadow on the floor (with the grid or the ground)
-  bool unlit = false;          // the meshes' colours without light (to see the materials alone)
+  bool grid = true;               // 10 m × 10 m floor, a line every 0.5 m
+  bool ground = false;            // the floor shaded out to the horizon (first person), under the grid
+  bool contact_shadow = true;     // the meshes' soft shadow on the floor (with the grid or the ground)
+  bool unlit = false;             // the meshes' colours without light (to see the materials alone)
+  bool ambient_occlusion = true;  // screen-space, from a half-resolution depth pre-pass of the opaque meshes
   std::span<const MeshDraw> meshes;
   std::span<const LineVertex> lines;       // depth-tested, in pairs
   std::span<const LineVertex> xray_lines;  // drawn over everything (skeleton, rays)
