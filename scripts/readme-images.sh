@@ -13,9 +13,15 @@ shot() { local name=$1; shift; "$mimic" view --screenshot "$out/$name.png" "$@" 
 shot hero --motion walk --time 0.4 --camera three-quarter --size 420x480 --lod 0
 # Poses: the relaxed posture, the walk in profile (cameras turn with the avatar), an arm raised.
 shot pose-rest --pose rest --size 240x300 --lod 0
-shot pose-walk --motion walk --time 0.9 --camera side --size 240x300 --lod 0
+shot pose-walk --motion walk --time 0.9 --camera left --size 240x300 --lod 0
 shot pose-wave --pose rest --set l_shoulder_abduction=1.2,l_elbow_flexion=1.3 --size 240x300 --lod 0
 [ -f "$data/bvh/07_01.bvh" ] && shot pose-bvh --bvh "$data/bvh/07_01.bvh" --frame 120 --camera three-quarter --size 240x300
+# The built-in body beside the MakeHuman base mesh it is measured against (grey), front and side.
+if [ -f "$data/mesh/makehuman_base_body.obj" ]; then
+  for camera in front left; do
+    shot "compare-$camera" --pose rest --compare-obj "$data/mesh/makehuman_base_body.obj" --camera "$camera" --size 420x360 --lod 0
+  done
+fi
 # The five scaling presets (mimic scale --preset), framed at one scale so their sizes compare.
 presets=$(mktemp -d)
 for preset in child adult_female adult_male tall heavy; do
@@ -51,7 +57,7 @@ if command -v xvfb-run >/dev/null; then
 fi
 # The browser viewer (docs/browser.md): its end-to-end test saves the page as headless Chromium drew it.
 if [ -x "$(dirname "$mimic")/mimic_web_tests" ] && command -v chromium >/dev/null; then
-  MIMIC_BROWSER_SCREENSHOT="$out/browser.png" "$(dirname "$mimic")/mimic_web_tests" --gtest_filter='BrowserViewer.*' >/dev/null &&
+  MIMIC_BROWSER_SCREENSHOT="$out/browser.png" "$(dirname "$mimic")/mimic_web_tests" --gtest_filter='BrowserViewer.ShowsTheAvatarMoving*' >/dev/null &&
     echo "wrote $out/browser.png"
 fi
 du -ch "$out"/*.png | tail -1

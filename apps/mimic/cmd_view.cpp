@@ -7,9 +7,13 @@
 #include <string>
 #include <vector>
 
+#include <glm/gtc/matrix_transform.hpp>
+
 #include "body_posing.h"
 #include "cli.h"
 #include "command.h"
+#include "mimic/avatar/mesh_io.h"
+#include "mimic/core/vertex_normals.h"
 #include "mimic/render/avatar_lods.h"
 #include "mimic/render/camera.h"
 #include "mimic/render/first_person.h"
@@ -30,8 +34,9 @@ constexpr const char* kAbout =
     "  mimic view [--source SPEC... | --connect HOST:PORT | --connect nats://HOST:PORT/SCENE]\n"
     "             [options]                              the interactive viewer\n"
     "\n"
-    "Draws the deformed body: smooth shading with one colour per skin piece, a floor grid (1 m\n"
-    "squares, the X axis red, the Z axis (where the body faces) blue), and overlays that show\n"
+    "Draws the deformed body: one skin material, a short-sleeved top and shorts with soft edges,\n"
+    "lit by key, fill and rim lights, with a soft contact shadow on a floor grid (1 m squares,\n"
+    "the X axis red, the Z axis (where the body faces) blue), and overlays that show\n"
     "the method: the skeleton, the primitives as ellipsoids (muscles coloured by their current\n"
     "f(t), blue at rest to red at full deformation), the contour rings, the rays cast for one\n"
     "ring, and the sensors with their axes (a magenta box when stale).\n"
@@ -53,8 +58,9 @@ constexpr const char* kFooter =
     "\n"
     "interactive keys: H or F1 help, 1-5 overlays, L cycle LOD (auto, 0..3), T translucent,\n"
     "G grid, F first person through the next avatar's eyes (a drag turns the look), R reset camera\n"
-    "(every avatar framed beside the panel, facing them), Esc quit; left drag orbit, right or\n"
-    "middle drag pan, wheel zoom.\n"
+    "(every avatar framed beside the panel, facing them), 6-0 and P camera presets (front, left,\n"
+    "back, right, three-quarter, top of the avatar; one avatar is followed as it turns), Esc quit;\n"
+    "left drag orbit, right or middle drag pan, wheel zoom.\n"
     "\n"
     "exit status: 0 done, 1 rendering or input failure, 2 usage error";
 
@@ -64,7 +70,9 @@ struct ShotOptions {
   PoseOptions pose;
   std::string set;  // --set DOF=RAD,...
   bool empty = false;
-  std::string body;  // --body before any --source
+  std::string body;         // --body before any --source
+  std::string compare_obj;  // --compare-obj: a reference mesh drawn beside the body
+  double compare_units_per_metre = 10.0;
 };
 
 double ms_since(std::chrono::steady_clock::time_point t0) {
@@ -132,6 +140,47 @@ Status apply_dof_settings(const std::string& list, const rig::Skeleton& skeleton
   return {};
 }
 
+// The reference mesh of --compare-obj beside the body (box lo..hi, facing `facing_yaw_rad`):
+// standing on the floor, turned to face where the body faces, just to the body's right as the
+// camera sees it (plain grey); the camera then fitted to both.
+Result<render::MeshDraw> reference_beside(const ShotOptions& shot, const glm::vec3& lo, const glm::vec3& hi,
+                                          float facing_yaw_rad, float aspect, render::Renderer& renderer,
+                                          render::Camera& camera) {
+  auto mesh = avatar::read_obj(shot.compare_obj, static_cast<float>(1.0 / shot.compare_units_per_metre));
+  if (!mesh) return tl::unexpected(mesh.error());
+  if (mesh->positions.empty()) return fail(Errc::invalid_argument, shot.compare_obj + ": no vertices");
+  mesh->normals.assign(mesh->positions.size(), glm::vec3(0.0f));
+  vertex_normals(mesh->positions, mesh->indices, mesh->normals);
+  glm::vec3 ref_lo(1e9f), ref_hi(-1e9f);
+  for (const glm::vec3& p : mesh->positions) ref_lo = glm::min(ref_lo, p), ref_hi = glm::max(ref_hi, p);
+  const glm::vec3 ref_foot(0.5f * (ref_lo.x + ref_hi.x), ref_lo.y, 0.5f * (ref_lo.z + ref_hi.z));
+  const glm::mat4 turn = glm::rotate(glm::mat4(1.0f), facing_yaw_rad, glm::vec3(0, 1, 0));
+  // The camera's right along the floor, and how far each figure reaches along it.
+  const glm::mat4 view = camera.view_from_world();
+  const glm::vec3 right = glm::normalize(glm::vec3(view[0][0], 0.0f, view[2][0]));
+  const glm::vec3 body_mid(0.5f * (lo.x + hi.x), 0.0f, 0.5f * (lo.z + hi.z));
+  float body_reach = 0.0f, ref_reach = 0.0f;
+  for (int c = 0; c < 8; ++c) {
+    const glm::vec3 b((c & 1) ? hi.x : lo.x, 0.0f, (c & 4) ? hi.z : lo.z);
+    const glm::vec3 r((c & 1) ? ref_hi.x : ref_lo.x, 0.0f, (c & 4) ? ref_hi.z : ref_lo.z);
+    body_reach = std::max(body_reach, glm::dot(b - body_mid, right));
+    ref_reach = std::max(ref_reach, glm::dot(glm::vec3(turn * glm::vec4(r - ref_foot, 0.0f)), -right));
+  }
+  const glm::vec3 place = body_mid + right * (body_reach + 0.15f + ref_reach);
+  render::MeshDraw draw;
+  draw.world_from_mesh = glm::translate(glm::mat4(1.0f), place) * turn * glm::translate(glm::mat4(1.0f), -ref_foot);
+  draw.mesh = renderer.add_mesh(*mesh);
+  glm::vec3 both_lo = glm::min(lo, glm::vec3(0.0f)), both_hi = hi;
+  for (int c = 0; c < 8; ++c) {
+    const glm::vec3 r((c & 1) ? ref_hi.x : ref_lo.x, (c & 2) ? ref_hi.y : ref_lo.y, (c & 4) ? ref_hi.z : ref_lo.z);
+    const glm::vec3 w(draw.world_from_mesh * glm::vec4(r, 1.0f));
+    both_lo = glm::min(both_lo, w), both_hi = glm::max(both_hi, w);
+  }
+  render::fit_box(camera, both_lo, both_hi, aspect);
+  std::printf("compare   %s beside the body, %zu triangles\n", shot.compare_obj.c_str(), mesh->triangle_count());
+  return draw;
+}
+
 int screenshot(const ShotOptions& shot, const ViewOptions& view) {
   const std::string& out = shot.out;
   auto t0 = std::chrono::steady_clock::now();
@@ -146,6 +195,8 @@ int screenshot(const ShotOptions& shot, const ViewOptions& view) {
   frame.width_px = view.width;
   frame.height_px = view.height;
   frame.grid = view.grid;
+  frame.unlit = view.unlit;
+  frame.ambient_occlusion = view.ambient_occlusion;
   std::vector<render::MeshDraw> draws;
   render::Lines lines, xray;
   glm::vec3 floor_center(0.0f);
@@ -183,8 +234,13 @@ int screenshot(const ShotOptions& shot, const ViewOptions& view) {
       height_m = view.frame_height_m;
     }
     // Presets are relative to the avatar: front faces its face wherever the pose turned it.
-    frame.camera = render::preset_camera(view.camera, floor_center, height_m, aspect,
-                                         render::facing_yaw_rad(request->pose.root_orientation));
+    const float facing_rad = render::facing_yaw_rad(request->pose.root_orientation);
+    frame.camera = render::preset_camera(view.camera, floor_center, height_m, aspect, facing_rad);
+    if (!shot.compare_obj.empty()) {
+      auto reference = reference_beside(shot, lo, hi, facing_rad, aspect, *renderer, frame.camera);
+      if (!reference) return failure(kName, reference.error().message);
+      draws.push_back(*reference);
+    }
     const int lod = view.lod >= 0
                         ? view.lod
                         : render::choose_lod(frame.camera.distance_m, height_m, frame.camera.fov_y_rad, view.height);
@@ -257,6 +313,15 @@ CLI::Option* add_shot_options(cli::Parser& p, ShotOptions& shot) {
       ->type_name("DOF=RAD,...")
       ->group(group);
   p->add_flag("--empty", shot.empty, "no avatar: the floor alone")->group(group);
+  p->add_option("--compare-obj", shot.compare_obj,
+                "draw this mesh (OBJ, e.g. a MakeHuman export) beside the body, in grey,\n"
+                "standing on the floor and facing where the body faces")
+      ->type_name("FILE.obj")
+      ->group(group);
+  p->add_option("--compare-units-per-metre", shot.compare_units_per_metre,
+                "the --compare-obj file's units per metre (default 10: MakeHuman's decimetres)")
+      ->check(cli::finite_range(0.001, 10000))
+      ->group(group);
   return out;
 }
 
@@ -353,9 +418,9 @@ void add_drawing_options(cli::Parser& p, ViewOptions& view) {
   p->add_option_function<std::string>(
        "--camera", [&view](const std::string& name) { view.camera = *render::parse_camera_preset(name); },
        "where from, relative to where the avatar faces: front (its face, the\n"
-       "default), side (its left), back, three-quarter (front left)")
+       "default), back, left (or side), right, three-quarter (front left), top")
       ->check(accepted_by([](const std::string& t) { return render::parse_camera_preset(t).has_value(); },
-                          "must be front, side, back or three-quarter", "NAME"));
+                          "must be front, back, left, right, side, three-quarter or top", "NAME"));
   p->add_option_function<std::string>(
        "--size", [&view](const std::string& text) { parse_size(text, view.width, view.height); },
        "image or window size in pixels (default 640x720, window 960x720)")
@@ -380,6 +445,13 @@ void add_drawing_options(cli::Parser& p, ViewOptions& view) {
   p->add_option("--ray-ring", view.ray_ring, "the ring whose rays the rays overlay shows")
       ->check(CLI::Range(0, 100000));
   p->add_flag("--see-through", view.see_through, "draw the body translucent (to see overlays inside it)");
+  p->add_option_function<std::string>(
+       "--shading", [&view](const std::string& mode) { view.unlit = mode == "albedo"; },
+       "lit (default): key, fill and rim lights; albedo: the materials' colours alone")
+      ->check(CLI::IsMember({"lit", "albedo"}));
+  p->add_flag_function(
+      "--no-ao", [&view](std::int64_t) { view.ambient_occlusion = false; },
+      "without the screen-space ambient occlusion (for comparison, or a slow GPU)");
   p->add_option_function<std::string>(
        "--method", [&view](const std::string& name) { view.method = *avatar::parse_skin_method(name); },
        "realtime (default): contours measured once and moved with the joints,\n"

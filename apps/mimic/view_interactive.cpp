@@ -96,9 +96,14 @@ struct ViewState {
   float zoom = 1.0f;      // the user's distance over the fitted one
   float fitted_m = 0.0f;  // the distance last fitted, 0 before the first fit
   render::CameraFollow follower;
+  // The camera preset (--camera, keys 6-0 and P), relative to where the avatars face. With one
+  // avatar the orbit turns as it turns, keeping that view of it, until the user orbits by hand.
+  render::CameraPreset preset = render::CameraPreset::kFront;
+  bool track_heading = true;
+  bool reframe = false;  // a preset key: fit the camera again from that preset
   unsigned overlays = 0;
   int lod_mode = -1;  // -1 auto
-  bool grid = true, see_through = false, help = false;
+  bool grid = true, see_through = false, help = false, unlit = false, ambient_occlusion = true;
   int ray_ring = 40;
   int first_person = -1;  // avatar index, or -1: orbit
   long eyes = 0;          // --eyes K: start looking through avatar K's eyes (once it is there)
@@ -142,17 +147,29 @@ void fit_scene(render::Camera& c, const std::vector<ViewAvatar>& avatars, float 
 
 // The orbit camera for the scene as it stands, seen from `preset` relative to where the avatars
 // face on average (front: their faces).
-render::Camera frame_scene(const std::vector<ViewAvatar>& avatars, render::CameraPreset preset, float aspect,
-                           float panel_right) {
+// Where an avatar faces in the world, as a yaw (render::facing_yaw_rad).
+float heading_rad(const ViewAvatar& a) {
+  return render::facing_yaw_rad(glm::quat_cast(glm::mat3(a.world_from_body)) * a.pose.root_orientation);
+}
+
+// Where the avatars face on average, as a yaw; 0 before any stands.
+float scene_heading_rad(const std::vector<ViewAvatar>& avatars) {
   glm::vec2 facing(0.0f);  // sum of unit headings (sin, cos)
   for (const ViewAvatar& a : avatars) {
     if (a.deform_ms <= 0) continue;
-    const float yaw = render::facing_yaw_rad(glm::quat_cast(glm::mat3(a.world_from_body)) * a.pose.root_orientation);
+    const float yaw = heading_rad(a);
     facing += glm::vec2(std::sin(yaw), std::cos(yaw));
   }
+  return glm::length(facing) > 1e-3f ? std::atan2(facing.x, facing.y) : 0.0f;
+}
+
+render::Camera frame_scene(const std::vector<ViewAvatar>& avatars, render::CameraPreset preset, float aspect,
+                           float panel_right) {
   render::Camera c;
-  c.yaw_rad = render::preset_yaw_rad(preset, glm::length(facing) > 1e-3f ? std::atan2(facing.x, facing.y) : 0.0f);
-  c.pitch_rad = avatars.size() > 1 ? 0.3f : 0.12f;
+  c.yaw_rad = render::preset_yaw_rad(preset, scene_heading_rad(avatars));
+  c.pitch_rad = preset == render::CameraPreset::kTop ? render::preset_pitch_rad(preset)
+                : avatars.size() > 1                 ? 0.3f
+                                                     : 0.12f;
   fit_scene(c, avatars, aspect, panel_right);
   return c;
 }
@@ -279,10 +296,32 @@ Status update_remote(const ViewOptions& view, render::Renderer& renderer, ViewSc
   return {};
 }
 
+// Keys 6-0 and P: the camera presets, relative to the avatars.
+std::optional<render::CameraPreset> preset_for_key(int key) {
+  switch (key) {
+    case '6': return render::CameraPreset::kFront;
+    case '7': return render::CameraPreset::kLeft;
+    case '8': return render::CameraPreset::kBack;
+    case '9': return render::CameraPreset::kRight;
+    case '0': return render::CameraPreset::kThreeQuarter;
+    case 'P': return render::CameraPreset::kTop;
+    default: return std::nullopt;
+  }
+}
+
 void handle_keys(render::Window& window, ViewState& s, size_t avatar_count) {
   const glm::vec3 target_before = s.camera.target;
   const float distance_before = s.camera.distance_m;
+  const float yaw_before = s.camera.yaw_rad, pitch_before = s.camera.pitch_rad;
   for (int key : window.begin_frame(s.camera)) {
+    if (auto preset = preset_for_key(key)) {
+      s.preset = *preset;
+      s.reframe = s.follow = s.track_heading = true;
+      s.zoom = 1.0f;
+      s.first_person = -1;
+      s.camera.first_person_eye.reset();
+      continue;
+    }
     switch (key) {
       case render::kKeyEscape:
       case 'Q': window.request_close(); break;
@@ -303,7 +342,7 @@ void handle_keys(render::Window& window, ViewState& s, size_t avatar_count) {
         s.first_person = -1;
         s.camera.first_person_eye.reset();
         s.camera.look_yaw_rad = s.camera.look_pitch_rad = 0.0f;
-        s.follow = true;
+        s.follow = s.track_heading = true;
         s.zoom = 1.0f;
         break;
       case 'C': s.follow = !s.follow; break;
@@ -316,7 +355,8 @@ void handle_keys(render::Window& window, ViewState& s, size_t avatar_count) {
       default: break;
     }
   }
-  if (s.camera.target != target_before) s.follow = false;  // the user panned
+  if (s.camera.target != target_before) s.follow = false;                                             // the user panned
+  if (s.camera.yaw_rad != yaw_before || s.camera.pitch_rad != pitch_before) s.track_heading = false;  // orbited
   if (s.camera.distance_m != distance_before && s.fitted_m > 0.0f && s.first_person < 0)
     s.zoom = s.camera.distance_m / s.fitted_m;  // the wheel
   if (!s.follow) s.follower.reset();
@@ -336,6 +376,12 @@ void follow_scene(const ViewOptions& view, float dt_s, const std::vector<ViewAva
   const float k_distance = want_m > s.camera.distance_m ? k : 1.0f - std::exp(-dt_s / 2.0f);
   s.camera.target.y += k * (fit.target.y - s.camera.target.y);
   s.camera.distance_m += k_distance * (want_m - s.camera.distance_m);
+  // One avatar: the preset's side of it stays in view as it turns (a slower glide, so a walker's
+  // sway does not swing the view).
+  if (s.track_heading && avatars.size() == 1 && s.first_person < 0) {
+    const float want_yaw = render::preset_yaw_rad(s.preset, scene_heading_rad(avatars));
+    s.camera.yaw_rad += (1.0f - std::exp(-dt_s / 0.25f)) * std::remainder(want_yaw - s.camera.yaw_rad, 6.2831853f);
+  }
 }
 
 // Once the avatars have poses and skins (a few frames in), fit the orbit camera to the whole
@@ -356,11 +402,16 @@ void frame_camera(const ViewOptions& view, long frames, float dt_s, std::vector<
             glm::translate(glm::mat4(1.0f), glm::vec3(a.row_position_m.x - a.pose.root_position_m.x, 0.0f,
                                                       a.row_position_m.z - a.pose.root_position_m.z));
     const float look_yaw_rad = s.camera.look_yaw_rad, look_pitch_rad = s.camera.look_pitch_rad;
-    s.camera = frame_scene(avatars, view.camera, float(view.width) / float(view.height), s.panel_right);
+    s.camera = frame_scene(avatars, s.preset, float(view.width) / float(view.height), s.panel_right);
     s.home = s.camera;
     s.camera.look_yaw_rad = look_yaw_rad, s.camera.look_pitch_rad = look_pitch_rad;  // --look, or a drag
     s.fitted_m = s.camera.distance_m;
     s.framed = true;
+  } else if (s.framed && s.reframe && !avatars.empty()) {
+    s.camera = frame_scene(avatars, s.preset, float(view.width) / float(view.height), s.panel_right);
+    s.home = s.camera;
+    s.fitted_m = s.camera.distance_m;
+    s.reframe = false;
   } else if (s.framed && s.follow && s.first_person < 0 && !avatars.empty()) {
     follow_scene(view, dt_s, avatars, s);
   }
@@ -421,6 +472,8 @@ void draw_scene(render::Window& window, render::Renderer& renderer, std::vector<
   frame.height_px = fb_h;
   frame.camera = s.camera;
   frame.grid = s.grid;
+  frame.unlit = s.unlit;
+  frame.ambient_occlusion = s.ambient_occlusion;
   frame.ground = s.grid && s.first_person >= 0;
   frame.meshes = draws;
   frame.lines = lines.vertices;
@@ -488,6 +541,9 @@ int run_interactive(const ViewOptions& view) {
   if (int rc = scene.connect.empty() ? open_local(view, *renderer, scene) : open_remote(view, scene); rc >= 0)
     return rc;
 
+  state.preset = view.camera;
+  state.unlit = view.unlit;
+  state.ambient_occlusion = view.ambient_occlusion;
   state.camera = render::preset_camera(view.camera, {0, 0, 0}, 1.75f, float(view.width) / float(view.height));
   state.home = state.camera;
   state.camera.look(view.look_yaw_rad, view.look_pitch_rad);
@@ -522,6 +578,16 @@ int run_interactive(const ViewOptions& view) {
   std::printf("view      %ld frames, %.2f ms per frame (mean, work before the buffer swap)\n", frames,
               frames ? times.total_ms / static_cast<double>(frames) : 0.0);
   if (scene.client) std::printf("scene     %s\n", scene.connection.c_str());
+  if (!scene.avatars.empty() && state.first_person < 0) {
+    // Where the camera looks from, as the angle between the first avatar's facing and the way to
+    // the eye (0°: its face; 180°: its back), both along the floor.
+    const ViewAvatar& a = scene.avatars.front();
+    const float facing_rad = heading_rad(a);
+    const glm::vec3 to_eye = state.camera.eye() - root_in_world(a);
+    const float eye_rad = std::atan2(to_eye.x, to_eye.z);
+    std::printf("camera    %.0f deg from %s's face\n",
+                std::abs(std::remainder(eye_rad - facing_rad, 6.2831853f)) * 57.29578f, a.name.c_str());
+  }
   for (const ViewAvatar& a : scene.avatars)
     std::printf("avatar    %s: %s; LOD %d, %zu triangles; %s\n", a.name.c_str(), a.source.c_str(), a.lod,
                 a.lods->triangle_count(a.lod), a.status.c_str());

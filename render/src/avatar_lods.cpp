@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "mimic/avatar/appearance.h"
+
 namespace mimic::render {
 
 int choose_lod(float distance_m, float height_m, float fov_y_rad, int viewport_height_px, int current) {
@@ -24,21 +26,27 @@ Result<AvatarLods> AvatarLods::create(const avatar::BodyModel& model, const rig:
     auto skin = skeleton ? avatar::ImplicitSkin::create(at_lod, *skeleton, options)
                          : avatar::ImplicitSkin::create(at_lod, options);
     if (!skin) return tl::unexpected(skin.error());
-    skin->evaluate(skin->skeleton().rest_pose());
+    const rig::Skeleton& bones = skin->skeleton();
+    // The clothes are laid out on the zero posture, where the skeleton's landmarks are.
     if (method == avatar::SkinMethod::realtime) {
       avatar::RealtimeOptions ro;
       ro.lod = lod;
-      auto body = avatar::RealtimeBody::shared(model, skin->skeleton(), ro);
+      auto body = avatar::RealtimeBody::shared(model, bones, ro);
       if (!body) return tl::unexpected(body.error());
       avatar::Mesh mesh = (*body)->rest_mesh();
       mesh.normals.resize(mesh.positions.size());
       lods.realtime_.emplace_back(std::move(*body));
-      lods.realtime_.back().evaluate(skin->skeleton().rest_pose(), mesh.positions, mesh.normals);
-      lods.meshes_.push_back(renderer.add_mesh(mesh));
+      lods.realtime_.back().evaluate(bones.zero_pose(), mesh.positions, mesh.normals);
+      const std::vector<glm::vec3> albedo = avatar::clothing_albedo(bones, mesh.positions);
+      lods.realtime_.back().evaluate(bones.rest_pose(), mesh.positions, mesh.normals);
+      lods.meshes_.push_back(renderer.add_mesh(mesh, albedo));
       lods.realtime_meshes_.push_back(std::move(mesh));
     } else {
-      lods.meshes_.push_back(renderer.add_mesh(skin->mesh()));
+      skin->evaluate(bones.zero_pose());
+      const std::vector<glm::vec3> albedo = avatar::clothing_albedo(bones, skin->mesh().positions);
+      lods.meshes_.push_back(renderer.add_mesh(skin->mesh(), albedo));
     }
+    skin->evaluate(bones.rest_pose());
     lods.skins_.push_back(std::move(*skin));
   }
   return lods;

@@ -9,7 +9,9 @@ namespace mimic::render {
 
 std::optional<CameraPreset> parse_camera_preset(std::string_view name) {
   if (name == "front") return CameraPreset::kFront;
-  if (name == "side") return CameraPreset::kSide;
+  if (name == "left" || name == "side") return CameraPreset::kLeft;
+  if (name == "right") return CameraPreset::kRight;
+  if (name == "top") return CameraPreset::kTop;
   if (name == "back") return CameraPreset::kBack;
   if (name == "three-quarter") return CameraPreset::kThreeQuarter;
   return std::nullopt;
@@ -92,18 +94,28 @@ float preset_yaw_rad(CameraPreset preset, float facing_yaw_rad) {
   // front at the same yaw, from its left (its +X) a quarter turn further.
   switch (preset) {
     case CameraPreset::kFront: return facing_yaw_rad;
-    case CameraPreset::kSide: return facing_yaw_rad + 0.5f * kPi;
+    case CameraPreset::kLeft: return facing_yaw_rad + 0.5f * kPi;
     case CameraPreset::kBack: return facing_yaw_rad + kPi;
     case CameraPreset::kThreeQuarter: return facing_yaw_rad + 0.25f * kPi;
+    case CameraPreset::kRight: return facing_yaw_rad - 0.5f * kPi;
+    case CameraPreset::kTop: return facing_yaw_rad;
   }
   return facing_yaw_rad;
+}
+
+float preset_pitch_rad(CameraPreset preset) {
+  switch (preset) {
+    case CameraPreset::kThreeQuarter: return 0.2f;
+    case CameraPreset::kTop: return 1.45f;
+    default: return 0.08f;
+  }
 }
 
 Camera preset_camera(CameraPreset preset, const glm::vec3& floor_center, float height_m, float aspect,
                      float facing_yaw_rad) {
   Camera c;
   c.target = floor_center + glm::vec3(0.0f, 0.5f * height_m, 0.0f);
-  c.pitch_rad = preset == CameraPreset::kThreeQuarter ? 0.2f : 0.08f;
+  c.pitch_rad = preset_pitch_rad(preset);
   c.yaw_rad = preset_yaw_rad(preset, facing_yaw_rad);
   // Fit the body's height (plus margin, and its arm span when the image is narrow) in the view.
   const float half_fov = 0.5f * c.fov_y_rad;

@@ -51,6 +51,7 @@ float draw_hud(const HudState& s) {
       {"F", "first person at the next avatar's head (again: back to orbit)"},
       {"C", "follow the avatars (on at start; panning stops it)"},
       {"R", "reset the camera (and follow again)"},
+      {"6-0, P", "camera: front, left, back, right, three-quarter, top (of the avatar)"},
       {"mouse", "left drag orbit, right/middle drag pan, wheel zoom"},
       {"Esc, Q", "quit"},
   };

@@ -253,7 +253,7 @@ TEST(CliHelp, ViewListsItsOptionsAndRefusesWrongUses) {
   const std::vector<std::pair<std::string, std::vector<std::string>>> cases = {
       {"--screenshot x.png --lod 4", {"--lod"}},
       {"--screenshot x.png --size 8x8", {"--size", "WxH"}},
-      {"--screenshot x.png --camera top", {"--camera", "front, side, back or three-quarter"}},
+      {"--screenshot x.png --camera above", {"--camera", "front, back, left, right, side, three-quarter or top"}},
       {"--screenshot x.png --overlay bones", {"--overlay"}},
       {"--screenshot x.png --frame-height 30", {"--frame-height"}},
       {"--screenshot x.png --motion walk --bvh x.bvh", {"--bvh", "--motion"}},

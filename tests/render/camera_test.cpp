@@ -45,6 +45,15 @@ TEST(Camera, PresetsAreRelativeToWhereTheBodyFaces) {
   EXPECT_LT(side.eye().z, -2.0f);  // at its left
   const Camera back = mimic::render::preset_camera(CameraPreset::kBack, {0, 0, 0}, 1.7f, 1.0f, facing);
   EXPECT_LT(back.eye().x, -2.0f);
+  const Camera right = mimic::render::preset_camera(CameraPreset::kRight, {0, 0, 0}, 1.7f, 1.0f, facing);
+  EXPECT_GT(right.eye().z, 2.0f);                                         // at its right (its left hand is on −Z)
+  EXPECT_GT(project(right, turned * glm::vec3(0, 1, 0.3f), 1).x, 0.01f);  // its front on the image's right
+  // From the top, nearly straight down, a little to the front: the face towards the image's bottom.
+  const Camera top = mimic::render::preset_camera(CameraPreset::kTop, {0, 0, 0}, 1.7f, 1.0f, facing);
+  EXPECT_GT(top.eye().y, 2.0f);
+  EXPECT_NEAR(top.eye().z, 0.0f, 1e-3f);
+  EXPECT_LT(project(top, turned * glm::vec3(0, 1.5f, 0.3f), 1).y,
+            project(top, turned * glm::vec3(0, 1.5f, -0.3f), 1).y);
   // Pitch and roll of the root do not move the heading; facing straight down has none.
   EXPECT_NEAR(mimic::render::facing_yaw_rad(turned * glm::angleAxis(0.4f, glm::vec3(1, 0, 0))), facing, 1e-5f);
   EXPECT_EQ(mimic::render::facing_yaw_rad(glm::angleAxis(1.5707964f, glm::vec3(1, 0, 0))), 0.0f);
@@ -147,7 +156,11 @@ TEST(CameraFollow, KeepsASteadyWalkerInTheMiddleWithoutSwayingWithItsSteps) {
 
 TEST(Camera, ParsesPresetNames) {
   EXPECT_EQ(mimic::render::parse_camera_preset("three-quarter"), CameraPreset::kThreeQuarter);
-  EXPECT_FALSE(mimic::render::parse_camera_preset("top"));
+  EXPECT_EQ(mimic::render::parse_camera_preset("left"), CameraPreset::kLeft);
+  EXPECT_EQ(mimic::render::parse_camera_preset("side"), CameraPreset::kLeft);
+  EXPECT_EQ(mimic::render::parse_camera_preset("right"), CameraPreset::kRight);
+  EXPECT_EQ(mimic::render::parse_camera_preset("top"), CameraPreset::kTop);
+  EXPECT_FALSE(mimic::render::parse_camera_preset("above"));
 }
 
 TEST(Lod, FinerAsTheBodyComesCloser) {

@@ -137,6 +137,51 @@ TEST_F(RendererTest, XrayLinesShowThroughTheBodyAndDepthTestedLinesDoNot) {
   EXPECT_GT(green_pixels(draw(frame)), 5);
 }
 
+// Silhouette pixels that blend the body into the background (neither the one nor the other).
+int blended_edge_pixels(const render::Image& image, const glm::vec3& background) {
+  const Bg bg = background_bytes(background);
+  auto off = [&](int x, int y) {
+    const uint8_t* p = image.pixel(x, y);
+    return std::abs(p[0] - bg.rgb[0]) + std::abs(p[1] - bg.rgb[1]) + std::abs(p[2] - bg.rgb[2]);
+  };
+  int n = 0;
+  for (int y = 1; y + 1 < image.height; ++y)
+    for (int x = 1; x + 1 < image.width; ++x) {
+      const int o = off(x, y);
+      const bool edge = off(x - 1, y) == 0 || off(x + 1, y) == 0 || off(x, y - 1) == 0 || off(x, y + 1) == 0;
+      n += edge && o > 0 && o < 150;  // every unlit material lies 180+ away from the background
+    }
+  return n;
+}
+
+TEST(RendererMsaa, TheDefaultOffscreenFrameIsMultisampledAndResolved) {
+  // The same body drawn unlit (its colours alone) into a single-sampled and a 4× frame: only
+  // the second has edge pixels between the body and the background.
+  int blended[2] = {0, 0};
+  for (int samples : {0, 4}) {
+    auto ctx = render::OffscreenContext::create(kW, kH, samples);
+    ASSERT_TRUE(ctx) << ctx.error().what();
+    auto renderer = render::Renderer::create();
+    ASSERT_TRUE(renderer) << renderer.error().what();
+    auto lods = render::AvatarLods::create(avatar::default_body_model(), nullptr, *renderer);
+    ASSERT_TRUE(lods);
+    rig::Pose pose = lods->skeleton().rest_pose();
+    pose.root_position_m.y = rig::standing_root_height_m(lods->skeleton());
+    render::FrameDesc frame;
+    frame.width_px = kW;
+    frame.height_px = kH;
+    frame.grid = false;
+    frame.unlit = true;
+    frame.camera = render::preset_camera(render::CameraPreset::kFront, {0, 0, 0}, 1.8f, float(kW) / kH);
+    const render::MeshDraw draw_list[] = {{lods->update(1, pose, *renderer), glm::mat4(1.0f), 1.0f}};
+    frame.meshes = draw_list;
+    renderer->render(frame);
+    blended[samples > 0] = blended_edge_pixels(ctx->read(), frame.background);
+  }
+  EXPECT_LT(blended[0], 10) << blended[1];
+  EXPECT_GT(blended[1], 150) << blended[0];
+}
+
 TEST_F(RendererTest, FramesAreDeterministic) {
   render::FrameDesc frame;
   frame.width_px = kW;

@@ -240,7 +240,7 @@ TEST(ViewCli, FirstPersonShowsTheOwnHandsAndNotTheInsideOfTheHead) {
 }
 
 TEST(ViewCli, BadRequestsGetClearErrors) {
-  Outcome r = run_mimic("view --screenshot /tmp/x.png --camera top");
+  Outcome r = run_mimic("view --screenshot /tmp/x.png --camera above");
   EXPECT_EQ(r.status, 2);
   EXPECT_NE(r.output.find("--camera"), std::string::npos) << r.output;
   r = run_mimic("view --screenshot /tmp/x.png --size 10");

@@ -183,6 +183,32 @@ TEST(ViewWindow, TheOrbitCameraKeepsAWalkerInTheMiddle) {
   std::filesystem::remove(out);
 }
 
+// The camera's angle from the first avatar's face, as the viewer reports it on exit; −1 if absent.
+double degrees_from_face(const std::string& output) {
+  const size_t at = output.find("camera    ");
+  return at == std::string::npos ? -1.0 : std::atof(output.c_str() + at + 10);
+}
+
+TEST(ViewWindow, OpensFacingTheAvatarAndKeepsItsPresetAsItTurns) {
+  // The built-in walk turns a full circle in 6.6 s. The window opens on the walker's face and
+  // stays on it as it goes round (the camera turns with it); --camera back stays behind it.
+  VirtualDisplay x;
+  ASSERT_FALSE(x.display().empty()) << "Xvfb did not start (scripts/setup.sh installs it)";
+  ::setenv("DISPLAY", x.display().c_str(), 1);
+  const std::string common = "view --source sim:walk --frames 300 --lod 3 --size 320x240 --no-panel";
+  const Outcome front = run_mimic(common);
+  ASSERT_EQ(front.status, 0) << front.output;
+  const double front_deg = degrees_from_face(front.output);
+  ASSERT_GE(front_deg, 0.0) << front.output;
+  EXPECT_LT(front_deg, 40.0) << front.output;
+  const Outcome back = run_mimic(common + " --camera back");
+  ASSERT_EQ(back.status, 0) << back.output;
+  EXPECT_GT(degrees_from_face(back.output), 140.0) << back.output;
+  const Outcome left = run_mimic(common + " --camera left");
+  ASSERT_EQ(left.status, 0) << left.output;
+  EXPECT_NEAR(degrees_from_face(left.output), 90.0, 40.0) << left.output;
+}
+
 // What of the avatars a capture shows where it should not: pixels under or below the status
 // panel, or on the window's right or bottom edge (cut by it).
 struct Framing {

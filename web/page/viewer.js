@@ -56,23 +56,36 @@ function program(vs, fs) {
   if (!gl.getProgramParameter(p, gl.LINK_STATUS)) throw new Error(gl.getProgramInfoLog(p));
   return p;
 }
+// Lit as `mimic view` lights its bodies (render/src/renderer.cpp): a key, a fill and a rim light
+// fixed to the camera over a hemisphere ambient, on the colour each vertex carries.
 const bodyProgram = program(`#version 300 es
-  layout(location=0) in vec3 pos; layout(location=1) in vec3 nrm;
-  uniform mat4 view_proj, world; out vec3 n; out vec3 wp;
-  void main() { vec4 w = world * vec4(pos, 1.0); wp = w.xyz; n = mat3(world) * nrm; gl_Position = view_proj * w; }`,
-`#version 300 es
-  precision mediump float; in vec3 n; in vec3 wp; uniform vec3 colour; out vec4 frag;
+  layout(location=0) in vec3 pos; layout(location=1) in vec3 nrm; layout(location=2) in vec3 alb;
+  uniform mat4 view_proj, world; out vec3 n; out vec3 wp; out vec3 albedo;
   void main() {
-    vec3 l = normalize(vec3(0.4, 1.0, 0.6)); float d = max(dot(normalize(n), l), 0.0);
-    float back = max(dot(normalize(n), -l), 0.0) * 0.15;
-    frag = vec4(colour * (0.35 + 0.65 * d + back), 1.0);
+    vec4 w = world * vec4(pos, 1.0); wp = w.xyz; n = mat3(world) * nrm; albedo = alb; gl_Position = view_proj * w;
+  }`,
+`#version 300 es
+  precision mediump float; in vec3 n; in vec3 wp; in vec3 albedo; uniform vec3 eye; out vec4 frag;
+  void main() {
+    vec3 v = normalize(eye - wp), nn = normalize(n);
+    if (dot(nn, v) < 0.0) nn = -nn;
+    vec3 right = normalize(cross(vec3(0.0, 1.0, 0.0), v)), up = cross(v, right);
+    vec3 key_dir = normalize(-0.35 * right + 0.55 * up + 0.75 * v);
+    vec3 fill_dir = normalize(0.7 * right + 0.7 * v);
+    vec3 rim_dir = normalize(0.45 * up - 0.9 * v);
+    vec3 ambient = mix(vec3(0.25, 0.24, 0.24), vec3(0.42, 0.44, 0.48), 0.5 + 0.5 * nn.y);
+    float key = max(dot(nn, key_dir), 0.0), fill = max(dot(nn, fill_dir), 0.0), ndv = max(dot(nn, v), 0.0);
+    float rim = pow(1.0 - ndv, 2.5) * clamp(dot(nn, rim_dir) + 0.35, 0.0, 1.0);
+    float spec = pow(max(dot(nn, normalize(key_dir + v)), 0.0), 36.0) * 0.07;
+    vec3 light = ambient + vec3(1.0, 0.96, 0.90) * 0.66 * key + vec3(0.86, 0.92, 1.0) * 0.32 * fill;
+    frag = vec4(albedo * light + vec3(spec) + vec3(0.95, 0.97, 1.0) * 0.30 * rim, 1.0);
   }`);
 const lineProgram = program(`#version 300 es
   layout(location=0) in vec3 pos; uniform mat4 view_proj; void main() { gl_Position = view_proj * vec4(pos, 1.0); }`,
 `#version 300 es
   precision mediump float; uniform vec3 colour; out vec4 frag; void main() { frag = vec4(colour, 1.0); }`);
 const u = (p, n) => gl.getUniformLocation(p, n);
-const bodyU = { view_proj: u(bodyProgram, 'view_proj'), world: u(bodyProgram, 'world'), colour: u(bodyProgram, 'colour') };
+const bodyU = { view_proj: u(bodyProgram, 'view_proj'), world: u(bodyProgram, 'world'), eye: u(bodyProgram, 'eye') };
 const lineU = { view_proj: u(lineProgram, 'view_proj'), colour: u(lineProgram, 'colour') };
 
 // The floor: a 10 m grid of 1 m squares, X axis red, Z axis blue (as `mimic view`).
@@ -85,16 +98,6 @@ const grid = (() => {
   gl.bufferData(gl.ARRAY_BUFFER, new Float32Array([0, 0.002, 0, 1, 0.002, 0, 0, 0.002, 0, 0, 0.002, 1]), gl.STATIC_DRAW);
   return { buf, axes, count: v.length / 3 };
 })();
-
-// Colours per skin piece, as the desktop viewer's: skin, shirt, trousers, shoes; left lighter.
-function partColour(name) {
-  let c = [0.45, 0.55, 0.75];  // shirt
-  if (/head|neck|hand|lower_arm|forearm/.test(name)) c = [0.86, 0.68, 0.56];
-  else if (/leg|pelvis|hip|crotch/.test(name)) c = [0.25, 0.28, 0.38];
-  else if (/foot|shoe/.test(name)) c = [0.18, 0.16, 0.15];
-  if (/^l_|left/.test(name)) c = c.map((x) => Math.min(1, x * 1.12));
-  return c;
-}
 
 // ---- the module, the socket ----
 let M = null;           // the WebAssembly module
@@ -143,13 +146,16 @@ function meshFor(id, lod) {
   const nrm = gl.createBuffer(); gl.bindBuffer(gl.ARRAY_BUFFER, nrm);
   gl.bufferData(gl.ARRAY_BUFFER, vertices * 12, gl.DYNAMIC_DRAW);
   gl.enableVertexAttribArray(1); gl.vertexAttribPointer(1, 3, gl.FLOAT, false, 0, 0);
+  // The clothes' colours, a colour per vertex that blends across parts (no seams where they meet).
+  const alb = gl.createBuffer(); gl.bindBuffer(gl.ARRAY_BUFFER, alb);
+  gl.bufferData(gl.ARRAY_BUFFER, M.HEAPF32.subarray(M._mw_albedo(id, lod) >> 2, (M._mw_albedo(id, lod) >> 2) + vertices * 3), gl.STATIC_DRAW);
+  gl.enableVertexAttribArray(2); gl.vertexAttribPointer(2, 3, gl.FLOAT, false, 0, 0);
   const idx = gl.createBuffer(); gl.bindBuffer(gl.ELEMENT_ARRAY_BUFFER, idx);
   gl.bufferData(gl.ELEMENT_ARRAY_BUFFER, M.HEAPU32.subarray(M._mw_indices(id, lod) >> 2, (M._mw_indices(id, lod) >> 2) + indexCount), gl.STATIC_DRAW);
   gl.bindVertexArray(null);
   const parts = [];
   for (let p = 0; p < M._mw_part_count(id, lod); ++p)
-    parts.push({ first: M._mw_part_first(id, lod, p), count: M._mw_part_triangles(id, lod, p),
-                 colour: partColour(M.UTF8ToString(M._mw_part_name(id, lod, p))) });
+    parts.push({ first: M._mw_part_first(id, lod, p), count: M._mw_part_triangles(id, lod, p) });
   m = { vao, pos, nrm, vertices, triangles: indexCount / 3, parts };
   meshes.set(key, m);
   return m;
@@ -201,7 +207,7 @@ function deformAll(eyePos, viewportHeight, fovY) {
   return shown;
 }
 
-function drawScene(viewProj, shown, world) {
+function drawScene(viewProj, shown, world, eyePos) {
   gl.useProgram(lineProgram);
   gl.uniformMatrix4fv(lineU.view_proj, false, multiply(viewProj, world));
   gl.enableVertexAttribArray(0);
@@ -213,10 +219,10 @@ function drawScene(viewProj, shown, world) {
   gl.useProgram(bodyProgram);
   gl.uniformMatrix4fv(bodyU.view_proj, false, viewProj);
   gl.uniformMatrix4fv(bodyU.world, false, world);
+  gl.uniform3fv(bodyU.eye, eyePos);
   for (const s of shown) {
     gl.bindVertexArray(s.m.vao);
     for (const p of s.m.parts) {
-      gl.uniform3fv(bodyU.colour, p.colour);
       gl.drawElements(gl.TRIANGLES, p.count * 3, gl.UNSIGNED_INT, p.first * 12);
     }
   }
@@ -288,7 +294,7 @@ function frame(now) {
     const { t, e } = eye();
     const viewProj = multiply(perspective(cam.fovY, canvas.width / canvas.height, 0.05, 100), lookAt(e, t, [0, 1, 0]));
     const shown = deformAll(e, canvas.height, cam.fovY);
-    drawScene(viewProj, shown, translation(0, 0, 0));
+    drawScene(viewProj, shown, translation(0, 0, 0), e);
     drawnAvatars = shown.length;
     noteDrawn(shown);
     const tNow = performance.now();
@@ -366,7 +372,8 @@ async function setupXR() {
       for (const view of pose.views) {
         const vp = layer.getViewport(view);
         gl.viewport(vp.x, vp.y, vp.width, vp.height);
-        drawScene(multiply(Array.from(view.projectionMatrix), Array.from(view.transform.inverse.matrix)), shown, world);
+        const p = view.transform.position;
+        drawScene(multiply(Array.from(view.projectionMatrix), Array.from(view.transform.inverse.matrix)), shown, world, [p.x, p.y, p.z]);
       }
     };
     session.requestAnimationFrame(xrFrame);

@@ -16,6 +16,7 @@
 #include <string>
 #include <vector>
 
+#include "mimic/avatar/appearance.h"
 #include "mimic/avatar/body_model.h"
 #include "mimic/avatar/realtime_skin.h"
 #include "mimic/avatar/skin_lod.h"
@@ -30,6 +31,7 @@ struct Lod {
   std::shared_ptr<const avatar::RealtimeBody> body;
   std::unique_ptr<avatar::RealtimeSkin> skin;
   std::vector<glm::vec3> positions_m, normals;
+  std::vector<glm::vec3> albedo;  // the clothes' colours per vertex (avatar/appearance.h)
   bool failed = false;
 };
 
@@ -198,6 +200,8 @@ Lod* lod_of(int id, int lod) {
   l.skin = std::make_unique<avatar::RealtimeSkin>(l.body);
   l.positions_m.resize(l.body->vertex_count());
   l.normals.resize(l.body->vertex_count());
+  l.skin->evaluate(l.body->skeleton().zero_pose(), l.positions_m, l.normals);
+  l.albedo = avatar::clothing_albedo(l.body->skeleton(), l.positions_m);
   l.skin->evaluate(l.body->skeleton().rest_pose(), l.positions_m, l.normals);
   float lo = 1e9f, hi = -1e9f;
   for (const glm::vec3& p : l.positions_m) {
@@ -320,6 +324,12 @@ EMSCRIPTEN_KEEPALIVE int mw_part_triangles(int id, int lod, int part) {
 EMSCRIPTEN_KEEPALIVE const char* mw_part_name(int id, int lod, int part) {
   Lod* l = lod_of(id, lod);
   return l ? l->body->rest_mesh().parts.at(size_t(part)).name.c_str() : "";
+}
+
+// The colour of each vertex (rgb floats, 0..1): skin, clothes with soft edges, as `mimic view`.
+EMSCRIPTEN_KEEPALIVE const float* mw_albedo(int id, int lod) {
+  Lod* l = lod_of(id, lod);
+  return l ? &l->albedo[0].x : nullptr;
 }
 
 // One frame of the realtime skin at the avatar's latest pose: positions (xyz floats, metres);

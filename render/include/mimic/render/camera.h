@@ -14,9 +14,10 @@
 
 namespace mimic::render {
 
-enum class CameraPreset { kFront, kSide, kBack, kThreeQuarter };
+// Named relative to the body: front looks at its face, left at its left side, and so on.
+enum class CameraPreset { kFront, kLeft, kBack, kThreeQuarter, kRight, kTop, kSide = kLeft };
 
-// "front", "side", "back", "three-quarter"; nullopt otherwise.
+// "front", "back", "left" (or "side"), "right", "three-quarter", "top"; nullopt otherwise.
 std::optional<CameraPreset> parse_camera_preset(std::string_view name);
 
 struct Camera {
@@ -79,8 +80,13 @@ class CameraFollow {
 // root orientation; pitch and roll are ignored.
 float facing_yaw_rad(const glm::quat& world_from_root);
 
-// The orbit yaw of a preset for a body facing `facing_yaw_rad`: front looks at its face, side
-// at its left, back at its back, three-quarter between its front and its left.
+// The orbit pitch of a preset: a little above the horizontal, more for three-quarter, nearly
+// straight down for top.
+float preset_pitch_rad(CameraPreset preset);
+
+// The orbit yaw of a preset for a body facing `facing_yaw_rad`: front looks at its face, left at
+// its left, right at its right, back at its back, three-quarter between its front and its left,
+// top down on it with its face towards the bottom of the image.
 float preset_yaw_rad(CameraPreset preset, float facing_yaw_rad);
 
 // A camera that frames a standing body of `height_m` whose feet are at `floor_center` from the

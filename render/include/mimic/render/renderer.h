@@ -4,14 +4,15 @@
 // Each draw binds everything it uses and the frame restores the state it changed, so nothing
 // leaks from one draw to the next or into code that draws after it (the ImGui overlay).
 //
-// Avatar meshes are shaded smoothly (per-vertex normals) with one colour per part
-// (part_color()). Needs a current GL 3.3 core context on the calling thread for its whole life.
+// Avatar meshes are shaded smoothly (per-vertex normals) in a colour per vertex (the avatar's
+// clothing_albedo(), avatar/appearance.h; plain grey for a mesh without), lit by a key, a fill
+// and a rim light over a hemisphere ambient, and stand in a soft contact shadow on the floor.
+// Needs a current GL 3.3 core context on the calling thread for its whole life.
 #pragma once
 
 #include <cstdint>
 #include <memory>
 #include <span>
-#include <string_view>
 #include <vector>
 
 #include <glm/glm.hpp>
@@ -55,17 +56,15 @@ struct FrameDesc {
   int width_px = 0, height_px = 0;
   Camera camera;
   glm::vec3 background{0.93f, 0.94f, 0.96f};
-  bool grid = true;     // 10 m × 10 m floor, a line every 0.5 m
-  bool ground = false;  // the floor shaded out to the horizon (first person), under the grid
+  bool grid = true;               // 10 m × 10 m floor, a line every 0.5 m
+  bool ground = false;            // the floor shaded out to the horizon (first person), under the grid
+  bool contact_shadow = true;     // the meshes' soft shadow on the floor (with the grid or the ground)
+  bool unlit = false;             // the meshes' colours without light (to see the materials alone)
+  bool ambient_occlusion = true;  // screen-space, from a half-resolution depth pre-pass of the opaque meshes
   std::span<const MeshDraw> meshes;
   std::span<const LineVertex> lines;       // depth-tested, in pairs
   std::span<const LineVertex> xray_lines;  // drawn over everything (skeleton, rays)
 };
-
-// Colour of an avatar part by name ("l_upper_arm", "head", ...): skin for head, neck and
-// hands, a shirt for torso and arms, trousers for the legs, shoes for the feet, the left side
-// a shade lighter than the right so the eleven pieces read apart.
-glm::vec3 part_color(std::string_view part_name);
 
 class Renderer {
  public:
@@ -74,8 +73,9 @@ class Renderer {
   Renderer& operator=(Renderer&&) noexcept;
   ~Renderer();
 
-  // Uploads a mesh (topology, parts and first positions); its colours come from its part names.
-  MeshId add_mesh(const avatar::Mesh& mesh);
+  // Uploads a mesh (topology, parts and first positions) with a colour per vertex (display RGB,
+  // 0..1; any other count than the mesh's vertices: plain grey).
+  MeshId add_mesh(const avatar::Mesh& mesh, std::span<const glm::vec3> albedo = {});
   // New positions (and normals, when the mesh has them) for a mesh of the same topology.
   void update_mesh(MeshId id, const avatar::Mesh& mesh);
   size_t triangle_count(MeshId id) const;
