@@ -55,6 +55,13 @@ if command -v xvfb-run >/dev/null; then
   rm -f "$log"
   echo "wrote $out/scene.png"
 fi
+# A VR headset's three poses: the simulated wearer's head and hands drive the body and its legs
+# step (docs/solver.md), the sensors drawn with their axes.
+if command -v xvfb-run >/dev/null; then
+  xvfb-run -a -s "-screen 0 1024x768x24" "$mimic" view --source 'sim:walk?sensors=3' --overlay sensors --lod 0 --frames 150 \
+    --no-vsync --no-panel --size 420x480 --capture "$out/walk-3-sensors.png" >/dev/null
+  echo "wrote $out/walk-3-sensors.png"
+fi
 # The browser viewer (docs/browser.md): its end-to-end test saves the page as headless Chromium drew it.
 if [ -x "$(dirname "$mimic")/mimic_web_tests" ] && command -v chromium >/dev/null; then
   MIMIC_BROWSER_SCREENSHOT="$out/browser.png" "$(dirname "$mimic")/mimic_web_tests" --gtest_filter='BrowserViewer.ShowsTheAvatarMoving*' >/dev/null &&
