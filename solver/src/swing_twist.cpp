@@ -14,7 +14,59 @@ namespace {
 constexpr float kPi = 3.14159265358979f;
 constexpr float kTwoPi = 2.0f * kPi;
 
-float unwrap_near(float angle, float previous) { return previous + std::remainder(angle - previous, kTwoPi); }
+// The angle ± whole turns nearest `previous` (std::remainder's result up to float rounding, without
+// its cost: it is called a dozen times per decomposition, a swivel search does dozens of those).
+float unwrap_near(float angle, float previous) {
+  const float d = angle - previous;
+  return previous + (d - kTwoPi * std::nearbyint(d * (1.0f / kTwoPi)));
+}
+
+float squared_distance(const std::array<float, 3>& a, std::span<const float> b) {
+  float d = 0;
+  for (size_t i = 0; i < b.size(); ++i) d += (a[i] - b[i]) * (a[i] - b[i]);
+  return d;
+}
+
+// rig::dofs_from_rotation for three mutually orthogonal unit axes, in float: the same exact
+// Euler decomposition (basis of the axes, made right-handed by flipping the third; m = Rx(t0)·
+// Ry(t1)·Rz(t2); t2 from the residual so that it stays exact near gimbal lock), of the two
+// branches the one nearer `previous`. The double version builds three matrices and takes two
+// more sines and cosines; here m's two columns that matter come from rotating two basis vectors.
+void euler3_nearest(const glm::quat& local, std::span<const glm::vec3> axes, std::span<const float> previous,
+                    std::array<float, 3>& out) {
+  const float s2 = glm::dot(glm::cross(axes[0], axes[1]), axes[2]) < 0 ? -1.0f : 1.0f;
+  const glm::vec3 b0 = axes[0], b1 = axes[1], b2 = s2 * axes[2];
+  const glm::quat q = glm::normalize(local);
+  const glm::vec3 v0 = q * b0, v2 = q * b2;  // columns 0 and 2 of m, in the world basis
+  const float m00 = glm::dot(b0, v0), m10 = glm::dot(b1, v0), m20 = glm::dot(b2, v0);
+  const float m02 = glm::dot(b0, v2), m12 = glm::dot(b1, v2), m22 = glm::dot(b2, v2);
+  const float p0 = previous[0], p1 = previous[1], p2 = s2 * previous[2];
+  const float sb = std::clamp(m02, -1.0f, 1.0f);
+  const float t1 = std::asin(sb);
+  const float cb = std::sqrt(std::max(0.0f, 1.0f - m02 * m02));
+  const bool locked = cb < static_cast<float>(rig::kFloatLockCos);
+  float t0 = p0, sa = std::sin(p0), ca = std::cos(p0);
+  if (!locked) {
+    t0 = std::atan2(-m12, m22);
+    const float h = std::sqrt(m12 * m12 + m22 * m22);
+    if (h > 0) sa = -m12 / h, ca = m22 / h;
+  }
+  // Residual (Rx(t0)·Ry(t1))ᵀ·m: its (1,0) and (0,0) entries give t2.
+  const float r10 = ca * m10 + sa * m20;
+  const float r00 = cb * m00 + sa * sb * m10 - ca * sb * m20;
+  const float t2 = std::atan2(r10, r00);
+  std::array<float, 3> a{unwrap_near(t0, p0), unwrap_near(t1, p1), unwrap_near(t2, p2)};
+  std::array<float, 3> b = a;  // the other branch: (t0 + π, π − t1, t2 + π)
+  if (!locked) b = {unwrap_near(t0 + kPi, p0), unwrap_near(kPi - t1, p1), unwrap_near(t2 + kPi, p2)};
+  a[2] *= s2;
+  b[2] *= s2;
+  out = squared_distance(a, previous) <= squared_distance(b, previous) ? a : b;
+}
+
+bool orthogonal_triple(std::span<const glm::vec3> axes) {
+  return axes.size() == 3 && std::abs(glm::dot(axes[0], axes[1])) < 1e-4f &&
+         std::abs(glm::dot(axes[1], axes[2])) < 1e-4f && std::abs(glm::dot(axes[0], axes[2])) < 1e-4f;
+}
 
 float limit_violation(float v, std::span<const float> lo, std::span<const float> hi, size_t i) {
   if (i >= lo.size() || i >= hi.size()) return 0.0f;
@@ -42,16 +94,20 @@ float nearest_turn(float angle, float previous, std::span<const float> lo, std::
 void decompose(const glm::quat& local, std::span<const glm::vec3> axes, std::span<float> angles,
                std::span<const float> lo, std::span<const float> hi) {
   const size_t n = axes.size();
-  std::array<glm::dvec3, 3> ax;
-  std::array<double, 3> prev{}, base{};
-  for (size_t i = 0; i < n; ++i) ax[i] = glm::dvec3(axes[i]), prev[i] = angles[i];
-  rig::dofs_from_rotation(std::span(ax.data(), n), glm::dquat(local), std::span(prev.data(), n),
-                          std::span(base.data(), n), rig::kFloatLockCos);
   std::array<std::array<float, 3>, 2> cand{};
-  for (size_t i = 0; i < n; ++i) cand[0][i] = static_cast<float>(base[i]);
+  const bool orthogonal3 = orthogonal_triple(axes);
+  if (orthogonal3) {
+    euler3_nearest(local, axes, std::span<const float>(angles.data(), n), cand[0]);
+  } else {
+    // Two axes (the nearest expressible rotation) and others: rig's decomposition, in double.
+    std::array<glm::dvec3, 3> ax;
+    std::array<double, 3> prev{}, base{};
+    for (size_t i = 0; i < n; ++i) ax[i] = glm::dvec3(axes[i]), prev[i] = angles[i];
+    rig::dofs_from_rotation(std::span(ax.data(), n), glm::dquat(local), std::span(prev.data(), n),
+                            std::span(base.data(), n), rig::kFloatLockCos);
+    for (size_t i = 0; i < n; ++i) cand[0][i] = static_cast<float>(base[i]);
+  }
   int n_cand = 1;
-  const bool orthogonal3 = n == 3 && std::abs(glm::dot(axes[0], axes[1])) < 1e-4f &&
-                           std::abs(glm::dot(axes[1], axes[2])) < 1e-4f && std::abs(glm::dot(axes[0], axes[2])) < 1e-4f;
   if (orthogonal3) {  // (α + π, π − β, γ + π) is the same rotation
     cand[1] = {cand[0][0] + kPi, kPi - cand[0][1], cand[0][2] + kPi};
     n_cand = 2;

@@ -1,0 +1,107 @@
+// Cholesky solve of a small SPD system whose upper triangle is non-zero only in known spans of
+// columns per row, as the trunk's least squares produces (least_squares_ik.cpp). Header-only so
+// that a test can hold it against a dense factorization.
+#pragma once
+
+#include <algorithm>
+#include <cmath>
+#include <cstddef>
+#include <cstring>
+
+namespace mimic::solver::detail {
+
+// Row operations run in whole blocks of kLanes floats, which vectorise without remainder loops.
+// A block is a vector type (GCC and Clang), so that the compiler keeps a row's running sums in
+// registers and never vectorises across rows instead (with gathers).
+inline constexpr int kLanes = 8;
+using Block = float __attribute__((vector_size(kLanes * sizeof(float))));
+inline Block load_block(const float* p) {
+  Block v;
+  std::memcpy(&v, p, sizeof v);
+  return v;
+}
+inline void store_block(float* p, Block v) { std::memcpy(p, &v, sizeof v); }
+
+// Row stride for n unknowns: a multiple of kLanes with at least kLanes − 1 zeros after each row,
+// so that a block starting at any column before n stays inside the row.
+inline int padded_stride(int n) { return (n + 2 * kLanes - 2) / kLanes * kLanes; }
+
+// Where a row can be non-zero right of its diagonal: spans of columns, pairs (first, one past
+// the last), ascending, at least kLanes apart (a block run to a span's end may spill up to
+// kLanes − 1 columns past it: those are zeros of the row, or its padding, never the next span).
+// Columns at or left of the diagonal are ignored.
+struct ColumnSpans {
+  const int* pairs = nullptr;
+  int count = 0;
+};
+
+// row[k] −= u·src[k] for k from `from` to the end of span q, then every later span, in blocks.
+inline void axpy_spans(float* __restrict row, const float* __restrict src, float u, int from, const int* pairs, int q,
+                       int count) {
+  for (; q < count; ++q) {
+    for (int k = std::max(from, pairs[2 * q]); k < pairs[2 * q + 1]; k += kLanes)
+      store_block(row + k, load_block(row + k) - u * load_block(src + k));
+  }
+}
+
+// In-place Cholesky solve of the SPD n×n system a·x = b (x overwrites b; rows of `stride` floats,
+// padded with zeros, b too); false if not SPD. Only the upper triangle of `a` is read; it becomes
+// U with UᵀU = a. `spans(i)` must cover row i's non-zeros right of i, closed under elimination
+// (every earlier row touching column i is non-zero right of i only inside row i's spans: the
+// least squares' elimination order guarantees it, no fill-in). Up-looking, row by row: row i is
+// a_i − Σ_m u_mi·u_m over the earlier rows m that touch it, summed block by block in registers
+// and stored once, over row i's spans only (one arm's DOFs never touch the other arm's or the
+// neck's). `touching` is scratch for n ints.
+template <typename Spans>
+bool cholesky_solve(float* a, float* b, int n, int stride, const Spans& spans, int* touching) {
+  for (int i = 0; i < n; ++i) {
+    float* __restrict ai = a + static_cast<ptrdiff_t>(i) * stride;
+    int n_touching = 0;  // as offsets of the rows
+    for (int m = 0; m < i; ++m)
+      if (a[static_cast<ptrdiff_t>(m) * stride + i] != 0.0f) touching[n_touching++] = m * stride;
+    const ColumnSpans si = spans(i);
+    // The diagonal's block, then the spans right of it.
+    for (int q = -1; q < si.count; ++q) {
+      const int first = q < 0 ? i : std::max(si.pairs[2 * q], i + kLanes);
+      const int last = q < 0 ? i + 1 : si.pairs[2 * q + 1];
+      for (int k = first; k < last; k += kLanes) {
+        // Four running sums: one would wait on each multiply-add in turn.
+        Block acc[4] = {load_block(ai + k), {}, {}, {}};
+        int t = 0;
+        for (; t + 4 <= n_touching; t += 4)
+          for (int r = 0; r < 4; ++r) {
+            const float* am = a + touching[t + r];
+            acc[r] -= am[i] * load_block(am + k);
+          }
+        for (; t < n_touching; ++t) acc[0] -= a[touching[t] + i] * load_block(a + touching[t] + k);
+        store_block(ai + k, (acc[0] + acc[1]) + (acc[2] + acc[3]));
+      }
+    }
+    if (!(ai[i] > 1e-12f)) return false;
+    const float d = std::sqrt(ai[i]);
+    ai[i] = d;
+    const float inv_d = 1.0f / d;
+    for (int q = 0; q < si.count; ++q)
+      for (int k = std::max(si.pairs[2 * q], i + 1); k < si.pairs[2 * q + 1]; ++k) ai[k] *= inv_d;
+  }
+  for (int j = 0; j < n; ++j) {  // Uᵀ·y = b
+    const float* __restrict aj = a + static_cast<ptrdiff_t>(j) * stride;
+    const float y = b[j] / aj[j];
+    b[j] = y;
+    const ColumnSpans sj = spans(j);
+    if (y != 0.0f && sj.count > 0) axpy_spans(b, aj, y, j + 1, sj.pairs, 0, sj.count);
+  }
+  for (int j = n - 1; j >= 0; --j) {  // U·x = y, the dot products over kLanes running sums
+    const float* __restrict aj = a + static_cast<ptrdiff_t>(j) * stride;
+    const ColumnSpans sj = spans(j);
+    Block part = {};
+    for (int q = 0; q < sj.count; ++q)
+      for (int k = std::max(sj.pairs[2 * q], j + 1); k < sj.pairs[2 * q + 1]; k += kLanes)
+        part += load_block(aj + k) * load_block(b + k);
+    const float dot = ((part[0] + part[1]) + (part[2] + part[3])) + ((part[4] + part[5]) + (part[6] + part[7]));
+    b[j] = (b[j] - dot) / aj[j];
+  }
+  return true;
+}
+
+}  // namespace mimic::solver::detail
