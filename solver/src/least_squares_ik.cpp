@@ -83,7 +83,10 @@ LeastSquaresIkContext::LeastSquaresIkContext(const Skeleton& skeleton, int max_d
   run_begin_.resize(max_targets);
   run_count_.resize(max_targets);
   target_of_column_.resize(cols);
-  touching_.resize(cols);
+  reaching_first_.resize(cols);
+  reaching_count_.resize(cols);
+  reaching_rows_.resize(static_cast<size_t>(cols) * cols / 2 + 1);
+  inv_diag_.resize(cols);
   position_of_.resize(max_dofs);
   dof_at_.resize(max_dofs);
 }
@@ -102,6 +105,21 @@ bool LeastSquaresIkJob::Validate() const {
   for (const IkTarget& t : targets)
     if (t.joint < 0 || t.joint >= s.joint_count() || t.position_weight < 0 || t.rotation_weight < 0) return false;
   return max_iterations >= 0 && damping >= 0 && prior_weight >= 0;
+}
+
+// Row j of the factor is non-zero where any one target touching column j is, right of j.
+struct SpansRightOf {
+  const LeastSquaresIkContext* c;
+  detail::ColumnSpans operator()(int j) const;
+};
+
+detail::ColumnSpans SpansRightOf::operator()(int j) const {
+  const int t = c->target_of_column_[j];
+  if (t < 0) return detail::ColumnSpans{nullptr, 0};
+  const int* r = c->runs_.data() + c->run_begin_[t];
+  int count = c->run_count_[t];
+  while (count > 0 && r[1] <= j + 1) r += 2, --count;
+  return detail::ColumnSpans{r, count};
 }
 
 // The columns' order: a post-order of the skeleton — every joint's DOFs after those of all its
@@ -170,6 +188,8 @@ void LeastSquaresIkJob::ListColumns(int root_cols) {
     runs += 2 * n_runs;
     list += n;
   }
+  detail::list_reaching_rows(n_dofs + root_cols, SpansRightOf{&c}, c.reaching_first_.data(), c.reaching_count_.data(),
+                             c.reaching_rows_.data());
 }
 
 // Weighted residuals plus the prior at the current pose: the quantity every accepted step lowers.
@@ -352,16 +372,8 @@ bool LeastSquaresIkJob::Run() {
     std::copy(c.rhs0_.data(), c.rhs0_.data() + stride, b);
     for (int i = 0; i < cols; ++i) a[i * stride + i] += lambda * lambda;
     ++iterations;
-    // Row j of the factor is non-zero where any one target touching column j is, right of j.
-    auto spans_right_of = [&c](int j) {
-      const int t = c.target_of_column_[j];
-      if (t < 0) return detail::ColumnSpans{nullptr, 0};
-      const int* r = c.runs_.data() + c.run_begin_[t];
-      int count = c.run_count_[t];
-      while (count > 0 && r[1] <= j + 1) r += 2, --count;
-      return detail::ColumnSpans{r, count};
-    };
-    if (!detail::cholesky_solve(a, b, cols, stride, spans_right_of, c.touching_.data())) break;
+    const detail::ReachingRows reaching{c.reaching_first_.data(), c.reaching_count_.data(), c.reaching_rows_.data()};
+    if (!detail::cholesky_solve(a, b, cols, stride, SpansRightOf{&c}, reaching, c.inv_diag_.data())) break;
     float biggest = 0;
     for (int i = 0; i < cols; ++i) biggest = std::max(biggest, std::abs(b[i]));
     if (!std::isfinite(biggest)) break;

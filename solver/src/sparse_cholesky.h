@@ -14,6 +14,12 @@ namespace mimic::solver::detail {
 // A block is a vector type (GCC and Clang), so that the compiler keeps a row's running sums in
 // registers and never vectorises across rows instead (with gathers).
 inline constexpr int kLanes = 8;
+#if defined(__GNUC__) && !defined(__clang__)
+// Built without AVX (MIMIC_NATIVE off) GCC notes that a 32-byte vector changes the calling
+// convention; these helpers are inline and never cross a library boundary.
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wpsabi"
+#endif
 using Block = float __attribute__((vector_size(kLanes * sizeof(float))));
 inline Block load_block(const float* p) {
   Block v;
@@ -21,6 +27,9 @@ inline Block load_block(const float* p) {
   return v;
 }
 inline void store_block(float* p, Block v) { std::memcpy(p, &v, sizeof v); }
+#if defined(__GNUC__) && !defined(__clang__)
+#pragma GCC diagnostic pop
+#endif
 
 // Row stride for n unknowns: a multiple of kLanes with at least kLanes − 1 zeros after each row,
 // so that a block starting at any column before n stays inside the row.
@@ -44,21 +53,49 @@ inline void axpy_spans(float* __restrict row, const float* __restrict src, float
   }
 }
 
+// For every column i, the earlier rows m whose spans reach it: the only rows that can be non-zero
+// in column i above the diagonal. Row numbers, ascending, column i's from rows[first[i]] on,
+// count[i] of them; `rows` holds up to n·(n − 1)/2.
+struct ReachingRows {
+  const int* first = nullptr;
+  const int* count = nullptr;
+  const int* rows = nullptr;
+};
+
+template <typename Spans>
+void list_reaching_rows(int n, const Spans& spans, int* first, int* count, int* rows) {
+  std::fill(count, count + n, 0);
+  for (int m = 0; m < n; ++m) {
+    const ColumnSpans sm = spans(m);
+    for (int q = 0; q < sm.count; ++q)
+      for (int i = std::max(sm.pairs[2 * q], m + 1); i < std::min(sm.pairs[2 * q + 1], n); ++i) ++count[i];
+  }
+  for (int i = 0, at = 0; i < n; ++i) first[i] = at, at += count[i], count[i] = 0;
+  for (int m = 0; m < n; ++m) {
+    const ColumnSpans sm = spans(m);
+    for (int q = 0; q < sm.count; ++q)
+      for (int i = std::max(sm.pairs[2 * q], m + 1); i < std::min(sm.pairs[2 * q + 1], n); ++i)
+        rows[first[i] + count[i]++] = m;
+  }
+}
+
 // In-place Cholesky solve of the SPD n×n system a·x = b (x overwrites b; rows of `stride` floats,
 // padded with zeros, b too); false if not SPD. Only the upper triangle of `a` is read; it becomes
 // U with UᵀU = a. `spans(i)` must cover row i's non-zeros right of i, closed under elimination
 // (every earlier row touching column i is non-zero right of i only inside row i's spans: the
-// least squares' elimination order guarantees it, no fill-in). Up-looking, row by row: row i is
-// a_i − Σ_m u_mi·u_m over the earlier rows m that touch it, summed block by block in registers
-// and stored once, over row i's spans only (one arm's DOFs never touch the other arm's or the
-// neck's). `touching` is scratch for n ints.
+// least squares' elimination order guarantees it, no fill-in), and `reaching` list them by
+// column (list_reaching_rows). Up-looking, row by row: row i is a_i − Σ_m u_mi·u_m over the
+// earlier rows m that reach it, summed block by block in registers and stored once, over row
+// i's spans only (one arm's DOFs never touch the other arm's or the neck's). The back
+// substitution runs down the columns (an update per non-zero) rather than by dot products,
+// whose sums would each wait on the unknown just found. `inv_diag` is scratch for n floats.
 template <typename Spans>
-bool cholesky_solve(float* a, float* b, int n, int stride, const Spans& spans, int* touching) {
+bool cholesky_solve(float* a, float* b, int n, int stride, const Spans& spans, const ReachingRows& reaching,
+                    float* inv_diag) {
   for (int i = 0; i < n; ++i) {
     float* __restrict ai = a + static_cast<ptrdiff_t>(i) * stride;
-    int n_touching = 0;  // as offsets of the rows
-    for (int m = 0; m < i; ++m)
-      if (a[static_cast<ptrdiff_t>(m) * stride + i] != 0.0f) touching[n_touching++] = m * stride;
+    const int* rows = reaching.rows + reaching.first[i];
+    const int n_rows = reaching.count[i];
     const ColumnSpans si = spans(i);
     // The diagonal's block, then the spans right of it.
     for (int q = -1; q < si.count; ++q) {
@@ -68,12 +105,15 @@ bool cholesky_solve(float* a, float* b, int n, int stride, const Spans& spans, i
         // Four running sums: one would wait on each multiply-add in turn.
         Block acc[4] = {load_block(ai + k), {}, {}, {}};
         int t = 0;
-        for (; t + 4 <= n_touching; t += 4)
+        for (; t + 4 <= n_rows; t += 4)
           for (int r = 0; r < 4; ++r) {
-            const float* am = a + touching[t + r];
+            const float* am = a + static_cast<ptrdiff_t>(rows[t + r]) * stride;
             acc[r] -= am[i] * load_block(am + k);
           }
-        for (; t < n_touching; ++t) acc[0] -= a[touching[t] + i] * load_block(a + touching[t] + k);
+        for (; t < n_rows; ++t) {
+          const float* am = a + static_cast<ptrdiff_t>(rows[t]) * stride;
+          acc[0] -= am[i] * load_block(am + k);
+        }
         store_block(ai + k, (acc[0] + acc[1]) + (acc[2] + acc[3]));
       }
     }
@@ -81,25 +121,22 @@ bool cholesky_solve(float* a, float* b, int n, int stride, const Spans& spans, i
     const float d = std::sqrt(ai[i]);
     ai[i] = d;
     const float inv_d = 1.0f / d;
+    inv_diag[i] = inv_d;
     for (int q = 0; q < si.count; ++q)
       for (int k = std::max(si.pairs[2 * q], i + 1); k < si.pairs[2 * q + 1]; ++k) ai[k] *= inv_d;
   }
   for (int j = 0; j < n; ++j) {  // Uᵀ·y = b
     const float* __restrict aj = a + static_cast<ptrdiff_t>(j) * stride;
-    const float y = b[j] / aj[j];
+    const float y = b[j] * inv_diag[j];
     b[j] = y;
     const ColumnSpans sj = spans(j);
     if (y != 0.0f && sj.count > 0) axpy_spans(b, aj, y, j + 1, sj.pairs, 0, sj.count);
   }
-  for (int j = n - 1; j >= 0; --j) {  // U·x = y, the dot products over kLanes running sums
-    const float* __restrict aj = a + static_cast<ptrdiff_t>(j) * stride;
-    const ColumnSpans sj = spans(j);
-    Block part = {};
-    for (int q = 0; q < sj.count; ++q)
-      for (int k = std::max(sj.pairs[2 * q], j + 1); k < sj.pairs[2 * q + 1]; k += kLanes)
-        part += load_block(aj + k) * load_block(b + k);
-    const float dot = ((part[0] + part[1]) + (part[2] + part[3])) + ((part[4] + part[5]) + (part[6] + part[7]));
-    b[j] = (b[j] - dot) / aj[j];
+  for (int j = n - 1; j >= 0; --j) {  // U·x = y
+    const float x = b[j] * inv_diag[j];
+    b[j] = x;
+    const int* rows = reaching.rows + reaching.first[j];
+    for (int t = 0; t < reaching.count[j]; ++t) b[rows[t]] -= a[static_cast<ptrdiff_t>(rows[t]) * stride + j] * x;
   }
   return true;
 }

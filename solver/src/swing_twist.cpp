@@ -45,8 +45,10 @@ void euler3_nearest(const glm::quat& local, std::span<const glm::vec3> axes, std
   const float t1 = std::asin(sb);
   const float cb = std::sqrt(std::max(0.0f, 1.0f - m02 * m02));
   const bool locked = cb < static_cast<float>(rig::kFloatLockCos);
-  float t0 = p0, sa = std::sin(p0), ca = std::cos(p0);
-  if (!locked) {
+  float t0 = p0, sa = 0, ca = 1;
+  if (locked) {
+    sa = std::sin(p0), ca = std::cos(p0);
+  } else {
     t0 = std::atan2(-m12, m22);
     const float h = std::sqrt(m12 * m12 + m22 * m22);
     if (h > 0) sa = -m12 / h, ca = m22 / h;
@@ -78,6 +80,9 @@ float limit_violation(float v, std::span<const float> lo, std::span<const float>
 // Of θ and θ ± 2π, the one inside the limits (if any) nearest the previous value: unwrapping
 // towards a previous value far from the truth must not push an angle out of its range.
 float nearest_turn(float angle, float previous, std::span<const float> lo, std::span<const float> hi, size_t i) {
+  // Within 3 rad of the previous value and inside the limits, the angle itself wins by far (±2π
+  // are at least 3.28 rad away): the common case, without the search.
+  if (std::abs(angle - previous) < 3.0f && limit_violation(angle, lo, hi, i) == 0.0f) return angle;
   float best = angle, best_cost = 0;
   for (int k = -1; k <= 1; ++k) {
     const float a = angle + static_cast<float>(k) * kTwoPi;

@@ -130,8 +130,11 @@ TEST(SparseCholesky, EqualsADenseSolveOnTreeShapedSystems) {
       while (q < static_cast<int>(p.size()) / 2 && p[2 * q + 1] <= j + 1) ++q;
       return ColumnSpans{p.data() + 2 * q, static_cast<int>(p.size()) / 2 - q};
     };
-    std::vector<int> scratch(n);
-    ASSERT_TRUE(detail::cholesky_solve(af.data(), bf.data(), n, stride, spans_right_of, scratch.data()));
+    std::vector<int> first(n), count(n), rows(static_cast<size_t>(n) * n / 2 + 1);
+    detail::list_reaching_rows(n, spans_right_of, first.data(), count.data(), rows.data());
+    std::vector<float> inv_diag(n);
+    ASSERT_TRUE(detail::cholesky_solve(af.data(), bf.data(), n, stride, spans_right_of,
+                                       detail::ReachingRows{first.data(), count.data(), rows.data()}, inv_diag.data()));
     const std::vector<double> x = dense_solve(a, b, n);
     double scale = 1e-6;
     for (double v : x) scale = std::max(scale, std::abs(v));
@@ -147,9 +150,12 @@ TEST(SparseCholesky, RefusesASystemThatIsNotPositiveDefinite) {
   const int n = 3, stride = detail::padded_stride(n);
   std::vector<float> a(static_cast<size_t>(n) * stride, 0.0f), b(stride, 1.0f);
   a[0] = 1.0f, a[stride + 1] = -1.0f, a[2 * stride + 2] = 1.0f;
-  std::vector<int> scratch(8);
-  EXPECT_FALSE(detail::cholesky_solve(
-      a.data(), b.data(), n, stride, [](int) { return ColumnSpans{}; }, scratch.data()));
+  std::vector<int> first(n), count(n), rows(8);
+  auto no_spans = [](int) { return ColumnSpans{}; };
+  detail::list_reaching_rows(n, no_spans, first.data(), count.data(), rows.data());
+  std::vector<float> inv_diag(n);
+  EXPECT_FALSE(detail::cholesky_solve(a.data(), b.data(), n, stride, no_spans,
+                                      detail::ReachingRows{first.data(), count.data(), rows.data()}, inv_diag.data()));
 }
 
 }  // namespace

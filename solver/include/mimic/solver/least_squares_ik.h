@@ -42,6 +42,7 @@ class LeastSquaresIkContext {
 
  private:
   friend struct LeastSquaresIkJob;
+  friend struct SpansRightOf;
   int joints_ = 0, max_dofs_ = 0, max_targets_ = 0;
   std::vector<rig::RigidTransform> world_;
   std::vector<glm::vec3> dof_axis_world_;  // per skeleton DOF
@@ -57,7 +58,10 @@ class LeastSquaresIkContext {
   std::vector<int> runs_;
   std::vector<int> run_begin_, run_count_;  // per target: where its spans start (pairs), how many
   std::vector<int> target_of_column_;       // per column, a target touching it (−1: none)
-  std::vector<int> touching_;               // Cholesky scratch: the earlier rows touching a row
+  // Per column, the earlier rows whose spans reach it (sparse_cholesky.h): where its list starts
+  // in reaching_rows_, how long it is.
+  std::vector<int> reaching_first_, reaching_count_, reaching_rows_;
+  std::vector<float> inv_diag_;  // Cholesky scratch: the factor's diagonal's reciprocals
   // Elimination order: DOFs of children before their parent's, each subtree's DOFs together,
   // the root's six last, so that the Cholesky factor of the normal equations has no fill-in and
   // a target's columns form one or two runs (see least_squares_ik.cpp).
