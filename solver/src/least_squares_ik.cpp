@@ -272,9 +272,16 @@ void accumulate_rows(const float* rows, int stride, const float* res, const int*
     float* __restrict ai = a0 + static_cast<ptrdiff_t>(i) * stride;
     for (int w = q; w < n_spans; ++w)
       for (int k = std::max(i, spans[2 * w]); k < spans[2 * w + 1]; k += kLanes) {
-        detail::Block sum = v[0] * detail::load_block(rows + k);
-        for (int r = 1; r < R; ++r) sum += v[r] * detail::load_block(rows + r * stride + k);
-        detail::store_block(ai + k, detail::load_block(ai + k) + sum);
+        detail::Block sum, x;
+        detail::load_block(x, rows + k);
+        sum = v[0] * x;
+        for (int r = 1; r < R; ++r) {
+          detail::load_block(x, rows + r * stride + k);
+          sum += v[r] * x;
+        }
+        detail::load_block(x, ai + k);
+        x += sum;
+        detail::store_block(ai + k, x);
       }
   }
 }

@@ -14,22 +14,18 @@ namespace mimic::solver::detail {
 // A block is a vector type (GCC and Clang), so that the compiler keeps a row's running sums in
 // registers and never vectorises across rows instead (with gathers).
 inline constexpr int kLanes = 8;
-#if defined(__GNUC__) && !defined(__clang__)
-// Built without AVX (MIMIC_NATIVE off) GCC notes that a 32-byte vector changes the calling
-// convention; these helpers are inline and never cross a library boundary.
-#pragma GCC diagnostic push
-#pragma GCC diagnostic ignored "-Wpsabi"
-#endif
 using Block = float __attribute__((vector_size(kLanes * sizeof(float))));
-inline Block load_block(const float* p) {
-  Block v;
-  std::memcpy(&v, p, sizeof v);
-  return v;
+// By reference: a 32-byte vector passed by value would change the calling convention without AVX.
+inline void load_block(Block& v, const float* p) { std::memcpy(&v, p, sizeof v); }
+inline void store_block(float* p, const Block& v) { std::memcpy(p, &v, sizeof v); }
+// row[0..kLanes) −= u·src[0..kLanes)
+inline void sub_scaled_block(float* row, float u, const float* src) {
+  Block r, x;
+  load_block(r, row);
+  load_block(x, src);
+  r -= u * x;
+  store_block(row, r);
 }
-inline void store_block(float* p, Block v) { std::memcpy(p, &v, sizeof v); }
-#if defined(__GNUC__) && !defined(__clang__)
-#pragma GCC diagnostic pop
-#endif
 
 // Row stride for n unknowns: a multiple of kLanes with at least kLanes − 1 zeros after each row,
 // so that a block starting at any column before n stays inside the row.
@@ -48,8 +44,7 @@ struct ColumnSpans {
 inline void axpy_spans(float* __restrict row, const float* __restrict src, float u, int from, const int* pairs, int q,
                        int count) {
   for (; q < count; ++q) {
-    for (int k = std::max(from, pairs[2 * q]); k < pairs[2 * q + 1]; k += kLanes)
-      store_block(row + k, load_block(row + k) - u * load_block(src + k));
+    for (int k = std::max(from, pairs[2 * q]); k < pairs[2 * q + 1]; k += kLanes) sub_scaled_block(row + k, u, src + k);
   }
 }
 
@@ -103,18 +98,22 @@ bool cholesky_solve(float* a, float* b, int n, int stride, const Spans& spans, c
       const int last = q < 0 ? i + 1 : si.pairs[2 * q + 1];
       for (int k = first; k < last; k += kLanes) {
         // Four running sums: one would wait on each multiply-add in turn.
-        Block acc[4] = {load_block(ai + k), {}, {}, {}};
+        Block acc[4] = {}, x;
+        load_block(acc[0], ai + k);
         int t = 0;
         for (; t + 4 <= n_rows; t += 4)
           for (int r = 0; r < 4; ++r) {
             const float* am = a + static_cast<ptrdiff_t>(rows[t + r]) * stride;
-            acc[r] -= am[i] * load_block(am + k);
+            load_block(x, am + k);
+            acc[r] -= am[i] * x;
           }
         for (; t < n_rows; ++t) {
           const float* am = a + static_cast<ptrdiff_t>(rows[t]) * stride;
-          acc[0] -= am[i] * load_block(am + k);
+          load_block(x, am + k);
+          acc[0] -= am[i] * x;
         }
-        store_block(ai + k, (acc[0] + acc[1]) + (acc[2] + acc[3]));
+        acc[0] = (acc[0] + acc[1]) + (acc[2] + acc[3]);
+        store_block(ai + k, acc[0]);
       }
     }
     if (!(ai[i] > 1e-12f)) return false;
