@@ -87,6 +87,8 @@ LeastSquaresIkContext::LeastSquaresIkContext(const Skeleton& skeleton, int max_d
   reaching_count_.resize(cols);
   reaching_rows_.resize(static_cast<size_t>(cols) * cols / 2 + 1);
   inv_diag_.resize(cols);
+  listed_dofs_.resize(max_dofs);
+  listed_joints_.resize(max_targets);
   position_of_.resize(max_dofs);
   dof_at_.resize(max_dofs);
 }
@@ -190,6 +192,22 @@ void LeastSquaresIkJob::ListColumns(int root_cols) {
   }
   detail::list_reaching_rows(n_dofs + root_cols, SpansRightOf{&c}, c.reaching_first_.data(), c.reaching_count_.data(),
                              c.reaching_rows_.data());
+}
+
+// Whether the last ListColumns() was for the same skeleton, DOFs and targets' joints (a layout
+// changes only when a sensor comes or goes); records them when not.
+bool LeastSquaresIkJob::ColumnsListed(int root_cols) {
+  LeastSquaresIkContext& c = *context;
+  LeastSquaresIkContext::ColumnKey& k = c.listed_for_;
+  bool same = k.skeleton == skeleton && k.root_cols == root_cols && k.dof_count == static_cast<int>(dofs.size()) &&
+              k.target_count == static_cast<int>(targets.size());
+  for (size_t i = 0; same && i < dofs.size(); ++i) same = c.listed_dofs_[i] == dofs[i];
+  for (size_t t = 0; same && t < targets.size(); ++t) same = c.listed_joints_[t] == targets[t].joint;
+  if (same) return true;
+  k = {skeleton, root_cols, static_cast<int>(dofs.size()), static_cast<int>(targets.size())};
+  std::copy(dofs.begin(), dofs.end(), c.listed_dofs_.begin());
+  for (size_t t = 0; t < targets.size(); ++t) c.listed_joints_[t] = targets[t].joint;
+  return false;
 }
 
 // Weighted residuals plus the prior at the current pose: the quantity every accepted step lowers.
@@ -359,7 +377,7 @@ bool LeastSquaresIkJob::Run() {
   Pose& p = *pose;
   const int root_cols = solve_root ? kRootUnknowns : 0;
   const int cols = root_cols + static_cast<int>(dofs.size());
-  ListColumns(root_cols);
+  if (!ColumnsListed(root_cols)) ListColumns(root_cols);
 
   iterations = 0;
   const float prior2 = prior_rad.empty() ? 0.0f : prior_weight * prior_weight;

@@ -78,17 +78,19 @@ ChainGeometry chain_geometry(const ChainInput& in, const glm::vec3& pole) {
   b_w = glm::normalize(b_w);
   // A nearly straight limb may be over-extended (a bend below zero) instead: then the bend plane
   // turns over. Keep the plane whose hinge agrees with the hint.
-  const float bend0 = std::atan2(glm::dot(f, b_w), glm::dot(f, x_w));
-  const bool may_flip = flex.min_rad < 0 && bend0 <= -flex.min_rad;
+  g.bend = std::atan2(glm::dot(f, b_w), glm::dot(f, x_w));
+  const bool may_flip = flex.min_rad < 0 && g.bend <= -flex.min_rad;
   if (may_flip) {
     const glm::vec3 hint = in.last_bend ? glm::cross(x_w, *in.last_bend) : in.hinge_hint;
-    if (glm::dot(glm::cross(x_w, b_w), hint) < 0) b_w = -b_w;
+    if (glm::dot(glm::cross(x_w, b_w), hint) < 0) {
+      b_w = -b_w;
+      g.bend = std::atan2(glm::dot(f, b_w), glm::dot(f, x_w));
+    }
   }
   const glm::vec3 h_w = glm::cross(x_w, b_w);
   const glm::mat3 world_m(x_w, b_w, h_w);
   const glm::mat3 rest_m(ch.upper_dir, ch.bend_dir, ch.hinge);
   g.upper_world = glm::normalize(glm::quat_cast(world_m * glm::transpose(rest_m)));
-  g.bend = std::atan2(glm::dot(f, b_w), glm::dot(f, x_w));
   g.bend_world = b_w;
   g.turns_with_swivel = !straight && !may_flip && glm::length(tb.target_m - tb.start_m) > 1e-4f;
   g.ok = true;

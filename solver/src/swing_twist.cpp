@@ -6,6 +6,7 @@
 #include <array>
 #include <cassert>
 #include <cmath>
+#include <limits>
 
 namespace mimic::solver {
 
@@ -92,6 +93,48 @@ float nearest_turn(float angle, float previous, std::span<const float> lo, std::
   return best;
 }
 
+// Limits of three angles, as fixed-size arrays (none: ±infinity), so that the hot path of the
+// limbs (shoulders, hips, wrists, ankles: three orthogonal axes) runs without spans' bounds.
+struct Limits3 {
+  std::array<float, 3> lo, hi;
+  Limits3(std::span<const float> min_rad, std::span<const float> max_rad) {
+    for (size_t i = 0; i < 3; ++i) {
+      lo[i] = i < min_rad.size() && i < max_rad.size() ? min_rad[i] : -std::numeric_limits<float>::infinity();
+      hi[i] = i < min_rad.size() && i < max_rad.size() ? max_rad[i] : std::numeric_limits<float>::infinity();
+    }
+  }
+  float violation(float v, size_t i) const { return v < lo[i] ? lo[i] - v : v > hi[i] ? v - hi[i] : 0.0f; }
+};
+
+// Of the two Euler branches (each angle ± 2π), the one inside the limits and nearest the previous
+// values: nearest_turn and the costs below, for three angles.
+void choose_branch3(std::array<float, 3> base, const Limits3& lim, std::span<float> angles) {
+  const std::array<float, 3> prev{angles[0], angles[1], angles[2]};
+  std::array<std::array<float, 3>, 2> cand{base, {base[0] + kPi, kPi - base[1], base[2] + kPi}};
+  int best = 0;
+  float best_cost = 0;
+  for (int k = 0; k < 2; ++k) {
+    float cost = 0;
+    for (size_t i = 0; i < 3; ++i) {
+      float a = unwrap_near(cand[k][i], prev[i]);
+      if (!(std::abs(a - prev[i]) < 3.0f && lim.violation(a, i) == 0.0f)) {  // else a wins by far, as in nearest_turn
+        float turn_best = a, turn_cost = 0;
+        for (int t = -1; t <= 1; ++t) {
+          const float v = a + static_cast<float>(t) * kTwoPi;
+          const float c = 1e6f * lim.violation(v, i) + (v - prev[i]) * (v - prev[i]);
+          if (t == -1 || c < turn_cost) turn_best = v, turn_cost = c;
+        }
+        a = turn_best;
+      }
+      cand[k][i] = a;
+      const float d = a - prev[i];
+      cost += d * d + 1e6f * lim.violation(a, i);  // inside the limits first
+    }
+    if (k == 0 || cost < best_cost) best = k, best_cost = cost;
+  }
+  for (size_t i = 0; i < 3; ++i) angles[i] = cand[best][i];
+}
+
 // The decomposition nearest the previous values (avatar/joint_angles.h: exact Euler for three
 // orthogonal axes, twist for one, best fit otherwise), then the limits: of that solution, the
 // other Euler branch for three axes, and every angle ± 2π, the candidate inside the limits and
@@ -99,37 +142,22 @@ float nearest_turn(float angle, float previous, std::span<const float> lo, std::
 void decompose(const glm::quat& local, std::span<const glm::vec3> axes, std::span<float> angles,
                std::span<const float> lo, std::span<const float> hi) {
   const size_t n = axes.size();
-  std::array<std::array<float, 3>, 2> cand{};
-  const bool orthogonal3 = orthogonal_triple(axes);
-  if (orthogonal3) {
-    euler3_nearest(local, axes, std::span<const float>(angles.data(), n), cand[0]);
-  } else {
-    // Two axes (the nearest expressible rotation) and others: rig's decomposition, in double.
-    std::array<glm::dvec3, 3> ax;
-    std::array<double, 3> prev{}, base{};
-    for (size_t i = 0; i < n; ++i) ax[i] = glm::dvec3(axes[i]), prev[i] = angles[i];
-    rig::dofs_from_rotation(std::span(ax.data(), n), glm::dquat(local), std::span(prev.data(), n),
-                            std::span(base.data(), n), rig::kFloatLockCos);
-    for (size_t i = 0; i < n; ++i) cand[0][i] = static_cast<float>(base[i]);
+  if (orthogonal_triple(axes)) {
+    std::array<float, 3> base;
+    euler3_nearest(local, axes, std::span<const float>(angles.data(), 3), base);
+    choose_branch3(base, Limits3(lo, hi), angles);
+    return;
   }
-  int n_cand = 1;
-  if (orthogonal3) {  // (α + π, π − β, γ + π) is the same rotation
-    cand[1] = {cand[0][0] + kPi, kPi - cand[0][1], cand[0][2] + kPi};
-    n_cand = 2;
+  // Two axes (the nearest expressible rotation) and others: rig's decomposition, in double.
+  std::array<glm::dvec3, 3> ax;
+  std::array<double, 3> prev{}, base{};
+  for (size_t i = 0; i < n; ++i) ax[i] = glm::dvec3(axes[i]), prev[i] = angles[i];
+  rig::dofs_from_rotation(std::span(ax.data(), n), glm::dquat(local), std::span(prev.data(), n),
+                          std::span(base.data(), n), rig::kFloatLockCos);
+  for (size_t i = 0; i < n; ++i) {
+    const float p = angles[i];
+    angles[i] = nearest_turn(unwrap_near(static_cast<float>(base[i]), p), p, lo, hi, i);
   }
-  std::array<float, 3> prevf{angles[0], n > 1 ? angles[1] : 0.0f, n > 2 ? angles[2] : 0.0f};
-  int best = 0;
-  float best_cost = 0;
-  for (int k = 0; k < n_cand; ++k) {
-    for (size_t i = 0; i < n; ++i) cand[k][i] = nearest_turn(unwrap_near(cand[k][i], prevf[i]), prevf[i], lo, hi, i);
-    float cost = 0;
-    for (size_t i = 0; i < n; ++i) {
-      const float d = cand[k][i] - prevf[i];
-      cost += d * d + 1e6f * limit_violation(cand[k][i], lo, hi, i);  // inside the limits first
-    }
-    if (k == 0 || cost < best_cost) best = k, best_cost = cost;
-  }
-  for (size_t i = 0; i < n; ++i) angles[i] = cand[best][i];
 }
 
 }  // namespace

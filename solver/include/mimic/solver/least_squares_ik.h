@@ -68,7 +68,13 @@ class LeastSquaresIkContext {
   std::vector<int> position_of_;  // per entry of `dofs`, its column
   std::vector<int> dof_at_;       // per DOF column, its entry of `dofs`
   uint64_t joint_mask_ = 0;       // joints the targets hang from (evaluated by the FK)
-  float lambda_ = 0;              // damping the last solve ended with
+  // What the lists above were made for: they are kept while it stays the same.
+  struct ColumnKey {
+    const rig::Skeleton* skeleton = nullptr;
+    int root_cols = -1, dof_count = -1, target_count = -1;
+  } listed_for_;
+  std::vector<int> listed_dofs_, listed_joints_;
+  float lambda_ = 0;  // damping the last solve ended with
 };
 
 struct LeastSquaresIkJob {
@@ -95,6 +101,7 @@ struct LeastSquaresIkJob {
 
  private:
   // The stages of Run().
+  bool ColumnsListed(int root_cols);
   void ListColumns(int root_cols);
   float Objective(float prior2);
   void FillJacobian(int root_cols);
