@@ -363,9 +363,13 @@ void SolveJob::SolveLimbsAndRest(bool trunk_observed) {
         relax(j);
     }
     PlaceJoint(j);
-    if (const int leg = j == m.toes_[0] ? 0 : j == m.toes_[1] ? 1 : -1; leg >= 0 && std::isfinite(o.standing_root_y_m))
+    if (const int leg = j == m.toes_[0]   ? 0
+                        : j == m.toes_[1] ? 1
+                                          : -1;
+        leg >= 0 && std::isfinite(o.standing_root_y_m)) {
       keep_toes_above_floor(m, j, o.standing_root_y_m - m.toe_tip_below_root_rest_[leg], c.world_[s.parent(j)], dof);
-    PlaceJoint(j);
+      PlaceJoint(j);  // the toes may have bent up
+    }
   }
 }
 
