@@ -46,7 +46,7 @@ class LeastSquaresIkContext {
   int joints_ = 0, max_dofs_ = 0, max_targets_ = 0;
   std::vector<rig::RigidTransform> world_;
   std::vector<glm::vec3> dof_axis_world_;  // per skeleton DOF
-  std::vector<float> jacobian_;            // per target a block: its rows × its columns, row-major
+  std::vector<float> jacobian_;            // per target its rows (3 or 6), each padded to a whole row
   std::vector<float> residual_;
   std::vector<float> normal_;  // cols × cols, upper triangle (in elimination order)
   std::vector<float> rhs_;
