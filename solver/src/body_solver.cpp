@@ -6,9 +6,9 @@
 
 #include <glm/gtx/quaternion.hpp>
 
+#include "limb_chain.h"
 #include "mimic/solver/swing_twist.h"
 #include "sample_check.h"
-#include "mimic/solver/two_bone_ik.h"
 
 namespace mimic::solver {
 
@@ -20,9 +20,9 @@ namespace {
 
 using detail::finite_sample;
 
-glm::vec3 perpendicular_part(const glm::vec3& v, const glm::vec3& unit_axis) {
-  return v - unit_axis * glm::dot(v, unit_axis);
-}
+using detail::ChainInput;
+using detail::ChainSolution;
+using detail::perpendicular_part;
 
 // Rotation about +Y that turns +Z towards the horizontal part of `forward`; false if vertical.
 bool heading_of(const glm::vec3& forward, glm::quat& out) {
@@ -30,133 +30,6 @@ bool heading_of(const glm::vec3& forward, glm::quat& out) {
   if (glm::length(h) < 0.2f) return false;
   out = glm::angleAxis(std::atan2(h.x, h.y), glm::vec3(0, 1, 0));
   return true;
-}
-
-// One evaluation of an arm or leg for a given swivel: the two-bone positions turned into DOF
-// values (clamped), with how far the limits had to cut them.
-struct ChainInput {
-  const Skeleton* s;
-  const SolverModel::Chain* ch;
-  const RigidTransform* parent_w;
-  glm::vec3 start;
-  const RigidTransform* end_t;
-  std::span<const float> warm;  // current DOF values (warm start of the decompositions)
-  glm::vec3 hinge_hint{0.0f};   // which way the hinge should face when over-extension is possible
-  const glm::vec3* last_bend = nullptr;
-  const glm::quat* upper_rot = nullptr;  // the upper segment's measured orientation, if any
-};
-
-struct ChainSolution {
-  bool ok = false;
-  std::array<float, 3> upper{}, end{};
-  float bend = 0;
-  glm::vec3 bend_world{0.0f};
-  float violation = 0;  // radians cut off by the limits, summed
-};
-
-// Limits first, then closeness to the hinted swivel.
-float chain_cost(const ChainSolution& c, float phi) { return 40.0f * c.violation + 0.1f * phi * phi; }
-
-float decompose_clamped(const Skeleton& s, const int* dofs, int count, const glm::quat& q, std::span<const float> warm,
-                        std::array<float, 3>& out) {
-  std::array<glm::vec3, 3> axes;
-  std::array<float, 3> lo{}, hi{};
-  for (int i = 0; i < count; ++i) {
-    const auto& f = s.dof(dofs[i]);
-    axes[i] = f.axis, lo[i] = f.min_rad, hi[i] = f.max_rad;
-    out[i] = warm[dofs[i]];
-  }
-  angles_from_rotation(q, std::span(axes.data(), count), std::span(out.data(), count), std::span(lo.data(), count),
-                       std::span(hi.data(), count));
-  float violation = 0;
-  for (int i = 0; i < count; ++i) {
-    const float v = std::clamp(out[i], lo[i], hi[i]);
-    violation += std::abs(v - out[i]);
-    out[i] = v;
-  }
-  return violation;
-}
-
-// `phi` and `give_up_at`: a swivel search's candidate stops (not ok) as soon as the violation so
-// far makes its chain_cost reach give_up_at — the violations only add up, so it cannot win.
-ChainSolution solve_chain(const ChainInput& in, const glm::vec3& pole, float phi = 0.0f,
-                          float give_up_at = std::numeric_limits<float>::infinity()) {
-  const Skeleton& s = *in.s;
-  const SolverModel::Chain& ch = *in.ch;
-  ChainSolution out;
-  TwoBoneIkJob tb;
-  tb.start_m = in.start;
-  tb.target_m = in.end_t->translation;
-  tb.pole_dir = pole;
-  tb.upper_m = ch.upper_m;
-  tb.lower_m = ch.lower_m;
-  const auto& flex = s.dof(ch.flex_dof);
-  tb.min_bend_rad = std::max(0.0f, flex.min_rad);
-  tb.max_bend_rad = std::max(tb.min_bend_rad, flex.max_rad);
-  if (!tb.Run()) return out;
-  const glm::vec3 x_w = glm::normalize(tb.mid_m - in.start);
-  const glm::vec3 f = glm::normalize(tb.end_m - tb.mid_m);
-  glm::vec3 b_w = perpendicular_part(f, x_w);
-  if (glm::length(b_w) < 1e-3f) {
-    // Straight: the bend plane is free; keep the one the upper segment's sensor shows, else
-    // the one the pole implies.
-    if (in.upper_rot) b_w = perpendicular_part(*in.upper_rot * ch.bend_dir, x_w);
-    if (glm::length(b_w) < 1e-4f) b_w = perpendicular_part(-pole, x_w);
-    if (glm::length(b_w) < 1e-4f) b_w = perpendicular_part(in.parent_w->rotation * ch.bend_dir, x_w);
-    if (glm::length(b_w) < 1e-4f) b_w = perpendicular_part(in.parent_w->rotation * ch.hinge, x_w);
-  }
-  b_w = glm::normalize(b_w);
-  // A nearly straight limb may be over-extended (a bend below zero) instead: then the bend plane
-  // turns over. Keep the plane whose hinge agrees with the hint.
-  const float bend0 = std::atan2(glm::dot(f, b_w), glm::dot(f, x_w));
-  if (flex.min_rad < 0 && bend0 <= -flex.min_rad) {
-    const glm::vec3 hint = in.last_bend ? glm::cross(x_w, *in.last_bend) : in.hinge_hint;
-    if (glm::dot(glm::cross(x_w, b_w), hint) < 0) b_w = -b_w;
-  }
-  const glm::vec3 h_w = glm::cross(x_w, b_w);
-  const glm::mat3 world_m(x_w, b_w, h_w);
-  const glm::mat3 rest_m(ch.upper_dir, ch.bend_dir, ch.hinge);
-  const glm::quat upper_world = glm::normalize(glm::quat_cast(world_m * glm::transpose(rest_m)));
-  out.violation = decompose_clamped(s, ch.upper_dofs.data(), ch.upper_dof_count,
-                                    glm::conjugate(in.parent_w->rotation) * upper_world, in.warm, out.upper);
-  const float bend = std::atan2(glm::dot(f, b_w), glm::dot(f, x_w));
-  out.bend = std::clamp(bend, flex.min_rad, flex.max_rad);
-  out.violation += std::abs(out.bend - bend);
-  out.bend_world = b_w;
-  if (chain_cost(out, phi) >= give_up_at) return out;
-  // The upper joint as clamped, then the bend: what is left orients the hand or foot.
-  glm::quat upper_local(1, 0, 0, 0);
-  for (int i = 0; i < ch.upper_dof_count; ++i)
-    upper_local = upper_local * glm::angleAxis(out.upper[i], s.dof(ch.upper_dofs[i]).axis);
-  const glm::quat mid_pre = in.parent_w->rotation * upper_local * glm::angleAxis(out.bend, ch.hinge);
-  out.violation += decompose_clamped(s, ch.end_dofs.data(), ch.end_dof_count,
-                                     glm::conjugate(mid_pre) * in.end_t->rotation, in.warm, out.end);
-  out.ok = true;
-  return out;
-}
-
-// The swivel the limits allow nearest to the hinted one (e1): 16 samples round the axis, then
-// halving steps about the best.
-ChainSolution search_swivel(const ChainInput& in, const glm::vec3& e1, const glm::vec3& e2, ChainSolution best) {
-  float best_phi = 0;
-  float best_cost = chain_cost(best, 0.0f);
-  constexpr int kSamples = 16;
-  for (int k = 1; k < kSamples; ++k) {
-    const float phi = 6.2831853f * static_cast<float>(k) / kSamples - (k > kSamples / 2 ? 6.2831853f : 0.0f);
-    if (0.1f * phi * phi >= best_cost) continue;  // chain_cost(·, phi) cannot beat the best
-    const ChainSolution cand = solve_chain(in, std::cos(phi) * e1 + std::sin(phi) * e2, phi, best_cost);
-    const float cost = chain_cost(cand, phi);
-    if (cand.ok && cost < best_cost) best = cand, best_cost = cost, best_phi = phi;
-  }
-  for (float step = 6.2831853f / (2 * kSamples); step > 0.005f; step *= 0.5f) {
-    for (float phi : {best_phi - step, best_phi + step}) {
-      if (0.1f * phi * phi >= best_cost) continue;
-      const ChainSolution cand = solve_chain(in, std::cos(phi) * e1 + std::sin(phi) * e2, phi, best_cost);
-      const float cost = chain_cost(cand, phi);
-      if (cand.ok && cost < best_cost) best = cand, best_cost = cost, best_phi = phi;
-    }
-  }
-  return best;
 }
 
 // Toes nothing tracks follow the foot, and a foot pitched toes-down (a sensor's foot at push-off)
@@ -433,11 +306,11 @@ bool SolveJob::SolveLimb(int ci) {
   if (glm::length(e1) < 1e-6f) e1 = perpendicular_part(glm::vec3(1, 0, 0), n);
   e1 = glm::normalize(e1);
   const glm::vec3 e2 = glm::cross(n, e1);
-  ChainSolution best = solve_chain(in, e1);
+  ChainSolution best = detail::solve_chain(in, e1);
   // A guessed foot is searched only when the limits would cut a lot (0.2 rad) off the swivel's
   // leg: clamped that far, a stretched leg turned up off the floor (a pirouette's planted foot).
   const float search_above = c.guessed_end_[ci] ? 0.2f : 1e-4f;
-  if (best.ok && best.violation > search_above) best = search_swivel(in, e1, e2, best);
+  if (best.ok && best.violation > search_above) best = detail::search_swivel(in, e1, e2, best);
   if (!best.ok) return false;
   for (int i = 0; i < ch.upper_dof_count; ++i) dof[ch.upper_dofs[i]] = best.upper[i];
   dof[ch.flex_dof] = best.bend;
@@ -491,9 +364,13 @@ void SolveJob::SolveLimbsAndRest(bool trunk_observed) {
         relax(j);
     }
     PlaceJoint(j);
-    if (const int leg = j == m.toes_[0] ? 0 : j == m.toes_[1] ? 1 : -1; leg >= 0 && std::isfinite(o.standing_root_y_m))
+    if (const int leg = j == m.toes_[0]   ? 0
+                        : j == m.toes_[1] ? 1
+                                          : -1;
+        leg >= 0 && std::isfinite(o.standing_root_y_m)) {
       keep_toes_above_floor(m, j, o.standing_root_y_m - m.toe_tip_below_root_rest_[leg], c.world_[s.parent(j)], dof);
-    PlaceJoint(j);
+      PlaceJoint(j);  // the toes may have bent up
+    }
   }
 }
 

@@ -6,6 +6,7 @@
 #include <cstddef>
 
 #include "rotation_vector.h"
+#include "sparse_cholesky.h"
 
 namespace mimic::solver {
 
@@ -57,52 +58,8 @@ int fill_residual(std::span<const IkTarget> targets, std::span<const RigidTransf
   return row;
 }
 
-// Row stride of the normal equations for `cols` unknowns: a multiple of kLanes with at least
-// kLanes − 1 zeros after each row, so that every row operation below runs in whole blocks of
-// kLanes (no remainder loop; the zeros past column n stay zero).
-constexpr int kLanes = 8;
-int stride_for(int cols) { return (cols + 2 * kLanes - 2) / kLanes * kLanes; }
-
-// In-place Cholesky solve of the SPD n×n system a·x = b (x overwrites b; b padded with zeros like
-// the rows); false if not SPD. Only the upper triangle of `a` is read; it becomes U with UᵀU = a.
-// Right-looking, row by row: once row j is scaled, every later row i it touches (u_ji ≠ 0)
-// takes an axpy of it, which vectorises and does not wait on a running sum; rows j does not touch
-// are skipped, so the work follows the normal equations' zeros (one arm's DOFs never touch the
-// other arm's).
-bool cholesky_solve(float* a, float* b, int n, int stride) {
-  for (int j = 0; j < n; ++j) {
-    float* __restrict aj = a + static_cast<ptrdiff_t>(j) * stride;
-    if (!(aj[j] > 1e-12f)) return false;
-    const float d = std::sqrt(aj[j]);
-    aj[j] = d;
-    const float inv_d = 1.0f / d;
-    for (int k = j + 1; k < n; ++k) aj[k] *= inv_d;
-    for (int i = j + 1; i < n; ++i) {
-      const float u = aj[i];
-      if (u == 0.0f) continue;
-      float* __restrict ai = a + static_cast<ptrdiff_t>(i) * stride;
-      for (int k = i; k < n; k += kLanes)
-        for (int q = 0; q < kLanes; ++q) ai[k + q] -= u * aj[k + q];
-    }
-  }
-  for (int j = 0; j < n; ++j) {  // Uᵀ·y = b
-    const float* __restrict aj = a + static_cast<ptrdiff_t>(j) * stride;
-    const float y = b[j] / aj[j];
-    b[j] = y;
-    if (y != 0.0f)
-      for (int k = j + 1; k < n; k += kLanes)
-        for (int q = 0; q < kLanes; ++q) b[k + q] -= aj[k + q] * y;
-  }
-  for (int j = n - 1; j >= 0; --j) {  // U·x = y, the dot products over kLanes running sums
-    const float* __restrict aj = a + static_cast<ptrdiff_t>(j) * stride;
-    float part[kLanes] = {};
-    for (int k = j + 1; k < n; k += kLanes)
-      for (int q = 0; q < kLanes; ++q) part[q] += aj[k + q] * b[k + q];
-    const float dot = ((part[0] + part[1]) + (part[2] + part[3])) + ((part[4] + part[5]) + (part[6] + part[7]));
-    b[j] = (b[j] - dot) / aj[j];
-  }
-  return true;
-}
+using detail::kLanes;
+int stride_for(int cols) { return detail::padded_stride(cols); }
 
 }  // namespace
 
@@ -112,7 +69,7 @@ LeastSquaresIkContext::LeastSquaresIkContext(const Skeleton& skeleton, int max_d
   const int rows = 6 * max_targets;
   world_.resize(joints_);
   dof_axis_world_.resize(skeleton.dof_count());
-  jacobian_.resize(static_cast<size_t>(rows) * cols);
+  jacobian_.resize(static_cast<size_t>(rows) * stride_for(cols));
   residual_.resize(rows);
   normal_.resize(static_cast<size_t>(cols) * stride_for(cols));
   rhs_.resize(stride_for(cols));
@@ -122,6 +79,16 @@ LeastSquaresIkContext::LeastSquaresIkContext(const Skeleton& skeleton, int max_d
   columns_.resize(static_cast<size_t>(max_targets) * cols);
   column_begin_.resize(max_targets);
   column_count_.resize(max_targets);
+  runs_.resize(static_cast<size_t>(max_targets) * (cols + 1));
+  run_begin_.resize(max_targets);
+  run_count_.resize(max_targets);
+  target_of_column_.resize(cols);
+  reaching_first_.resize(cols);
+  reaching_count_.resize(cols);
+  reaching_rows_.resize(static_cast<size_t>(cols) * cols / 2 + 1);
+  inv_diag_.resize(cols);
+  listed_dofs_.resize(max_dofs);
+  listed_joints_.resize(max_targets);
   position_of_.resize(max_dofs);
   dof_at_.resize(max_dofs);
 }
@@ -142,27 +109,64 @@ bool LeastSquaresIkJob::Validate() const {
   return max_iterations >= 0 && damping >= 0 && prior_weight >= 0;
 }
 
-// The columns' order: DOFs of deeper joints first (joints are numbered parents first), the root's
-// six last. A target's rows touch its joint's chain, so two columns are coupled in JᵀJ only when
-// one's joint is an ancestor of the other's; eliminating children before parents then couples
-// only ancestors that a target below already coupled — no fill-in, so the factor keeps the
-// zeros between the arms (and between an arm and the neck) that cholesky_solve skips. Then, per target, the columns
-// it touches, ascending: the DOFs along its joint's chain (a hand's row touches the spine and its
-// arm, not the other arm), then the root's. Fixed for one Run().
+// Row j of the factor is non-zero where any one target touching column j is, right of j.
+struct SpansRightOf {
+  const LeastSquaresIkContext* c;
+  detail::ColumnSpans operator()(int j) const;
+};
+
+detail::ColumnSpans SpansRightOf::operator()(int j) const {
+  const int t = c->target_of_column_[j];
+  if (t < 0) return detail::ColumnSpans{nullptr, 0};
+  const int* r = c->runs_.data() + c->run_begin_[t];
+  int count = c->run_count_[t];
+  while (count > 0 && r[1] <= j + 1) r += 2, --count;
+  return detail::ColumnSpans{r, count};
+}
+
+// The columns' order: a post-order of the skeleton — every joint's DOFs after those of all its
+// descendants, each subtree's together, siblings by descending index (the trunk's branch after
+// the limbs hanging from the same joint) — and the root's six last. A target's rows touch its
+// joint's chain, so two columns are coupled in JᵀJ only when one's joint is an ancestor of the
+// other's, and every target touching a column touches all the columns of its ancestors:
+// eliminating children before parents then couples only columns already coupled — no fill-in,
+// and row j of the factor is non-zero exactly where any one target touching j is (the Cholesky
+// walks those runs). A chain's columns are its own limb's (one run), then the trunk's up to the
+// root's six (a second run): the normal equations add whole runs. Fixed for one Run().
 void LeastSquaresIkJob::ListColumns(int root_cols) {
   const Skeleton& s = *skeleton;
   LeastSquaresIkContext& c = *context;
   const int n_dofs = static_cast<int>(dofs.size());
-  // Counting sort by joint, deepest first (stable: a joint's DOFs keep their order).
+  const int n_joints = s.joint_count();
+  // Post-order rank of every joint: its subtree fills [first, first + size), itself last.
+  int size[64], first[64], free_end[64], rank[64];
+  for (int j = n_joints - 1; j >= 0; --j) size[j] = 1;
+  for (int j = n_joints - 1; j > 0; --j)
+    if (s.parent(j) >= 0) size[s.parent(j)] += size[j];
+  int next_root = 0;
+  for (int j = 0; j < n_joints; ++j) {
+    const int p = s.parent(j);
+    if (p < 0) {
+      first[j] = next_root, next_root += size[j];
+    } else {  // children fill their parent's range from its end: the lowest index nearest it
+      free_end[p] -= size[j];
+      first[j] = free_end[p];
+    }
+    free_end[j] = first[j] + size[j] - 1;
+    rank[j] = first[j] + size[j] - 1;
+  }
+  // Counting sort of the DOFs by their joint's rank (stable: a joint's DOFs keep their order).
   int start[65] = {};
-  for (int d : dofs) ++start[s.joint_count() - 1 - s.dof(d).joint + 1];
-  for (int j = 1; j <= s.joint_count(); ++j) start[j] += start[j - 1];
+  for (int d : dofs) ++start[rank[s.dof(d).joint] + 1];
+  for (int j = 1; j <= n_joints; ++j) start[j] += start[j - 1];
   for (int k = 0; k < n_dofs; ++k) {
-    const int pos = start[s.joint_count() - 1 - s.dof(dofs[k]).joint]++;
+    const int pos = start[rank[s.dof(dofs[k]).joint]]++;
     c.position_of_[k] = pos;
     c.dof_at_[pos] = k;
   }
+  std::fill(c.target_of_column_.begin(), c.target_of_column_.begin() + n_dofs + root_cols, -1);
   int* list = c.columns_.data();
+  int* runs = c.runs_.data();
   c.joint_mask_ = 0;
   for (size_t t = 0; t < targets.size(); ++t) {
     uint64_t mask = 0;
@@ -174,8 +178,36 @@ void LeastSquaresIkJob::ListColumns(int root_cols) {
       if (mask >> s.dof(dofs[c.dof_at_[pos]]).joint & 1u) list[n++] = pos;
     for (int k = 0; k < root_cols; ++k) list[n++] = n_dofs + k;
     c.column_count_[t] = n;
+    c.run_begin_[t] = static_cast<int>(runs - c.runs_.data());
+    // Spans: runs of consecutive columns, merged across gaps narrower than a block.
+    int n_runs = 0;
+    for (int k = 0; k < n; ++k) {
+      if (k == 0 || list[k] >= list[k - 1] + kLanes) runs[2 * n_runs++] = list[k];
+      runs[2 * n_runs - 1] = list[k] + 1;
+      c.target_of_column_[list[k]] = static_cast<int>(t);
+    }
+    c.run_count_[t] = n_runs;
+    runs += 2 * n_runs;
     list += n;
   }
+  detail::list_reaching_rows(n_dofs + root_cols, SpansRightOf{&c}, c.reaching_first_.data(), c.reaching_count_.data(),
+                             c.reaching_rows_.data());
+}
+
+// Whether the last ListColumns() was for the same skeleton, DOFs and targets' joints (a layout
+// changes only when a sensor comes or goes); records them when not.
+bool LeastSquaresIkJob::ColumnsListed(int root_cols) {
+  LeastSquaresIkContext& c = *context;
+  LeastSquaresIkContext::ColumnKey& k = c.listed_for_;
+  bool same = k.skeleton == skeleton && k.root_cols == root_cols && k.dof_count == static_cast<int>(dofs.size()) &&
+              k.target_count == static_cast<int>(targets.size());
+  for (size_t i = 0; same && i < dofs.size(); ++i) same = c.listed_dofs_[i] == dofs[i];
+  for (size_t t = 0; same && t < targets.size(); ++t) same = c.listed_joints_[t] == targets[t].joint;
+  if (same) return true;
+  k = {skeleton, root_cols, static_cast<int>(dofs.size()), static_cast<int>(targets.size())};
+  std::copy(dofs.begin(), dofs.end(), c.listed_dofs_.begin());
+  for (size_t t = 0; t < targets.size(); ++t) c.listed_joints_[t] = targets[t].joint;
+  return false;
 }
 
 // Weighted residuals plus the prior at the current pose: the quantity every accepted step lowers.
@@ -191,69 +223,84 @@ float LeastSquaresIkJob::Objective(float prior2) {
   return sum;
 }
 
-// Each target's block of the Jacobian at the current pose (world and axes evaluated there), over
-// its own columns only: per column its rows (3 or 6) together, blocks one after another.
+// The Jacobian at the current pose (world and axes evaluated there): per target its rows (3 or
+// 6), each a whole padded row of the unknowns, non-zero only in the target's columns.
 void LeastSquaresIkJob::FillJacobian(int root_cols) {
   const Skeleton& s = *skeleton;
   LeastSquaresIkContext& c = *context;
   const Pose& p = *pose;
-  float* block = c.jacobian_.data();
+  const int stride = stride_for(static_cast<int>(dofs.size()) + root_cols);
+  float* row0 = c.jacobian_.data();
   for (size_t t = 0; t < targets.size(); ++t) {
     const IkTarget& tg = targets[t];
     const int n = c.column_count_[t];
     const int* list = c.columns_.data() + c.column_begin_[t];
     const bool pos = tg.position_weight > 0, rot = tg.rotation_weight > 0;
     const int n_rows = (pos ? 3 : 0) + (rot ? 3 : 0);
+    std::fill(row0, row0 + static_cast<ptrdiff_t>(n_rows) * stride, 0.0f);
     // Column `col`: its position rows (w·∂e/∂θ), then its rotation rows (w·axis).
     auto put = [&](int col, const glm::vec3& dpos, const glm::vec3& drot) {
-      float* v = block + static_cast<ptrdiff_t>(col) * n_rows;
+      float* v = row0 + col;
       if (pos) {
         const glm::vec3 w = tg.position_weight * dpos;
-        v[0] = w.x, v[1] = w.y, v[2] = w.z;
-        v += 3;
+        v[0] = w.x, v[stride] = w.y, v[2 * stride] = w.z;
+        v += 3 * stride;
       }
       if (rot) {
         const glm::vec3 w = tg.rotation_weight * drot;
-        v[0] = w.x, v[1] = w.y, v[2] = w.z;
+        v[0] = w.x, v[stride] = w.y, v[2 * stride] = w.z;
       }
     };
     const glm::vec3 e = c.world_[tg.joint].translation;
     const int first_root = n - root_cols;
-    for (int col = 0; col < first_root; ++col) {
-      const int d = dofs[static_cast<size_t>(c.dof_at_[list[col]])];
+    for (int k = 0; k < first_root; ++k) {
+      const int d = dofs[static_cast<size_t>(c.dof_at_[list[k]])];
       const glm::vec3& axis = c.dof_axis_world_[d];
-      put(col, glm::cross(axis, e - c.world_[s.dof(d).joint].translation), axis);
+      put(list[k], glm::cross(axis, e - c.world_[s.dof(d).joint].translation), axis);
     }
     if (root_cols > 0) {
       const glm::vec3 arm = e - p.root_position_m;
       for (int k = 0; k < 3; ++k) {
         glm::vec3 unit(0.0f);
         unit[k] = 1.0f;
-        put(first_root + k, unit, glm::vec3(0.0f));
-        put(first_root + 3 + k, glm::cross(unit, arm), unit);
+        put(list[first_root + k], unit, glm::vec3(0.0f));
+        put(list[first_root + 3 + k], glm::cross(unit, arm), unit);
       }
     }
-    block += static_cast<ptrdiff_t>(n_rows) * n;
+    row0 += static_cast<ptrdiff_t>(n_rows) * stride;
   }
 }
 
 namespace {
 
-// One target's share of JᵀJ (upper triangle) and Jᵀr: its block is n columns of R rows each.
+// One target's share of JᵀJ (upper triangle) and Jᵀr: its R rows (padded, zero outside its
+// columns) over its column spans. Per column i, row i of JᵀJ takes Σ_r J_ri·J_r over the spans
+// from i on, in whole blocks (a block spilling past a span adds zeros).
 template <int R>
-void accumulate_block(const float* block, const float* res, const int* list, int n, float* a0, int stride, float* g0) {
+void accumulate_rows(const float* rows, int stride, const float* res, const int* list, int n, const int* spans,
+                     int n_spans, float* a0, float* g0) {
+  int q = 0;  // the span holding column list[ii]
   for (int ii = 0; ii < n; ++ii) {
-    const float* vi = block + static_cast<ptrdiff_t>(ii) * R;
+    const int i = list[ii];
+    while (i >= spans[2 * q + 1]) ++q;
+    float v[R];
     float g = 0;
-    for (int r = 0; r < R; ++r) g += vi[r] * res[r];
-    g0[list[ii]] += g;
-    float* ai = a0 + static_cast<ptrdiff_t>(list[ii]) * stride;
-    for (int kk = ii; kk < n; ++kk) {
-      const float* vk = block + static_cast<ptrdiff_t>(kk) * R;
-      float v = 0;
-      for (int r = 0; r < R; ++r) v += vi[r] * vk[r];
-      ai[list[kk]] += v;
-    }
+    for (int r = 0; r < R; ++r) v[r] = rows[r * stride + i], g += v[r] * res[r];
+    g0[i] += g;
+    float* __restrict ai = a0 + static_cast<ptrdiff_t>(i) * stride;
+    for (int w = q; w < n_spans; ++w)
+      for (int k = std::max(i, spans[2 * w]); k < spans[2 * w + 1]; k += kLanes) {
+        detail::Block sum, x;
+        detail::load_block(x, rows + k);
+        sum = v[0] * x;
+        for (int r = 1; r < R; ++r) {
+          detail::load_block(x, rows + r * stride + k);
+          sum += v[r] * x;
+        }
+        detail::load_block(x, ai + k);
+        x += sum;
+        detail::store_block(ai + k, x);
+      }
   }
 }
 
@@ -273,15 +320,16 @@ void LeastSquaresIkJob::BuildNormalEquations(int cols, float prior2) {
   const int stride = stride_for(cols);
   std::fill(a0, a0 + static_cast<size_t>(cols) * stride, 0.0f);
   std::fill(g0, g0 + stride, 0.0f);
-  const float* block = c.jacobian_.data();
+  const float* rows = c.jacobian_.data();
   const float* res = c.residual_.data();
   for (size_t t = 0; t < targets.size(); ++t) {
     const int n = c.column_count_[t];
     const int* list = c.columns_.data() + c.column_begin_[t];
     const int n_rows = (targets[t].position_weight > 0 ? 3 : 0) + (targets[t].rotation_weight > 0 ? 3 : 0);
-    if (n_rows == 3) accumulate_block<3>(block, res, list, n, a0, stride, g0);
-    if (n_rows == 6) accumulate_block<6>(block, res, list, n, a0, stride, g0);
-    block += static_cast<ptrdiff_t>(n_rows) * n;
+    const int* spans = c.runs_.data() + c.run_begin_[t];
+    if (n_rows == 3) accumulate_rows<3>(rows, stride, res, list, n, spans, c.run_count_[t], a0, g0);
+    if (n_rows == 6) accumulate_rows<6>(rows, stride, res, list, n, spans, c.run_count_[t], a0, g0);
+    rows += static_cast<ptrdiff_t>(n_rows) * stride;
     res += n_rows;
   }
   for (size_t k = 0; k < dofs.size(); ++k) {
@@ -329,7 +377,7 @@ bool LeastSquaresIkJob::Run() {
   Pose& p = *pose;
   const int root_cols = solve_root ? kRootUnknowns : 0;
   const int cols = root_cols + static_cast<int>(dofs.size());
-  ListColumns(root_cols);
+  if (!ColumnsListed(root_cols)) ListColumns(root_cols);
 
   iterations = 0;
   const float prior2 = prior_rad.empty() ? 0.0f : prior_weight * prior_weight;
@@ -349,7 +397,8 @@ bool LeastSquaresIkJob::Run() {
     std::copy(c.rhs0_.data(), c.rhs0_.data() + stride, b);
     for (int i = 0; i < cols; ++i) a[i * stride + i] += lambda * lambda;
     ++iterations;
-    if (!cholesky_solve(a, b, cols, stride)) break;
+    const detail::ReachingRows reaching{c.reaching_first_.data(), c.reaching_count_.data(), c.reaching_rows_.data()};
+    if (!detail::cholesky_solve(a, b, cols, stride, SpansRightOf{&c}, reaching, c.inv_diag_.data())) break;
     float biggest = 0;
     for (int i = 0; i < cols; ++i) biggest = std::max(biggest, std::abs(b[i]));
     if (!std::isfinite(biggest)) break;

@@ -6,6 +6,7 @@
 #include <array>
 #include <cassert>
 #include <cmath>
+#include <limits>
 
 namespace mimic::solver {
 
@@ -14,7 +15,61 @@ namespace {
 constexpr float kPi = 3.14159265358979f;
 constexpr float kTwoPi = 2.0f * kPi;
 
-float unwrap_near(float angle, float previous) { return previous + std::remainder(angle - previous, kTwoPi); }
+// The angle ± whole turns nearest `previous` (std::remainder's result up to float rounding, without
+// its cost: it is called a dozen times per decomposition, a swivel search does dozens of those).
+float unwrap_near(float angle, float previous) {
+  const float d = angle - previous;
+  return previous + (d - kTwoPi * std::nearbyint(d * (1.0f / kTwoPi)));
+}
+
+float squared_distance(const std::array<float, 3>& a, std::span<const float> b) {
+  float d = 0;
+  for (size_t i = 0; i < b.size(); ++i) d += (a[i] - b[i]) * (a[i] - b[i]);
+  return d;
+}
+
+// rig::dofs_from_rotation for three mutually orthogonal unit axes, in float: the same exact
+// Euler decomposition (basis of the axes, made right-handed by flipping the third; m = Rx(t0)·
+// Ry(t1)·Rz(t2); t2 from the residual so that it stays exact near gimbal lock), of the two
+// branches the one nearer `previous`. The double version builds three matrices and takes two
+// more sines and cosines; here m's two columns that matter come from rotating two basis vectors.
+void euler3_nearest(const glm::quat& local, std::span<const glm::vec3> axes, std::span<const float> previous,
+                    std::array<float, 3>& out) {
+  const float s2 = glm::dot(glm::cross(axes[0], axes[1]), axes[2]) < 0 ? -1.0f : 1.0f;
+  const glm::vec3 b0 = axes[0], b1 = axes[1], b2 = s2 * axes[2];
+  const glm::quat q = glm::normalize(local);
+  const glm::vec3 v0 = q * b0, v2 = q * b2;  // columns 0 and 2 of m, in the world basis
+  const float m00 = glm::dot(b0, v0), m10 = glm::dot(b1, v0), m20 = glm::dot(b2, v0);
+  const float m02 = glm::dot(b0, v2), m12 = glm::dot(b1, v2), m22 = glm::dot(b2, v2);
+  const float p0 = previous[0], p1 = previous[1], p2 = s2 * previous[2];
+  const float sb = std::clamp(m02, -1.0f, 1.0f);
+  const float t1 = std::asin(sb);
+  const float cb = std::sqrt(std::max(0.0f, 1.0f - m02 * m02));
+  const bool locked = cb < static_cast<float>(rig::kFloatLockCos);
+  float t0 = p0, sa = 0, ca = 1;
+  if (locked) {
+    sa = std::sin(p0), ca = std::cos(p0);
+  } else {
+    t0 = std::atan2(-m12, m22);
+    const float h = std::sqrt(m12 * m12 + m22 * m22);
+    if (h > 0) sa = -m12 / h, ca = m22 / h;
+  }
+  // Residual (Rx(t0)·Ry(t1))ᵀ·m: its (1,0) and (0,0) entries give t2.
+  const float r10 = ca * m10 + sa * m20;
+  const float r00 = cb * m00 + sa * sb * m10 - ca * sb * m20;
+  const float t2 = std::atan2(r10, r00);
+  std::array<float, 3> a{unwrap_near(t0, p0), unwrap_near(t1, p1), unwrap_near(t2, p2)};
+  std::array<float, 3> b = a;  // the other branch: (t0 + π, π − t1, t2 + π)
+  if (!locked) b = {unwrap_near(t0 + kPi, p0), unwrap_near(kPi - t1, p1), unwrap_near(t2 + kPi, p2)};
+  a[2] *= s2;
+  b[2] *= s2;
+  out = squared_distance(a, previous) <= squared_distance(b, previous) ? a : b;
+}
+
+bool orthogonal_triple(std::span<const glm::vec3> axes) {
+  return axes.size() == 3 && std::abs(glm::dot(axes[0], axes[1])) < 1e-4f &&
+         std::abs(glm::dot(axes[1], axes[2])) < 1e-4f && std::abs(glm::dot(axes[0], axes[2])) < 1e-4f;
+}
 
 float limit_violation(float v, std::span<const float> lo, std::span<const float> hi, size_t i) {
   if (i >= lo.size() || i >= hi.size()) return 0.0f;
@@ -26,6 +81,9 @@ float limit_violation(float v, std::span<const float> lo, std::span<const float>
 // Of θ and θ ± 2π, the one inside the limits (if any) nearest the previous value: unwrapping
 // towards a previous value far from the truth must not push an angle out of its range.
 float nearest_turn(float angle, float previous, std::span<const float> lo, std::span<const float> hi, size_t i) {
+  // Within 3 rad of the previous value and inside the limits, the angle itself wins by far (±2π
+  // are at least 3.28 rad away): the common case, without the search.
+  if (std::abs(angle - previous) < 3.0f && limit_violation(angle, lo, hi, i) == 0.0f) return angle;
   float best = angle, best_cost = 0;
   for (int k = -1; k <= 1; ++k) {
     const float a = angle + static_cast<float>(k) * kTwoPi;
@@ -35,6 +93,48 @@ float nearest_turn(float angle, float previous, std::span<const float> lo, std::
   return best;
 }
 
+// Limits of three angles, as fixed-size arrays (none: ±infinity), so that the hot path of the
+// limbs (shoulders, hips, wrists, ankles: three orthogonal axes) runs without spans' bounds.
+struct Limits3 {
+  std::array<float, 3> lo, hi;
+  Limits3(std::span<const float> min_rad, std::span<const float> max_rad) {
+    for (size_t i = 0; i < 3; ++i) {
+      lo[i] = i < min_rad.size() && i < max_rad.size() ? min_rad[i] : -std::numeric_limits<float>::infinity();
+      hi[i] = i < min_rad.size() && i < max_rad.size() ? max_rad[i] : std::numeric_limits<float>::infinity();
+    }
+  }
+  float violation(float v, size_t i) const { return v < lo[i] ? lo[i] - v : v > hi[i] ? v - hi[i] : 0.0f; }
+};
+
+// Of the two Euler branches (each angle ± 2π), the one inside the limits and nearest the previous
+// values: nearest_turn and the costs below, for three angles.
+void choose_branch3(std::array<float, 3> base, const Limits3& lim, std::span<float> angles) {
+  const std::array<float, 3> prev{angles[0], angles[1], angles[2]};
+  std::array<std::array<float, 3>, 2> cand{base, {base[0] + kPi, kPi - base[1], base[2] + kPi}};
+  int best = 0;
+  float best_cost = 0;
+  for (int k = 0; k < 2; ++k) {
+    float cost = 0;
+    for (size_t i = 0; i < 3; ++i) {
+      float a = unwrap_near(cand[k][i], prev[i]);
+      if (!(std::abs(a - prev[i]) < 3.0f && lim.violation(a, i) == 0.0f)) {  // else a wins by far, as in nearest_turn
+        float turn_best = a, turn_cost = 0;
+        for (int t = -1; t <= 1; ++t) {
+          const float v = a + static_cast<float>(t) * kTwoPi;
+          const float c = 1e6f * lim.violation(v, i) + (v - prev[i]) * (v - prev[i]);
+          if (t == -1 || c < turn_cost) turn_best = v, turn_cost = c;
+        }
+        a = turn_best;
+      }
+      cand[k][i] = a;
+      const float d = a - prev[i];
+      cost += d * d + 1e6f * lim.violation(a, i);  // inside the limits first
+    }
+    if (k == 0 || cost < best_cost) best = k, best_cost = cost;
+  }
+  for (size_t i = 0; i < 3; ++i) angles[i] = cand[best][i];
+}
+
 // The decomposition nearest the previous values (avatar/joint_angles.h: exact Euler for three
 // orthogonal axes, twist for one, best fit otherwise), then the limits: of that solution, the
 // other Euler branch for three axes, and every angle ± 2π, the candidate inside the limits and
@@ -42,33 +142,22 @@ float nearest_turn(float angle, float previous, std::span<const float> lo, std::
 void decompose(const glm::quat& local, std::span<const glm::vec3> axes, std::span<float> angles,
                std::span<const float> lo, std::span<const float> hi) {
   const size_t n = axes.size();
+  if (orthogonal_triple(axes)) {
+    std::array<float, 3> base;
+    euler3_nearest(local, axes, std::span<const float>(angles.data(), 3), base);
+    choose_branch3(base, Limits3(lo, hi), angles);
+    return;
+  }
+  // Two axes (the nearest expressible rotation) and others: rig's decomposition, in double.
   std::array<glm::dvec3, 3> ax;
   std::array<double, 3> prev{}, base{};
   for (size_t i = 0; i < n; ++i) ax[i] = glm::dvec3(axes[i]), prev[i] = angles[i];
   rig::dofs_from_rotation(std::span(ax.data(), n), glm::dquat(local), std::span(prev.data(), n),
                           std::span(base.data(), n), rig::kFloatLockCos);
-  std::array<std::array<float, 3>, 2> cand{};
-  for (size_t i = 0; i < n; ++i) cand[0][i] = static_cast<float>(base[i]);
-  int n_cand = 1;
-  const bool orthogonal3 = n == 3 && std::abs(glm::dot(axes[0], axes[1])) < 1e-4f &&
-                           std::abs(glm::dot(axes[1], axes[2])) < 1e-4f && std::abs(glm::dot(axes[0], axes[2])) < 1e-4f;
-  if (orthogonal3) {  // (α + π, π − β, γ + π) is the same rotation
-    cand[1] = {cand[0][0] + kPi, kPi - cand[0][1], cand[0][2] + kPi};
-    n_cand = 2;
+  for (size_t i = 0; i < n; ++i) {
+    const float p = angles[i];
+    angles[i] = nearest_turn(unwrap_near(static_cast<float>(base[i]), p), p, lo, hi, i);
   }
-  std::array<float, 3> prevf{angles[0], n > 1 ? angles[1] : 0.0f, n > 2 ? angles[2] : 0.0f};
-  int best = 0;
-  float best_cost = 0;
-  for (int k = 0; k < n_cand; ++k) {
-    for (size_t i = 0; i < n; ++i) cand[k][i] = nearest_turn(unwrap_near(cand[k][i], prevf[i]), prevf[i], lo, hi, i);
-    float cost = 0;
-    for (size_t i = 0; i < n; ++i) {
-      const float d = cand[k][i] - prevf[i];
-      cost += d * d + 1e6f * limit_violation(cand[k][i], lo, hi, i);  // inside the limits first
-    }
-    if (k == 0 || cost < best_cost) best = k, best_cost = cost;
-  }
-  for (size_t i = 0; i < n; ++i) angles[i] = cand[best][i];
 }
 
 }  // namespace

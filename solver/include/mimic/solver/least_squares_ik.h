@@ -42,10 +42,11 @@ class LeastSquaresIkContext {
 
  private:
   friend struct LeastSquaresIkJob;
+  friend struct SpansRightOf;
   int joints_ = 0, max_dofs_ = 0, max_targets_ = 0;
   std::vector<rig::RigidTransform> world_;
   std::vector<glm::vec3> dof_axis_world_;  // per skeleton DOF
-  std::vector<float> jacobian_;            // per target a block: its columns × its rows, column-major
+  std::vector<float> jacobian_;            // per target its rows (3 or 6), each padded to a whole row
   std::vector<float> residual_;
   std::vector<float> normal_;  // cols × cols, upper triangle (in elimination order)
   std::vector<float> rhs_;
@@ -53,14 +54,27 @@ class LeastSquaresIkContext {
   std::vector<float> saved_;                      // DOF values before a trial step
   std::vector<int> columns_;                      // per target, its non-zero Jacobian columns, ascending
   std::vector<int> column_begin_, column_count_;  // per target: where its columns start, how many
-  // Elimination order: the DOFs deepest in the skeleton first, the root's six last, so that the
-  // Cholesky factor of the normal equations has no fill-in (see least_squares_ik.cpp).
-  std::vector<int> position_of_;          // per entry of `dofs`, its column
-  std::vector<int> dof_at_;               // per DOF column, its entry of `dofs`
-  std::vector<int> below_, below_count_;  // per column j, the rows i > j where the factor is non-zero
-  std::vector<float> factor_column_;      // one column of the factor, gathered
-  uint64_t joint_mask_ = 0;               // joints the targets hang from (evaluated by the FK)
-  float lambda_ = 0;                      // damping the last solve ended with
+  // Per target, its columns as spans (sparse_cholesky.h): pairs (first, one past the last).
+  std::vector<int> runs_;
+  std::vector<int> run_begin_, run_count_;  // per target: where its spans start (pairs), how many
+  std::vector<int> target_of_column_;       // per column, a target touching it (−1: none)
+  // Per column, the earlier rows whose spans reach it (sparse_cholesky.h): where its list starts
+  // in reaching_rows_, how long it is.
+  std::vector<int> reaching_first_, reaching_count_, reaching_rows_;
+  std::vector<float> inv_diag_;  // Cholesky scratch: the factor's diagonal's reciprocals
+  // Elimination order: DOFs of children before their parent's, each subtree's DOFs together,
+  // the root's six last, so that the Cholesky factor of the normal equations has no fill-in and
+  // a target's columns form one or two runs (see least_squares_ik.cpp).
+  std::vector<int> position_of_;  // per entry of `dofs`, its column
+  std::vector<int> dof_at_;       // per DOF column, its entry of `dofs`
+  uint64_t joint_mask_ = 0;       // joints the targets hang from (evaluated by the FK)
+  // What the lists above were made for: they are kept while it stays the same.
+  struct ColumnKey {
+    const rig::Skeleton* skeleton = nullptr;
+    int root_cols = -1, dof_count = -1, target_count = -1;
+  } listed_for_;
+  std::vector<int> listed_dofs_, listed_joints_;
+  float lambda_ = 0;  // damping the last solve ended with
 };
 
 struct LeastSquaresIkJob {
@@ -87,6 +101,7 @@ struct LeastSquaresIkJob {
 
  private:
   // The stages of Run().
+  bool ColumnsListed(int root_cols);
   void ListColumns(int root_cols);
   float Objective(float prior2);
   void FillJacobian(int root_cols);
