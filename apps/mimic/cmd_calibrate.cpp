@@ -3,6 +3,7 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <filesystem>
 #include <cmath>
 #include <cstdio>
 #include <map>
@@ -11,13 +12,17 @@
 #include <thread>
 #include <vector>
 
+#include "body_posing.h"
 #include "cli.h"
 #include "command.h"
+#include "mimic/avatar/wearer_body.h"
 #include "mimic/devices/source.h"
+#include "mimic/rig/motion.h"
 #include "mimic/service/tracker_source.h"
 #include "mimic/solver/calibration.h"
 #include "mimic/solver/model_refiner.h"
 #include "mimic/solver/sensor_layout.h"
+#include "mimic/sim/sensor_rig.h"
 
 namespace mimic::app::cmd_calibrate {
 namespace {
@@ -42,7 +47,7 @@ constexpr const char* kAbout =
     "instep, upper arms on the outside, thighs on the front, chest on the sternum.";
 
 struct Options {
-  std::string source, out, layout, pose = "tpose";
+  std::string source, out, layout, pose = "tpose", body_out, body;
   double seconds = 2.0, countdown_s = 3.0, max_cm = 3.0, max_deg = 6.0, floor_y = 0.0, move_s = 0.0;
 };
 
@@ -77,6 +82,13 @@ std::optional<int> parse(cli::Parser& p, const std::vector<std::string>& argv, O
                 "are found from the motion and written too (layouts 11 and all;\n"
                 "0: stand-still only)")
       ->check(cli::finite_range(0, 600));
+  p->add_option("--body-out", o.body_out,
+                "also write the wearer's body: the body (--body) given the wearer's height,\n"
+                "spine origin, shoulder and hip width, and limb lengths; the calibration\n"
+                "names it, so `mimic run --calibration` uses it (docs/body-model.md)")
+      ->type_name("BODY.json");
+  p->add_option("--body", o.body, "the body --body-out starts from (file or preset:NAME; default built-in)")
+      ->type_name("FILE");
   return p.parse(argv);
 }
 
@@ -198,6 +210,61 @@ void print_calibration(const solver::Calibration& cal, const std::string& out) {
   std::printf("wrote %s\n", out.c_str());
 }
 
+// What the stand-still makes of the start body itself: its skeleton worn by simulated sensors of
+// the same layout, standing still without noise, calibrated alike. The wearer is measured against
+// this, so the skeleton fit's own biases (wrists and shoulders a few millimetres out) cancel. The
+// body's own skeleton where no such simulation stands in (a layout of a network tracker's own, an
+// N-pose).
+rig::SkeletonDesc calibrated_reference(const avatar::BodyModel& base, const std::string& layout_name,
+                                       const solver::CalibrationOptions& options) {
+  auto skeleton = rig::Skeleton::build(base.skeleton);
+  auto tracking = rig::Skeleton::build(solver::tracking_skeleton_desc());
+  if (!skeleton || !tracking || options.pose != solver::CalibrationPose::t_pose) return base.skeleton;
+  auto motion = rig::make_builtin_motion("idle", *skeleton);
+  auto mounts = sim::make_layout(layout_name, *skeleton);
+  auto layout = solver::standard_layout(layout_name, *tracking);
+  if (!motion || !mounts || !layout) return base.skeleton;
+  sim::RigConfig config;
+  config.sensors = std::move(*mounts);
+  auto rig = sim::SensorRig::create(std::shared_ptr<const rig::Motion>(std::move(*motion)), std::move(config));
+  if (!rig) return base.skeleton;
+  std::vector<devices::SensorSample> capture, tick(static_cast<size_t>(rig->sensor_count()));
+  for (int k = 0; k < 100; ++k) {
+    rig->step(tick);
+    capture.insert(capture.end(), tick.begin(), tick.end());
+  }
+  auto cal = solver::calibrate(solver::tracking_skeleton_desc(), *layout, capture, options);
+  return cal ? cal->skeleton : base.skeleton;
+}
+
+// The wearer's body from the calibrated skeleton: its proportions against what the calibration
+// makes of the start body (calibrated_reference).
+Status write_wearer_body(const Options& o, const std::string& layout_name, const solver::CalibrationOptions& options,
+                         solver::Calibration& cal) {
+  auto base = body_from_path(o.body);
+  if (!base) return tl::unexpected(base.error());
+  auto reference = rig::Skeleton::build(calibrated_reference(*base, layout_name, options));
+  if (!reference) return tl::unexpected(reference.error());
+  auto wearer = rig::Skeleton::build(cal.skeleton);
+  if (!wearer) return tl::unexpected(wearer.error());
+  const avatar::WearerRatios r =
+      avatar::wearer_ratios(avatar::measure_build(*wearer), avatar::measure_build(*reference));
+  auto body = avatar::wearer_body(*base, r);
+  if (!body) return tl::unexpected(body.error());
+  body->name = "wearer";
+  if (auto st = avatar::save_body_model(*body, o.body_out); !st) return st;
+  namespace fs = std::filesystem;
+  const fs::path folder = fs::absolute(fs::path(o.out)).parent_path();
+  cal.body = fs::absolute(fs::path(o.body_out)).lexically_relative(folder).string();
+  const avatar::BodyScaling s = avatar::scaling_for(r);
+  std::printf(
+      "wearer's body: height x%.3f, spine origin x%.3f, shoulders x%.3f, hips x%.3f, depth x%.3f; arms x%.3f, "
+      "legs x%.3f; wrote %s\n",
+      s.total_height, s.spine_origin_ratio, s.high_lateral_scaling, s.low_lateral_scaling, s.frontal_scaling,
+      r.upper_arm, r.thigh, o.body_out.c_str());
+  return {};
+}
+
 std::string layout_from_spec(const devices::SourceSpec& spec) {
   auto it = spec.params.find("sensors");
   return it == spec.params.end() ? "6" : it->second;
@@ -242,6 +309,8 @@ int run_calibrate(const std::vector<std::string>& argv) {
   (*source)->stop();
   if (!cal) return p.failure(cal.error().message);
   if (!refined) return p.failure(refined.error().message);
+  if (!o.body_out.empty())
+    if (auto st = write_wearer_body(o, layout_name, opt, *cal); !st) return p.failure(st.error().message);
   if (auto st = solver::save_calibration(o.out, *cal); !st) return p.failure(st.error().message);
   print_calibration(*cal, o.out);
   return 0;

@@ -86,8 +86,9 @@ int run_scale(const std::vector<std::string>& argv) {
   if (list) return list_presets();
 
   avatar::BodyScaling scaling;
+  const avatar::BodyPreset* chosen = nullptr;
   if (!preset.empty()) {
-    const avatar::BodyPreset* chosen = *find_preset(preset);
+    chosen = *find_preset(preset);
     scaling = chosen->scaling;
     if (name.empty()) name = std::string(chosen->name);
   }
@@ -99,6 +100,8 @@ int run_scale(const std::vector<std::string>& argv) {
   auto body = body_from_path(body_path);
   if (!body) return failure(kName, body.error().what());
   auto scaled = avatar::scale_body(*body, scaling);
+  // A preset's shape changes (a child's head, a woman's bust) follow its operators.
+  if (scaled && chosen && !chosen->shape.empty()) scaled = avatar::reshape_body(*scaled, chosen->shape);
   if (!scaled) return failure(kName, scaled.error().what());
   scaled->name = name;
   const float before = skeleton_height_m(*body), after = skeleton_height_m(*scaled);

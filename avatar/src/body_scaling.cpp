@@ -25,6 +25,41 @@ std::set<std::string> lower_region(const rig::SkeletonDesc& d) {
   return lower;
 }
 
+// The joints' world rotations in the standing posture, arms at the sides: the frame the
+// operators act in (the zero posture is a T-pose: scaling it laterally would lengthen the arms,
+// not widen the body).
+struct StandingFrames {
+  const rig::Skeleton& skeleton;
+  std::vector<rig::RigidTransform> world;
+  explicit StandingFrames(const rig::Skeleton& s) : skeleton(s), world(static_cast<size_t>(s.joint_count())) {
+    rig::forward_kinematics(s, standing_posture(s), world);
+  }
+  glm::mat3 rotation(const std::string& joint) const {
+    const int j = skeleton.find_joint(joint);
+    return j < 0 ? glm::mat3(1.0f) : glm::mat3_cast(world[j].rotation);
+  }
+};
+
+// A vector of a joint's frame, scaled per world axis: W^T diag(k) W v.
+glm::vec3 scaled(const glm::mat3& rot, const glm::vec3& k, const glm::vec3& v) {
+  return glm::transpose(rot) * (k * (rot * v));
+}
+
+// Centre scaled about the joint and moved by `shift_world`; each principal axis takes the
+// factor of its dominant world direction. Deformed states alike.
+void scale_primitive(Primitive& prim, const glm::mat3& rot, const glm::vec3& k, const glm::vec3& shift_world) {
+  auto scale_state = [&](PrimitiveState& st) {
+    st.center_m = scaled(rot, k, st.center_m) + glm::transpose(rot) * shift_world;
+    const glm::mat3 r = glm::mat3(glm::eulerAngleZ(st.orientation_rad.z) * glm::eulerAngleY(st.orientation_rad.y) *
+                                  glm::eulerAngleX(st.orientation_rad.x));
+    for (int a = 0; a < 3; ++a) st.semi_axes_m[a] *= k[scaling_tag(rot * r[a])];
+  };
+  scale_state(prim.state);
+  if (prim.deformation) scale_state(prim.deformation->at_min), scale_state(prim.deformation->at_max);
+}
+
+bool valid_factor(float f) { return f > 0.0f && std::isfinite(f) && f <= 10.0f; }
+
 }  // namespace
 
 int scaling_tag(const glm::vec3& axis_world) {
@@ -73,8 +108,7 @@ rig::Pose relaxed_posture(const rig::Skeleton& skeleton) {
 Result<BodyModel> scale_body(const BodyModel& model, const BodyScaling& s) {
   for (float f :
        {s.total_height, s.frontal_scaling, s.high_lateral_scaling, s.low_lateral_scaling, s.spine_origin_ratio})
-    if (!(f > 0.0f) || !std::isfinite(f) || f > 10.0f)
-      return fail(Errc::invalid_argument, "scaling factors must be finite and in (0, 10]");
+    if (!valid_factor(f)) return fail(Errc::invalid_argument, "scaling factors must be finite and in (0, 10]");
   auto skeleton = rig::Skeleton::build(model.skeleton);
   if (!skeleton) return tl::unexpected(skeleton.error());
 
@@ -97,39 +131,52 @@ Result<BodyModel> scale_body(const BodyModel& model, const BodyScaling& s) {
   const std::set<std::string> lower = lower_region(model.skeleton);
   auto scale_of = [&](const std::string& joint) { return lower.count(joint) ? low_scale : high_scale; };
 
-  // The operators act in the world frame of the standing posture, arms at the sides (the zero
-  // posture is a T-pose: scaling it laterally would lengthen the arms, not widen the body).
-  std::vector<rig::RigidTransform> standing(static_cast<size_t>(skeleton->joint_count()));
-  rig::forward_kinematics(*skeleton, standing_posture(*skeleton), standing);
-  auto world_rotation = [&](const std::string& joint) {
-    const int j = skeleton->find_joint(joint);
-    return j < 0 ? glm::mat3(1.0f) : glm::mat3_cast(standing[j].rotation);
-  };
-  // A vector of a joint's frame, scaled per world axis: W^T diag(k) W v.
-  auto scaled = [](const glm::mat3& rot, const glm::vec3& k, const glm::vec3& v) {
-    return glm::transpose(rot) * (k * (rot * v));
-  };
-
+  const StandingFrames frames(*skeleton);
   BodyModel out = model;
   for (auto& j : out.skeleton.joints) {
     const glm::vec3 k = scale_of(j.name);
-    if (!j.parent.empty()) j.offset_m = scaled(world_rotation(j.parent), k, j.offset_m);
-    j.tip_m = scaled(world_rotation(j.name), k, j.tip_m);
+    if (!j.parent.empty()) j.offset_m = scaled(frames.rotation(j.parent), k, j.offset_m);
+    j.tip_m = scaled(frames.rotation(j.name), k, j.tip_m);
   }
-  auto scale_state = [&](PrimitiveState& st, const glm::mat3& rot, const glm::vec3& k) {
-    st.center_m = scaled(rot, k, st.center_m);
-    // Each principal axis takes the factor of its dominant world direction.
-    const glm::mat3 r = glm::mat3(glm::eulerAngleZ(st.orientation_rad.z) * glm::eulerAngleY(st.orientation_rad.y) *
-                                  glm::eulerAngleX(st.orientation_rad.x));
-    for (int a = 0; a < 3; ++a) st.semi_axes_m[a] *= k[scaling_tag(rot * r[a])];
-  };
-  for (auto& prim : out.primitives) {
-    const glm::vec3 k = scale_of(prim.joint);
-    const glm::mat3 rot = world_rotation(prim.joint);
-    scale_state(prim.state, rot, k);
-    if (prim.deformation) {
-      scale_state(prim.deformation->at_min, rot, k);
-      scale_state(prim.deformation->at_max, rot, k);
+  for (auto& prim : out.primitives) scale_primitive(prim, frames.rotation(prim.joint), scale_of(prim.joint), {});
+  // The crotch ring hangs a distance below the pelvis joint that scales with the legs' heights:
+  // kept at the adult's 8.5 cm, a child's ring reached into the thighs and folded them.
+  out.skin.crotch_drop_m *= low_v;
+  if (auto st = validate(out); !st) return tl::unexpected(st.error());
+  return out;
+}
+
+}  // namespace mimic::avatar
+
+namespace mimic::avatar {
+
+Result<BodyModel> reshape_body(const BodyModel& model, std::span<const ShapeChange> changes) {
+  auto skeleton = rig::Skeleton::build(model.skeleton);
+  if (!skeleton) return tl::unexpected(skeleton.error());
+  const StandingFrames frames(*skeleton);
+  BodyModel out = model;
+  for (const ShapeChange& c : changes) {
+    if (!valid_factor(c.scale.x) || !valid_factor(c.scale.y) || !valid_factor(c.scale.z) ||
+        !std::isfinite(glm::dot(c.shift_m, c.shift_m)))
+      return fail(Errc::invalid_argument, "shape change of '" + std::string(c.primitives) + "': bad factor or shift");
+    std::string_view rest = c.primitives;
+    while (!rest.empty()) {
+      const size_t space = rest.find(' ');
+      const std::string token(rest.substr(0, space));
+      rest = space == std::string_view::npos ? std::string_view() : rest.substr(space + 1);
+      if (token.empty()) continue;
+      const auto part = token.rfind("part:", 0) == 0 ? rigid_part_from_name(token.substr(5)) : std::nullopt;
+      const bool left = token.rfind("l_", 0) == 0;
+      const std::string right = left ? "r_" + token.substr(2) : std::string();
+      int matched = 0;
+      for (Primitive& p : out.primitives) {
+        const bool mirror = left && p.name == right;
+        if (!(part ? p.part == *part : p.name == token || mirror)) continue;
+        const glm::vec3 shift = mirror ? glm::vec3(-c.shift_m.x, c.shift_m.y, c.shift_m.z) : c.shift_m;
+        scale_primitive(p, frames.rotation(p.joint), c.scale, shift);
+        ++matched;
+      }
+      if (matched == 0) return fail(Errc::invalid_argument, "shape change: no primitive '" + token + "'");
     }
   }
   if (auto st = validate(out); !st) return tl::unexpected(st.error());

@@ -1,4 +1,5 @@
-// Mimic's built-in adult body: about 1.67 m, average proportions, 90-odd primitives.
+// Mimic's built-in adult body as authored: about 1.67 m, average proportions, 90-odd primitives
+// (the built-in body is this with the fitted overrides of body_overrides.h applied).
 //
 // Authored in world coordinates of the zero posture (T-pose, root 0.89 m above the floor) and
 // converted to joint frames, which are parallel to the world there. Left-side primitives are
@@ -246,7 +247,7 @@ void add_head(Author& a) {
 
 }  // namespace
 
-BodyModel default_body_model() {
+BodyModel authored_body_model() {
   Author a(rig::default_skeleton_desc());
   a.model.name = "mimic-default";
   add_pelvis_and_hips(a);

@@ -82,7 +82,8 @@ const SchemeSpec kSchemes[] = {
       {"drift_deg", Kind::number, 0, 180},
       {"latency_ms", Kind::number, 0, 10000},
       {"dropout", Kind::number, 0, 1},
-      {"burst", Kind::integer, 1, 100000}}},
+      {"burst", Kind::integer, 1, 100000},
+      {"body", Kind::any}}},
     // vmc keys are interpreted by service/src/vmc_feed.cpp (docs/hardware.md).
     {"vmc",
      true,
@@ -121,6 +122,7 @@ const SchemeSpec kSchemes[] = {
       {"latency_ms", Kind::number, 0, 10000},
       {"dropout", Kind::number, 0, 1},
       {"burst", Kind::integer, 1, 100000},
+      {"body", Kind::any},
       {"loop", Kind::boolean}}},
 };
 

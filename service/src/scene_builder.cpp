@@ -4,6 +4,7 @@
 #include <cstdio>
 
 #include "mimic/service/source_registry.h"
+#include "mimic/solver/calibration.h"
 #include "mimic/sim/open_input.h"
 
 namespace mimic::service {
@@ -45,11 +46,18 @@ tl::expected<SceneAvatar, SceneError> build_avatar(const SceneSpec& spec, const 
   out.place = row_placement(index, count);
   if (!entry.place.empty() && !parse_place(entry.place, out.place))
     return usage("--place must be X,Z[,HEADING_DEG] in metres, got '" + entry.place + "'");
-  // The body first: its skeleton is the one the avatar's source is solved on.
-  auto asset = load_body(entry.body);
+  // The body first: its skeleton is the one the avatar's source is solved on. Without --body, a
+  // calibration that names the wearer's body (calibrate --body-out) brings it.
+  std::string body_path = entry.body;
+  if (body_path.empty() && !entry.calibration.empty()) {
+    auto cal = solver::load_calibration(entry.calibration);
+    if (!cal) return failed(cal.error().what());
+    body_path = solver::calibration_body_path(entry.calibration, *cal);
+  }
+  auto asset = load_body(body_path);
   if (!asset) return failed(asset.error().what());
   auto skeleton = rig::Skeleton::build(asset->model.skeleton);
-  if (!skeleton) return failed("body model " + entry.body + ": " + skeleton.error().what());
+  if (!skeleton) return failed("body model " + body_path + ": " + skeleton.error().what());
   const SourceScheme* scheme = find_source_scheme(entry.spec);
   const bool self_placed = scheme && scheme->self_placed;
   SourceRequest request{self_placed ? actor_spec(entry, out.place, spec.room) : entry.spec, entry.calibration,
@@ -75,7 +83,7 @@ tl::expected<SceneAvatar, SceneError> build_avatar(const SceneSpec& spec, const 
   if (spec.skins) {
     auto deformer = make_skin_deformer(asset->model, (*feed)->skeleton(), spec.mesh_lod, spec.skin_method);
     if (!deformer)
-      return failed("body model " + (entry.body.empty() ? std::string("(default)") : entry.body) +
+      return failed("body model " + (body_path.empty() ? std::string("(default)") : body_path) +
                     " does not fit source " + entry.spec + ": " + deformer.error().what());
     out.deformer = std::move(*deformer);
   }

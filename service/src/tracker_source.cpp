@@ -3,6 +3,7 @@
 #include "osc_tracker_source.h"
 #include "tracker_map.h"
 #include "vrpn_source.h"
+#include "mimic/avatar/body_presets.h"
 #include "mimic/sim/open_source.h"
 
 namespace mimic::service {
@@ -25,6 +26,15 @@ Result<std::unique_ptr<devices::SensorSource>> open_tracker_source(const devices
                       "': VMC bones are a pose, not tracker samples (run and view take them; to read a VMC "
                       "sender's devices as trackers, name them: vmc:PORT?map=SERIAL:SEGMENT,...)");
     return open_vmc_device_source(spec, std::move(clock));
+  }
+  // A simulated wearer of another build: body=preset:NAME or body=FILE wears that body's skeleton.
+  if (const auto body = spec.params.find("body");
+      body != spec.params.end() && (spec.scheme == "sim" || spec.scheme == "bvh")) {
+    auto model = avatar::load_body_or_preset(body->second);
+    if (!model) return fail(Errc::invalid_argument, "'" + spec.text + "': body: " + model.error().message);
+    auto wearer = rig::Skeleton::build(model->skeleton);
+    if (!wearer) return fail(Errc::invalid_argument, "'" + spec.text + "': body: " + wearer.error().message);
+    return sim::open_sensor_source(spec, std::move(clock), std::move(tap), &*wearer);
   }
   return sim::open_sensor_source(spec, std::move(clock), std::move(tap), performer);
 }

@@ -1,4 +1,5 @@
 // Calibration as JSON: the fitted skeleton, the sensor mounts and the capture's statistics.
+#include <filesystem>
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
@@ -54,6 +55,7 @@ std::string calibration_to_json(const Calibration& cal) {
   j["heading_deg"] = cal.heading_deg;
   j["floor_y_m"] = cal.floor_y_m;
   j["standing_root_y_m"] = cal.standing_root_y_m;
+  if (!cal.body.empty()) j["body"] = cal.body;
   j["capture"] = {{"samples", cal.samples},
                   {"duration_s", cal.duration_s},
                   {"max_motion_mm", cal.max_motion_mm},
@@ -104,6 +106,11 @@ Result<Calibration> calibration_from_json(std::string_view text) {
   if (j.contains("heading_deg")) read_float(j["heading_deg"], cal.heading_deg);
   if (j.contains("floor_y_m")) read_float(j["floor_y_m"], cal.floor_y_m);
   if (j.contains("standing_root_y_m")) read_float(j["standing_root_y_m"], cal.standing_root_y_m);
+  if (j.contains("body")) {
+    if (!j["body"].is_string() || j["body"].get<std::string>().empty())
+      return bad("\"body\" must be the path of a body model file");
+    cal.body = j["body"].get<std::string>();
+  }
   if (j.contains("capture") && j["capture"].is_object()) {
     const json& c = j["capture"];
     if (c.contains("samples") && c["samples"].is_number_integer()) {
@@ -190,6 +197,13 @@ Result<Calibration> load_calibration(const std::string& path) {
   auto cal = calibration_from_json(*text);
   if (!cal) return fail(cal.error().code, path + ": " + cal.error().message);
   return cal;
+}
+
+std::string calibration_body_path(const std::string& calibration_path, const Calibration& cal) {
+  if (cal.body.empty()) return {};
+  const std::filesystem::path body(cal.body);
+  if (body.is_absolute()) return cal.body;
+  return (std::filesystem::path(calibration_path).parent_path() / body).lexically_normal().string();
 }
 
 }  // namespace mimic::solver

@@ -339,6 +339,14 @@ std::vector<uint8_t> fixed_unknowns(const BodyModel& model, const std::vector<ui
   return out;
 }
 
+// A primitive the options keep as it is.
+bool held(const FitOptions& o, const Primitive& p) {
+  if (o.hold_rigid && p.part != RigidPart::none) return true;
+  const std::string left = p.name.rfind("r_", 0) == 0 ? "l_" + p.name.substr(2) : p.name;
+  return std::find(o.held.begin(), o.held.end(), p.name) != o.held.end() ||
+         std::find(o.held.begin(), o.held.end(), left) != o.held.end();
+}
+
 // Levenberg–Marquardt over the shapes; `cur` holds the best body so far.
 void fit_shapes(const Context& ctx, BodyModel& body, Measured& cur, FitResult& result) {
   const std::vector<SurfaceSample> ref_samples = sample_surface(ctx.reference, ctx.options.samples, 3);
@@ -354,6 +362,7 @@ void fit_shapes(const Context& ctx, BodyModel& body, Measured& cur, FitResult& r
     bool improved = false, froze = false;
     // Primitives whose steps folded the skin stay where they are for the rest of this iteration.
     std::vector<uint8_t> frozen(body.primitives.size(), 0);
+    for (size_t k = 0; k < body.primitives.size(); ++k) frozen[k] = held(ctx.options, body.primitives[k]);
     for (int attempt = 0; attempt < 8 && !improved; ++attempt) {
       std::vector<double> x;
       if (!solve_damped(ne, lambda, fixed_unknowns(body, frozen), x)) {
@@ -402,7 +411,7 @@ Result<FitResult> fit_body(const BodyModel& start, const Mesh& reference_m, cons
   result.folds_before = cur.posed.folds;
   ctx.report("start", 0, cur.distance, true);
   if (options.skeleton) {
-    auto fitted = fit_skeleton(start, reference_landmarks);
+    auto fitted = fit_skeleton(start, reference_landmarks, options.hold_rigid);
     if (!fitted) return tl::unexpected(fitted.error());
     auto m = ctx.measure(*fitted);
     if (!m) return tl::unexpected(m.error());

@@ -104,7 +104,7 @@ glm::vec3 with_length(const glm::vec3& v, float length) {
 
 }  // namespace
 
-Result<BodyModel> fit_skeleton(const BodyModel& model, const BodyLandmarks& ref) {
+Result<BodyModel> fit_skeleton(const BodyModel& model, const BodyLandmarks& ref, bool hold_rigid) {
   auto skeleton = rig::Skeleton::build(model.skeleton);
   if (!skeleton) return tl::unexpected(skeleton.error());
   BodyModel out = model;
@@ -165,7 +165,7 @@ Result<BodyModel> fit_skeleton(const BodyModel& model, const BodyLandmarks& ref)
 
   for (Primitive& prim : out.primitives) {
     const rig::JointDesc* j = find(d, prim.joint);
-    if (!j) continue;
+    if (!j || (hold_rigid && prim.part != RigidPart::none)) continue;
     follow_link(prim.state, old_tip[prim.joint], j->tip_m);
     if (prim.deformation) {
       follow_link(prim.deformation->at_min, old_tip[prim.joint], j->tip_m);

@@ -10,6 +10,7 @@
 #include <array>
 #include <cstdint>
 #include <optional>
+#include <span>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -133,8 +134,11 @@ struct BodyModel {
 Primitive mirrored(const Primitive& left);
 // (Joints mirror with rig::mirrored, mimic/rig/skeleton_json.h.)
 
-// The built-in adult body (about 1.67 m), written for Mimic; needs no data files.
+// The built-in adult body (about 1.67 m), written for Mimic; needs no data files: the authored
+// body with its fit to the MakeHuman base mesh applied (body_overrides.h).
 BodyModel default_body_model();
+// The body as authored in code (default_body.cpp), before the fitted overrides.
+BodyModel authored_body_model();
 
 // Structural checks: joints, DOF names, groups, positive axes, influence > 1, deformations name
 // a DOF of their joint chain, the skin layout is consistent with itself. Messages name the
@@ -164,6 +168,19 @@ struct BodyScaling {
 // high or frontal by its dominant world component (scaling_tag) and its length scaled by that
 // ratio; orientations kept. Fails on a non-positive or non-finite factor.
 Result<BodyModel> scale_body(const BodyModel& model, const BodyScaling& scaling);
+
+// A change of shape beyond the five operators (body_presets.h): the named primitives' centres
+// (about their joints) and semi-axes scaled, and their centres moved, per world axis of the
+// standing posture (x lateral, y high, z frontal; as scale_body), deformed states alike.
+struct ShapeChange {
+  // Space-separated primitive names; "l_NAME" also changes "r_NAME", mirrored; "part:head"
+  // (hands: "part:left_hand", "part:right_hand"; feet likewise) every primitive of a rigid part.
+  std::string_view primitives;
+  glm::vec3 scale{1.0f};    // lateral, high, frontal
+  glm::vec3 shift_m{0.0f};  // +x towards the body's left (mirrored on the right), +y up, +z front
+};
+// Fails on a non-positive or non-finite factor, or a name that no primitive has.
+Result<BodyModel> reshape_body(const BodyModel& model, std::span<const ShapeChange> changes);
 
 // The posture the scaling operators are defined in: the zero posture (a T-pose) with the upper
 // arms lowered to the sides by a quarter turn of shoulder abduction, so arms scale in length

@@ -52,6 +52,9 @@ struct Calibration {
   float heading_deg = 0;        // which way the wearer faced (0 = +Z, turning left positive)
   float floor_y_m = 0;          // floor height in tracker coordinates, estimated
   float standing_root_y_m = 0;  // root (pelvis joint) height while standing, tracker coordinates
+  // The wearer's body model (`mimic calibrate --body-out`), relative to the calibration file's
+  // folder; empty: none. `mimic run --calibration` uses it unless --body says otherwise.
+  std::string body;
   // Capture statistics: how still the wearer stood.
   int samples = 0;
   double duration_s = 0;
@@ -79,6 +82,9 @@ std::string calibration_to_json(const Calibration& calibration);
 Result<Calibration> calibration_from_json(std::string_view text);
 Status save_calibration(const std::string& path, const Calibration& calibration);
 Result<Calibration> load_calibration(const std::string& path);
+// The path of a calibration's body file (Calibration::body) as seen from here: relative paths are
+// taken from the calibration file's folder. Empty when it names none.
+std::string calibration_body_path(const std::string& calibration_path, const Calibration& calibration);
 
 const char* calibration_pose_name(CalibrationPose pose);  // "tpose", "npose"
 Result<CalibrationPose> parse_calibration_pose(std::string_view name);

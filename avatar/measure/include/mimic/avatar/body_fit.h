@@ -55,8 +55,10 @@ Result<PosedBody> pose_body_like(const BodyModel& model, const BodyLandmarks& re
 int count_folds(const Mesh& mesh, float min_area_m2 = 1e-5f, std::vector<int>* per_part = nullptr,
                 std::vector<glm::vec3>* where = nullptr);
 
-// Step 1 alone: the body with its skeleton fitted to the landmarks (primitives following).
-Result<BodyModel> fit_skeleton(const BodyModel& model, const BodyLandmarks& reference);
+// Step 1 alone: the body with its skeleton fitted to the landmarks (primitives following; the
+// rigid parts' primitives too unless `hold_rigid`, when they keep their shapes in their joints'
+// frames).
+Result<BodyModel> fit_skeleton(const BodyModel& model, const BodyLandmarks& reference, bool hold_rigid = false);
 
 struct FitProgress {
   std::string stage;  // "start", "skeleton", "shapes"
@@ -72,6 +74,13 @@ struct FitOptions {
   int subdivision = 2;   // skin LOD measured (compare's)
   bool skeleton = true;  // step 1
   bool shapes = true;    // step 2
+  // The rigid parts' primitives (head, hands, feet) kept as they are, in their joints' frames:
+  // the built-in body's refit, whose rigid parts are authored in code (body_overrides.h).
+  bool hold_rigid = false;
+  // Primitives whose shapes stay as they are (names; "l_NAME" holds "r_NAME" too): the built-in
+  // body's refit holds those of the neck and shoulder girdle, whose fitted shapes made the neck's
+  // first rings zigzag (docs/fit.md).
+  std::vector<std::string> held;
   std::function<void(const FitProgress&)> progress;
 };
 
