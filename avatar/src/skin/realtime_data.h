@@ -93,6 +93,7 @@ struct RealtimeBody::Data {
     float band_weight = 0;
     glm::vec2 centre{0.0f};
     uint32_t muscle_first = 0, muscle_count = 0;  // blocks in `muscle_blocks`
+    int follow = -1;  // driven: the first of its limb's rings moves the loop first (`follows`)
   };
   std::vector<RingOp> rings;
   std::vector<uint32_t> goals;
@@ -108,6 +109,23 @@ struct RealtimeBody::Data {
   // grows): where a bend squeezes the band between the loop and S (the armpit and groin side), an
   // offset as long as the column itself would carry the point past its neighbours.
   std::vector<float> column_inv_len2;
+  // A shoulder's or hip's junction loop (the torso's points G its boundary-driven rings run to),
+  // on the side the limb swings towards, follows part of the limb's swing about the joint. The
+  // loop is cast in the initial pose: with the arm hanging (the thigh raised) its armpit (groin)
+  // points stay where the limb's inner side was, outside the limb's first ring S, and the band
+  // between them folds. A point's share is gain · max(0, dir · bend)^power, dir its rest
+  // direction from the loop's centre across the limb, bend the direction the limb's axis has
+  // moved (both in the parent joint's frame): none in the initial pose.
+  struct LoopFollow {
+    int joint = -1, parent = -1;
+    glm::vec3 pivot{0.0f}, axis{0.0f};  // the joint and the limb's rest axis, in the parent's frame
+    glm::vec3 tip{0.0f};                // the limb's axis in the joint's frame
+    float gain = 0, power = 1;
+    uint32_t goal_first = 0, count = 0;  // the loop's slots in `goals`
+    uint32_t dir_first = 0;              // in `follow_dir`
+  };
+  std::vector<LoopFollow> follows;
+  std::vector<glm::vec3> follow_dir;
 
   struct MuscleDof {
     int dof = -1;
@@ -215,6 +233,9 @@ void star_frames(const RealtimeBody::Data& d, State& st, bool vectorised);
 // scaled by min(1, |G − S|² · column_inv_len2).
 void driven_points(const RealtimeBody::Data& d, const RealtimeBody::Data::RingOp& r, const Frame& f,
                    std::span<glm::vec3> pos, bool vectorised);
+// Moves a junction loop's points on the side its limb swings towards (Data::LoopFollow).
+void follow_loop(const RealtimeBody::Data& d, const RealtimeBody::Data::LoopFollow& lf,
+                 std::span<const rig::RigidTransform> world_from_joint, std::span<glm::vec3> pos);
 // Rigid vertices: out[i] = rotation·local[i] + translation.
 void rigid_points(const glm::mat3& rotation, const glm::vec3& translation, const glm::vec3* local, uint32_t count,
                   glm::vec3* out, bool vectorised);
@@ -243,6 +264,8 @@ void measure_local(const RestContours& m, const RealtimeBody::Data& d, std::vect
 void measure_columns(const RestContours& m, RealtimeBody::Data& d);
 // The boundary-driven slots' rest column lengths (Data::column_inv_len2).
 void measure_driven_columns(const RestContours& m, RealtimeBody::Data& d);
+// The shoulders' and hips' loop follows (Data::follows), in the initial pose `base`.
+void measure_loop_follows(const RestContours& m, const rig::Pose& base, RealtimeBody::Data& d);
 // Joint bands at the elbows and knees and their scales over each joint's bend.
 Status calibrate_bands(const RestContours& m, const rig::Pose& base, RealtimeBody::Data& d);
 // The muscle terms: `skin` (the layout's implicit skin) ray-casts the contours with each

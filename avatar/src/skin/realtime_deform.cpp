@@ -5,6 +5,10 @@
 #include <immintrin.h>
 #endif
 
+#include <algorithm>
+#include <cmath>
+#include <glm/gtx/quaternion.hpp>
+
 #include "mimic/core/clock.h"
 #include "realtime_data.h"
 
@@ -129,6 +133,33 @@ size_t State::heap_bytes() const {
   return b;
 }
 
+void follow_loop(const Data& d, const Data::LoopFollow& lf, std::span<const rig::RigidTransform> world_from_joint,
+                 std::span<glm::vec3> pos) {
+  const rig::RigidTransform& parent = world_from_joint[static_cast<size_t>(lf.parent)];
+  const glm::quat parent_from_world = glm::conjugate(parent.rotation);
+  const glm::vec3 axis = parent_from_world * (world_from_joint[static_cast<size_t>(lf.joint)].rotation * lf.tip);
+  const glm::vec3 across = axis - glm::dot(axis, lf.axis) * lf.axis;
+  const float across_len = glm::length(across);
+  if (across_len < 1e-6f) return;  // the limb on its rest axis (twist alone): the loop stays
+  const glm::vec3 bend = across / across_len;
+  const glm::quat swing = glm::rotation(lf.axis, axis);
+  // Past the arm hanging at the side (the arm across the body) the swung loop would cut into
+  // the chest: the follow fades out between 95 and 120 degrees of swing.
+  constexpr float kFadeStart_rad = 1.658f, kFadeEnd_rad = 2.094f;
+  const float swing_rad = std::acos(std::clamp(glm::dot(axis, lf.axis), -1.0f, 1.0f));
+  const float fade = std::clamp((kFadeEnd_rad - swing_rad) / (kFadeEnd_rad - kFadeStart_rad), 0.0f, 1.0f);
+  if (fade <= 0.0f) return;
+  for (uint32_t k = 0; k < lf.count; ++k) {
+    const float c = glm::dot(d.follow_dir[lf.dir_first + k], bend);
+    if (c <= 0.0f) continue;
+    const float share = fade * lf.gain * (lf.power == 1.0f ? c : std::pow(c, lf.power));
+    glm::vec3& p = pos[d.goals[lf.goal_first + k]];
+    const glm::vec3 local = parent_from_world * (p - parent.translation);
+    const glm::vec3 swung = lf.pivot + swing * (local - lf.pivot);
+    p += parent.rotation * (share * (swung - local));
+  }
+}
+
 void deform(const Data& d, State& st, const rig::Pose& pose, std::span<glm::vec3> pos, bool muscles) {
   const double t0 = steady_now_s();
   rig::forward_kinematics(d.skeleton, pose, st.world_from_joint);
@@ -171,6 +202,7 @@ void deform(const Data& d, State& st, const rig::Pose& pose, std::span<glm::vec3
         // P = S + α(G − S), plus the offset the full method's ray found from that point in the
         // initial pose, turned with S.
         f = st.frames[r.s_ring];
+        if (r.follow >= 0) follow_loop(d, d.follows[static_cast<size_t>(r.follow)], st.world_from_joint, pos);
         driven_points(d, r, f, pos, st.vectorised);
         break;
       }
