@@ -93,7 +93,8 @@ struct RealtimeBody::Data {
     float band_weight = 0;
     glm::vec2 centre{0.0f};
     uint32_t muscle_first = 0, muscle_count = 0;  // blocks in `muscle_blocks`
-    int follow = -1;  // driven: the first of its limb's rings moves the loop first (`follows`)
+    int follow = -1;                              // driven: its loop's follow (`follows`), or −1
+    bool moves_loop = false;                      // driven: the first ring of its limb moves the loop first
   };
   std::vector<RingOp> rings;
   std::vector<uint32_t> goals;
@@ -204,6 +205,7 @@ struct State {
   std::vector<Frame> frames;        // per ring, this frame
   std::vector<glm::vec2> muscle_w;  // per muscle DOF: (towards θmin, towards θmax)
   std::vector<float> band_scale;    // per band, this frame
+  std::vector<float> follow_fade;   // per loop follow, this frame: 1 up to 95° of swing, 0 past 120°
   // Build time only: the bands' scales forced (the calibration); empty otherwise.
   std::vector<float> band_scale_forced;
   bool vectorised = true;    // the eight-wide kernels where the build has them
@@ -229,13 +231,23 @@ Reach star_points_avx2(const RealtimeBody::Data& d, const RealtimeBody::Data::Ri
 struct State;
 void star_frames(const RealtimeBody::Data& d, State& st, bool vectorised);
 
-// A boundary-driven ring's points: P = S + α(G − S) + the rest offset turned with S's frame,
+// A boundary-driven ring's points: P = S + α(G − S) + the rest offset turned with `f`
+// (junction_frame),
 // scaled by min(1, |G − S|² · column_inv_len2).
 void driven_points(const RealtimeBody::Data& d, const RealtimeBody::Data::RingOp& r, const Frame& f,
                    std::span<glm::vec3> pos, bool vectorised);
-// Moves a junction loop's points on the side its limb swings towards (Data::LoopFollow).
-void follow_loop(const RealtimeBody::Data& d, const RealtimeBody::Data::LoopFollow& lf,
-                 std::span<const rig::RigidTransform> world_from_joint, std::span<glm::vec3> pos);
+// The frame a boundary-driven ring's rest offsets turn with: z from the centre of the torso's
+// loop G to the centre of the limb's first ring S, x across it towards G's first point. It
+// turns with the band itself (S's own frame turns with the limb alone, and carried the offsets
+// under the armpit past their neighbours when the arm hangs).
+// Past the follow's fade (`band`: 1 the band's frame, 0 S's frame `s`) the frame turns back to
+// S's: with the arm swung across the body the band's axis runs through the chest.
+Frame junction_frame(const RealtimeBody::Data& d, const RealtimeBody::Data::RingOp& r, std::span<const glm::vec3> pos,
+                     const Frame& s, float band);
+// Moves a junction loop's points on the side its limb swings towards (Data::LoopFollow);
+// returns the fade (State::follow_fade).
+float follow_loop(const RealtimeBody::Data& d, const RealtimeBody::Data::LoopFollow& lf,
+                  std::span<const rig::RigidTransform> world_from_joint, std::span<glm::vec3> pos);
 // Rigid vertices: out[i] = rotation·local[i] + translation.
 void rigid_points(const glm::mat3& rotation, const glm::vec3& translation, const glm::vec3* local, uint32_t count,
                   glm::vec3* out, bool vectorised);

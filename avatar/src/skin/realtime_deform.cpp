@@ -121,26 +121,49 @@ State::State(const Data& d)
       frames(d.rings.size()),
       muscle_w(d.muscle_dofs.size()),
       band_scale(d.bands.size(), 1.0f),
+      follow_fade(d.follows.size(), 1.0f),
       reach(d.rings.size()) {}
 
 size_t State::heap_bytes() const {
   size_t b = world_from_joint.capacity() * sizeof(rig::RigidTransform) + frames.capacity() * sizeof(Frame) +
              muscle_w.capacity() * sizeof(glm::vec2) + chains.capacity() * sizeof(Chain) +
-             (band_scale.capacity() + band_scale_forced.capacity()) * sizeof(float) + reach.capacity() * sizeof(Reach);
+             (band_scale.capacity() + band_scale_forced.capacity() + follow_fade.capacity()) * sizeof(float) +
+             reach.capacity() * sizeof(Reach);
   for (const Chain& c : chains)
     b += c.nodes.capacity() * sizeof(Chain::Node) +
          (c.point.capacity() + c.normal.capacity() + c.ref.capacity()) * sizeof(glm::vec3);
   return b;
 }
 
-void follow_loop(const Data& d, const Data::LoopFollow& lf, std::span<const rig::RigidTransform> world_from_joint,
-                 std::span<glm::vec3> pos) {
+Frame junction_frame(const Data& d, const Data::RingOp& r, std::span<const glm::vec3> pos, const Frame& s_frame,
+                     float band) {
+  if (band <= 0.0f) return s_frame;
+  const Data::RingOp& s = d.rings[static_cast<size_t>(r.s_ring)];
+  glm::vec3 loop(0.0f), ring(0.0f);
+  for (uint32_t k = 0; k < r.count; ++k) loop += pos[d.goals[r.goal_first + k]], ring += pos[s.first + k];
+  const float inv = 1.0f / static_cast<float>(std::max(r.count, 1u));
+  loop *= inv, ring *= inv;
+  Frame f;
+  f.origin = loop;
+  f.z = safe_normalize(ring - loop, s_frame.z);
+  if (band < 1.0f) f.z = safe_normalize(band * f.z + (1.0f - band) * s_frame.z, s_frame.z);
+  const glm::vec3 first = pos[d.goals[r.goal_first]] - loop;
+  f.x = safe_normalize(first - glm::dot(first, f.z) * f.z,
+                       glm::abs(f.z.x) < 0.9f ? glm::vec3(1, 0, 0) : glm::vec3(0, 1, 0));
+  f.x = safe_normalize(f.x - glm::dot(f.x, f.z) * f.z, {1, 0, 0});
+  f.y = glm::cross(f.z, f.x);
+  return f;
+}
+
+float follow_loop(const Data& d, const Data::LoopFollow& lf, std::span<const rig::RigidTransform> world_from_joint,
+                  std::span<glm::vec3> pos) {
   const rig::RigidTransform& parent = world_from_joint[static_cast<size_t>(lf.parent)];
   const glm::quat parent_from_world = glm::conjugate(parent.rotation);
   const glm::vec3 axis = parent_from_world * (world_from_joint[static_cast<size_t>(lf.joint)].rotation * lf.tip);
   const glm::vec3 across = axis - glm::dot(axis, lf.axis) * lf.axis;
   const float across_len = glm::length(across);
-  if (across_len < 1e-6f) return;  // the limb on its rest axis (twist alone): the loop stays
+  // On its rest axis (twist alone) the loop stays; swung straight back, it fades out.
+  if (across_len < 1e-6f) return glm::dot(axis, lf.axis) > 0.0f ? 1.0f : 0.0f;
   const glm::vec3 bend = across / across_len;
   const glm::quat swing = glm::rotation(lf.axis, axis);
   // Past the arm hanging at the side (the arm across the body) the swung loop would cut into
@@ -148,7 +171,7 @@ void follow_loop(const Data& d, const Data::LoopFollow& lf, std::span<const rig:
   constexpr float kFadeStart_rad = 1.658f, kFadeEnd_rad = 2.094f;
   const float swing_rad = std::acos(std::clamp(glm::dot(axis, lf.axis), -1.0f, 1.0f));
   const float fade = std::clamp((kFadeEnd_rad - swing_rad) / (kFadeEnd_rad - kFadeStart_rad), 0.0f, 1.0f);
-  if (fade <= 0.0f) return;
+  if (fade <= 0.0f) return 0.0f;
   for (uint32_t k = 0; k < lf.count; ++k) {
     const float c = glm::dot(d.follow_dir[lf.dir_first + k], bend);
     if (c <= 0.0f) continue;
@@ -158,6 +181,7 @@ void follow_loop(const Data& d, const Data::LoopFollow& lf, std::span<const rig:
     const glm::vec3 swung = lf.pivot + swing * (local - lf.pivot);
     p += parent.rotation * (share * (swung - local));
   }
+  return fade;
 }
 
 void deform(const Data& d, State& st, const rig::Pose& pose, std::span<glm::vec3> pos, bool muscles) {
@@ -200,9 +224,14 @@ void deform(const Data& d, State& st, const rig::Pose& pose, std::span<glm::vec3
       }
       case RingKind::driven: {
         // P = S + α(G − S), plus the offset the full method's ray found from that point in the
-        // initial pose, turned with S.
-        f = st.frames[r.s_ring];
-        if (r.follow >= 0) follow_loop(d, d.follows[static_cast<size_t>(r.follow)], st.world_from_joint, pos);
+        // initial pose, turned with the band (junction_frame).
+        float band = 1.0f;
+        if (r.follow >= 0) {
+          const auto i = static_cast<size_t>(r.follow);
+          if (r.moves_loop) st.follow_fade[i] = follow_loop(d, d.follows[i], st.world_from_joint, pos);
+          band = st.follow_fade[i];
+        }
+        f = junction_frame(d, r, pos, st.frames[r.s_ring], band);
         driven_points(d, r, f, pos, st.vectorised);
         break;
       }

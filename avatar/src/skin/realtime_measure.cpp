@@ -32,7 +32,7 @@ void measure_local(const RestContours& m, const Data& d, std::vector<glm::vec3>&
         break;
       case RingKind::driven: {
         const auto& s = d.rings[r.s_ring];
-        f = frames[r.s_ring];
+        f = junction_frame(d, r, ctrl, frames[r.s_ring], 1.0f);
         for (uint32_t k = 0; k < r.count; ++k) {
           const glm::vec3 sp = ctrl[s.first + k], g = ctrl[d.goals[r.goal_first + k]];
           const glm::vec3 res = ctrl[r.first + k] - (sp + r.alpha * (g - sp));
@@ -80,9 +80,12 @@ void measure_loop_follows(const RestContours& m, const rig::Pose& base, Data& d)
       if (name.ends_with(k.joint_suffix)) g = &k;
     const int parent = d.skeleton.parent(joint);
     if (g == nullptr || parent < 0) continue;  // the neck keeps its loop
-    bool seen = false;                         // one follow per loop, moved before the first of its driven rings
-    for (const Data::LoopFollow& lf : d.follows) seen = seen || lf.joint == joint;
-    if (seen) continue;
+    // One follow per loop, moved before the first of its driven rings.
+    int seen = -1;
+    for (size_t i = 0; i < d.follows.size(); ++i)
+      if (d.follows[i].joint == joint) seen = static_cast<int>(i);
+    r.follow = seen;
+    if (seen >= 0) continue;
     const rig::RigidTransform& pw = w[static_cast<size_t>(parent)];
     const rig::RigidTransform parent_from_world = pw.inverse();
     Data::LoopFollow lf;
@@ -101,6 +104,7 @@ void measure_loop_follows(const RestContours& m, const rig::Pose& base, Data& d)
       d.follow_dir.push_back(safe_normalize(dir, glm::vec3(0.0f)));
     }
     r.follow = static_cast<int>(d.follows.size());
+    r.moves_loop = true;
     d.follows.push_back(lf);
   }
 }
