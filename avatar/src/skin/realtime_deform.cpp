@@ -200,6 +200,9 @@ void deform(const Data& d, State& st, const rig::Pose& pose, std::span<glm::vec3
   star_frames(d, st, kHasAvx2Kernel && st.vectorised);
   const double t1 = steady_now_s();
 
+  // A limb's driven rings come one after another and share S and the loop: one band frame.
+  int band_s_ring = -1;
+  Frame band_frame;
   for (size_t ri = 0; ri < d.rings.size(); ++ri) {
     const auto& r = d.rings[ri];
     Frame& f = st.frames[ri];
@@ -225,13 +228,18 @@ void deform(const Data& d, State& st, const rig::Pose& pose, std::span<glm::vec3
       case RingKind::driven: {
         // P = S + α(G − S), plus the offset the full method's ray found from that point in the
         // initial pose, turned with the band (junction_frame).
-        float band = 1.0f;
-        if (r.follow >= 0) {
-          const auto i = static_cast<size_t>(r.follow);
-          if (r.moves_loop) st.follow_fade[i] = follow_loop(d, d.follows[i], st.world_from_joint, pos);
-          band = st.follow_fade[i];
+        if (r.s_ring == band_s_ring) {
+          f = band_frame;
+        } else {
+          float band = 1.0f;
+          if (r.follow >= 0) {
+            const auto i = static_cast<size_t>(r.follow);
+            if (r.moves_loop) st.follow_fade[i] = follow_loop(d, d.follows[i], st.world_from_joint, pos);
+            band = st.follow_fade[i];
+          }
+          f = junction_frame(d, r, pos, st.frames[r.s_ring], band);
+          band_frame = f, band_s_ring = r.s_ring;
         }
-        f = junction_frame(d, r, pos, st.frames[r.s_ring], band);
         driven_points(d, r, f, pos, st.vectorised);
         break;
       }
