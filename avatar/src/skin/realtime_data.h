@@ -127,6 +127,8 @@ struct RealtimeBody::Data {
   };
   std::vector<LoopFollow> follows;
   std::vector<glm::vec3> follow_dir;
+  // Per ring (used at S rings with driven rings): the band's rest frame in S's rest frame.
+  std::vector<glm::mat3> band_in_s;
 
   struct MuscleDof {
     int dof = -1;
@@ -240,8 +242,9 @@ void driven_points(const RealtimeBody::Data& d, const RealtimeBody::Data::RingOp
 // loop G to the centre of the limb's first ring S, x across it towards G's first point. It
 // turns with the band itself (S's own frame turns with the limb alone, and carried the offsets
 // under the armpit past their neighbours when the arm hangs).
-// Past the follow's fade (`band`: 1 the band's frame, 0 S's frame `s`) the frame turns back to
-// S's: with the arm swung across the body the band's axis runs through the chest.
+// Past the follow's fade (`band`: 1 the band's frame, 0 S's frame `s` turned by band_in_s) the
+// frame turns back to S's: with the arm swung across the body the band's axis runs through the
+// chest.
 Frame junction_frame(const RealtimeBody::Data& d, const RealtimeBody::Data::RingOp& r, std::span<const glm::vec3> pos,
                      const Frame& s, float band);
 // Moves a junction loop's points on the side its limb swings towards (Data::LoopFollow);

@@ -137,7 +137,6 @@ size_t State::heap_bytes() const {
 
 Frame junction_frame(const Data& d, const Data::RingOp& r, std::span<const glm::vec3> pos, const Frame& s_frame,
                      float band) {
-  if (band <= 0.0f) return s_frame;
   const Data::RingOp& s = d.rings[static_cast<size_t>(r.s_ring)];
   glm::vec3 loop(0.0f), ring(0.0f);
   for (uint32_t k = 0; k < r.count; ++k) loop += pos[d.goals[r.goal_first + k]], ring += pos[s.first + k];
@@ -146,12 +145,18 @@ Frame junction_frame(const Data& d, const Data::RingOp& r, std::span<const glm::
   Frame f;
   f.origin = loop;
   f.z = safe_normalize(ring - loop, s_frame.z);
-  if (band < 1.0f) f.z = safe_normalize(band * f.z + (1.0f - band) * s_frame.z, s_frame.z);
   const glm::vec3 first = pos[d.goals[r.goal_first]] - loop;
   f.x = safe_normalize(first - glm::dot(first, f.z) * f.z,
                        glm::abs(f.z.x) < 0.9f ? glm::vec3(1, 0, 0) : glm::vec3(0, 1, 0));
   f.x = safe_normalize(f.x - glm::dot(f.x, f.z) * f.z, {1, 0, 0});
   f.y = glm::cross(f.z, f.x);
+  if (band >= 1.0f) return f;
+  // Towards S's frame turned as the band's frame was from it in the initial pose (band 0: the
+  // offsets turn with S alone, as they did before the band had its frame).
+  const glm::mat3 with_s = glm::mat3(s_frame.x, s_frame.y, s_frame.z) * d.band_in_s[static_cast<size_t>(r.s_ring)];
+  const glm::quat q = glm::slerp(glm::quat_cast(with_s), glm::quat_cast(glm::mat3(f.x, f.y, f.z)), band);
+  const glm::mat3 m = glm::mat3_cast(q);
+  f.x = m[0], f.y = m[1], f.z = m[2];
   return f;
 }
 

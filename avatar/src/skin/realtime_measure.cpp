@@ -70,8 +70,17 @@ void measure_loop_follows(const RestContours& m, const rig::Pose& base, Data& d)
   constexpr Gains kGains[] = {{"shoulder", 0.5f, 1.0f}};
   std::vector<rig::RigidTransform> w(static_cast<size_t>(d.skeleton.joint_count()));
   rig::forward_kinematics(d.skeleton, base, w);
+  d.band_in_s.assign(d.rings.size(), glm::mat3(1.0f));
   for (Data::RingOp& r : d.rings) {
     if (r.kind != RingKind::driven || r.count == 0) continue;
+    {
+      const Data::RingOp& s = d.rings[static_cast<size_t>(r.s_ring)];
+      const Ring& src = m.layout.rings[static_cast<size_t>(r.s_ring)];
+      const Frame sf = star_frame(m.chains[static_cast<size_t>(s.chain)], src.segment, src.u, s.chain != kTorsoChain);
+      const Frame bf = junction_frame(d, r, m.ctrl, sf, 1.0f);
+      d.band_in_s[static_cast<size_t>(r.s_ring)] =
+          glm::transpose(glm::mat3(sf.x, sf.y, sf.z)) * glm::mat3(bf.x, bf.y, bf.z);
+    }
     const Data::RingOp& s = d.rings[static_cast<size_t>(r.s_ring)];
     const int joint = m.chains[static_cast<size_t>(s.chain)].nodes.front().joint;
     const std::string& name = d.skeleton.joint_name(joint);
