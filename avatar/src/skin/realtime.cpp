@@ -190,6 +190,7 @@ Result<std::shared_ptr<const RealtimeBody>> RealtimeBody::create(const BodyModel
   for (size_t k = 0; k < local.size(); ++k) d->lx[k] = local[k].x, d->ly[k] = local[k].y, d->lz[k] = local[k].z;
   measure_columns(rest, *d);
   measure_driven_columns(rest, *d);
+  measure_loop_follows(rest, base, *d);
   group_frame_runs(*d);
   ring_centres(*d);
   copy_caps_and_rigid(L, *d);
@@ -254,7 +255,8 @@ size_t RealtimeBody::shared_bytes() const {
              d.rigid_local.capacity() * sizeof(glm::vec3) + d.weights.capacity() * sizeof(JointInfluences) +
              d.toe_vertex.capacity() * 4 + d.toe_weight.capacity() * 4 + d.toe_local.capacity() * sizeof(glm::vec3) +
              d.texture.source.capacity() * 4 + d.texture.uv.capacity() * sizeof(glm::vec2) +
-             d.texture.indices.capacity() * 4;
+             d.texture.indices.capacity() * 4 + d.follows.capacity() * sizeof(Data::LoopFollow) +
+             d.follow_dir.capacity() * sizeof(glm::vec3) + d.band_in_s.capacity() * sizeof(glm::mat3);
   for (const Data::Band& band : d.bands)
     b += sizeof(Data::Band) + (band.bend_rad.capacity() + band.scale[0].capacity() + band.scale[1].capacity()) * 4;
   b += d.rest_mesh.positions.capacity() * sizeof(glm::vec3) + d.rest_mesh.normals.capacity() * sizeof(glm::vec3) +

@@ -93,6 +93,8 @@ struct RealtimeBody::Data {
     float band_weight = 0;
     glm::vec2 centre{0.0f};
     uint32_t muscle_first = 0, muscle_count = 0;  // blocks in `muscle_blocks`
+    int follow = -1;                              // driven: its loop's follow (`follows`), or −1
+    bool moves_loop = false;                      // driven: the first ring of its limb moves the loop first
   };
   std::vector<RingOp> rings;
   std::vector<uint32_t> goals;
@@ -108,6 +110,25 @@ struct RealtimeBody::Data {
   // grows): where a bend squeezes the band between the loop and S (the armpit and groin side), an
   // offset as long as the column itself would carry the point past its neighbours.
   std::vector<float> column_inv_len2;
+  // A shoulder's or hip's junction loop (the torso's points G its boundary-driven rings run to),
+  // on the side the limb swings towards, follows part of the limb's swing about the joint. The
+  // loop is cast in the initial pose: with the arm hanging (the thigh raised) its armpit (groin)
+  // points stay where the limb's inner side was, outside the limb's first ring S, and the band
+  // between them folds. A point's share is gain · max(0, dir · bend)^power, dir its rest
+  // direction from the loop's centre across the limb, bend the direction the limb's axis has
+  // moved (both in the parent joint's frame): none in the initial pose.
+  struct LoopFollow {
+    int joint = -1, parent = -1;
+    glm::vec3 pivot{0.0f}, axis{0.0f};  // the joint and the limb's rest axis, in the parent's frame
+    glm::vec3 tip{0.0f};                // the limb's axis in the joint's frame
+    float gain = 0, power = 1;
+    uint32_t goal_first = 0, count = 0;  // the loop's slots in `goals`
+    uint32_t dir_first = 0;              // in `follow_dir`
+  };
+  std::vector<LoopFollow> follows;
+  std::vector<glm::vec3> follow_dir;
+  // Per ring (used at S rings with driven rings): the band's rest frame in S's rest frame.
+  std::vector<glm::mat3> band_in_s;
 
   struct MuscleDof {
     int dof = -1;
@@ -186,6 +207,7 @@ struct State {
   std::vector<Frame> frames;        // per ring, this frame
   std::vector<glm::vec2> muscle_w;  // per muscle DOF: (towards θmin, towards θmax)
   std::vector<float> band_scale;    // per band, this frame
+  std::vector<float> follow_fade;   // per loop follow, this frame: 1 up to 95° of swing, 0 past 120°
   // Build time only: the bands' scales forced (the calibration); empty otherwise.
   std::vector<float> band_scale_forced;
   bool vectorised = true;    // the eight-wide kernels where the build has them
@@ -211,10 +233,24 @@ Reach star_points_avx2(const RealtimeBody::Data& d, const RealtimeBody::Data::Ri
 struct State;
 void star_frames(const RealtimeBody::Data& d, State& st, bool vectorised);
 
-// A boundary-driven ring's points: P = S + α(G − S) + the rest offset turned with S's frame,
+// A boundary-driven ring's points: P = S + α(G − S) + the rest offset turned with `f`
+// (junction_frame),
 // scaled by min(1, |G − S|² · column_inv_len2).
 void driven_points(const RealtimeBody::Data& d, const RealtimeBody::Data::RingOp& r, const Frame& f,
                    std::span<glm::vec3> pos, bool vectorised);
+// The frame a boundary-driven ring's rest offsets turn with: z from the centre of the torso's
+// loop G to the centre of the limb's first ring S, x across it towards G's first point. It
+// turns with the band itself (S's own frame turns with the limb alone, and carried the offsets
+// under the armpit past their neighbours when the arm hangs).
+// Past the follow's fade (`band`: 1 the band's frame, 0 S's frame `s` turned by band_in_s) the
+// frame turns back to S's: with the arm swung across the body the band's axis runs through the
+// chest.
+Frame junction_frame(const RealtimeBody::Data& d, const RealtimeBody::Data::RingOp& r, std::span<const glm::vec3> pos,
+                     const Frame& s, float band);
+// Moves a junction loop's points on the side its limb swings towards (Data::LoopFollow);
+// returns the fade (State::follow_fade).
+float follow_loop(const RealtimeBody::Data& d, const RealtimeBody::Data::LoopFollow& lf,
+                  std::span<const rig::RigidTransform> world_from_joint, std::span<glm::vec3> pos);
 // Rigid vertices: out[i] = rotation·local[i] + translation.
 void rigid_points(const glm::mat3& rotation, const glm::vec3& translation, const glm::vec3* local, uint32_t count,
                   glm::vec3* out, bool vectorised);
@@ -243,6 +279,8 @@ void measure_local(const RestContours& m, const RealtimeBody::Data& d, std::vect
 void measure_columns(const RestContours& m, RealtimeBody::Data& d);
 // The boundary-driven slots' rest column lengths (Data::column_inv_len2).
 void measure_driven_columns(const RestContours& m, RealtimeBody::Data& d);
+// The shoulders' and hips' loop follows (Data::follows), in the initial pose `base`.
+void measure_loop_follows(const RestContours& m, const rig::Pose& base, RealtimeBody::Data& d);
 // Joint bands at the elbows and knees and their scales over each joint's bend.
 Status calibrate_bands(const RestContours& m, const rig::Pose& base, RealtimeBody::Data& d);
 // The muscle terms: `skin` (the layout's implicit skin) ray-casts the contours with each

@@ -5,6 +5,10 @@
 #include <immintrin.h>
 #endif
 
+#include <algorithm>
+#include <cmath>
+#include <glm/gtx/quaternion.hpp>
+
 #include "mimic/core/clock.h"
 #include "realtime_data.h"
 
@@ -117,16 +121,72 @@ State::State(const Data& d)
       frames(d.rings.size()),
       muscle_w(d.muscle_dofs.size()),
       band_scale(d.bands.size(), 1.0f),
+      follow_fade(d.follows.size(), 1.0f),
       reach(d.rings.size()) {}
 
 size_t State::heap_bytes() const {
   size_t b = world_from_joint.capacity() * sizeof(rig::RigidTransform) + frames.capacity() * sizeof(Frame) +
              muscle_w.capacity() * sizeof(glm::vec2) + chains.capacity() * sizeof(Chain) +
-             (band_scale.capacity() + band_scale_forced.capacity()) * sizeof(float) + reach.capacity() * sizeof(Reach);
+             (band_scale.capacity() + band_scale_forced.capacity() + follow_fade.capacity()) * sizeof(float) +
+             reach.capacity() * sizeof(Reach);
   for (const Chain& c : chains)
     b += c.nodes.capacity() * sizeof(Chain::Node) +
          (c.point.capacity() + c.normal.capacity() + c.ref.capacity()) * sizeof(glm::vec3);
   return b;
+}
+
+Frame junction_frame(const Data& d, const Data::RingOp& r, std::span<const glm::vec3> pos, const Frame& s_frame,
+                     float band) {
+  const Data::RingOp& s = d.rings[static_cast<size_t>(r.s_ring)];
+  glm::vec3 loop(0.0f), ring(0.0f);
+  for (uint32_t k = 0; k < r.count; ++k) loop += pos[d.goals[r.goal_first + k]], ring += pos[s.first + k];
+  const float inv = 1.0f / static_cast<float>(std::max(r.count, 1u));
+  loop *= inv, ring *= inv;
+  Frame f;
+  f.origin = loop;
+  f.z = safe_normalize(ring - loop, s_frame.z);
+  const glm::vec3 first = pos[d.goals[r.goal_first]] - loop;
+  f.x = safe_normalize(first - glm::dot(first, f.z) * f.z,
+                       glm::abs(f.z.x) < 0.9f ? glm::vec3(1, 0, 0) : glm::vec3(0, 1, 0));
+  f.x = safe_normalize(f.x - glm::dot(f.x, f.z) * f.z, {1, 0, 0});
+  f.y = glm::cross(f.z, f.x);
+  if (band >= 1.0f) return f;
+  // Towards S's frame turned as the band's frame was from it in the initial pose (band 0: the
+  // offsets turn with S alone, as they did before the band had its frame).
+  const glm::mat3 with_s = glm::mat3(s_frame.x, s_frame.y, s_frame.z) * d.band_in_s[static_cast<size_t>(r.s_ring)];
+  const glm::quat q = glm::slerp(glm::quat_cast(with_s), glm::quat_cast(glm::mat3(f.x, f.y, f.z)), band);
+  const glm::mat3 m = glm::mat3_cast(q);
+  f.x = m[0], f.y = m[1], f.z = m[2];
+  return f;
+}
+
+float follow_loop(const Data& d, const Data::LoopFollow& lf, std::span<const rig::RigidTransform> world_from_joint,
+                  std::span<glm::vec3> pos) {
+  const rig::RigidTransform& parent = world_from_joint[static_cast<size_t>(lf.parent)];
+  const glm::quat parent_from_world = glm::conjugate(parent.rotation);
+  const glm::vec3 axis = parent_from_world * (world_from_joint[static_cast<size_t>(lf.joint)].rotation * lf.tip);
+  const glm::vec3 across = axis - glm::dot(axis, lf.axis) * lf.axis;
+  const float across_len = glm::length(across);
+  // On its rest axis (twist alone) the loop stays; swung straight back, it fades out.
+  if (across_len < 1e-6f) return glm::dot(axis, lf.axis) > 0.0f ? 1.0f : 0.0f;
+  const glm::vec3 bend = across / across_len;
+  const glm::quat swing = glm::rotation(lf.axis, axis);
+  // Past the arm hanging at the side (the arm across the body) the swung loop would cut into
+  // the chest: the follow fades out between 95 and 120 degrees of swing.
+  constexpr float kFadeStart_rad = 1.658f, kFadeEnd_rad = 2.094f;
+  const float swing_rad = std::acos(std::clamp(glm::dot(axis, lf.axis), -1.0f, 1.0f));
+  const float fade = std::clamp((kFadeEnd_rad - swing_rad) / (kFadeEnd_rad - kFadeStart_rad), 0.0f, 1.0f);
+  if (fade <= 0.0f) return 0.0f;
+  for (uint32_t k = 0; k < lf.count; ++k) {
+    const float c = glm::dot(d.follow_dir[lf.dir_first + k], bend);
+    if (c <= 0.0f) continue;
+    const float share = fade * lf.gain * (lf.power == 1.0f ? c : std::pow(c, lf.power));
+    glm::vec3& p = pos[d.goals[lf.goal_first + k]];
+    const glm::vec3 local = parent_from_world * (p - parent.translation);
+    const glm::vec3 swung = lf.pivot + swing * (local - lf.pivot);
+    p += parent.rotation * (share * (swung - local));
+  }
+  return fade;
 }
 
 void deform(const Data& d, State& st, const rig::Pose& pose, std::span<glm::vec3> pos, bool muscles) {
@@ -145,6 +205,9 @@ void deform(const Data& d, State& st, const rig::Pose& pose, std::span<glm::vec3
   star_frames(d, st, kHasAvx2Kernel && st.vectorised);
   const double t1 = steady_now_s();
 
+  // A limb's driven rings come one after another and share S and the loop: one band frame.
+  int band_s_ring = -1;
+  Frame band_frame;
   for (size_t ri = 0; ri < d.rings.size(); ++ri) {
     const auto& r = d.rings[ri];
     Frame& f = st.frames[ri];
@@ -169,8 +232,19 @@ void deform(const Data& d, State& st, const rig::Pose& pose, std::span<glm::vec3
       }
       case RingKind::driven: {
         // P = S + α(G − S), plus the offset the full method's ray found from that point in the
-        // initial pose, turned with S.
-        f = st.frames[r.s_ring];
+        // initial pose, turned with the band (junction_frame).
+        if (r.s_ring == band_s_ring) {
+          f = band_frame;
+        } else {
+          float band = 1.0f;
+          if (r.follow >= 0) {
+            const auto i = static_cast<size_t>(r.follow);
+            if (r.moves_loop) st.follow_fade[i] = follow_loop(d, d.follows[i], st.world_from_joint, pos);
+            band = st.follow_fade[i];
+          }
+          f = junction_frame(d, r, pos, st.frames[r.s_ring], band);
+          band_frame = f, band_s_ring = r.s_ring;
+        }
         driven_points(d, r, f, pos, st.vectorised);
         break;
       }

@@ -1,6 +1,8 @@
 // The realtime body's measurements of its contours (realtime_data.h): each point in its ring's
 // frame, the columns of the rest surface along each limb, the joint bands' scales and the muscle
 // terms, from the contours the implicit skin ray-casts in the initial pose.
+#include <string_view>
+
 #include "mimic/avatar/joint_zone.h"
 #include "realtime_data.h"
 
@@ -30,7 +32,7 @@ void measure_local(const RestContours& m, const Data& d, std::vector<glm::vec3>&
         break;
       case RingKind::driven: {
         const auto& s = d.rings[r.s_ring];
-        f = frames[r.s_ring];
+        f = junction_frame(d, r, ctrl, frames[r.s_ring], 1.0f);
         for (uint32_t k = 0; k < r.count; ++k) {
           const glm::vec3 sp = ctrl[s.first + k], g = ctrl[d.goals[r.goal_first + k]];
           const glm::vec3 res = ctrl[r.first + k] - (sp + r.alpha * (g - sp));
@@ -54,6 +56,65 @@ void measure_driven_columns(const RestContours& m, Data& d) {
       // A column of no length at rest: its offset never shrinks.
       d.column_inv_len2[r.first + k] = len2 > 1e-12f ? 1.0f / len2 : 0.0f;
     }
+  }
+}
+
+void measure_loop_follows(const RestContours& m, const rig::Pose& base, Data& d) {
+  // Shares measured over the shared clips' frames (mimic intersect). The hips keep their loop:
+  // it is the torso's lowest star ring, which moved with the thigh crosses the ring above it
+  // (the groin's folds drop from 9.5 to 2.4 a frame at LOD 0 that way, but the contours cross).
+  struct Gains {
+    std::string_view joint_suffix;
+    float gain, power;
+  };
+  constexpr Gains kGains[] = {{"shoulder", 0.5f, 1.0f}};
+  std::vector<rig::RigidTransform> w(static_cast<size_t>(d.skeleton.joint_count()));
+  rig::forward_kinematics(d.skeleton, base, w);
+  d.band_in_s.assign(d.rings.size(), glm::mat3(1.0f));
+  for (Data::RingOp& r : d.rings) {
+    if (r.kind != RingKind::driven || r.count == 0) continue;
+    {
+      const Data::RingOp& s = d.rings[static_cast<size_t>(r.s_ring)];
+      const Ring& src = m.layout.rings[static_cast<size_t>(r.s_ring)];
+      const Frame sf = star_frame(m.chains[static_cast<size_t>(s.chain)], src.segment, src.u, s.chain != kTorsoChain);
+      const Frame bf = junction_frame(d, r, m.ctrl, sf, 1.0f);
+      d.band_in_s[static_cast<size_t>(r.s_ring)] =
+          glm::transpose(glm::mat3(sf.x, sf.y, sf.z)) * glm::mat3(bf.x, bf.y, bf.z);
+    }
+    const Data::RingOp& s = d.rings[static_cast<size_t>(r.s_ring)];
+    const int joint = m.chains[static_cast<size_t>(s.chain)].nodes.front().joint;
+    const std::string& name = d.skeleton.joint_name(joint);
+    const Gains* g = nullptr;
+    for (const Gains& k : kGains)
+      if (name.ends_with(k.joint_suffix)) g = &k;
+    const int parent = d.skeleton.parent(joint);
+    if (g == nullptr || parent < 0) continue;  // the neck keeps its loop
+    // One follow per loop, moved before the first of its driven rings.
+    int seen = -1;
+    for (size_t i = 0; i < d.follows.size(); ++i)
+      if (d.follows[i].joint == joint) seen = static_cast<int>(i);
+    r.follow = seen;
+    if (seen >= 0) continue;
+    const rig::RigidTransform& pw = w[static_cast<size_t>(parent)];
+    const rig::RigidTransform parent_from_world = pw.inverse();
+    Data::LoopFollow lf;
+    lf.joint = joint, lf.parent = parent, lf.gain = g->gain, lf.power = g->power;
+    lf.tip = safe_normalize(d.skeleton.tip_m(joint), {0, -1, 0});
+    lf.axis = glm::conjugate(pw.rotation) * (w[static_cast<size_t>(joint)].rotation * lf.tip);
+    lf.pivot = parent_from_world.apply(w[static_cast<size_t>(joint)].translation);
+    lf.goal_first = r.goal_first, lf.count = r.count;
+    lf.dir_first = static_cast<uint32_t>(d.follow_dir.size());
+    glm::vec3 centre(0.0f);
+    for (uint32_t k = 0; k < r.count; ++k) centre += parent_from_world.apply(m.ctrl[d.goals[r.goal_first + k]]);
+    centre /= static_cast<float>(r.count);
+    for (uint32_t k = 0; k < r.count; ++k) {
+      glm::vec3 dir = parent_from_world.apply(m.ctrl[d.goals[r.goal_first + k]]) - centre;
+      dir -= glm::dot(dir, lf.axis) * lf.axis;
+      d.follow_dir.push_back(safe_normalize(dir, glm::vec3(0.0f)));
+    }
+    r.follow = static_cast<int>(d.follows.size());
+    r.moves_loop = true;
+    d.follows.push_back(lf);
   }
 }
 
