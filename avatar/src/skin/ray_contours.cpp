@@ -78,6 +78,16 @@ void RingCaster::size_for(size_t control_points, size_t widest) {
   arc_r.resize(widest + 2);
   arc_spike.resize(widest + 2);
   arc_hull.resize(widest + 2);
+  rest_inv_len2.assign(control_points, 0.0f);
+}
+
+void RingCaster::remember_rest_columns(const ContourLayout::Data& layout) {
+  for (const Ring& r : layout.rings) {
+    if (r.kind != RingKind::driven) continue;
+    const Ring& s = layout.rings[r.s_ring];
+    for (size_t j = 0; j < r.slots.size(); ++j)
+      rest_inv_len2[r.slots[j]] = 1.0f / std::max(glm::length2(ctrl[r.goal[j]] - ctrl[s.slots[j]]), 1e-12f);
+  }
 }
 
 void RingCaster::compute_ring(const ContourLayout::Data& layout, const BodyField& field, std::span<const Chain> chains,
@@ -116,6 +126,13 @@ void RingCaster::driven_ring(const ContourLayout::Data& layout, const BodyField&
   // S ring: in extreme postures (an arm swung across the chest) the bare projection can
   // land far down the limb, from where the ray would miss the junction.
   const float s_along = glm::dot(ctrl_origin[s.slots[0]] - a, axis);
+  // How far the limb's root is bent from the zero posture: the first node's normal leans from
+  // the link towards its rest direction (ImplicitSkin::Impl::tilt_limb_roots) by a lean a little
+  // under half the bend; with c its cosine, 2c² − 1 is about the bend's cosine.
+  const float cos_half = glm::dot(c.normal[0], axis);
+  float straight = std::clamp(2.0f * cos_half * cos_half - 1.0f, 0.0f, 1.0f);
+  if (straight > 0.999f) straight = 1.0f;
+  const float straight4 = (straight * straight) * (straight * straight);
   const size_t m = r.slots.size();
   for (size_t j = 0; j < m; ++j) {
     const glm::vec3 sj = ctrl[s.slots[j]];
@@ -130,7 +147,15 @@ void RingCaster::driven_ring(const ContourLayout::Data& layout, const BodyField&
     // crotch, the chest under a hanging arm, the shoulder's top beyond the neck's loop).
     const float tp = glm::length(pj - o);
     const float spacing = r.alpha_step * glm::length(ctrl[r.goal[j]] - sj);
-    const float reach = std::min(kDrivenReach * tp, 0.5f * spacing);
+    // The window closes as the root bends and as the column from S to G is squeezed (both to
+    // the fourth power; 1 in the zero posture): a bent junction's surface near P is as often
+    // the limb's other side or the torso's as the band's own, and points that found it on
+    // either side of neighbours folded the band. Closed, the point is P, the blend of S and G.
+    const float rest = rest_inv_len2[r.slots[j]];
+    float squeeze = rest > 0.0f ? std::min(1.0f, glm::length2(ctrl[r.goal[j]] - sj) * rest) : 1.0f;
+    if (squeeze > 0.999f) squeeze = 1.0f;
+    const float squeeze4 = (squeeze * squeeze) * (squeeze * squeeze);
+    const float reach = straight4 * squeeze4 * std::min(kDrivenReach * tp, 0.5f * spacing);
     ray_nears[j] = RayNear{tp, std::max(tp - reach, 0.0f), tp + reach};
     ray_fallbacks[j] = o + ray_nears[j].t_min * ray_dirs[j];
   }

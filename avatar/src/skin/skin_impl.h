@@ -33,11 +33,16 @@ struct RingCaster {
   std::vector<RayNear> ray_nears;
   std::vector<float> arc_r, arc_spike;  // a bridge's radii, while it spans hollows (span_arc)
   std::vector<uint32_t> arc_hull;
+  // Per boundary-driven point, 1 / |G − S|² in the zero posture (0 until remember_rest_columns).
+  std::vector<float> rest_inv_len2;
 
   // Control points for `control_points` slots, per-ring scratch for rings of `widest` points.
   void size_for(size_t control_points, size_t widest);
   void compute_ring(const ContourLayout::Data& layout, const BodyField& field, std::span<const Chain> chains,
                     const Ring& r);
+  // Takes the columns of the last frame (the zero posture) as the rest the driven rays' search
+  // windows shrink from.
+  void remember_rest_columns(const ContourLayout::Data& layout);
   // A boundary-driven ring's point P = S + α(G − S) from its S point and its loop's point.
   glm::vec3 driven_target(const Ring& r, uint32_t s_slot, uint32_t goal_slot) const {
     return ctrl[s_slot] + r.alpha * (ctrl[goal_slot] - ctrl[s_slot]);
@@ -65,6 +70,14 @@ struct ImplicitSkin::Impl {
 
   std::vector<rig::RigidTransform> world_from_joint;
   std::vector<Chain> chains;  // the layout's, updated each frame
+  // A limb's first link as it lay in its parent's frame in the zero posture: the limb's first
+  // ring plane leans to the bisector of that and the link (see tilt_limb_roots).
+  struct LimbRoot {
+    size_t chain = 0;
+    int parent = -1;
+    glm::vec3 rest_dir_in_parent{0.0f};
+  };
+  std::vector<LimbRoot> limb_roots;
   RingCaster caster;
 
   Mesh mesh;
@@ -72,6 +85,7 @@ struct ImplicitSkin::Impl {
   SkinTimings timings;
 
   Impl(ContourLayout layout_in, BodyField field_in, bool normals_in);
+  void tilt_limb_roots();
   void evaluate_bspline();
   void update_normals();
 };
