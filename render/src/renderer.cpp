@@ -116,7 +116,7 @@ glm::vec3 part_color(std::string_view name) {
   const float shade = left ? 1.08f : 0.94f;
   auto has = [&](const char* s) { return name.find(s) != std::string_view::npos; };
   glm::vec3 c{0.7f, 0.7f, 0.7f};
-  if (has("head") || has("neck") || has("hand"))
+  if (has("head") || has("neck") || has("hand") || has("foot"))  // the feet are bare
     c = {0.87f, 0.69f, 0.58f};
   else if (has("upper_torso"))
     c = {0.30f, 0.50f, 0.72f};
@@ -132,8 +132,6 @@ glm::vec3 part_color(std::string_view name) {
     c = {0.34f, 0.34f, 0.40f};
   else if (has("lower_leg") || has("shin"))
     c = {0.40f, 0.40f, 0.47f};
-  else if (has("foot"))
-    c = {0.22f, 0.18f, 0.16f};
   return glm::min(c * shade, glm::vec3(1.0f));
 }
 
