@@ -302,8 +302,8 @@ void add_head(Author& a) {
   a.rigid("nose_tip", "head", kHead, {0, 1.506f, 0.139f}, {0.013f, 0.011f, 0.011f}, 1.35f);
   a.rigid("l_nostril", "head", kHead, {0.011f, 1.503f, 0.13f}, {0.0075f, 0.0065f, 0.008f}, 1.35f);
   a.rigid("muzzle", "head", kHead, {0, 1.474f, 0.1f}, {0.032f, 0.025f, 0.026f}, 1.4f);
-  a.rigid("upper_lip", "head", kHead, {0, 1.48f, 0.125f}, {0.021f, 0.0055f, 0.009f}, 1.25f);
-  a.rigid("lower_lip", "head", kHead, {0, 1.467f, 0.122f}, {0.018f, 0.0055f, 0.009f}, 1.25f);
+  a.rigid("upper_lip", "head", kHead, {0, 1.479f, 0.125f}, {0.021f, 0.0065f, 0.009f}, 1.3f);
+  a.rigid("lower_lip", "head", kHead, {0, 1.467f, 0.122f}, {0.018f, 0.0065f, 0.009f}, 1.3f);
   a.rigid("jaw", "head", kHead, {0, 1.468f, 0.06f}, {0.05f, 0.028f, 0.058f});
   a.rigid("l_jaw_angle", "head", kHead, {0.047f, 1.478f, 0.018f}, {0.014f, 0.028f, 0.024f}, 1.4f);
   a.rigid("chin", "head", kHead, {0, 1.447f, 0.114f}, {0.021f, 0.016f, 0.016f}, 1.4f);

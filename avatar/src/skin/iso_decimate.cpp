@@ -33,7 +33,8 @@ using Tri = std::array<uint32_t, 3>;
 
 constexpr double kLengthCost = 0.02;
 constexpr float kMinQuality = 0.03f;
-constexpr float kMinTurnCos = 0.05f;  // a triangle turns by less than 87° in a collapse
+constexpr float kOnSurface = 1e-3f;  // |field − iso| of a merged vertex
+constexpr float kMinTurnCos = 0.5f;  // a triangle turns by less than 60° in a collapse
 
 glm::vec3 normal_of(const std::vector<glm::vec3>& p, const Tri& t) {
   return glm::cross(p[t[1]] - p[t[0]], p[t[2]] - p[t[0]]);
@@ -129,6 +130,8 @@ class Decimator {
     for (uint32_t t : vfaces_[a]) shared += std::find(faces_[t].begin(), faces_[t].end(), b) != faces_[t].end();
     if (shared != 2) return false;
     target = target_of(a, b);
+    // A midpoint off the solid (across a gap between fingers) may not reach the surface.
+    if (!(std::abs(f_.value(target) - f_.iso) < kOnSurface)) return false;
     for (uint32_t v : {a, b})
       for (uint32_t t : vfaces_[v]) {
         const Tri& f = faces_[t];

@@ -112,11 +112,17 @@ class Marcher {
     const uint64_t key = static_cast<uint64_t>(std::min(e[0], e[1])) * g_.value.size() + std::max(e[0], e[1]);
     auto [it, added] = edges_.emplace(key, static_cast<uint32_t>(mesh_.positions.size()));
     if (added) {
-      const float vi = g_.value[e[0]], vo = g_.value[e[1]];
-      // Kept off the nodes so that no two vertices coincide before projection.
-      const float t = std::clamp(vi / (vi - vo), 0.02f, 0.98f);
-      const glm::vec3 p = g_.at(e[0]) + t * (g_.at(e[1]) - g_.at(e[0]));
-      mesh_.positions.push_back(project_to_iso(f_, p, 0.5f * g_.cell));
+      // The crossing on the edge by bisection (the ends' signs differ; where the field is flat
+      // outside every support a gradient step would not move), kept off the nodes so that no two
+      // vertices coincide, then onto the surface along the gradient.
+      const glm::vec3 a = g_.at(e[0]), b = g_.at(e[1]);
+      float in = 0, out = 1;
+      for (int it = 0; it < 16; ++it) {
+        const float mid = 0.5f * (in + out);
+        (f_.value(a + mid * (b - a)) >= f_.iso ? in : out) = mid;
+      }
+      const float t = std::clamp(0.5f * (in + out), 0.02f, 0.98f);
+      mesh_.positions.push_back(project_to_iso(f_, a + t * (b - a), 0.5f * g_.cell));
     }
     return it->second;
   }
