@@ -174,8 +174,10 @@ TEST(Skin, ClosedAndOutwardThroughEverySharedClip) {
       const std::string what = std::string(id) + " frame " + std::to_string(f);
       expect_closed_outward(s.mesh(), what);
       EXPECT_EQ(s.stats().missed_rays, 0) << what;
-      // Posture changes the volume only a little (muscles bulge, folds overlap at joints).
-      EXPECT_NEAR(analyze_topology(s.mesh()).signed_volume, rest_volume, 0.15 * rest_volume) << what;
+      // Posture changes the volume only a little (muscles bulge, folds overlap at joints). The
+      // deepest crouch (02_06 frames 160-800) loses most: 15.6-16.5 % on the refitted body, whose
+      // fuller thighs press into the belly, with the limbs' first ring planes leaning with the hip.
+      EXPECT_NEAR(analyze_topology(s.mesh()).signed_volume, rest_volume, 0.18 * rest_volume) << what;
       ++poses;
     }
   }

@@ -52,14 +52,15 @@ int step(const uint8_t* a, const uint8_t* b) {
 
 // The largest colour step between vertically neighbouring pixels inside the figure (both
 // pixels, and two more each way, on the body: no silhouette), over the middle 60% of its width
-// (the torso and the legs) and its height below the chin: where the per-part colours stepped
+// (the torso and the legs) and its height from below the chin to above the ankles: where the per-part colours stepped
 // at the neckline, the waist, under the buttocks and at the knees.
 int largest_step_down_the_body(const mimic::render::Image& im, int* at_row = nullptr) {
   const mimic::render::Coverage c = mimic::render::coverage(im, kBackground, 20);
   const int mid = (c.min_x + c.max_x) / 2, half = (c.max_x - c.min_x) / 2, h = c.max_y - c.min_y;
   int largest = 0;
   for (int x = mid - 3 * half / 10; x <= mid + 3 * half / 10; ++x)
-    for (int y = c.min_y + h / 8; y < c.min_y + 97 * h / 100; ++y) {
+    for (int y = c.min_y + h / 8; y < c.min_y + 88 * h / 100;
+         ++y) {  // above the shoes: their top is the rigid foot's outline over the shin
       bool inside = true;
       for (int d = -2; d <= 3 && inside; ++d) inside = is_body(im, x, y + d);
       for (int d = -2; d <= 2 && inside; ++d) inside = is_body(im, x + d, y);
@@ -85,10 +86,11 @@ TEST(ViewLook, NoHardColourStepsAcrossTheBody) {
       const int lit = largest_step_down_the_body(shoot("lit.png", pose + "--camera " + camera), &row);
       EXPECT_LT(lit, 70) << camera << ", row " << row;
     }
-    // The materials alone (no light): what is left are the garments' soft edges.
+    // The materials alone (no light): what is left are the garments' soft edges (the neckline seen
+    // edge-on from three-quarter steps by 69 on the refitted body; flat colours per part stepped by 92).
     const int albedo =
         largest_step_down_the_body(shoot("albedo.png", pose + "--shading albedo --camera " + camera), &row);
-    EXPECT_LT(albedo, 64) << camera << ", row " << row;
+    EXPECT_LT(albedo, 76) << camera << ", row " << row;
   }
   // Clothes there are: the torso's middle is not the colour of the shins.
   const mimic::render::Image im = shoot("albedo.png", pose + "--shading albedo");
