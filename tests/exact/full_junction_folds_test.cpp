@@ -11,9 +11,7 @@
 #include "mimic/avatar/self_intersection.h"
 #include "mimic/avatar/skin.h"
 #include "mimic/avatar/skin_lod.h"
-#include "mimic/rig/bvh.h"
-#include "mimic/rig/retarget.h"
-#include "test_data.h"
+#include "shared_clip_poses.h"
 
 namespace mimic::avatar::full_junction_folds_test {
 namespace {
@@ -35,18 +33,10 @@ Folds clip_folds(int lod, size_t every) {
   auto checker = SelfIntersectionChecker::create(skin->mesh());
   EXPECT_TRUE(checker) << checker.error().what();
   if (!checker) return folds;
-  for (const char* id : ::mimic::test::kShared_clips) {
-    auto clip = rig::load_bvh(::mimic::test::clip_path(id));
-    EXPECT_TRUE(clip) << clip.error().what();
-    if (!clip) continue;
-    auto r = rig::retarget_bvh(*clip);
-    EXPECT_TRUE(r) << r.error().what();
-    if (!r) continue;
-    for (size_t f = 0; f < r->poses.size(); f += every) {
-      skin->evaluate(rig::transfer_pose(r->skeleton, r->poses[f], skin->skeleton()));
-      folds.add(checker->check(skin->mesh().positions).fold_pairs);
-    }
-  }
+  ::mimic::test::for_each_shared_clip_pose(skin->skeleton(), every, [&](const rig::Pose& pose) {
+    skin->evaluate(pose);
+    folds.add(checker->check(skin->mesh().positions).fold_pairs);
+  });
   return folds;
 }
 

@@ -11,9 +11,7 @@
 #include "mimic/avatar/realtime_skin.h"
 #include "mimic/avatar/self_intersection.h"
 #include "mimic/avatar/skin_lod.h"
-#include "mimic/rig/bvh.h"
-#include "mimic/rig/retarget.h"
-#include "test_data.h"
+#include "shared_clip_poses.h"
 
 namespace mimic::avatar::junction_folds_test {
 namespace {
@@ -40,18 +38,10 @@ Folds clip_folds(int lod, size_t every) {
   RealtimeSkin skin(body);
   Mesh m = body->rest_mesh();
   Folds folds;
-  for (const char* id : ::mimic::test::kShared_clips) {
-    auto clip = rig::load_bvh(::mimic::test::clip_path(id));
-    EXPECT_TRUE(clip) << clip.error().what();
-    if (!clip) continue;
-    auto r = rig::retarget_bvh(*clip);
-    EXPECT_TRUE(r) << r.error().what();
-    if (!r) continue;
-    for (size_t f = 0; f < r->poses.size(); f += every) {
-      skin.evaluate(rig::transfer_pose(r->skeleton, r->poses[f], body->skeleton()), m.positions);
-      folds.add(checker->check(m.positions).fold_pairs);
-    }
-  }
+  ::mimic::test::for_each_shared_clip_pose(body->skeleton(), every, [&](const rig::Pose& pose) {
+    skin.evaluate(pose, m.positions);
+    folds.add(checker->check(m.positions).fold_pairs);
+  });
   return folds;
 }
 
