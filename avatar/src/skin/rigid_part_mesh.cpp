@@ -1,0 +1,126 @@
+// The rigid parts' meshes (rigid_part_mesh.h) and the cache of them.
+#include "rigid_part_mesh.h"
+
+#include <cstring>
+#include <map>
+#include <mutex>
+#include <string>
+
+namespace mimic::avatar::skin_detail {
+
+size_t rigid_vertex_budget(RigidPart part, const SkinLayout& L) {
+  const float share = part == RigidPart::head                                         ? kRigidShareHead
+                      : part == RigidPart::left_hand || part == RigidPart::right_hand ? kRigidShareHand
+                                                                                      : kRigidShareFoot;
+  const float sphere = static_cast<float>(L.rigid_rings * L.rigid_points + 2);
+  return std::max<size_t>(kRigidMinVertices, static_cast<size_t>(std::lround(share * sphere)));
+}
+
+namespace {
+
+// The box, in the part's joint frame, that holds the part's solid: its primitives' supports
+// (beyond which the field is zero), narrowed to the nodes of a coarse grid that are inside,
+// with two coarse cells of margin.
+std::pair<glm::vec3, glm::vec3> rigid_box(const BodyField& field, std::span<const uint16_t> cand,
+                                          const rig::RigidTransform& local_from_world, const IsoField& f) {
+  glm::vec3 lo(1e9f), hi(-1e9f);
+  for (uint16_t i : cand) {
+    const glm::vec3 c = local_from_world.apply(field.center(i));
+    lo = glm::min(lo, c - field.bound_radius(i)), hi = glm::max(hi, c + field.bound_radius(i));
+  }
+  const float coarse = kRigidCoarseCell_m;
+  glm::vec3 in_lo(1e9f), in_hi(-1e9f);
+  for (float z = lo.z; z <= hi.z; z += coarse)
+    for (float y = lo.y; y <= hi.y; y += coarse)
+      for (float x = lo.x; x <= hi.x; x += coarse)
+        if (f.value({x, y, z}) >= f.iso) in_lo = glm::min(in_lo, {x, y, z}), in_hi = glm::max(in_hi, {x, y, z});
+  if (in_lo.x > in_hi.x) return {lo, hi};
+  return {glm::max(lo, in_lo - 2.0f * coarse), glm::min(hi, in_hi + 2.0f * coarse)};
+}
+
+// What the mesh depends on, as bytes: the part, the joint's frame, every primitive of the part.
+std::string field_key(RigidPart part, const BodyModel& model, const rig::RigidTransform& w) {
+  std::string key;
+  auto put = [&key](const auto& v) { key.append(reinterpret_cast<const char*>(&v), sizeof(v)); };
+  put(part);
+  // The mesh lies in the joint's frame: where the joint is matters only when some primitive
+  // hangs off another joint (so a refitted skeleton does not mesh an unchanged hand again).
+  const std::string* joint = nullptr;
+  bool one_joint = true;
+  for (const Primitive& p : model.primitives)
+    if (p.part == part) {
+      if (joint && *joint != p.joint) one_joint = false;
+      joint = &p.joint;
+    }
+  if (!one_joint) put(w.translation), put(w.rotation);
+  for (const Primitive& p : model.primitives)
+    if (p.part == part) {
+      key += p.joint;
+      put(p.kind), put(p.state.semi_axes_m), put(p.state.center_m), put(p.state.orientation_rad);
+      put(p.weight), put(p.influence);
+      if (p.deformation) {  // the zero posture's state may lie between these
+        key += p.deformation->dof;
+        put(p.deformation->at_min.semi_axes_m), put(p.deformation->at_min.center_m);
+        put(p.deformation->at_min.orientation_rad), put(p.deformation->at_max.semi_axes_m);
+        put(p.deformation->at_max.center_m), put(p.deformation->at_max.orientation_rad), put(p.deformation->falloff);
+      }
+    }
+  return key;
+}
+
+// The marching grid's meshes of the last few parts, and the simplified meshes of the last few
+// parts and budgets. Cleared whole when full: a body's five parts at four LODs fit.
+struct Cache {
+  std::mutex mutex;
+  std::map<std::string, std::shared_ptr<const IsoMesh>> fine;
+  std::map<std::pair<std::string, size_t>, IsoMesh> simplified;
+};
+constexpr size_t kFineKept = 10, kSimplifiedKept = 40;
+
+Cache& cache() {
+  static Cache c;
+  return c;
+}
+
+std::shared_ptr<const IsoMesh> fine_mesh(RigidPart part, const BodyModel& model, const BodyField& field,
+                                         std::span<const uint16_t> cand, const rig::RigidTransform& w,
+                                         const std::string& key, const IsoField& f) {
+  {
+    std::lock_guard lock(cache().mutex);
+    if (auto it = cache().fine.find(key); it != cache().fine.end()) return it->second;
+  }
+  float thinnest = 1e9f;
+  for (const Primitive& p : model.primitives)
+    if (p.part == part)
+      thinnest = std::min({thinnest, p.state.semi_axes_m.x, p.state.semi_axes_m.y, p.state.semi_axes_m.z});
+  const auto [lo, hi] = rigid_box(field, cand, w.inverse(), f);
+  float cell = std::clamp(kRigidCellPerAxis * thinnest, kRigidMinCell_m, kRigidMaxCell_m);
+  const glm::vec3 size = hi - lo;
+  while ((size.x / cell + 3) * (size.y / cell + 3) * (size.z / cell + 3) > kRigidMaxNodes) cell *= 1.1f;
+  auto m = std::make_shared<const IsoMesh>(march_tetrahedra(f, lo - cell, hi + cell, cell));
+  std::lock_guard lock(cache().mutex);
+  if (cache().fine.size() >= kFineKept) cache().fine.clear();
+  cache().fine.emplace(key, m);
+  return m;
+}
+
+}  // namespace
+
+IsoMesh mesh_rigid_part(RigidPart part, const BodyModel& model, const BodyField& field, std::span<const uint16_t> cand,
+                        const rig::RigidTransform& w, const SkinLayout& counts) {
+  const std::string key = field_key(part, model, w);
+  const size_t budget = rigid_vertex_budget(part, counts);
+  {
+    std::lock_guard lock(cache().mutex);
+    if (auto it = cache().simplified.find({key, budget}); it != cache().simplified.end()) return it->second;
+  }
+  const IsoField f{[&](const glm::vec3& q) { return field.field_of(w.apply(q), cand); }, kIsoLevel};
+  IsoMesh m = *fine_mesh(part, model, field, cand, w, key, f);
+  decimate(m, f, budget, kRigidRelaxPasses);
+  std::lock_guard lock(cache().mutex);
+  if (cache().simplified.size() >= kSimplifiedKept) cache().simplified.clear();
+  cache().simplified.emplace(std::make_pair(key, budget), m);
+  return m;
+}
+
+}  // namespace mimic::avatar::skin_detail
