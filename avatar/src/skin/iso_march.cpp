@@ -117,7 +117,7 @@ class Marcher {
       // vertices coincide, then onto the surface along the gradient.
       const glm::vec3 a = g_.at(e[0]), b = g_.at(e[1]);
       float in = 0, out = 1;
-      for (int it = 0; it < 16; ++it) {
+      for (int step = 0; step < 16; ++step) {
         const float mid = 0.5f * (in + out);
         (f_.value(a + mid * (b - a)) >= f_.iso ? in : out) = mid;
       }

@@ -1,6 +1,9 @@
 // The rigid parts' meshes (rigid_part_mesh.h) and the cache of them.
 #include "rigid_part_mesh.h"
 
+#include "mimic/avatar/rigid_mesh_table.h"
+#include "rigid_mesh_store.h"
+
 #include <cstring>
 #include <map>
 #include <mutex>
@@ -73,7 +76,7 @@ std::string field_key(RigidPart part, const BodyModel& model, const rig::RigidTr
 struct Cache {
   std::mutex mutex;
   std::map<std::string, std::shared_ptr<const IsoMesh>> fine;
-  std::map<std::pair<std::string, size_t>, IsoMesh> simplified;
+  std::map<std::pair<std::string, size_t>, std::pair<IsoMesh, bool>> simplified;  // the mesh, shipped
 };
 constexpr size_t kFineKept = 10, kSimplifiedKept = 40;
 
@@ -107,20 +110,77 @@ std::shared_ptr<const IsoMesh> fine_mesh(RigidPart part, const BodyModel& model,
 }  // namespace
 
 IsoMesh mesh_rigid_part(RigidPart part, const BodyModel& model, const BodyField& field, std::span<const uint16_t> cand,
-                        const rig::RigidTransform& w, const SkinLayout& counts) {
+                        const rig::RigidTransform& w, const SkinLayout& counts, RigidMeshSource source, bool* shipped) {
   const std::string key = field_key(part, model, w);
   const size_t budget = rigid_vertex_budget(part, counts);
   {
     std::lock_guard lock(cache().mutex);
-    if (auto it = cache().simplified.find({key, budget}); it != cache().simplified.end()) return it->second;
+    if (auto it = cache().simplified.find({key, budget});
+        it != cache().simplified.end() && source == RigidMeshSource::any) {
+      if (shipped) *shipped = it->second.second;
+      return it->second.first;
+    }
   }
   const IsoField f{[&](const glm::vec3& q) { return field.field_of(w.apply(q), cand); }, kIsoLevel};
-  IsoMesh m = *fine_mesh(part, model, field, cand, w, key, f);
-  decimate(m, f, budget, kRigidRelaxPasses);
+  std::optional<IsoMesh> stored;
+  if (source == RigidMeshSource::any) stored = rigid_mesh_from_store(part, model, f, budget, kRigidRelaxPasses);
+  IsoMesh m = stored ? std::move(*stored) : *fine_mesh(part, model, field, cand, w, key, f);
+  if (!stored) decimate(m, f, budget, kRigidRelaxPasses);
   std::lock_guard lock(cache().mutex);
   if (cache().simplified.size() >= kSimplifiedKept) cache().simplified.clear();
-  cache().simplified.emplace(std::make_pair(key, budget), m);
+  if (source == RigidMeshSource::any)
+    cache().simplified.emplace(std::make_pair(key, budget), std::make_pair(m, stored.has_value()));
+  if (shipped) *shipped = stored.has_value();
   return m;
 }
 
 }  // namespace mimic::avatar::skin_detail
+
+namespace mimic::avatar {
+
+namespace {
+
+// The part's mesh as a layout of `model` makes it (contour_layout.cpp add_rigid_part).
+Result<RigidPartMesh> part_mesh(const BodyModel& model, RigidPart part, skin_detail::RigidMeshSource source) {
+  using namespace skin_detail;
+  auto skeleton = rig::Skeleton::build(model.skeleton);
+  if (!skeleton) return tl::unexpected(skeleton.error());
+  auto field = BodyField::create(model, *skeleton);
+  if (!field) return tl::unexpected(field.error());
+  std::vector<rig::RigidTransform> world_from_joint(static_cast<size_t>(skeleton->joint_count()));
+  rig::forward_kinematics(*skeleton, skeleton->zero_pose(), world_from_joint);
+  std::vector<uint16_t> cand(kMaxCandidates);
+  cand.resize(static_cast<size_t>(field->candidates_of_part(part, cand)));
+  int joint = -1;
+  for (const Primitive& p : model.primitives)
+    if (p.part == part) joint = skeleton->find_joint(p.joint);
+  if (cand.empty() || joint < 0)
+    return fail(Errc::invalid_argument, std::string("the body has no ") + rigid_part_name(part));
+  RigidPartMesh out;
+  IsoMesh m = mesh_rigid_part(part, model, *field, cand, world_from_joint[static_cast<size_t>(joint)], model.skin,
+                              source, &out.shipped);
+  out.positions_m = std::move(m.positions);
+  out.triangles = std::move(m.triangles);
+  return out;
+}
+
+}  // namespace
+
+Result<RigidPartMesh> rigid_part_mesh(const BodyModel& model, RigidPart part, bool field_only) {
+  return part_mesh(model, part, field_only ? skin_detail::RigidMeshSource::field : skin_detail::RigidMeshSource::any);
+}
+
+Result<std::string> rigid_mesh_table(const BodyModel& model) {
+  using namespace skin_detail;
+  std::vector<MeshToStore> meshes;
+  // The right side is the left's mirror image, carried there at load (rigid_mesh_store.h).
+  for (RigidPart part : {RigidPart::head, RigidPart::left_hand, RigidPart::left_foot}) {
+    auto m = part_mesh(model, part, RigidMeshSource::field);
+    if (!m) return tl::unexpected(m.error());
+    meshes.push_back(
+        {part, rigid_vertex_budget(part, model.skin), IsoMesh{std::move(m->positions_m), std::move(m->triangles)}});
+  }
+  return rigid_mesh_table_source(model, meshes);
+}
+
+}  // namespace mimic::avatar
