@@ -50,7 +50,7 @@ std::optional<int> parse(cli::Parser& p, const std::vector<std::string>& argv, O
   p->add_flag("--no-muscles", o.no_muscles, "realtime: the contours keep their measured shape");
   p->add_option("--lod", o.lod,
                 "contours per link and points per contour: 0 the body's own (default)\n"
-                "to 3 (438 triangles), for the whole body or per piece, e.g.\n"
+                "to 3 (770 triangles), for the whole body or per piece, e.g.\n"
                 "torso=0,neck=1,arms=2,legs=1,rigid=0 (pieces not named: all=N, else 0)")
       ->check(cli::parsed_by(avatar::parse_skin_lods, "N|PIECE=N,..."));
   auto* subdivision = p->add_option("--subdivision", o.subdivision,

@@ -278,7 +278,7 @@ struct RigidMesh {
 // coarser when the part's box would hold more nodes than kRigidMaxNodes; the coarse grid that
 // finds the box; the relaxation passes after simplification.
 inline constexpr float kRigidShareHead = 3.5f, kRigidShareHand = 2.5f, kRigidShareFoot = 1.5f;
-inline constexpr size_t kRigidMinVertices = 160;
+inline constexpr size_t kRigidMinVertices = 24;
 inline constexpr float kRigidCellPerAxis = 0.4f, kRigidMinCell_m = 0.0025f, kRigidMaxCell_m = 0.005f;
 inline constexpr float kRigidMaxNodes = 400000.0f;
 inline constexpr float kRigidCoarseCell_m = 0.006f;

@@ -35,6 +35,10 @@ constexpr double kLengthCost = 0.02;
 constexpr float kMinQuality = 0.03f;
 constexpr float kOnSurface = 1e-3f;  // |field − iso| of a merged vertex
 constexpr float kMinTurnCos = 0.5f;  // a triangle turns by less than 60° in a collapse
+// Below this many vertices a collapse is also refused when a triangle around the merged vertex
+// would cross another of the mesh: coarse triangles span gaps (between fingers, under the ear)
+// that fine ones do not, and a test of every triangle costs little at these sizes.
+constexpr size_t kCrossingCheckBelow = 1500;
 
 glm::vec3 normal_of(const std::vector<glm::vec3>& p, const Tri& t) {
   return glm::cross(p[t[1]] - p[t[0]], p[t[2]] - p[t[0]]);
@@ -45,6 +49,34 @@ float quality(const glm::vec3& a, const glm::vec3& b, const glm::vec3& c) {
   const float area2 = glm::length(glm::cross(b - a, c - a));
   const float e = glm::dot(b - a, b - a) + glm::dot(c - b, c - b) + glm::dot(a - c, a - c);
   return e > 0.0f ? 2.0f * std::sqrt(3.0f) * area2 / e : 0.0f;
+}
+
+// Whether segment pq passes through triangle abc (Möller–Trumbore; touching counts).
+bool segment_hits(const glm::vec3& p, const glm::vec3& q, const glm::vec3& a, const glm::vec3& b, const glm::vec3& c) {
+  const glm::vec3 d = q - p, e1 = b - a, e2 = c - a, h = glm::cross(d, e2);
+  const float det = glm::dot(e1, h);
+  if (std::abs(det) < 1e-20f) return false;  // parallel: the other triangle's edges decide
+  const float inv = 1.0f / det;
+  const glm::vec3 s = p - a;
+  const float u = inv * glm::dot(s, h);
+  if (u < 0.0f || u > 1.0f) return false;
+  const glm::vec3 qv = glm::cross(s, e1);
+  const float v = inv * glm::dot(d, qv);
+  if (v < 0.0f || u + v > 1.0f) return false;
+  const float t = inv * glm::dot(e2, qv);
+  return t >= 0.0f && t <= 1.0f;
+}
+
+// Two triangles with no common vertex cross when an edge of one passes through the other.
+bool triangles_cross(const std::array<glm::vec3, 3>& x, const std::array<glm::vec3, 3>& y) {
+  const glm::vec3 xlo = glm::min(x[0], glm::min(x[1], x[2])), xhi = glm::max(x[0], glm::max(x[1], x[2]));
+  const glm::vec3 ylo = glm::min(y[0], glm::min(y[1], y[2])), yhi = glm::max(y[0], glm::max(y[1], y[2]));
+  if (glm::any(glm::lessThan(xhi, ylo)) || glm::any(glm::lessThan(yhi, xlo))) return false;
+  for (int i = 0; i < 3; ++i) {
+    if (segment_hits(x[i], x[(i + 1) % 3], y[0], y[1], y[2])) return true;
+    if (segment_hits(y[i], y[(i + 1) % 3], x[0], x[1], x[2])) return true;
+  }
+  return false;
 }
 
 class Decimator {
@@ -144,7 +176,31 @@ class Decimator {
         const float qa = quality(p[0], p[1], p[2]);
         if (qa < kMinQuality && qa < quality(m_.positions[f[0]], m_.positions[f[1]], m_.positions[f[2]])) return false;
       }
-    return true;
+    return alive_count_ > kCrossingCheckBelow || !crosses_after(a, b, target);
+  }
+
+  // Whether a triangle around the merged vertex (at target) would cross a triangle of the mesh
+  // that shares no vertex with it.
+  bool crosses_after(uint32_t a, uint32_t b, const glm::vec3& target) const {
+    for (uint32_t v : {a, b})
+      for (uint32_t t : vfaces_[v]) {
+        Tri f = faces_[t];
+        if (std::count(f.begin(), f.end(), a) + std::count(f.begin(), f.end(), b) == 2) continue;  // collapses away
+        std::array<glm::vec3, 3> p{};
+        for (size_t k = 0; k < 3; ++k) {
+          if (f[k] == b) f[k] = a;
+          p[k] = f[k] == a ? target : m_.positions[f[k]];
+        }
+        for (size_t o = 0; o < faces_.size(); ++o) {
+          const Tri& g = faces_[o];
+          if (!alive_f_[o] || o == t) continue;
+          bool shares = false;
+          for (uint32_t w : g) shares = shares || w == a || w == b || w == f[0] || w == f[1] || w == f[2];
+          if (shares) continue;
+          if (triangles_cross(p, {m_.positions[g[0]], m_.positions[g[1]], m_.positions[g[2]]})) return true;
+        }
+      }
+    return false;
   }
 
   void collapse(uint32_t a, uint32_t b, const glm::vec3& target) {

@@ -88,6 +88,7 @@ bool same(const StoredPrimitive& a, const StoredPrimitive& b) {
 struct Affine {
   glm::dmat3 a;
   glm::dvec3 t;
+  bool exact = false;  // every centre and axis lands within a micrometre: the field itself is carried
 };
 std::optional<Affine> fit_affine(std::span<const StoredPrimitive> from, std::span<const StoredPrimitive> to) {
   const size_t n = from.size();
@@ -115,7 +116,23 @@ std::optional<Affine> fit_affine(std::span<const StoredPrimitive> from, std::spa
     }
   }
   const glm::dmat3 a = cross * glm::inverse(gram);
-  return Affine{a, mean_to - a * mean_from};
+  Affine map{a, mean_to - a * mean_from};
+  double worst = 0;
+  for (size_t i = 0; i < n; ++i) {
+    const glm::dvec3 c(from[i].center_m[0], from[i].center_m[1], from[i].center_m[2]),
+        c_to(to[i].center_m[0], to[i].center_m[1], to[i].center_m[2]);
+    worst = std::max(worst, glm::length(a * c + map.t - c_to));
+    const glm::mat3 rf = rotation_of(from[i].orientation_rad), rt = rotation_of(to[i].orientation_rad);
+    for (int k = 0; k < 3; ++k) {
+      const glm::dvec3 u = a * (glm::dvec3(rf[k]) * static_cast<double>(from[i].semi_axes_m[k]));
+      const glm::dvec3 v = glm::dvec3(rt[k]) * static_cast<double>(to[i].semi_axes_m[k]);
+      worst = std::max(worst, std::min(glm::length(u - v), glm::length(u + v)));
+    }
+    worst = std::max({worst, std::abs(double(from[i].weight) - to[i].weight),
+                      std::abs(double(from[i].influence) - to[i].influence)});
+  }
+  map.exact = worst < 1e-6 && std::abs(std::abs(glm::determinant(a)) - 1.0) < 1e-6;
+  return map;
 }
 
 // The stored mesh carried by `map` and projected onto f; nullopt when a vertex stays off the
@@ -125,6 +142,7 @@ std::optional<IsoMesh> carry(IsoMesh m, const Affine& map, const IsoField& f) {
   for (glm::vec3& p : m.positions) p = glm::vec3(map.a * glm::dvec3(p) + map.t);
   if (mirrored)
     for (size_t i = 0; i < m.triangles.size(); i += 3) std::swap(m.triangles[i + 1], m.triangles[i + 2]);
+  if (map.exact) return m;  // a rigid motion or mirror of the stored field: its mesh is the stored one moved
   const std::vector<glm::vec3> carried = m.positions;
   constexpr float kMaxStep_m = 0.003f, kOnSurface_m = 2e-4f, kGradientStep_m = 1e-4f;
   for (glm::vec3& p : m.positions) {
@@ -169,74 +187,93 @@ std::optional<IsoMesh> rigid_mesh_from_store(RigidPart part, const BodyModel& mo
       if (p.deformation) return std::nullopt;  // a rigid part whose shape changes: not a stored mesh's
       own.push_back(signature(p));
     }
+  // The stored meshes are in order of part, then budget from the largest: the last that fits
+  // the budget needs the least simplifying.
+  const StoredRigidMesh* best = nullptr;
   for (const StoredRigidMesh& s : stored_rigid_meshes()) {
     if ((s.part != part && s.part != mirror_of(part)) || s.primitive_count != own.size() || budget > s.budget) continue;
     const std::span<const StoredPrimitive> stored(s.primitives, s.primitive_count);
     if (!std::equal(stored.begin(), stored.end(), own.begin(),
                     [](const StoredPrimitive& a, const StoredPrimitive& b) { return a.kind == b.kind; }))
       continue;
-    std::optional<IsoMesh> m;
-    if (s.part == part && std::equal(stored.begin(), stored.end(), own.begin(), same)) {
-      m = decode(s);
-    } else if (const auto map = fit_affine(stored, own)) {
-      m = carry(decode(s), *map, f);
-    }
-    if (!m) continue;
-    if (budget < s.budget) decimate(*m, f, budget, smoothing);
-    return m;
+    // The mirror's only when the part itself is not stored.
+    if (!best || (best->part != part && s.part == part) || (best->part == s.part && s.budget < best->budget)) best = &s;
   }
-  return std::nullopt;
+  if (!best) return std::nullopt;
+  const std::span<const StoredPrimitive> stored(best->primitives, best->primitive_count);
+  std::optional<IsoMesh> m;
+  if (best->part == part && std::equal(stored.begin(), stored.end(), own.begin(), same)) {
+    m = decode(*best);
+  } else if (const auto map = fit_affine(stored, own)) {
+    m = carry(decode(*best), *map, f);
+  }
+  if (m && budget < best->budget) decimate(*m, f, budget, smoothing);
+  return m;
 }
+
+namespace {
+
+// The part's primitives as a C++ array named k_PART_primitives.
+std::string primitives_source(const BodyModel& model, RigidPart part) {
+  std::string out = std::string("constexpr StoredPrimitive k_") + rigid_part_name(part) + "_primitives[] = {\n";
+  char buf[512];
+  for (const Primitive& p : model.primitives) {
+    if (p.part != part) continue;
+    const StoredPrimitive s = signature(p);
+    std::snprintf(buf, sizeof buf,
+                  "    {%d, {%.9g, %.9g, %.9g}, {%.9g, %.9g, %.9g}, {%.9g, %.9g, %.9g}, %.9g, %.9g},\n", s.kind,
+                  s.center_m[0], s.center_m[1], s.center_m[2], s.semi_axes_m[0], s.semi_axes_m[1], s.semi_axes_m[2],
+                  s.orientation_rad[0], s.orientation_rad[1], s.orientation_rad[2], s.weight, s.influence);
+    out += buf;
+  }
+  return out + "};\n\n";
+}
+
+// The mesh as a base64 string literal named `name`; its position step through `step`.
+std::string mesh_source(const IsoMesh& m, const std::string& name, float& step) {
+  // Steps of 10 µm (int16 holds ±0.33 m about the joint), wider for a part that reaches farther.
+  float reach = 0;
+  for (const glm::vec3& p : m.positions) reach = std::max({reach, std::abs(p.x), std::abs(p.y), std::abs(p.z)});
+  step = std::max(1e-5f, reach / 32000.0f);
+  std::vector<uint8_t> bytes;
+  auto put16 = [&bytes](uint16_t v) {
+    bytes.push_back(static_cast<uint8_t>(v & 0xff)), bytes.push_back(static_cast<uint8_t>(v >> 8));
+  };
+  for (const glm::vec3& p : m.positions)
+    for (int k = 0; k < 3; ++k) put16(static_cast<uint16_t>(static_cast<int16_t>(std::lround(p[k] / step))));
+  for (uint32_t i : m.triangles) put16(static_cast<uint16_t>(i));
+  const std::string b64 = base64_encode(bytes);
+  std::string out = "constexpr char " + name + "[] =\n";
+  for (size_t i = 0; i < b64.size(); i += 96) out += "    \"" + b64.substr(i, 96) + "\"\n";
+  return out + "    ;\n\n";
+}
+
+}  // namespace
 
 std::string rigid_mesh_table_source(const BodyModel& model, std::span<const MeshToStore> meshes) {
   std::string out =
       "// Generated by `mimic mesh --emit-rigid-meshes avatar/src/skin/rigid_mesh_table.cpp`\n"
       "// (scripts/regen_rigid_meshes.sh): the built-in body's rigid parts meshed from their field at\n"
-      "// LOD 0 (rigid_mesh_store.h). Do not edit.\n"
+      "// each LOD's budget (rigid_mesh_store.h). Do not edit.\n"
       "#include \"rigid_mesh_store.h\"\n\nnamespace mimic::avatar::skin_detail {\n\nnamespace {\n\n";
-  char buf[512];
   std::string table;
-  for (const MeshToStore& e : meshes) {
-    const std::string name = rigid_part_name(e.part);
-    out += "constexpr StoredPrimitive k_" + name + "_primitives[] = {\n";
-    size_t count = 0;
-    for (const Primitive& p : model.primitives) {
-      if (p.part != e.part) continue;
-      const StoredPrimitive s = signature(p);
-      std::snprintf(buf, sizeof buf,
-                    "    {%d, {%.9g, %.9g, %.9g}, {%.9g, %.9g, %.9g}, {%.9g, %.9g, %.9g}, %.9g, %.9g},\n", s.kind,
-                    s.center_m[0], s.center_m[1], s.center_m[2], s.semi_axes_m[0], s.semi_axes_m[1], s.semi_axes_m[2],
-                    s.orientation_rad[0], s.orientation_rad[1], s.orientation_rad[2], s.weight, s.influence);
-      out += buf;
-      ++count;
-    }
-    out += "};\n\n";
-    // Positions in steps of 10 µm (int16 holds ±0.33 m about the joint), wider when a part reaches farther.
-    float reach = 0;
-    for (const glm::vec3& p : e.mesh.positions)
-      reach = std::max(reach, glm::max(glm::abs(p).x, glm::max(glm::abs(p).y, glm::abs(p).z)));
-    const float step = std::max(1e-5f, reach / 32000.0f);
-    std::vector<uint8_t> bytes;
-    auto put16 = [&bytes](uint16_t v) {
-      bytes.push_back(static_cast<uint8_t>(v & 0xff)), bytes.push_back(static_cast<uint8_t>(v >> 8));
-    };
-    for (const glm::vec3& p : e.mesh.positions)
-      for (int k = 0; k < 3; ++k) put16(static_cast<uint16_t>(static_cast<int16_t>(std::lround(p[k] / step))));
-    for (uint32_t i : e.mesh.triangles) put16(static_cast<uint16_t>(i));
-    const std::string b64 = base64_encode(bytes);
-    out += "constexpr char k_" + name + "_mesh[] =\n";
-    for (size_t i = 0; i < b64.size(); i += 96) out += "    \"" + b64.substr(i, 96) + "\"\n";
-    out += "    ;\n\n";
-    std::snprintf(buf, sizeof buf, "    {RigidPart::%s, k_%s_primitives, %zu, %zu, %zu, %zu, %.9g, k_%s_mesh},\n",
-                  name.c_str(), name.c_str(), count, e.budget, e.mesh.positions.size(), e.mesh.triangles.size() / 3,
-                  step, name.c_str());
+  char buf[512];
+  for (size_t i = 0; i < meshes.size(); ++i) {
+    const MeshToStore& e = meshes[i];
+    const std::string part = rigid_part_name(e.part), name = "k_" + part + "_" + std::to_string(e.budget);
+    if (i == 0 || meshes[i - 1].part != e.part) out += primitives_source(model, e.part);
+    float step = 0;
+    out += mesh_source(e.mesh, name, step);
+    const auto count = std::count_if(model.primitives.begin(), model.primitives.end(),
+                                     [&e](const Primitive& p) { return p.part == e.part; });
+    std::snprintf(buf, sizeof buf, "    {RigidPart::%s, k_%s_primitives, %zu, %zu, %zu, %zu, %.9g, %s},\n",
+                  part.c_str(), part.c_str(), static_cast<size_t>(count), e.budget, e.mesh.positions.size(),
+                  e.mesh.triangles.size() / 3, step, name.c_str());
     table += buf;
   }
   out += "constexpr StoredRigidMesh kMeshes[] = {\n" + table + "};\n\n}  // namespace\n\n";
-  out +=
-      "std::span<const StoredRigidMesh> stored_rigid_meshes() { return kMeshes; }\n\n}  // namespace "
-      "mimic::avatar::skin_detail\n";
-  return out;
+  out += "std::span<const StoredRigidMesh> stored_rigid_meshes() { return kMeshes; }\n\n";
+  return out + "}  // namespace mimic::avatar::skin_detail\n";
 }
 
 }  // namespace mimic::avatar::skin_detail

@@ -2,6 +2,7 @@
 #include "rigid_part_mesh.h"
 
 #include "mimic/avatar/rigid_mesh_table.h"
+#include "mimic/avatar/skin_lod.h"
 #include "rigid_mesh_store.h"
 
 #include <cstring>
@@ -173,13 +174,18 @@ Result<RigidPartMesh> rigid_part_mesh(const BodyModel& model, RigidPart part, bo
 Result<std::string> rigid_mesh_table(const BodyModel& model) {
   using namespace skin_detail;
   std::vector<MeshToStore> meshes;
-  // The right side is the left's mirror image, carried there at load (rigid_mesh_store.h).
-  for (RigidPart part : {RigidPart::head, RigidPart::left_hand, RigidPart::left_foot}) {
-    auto m = part_mesh(model, part, RigidMeshSource::field);
-    if (!m) return tl::unexpected(m.error());
-    meshes.push_back(
-        {part, rigid_vertex_budget(part, model.skin), IsoMesh{std::move(m->positions_m), std::move(m->triangles)}});
-  }
+  // The right side is the left's mirror image, carried there at load (rigid_mesh_store.h). Each
+  // LOD's budget is stored: simplifying at load, with the crossing checks, takes longer than the
+  // rest of a layout.
+  for (RigidPart part : {RigidPart::head, RigidPart::left_hand, RigidPart::left_foot})
+    for (int lod = 0; lod < kSkinLodCount; ++lod) {
+      const BodyModel at_lod = with_skin_lod(model, lod);
+      const size_t budget = rigid_vertex_budget(part, at_lod.skin);
+      if (!meshes.empty() && meshes.back().part == part && meshes.back().budget == budget) continue;
+      auto m = part_mesh(at_lod, part, RigidMeshSource::field);
+      if (!m) return tl::unexpected(m.error());
+      meshes.push_back({part, budget, IsoMesh{std::move(m->positions_m), std::move(m->triangles)}});
+    }
   return rigid_mesh_table_source(model, meshes);
 }
 
