@@ -79,6 +79,47 @@ bool triangles_cross(const std::array<glm::vec3, 3>& x, const std::array<glm::ve
   return false;
 }
 
+// Whether two triangles cross beyond the vertices they share: with none shared, any crossing;
+// with one, an edge opposite it passing through the other; two (an edge) are left to the turn
+// limits.
+bool cross_beyond_shared(const Tri& f, const std::array<glm::vec3, 3>& p, const Tri& g,
+                         const std::array<glm::vec3, 3>& q) {
+  int shared = 0, fi = 0, gi = 0;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j)
+      if (f[i] == g[j]) ++shared, fi = i, gi = j;
+  if (shared == 0) return triangles_cross(p, q);
+  if (shared > 1) return false;
+  return segment_hits(p[(fi + 1) % 3], p[(fi + 2) % 3], q[0], q[1], q[2]) ||
+         segment_hits(q[(gi + 1) % 3], q[(gi + 2) % 3], p[0], p[1], p[2]);
+}
+
+// Triangles around a moved vertex as they would be.
+struct RingTriangle {
+  Tri f;
+  std::array<glm::vec3, 3> p;
+};
+
+// Whether a ring triangle would cross a live triangle of the mesh that is not around the moved
+// vertex (`around(o)`), in a box test a triangle for most of the mesh.
+template <class Around>
+bool ring_crosses(const std::vector<RingTriangle>& ring, const std::vector<Tri>& faces,
+                  const std::vector<glm::vec3>& pos, const std::vector<uint8_t>* alive, Around around) {
+  glm::vec3 lo(1e30f), hi(-1e30f);
+  for (const RingTriangle& r : ring)
+    for (const glm::vec3& x : r.p) lo = glm::min(lo, x), hi = glm::max(hi, x);
+  for (size_t o = 0; o < faces.size(); ++o) {
+    if ((alive && !(*alive)[o]) || around(faces[o])) continue;
+    const Tri& g = faces[o];
+    const std::array<glm::vec3, 3> q{pos[g[0]], pos[g[1]], pos[g[2]]};
+    const glm::vec3 qlo = glm::min(q[0], glm::min(q[1], q[2])), qhi = glm::max(q[0], glm::max(q[1], q[2]));
+    if (glm::any(glm::lessThan(qhi, lo)) || glm::any(glm::lessThan(hi, qlo))) continue;
+    for (const RingTriangle& r : ring)
+      if (cross_beyond_shared(r.f, r.p, g, q)) return true;
+  }
+  return false;
+}
+
 class Decimator {
  public:
   Decimator(IsoMesh& m, const IsoField& f) : m_(m), f_(f) {
@@ -182,6 +223,7 @@ class Decimator {
   // Whether a triangle around the merged vertex (at target) would cross a triangle of the mesh
   // that shares no vertex with it.
   bool crosses_after(uint32_t a, uint32_t b, const glm::vec3& target) const {
+    std::vector<RingTriangle> ring;
     for (uint32_t v : {a, b})
       for (uint32_t t : vfaces_[v]) {
         Tri f = faces_[t];
@@ -191,16 +233,11 @@ class Decimator {
           if (f[k] == b) f[k] = a;
           p[k] = f[k] == a ? target : m_.positions[f[k]];
         }
-        for (size_t o = 0; o < faces_.size(); ++o) {
-          const Tri& g = faces_[o];
-          if (!alive_f_[o] || o == t) continue;
-          bool shares = false;
-          for (uint32_t w : g) shares = shares || w == a || w == b || w == f[0] || w == f[1] || w == f[2];
-          if (shares) continue;
-          if (triangles_cross(p, {m_.positions[g[0]], m_.positions[g[1]], m_.positions[g[2]]})) return true;
-        }
+        ring.push_back({f, p});
       }
-    return false;
+    return ring_crosses(ring, faces_, m_.positions, &alive_f_, [a, b](const Tri& g) {
+      return std::find(g.begin(), g.end(), a) != g.end() || std::find(g.begin(), g.end(), b) != g.end();
+    });
   }
 
   void collapse(uint32_t a, uint32_t b, const glm::vec3& target) {
@@ -260,6 +297,9 @@ class Decimator {
 void relax(IsoMesh& m, const IsoField& f) {
   const size_t nv = m.positions.size();
   std::vector<std::vector<uint32_t>> vfaces(nv);
+  std::vector<Tri> faces(m.triangles.size() / 3);
+  for (size_t t = 0; t < faces.size(); ++t)
+    faces[t] = {m.triangles[3 * t], m.triangles[3 * t + 1], m.triangles[3 * t + 2]};
   for (size_t t = 0; t < m.triangles.size() / 3; ++t)
     for (int k = 0; k < 3; ++k) vfaces[m.triangles[3 * t + static_cast<size_t>(k)]].push_back(static_cast<uint32_t>(t));
   for (uint32_t v = 0; v < nv; ++v) {
@@ -290,6 +330,16 @@ void relax(IsoMesh& m, const IsoField& f) {
       const glm::vec3 n0 = glm::cross(a[1] - a[0], a[2] - a[0]), n1 = glm::cross(b[1] - b[0], b[2] - b[0]);
       if (glm::dot(n0, n1) < 0.7f * glm::length(n0) * glm::length(n1) || quality(b[0], b[1], b[2]) < kMinQuality)
         ok = false;
+    }
+    if (ok && nv <= kCrossingCheckBelow) {
+      std::vector<RingTriangle> ring;
+      for (uint32_t t : vfaces[v]) {
+        RingTriangle r{{m.triangles[3 * t], m.triangles[3 * t + 1], m.triangles[3 * t + 2]}, {}};
+        for (size_t k = 0; k < 3; ++k) r.p[k] = r.f[k] == v ? q : m.positions[r.f[k]];
+        ring.push_back(r);
+      }
+      ok = !ring_crosses(ring, faces, m.positions, nullptr,
+                         [v](const Tri& g) { return g[0] == v || g[1] == v || g[2] == v; });
     }
     if (ok) m.positions[v] = q;
   }
