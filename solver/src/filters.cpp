@@ -177,15 +177,17 @@ void SensorFilterBank::process(std::span<devices::SensorSample> samples) {
     const float dt = st.seen ? static_cast<float>(t - st.last_t) : 0.0f;
     const bool usable = (smp.flags & devices::kSampleValid) && finite(smp);
 
-    // Where the sensor should be now, from the filtered state.
-    const glm::vec3 predicted_pos = st.pos.value() + st.pos.velocity() * std::max(dt, 0.0f);
-    const glm::quat predicted_rot =
-        glm::normalize(exp_rotation(st.rot.angular_velocity() * std::max(dt, 0.0f)) * st.rot.value());
+    // Where the sensor should be now, from the filtered state: taken only for a sample replaced
+    // (a dropout or an outlier), so that a good one does not pay for its rotation.
+    auto predict = [&] {
+      smp.position_m = st.pos.value() + st.pos.velocity() * std::max(dt, 0.0f);
+      smp.orientation =
+          glm::normalize(exp_rotation(st.rot.angular_velocity() * std::max(dt, 0.0f)) * st.rot.value());
+    };
 
     if (!usable) {
       if (st.seen && t - st.last_good_t <= config_.hold_s) {
-        smp.position_m = predicted_pos;
-        smp.orientation = predicted_rot;
+        predict();
         smp.flags = devices::kSampleValid | devices::kSampleStale | (smp.flags & devices::kSampleButton);
         smooth(st, smp);
       } else {
@@ -199,12 +201,16 @@ void SensorFilterBank::process(std::span<devices::SensorSample> samples) {
       const float allowed = config_.max_speed_m_s * since + config_.jump_allowance_m;
       const float jump = glm::length(smp.position_m - st.last_raw_pos);
       const glm::quat d = glm::normalize(smp.orientation) * glm::conjugate(st.last_raw_rot);
-      const float turn_deg = glm::degrees(2.0f * std::asin(std::min(1.0f, glm::length(glm::vec3(d.x, d.y, d.z)))));
-      const bool outlier = jump > allowed || turn_deg > config_.max_angular_speed_deg_s * since + 10.0f;
+      const float half_sin = glm::length(glm::vec3(d.x, d.y, d.z));
+      const float allowed_deg = config_.max_angular_speed_deg_s * since + 10.0f;
+      // The turn is 2·asin(half_sin) ≤ π·half_sin: a sample turned well within that bound needs
+      // no arcsine (the usual case).
+      const bool turned = half_sin * (180.0f * 1.01f) > allowed_deg &&
+                          glm::degrees(2.0f * std::asin(std::min(1.0f, half_sin))) > allowed_deg;
+      const bool outlier = jump > allowed || turned;
       if (outlier && ++st.outlier_streak < config_.accept_after) {
         ++outliers_;
-        smp.position_m = predicted_pos;
-        smp.orientation = predicted_rot;
+        predict();
         smp.flags |= devices::kSampleOutlier | devices::kSampleStale;
         smooth(st, smp);
         st.last_t = t;

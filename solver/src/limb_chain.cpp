@@ -130,34 +130,49 @@ ChainSolution solve_chain(const ChainInput& in, const glm::vec3& pole, float phi
 
 // 16 samples round the axis, then halving steps about the best. A bent limb at another swivel is
 // the hinted one turned about the start→target axis (the middle joint circles it, the end stays):
-// one rotation instead of a two-bone solve per candidate.
+// one rotation instead of a two-bone solve per candidate. The samples are tried nearest the hint
+// first, so that a good one found early rules out the far ones by their swivel cost alone; the
+// winner is the same as in sample order (the lowest cost, on a tie the first in that order).
 ChainSolution search_swivel(const ChainInput& in, const glm::vec3& e1, const glm::vec3& e2, ChainSolution best) {
   const ChainGeometry hinted = chain_geometry(in, e1);
   const glm::vec3 axis = glm::normalize(in.end_t->translation - in.start);
   float best_phi = 0;
   float best_cost = chain_cost(best, 0.0f);
-  auto try_swivel = [&](float phi) {
-    if (0.1f * phi * phi >= best_cost) return;  // chain_cost(·, phi) cannot beat the best
+  int best_rank = 0;  // the hint's, then a sample's place in sample order (refinements come last)
+  auto try_swivel = [&](float phi, int rank) {
+    // chain_cost(·, phi) is at least the swivel's cost: past the best it cannot win, nor at a tie
+    // with a sample that comes first.
+    const float floor_cost = 0.1f * phi * phi;
+    if (floor_cost > best_cost || (floor_cost == best_cost && rank > best_rank)) return;
+    const float give_up_at =
+        rank < best_rank ? std::nextafter(best_cost, std::numeric_limits<float>::infinity()) : best_cost;
     ChainSolution cand;
     if (hinted.ok && hinted.turns_with_swivel) {
       const glm::quat turn = glm::angleAxis(phi, axis);
       ChainGeometry g = hinted;
       g.upper_world = glm::normalize(turn * hinted.upper_world);
       g.bend_world = turn * hinted.bend_world;
-      cand = chain_dofs(in, g, phi, best_cost);
+      cand = chain_dofs(in, g, phi, give_up_at);
     } else {
-      cand = solve_chain(in, std::cos(phi) * e1 + std::sin(phi) * e2, phi, best_cost);
+      cand = solve_chain(in, std::cos(phi) * e1 + std::sin(phi) * e2, phi, give_up_at);
     }
     const float cost = chain_cost(cand, phi);
-    if (cand.ok && cost < best_cost) best = cand, best_cost = cost, best_phi = phi;
+    if (cand.ok && (cost < best_cost || (cost == best_cost && rank < best_rank)))
+      best = cand, best_cost = cost, best_phi = phi, best_rank = rank;
   };
   constexpr int kSamples = 16;
-  for (int k = 1; k < kSamples; ++k)
-    try_swivel(6.2831853f * static_cast<float>(k) / kSamples - (k > kSamples / 2 ? 6.2831853f : 0.0f));
+  auto sample = [](int k) {
+    return 6.2831853f * static_cast<float>(k) / kSamples - (k > kSamples / 2 ? 6.2831853f : 0.0f);
+  };
+  for (int k = 1; k < kSamples / 2; ++k) {  // ±1/16 turn, ±2/16, …, then the half turn
+    try_swivel(sample(k), k);
+    try_swivel(sample(kSamples - k), kSamples - k);
+  }
+  try_swivel(sample(kSamples / 2), kSamples / 2);
   for (float step = 6.2831853f / (2 * kSamples); step > 0.005f; step *= 0.5f) {
     const float around = best_phi;
-    try_swivel(around - step);
-    try_swivel(around + step);
+    try_swivel(around - step, kSamples);
+    try_swivel(around + step, kSamples);
   }
   return best;
 }
