@@ -181,8 +181,7 @@ void SensorFilterBank::process(std::span<devices::SensorSample> samples) {
     // (a dropout or an outlier), so that a good one does not pay for its rotation.
     auto predict = [&] {
       smp.position_m = st.pos.value() + st.pos.velocity() * std::max(dt, 0.0f);
-      smp.orientation =
-          glm::normalize(exp_rotation(st.rot.angular_velocity() * std::max(dt, 0.0f)) * st.rot.value());
+      smp.orientation = glm::normalize(exp_rotation(st.rot.angular_velocity() * std::max(dt, 0.0f)) * st.rot.value());
     };
 
     if (!usable) {
