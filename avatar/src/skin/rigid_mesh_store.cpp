@@ -137,16 +137,71 @@ std::optional<Affine> fit_affine(std::span<const StoredPrimitive> from, std::spa
 
 // The stored mesh carried by `map` and projected onto f; nullopt when a vertex stays off the
 // surface or a triangle turns over.
-std::optional<IsoMesh> carry(IsoMesh m, const Affine& map, const IsoField& f) {
+// Each stored primitive's own affine map onto its counterpart (centre onto centre, its axes scaled
+// by their semi-axes onto the counterpart's, signs as the whole map has them), and its field's
+// support, to weigh it by at a stored point.
+struct PrimitiveMap {
+  glm::dmat3 unit_from_stored;  // S⁻¹ Rᵀ of the stored primitive
+  glm::dvec3 stored_center, center;
+  glm::dmat3 a;
+  double influence2, weight;
+};
+
+std::vector<PrimitiveMap> primitive_maps(std::span<const StoredPrimitive> from, std::span<const StoredPrimitive> to,
+                                         const glm::dmat3& whole) {
+  std::vector<PrimitiveMap> maps;
+  for (size_t i = 0; i < from.size(); ++i) {
+    const glm::mat3 rf = rotation_of(from[i].orientation_rad), rt = rotation_of(to[i].orientation_rad);
+    glm::dmat3 u, v;
+    for (int k = 0; k < 3; ++k) {
+      u[k] = glm::dvec3(rf[k]) * static_cast<double>(from[i].semi_axes_m[k]);
+      v[k] = glm::dvec3(rt[k]) * static_cast<double>(to[i].semi_axes_m[k]);
+      if (glm::dot(whole * u[k], v[k]) < 0) v[k] = -v[k];
+    }
+    if (!(std::abs(glm::determinant(u)) > 1e-18)) continue;
+    glm::dmat3 unit = glm::transpose(glm::dmat3(rf));
+    for (int k = 0; k < 3; ++k)
+      for (int c = 0; c < 3; ++c) unit[c][k] /= static_cast<double>(from[i].semi_axes_m[k]);
+    maps.push_back({unit, glm::dvec3(from[i].center_m[0], from[i].center_m[1], from[i].center_m[2]),
+                    glm::dvec3(to[i].center_m[0], to[i].center_m[1], to[i].center_m[2]), v * glm::inverse(u),
+                    static_cast<double>(from[i].influence) * from[i].influence, static_cast<double>(from[i].weight)});
+  }
+  return maps;
+}
+
+// A stored point moved by the primitives' maps, each weighted by its field there (the metaball
+// falloff (1 − d²/r²)³): a primitive the fit moved on its own takes its part of the surface with
+// it. Outside every support, by the whole map.
+glm::vec3 blend_carry(const glm::vec3& x, std::span<const PrimitiveMap> maps, const Affine& whole) {
+  glm::dvec3 sum(0.0);
+  double total = 0;
+  for (const PrimitiveMap& m : maps) {
+    const glm::dvec3 d = glm::dvec3(x) - m.stored_center, unit = m.unit_from_stored * d;
+    const double q = 1.0 - glm::dot(unit, unit) / m.influence2;
+    if (q <= 0) continue;
+    const double w = m.weight * q * q * q;
+    sum += w * (m.center + m.a * d), total += w;
+  }
+  return total > 1e-12 ? glm::vec3(sum / total) : glm::vec3(whole.a * glm::dvec3(x) + whole.t);
+}
+
+// The stored mesh carried onto the part's primitives and projected onto f; nullopt when a vertex
+// stays off the surface or a triangle turns over.
+std::optional<IsoMesh> carry(IsoMesh m, std::span<const StoredPrimitive> from, std::span<const StoredPrimitive> to,
+                             const Affine& map, const IsoField& f) {
   const bool mirrored = glm::determinant(map.a) < 0;
-  for (glm::vec3& p : m.positions) p = glm::vec3(map.a * glm::dvec3(p) + map.t);
   if (mirrored)
     for (size_t i = 0; i < m.triangles.size(); i += 3) std::swap(m.triangles[i + 1], m.triangles[i + 2]);
-  if (map.exact) return m;  // a rigid motion or mirror of the stored field: its mesh is the stored one moved
+  if (map.exact) {  // a rigid motion or mirror of the stored field: its mesh is the stored one moved
+    for (glm::vec3& p : m.positions) p = glm::vec3(map.a * glm::dvec3(p) + map.t);
+    return m;
+  }
+  const std::vector<PrimitiveMap> maps = primitive_maps(from, to, map.a);
+  for (glm::vec3& p : m.positions) p = blend_carry(p, maps, map);
   const std::vector<glm::vec3> carried = m.positions;
   constexpr float kMaxStep_m = 0.003f, kOnSurface_m = 2e-4f, kGradientStep_m = 1e-4f;
   for (glm::vec3& p : m.positions) {
-    p = project_to_iso(f, p, kMaxStep_m);
+    p = project_to_iso(f, project_to_iso(f, p, kMaxStep_m), kMaxStep_m);
     const glm::vec3 g = f.gradient(p, kGradientStep_m);
     const float slope = glm::length(g);
     if (!(slope > 0.0f) || !(std::abs(f.value(p) - f.iso) / slope < kOnSurface_m)) return std::nullopt;
@@ -205,7 +260,7 @@ std::optional<IsoMesh> rigid_mesh_from_store(RigidPart part, const BodyModel& mo
   if (best->part == part && std::equal(stored.begin(), stored.end(), own.begin(), same)) {
     m = decode(*best);
   } else if (const auto map = fit_affine(stored, own)) {
-    m = carry(decode(*best), *map, f);
+    m = carry(decode(*best), stored, own, *map, f);
   }
   if (m && budget < best->budget) decimate(*m, f, budget, smoothing);
   return m;
