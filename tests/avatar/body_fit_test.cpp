@@ -67,13 +67,20 @@ FitOptions coarse() {
   return o;
 }
 
-// The fitted body as `mimic compare` measures it.
-void expect_within(const BodyModel& body, const Reference& ref, double limit_m) {
+// The fitted body as `mimic compare` measures it: within `limit_m` both ways, and its girths
+// within `girths` (relative) of the reference's.
+void expect_within(const BodyModel& body, const Reference& ref, double limit_m, float girths = 0.03f) {
   auto posed = pose_body_like(body, ref.landmarks);
   ASSERT_TRUE(posed) << posed.error().what();
   const SurfaceDistance d = surface_distance(posed->mesh, posed->landmarks, ref.mesh, ref.landmarks);
   EXPECT_LE(d.body_to_reference.mean_m, limit_m) << format_surface_distance(d);
   EXPECT_LE(d.reference_to_body.mean_m, limit_m) << format_surface_distance(d);
+  const BodyMeasurements ours = measure_body(posed->mesh, posed->landmarks),
+                         theirs = measure_body(ref.mesh, ref.landmarks);
+  const std::vector<MeasurementRow> a = measurement_rows(ours), b = measurement_rows(theirs);
+  ASSERT_EQ(a.size(), b.size());
+  for (size_t i = 0; i < a.size(); ++i)
+    if (a[i].key.ends_with("_girth")) EXPECT_NEAR(a[i].value / b[i].value, 1.0, girths) << a[i].key;
   const MeshTopology t = analyze_topology(posed->mesh);
   EXPECT_TRUE(is_closed_oriented_manifold(t));
   EXPECT_GT(t.signed_volume, 0.04);  // outward, and a body's volume
@@ -106,6 +113,37 @@ TEST(BodyFit, AnInflatedThighIsFollowed) {
   expect_within(fit->body, ref, 0.005);
   EXPECT_LT(fit->after.body_to_reference.region_mean_m[int(BodyRegion::legs)],
             fit->before.body_to_reference.region_mean_m[int(BodyRegion::legs)]);
+}
+
+// Fitted as mirror images (the built-in body's refit), the body stays symmetric even against a
+// lopsided person, and what the fit measured is what the body measures.
+TEST(BodyFit, ASymmetricFitMovesBothSidesAlike) {
+  Reference ref = makehuman();
+  inflate_left_thigh(ref, 0.015f);
+  FitOptions o = coarse();
+  o.iterations = 3;
+  o.symmetric = true;
+  auto fit = fit_body(default_body_model(), ref.mesh, ref.landmarks, o);
+  ASSERT_TRUE(fit) << fit.error().what();
+  EXPECT_GE(fit->accepted, 1);
+  const BodyModel& b = fit->body;
+  int pairs = 0;
+  for (const Primitive& l : b.primitives) {
+    if (!l.name.starts_with("l_")) continue;
+    for (const Primitive& r : b.primitives) {
+      if (r.name != "r_" + l.name.substr(2)) continue;
+      ++pairs;
+      const glm::vec3 c = l.state.center_m * glm::vec3(-1, 1, 1);
+      EXPECT_LT(glm::distance(r.state.center_m, c), 1e-6f) << r.name;
+      EXPECT_LT(glm::distance(r.state.semi_axes_m, l.state.semi_axes_m), 1e-6f) << r.name;
+    }
+  }
+  EXPECT_GT(pairs, 20);
+  auto posed = pose_body_like(b, ref.landmarks);
+  ASSERT_TRUE(posed);
+  const SurfaceDistance d = surface_distance(posed->mesh, posed->landmarks, ref.mesh, ref.landmarks, o.samples);
+  EXPECT_NEAR(d.body_to_reference.mean_m, fit->after.body_to_reference.mean_m, 1e-6);
+  EXPECT_NEAR(d.reference_to_body.mean_m, fit->after.reference_to_body.mean_m, 1e-6);
 }
 
 TEST(BodyFit, TheSkeletonTakesThePersonsJoints) {

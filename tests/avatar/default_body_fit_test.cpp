@@ -59,15 +59,15 @@ TEST(DefaultBodyFit, WithinFiveMillimetresOfTheMakeHumanMeshBothWays) {
   ASSERT_TRUE(posed) << posed.error().what();
   EXPECT_TRUE(posed->closed);
   const SurfaceDistance d = surface_distance(posed->mesh, posed->landmarks, *mesh, *ref);
-  // Fitted: 4.29 / 4.78 mm. The junction bands' later changes (the arms' first ring at 0.4 of the
-  // upper arm, the driven points' squeeze) moved the skin under the fitted table to 4.3 / 5.06 mm;
-  // a refit on that skin lands at 4.39 / 4.93, too near 5 mm to hold across compilers. The bound
-  // keeps the fit from sliding back while the 5 mm target stays open.
+  // Refitted with the girths held (both sides as mirror images, from the table before, docs/fit.md):
+  // 4.50 / 5.04 mm (the table before: 4.52 / 5.06; fitted anew from the authored body the fit
+  // reaches 4.38 / 4.91 but reshapes the arms, and the realtime skin folds more at the shoulder's
+  // limits). The bound keeps the fit from sliding back while the 5 mm target stays open.
   EXPECT_LT(d.body_to_reference.mean_m, 0.0055);
   EXPECT_LT(d.reference_to_body.mean_m, 0.0055);
-  // Girths, as `mimic compare` takes them, within 3 % of the mesh's; the thigh within 4 % (+3.4 %:
-  // the fits that bring it nearer leave a contour ray without a surface in a clip pose, or the
-  // legs' junction rings zigzagging, docs/fit.md).
+  // Girths, as `mimic compare` takes them, within 3 % of the mesh's (fitted: chest −0.9 %, waist
+  // −0.3 %, hips −0.1 %, thigh +1.8 %, calf −0.6 %, upper arm +1.1 %; the thigh was +3.4 % before
+  // the fit held the girths).
   const BodyMeasurements ours = measure_body(posed->mesh, posed->landmarks), theirs = measure_body(*mesh, *ref);
   for (auto [a, b, what] : {std::tuple{ours.chest_girth_m, theirs.chest_girth_m, "chest"},
                             std::tuple{ours.waist_girth_m, theirs.waist_girth_m, "waist"},
@@ -76,7 +76,7 @@ TEST(DefaultBodyFit, WithinFiveMillimetresOfTheMakeHumanMeshBothWays) {
                             std::tuple{ours.calf_girth_m, theirs.calf_girth_m, "calf"},
                             std::tuple{ours.upper_arm_girth_m, theirs.upper_arm_girth_m, "upper arm"}}) {
     ASSERT_TRUE(a && b) << what;
-    EXPECT_NEAR(*a / *b, 1.0f, std::string_view(what) == "thigh" ? 0.04f : 0.03f) << what;
+    EXPECT_NEAR(*a / *b, 1.0f, 0.03f) << what;
   }
 }
 
