@@ -6,9 +6,11 @@
 #include "body_posing.h"
 #include "cli.h"
 #include "command.h"
+#include "mimic/core/file.h"
 #include "mimic/avatar/mesh_check.h"
 #include "mimic/avatar/mesh_io.h"
 #include "mimic/avatar/realtime_skin.h"
+#include "mimic/avatar/rigid_mesh_table.h"
 #include "mimic/avatar/skin.h"
 #include "mimic/avatar/skin_lod.h"
 #include "mimic/avatar/texture_layout.h"
@@ -27,7 +29,7 @@ constexpr const char* kAbout =
 
 struct Options {
   PoseOptions pose;
-  std::string out, body, method = "realtime", lod = "0";
+  std::string out, body, method = "realtime", lod = "0", emit_rigid;
   int subdivision = 1;
   bool no_rigid = false, no_muscles = false, uv = false;
 };
@@ -35,9 +37,8 @@ struct Options {
 std::optional<int> parse(cli::Parser& p, const std::vector<std::string>& argv, Options& o) {
   p->footer("exit status: 0 written, 1 bad input or write failure, 2 usage error");
   add_pose_options(p.app(), o.pose);
-  p->add_option("--out", o.out, ".obj, .ply (binary) or .glb (glTF 2.0); written atomically")
-      ->type_name("FILE")
-      ->required();
+  p->add_option("--out", o.out, ".obj, .ply (binary) or .glb (glTF 2.0); written atomically (required)")
+      ->type_name("FILE");
   p->add_option("--body", o.body, "body model (JSON, see docs/body-model.md); default: the built-in body")
       ->type_name("FILE");
   p->add_option("--method", o.method,
@@ -49,7 +50,7 @@ std::optional<int> parse(cli::Parser& p, const std::vector<std::string>& argv, O
   p->add_flag("--no-muscles", o.no_muscles, "realtime: the contours keep their measured shape");
   p->add_option("--lod", o.lod,
                 "contours per link and points per contour: 0 the body's own (default)\n"
-                "to 3 (438 triangles), for the whole body or per piece, e.g.\n"
+                "to 3 (770 triangles), for the whole body or per piece, e.g.\n"
                 "torso=0,neck=1,arms=2,legs=1,rigid=0 (pieces not named: all=N, else 0)")
       ->check(cli::parsed_by(avatar::parse_skin_lods, "N|PIECE=N,..."));
   auto* subdivision = p->add_option("--subdivision", o.subdivision,
@@ -61,7 +62,12 @@ std::optional<int> parse(cli::Parser& p, const std::vector<std::string>& argv, O
               "texture coordinates per part (u around each contour, v along each\n"
               "piece), the seams split so the file's vertices are not welded there;\n"
               "a .glb gets one material per part (a checker in the part's colour)");
+  p->add_option("--emit-rigid-meshes", o.emit_rigid,
+                "instead: mesh the body's head, left hand and left foot from their field and\n"
+                "write them as the C++ table the program ships (scripts/regen_rigid_meshes.sh)")
+      ->type_name("FILE.cpp");
   if (auto exit_code = p.parse(argv)) return exit_code;
+  if (o.out.empty() && o.emit_rigid.empty()) return p.usage_error("--out FILE is required");
   if (*avatar::parse_skin_method(o.method) == avatar::SkinMethod::realtime && subdivision->count() > 0)
     return p.usage_error(
         "--subdivision is for --method full (the realtime method, the default, has its contour points as vertices)");
@@ -116,6 +122,16 @@ int realtime_mesh(const Options& args, const avatar::BodyModel& body) {
   return write_out(mesh, args.uv ? &(*shared)->texture_layout() : nullptr, args.out);
 }
 
+// The shipped table of rigid meshes (rigid_mesh_table.h), meshed from the body's field.
+int emit_rigid_meshes(const avatar::BodyModel& body, const std::string& path) {
+  const auto t0 = std::chrono::steady_clock::now();
+  auto source = avatar::rigid_mesh_table(body);
+  if (!source) return failure(kName, source.error().message);
+  if (auto st = write_file_atomic(path, *source); !st) return failure(kName, st.error().message);
+  std::printf("wrote     %-52s %8.2f ms\n", path.c_str(), ms_since(t0));
+  return 0;
+}
+
 int run_mesh(const std::vector<std::string>& argv) {
   cli::Parser p(kName, kAbout);
   Options args;
@@ -129,6 +145,7 @@ int run_mesh(const std::vector<std::string>& argv) {
   const double body_ms = ms_since(t0);
   std::printf("body      %-40s %4zu primitives   %8.2f ms\n",
               (args.body.empty() ? "built-in default" : args.body.c_str()), body->primitives.size(), body_ms);
+  if (!args.emit_rigid.empty()) return emit_rigid_meshes(*body, args.emit_rigid);
   const avatar::BodyModel at_lod = avatar::with_skin_lods(*body, *lods);
   std::printf("lod       %s\n", avatar::skin_lods_name(*lods).c_str());
   if (*method == avatar::SkinMethod::realtime) return realtime_mesh(args, at_lod);

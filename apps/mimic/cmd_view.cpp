@@ -241,6 +241,17 @@ int screenshot(const ShotOptions& shot, const ViewOptions& view) {
       if (!reference) return failure(kName, reference.error().message);
       draws.push_back(*reference);
     }
+    if (!view.focus.empty()) {  // a close-up of one part: its vertices' box fills the image
+      const avatar::Mesh& m = lods->mesh(probe_lod);
+      glm::vec3 plo(1e9f), phi(-1e9f);
+      for (const avatar::MeshPart& part : m.parts)
+        if (part.name == view.focus)
+          for (uint32_t k = 3 * part.first_triangle; k < 3 * (part.first_triangle + part.triangle_count); ++k)
+            plo = glm::min(plo, m.positions[m.indices[k]]), phi = glm::max(phi, m.positions[m.indices[k]]);
+      if (plo.x > phi.x) return usage_error(kName, "--focus: the mesh has no part '" + view.focus + "'");
+      render::fit_box(frame.camera, plo, phi, aspect, 0.0f, 1.0f);
+      frame.camera.near_m = 0.01f;
+    }
     const int lod = view.lod >= 0
                         ? view.lod
                         : render::choose_lod(frame.camera.distance_m, height_m, frame.camera.fov_y_rad, view.height);
@@ -463,6 +474,10 @@ void add_drawing_options(cli::Parser& p, ViewOptions& view) {
        "the body, so bodies of different sizes share one scale")
       ->type_name("M")
       ->check(cli::finite_range(0.5, 20));
+  p->add_option("--focus", view.focus,
+                "screenshots: frame one part of the mesh close up (head, left_hand, right_hand,\n"
+                "left_foot, right_foot, or any skin piece)")
+      ->type_name("PART");
   p->add_flag_function(
       "--no-grid", [&view](std::int64_t) { view.grid = false; }, "leave out the floor grid");
 }

@@ -22,9 +22,10 @@ struct ViewOptions {
   int ray_ring = 40;
   bool grid = true;
   bool see_through = false;
-  bool ambient_occlusion = true;                             // --no-ao: without the screen-space ambient occlusion
-  bool unlit = false;                                        // --shading albedo: the materials' colours without light
-  float frame_height_m = 0;                                  // screenshots: > 0 frames this height about the origin
+  bool ambient_occlusion = true;  // --no-ao: without the screen-space ambient occlusion
+  bool unlit = false;             // --shading albedo: the materials' colours without light
+  float frame_height_m = 0;       // screenshots: > 0 frames this height about the origin
+  std::string focus;              // screenshots: frame this mesh part (head, left_hand, …) close up
   avatar::SkinMethod method = avatar::SkinMethod::realtime;  // how the drawn skin is made
   // The local scene (without --connect): what `mimic run` would serve (service/scene_builder.h).
   std::vector<service::SourceEntry> sources;

@@ -73,7 +73,7 @@ std::vector<glm::vec3> clothing_albedo(const rig::Skeleton& skeleton, std::span<
                       (1.0f - above(std::abs(p.x), m.sleeve_hem_x, e));
       c = glm::mix(c, wardrobe.top, s);
     }
-    if (m.shoes) c = glm::mix(c, wardrobe.shoes, 1.0f - above(p.y, m.ankle_y, e));
+    if (m.shoes && wardrobe.wear_shoes) c = glm::mix(c, wardrobe.shoes, 1.0f - above(p.y, m.ankle_y, e));
     albedo.push_back(c);
   }
   return albedo;

@@ -137,6 +137,16 @@ float BodyField::field_of_part(const glm::vec3& p, RigidPart part) const {
   return sum;
 }
 
+float BodyField::field_of(const glm::vec3& p, std::span<const uint16_t> candidates) const {
+  float sum = 0;
+  for (uint16_t i : candidates) {
+    if (hard_[i]) continue;
+    const glm::vec3 q = unit_from_world_[i] * (p - center_[i]);
+    sum += term(glm::dot(q, q), inv_r2_[i], weight_norm_[i]);
+  }
+  return sum;
+}
+
 bool BodyField::inside(const glm::vec3& p, GroupMask mask) const {
   for (int i = 0; i < size(); ++i) {
     if (!(groups_[i] & mask) || !hard_[i]) continue;

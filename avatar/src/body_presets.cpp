@@ -11,11 +11,11 @@ namespace {
 // breadths; the shape changes below set what they cannot: proportions of parts to each other.
 
 // A six-year-old (CDC 2000 stature-for-age, 50th percentile: 1.15 m): the head about a sixth of
-// the stature (an adult's is an eighth: the head has grown to 90 % of its adult size by six),
+// the stature (an adult's about a seventh: the head has grown to 90 % of its adult size by six),
 // legs shorter for the height (sitting height 56 % of stature against 52 %), a rounder belly and
 // softer, less muscled limbs.
 const ShapeChange kChildShape[] = {
-    {"part:head", glm::vec3(1.35f)},
+    {"part:head", glm::vec3(1.09f)},
     {"neck_base neck_mid neck_top", {1.12f, 1.0f, 1.12f}},
     {"abdomen lower_abdomen", {1.08f, 1.0f, 1.18f}, {0, 0, 0.006f}},
     {"l_deltoid l_biceps l_triceps l_forearm_muscles l_calf l_quadriceps l_hamstring", {0.94f, 1.0f, 0.94f}},
@@ -56,11 +56,11 @@ const ShapeChange kHeavyShape[] = {
 const std::array kPresets{
     BodyPreset{"child",
                "about 6 years, 1.15 m: head a sixth of the height, shorter legs, rounder belly",
-               {.total_height = 0.65f,
+               {.total_height = 0.675f,
                 .frontal_scaling = 1.02f,
                 .high_lateral_scaling = 0.98f,
                 .low_lateral_scaling = 0.98f,
-                .spine_origin_ratio = 0.93f},
+                .spine_origin_ratio = 0.90f},
                kChildShape},
     BodyPreset{"adult_female",
                "1.62 m: narrower shoulders, wider hips, a bust",

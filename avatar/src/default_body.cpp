@@ -5,6 +5,9 @@
 // converted to joint frames, which are parallel to the world there. Left-side primitives are
 // mirrored to the right. Muscles (deltoid, biceps, triceps, forearm, pectoral, gluteal,
 // quadriceps, hamstring, calf) deform with their reference DOF.
+#include <cmath>
+#include <initializer_list>
+
 #include <glm/gtx/norm.hpp>
 
 #include "mimic/avatar/body_model.h"
@@ -180,15 +183,53 @@ void add_left_arm(Author& a) {
   a.add("l_wrist_pad", "l_wrist", {0.622f, 1.341f, 0.0f}, {0.025f, 0.017f, 0.026f}, G({left_lower_arm}));
 }
 
-// The left hand, rigid.
+// A finger or thumb as a chain of phalanges from its base joint (world, zero posture), each
+// an ellipsoid along its bone: length, radius, and the bone's direction as flexion towards the
+// palm (−Y for a hand lying along +X, palm down; each joint's flexion adds to the last) and
+// spread towards the thumb (+Z). Ellipsoids overlap their neighbours by kKnuckle_m at each joint.
+struct Phalanx {
+  float length_m, radius_m, flexion_deg;
+};
+void finger(Author& a, const std::string& name, RigidPart part, glm::vec3 base_world, float spread_deg,
+            std::initializer_list<Phalanx> bones, float influence = 1.3f) {
+  constexpr float kKnuckle_m = 0.004f;
+  float flex = 0;
+  int k = 0;
+  for (const Phalanx& b : bones) {
+    flex += b.flexion_deg;
+    const float t = glm::radians(flex), s = glm::radians(spread_deg);
+    const glm::vec3 dir(std::cos(t) * std::cos(s), -std::sin(t), std::cos(t) * std::sin(s));
+    // Rz·Ry carries the primitive's x onto dir: Ry by −asin(dir.z), then Rz by the pitch.
+    const glm::vec3 orientation_deg(0, glm::degrees(-std::asin(dir.z)), glm::degrees(std::atan2(dir.y, dir.x)));
+    a.rigid(name + "_" + std::to_string(++k), "l_wrist", part, base_world + 0.5f * b.length_m * dir,
+            {0.5f * b.length_m + kKnuckle_m, b.radius_m, b.radius_m * 1.08f}, influence, orientation_deg);
+    base_world += b.length_m * dir;
+  }
+}
+
+// The left hand, rigid: palm, four fingers and a thumb in a relaxed curl (the skeleton has no
+// finger joints). The knuckles lie 9.5 cm beyond the wrist, the middle finger is 9.3 cm long
+// (MakeHuman's base mesh: 9.6 and 8.2 cm to its last joint).
 void add_left_hand(Author& a) {
   using enum Group;
-  // --- hand (rigid, a mitten: fingers together) --------------------------------------------------
-  a.rigid("l_palm", "l_wrist", RigidPart::left_hand, {0.675f, 1.341f, 0.0f}, {0.05f, 0.016f, 0.042f});
-  a.rigid("l_fingers", "l_wrist", RigidPart::left_hand, {0.75f, 1.339f, -0.005f}, {0.05f, 0.011f, 0.037f});
-  a.rigid("l_thumb", "l_wrist", RigidPart::left_hand, {0.665f, 1.334f, 0.047f}, {0.035f, 0.012f, 0.013f}, 1.5f,
-          {0, -40, 0});
-  a.rigid("l_hand_wrist", "l_wrist", RigidPart::left_hand, {0.628f, 1.341f, 0.0f}, {0.022f, 0.018f, 0.027f});
+  // --- hand (rigid) -------------------------------------------------------------------------------
+  constexpr RigidPart kHand = RigidPart::left_hand;
+  a.rigid("l_palm", "l_wrist", kHand, {0.672f, 1.342f, 0.0f}, {0.05f, 0.014f, 0.04f});
+  a.rigid("l_palm_heel", "l_wrist", kHand, {0.652f, 1.332f, -0.004f}, {0.03f, 0.012f, 0.032f});
+  a.rigid("l_thenar", "l_wrist", kHand, {0.657f, 1.331f, 0.025f}, {0.03f, 0.012f, 0.016f}, 1.5f, {0, -35, 0});
+  a.rigid("l_hand_wrist", "l_wrist", kHand, {0.628f, 1.341f, 0.0f}, {0.022f, 0.018f, 0.027f});
+  // Index, middle, ring, little: base (the knuckle), spread, phalanges (length, radius, flexion).
+  finger(a, "l_index", kHand, {0.712f, 1.343f, 0.027f}, 6,
+         {{0.040f, 0.0076f, 8}, {0.024f, 0.007f, 22}, {0.020f, 0.0064f, 12}});
+  finger(a, "l_middle", kHand, {0.716f, 1.343f, 0.009f}, 1,
+         {{0.044f, 0.0078f, 12}, {0.028f, 0.0072f, 26}, {0.021f, 0.0065f, 14}});
+  finger(a, "l_ring", kHand, {0.712f, 1.342f, -0.009f}, -4,
+         {{0.041f, 0.0074f, 15}, {0.027f, 0.0068f, 28}, {0.021f, 0.0062f, 15}});
+  finger(a, "l_little", kHand, {0.704f, 1.341f, -0.026f}, -10,
+         {{0.032f, 0.0066f, 18}, {0.019f, 0.006f, 30}, {0.018f, 0.0056f, 15}});
+  // The thumb from its carpometacarpal joint: forward (+Z), out and a little down.
+  finger(a, "l_thumb", kHand, {0.638f, 1.334f, 0.026f}, 42,
+         {{0.040f, 0.0105f, 12}, {0.032f, 0.0085f, 14}, {0.027f, 0.0078f, 14}});
 }
 
 // The left leg, hip to ankle, with its muscles.
@@ -222,27 +263,53 @@ void add_left_leg(Author& a) {
   a.hard("l_malleolus", "l_ankle", {0.11f, 0.075f, 0.0f}, {0.032f, 0.02f, 0.022f}, G({left_ankle}));
 }
 
-// The left foot, rigid.
+// The left foot, rigid, bare: heel, arch and ball on a flat sole on the floor (y = 0 in the zero
+// posture), five toes ahead of the toe joint (whose vertices bend with it, contour_layout.cpp
+// bind_toes). 24.5 cm from heel to big toe, 9.5 cm across the ball (MakeHuman's base mesh).
 void add_left_foot(Author& a) {
   using enum Group;
   // --- foot (rigid) -------------------------------------------------------------------------------
-  a.rigid("l_heel", "l_ankle", RigidPart::left_foot, {0.11f, 0.04f, -0.02f}, {0.03f, 0.035f, 0.04f});
-  a.rigid("l_foot_arch", "l_ankle", RigidPart::left_foot, {0.11f, 0.038f, 0.06f}, {0.04f, 0.032f, 0.07f});
-  a.rigid("l_foot_ball", "l_ankle", RigidPart::left_foot, {0.115f, 0.025f, 0.15f}, {0.045f, 0.021f, 0.05f});
-  a.rigid("l_foot_ankle", "l_ankle", RigidPart::left_foot, {0.11f, 0.075f, 0.0f}, {0.03f, 0.03f, 0.034f});
+  constexpr RigidPart kFoot = RigidPart::left_foot;
+  a.rigid("l_heel", "l_ankle", kFoot, {0.11f, 0.036f, -0.018f}, {0.03f, 0.032f, 0.036f});
+  a.rigid("l_foot_ankle", "l_ankle", kFoot, {0.11f, 0.07f, 0.0f}, {0.03f, 0.032f, 0.034f});
+  a.rigid("l_instep", "l_ankle", kFoot, {0.114f, 0.038f, 0.055f}, {0.034f, 0.026f, 0.06f});
+  a.rigid("l_sole", "l_ankle", kFoot, {0.114f, 0.012f, 0.055f}, {0.036f, 0.011f, 0.09f});
+  a.rigid("l_foot_ball", "l_ankle", kFoot, {0.116f, 0.017f, 0.118f}, {0.044f, 0.016f, 0.03f});
+  // Big toe to little toe: centre, half length, radius.
+  a.rigid("l_toe_1", "l_ankle", kFoot, {0.087f, 0.014f, 0.168f}, {0.0115f, 0.011f, 0.024f}, 1.4f, {0, -6, 0});
+  a.rigid("l_toe_2", "l_ankle", kFoot, {0.106f, 0.012f, 0.163f}, {0.0085f, 0.0085f, 0.019f}, 1.4f, {0, -3, 0});
+  a.rigid("l_toe_3", "l_ankle", kFoot, {0.122f, 0.011f, 0.156f}, {0.008f, 0.008f, 0.017f}, 1.4f);
+  a.rigid("l_toe_4", "l_ankle", kFoot, {0.136f, 0.0105f, 0.148f}, {0.0075f, 0.0075f, 0.015f}, 1.4f, {0, 4, 0});
+  a.rigid("l_toe_5", "l_ankle", kFoot, {0.149f, 0.01f, 0.138f}, {0.007f, 0.007f, 0.013f}, 1.4f, {0, 8, 0});
 }
 
-// The head, rigid.
+// The head, rigid, in the head joint's place of MakeHuman's base mesh: skull, brow, eye sockets
+// with eyeballs, cheekbones, nose, lips, jaw and chin, ears. Crown 15 cm above the head joint,
+// forehead 13.7 cm and nose tip 15 cm in front of it, eyes 6.2 cm apart.
 void add_head(Author& a) {
   using enum Group;
   // --- head (rigid) -------------------------------------------------------------------------------
-  a.rigid("cranium", "head", RigidPart::head, {0, 1.6f, 0.0f}, {0.075f, 0.085f, 0.095f});
-  a.rigid("face", "head", RigidPart::head, {0, 1.565f, 0.05f}, {0.065f, 0.075f, 0.06f});
-  a.rigid("jaw", "head", RigidPart::head, {0, 1.52f, 0.045f}, {0.055f, 0.035f, 0.055f});
-  a.rigid("nose", "head", RigidPart::head, {0, 1.57f, 0.11f}, {0.012f, 0.02f, 0.018f});
-  a.rigid("chin", "head", RigidPart::head, {0, 1.5f, 0.08f}, {0.025f, 0.02f, 0.02f});
-  a.rigid("l_ear", "head", RigidPart::head, {0.075f, 1.575f, 0.0f}, {0.012f, 0.03f, 0.02f});
-  a.rigid("skull_base", "head", RigidPart::head, {0, 1.515f, 0.0f}, {0.05f, 0.035f, 0.05f});
+  constexpr RigidPart kHead = RigidPart::head;
+  a.rigid("cranium", "head", kHead, {0, 1.58f, 0.038f}, {0.07f, 0.085f, 0.092f});
+  a.rigid("forehead", "head", kHead, {0, 1.598f, 0.085f}, {0.058f, 0.04f, 0.045f});
+  a.rigid("skull_base", "head", kHead, {0, 1.515f, 0.0f}, {0.05f, 0.04f, 0.045f});
+  a.rigid("brow", "head", kHead, {0, 1.568f, 0.108f}, {0.06f, 0.012f, 0.022f}, 1.4f);
+  a.rigid("l_eye", "head", kHead, {0.031f, 1.547f, 0.1f}, {0.0115f, 0.0115f, 0.0115f}, 1.2f);
+  a.rigid("l_parietal", "head", kHead, {0.042f, 1.548f, 0.012f}, {0.032f, 0.04f, 0.05f});
+  a.rigid("midface", "head", kHead, {0, 1.503f, 0.055f}, {0.062f, 0.042f, 0.062f});
+  a.rigid("l_cheekbone", "head", kHead, {0.043f, 1.527f, 0.088f}, {0.017f, 0.01f, 0.02f});
+  a.rigid("l_cheek", "head", kHead, {0.037f, 1.505f, 0.088f}, {0.026f, 0.025f, 0.024f});
+  a.rigid("nose_bridge", "head", kHead, {0, 1.535f, 0.121f}, {0.0085f, 0.022f, 0.011f}, 1.35f, {-25, 0, 0});
+  a.rigid("nose_tip", "head", kHead, {0, 1.506f, 0.139f}, {0.013f, 0.011f, 0.011f}, 1.35f);
+  a.rigid("l_nostril", "head", kHead, {0.011f, 1.503f, 0.13f}, {0.0075f, 0.0065f, 0.008f}, 1.35f);
+  a.rigid("muzzle", "head", kHead, {0, 1.474f, 0.1f}, {0.032f, 0.025f, 0.026f}, 1.4f);
+  a.rigid("upper_lip", "head", kHead, {0, 1.479f, 0.125f}, {0.021f, 0.0065f, 0.009f}, 1.3f);
+  a.rigid("lower_lip", "head", kHead, {0, 1.467f, 0.122f}, {0.018f, 0.0065f, 0.009f}, 1.3f);
+  a.rigid("jaw", "head", kHead, {0, 1.468f, 0.06f}, {0.05f, 0.028f, 0.058f});
+  a.rigid("l_jaw_angle", "head", kHead, {0.047f, 1.478f, 0.018f}, {0.014f, 0.028f, 0.024f}, 1.4f);
+  a.rigid("chin", "head", kHead, {0, 1.447f, 0.114f}, {0.021f, 0.016f, 0.016f}, 1.4f);
+  a.rigid("l_ear", "head", kHead, {0.075f, 1.537f, 0.004f}, {0.0065f, 0.029f, 0.018f}, 1.4f, {-12, 25, 0});
+  a.rigid("l_ear_lobe", "head", kHead, {0.074f, 1.51f, 0.01f}, {0.006f, 0.01f, 0.008f}, 1.4f);
 }
 
 }  // namespace

@@ -173,15 +173,22 @@ TEST(BodyPresets, HeavyKeepsTheAdultMalesHead) {
 }
 
 // CDC 2000 stature-for-age, 50th percentile at six years: 1.15 m; the head (vertex to chin)
-// about a sixth of it. The built-in adult's head is an eighth of its stature.
+// about a sixth of it. The built-in adult's head (23.6 cm vertex to chin) is about a seventh of its
+// stature, as an adult's is (ANSUR II: 23–24 cm on 1.63–1.76 m).
 TEST(BodyPresets, TheChildsHeadIsASixthOfItsHeight) {
   const Measured& child = all().at("child");
   const Measured& adult = all().at("default");
   EXPECT_NEAR(child.stature_m, 1.15f, 0.03f);
   const float child_ratio = child.head_size_m.y / child.stature_m;
   const float adult_ratio = adult.head_size_m.y / adult.stature_m;
+  for (const auto& [name, m] : all())  // the table of docs/body-scaling.md
+    std::printf("[ figure ] %-12s stature %.3f m, head %.3f m (1/%.1f), hip joints %.3f, waist/hips %.2f, %.1f dm3\n",
+                name.c_str(), m.stature_m, m.head_size_m.y, m.stature_m / m.head_size_m.y, m.leg_m / m.stature_m,
+                m.full.waist_girth_m && m.full.hip_girth_m ? *m.full.waist_girth_m / *m.full.hip_girth_m : 0.0f,
+                m.full.volume_m3 * 1e3);
   EXPECT_NEAR(child_ratio, 1.0f / 6.0f, 0.01f);
-  EXPECT_LT(adult_ratio, 0.13f);
+  EXPECT_LT(adult_ratio, 0.145f);
+  EXPECT_GT(child_ratio, adult_ratio + 0.02f) << "a child's head is larger for its height";
   // Shorter legs for the height: the hip joints at 47 % of the stature against the adult's 52 %.
   EXPECT_LT(child.leg_m / child.stature_m, 0.92f * adult.leg_m / adult.stature_m);
 }

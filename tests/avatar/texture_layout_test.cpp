@@ -32,7 +32,9 @@ TEST(TextureLayout, SplitsTheSeamsAndKeepsEveryTriangle) {
     ASSERT_EQ(t.source.size(), t.uv.size());
     for (size_t k = 0; k < t.indices.size(); ++k) ASSERT_EQ(t.source[t.indices[k]], m.indices[k]) << k;
     EXPECT_GT(t.source.size(), m.positions.size()) << "seams add vertices";
-    EXPECT_LT(t.source.size(), m.positions.size() * 13 / 10) << "only seams";
+    // The skin pieces split along one seam each; the rigid parts' cube-map charts (texture_layout.cpp)
+    // along their charts' borders, about half their vertices more.
+    EXPECT_LT(t.source.size(), m.positions.size() * 3 / 2) << "only seams";
     std::set<uint32_t> used(t.source.begin(), t.source.end());
     EXPECT_EQ(used.size(), m.positions.size()) << "every vertex textured";
     for (size_t k = 0; k < t.indices.size(); k += 3) {

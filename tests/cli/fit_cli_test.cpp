@@ -56,9 +56,10 @@ TEST(FitCli, AFittedBodyIsNearerAndWorksEverywhere) {
   EXPECT_EQ(j["closed"], true) << r.output;
   EXPECT_EQ(j["missed_rays"], 0) << r.output;
   const auto before = distance_of(""), after = distance_of("--body " + out);
-  // Even a three-step fit brings the built-in body within 5 mm of the MakeHuman mesh both ways.
+  // The built-in body is already fitted with its head, hands and feet held (3.8 / 4.0 mm); three
+  // free steps, the rigid parts moving too, still bring it nearer (2.7 mm) and within 5 mm.
   for (const char* side : {"body_to_reference_mm", "reference_to_body_mm"}) {
-    EXPECT_LT(after[side]["mean"].get<double>(), 0.7 * before[side]["mean"].get<double>()) << after.dump();
+    EXPECT_LT(after[side]["mean"].get<double>(), 0.85 * before[side]["mean"].get<double>()) << after.dump();
     EXPECT_LE(after[side]["mean"].get<double>(), 5.0) << after.dump();
   }
   const Outcome mesh = run_mimic("mesh --body " + out + " --motion walk --time 0.4 --out " + obj);

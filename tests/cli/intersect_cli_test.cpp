@@ -40,7 +40,7 @@ TEST(IntersectCli, JsonLinesForEachFrameThenTheSummary) {
     EXPECT_EQ(f["method"], "realtime");
     EXPECT_EQ(f["lod"], 0);
     EXPECT_EQ(f["frame"], 15 * k);
-    EXPECT_EQ(f["triangles"], 9588);
+    EXPECT_EQ(f["triangles"], 14610);
     EXPECT_GT(f["by_design_pairs"].get<int>(), 100) << "the head, hands and feet sink into their pieces";
     EXPECT_GE(f["deepest_mm"].get<double>(), f["deepest_envelope_mm"].get<double>());
     for (const char* key : {"fold_pairs", "between_pairs", "sharpest_crease_deg", "by_parts"})
@@ -61,7 +61,7 @@ TEST(IntersectCli, AClipAtTwoLodsWithBothMethods) {
   // Frame 0 of a CMU clip is its T-pose: nothing passes through anything.
   EXPECT_NE(r.output.find("07_01 realtime lod 0 frame 0: folds 0, between 0"), std::string::npos) << r.output;
   EXPECT_NE(r.output.find("07_01 full lod 3 frame 200:"), std::string::npos) << r.output;
-  for (const char* row : {"07_01      realtime   0   9588      2 |", "07_01      full       3    438      2 |"})
+  for (const char* row : {"07_01      realtime   0  14610      2 |", "07_01      full       3    770      2 |"})
     EXPECT_NE(r.output.find(row), std::string::npos) << row << "\n" << r.output;
 }
 

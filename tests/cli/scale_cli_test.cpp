@@ -48,7 +48,7 @@ TEST(ScaleCli, ListsThePresets) {
   const Outcome r = run_mimic("scale --list");
   ASSERT_EQ(r.status, 0) << r.output;
   for (const auto& [name, _] : kPresets) EXPECT_NE(r.output.find(name), std::string::npos) << name;
-  EXPECT_NE(r.output.find("1.08m"), std::string::npos) << r.output;  // the child's skeleton height
+  EXPECT_NE(r.output.find("1.13m"), std::string::npos) << r.output;  // the child's skeleton height
 }
 
 TEST(ScaleCli, PresetsMoveHeightAndGirthsAsTheirRatiosSay) {

@@ -59,7 +59,9 @@ int largest_step_down_the_body(const mimic::render::Image& im, int* at_row = nul
   const int mid = (c.min_x + c.max_x) / 2, half = (c.max_x - c.min_x) / 2, h = c.max_y - c.min_y;
   int largest = 0;
   for (int x = mid - 3 * half / 10; x <= mid + 3 * half / 10; ++x)
-    for (int y = c.min_y + h / 8; y < c.min_y + 88 * h / 100;
+    // From under the chin (the head is a seventh of the height: its jaw over the shaded neck is a
+    // step of light, not of material) to above the shoes.
+    for (int y = c.min_y + h / 6; y < c.min_y + 88 * h / 100;
          ++y) {  // above the shoes: their top is the rigid foot's outline over the shin
       bool inside = true;
       for (int d = -2; d <= 3 && inside; ++d) inside = is_body(im, x, y + d);

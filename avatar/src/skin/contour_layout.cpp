@@ -5,6 +5,7 @@
 #include <array>
 #include <cassert>
 
+#include "rigid_part_mesh.h"
 #include "skin_impl.h"
 
 namespace mimic::avatar {
@@ -436,11 +437,11 @@ void add_limb(Data& d, const LimbSpec& spec, std::span<const glm::vec3> ctrl) {
   d.surfaces.push_back(std::move(s));
 }
 
-// A rigid part sampled once in the zero posture, kept in its joint's frame: a pole, rigid_rings
-// latitude rings of rigid_points, the other pole, on rays from the centre of its primitives.
+// A rigid part meshed once in the zero posture from its primitives' field (iso_mesh.h), kept in
+// its joint's frame: marching tetrahedra on a grid fine enough for its thinnest primitive (a
+// finger, an ear), simplified to the part's vertex budget.
 void add_rigid_part(Data& d, RigidPart part, const BodyModel& model, const BodyField& field,
                     std::span<const rig::RigidTransform> world_from_joint) {
-  const SkinLayout& L = d.counts;
   const rig::Skeleton& skeleton = d.skeleton;
   std::vector<uint16_t> cand(kMaxCandidates);
   const int n = field.candidates_of_part(part, cand);
@@ -449,32 +450,12 @@ void add_rigid_part(Data& d, RigidPart part, const BodyModel& model, const BodyF
   int jnt = -1;
   for (const Primitive& p : model.primitives)
     if (p.part == part) jnt = skeleton.find_joint(p.joint);
-  glm::vec3 centre(0);
-  for (uint16_t i : cand) centre += field.center(i);
-  centre /= static_cast<float>(n);
-  const rig::RigidTransform& w = world_from_joint[jnt];
-  const glm::vec3 axis = safe_normalize(w.apply_vector(skeleton.tip_m(jnt)), {0, 1, 0});
-  const glm::vec3 front0 = std::abs(axis.z) < 0.9f ? glm::vec3(0, 0, 1) : glm::vec3(0, 1, 0);
-  const glm::vec3 front = glm::normalize(front0 - glm::dot(front0, axis) * axis);
-  const glm::vec3 left = glm::cross(axis, front);
+  IsoMesh m = mesh_rigid_part(part, model, field, cand, world_from_joint[jnt], d.counts);
   RigidMesh rm;
   rm.part = part;
   rm.joint = jnt;
-  const rig::RigidTransform local_from_world = w.inverse();
-  auto sample = [&](const glm::vec3& dir) {
-    const RayHit h = field.cast_outermost(centre, dir, cand);
-    const glm::vec3 p = centre + (h.hit() ? h.t : kMissRadius_m) * dir;
-    rm.local.push_back(local_from_world.apply(p));
-  };
-  sample(-axis);
-  for (int ri = 1; ri <= L.rigid_rings; ++ri) {
-    const float theta = kPi * static_cast<float>(ri) / static_cast<float>(L.rigid_rings + 1);
-    for (int pj = 0; pj < L.rigid_points; ++pj) {
-      const float phi = kTwoPi * static_cast<float>(pj) / static_cast<float>(L.rigid_points);
-      sample(-std::cos(theta) * axis + std::sin(theta) * (std::cos(phi) * front + std::sin(phi) * left));
-    }
-  }
-  sample(axis);
+  rm.local = std::move(m.positions);
+  rm.triangles = std::move(m.triangles);
   bind_toes(rm, skeleton, world_from_joint);
   d.rigid.push_back(std::move(rm));
 }

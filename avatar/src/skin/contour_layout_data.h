@@ -260,7 +260,8 @@ struct Bridge {
 struct RigidMesh {
   RigidPart part = RigidPart::none;
   int joint = -1;
-  std::vector<glm::vec3> local;  // vertices in the joint frame
+  std::vector<glm::vec3> local;     // vertices in the joint frame
+  std::vector<uint32_t> triangles;  // into local, counter-clockwise seen from outside
   uint32_t first_vertex = 0;
   // A foot's forefoot bends with its toes: the vertices ahead of the joint's child (the toe
   // joint) blend towards it by toe_weight, from toe_local, their rest place in its frame. Else
@@ -270,6 +271,18 @@ struct RigidMesh {
   std::vector<float> toe_weight;     // 0 (the part's joint) .. 1 (the toe joint)
   std::vector<glm::vec3> toe_local;
 };
+
+// How the rigid parts are meshed (contour_layout.cpp add_rigid_part): each part's share of the
+// vertex budget, in UV spheres of rigid_rings × rigid_points; the marching grid's cell, from the
+// part's thinnest primitive (this many of its smallest semi-axis per cell, within the bounds),
+// coarser when the part's box would hold more nodes than kRigidMaxNodes; the coarse grid that
+// finds the box; the relaxation passes after simplification.
+inline constexpr float kRigidShareHead = 3.5f, kRigidShareHand = 2.5f, kRigidShareFoot = 1.5f;
+inline constexpr size_t kRigidMinVertices = 24;
+inline constexpr float kRigidCellPerAxis = 0.4f, kRigidMinCell_m = 0.0025f, kRigidMaxCell_m = 0.005f;
+inline constexpr float kRigidMaxNodes = 400000.0f;
+inline constexpr float kRigidCoarseCell_m = 0.006f;
+inline constexpr int kRigidRelaxPasses = 3;
 
 // The forefoot blend of a rigid part (RigidMesh::toe_*): behind the toe joint's crease plane
 // by more than this the part's own joint moves a vertex, ahead by more than the front distance

@@ -4,6 +4,8 @@
 #include "mimic/avatar/texture_layout.h"
 
 #include <algorithm>
+#include <array>
+#include <cmath>
 #include <map>
 #include <tuple>
 
@@ -33,6 +35,59 @@ class Builder {
 };
 
 float frac(size_t i, size_t n) { return n > 0 ? static_cast<float>(i) / static_cast<float>(n) : 0.0f; }
+
+// Each triangle's chart (axis 2i+0 is +e_i, 2i+1 is −e_i): the axis its normal points most along.
+std::vector<int> rigid_charts(const RigidMesh& rm) {
+  const size_t nt = rm.triangles.size() / 3;
+  std::vector<glm::vec3> normal(nt);
+  std::vector<int> chart(nt);
+  for (size_t t = 0; t < nt; ++t) {
+    const glm::vec3 &p0 = rm.local[rm.triangles[3 * t]], &p1 = rm.local[rm.triangles[3 * t + 1]],
+                    &p2 = rm.local[rm.triangles[3 * t + 2]];
+    normal[t] = safe_normalize(glm::cross(p1 - p0, p2 - p0), {0, 0, 1});
+    int axis = 0;
+    for (int i = 1; i < 3; ++i)
+      if (std::abs(normal[t][i]) > std::abs(normal[t][axis])) axis = i;
+    chart[t] = 2 * axis + (normal[t][axis] < 0 ? 1 : 0);
+  }
+  return chart;
+}
+
+// A rigid part's UVs, a cube map: each triangle goes to the chart of the axis (±x, ±y, ±z of
+// its joint's frame) its normal points most along and is projected along that axis, so no
+// triangle folds over in (u, v) (its normal's component along the axis is at least 1/√3 of it)
+// and vertices split only where neighbouring triangles face different axes. The six charts sit
+// in a 3 × 2 grid of the part's square at one scale (the part's box's largest side), each in its
+// cell with a margin, and the part then fills its unit square.
+void rigid_uvs(const RigidMesh& rm, Builder& b) {
+  if (rm.local.empty()) return;
+  glm::vec3 box_lo(1e9f), box_hi(-1e9f);
+  for (const glm::vec3& p : rm.local) box_lo = glm::min(box_lo, p), box_hi = glm::max(box_hi, p);
+  const glm::vec3 box = box_hi - box_lo;
+  const float extent = std::max({box.x, box.y, box.z, 1e-6f});
+  // Per chart (+x, −x, +y, −y, +z, −z): the axes of u and v, with u × v along the chart's axis.
+  static constexpr std::array<std::array<int, 2>, 6> kAxes{{{1, 2}, {2, 1}, {2, 0}, {0, 2}, {0, 1}, {1, 0}}};
+  // Within its cell a chart takes 0.28 × 0.45 of the square (a triangle then spans at most that).
+  constexpr float kMargin = 0.01f, kWidth = 0.28f, kHeight = 0.45f;
+  const std::vector<int> chart_of = rigid_charts(rm);
+  std::vector<glm::vec2> corners(rm.triangles.size());
+  glm::vec2 lo(1e9f), hi(-1e9f);
+  for (size_t k = 0; k + 2 < rm.triangles.size(); k += 3) {
+    const size_t chart = static_cast<size_t>(chart_of[k / 3]);
+    const glm::vec2 cell(static_cast<float>(chart % 3) / 3.0f, static_cast<float>(chart / 3) / 2.0f);
+    for (size_t c = 0; c < 3; ++c) {
+      const glm::vec3 q = (rm.local[rm.triangles[k + c]] - box_lo) / extent;
+      const glm::vec2 uv = cell + kMargin + glm::vec2(kWidth * q[kAxes[chart][0]], kHeight * q[kAxes[chart][1]]);
+      corners[k + c] = uv;
+      lo = glm::min(lo, uv), hi = glm::max(hi, uv);
+    }
+  }
+  const glm::vec2 span = glm::max(hi - lo, glm::vec2(1e-6f));
+  for (size_t k = 0; k < corners.size(); ++k) {
+    const glm::vec2 uv = glm::clamp((corners[k] - lo) / span, glm::vec2(0), glm::vec2(1));
+    b.corner(rm.first_vertex + rm.triangles[k], uv.x, uv.y);
+  }
+}
 
 }  // namespace
 
@@ -96,30 +151,7 @@ TextureLayout texture_layout(const ContourLayout& layout) {
       }
     }
   }
-  const size_t rings = static_cast<size_t>(m.counts.rigid_rings), pts = static_cast<size_t>(m.counts.rigid_points);
-  for (const RigidMesh& rm : m.rigid) {
-    const uint32_t south = rm.first_vertex, north = south + 1 + static_cast<uint32_t>(rings * pts);
-    auto at = [&](size_t r, size_t j) { return south + 1 + static_cast<uint32_t>(r * pts + j % pts); };
-    auto pole_u = [&](size_t j) { return (static_cast<float>(j) + 0.5f) / static_cast<float>(pts); };
-    for (size_t j = 0; j < pts; ++j) {
-      const float v = frac(1, rings + 1);
-      b.corner(at(0, j + 1), frac(j + 1, pts), v), b.corner(at(0, j), frac(j, pts), v),
-          b.corner(south, pole_u(j), 0.0f);
-    }
-    for (size_t r = 0; r + 1 < rings; ++r) {
-      const float v0 = frac(r + 1, rings + 1), v1 = frac(r + 2, rings + 1);
-      for (size_t j = 0; j < pts; ++j) {
-        const float u0 = frac(j, pts), u1 = frac(j + 1, pts);
-        b.corner(at(r, j), u0, v0), b.corner(at(r, j + 1), u1, v0), b.corner(at(r + 1, j + 1), u1, v1);
-        b.corner(at(r, j), u0, v0), b.corner(at(r + 1, j + 1), u1, v1), b.corner(at(r + 1, j), u0, v1);
-      }
-    }
-    for (size_t j = 0; j < pts; ++j) {
-      const float v = frac(rings, rings + 1);
-      b.corner(at(rings - 1, j), frac(j, pts), v), b.corner(at(rings - 1, j + 1), frac(j + 1, pts), v);
-      b.corner(north, pole_u(j), 1.0f);
-    }
-  }
+  for (const RigidMesh& rm : m.rigid) rigid_uvs(rm, b);
   return out;
 }
 

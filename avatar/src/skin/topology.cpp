@@ -219,24 +219,13 @@ void surface_triangles(Data& d, Triangles& tri) {
   }
 }
 
-// Head, hands, feet: a fan at each pole and bands between their latitude rings.
+// Head, hands, feet: each its own closed mesh (contour_layout.cpp add_rigid_part).
 void rigid_triangles(const Data& d, Triangles& tri) {
-  const uint32_t rings_n = static_cast<uint32_t>(d.counts.rigid_rings),
-                 pts = static_cast<uint32_t>(d.counts.rigid_points);
   for (const RigidMesh& rm : d.rigid) {
     tri.begin_part(rigid_part_name(rm.part));
-    const uint32_t south = rm.first_vertex;
-    const uint32_t north = south + 1 + rings_n * pts;
-    auto ring = [&](uint32_t r) {
-      std::vector<uint32_t> v(pts);
-      for (uint32_t j = 0; j < pts; ++j) v[j] = south + 1 + r * pts + j;
-      return v;
-    };
-    const auto first = ring(0);
-    for (uint32_t j = 0; j < pts; ++j) tri.add(first[(j + 1) % pts], first[j], south);
-    for (uint32_t r = 0; r + 1 < rings_n; ++r) tri.band(ring(r), ring(r + 1));
-    const auto last = ring(rings_n - 1);
-    for (uint32_t j = 0; j < pts; ++j) tri.add(last[j], last[(j + 1) % pts], north);
+    for (size_t k = 0; k + 2 < rm.triangles.size(); k += 3)
+      tri.add(rm.first_vertex + rm.triangles[k], rm.first_vertex + rm.triangles[k + 1],
+              rm.first_vertex + rm.triangles[k + 2]);
     tri.end_part();
   }
 }

@@ -1,5 +1,5 @@
 // What the body wears, as a colour per vertex: one skin material over every part (skin pieces
-// and the rigid head, hands and feet alike), with a short-sleeved top, shorts and shoes laid on
+// and the rigid head, hands and feet alike), with a short-sleeved top and shorts (shoes if asked) laid on
 // it as regions of the body whose edges blend over a few centimetres. The regions are placed by
 // the skeleton's landmarks (waist between the lower and middle spine, hems part way down the
 // thigh and the upper arm, a neckline round the neck, shoes up to the ankle), measured on the
@@ -22,7 +22,8 @@ struct Wardrobe {
   glm::vec3 top{0.28f, 0.47f, 0.64f};
   glm::vec3 shorts{0.23f, 0.25f, 0.31f};
   glm::vec3 shoes{0.20f, 0.17f, 0.15f};
-  float edge_m = 0.03f;  // width over which a garment's edge blends into what lies next to it
+  bool wear_shoes = false;  // the built-in feet are modelled bare, toes and all
+  float edge_m = 0.03f;     // width over which a garment's edge blends into what lies next to it
 };
 
 // The colour of each vertex of a body mesh, given its positions in the zero posture

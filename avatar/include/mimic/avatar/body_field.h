@@ -62,6 +62,8 @@ class BodyField {
   bool inside(const glm::vec3& p, GroupMask mask) const;
   // Same, restricted to a rigid part's primitives.
   float field_of_part(const glm::vec3& p, RigidPart part) const;
+  // Summed metaball field at p over the listed primitives (hard ellipsoids left out).
+  float field_of(const glm::vec3& p, std::span<const uint16_t> candidates) const;
 
   // Indices of primitives in `mask` whose support reaches within `radius` of the plane
   // through `origin` with unit normal `normal` (a contour's candidates). Returns the count
