@@ -26,13 +26,17 @@ constexpr const char* kAbout =
 
 void print_progress(const avatar::FitProgress& p) {
   const auto& d = p.distance;
+  char girths[48] = "";
+  if (p.largest_girth_error > 0)
+    std::snprintf(girths, sizeof girths, ", girths within %.1f %%", 100.0 * p.largest_girth_error);
   if (p.stage == "shapes")
-    std::fprintf(stderr, "  shapes %2d/%d: %6.2f mm body -> mesh, %6.2f mm mesh -> body%s\n", p.iteration, p.iterations,
-                 d.body_to_reference.mean_m * 1e3, d.reference_to_body.mean_m * 1e3,
+    std::fprintf(stderr, "  shapes %2d/%d: %6.2f mm body -> mesh, %6.2f mm mesh -> body%s%s\n", p.iteration,
+                 p.iterations, d.body_to_reference.mean_m * 1e3, d.reference_to_body.mean_m * 1e3, girths,
                  p.accepted ? "" : "  (step refused)");
   else
-    std::fprintf(stderr, "  %-8s    : %6.2f mm body -> mesh, %6.2f mm mesh -> body%s\n", p.stage.c_str(),
-                 d.body_to_reference.mean_m * 1e3, d.reference_to_body.mean_m * 1e3, p.accepted ? "" : "  (refused)");
+    std::fprintf(stderr, "  %-8s    : %6.2f mm body -> mesh, %6.2f mm mesh -> body%s%s\n", p.stage.c_str(),
+                 d.body_to_reference.mean_m * 1e3, d.reference_to_body.mean_m * 1e3, girths,
+                 p.accepted ? "" : "  (refused)");
 }
 
 // The built-in body's table of fitted overrides as the C++ source the library compiles in
@@ -77,7 +81,7 @@ int run_fit(const std::vector<std::string>& argv) {
   std::string mesh_path, joints, body_path, out, emit_default, name = "fitted";
   double units_per_metre = 10.0;
   avatar::FitOptions options;
-  bool json = false, no_skeleton = false, no_shapes = false;
+  bool json = false, no_skeleton = false, no_shapes = false, from_built_in = false;
   p->add_option("--mesh", mesh_path, "the person's mesh, .obj/.ply/.glb (default: the MakeHuman base mesh)")
       ->type_name("FILE");
   p->add_option("--joints", joints, "its joint centres, MakeHuman CSV (default: beside the default mesh)")
@@ -89,8 +93,11 @@ int run_fit(const std::vector<std::string>& argv) {
   p->add_option("--emit-default", emit_default,
                 "write the built-in body's table of fitted overrides (a C++ source,\n"
                 "avatar/src/default_body_fit.cpp): starts from the authored body, holds\n"
-                "the rigid parts (docs/fit.md)")
+                "the rigid parts, fits symmetrically (docs/fit.md)")
       ->type_name("FILE.cpp");
+  p->add_flag("--from-built-in", from_built_in,
+              "with --emit-default: start from the built-in body (the authored one with\n"
+              "the table as it is), refining the table instead of fitting anew");
   p->add_option("--name", name, "the fitted body's name");
   p->add_option("--iterations", options.iterations, "shape iterations (at most)")->check(CLI::Range(0, 1000));
   p->add_option("--samples", options.samples, "surface samples per side per iteration")->check(CLI::Range(500, 200000));
@@ -100,10 +107,19 @@ int run_fit(const std::vector<std::string>& argv) {
   p->add_option("--hold", options.held, "keep these primitives as they are (l_NAME holds r_NAME too)")
       ->type_name("NAME,...")
       ->delimiter(',');
+  p->add_option("--girth-weight", options.girth_weight,
+                "how much the tape girths count: a girth beyond --girth-band counts as\n"
+                "this fraction of the surface samples (0: the surface alone)")
+      ->check(CLI::Range(0.0, 10.0));
+  p->add_option("--girth-band", options.girth_band, "relative band round the reference's girths left free")
+      ->check(CLI::Range(0.0, 0.5));
+  p->add_flag("--symmetric", options.symmetric,
+              "fit each right primitive as its left twin's mirror image (the body made\n"
+              "mirror-symmetric first)");
   p->add_flag("--json", json, "print a JSON summary on stdout");
   if (auto exit_code = p.parse(argv)) return *exit_code;
   if (out_opt->empty() && emit_default.empty()) return p.usage_error("--out FILE (or --emit-default FILE) is required");
-  if (!emit_default.empty()) options.hold_rigid = true;
+  if (!emit_default.empty()) options.hold_rigid = options.symmetric = true;
   if (mesh_path.empty()) {
     mesh_path = data + "/mesh/makehuman_base_body.obj";
     if (joints.empty()) joints = data + "/mesh/makehuman_base_joints.csv";
@@ -122,8 +138,9 @@ int run_fit(const std::vector<std::string>& argv) {
       return failure(kName, mesh_path + ": the mesh has a non-finite vertex");
   auto landmarks = avatar::load_makehuman_joints(joints, metres_per_unit);
   if (!landmarks) return failure(kName, landmarks.error().message);
-  auto body = body_path.empty() && !emit_default.empty() ? Result<avatar::BodyModel>(avatar::authored_body_model())
-                                                         : body_from_path(body_path);
+  auto body = body_path.empty() && !emit_default.empty() && !from_built_in
+                  ? Result<avatar::BodyModel>(avatar::authored_body_model())
+                  : body_from_path(body_path);
   if (!body) return failure(kName, body.error().message);
 
   std::fprintf(stderr, "mimic fit: %s (%zu triangles) from %s\n", mesh_path.c_str(), mesh->triangle_count(),

@@ -59,15 +59,15 @@ TEST(DefaultBodyFit, WithinFiveMillimetresOfTheMakeHumanMeshBothWays) {
   ASSERT_TRUE(posed) << posed.error().what();
   EXPECT_TRUE(posed->closed);
   const SurfaceDistance d = surface_distance(posed->mesh, posed->landmarks, *mesh, *ref);
-  // Fitted: 4.29 / 4.78 mm. The junction bands' later changes (the arms' first ring at 0.4 of the
-  // upper arm, the driven points' squeeze) moved the skin under the fitted table to 4.3 / 5.06 mm;
-  // a refit on that skin lands at 4.39 / 4.93, too near 5 mm to hold across compilers. The bound
-  // keeps the fit from sliding back while the 5 mm target stays open.
-  EXPECT_LT(d.body_to_reference.mean_m, 0.0055);
-  EXPECT_LT(d.reference_to_body.mean_m, 0.0055);
-  // Girths, as `mimic compare` takes them, within 3 % of the mesh's; the thigh within 4 % (+3.4 %:
-  // the fits that bring it nearer leave a contour ray without a surface in a clip pose, or the
-  // legs' junction rings zigzagging, docs/fit.md).
+  // Refitted with the girths held (both sides as mirror images, refined from the table before,
+  // docs/fit.md): 3.82 / 3.99 mm with the modelled head, hands and feet (the table before: 3.84 /
+  // 4.00; on the mitten-and-egg rigid parts it was 4.52 / 5.06, when the bound was 5.5 mm). The
+  // issue's 5 mm leaves a millimetre for the skin's later changes.
+  EXPECT_LT(d.body_to_reference.mean_m, 0.005);
+  EXPECT_LT(d.reference_to_body.mean_m, 0.005);
+  // Girths, as `mimic compare` takes them, within 3 % of the mesh's (fitted: chest −1.0 %, waist
+  // −0.3 %, hips −0.3 %, thigh +1.5 %, calf −0.6 %, upper arm +0.7 %; the thigh was +3.4 % before
+  // the fit held the girths).
   const BodyMeasurements ours = measure_body(posed->mesh, posed->landmarks), theirs = measure_body(*mesh, *ref);
   for (auto [a, b, what] : {std::tuple{ours.chest_girth_m, theirs.chest_girth_m, "chest"},
                             std::tuple{ours.waist_girth_m, theirs.waist_girth_m, "waist"},
@@ -76,7 +76,7 @@ TEST(DefaultBodyFit, WithinFiveMillimetresOfTheMakeHumanMeshBothWays) {
                             std::tuple{ours.calf_girth_m, theirs.calf_girth_m, "calf"},
                             std::tuple{ours.upper_arm_girth_m, theirs.upper_arm_girth_m, "upper arm"}}) {
     ASSERT_TRUE(a && b) << what;
-    EXPECT_NEAR(*a / *b, 1.0f, std::string_view(what) == "thigh" ? 0.04f : 0.03f) << what;
+    EXPECT_NEAR(*a / *b, 1.0f, 0.03f) << what;
   }
 }
 

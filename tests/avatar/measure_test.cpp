@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <random>
+#include <tuple>
 
 #include <nlohmann/json.hpp>
 
@@ -185,6 +186,34 @@ TEST(Measure, ArmMergedWithTorsoIsSkippedNotWrapped) {
   ASSERT_TRUE(m.chest_girth_m);
   // The disc's loop is refused (it would measure 2π·0.40 = 2.5 m); the torso loop inside it counts.
   EXPECT_NEAR(*m.chest_girth_m, 2 * kPi * 0.15f, 0.01f * 2 * kPi * 0.15f);
+}
+
+// Where each girth was taken: its tape measures the same girth again, and the tape's hull
+// corners lie on the surface, round the limb, with the hull's perimeter the girth.
+TEST(Measure, EachGirthsTapeMeasuresItAgain) {
+  auto mesh = read_obj(test::shared_data("mesh/makehuman_base_body.obj"), 0.1f);
+  auto lm = load_makehuman_joints(test::shared_data("mesh/makehuman_base_joints.csv"));
+  ASSERT_TRUE(mesh && lm);
+  GirthTapes tapes;
+  const BodyMeasurements m = measure_body(*mesh, *lm, &tapes);
+  EXPECT_EQ(measurements_json(m), measurements_json(measure_body(*mesh, *lm)));
+  for (auto [girth, tape, what] :
+       {std::tuple{m.chest_girth_m, &tapes.chest, "chest"}, std::tuple{m.waist_girth_m, &tapes.waist, "waist"},
+        std::tuple{m.hip_girth_m, &tapes.hips, "hips"}, std::tuple{m.thigh_girth_m, &tapes.thigh, "thigh"},
+        std::tuple{m.calf_girth_m, &tapes.calf, "calf"},
+        std::tuple{m.upper_arm_girth_m, &tapes.upper_arm, "upper arm"}}) {
+    ASSERT_TRUE(girth && *tape) << what;
+    EXPECT_EQ(tape_girth(*mesh, **tape), girth) << what;
+    const std::vector<glm::vec3> hull = tape_hull(*mesh, **tape);
+    ASSERT_GE(hull.size(), 8u) << what;
+    double perimeter = 0;
+    for (size_t i = 0; i < hull.size(); ++i) {
+      perimeter += glm::distance(hull[i], hull[(i + 1) % hull.size()]);
+      EXPECT_NEAR(glm::dot(hull[i] - (*tape)->point, glm::normalize((*tape)->normal)), 0.0f, 1e-5f) << what;
+    }
+    EXPECT_NEAR(perimeter, *girth, 1e-4) << what;
+  }
+  EXPECT_NEAR(tapes.thigh->point.y - lm->ground_y_m, m.thigh_level_m, 1e-5f);
 }
 
 TEST(Measure, LoadsMakeHumanJoints) {

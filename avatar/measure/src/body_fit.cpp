@@ -3,18 +3,21 @@
 
 #include <algorithm>
 #include <cmath>
+#include <numbers>
 #include <optional>
 
 #include <glm/gtc/quaternion.hpp>
 #include <glm/gtx/euler_angles.hpp>
 
 #include "body_fit_internal.h"
+#include "mimic/avatar/body_overrides.h"
 #include "mimic/avatar/mesh_check.h"
 
 namespace mimic::avatar {
 
 namespace {
 
+using fit_detail::Girths;
 using fit_detail::SkinnedLike;
 
 constexpr int kParams = 6;                 // per primitive: centre x, y, z (joint frame), log semi-axes a, b, c
@@ -34,18 +37,53 @@ struct Geometry {
   GroupMask groups = 0;
   RigidPart part = RigidPart::none;
   bool hard = false;
-  int param = -1;  // first of its kParams unknowns; -1 when not fitted
+  int param = -1;         // first of its kParams unknowns; -1 when not fitted
+  bool mirrored = false;  // its unknowns are its left twin's, the centre's x mirrored
+};
+
+// Which unknowns move each primitive: kParams of its own, or (FitOptions::symmetric) a right
+// primitive its left twin's, mirrored in x in the joints' frames as `symmetrised` mirrors them,
+// so the body stays mirror-symmetric as it is fitted and written.
+struct Unknowns {
+  std::vector<int> first;  // per primitive; -1: not fitted (hard ellipsoids)
+  std::vector<int> twin;   // per primitive, the other side's sharing its unknowns; -1: none
+  std::vector<uint8_t> mirrored;
+  int count = 0;
+
+  Unknowns(const BodyModel& model, bool symmetric) {
+    const size_t n = model.primitives.size();
+    first.assign(n, -1), twin.assign(n, -1), mirrored.assign(n, 0);
+    for (size_t k = 0; k < n; ++k) {
+      const Primitive& p = model.primitives[k];
+      if (p.kind == PrimitiveKind::ellipsoid) continue;
+      if (symmetric && p.name.rfind("r_", 0) == 0)
+        for (size_t l = 0; l < n; ++l)
+          if (model.primitives[l].name == "l_" + p.name.substr(2) && model.primitives[l].kind == p.kind) {
+            twin[k] = int(l), twin[l] = int(k), mirrored[k] = 1;
+            break;
+          }
+      if (!mirrored[k]) first[k] = count, count += kParams;
+    }
+    for (size_t k = 0; k < n; ++k)
+      if (mirrored[k]) first[k] = first[size_t(twin[k])];
+  }
+
+  // A frozen primitive freezes its twin: they share their unknowns.
+  void tie(std::vector<uint8_t>& frozen) const {
+    for (size_t k = 0; k < frozen.size(); ++k)
+      if (twin[k] >= 0 && frozen[k]) frozen[size_t(twin[k])] = 1;
+  }
 };
 
 glm::mat3 rotation_xyz(const glm::vec3& a) {
   return glm::mat3(glm::eulerAngleZ(a.z) * glm::eulerAngleY(a.y) * glm::eulerAngleX(a.x));
 }
 
-std::vector<Geometry> geometry(const BodyModel& model, const rig::Skeleton& s, const rig::Pose& pose) {
+std::vector<Geometry> geometry(const BodyModel& model, const rig::Skeleton& s, const rig::Pose& pose,
+                               const Unknowns& unknowns) {
   std::vector<rig::RigidTransform> world(s.joint_count());
   rig::forward_kinematics(s, pose, world);
   std::vector<Geometry> out;
-  int next_param = 0;
   for (const Primitive& p : model.primitives) {
     Geometry g;
     const int j = s.find_joint(p.joint);
@@ -72,7 +110,8 @@ std::vector<Geometry> geometry(const BodyModel& model, const rig::Skeleton& s, c
     g.groups = p.groups;
     g.part = p.part;
     g.hard = p.kind == PrimitiveKind::ellipsoid;
-    if (!g.hard) g.param = kParams * next_param++;
+    g.param = unknowns.first[out.size()];
+    g.mirrored = unknowns.mirrored[out.size()];
     out.push_back(g);
   }
   return out;
@@ -114,7 +153,8 @@ struct Linearisation {
       if (g.param < 0) continue;
       Entry e;
       e.param = g.param;
-      const glm::vec3 dc_joint = glm::transpose(g.joint_rot) * dc;
+      glm::vec3 dc_joint = glm::transpose(g.joint_rot) * dc;
+      if (g.mirrored) dc_joint.x = -dc_joint.x;
       for (int i = 0; i < 3; ++i) e.d[i] = dc_joint[i], e.d[3 + i] = k * q[i] * q[i];
       entries.push_back(e);
     }
@@ -131,9 +171,9 @@ struct Linearisation {
   }
 };
 
-Linearisation linearise(const BodyModel& model, const SkinnedLike& s) {
+Linearisation linearise(const BodyModel& model, const SkinnedLike& s, const Unknowns& unknowns) {
   Linearisation lin;
-  const std::vector<Geometry> geo = geometry(model, s.skin.skeleton(), s.pose);
+  const std::vector<Geometry> geo = geometry(model, s.skin.skeleton(), s.pose, unknowns);
   for (const auto& ring : s.skin.contours())
     for (const glm::vec3& p : ring.points) lin.add(geo, p, ring.mask, RigidPart::none);
   const Mesh& mesh = s.skin.mesh();
@@ -177,6 +217,18 @@ struct Normal {
       }
     }
   }
+
+  // A residual r with the dense derivative row j, counted `weight` times (Huber beyond kHuber_m).
+  void add_row(const std::vector<double>& j, double r, double weight) {
+    const double w = weight * (std::abs(r) <= kHuber_m ? 1.0 : kHuber_m / std::abs(r));
+    std::vector<int> nonzero;
+    for (int i = 0; i < n; ++i)
+      if (j[size_t(i)] != 0.0) nonzero.push_back(i);
+    for (int i1 : nonzero) {
+      b[size_t(i1)] -= w * j[size_t(i1)] * r;
+      for (int i2 : nonzero) a[size_t(i1) * n + i2] += w * j[size_t(i1)] * j[size_t(i2)];
+    }
+  }
 };
 
 void add_residuals(Normal& ne, const Linearisation& lin, const Mesh& body, const TriangleTree& ref_tree,
@@ -199,6 +251,36 @@ void add_residuals(Normal& ne, const Linearisation& lin, const Mesh& body, const
     const float agree = glm::dot(n, h.normal);
     if (!h.valid || agree < kMinAgreement || q.distance_m > kOutlier_m) continue;
     ne.add(lin, h, glm::dot(n, p.point - q.point), -agree);
+  }
+}
+
+// The girths beyond their band: each residual is its excess radius (girth_excess_m). The tape is
+// the convex hull of the slice's loops, so its length moves with the hull's corners: corner p
+// moving by δp lengthens it by (û_in − û_out)·δp (the unit edges in and out of p), and the
+// surface moving along its normal n by δ moves the corner within the plane by δ·n_p/|n_p|² (n_p:
+// n projected into the plane).
+void add_girth_residuals(Normal& ne, const Linearisation& lin, const Mesh& body, const Girths& ours,
+                         const Girths& reference, const FitOptions& options) {
+  const float two_pi = 2.0f * std::numbers::pi_v<float>;
+  for (size_t g = 0; g < fit_detail::kGirths; ++g) {
+    if (!ours.value[g] || !reference.value[g] || !ours.tape[g]) continue;
+    const float r = fit_detail::girth_excess_m(*ours.value[g], *reference.value[g], options.girth_band);
+    if (r == 0.0f) continue;
+    const std::vector<glm::vec3> hull = tape_hull(body, *ours.tape[g]);
+    const glm::vec3 k = glm::normalize(ours.tape[g]->normal);
+    std::vector<double> row(size_t(ne.n), 0.0);
+    for (size_t i = 0; i < hull.size() && hull.size() >= 3; ++i) {
+      const glm::vec3 p = hull[i], in = hull[(i + hull.size() - 1) % hull.size()], out = hull[(i + 1) % hull.size()];
+      const glm::vec3 lengthens = glm::normalize(p - in) + glm::normalize(p - out);
+      const Handle& h = lin.handles[lin.tree->closest(p).triangle];
+      if (!h.valid) continue;
+      const glm::vec3 np = h.normal - glm::dot(h.normal, k) * k;
+      // A surface nearly parallel to the plane would move the corner far: capped at twice.
+      const float c = glm::dot(lengthens, np) / std::max(glm::dot(np, np), 0.25f) / two_pi;
+      for (uint32_t e = h.first; e < h.first + h.count; ++e)
+        for (int q = 0; q < kParams; ++q) row[size_t(lin.entries[e].param + q)] += double(c * lin.entries[e].d[q]);
+    }
+    ne.add_row(row, r, double(options.girth_weight) * options.samples);
   }
 }
 
@@ -247,22 +329,19 @@ void move_state(PrimitiveState& st, const glm::vec3& dc, const glm::vec3& dlog) 
 }
 
 // The model moved by the step x, except the primitives marked `frozen`.
-BodyModel stepped(const BodyModel& model, const std::vector<double>& x, const std::vector<uint8_t>& frozen) {
+BodyModel stepped(const BodyModel& model, const std::vector<double>& x, const std::vector<uint8_t>& frozen,
+                  const Unknowns& unknowns) {
   BodyModel out = model;
-  int param = 0;
   for (size_t k = 0; k < out.primitives.size(); ++k) {
     Primitive& p = out.primitives[k];
-    if (p.kind == PrimitiveKind::ellipsoid) continue;
-    if (frozen[k]) {
-      param += kParams;
-      continue;
-    }
+    const int param = unknowns.first[k];
+    if (param < 0 || frozen[k]) continue;
     glm::vec3 dc, dl;
     for (int i = 0; i < 3; ++i) {
       dc[i] = std::clamp(float(x[size_t(param + i)]), -kMaxCentreStep_m, kMaxCentreStep_m);
       dl[i] = std::clamp(float(x[size_t(param + 3 + i)]), -kMaxLogAxisStep, kMaxLogAxisStep);
     }
-    param += kParams;
+    if (unknowns.mirrored[k]) dc.x = -dc.x;
     move_state(p.state, dc, dl);
     if (p.deformation) move_state(p.deformation->at_min, dc, dl), move_state(p.deformation->at_max, dc, dl);
   }
@@ -274,7 +353,12 @@ struct Measured {
   SkinnedLike skinned;
   PosedBody posed;
   SurfaceDistance distance;
-  double score() const { return distance.body_to_reference.mean_m + distance.reference_to_body.mean_m; }
+  Girths girths;                  // when fitted (FitOptions::girth_weight)
+  double girth_penalty_m = 0;     // their part of the score
+  float largest_girth_error = 0;  // relative
+  double score() const {
+    return distance.body_to_reference.mean_m + distance.reference_to_body.mean_m + girth_penalty_m;
+  }
   // Good enough to keep: closed, no more folds in any part and no more missed rays than `than`.
   bool sound(const Measured& than) const {
     return posed.closed && new_fold_parts(than).empty() && posed.missed_rays <= than.posed.missed_rays;
@@ -293,11 +377,12 @@ struct Context {
   const BodyLandmarks& landmarks;
   const TriangleTree& ref_tree;
   const FitOptions& options;
+  const Girths& ref_girths;
 
   Result<Measured> measure(const BodyModel& model) const {
     auto s = fit_detail::skin_like(model, landmarks, options.subdivision);
     if (!s) return tl::unexpected(s.error());
-    Measured m{std::move(*s), {}, {}};
+    Measured m{std::move(*s), {}, {}, {}, 0, 0};
     m.posed.mesh = m.skinned.skin.mesh();
     m.posed.landmarks = landmarks_from_skeleton(m.skinned.skin.skeleton(), m.skinned.pose);
     m.posed.pose = m.skinned.pose;
@@ -306,18 +391,24 @@ struct Context {
     m.posed.missed_rays = m.skinned.skin.stats().missed_rays;
     m.distance.body_to_reference = directed_distance(m.posed.mesh, m.posed.landmarks, ref_tree, options.samples);
     m.distance.reference_to_body = directed_distance(reference, landmarks, TriangleTree(m.posed.mesh), options.samples);
+    if (options.girth_weight > 0) {
+      m.girths = fit_detail::measure_girths(m.posed.mesh, m.posed.landmarks);
+      m.girth_penalty_m = fit_detail::girth_penalty_m(m.girths, ref_girths, options, &m.largest_girth_error);
+    }
     return m;
   }
 
-  void report(const char* stage, int iteration, const SurfaceDistance& d, bool accepted) const {
-    if (options.progress) options.progress({stage, iteration, options.iterations, d, accepted});
+  void report(const char* stage, int iteration, const Measured& m, bool accepted) const {
+    if (options.progress)
+      options.progress({stage, iteration, options.iterations, m.distance, accepted, m.largest_girth_error});
   }
 };
 
 // Marks the fitted primitives whose support reaches a fold of `m` that `than` did not have (none
 // within 3 mm); false when none was left to mark.
-bool freeze(const BodyModel& model, const Measured& m, const Measured& than, std::vector<uint8_t>& frozen) {
-  const std::vector<Geometry> geo = geometry(model, m.skinned.skin.skeleton(), m.skinned.pose);
+bool freeze(const BodyModel& model, const Measured& m, const Measured& than, const Unknowns& unknowns,
+            std::vector<uint8_t>& frozen) {
+  const std::vector<Geometry> geo = geometry(model, m.skinned.skin.skeleton(), m.skinned.pose, unknowns);
   bool any = false;
   for (const glm::vec3& f : m.posed.fold_points) {
     bool old = false;
@@ -332,10 +423,10 @@ bool freeze(const BodyModel& model, const Measured& m, const Measured& than, std
 }
 
 // The unknowns of the frozen primitives.
-std::vector<uint8_t> fixed_unknowns(const BodyModel& model, const std::vector<uint8_t>& frozen) {
-  std::vector<uint8_t> out;
-  for (size_t i = 0; i < model.primitives.size(); ++i)
-    if (model.primitives[i].kind != PrimitiveKind::ellipsoid) out.insert(out.end(), kParams, frozen[i]);
+std::vector<uint8_t> fixed_unknowns(const Unknowns& unknowns, const std::vector<uint8_t>& frozen) {
+  std::vector<uint8_t> out(size_t(unknowns.count), 0);
+  for (size_t i = 0; i < frozen.size(); ++i)
+    if (frozen[i] && unknowns.first[i] >= 0) std::fill_n(out.begin() + unknowns.first[i], kParams, 1);
   return out;
 }
 
@@ -350,32 +441,34 @@ bool held(const FitOptions& o, const Primitive& p) {
 // Levenberg–Marquardt over the shapes; `cur` holds the best body so far.
 void fit_shapes(const Context& ctx, BodyModel& body, Measured& cur, FitResult& result) {
   const std::vector<SurfaceSample> ref_samples = sample_surface(ctx.reference, ctx.options.samples, 3);
-  int unknowns = 0;
-  for (const Primitive& p : body.primitives)
-    if (p.kind != PrimitiveKind::ellipsoid) unknowns += kParams;
+  const Unknowns unknowns(body, ctx.options.symmetric);
   double lambda = 1e-2;
   for (int it = 1; it <= ctx.options.iterations; ++it) {
     result.iterations = it;
-    const Linearisation lin = linearise(body, cur.skinned);
-    Normal ne(unknowns);
+    const Linearisation lin = linearise(body, cur.skinned, unknowns);
+    Normal ne(unknowns.count);
     add_residuals(ne, lin, cur.posed.mesh, ctx.ref_tree, ref_samples, ctx.options.samples);
+    if (ctx.options.girth_weight > 0)
+      add_girth_residuals(ne, lin, cur.posed.mesh, cur.girths, ctx.ref_girths, ctx.options);
     bool improved = false, froze = false;
     // Primitives whose steps folded the skin stay where they are for the rest of this iteration.
     std::vector<uint8_t> frozen(body.primitives.size(), 0);
     for (size_t k = 0; k < body.primitives.size(); ++k) frozen[k] = held(ctx.options, body.primitives[k]);
     for (int attempt = 0; attempt < 8 && !improved; ++attempt) {
+      unknowns.tie(frozen);
       std::vector<double> x;
-      if (!solve_damped(ne, lambda, fixed_unknowns(body, frozen), x)) {
+      if (!solve_damped(ne, lambda, fixed_unknowns(unknowns, frozen), x)) {
         lambda *= 10;
         continue;
       }
-      BodyModel candidate = stepped(body, x, frozen);
+      BodyModel candidate = stepped(body, x, frozen, unknowns);
       auto m = ctx.measure(candidate);
       improved = m && m->sound(cur) && m->score() < cur.score();
-      if (m && !improved && m->posed.closed && m->score() < cur.score() && freeze(candidate, *m, cur, frozen)) {
+      if (m && !improved && m->posed.closed && m->score() < cur.score() &&
+          freeze(candidate, *m, cur, unknowns, frozen)) {
         // A step that helps but folds the skin: again without the primitives that reach the folds.
         froze = true;
-        ctx.report("shapes", it, m->distance, false);
+        ctx.report("shapes", it, *m, false);
         continue;
       }
       if (improved) {
@@ -386,7 +479,7 @@ void fit_shapes(const Context& ctx, BodyModel& body, Measured& cur, FitResult& r
       } else {
         lambda *= 4;
       }
-      ctx.report("shapes", it, improved ? cur.distance : (m ? m->distance : cur.distance), improved);
+      ctx.report("shapes", it, improved || !m ? cur : *m, improved);
     }
     if (!improved && !froze) break;  // no step of any damping helps: converged
   }
@@ -400,8 +493,12 @@ Result<FitResult> fit_body(const BodyModel& start, const Mesh& reference_m, cons
     return fail(Errc::invalid_argument, "fit: the reference mesh has no triangles");
   if (options.samples < 100 || options.iterations < 0)
     return fail(Errc::invalid_argument, "fit: needs at least 100 samples and a non-negative iteration count");
+  if (options.girth_weight < 0 || !(options.girth_band >= 0))
+    return fail(Errc::invalid_argument, "fit: the girths' weight and band must not be negative");
   const TriangleTree ref_tree(reference_m);
-  const Context ctx{reference_m, reference_landmarks, ref_tree, options};
+  const Girths ref_girths =
+      options.girth_weight > 0 ? fit_detail::measure_girths(reference_m, reference_landmarks) : Girths{};
+  const Context ctx{reference_m, reference_landmarks, ref_tree, options, ref_girths};
   auto first = ctx.measure(start);
   if (!first) return tl::unexpected(first.error());
   Measured cur = std::move(*first);
@@ -409,7 +506,7 @@ Result<FitResult> fit_body(const BodyModel& start, const Mesh& reference_m, cons
   result.body = start;
   result.before = cur.distance;
   result.folds_before = cur.posed.folds;
-  ctx.report("start", 0, cur.distance, true);
+  ctx.report("start", 0, cur, true);
   if (options.skeleton) {
     auto fitted = fit_skeleton(start, reference_landmarks, options.hold_rigid);
     if (!fitted) return tl::unexpected(fitted.error());
@@ -419,7 +516,14 @@ Result<FitResult> fit_body(const BodyModel& start, const Mesh& reference_m, cons
     // yet (the shapes follow), as long as the skin stays sound.
     const bool keep = m->posed.closed && m->posed.missed_rays <= cur.posed.missed_rays;
     if (keep) result.body = std::move(*fitted), cur = std::move(*m);
-    ctx.report("skeleton", 0, cur.distance, keep);
+    ctx.report("skeleton", 0, cur, keep);
+  }
+  if (options.symmetric) {
+    // The shapes move both sides alike from here, so they start alike (the skeleton too).
+    result.body = symmetrised(result.body);
+    auto m = ctx.measure(result.body);
+    if (!m) return tl::unexpected(m.error());
+    cur = std::move(*m);
   }
   if (options.shapes) fit_shapes(ctx, result.body, cur, result);
   result.after = cur.distance;

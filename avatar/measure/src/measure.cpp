@@ -69,13 +69,16 @@ std::vector<float> levels(float from, float to) {
 struct Best {
   std::optional<float> girth;
   float level = 0;
-  void offer(std::optional<float> g, float y, bool want_max) {
+  GirthTape tape;
+  void offer(std::optional<float> g, float y, bool want_max, const GirthTape& t) {
     if (!g) return;
     if (!girth || (want_max ? *g > *girth : *g < *girth)) {
       girth = g;
       level = y;
+      tape = t;
     }
   }
+  std::optional<GirthTape> taken() const { return girth ? std::optional<GirthTape>(tape) : std::nullopt; }
 };
 
 const glm::vec3 kUp{0, 1, 0};
@@ -259,8 +262,9 @@ BodyLandmarks landmarks_from_skeleton(const rig::Skeleton& s, const rig::Pose& p
   return lm;
 }
 
-BodyMeasurements measure_body(const Mesh& mesh, const BodyLandmarks& lm) {
+BodyMeasurements measure_body(const Mesh& mesh, const BodyLandmarks& lm, GirthTapes* tapes) {
   BodyMeasurements m;
+  if (tapes) *tapes = {};
   if (mesh.positions.empty()) return m;
   float top = mesh.positions[0].y;
   for (const auto& p : mesh.positions) top = std::max(top, p.y);
@@ -276,24 +280,25 @@ BodyMeasurements measure_body(const Mesh& mesh, const BodyLandmarks& lm) {
   const LimbLandmarks& R = lm.right;
 
   // Torso slices: the loop around the spine axis, refusing loops that swallowed an arm.
-  auto torso_girth = [&](float y, bool wrap_thighs) -> std::optional<float> {
+  auto torso_girth = [&](float y, bool wrap_thighs, GirthTape& t) -> std::optional<float> {
     const glm::vec3 axis = torso_axis_at(lm, y);
-    std::vector<glm::vec3> arms;
+    t = {axis, kUp, {axis}, {}};
     for (const LimbLandmarks* s : {&L, &R})
       for (auto seg : {std::pair{s->shoulder_m, s->elbow_m}, std::pair{s->elbow_m, s->wrist_m}})
-        if (auto p = segment_at(seg.first, seg.second, y)) arms.push_back(*p);
-    const glm::vec3 include[] = {axis};
-    if (auto g = tape_girth(mesh, axis, kUp, include, arms)) return g;
+        if (auto p = segment_at(seg.first, seg.second, y)) t.exclude.push_back(*p);
+    if (auto g = tape_girth(mesh, t)) return g;
     if (!wrap_thighs) return std::nullopt;
     // Below the crotch the tape goes round both thighs.
-    std::vector<glm::vec3> thighs;
+    t.include.clear();
     for (const LimbLandmarks* s : {&L, &R})
-      if (auto p = segment_at(s->hip_m, s->knee_m, y, true)) thighs.push_back(*p);
-    return tape_girth(mesh, axis, kUp, thighs, arms);
+      if (auto p = segment_at(s->hip_m, s->knee_m, y, true)) t.include.push_back(*p);
+    return tape_girth(mesh, t);
   };
-  auto search = [&](float from_h, float to_h, bool want_max, auto girth_at) {
+  auto search = [&](float from_h, float to_h, bool want_max, bool wrap_thighs) {
     Best best;
-    for (float y : levels(ground + from_h * H, ground + to_h * H)) best.offer(girth_at(y), y - ground, want_max);
+    GirthTape t;
+    for (float y : levels(ground + from_h * H, ground + to_h * H))
+      best.offer(torso_girth(y, wrap_thighs, t), y - ground, want_max, t);
     return best;
   };
   // Chest, bottom up, stopping at the armpit: where the torso loop suddenly grows by more than
@@ -301,53 +306,52 @@ BodyMeasurements measure_body(const Mesh& mesh, const BodyLandmarks& lm) {
   Best chest;
   {
     std::optional<float> previous;
+    GirthTape t;
     for (float y : levels(ground + 0.68f * H, ground + 0.76f * H)) {
-      const auto g = torso_girth(y, false);
+      const auto g = torso_girth(y, false, t);
       if (g && previous && *g > 1.15f * *previous) break;
-      chest.offer(g, y - ground, true);
+      chest.offer(g, y - ground, true, t);
       previous = g;
     }
   }
-  const Best waist = search(0.56f, 0.66f, false, [&](float y) { return torso_girth(y, false); });
+  const Best waist = search(0.56f, 0.66f, false, false);
   // Hips: the torso's own loops; only a body whose torso splits below the whole range gets the
   // tape round both thighs (wrapping them everywhere would let spreading legs win).
-  Best hips = search(0.45f, 0.54f, true, [&](float y) { return torso_girth(y, false); });
-  if (!hips.girth) hips = search(0.45f, 0.54f, true, [&](float y) { return torso_girth(y, true); });
+  Best hips = search(0.45f, 0.54f, true, false);
+  if (!hips.girth) hips = search(0.45f, 0.54f, true, true);
   std::tie(m.chest_girth_m, m.chest_level_m) = std::pair(chest.girth, chest.level);
   std::tie(m.waist_girth_m, m.waist_level_m) = std::pair(waist.girth, waist.level);
   std::tie(m.hip_girth_m, m.hip_level_m) = std::pair(hips.girth, hips.level);
 
   // Leg slices: the loop around this leg's axis that holds neither the torso axis nor the other leg.
-  auto leg_girth = [&](float y, const glm::vec3& a, const glm::vec3& b, const glm::vec3& oa,
-                       const glm::vec3& ob) -> std::optional<float> {
-    const auto axis = segment_at(a, b, y, true);
-    if (!axis) return std::nullopt;
-    std::vector<glm::vec3> refuse{torso_axis_at(lm, y)};
-    if (auto other = segment_at(oa, ob, y, true)) refuse.push_back(*other);
-    const glm::vec3 include[] = {*axis};
-    return tape_girth(mesh, *axis, kUp, include, refuse);
+  auto leg_search = [&](float y0, float y1, const glm::vec3& a, const glm::vec3& b, const glm::vec3& oa,
+                        const glm::vec3& ob) {
+    Best best;
+    for (float y : levels(y0, y1)) {
+      const auto axis = segment_at(a, b, y, true);
+      if (!axis) continue;
+      GirthTape t{*axis, kUp, {*axis}, {torso_axis_at(lm, y)}};
+      if (auto other = segment_at(oa, ob, y, true)) t.exclude.push_back(*other);
+      best.offer(tape_girth(mesh, t), y - ground, true, t);
+    }
+    return best;
   };
-  {
-    Best best;
-    const float y0 = L.hip_m.y, y1 = L.hip_m.y + (L.knee_m.y - L.hip_m.y) / 3.0f;
-    for (float y : levels(y0, y1)) best.offer(leg_girth(y, L.hip_m, L.knee_m, R.hip_m, R.knee_m), y - ground, true);
-    m.thigh_girth_m = best.girth;
-    m.thigh_level_m = best.level;
-  }
-  {
-    Best best;
-    const float y0 = L.knee_m.y, y1 = L.knee_m.y + 0.6f * (L.ankle_m.y - L.knee_m.y);
-    for (float y : levels(y0, y1)) best.offer(leg_girth(y, L.knee_m, L.ankle_m, R.knee_m, R.ankle_m), y - ground, true);
-    m.calf_girth_m = best.girth;
-    m.calf_level_m = best.level;
-  }
+  const Best thigh =
+      leg_search(L.hip_m.y, L.hip_m.y + (L.knee_m.y - L.hip_m.y) / 3.0f, L.hip_m, L.knee_m, R.hip_m, R.knee_m);
+  const Best calf =
+      leg_search(L.knee_m.y, L.knee_m.y + 0.6f * (L.ankle_m.y - L.knee_m.y), L.knee_m, L.ankle_m, R.knee_m, R.ankle_m);
+  std::tie(m.thigh_girth_m, m.thigh_level_m) = std::pair(thigh.girth, thigh.level);
+  std::tie(m.calf_girth_m, m.calf_level_m) = std::pair(calf.girth, calf.level);
+  std::optional<GirthTape> arm;
   {
     const glm::vec3 mid = 0.5f * (L.shoulder_m + L.elbow_m), dir = L.elbow_m - L.shoulder_m;
     if (glm::length(dir) > 1e-6f) {
-      const glm::vec3 include[] = {mid};
-      m.upper_arm_girth_m = tape_girth(mesh, mid, dir, include);
+      arm = GirthTape{mid, dir, {mid}, {}};
+      m.upper_arm_girth_m = tape_girth(mesh, *arm);
+      if (!m.upper_arm_girth_m) arm.reset();
     }
   }
+  if (tapes) *tapes = {chest.taken(), waist.taken(), hips.taken(), thigh.taken(), calf.taken(), arm};
   return m;
 }
 

@@ -41,12 +41,12 @@ double cross2(const glm::dvec2& o, const glm::dvec2& a, const glm::dvec2& b) {
   return (a.x - o.x) * (b.y - o.y) - (a.y - o.y) * (b.x - o.x);
 }
 
-// Perimeter of the convex hull (Andrew's monotone chain).
-double hull_perimeter(std::vector<glm::dvec2> pts) {
+// The convex hull's corners in order (Andrew's monotone chain).
+std::vector<glm::dvec2> convex_hull(std::vector<glm::dvec2> pts) {
   std::sort(pts.begin(), pts.end(),
             [](const glm::dvec2& a, const glm::dvec2& b) { return a.x != b.x ? a.x < b.x : a.y < b.y; });
   pts.erase(std::unique(pts.begin(), pts.end()), pts.end());
-  if (pts.size() < 2) return 0;
+  if (pts.size() < 2) return pts;
   std::vector<glm::dvec2> h(2 * pts.size());
   size_t k = 0;
   for (size_t i = 0; i < pts.size(); ++i) {
@@ -57,9 +57,34 @@ double hull_perimeter(std::vector<glm::dvec2> pts) {
     while (k >= t && cross2(h[k - 2], h[k - 1], pts[i]) <= 0) --k;
     h[k++] = pts[i];
   }
-  double perimeter = 0;
-  for (size_t i = 0; i + 1 < k; ++i) perimeter += glm::length(h[i + 1] - h[i]);
-  return perimeter;
+  h.resize(k - 1);  // the last corner repeats the first
+  return h;
+}
+
+double perimeter(const std::vector<glm::dvec2>& hull) {
+  double out = 0;
+  for (size_t i = 0; i + 1 < hull.size(); ++i) out += glm::length(hull[i + 1] - hull[i]);
+  return hull.size() > 1 ? out + glm::length(hull.front() - hull.back()) : out;
+}
+
+// The points, in the plane, of the loops the tape wraps.
+std::vector<glm::dvec2> wrapped(const Mesh& mesh, const Basis& basis, const glm::vec3& plane_point,
+                                const glm::vec3& plane_normal, std::span<const glm::vec3> include,
+                                std::span<const glm::vec3> exclude) {
+  std::vector<glm::dvec2> in2, out2;
+  for (const auto& p : include) in2.push_back(to_plane(basis, p));
+  for (const auto& p : exclude) out2.push_back(to_plane(basis, p));
+  std::vector<glm::dvec2> chosen;
+  for (const auto& loop : cross_section(mesh, plane_point, plane_normal)) {
+    if (loop.size() < 3) continue;
+    std::vector<glm::dvec2> poly;
+    poly.reserve(loop.size());
+    for (const auto& p : loop) poly.push_back(to_plane(basis, p));
+    const bool wanted = std::any_of(in2.begin(), in2.end(), [&](const glm::dvec2& q) { return inside(poly, q); });
+    const bool refused = std::any_of(out2.begin(), out2.end(), [&](const glm::dvec2& q) { return inside(poly, q); });
+    if (wanted && !refused) chosen.insert(chosen.end(), poly.begin(), poly.end());
+  }
+  return chosen;
 }
 
 }  // namespace
@@ -131,21 +156,21 @@ std::vector<std::vector<glm::vec3>> cross_section(const Mesh& mesh, const glm::v
 std::optional<float> tape_girth(const Mesh& mesh, const glm::vec3& plane_point, const glm::vec3& plane_normal,
                                 std::span<const glm::vec3> include, std::span<const glm::vec3> exclude) {
   const Basis basis = plane_basis(plane_point, plane_normal);
-  std::vector<glm::dvec2> in2, out2;
-  for (const auto& p : include) in2.push_back(to_plane(basis, p));
-  for (const auto& p : exclude) out2.push_back(to_plane(basis, p));
-  std::vector<glm::dvec2> chosen;
-  for (const auto& loop : cross_section(mesh, plane_point, plane_normal)) {
-    if (loop.size() < 3) continue;
-    std::vector<glm::dvec2> poly;
-    poly.reserve(loop.size());
-    for (const auto& p : loop) poly.push_back(to_plane(basis, p));
-    const bool wanted = std::any_of(in2.begin(), in2.end(), [&](const glm::dvec2& q) { return inside(poly, q); });
-    const bool refused = std::any_of(out2.begin(), out2.end(), [&](const glm::dvec2& q) { return inside(poly, q); });
-    if (wanted && !refused) chosen.insert(chosen.end(), poly.begin(), poly.end());
-  }
+  std::vector<glm::dvec2> chosen = wrapped(mesh, basis, plane_point, plane_normal, include, exclude);
   if (chosen.empty()) return std::nullopt;
-  return static_cast<float>(hull_perimeter(std::move(chosen)));
+  return static_cast<float>(perimeter(convex_hull(std::move(chosen))));
+}
+
+std::optional<float> tape_girth(const Mesh& mesh, const GirthTape& tape) {
+  return tape_girth(mesh, tape.point, tape.normal, tape.include, tape.exclude);
+}
+
+std::vector<glm::vec3> tape_hull(const Mesh& mesh, const GirthTape& tape) {
+  const Basis basis = plane_basis(tape.point, tape.normal);
+  std::vector<glm::vec3> out;
+  for (const glm::dvec2& q : convex_hull(wrapped(mesh, basis, tape.point, tape.normal, tape.include, tape.exclude)))
+    out.emplace_back(basis.origin + q.x * basis.u + q.y * basis.v);
+  return out;
 }
 
 }  // namespace mimic::avatar

@@ -17,7 +17,8 @@
 //                the nearest contour point (or rigid-part vertex): the surface moves along its
 //                normal by (∂F/∂θ) / |∇F|, F summed over that contour's group (or the rigid
 //                part). A step is kept only when the measured mean distance both ways drops and
-//                the skin stays a closed, oriented manifold without new folds.
+//                the skin stays a closed, oriented manifold without new folds. Optionally the
+//                tape girths too (FitOptions::girth_weight).
 //
 // Metres, +Y up, the reference faces +Z (the skin is posed like it with pose_to_match).
 #pragma once
@@ -65,6 +66,7 @@ struct FitProgress {
   int iteration = 0, iterations = 0;
   SurfaceDistance distance;
   bool accepted = true;
+  float largest_girth_error = 0;  // relative, of the girths fitted (0 when none are)
 };
 
 struct FitOptions {
@@ -81,6 +83,19 @@ struct FitOptions {
   // body's refit holds those of the neck and shoulder girdle, whose fitted shapes made the neck's
   // first rings zigzag (docs/fit.md).
   std::vector<std::string> held;
+  // The reference's tape girths as residuals beside the surface's: chest, waist, hips and each
+  // side's thigh, calf and upper arm, taken as `mimic compare` takes them (measure_body). A girth
+  // further than `girth_band` (relative) from the reference's counts with the radius by which it
+  // exceeds the band, as `girth_weight` of one side's samples would (in the step and in the
+  // score a step must lower): 0.05 of 22,000 samples is 1,100 samples' worth. The surface
+  // distance alone leaves girths a few per cent off where a slice's tape bridges what the mean
+  // distance hardly sees (docs/fit.md). 0: the surface alone.
+  float girth_weight = 0.05f;
+  float girth_band = 0.01f;
+  // Each right primitive moved as its left twin's mirror image (in x, in the joints' frames),
+  // the body made symmetric (`symmetrised`) before the shapes: what is fitted is what a
+  // symmetric body (the built-in one) writes, instead of the mean of two sides fitted apart.
+  bool symmetric = false;
   std::function<void(const FitProgress&)> progress;
 };
 

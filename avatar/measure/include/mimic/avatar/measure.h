@@ -76,6 +76,17 @@ struct BodyMeasurements {
   double volume_m3 = 0, surface_area_m2 = 0;
 };
 
+// A tape around a body in one plane: the loops of that plane's cross-section that hold an
+// `include` point and no `exclude` point (projected into the plane) are wrapped by their convex
+// hull.
+struct GirthTape {
+  glm::vec3 point{0}, normal{0, 1, 0};
+  std::vector<glm::vec3> include, exclude;
+};
+struct GirthTapes {
+  std::optional<GirthTape> chest, waist, hips, thigh, calf, upper_arm;  // the limbs' on the left
+};
+
 // Search ranges (H = height):
 //   chest  max torso girth for slices at 0.68–0.76 H above ground, up to the armpit (a slice
 //          whose torso loop is 15% longer than the one 5 mm below has taken in an arm)
@@ -87,7 +98,10 @@ struct BodyMeasurements {
 //   calf   max girth of horizontal slices in the upper 60% from knee to ankle
 //   upper arm  the slice perpendicular to shoulder→elbow at its midpoint
 // Slices are 5 mm apart. Cost: about 200 slices, each linear in the triangle count.
-BodyMeasurements measure_body(const Mesh& mesh_m, const BodyLandmarks& landmarks);
+//
+// With `tapes`, where each girth was taken (its slice's tape), for fitting a body to a
+// reference's girths (body_fit.h).
+BodyMeasurements measure_body(const Mesh& mesh_m, const BodyLandmarks& landmarks, GirthTapes* tapes = nullptr);
 
 // The closed loops (and open chains, where the mesh has holes) where a plane cuts the mesh.
 std::vector<std::vector<glm::vec3>> cross_section(const Mesh& mesh, const glm::vec3& plane_point,
@@ -98,6 +112,12 @@ std::vector<std::vector<glm::vec3>> cross_section(const Mesh& mesh, const glm::v
 // plane). nullopt when no loop qualifies.
 std::optional<float> tape_girth(const Mesh& mesh, const glm::vec3& plane_point, const glm::vec3& plane_normal,
                                 std::span<const glm::vec3> include, std::span<const glm::vec3> exclude = {});
+
+std::optional<float> tape_girth(const Mesh& mesh, const GirthTape& tape);
+
+// The corners of the tape's convex hull (in the plane, in order round it): where the tape
+// touches the surface. Empty when no loop qualifies.
+std::vector<glm::vec3> tape_hull(const Mesh& mesh, const GirthTape& tape);
 
 // Rows for tables and JSON: name (e.g. "chest girth"), key (e.g. "chest_girth"), value in the
 // unit named ("cm" for lengths, "dm3" for the volume, "m2" for the area); absent girths are
