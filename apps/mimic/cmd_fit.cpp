@@ -104,6 +104,9 @@ int run_fit(const std::vector<std::string>& argv) {
   p->add_flag("--no-skeleton", no_skeleton, "keep the body's skeleton (fit the shapes only)");
   p->add_flag("--no-shapes", no_shapes, "fit the skeleton only");
   p->add_flag("--hold-rigid", options.hold_rigid, "keep the head, hands and feet primitives as they are");
+  p->add_flag("--fit-rigid-shapes", options.fit_rigid_shapes,
+              "fit the head's, hands' and feet's primitives one by one too (by default they keep\n"
+              "their modelled shapes and are sized and placed with their links)");
   p->add_option("--hold", options.held, "keep these primitives as they are (l_NAME holds r_NAME too)")
       ->type_name("NAME,...")
       ->delimiter(',');

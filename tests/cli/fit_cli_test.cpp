@@ -56,10 +56,10 @@ TEST(FitCli, AFittedBodyIsNearerAndWorksEverywhere) {
   EXPECT_EQ(j["closed"], true) << r.output;
   EXPECT_EQ(j["missed_rays"], 0) << r.output;
   const auto before = distance_of(""), after = distance_of("--body " + out);
-  // The built-in body is already fitted with its head, hands and feet held (3.8 / 4.0 mm); three
-  // free steps, the rigid parts moving too, still bring it nearer (2.7 mm) and within 5 mm.
+  // The built-in body is already fitted (3.8 / 4.0 mm); three more steps still bring it nearer
+  // (3.5 / 3.7 mm) and within 5 mm.
   for (const char* side : {"body_to_reference_mm", "reference_to_body_mm"}) {
-    EXPECT_LT(after[side]["mean"].get<double>(), 0.85 * before[side]["mean"].get<double>()) << after.dump();
+    EXPECT_LT(after[side]["mean"].get<double>(), 0.95 * before[side]["mean"].get<double>()) << after.dump();
     EXPECT_LE(after[side]["mean"].get<double>(), 5.0) << after.dump();
   }
   const Outcome mesh = run_mimic("mesh --body " + out + " --motion walk --time 0.4 --out " + obj);
@@ -70,6 +70,36 @@ TEST(FitCli, AFittedBodyIsNearerAndWorksEverywhere) {
 
 // The built-in body's table: from the authored body, rigid parts held, symmetric, written as the
 // C++ source the library compiles in; it names no rigid primitive.
+// By default the head's, hands' and feet's primitives keep their modelled shapes (sized and placed
+// with their links); asked, the fit moves them one by one too, and gets nearer the mesh's hands,
+// feet and head (2.7 against 3.5 mm after three steps).
+TEST(FitCli, TheRigidPartsShapesAreFittedWhenAsked) {
+  const std::string held = temp("held.json"), free = temp("free.json");
+  const Outcome a = run_mimic("fit --iterations 2 --samples 2000 --json --out " + held, true);
+  const Outcome b = run_mimic("fit --iterations 2 --samples 2000 --json --fit-rigid-shapes --out " + free, true);
+  ASSERT_EQ(a.status, 0) << a.output;
+  ASSERT_EQ(b.status, 0) << b.output;
+  const auto body_of = [](const std::string& path) {
+    std::ifstream in(path);
+    return nlohmann::json::parse(in);
+  };
+  const auto rigid_primitives = [](const nlohmann::json& body) {
+    std::map<std::string, nlohmann::json> out;
+    for (const auto& p : body["primitives"])
+      if (p.contains("part")) out[p["name"].get<std::string>()] = p["state"];
+    return out;
+  };
+  const auto held_body = rigid_primitives(body_of(held)), free_body = rigid_primitives(body_of(free));
+  int changed = 0;  // the left side and the head (a body file writes a mirror-symmetric pair once)
+  for (const auto& [name, state] : held_body)
+    if (free_body.count(name)) changed += state != free_body.at(name);
+  EXPECT_GT(changed, 0) << "the rigid primitives move only when asked";
+  const auto d_held = nlohmann::json::parse(a.output)["after"], d_free = nlohmann::json::parse(b.output)["after"];
+  EXPECT_LT(d_free["body_to_reference_mm"]["mean"].get<double>(), d_held["body_to_reference_mm"]["mean"].get<double>())
+      << a.output << "\n"
+      << b.output;
+}
+
 TEST(FitCli, EmitDefaultWritesTheTableOfOverrides) {
   const std::string table = temp("default_body_fit.cpp");
   const Outcome r = run_mimic("fit --emit-default " + table + " --iterations 1 --samples 2000 --hold neck_base", true);

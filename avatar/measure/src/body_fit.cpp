@@ -432,7 +432,7 @@ std::vector<uint8_t> fixed_unknowns(const Unknowns& unknowns, const std::vector<
 
 // A primitive the options keep as it is.
 bool held(const FitOptions& o, const Primitive& p) {
-  if (o.hold_rigid && p.part != RigidPart::none) return true;
+  if (p.part != RigidPart::none && (o.hold_rigid || !o.fit_rigid_shapes)) return true;
   const std::string left = p.name.rfind("r_", 0) == 0 ? "l_" + p.name.substr(2) : p.name;
   return std::find(o.held.begin(), o.held.end(), p.name) != o.held.end() ||
          std::find(o.held.begin(), o.held.end(), left) != o.held.end();

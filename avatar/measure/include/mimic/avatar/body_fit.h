@@ -79,6 +79,11 @@ struct FitOptions {
   // The rigid parts' primitives (head, hands, feet) kept as they are, in their joints' frames:
   // the built-in body's refit, whose rigid parts are authored in code (body_overrides.h).
   bool hold_rigid = false;
+  // The rigid parts' primitives change shape in step 2 too (each phalanx, an ear). Off, they keep
+  // their modelled shapes and follow their links in step 1 only (unless hold_rigid): a scan's
+  // fingers and ears are rarely where a hand's or head's model can follow them, and the shipped
+  // meshes then carry onto them, where re-meshing every part costs a second a step.
+  bool fit_rigid_shapes = false;
   // Primitives whose shapes stay as they are (names; "l_NAME" holds "r_NAME" too): the built-in
   // body's refit holds those of the neck and shoulder girdle, whose fitted shapes made the neck's
   // first rings zigzag (docs/fit.md).
