@@ -16,11 +16,7 @@
 namespace mimic::avatar::full_junction_folds_test {
 namespace {
 
-struct Folds {
-  size_t frames = 0, total = 0, worst = 0;
-  double mean() const { return frames ? double(total) / double(frames) : 0.0; }
-  void add(size_t folds) { ++frames, total += folds, worst = std::max(worst, folds); }
-};
+using Folds = ::mimic::test::FrameTally;
 
 // Every `every`-th frame of every shared clip (each clip's opening T-pose included), the full
 // method at the realtime method's resolution (subdivision 0, as `mimic intersect` checks it).

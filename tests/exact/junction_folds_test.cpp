@@ -16,11 +16,7 @@
 namespace mimic::avatar::junction_folds_test {
 namespace {
 
-struct Folds {
-  size_t frames = 0, total = 0, worst = 0;
-  double mean() const { return frames ? double(total) / double(frames) : 0.0; }
-  void add(size_t folds) { ++frames, total += folds, worst = std::max(worst, folds); }
-};
+using Folds = ::mimic::test::FrameTally;
 
 std::shared_ptr<const RealtimeBody> body_at(int lod) {
   RealtimeOptions o;

@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstddef>
 
 #include "mimic/rig/bvh.h"
@@ -25,5 +26,12 @@ void for_each_shared_clip_pose(const rig::Skeleton& skeleton, size_t every, Fn&&
     for (size_t f = 0; f < r->poses.size(); f += every) fn(rig::transfer_pose(r->skeleton, r->poses[f], skeleton));
   }
 }
+
+// A count a frame (folds, pairs) over a sweep: frames, total, the worst frame.
+struct FrameTally {
+  size_t frames = 0, total = 0, worst = 0;
+  double mean() const { return frames ? double(total) / double(frames) : 0.0; }
+  void add(size_t count) { ++frames, total += count, worst = std::max(worst, count); }
+};
 
 }  // namespace mimic::test

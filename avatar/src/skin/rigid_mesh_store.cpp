@@ -82,52 +82,54 @@ bool same(const StoredPrimitive& a, const StoredPrimitive& b) {
          near(&a.influence, &b.influence, 1, 1e-6f);
 }
 
+glm::dvec3 center_of(const StoredPrimitive& p) { return {p.center_m[0], p.center_m[1], p.center_m[2]}; }
+
+// The primitive's principal axes in its joint's frame, each scaled by its semi-axis (columns).
+glm::dmat3 axes_of(const StoredPrimitive& p) {
+  const glm::mat3 r = rotation_of(p.orientation_rad);
+  glm::dmat3 u;
+  for (int k = 0; k < 3; ++k) u[k] = glm::dvec3(r[k]) * static_cast<double>(p.semi_axes_m[k]);
+  return u;
+}
+
+// `to`'s axes with each sign chosen to agree with `a` carrying `from`'s (an axis's sign is free).
+glm::dmat3 axes_along(const glm::dmat3& from, glm::dmat3 to, const glm::dmat3& a) {
+  for (int k = 0; k < 3; ++k)
+    if (glm::dot(a * from[k], to[k]) < 0) to[k] = -to[k];
+  return to;
+}
+
 // The affine map (x → a·x + t) that best takes the stored primitives onto `to`: their centres
-// about their means, and each principal axis scaled by its semi-axis (an axis's sign is free: the
-// one the centres' map agrees with). nullopt when the centres span no volume.
+// about their means, and their axes scaled by their semi-axes (signs as the centres' map has
+// them). nullopt when the centres span no volume.
 struct Affine {
   glm::dmat3 a;
   glm::dvec3 t;
-  bool exact = false;  // every centre and axis lands within a micrometre: the field itself is carried
+  bool exact = false;  // a rigid motion or mirror that lands every centre and axis within a micrometre
 };
 std::optional<Affine> fit_affine(std::span<const StoredPrimitive> from, std::span<const StoredPrimitive> to) {
   const size_t n = from.size();
   glm::dvec3 mean_from(0.0), mean_to(0.0);
-  for (size_t i = 0; i < n; ++i)
-    mean_from += glm::dvec3(from[i].center_m[0], from[i].center_m[1], from[i].center_m[2]),
-        mean_to += glm::dvec3(to[i].center_m[0], to[i].center_m[1], to[i].center_m[2]);
+  for (size_t i = 0; i < n; ++i) mean_from += center_of(from[i]), mean_to += center_of(to[i]);
   mean_from /= static_cast<double>(n), mean_to /= static_cast<double>(n);
   glm::dmat3 cross(0.0), gram(0.0);
   auto add = [&](const glm::dvec3& u, const glm::dvec3& v) {
     cross += glm::outerProduct(v, u), gram += glm::outerProduct(u, u);
   };
-  for (size_t i = 0; i < n; ++i)
-    add(glm::dvec3(from[i].center_m[0], from[i].center_m[1], from[i].center_m[2]) - mean_from,
-        glm::dvec3(to[i].center_m[0], to[i].center_m[1], to[i].center_m[2]) - mean_to);
+  for (size_t i = 0; i < n; ++i) add(center_of(from[i]) - mean_from, center_of(to[i]) - mean_to);
   if (!(std::abs(glm::determinant(gram)) > 1e-15)) return std::nullopt;
   const glm::dmat3 by_centres = cross * glm::inverse(gram);
   for (size_t i = 0; i < n; ++i) {
-    const glm::mat3 rf = rotation_of(from[i].orientation_rad), rt = rotation_of(to[i].orientation_rad);
-    for (int k = 0; k < 3; ++k) {
-      const glm::dvec3 u = glm::dvec3(rf[k]) * static_cast<double>(from[i].semi_axes_m[k]);
-      glm::dvec3 v = glm::dvec3(rt[k]) * static_cast<double>(to[i].semi_axes_m[k]);
-      if (glm::dot(by_centres * u, v) < 0) v = -v;
-      add(u, v);
-    }
+    const glm::dmat3 u = axes_of(from[i]), v = axes_along(u, axes_of(to[i]), by_centres);
+    for (int k = 0; k < 3; ++k) add(u[k], v[k]);
   }
   const glm::dmat3 a = cross * glm::inverse(gram);
   Affine map{a, mean_to - a * mean_from};
   double worst = 0;
   for (size_t i = 0; i < n; ++i) {
-    const glm::dvec3 c(from[i].center_m[0], from[i].center_m[1], from[i].center_m[2]),
-        c_to(to[i].center_m[0], to[i].center_m[1], to[i].center_m[2]);
-    worst = std::max(worst, glm::length(a * c + map.t - c_to));
-    const glm::mat3 rf = rotation_of(from[i].orientation_rad), rt = rotation_of(to[i].orientation_rad);
-    for (int k = 0; k < 3; ++k) {
-      const glm::dvec3 u = a * (glm::dvec3(rf[k]) * static_cast<double>(from[i].semi_axes_m[k]));
-      const glm::dvec3 v = glm::dvec3(rt[k]) * static_cast<double>(to[i].semi_axes_m[k]);
-      worst = std::max(worst, std::min(glm::length(u - v), glm::length(u + v)));
-    }
+    worst = std::max(worst, glm::length(a * center_of(from[i]) + map.t - center_of(to[i])));
+    const glm::dmat3 u = axes_of(from[i]), v = axes_along(u, axes_of(to[i]), a);
+    for (int k = 0; k < 3; ++k) worst = std::max(worst, glm::length(a * u[k] - v[k]));
     worst = std::max({worst, std::abs(double(from[i].weight) - to[i].weight),
                       std::abs(double(from[i].influence) - to[i].influence)});
   }
@@ -135,11 +137,9 @@ std::optional<Affine> fit_affine(std::span<const StoredPrimitive> from, std::spa
   return map;
 }
 
-// The stored mesh carried by `map` and projected onto f; nullopt when a vertex stays off the
-// surface or a triangle turns over.
-// Each stored primitive's own affine map onto its counterpart (centre onto centre, its axes scaled
-// by their semi-axes onto the counterpart's, signs as the whole map has them), and its field's
-// support, to weigh it by at a stored point.
+// Each stored primitive's own affine map onto its counterpart (centre onto centre, its axes onto
+// the counterpart's, signs as the whole map has them), and its field's support, to weigh it by
+// at a stored point.
 struct PrimitiveMap {
   glm::dmat3 unit_from_stored;  // S⁻¹ Rᵀ of the stored primitive
   glm::dvec3 stored_center, center;
@@ -151,19 +151,9 @@ std::vector<PrimitiveMap> primitive_maps(std::span<const StoredPrimitive> from, 
                                          const glm::dmat3& whole) {
   std::vector<PrimitiveMap> maps;
   for (size_t i = 0; i < from.size(); ++i) {
-    const glm::mat3 rf = rotation_of(from[i].orientation_rad), rt = rotation_of(to[i].orientation_rad);
-    glm::dmat3 u, v;
-    for (int k = 0; k < 3; ++k) {
-      u[k] = glm::dvec3(rf[k]) * static_cast<double>(from[i].semi_axes_m[k]);
-      v[k] = glm::dvec3(rt[k]) * static_cast<double>(to[i].semi_axes_m[k]);
-      if (glm::dot(whole * u[k], v[k]) < 0) v[k] = -v[k];
-    }
+    const glm::dmat3 u = axes_of(from[i]), v = axes_along(u, axes_of(to[i]), whole);
     if (!(std::abs(glm::determinant(u)) > 1e-18)) continue;
-    glm::dmat3 unit = glm::transpose(glm::dmat3(rf));
-    for (int k = 0; k < 3; ++k)
-      for (int c = 0; c < 3; ++c) unit[c][k] /= static_cast<double>(from[i].semi_axes_m[k]);
-    maps.push_back({unit, glm::dvec3(from[i].center_m[0], from[i].center_m[1], from[i].center_m[2]),
-                    glm::dvec3(to[i].center_m[0], to[i].center_m[1], to[i].center_m[2]), v * glm::inverse(u),
+    maps.push_back({glm::inverse(u), center_of(from[i]), center_of(to[i]), v * glm::inverse(u),
                     static_cast<double>(from[i].influence) * from[i].influence, static_cast<double>(from[i].weight)});
   }
   return maps;

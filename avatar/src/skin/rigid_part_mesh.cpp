@@ -184,6 +184,9 @@ Result<std::string> rigid_mesh_table(const BodyModel& model) {
       if (!meshes.empty() && meshes.back().part == part && meshes.back().budget == budget) continue;
       auto m = part_mesh(at_lod, part, RigidMeshSource::field);
       if (!m) return tl::unexpected(m.error());
+      if (m->positions_m.size() > UINT16_MAX)  // the table stores vertex indices in 16 bits
+        return fail(Errc::invalid_argument, std::string("the ") + rigid_part_name(part) + "'s mesh has " +
+                                                std::to_string(m->positions_m.size()) + " vertices, over 65,535");
       meshes.push_back({part, budget, IsoMesh{std::move(m->positions_m), std::move(m->triangles)}});
     }
   return rigid_mesh_table_source(model, meshes);
