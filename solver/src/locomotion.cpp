@@ -69,7 +69,7 @@ void lift_heel(rig::RigidTransform& ankle_t, const glm::vec3& hip, float reach_m
   auto ankle_at = [&](float pitch_rad) {
     return ball - ankle_t.rotation * (glm::angleAxis(pitch_rad, glm::vec3(1, 0, 0)) * ball_in_ankle);
   };
-  float lo = 0.0f, hi = 1.2f;  // up to about 70° of heel lift; beyond, on tiptoe, the leg stretches
+  float lo = 0.0f, hi = 0.8f;  // up to about 70° of heel lift; beyond, on tiptoe, the leg stretches
   for (int i = 0; i < 12 && glm::length(hip - ankle_at(hi)) <= reach; ++i) {
     const float mid = 0.5f * (lo + hi);
     (glm::length(hip - ankle_at(mid)) > reach ? lo : hi) = mid;
@@ -389,6 +389,42 @@ void SolveJob::LiftSteppedFootOffFloor(int ci) {
     if (!SolveLimb(ci)) break;  // the last solution stays
   }
   fs.target = target;
+  KeepBallAboveFloor(ci, floor_y);
+}
+
+// What the target's raise could not lift (a stretched leg, an ankle at its limit pitching the
+// foot further than asked) the ankle's flexion does: the foot turns toes-up about the ankle
+// until the ball is on the floor, as far as the joint's limits allow.
+void SolveJob::KeepBallAboveFloor(int ci, float floor_y) {
+  const SolverModel& m = *model;
+  const rig::Skeleton& s = m.skeleton();
+  const SolverModel::Chain& ch = m.chains_[ci];
+  const int leg = ci - 2;
+  std::span<float> dof(pose->dof_rad);
+  const int d = s.dof_begin(ch.end);
+  if (s.dof_end(ch.end) <= d) return;
+  rig::RigidTransform knee = context->world_[s.parent(ch.upper)];
+  for (int j : {ch.upper, ch.mid})
+    knee = rig::RigidTransform{knee.rotation * s.local_rotation(j, dof), knee.apply(s.offset_m(j))};
+  const glm::vec3 ankle = knee.apply(s.offset_m(ch.end));
+  auto ball_y = [&](float a) {
+    const float keep = dof[d];
+    dof[d] = a;
+    const float y = ankle.y + (knee.rotation * (s.local_rotation(ch.end, dof) * m.ball_in_ankle_[leg])).y;
+    dof[d] = keep;
+    return y;
+  };
+  const float now = dof[d];
+  if (!(ball_y(now) < floor_y)) return;
+  const auto& f = s.dof(d);
+  const float raise = ball_y(now + 0.01f) > ball_y(now) ? 1.0f : -1.0f;
+  float lo = now, hi = raise > 0 ? f.max_rad : f.min_rad;
+  if (!(ball_y(hi) < floor_y))
+    for (int i = 0; i < 10; ++i) {
+      const float mid = 0.5f * (lo + hi);
+      (ball_y(mid) < floor_y ? lo : hi) = mid;
+    }
+  dof[d] = hi;
 }
 
 }  // namespace mimic::solver

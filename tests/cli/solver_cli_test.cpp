@@ -116,6 +116,20 @@ TEST(CalibrateCli, UsageErrors) {
     EXPECT_NE(help.output.find(word), std::string::npos) << word;
 }
 
+// Head and hands alone, over every shared clip: the stepped feet (a heel lifted behind a stride,
+// a foot the ankle's limits pitch) stay on or above the floor the clip's own feet stand on.
+TEST(EvalSolverCli, SteppedFeetStayAboveTheFloorOnEverySharedClip) {
+  for (const char* id : {"02_04", "02_05", "02_06", "05_02", "06_04", "07_01", "09_11", "13_26"}) {
+    const std::string clip = mimic::test::clip_path(id);
+    if (!std::filesystem::exists(clip)) GTEST_SKIP() << "shared data not found";
+    const Outcome r = run_mimic("eval-solver --bvh " + clip + " --sensors 3 --json", true);
+    ASSERT_EQ(r.status, 0) << r.output;
+    const auto j = nlohmann::json::parse(r.output.substr(0, r.output.find('\n')));
+    std::printf("  %s: deepest foot point %.1f mm under the floor\n", id, j["floor_penetration_mm"].get<double>());
+    EXPECT_LE(j["floor_penetration_mm"].get<double>(), 10.0) << id;
+  }
+}
+
 TEST(EvalSolverCli, PrintsOneJsonObjectPerLayoutWithTheRequiredKeys) {
   const std::string clip = mimic::test::clip_path("07_01");
   if (!std::filesystem::exists(clip)) GTEST_SKIP() << "shared data not found";

@@ -188,7 +188,8 @@ struct SolveJob {
   void place_untracked_feet();
   void SolveLimbsAndRest(bool trunk_observed);
   bool SolveLimb(int chain);
-  void LiftSteppedFootOffFloor(int chain);  // locomotion.cpp
+  void LiftSteppedFootOffFloor(int chain);            // locomotion.cpp
+  void KeepBallAboveFloor(int chain, float floor_y);  // locomotion.cpp
   void PlaceJoint(int joint);
   void OrientFromTarget(int joint);
 };
