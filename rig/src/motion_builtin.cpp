@@ -464,8 +464,8 @@ class WalkMotion final : public ProceduralMotion {
     set(p, kSpineLowerFlexion, rad(-1.0));
     set(p, kSpineLowerTwist, -0.6 * pelvis_yaw);
     set(p, kSpineMidTwist, -0.8 * pelvis_yaw);
-    set(p, kSpineLowerLateralBend, -0.6 * obliquity);
-    set(p, kSpineMidLateralBend, -0.4 * obliquity);
+    set(p, kSpineLowerLateralBend, 0.6 * obliquity);  // the bend turns about -Z, the obliquity about +Z
+    set(p, kSpineMidLateralBend, 0.4 * obliquity);
     set(p, kNeckFlexion, rad(3.0));
     set(p, kHeadFlexion, rad(-2.0));
     set(p, kNeckTwist, rad(-6.0));  // looking a little into the curve

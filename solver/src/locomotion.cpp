@@ -160,7 +160,7 @@ void update_locomotion(LocomotionState& s, const LocomotionInput& in, const Loco
   // The head's sideways sway about its mean path: which foot carries the body.
   float sway_m = 0;
   if (in.have_head) {
-    if (!s.have_sway) s.sway_centre = xz(in.head), s.have_sway = true;
+    if (!s.have_sway) s.sway_centre = s.last_head = xz(in.head), s.have_sway = true;
     s.sway_centre += (1.0f - std::exp(-dt / o.sway_tau_s)) * (xz(in.head) - s.sway_centre);
     // The mean path trails a walking head by its velocity times the time constant; seen from a
     // heading a few degrees off the path, that trail would read as sway of several centimetres.
@@ -169,6 +169,18 @@ void update_locomotion(LocomotionState& s, const LocomotionInput& in, const Loco
     // On a curved path the mean path cuts the corner: a steady offset, taken out.
     s.sway_bias_m += (1.0f - std::exp(-dt / o.sway_bias_tau_s)) * (sway_m - s.sway_bias_m);
     sway_m -= s.sway_bias_m;
+    // Across the head's own mean path: the pelvis' heading turns with each stride, and a walk's
+    // forward speed seen from a heading a few degrees off would swamp the sideways motion.
+    const glm::vec2 head_mps = (xz(in.head) - s.last_head) / dt;
+    s.last_head = xz(in.head);
+    s.path_mps += (1.0f - std::exp(-dt / o.path_tau_s)) * (head_mps - s.path_mps);
+    const float path_speed = glm::length(s.path_mps);
+    const glm::vec2 left = path_speed > 0.2f ? glm::vec2(s.path_mps.y, -s.path_mps.x) / path_speed
+                                             : glm::vec2(std::cos(in.root_yaw_rad), -std::sin(in.root_yaw_rad));
+    // On a curve the mean path's heading lags the head's own: a steady sideways speed, taken out.
+    const float across_mps = glm::dot(head_mps, left);
+    s.sway_mps_bias += (1.0f - std::exp(-dt / o.sway_speed_bias_tau_s)) * (across_mps - s.sway_mps_bias);
+    s.sway_mps += (1.0f - std::exp(-dt / o.sway_speed_tau_s)) * (across_mps - s.sway_mps_bias - s.sway_mps);
   }
   const bool gate = in.have_head && o.sway_gate_m >= 0 && speed > o.sway_speed_mps;
   const bool low = in.have_head && track_bob(s.bob, in.head.y, dt, o);
@@ -180,8 +192,10 @@ void update_locomotion(LocomotionState& s, const LocomotionInput& in, const Loco
       if (f.driven && f.swinging) retime_swing(f, 0.04f);
     s.bob.lift_at_s = s.bob.low_s + o.bob_lift_fraction * s.bob.period_s;
     // At a foot's strike the head is still over the other, trailing foot (its sway lags the
-    // body's weight by about a quarter stride): that foot lifts next.
+    // body's weight by about a quarter stride) and moving towards the striking one: the trailing
+    // foot lifts next. The motion says it clearly at every strike; the side only at the first.
     s.bob.lifter = s.bob.beats < o.bob_sway_beats && std::abs(sway_m) > o.bob_sway_choice_m ? (sway_m > 0 ? 0 : 1) : -1;
+    if (o.bob_sway_speed_mps > 0 && std::abs(s.sway_mps) > o.bob_sway_speed_mps) s.bob.lifter = s.sway_mps > 0 ? 1 : 0;
     ++s.bob.beats;
   }
   const float swing_s = o.swing_s_slow + (o.swing_s_fast - o.swing_s_slow) * std::clamp(speed / o.fast_mps, 0.0f, 1.0f);

@@ -256,6 +256,45 @@ TEST(Locomotion, WalkingStepsKeepTheHeadsBeat) {
   EXPECT_LE(repeats, 1);
 }
 
+// The stepper alone, fed a head that walks straight on at 1.2 m/s, bobbing at each foot strike
+// (lowest as a foot lands, every 0.55 s) and swaying 3 cm to either side: at a strike the head
+// moves sideways towards the striking foot, as the body's weight shifts onto it. Three seconds
+// in, the walker strikes with the same foot twice running (a shuffle that changes feet); from
+// then on, the foot that lifts after each strike is still the other, trailing one: the stepper
+// follows the head's sideways motion rather than merely alternating.
+TEST(Locomotion, TheFootTheHeadMovesAwayFromLiftsAfterEachStrike) {
+  const double dt = 1.0 / 120, period = 0.55, pi = 3.14159265358979;
+  const int shuffle = 6;  // the strike that repeats the foot before it
+  LocomotionState state;
+  LocomotionInput in;
+  in.dt_s = static_cast<float>(dt);
+  in.reach_m = {0.79f, 0.79f};
+  in.floor_ankle_y_m = {0.073f, 0.073f};
+  in.drive = {true, true};
+  in.have_head = true;
+  // Strike n is the left foot's (0) on even n until the shuffle, on odd n after it.
+  auto striking = [&](int n) { return (n < shuffle ? n : n + 1) % 2; };
+  int counted = 0, trailing = 0;
+  for (int k = 0; k < int(8.0 / dt); ++k) {
+    const double t = k * dt;
+    // +X is the left walking along +Z: towards the left after a left strike.
+    const double phase = t / period < shuffle ? t / period : t / period + 1;
+    const float sway = static_cast<float>(0.03 * std::sin(pi * phase));
+    const float z = static_cast<float>(1.2 * t);
+    in.root = {sway, 0.82f, z};
+    in.hip = {glm::vec3(sway + 0.11f, 0.80f, z), glm::vec3(sway - 0.11f, 0.80f, z)};
+    in.head = {sway, static_cast<float>(1.60 - 0.02 * std::cos(2 * pi * t / period)), z + 0.05f};
+    const long before = state.steps;
+    update_locomotion(state, in, LocomotionOptions{});
+    if (t < (shuffle + 0.5) * period || state.steps == before) continue;
+    ++counted;
+    if (state.last_stepped != striking(static_cast<int>(std::floor(t / period)))) ++trailing;
+  }
+  std::printf("  %d lifts after the shuffle, %d of them the foot the head moved away from\n", counted, trailing);
+  ASSERT_GE(counted, 6);
+  EXPECT_GE(trailing, counted - 1);
+}
+
 // Squatting deep (the head comes down upright: the hips follow it), the knee's and ankle's limits
 // pitch a stepped foot toes-down: its heel lifts rather than the ball or toes going through the
 // floor.
@@ -287,21 +326,36 @@ TEST(Locomotion, WalkingFeetLandNearerTheMidlineThanTheHips) {
   ASSERT_TRUE(walk.has_value());
   Pose truth = w.s.zero_pose();
   const float hip_width_m = glm::length(w.s.offset_m(w.s.find_joint("l_hip")) - w.s.offset_m(w.s.find_joint("r_hip")));
-  double width_sum_m = 0;
+  double width_sum_m = 0, truth_sum_m = 0;
   int n = 0;
   for (int k = 0; k < int(6 * kRateHz); ++k) {
     (*walk)->sample(k / kRateHz, truth);
     w.step(truth);
     const auto& feet = w.ctx.locomotion().feet;
     if (k < 2 * kRateHz || feet[0].swinging || feet[1].swinging) continue;
-    const glm::vec3 left_dir = w.solved.root_orientation * glm::vec3(1, 0, 0);
+    // Across the line of progression (the truth's over half a stride either side): the pelvis
+    // turns with the leading leg, and across its own heading feet a step apart would read wider.
+    Pose ahead = truth, behind = truth;
+    (*walk)->sample(k / kRateHz + 0.55, ahead);
+    (*walk)->sample(k / kRateHz - 0.55, behind);
+    const glm::vec3 path = ahead.root_position_m - behind.root_position_m;
+    const glm::vec3 left_dir = glm::normalize(glm::vec3(path.z, 0, -path.x));
     width_sum_m += glm::dot(w.ankle(0) - w.ankle(1), left_dir);
+    {
+      std::vector<RigidTransform> tw(w.s.joint_count());
+      rig::forward_kinematics(w.s, truth, tw);
+      truth_sum_m +=
+          glm::dot(tw[w.s.find_joint("l_ankle")].translation - tw[w.s.find_joint("r_ankle")].translation, left_dir);
+    }
     ++n;
   }
   ASSERT_GT(n, 30);
   const double width_m = width_sum_m / n;
-  std::printf("  walk: planted feet %.1f cm apart side to side (hips %.1f cm)\n", 100 * width_m, 100 * hip_width_m);
-  EXPECT_LT(width_m, 0.8 * hip_width_m);
+  std::printf("  walk: planted feet %.1f cm apart side to side (hips %.1f cm, truth %.1f)\n", 100 * width_m,
+              100 * hip_width_m, 100 * truth_sum_m / n);
+  // Nearer the midline than the hips, and about as far apart as the walker's own feet.
+  EXPECT_LT(width_m, hip_width_m);
+  EXPECT_NEAR(width_m, truth_sum_m / n, 0.03);
   EXPECT_GT(width_m, 0.05);
 }
 

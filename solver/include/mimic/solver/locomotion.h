@@ -58,6 +58,14 @@ struct LocomotionOptions {
   float bob_lift_fraction = 0.25f;
   int bob_sway_beats = 2;            // … for the first lows of a walk; then the feet alternate
   float bob_sway_choice_m = 0.015f;  // the head this far to one side at a low picks that foot; else alternate
+  // At a low the head moves sideways towards the foot that strikes (its weight shifts onto it):
+  // faster than this, the other foot is the one that lifts next, whatever the beat. Sideways is
+  // across the head's mean path (its velocity smoothed over `path_tau_s`), the speed smoothed
+  // over `sway_speed_tau_s` less its own mean over `sway_speed_bias_tau_s` (a curve's lag).
+  float bob_sway_speed_mps = 0.05f;
+  float sway_speed_tau_s = 0.04f;
+  float path_tau_s = 0.5f;
+  float sway_speed_bias_tau_s = 0.6f;
   float bob_first_period_s = 0.55f;  // before two lows have been seen (a step at 110 a minute)
   // Walking to the bob, another foot than the trailing one lifts only when its leg is this far
   // out of reach (flat; the heel lifts up to here): a reach rule that fired earlier broke the beat.
@@ -98,6 +106,10 @@ struct LocomotionState {
   glm::vec2 sway_centre{0.0f};  // the head's mean horizontal path
   bool have_sway = false;
   float sway_bias_m = 0;  // the sway's slow mean
+  glm::vec2 last_head{0.0f};
+  glm::vec2 path_mps{0.0f};  // the head's velocity along its mean path (smoothed over a stride)
+  float sway_mps = 0;        // the head's velocity across that path, towards the left, smoothed
+  float sway_mps_bias = 0;   // … and its slow mean
   // The head's bob (see LocomotionOptions::bob_timing).
   struct Bob {
     double clock_s = 0;  // time since the stepper started
