@@ -306,11 +306,12 @@ bool SolveJob::SolveLimb(int ci) {
   if (glm::length(e1) < 1e-6f) e1 = perpendicular_part(glm::vec3(1, 0, 0), n);
   e1 = glm::normalize(e1);
   const glm::vec3 e2 = glm::cross(n, e1);
-  ChainSolution best = detail::solve_chain(in, e1);
+  const detail::ChainGeometry hinted = detail::chain_geometry(in, e1);
+  ChainSolution best = detail::solve_chain(in, hinted);
   // A guessed foot is searched only when the limits would cut a lot (0.2 rad) off the swivel's
   // leg: clamped that far, a stretched leg turned up off the floor (a pirouette's planted foot).
   const float search_above = c.guessed_end_[ci] ? 0.2f : 1e-4f;
-  if (best.ok && best.violation > search_above) best = detail::search_swivel(in, e1, e2, best);
+  if (best.ok && best.violation > search_above) best = detail::search_swivel(in, hinted, e1, e2, best);
   if (!best.ok) return false;
   for (int i = 0; i < ch.upper_dof_count; ++i) dof[ch.upper_dofs[i]] = best.upper[i];
   dof[ch.flex_dof] = best.bend;

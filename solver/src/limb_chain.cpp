@@ -37,17 +37,7 @@ float decompose_clamped(const Skeleton& s, const int* dofs, int count, const glm
   return violation;
 }
 
-// Where the two-bone solution puts the upper segment (world) and how far the middle joint bends,
-// before the limits. `turns_with_swivel`: the limb is bent (its bend plane follows the middle
-// joint) and not in the over-extension range (where a hint picks the plane): then the same chain
-// at another swivel is this one turned about the start→target axis.
-struct ChainGeometry {
-  bool ok = false;
-  bool turns_with_swivel = false;
-  glm::quat upper_world{1, 0, 0, 0};
-  glm::vec3 bend_world{0.0f};  // unit, where the lower link swings as the bend grows
-  float bend = 0;
-};
+}  // namespace
 
 ChainGeometry chain_geometry(const ChainInput& in, const glm::vec3& pole) {
   const Skeleton& s = *in.s;
@@ -97,9 +87,14 @@ ChainGeometry chain_geometry(const ChainInput& in, const glm::vec3& pole) {
   return g;
 }
 
+namespace {
+
 // The chain's DOFs from its geometry: the upper joint's from the upper segment, the bend, then
-// what is left orients the hand or foot. `phi` and `give_up_at` as for solve_chain.
-ChainSolution chain_dofs(const ChainInput& in, const ChainGeometry& g, float phi, float give_up_at) {
+// what is left orients the hand or foot. `phi` and `give_up_at` as for solve_chain; `bend_rot`,
+// when given, is the clamped bend's rotation about the hinge (the same for every swivel of a
+// turning chain: the search takes its sine and cosine once).
+ChainSolution chain_dofs(const ChainInput& in, const ChainGeometry& g, float phi, float give_up_at,
+                         const glm::quat* bend_rot = nullptr) {
   const Skeleton& s = *in.s;
   const SolverModel::Chain& ch = *in.ch;
   const auto& flex = s.dof(ch.flex_dof);
@@ -113,7 +108,8 @@ ChainSolution chain_dofs(const ChainInput& in, const ChainGeometry& g, float phi
   glm::quat upper_local(1, 0, 0, 0);
   for (int i = 0; i < ch.upper_dof_count; ++i)
     upper_local = upper_local * glm::angleAxis(out.upper[i], s.dof(ch.upper_dofs[i]).axis);
-  const glm::quat mid_pre = in.parent_w->rotation * upper_local * glm::angleAxis(out.bend, ch.hinge);
+  const glm::quat mid_pre =
+      in.parent_w->rotation * upper_local * (bend_rot ? *bend_rot : glm::angleAxis(out.bend, ch.hinge));
   out.violation += decompose_clamped(s, ch.end_dofs.data(), ch.end_dof_count,
                                      glm::conjugate(mid_pre) * in.end_t->rotation, in.warm, out.end);
   out.ok = true;
@@ -121,6 +117,11 @@ ChainSolution chain_dofs(const ChainInput& in, const ChainGeometry& g, float phi
 }
 
 }  // namespace
+
+ChainSolution solve_chain(const ChainInput& in, const ChainGeometry& g) {
+  if (!g.ok) return ChainSolution{};
+  return chain_dofs(in, g, 0.0f, std::numeric_limits<float>::infinity());
+}
 
 ChainSolution solve_chain(const ChainInput& in, const glm::vec3& pole, float phi, float give_up_at) {
   const ChainGeometry g = chain_geometry(in, pole);
@@ -133,8 +134,12 @@ ChainSolution solve_chain(const ChainInput& in, const glm::vec3& pole, float phi
 // one rotation instead of a two-bone solve per candidate. The samples are tried nearest the hint
 // first, so that a good one found early rules out the far ones by their swivel cost alone; the
 // winner is the same as in sample order (the lowest cost, on a tie the first in that order).
-ChainSolution search_swivel(const ChainInput& in, const glm::vec3& e1, const glm::vec3& e2, ChainSolution best) {
-  const ChainGeometry hinted = chain_geometry(in, e1);
+ChainSolution search_swivel(const ChainInput& in, const ChainGeometry& hinted, const glm::vec3& e1, const glm::vec3& e2,
+                            ChainSolution best) {
+  const bool turns = hinted.ok && hinted.turns_with_swivel;
+  const SolverModel::Chain& ch = *in.ch;
+  const auto& flex = in.s->dof(ch.flex_dof);
+  const glm::quat bend_rot = glm::angleAxis(std::clamp(hinted.bend, flex.min_rad, flex.max_rad), ch.hinge);
   const glm::vec3 axis = glm::normalize(in.end_t->translation - in.start);
   float best_phi = 0;
   float best_cost = chain_cost(best, 0.0f);
@@ -147,12 +152,12 @@ ChainSolution search_swivel(const ChainInput& in, const glm::vec3& e1, const glm
     const float give_up_at =
         rank < best_rank ? std::nextafter(best_cost, std::numeric_limits<float>::infinity()) : best_cost;
     ChainSolution cand;
-    if (hinted.ok && hinted.turns_with_swivel) {
+    if (turns) {
       const glm::quat turn = glm::angleAxis(phi, axis);
       ChainGeometry g = hinted;
       g.upper_world = glm::normalize(turn * hinted.upper_world);
       g.bend_world = turn * hinted.bend_world;
-      cand = chain_dofs(in, g, phi, give_up_at);
+      cand = chain_dofs(in, g, phi, give_up_at, &bend_rot);
     } else {
       cand = solve_chain(in, std::cos(phi) * e1 + std::sin(phi) * e2, phi, give_up_at);
     }

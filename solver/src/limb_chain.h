@@ -37,13 +37,32 @@ struct ChainSolution {
   float violation = 0;  // radians cut off by the limits, summed
 };
 
+// Where the two-bone solution puts the upper segment (world) and how far the middle joint bends,
+// before the limits. `turns_with_swivel`: the limb is bent (its bend plane follows the middle
+// joint) and not in the over-extension range (where a hint picks the plane): then the same chain
+// at another swivel is this one turned about the start→target axis.
+struct ChainGeometry {
+  bool ok = false;
+  bool turns_with_swivel = false;
+  glm::quat upper_world{1, 0, 0, 0};
+  glm::vec3 bend_world{0.0f};  // unit, where the lower link swings as the bend grows
+  float bend = 0;
+};
+
+// The chain's geometry with its middle joint towards `pole`.
+ChainGeometry chain_geometry(const ChainInput& in, const glm::vec3& pole);
+
+// The chain's DOFs from its geometry (ok false when the geometry is not).
+ChainSolution solve_chain(const ChainInput& in, const ChainGeometry& g);
+
 // The chain with its middle joint towards `pole`. `phi` and `give_up_at`: a swivel search's
 // candidate stops (not ok) as soon as the violation so far makes its cost reach give_up_at.
 ChainSolution solve_chain(const ChainInput& in, const glm::vec3& pole, float phi = 0.0f,
                           float give_up_at = std::numeric_limits<float>::infinity());
 
 // The swivel the limits allow nearest to the hinted one (e1; e2 = axis × e1), starting from
-// `best`, the chain at the hinted swivel.
-ChainSolution search_swivel(const ChainInput& in, const glm::vec3& e1, const glm::vec3& e2, ChainSolution best);
+// `best`, the chain at the hinted swivel, whose geometry is `hinted` (chain_geometry(in, e1)).
+ChainSolution search_swivel(const ChainInput& in, const ChainGeometry& hinted, const glm::vec3& e1, const glm::vec3& e2,
+                            ChainSolution best);
 
 }  // namespace mimic::solver::detail
