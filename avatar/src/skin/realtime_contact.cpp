@@ -7,6 +7,8 @@
 
 #include <glm/gtx/euler_angles.hpp>
 
+#include "mimic/avatar/simd.h"
+
 namespace mimic::avatar::realtime_detail {
 
 namespace {
@@ -26,8 +28,7 @@ struct Piece {
 };
 using G = Group;
 const Piece kPieces[] = {
-    {"upper_torso", bits({G::upper_torso}), bits({G::upper_torso})},
-    {"lower_torso", bits({G::lower_torso, G::hip}), bits({G::lower_torso, G::hip})},
+    {"torso", bits({G::upper_torso, G::lower_torso, G::hip}), bits({G::upper_torso, G::lower_torso, G::hip})},
     {"left_upper_arm", bits({G::left_upper_arm}), bits({G::left_upper_arm})},
     {"right_upper_arm", bits({G::right_upper_arm}), bits({G::right_upper_arm})},
     {"left_lower_arm", bits({G::left_lower_arm}), bits({G::left_lower_arm})},
@@ -45,11 +46,10 @@ const Piece kPieces[] = {
 // contours crossed at full flexion), and the forearm against the thighs (a forearm 60 mm in a
 // thigh in a crouch only folds).
 const std::pair<std::string_view, std::string_view> kPairs[] = {
-    {"left_upper_arm", "upper_torso"},     {"left_upper_arm", "lower_torso"},     {"right_upper_arm", "upper_torso"},
-    {"right_upper_arm", "lower_torso"},    {"left_lower_arm", "upper_torso"},     {"left_lower_arm", "lower_torso"},
-    {"right_lower_arm", "upper_torso"},    {"right_lower_arm", "lower_torso"},    {"left_upper_leg", "lower_torso"},
-    {"right_upper_leg", "lower_torso"},    {"right_upper_leg", "left_upper_leg"}, {"right_lower_leg", "left_lower_leg"},
-    {"left_lower_leg", "right_upper_leg"}, {"right_lower_leg", "left_upper_leg"},
+    {"left_upper_arm", "torso"},           {"right_upper_arm", "torso"},          {"left_lower_arm", "torso"},
+    {"right_lower_arm", "torso"},          {"left_upper_leg", "torso"},           {"right_upper_leg", "torso"},
+    {"right_upper_leg", "left_upper_leg"}, {"right_lower_leg", "left_lower_leg"}, {"left_lower_leg", "right_upper_leg"},
+    {"right_lower_leg", "left_upper_leg"},
 };
 
 const Piece* piece(std::string_view name) {
@@ -71,10 +71,68 @@ struct FieldAt {
   glm::vec3 gradient{0.0f};
 };
 
-FieldAt field_at(const ContactTables& t, const ContactTables::Pair& pr, const ContactState& st, const glm::vec3& p) {
+// The field alone, each ball's bounding sphere tested first (most are out of reach).
+float field_value(const ContactTables& t, std::span<const uint16_t> balls, const ContactState& st, const glm::vec3& p) {
+  float value = 0;
+  for (const uint16_t i : balls) {
+    const ContactTables::Ball& b = t.balls[i];
+    const glm::vec3 d = p - st.centre[i];
+    if (glm::dot(d, d) >= b.bound_m * b.bound_m) continue;
+    const glm::vec3 q = st.unit_from_world[i] * d;
+    const float u = 1.0f - glm::dot(q, q) * b.inv_r2;
+    if (u > 0.0f) value += b.weight_norm * u * u * u;
+  }
+  return value;
+}
+
+// The active balls as eight-lane rows (ContactState::lanes); returns the padded count.
+uint32_t fill_lanes(const ContactTables& t, ContactState& st, uint32_t n) {
+  const uint32_t padded = (n + 7) / 8 * 8;
+  float* rows = st.lanes.data();
+  const size_t w = st.lane_stride;
+  for (uint32_t k = 0; k < padded; ++k) {
+    if (k >= n) {
+      for (int r = 0; r < ContactState::kLaneRows; ++r) rows[r * w + k] = 0.0f;
+      continue;
+    }
+    const uint16_t i = st.active[k];
+    const glm::mat3& m = st.unit_from_world[i];
+    rows[0 * w + k] = st.centre[i].x, rows[1 * w + k] = st.centre[i].y, rows[2 * w + k] = st.centre[i].z;
+    for (int c = 0; c < 3; ++c)
+      for (int r = 0; r < 3; ++r) rows[(3 + 3 * r + c) * w + k] = m[c][r];  // row r of the matrix
+    rows[12 * w + k] = t.balls[i].inv_r2;
+    rows[13 * w + k] = t.balls[i].weight_norm;
+  }
+  return padded;
+}
+
+#ifdef MIMIC_SIMD_AVX2
+// field_value over the lanes, eight balls a step.
+float field_value_lanes(const ContactState& st, uint32_t padded, const glm::vec3& p) {
+  const float* rows = st.lanes.data();
+  const size_t w = st.lane_stride;
+  const __m256 px = _mm256_set1_ps(p.x), py = _mm256_set1_ps(p.y), pz = _mm256_set1_ps(p.z);
+  const __m256 one = _mm256_set1_ps(1.0f), zero = _mm256_setzero_ps();
+  __m256 sum = zero;
+  for (uint32_t k = 0; k < padded; k += 8) {
+    auto row = [&](int r) { return _mm256_loadu_ps(rows + r * w + k); };
+    const __m256 dx = _mm256_sub_ps(px, row(0)), dy = _mm256_sub_ps(py, row(1)), dz = _mm256_sub_ps(pz, row(2));
+    const __m256 qx = _mm256_fmadd_ps(row(5), dz, _mm256_fmadd_ps(row(4), dy, _mm256_mul_ps(row(3), dx)));
+    const __m256 qy = _mm256_fmadd_ps(row(8), dz, _mm256_fmadd_ps(row(7), dy, _mm256_mul_ps(row(6), dx)));
+    const __m256 qz = _mm256_fmadd_ps(row(11), dz, _mm256_fmadd_ps(row(10), dy, _mm256_mul_ps(row(9), dx)));
+    const __m256 s = _mm256_fmadd_ps(qz, qz, _mm256_fmadd_ps(qy, qy, _mm256_mul_ps(qx, qx)));
+    const __m256 u = _mm256_max_ps(_mm256_fnmadd_ps(s, row(12), one), zero);
+    sum = _mm256_fmadd_ps(_mm256_mul_ps(_mm256_mul_ps(u, u), u), row(13), sum);
+  }
+  const __m128 h = _mm_add_ps(_mm256_castps256_ps128(sum), _mm256_extractf128_ps(sum, 1));
+  const __m128 h2 = _mm_add_ps(h, _mm_movehl_ps(h, h));
+  return _mm_cvtss_f32(_mm_add_ss(h2, _mm_shuffle_ps(h2, h2, 1)));
+}
+#endif
+
+FieldAt field_at(const ContactTables& t, std::span<const uint16_t> balls, const ContactState& st, const glm::vec3& p) {
   FieldAt f;
-  for (uint32_t k = 0; k < pr.ball_count; ++k) {
-    const uint16_t i = t.pair_balls[pr.ball_first + k];
+  for (const uint16_t i : balls) {
     const ContactTables::Ball& b = t.balls[i];
     const glm::vec3 q = st.unit_from_world[i] * (p - st.centre[i]);
     const float u = 1.0f - glm::dot(q, q) * b.inv_r2;
@@ -153,6 +211,9 @@ size_t ContactTables::heap_bytes() const {
 void ContactState::resize(const ContactTables& t) {
   unit_from_world.assign(t.balls.size(), glm::mat3(1.0f));
   centre.assign(t.balls.size(), glm::vec3(0.0f));
+  active.assign(t.balls.size(), 0);
+  lane_stride = (t.balls.size() + 7) / 8 * 8;
+  lanes.assign(kLaneRows * lane_stride, 0.0f);
   push.assign(t.slot_vertex.size(), glm::vec3(0.0f));
   mark.assign(t.slot_vertex.size(), 0);
   touched.clear();
@@ -194,11 +255,19 @@ ContactTables build_contact(const BodyModel& model, const rig::Skeleton& skeleto
         t.pair_balls.push_back(static_cast<uint16_t>(ball_of_primitive[i]));
     }
     pr.ball_count = static_cast<uint32_t>(t.pair_balls.size()) - pr.ball_first;
+    const std::span<const uint16_t> volume(t.pair_balls.data() + pr.ball_first, pr.ball_count);
+    std::vector<uint16_t> own;
+    for (size_t i = 0; i < model.primitives.size(); ++i)
+      if (ball_of_primitive[i] >= 0 && (model.primitives[i].groups & pushed->field))
+        own.push_back(static_cast<uint16_t>(ball_of_primitive[i]));
     pr.vertex_first = static_cast<uint32_t>(t.vertices.size());
     for (size_t v = 0; v < owner.size(); ++v)
-      if (owner[v] == part && !junction[v] && field_at(t, pr, st, rest.positions[v]).value < t.iso)
+      if (owner[v] == part && !junction[v] && field_value(t, volume, st, rest.positions[v]) < t.iso)
         t.vertices.push_back(static_cast<uint32_t>(v));
     pr.vertex_count = static_cast<uint32_t>(t.vertices.size()) - pr.vertex_first;
+    pr.own_first = static_cast<uint32_t>(t.pair_balls.size());
+    pr.own_count = static_cast<uint32_t>(own.size());
+    t.pair_balls.insert(t.pair_balls.end(), own.begin(), own.end());
     if (pr.ball_count > 0 && pr.vertex_count > 0) t.pairs.push_back(pr);
   }
   build_ring(rest, t);
@@ -239,18 +308,40 @@ void apply_contact(const ContactTables& t, ContactState& st, std::span<const rig
   }
   st.moved = 0;
   for (const ContactTables::Pair& pr : t.pairs) {
-    // The volume's bounds this frame: no vertex outside them can be inside it.
+    // The pushed vertices' bounds this frame, the other volume's balls that reach them, and
+    // those balls' bounds: no vertex outside them can be inside the volume.
+    glm::vec3 vlo(1e30f), vhi(-1e30f);
+    for (uint32_t k = 0; k < pr.vertex_count; ++k) {
+      const glm::vec3& p = pos[t.vertices[pr.vertex_first + k]];
+      vlo = glm::min(vlo, p), vhi = glm::max(vhi, p);
+    }
+    uint32_t n = 0;
     glm::vec3 lo(1e30f), hi(-1e30f);
     for (uint32_t k = 0; k < pr.ball_count; ++k) {
       const uint16_t i = t.pair_balls[pr.ball_first + k];
-      lo = glm::min(lo, st.centre[i] - t.balls[i].bound_m);
-      hi = glm::max(hi, st.centre[i] + t.balls[i].bound_m);
+      const glm::vec3 c = st.centre[i];
+      const glm::vec3 d = c - glm::clamp(c, vlo, vhi);
+      const float r = t.balls[i].bound_m;
+      if (glm::dot(d, d) >= r * r) continue;
+      st.active[n++] = i;
+      lo = glm::min(lo, c - r);
+      hi = glm::max(hi, c + r);
     }
+    if (n == 0) continue;
+    lo = glm::max(lo, vlo), hi = glm::min(hi, vhi);
+    const std::span<const uint16_t> balls(st.active.data(), n);
+#ifdef MIMIC_SIMD_AVX2
+    const uint32_t padded = fill_lanes(t, st, n);
+#endif
     for (uint32_t k = 0; k < pr.vertex_count; ++k) {
       glm::vec3& p = pos[t.vertices[pr.vertex_first + k]];
       if (p.x < lo.x || p.y < lo.y || p.z < lo.z || p.x > hi.x || p.y > hi.y || p.z > hi.z) continue;
-      FieldAt f = field_at(t, pr, st, p);
-      if (f.value <= t.iso) continue;
+#ifdef MIMIC_SIMD_AVX2
+      if (field_value_lanes(st, padded, p) <= t.iso) continue;
+#else
+      if (field_value(t, balls, st, p) <= t.iso) continue;
+#endif
+      FieldAt f = field_at(t, balls, st, p);
       const glm::vec3 start = p;
       glm::vec3 q = p;
       for (int step = 0; step < kNewtonSteps && f.value > t.iso; ++step) {
@@ -261,7 +352,7 @@ void apply_contact(const ContactTables& t, ContactState& st, std::span<const rig
         const float moved_m = glm::length(moved);
         if (moved_m > kMaxPush_m) next = start + moved * (kMaxPush_m / moved_m);
         q = next;
-        f = field_at(t, pr, st, q);
+        f = field_at(t, balls, st, q);
       }
       const float push_m = glm::length(q - start);
       if (push_m >= kNoPush_m) continue;

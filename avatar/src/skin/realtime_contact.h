@@ -30,6 +30,7 @@ struct ContactTables {
   // reach it and the other piece's balls that make the volume.
   struct Pair {
     uint32_t ball_first = 0, ball_count = 0;      // in `pair_balls`
+    uint32_t own_first = 0, own_count = 0;        // the pushed piece's own balls, in `pair_balls`
     uint32_t vertex_first = 0, vertex_count = 0;  // in `vertices`
   };
   std::vector<Ball> balls;
@@ -58,6 +59,13 @@ struct ContactTables {
 struct ContactState {
   std::vector<glm::mat3> unit_from_world;
   std::vector<glm::vec3> centre;
+  // The other volume's balls that reach the pushed piece's own balls this frame (capacity: all).
+  std::vector<uint16_t> active;
+  // The same balls as eight-lane rows (centre x, y, z, unit_from_world's nine entries, 1/R²,
+  // weight), padded with weightless balls: kLaneRows rows of `lane_stride` floats.
+  static constexpr int kLaneRows = 14;
+  std::vector<float> lanes;
+  size_t lane_stride = 0;
   uint32_t moved = 0;  // vertices pushed in the last frame
   // Per slot: this frame's push (pushed vertices) or the sum of its pushed neighbours' pushes
   // (the ring), and 0 untouched, 1 pushed, 2 + n on the ring with n pushed neighbours.
