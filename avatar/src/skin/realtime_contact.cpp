@@ -19,9 +19,9 @@ constexpr GroupMask bits(std::initializer_list<Group> gs) {
   return m;
 }
 
-// A skin piece's volume: the metaballs of its groups (`field`), less those it shares with the
-// piece pressed against it (the `own` groups of that piece: the shoulder's and the hip's
-// primitives belong to the junction, not to either side's contact).
+// A skin piece's volume: the metaballs of its groups (`field`), less those in the `own` groups
+// of the piece pushed out of it: a primitive the two share (the hip's for a thigh, an arm's
+// shoulder primitives that are in its group) is where they join, not a side to push against.
 struct Piece {
   std::string_view name;
   GroupMask field, own;
@@ -58,7 +58,7 @@ const Piece* piece(std::string_view name) {
   return nullptr;
 }
 
-// The deepest a vertex is pushed in one frame, and Newton's steps towards the surface.
+// Newton's steps towards the surface, each bounded to this distance from the vertex.
 constexpr float kMaxPush_m = 0.06f;
 // A push fades out between these lengths: a vertex that deep in another piece is where the
 // motion itself puts a limb through the body (the arm raised through the head, a crouch), and
