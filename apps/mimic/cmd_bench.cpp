@@ -186,9 +186,12 @@ nlohmann::json skin_row(SkinBenchCase& c, double seconds) {
   avatar::RealtimeSkin rt(c.body);
   std::vector<glm::vec3> out(rest.positions.size());
   const double rt_us =
-      median(time_frames(seconds, 2000000, [&](size_t k) { rt.evaluate(c.poses[k % np], out, {}, false); }));
+      median(time_frames(seconds, 2000000, [&](size_t k) { rt.evaluate(c.poses[k % np], out, {}, false, false); }));
   const double rtm_us =
-      median(time_frames(seconds, 2000000, [&](size_t k) { rt.evaluate(c.poses[k % np], out, {}, true); }));
+      median(time_frames(seconds, 2000000, [&](size_t k) { rt.evaluate(c.poses[k % np], out, {}, true, false); }));
+  // The default: muscles and contact (docs/skin.md, "Contact").
+  const double rtc_us =
+      median(time_frames(seconds, 2000000, [&](size_t k) { rt.evaluate(c.poses[k % np], out, {}, true, true); }));
   // The baselines on the same rest mesh, bound with the contour-derived weights; a frame is FK,
   // the joints' skinning transforms, then the vertices.
   std::vector<rig::RigidTransform> w(sk.joint_count());
@@ -215,11 +218,12 @@ nlohmann::json skin_row(SkinBenchCase& c, double seconds) {
   const double dqs_ns = vertices_ns(avatar::baselines::SkinningMethod::dqs);
   const double cor_ns = vertices_ns(avatar::baselines::SkinningMethod::cor);
   // Accuracy against the full method on the same poses (same vertices, in order).
-  double sum[2] = {0, 0}, worst[2] = {0, 0};
+  double sum[2] = {0, 0}, worst[2] = {0, 0}, contact_moved = 0;
   for (const rig::Pose& p : c.poses) {
     c.full.evaluate(p);
     for (int muscles = 0; muscles < 2; ++muscles) {
       rt.evaluate(p, out, {}, muscles == 1);
+      if (muscles == 1) contact_moved += static_cast<double>(rt.contact_moved());
       for (size_t v = 0; v < out.size(); ++v) {
         const double d = glm::distance(out[v], c.full.mesh().positions[v]);
         sum[muscles] += d;
@@ -234,6 +238,10 @@ nlohmann::json skin_row(SkinBenchCase& c, double seconds) {
           {"full_us", full_us},
           {"realtime_us", rt_us},
           {"realtime_muscles_us", rtm_us},
+          {"realtime_contact_us", rtc_us},
+          {"contact_pairs", c.body->contact_pairs()},
+          {"contact_vertices", c.body->contact_vertices()},
+          {"contact_moved_per_frame", contact_moved / static_cast<double>(c.poses.size())},
           {"lbs_us", lbs_us},
           {"dqs_us", dqs_us},
           {"cor_us", cor_us},
@@ -272,13 +280,15 @@ Result<nlohmann::json> bench_skin(const BenchOptions& opt) {
     nlohmann::json row = skin_row(c, seconds);
     std::fprintf(stderr,
                  "skin LOD %d: %zu vertices, %zu triangles: full %.1f us, realtime %.1f us, with muscles %.1f us, "
-                 "linear blend skinning %.1f us (realtime with muscles / LBS %.2fx), dual quaternion %.1f us, "
+                 "with muscles and contact %.1f us, linear blend skinning %.1f us (realtime with muscles / LBS "
+                 "%.2fx, with contact / LBS %.2fx), dual quaternion %.1f us, "
                  "centres of rotation %.1f us (vertex loops: LBS %.2f, DQS %.2f, CoR %.2f ns/vertex); realtime vs "
                  "full: mean %.2f mm (%.2f mm without muscles), max %.0f mm\n",
                  lod, row["vertices"].get<size_t>(), row["triangles"].get<size_t>(), row["full_us"].get<double>(),
                  row["realtime_us"].get<double>(), row["realtime_muscles_us"].get<double>(),
-                 row["lbs_us"].get<double>(),
+                 row["realtime_contact_us"].get<double>(), row["lbs_us"].get<double>(),
                  row["realtime_muscles_us"].get<double>() / std::max(row["lbs_us"].get<double>(), 1e-9),
+                 row["realtime_contact_us"].get<double>() / std::max(row["lbs_us"].get<double>(), 1e-9),
                  row["dqs_us"].get<double>(), row["cor_us"].get<double>(), row["lbs_ns_per_vertex"].get<double>(),
                  row["dqs_ns_per_vertex"].get<double>(), row["cor_ns_per_vertex"].get<double>(),
                  row["error_mean_mm"].get<double>(), row["error_mean_mm_no_muscles"].get<double>(),
@@ -472,7 +482,8 @@ constexpr const char* kSectionsHelp =
     "        loopback UDP into vrpn: and vmc: sources); subscribers x avatars the server\n"
     "        holds at 90 Hz with no lost latest frame\n"
     "  skin  the skin on the built-in walk at every LOD, one row each: the full method\n"
-    "        (contours ray-cast), the realtime method without and with muscles, and the\n"
+    "        (contours ray-cast), the realtime method without and with muscles (no contact),\n"
+    "        with muscles and contact (realtime_contact_us, the default), and the\n"
     "        baselines on the same vertices with the contour-derived weights: linear blend\n"
     "        (lbs_us), dual quaternion (dqs_us) and optimized centres of rotation (cor_us)\n"
     "        skinning (medians, microseconds, one run; lbs/dqs/cor_ns_per_vertex for their\n"

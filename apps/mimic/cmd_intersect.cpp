@@ -48,7 +48,7 @@ struct Options {
   long every = 10, max_frames = 0;
   double fps = 30, seconds = 0;
   int subdivision = 0;
-  bool no_muscles = false, json = false, summary_only = false;
+  bool no_muscles = false, no_contact = false, json = false, summary_only = false;
 };
 
 struct Source {
@@ -109,6 +109,7 @@ std::optional<int> parse(cli::Parser& p, const std::vector<std::string>& argv, O
                  "contour points, the realtime method's mesh)")
       ->check(CLI::Range(0, 3));
   app.add_flag("--no-muscles", o.no_muscles, "the realtime method without its muscle terms");
+  app.add_flag("--no-contact", o.no_contact, "the realtime method without contact between its pieces");
   app.add_flag("--json", o.json, "one JSON object a line: each frame, then each summary");
   app.add_flag("--summary", o.summary_only, "only the summaries, no line per frame");
   if (auto exit_code = p.parse(argv)) return exit_code;
@@ -182,9 +183,11 @@ class Skinner {
                                 int lod, const Options& o) {
     Skinner s;
     s.muscles_ = !o.no_muscles;
+    s.contact_ = !o.no_contact;
     if (method == avatar::SkinMethod::realtime) {
       avatar::RealtimeOptions ro;
       ro.lod = lod;
+      ro.contact = s.contact_;
       auto b = avatar::RealtimeBody::create(body, sk, ro);
       if (!b) return tl::unexpected(b.error());
       s.mesh_ = (*b)->rest_mesh();
@@ -203,7 +206,7 @@ class Skinner {
   const avatar::Mesh& topology() const { return mesh_; }
   const avatar::Mesh& pose(const rig::Pose& p) {
     if (realtime_) {
-      realtime_->evaluate(p, mesh_.positions, {}, muscles_);
+      realtime_->evaluate(p, mesh_.positions, {}, muscles_, contact_);
       return mesh_;
     }
     full_->evaluate(p);
@@ -214,7 +217,7 @@ class Skinner {
   std::unique_ptr<avatar::RealtimeSkin> realtime_;
   std::unique_ptr<avatar::ImplicitSkin> full_;
   avatar::Mesh mesh_;
-  bool muscles_ = true;
+  bool muscles_ = true, contact_ = true;
 };
 
 struct Summary {

@@ -434,12 +434,14 @@ TEST(Bench, SkinAndSolverSectionsReportTheirFigures) {
   for (size_t lod = 0; lod < rows.size(); ++lod) {
     const auto& row = rows[lod];
     EXPECT_EQ(row["lod"], lod);
-    for (const char* key : {"full_us", "realtime_us", "realtime_muscles_us", "lbs_us", "dqs_us", "cor_us",
-                            "lbs_ns_per_vertex", "dqs_ns_per_vertex", "cor_ns_per_vertex"})
+    for (const char* key : {"full_us", "realtime_us", "realtime_muscles_us", "realtime_contact_us", "lbs_us", "dqs_us",
+                            "cor_us", "lbs_ns_per_vertex", "dqs_ns_per_vertex", "cor_ns_per_vertex"})
       EXPECT_GT(row[key].get<double>(), 0.0) << key;
     EXPECT_LT(row["vertices"].get<int>(), previous_vertices) << "LODs coarsen";
     previous_vertices = row["vertices"].get<int>();
     EXPECT_GT(row["triangles"].get<int>(), row["vertices"].get<int>());
+    EXPECT_EQ(row["contact_pairs"].get<int>(), 10);
+    EXPECT_GT(row["contact_moved_per_frame"].get<double>(), 0.0) << "the walk's legs and arms touch";
   }
   // The solver section alone: one object per layout.
   Proc solver({"bench", "--section", "solver", "--quick", "--json"});

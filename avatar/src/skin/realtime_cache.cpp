@@ -32,7 +32,7 @@ std::string key_of(const BodyModel& model, const rig::Skeleton& skeleton, const 
     append(key, d.axis);
     append(key, {d.min_rad, d.max_rad, d.rest_rad});
   }
-  key += "|lod" + std::to_string(options.lod) + (options.rigid_parts ? "r" : "-");
+  key += "|lod" + std::to_string(options.lod) + (options.rigid_parts ? "r" : "-") + (options.contact ? "c" : "-");
   return key;
 }
 

@@ -10,6 +10,7 @@
 #include "mimic/avatar/body_field.h"
 #include "mimic/avatar/realtime_skin.h"
 #include "mimic/avatar/skin.h"
+#include "realtime_contact.h"
 
 namespace mimic::avatar {
 
@@ -190,6 +191,8 @@ struct RealtimeBody::Data {
   std::vector<JointInfluences> weights;
   TextureLayout texture;
   std::vector<ContourRows> contour_rows;
+  // Where one piece presses into another (realtime_contact.h).
+  realtime_detail::ContactTables contact;
 };
 
 namespace realtime_detail {
@@ -212,6 +215,7 @@ struct State {
   std::vector<float> band_scale_forced;
   bool vectorised = true;    // the eight-wide kernels where the build has them
   std::vector<Reach> reach;  // per ring, this frame (star rings)
+  ContactState contact;
   RealtimeTimings timings;
 
   explicit State(const RealtimeBody::Data& d);

@@ -60,6 +60,10 @@ struct RealtimeOptions {
   int lod = 0;                            // skin_lod.h: 0 finest … kSkinLodCount − 1 coarsest
   std::optional<rig::Pose> initial_pose;  // where the contours are ray-cast; default the zero posture
   bool rigid_parts = true;                // head, hands, feet
+  // Contact (docs/skin.md, "Contact"): the tables that let a frame push one piece's skin out of
+  // another's volume (arm against chest, calf against calf). Off: none are built, and no frame
+  // can apply them.
+  bool contact = true;
 };
 
 class RealtimeBody {
@@ -97,6 +101,10 @@ class RealtimeBody {
   // Contour rays of the initial pose that found no surface (a skeleton other than the model's
   // can leave gaps); their points are placed as the full method places them.
   int missed_rays() const;
+  // Contact: the part pairs one of which gives way to the other, and the vertices they list
+  // (a vertex can be in several pairs).
+  size_t contact_pairs() const;
+  size_t contact_vertices() const;
   // Heap bytes of this shared body (the cost of the first avatar, paid once).
   size_t shared_bytes() const;
   // What one frame's points cost, counted from the tables (docs/skin.md, "Speed, and what
@@ -121,7 +129,8 @@ struct RealtimeTimings {
   double joints_us = 0;  // forward kinematics, chain nodes, ring frames, muscle weights
   double points_us = 0;  // contour points, caps, rigid parts
   double normals_us = 0;
-  double total_us() const { return joints_us + points_us + normals_us; }
+  double contact_us = 0;  // pushing one piece out of another (RealtimeSkin::evaluate's `contact`)
+  double total_us() const { return joints_us + points_us + normals_us + contact_us; }
 };
 
 class RealtimeSkin {
@@ -133,9 +142,11 @@ class RealtimeSkin {
 
   // Writes body().vertex_count() positions (and, when `normals_out` is not empty, area-weighted
   // unit normals) for the pose. With `muscles` false, the contours keep their initial shape
-  // (the paper's method alone). Never allocates, never throws.
+  // (the paper's method alone). With `contact` (and a body built with it), a piece's vertices
+  // that pass into another piece's volume are pushed out onto its surface (docs/skin.md,
+  // "Contact"); off, the frame is the same as without the tables. Never allocates, never throws.
   void evaluate(const rig::Pose& pose, std::span<glm::vec3> positions_out, std::span<glm::vec3> normals_out = {},
-                bool muscles = true);
+                bool muscles = true, bool contact = true);
 
   // The contour points are moved eight at a time where the build targets AVX2 and FMA (as the
   // baseline skinnings are); `scalar` true takes the scalar reference loop instead, which the
@@ -145,6 +156,8 @@ class RealtimeSkin {
 
   const RealtimeBody& body() const { return *body_; }
   const RealtimeTimings& timings() const;
+  // Vertices the last frame's contact pushed out of another piece.
+  size_t contact_moved() const;
   // Heap bytes this avatar holds beyond the shared body and its vertex buffer.
   size_t instance_bytes() const;
 

@@ -1,0 +1,371 @@
+// Contact in the realtime skin (realtime_contact.h; docs/skin.md, "Contact").
+#include "realtime_contact.h"
+
+#include <algorithm>
+#include <cmath>
+#include <string_view>
+
+#include <glm/gtx/euler_angles.hpp>
+
+#include "mimic/avatar/simd.h"
+
+namespace mimic::avatar::realtime_detail {
+
+namespace {
+
+constexpr GroupMask bits(std::initializer_list<Group> gs) {
+  GroupMask m = 0;
+  for (Group g : gs) m = static_cast<GroupMask>(m | group_bit(g));
+  return m;
+}
+
+// A skin piece's volume: the metaballs of its groups (`field`), less those in the `own` groups
+// of the piece pushed out of it: a primitive the two share (the hip's for a thigh, an arm's
+// shoulder primitives that are in its group) is where they join, not a side to push against.
+struct Piece {
+  std::string_view name;
+  GroupMask field, own;
+};
+using G = Group;
+const Piece kPieces[] = {
+    {"torso", bits({G::upper_torso, G::lower_torso, G::hip}), bits({G::upper_torso, G::lower_torso, G::hip})},
+    {"left_upper_arm", bits({G::left_upper_arm}), bits({G::left_upper_arm})},
+    {"right_upper_arm", bits({G::right_upper_arm}), bits({G::right_upper_arm})},
+    {"left_lower_arm", bits({G::left_lower_arm}), bits({G::left_lower_arm})},
+    {"right_lower_arm", bits({G::right_lower_arm}), bits({G::right_lower_arm})},
+    {"left_upper_leg", bits({G::left_upper_leg}), bits({G::left_upper_leg, G::hip})},
+    {"right_upper_leg", bits({G::right_upper_leg}), bits({G::right_upper_leg, G::hip})},
+    {"left_lower_leg", bits({G::left_lower_leg}), bits({G::left_lower_leg, G::left_ankle})},
+    {"right_lower_leg", bits({G::right_lower_leg}), bits({G::right_lower_leg, G::right_ankle})},
+};
+
+// (pushed, against): the pushed piece's skin gives way. One side of each pair only, so the two
+// never swap places; between the legs the right one gives way to the left. Left out, measured
+// (docs/skin.md, "Contact"): the forearm against its upper arm and the calf against its thigh
+// (the elbow's and knee's crease is the joint band's, which keeps the zone's volume; pushed, the
+// contours crossed at full flexion), and the forearm against the thighs (a forearm 60 mm in a
+// thigh in a crouch only folds).
+const std::pair<std::string_view, std::string_view> kPairs[] = {
+    {"left_upper_arm", "torso"},           {"right_upper_arm", "torso"},          {"left_lower_arm", "torso"},
+    {"right_lower_arm", "torso"},          {"left_upper_leg", "torso"},           {"right_upper_leg", "torso"},
+    {"right_upper_leg", "left_upper_leg"}, {"right_lower_leg", "left_lower_leg"}, {"left_lower_leg", "right_upper_leg"},
+    {"right_lower_leg", "left_upper_leg"},
+};
+
+const Piece* piece(std::string_view name) {
+  for (const Piece& p : kPieces)
+    if (p.name == name) return &p;
+  return nullptr;
+}
+
+// Newton's steps towards the surface, each bounded to this distance from the vertex.
+constexpr float kMaxPush_m = 0.06f;
+// A push fades out between these lengths: a vertex that deep in another piece is where the
+// motion itself puts a limb through the body (the arm raised through the head, a crouch), and
+// pushing it that far folds the piece and crosses its contours.
+constexpr float kFullPush_m = 0.015f, kNoPush_m = 0.03f;
+constexpr int kNewtonSteps = 3;
+
+struct FieldAt {
+  float value = 0;
+  glm::vec3 gradient{0.0f};
+};
+
+// The field alone, each ball's bounding sphere tested first (most are out of reach).
+float field_value(const ContactTables& t, std::span<const uint16_t> balls, const ContactState& st, const glm::vec3& p) {
+  float value = 0;
+  for (const uint16_t i : balls) {
+    const ContactTables::Ball& b = t.balls[i];
+    const glm::vec3 d = p - st.centre[i];
+    if (glm::dot(d, d) >= b.bound_m * b.bound_m) continue;
+    const glm::vec3 q = st.unit_from_world[i] * d;
+    const float u = 1.0f - glm::dot(q, q) * b.inv_r2;
+    if (u > 0.0f) value += b.weight_norm * u * u * u;
+  }
+  return value;
+}
+
+// The active balls as eight-lane rows (ContactState::lanes); returns the padded count.
+uint32_t fill_lanes(const ContactTables& t, ContactState& st, uint32_t n) {
+  const uint32_t padded = (n + 7) / 8 * 8;
+  float* rows = st.lanes.data();
+  const size_t w = st.lane_stride;
+  for (uint32_t k = 0; k < padded; ++k) {
+    if (k >= n) {
+      for (int r = 0; r < ContactState::kLaneRows; ++r) rows[r * w + k] = 0.0f;
+      continue;
+    }
+    const uint16_t i = st.active[k];
+    const glm::mat3& m = st.unit_from_world[i];
+    rows[0 * w + k] = st.centre[i].x, rows[1 * w + k] = st.centre[i].y, rows[2 * w + k] = st.centre[i].z;
+    for (int c = 0; c < 3; ++c)
+      for (int r = 0; r < 3; ++r) rows[(3 + 3 * r + c) * w + k] = m[c][r];  // row r of the matrix
+    rows[12 * w + k] = t.balls[i].inv_r2;
+    rows[13 * w + k] = t.balls[i].weight_norm;
+  }
+  return padded;
+}
+
+#ifdef MIMIC_SIMD_AVX2
+// field_value over the lanes, eight balls a step.
+float field_value_lanes(const ContactState& st, uint32_t padded, const glm::vec3& p) {
+  const float* rows = st.lanes.data();
+  const size_t w = st.lane_stride;
+  const __m256 px = _mm256_set1_ps(p.x), py = _mm256_set1_ps(p.y), pz = _mm256_set1_ps(p.z);
+  const __m256 one = _mm256_set1_ps(1.0f), zero = _mm256_setzero_ps();
+  __m256 sum = zero;
+  for (uint32_t k = 0; k < padded; k += 8) {
+    auto row = [&](int r) { return _mm256_loadu_ps(rows + r * w + k); };
+    const __m256 dx = _mm256_sub_ps(px, row(0)), dy = _mm256_sub_ps(py, row(1)), dz = _mm256_sub_ps(pz, row(2));
+    const __m256 qx = _mm256_fmadd_ps(row(5), dz, _mm256_fmadd_ps(row(4), dy, _mm256_mul_ps(row(3), dx)));
+    const __m256 qy = _mm256_fmadd_ps(row(8), dz, _mm256_fmadd_ps(row(7), dy, _mm256_mul_ps(row(6), dx)));
+    const __m256 qz = _mm256_fmadd_ps(row(11), dz, _mm256_fmadd_ps(row(10), dy, _mm256_mul_ps(row(9), dx)));
+    const __m256 s = _mm256_fmadd_ps(qz, qz, _mm256_fmadd_ps(qy, qy, _mm256_mul_ps(qx, qx)));
+    const __m256 u = _mm256_max_ps(_mm256_fnmadd_ps(s, row(12), one), zero);
+    sum = _mm256_fmadd_ps(_mm256_mul_ps(_mm256_mul_ps(u, u), u), row(13), sum);
+  }
+  const __m128 h = _mm_add_ps(_mm256_castps256_ps128(sum), _mm256_extractf128_ps(sum, 1));
+  const __m128 h2 = _mm_add_ps(h, _mm_movehl_ps(h, h));
+  return _mm_cvtss_f32(_mm_add_ss(h2, _mm_shuffle_ps(h2, h2, 1)));
+}
+#endif
+
+FieldAt field_at(const ContactTables& t, std::span<const uint16_t> balls, const ContactState& st, const glm::vec3& p) {
+  FieldAt f;
+  for (const uint16_t i : balls) {
+    const ContactTables::Ball& b = t.balls[i];
+    const glm::vec3 q = st.unit_from_world[i] * (p - st.centre[i]);
+    const float u = 1.0f - glm::dot(q, q) * b.inv_r2;
+    if (u <= 0.0f) continue;
+    f.value += b.weight_norm * u * u * u;
+    // d/dp of w·u³ = −6 w u² / R² · Mᵀ q
+    f.gradient -= (6.0f * b.weight_norm * u * u * b.inv_r2) * (glm::transpose(st.unit_from_world[i]) * q);
+  }
+  return f;
+}
+
+ContactTables::Ball ball_of(const Primitive& p, int joint) {
+  ContactTables::Ball b;
+  b.joint = joint;
+  const PrimitiveState& s = p.state;
+  const glm::mat3 rot = glm::mat3(glm::eulerAngleZ(s.orientation_rad.z) * glm::eulerAngleY(s.orientation_rad.y) *
+                                  glm::eulerAngleX(s.orientation_rad.x));
+  glm::mat3 m = glm::transpose(rot);
+  for (int c = 0; c < 3; ++c)
+    for (int r = 0; r < 3; ++r) m[c][r] /= s.semi_axes_m[r];
+  b.unit_from_joint = m;
+  b.centre_joint = s.center_m;
+  const float r2 = p.influence * p.influence;
+  const float k = 1.0f - 1.0f / r2;
+  b.weight_norm = p.weight / (k * k * k);
+  b.inv_r2 = 1.0f / r2;
+  b.bound_m = p.influence * std::max({s.semi_axes_m.x, s.semi_axes_m.y, s.semi_axes_m.z});
+  return b;
+}
+
+// Vertices used by exactly one part's triangles, per part name.
+std::vector<int> vertex_owner(const Mesh& rest) {
+  std::vector<int> owner(rest.positions.size(), -1);
+  for (size_t pi = 0; pi < rest.parts.size(); ++pi) {
+    const MeshPart& part = rest.parts[pi];
+    for (uint32_t t = part.first_triangle; t < part.first_triangle + part.triangle_count; ++t)
+      for (int c = 0; c < 3; ++c) {
+        int& o = owner[rest.indices[3 * t + c]];
+        o = (o == -1 || o == int(pi)) ? int(pi) : -2;
+      }
+  }
+  return owner;
+}
+
+// ContactTables::slot_of and ring: each pair vertex's neighbours that are pair vertices too.
+void build_ring(const Mesh& rest, ContactTables& t) {
+  const size_t n = rest.positions.size();
+  t.slot_of.assign(n, -1);
+  for (uint32_t v : t.vertices)
+    if (t.slot_of[v] < 0) t.slot_of[v] = static_cast<int32_t>(t.slot_vertex.size()), t.slot_vertex.push_back(v);
+  const size_t slots = t.slot_vertex.size();
+  std::vector<std::vector<uint32_t>> nb(slots);
+  for (size_t k = 0; k + 2 < rest.indices.size(); k += 3)
+    for (int c = 0; c < 3; ++c) {
+      const int32_t a = t.slot_of[rest.indices[k + c]], b = t.slot_of[rest.indices[k + (c + 1) % 3]];
+      if (a >= 0 && b >= 0) nb[a].push_back(uint32_t(b)), nb[b].push_back(uint32_t(a));
+    }
+  t.ring_first.assign(slots + 1, 0);
+  for (size_t v = 0; v < slots; ++v) {
+    std::sort(nb[v].begin(), nb[v].end());
+    nb[v].erase(std::unique(nb[v].begin(), nb[v].end()), nb[v].end());
+    t.ring_first[v] = static_cast<uint32_t>(t.ring.size());
+    t.ring.insert(t.ring.end(), nb[v].begin(), nb[v].end());
+  }
+  t.ring_first[slots] = static_cast<uint32_t>(t.ring.size());
+}
+
+}  // namespace
+
+size_t ContactTables::heap_bytes() const {
+  return balls.capacity() * sizeof(Ball) + pair_balls.capacity() * 2 + vertices.capacity() * 4 +
+         pairs.capacity() * sizeof(Pair) +
+         (ring_first.capacity() + ring.capacity() + slot_of.capacity() + slot_vertex.capacity()) * 4;
+}
+
+void ContactState::resize(const ContactTables& t) {
+  unit_from_world.assign(t.balls.size(), glm::mat3(1.0f));
+  centre.assign(t.balls.size(), glm::vec3(0.0f));
+  active.assign(t.balls.size(), 0);
+  lane_stride = (t.balls.size() + 7) / 8 * 8;
+  lanes.assign(kLaneRows * lane_stride, 0.0f);
+  push.assign(t.slot_vertex.size(), glm::vec3(0.0f));
+  mark.assign(t.slot_vertex.size(), 0);
+  touched.clear();
+  touched.reserve(t.slot_vertex.size());
+}
+
+ContactTables build_contact(const BodyModel& model, const rig::Skeleton& skeleton, const Mesh& rest,
+                            std::span<const rig::RigidTransform> world_from_joint, std::span<const uint8_t> junction) {
+  ContactTables t;
+  // Every metaball of the pieces, once; a pair lists the ones of its volume.
+  std::vector<int> ball_of_primitive(model.primitives.size(), -1);
+  for (size_t i = 0; i < model.primitives.size(); ++i) {
+    const Primitive& p = model.primitives[i];
+    const int joint = skeleton.find_joint(p.joint);
+    if (p.kind != PrimitiveKind::metaball || p.part != RigidPart::none || joint < 0) continue;
+    ball_of_primitive[i] = static_cast<int>(t.balls.size());
+    t.balls.push_back(ball_of(p, joint));
+  }
+  const std::vector<int> owner = vertex_owner(rest);
+  ContactState st;
+  st.resize(t);
+  for (size_t b = 0; b < t.balls.size(); ++b) {
+    const rig::RigidTransform& w = world_from_joint[t.balls[b].joint];
+    st.unit_from_world[b] = t.balls[b].unit_from_joint * glm::transpose(glm::mat3_cast(w.rotation));
+    st.centre[b] = w.apply(t.balls[b].centre_joint);
+  }
+  for (const auto& [pushed_name, against_name] : kPairs) {
+    const Piece* pushed = piece(pushed_name);
+    const Piece* against = piece(against_name);
+    int part = -1;
+    for (size_t pi = 0; pi < rest.parts.size(); ++pi)
+      if (rest.parts[pi].name == pushed_name) part = int(pi);
+    if (!pushed || !against || part < 0) continue;
+    ContactTables::Pair pr;
+    pr.ball_first = static_cast<uint32_t>(t.pair_balls.size());
+    for (size_t i = 0; i < model.primitives.size(); ++i) {
+      const GroupMask g = model.primitives[i].groups;
+      if (ball_of_primitive[i] >= 0 && (g & against->field) && !(g & pushed->own))
+        t.pair_balls.push_back(static_cast<uint16_t>(ball_of_primitive[i]));
+    }
+    pr.ball_count = static_cast<uint32_t>(t.pair_balls.size()) - pr.ball_first;
+    const std::span<const uint16_t> volume(t.pair_balls.data() + pr.ball_first, pr.ball_count);
+    std::vector<uint16_t> own;
+    for (size_t i = 0; i < model.primitives.size(); ++i)
+      if (ball_of_primitive[i] >= 0 && (model.primitives[i].groups & pushed->field))
+        own.push_back(static_cast<uint16_t>(ball_of_primitive[i]));
+    pr.vertex_first = static_cast<uint32_t>(t.vertices.size());
+    for (size_t v = 0; v < owner.size(); ++v)
+      if (owner[v] == part && !junction[v] && field_value(t, volume, st, rest.positions[v]) < t.iso)
+        t.vertices.push_back(static_cast<uint32_t>(v));
+    pr.vertex_count = static_cast<uint32_t>(t.vertices.size()) - pr.vertex_first;
+    pr.own_first = static_cast<uint32_t>(t.pair_balls.size());
+    pr.own_count = static_cast<uint32_t>(own.size());
+    t.pair_balls.insert(t.pair_balls.end(), own.begin(), own.end());
+    if (pr.ball_count > 0 && pr.vertex_count > 0) t.pairs.push_back(pr);
+  }
+  build_ring(rest, t);
+  return t;
+}
+
+namespace {
+
+// The ring around the pushed patches follows part of their push; then the marks are cleared.
+void spread_to_ring(const ContactTables& t, ContactState& st, std::span<glm::vec3> pos) {
+  const size_t pushed = st.touched.size();
+  for (size_t k = 0; k < pushed; ++k) {
+    const uint32_t v = st.touched[k];
+    for (uint32_t e = t.ring_first[v]; e < t.ring_first[v + 1]; ++e) {
+      const uint32_t n = t.ring[e];
+      if (st.mark[n] == 1) continue;
+      if (st.mark[n] == 0) st.touched.push_back(n), st.mark[n] = 2;
+      if (st.mark[n] < 255) ++st.mark[n];
+      st.push[n] += st.push[v];
+    }
+  }
+  for (size_t k = pushed; k < st.touched.size(); ++k) {
+    const uint32_t n = st.touched[k];
+    pos[t.slot_vertex[n]] += st.push[n] * (t.ring_share / static_cast<float>(st.mark[n] - 2));
+  }
+  for (uint32_t v : st.touched) st.push[v] = glm::vec3(0.0f), st.mark[v] = 0;
+  st.touched.clear();
+}
+
+}  // namespace
+
+void apply_contact(const ContactTables& t, ContactState& st, std::span<const rig::RigidTransform> world_from_joint,
+                   std::span<glm::vec3> pos) {
+  for (size_t b = 0; b < t.balls.size(); ++b) {
+    const rig::RigidTransform& w = world_from_joint[t.balls[b].joint];
+    st.unit_from_world[b] = t.balls[b].unit_from_joint * glm::transpose(glm::mat3_cast(w.rotation));
+    st.centre[b] = w.apply(t.balls[b].centre_joint);
+  }
+  st.moved = 0;
+  for (const ContactTables::Pair& pr : t.pairs) {
+    // The pushed vertices' bounds this frame, the other volume's balls that reach them, and
+    // those balls' bounds: no vertex outside them can be inside the volume.
+    glm::vec3 vlo(1e30f), vhi(-1e30f);
+    for (uint32_t k = 0; k < pr.vertex_count; ++k) {
+      const glm::vec3& p = pos[t.vertices[pr.vertex_first + k]];
+      vlo = glm::min(vlo, p), vhi = glm::max(vhi, p);
+    }
+    uint32_t n = 0;
+    glm::vec3 lo(1e30f), hi(-1e30f);
+    for (uint32_t k = 0; k < pr.ball_count; ++k) {
+      const uint16_t i = t.pair_balls[pr.ball_first + k];
+      const glm::vec3 c = st.centre[i];
+      const glm::vec3 d = c - glm::clamp(c, vlo, vhi);
+      const float r = t.balls[i].bound_m;
+      if (glm::dot(d, d) >= r * r) continue;
+      st.active[n++] = i;
+      lo = glm::min(lo, c - r);
+      hi = glm::max(hi, c + r);
+    }
+    if (n == 0) continue;
+    lo = glm::max(lo, vlo), hi = glm::min(hi, vhi);
+    const std::span<const uint16_t> balls(st.active.data(), n);
+#ifdef MIMIC_SIMD_AVX2
+    const uint32_t padded = fill_lanes(t, st, n);
+#endif
+    for (uint32_t k = 0; k < pr.vertex_count; ++k) {
+      glm::vec3& p = pos[t.vertices[pr.vertex_first + k]];
+      if (p.x < lo.x || p.y < lo.y || p.z < lo.z || p.x > hi.x || p.y > hi.y || p.z > hi.z) continue;
+#ifdef MIMIC_SIMD_AVX2
+      if (field_value_lanes(st, padded, p) <= t.iso) continue;
+#else
+      if (field_value(t, balls, st, p) <= t.iso) continue;
+#endif
+      FieldAt f = field_at(t, balls, st, p);
+      const glm::vec3 start = p;
+      glm::vec3 q = p;
+      for (int step = 0; step < kNewtonSteps && f.value > t.iso; ++step) {
+        const float g2 = glm::dot(f.gradient, f.gradient);
+        if (!(g2 > 1e-12f)) break;
+        glm::vec3 next = q - ((f.value - t.iso) / g2) * f.gradient;
+        const glm::vec3 moved = next - start;
+        const float moved_m = glm::length(moved);
+        if (moved_m > kMaxPush_m) next = start + moved * (kMaxPush_m / moved_m);
+        q = next;
+        f = field_at(t, balls, st, q);
+      }
+      const float push_m = glm::length(q - start);
+      if (push_m >= kNoPush_m) continue;
+      if (push_m > kFullPush_m) q = start + (q - start) * ((kNoPush_m - push_m) / (kNoPush_m - kFullPush_m));
+      p = q;
+      ++st.moved;
+      const auto v = static_cast<uint32_t>(t.slot_of[t.vertices[pr.vertex_first + k]]);
+      if (st.mark[v] == 0) st.touched.push_back(v);  // within capacity: each slot once
+      st.mark[v] = 1;
+      st.push[v] += q - start;
+    }
+  }
+  spread_to_ring(t, st, pos);
+}
+
+}  // namespace mimic::avatar::realtime_detail
