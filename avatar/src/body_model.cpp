@@ -318,6 +318,9 @@ Result<BodyModel> body_model_from_json(std::string_view text, std::string_view s
     const size_t upto = std::min<size_t>(e.byte, text.size());
     for (size_t i = 0; i < upto; ++i) line += text[i] == '\n';
     return fail(Errc::parse_error, src + ":" + std::to_string(line) + ": invalid JSON (" + e.what() + ")");
+  } catch (const json::exception& e) {
+    // Well-formed but unreadable: a number no double holds (1e999) is out_of_range, not a parse error.
+    return fail(Errc::parse_error, src + ": invalid JSON (" + e.what() + ")");
   }
   JsonReader r(src);
   BodyModel m;

@@ -89,6 +89,8 @@ TEST(BodyModel, MalformedFilesAreRejectedWithAClearMessage) {
   const std::vector<Bad> cases = {
       {"not json", "{\"format\": \"mimic-body\",\n  \"version\": 1,\n  oops }", "body.json:3: invalid JSON"},
       {"empty", "", "invalid JSON"},
+      // Well-formed JSON whose number no double holds: nlohmann throws out_of_range, not parse_error.
+      {"number overflow", "{\"format\": \"mimic-body\", \"version\": 666666660000000000e0676926}", "invalid JSON"},
       {"truncated", to_json(default_body_model()).substr(0, 5000), "invalid JSON"},
       {"wrong format", edited([](J& j) { j["format"] = "something"; }), "$.format"},
       {"future version", edited([](J& j) { j["version"] = 99; }), "unsupported version 99"},
