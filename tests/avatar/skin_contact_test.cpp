@@ -11,6 +11,7 @@
 #include <set>
 #include <string>
 
+#include "built_in_realtime_body.h"
 #include "mimic/avatar/mesh_check.h"
 #include "mimic/avatar/realtime_skin.h"
 
@@ -18,12 +19,7 @@ namespace mimic::avatar::skin_contact_test {
 namespace {
 
 std::shared_ptr<const RealtimeBody> body_with(bool contact, int lod = 0) {
-  RealtimeOptions o;
-  o.lod = lod;
-  o.contact = contact;
-  auto b = RealtimeBody::create(default_body_model(), o);
-  EXPECT_TRUE(b) << b.error().what();
-  return b ? *b : nullptr;
+  return ::mimic::test::built_in_realtime_body(lod, contact);
 }
 
 // The arms hanging straight down, pressed against the hips and the sides of the chest.

@@ -11,6 +11,7 @@
 #include "mimic/avatar/realtime_skin.h"
 #include "mimic/avatar/self_intersection.h"
 #include "mimic/avatar/skin_lod.h"
+#include "built_in_realtime_body.h"
 #include "shared_clip_poses.h"
 
 namespace mimic::avatar::junction_folds_test {
@@ -18,13 +19,7 @@ namespace {
 
 using Folds = ::mimic::test::FrameTally;
 
-std::shared_ptr<const RealtimeBody> body_at(int lod) {
-  RealtimeOptions o;
-  o.lod = lod;
-  auto b = RealtimeBody::create(default_body_model(), o);
-  EXPECT_TRUE(b) << b.error().what();
-  return b ? *b : nullptr;
-}
+std::shared_ptr<const RealtimeBody> body_at(int lod) { return ::mimic::test::built_in_realtime_body(lod); }
 
 // Every `every`-th frame of every shared clip (each clip's opening T-pose included).
 Folds clip_folds(int lod, size_t every) {

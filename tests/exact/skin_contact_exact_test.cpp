@@ -8,18 +8,13 @@
 
 #include "mimic/avatar/realtime_skin.h"
 #include "mimic/avatar/self_intersection.h"
+#include "built_in_realtime_body.h"
 #include "shared_clip_poses.h"
 
 namespace mimic::avatar::skin_contact_exact_test {
 namespace {
 
-std::shared_ptr<const RealtimeBody> body_at(int lod) {
-  RealtimeOptions o;
-  o.lod = lod;
-  auto b = RealtimeBody::create(default_body_model(), o);
-  EXPECT_TRUE(b) << b.error().what();
-  return b ? *b : nullptr;
-}
+std::shared_ptr<const RealtimeBody> body_at(int lod) { return ::mimic::test::built_in_realtime_body(lod); }
 
 struct Crossing {
   double frames = 0, pairs = 0, folds = 0, depth_mm = 0, worst_mm = 0;
