@@ -6,6 +6,7 @@
 
 #include <glm/gtx/quaternion.hpp>
 
+#include "floor_clearance.h"
 #include "limb_chain.h"
 #include "mimic/solver/swing_twist.h"
 #include "sample_check.h"
@@ -42,19 +43,7 @@ void keep_toes_above_floor(const SolverModel& m, int toes, float floor_y, const 
   const auto& f = s.dof(d);
   const glm::vec3 ball = foot_w.apply(s.offset_m(toes));
   auto tip_y = [&](float a) { return ball.y + (foot_w.rotation * (glm::angleAxis(a, f.axis) * s.tip_m(toes))).y; };
-  if (tip_y(dof[d]) >= floor_y) return;
-  // The direction that raises the tip, then the smallest turn that way that clears the floor.
-  const float raise = tip_y(dof[d] + 0.01f) > tip_y(dof[d]) ? 1.0f : -1.0f;
-  float lo = dof[d], hi = raise > 0 ? f.max_rad : f.min_rad;
-  if (tip_y(hi) < floor_y) {
-    dof[d] = hi;
-    return;
-  }
-  for (int i = 0; i < 10; ++i) {
-    const float mid = 0.5f * (lo + hi);
-    (tip_y(mid) < floor_y ? lo : hi) = mid;
-  }
-  dof[d] = hi;
+  dof[d] = detail::turn_to_clear_floor(dof[d], f.min_rad, f.max_rad, floor_y, tip_y);
 }
 
 }  // namespace

@@ -2,11 +2,20 @@
 
 #include <algorithm>
 
+#include "floor_clearance.h"
 #include "mimic/solver/body_solver.h"
 
 namespace mimic::solver {
 
 namespace {
+
+// `w` (the world frame of the first joint's parent) carried down `joints`, each the child of the
+// one before, at the angles `dof`.
+rig::RigidTransform down_chain(const rig::Skeleton& s, rig::RigidTransform w, std::initializer_list<int> joints,
+                               std::span<const float> dof) {
+  for (int j : joints) w = rig::RigidTransform{w.rotation * s.local_rotation(j, dof), w.apply(s.offset_m(j))};
+  return w;
+}
 
 constexpr float kPi = 3.14159265f;
 
@@ -381,10 +390,9 @@ void SolveJob::LiftSteppedFootOffFloor(int ci) {
   const float unlifted_y = target.y;
   float last_ball_y = 0.0f, last_raise_m = 0.0f;
   for (int pass = 0; pass < 4; ++pass) {
-    rig::RigidTransform w = c.world_[s.parent(ch.upper)];
-    for (int j : {ch.upper, ch.mid, ch.end})
-      w = rig::RigidTransform{w.rotation * s.local_rotation(j, p.dof_rad), w.apply(s.offset_m(j))};
-    const float ball_y = w.apply(m.ball_in_ankle_[leg]).y;
+    const float ball_y = down_chain(s, c.world_[s.parent(ch.upper)], {ch.upper, ch.mid, ch.end}, p.dof_rad)
+                             .apply(m.ball_in_ankle_[leg])
+                             .y;
     if (pass > 0 && ball_y - last_ball_y < 0.1f * last_raise_m) {
       target.y -= last_raise_m;
       SolveLimb(ci);
@@ -417,9 +425,7 @@ void SolveJob::KeepBallAboveFloor(int ci, float floor_y) {
   std::span<float> dof(pose->dof_rad);
   const int d = s.dof_begin(ch.end);
   if (s.dof_end(ch.end) <= d) return;
-  rig::RigidTransform knee = context->world_[s.parent(ch.upper)];
-  for (int j : {ch.upper, ch.mid})
-    knee = rig::RigidTransform{knee.rotation * s.local_rotation(j, dof), knee.apply(s.offset_m(j))};
+  const rig::RigidTransform knee = down_chain(s, context->world_[s.parent(ch.upper)], {ch.upper, ch.mid}, dof);
   const glm::vec3 ankle = knee.apply(s.offset_m(ch.end));
   auto ball_y = [&](float a) {
     const float keep = dof[d];
@@ -428,17 +434,8 @@ void SolveJob::KeepBallAboveFloor(int ci, float floor_y) {
     dof[d] = keep;
     return y;
   };
-  const float now = dof[d];
-  if (!(ball_y(now) < floor_y)) return;
   const auto& f = s.dof(d);
-  const float raise = ball_y(now + 0.01f) > ball_y(now) ? 1.0f : -1.0f;
-  float lo = now, hi = raise > 0 ? f.max_rad : f.min_rad;
-  if (!(ball_y(hi) < floor_y))
-    for (int i = 0; i < 10; ++i) {
-      const float mid = 0.5f * (lo + hi);
-      (ball_y(mid) < floor_y ? lo : hi) = mid;
-    }
-  dof[d] = hi;
+  dof[d] = detail::turn_to_clear_floor(dof[d], f.min_rad, f.max_rad, floor_y, ball_y);
 }
 
 }  // namespace mimic::solver

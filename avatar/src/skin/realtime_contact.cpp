@@ -177,6 +177,15 @@ std::vector<int> vertex_owner(const Mesh& rest) {
   return owner;
 }
 
+// Every ball posed with its joint this frame.
+void pose_balls(const ContactTables& t, ContactState& st, std::span<const rig::RigidTransform> world_from_joint) {
+  for (size_t b = 0; b < t.balls.size(); ++b) {
+    const rig::RigidTransform& w = world_from_joint[t.balls[b].joint];
+    st.unit_from_world[b] = t.balls[b].unit_from_joint * glm::transpose(glm::mat3_cast(w.rotation));
+    st.centre[b] = w.apply(t.balls[b].centre_joint);
+  }
+}
+
 // ContactTables::slot_of and ring: each pair vertex's neighbours that are pair vertices too.
 void build_ring(const Mesh& rest, ContactTables& t) {
   const size_t n = rest.positions.size();
@@ -208,6 +217,12 @@ size_t ContactTables::heap_bytes() const {
          (ring_first.capacity() + ring.capacity() + slot_of.capacity() + slot_vertex.capacity()) * 4;
 }
 
+size_t ContactState::heap_bytes() const {
+  return unit_from_world.capacity() * sizeof(glm::mat3) + centre.capacity() * sizeof(glm::vec3) +
+         active.capacity() * 2 + lanes.capacity() * 4 + push.capacity() * sizeof(glm::vec3) + mark.capacity() +
+         touched.capacity() * 4;
+}
+
 void ContactState::resize(const ContactTables& t) {
   unit_from_world.assign(t.balls.size(), glm::mat3(1.0f));
   centre.assign(t.balls.size(), glm::vec3(0.0f));
@@ -223,7 +238,8 @@ void ContactState::resize(const ContactTables& t) {
 ContactTables build_contact(const BodyModel& model, const rig::Skeleton& skeleton, const Mesh& rest,
                             std::span<const rig::RigidTransform> world_from_joint, std::span<const uint8_t> junction) {
   ContactTables t;
-  // Every metaball of the pieces, once; a pair lists the ones of its volume.
+  // Every metaball of the pieces, once; a pair lists the ones of its volume (16-bit indices: the
+  // body's field, built before these tables, refuses 65,535 primitives or more).
   std::vector<int> ball_of_primitive(model.primitives.size(), -1);
   for (size_t i = 0; i < model.primitives.size(); ++i) {
     const Primitive& p = model.primitives[i];
@@ -235,11 +251,7 @@ ContactTables build_contact(const BodyModel& model, const rig::Skeleton& skeleto
   const std::vector<int> owner = vertex_owner(rest);
   ContactState st;
   st.resize(t);
-  for (size_t b = 0; b < t.balls.size(); ++b) {
-    const rig::RigidTransform& w = world_from_joint[t.balls[b].joint];
-    st.unit_from_world[b] = t.balls[b].unit_from_joint * glm::transpose(glm::mat3_cast(w.rotation));
-    st.centre[b] = w.apply(t.balls[b].centre_joint);
-  }
+  pose_balls(t, st, world_from_joint);
   for (const auto& [pushed_name, against_name] : kPairs) {
     const Piece* pushed = piece(pushed_name);
     const Piece* against = piece(against_name);
@@ -256,18 +268,11 @@ ContactTables build_contact(const BodyModel& model, const rig::Skeleton& skeleto
     }
     pr.ball_count = static_cast<uint32_t>(t.pair_balls.size()) - pr.ball_first;
     const std::span<const uint16_t> volume(t.pair_balls.data() + pr.ball_first, pr.ball_count);
-    std::vector<uint16_t> own;
-    for (size_t i = 0; i < model.primitives.size(); ++i)
-      if (ball_of_primitive[i] >= 0 && (model.primitives[i].groups & pushed->field))
-        own.push_back(static_cast<uint16_t>(ball_of_primitive[i]));
     pr.vertex_first = static_cast<uint32_t>(t.vertices.size());
     for (size_t v = 0; v < owner.size(); ++v)
       if (owner[v] == part && !junction[v] && field_value(t, volume, st, rest.positions[v]) < t.iso)
         t.vertices.push_back(static_cast<uint32_t>(v));
     pr.vertex_count = static_cast<uint32_t>(t.vertices.size()) - pr.vertex_first;
-    pr.own_first = static_cast<uint32_t>(t.pair_balls.size());
-    pr.own_count = static_cast<uint32_t>(own.size());
-    t.pair_balls.insert(t.pair_balls.end(), own.begin(), own.end());
     if (pr.ball_count > 0 && pr.vertex_count > 0) t.pairs.push_back(pr);
   }
   build_ring(rest, t);
@@ -301,11 +306,7 @@ void spread_to_ring(const ContactTables& t, ContactState& st, std::span<glm::vec
 
 void apply_contact(const ContactTables& t, ContactState& st, std::span<const rig::RigidTransform> world_from_joint,
                    std::span<glm::vec3> pos) {
-  for (size_t b = 0; b < t.balls.size(); ++b) {
-    const rig::RigidTransform& w = world_from_joint[t.balls[b].joint];
-    st.unit_from_world[b] = t.balls[b].unit_from_joint * glm::transpose(glm::mat3_cast(w.rotation));
-    st.centre[b] = w.apply(t.balls[b].centre_joint);
-  }
+  pose_balls(t, st, world_from_joint);
   st.moved = 0;
   for (const ContactTables::Pair& pr : t.pairs) {
     // The pushed vertices' bounds this frame, the other volume's balls that reach them, and

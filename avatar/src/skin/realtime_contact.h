@@ -30,7 +30,6 @@ struct ContactTables {
   // reach it and the other piece's balls that make the volume.
   struct Pair {
     uint32_t ball_first = 0, ball_count = 0;      // in `pair_balls`
-    uint32_t own_first = 0, own_count = 0;        // the pushed piece's own balls, in `pair_balls`
     uint32_t vertex_first = 0, vertex_count = 0;  // in `vertices`
   };
   std::vector<Ball> balls;
@@ -59,7 +58,7 @@ struct ContactTables {
 struct ContactState {
   std::vector<glm::mat3> unit_from_world;
   std::vector<glm::vec3> centre;
-  // The other volume's balls that reach the pushed piece's own balls this frame (capacity: all).
+  // The other volume's balls that reach the pushed vertices' bounds this frame (capacity: all).
   std::vector<uint16_t> active;
   // The same balls as eight-lane rows (centre x, y, z, unit_from_world's nine entries, 1/R²,
   // weight), padded with weightless balls: kLaneRows rows of `lane_stride` floats.
@@ -73,6 +72,7 @@ struct ContactState {
   std::vector<uint8_t> mark;
   std::vector<uint32_t> touched;  // the slots marked this frame (capacity: every slot)
   void resize(const ContactTables& t);
+  size_t heap_bytes() const;
 };
 
 // The tables for a body whose rest mesh (the initial pose, `world_from_joint`) is `rest`.

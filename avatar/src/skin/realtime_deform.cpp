@@ -130,9 +130,7 @@ size_t State::heap_bytes() const {
   size_t b = world_from_joint.capacity() * sizeof(rig::RigidTransform) + frames.capacity() * sizeof(Frame) +
              muscle_w.capacity() * sizeof(glm::vec2) + chains.capacity() * sizeof(Chain) +
              (band_scale.capacity() + band_scale_forced.capacity() + follow_fade.capacity()) * sizeof(float) +
-             reach.capacity() * sizeof(Reach) + contact.unit_from_world.capacity() * sizeof(glm::mat3) +
-             contact.centre.capacity() * sizeof(glm::vec3) + contact.push.capacity() * sizeof(glm::vec3) +
-             contact.mark.capacity() + contact.touched.capacity() * 4 + contact.active.capacity() * 2;
+             reach.capacity() * sizeof(Reach) + contact.heap_bytes();
   for (const Chain& c : chains)
     b += c.nodes.capacity() * sizeof(Chain::Node) +
          (c.point.capacity() + c.normal.capacity() + c.ref.capacity()) * sizeof(glm::vec3);
