@@ -114,7 +114,8 @@ std::string page_skip_reason() {
 
 // The page in headless Chromium: its deform bench (?bench=1: per LOD, the median of nine batches
 // of 50 frames in the WebAssembly module, microseconds a frame), then `seconds` of drawing: the
-// end-to-end latency of the poses it drew and the bytes its WebSocket brought.
+// end-to-end latency of the poses it drew and the bytes its WebSocket brought (the window longer
+// when the page drew too few poses in it).
 nlohmann::json page_figures(const std::string& url, double seconds) {
   if (auto why = page_skip_reason(); !why.empty()) return {{"skipped", why}};
   HeadlessChromium browser;
@@ -133,6 +134,14 @@ nlohmann::json page_figures(const std::string& url, double seconds) {
   const nlohmann::json before = browser.eval(counters);
   const auto t0 = Clock::now();
   std::this_thread::sleep_for(std::chrono::duration<double>(seconds));
+  // A loaded machine's software WebGL may draw only a few frames a second: the window stretches
+  // (up to six times) until the percentiles rest on enough poses.
+  constexpr int kMinPoses = 30;
+  while (Clock::now() - t0 < std::chrono::duration<double>(6 * seconds)) {
+    const nlohmann::json n = browser.eval("latency.n");
+    if (!n.is_number() || n.get<int>() >= kMinPoses) break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(250));
+  }
   const nlohmann::json latency = browser.eval("latencySummary()");
   const nlohmann::json after = browser.eval(counters);
   const double dt_s = std::chrono::duration<double>(Clock::now() - t0).count();
