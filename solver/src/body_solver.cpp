@@ -209,6 +209,7 @@ void SolveJob::SolveTrunk(bool root_known) {
   ls.prior_weight = root_known ? o.prior_weight_with_pelvis : o.prior_weight;
   ls.damping = o.damping;
   ls.max_iterations = o.iterations;
+  ls.model_tolerance = o.model_tolerance;
   ls.context = &c.ls_;
   ls.pose = pose;
   ls.Run();

@@ -387,12 +387,12 @@ bool LeastSquaresIkJob::Run() {
   float lambda = std::clamp(c.lambda_, std::max(damping, 1e-4f), 1e3f);
   bool rebuild = true;
   bool world_current = true;  // world and axes are those of the pose (the last objective's)
+  const int stride = stride_for(cols);
   for (int it = 0; it < max_iterations && cols > 0; ++it) {
     if (rebuild) BuildNormalEquations(cols, prior2);
     rebuild = false;
     float* a = c.normal_.data();
     float* b = c.rhs_.data();
-    const int stride = stride_for(cols);
     std::copy(c.normal0_.data(), c.normal0_.data() + static_cast<size_t>(cols) * stride, a);
     std::copy(c.rhs0_.data(), c.rhs0_.data() + stride, b);
     for (int i = 0; i < cols; ++i) a[i * stride + i] += lambda * lambda;
@@ -413,10 +413,20 @@ bool LeastSquaresIkJob::Run() {
     world_current = trial < cost;
     if (trial < cost) {
       const float gain = cost - trial;
+      const float lambda_used = lambda;
       cost = trial;
       lambda = std::max(std::max(damping, 1e-4f), lambda * 0.3f);
       rebuild = true;
       if (biggest < step_tolerance || gain < 1e-4f * cost) break;
+      // The gain the linear model promised, δ·g + λ²·|δ|² (from (JᵀJ + P + λ²)·δ = g): when the
+      // step gained that to within model_tolerance of the cost left, the model is good there, and
+      // the next step would only take back a part of the difference.
+      if (model_tolerance > 0 && it + 1 >= model_min_iterations) {
+        float promised = 0, step2 = 0;
+        for (int i = 0; i < cols; ++i) promised += b[i] * c.rhs0_[i], step2 += b[i] * b[i];
+        promised += lambda_used * lambda_used * step2;
+        if (std::abs(gain - promised) < model_tolerance * cost) break;
+      }
     } else {
       p.root_position_m = saved_root_pos;
       p.root_orientation = saved_root_rot;

@@ -57,6 +57,9 @@ struct SolverOptions {
   float prior_weight_with_pelvis = 1.0f;
   float damping = 0.05f;  // Levenberg–Marquardt λ
   int iterations = 4;     // least-squares steps per frame at most (warm starts carry on)
+  // … and from the second on, none once a step gained what the linear model promised to within
+  // this fraction of the objective left (LeastSquaresIkJob::model_tolerance; docs/solver.md).
+  float model_tolerance = 0.01f;
   // Root height of the wearer standing (world y, from calibration; NaN = unknown). With neither
   // pelvis nor foot sensors the root is held near it — a body bends at spine and hips rather
   // than sinking with its head — unless the head comes down while staying upright (a squat, a

@@ -89,6 +89,10 @@ struct LeastSquaresIkJob {
   int max_iterations = 10;
   float step_tolerance = 5e-4f;  // stop when no unknown moves more than this (or the
                                  // objective drops by less than 0.01 %)
+  // Stop too when a step (the model_min_iterations-th or later) gained what the linear model
+  // promised to within this fraction of the objective left (0: never).
+  float model_tolerance = 0.0f;
+  int model_min_iterations = 2;
   LeastSquaresIkContext* context = nullptr;
   // [in, out] warm start in, solution (inside the joint limits) out
   rig::Pose* pose = nullptr;
