@@ -129,13 +129,13 @@ ChainSolution solve_chain(const ChainInput& in, const glm::vec3& pole, float phi
   return chain_dofs(in, g, phi, give_up_at);
 }
 
-// 16 samples round the axis, then halving steps about the best. A bent limb at another swivel is
+// `grid.samples` samples round the axis, then halving steps about the best. A bent limb at another swivel is
 // the hinted one turned about the start→target axis (the middle joint circles it, the end stays):
 // one rotation instead of a two-bone solve per candidate. The samples are tried nearest the hint
 // first, so that a good one found early rules out the far ones by their swivel cost alone; the
 // winner is the same as in sample order (the lowest cost, on a tie the first in that order).
 ChainSolution search_swivel(const ChainInput& in, const ChainGeometry& hinted, const glm::vec3& e1, const glm::vec3& e2,
-                            ChainSolution best) {
+                            ChainSolution best, SwivelGrid grid) {
   const bool turns = hinted.ok && hinted.turns_with_swivel;
   const SolverModel::Chain& ch = *in.ch;
   const auto& flex = in.s->dof(ch.flex_dof);
@@ -165,19 +165,19 @@ ChainSolution search_swivel(const ChainInput& in, const ChainGeometry& hinted, c
     if (cand.ok && (cost < best_cost || (cost == best_cost && rank < best_rank)))
       best = cand, best_cost = cost, best_phi = phi, best_rank = rank;
   };
-  constexpr int kSamples = 16;
-  auto sample = [](int k) {
-    return 6.2831853f * static_cast<float>(k) / kSamples - (k > kSamples / 2 ? 6.2831853f : 0.0f);
+  const int n = std::max(2, grid.samples);
+  auto sample = [n](int k) {
+    return 6.2831853f * static_cast<float>(k) / static_cast<float>(n) - (k > n / 2 ? 6.2831853f : 0.0f);
   };
-  for (int k = 1; k < kSamples / 2; ++k) {  // ±1/16 turn, ±2/16, …, then the half turn
+  for (int k = 1; k < (n + 1) / 2; ++k) {  // ±1/n turn, ±2/n, …, then the half turn
     try_swivel(sample(k), k);
-    try_swivel(sample(kSamples - k), kSamples - k);
+    try_swivel(sample(n - k), n - k);
   }
-  try_swivel(sample(kSamples / 2), kSamples / 2);
-  for (float step = 6.2831853f / (2 * kSamples); step > 0.005f; step *= 0.5f) {
+  if (n % 2 == 0) try_swivel(sample(n / 2), n / 2);
+  for (float step = 6.2831853f / static_cast<float>(2 * n); step > grid.finest_rad; step *= 0.5f) {
     const float around = best_phi;
-    try_swivel(around - step, kSamples);
-    try_swivel(around + step, kSamples);
+    try_swivel(around - step, n);
+    try_swivel(around + step, n);
   }
   return best;
 }

@@ -60,9 +60,16 @@ ChainSolution solve_chain(const ChainInput& in, const ChainGeometry& g);
 ChainSolution solve_chain(const ChainInput& in, const glm::vec3& pole, float phi = 0.0f,
                           float give_up_at = std::numeric_limits<float>::infinity());
 
+// How finely a swivel search looks: samples round the axis, then halving steps about the best
+// down to `finest_rad`.
+struct SwivelGrid {
+  int samples = 16;
+  float finest_rad = 0.005f;
+};
+
 // The swivel the limits allow nearest to the hinted one (e1; e2 = axis × e1), starting from
 // `best`, the chain at the hinted swivel, whose geometry is `hinted` (chain_geometry(in, e1)).
 ChainSolution search_swivel(const ChainInput& in, const ChainGeometry& hinted, const glm::vec3& e1, const glm::vec3& e2,
-                            ChainSolution best);
+                            ChainSolution best, SwivelGrid grid = {});
 
 }  // namespace mimic::solver::detail
