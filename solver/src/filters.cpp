@@ -13,7 +13,6 @@ namespace {
 constexpr float kTwoPi = 6.28318530718f;
 
 using detail::exp_rotation;
-using detail::rotation_vector;
 
 bool finite(const devices::SensorSample& s) { return detail::finite_sample(s); }
 
@@ -51,12 +50,18 @@ glm::quat OneEuroQuat::filter(const glm::quat& q_in, float dt_s) {
     return q_;
   }
   if (glm::dot(q, q_) < 0) q = -q;  // the nearer of ±q
-  const glm::vec3 raw_w = rotation_vector(q * glm::conjugate(raw_)) / dt_s;
+  // A sample apart is a small turn: 2·(x, y, z) of the relative quaternion is its rotation vector
+  // to 10⁻⁴ at 0.07 rad (8 rad/s at 120 Hz), 4 % short at a whole radian, without an arctangent.
+  const glm::quat d = q * glm::conjugate(raw_);
+  const glm::vec3 raw_w = (d.w < 0 ? -2.0f : 2.0f) / dt_s * glm::vec3(d.x, d.y, d.z);
   raw_ = q;
   w_ += one_euro_alpha(p_.derivative_cutoff_hz, dt_s) * (raw_w - w_);
   const float cutoff = p_.min_cutoff_hz + p_.beta * glm::length(w_);
   lag_s_ = 1.0f / (kTwoPi * std::max(cutoff, 1e-3f));
-  q_ = glm::normalize(glm::slerp(q_, q, one_euro_alpha(cutoff, dt_s)));
+  // The filtered orientation trails the sample by a small turn (its lag: 0.2 rad at 8 rad/s), where
+  // the normalised blend is the spherical one to 10⁻⁴ rad, without an arccosine and two sines.
+  const float a = one_euro_alpha(cutoff, dt_s);
+  q_ = glm::normalize((1.0f - a) * q_ + a * q);
   return q_;
 }
 
