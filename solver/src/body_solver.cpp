@@ -33,6 +33,18 @@ bool heading_of(const glm::vec3& forward, glm::quat& out) {
   return true;
 }
 
+// `dir`'s horizontal part turned back about +Y to within `max_rad` of `reference`'s (unchanged
+// when either is about vertical).
+glm::vec3 within_turn_of(const glm::vec3& dir, const glm::vec3& reference, float max_rad) {
+  const glm::vec2 d(dir.x, dir.z), r(reference.x, reference.z);
+  if (glm::length(d) < 1e-6f || glm::length(r) < 0.3f) return dir;
+  const float yaw_r = std::atan2(r.x, r.y);
+  const float off = std::remainder(std::atan2(d.x, d.y) - yaw_r, 6.2831853f);
+  if (std::abs(off) <= max_rad) return dir;
+  const float yaw = yaw_r + std::copysign(max_rad, off);
+  return glm::length(d) * glm::vec3(std::sin(yaw), 0.0f, std::cos(yaw)) + glm::vec3(0.0f, dir.y, 0.0f);
+}
+
 // Toes nothing tracks follow the foot, and a foot pitched toes-down (a sensor's foot at push-off)
 // would push their tip through the floor: they bend up at the ball instead, as toes do.
 void keep_toes_above_floor(const SolverModel& m, int toes, float floor_y, const RigidTransform& foot_w,
@@ -267,7 +279,8 @@ bool SolveJob::SolveLimb(int ci) {
     // pitches the foot, and a pole taken from the pitched foot turned the straight leg over).
     const glm::vec3 toe = end_t.rotation * glm::vec3(0, 0, 1);
     const glm::vec3 ahead = glm::length(glm::vec2(toe.x, toe.z)) > 0.2f ? glm::vec3(toe.x, 0, toe.z) : default_pole;
-    pole = glm::normalize(ahead);
+    pole = glm::normalize(
+        within_turn_of(ahead, p.root_orientation * glm::vec3(0, 0, 1), m.options_.locomotion.knee_turn_max_rad));
   } else {
     // The hand (foot) rarely bends far from its forearm (shin): guess the middle joint
     // one lower link back along it, leaning on the natural direction when that is vague.

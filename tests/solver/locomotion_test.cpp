@@ -210,6 +210,32 @@ TEST(Locomotion, SteppedFeetNeverJumpAndKneesStayDown) {
   EXPECT_LT(highest_knee_m, -0.1f);
 }
 
+// Head and hands pivot on the spot, a half circle and more in 0.6 s and in 1 s: the planted feet
+// are left behind until they step, pointing where the body no longer does. Their knees face the
+// feet only as far as the hips can turn, so the legs follow without a jerk (a knee asked to face
+// the foot put the hip past its limits, and the clamped leg flung its ankle at 5.7–5.8 m/s).
+TEST(Locomotion, APivotsLaggingFeetFollowWithoutAJerk) {
+  for (float turn_s : {0.6f, 1.0f}) {
+    Wearer w("3");
+    for (int k = 0; k < 60; ++k) w.step(standing(w, {0, 0, 0}, 0.0f));
+    std::array<glm::vec3, 2> last{w.ankle(0), w.ankle(1)};
+    float fastest_mps = 0;
+    const long steps0 = w.ctx.locomotion().steps;
+    for (int k = 0; k < int(2 * kRateHz); ++k) {
+      const float yaw = 3.5f * std::min(1.0f, static_cast<float>(k / (turn_s * kRateHz)));
+      w.step(standing(w, {0, 0, 0}, yaw));
+      for (int leg = 0; leg < 2; ++leg) {
+        fastest_mps = std::max(fastest_mps, float(glm::length(w.ankle(leg) - last[leg]) * kRateHz));
+        last[leg] = w.ankle(leg);
+      }
+    }
+    std::printf("  a 3.5 rad pivot in %.1f s: fastest ankle %.2f m/s, %ld steps\n", turn_s, fastest_mps,
+                w.ctx.locomotion().steps - steps0);
+    EXPECT_GE(w.ctx.locomotion().steps - steps0, 2) << turn_s;
+    EXPECT_LT(fastest_mps, 2.5f) << turn_s;
+  }
+}
+
 // Walking, the head is lowest as a foot strikes: the stepper keeps that beat (a foot lifts
 // shortly after each low of the head, the feet alternating) rather than a rhythm of its own.
 TEST(Locomotion, WalkingStepsKeepTheHeadsBeat) {

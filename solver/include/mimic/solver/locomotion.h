@@ -73,6 +73,10 @@ struct LocomotionOptions {
   // A stepped foot never moves faster than this (a walking foot swings at 4–5 m/s): a landing
   // spot that moves with the body or a heel that lifts does not make it jump.
   float max_foot_speed_mps = 8.0f;
+  // A stepped leg's knee faces where its foot points, but never further round from the hips'
+  // heading than this (the hip turns 50° either way): a foot left behind by a pivot otherwise
+  // asked for a knee the hip cannot turn to, and the clamped leg jerked.
+  float knee_turn_max_rad = 0.8f;
   // Walking, the hips ride this much lower per m/s (at most `max_walk_drop_m`): strides need
   // the reach a locked-knee stance does not have.
   float walk_drop_m_per_mps = 0.025f;
