@@ -311,11 +311,11 @@ bool SolveJob::SolveLimb(int ci) {
   const glm::vec3 e2 = glm::cross(n, e1);
   const detail::ChainGeometry hinted = detail::chain_geometry(in, e1);
   ChainSolution best = detail::solve_chain(in, hinted);
-  // A guessed foot is searched only when the limits would cut a lot (0.2 rad) off the swivel's
-  // leg: clamped that far, a stretched leg turned up off the floor (a pirouette's planted foot).
-  // Its knee's direction being a guess too, a coarser grid does (8 samples, down to 0.01 rad: the
-  // eight clips' figures unchanged, the search 40 % shorter).
-  const float search_above = c.guessed_end_[ci] ? 0.2f : 1e-4f;
+  // A guessed foot is searched only when the limits would cut a lot off the swivel's leg
+  // (LocomotionOptions::search_swivel_above_rad): clamped that far, a stretched leg turned up off
+  // the floor. Its knee's direction being a guess too, a coarser grid does (8 samples, down to
+  // 0.01 rad: the eight clips' figures unchanged, the search 40 % shorter).
+  const float search_above = c.guessed_end_[ci] ? m.options_.locomotion.search_swivel_above_rad : 1e-4f;
   const detail::SwivelGrid grid = c.guessed_end_[ci] ? detail::SwivelGrid{8, 0.01f} : detail::SwivelGrid{};
   if (best.ok && best.violation > search_above) best = detail::search_swivel(in, hinted, e1, e2, best, grid);
   if (!best.ok) return false;

@@ -77,6 +77,9 @@ struct LocomotionOptions {
   // heading than this (the hip turns 50° either way): a foot left behind by a pivot otherwise
   // asked for a knee the hip cannot turn to, and the clamped leg jerked.
   float knee_turn_max_rad = 0.8f;
+  // … and its swivel is searched for only when the limits would cut this much off it at that
+  // knee (each search moves the knee by a whole sample: searched at 0.2 rad, the legs shook).
+  float search_swivel_above_rad = 0.6f;
   // Walking, the hips ride this much lower per m/s (at most `max_walk_drop_m`): strides need
   // the reach a locked-knee stance does not have.
   float walk_drop_m_per_mps = 0.025f;
