@@ -24,6 +24,15 @@ std::vector<int> dofs_of(const Skeleton& s, std::initializer_list<const char*> j
   return out;
 }
 
+// The body solver's unknowns for head and hands: spine, neck, head, clavicles, shoulders, elbows.
+std::vector<int> trunk_and_arm_dofs(const Skeleton& s) {
+  std::vector<int> dofs = dofs_of(s, {"spine_lower", "spine_mid", "spine_upper", "neck", "neck_upper", "head",
+                                      "l_clavicle", "l_shoulder", "r_clavicle", "r_shoulder"});
+  dofs.push_back(s.find_dof("l_elbow_flexion"));
+  dofs.push_back(s.find_dof("r_elbow_flexion"));
+  return dofs;
+}
+
 // A random pose of the spine, neck and head inside the limits; the head's world pose is a
 // reachable target, and the solve from the relaxed posture reaches it.
 TEST(LeastSquaresIk, ReachesReachableTrunkTargets) {
@@ -111,10 +120,7 @@ TEST(LeastSquaresIk, SolvesTheRootWhenAsked) {
 // must still give the targets.
 TEST(LeastSquaresIk, ReachesHeadAndHandsWithRootAndArms) {
   const Skeleton s = default_skeleton();
-  std::vector<int> dofs = dofs_of(s, {"spine_lower", "spine_mid", "spine_upper", "neck", "neck_upper", "head",
-                                      "l_clavicle", "l_shoulder", "r_clavicle", "r_shoulder"});
-  dofs.push_back(s.find_dof("l_elbow_flexion"));
-  dofs.push_back(s.find_dof("r_elbow_flexion"));
+  std::vector<int> dofs = trunk_and_arm_dofs(s);
   std::mt19937_64 rng(5);
   LeastSquaresIkContext ctx(s, static_cast<int>(dofs.size()), 3);
   std::vector<RigidTransform> w(s.joint_count()), ws(s.joint_count());
@@ -166,10 +172,7 @@ TEST(LeastSquaresIk, ReachesHeadAndHandsWithRootAndArms) {
 // second step unless those criteria do, and lands within a millimetre of it.
 TEST(LeastSquaresIk, AStepThatGainedWhatTheModelPromisedEndsTheSolve) {
   const Skeleton s = default_skeleton();
-  std::vector<int> dofs = dofs_of(s, {"spine_lower", "spine_mid", "spine_upper", "neck", "neck_upper", "head",
-                                      "l_clavicle", "l_shoulder", "r_clavicle", "r_shoulder"});
-  dofs.push_back(s.find_dof("l_elbow_flexion"));
-  dofs.push_back(s.find_dof("r_elbow_flexion"));
+  std::vector<int> dofs = trunk_and_arm_dofs(s);
   std::vector<RigidTransform> w(s.joint_count()), we(s.joint_count()), wf(s.joint_count());
   const int head = s.find_joint("head"), l_hand = s.find_joint("l_wrist"), r_hand = s.find_joint("r_wrist");
   std::mt19937_64 rng(11);
