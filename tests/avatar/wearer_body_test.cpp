@@ -48,9 +48,11 @@ TEST(WearerBody, LongerArmsAloneLengthenTheArmsAndTheirMuscles) {
   ASSERT_TRUE(body);
   EXPECT_NEAR(build_of(*body).limbs.upper_arm_m / build_of(base).limbs.upper_arm_m, 1.1f, 1e-3f);
   EXPECT_NEAR(build_of(*body).height_m, build_of(base).height_m, 1e-4f);
-  for (size_t i = 0; i < base.primitives.size(); ++i)
-    if (base.primitives[i].name == "l_humerus")
+  for (size_t i = 0; i < base.primitives.size(); ++i) {
+    if (base.primitives[i].name == "l_humerus") {
       EXPECT_NEAR(body->primitives[i].state.semi_axes_m.x / base.primitives[i].state.semi_axes_m.x, 1.1f, 1e-3f);
+    }
+  }
   r.shin = -1;
   EXPECT_FALSE(wearer_body(base, r));
 }

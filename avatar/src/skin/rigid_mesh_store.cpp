@@ -258,18 +258,31 @@ std::optional<IsoMesh> rigid_mesh_from_store(RigidPart part, const BodyModel& mo
 
 namespace {
 
+// A float as a C++ float literal that reads back to the same value (9 significant digits).
+std::string float_literal(float v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.9g", static_cast<double>(v));
+  std::string out = buf;
+  if (out.find_first_of(".en") == std::string::npos) out += ".0";
+  return out + "f";
+}
+
 // The part's primitives as a C++ array named k_PART_primitives.
 std::string primitives_source(const BodyModel& model, RigidPart part) {
   std::string out = std::string("constexpr StoredPrimitive k_") + rigid_part_name(part) + "_primitives[] = {\n";
-  char buf[512];
   for (const Primitive& p : model.primitives) {
     if (p.part != part) continue;
     const StoredPrimitive s = signature(p);
-    std::snprintf(buf, sizeof buf,
-                  "    {%d, {%.9g, %.9g, %.9g}, {%.9g, %.9g, %.9g}, {%.9g, %.9g, %.9g}, %.9g, %.9g},\n", s.kind,
-                  s.center_m[0], s.center_m[1], s.center_m[2], s.semi_axes_m[0], s.semi_axes_m[1], s.semi_axes_m[2],
-                  s.orientation_rad[0], s.orientation_rad[1], s.orientation_rad[2], s.weight, s.influence);
-    out += buf;
+    auto three = [&out](const float* v) {
+      out += '{';
+      for (int k = 0; k < 3; ++k) out += (k ? ", " : "") + float_literal(v[k]);
+      out += "}, ";
+    };
+    out += "    {" + std::to_string(s.kind) + ", ";
+    three(s.center_m);
+    three(s.semi_axes_m);
+    three(s.orientation_rad);
+    out += float_literal(s.weight) + ", " + float_literal(s.influence) + "},\n";
   }
   return out + "};\n\n";
 }
@@ -311,9 +324,9 @@ std::string rigid_mesh_table_source(const BodyModel& model, std::span<const Mesh
     out += mesh_source(e.mesh, name, step);
     const auto count = std::count_if(model.primitives.begin(), model.primitives.end(),
                                      [&e](const Primitive& p) { return p.part == e.part; });
-    std::snprintf(buf, sizeof buf, "    {RigidPart::%s, k_%s_primitives, %zu, %zu, %zu, %zu, %.9g, %s},\n",
-                  part.c_str(), part.c_str(), static_cast<size_t>(count), e.budget, e.mesh.positions.size(),
-                  e.mesh.triangles.size() / 3, step, name.c_str());
+    std::snprintf(buf, sizeof buf, "    {RigidPart::%s, k_%s_primitives, %zu, %zu, %zu, %zu, %s, %s},\n", part.c_str(),
+                  part.c_str(), static_cast<size_t>(count), e.budget, e.mesh.positions.size(),
+                  e.mesh.triangles.size() / 3, float_literal(step).c_str(), name.c_str());
     table += buf;
   }
   out += "constexpr StoredRigidMesh kMeshes[] = {\n" + table + "};\n\n}  // namespace\n\n";
