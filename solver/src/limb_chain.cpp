@@ -129,9 +129,9 @@ ChainSolution solve_chain(const ChainInput& in, const glm::vec3& pole, float phi
   return chain_dofs(in, g, phi, give_up_at);
 }
 
-// `grid.samples` samples round the axis, then halving steps about the best. A bent limb at another swivel is
-// the hinted one turned about the start→target axis (the middle joint circles it, the end stays):
-// one rotation instead of a two-bone solve per candidate. The samples are tried nearest the hint
+// `grid.samples` samples round the axis, then halving steps about the best. A bent limb at
+// another swivel is the hinted one turned about the start→target axis (the middle joint circles
+// it, the end stays): one rotation instead of a two-bone solve per candidate. The samples are tried nearest the hint
 // first, so that a good one found early rules out the far ones by their swivel cost alone; the
 // winner is the same as in sample order (the lowest cost, on a tie the first in that order).
 ChainSolution search_swivel(const ChainInput& in, const ChainGeometry& hinted, const glm::vec3& e1, const glm::vec3& e2,
