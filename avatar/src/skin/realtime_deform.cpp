@@ -48,6 +48,17 @@ void crease(const Data::RingOp& r, const Data::RingOp& pr, const Frame& f, const
     }
 }
 
+// A twist wrapped to (−π, π] and tapered to none from 120° to 180°: at half a turn either way
+// is as near, and the band must not flip from one helix to the other between two frames (a
+// taper from 150° still moved the shoulder's skin 40 mm in a step of 1.5° of the arm).
+float twist_in_band(float phi_rad) {
+  constexpr float kPi = 3.14159265f, kTaperStart_rad = 2.0943951f;
+  if (phi_rad > kPi) phi_rad -= 2.0f * kPi;
+  if (phi_rad < -kPi) phi_rad += 2.0f * kPi;
+  const float taper = std::clamp((kPi - std::abs(phi_rad)) / (kPi - kTaperStart_rad), 0.0f, 1.0f);
+  return phi_rad * taper;
+}
+
 }  // namespace
 
 // 1/|v| to float precision (the hardware estimate and one Newton step: a few cycles where a
@@ -137,8 +148,8 @@ size_t State::heap_bytes() const {
   return b;
 }
 
-Frame junction_frame(const Data& d, const Data::RingOp& r, std::span<const glm::vec3> pos, const Frame& s_frame,
-                     float band) {
+Frame band_axis_frame(const Data& d, const Data::RingOp& r, std::span<const glm::vec3> pos,
+                      const glm::vec3& fallback_z) {
   const Data::RingOp& s = d.rings[static_cast<size_t>(r.s_ring)];
   glm::vec3 loop(0.0f), ring(0.0f);
   for (uint32_t k = 0; k < r.count; ++k) loop += pos[d.goals[r.goal_first + k]], ring += pos[s.first + k];
@@ -146,12 +157,18 @@ Frame junction_frame(const Data& d, const Data::RingOp& r, std::span<const glm::
   loop *= inv, ring *= inv;
   Frame f;
   f.origin = loop;
-  f.z = safe_normalize(ring - loop, s_frame.z);
+  f.z = safe_normalize(ring - loop, fallback_z);
   const glm::vec3 first = pos[d.goals[r.goal_first]] - loop;
   f.x = safe_normalize(first - glm::dot(first, f.z) * f.z,
                        glm::abs(f.z.x) < 0.9f ? glm::vec3(1, 0, 0) : glm::vec3(0, 1, 0));
   f.x = safe_normalize(f.x - glm::dot(f.x, f.z) * f.z, {1, 0, 0});
   f.y = glm::cross(f.z, f.x);
+  return f;
+}
+
+Frame junction_frame(const Data& d, const Data::RingOp& r, std::span<const glm::vec3> pos, const Frame& s_frame,
+                     float band) {
+  Frame f = band_axis_frame(d, r, pos, s_frame.z);
   if (band >= 1.0f) return f;
   // Towards S's frame turned as the band's frame was from it in the initial pose (band 0: the
   // offsets turn with S alone, as they did before the band had its frame).
@@ -160,6 +177,35 @@ Frame junction_frame(const Data& d, const Data::RingOp& r, std::span<const glm::
   const glm::mat3 m = glm::mat3_cast(q);
   f.x = m[0], f.y = m[1], f.z = m[2];
   return f;
+}
+
+float band_twist_rad(const Frame& s, const Frame& axis) {
+  const glm::vec3 sx = s.x - glm::dot(s.x, axis.z) * axis.z;
+  return std::atan2(glm::dot(sx, axis.y), glm::dot(sx, axis.x));
+}
+
+BandTwist band_twist(const Data::RingOp& r, const Frame& axis, const Frame& f, float phi_rad) {
+  const float w = std::pow(1.0f - r.alpha, r.twist_power);
+  const glm::mat3 back = glm::mat3_cast(glm::angleAxis((w - 1.0f) * phi_rad, axis.z));
+  const glm::mat3 turn = glm::mat3_cast(glm::angleAxis(w * phi_rad, axis.z));
+  BandTwist t;
+  t.origin = axis.origin;
+  t.to_s = (1.0f - r.alpha) * back;
+  t.to_g = r.alpha * turn;
+  t.offset = turn * glm::mat3(f.x, f.y, f.z);
+  return t;
+}
+
+void driven_points_twisted(const Data& d, const Data::RingOp& r, const BandTwist& t, std::span<glm::vec3> pos) {
+  const uint32_t s_first = d.rings[r.s_ring].first;
+  const uint32_t* goal = d.goals.data() + r.goal_first;
+  for (uint32_t j = 0; j < r.count; ++j) {
+    const uint32_t k = r.first + j;
+    const glm::vec3 sp = pos[s_first + j], g = pos[goal[j]];
+    const float shrink = std::min(1.0f, glm::dot(g - sp, g - sp) * d.column_inv_len2[k]);
+    pos[k] = t.origin + t.to_s * (sp - t.origin) + t.to_g * (g - t.origin) +
+             shrink * (t.offset * glm::vec3(d.lx[k], d.ly[k], d.lz[k]));
+  }
 }
 
 float follow_loop(const Data& d, const Data::LoopFollow& lf, std::span<const rig::RigidTransform> world_from_joint,
@@ -209,7 +255,8 @@ void deform(const Data& d, State& st, const rig::Pose& pose, std::span<glm::vec3
 
   // A limb's driven rings come one after another and share S and the loop: one band frame.
   int band_s_ring = -1;
-  Frame band_frame;
+  Frame band_frame, band_axis;
+  float band_phi_rad = 0.0f;
   for (size_t ri = 0; ri < d.rings.size(); ++ri) {
     const auto& r = d.rings[ri];
     Frame& f = st.frames[ri];
@@ -246,8 +293,17 @@ void deform(const Data& d, State& st, const rig::Pose& pose, std::span<glm::vec3
           }
           f = junction_frame(d, r, pos, st.frames[r.s_ring], band);
           band_frame = f, band_s_ring = r.s_ring;
+          if (r.twist_power > 0.0f) {
+            band_axis = band_axis_frame(d, r, pos, st.frames[r.s_ring].z);
+            band_phi_rad = twist_in_band(band_twist_rad(st.frames[r.s_ring], band_axis) -
+                                         d.band_twist_rest[static_cast<size_t>(r.s_ring)]) *
+                           band;
+          }
         }
-        driven_points(d, r, f, pos, st.vectorised);
+        if (r.twist_power > 0.0f)
+          driven_points_twisted(d, r, band_twist(r, band_axis, f, band_phi_rad), pos);
+        else
+          driven_points(d, r, f, pos, st.vectorised);
         break;
       }
     }
