@@ -96,9 +96,10 @@ struct RealtimeBody::Data {
     uint32_t muscle_first = 0, muscle_count = 0;  // blocks in `muscle_blocks`
     int follow = -1;                              // driven: its loop's follow (`follows`), or −1
     bool moves_loop = false;                      // driven: the first ring of its limb moves the loop first
-    // Driven: how the limb's twist about the band's axis spreads along the band (BandTwist);
-    // 0 for a band that does not twist.
-    float twist_power = 0;
+    // Driven: whether the band twists with its limb (BandTwist), and this ring's share of the
+    // twist, (1 − α)^power.
+    bool twists = false;
+    float twist_share = 0;
   };
   std::vector<RingOp> rings;
   std::vector<uint32_t> goals;
@@ -256,6 +257,9 @@ void driven_points(const RealtimeBody::Data& d, const RealtimeBody::Data::RingOp
 // chest.
 Frame junction_frame(const RealtimeBody::Data& d, const RealtimeBody::Data::RingOp& r, std::span<const glm::vec3> pos,
                      const Frame& s, float band);
+// The same from the band's own frame (band_axis_frame).
+Frame junction_frame(const RealtimeBody::Data& d, const RealtimeBody::Data::RingOp& r, Frame axis, const Frame& s,
+                     float band);
 // The band's own frame (junction_frame before any fade): origin at the loop's centre, z towards
 // S's centre (`fallback_z` where the two centres meet), x towards the loop's first point.
 Frame band_axis_frame(const RealtimeBody::Data& d, const RealtimeBody::Data::RingOp& r, std::span<const glm::vec3> pos,
@@ -268,18 +272,20 @@ float band_twist_rad(const Frame& s, const Frame& axis);
 // A twisting band: the limb's first ring S turns with the limb about the band's axis while the
 // loop G stays with the torso. Joined column by column (S_k to G_k) across a turn, the band
 // would pinch to a waist and fold; instead each ring blends S turned back by the twist φ with
-// G, and is then turned by w·φ, w = (1 − α)^power (all of it at S, none at the loop): the
-// columns run as helices. Per ring: P = origin + to_s·(S − origin) + to_g·(G − origin) +
-// shrink·offset·(lx, ly, lz).
+// G, and is then turned by w·φ, w = RingOp::twist_share (all of it at S, none at the loop): the
+// columns run as helices. Per ring: P = origin + to_s·S + to_g·G + shrink·offset·(lx, ly, lz)
+// (the turns are about the axis through the band frame's origin; `origin` carries it).
 struct BandTwist {
   glm::vec3 origin{0.0f};
   glm::mat3 to_s{1.0f}, to_g{1.0f}, offset{1.0f};
 };
-// The ring's BandTwist for the twist `phi_rad` about `axis`, its offsets in frame `f`.
-BandTwist band_twist(const RealtimeBody::Data::RingOp& r, const Frame& axis, const Frame& f, float phi_rad);
-// A twisting band's ring (scalar on every build: a few hundred points at most).
+// The ring's BandTwist for the twist `phi_rad` about `axis`, its offsets in frame `f`;
+// `untwist` turns by −phi_rad about the axis (the same for every ring of the band).
+BandTwist band_twist(const RealtimeBody::Data::RingOp& r, const Frame& axis, const Frame& f, float phi_rad,
+                     const glm::mat3& untwist);
+// A twisting band's ring (eight at a time where the build has AVX2 and FMA and `vectorised`).
 void driven_points_twisted(const RealtimeBody::Data& d, const RealtimeBody::Data::RingOp& r, const BandTwist& t,
-                           std::span<glm::vec3> pos);
+                           std::span<glm::vec3> pos, bool vectorised);
 // Moves a junction loop's points on the side its limb swings towards (Data::LoopFollow);
 // returns the fade (State::follow_fade).
 float follow_loop(const RealtimeBody::Data& d, const RealtimeBody::Data::LoopFollow& lf,

@@ -168,7 +168,10 @@ Frame band_axis_frame(const Data& d, const Data::RingOp& r, std::span<const glm:
 
 Frame junction_frame(const Data& d, const Data::RingOp& r, std::span<const glm::vec3> pos, const Frame& s_frame,
                      float band) {
-  Frame f = band_axis_frame(d, r, pos, s_frame.z);
+  return junction_frame(d, r, band_axis_frame(d, r, pos, s_frame.z), s_frame, band);
+}
+
+Frame junction_frame(const Data& d, const Data::RingOp& r, Frame f, const Frame& s_frame, float band) {
   if (band >= 1.0f) return f;
   // Towards S's frame turned as the band's frame was from it in the initial pose (band 0: the
   // offsets turn with S alone, as they did before the band had its frame).
@@ -184,28 +187,16 @@ float band_twist_rad(const Frame& s, const Frame& axis) {
   return std::atan2(glm::dot(sx, axis.y), glm::dot(sx, axis.x));
 }
 
-BandTwist band_twist(const Data::RingOp& r, const Frame& axis, const Frame& f, float phi_rad) {
-  const float w = std::pow(1.0f - r.alpha, r.twist_power);
-  const glm::mat3 back = glm::mat3_cast(glm::angleAxis((w - 1.0f) * phi_rad, axis.z));
-  const glm::mat3 turn = glm::mat3_cast(glm::angleAxis(w * phi_rad, axis.z));
+BandTwist band_twist(const Data::RingOp& r, const Frame& axis, const Frame& f, float phi_rad,
+                     const glm::mat3& untwist) {
+  const glm::mat3 turn = glm::mat3_cast(glm::angleAxis(r.twist_share * phi_rad, axis.z));
+  const glm::mat3 back = turn * untwist;
   BandTwist t;
-  t.origin = axis.origin;
   t.to_s = (1.0f - r.alpha) * back;
   t.to_g = r.alpha * turn;
   t.offset = turn * glm::mat3(f.x, f.y, f.z);
+  t.origin = axis.origin - t.to_s * axis.origin - t.to_g * axis.origin;
   return t;
-}
-
-void driven_points_twisted(const Data& d, const Data::RingOp& r, const BandTwist& t, std::span<glm::vec3> pos) {
-  const uint32_t s_first = d.rings[r.s_ring].first;
-  const uint32_t* goal = d.goals.data() + r.goal_first;
-  for (uint32_t j = 0; j < r.count; ++j) {
-    const uint32_t k = r.first + j;
-    const glm::vec3 sp = pos[s_first + j], g = pos[goal[j]];
-    const float shrink = std::min(1.0f, glm::dot(g - sp, g - sp) * d.column_inv_len2[k]);
-    pos[k] = t.origin + t.to_s * (sp - t.origin) + t.to_g * (g - t.origin) +
-             shrink * (t.offset * glm::vec3(d.lx[k], d.ly[k], d.lz[k]));
-  }
 }
 
 float follow_loop(const Data& d, const Data::LoopFollow& lf, std::span<const rig::RigidTransform> world_from_joint,
@@ -257,6 +248,7 @@ void deform(const Data& d, State& st, const rig::Pose& pose, std::span<glm::vec3
   int band_s_ring = -1;
   Frame band_frame, band_axis;
   float band_phi_rad = 0.0f;
+  glm::mat3 untwist(1.0f);
   for (size_t ri = 0; ri < d.rings.size(); ++ri) {
     const auto& r = d.rings[ri];
     Frame& f = st.frames[ri];
@@ -291,17 +283,19 @@ void deform(const Data& d, State& st, const rig::Pose& pose, std::span<glm::vec3
             if (r.moves_loop) st.follow_fade[i] = follow_loop(d, d.follows[i], st.world_from_joint, pos);
             band = st.follow_fade[i];
           }
-          f = junction_frame(d, r, pos, st.frames[r.s_ring], band);
+          const Frame& s_frame = st.frames[r.s_ring];
+          band_axis = band_axis_frame(d, r, pos, s_frame.z);
+          f = junction_frame(d, r, band_axis, s_frame, band);
           band_frame = f, band_s_ring = r.s_ring;
-          if (r.twist_power > 0.0f) {
-            band_axis = band_axis_frame(d, r, pos, st.frames[r.s_ring].z);
-            band_phi_rad = twist_in_band(band_twist_rad(st.frames[r.s_ring], band_axis) -
-                                         d.band_twist_rest[static_cast<size_t>(r.s_ring)]) *
-                           band;
+          if (r.twists) {
+            band_phi_rad =
+                twist_in_band(band_twist_rad(s_frame, band_axis) - d.band_twist_rest[static_cast<size_t>(r.s_ring)]) *
+                band;
+            untwist = glm::mat3_cast(glm::angleAxis(-band_phi_rad, band_axis.z));
           }
         }
-        if (r.twist_power > 0.0f)
-          driven_points_twisted(d, r, band_twist(r, band_axis, f, band_phi_rad), pos);
+        if (r.twists)
+          driven_points_twisted(d, r, band_twist(r, band_axis, f, band_phi_rad, untwist), pos, st.vectorised);
         else
           driven_points(d, r, f, pos, st.vectorised);
         break;

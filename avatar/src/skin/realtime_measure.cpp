@@ -1,6 +1,7 @@
 // The realtime body's measurements of its contours (realtime_data.h): each point in its ring's
 // frame, the columns of the rest surface along each limb, the joint bands' scales and the muscle
 // terms, from the contours the implicit skin ray-casts in the initial pose.
+#include <cmath>
 #include <string_view>
 
 #include "mimic/avatar/joint_zone.h"
@@ -94,7 +95,8 @@ void measure_loop_follows(const RestContours& m, const rig::Pose& base, Data& d)
       if (name.ends_with(k.joint_suffix)) g = &k;
     const int parent = d.skeleton.parent(joint);
     if (g == nullptr || parent < 0) continue;  // the neck keeps its loop
-    r.twist_power = g->twist_power;
+    r.twists = g->twist_power > 0.0f;
+    r.twist_share = std::pow(1.0f - r.alpha, g->twist_power);
     // One follow per loop, moved before the first of its driven rings.
     int seen = -1;
     for (size_t i = 0; i < d.follows.size(); ++i)

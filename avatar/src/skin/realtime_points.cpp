@@ -74,6 +74,18 @@ void driven_points_scalar(const Data& d, const Data::RingOp& r, const Frame& f, 
 
 namespace {
 
+inline glm::vec3 twisted_point(const Data& d, const BandTwist& t, uint32_t k, const glm::vec3& sp, const glm::vec3& g) {
+  const float shrink = std::min(1.0f, glm::dot(g - sp, g - sp) * d.column_inv_len2[k]);
+  return t.origin + t.to_s * sp + t.to_g * g + shrink * (t.offset * glm::vec3(d.lx[k], d.ly[k], d.lz[k]));
+}
+
+void driven_points_twisted_scalar(const Data& d, const Data::RingOp& r, const BandTwist& t, std::span<glm::vec3> pos) {
+  const uint32_t s_first = d.rings[r.s_ring].first;
+  const uint32_t* goal = d.goals.data() + r.goal_first;
+  for (uint32_t j = 0; j < r.count; ++j)
+    pos[r.first + j] = twisted_point(d, t, r.first + j, pos[s_first + j], pos[goal[j]]);
+}
+
 void star_frames_scalar(const Data& d, State& st) {
   for (const Data::FrameRun& run : d.frame_runs)
     for (uint32_t j = 0; j < run.count; ++j) {
@@ -231,6 +243,50 @@ void driven_points(const Data& d, const Data::RingOp& r, const Frame& f, std::sp
   }
 }
 
+void driven_points_twisted(const Data& d, const Data::RingOp& r, const BandTwist& t, std::span<glm::vec3> pos,
+                           bool vectorised) {
+  if (!vectorised) return driven_points_twisted_scalar(d, r, t, pos);
+  const uint32_t s_first = d.rings[r.s_ring].first;
+  const uint32_t* goal = d.goals.data() + r.goal_first;
+  const __m256 one = _mm256_set1_ps(1.0f);
+  // m·v for a 3×3 matrix of broadcasts (column-major, as glm's).
+  struct M3 {
+    __m256 m[9];
+    explicit M3(const glm::mat3& a) {
+      for (int c = 0; c < 3; ++c)
+        for (int r = 0; r < 3; ++r) m[3 * c + r] = _mm256_set1_ps(a[c][r]);
+    }
+    V3 times(__m256 x, __m256 y, __m256 z, const V3& add) const {
+      return {_mm256_fmadd_ps(m[6], z, _mm256_fmadd_ps(m[3], y, _mm256_fmadd_ps(m[0], x, add.x))),
+              _mm256_fmadd_ps(m[7], z, _mm256_fmadd_ps(m[4], y, _mm256_fmadd_ps(m[1], x, add.y))),
+              _mm256_fmadd_ps(m[8], z, _mm256_fmadd_ps(m[5], y, _mm256_fmadd_ps(m[2], x, add.z)))};
+    }
+  };
+  const M3 to_s(t.to_s), to_g(t.to_g), offset(t.offset);
+  const V3 origin = splat(t.origin), zero = splat(glm::vec3(0.0f));
+  const float* base = &pos[0].x;
+  uint32_t j = 0;
+  for (; j + 8 <= r.count; j += 8) {
+    const uint32_t k = r.first + j;
+    __m256 sx, sy, sz;
+    simd::load8(&pos[s_first + j].x, sx, sy, sz);
+    const __m256i g3 =
+        _mm256_mullo_epi32(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(goal + j)), _mm256_set1_epi32(3));
+    const __m256 gx = _mm256_i32gather_ps(base, g3, 4);
+    const __m256 gy = _mm256_i32gather_ps(base + 1, g3, 4);
+    const __m256 gz = _mm256_i32gather_ps(base + 2, g3, 4);
+    const __m256 cx = _mm256_sub_ps(gx, sx), cy = _mm256_sub_ps(gy, sy), cz = _mm256_sub_ps(gz, sz);
+    const __m256 len2 = _mm256_fmadd_ps(cz, cz, _mm256_fmadd_ps(cy, cy, _mm256_mul_ps(cx, cx)));
+    const __m256 shrink = _mm256_min_ps(one, _mm256_mul_ps(len2, _mm256_loadu_ps(d.column_inv_len2.data() + k)));
+    const V3 off = offset.times(_mm256_loadu_ps(d.lx.data() + k), _mm256_loadu_ps(d.ly.data() + k),
+                                _mm256_loadu_ps(d.lz.data() + k), zero);
+    const V3 w = to_g.times(gx, gy, gz, to_s.times(sx, sy, sz, origin));
+    simd::store8(&pos[k].x, _mm256_fmadd_ps(shrink, off.x, w.x), _mm256_fmadd_ps(shrink, off.y, w.y),
+                 _mm256_fmadd_ps(shrink, off.z, w.z));
+  }
+  for (; j < r.count; ++j) pos[r.first + j] = twisted_point(d, t, r.first + j, pos[s_first + j], pos[goal[j]]);
+}
+
 Reach star_points_avx2(const Data& d, const Data::RingOp& r, const StarRing& s, const glm::vec2* muscle_w,
                        glm::vec3* out) {
   const uint32_t n = r.count;
@@ -336,6 +392,10 @@ void star_frames(const Data& d, State& st, bool) { star_frames_scalar(d, st); }
 
 void driven_points(const Data& d, const Data::RingOp& r, const Frame& f, std::span<glm::vec3> pos, bool) {
   driven_points_scalar(d, r, f, pos);
+}
+
+void driven_points_twisted(const Data& d, const Data::RingOp& r, const BandTwist& t, std::span<glm::vec3> pos, bool) {
+  driven_points_twisted_scalar(d, r, t, pos);
 }
 
 Reach star_points_avx2(const Data& d, const Data::RingOp& r, const StarRing& s, const glm::vec2* muscle_w,
