@@ -250,6 +250,41 @@ TEST(RealtimeSkin, TheShouldersBandTurnsSmoothlyWithTheArm) {
   EXPECT_LT(worst_m, 0.012f);
 }
 
+// The hip's loop (the torso's lowest ring, and the crotch) follows a raised thigh on its groin
+// side, and stops short of the torso's next ring: the torso's contours never cross.
+TEST(RealtimeSkin, TheHipsLoopRisesWithTheThighUnderTheTorsosNextRing) {
+  auto body = make_body();
+  RealtimeSkin skin(body);
+  const rig::Skeleton& sk = body->skeleton();
+  const ContourRows* torso = nullptr;
+  for (const ContourRows& c : body->contour_rows())
+    if (c.piece == "torso") torso = &c;
+  ASSERT_NE(torso, nullptr);
+  Mesh m = body->rest_mesh();
+  const std::vector<glm::vec3> rest = m.positions;
+  for (const char* side : {"l_", "r_"}) {
+    const int flexion = sk.find_dof(std::string(side) + "hip_flexion");
+    const int abduction = sk.find_dof(std::string(side) + "hip_abduction");
+    ASSERT_GE(flexion, 0);
+    ASSERT_GE(abduction, 0);
+    for (int flexion_deg = 0; flexion_deg <= 130; flexion_deg += 10)
+      for (float abduction_deg : {-15.0f, 0.0f, 30.0f}) {
+        rig::Pose p = sk.zero_pose();
+        p.dof_rad[flexion] = glm::radians(static_cast<float>(flexion_deg));
+        p.dof_rad[abduction] = glm::radians(abduction_deg);
+        skin.evaluate(p, m.positions);
+        const std::string what = std::string(side) + "hip flexed " + std::to_string(flexion_deg) + ", abducted " +
+                                 std::to_string(abduction_deg);
+        const ContourOrder order = check_contour_order(m.positions, std::span(torso, 1));
+        EXPECT_EQ(order.crossing, 0u) << what << ": " << 1000 * order.worst_m << " mm at " << order.worst_piece;
+        float rose_m = 0;  // the torso's lowest ring: how far its points moved (the pelvis stays)
+        for (uint32_t v : torso->rows.front()) rose_m = std::max(rose_m, glm::distance(m.positions[v], rest[v]));
+        if (flexion_deg == 0 && abduction_deg == 0.0f) EXPECT_LT(rose_m, 1e-4f) << what;
+        if (flexion_deg >= 60) EXPECT_GT(rose_m, 0.01f) << what;
+      }
+  }
+}
+
 TEST(RealtimeSkin, StaysClosedInRandomPostures) {
   std::mt19937_64 rng(42);
   std::uniform_real_distribution<float> u(0.0f, 1.0f);

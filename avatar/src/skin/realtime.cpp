@@ -269,8 +269,8 @@ size_t RealtimeBody::shared_bytes() const {
              d.toe_vertex.capacity() * 4 + d.toe_weight.capacity() * 4 + d.toe_local.capacity() * sizeof(glm::vec3) +
              d.texture.source.capacity() * 4 + d.texture.uv.capacity() * sizeof(glm::vec2) +
              d.texture.indices.capacity() * 4 + d.follows.capacity() * sizeof(Data::LoopFollow) +
-             d.follow_dir.capacity() * sizeof(glm::vec3) + d.band_in_s.capacity() * sizeof(glm::mat3) +
-             d.contact.heap_bytes();
+             d.follow_dir.capacity() * sizeof(glm::vec3) + d.follow_room.capacity() * 4 +
+             d.band_in_s.capacity() * sizeof(glm::mat3) + d.band_twist_rest.capacity() * 4 + d.contact.heap_bytes();
   for (const Data::Band& band : d.bands)
     b += sizeof(Data::Band) + (band.bend_rad.capacity() + band.scale[0].capacity() + band.scale[1].capacity()) * 4;
   b += d.rest_mesh.positions.capacity() * sizeof(glm::vec3) + d.rest_mesh.normals.capacity() * sizeof(glm::vec3) +

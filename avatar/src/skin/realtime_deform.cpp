@@ -200,7 +200,7 @@ BandTwist band_twist(const Data::RingOp& r, const Frame& axis, const Frame& f, f
 }
 
 float follow_loop(const Data& d, const Data::LoopFollow& lf, std::span<const rig::RigidTransform> world_from_joint,
-                  std::span<glm::vec3> pos) {
+                  std::span<const Frame> frames, std::span<glm::vec3> pos) {
   const rig::RigidTransform& parent = world_from_joint[static_cast<size_t>(lf.parent)];
   const glm::quat parent_from_world = glm::conjugate(parent.rotation);
   const glm::vec3 axis = parent_from_world * (world_from_joint[static_cast<size_t>(lf.joint)].rotation * lf.tip);
@@ -223,7 +223,16 @@ float follow_loop(const Data& d, const Data::LoopFollow& lf, std::span<const rig
     glm::vec3& p = pos[d.goals[lf.goal_first + k]];
     const glm::vec3 local = parent_from_world * (p - parent.translation);
     const glm::vec3 swung = lf.pivot + swing * (local - lf.pivot);
-    p += parent.rotation * (share * (swung - local));
+    const glm::vec3 move = parent.rotation * (share * (swung - local));
+    if (lf.cap_ring < 0) {
+      p += move;
+      continue;
+    }
+    // Short of the next ring's plane by the point's room: the share of the move that keeps it.
+    const Frame& cap = frames[static_cast<size_t>(lf.cap_ring)];
+    const float below = -lf.cap_side * glm::dot(p - cap.origin, cap.z) - d.follow_room[lf.dir_first + k];
+    const float rise = lf.cap_side * glm::dot(move, cap.z);
+    p += (rise > below ? std::max(below, 0.0f) / rise : 1.0f) * move;
   }
   return fade;
 }
@@ -280,7 +289,7 @@ void deform(const Data& d, State& st, const rig::Pose& pose, std::span<glm::vec3
           float band = 1.0f;
           if (r.follow >= 0) {
             const auto i = static_cast<size_t>(r.follow);
-            if (r.moves_loop) st.follow_fade[i] = follow_loop(d, d.follows[i], st.world_from_joint, pos);
+            if (r.moves_loop) st.follow_fade[i] = follow_loop(d, d.follows[i], st.world_from_joint, st.frames, pos);
             band = st.follow_fade[i];
           }
           const Frame& s_frame = st.frames[r.s_ring];

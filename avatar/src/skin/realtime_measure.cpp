@@ -60,18 +60,30 @@ void measure_driven_columns(const RestContours& m, Data& d) {
   }
 }
 
+namespace {
+glm::vec3 centre_world(const RestContours& m, const Data& d, const Data::RingOp& r) {
+  glm::vec3 c(0.0f);
+  for (uint32_t k = 0; k < r.count; ++k) c += m.ctrl[d.goals[r.goal_first + k]];
+  return c / static_cast<float>(std::max(r.count, 1u));
+}
+}  // namespace
+
 void measure_loop_follows(const RestContours& m, const rig::Pose& base, Data& d) {
-  // Shares measured over the shared clips' frames (mimic intersect). The hips keep their loop:
-  // it is the torso's lowest star ring, which moved with the thigh crosses the ring above it
-  // (the groin's folds drop from 9.5 to 2.4 a frame at LOD 0 that way, but the contours cross).
+  // Shares measured over the shared clips' frames (mimic intersect, every 80th frame, LOD 0).
   // The shoulders' bands also twist with the arm (BandTwist, power 2: most of the turn next to
-  // S): over the clips' frames (every 80th, LOD 0) 33.7 → 24.2 folds a frame, the right upper
-  // arm's 13.7 → 7.3 (power 1: 25.2 and 8.8 more pairs between pieces; the hips' bands gain nothing).
+  // S): 33.7 → 24.2 folds a frame, the right upper arm's 13.7 → 7.3 (power 1: 25.2 and 8.8 more
+  // pairs between pieces; the hips' bands gain nothing from a twist). The hips' loop is the
+  // torso's lowest star ring: moved with the thigh it crossed the ring above (the torso's
+  // contours 6–12 mm through each other), so it is capped by that ring's plane, each point kept
+  // short of it by 15% of its rest distance from it (`capped`): 24.3 → 16.5 folds a frame (gain
+  // 0.5 and 30%: 18.5; uncapped 17.3, crossing).
   struct Gains {
     std::string_view joint_suffix;
     float gain, power, twist_power;
+    bool capped;
   };
-  constexpr Gains kGains[] = {{"shoulder", 0.5f, 1.0f, 2.0f}};
+  constexpr Gains kGains[] = {{"shoulder", 0.5f, 1.0f, 2.0f, false}, {"hip", 0.7f, 1.0f, 0.0f, true}};
+  constexpr float kCapRoom = 0.15f;
   std::vector<rig::RigidTransform> w(static_cast<size_t>(d.skeleton.joint_count()));
   rig::forward_kinematics(d.skeleton, base, w);
   d.band_in_s.assign(d.rings.size(), glm::mat3(1.0f));
@@ -115,10 +127,38 @@ void measure_loop_follows(const RestContours& m, const rig::Pose& base, Data& d)
     glm::vec3 centre(0.0f);
     for (uint32_t k = 0; k < r.count; ++k) centre += parent_from_world.apply(m.ctrl[d.goals[r.goal_first + k]]);
     centre /= static_cast<float>(r.count);
+    // The torso's star ring holding most of the loop, and its neighbour further into the torso.
+    int loop_ring = -1;
+    uint32_t most = 0;
+    for (size_t ri = 0; ri < d.rings.size(); ++ri) {
+      const Data::RingOp& t = d.rings[ri];
+      if (t.kind != RingKind::star || t.chain != kTorsoChain) continue;
+      uint32_t n = 0;
+      for (uint32_t k = 0; k < r.count; ++k) {
+        const uint32_t slot = d.goals[r.goal_first + k];
+        n += slot >= t.first && slot < t.first + t.count ? 1u : 0u;
+      }
+      if (n > most) most = n, loop_ring = static_cast<int>(ri);
+    }
+    if (loop_ring >= 0 && g->capped) {
+      for (size_t ri = 0; ri < d.rings.size(); ++ri)
+        if (d.rings[ri].kind == RingKind::star && d.rings[ri].prev_star == loop_ring)
+          lf.cap_ring = static_cast<int>(ri);
+      if (lf.cap_ring < 0) lf.cap_ring = d.rings[static_cast<size_t>(loop_ring)].prev_star;
+    }
+    Frame cap;
+    if (lf.cap_ring >= 0) {
+      const Ring& src = m.layout.rings[static_cast<size_t>(lf.cap_ring)];
+      cap = star_frame(m.chains[kTorsoChain], src.segment, src.u, false);
+      lf.cap_side = glm::dot(centre_world(m, d, r) - cap.origin, cap.z) < 0.0f ? 1.0f : -1.0f;
+    }
     for (uint32_t k = 0; k < r.count; ++k) {
       glm::vec3 dir = parent_from_world.apply(m.ctrl[d.goals[r.goal_first + k]]) - centre;
       dir -= glm::dot(dir, lf.axis) * lf.axis;
       d.follow_dir.push_back(safe_normalize(dir, glm::vec3(0.0f)));
+      const float below =
+          lf.cap_ring >= 0 ? -lf.cap_side * glm::dot(m.ctrl[d.goals[r.goal_first + k]] - cap.origin, cap.z) : 0.0f;
+      d.follow_room.push_back(kCapRoom * std::max(below, 0.0f));
     }
     r.follow = static_cast<int>(d.follows.size());
     r.moves_loop = true;
