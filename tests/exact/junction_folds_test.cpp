@@ -7,6 +7,7 @@
 
 #include <cstdio>
 #include <string>
+#include <string_view>
 
 #include "mimic/avatar/realtime_skin.h"
 #include "mimic/avatar/self_intersection.h"
@@ -20,6 +21,28 @@ namespace {
 using Folds = ::mimic::test::FrameTally;
 
 std::shared_ptr<const RealtimeBody> body_at(int lod) { return ::mimic::test::built_in_realtime_body(lod); }
+
+// Folds inside the pieces whose name holds `part` ("upper_arm": both upper arms; "": all).
+size_t folds_in(const SelfIntersectionChecker& checker, const Mesh& m, std::string_view part) {
+  size_t n = 0;
+  for (const PartPairCount& c : checker.check(m.positions).by_parts)
+    if (c.a == c.b && c.a.find(part) != std::string::npos) n += c.pairs;
+  return n;
+}
+
+// One posture at a time on the built-in body at LOD 0.
+struct Postures {
+  std::shared_ptr<const RealtimeBody> body = body_at(0);
+  Result<SelfIntersectionChecker> checker = SelfIntersectionChecker::create(body->rest_mesh());
+  RealtimeSkin skin{body};
+  Mesh m = body->rest_mesh();
+  const rig::Skeleton& skeleton() const { return body->skeleton(); }
+  // The folds of posture `p` inside the pieces whose name holds `part`.
+  size_t folds(const rig::Pose& p, std::string_view part) {
+    skin.evaluate(p, m.positions);
+    return folds_in(*checker, m, part);
+  }
+};
 
 // Every `every`-th frame of every shared clip (each clip's opening T-pose included).
 Folds clip_folds(int lod, size_t every) {
@@ -60,12 +83,9 @@ TEST(JunctionFolds, RealtimeFoldsOverTheSharedClipsStayUnderTheirBound) {
 // The bending DOFs at their limits, one at a time from the zero posture: hip flexion and
 // abduction, the shoulder every way, elbow and knee at full flexion, the spine and the neck.
 TEST(JunctionFolds, RealtimeFoldsAtTheJointLimits) {
-  const auto body = body_at(0);
-  auto checker = SelfIntersectionChecker::create(body->rest_mesh());
-  ASSERT_TRUE(checker) << checker.error().what();
-  RealtimeSkin skin(body);
-  Mesh m = body->rest_mesh();
-  const rig::Skeleton& sk = body->skeleton();
+  Postures at;
+  ASSERT_TRUE(at.checker) << at.checker.error().what();
+  const rig::Skeleton& sk = at.skeleton();
   Folds folds;
   std::string worst;
   for (int dof = 0; dof < sk.dof_count(); ++dof) {
@@ -77,8 +97,7 @@ TEST(JunctionFolds, RealtimeFoldsAtTheJointLimits) {
     for (float theta : {sk.dof(dof).min_rad, sk.dof(dof).max_rad}) {
       rig::Pose p = sk.zero_pose();
       p.dof_rad[dof] = theta;
-      skin.evaluate(p, m.positions);
-      const size_t n = checker->check(m.positions).fold_pairs;
+      const size_t n = at.folds(p, "");
       if (n > folds.worst) worst = name + " at " + std::to_string(theta) + " rad";
       folds.add(n);
       if (n > 0) std::printf("  %s at %.2f rad: %zu folds\n", name.c_str(), double(theta), n);
@@ -103,12 +122,9 @@ TEST(JunctionFolds, RealtimeFoldsAtTheJointLimits) {
 // shoulder's band twists along with it (BandTwist) instead of joining each point of the arm's
 // first ring to the loop point it faced in the T-pose, which pinched the band to a waist.
 TEST(JunctionFolds, ATwistedArmsBandDoesNotPinch) {
-  const auto body = body_at(0);
-  auto checker = SelfIntersectionChecker::create(body->rest_mesh());
-  ASSERT_TRUE(checker) << checker.error().what();
-  RealtimeSkin skin(body);
-  Mesh m = body->rest_mesh();
-  const rig::Skeleton& sk = body->skeleton();
+  Postures at;
+  ASSERT_TRUE(at.checker) << at.checker.error().what();
+  const rig::Skeleton& sk = at.skeleton();
   Folds folds;
   for (const char* side : {"l_", "r_"}) {
     const int abduction = sk.find_dof(std::string(side) + "shoulder_abduction");
@@ -124,11 +140,7 @@ TEST(JunctionFolds, ATwistedArmsBandDoesNotPinch) {
           p.dof_rad[abduction] = glm::radians(abduction_deg);
           p.dof_rad[flexion] = glm::radians(flexion_deg);
           p.dof_rad[twist] = glm::radians(twist_deg);
-          skin.evaluate(p, m.positions);
-          size_t arm = 0;
-          for (const PartPairCount& c : checker->check(m.positions).by_parts)
-            if (c.a == c.b && c.a.find("upper_arm") != std::string::npos) arm += c.pairs;
-          folds.add(arm);
+          folds.add(at.folds(p, "upper_arm"));
         }
   }
   std::printf("twisted arms, %zu postures: %.1f folds a posture in the upper arms, at most %zu\n", folds.frames,
@@ -144,12 +156,9 @@ TEST(JunctionFolds, ATwistedArmsBandDoesNotPinch) {
 // the torso's next ring), so the band between the loop and the thigh's first ring runs back
 // through the thigh less often.
 TEST(JunctionFolds, ARaisedThighsGroinFoldsLessThroughTheThigh) {
-  const auto body = body_at(0);
-  auto checker = SelfIntersectionChecker::create(body->rest_mesh());
-  ASSERT_TRUE(checker) << checker.error().what();
-  RealtimeSkin skin(body);
-  Mesh m = body->rest_mesh();
-  const rig::Skeleton& sk = body->skeleton();
+  Postures at;
+  ASSERT_TRUE(at.checker) << at.checker.error().what();
+  const rig::Skeleton& sk = at.skeleton();
   Folds folds;
   for (const char* side : {"l_", "r_"}) {
     const int flexion = sk.find_dof(std::string(side) + "hip_flexion");
@@ -161,11 +170,7 @@ TEST(JunctionFolds, ARaisedThighsGroinFoldsLessThroughTheThigh) {
         rig::Pose p = sk.zero_pose();
         p.dof_rad[flexion] = glm::radians(flexion_deg);
         p.dof_rad[abduction] = glm::radians(abduction_deg);
-        skin.evaluate(p, m.positions);
-        size_t leg = 0;
-        for (const PartPairCount& c : checker->check(m.positions).by_parts)
-          if (c.a == c.b && c.a.find("upper_leg") != std::string::npos) leg += c.pairs;
-        folds.add(leg);
+        folds.add(at.folds(p, "upper_leg"));
       }
   }
   std::printf("raised thighs, %zu postures: %.1f folds a posture in the thighs, at most %zu\n", folds.frames,

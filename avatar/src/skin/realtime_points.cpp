@@ -130,6 +130,25 @@ inline V3 unit_or(const V3& v, const V3& fallback) {
   return select(_mm256_cmp_ps(l2, _mm256_set1_ps(1e-20f), _CMP_GT_OQ), scale(v, simd::rsqrt8(l2)), fallback);
 }
 
+// Eight columns of a boundary-driven ring from lane j: S's points, the loop's (gathered) and how
+// far the rest offsets shrink with the column (min(1, |G − S|² · column_inv_len2)).
+struct DrivenColumns {
+  V3 s, g;
+  __m256 shrink;
+};
+inline DrivenColumns driven_columns(const Data& d, const Data::RingOp& r, const glm::vec3* pos, uint32_t j) {
+  DrivenColumns c;
+  simd::load8(&pos[d.rings[r.s_ring].first + j].x, c.s.x, c.s.y, c.s.z);
+  const __m256i g3 = _mm256_mullo_epi32(
+      _mm256_loadu_si256(reinterpret_cast<const __m256i*>(d.goals.data() + r.goal_first + j)), _mm256_set1_epi32(3));
+  const float* base = &pos[0].x;
+  c.g = {_mm256_i32gather_ps(base, g3, 4), _mm256_i32gather_ps(base + 1, g3, 4), _mm256_i32gather_ps(base + 2, g3, 4)};
+  const V3 col{_mm256_sub_ps(c.g.x, c.s.x), _mm256_sub_ps(c.g.y, c.s.y), _mm256_sub_ps(c.g.z, c.s.z)};
+  c.shrink = _mm256_min_ps(_mm256_set1_ps(1.0f),
+                           _mm256_mul_ps(dot(col, col), _mm256_loadu_ps(d.column_inv_len2.data() + r.first + j)));
+  return c;
+}
+
 }  // namespace
 
 void star_frames(const Data& d, State& st, bool vectorised) {
@@ -204,36 +223,24 @@ void driven_points(const Data& d, const Data::RingOp& r, const Frame& f, std::sp
   if (!vectorised) return driven_points_scalar(d, r, f, pos);
   const uint32_t s_first = d.rings[r.s_ring].first;
   const uint32_t* goal = d.goals.data() + r.goal_first;
-  const __m256 alpha = _mm256_set1_ps(r.alpha), one = _mm256_set1_ps(1.0f);
+  const __m256 alpha = _mm256_set1_ps(r.alpha);
   const __m256 fxx = _mm256_set1_ps(f.x.x), fxy = _mm256_set1_ps(f.x.y), fxz = _mm256_set1_ps(f.x.z);
   const __m256 fyx = _mm256_set1_ps(f.y.x), fyy = _mm256_set1_ps(f.y.y), fyz = _mm256_set1_ps(f.y.z);
   const __m256 fzx = _mm256_set1_ps(f.z.x), fzy = _mm256_set1_ps(f.z.y), fzz = _mm256_set1_ps(f.z.z);
-  const float* base = &pos[0].x;
   uint32_t j = 0;
   for (; j + 8 <= r.count; j += 8) {
     const uint32_t k = r.first + j;
-    __m256 sx, sy, sz;
-    simd::load8(&pos[s_first + j].x, sx, sy, sz);
-    const __m256i g3 =
-        _mm256_mullo_epi32(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(goal + j)), _mm256_set1_epi32(3));
-    const __m256 gx = _mm256_i32gather_ps(base, g3, 4);
-    const __m256 gy = _mm256_i32gather_ps(base + 1, g3, 4);
-    const __m256 gz = _mm256_i32gather_ps(base + 2, g3, 4);
+    const DrivenColumns c = driven_columns(d, r, pos.data(), j);
     const __m256 lx = _mm256_loadu_ps(d.lx.data() + k), ly = _mm256_loadu_ps(d.ly.data() + k),
                  lz = _mm256_loadu_ps(d.lz.data() + k);
-    const __m256 cx = _mm256_sub_ps(gx, sx), cy = _mm256_sub_ps(gy, sy), cz = _mm256_sub_ps(gz, sz);
-    const __m256 len2 = _mm256_fmadd_ps(cz, cz, _mm256_fmadd_ps(cy, cy, _mm256_mul_ps(cx, cx)));
-    const __m256 shrink = _mm256_min_ps(one, _mm256_mul_ps(len2, _mm256_loadu_ps(d.column_inv_len2.data() + k)));
-    const __m256 ox = _mm256_fmadd_ps(alpha, cx, sx);
-    const __m256 oy = _mm256_fmadd_ps(alpha, cy, sy);
-    const __m256 oz = _mm256_fmadd_ps(alpha, cz, sz);
+    const __m256 ox = _mm256_fmadd_ps(alpha, _mm256_sub_ps(c.g.x, c.s.x), c.s.x);
+    const __m256 oy = _mm256_fmadd_ps(alpha, _mm256_sub_ps(c.g.y, c.s.y), c.s.y);
+    const __m256 oz = _mm256_fmadd_ps(alpha, _mm256_sub_ps(c.g.z, c.s.z), c.s.z);
     const __m256 rx = _mm256_fmadd_ps(lz, fzx, _mm256_fmadd_ps(ly, fyx, _mm256_mul_ps(lx, fxx)));
     const __m256 ry = _mm256_fmadd_ps(lz, fzy, _mm256_fmadd_ps(ly, fyy, _mm256_mul_ps(lx, fxy)));
     const __m256 rz = _mm256_fmadd_ps(lz, fzz, _mm256_fmadd_ps(ly, fyz, _mm256_mul_ps(lx, fxz)));
-    const __m256 wx = _mm256_fmadd_ps(shrink, rx, ox);
-    const __m256 wy = _mm256_fmadd_ps(shrink, ry, oy);
-    const __m256 wz = _mm256_fmadd_ps(shrink, rz, oz);
-    simd::store8(&pos[k].x, wx, wy, wz);
+    simd::store8(&pos[k].x, _mm256_fmadd_ps(c.shrink, rx, ox), _mm256_fmadd_ps(c.shrink, ry, oy),
+                 _mm256_fmadd_ps(c.shrink, rz, oz));
   }
   for (; j < r.count; ++j) {
     const uint32_t k = r.first + j;
@@ -246,9 +253,6 @@ void driven_points(const Data& d, const Data::RingOp& r, const Frame& f, std::sp
 void driven_points_twisted(const Data& d, const Data::RingOp& r, const BandTwist& t, std::span<glm::vec3> pos,
                            bool vectorised) {
   if (!vectorised) return driven_points_twisted_scalar(d, r, t, pos);
-  const uint32_t s_first = d.rings[r.s_ring].first;
-  const uint32_t* goal = d.goals.data() + r.goal_first;
-  const __m256 one = _mm256_set1_ps(1.0f);
   // m·v for a 3×3 matrix of broadcasts (column-major, as glm's).
   struct M3 {
     __m256 m[9];
@@ -256,34 +260,26 @@ void driven_points_twisted(const Data& d, const Data::RingOp& r, const BandTwist
       for (int c = 0; c < 3; ++c)
         for (int r = 0; r < 3; ++r) m[3 * c + r] = _mm256_set1_ps(a[c][r]);
     }
-    V3 times(__m256 x, __m256 y, __m256 z, const V3& add) const {
-      return {_mm256_fmadd_ps(m[6], z, _mm256_fmadd_ps(m[3], y, _mm256_fmadd_ps(m[0], x, add.x))),
-              _mm256_fmadd_ps(m[7], z, _mm256_fmadd_ps(m[4], y, _mm256_fmadd_ps(m[1], x, add.y))),
-              _mm256_fmadd_ps(m[8], z, _mm256_fmadd_ps(m[5], y, _mm256_fmadd_ps(m[2], x, add.z)))};
+    V3 times(const V3& v, const V3& add) const {
+      return {_mm256_fmadd_ps(m[6], v.z, _mm256_fmadd_ps(m[3], v.y, _mm256_fmadd_ps(m[0], v.x, add.x))),
+              _mm256_fmadd_ps(m[7], v.z, _mm256_fmadd_ps(m[4], v.y, _mm256_fmadd_ps(m[1], v.x, add.y))),
+              _mm256_fmadd_ps(m[8], v.z, _mm256_fmadd_ps(m[5], v.y, _mm256_fmadd_ps(m[2], v.x, add.z)))};
     }
   };
   const M3 to_s(t.to_s), to_g(t.to_g), offset(t.offset);
   const V3 origin = splat(t.origin), zero = splat(glm::vec3(0.0f));
-  const float* base = &pos[0].x;
   uint32_t j = 0;
   for (; j + 8 <= r.count; j += 8) {
     const uint32_t k = r.first + j;
-    __m256 sx, sy, sz;
-    simd::load8(&pos[s_first + j].x, sx, sy, sz);
-    const __m256i g3 =
-        _mm256_mullo_epi32(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(goal + j)), _mm256_set1_epi32(3));
-    const __m256 gx = _mm256_i32gather_ps(base, g3, 4);
-    const __m256 gy = _mm256_i32gather_ps(base + 1, g3, 4);
-    const __m256 gz = _mm256_i32gather_ps(base + 2, g3, 4);
-    const __m256 cx = _mm256_sub_ps(gx, sx), cy = _mm256_sub_ps(gy, sy), cz = _mm256_sub_ps(gz, sz);
-    const __m256 len2 = _mm256_fmadd_ps(cz, cz, _mm256_fmadd_ps(cy, cy, _mm256_mul_ps(cx, cx)));
-    const __m256 shrink = _mm256_min_ps(one, _mm256_mul_ps(len2, _mm256_loadu_ps(d.column_inv_len2.data() + k)));
-    const V3 off = offset.times(_mm256_loadu_ps(d.lx.data() + k), _mm256_loadu_ps(d.ly.data() + k),
-                                _mm256_loadu_ps(d.lz.data() + k), zero);
-    const V3 w = to_g.times(gx, gy, gz, to_s.times(sx, sy, sz, origin));
-    simd::store8(&pos[k].x, _mm256_fmadd_ps(shrink, off.x, w.x), _mm256_fmadd_ps(shrink, off.y, w.y),
-                 _mm256_fmadd_ps(shrink, off.z, w.z));
+    const DrivenColumns c = driven_columns(d, r, pos.data(), j);
+    const V3 off = offset.times(
+        {_mm256_loadu_ps(d.lx.data() + k), _mm256_loadu_ps(d.ly.data() + k), _mm256_loadu_ps(d.lz.data() + k)}, zero);
+    const V3 w = to_g.times(c.g, to_s.times(c.s, origin));
+    simd::store8(&pos[k].x, _mm256_fmadd_ps(c.shrink, off.x, w.x), _mm256_fmadd_ps(c.shrink, off.y, w.y),
+                 _mm256_fmadd_ps(c.shrink, off.z, w.z));
   }
+  const uint32_t s_first = d.rings[r.s_ring].first;
+  const uint32_t* goal = d.goals.data() + r.goal_first;
   for (; j < r.count; ++j) pos[r.first + j] = twisted_point(d, t, r.first + j, pos[s_first + j], pos[goal[j]]);
 }
 
