@@ -180,8 +180,11 @@ void update_locomotion(LocomotionState& s, const LocomotionInput& in, const Loco
     sway_m -= s.sway_bias_m;
     // Across the head's own mean path: the pelvis' heading turns with each stride, and a walk's
     // forward speed seen from a heading a few degrees off would swamp the sideways motion.
-    const glm::vec2 head_mps = (xz(in.head) - s.last_head) / dt;
+    // Over the time since the head was last seen: back after a dropout, its move over the gap is
+    // not one frame's.
+    const glm::vec2 head_mps = (xz(in.head) - s.last_head) / (dt + s.head_gap_s);
     s.last_head = xz(in.head);
+    s.head_gap_s = 0;
     s.path_mps += (1.0f - std::exp(-dt / o.path_tau_s)) * (head_mps - s.path_mps);
     const float path_speed = glm::length(s.path_mps);
     const glm::vec2 left = path_speed > 0.2f ? glm::vec2(s.path_mps.y, -s.path_mps.x) / path_speed
@@ -191,6 +194,7 @@ void update_locomotion(LocomotionState& s, const LocomotionInput& in, const Loco
     s.sway_mps_bias += (1.0f - std::exp(-dt / o.sway_speed_bias_tau_s)) * (across_mps - s.sway_mps_bias);
     s.sway_mps += (1.0f - std::exp(-dt / o.sway_speed_tau_s)) * (across_mps - s.sway_mps_bias - s.sway_mps);
   }
+  if (!in.have_head && s.have_sway) s.head_gap_s = std::min(s.head_gap_s + dt, 10.0f);
   const bool gate = in.have_head && o.sway_gate_m >= 0 && speed > o.sway_speed_mps;
   const bool low = in.have_head && track_bob(s.bob, in.head.y, dt, o);
   const bool bob_walk = gate && o.bob_timing && s.bob.period_s > 0;

@@ -352,6 +352,33 @@ TEST(Locomotion, TheFootTheHeadMovesAwayFromLiftsAfterEachStrike) {
   EXPECT_GE(trailing, counted - 1);
 }
 
+// The head lost for half a second of a walk: back, its speed along the path is still the walk's
+// (the whole gap's move was taken as one frame's, 60 times the walk: the smoothed path speed
+// jumped to 2.37 m/s).
+TEST(Locomotion, AHeadBackFromADropoutKeepsItsWalkingSpeed) {
+  const double dt = 1.0 / 120;
+  LocomotionState state;
+  LocomotionInput in;
+  in.dt_s = static_cast<float>(dt);
+  in.reach_m = {0.79f, 0.79f};
+  in.floor_ankle_y_m = {0.073f, 0.073f};
+  in.drive = {true, true};
+  float fastest_mps = 0;
+  for (int k = 0; k < int(4.0 / dt); ++k) {
+    const double t = k * dt;
+    const float z = static_cast<float>(1.2 * t);
+    in.root = {0.0f, 0.82f, z};
+    in.hip = {glm::vec3(0.11f, 0.80f, z), glm::vec3(-0.11f, 0.80f, z)};
+    in.head = {0.0f, 1.60f, z + 0.05f};
+    in.have_head = t < 2.0 || t >= 2.5;
+    update_locomotion(state, in, LocomotionOptions{});
+    if (t >= 2.5) fastest_mps = std::max(fastest_mps, glm::length(state.path_mps));
+  }
+  std::printf("  the head's path speed after a 0.5 s dropout: at most %.2f m/s (walking 1.2)\n", double(fastest_mps));
+  EXPECT_LT(fastest_mps, 1.3f);
+  EXPECT_GT(fastest_mps, 1.1f);
+}
+
 // Squatting deep (the head comes down upright: the hips follow it), the knee's and ankle's limits
 // pitch a stepped foot toes-down: its heel lifts rather than the ball or toes going through the
 // floor.

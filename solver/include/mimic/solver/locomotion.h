@@ -114,6 +114,7 @@ struct LocomotionState {
   bool have_sway = false;
   float sway_bias_m = 0;  // the sway's slow mean
   glm::vec2 last_head{0.0f};
+  float head_gap_s = 0;      // time since last_head was seen (the frames the head was lost)
   glm::vec2 path_mps{0.0f};  // the head's velocity along its mean path (smoothed over a stride)
   float sway_mps = 0;        // the head's velocity across that path, towards the left, smoothed
   float sway_mps_bias = 0;   // … and its slow mean
