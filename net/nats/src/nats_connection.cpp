@@ -80,28 +80,45 @@ NatsLinkState Connection::state() const noexcept {
 }
 
 void Connection::disconnected_cb(natsConnection*, void* self) {
-  auto* c = static_cast<Connection*>(self);
-  c->disconnects_++;
-  c->set_up(false);
+  auto* a = static_cast<Anchor*>(self);
+  std::lock_guard anchor(a->mutex);
+  if (Connection* c = a->owner) {
+    c->disconnects_++;
+    c->set_up(false);
+  }
 }
 
 void Connection::reconnected_cb(natsConnection*, void* self) {
-  auto* c = static_cast<Connection*>(self);
-  c->reconnects_++;
-  c->set_up(true);
-  if (c->on_reconnected) c->on_reconnected();
+  auto* a = static_cast<Anchor*>(self);
+  std::lock_guard anchor(a->mutex);
+  if (Connection* c = a->owner) {
+    c->reconnects_++;
+    c->set_up(true);
+    if (c->on_reconnected) c->on_reconnected();
+  }
 }
 
 void Connection::error_cb(natsConnection*, natsSubscription*, natsStatus s, void* self) {
-  static_cast<Connection*>(self)->set_error(natsStatus_GetText(s));
+  auto* a = static_cast<Anchor*>(self);
+  std::lock_guard anchor(a->mutex);
+  if (Connection* c = a->owner) c->set_error(natsStatus_GetText(s));
 }
 
 void Connection::closed_cb(natsConnection*, void* self) {
-  auto* c = static_cast<Connection*>(self);
-  c->up_ = false;
-  std::lock_guard lock(c->closed_mutex_);
-  c->closed_ = true;
-  c->closed_cv_.notify_all();
+  auto* a = static_cast<Anchor*>(self);
+  bool orphaned = false;
+  {
+    std::lock_guard anchor(a->mutex);
+    if (Connection* c = a->owner) {
+      c->up_ = false;
+      std::lock_guard lock(c->closed_mutex_);
+      c->closed_ = true;
+      c->closed_cv_.notify_all();
+    }
+    a->closed = true;
+    orphaned = a->orphaned;
+  }
+  if (orphaned) delete a;
 }
 
 void Connection::set_error(std::string e) {
@@ -172,10 +189,12 @@ Status Connection::open(const NatsOptions& options) {
   if (s == NATS_OK && !options.token.empty()) s = natsOptions_SetToken(o, options.token.c_str());
   if (s == NATS_OK && !options.user.empty())
     s = natsOptions_SetUserInfo(o, options.user.c_str(), options.password.c_str());
-  if (s == NATS_OK) s = natsOptions_SetDisconnectedCB(o, disconnected_cb, this);
-  if (s == NATS_OK) s = natsOptions_SetReconnectedCB(o, reconnected_cb, this);
-  if (s == NATS_OK) s = natsOptions_SetErrorHandler(o, error_cb, this);
-  if (s == NATS_OK) s = natsOptions_SetClosedCB(o, closed_cb, this);
+  delete anchor_;  // a connection closed before: its client is destroyed, its callbacks done
+  anchor_ = new Anchor{.owner = this};
+  if (s == NATS_OK) s = natsOptions_SetDisconnectedCB(o, disconnected_cb, anchor_);
+  if (s == NATS_OK) s = natsOptions_SetReconnectedCB(o, reconnected_cb, anchor_);
+  if (s == NATS_OK) s = natsOptions_SetErrorHandler(o, error_cb, anchor_);
+  if (s == NATS_OK) s = natsOptions_SetClosedCB(o, closed_cb, anchor_);
   if (s != NATS_OK) return fail(Errc::invalid_argument, "nats options: " + describe(s));
 
   s = natsConnection_Connect(&nc_, o);
@@ -196,7 +215,7 @@ Status Connection::open(const NatsOptions& options) {
   set_error("broker unreachable: " + why);
   nc_ = nullptr;
   down_since_us_ = monotonic_us();
-  natsOptions_SetRetryOnFailedConnect(o, true, reconnected_cb, this);
+  natsOptions_SetRetryOnFailedConnect(o, true, reconnected_cb, anchor_);
   s = natsConnection_Connect(&nc_, o);
   if (s == NATS_OK || s == NATS_NOT_YET_CONNECTED) return {};
   return fail(Errc::io_error,
@@ -211,10 +230,22 @@ void Connection::close() {
     std::unique_lock lock(closed_mutex_);
     closed_cv_.wait_for(lock, std::chrono::seconds(2), [this] { return closed_; });
   }
+  bool orphaned = false;
+  {
+    // From here on the client's callbacks find no owner. Not closed yet (a loaded machine, a
+    // broker going down mid-close): the closed callback frees the anchor when it comes.
+    std::lock_guard anchor(anchor_->mutex);
+    anchor_->owner = nullptr;
+    orphaned = anchor_->orphaned = !anchor_->closed;
+  }
+  if (orphaned) anchor_ = nullptr;
   natsConnection_Destroy(nc_);
   nc_ = nullptr;
 }
 
-Connection::~Connection() { close(); }
+Connection::~Connection() {
+  close();
+  delete anchor_;
+}
 
 }  // namespace mimic::net::nats_detail

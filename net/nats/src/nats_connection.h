@@ -39,6 +39,14 @@ class Connection {
   std::string last_error() const;
 
  private:
+  // What the client's callbacks are given: the connection while it lives. A callback the client
+  // still delivers after close() gave up waiting for the closed callback finds no owner and
+  // does nothing; the closed callback, the client's last, frees the anchor then.
+  struct Anchor {
+    std::mutex mutex;
+    Connection* owner = nullptr;
+    bool closed = false, orphaned = false;
+  };
   static void disconnected_cb(natsConnection*, void* self);
   static void reconnected_cb(natsConnection*, void* self);
   static void error_cb(natsConnection*, natsSubscription*, natsStatus, void* self);
@@ -46,6 +54,7 @@ class Connection {
   void set_error(std::string e);
   void set_up(bool up) noexcept;
   natsConnection* nc_ = nullptr;
+  Anchor* anchor_ = nullptr;  // owned here until close() hands it to a late closed callback
   std::atomic<uint64_t> disconnects_{0}, reconnects_{0};
   std::atomic<bool> up_{false};
   // Monotonic microseconds: when the link last went down (0: up), and how long the last
