@@ -156,17 +156,11 @@ void advance_foot(LocomotionState& s, const LocomotionInput& in, const Locomotio
 
 }  // namespace
 
-void update_locomotion(LocomotionState& s, const LocomotionInput& in, const LocomotionOptions& o) {
-  const float dt = std::clamp(in.dt_s, 1e-4f, 0.1f);
-  if (s.have_root) {
-    const glm::vec2 v = (xz(in.root) - xz(s.last_root)) / dt;
-    const float a = 1.0f - std::exp(-dt / o.velocity_tau_s);
-    s.velocity_mps += a * (v - s.velocity_mps);
-  }
-  s.last_root = in.root;
-  s.have_root = true;
-  const float speed = glm::length(s.velocity_mps);
-  // The head's sideways sway about its mean path: which foot carries the body.
+namespace {
+
+// The head's sideways sway about its mean path (which foot carries the body), and its speed
+// along and across that path (LocomotionState::path_mps, sway_mps); returns the sway, metres.
+float track_head(LocomotionState& s, const LocomotionInput& in, float dt, const LocomotionOptions& o) {
   float sway_m = 0;
   if (in.have_head) {
     if (!s.have_sway) s.sway_centre = s.last_head = xz(in.head), s.have_sway = true;
@@ -195,6 +189,22 @@ void update_locomotion(LocomotionState& s, const LocomotionInput& in, const Loco
     s.sway_mps += (1.0f - std::exp(-dt / o.sway_speed_tau_s)) * (across_mps - s.sway_mps_bias - s.sway_mps);
   }
   if (!in.have_head && s.have_sway) s.head_gap_s = std::min(s.head_gap_s + dt, 10.0f);
+  return sway_m;
+}
+
+}  // namespace
+
+void update_locomotion(LocomotionState& s, const LocomotionInput& in, const LocomotionOptions& o) {
+  const float dt = std::clamp(in.dt_s, 1e-4f, 0.1f);
+  if (s.have_root) {
+    const glm::vec2 v = (xz(in.root) - xz(s.last_root)) / dt;
+    const float a = 1.0f - std::exp(-dt / o.velocity_tau_s);
+    s.velocity_mps += a * (v - s.velocity_mps);
+  }
+  s.last_root = in.root;
+  s.have_root = true;
+  const float speed = glm::length(s.velocity_mps);
+  const float sway_m = track_head(s, in, dt, o);
   const bool gate = in.have_head && o.sway_gate_m >= 0 && speed > o.sway_speed_mps;
   const bool low = in.have_head && track_bob(s.bob, in.head.y, dt, o);
   const bool bob_walk = gate && o.bob_timing && s.bob.period_s > 0;
