@@ -313,6 +313,16 @@ TEST(Locomotion, WalkingStepsKeepTheHeadsBeat) {
   EXPECT_LE(repeats, 1);
 }
 
+// The stepper's input for two legs of 0.79 m it places both feet of, at `dt` seconds a frame.
+LocomotionInput two_driven_feet(double dt) {
+  LocomotionInput in;
+  in.dt_s = static_cast<float>(dt);
+  in.reach_m = {0.79f, 0.79f};
+  in.floor_ankle_y_m = {0.073f, 0.073f};
+  in.drive = {true, true};
+  return in;
+}
+
 // The stepper alone, fed a head that walks straight on at 1.2 m/s, bobbing at each foot strike
 // (lowest as a foot lands, every 0.55 s) and swaying 3 cm to either side: at a strike the head
 // moves sideways towards the striking foot, as the body's weight shifts onto it. Three seconds
@@ -323,11 +333,7 @@ TEST(Locomotion, TheFootTheHeadMovesAwayFromLiftsAfterEachStrike) {
   const double dt = 1.0 / 120, period = 0.55, pi = 3.14159265358979;
   const int shuffle = 6;  // the strike that repeats the foot before it
   LocomotionState state;
-  LocomotionInput in;
-  in.dt_s = static_cast<float>(dt);
-  in.reach_m = {0.79f, 0.79f};
-  in.floor_ankle_y_m = {0.073f, 0.073f};
-  in.drive = {true, true};
+  LocomotionInput in = two_driven_feet(dt);
   in.have_head = true;
   // Strike n is the left foot's (0) on even n until the shuffle, on odd n after it.
   auto striking = [&](int n) { return (n < shuffle ? n : n + 1) % 2; };
@@ -358,11 +364,7 @@ TEST(Locomotion, TheFootTheHeadMovesAwayFromLiftsAfterEachStrike) {
 TEST(Locomotion, AHeadBackFromADropoutKeepsItsWalkingSpeed) {
   const double dt = 1.0 / 120;
   LocomotionState state;
-  LocomotionInput in;
-  in.dt_s = static_cast<float>(dt);
-  in.reach_m = {0.79f, 0.79f};
-  in.floor_ankle_y_m = {0.073f, 0.073f};
-  in.drive = {true, true};
+  LocomotionInput in = two_driven_feet(dt);
   float fastest_mps = 0;
   for (int k = 0; k < int(4.0 / dt); ++k) {
     const double t = k * dt;
