@@ -232,7 +232,8 @@ float follow_loop(const Data& d, const Data::LoopFollow& lf, std::span<const rig
     const Frame& cap = frames[static_cast<size_t>(lf.cap_ring)];
     const float below = -lf.cap_side * glm::dot(p - cap.origin, cap.z) - d.follow_room[lf.dir_first + k];
     const float rise = lf.cap_side * glm::dot(move, cap.z);
-    p += (rise > below ? std::max(below, 0.0f) / rise : 1.0f) * move;
+    // Moving away from the plane (rise ≤ 0) never crosses it; a point already in its room stays.
+    p += (rise > 0.0f ? std::clamp(below / rise, 0.0f, 1.0f) : 1.0f) * move;
   }
   return fade;
 }
