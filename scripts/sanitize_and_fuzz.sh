@@ -37,6 +37,7 @@ echo "sanitize_and_fuzz: build $(( $(date +%s) - start )) s"
 
 if [ -z "${MIMIC_SKIP_TESTS:-}" ]; then
   start=$(date +%s)
+  scripts/seed_test_costs.sh "$dir"
   # halt_on_error: the first report fails the test; leaks are reported too.
   ( cd "$dir" && ASAN_OPTIONS=detect_leaks=1:halt_on_error=1:abort_on_error=1 \
       UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
