@@ -13,6 +13,7 @@
 #include "mimic/avatar/self_intersection.h"
 #include "mimic/avatar/skin_lod.h"
 #include "built_in_realtime_body.h"
+#include "junction_postures.h"
 #include "shared_clip_poses.h"
 
 namespace mimic::avatar::junction_folds_test {
@@ -22,13 +23,7 @@ using Folds = ::mimic::test::FrameTally;
 
 std::shared_ptr<const RealtimeBody> body_at(int lod) { return ::mimic::test::built_in_realtime_body(lod); }
 
-// Folds inside the pieces whose name holds `part` ("upper_arm": both upper arms; "": all).
-size_t folds_in(const SelfIntersectionChecker& checker, const Mesh& m, std::string_view part) {
-  size_t n = 0;
-  for (const PartPairCount& c : checker.check(m.positions).by_parts)
-    if (c.a == c.b && c.a.find(part) != std::string::npos) n += c.pairs;
-  return n;
-}
+using ::mimic::test::folds_in;
 
 // One posture at a time on the built-in body at LOD 0.
 struct Postures {
@@ -124,28 +119,11 @@ TEST(JunctionFolds, RealtimeFoldsAtTheJointLimits) {
 TEST(JunctionFolds, ATwistedArmsBandDoesNotPinch) {
   Postures at;
   ASSERT_TRUE(at.checker) << at.checker.error().what();
-  const rig::Skeleton& sk = at.skeleton();
   Folds folds;
-  for (const char* side : {"l_", "r_"}) {
-    const int abduction = sk.find_dof(std::string(side) + "shoulder_abduction");
-    const int flexion = sk.find_dof(std::string(side) + "shoulder_flexion");
-    const int twist = sk.find_dof(std::string(side) + "shoulder_twist");
-    ASSERT_GE(abduction, 0);
-    ASSERT_GE(flexion, 0);
-    ASSERT_GE(twist, 0);
-    for (float abduction_deg : {-60.0f, 0.0f, 60.0f, 100.0f})
-      for (float flexion_deg : {0.0f, 60.0f})
-        for (float twist_deg : {-110.0f, -60.0f, 60.0f, 110.0f}) {
-          rig::Pose p = sk.zero_pose();
-          p.dof_rad[abduction] = glm::radians(abduction_deg);
-          p.dof_rad[flexion] = glm::radians(flexion_deg);
-          p.dof_rad[twist] = glm::radians(twist_deg);
-          folds.add(at.folds(p, "upper_arm"));
-        }
-  }
+  for (const rig::Pose& p : ::mimic::test::twisted_arm_postures(at.skeleton())) folds.add(at.folds(p, "upper_arm"));
   std::printf("twisted arms, %zu postures: %.1f folds a posture in the upper arms, at most %zu\n", folds.frames,
               folds.mean(), folds.worst);
-  // 8.6 a posture, 56 at most (the left arm hanging 60 degrees, swung 60 forward and twisted
+  // 8.6 a posture, 57 at most (the left arm hanging 60 degrees, swung 60 forward and twisted
   // -110); 22.1 and 138 with each point of S joined to the loop point it faced in the T-pose.
   EXPECT_EQ(folds.frames, 64u);
   EXPECT_LT(folds.mean(), 11.0);
@@ -158,21 +136,8 @@ TEST(JunctionFolds, ATwistedArmsBandDoesNotPinch) {
 TEST(JunctionFolds, ARaisedThighsGroinFoldsLessThroughTheThigh) {
   Postures at;
   ASSERT_TRUE(at.checker) << at.checker.error().what();
-  const rig::Skeleton& sk = at.skeleton();
   Folds folds;
-  for (const char* side : {"l_", "r_"}) {
-    const int flexion = sk.find_dof(std::string(side) + "hip_flexion");
-    const int abduction = sk.find_dof(std::string(side) + "hip_abduction");
-    ASSERT_GE(flexion, 0);
-    ASSERT_GE(abduction, 0);
-    for (float flexion_deg : {30.0f, 60.0f, 90.0f, 110.0f, 130.0f})
-      for (float abduction_deg : {-15.0f, 0.0f, 30.0f}) {
-        rig::Pose p = sk.zero_pose();
-        p.dof_rad[flexion] = glm::radians(flexion_deg);
-        p.dof_rad[abduction] = glm::radians(abduction_deg);
-        folds.add(at.folds(p, "upper_leg"));
-      }
-  }
+  for (const rig::Pose& p : ::mimic::test::raised_thigh_postures(at.skeleton())) folds.add(at.folds(p, "upper_leg"));
   std::printf("raised thighs, %zu postures: %.1f folds a posture in the thighs, at most %zu\n", folds.frames,
               folds.mean(), folds.worst);
   // 24.9 a posture, 51 at most: none up to 30 degrees, 15-19 at 60, 41-51 at 110-130 (one thigh

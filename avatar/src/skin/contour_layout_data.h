@@ -34,6 +34,27 @@ inline glm::vec3 safe_normalize(const glm::vec3& v, const glm::vec3& fallback) {
   return l2 > 1e-20f ? v / std::sqrt(l2) : fallback;
 }
 
+// The twist of a shoulder's junction band (both methods): the angle by which the limb's first
+// ring S has turned about the band's axis since the zero posture, wrapped to (−π, π] and tapered
+// to none from 120° to 180°: at half a turn either way is as near, and the band must not flip from
+// one helix to the other between two frames (a taper from 150° still moved the shoulder's skin
+// 40 mm in a step of 1.5° of the arm).
+inline float twist_in_band(float phi_rad) {
+  constexpr float kTaperStart_rad = 2.0943951f;
+  if (phi_rad > kPi) phi_rad -= kTwoPi;
+  if (phi_rad < -kPi) phi_rad += kTwoPi;
+  const float taper = std::clamp((kPi - std::abs(phi_rad)) / (kPi - kTaperStart_rad), 0.0f, 1.0f);
+  return phi_rad * taper;
+}
+
+// How much of a junction's loop follow and band twist a limb's swing away from its zero-posture
+// direction (radians) keeps: all of it up to 95°, none past 120° (the arm across the body, where
+// a swung loop or a turned band would cut into the chest).
+inline float band_follow_fade(float swing_rad) {
+  constexpr float kFadeStart_rad = 1.658f, kFadeEnd_rad = 2.094f;
+  return std::clamp((kFadeEnd_rad - swing_rad) / (kFadeEnd_rad - kFadeStart_rad), 0.0f, 1.0f);
+}
+
 // A polyline of skeleton points along which contour planes are placed: joint-angle driven
 // configuration (bisector normals at joints, interpolated along links).
 struct Chain {

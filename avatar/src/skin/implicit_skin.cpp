@@ -52,7 +52,42 @@ void ImplicitSkin::Impl::tilt_limb_roots() {
   for (const LimbRoot& r : limb_roots) {
     Chain& c = chains[r.chain];
     const glm::vec3 rest = world_from_joint[static_cast<size_t>(r.parent)].rotation * r.rest_dir_in_parent;
+    if (r.chain < caster.chain_swing_rad.size())
+      caster.chain_swing_rad[r.chain] = std::acos(std::clamp(glm::dot(rest, c.normal[0]), -1.0f, 1.0f));
     c.normal[0] = safe_normalize(kLimbRootLean * rest + (1.0f - kLimbRootLean) * c.normal[0], c.normal[0]);
+  }
+}
+
+void ImplicitSkin::Impl::measure_loop_follows() {
+  follow_before_ring.assign(L.rings.size(), -1);
+  for (size_t ri = 0; ri < L.rings.size(); ++ri) {
+    const Ring& r = L.rings[ri];
+    if (r.kind != RingKind::driven || r.goal.empty()) continue;
+    const int joint = chains[static_cast<size_t>(L.rings[static_cast<size_t>(r.s_ring)].chain)].nodes.front().joint;
+    const skin_detail::LoopFollowRule* rule = skin_detail::loop_follow_rule(L.skeleton.joint_name(joint));
+    if (rule == nullptr || !rule->in_full_method || L.skeleton.parent(joint) < 0) continue;
+    bool seen = false;
+    for (const skin_detail::LoopFollow& f : follows) seen = seen || f.joint == joint;
+    if (seen) continue;
+    follow_before_ring[ri] = static_cast<int>(follows.size());
+    follows.push_back(skin_detail::measure_loop_follow(L, chains, caster.ctrl, world_from_joint, r, *rule));
+  }
+}
+
+void ImplicitSkin::Impl::cast_contours() {
+  caster.stats = {};
+  for (size_t ri = 0; ri < L.rings.size(); ++ri) {
+    const int fi = ri < follow_before_ring.size() ? follow_before_ring[ri] : -1;
+    if (fi >= 0) {
+      const skin_detail::LoopFollow& lf = follows[static_cast<size_t>(fi)];
+      Plane cap{};
+      if (lf.cap_ring >= 0) {
+        const Ring& c = L.rings[static_cast<size_t>(lf.cap_ring)];
+        cap = ring_plane(chains[static_cast<size_t>(c.chain)], c.segment, c.u);
+      }
+      skin_detail::follow_loop(lf, world_from_joint, cap.origin, cap.normal, caster.ctrl, caster.ctrl_hit);
+    }
+    caster.compute_ring(L, field, chains, L.rings[ri]);
   }
 }
 
@@ -79,7 +114,8 @@ Result<ImplicitSkin> ImplicitSkin::create(const BodyModel& model, const ContourL
   if (!field) return tl::unexpected(field.error());
   ImplicitSkin skin(std::make_unique<Impl>(layout, std::move(*field), normals));
   skin.evaluate(layout.skeleton().zero_pose());
-  skin.impl_->caster.remember_rest_columns(skin.impl_->L);
+  skin.impl_->caster.remember_rest_columns(skin.impl_->L, skin.impl_->chains);
+  skin.impl_->measure_loop_follows();
   return skin;
 }
 
@@ -99,10 +135,8 @@ void ImplicitSkin::stage_deform(const rig::Pose& pose) {
 
 void ImplicitSkin::stage_contours() {
   const double t0 = steady_now_s();
-  Impl& m = *impl_;
-  m.caster.stats = {};
-  for (const Ring& r : m.L.rings) m.caster.compute_ring(m.L, m.field, m.chains, r);
-  m.timings.contours_us = micros_since(t0);
+  impl_->cast_contours();
+  impl_->timings.contours_us = micros_since(t0);
 }
 
 void ImplicitSkin::stage_bspline() {
@@ -169,8 +203,7 @@ std::vector<ImplicitSkin::ContourView> ImplicitSkin::contours() const {
       v.from_ray.push_back(c.ctrl_hit[s]);
     }
     if (r.kind == RingKind::driven) {
-      const std::vector<uint32_t>& s_slots = m.L.rings[r.s_ring].slots;
-      for (size_t j = 0; j < r.slots.size(); ++j) v.targets.push_back(c.driven_target(r, s_slots[j], r.goal[j]));
+      for (uint32_t slot : r.slots) v.targets.push_back(c.driven_p[slot]);
     }
     out.push_back(std::move(v));
   }

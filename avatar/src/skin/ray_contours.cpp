@@ -1,6 +1,8 @@
 // The full method's contours: every frame, each ring is ray-cast on the implicit surface
 // (star rings from their plane's origin, boundary-driven rings from the link, bridges as half
 // stars from their chord).
+#include <glm/gtc/quaternion.hpp>
+
 #include "skin_impl.h"
 
 namespace mimic::avatar {
@@ -79,15 +81,69 @@ void RingCaster::size_for(size_t control_points, size_t widest) {
   arc_spike.resize(widest + 2);
   arc_hull.resize(widest + 2);
   rest_inv_len2.assign(control_points, 0.0f);
+  driven_p.resize(control_points);
 }
 
-void RingCaster::remember_rest_columns(const ContourLayout::Data& layout) {
+void RingCaster::remember_rest_columns(const ContourLayout::Data& layout, std::span<const Chain> chains) {
   for (const Ring& r : layout.rings) {
     if (r.kind != RingKind::driven) continue;
     const Ring& s = layout.rings[r.s_ring];
     for (size_t j = 0; j < r.slots.size(); ++j)
       rest_inv_len2[r.slots[j]] = 1.0f / std::max(glm::length2(ctrl[r.goal[j]] - ctrl[s.slots[j]]), 1e-12f);
   }
+  band_twist_power.assign(layout.rings.size(), 0.0f);
+  band_twist_rest_rad.assign(layout.rings.size(), 0.0f);
+  chain_swing_rad.assign(chains.size(), 0.0f);
+  for (const Ring& r : layout.rings) {
+    if (r.kind != RingKind::driven || r.slots.empty()) continue;
+    const Ring& s = layout.rings[r.s_ring];
+    const skin_detail::LoopFollowRule* rule =
+        skin_detail::loop_follow_rule(layout.skeleton.joint_name(chains[s.chain].nodes.front().joint));
+    if (rule == nullptr || rule->twist_power <= 0.0f) continue;
+    glm::vec3 origin, axis;
+    band_twist_rest_rad[r.s_ring] = band_twist_rad(layout, chains, r, origin, axis);
+    band_twist_power[r.s_ring] = rule->twist_power;
+  }
+}
+
+// φ: the angle about the band's axis (the loop's centre to S's) from the loop's first point to
+// S's front (its rays' angle 0); `origin` and `axis` receive the band's axis.
+float RingCaster::band_twist_rad(const ContourLayout::Data& layout, std::span<const Chain> chains, const Ring& r,
+                                 glm::vec3& origin, glm::vec3& axis) const {
+  const Ring& s = layout.rings[r.s_ring];
+  const size_t m = r.slots.size();
+  glm::vec3 loop(0.0f), ring(0.0f);
+  for (size_t j = 0; j < m; ++j) loop += ctrl[r.goal[j]], ring += ctrl[s.slots[j]];
+  loop /= static_cast<float>(m), ring /= static_cast<float>(m);
+  const Plane p = ring_plane(chains[s.chain], s.segment, s.u);
+  origin = loop;
+  axis = safe_normalize(ring - loop, p.normal);
+  const glm::vec3 first = ctrl[r.goal[0]] - loop;
+  const glm::vec3 x = safe_normalize(first - glm::dot(first, axis) * axis, p.front);
+  const glm::vec3 y = glm::cross(axis, x);
+  const glm::vec3 front = p.front - glm::dot(p.front, axis) * axis;
+  return std::atan2(glm::dot(front, y), glm::dot(front, x));
+}
+
+void RingCaster::driven_targets(const ContourLayout::Data& layout, std::span<const Chain> chains, const Ring& r) {
+  const Ring& s = layout.rings[r.s_ring];
+  const size_t m = r.slots.size();
+  float phi_rad = 0.0f;
+  glm::vec3 origin(0.0f), axis(0.0f, 0.0f, 1.0f);
+  if (static_cast<size_t>(r.s_ring) < band_twist_power.size() && band_twist_power[r.s_ring] > 0.0f)
+    phi_rad = twist_in_band(band_twist_rad(layout, chains, r, origin, axis) - band_twist_rest_rad[r.s_ring]) *
+              band_follow_fade(chain_swing_rad[s.chain]);
+  if (phi_rad == 0.0f) {
+    for (size_t j = 0; j < m; ++j)
+      driven_p[r.slots[j]] = ctrl[s.slots[j]] + r.alpha * (ctrl[r.goal[j]] - ctrl[s.slots[j]]);
+    return;
+  }
+  const float share = std::pow(1.0f - r.alpha, band_twist_power[static_cast<size_t>(r.s_ring)]);
+  const glm::mat3 turn = glm::mat3_cast(glm::angleAxis(share * phi_rad, axis));
+  const glm::mat3 to_s = (1.0f - r.alpha) * turn * glm::mat3_cast(glm::angleAxis(-phi_rad, axis));
+  const glm::mat3 to_g = r.alpha * turn;
+  for (size_t j = 0; j < m; ++j)
+    driven_p[r.slots[j]] = origin + to_s * (ctrl[s.slots[j]] - origin) + to_g * (ctrl[r.goal[j]] - origin);
 }
 
 void RingCaster::compute_ring(const ContourLayout::Data& layout, const BodyField& field, std::span<const Chain> chains,
@@ -134,9 +190,10 @@ void RingCaster::driven_ring(const ContourLayout::Data& layout, const BodyField&
   if (straight > 0.999f) straight = 1.0f;
   const float straight4 = (straight * straight) * (straight * straight);
   const size_t m = r.slots.size();
+  driven_targets(layout, chains, r);
   for (size_t j = 0; j < m; ++j) {
     const glm::vec3 sj = ctrl[s.slots[j]];
-    const glm::vec3 pj = driven_target(r, s.slots[j], r.goal[j]);
+    const glm::vec3 pj = driven_p[r.slots[j]];
     const glm::vec3 o = a + std::clamp(glm::dot(pj - a, axis), -0.05f, std::max(s_along, -0.05f)) * axis;
     const glm::vec3 so = a + glm::dot(sj - a, axis) * axis;
     ray_origins[j] = o;

@@ -258,6 +258,8 @@ RealtimeBody::FrameWork RealtimeBody::work_per_frame(bool muscles) const {
 
 size_t RealtimeBody::shared_bytes() const {
   const Data& d = *data_;
+  size_t follow_bytes = 0;
+  for (const skin_detail::LoopFollow& lf : d.follows) follow_bytes += lf.heap_bytes();
   size_t b = sizeof(Data) + d.rings.capacity() * sizeof(Data::RingOp) + d.goals.capacity() * 4 +
              (d.lx.capacity() + d.ly.capacity() + d.lz.capacity()) * 4 +
              (d.lo_x.capacity() + d.lo_y.capacity() + d.hi_x.capacity() + d.hi_y.capacity() + d.dh_lo.capacity() +
@@ -268,8 +270,7 @@ size_t RealtimeBody::shared_bytes() const {
              d.rigid_local.capacity() * sizeof(glm::vec3) + d.weights.capacity() * sizeof(JointInfluences) +
              d.toe_vertex.capacity() * 4 + d.toe_weight.capacity() * 4 + d.toe_local.capacity() * sizeof(glm::vec3) +
              d.texture.source.capacity() * 4 + d.texture.uv.capacity() * sizeof(glm::vec2) +
-             d.texture.indices.capacity() * 4 + d.follows.capacity() * sizeof(Data::LoopFollow) +
-             d.follow_dir.capacity() * sizeof(glm::vec3) + d.follow_room.capacity() * 4 +
+             d.texture.indices.capacity() * 4 + d.follows.capacity() * sizeof(skin_detail::LoopFollow) + follow_bytes +
              d.band_in_s.capacity() * sizeof(glm::mat3) + d.band_twist_rest.capacity() * 4 + d.contact.heap_bytes();
   for (const Data::Band& band : d.bands)
     b += sizeof(Data::Band) + (band.bend_rad.capacity() + band.scale[0].capacity() + band.scale[1].capacity()) * 4;

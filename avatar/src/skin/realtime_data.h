@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "contour_layout_data.h"
+#include "loop_follow.h"
 #include "mimic/avatar/body_field.h"
 #include "mimic/avatar/realtime_skin.h"
 #include "mimic/avatar/skin.h"
@@ -115,29 +116,8 @@ struct RealtimeBody::Data {
   // grows): where a bend squeezes the band between the loop and S (the armpit and groin side), an
   // offset as long as the column itself would carry the point past its neighbours.
   std::vector<float> column_inv_len2;
-  // A shoulder's or hip's junction loop (the torso's points G its boundary-driven rings run to),
-  // on the side the limb swings towards, follows part of the limb's swing about the joint. The
-  // loop is cast in the initial pose: with the arm hanging (the thigh raised) its armpit (groin)
-  // points stay where the limb's inner side was, outside the limb's first ring S, and the band
-  // between them folds. A point's share is gain · max(0, dir · bend)^power, dir its rest
-  // direction from the loop's centre across the limb, bend the direction the limb's axis has
-  // moved (both in the parent joint's frame): none in the initial pose.
-  struct LoopFollow {
-    int joint = -1, parent = -1;
-    glm::vec3 pivot{0.0f}, axis{0.0f};  // the joint and the limb's rest axis, in the parent's frame
-    glm::vec3 tip{0.0f};                // the limb's axis in the joint's frame
-    float gain = 0, power = 1;
-    uint32_t goal_first = 0, count = 0;  // the loop's slots in `goals`
-    uint32_t dir_first = 0;              // in `follow_dir` and `follow_room`
-    // The torso's star ring next to the loop's (−1: none): a moved point stops short of its
-    // plane, so the loop never crosses it (`follow_room`: how far short, metres; `cap_side`: the
-    // sign of the loop's side of that plane).
-    int cap_ring = -1;
-    float cap_side = 1;
-  };
-  std::vector<LoopFollow> follows;
-  std::vector<glm::vec3> follow_dir;
-  std::vector<float> follow_room;
+  // The shoulders' and hips' junction loops that follow their limbs (loop_follow.h).
+  std::vector<skin_detail::LoopFollow> follows;
   // Per ring (used at S rings with driven rings): the band's rest frame in S's rest frame.
   std::vector<glm::mat3> band_in_s;
   // Per ring (used at S rings of twisting bands): band_twist_rad in the initial pose.
@@ -292,12 +272,6 @@ BandTwist band_twist(const RealtimeBody::Data::RingOp& r, const Frame& axis, con
 // A twisting band's ring (eight at a time where the build has AVX2 and FMA and `vectorised`).
 void driven_points_twisted(const RealtimeBody::Data& d, const RealtimeBody::Data::RingOp& r, const BandTwist& t,
                            std::span<glm::vec3> pos, bool vectorised);
-// Moves a junction loop's points on the side its limb swings towards (Data::LoopFollow), each
-// stopping short of the plane of the loop's cap ring in `frames` (this frame's); returns the
-// fade (State::follow_fade).
-float follow_loop(const RealtimeBody::Data& d, const RealtimeBody::Data::LoopFollow& lf,
-                  std::span<const rig::RigidTransform> world_from_joint, std::span<const Frame> frames,
-                  std::span<glm::vec3> pos);
 // Rigid vertices: out[i] = rotation·local[i] + translation.
 void rigid_points(const glm::mat3& rotation, const glm::vec3& translation, const glm::vec3* local, uint32_t count,
                   glm::vec3* out, bool vectorised);

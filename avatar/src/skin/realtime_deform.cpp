@@ -48,17 +48,6 @@ void crease(const Data::RingOp& r, const Data::RingOp& pr, const Frame& f, const
     }
 }
 
-// A twist wrapped to (−π, π] and tapered to none from 120° to 180°: at half a turn either way
-// is as near, and the band must not flip from one helix to the other between two frames (a
-// taper from 150° still moved the shoulder's skin 40 mm in a step of 1.5° of the arm).
-float twist_in_band(float phi_rad) {
-  constexpr float kPi = 3.14159265f, kTaperStart_rad = 2.0943951f;
-  if (phi_rad > kPi) phi_rad -= 2.0f * kPi;
-  if (phi_rad < -kPi) phi_rad += 2.0f * kPi;
-  const float taper = std::clamp((kPi - std::abs(phi_rad)) / (kPi - kTaperStart_rad), 0.0f, 1.0f);
-  return phi_rad * taper;
-}
-
 }  // namespace
 
 // 1/|v| to float precision (the hardware estimate and one Newton step: a few cycles where a
@@ -199,45 +188,6 @@ BandTwist band_twist(const Data::RingOp& r, const Frame& axis, const Frame& f, f
   return t;
 }
 
-float follow_loop(const Data& d, const Data::LoopFollow& lf, std::span<const rig::RigidTransform> world_from_joint,
-                  std::span<const Frame> frames, std::span<glm::vec3> pos) {
-  const rig::RigidTransform& parent = world_from_joint[static_cast<size_t>(lf.parent)];
-  const glm::quat parent_from_world = glm::conjugate(parent.rotation);
-  const glm::vec3 axis = parent_from_world * (world_from_joint[static_cast<size_t>(lf.joint)].rotation * lf.tip);
-  const glm::vec3 across = axis - glm::dot(axis, lf.axis) * lf.axis;
-  const float across_len = glm::length(across);
-  // On its rest axis (twist alone) the loop stays; swung straight back, it fades out.
-  if (across_len < 1e-6f) return glm::dot(axis, lf.axis) > 0.0f ? 1.0f : 0.0f;
-  const glm::vec3 bend = across / across_len;
-  const glm::quat swing = glm::rotation(lf.axis, axis);
-  // Past the arm hanging at the side (the arm across the body) the swung loop would cut into
-  // the chest: the follow fades out between 95 and 120 degrees of swing.
-  constexpr float kFadeStart_rad = 1.658f, kFadeEnd_rad = 2.094f;
-  const float swing_rad = std::acos(std::clamp(glm::dot(axis, lf.axis), -1.0f, 1.0f));
-  const float fade = std::clamp((kFadeEnd_rad - swing_rad) / (kFadeEnd_rad - kFadeStart_rad), 0.0f, 1.0f);
-  if (fade <= 0.0f) return 0.0f;
-  for (uint32_t k = 0; k < lf.count; ++k) {
-    const float c = glm::dot(d.follow_dir[lf.dir_first + k], bend);
-    if (c <= 0.0f) continue;
-    const float share = fade * lf.gain * (lf.power == 1.0f ? c : std::pow(c, lf.power));
-    glm::vec3& p = pos[d.goals[lf.goal_first + k]];
-    const glm::vec3 local = parent_from_world * (p - parent.translation);
-    const glm::vec3 swung = lf.pivot + swing * (local - lf.pivot);
-    const glm::vec3 move = parent.rotation * (share * (swung - local));
-    if (lf.cap_ring < 0) {
-      p += move;
-      continue;
-    }
-    // Short of the next ring's plane by the point's room: the share of the move that keeps it.
-    const Frame& cap = frames[static_cast<size_t>(lf.cap_ring)];
-    const float below = -lf.cap_side * glm::dot(p - cap.origin, cap.z) - d.follow_room[lf.dir_first + k];
-    const float rise = lf.cap_side * glm::dot(move, cap.z);
-    // Moving away from the plane (rise ≤ 0) never crosses it; a point already in its room stays.
-    p += (rise > 0.0f ? std::clamp(below / rise, 0.0f, 1.0f) : 1.0f) * move;
-  }
-  return fade;
-}
-
 void deform(const Data& d, State& st, const rig::Pose& pose, std::span<glm::vec3> pos, bool muscles) {
   const double t0 = steady_now_s();
   rig::forward_kinematics(d.skeleton, pose, st.world_from_joint);
@@ -290,7 +240,11 @@ void deform(const Data& d, State& st, const rig::Pose& pose, std::span<glm::vec3
           float band = 1.0f;
           if (r.follow >= 0) {
             const auto i = static_cast<size_t>(r.follow);
-            if (r.moves_loop) st.follow_fade[i] = follow_loop(d, d.follows[i], st.world_from_joint, st.frames, pos);
+            if (r.moves_loop) {
+              const skin_detail::LoopFollow& lf = d.follows[i];
+              const Frame& cap = st.frames[static_cast<size_t>(std::max(lf.cap_ring, 0))];
+              st.follow_fade[i] = skin_detail::follow_loop(lf, st.world_from_joint, cap.origin, cap.z, pos);
+            }
             band = st.follow_fade[i];
           }
           const Frame& s_frame = st.frames[r.s_ring];

@@ -60,38 +60,15 @@ void measure_driven_columns(const RestContours& m, Data& d) {
   }
 }
 
-namespace {
-glm::vec3 centre_world(const RestContours& m, const Data& d, const Data::RingOp& r) {
-  glm::vec3 c(0.0f);
-  for (uint32_t k = 0; k < r.count; ++k) c += m.ctrl[d.goals[r.goal_first + k]];
-  return c / static_cast<float>(std::max(r.count, 1u));
-}
-}  // namespace
-
 void measure_loop_follows(const RestContours& m, const rig::Pose& base, Data& d) {
-  // Shares measured over the shared clips' frames (mimic intersect, every 80th frame, LOD 0).
-  // The shoulders' bands also twist with the arm (BandTwist, power 2: most of the turn next to
-  // S): 33.7 → 24.2 folds a frame, the right upper arm's 13.7 → 7.3 (power 1: 25.2 and 8.8 more
-  // pairs between pieces; the hips' bands gain nothing from a twist). The hips' loop is the
-  // torso's lowest star ring: moved with the thigh it crossed the ring above (the torso's
-  // contours 6–12 mm through each other), so it is capped by that ring's plane, each point kept
-  // short of it by 15% of its rest distance from it (`capped`): 24.3 → 16.5 folds a frame (gain
-  // 0.5 and 30%: 18.5; uncapped 17.3, crossing).
-  struct Gains {
-    std::string_view joint_suffix;
-    float gain, power, twist_power;
-    bool capped;
-  };
-  constexpr Gains kGains[] = {{"shoulder", 0.5f, 1.0f, 2.0f, false}, {"hip", 0.7f, 1.0f, 0.0f, true}};
-  constexpr float kCapRoom = 0.15f;
   std::vector<rig::RigidTransform> w(static_cast<size_t>(d.skeleton.joint_count()));
   rig::forward_kinematics(d.skeleton, base, w);
   d.band_in_s.assign(d.rings.size(), glm::mat3(1.0f));
   d.band_twist_rest.assign(d.rings.size(), 0.0f);
   for (Data::RingOp& r : d.rings) {
     if (r.kind != RingKind::driven || r.count == 0) continue;
+    const Data::RingOp& s = d.rings[static_cast<size_t>(r.s_ring)];
     {
-      const Data::RingOp& s = d.rings[static_cast<size_t>(r.s_ring)];
       const Ring& src = m.layout.rings[static_cast<size_t>(r.s_ring)];
       const Frame sf = star_frame(m.chains[static_cast<size_t>(s.chain)], src.segment, src.u, s.chain != kTorsoChain);
       const Frame bf = junction_frame(d, r, m.ctrl, sf, 1.0f);
@@ -99,70 +76,21 @@ void measure_loop_follows(const RestContours& m, const rig::Pose& base, Data& d)
           glm::transpose(glm::mat3(sf.x, sf.y, sf.z)) * glm::mat3(bf.x, bf.y, bf.z);
       d.band_twist_rest[static_cast<size_t>(r.s_ring)] = band_twist_rad(sf, bf);
     }
-    const Data::RingOp& s = d.rings[static_cast<size_t>(r.s_ring)];
     const int joint = m.chains[static_cast<size_t>(s.chain)].nodes.front().joint;
-    const std::string& name = d.skeleton.joint_name(joint);
-    const Gains* g = nullptr;
-    for (const Gains& k : kGains)
-      if (name.ends_with(k.joint_suffix)) g = &k;
-    const int parent = d.skeleton.parent(joint);
-    if (g == nullptr || parent < 0) continue;  // the neck keeps its loop
-    r.twists = g->twist_power > 0.0f;
-    r.twist_share = std::pow(1.0f - r.alpha, g->twist_power);
+    const skin_detail::LoopFollowRule* rule = skin_detail::loop_follow_rule(d.skeleton.joint_name(joint));
+    if (rule == nullptr || d.skeleton.parent(joint) < 0) continue;  // the neck keeps its loop
+    r.twists = rule->twist_power > 0.0f;
+    r.twist_share = std::pow(1.0f - r.alpha, rule->twist_power);
     // One follow per loop, moved before the first of its driven rings.
     int seen = -1;
     for (size_t i = 0; i < d.follows.size(); ++i)
       if (d.follows[i].joint == joint) seen = static_cast<int>(i);
     r.follow = seen;
     if (seen >= 0) continue;
-    const rig::RigidTransform& pw = w[static_cast<size_t>(parent)];
-    const rig::RigidTransform parent_from_world = pw.inverse();
-    Data::LoopFollow lf;
-    lf.joint = joint, lf.parent = parent, lf.gain = g->gain, lf.power = g->power;
-    lf.tip = safe_normalize(d.skeleton.tip_m(joint), {0, -1, 0});
-    lf.axis = glm::conjugate(pw.rotation) * (w[static_cast<size_t>(joint)].rotation * lf.tip);
-    lf.pivot = parent_from_world.apply(w[static_cast<size_t>(joint)].translation);
-    lf.goal_first = r.goal_first, lf.count = r.count;
-    lf.dir_first = static_cast<uint32_t>(d.follow_dir.size());
-    glm::vec3 centre(0.0f);
-    for (uint32_t k = 0; k < r.count; ++k) centre += parent_from_world.apply(m.ctrl[d.goals[r.goal_first + k]]);
-    centre /= static_cast<float>(r.count);
-    // The torso's star ring holding most of the loop, and its neighbour further into the torso.
-    int loop_ring = -1;
-    uint32_t most = 0;
-    for (size_t ri = 0; ri < d.rings.size(); ++ri) {
-      const Data::RingOp& t = d.rings[ri];
-      if (t.kind != RingKind::star || t.chain != kTorsoChain) continue;
-      uint32_t n = 0;
-      for (uint32_t k = 0; k < r.count; ++k) {
-        const uint32_t slot = d.goals[r.goal_first + k];
-        n += slot >= t.first && slot < t.first + t.count ? 1u : 0u;
-      }
-      if (n > most) most = n, loop_ring = static_cast<int>(ri);
-    }
-    if (loop_ring >= 0 && g->capped) {
-      for (size_t ri = 0; ri < d.rings.size(); ++ri)
-        if (d.rings[ri].kind == RingKind::star && d.rings[ri].prev_star == loop_ring)
-          lf.cap_ring = static_cast<int>(ri);
-      if (lf.cap_ring < 0) lf.cap_ring = d.rings[static_cast<size_t>(loop_ring)].prev_star;
-    }
-    Frame cap;
-    if (lf.cap_ring >= 0) {
-      const Ring& src = m.layout.rings[static_cast<size_t>(lf.cap_ring)];
-      cap = star_frame(m.chains[kTorsoChain], src.segment, src.u, false);
-      lf.cap_side = glm::dot(centre_world(m, d, r) - cap.origin, cap.z) < 0.0f ? 1.0f : -1.0f;
-    }
-    for (uint32_t k = 0; k < r.count; ++k) {
-      glm::vec3 dir = parent_from_world.apply(m.ctrl[d.goals[r.goal_first + k]]) - centre;
-      dir -= glm::dot(dir, lf.axis) * lf.axis;
-      d.follow_dir.push_back(safe_normalize(dir, glm::vec3(0.0f)));
-      const float below =
-          lf.cap_ring >= 0 ? -lf.cap_side * glm::dot(m.ctrl[d.goals[r.goal_first + k]] - cap.origin, cap.z) : 0.0f;
-      d.follow_room.push_back(kCapRoom * std::max(below, 0.0f));
-    }
-    r.follow = static_cast<int>(d.follows.size());
+    const Ring& driven = m.layout.rings[static_cast<size_t>(&r - d.rings.data())];
+    d.follows.push_back(skin_detail::measure_loop_follow(m.layout, m.chains, m.ctrl, w, driven, *rule));
+    r.follow = static_cast<int>(d.follows.size()) - 1;
     r.moves_loop = true;
-    d.follows.push_back(lf);
   }
 }
 

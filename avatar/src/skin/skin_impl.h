@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "contour_layout_data.h"
+#include "loop_follow.h"
 #include "mimic/avatar/skin.h"
 #include "mimic/core/clock.h"
 
@@ -33,20 +34,24 @@ struct RingCaster {
   std::vector<RayNear> ray_nears;
   std::vector<float> arc_r, arc_spike;  // a bridge's radii, while it spans hollows (span_arc)
   std::vector<uint32_t> arc_hull;
-  // Per boundary-driven point, 1 / |G − S|² in the zero posture (0 until remember_rest_columns).
+  // Per boundary-driven point, 1 / |G − S|² in the zero posture (0 until remember_rest_columns),
+  // and P, the point its ray searches around (driven_ring).
   std::vector<float> rest_inv_len2;
+  std::vector<glm::vec3> driven_p;
+  // A shoulder's band twists with the arm, as the realtime method's does (BandTwist there): per
+  // S ring, the power of (1 − α) that gives a driven ring its share of the twist (0: none) and
+  // the twist the band had in the zero posture; per chain, the limb's swing from its
+  // zero-posture direction this frame (set by the skin). Empty (no twist) until
+  // remember_rest_columns: the layout's build casts the zero posture without.
+  std::vector<float> band_twist_power, band_twist_rest_rad, chain_swing_rad;
 
   // Control points for `control_points` slots, per-ring scratch for rings of `widest` points.
   void size_for(size_t control_points, size_t widest);
   void compute_ring(const ContourLayout::Data& layout, const BodyField& field, std::span<const Chain> chains,
                     const Ring& r);
   // Takes the columns of the last frame (the zero posture) as the rest the driven rays' search
-  // windows shrink from.
-  void remember_rest_columns(const ContourLayout::Data& layout);
-  // A boundary-driven ring's point P = S + α(G − S) from its S point and its loop's point.
-  glm::vec3 driven_target(const Ring& r, uint32_t s_slot, uint32_t goal_slot) const {
-    return ctrl[s_slot] + r.alpha * (ctrl[goal_slot] - ctrl[s_slot]);
-  }
+  // windows shrink from, and its shoulders' bands as untwisted.
+  void remember_rest_columns(const ContourLayout::Data& layout, std::span<const Chain> chains);
 
  private:
   void star_ring(const ContourLayout::Data& layout, const BodyField& field, std::span<const Chain> chains,
@@ -58,6 +63,13 @@ struct RingCaster {
   void store(uint32_t slot, const glm::vec3& origin, const glm::vec3& dir, RayHit hit, const glm::vec3& fallback);
   int gather(const BodyField& field, GroupMask mask);
   void span_arc(size_t m, const Directions& dir);
+  // The twist of driven ring r's band this frame (radians, before the taper and fade).
+  float band_twist_rad(const ContourLayout::Data& layout, std::span<const Chain> chains, const Ring& r,
+                       glm::vec3& origin, glm::vec3& axis) const;
+  // P for each point of driven ring r into driven_p: S + α(G − S), and for a shoulder's band S
+  // turned back by the band's twist φ, blended, then turned by (1 − α)^power·φ about the band's
+  // axis (the columns become helices, most of the turn next to S).
+  void driven_targets(const ContourLayout::Data& layout, std::span<const Chain> chains, const Ring& r);
 };
 
 }  // namespace skin_detail
@@ -79,6 +91,10 @@ struct ImplicitSkin::Impl {
   };
   std::vector<LimbRoot> limb_roots;
   RingCaster caster;
+  // The shoulders' and hips' loops that follow their limbs (loop_follow.h), and per ring the
+  // follow moved before it is cast (the first of the limb's driven rings; −1 for none).
+  std::vector<skin_detail::LoopFollow> follows;
+  std::vector<int> follow_before_ring;
 
   Mesh mesh;
   std::vector<glm::vec3> scratch_grid, scratch_rows, scratch_poly;
@@ -86,6 +102,9 @@ struct ImplicitSkin::Impl {
 
   Impl(ContourLayout layout_in, BodyField field_in, bool normals_in);
   void tilt_limb_roots();
+  // The loop follows from the contours of the last frame (the zero posture).
+  void measure_loop_follows();
+  void cast_contours();
   void evaluate_bspline();
   void update_normals();
 };

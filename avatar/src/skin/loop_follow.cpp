@@ -1,0 +1,114 @@
+// A junction loop that follows part of its limb's swing (loop_follow.h): measured once in the
+// initial pose, moved each frame by both methods.
+#include "loop_follow.h"
+
+#include <algorithm>
+#include <cmath>
+#include <glm/gtx/quaternion.hpp>
+
+namespace mimic::avatar::skin_detail {
+
+const LoopFollowRule* loop_follow_rule(std::string_view joint_name) {
+  for (const LoopFollowRule& k : kLoopFollowRules)
+    if (joint_name.ends_with(k.joint_suffix)) return &k;
+  return nullptr;
+}
+
+LoopFollow measure_loop_follow(const ContourLayout::Data& layout, std::span<const Chain> chains,
+                               std::span<const glm::vec3> ctrl, std::span<const rig::RigidTransform> w,
+                               const Ring& driven, const LoopFollowRule& rule) {
+  LoopFollow lf;
+  const Ring& s = layout.rings[static_cast<size_t>(driven.s_ring)];
+  lf.joint = chains[static_cast<size_t>(s.chain)].nodes.front().joint;
+  lf.parent = layout.skeleton.parent(lf.joint);
+  if (lf.parent < 0 || driven.goal.empty()) return lf;
+  lf.gain = rule.gain, lf.power = rule.power;
+  const rig::RigidTransform& pw = w[static_cast<size_t>(lf.parent)];
+  const rig::RigidTransform parent_from_world = pw.inverse();
+  lf.tip = safe_normalize(layout.skeleton.tip_m(lf.joint), {0, -1, 0});
+  lf.axis = glm::conjugate(pw.rotation) * (w[static_cast<size_t>(lf.joint)].rotation * lf.tip);
+  lf.pivot = parent_from_world.apply(w[static_cast<size_t>(lf.joint)].translation);
+  lf.slots = driven.goal;
+  glm::vec3 centre(0.0f), centre_world(0.0f);
+  for (uint32_t slot : lf.slots) centre += parent_from_world.apply(ctrl[slot]), centre_world += ctrl[slot];
+  centre /= static_cast<float>(lf.slots.size());
+  centre_world /= static_cast<float>(lf.slots.size());
+  // The torso's star ring holding most of the loop, and its neighbour further into the torso:
+  // the star ring after it on its surface, else the one before.
+  int loop_ring = -1;
+  size_t most = 0;
+  for (size_t ri = 0; ri < layout.rings.size(); ++ri) {
+    const Ring& t = layout.rings[ri];
+    if (t.kind != RingKind::star || t.chain != kTorsoChainIndex) continue;
+    size_t n = 0;
+    for (uint32_t slot : lf.slots) n += std::find(t.slots.begin(), t.slots.end(), slot) != t.slots.end() ? 1 : 0;
+    if (n > most) most = n, loop_ring = static_cast<int>(ri);
+  }
+  if (loop_ring >= 0 && rule.capped)
+    for (const Surface& surface : layout.surfaces) {
+      int before = -1, prev = -1;
+      bool found = false;
+      for (int id : surface.rows) {
+        if (id < 0 || layout.rings[static_cast<size_t>(id)].kind != RingKind::star) continue;
+        if (id == loop_ring) found = true, before = prev;
+        if (prev == loop_ring) lf.cap_ring = id;
+        prev = id;
+      }
+      if (found && lf.cap_ring < 0) lf.cap_ring = before;
+      if (found) break;
+    }
+  Plane cap{};
+  if (lf.cap_ring >= 0) {
+    const Ring& src = layout.rings[static_cast<size_t>(lf.cap_ring)];
+    cap = ring_plane(chains[kTorsoChainIndex], src.segment, src.u);
+    lf.cap_side = glm::dot(centre_world - cap.origin, cap.normal) < 0.0f ? 1.0f : -1.0f;
+  }
+  for (uint32_t slot : lf.slots) {
+    glm::vec3 dir = parent_from_world.apply(ctrl[slot]) - centre;
+    dir -= glm::dot(dir, lf.axis) * lf.axis;
+    lf.dir.push_back(safe_normalize(dir, glm::vec3(0.0f)));
+    const float below = lf.cap_ring >= 0 ? -lf.cap_side * glm::dot(ctrl[slot] - cap.origin, cap.normal) : 0.0f;
+    lf.room.push_back(kLoopFollowCapRoom * std::max(below, 0.0f));
+  }
+  return lf;
+}
+
+float follow_loop(const LoopFollow& lf, std::span<const rig::RigidTransform> world_from_joint,
+                  const glm::vec3& cap_origin, const glm::vec3& cap_normal, std::span<glm::vec3> pos,
+                  std::span<uint8_t> from_ray) {
+  const rig::RigidTransform& parent = world_from_joint[static_cast<size_t>(lf.parent)];
+  const glm::quat parent_from_world = glm::conjugate(parent.rotation);
+  const glm::vec3 axis = parent_from_world * (world_from_joint[static_cast<size_t>(lf.joint)].rotation * lf.tip);
+  const glm::vec3 across = axis - glm::dot(axis, lf.axis) * lf.axis;
+  const float across_len = glm::length(across);
+  // On its rest axis (twist alone) the loop stays; swung straight back, it fades out.
+  if (across_len < 1e-6f) return glm::dot(axis, lf.axis) > 0.0f ? 1.0f : 0.0f;
+  const glm::vec3 bend = across / across_len;
+  const glm::quat swing = glm::rotation(lf.axis, axis);
+  // Past the arm hanging at the side (the arm across the body) the swung loop would cut into
+  // the chest: the follow fades out between 95 and 120 degrees of swing.
+  const float fade = band_follow_fade(std::acos(std::clamp(glm::dot(axis, lf.axis), -1.0f, 1.0f)));
+  if (fade <= 0.0f) return 0.0f;
+  for (size_t k = 0; k < lf.slots.size(); ++k) {
+    const float c = glm::dot(lf.dir[k], bend);
+    if (c <= 0.0f) continue;
+    const float share = fade * lf.gain * (lf.power == 1.0f ? c : std::pow(c, lf.power));
+    glm::vec3& p = pos[lf.slots[k]];
+    const glm::vec3 local = parent_from_world * (p - parent.translation);
+    const glm::vec3 swung = lf.pivot + swing * (local - lf.pivot);
+    const glm::vec3 move = parent.rotation * (share * (swung - local));
+    float kept = 1.0f;
+    if (lf.cap_ring >= 0) {
+      // Short of the next ring's plane by the point's room: the share of the move that keeps it.
+      const float below = -lf.cap_side * glm::dot(p - cap_origin, cap_normal) - lf.room[k];
+      const float rise = lf.cap_side * glm::dot(move, cap_normal);
+      // Moving away from the plane (rise ≤ 0) never crosses it; a point already in its room stays.
+      if (rise > 0.0f) kept = std::clamp(below / rise, 0.0f, 1.0f);
+    }
+    p += kept * move;
+    if (kept > 0.0f && !from_ray.empty()) from_ray[lf.slots[k]] = 0;
+  }
+  return fade;
+}
+
+}  // namespace mimic::avatar::skin_detail

@@ -1,0 +1,78 @@
+// A shoulder's or hip's junction loop that follows part of its limb's swing, in both methods
+// (the realtime skin moves its loop's vertices, the full method its cast control points). Not a
+// public header.
+#pragma once
+
+#include <span>
+#include <string_view>
+#include <vector>
+
+#include "contour_layout_data.h"
+
+namespace mimic::avatar::skin_detail {
+
+// The torso's chain: contour_layout.cpp builds it first.
+inline constexpr int kTorsoChainIndex = 0;
+
+// Per limb root (by the joint's name): how much of the swing the loop follows, and how much the
+// shoulder's band twists. Measured over the shared clips' frames (mimic intersect, every 80th
+// frame, LOD 0, realtime): the shoulders' bands twisting with the arm (power 2, most of the turn
+// next to S) took 33.7 to 24.2 folds a frame (power 1: 25.2, with 8.8 more pairs between pieces;
+// the hips' bands gain nothing from a twist). The hips' loop is the torso's lowest star ring:
+// moved with the thigh it crossed the ring above (the torso's contours 6–12 mm through each
+// other), so it is capped by that ring's plane, each point kept short of it by 15% of its rest
+// distance from it: 24.3 → 16.5 folds a frame (gain 0.5 and 30%: 18.5; uncapped 17.3, crossing).
+// The full method's shoulder loops do not follow (`in_full_method`): the full method is the
+// surface `fit` and `compare` measure, posed like the reference mesh with the arms down, and
+// the armpit points swung with the arm took its chest girth from −1.0% to −5.3% of the mesh's
+// (the fit holds 3%).
+struct LoopFollowRule {
+  std::string_view joint_suffix;
+  float gain, power, twist_power;
+  bool capped, in_full_method;
+};
+inline constexpr LoopFollowRule kLoopFollowRules[] = {{"shoulder", 0.5f, 1.0f, 2.0f, false, false},
+                                                      {"hip", 0.7f, 1.0f, 0.0f, true, true}};
+inline constexpr float kLoopFollowCapRoom = 0.15f;
+// The rule for a limb whose first joint is `joint_name`, or nullptr (the neck keeps its loop).
+const LoopFollowRule* loop_follow_rule(std::string_view joint_name);
+
+// A junction loop (the torso's points G a limb's boundary-driven rings run to), on the side the
+// limb swings towards, follows part of the limb's swing about the joint. The loop is cast in the
+// initial pose: with the arm hanging (the thigh raised) its armpit (groin) points stay where the
+// limb's inner side was, outside the limb's first ring S, and the band between them folds. A
+// point's share is gain · max(0, dir · bend)^power, dir its rest direction from the loop's centre
+// across the limb, bend the direction the limb's axis has moved (both in the parent joint's
+// frame): none in the initial pose.
+struct LoopFollow {
+  int joint = -1, parent = -1;
+  glm::vec3 pivot{0.0f}, axis{0.0f};  // the joint and the limb's rest axis, in the parent's frame
+  glm::vec3 tip{0.0f};                // the limb's axis in the joint's frame
+  float gain = 0, power = 1;
+  // The torso's star ring next to the loop's (−1: none): a moved point stops short of its plane
+  // by its `room` (metres), so the loop never crosses it; `cap_side` is the sign of the loop's
+  // side of that plane.
+  int cap_ring = -1;
+  float cap_side = 1;
+  std::vector<uint32_t> slots;  // the loop's points, as the driven ring's `goal`
+  std::vector<glm::vec3> dir;   // per point
+  std::vector<float> room;      // per point
+
+  size_t heap_bytes() const { return slots.capacity() * 4 + dir.capacity() * sizeof(glm::vec3) + room.capacity() * 4; }
+};
+
+// The follow of driven ring `driven`'s loop, from the contours `ctrl` cast in the initial pose
+// (`world_from_joint` its joints, `chains` its chains).
+LoopFollow measure_loop_follow(const ContourLayout::Data& layout, std::span<const Chain> chains,
+                               std::span<const glm::vec3> ctrl, std::span<const rig::RigidTransform> world_from_joint,
+                               const Ring& driven, const LoopFollowRule& rule);
+
+// Moves the loop's points in `pos` for this frame's joints, each stopping short of the cap ring's
+// plane (`cap_origin`, `cap_normal`: this frame's); returns the fade (band_follow_fade of the
+// swing; 1 on the rest axis, 0 swung straight back). A point it moves is no longer where its ray
+// found the surface: its flag in `from_ray`, when given, is cleared.
+float follow_loop(const LoopFollow& lf, std::span<const rig::RigidTransform> world_from_joint,
+                  const glm::vec3& cap_origin, const glm::vec3& cap_normal, std::span<glm::vec3> pos,
+                  std::span<uint8_t> from_ray = {});
+
+}  // namespace mimic::avatar::skin_detail
