@@ -22,7 +22,7 @@ LoopFollow measure_loop_follow(const ContourLayout::Data& layout, std::span<cons
   lf.joint = chains[static_cast<size_t>(s.chain)].nodes.front().joint;
   lf.parent = layout.skeleton.parent(lf.joint);
   if (lf.parent < 0 || driven.goal.empty()) return lf;
-  lf.gain = rule.gain, lf.power = rule.power;
+  lf.gain = rule.gain, lf.power = rule.power, lf.far_side = rule.far_side;
   const rig::RigidTransform& pw = w[static_cast<size_t>(lf.parent)];
   const rig::RigidTransform parent_from_world = pw.inverse();
   lf.tip = safe_normalize(layout.skeleton.tip_m(lf.joint), {0, -1, 0});
@@ -91,8 +91,12 @@ float follow_loop(const LoopFollow& lf, std::span<const rig::RigidTransform> wor
   if (fade <= 0.0f) return 0.0f;
   for (size_t k = 0; k < lf.slots.size(); ++k) {
     const float c = glm::dot(lf.dir[k], bend);
-    if (c <= 0.0f) continue;
-    const float share = fade * lf.gain * (lf.power == 1.0f ? c : std::pow(c, lf.power));
+    const float near = lf.far_side > 0.0f ? lf.far_side + (1.0f - lf.far_side) * 0.5f * (1.0f + c)
+                       : c <= 0.0f        ? 0.0f
+                       : lf.power == 1.0f ? c
+                                          : std::pow(c, lf.power);
+    if (near <= 0.0f) continue;
+    const float share = fade * lf.gain * near;
     glm::vec3& p = pos[lf.slots[k]];
     const glm::vec3 local = parent_from_world * (p - parent.translation);
     const glm::vec3 swung = lf.pivot + swing * (local - lf.pivot);

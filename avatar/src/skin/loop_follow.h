@@ -26,13 +26,24 @@ inline constexpr int kTorsoChainIndex = 0;
 // surface `fit` and `compare` measure, posed like the reference mesh with the arms down, and
 // the armpit points swung with the arm took its chest girth from −1.0% to −5.3% of the mesh's
 // (the fit holds 3%).
+// The shoulders' far side turns too (`far_side`: its share against the near side's, the share
+// linear in dir · bend between): with the near side alone the far side stayed where the T-pose
+// cast it, and with the arm hanging forward the band's back spanned 150 mm across and 80 mm down
+// and folded. Far side at 0.35: 16.5 / 8.0 / 3.9 / 1.9 → 14.3 / 5.0 / 2.5 / 0.6 folds a frame at
+// LODs 0–3, frames folding 71 / 70 / 58 / 54 → 60 / 48 / 38 / 15 of 124, the relaxed posture clean
+// at every LOD (no pairs between pieces either: 4 before). The neck's loop holds the shoulder's
+// top points, and more of the far side folds the neck's band in many frames: at 0.5, 13.6 / 4.6 /
+// 2.3 / 0.6 folds a frame but 88 frames folding at LOD 0; the whole loop (1), 12.5 / 3.5 / 1.9 /
+// 0.5, the relaxed posture 3 folds and 25 pairs. At 0.3 the relaxed posture's 4 pairs stay; with
+// the points the neck's loop holds taking the near side's share alone, 16.6 at LOD 0.
 struct LoopFollowRule {
   std::string_view joint_suffix;
   float gain, power, twist_power;
   bool capped, in_full_method;
+  float far_side;
 };
-inline constexpr LoopFollowRule kLoopFollowRules[] = {{"shoulder", 0.5f, 1.0f, 2.0f, false, false},
-                                                      {"hip", 0.7f, 1.0f, 0.0f, true, true}};
+inline constexpr LoopFollowRule kLoopFollowRules[] = {{"shoulder", 0.5f, 1.0f, 2.0f, false, false, 0.35f},
+                                                      {"hip", 0.7f, 1.0f, 0.0f, true, true, 0.0f}};
 inline constexpr float kLoopFollowCapRoom = 0.15f;
 // The rule for a limb whose first joint is `joint_name`, or nullptr (the neck keeps its loop).
 const LoopFollowRule* loop_follow_rule(std::string_view joint_name);
@@ -41,14 +52,16 @@ const LoopFollowRule* loop_follow_rule(std::string_view joint_name);
 // limb swings towards, follows part of the limb's swing about the joint. The loop is cast in the
 // initial pose: with the arm hanging (the thigh raised) its armpit (groin) points stay where the
 // limb's inner side was, outside the limb's first ring S, and the band between them folds. A
-// point's share is gain · max(0, dir · bend)^power, dir its rest direction from the loop's centre
-// across the limb, bend the direction the limb's axis has moved (both in the parent joint's
-// frame): none in the initial pose.
+// point's share of the swing is gain · max(0, c)^power, or with a far side f, gain · (f + (1 − f)
+// · (1 + c) / 2): c = dir · bend, dir its rest direction from the loop's centre across the limb,
+// bend the direction the limb's axis has moved (both in the parent joint's frame). None in the
+// initial pose.
 struct LoopFollow {
   int joint = -1, parent = -1;
   glm::vec3 pivot{0.0f}, axis{0.0f};  // the joint and the limb's rest axis, in the parent's frame
   glm::vec3 tip{0.0f};                // the limb's axis in the joint's frame
   float gain = 0, power = 1;
+  float far_side = 0;  // LoopFollowRule::far_side
   // The torso's star ring next to the loop's (−1: none): a moved point stops short of its plane
   // by its `room` (metres), so the loop never crosses it; `cap_side` is the sign of the loop's
   // side of that plane.
