@@ -68,6 +68,26 @@ TEST(FullJunctionFolds, FullMethodFoldsOverTheSharedClipsStayUnderTheirBound) {
   }
 }
 
+// The relaxed posture (arms hanging, elbows and knees a little bent) at every LOD: no skin more
+// than half a millimetre into other skin, and the folds and crossings the twisting bands leave
+// at the right armpit (LOD 0: 2 folds, 6 pairs between the arm and the chest, under 0.05 mm
+// deep; none with the twist's power 1, which folds and crosses more over the clips; 14 pairs
+// with power 3) and at LOD 3 (3 pairs, as before the bands twisted).
+TEST(FullJunctionFolds, TheRelaxedPostureBarelyTouchesItself) {
+  for (int lod = 0; lod < kSkinLodCount; ++lod) {
+    auto skin =
+        ImplicitSkin::create(with_skin_lod(default_body_model(), lod), SkinOptions{.subdivision = 0, .normals = false});
+    ASSERT_TRUE(skin) << skin.error().what();
+    auto checker = SelfIntersectionChecker::create(skin->mesh());
+    ASSERT_TRUE(checker) << checker.error().what();
+    skin->evaluate(skin->skeleton().rest_pose());
+    const IntersectionReport r = checker->check(skin->mesh().positions);
+    EXPECT_LE(r.fold_pairs, lod == 0 ? 2u : 0u) << "LOD " << lod;
+    EXPECT_LE(r.between_pairs, lod == 0 ? 6u : lod + 1 < kSkinLodCount ? 0u : 3u) << "LOD " << lod;
+    EXPECT_LT(r.deepest_envelope_m, 0.0005) << "LOD " << lod;
+  }
+}
+
 // The upper arm twisted far in raised, hanging and forward postures: the shoulder's band twists
 // along with it, as the realtime method's does, instead of joining each point of the arm's first
 // ring to the loop point it faced in the zero posture.
