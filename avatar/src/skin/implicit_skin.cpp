@@ -71,6 +71,9 @@ void ImplicitSkin::Impl::measure_loop_follows() {
     if (seen) continue;
     follow_before_ring[ri] = static_cast<int>(follows.size());
     follows.push_back(skin_detail::measure_loop_follow(L, chains, caster.ctrl, world_from_joint, r, *rule));
+    // The near side alone: the far side moves the hips' girths of the posed body that `fit`
+    // measures (BodyFit.TheGirthsCountInTheFit: the girth fit left 2.8% off against 2.2%).
+    follows.back().far_side = 0.0f;
   }
 }
 
