@@ -35,14 +35,13 @@ inline constexpr int kTorsoChainIndex = 0;
 // top points, and more of the far side folds the neck's band in many frames: at 0.5, 13.6 / 4.6 /
 // 2.3 / 0.6 folds a frame but 88 frames folding at LOD 0; the whole loop (1), 12.5 / 3.5 / 1.9 /
 // 0.5, the relaxed posture 3 folds and 25 pairs. At 0.3 the relaxed posture's 4 pairs stay; with
-// the points the neck's loop holds taking the near side's share alone, 16.6 at LOD 0. The hips'
-// far side at 0.25, in the realtime method (the full method's loops move their near side alone:
-// the far side moved the hips' girths the fit measures), their cap holding every point short of
-// the torso's next ring as before:
-// 14.3 / 5.0 / 2.5 / 0.6 → 14.2 / 4.1 / 1.6 / 0.5 folds a frame, frames folding 60 / 48 / 38 /
-// 15 → 60 / 45 / 27 / 15; the torso's contours cross nowhere in the clips' every 10th frame at
-// any LOD; at 0.35 they crossed by 1.2 mm (02_06 frame 1720), at 0.15 the folds are 14.1 / 4.2 /
-// 1.7 / 0.5, at 0.5 and 1 no fewer.
+// the points the neck's loop holds taking the near side's share alone, 16.6 at LOD 0.
+// The hips' far side at 0.25, their cap holding every point short of the torso's next ring as
+// before: 14.3 / 5.0 / 2.5 / 0.6 → 14.2 / 4.1 / 1.6 / 0.5 folds a frame, frames folding 60 / 48 /
+// 38 / 15 → 60 / 45 / 27 / 15, the torso's contours crossing in none of the clips' every 10th
+// frame at any LOD (at 0.35 they crossed by 1.2 mm, 02_06 frame 1720; at 0.15 the folds are 14.1
+// / 4.2 / 1.7 / 0.5, at 0.5 and 1 no fewer). The full method's loops move their near side alone
+// (ImplicitSkin::Impl::measure_loop_follows): the far side moved the hips' girths `fit` measures.
 struct LoopFollowRule {
   std::string_view joint_suffix;
   float gain, power, twist_power;
@@ -55,8 +54,8 @@ inline constexpr float kLoopFollowCapRoom = 0.15f;
 // The rule for a limb whose first joint is `joint_name`, or nullptr (the neck keeps its loop).
 const LoopFollowRule* loop_follow_rule(std::string_view joint_name);
 
-// A junction loop (the torso's points G a limb's boundary-driven rings run to), on the side the
-// limb swings towards, follows part of the limb's swing about the joint. The loop is cast in the
+// A junction loop (the torso's points G a limb's boundary-driven rings run to) follows part of
+// the limb's swing about the joint, most on the side the limb swings towards. The loop is cast in the
 // initial pose: with the arm hanging (the thigh raised) its armpit (groin) points stay where the
 // limb's inner side was, outside the limb's first ring S, and the band between them folds. A
 // point's share of the swing is gain · max(0, c)^power, or with a far side f, gain · (f + (1 − f)
