@@ -28,6 +28,7 @@ inline constexpr float kPi = std::numbers::pi_v<float>;
 inline constexpr float kTwoPi = 2.0f * kPi;
 inline constexpr int kMaxCandidates = 256;
 inline constexpr float kMissRadius_m = 0.01f;
+inline constexpr int kTorsoChain = 0;  // contour_layout.cpp builds the torso chain first
 
 inline glm::vec3 safe_normalize(const glm::vec3& v, const glm::vec3& fallback) {
   const float l2 = glm::length2(v);

@@ -78,7 +78,7 @@ void ImplicitSkin::Impl::measure_loop_follows() {
 }
 
 void ImplicitSkin::Impl::cast_contours() {
-  caster.stats = {};
+  caster.new_frame();
   for (size_t ri = 0; ri < L.rings.size(); ++ri) {
     const int fi = ri < follow_before_ring.size() ? follow_before_ring[ri] : -1;
     if (fi >= 0) {

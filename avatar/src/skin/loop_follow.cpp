@@ -39,7 +39,7 @@ LoopFollow measure_loop_follow(const ContourLayout::Data& layout, std::span<cons
   size_t most = 0;
   for (size_t ri = 0; ri < layout.rings.size(); ++ri) {
     const Ring& t = layout.rings[ri];
-    if (t.kind != RingKind::star || t.chain != kTorsoChainIndex) continue;
+    if (t.kind != RingKind::star || t.chain != kTorsoChain) continue;
     size_t n = 0;
     for (uint32_t slot : lf.slots) n += std::find(t.slots.begin(), t.slots.end(), slot) != t.slots.end() ? 1 : 0;
     if (n > most) most = n, loop_ring = static_cast<int>(ri);
@@ -60,7 +60,7 @@ LoopFollow measure_loop_follow(const ContourLayout::Data& layout, std::span<cons
   Plane cap{};
   if (lf.cap_ring >= 0) {
     const Ring& src = layout.rings[static_cast<size_t>(lf.cap_ring)];
-    cap = ring_plane(chains[kTorsoChainIndex], src.segment, src.u);
+    cap = ring_plane(chains[kTorsoChain], src.segment, src.u);
     lf.cap_side = glm::dot(centre_world - cap.origin, cap.normal) < 0.0f ? 1.0f : -1.0f;
   }
   for (uint32_t slot : lf.slots) {

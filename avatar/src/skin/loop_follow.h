@@ -11,9 +11,6 @@
 
 namespace mimic::avatar::skin_detail {
 
-// The torso's chain: contour_layout.cpp builds it first.
-inline constexpr int kTorsoChainIndex = 0;
-
 // Per limb root (by the joint's name): how much of the swing the loop follows, and how much the
 // shoulder's band twists. Measured over the shared clips' frames (mimic intersect, every 80th
 // frame, LOD 0, realtime): the shoulders' bands twisting with the arm (power 2, most of the turn

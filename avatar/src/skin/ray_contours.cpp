@@ -129,10 +129,16 @@ void RingCaster::driven_targets(const ContourLayout::Data& layout, std::span<con
   const Ring& s = layout.rings[r.s_ring];
   const size_t m = r.slots.size();
   float phi_rad = 0.0f;
-  glm::vec3 origin(0.0f), axis(0.0f, 0.0f, 1.0f);
-  if (static_cast<size_t>(r.s_ring) < band_twist_power.size() && band_twist_power[r.s_ring] > 0.0f)
-    phi_rad = twist_in_band(band_twist_rad(layout, chains, r, origin, axis) - band_twist_rest_rad[r.s_ring]) *
-              band_follow_fade(chain_swing_rad[s.chain]);
+  if (static_cast<size_t>(r.s_ring) < band_twist_power.size() && band_twist_power[r.s_ring] > 0.0f) {
+    if (twist_s_ring != r.s_ring) {
+      twist_phi_rad =
+          twist_in_band(band_twist_rad(layout, chains, r, twist_origin, twist_axis) - band_twist_rest_rad[r.s_ring]) *
+          band_follow_fade(chain_swing_rad[s.chain]);
+      twist_s_ring = r.s_ring;
+    }
+    phi_rad = twist_phi_rad;
+  }
+  const glm::vec3 origin = twist_origin, axis = twist_axis;
   if (phi_rad == 0.0f) {
     for (size_t j = 0; j < m; ++j)
       driven_p[r.slots[j]] = ctrl[s.slots[j]] + r.alpha * (ctrl[r.goal[j]] - ctrl[s.slots[j]]);

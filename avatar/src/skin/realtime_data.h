@@ -17,7 +17,7 @@ namespace mimic::avatar {
 
 namespace realtime_detail {
 
-inline constexpr int kTorsoChain = 0;  // contour_layout.cpp builds the torso chain first
+using skin_detail::kTorsoChain;
 
 // The frame a ring's points are measured in this frame: the ring plane's orthonormal axes
 // (front, left, normal) and, for star rings, the link the ring cuts.

@@ -44,9 +44,19 @@ struct RingCaster {
   // zero-posture direction this frame (set by the skin). Empty (no twist) until
   // remember_rest_columns: the layout's build casts the zero posture without.
   std::vector<float> band_twist_power, band_twist_rest_rad, chain_swing_rad;
+  // This frame's twist of the band whose driven rings are being cast (they come one after
+  // another and share it; −1: none yet this frame, see new_frame).
+  int twist_s_ring = -1;
+  float twist_phi_rad = 0;
+  glm::vec3 twist_origin{0.0f}, twist_axis{0.0f, 0.0f, 1.0f};
 
   // Control points for `control_points` slots, per-ring scratch for rings of `widest` points.
   void size_for(size_t control_points, size_t widest);
+  // Before a frame's rings: its statistics and the per-band twist start afresh.
+  void new_frame() {
+    stats = {};
+    twist_s_ring = -1;
+  }
   void compute_ring(const ContourLayout::Data& layout, const BodyField& field, std::span<const Chain> chains,
                     const Ring& r);
   // Takes the columns of the last frame (the zero posture) as the rest the driven rays' search

@@ -189,8 +189,16 @@ Status Connection::open(const NatsOptions& options) {
   if (s == NATS_OK && !options.token.empty()) s = natsOptions_SetToken(o, options.token.c_str());
   if (s == NATS_OK && !options.user.empty())
     s = natsOptions_SetUserInfo(o, options.user.c_str(), options.password.c_str());
-  delete anchor_;  // a connection closed before: its client is destroyed, its callbacks done
-  anchor_ = new Anchor{.owner = this};
+  // A connection opened before is closed first: its client destroyed, its anchor either freed
+  // here (its closed callback came) or handed to that callback.
+  close();
+  delete anchor_;
+  {
+    std::lock_guard lock(closed_mutex_);
+    closed_ = false;
+  }
+  anchor_ = new Anchor;
+  anchor_->owner = this;
   if (s == NATS_OK) s = natsOptions_SetDisconnectedCB(o, disconnected_cb, anchor_);
   if (s == NATS_OK) s = natsOptions_SetReconnectedCB(o, reconnected_cb, anchor_);
   if (s == NATS_OK) s = natsOptions_SetErrorHandler(o, error_cb, anchor_);
