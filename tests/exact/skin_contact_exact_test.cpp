@@ -40,10 +40,11 @@ TEST(SkinContactExact, TheArmsPressedAgainstTheBodyStayNearlyOutsideIt) {
               off.between_pairs, on.between_pairs, 1000 * off.deepest_envelope_m, off.deepest_envelope_part.c_str(),
               off.deepest_envelope_inside.c_str(), 1000 * on.deepest_envelope_m, on.deepest_envelope_part.c_str(),
               on.deepest_envelope_inside.c_str());
-  // 549 -> 511 pairs, 31.3 -> 28.1 mm (a forearm in the hips, past the depths contact pushes).
+  // 543 -> 434 pairs (511 before the arms' bands gave way too), 31.3 -> 28.1 mm (a forearm in
+  // the hips, past the depths contact pushes).
   EXPECT_GT(off.deepest_envelope_m, 0.008);
   EXPECT_LT(on.deepest_envelope_m, off.deepest_envelope_m);
-  EXPECT_LT(on.between_pairs, 0.96 * double(off.between_pairs));
+  EXPECT_LT(on.between_pairs, 0.85 * double(off.between_pairs));
 }
 
 TEST(SkinContactExact, SampledClipFramesCrossLessAndLessDeep) {
@@ -67,13 +68,55 @@ TEST(SkinContactExact, SampledClipFramesCrossLessAndLessDeep) {
         lod, on.frames, off.pairs / off.frames, on.pairs / on.frames, off.depth_mm / off.frames,
         on.depth_mm / on.frames, off.worst_mm, on.worst_mm, off.folds / off.frames, on.folds / on.frames);
     EXPECT_GT(on.frames, 50);
-    // 129.8 -> 111.5 pairs and 13.9 -> 12.7 mm a frame at LOD 0, 12.7 -> 11.7 and 3.8 -> 3.6 mm at
-    // LOD 3; folds 31.3 -> 31.5 and 4.4 -> 4.3.
-    EXPECT_LT(on.pairs, (lod == 0 ? 0.9 : 0.95) * off.pairs) << "LOD " << lod;
-    EXPECT_LT(on.depth_mm, (lod == 0 ? 0.95 : 0.98) * off.depth_mm) << "LOD " << lod;
+    // 126.4 -> 85.4 pairs and 12.4 -> 10.4 mm a frame at LOD 0, 9.6 -> 8.0 and 3.5 -> 3.3 mm at
+    // LOD 3 (before the arms' bands gave way too: 129.8 -> 111.5, 13.9 -> 12.7 mm at LOD 0);
+    // folds 13.7 -> 13.6 and 0.6 -> 0.6.
+    EXPECT_LT(on.pairs, (lod == 0 ? 0.75 : 0.9) * off.pairs) << "LOD " << lod;
+    EXPECT_LT(on.depth_mm, (lod == 0 ? 0.9 : 0.96) * off.depth_mm) << "LOD " << lod;
     EXPECT_LE(on.worst_mm, off.worst_mm) << "LOD " << lod;
-    EXPECT_LT(on.folds, off.folds + on.frames) << "LOD " << lod;
+    EXPECT_LE(on.folds, off.folds + 0.1 * on.frames) << "LOD " << lod;
   }
+}
+
+// Under the armpits the arm's band (between the torso's loop and the arm's first ring) is pushed
+// out of the chest too, and its moves are smoothed across the band: the arms' skin crosses the
+// chest's far less on the clips, and the upper arms fold no more than without contact (pushed
+// alone, neighbouring columns crossed: twice the folds).
+TEST(SkinContactExact, TheArmsBandsGiveWayUnderTheArmpitsWithoutFolding) {
+  const auto body = body_at(0);
+  ASSERT_TRUE(body);
+  auto checker = SelfIntersectionChecker::create(body->rest_mesh());
+  ASSERT_TRUE(checker) << checker.error().what();
+  RealtimeSkin skin(body);
+  std::vector<glm::vec3> pos(body->vertex_count());
+  const auto is_arm = [](const std::string& part) { return part.find("upper_arm") != std::string::npos; };
+  struct Count {
+    double chest = 0, arm_folds = 0;
+  } off, on;
+  const auto add = [&](Count& c, const IntersectionReport& r) {
+    for (const PartPairCount& p : r.by_parts) {
+      if (p.a == p.b && is_arm(p.a)) c.arm_folds += double(p.pairs);
+      if (p.a != p.b && ((p.a == "upper_torso" && is_arm(p.b)) || (p.b == "upper_torso" && is_arm(p.a))))
+        c.chest += double(p.pairs);
+    }
+  };
+  double frames = 0;
+  ::mimic::test::for_each_shared_clip_pose(body->skeleton(), 160, [&](const rig::Pose& pose) {
+    skin.evaluate(pose, pos, {}, true, false);
+    add(off, checker->check(pos));
+    skin.evaluate(pose, pos, {}, true, true);
+    add(on, checker->check(pos));
+    ++frames;
+  });
+  std::printf(
+      "%.0f clip frames, LOD 0: upper arms through the upper torso %.1f -> %.1f pairs a frame, "
+      "upper arms folding %.1f -> %.1f\n",
+      frames, off.chest / frames, on.chest / frames, off.arm_folds / frames, on.arm_folds / frames);
+  EXPECT_GT(frames, 50);
+  // 49.7 -> 17.4 pairs, folds 6.2 -> 5.9 (the bands pushed without the smoothing, every 20th
+  // frame: 21.9 folds a frame in the upper arms against 8.2).
+  EXPECT_LT(on.chest, 0.5 * off.chest);
+  EXPECT_LE(on.arm_folds, off.arm_folds + 0.1 * frames);
 }
 
 }  // namespace

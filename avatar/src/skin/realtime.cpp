@@ -205,13 +205,28 @@ Result<std::shared_ptr<const RealtimeBody>> RealtimeBody::create(const BodyModel
   if (options.contact) {
     std::vector<rig::RigidTransform> w(static_cast<size_t>(skeleton.joint_count()));
     rig::forward_kinematics(skeleton, base, w);
-    // The boundary-driven bands keep to their blend: pushed too, the squeezed band under the
-    // armpit folded (10 more folds a frame on the clips for 11% fewer pairs between pieces).
-    std::vector<uint8_t> junction(d->rest_mesh.positions.size(), 0);
-    for (const Data::RingOp& r : d->rings)
-      if (r.kind == RingKind::driven)
-        for (uint32_t k = 0; k < r.count; ++k) junction[r.first + k] = 1;
-    d->contact = build_contact(model, skeleton, d->rest_mesh, w, junction);
+    // The boundary-driven bands' vertices, each with its neighbours along its ring and along
+    // its column (towards the loop, towards S): the grid the contact's relaxation runs on.
+    std::vector<BandNeighbours> band(d->rest_mesh.positions.size(), kNoBandNeighbours);
+    std::vector<int32_t> band_follow(d->rest_mesh.positions.size(), -1);
+    for (const Data::RingOp& r : d->rings) {
+      if (r.kind != RingKind::driven) continue;
+      const Data::RingOp* loopward = nullptr;  // the next ring of the band towards the loop (larger α)
+      const Data::RingOp* sward = nullptr;     // … towards S
+      for (const Data::RingOp& o : d->rings) {
+        if (o.kind != RingKind::driven || o.s_ring != r.s_ring || &o == &r) continue;
+        if (o.alpha > r.alpha && (!loopward || o.alpha < loopward->alpha)) loopward = &o;
+        if (o.alpha < r.alpha && (!sward || o.alpha > sward->alpha)) sward = &o;
+      }
+      const uint32_t s_first = d->rings[static_cast<size_t>(r.s_ring)].first;
+      for (uint32_t k = 0; k < r.count; ++k) {
+        band[r.first + k] = {r.first + (k + r.count - 1) % r.count, r.first + (k + 1) % r.count,
+                             loopward ? loopward->first + k : d->goals[r.goal_first + k],
+                             sward ? sward->first + k : s_first + k};
+        band_follow[r.first + k] = r.follow;
+      }
+    }
+    d->contact = build_contact(model, skeleton, d->rest_mesh, w, band, band_follow);
   }
   return std::shared_ptr<const RealtimeBody>(new RealtimeBody(std::move(d)));
 }
@@ -308,7 +323,7 @@ void RealtimeSkin::evaluate(const rig::Pose& pose, std::span<glm::vec3> pos, std
   state_->contact.moved = 0;
   if (contact && !d.contact.empty()) {
     const double t1 = steady_now_s();
-    apply_contact(d.contact, state_->contact, state_->world_from_joint, pos);
+    apply_contact(d.contact, state_->contact, state_->world_from_joint, state_->follow_fade, pos);
     state_->timings.contact_us = (steady_now_s() - t1) * 1e6;
   } else {
     state_->timings.contact_us = 0;

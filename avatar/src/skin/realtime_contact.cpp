@@ -22,15 +22,18 @@ constexpr GroupMask bits(std::initializer_list<Group> gs) {
 // A skin piece's volume: the metaballs of its groups (`field`), less those in the `own` groups
 // of the piece pushed out of it: a primitive the two share (the hip's for a thigh, an arm's
 // shoulder primitives that are in its group) is where they join, not a side to push against.
+// `band`: the piece's boundary-driven band is pushed too (the arms: their bands under the
+// armpits pass into the chest; the thighs' bands, pushed, crossed the belly no less).
 struct Piece {
   std::string_view name;
   GroupMask field, own;
+  bool band = false;
 };
 using G = Group;
 const Piece kPieces[] = {
     {"torso", bits({G::upper_torso, G::lower_torso, G::hip}), bits({G::upper_torso, G::lower_torso, G::hip})},
-    {"left_upper_arm", bits({G::left_upper_arm}), bits({G::left_upper_arm})},
-    {"right_upper_arm", bits({G::right_upper_arm}), bits({G::right_upper_arm})},
+    {"left_upper_arm", bits({G::left_upper_arm}), bits({G::left_upper_arm}), true},
+    {"right_upper_arm", bits({G::right_upper_arm}), bits({G::right_upper_arm}), true},
     {"left_lower_arm", bits({G::left_lower_arm}), bits({G::left_lower_arm})},
     {"right_lower_arm", bits({G::right_lower_arm}), bits({G::right_lower_arm})},
     {"left_upper_leg", bits({G::left_upper_leg}), bits({G::left_upper_leg, G::hip})},
@@ -65,6 +68,11 @@ constexpr float kMaxPush_m = 0.06f;
 // pushing it that far folds the piece and crosses its contours.
 constexpr float kFullPush_m = 0.015f, kNoPush_m = 0.03f;
 constexpr int kNewtonSteps = 3;
+// A band's vertex takes one: the smoothing after the pushes (relax_band) evens out what one
+// step leaves (every 20th frame of the clips at LOD 0: 14.6 folds and 75.0 pairs between pieces a
+// frame against 16.0 and 76.7 with three, at a third of the field evaluations).
+constexpr int kBandNewtonSteps = 1;
+constexpr uint32_t kCullBlock = 8;
 
 struct FieldAt {
   float value = 0;
@@ -102,6 +110,7 @@ uint32_t fill_lanes(const ContactTables& t, ContactState& st, uint32_t n) {
       for (int r = 0; r < 3; ++r) rows[(3 + 3 * r + c) * w + k] = m[c][r];  // row r of the matrix
     rows[12 * w + k] = t.balls[i].inv_r2;
     rows[13 * w + k] = t.balls[i].weight_norm;
+    rows[14 * w + k] = t.balls[i].inv_min_axis;
   }
   return padded;
 }
@@ -128,8 +137,66 @@ float field_value_lanes(const ContactState& st, uint32_t padded, const glm::vec3
   const __m128 h2 = _mm_add_ps(h, _mm_movehl_ps(h, h));
   return _mm_cvtss_f32(_mm_add_ss(h2, _mm_shuffle_ps(h2, h2, 1)));
 }
+
+// The most the field can be anywhere within `radius` of `centre`: each ball's term at the
+// nearest a point there can be to its centre in the ball's unit space (a metre moves a point at
+// most inv_min_axis there), eight balls a step.
+float field_bound_lanes(const ContactState& st, uint32_t padded, const glm::vec3& centre, float radius) {
+  const float* rows = st.lanes.data();
+  const size_t w = st.lane_stride;
+  const __m256 px = _mm256_set1_ps(centre.x), py = _mm256_set1_ps(centre.y), pz = _mm256_set1_ps(centre.z);
+  const __m256 r = _mm256_set1_ps(radius);
+  const __m256 one = _mm256_set1_ps(1.0f), zero = _mm256_setzero_ps();
+  __m256 sum = zero;
+  for (uint32_t k = 0; k < padded; k += 8) {
+    auto row = [&](int i) { return _mm256_loadu_ps(rows + i * w + k); };
+    const __m256 dx = _mm256_sub_ps(px, row(0)), dy = _mm256_sub_ps(py, row(1)), dz = _mm256_sub_ps(pz, row(2));
+    const __m256 qx = _mm256_fmadd_ps(row(5), dz, _mm256_fmadd_ps(row(4), dy, _mm256_mul_ps(row(3), dx)));
+    const __m256 qy = _mm256_fmadd_ps(row(8), dz, _mm256_fmadd_ps(row(7), dy, _mm256_mul_ps(row(6), dx)));
+    const __m256 qz = _mm256_fmadd_ps(row(11), dz, _mm256_fmadd_ps(row(10), dy, _mm256_mul_ps(row(9), dx)));
+    const __m256 q = _mm256_sqrt_ps(_mm256_fmadd_ps(qz, qz, _mm256_fmadd_ps(qy, qy, _mm256_mul_ps(qx, qx))));
+    const __m256 d = _mm256_max_ps(_mm256_fnmadd_ps(r, row(14), q), zero);
+    const __m256 u = _mm256_max_ps(_mm256_fnmadd_ps(_mm256_mul_ps(d, d), row(12), one), zero);
+    sum = _mm256_fmadd_ps(_mm256_mul_ps(_mm256_mul_ps(u, u), u), row(13), sum);
+  }
+  const __m128 h = _mm_add_ps(_mm256_castps256_ps128(sum), _mm256_extractf128_ps(sum, 1));
+  const __m128 h2 = _mm_add_ps(h, _mm_movehl_ps(h, h));
+  return _mm_cvtss_f32(_mm_add_ss(h2, _mm_shuffle_ps(h2, h2, 1)));
+}
+
+// field_at over the lanes: the value and its gradient, eight balls a step.
+FieldAt field_at_lanes(const ContactState& st, uint32_t padded, const glm::vec3& p) {
+  const float* rows = st.lanes.data();
+  const size_t w = st.lane_stride;
+  const __m256 px = _mm256_set1_ps(p.x), py = _mm256_set1_ps(p.y), pz = _mm256_set1_ps(p.z);
+  const __m256 one = _mm256_set1_ps(1.0f), zero = _mm256_setzero_ps(), six = _mm256_set1_ps(6.0f);
+  __m256 sum = zero, gx = zero, gy = zero, gz = zero;
+  for (uint32_t k = 0; k < padded; k += 8) {
+    auto row = [&](int r) { return _mm256_loadu_ps(rows + r * w + k); };
+    const __m256 dx = _mm256_sub_ps(px, row(0)), dy = _mm256_sub_ps(py, row(1)), dz = _mm256_sub_ps(pz, row(2));
+    const __m256 qx = _mm256_fmadd_ps(row(5), dz, _mm256_fmadd_ps(row(4), dy, _mm256_mul_ps(row(3), dx)));
+    const __m256 qy = _mm256_fmadd_ps(row(8), dz, _mm256_fmadd_ps(row(7), dy, _mm256_mul_ps(row(6), dx)));
+    const __m256 qz = _mm256_fmadd_ps(row(11), dz, _mm256_fmadd_ps(row(10), dy, _mm256_mul_ps(row(9), dx)));
+    const __m256 s = _mm256_fmadd_ps(qz, qz, _mm256_fmadd_ps(qy, qy, _mm256_mul_ps(qx, qx)));
+    const __m256 u = _mm256_max_ps(_mm256_fnmadd_ps(s, row(12), one), zero);
+    const __m256 wu2 = _mm256_mul_ps(row(13), _mm256_mul_ps(u, u));
+    sum = _mm256_fmadd_ps(wu2, u, sum);
+    // d/dp of w·u³ = −6 w u² / R² · Mᵀ q (zero where u is: outside the ball)
+    const __m256 c = _mm256_mul_ps(_mm256_mul_ps(six, wu2), row(12));
+    gx = _mm256_fnmadd_ps(c, _mm256_fmadd_ps(row(9), qz, _mm256_fmadd_ps(row(6), qy, _mm256_mul_ps(row(3), qx))), gx);
+    gy = _mm256_fnmadd_ps(c, _mm256_fmadd_ps(row(10), qz, _mm256_fmadd_ps(row(7), qy, _mm256_mul_ps(row(4), qx))), gy);
+    gz = _mm256_fnmadd_ps(c, _mm256_fmadd_ps(row(11), qz, _mm256_fmadd_ps(row(8), qy, _mm256_mul_ps(row(5), qx))), gz);
+  }
+  const auto hsum = [](__m256 v) {
+    const __m128 h = _mm_add_ps(_mm256_castps256_ps128(v), _mm256_extractf128_ps(v, 1));
+    const __m128 h2 = _mm_add_ps(h, _mm_movehl_ps(h, h));
+    return _mm_cvtss_f32(_mm_add_ss(h2, _mm_shuffle_ps(h2, h2, 1)));
+  };
+  return {hsum(sum), glm::vec3(hsum(gx), hsum(gy), hsum(gz))};
+}
 #endif
 
+#ifndef MIMIC_SIMD_AVX2
 FieldAt field_at(const ContactTables& t, std::span<const uint16_t> balls, const ContactState& st, const glm::vec3& p) {
   FieldAt f;
   for (const uint16_t i : balls) {
@@ -143,6 +210,7 @@ FieldAt field_at(const ContactTables& t, std::span<const uint16_t> balls, const 
   }
   return f;
 }
+#endif
 
 ContactTables::Ball ball_of(const Primitive& p, int joint) {
   ContactTables::Ball b;
@@ -160,6 +228,7 @@ ContactTables::Ball ball_of(const Primitive& p, int joint) {
   b.weight_norm = p.weight / (k * k * k);
   b.inv_r2 = 1.0f / r2;
   b.bound_m = p.influence * std::max({s.semi_axes_m.x, s.semi_axes_m.y, s.semi_axes_m.z});
+  b.inv_min_axis = 1.0f / std::min({s.semi_axes_m.x, s.semi_axes_m.y, s.semi_axes_m.z});
   return b;
 }
 
@@ -214,13 +283,14 @@ void build_ring(const Mesh& rest, ContactTables& t) {
 size_t ContactTables::heap_bytes() const {
   return balls.capacity() * sizeof(Ball) + pair_balls.capacity() * 2 + vertices.capacity() * 4 +
          pairs.capacity() * sizeof(Pair) +
-         (ring_first.capacity() + ring.capacity() + slot_of.capacity() + slot_vertex.capacity()) * 4;
+         (ring_first.capacity() + ring.capacity() + slot_of.capacity() + slot_vertex.capacity()) * 4 +
+         slot_band.capacity() * sizeof(BandNeighbours) + slot_band_follow.capacity() * 4;
 }
 
 size_t ContactState::heap_bytes() const {
   return unit_from_world.capacity() * sizeof(glm::mat3) + centre.capacity() * sizeof(glm::vec3) +
          active.capacity() * 2 + lanes.capacity() * 4 + push.capacity() * sizeof(glm::vec3) + mark.capacity() +
-         touched.capacity() * 4;
+         touched.capacity() * 4 + (block_lo.capacity() + block_hi.capacity()) * sizeof(glm::vec3);
 }
 
 void ContactState::resize(const ContactTables& t) {
@@ -233,10 +303,16 @@ void ContactState::resize(const ContactTables& t) {
   mark.assign(t.slot_vertex.size(), 0);
   touched.clear();
   touched.reserve(t.slot_vertex.size());
+  uint32_t blocks = 0;
+  for (const ContactTables::Pair& pr : t.pairs)
+    blocks = std::max(blocks, (pr.vertex_count + kCullBlock - 1) / kCullBlock);
+  block_lo.assign(blocks, glm::vec3(0.0f));
+  block_hi.assign(blocks, glm::vec3(0.0f));
 }
 
 ContactTables build_contact(const BodyModel& model, const rig::Skeleton& skeleton, const Mesh& rest,
-                            std::span<const rig::RigidTransform> world_from_joint, std::span<const uint8_t> junction) {
+                            std::span<const rig::RigidTransform> world_from_joint, std::span<const BandNeighbours> band,
+                            std::span<const int32_t> band_follow) {
   ContactTables t;
   // Every metaball of the pieces, once; a pair lists the ones of its volume (16-bit indices: the
   // body's field, built before these tables, refuses 65,535 primitives or more).
@@ -270,18 +346,69 @@ ContactTables build_contact(const BodyModel& model, const rig::Skeleton& skeleto
     const std::span<const uint16_t> volume(t.pair_balls.data() + pr.ball_first, pr.ball_count);
     pr.vertex_first = static_cast<uint32_t>(t.vertices.size());
     for (size_t v = 0; v < owner.size(); ++v)
-      if (owner[v] == part && !junction[v] && field_value(t, volume, st, rest.positions[v]) < t.iso)
+      if (owner[v] == part && (band[v] == kNoBandNeighbours || pushed->band) &&
+          field_value(t, volume, st, rest.positions[v]) < t.iso)
         t.vertices.push_back(static_cast<uint32_t>(v));
     pr.vertex_count = static_cast<uint32_t>(t.vertices.size()) - pr.vertex_first;
     if (pr.ball_count > 0 && pr.vertex_count > 0) t.pairs.push_back(pr);
   }
   build_ring(rest, t);
+  t.slot_band.assign(t.slot_vertex.size(), kNoBandNeighbours);
+  t.slot_band_follow.assign(t.slot_vertex.size(), -1);
+  for (size_t k = 0; k < t.slot_vertex.size(); ++k)
+    t.slot_band[k] = band[t.slot_vertex[k]], t.slot_band_follow[k] = band_follow[t.slot_vertex[k]];
+
   return t;
 }
 
 namespace {
 
-// The ring around the pushed patches follows part of their push; then the marks are cleared.
+// The contact's moves of the touched band vertices smoothed across the band
+// (ContactTables::slot_band): each move goes towards the mean of its four neighbours' moves
+// (none for a neighbour the contact left alone), within the band's tangent plane, in place.
+// Only the moves are smoothed, not the band: without pushes nothing changes, and a push that
+// grows from nothing smooths from nothing, so the skin moves on continuously with the pose.
+// On entry st.push holds each touched slot's push (a ring slot: the sum of its neighbours');
+// it becomes the move each one made.
+void relax_band(const ContactTables& t, ContactState& st, std::span<glm::vec3> pos) {
+  for (const uint32_t slot : st.touched)
+    if (st.mark[slot] != 1) st.push[slot] *= t.ring_share / static_cast<float>(st.mark[slot] - 2);
+  // Component by component: whole-vector copies of points just written went through the stack
+  // and waited on store forwarding (47 ns an update).
+  const auto add_move = [&](uint32_t v, float* sum) {
+    const int32_t slot = t.slot_of[v];
+    if (slot < 0 || st.mark[static_cast<size_t>(slot)] == 0) return;
+    const float* const m = &st.push[static_cast<size_t>(slot)].x;
+    sum[0] += m[0], sum[1] += m[1], sum[2] += m[2];
+  };
+  const float w = t.band_relax_rate;
+  for (int pass = 0; pass < t.band_relax_iterations; ++pass)
+    for (const uint32_t slot : st.touched) {
+      const BandNeighbours& nb = t.slot_band[slot];
+      if (nb == kNoBandNeighbours) continue;
+      const float* const a = &pos[nb[0]].x;
+      const float* const b = &pos[nb[1]].x;
+      const float* const c = &pos[nb[2]].x;
+      const float* const e = &pos[nb[3]].x;
+      const float ux = b[0] - a[0], uy = b[1] - a[1], uz = b[2] - a[2];
+      const float vx = e[0] - c[0], vy = e[1] - c[1], vz = e[2] - c[2];
+      const float nx = uy * vz - uz * vy, ny = uz * vx - ux * vz, nz = ux * vy - uy * vx;
+      const float n2 = nx * nx + ny * ny + nz * nz;
+      if (!(n2 > 1e-16f)) continue;
+      float mean[3] = {0.0f, 0.0f, 0.0f};
+      for (const uint32_t v : nb) add_move(v, mean);
+      float* const own = &st.push[slot].x;
+      const float mx = 0.25f * mean[0] - own[0], my = 0.25f * mean[1] - own[1], mz = 0.25f * mean[2] - own[2];
+      const float across = (mx * nx + my * ny + mz * nz) / n2;
+      const float dx = w * (mx - across * nx), dy = w * (my - across * ny), dz = w * (mz - across * nz);
+      float* const p = &pos[t.slot_vertex[slot]].x;
+      p[0] += dx, p[1] += dy, p[2] += dz;
+      own[0] += dx, own[1] += dy, own[2] += dz;
+    }
+}
+
+// The ring around the pushed patches follows part of their push, the bands are relaxed; then the
+// marks are cleared.
 void spread_to_ring(const ContactTables& t, ContactState& st, std::span<glm::vec3> pos) {
   const size_t pushed = st.touched.size();
   for (size_t k = 0; k < pushed; ++k) {
@@ -298,6 +425,7 @@ void spread_to_ring(const ContactTables& t, ContactState& st, std::span<glm::vec
     const uint32_t n = st.touched[k];
     pos[t.slot_vertex[n]] += st.push[n] * (t.ring_share / static_cast<float>(st.mark[n] - 2));
   }
+  relax_band(t, st, pos);
   for (uint32_t v : st.touched) st.push[v] = glm::vec3(0.0f), st.mark[v] = 0;
   st.touched.clear();
 }
@@ -305,16 +433,23 @@ void spread_to_ring(const ContactTables& t, ContactState& st, std::span<glm::vec
 }  // namespace
 
 void apply_contact(const ContactTables& t, ContactState& st, std::span<const rig::RigidTransform> world_from_joint,
-                   std::span<glm::vec3> pos) {
+                   std::span<const float> follow_fade, std::span<glm::vec3> pos) {
   pose_balls(t, st, world_from_joint);
   st.moved = 0;
   for (const ContactTables::Pair& pr : t.pairs) {
     // The pushed vertices' bounds this frame, the other volume's balls that reach them, and
     // those balls' bounds: no vertex outside them can be inside the volume.
+    // … gathered by blocks of kCullBlock listed vertices (neighbours on a ring, mostly), whose
+    // own bounds cull them below.
     glm::vec3 vlo(1e30f), vhi(-1e30f);
-    for (uint32_t k = 0; k < pr.vertex_count; ++k) {
-      const glm::vec3& p = pos[t.vertices[pr.vertex_first + k]];
-      vlo = glm::min(vlo, p), vhi = glm::max(vhi, p);
+    for (uint32_t k = 0, b = 0; k < pr.vertex_count; k += kCullBlock, ++b) {
+      glm::vec3 blo(1e30f), bhi(-1e30f);
+      for (uint32_t j = k; j < std::min(pr.vertex_count, k + kCullBlock); ++j) {
+        const glm::vec3& p = pos[t.vertices[pr.vertex_first + j]];
+        blo = glm::min(blo, p), bhi = glm::max(bhi, p);
+      }
+      st.block_lo[b] = blo, st.block_hi[b] = bhi;
+      vlo = glm::min(vlo, blo), vhi = glm::max(vhi, bhi);
     }
     uint32_t n = 0;
     glm::vec3 lo(1e30f), hi(-1e30f);
@@ -336,16 +471,41 @@ void apply_contact(const ContactTables& t, ContactState& st, std::span<const rig
 #endif
     for (uint32_t k = 0; k < pr.vertex_count; ++k) {
       glm::vec3& p = pos[t.vertices[pr.vertex_first + k]];
+      // A block outside the balls' bounds, or where the field cannot reach the level anywhere
+      // in its bounding sphere: none of its vertices is tested alone.
+      if (k % kCullBlock == 0) {
+        const glm::vec3 blo = st.block_lo[k / kCullBlock], bhi = st.block_hi[k / kCullBlock];
+        bool culled = glm::any(glm::lessThan(bhi, lo)) || glm::any(glm::greaterThan(blo, hi));
+#ifdef MIMIC_SIMD_AVX2
+        culled = culled || field_bound_lanes(st, padded, 0.5f * (blo + bhi), 0.5f * glm::distance(blo, bhi)) <= t.iso;
+#endif
+        if (culled) {
+          k = std::min(pr.vertex_count, k + kCullBlock) - 1;
+          continue;
+        }
+      }
       if (p.x < lo.x || p.y < lo.y || p.z < lo.z || p.x > hi.x || p.y > hi.y || p.z > hi.z) continue;
 #ifdef MIMIC_SIMD_AVX2
       if (field_value_lanes(st, padded, p) <= t.iso) continue;
 #else
       if (field_value(t, balls, st, p) <= t.iso) continue;
 #endif
-      FieldAt f = field_at(t, balls, st, p);
+#ifdef MIMIC_SIMD_AVX2
+      const auto field = [&](const glm::vec3& x) { return field_at_lanes(st, padded, x); };
+#else
+      const auto field = [&](const glm::vec3& x) { return field_at(t, balls, st, x); };
+#endif
+      const uint32_t slot = static_cast<uint32_t>(t.slot_of[t.vertices[pr.vertex_first + k]]);
+      const int32_t follow = t.slot_band_follow[slot];
+      const float fade = follow >= 0 && static_cast<size_t>(follow) < follow_fade.size()
+                             ? follow_fade[static_cast<size_t>(follow)]
+                             : 1.0f;
+      if (!(fade > 0.0f)) continue;
+      FieldAt f = field(p);
       const glm::vec3 start = p;
       glm::vec3 q = p;
-      for (int step = 0; step < kNewtonSteps && f.value > t.iso; ++step) {
+      const int steps = t.slot_band[slot] != kNoBandNeighbours ? kBandNewtonSteps : kNewtonSteps;
+      for (int step = 0; step < steps && f.value > t.iso; ++step) {
         const float g2 = glm::dot(f.gradient, f.gradient);
         if (!(g2 > 1e-12f)) break;
         glm::vec3 next = q - ((f.value - t.iso) / g2) * f.gradient;
@@ -353,17 +513,17 @@ void apply_contact(const ContactTables& t, ContactState& st, std::span<const rig
         const float moved_m = glm::length(moved);
         if (moved_m > kMaxPush_m) next = start + moved * (kMaxPush_m / moved_m);
         q = next;
-        f = field_at(t, balls, st, q);
+        if (step + 1 < steps) f = field(q);  // the last step's field is not needed
       }
       const float push_m = glm::length(q - start);
       if (push_m >= kNoPush_m) continue;
       if (push_m > kFullPush_m) q = start + (q - start) * ((kNoPush_m - push_m) / (kNoPush_m - kFullPush_m));
+      q = start + fade * (q - start);
       p = q;
       ++st.moved;
-      const auto v = static_cast<uint32_t>(t.slot_of[t.vertices[pr.vertex_first + k]]);
-      if (st.mark[v] == 0) st.touched.push_back(v);  // within capacity: each slot once
-      st.mark[v] = 1;
-      st.push[v] += q - start;
+      if (st.mark[slot] == 0) st.touched.push_back(slot);  // within capacity: each slot once
+      st.mark[slot] = 1;
+      st.push[slot] += q - start;
     }
   }
   spread_to_ring(t, st, pos);

@@ -5,6 +5,7 @@
 // once per body, and a frame neither allocates nor throws. Not a public header.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <span>
 #include <vector>
@@ -18,6 +19,11 @@
 
 namespace mimic::avatar::realtime_detail {
 
+// A boundary-driven band's vertex: its neighbours along its ring (before, after) and along its
+// column (towards the loop, towards S), mesh vertices.
+using BandNeighbours = std::array<uint32_t, 4>;
+inline constexpr BandNeighbours kNoBandNeighbours{~0u, ~0u, ~0u, ~0u};
+
 struct ContactTables {
   // A metaball of some piece's volume, in its joint's frame (its relaxed state G0).
   struct Ball {
@@ -25,6 +31,7 @@ struct ContactTables {
     glm::mat3 unit_from_joint{1.0f};  // S⁻¹ · Rᵀ
     glm::vec3 centre_joint{0.0f};
     float weight_norm = 0, inv_r2 = 0, bound_m = 0;  // w / (1 − 1/R²)³, 1/R², R · largest semi-axis
+    float inv_min_axis = 0;  // 1 / smallest semi-axis: how far a metre moves a point in the unit ball
   };
   // One piece (`pushed`) pressed against another's volume: the pushed piece's vertices that can
   // reach it and the other piece's balls that make the volume.
@@ -49,6 +56,15 @@ struct ContactTables {
   // pushed neighbours' mean push, so the patch's edge does not fold against the skin beside it.
   std::vector<uint32_t> ring_first, ring;
   float ring_share = 0.5f;
+  // Per slot: a band vertex's neighbours (kNoBandNeighbours for any other). The pushes move the
+  // vertices of an arm's squeezed armpit side by different amounts along the torso's gradient,
+  // and neighbouring columns crossed (twice the folds); the touched band vertices' moves are then
+  // smoothed across the band, in its tangent plane (what a push gained across the surface
+  // stays), `band_relax_iterations` passes over-relaxed by `band_relax_rate` (relax_band).
+  std::vector<BandNeighbours> slot_band;
+  std::vector<int32_t> slot_band_follow;  // per slot: a band vertex's loop follow, or −1
+  int band_relax_iterations = 2;
+  float band_relax_rate = 1.5f;
 
   bool empty() const { return pairs.empty(); }
   size_t heap_bytes() const;
@@ -61,8 +77,9 @@ struct ContactState {
   // The other volume's balls that reach the pushed vertices' bounds this frame (capacity: all).
   std::vector<uint16_t> active;
   // The same balls as eight-lane rows (centre x, y, z, unit_from_world's nine entries, 1/R²,
-  // weight), padded with weightless balls: kLaneRows rows of `lane_stride` floats.
-  static constexpr int kLaneRows = 14;
+  // weight, 1 / smallest semi-axis), padded with weightless balls: kLaneRows rows of
+  // `lane_stride` floats.
+  static constexpr int kLaneRows = 15;
   std::vector<float> lanes;
   size_t lane_stride = 0;
   uint32_t moved = 0;  // vertices pushed in the last frame
@@ -70,7 +87,8 @@ struct ContactState {
   // (the ring), and 0 untouched, 1 pushed, 2 + n on the ring with n pushed neighbours.
   std::vector<glm::vec3> push;
   std::vector<uint8_t> mark;
-  std::vector<uint32_t> touched;  // the slots marked this frame (capacity: every slot)
+  std::vector<uint32_t> touched;              // the slots marked this frame (capacity: every slot)
+  std::vector<glm::vec3> block_lo, block_hi;  // a pair's listed vertices' bounds, by blocks
   void resize(const ContactTables& t);
   size_t heap_bytes() const;
 };
@@ -78,14 +96,18 @@ struct ContactState {
 // The tables for a body whose rest mesh (the initial pose, `world_from_joint`) is `rest`.
 // Vertices already inside the other volume in the initial pose are where the pieces join by
 // design and are left out, so the initial pose is kept vertex for vertex.
-// `junction`: per vertex, true where a piece blends into the torso (the boundary-driven bands),
-// which keep to their own blend and are never pushed.
+// `band`: per vertex, its neighbours where a piece blends into the torso (the boundary-driven
+// bands), else kNoBandNeighbours, and `band_follow` the band's loop follow (−1: none). The arms'
+// bands are pushed and their moves smoothed across the band; the thighs' keep to their own blend.
 ContactTables build_contact(const BodyModel& model, const rig::Skeleton& skeleton, const Mesh& rest,
-                            std::span<const rig::RigidTransform> world_from_joint, std::span<const uint8_t> junction);
+                            std::span<const rig::RigidTransform> world_from_joint, std::span<const BandNeighbours> band,
+                            std::span<const int32_t> band_follow);
 
-// Pushes the vertices of each pair that lie inside the other volume onto its surface. Never
-// allocates.
+// Pushes the vertices of each pair that lie inside the other volume onto its surface. A band's
+// pushes are scaled by its follow's fade this frame (`follow_fade`, per loop follow: 1 up to
+// 95° of the limb's swing, none past 120°): swung that far the arm passes through the chest by
+// design, and pushing its band there only folded it. Never allocates.
 void apply_contact(const ContactTables& t, ContactState& st, std::span<const rig::RigidTransform> world_from_joint,
-                   std::span<glm::vec3> pos);
+                   std::span<const float> follow_fade, std::span<glm::vec3> pos);
 
 }  // namespace mimic::avatar::realtime_detail
