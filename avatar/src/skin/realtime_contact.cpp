@@ -290,7 +290,8 @@ size_t ContactTables::heap_bytes() const {
 size_t ContactState::heap_bytes() const {
   return unit_from_world.capacity() * sizeof(glm::mat3) + centre.capacity() * sizeof(glm::vec3) +
          active.capacity() * 2 + lanes.capacity() * 4 + push.capacity() * sizeof(glm::vec3) + mark.capacity() +
-         touched.capacity() * 4 + (block_lo.capacity() + block_hi.capacity()) * sizeof(glm::vec3);
+         (touched.capacity() + band_touched.capacity()) * 4 +
+         (block_lo.capacity() + block_hi.capacity()) * sizeof(glm::vec3);
 }
 
 void ContactState::resize(const ContactTables& t) {
@@ -306,6 +307,9 @@ void ContactState::resize(const ContactTables& t) {
   uint32_t blocks = 0;
   for (const ContactTables::Pair& pr : t.pairs)
     blocks = std::max(blocks, (pr.vertex_count + kCullBlock - 1) / kCullBlock);
+  band_touched.clear();
+  band_touched.reserve(static_cast<size_t>(std::count_if(
+      t.slot_band.begin(), t.slot_band.end(), [](const BandNeighbours& b) { return b != kNoBandNeighbours; })));
   block_lo.assign(blocks, glm::vec3(0.0f));
   block_hi.assign(blocks, glm::vec3(0.0f));
 }
@@ -371,8 +375,11 @@ namespace {
 // On entry st.push holds each touched slot's push (a ring slot: the sum of its neighbours');
 // it becomes the move each one made.
 void relax_band(const ContactTables& t, ContactState& st, std::span<glm::vec3> pos) {
-  for (const uint32_t slot : st.touched)
+  st.band_touched.clear();
+  for (const uint32_t slot : st.touched) {
     if (st.mark[slot] != 1) st.push[slot] *= t.ring_share / static_cast<float>(st.mark[slot] - 2);
+    if (t.slot_band[slot] != kNoBandNeighbours) st.band_touched.push_back(slot);  // within capacity
+  }
   // Component by component: whole-vector copies of points just written went through the stack
   // and waited on store forwarding (47 ns an update).
   const auto add_move = [&](uint32_t v, float* sum) {
@@ -383,9 +390,8 @@ void relax_band(const ContactTables& t, ContactState& st, std::span<glm::vec3> p
   };
   const float w = t.band_relax_rate;
   for (int pass = 0; pass < t.band_relax_iterations; ++pass)
-    for (const uint32_t slot : st.touched) {
+    for (const uint32_t slot : st.band_touched) {
       const BandNeighbours& nb = t.slot_band[slot];
-      if (nb == kNoBandNeighbours) continue;
       const float* const a = &pos[nb[0]].x;
       const float* const b = &pos[nb[1]].x;
       const float* const c = &pos[nb[2]].x;

@@ -89,6 +89,7 @@ struct ContactState {
   std::vector<uint8_t> mark;
   std::vector<uint32_t> touched;              // the slots marked this frame (capacity: every slot)
   std::vector<glm::vec3> block_lo, block_hi;  // a pair's listed vertices' bounds, by blocks
+  std::vector<uint32_t> band_touched;         // the touched band slots (capacity: every band slot)
   void resize(const ContactTables& t);
   size_t heap_bytes() const;
 };
