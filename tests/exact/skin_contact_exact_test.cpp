@@ -24,18 +24,30 @@ struct Crossing {
   }
 };
 
+// A body at one LOD, its exact checker, a skin and its positions.
+struct Checked {
+  std::shared_ptr<const RealtimeBody> body;
+  Result<SelfIntersectionChecker> checker;
+  RealtimeSkin skin;
+  std::vector<glm::vec3> pos;
+  explicit Checked(int lod)
+      : body(body_at(lod)),
+        checker(SelfIntersectionChecker::create(body->rest_mesh())),
+        skin(body),
+        pos(body->vertex_count()) {}
+  // The report of `pose` with and without contact.
+  IntersectionReport check(const rig::Pose& pose, bool contact) {
+    skin.evaluate(pose, pos, {}, true, contact);
+    return checker->check(pos);
+  }
+};
+
 TEST(SkinContactExact, TheArmsPressedAgainstTheBodyStayNearlyOutsideIt) {
-  const auto body = body_at(0);
-  ASSERT_TRUE(body);
-  auto checker = SelfIntersectionChecker::create(body->rest_mesh());
-  ASSERT_TRUE(checker) << checker.error().what();
-  RealtimeSkin skin(body);
-  std::vector<glm::vec3> pos(body->vertex_count());
-  const rig::Pose pose = standing_posture(body->skeleton());
-  skin.evaluate(pose, pos, {}, true, false);
-  const IntersectionReport off = checker->check(pos);
-  skin.evaluate(pose, pos, {}, true, true);
-  const IntersectionReport on = checker->check(pos);
+  Checked at(0);
+  ASSERT_TRUE(at.checker) << at.checker.error().what();
+  const rig::Pose pose = standing_posture(at.body->skeleton());
+  const IntersectionReport off = at.check(pose, false);
+  const IntersectionReport on = at.check(pose, true);
   std::printf("arms pressed: between pieces %zu -> %zu pairs, %.1f mm (%s in %s) -> %.1f mm (%s in %s)\n",
               off.between_pairs, on.between_pairs, 1000 * off.deepest_envelope_m, off.deepest_envelope_part.c_str(),
               off.deepest_envelope_inside.c_str(), 1000 * on.deepest_envelope_m, on.deepest_envelope_part.c_str(),
@@ -49,18 +61,12 @@ TEST(SkinContactExact, TheArmsPressedAgainstTheBodyStayNearlyOutsideIt) {
 
 TEST(SkinContactExact, SampledClipFramesCrossLessAndLessDeep) {
   for (int lod : {0, 3}) {
-    const auto body = body_at(lod);
-    ASSERT_TRUE(body);
-    auto checker = SelfIntersectionChecker::create(body->rest_mesh());
-    ASSERT_TRUE(checker) << checker.error().what();
-    RealtimeSkin skin(body);
-    std::vector<glm::vec3> pos(body->vertex_count());
+    Checked at(lod);
+    ASSERT_TRUE(at.checker) << at.checker.error().what();
     Crossing off, on;
-    ::mimic::test::for_each_shared_clip_pose(body->skeleton(), 160, [&](const rig::Pose& pose) {
-      skin.evaluate(pose, pos, {}, true, false);
-      off.add(checker->check(pos));
-      skin.evaluate(pose, pos, {}, true, true);
-      on.add(checker->check(pos));
+    ::mimic::test::for_each_shared_clip_pose(at.body->skeleton(), 160, [&](const rig::Pose& pose) {
+      off.add(at.check(pose, false));
+      on.add(at.check(pose, true));
     });
     std::printf(
         "LOD %d, %.0f clip frames: between pieces %.1f -> %.1f pairs a frame, skin in skin %.2f -> %.2f mm "
@@ -83,12 +89,8 @@ TEST(SkinContactExact, SampledClipFramesCrossLessAndLessDeep) {
 // chest's far less on the clips, and the upper arms fold no more than without contact (pushed
 // alone, neighbouring columns crossed: twice the folds).
 TEST(SkinContactExact, TheArmsBandsGiveWayUnderTheArmpitsWithoutFolding) {
-  const auto body = body_at(0);
-  ASSERT_TRUE(body);
-  auto checker = SelfIntersectionChecker::create(body->rest_mesh());
-  ASSERT_TRUE(checker) << checker.error().what();
-  RealtimeSkin skin(body);
-  std::vector<glm::vec3> pos(body->vertex_count());
+  Checked at(0);
+  ASSERT_TRUE(at.checker) << at.checker.error().what();
   const auto is_arm = [](const std::string& part) { return part.find("upper_arm") != std::string::npos; };
   struct Count {
     double chest = 0, arm_folds = 0;
@@ -101,11 +103,9 @@ TEST(SkinContactExact, TheArmsBandsGiveWayUnderTheArmpitsWithoutFolding) {
     }
   };
   double frames = 0;
-  ::mimic::test::for_each_shared_clip_pose(body->skeleton(), 160, [&](const rig::Pose& pose) {
-    skin.evaluate(pose, pos, {}, true, false);
-    add(off, checker->check(pos));
-    skin.evaluate(pose, pos, {}, true, true);
-    add(on, checker->check(pos));
+  ::mimic::test::for_each_shared_clip_pose(at.body->skeleton(), 160, [&](const rig::Pose& pose) {
+    add(off, at.check(pose, false));
+    add(on, at.check(pose, true));
     ++frames;
   });
   std::printf(

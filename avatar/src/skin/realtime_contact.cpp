@@ -116,6 +116,27 @@ uint32_t fill_lanes(const ContactTables& t, ContactState& st, uint32_t n) {
 }
 
 #ifdef MIMIC_SIMD_AVX2
+// A point's offset from eight balls' centres in their unit spaces (lane rows 0–11), and the sum
+// of eight lanes.
+struct LaneOffset {
+  __m256 x, y, z;
+};
+inline LaneOffset unit_offset(const float* rows, size_t w, uint32_t k, __m256 px, __m256 py, __m256 pz) {
+  auto row = [&](int r) { return _mm256_loadu_ps(rows + static_cast<size_t>(r) * w + k); };
+  const __m256 dx = _mm256_sub_ps(px, row(0)), dy = _mm256_sub_ps(py, row(1)), dz = _mm256_sub_ps(pz, row(2));
+  return {_mm256_fmadd_ps(row(5), dz, _mm256_fmadd_ps(row(4), dy, _mm256_mul_ps(row(3), dx))),
+          _mm256_fmadd_ps(row(8), dz, _mm256_fmadd_ps(row(7), dy, _mm256_mul_ps(row(6), dx))),
+          _mm256_fmadd_ps(row(11), dz, _mm256_fmadd_ps(row(10), dy, _mm256_mul_ps(row(9), dx)))};
+}
+inline __m256 length2(const LaneOffset& q) {
+  return _mm256_fmadd_ps(q.z, q.z, _mm256_fmadd_ps(q.y, q.y, _mm256_mul_ps(q.x, q.x)));
+}
+inline float lane_sum(__m256 v) {
+  const __m128 h = _mm_add_ps(_mm256_castps256_ps128(v), _mm256_extractf128_ps(v, 1));
+  const __m128 h2 = _mm_add_ps(h, _mm_movehl_ps(h, h));
+  return _mm_cvtss_f32(_mm_add_ss(h2, _mm_shuffle_ps(h2, h2, 1)));
+}
+
 // field_value over the lanes, eight balls a step.
 float field_value_lanes(const ContactState& st, uint32_t padded, const glm::vec3& p) {
   const float* rows = st.lanes.data();
@@ -124,18 +145,11 @@ float field_value_lanes(const ContactState& st, uint32_t padded, const glm::vec3
   const __m256 one = _mm256_set1_ps(1.0f), zero = _mm256_setzero_ps();
   __m256 sum = zero;
   for (uint32_t k = 0; k < padded; k += 8) {
-    auto row = [&](int r) { return _mm256_loadu_ps(rows + r * w + k); };
-    const __m256 dx = _mm256_sub_ps(px, row(0)), dy = _mm256_sub_ps(py, row(1)), dz = _mm256_sub_ps(pz, row(2));
-    const __m256 qx = _mm256_fmadd_ps(row(5), dz, _mm256_fmadd_ps(row(4), dy, _mm256_mul_ps(row(3), dx)));
-    const __m256 qy = _mm256_fmadd_ps(row(8), dz, _mm256_fmadd_ps(row(7), dy, _mm256_mul_ps(row(6), dx)));
-    const __m256 qz = _mm256_fmadd_ps(row(11), dz, _mm256_fmadd_ps(row(10), dy, _mm256_mul_ps(row(9), dx)));
-    const __m256 s = _mm256_fmadd_ps(qz, qz, _mm256_fmadd_ps(qy, qy, _mm256_mul_ps(qx, qx)));
-    const __m256 u = _mm256_max_ps(_mm256_fnmadd_ps(s, row(12), one), zero);
-    sum = _mm256_fmadd_ps(_mm256_mul_ps(_mm256_mul_ps(u, u), u), row(13), sum);
+    const __m256 s = length2(unit_offset(rows, w, k, px, py, pz));
+    const __m256 u = _mm256_max_ps(_mm256_fnmadd_ps(s, _mm256_loadu_ps(rows + 12 * w + k), one), zero);
+    sum = _mm256_fmadd_ps(_mm256_mul_ps(_mm256_mul_ps(u, u), u), _mm256_loadu_ps(rows + 13 * w + k), sum);
   }
-  const __m128 h = _mm_add_ps(_mm256_castps256_ps128(sum), _mm256_extractf128_ps(sum, 1));
-  const __m128 h2 = _mm_add_ps(h, _mm_movehl_ps(h, h));
-  return _mm_cvtss_f32(_mm_add_ss(h2, _mm_shuffle_ps(h2, h2, 1)));
+  return lane_sum(sum);
 }
 
 // The most the field can be anywhere within `radius` of `centre`: each ball's term at the
@@ -149,19 +163,13 @@ float field_bound_lanes(const ContactState& st, uint32_t padded, const glm::vec3
   const __m256 one = _mm256_set1_ps(1.0f), zero = _mm256_setzero_ps();
   __m256 sum = zero;
   for (uint32_t k = 0; k < padded; k += 8) {
-    auto row = [&](int i) { return _mm256_loadu_ps(rows + i * w + k); };
-    const __m256 dx = _mm256_sub_ps(px, row(0)), dy = _mm256_sub_ps(py, row(1)), dz = _mm256_sub_ps(pz, row(2));
-    const __m256 qx = _mm256_fmadd_ps(row(5), dz, _mm256_fmadd_ps(row(4), dy, _mm256_mul_ps(row(3), dx)));
-    const __m256 qy = _mm256_fmadd_ps(row(8), dz, _mm256_fmadd_ps(row(7), dy, _mm256_mul_ps(row(6), dx)));
-    const __m256 qz = _mm256_fmadd_ps(row(11), dz, _mm256_fmadd_ps(row(10), dy, _mm256_mul_ps(row(9), dx)));
-    const __m256 q = _mm256_sqrt_ps(_mm256_fmadd_ps(qz, qz, _mm256_fmadd_ps(qy, qy, _mm256_mul_ps(qx, qx))));
-    const __m256 d = _mm256_max_ps(_mm256_fnmadd_ps(r, row(14), q), zero);
-    const __m256 u = _mm256_max_ps(_mm256_fnmadd_ps(_mm256_mul_ps(d, d), row(12), one), zero);
-    sum = _mm256_fmadd_ps(_mm256_mul_ps(_mm256_mul_ps(u, u), u), row(13), sum);
+    const __m256 q = _mm256_sqrt_ps(length2(unit_offset(rows, w, k, px, py, pz)));
+    const __m256 d = _mm256_max_ps(_mm256_fnmadd_ps(r, _mm256_loadu_ps(rows + 14 * w + k), q), zero);
+    const __m256 u =
+        _mm256_max_ps(_mm256_fnmadd_ps(_mm256_mul_ps(d, d), _mm256_loadu_ps(rows + 12 * w + k), one), zero);
+    sum = _mm256_fmadd_ps(_mm256_mul_ps(_mm256_mul_ps(u, u), u), _mm256_loadu_ps(rows + 13 * w + k), sum);
   }
-  const __m128 h = _mm_add_ps(_mm256_castps256_ps128(sum), _mm256_extractf128_ps(sum, 1));
-  const __m128 h2 = _mm_add_ps(h, _mm_movehl_ps(h, h));
-  return _mm_cvtss_f32(_mm_add_ss(h2, _mm_shuffle_ps(h2, h2, 1)));
+  return lane_sum(sum);
 }
 
 // field_at over the lanes: the value and its gradient, eight balls a step.
@@ -173,26 +181,20 @@ FieldAt field_at_lanes(const ContactState& st, uint32_t padded, const glm::vec3&
   __m256 sum = zero, gx = zero, gy = zero, gz = zero;
   for (uint32_t k = 0; k < padded; k += 8) {
     auto row = [&](int r) { return _mm256_loadu_ps(rows + r * w + k); };
-    const __m256 dx = _mm256_sub_ps(px, row(0)), dy = _mm256_sub_ps(py, row(1)), dz = _mm256_sub_ps(pz, row(2));
-    const __m256 qx = _mm256_fmadd_ps(row(5), dz, _mm256_fmadd_ps(row(4), dy, _mm256_mul_ps(row(3), dx)));
-    const __m256 qy = _mm256_fmadd_ps(row(8), dz, _mm256_fmadd_ps(row(7), dy, _mm256_mul_ps(row(6), dx)));
-    const __m256 qz = _mm256_fmadd_ps(row(11), dz, _mm256_fmadd_ps(row(10), dy, _mm256_mul_ps(row(9), dx)));
-    const __m256 s = _mm256_fmadd_ps(qz, qz, _mm256_fmadd_ps(qy, qy, _mm256_mul_ps(qx, qx)));
-    const __m256 u = _mm256_max_ps(_mm256_fnmadd_ps(s, row(12), one), zero);
+    const LaneOffset q = unit_offset(rows, w, k, px, py, pz);
+    const __m256 u = _mm256_max_ps(_mm256_fnmadd_ps(length2(q), row(12), one), zero);
     const __m256 wu2 = _mm256_mul_ps(row(13), _mm256_mul_ps(u, u));
     sum = _mm256_fmadd_ps(wu2, u, sum);
     // d/dp of w·u³ = −6 w u² / R² · Mᵀ q (zero where u is: outside the ball)
     const __m256 c = _mm256_mul_ps(_mm256_mul_ps(six, wu2), row(12));
-    gx = _mm256_fnmadd_ps(c, _mm256_fmadd_ps(row(9), qz, _mm256_fmadd_ps(row(6), qy, _mm256_mul_ps(row(3), qx))), gx);
-    gy = _mm256_fnmadd_ps(c, _mm256_fmadd_ps(row(10), qz, _mm256_fmadd_ps(row(7), qy, _mm256_mul_ps(row(4), qx))), gy);
-    gz = _mm256_fnmadd_ps(c, _mm256_fmadd_ps(row(11), qz, _mm256_fmadd_ps(row(8), qy, _mm256_mul_ps(row(5), qx))), gz);
+    gx =
+        _mm256_fnmadd_ps(c, _mm256_fmadd_ps(row(9), q.z, _mm256_fmadd_ps(row(6), q.y, _mm256_mul_ps(row(3), q.x))), gx);
+    gy = _mm256_fnmadd_ps(c, _mm256_fmadd_ps(row(10), q.z, _mm256_fmadd_ps(row(7), q.y, _mm256_mul_ps(row(4), q.x))),
+                          gy);
+    gz = _mm256_fnmadd_ps(c, _mm256_fmadd_ps(row(11), q.z, _mm256_fmadd_ps(row(8), q.y, _mm256_mul_ps(row(5), q.x))),
+                          gz);
   }
-  const auto hsum = [](__m256 v) {
-    const __m128 h = _mm_add_ps(_mm256_castps256_ps128(v), _mm256_extractf128_ps(v, 1));
-    const __m128 h2 = _mm_add_ps(h, _mm_movehl_ps(h, h));
-    return _mm_cvtss_f32(_mm_add_ss(h2, _mm_shuffle_ps(h2, h2, 1)));
-  };
-  return {hsum(sum), glm::vec3(hsum(gx), hsum(gy), hsum(gz))};
+  return {lane_sum(sum), glm::vec3(lane_sum(gx), lane_sum(gy), lane_sum(gz))};
 }
 #endif
 
