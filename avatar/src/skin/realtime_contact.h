@@ -83,8 +83,9 @@ struct ContactState {
   std::vector<float> lanes;
   size_t lane_stride = 0;
   uint32_t moved = 0;  // vertices pushed in the last frame
-  // Per slot: this frame's push (pushed vertices) or the sum of its pushed neighbours' pushes
-  // (the ring), and 0 untouched, 1 pushed, 2 + n on the ring with n pushed neighbours.
+  // Per slot: this frame's move (a pushed vertex's push; on the ring, the sum of its pushed
+  // neighbours' pushes, then its share of it), and 0 untouched, 1 pushed, 2 + n on the ring with
+  // n pushed neighbours.
   std::vector<glm::vec3> push;
   std::vector<uint8_t> mark;
   std::vector<uint32_t> touched;              // the slots marked this frame (capacity: every slot)
