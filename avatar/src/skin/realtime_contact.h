@@ -62,6 +62,9 @@ struct ContactTables {
   // smoothed across the band, in its tangent plane (what a push gained across the surface
   // stays), `band_relax_iterations` passes over-relaxed by `band_relax_rate` (relax_band).
   std::vector<BandNeighbours> slot_band;
+  // … and those neighbours' slots, the slot count for a neighbour in no pair (ContactState::push
+  // keeps a zero move there), so that the smoothing adds four moves without a branch.
+  std::vector<std::array<uint32_t, 4>> slot_band_slots;
   std::vector<int32_t> slot_band_follow;  // per slot: a band vertex's loop follow, or −1
   int band_relax_iterations = 2;
   float band_relax_rate = 1.5f;
@@ -84,13 +87,14 @@ struct ContactState {
   size_t lane_stride = 0;
   uint32_t moved = 0;  // vertices pushed in the last frame
   // Per slot: this frame's move (a pushed vertex's push; on the ring, the sum of its pushed
-  // neighbours' pushes, then its share of it), and 0 untouched, 1 pushed, 2 + n on the ring with
-  // n pushed neighbours.
+  // neighbours' pushes, then its share of it; zero when untouched, and in the one more entry
+  // after the slots, which stands for every vertex in no pair), and 0 untouched, 1 pushed, 2 + n
+  // on the ring with n pushed neighbours.
   std::vector<glm::vec3> push;
   std::vector<uint8_t> mark;
   std::vector<uint32_t> touched;              // the slots marked this frame (capacity: every slot)
   std::vector<glm::vec3> block_lo, block_hi;  // a pair's listed vertices' bounds, by blocks
-  std::vector<uint32_t> band_touched;         // the touched band slots (capacity: every band slot)
+  std::vector<uint32_t> band_touched;  // the touched band slots, two chains (relax_band); one entry per band slot
   void resize(const ContactTables& t);
   size_t heap_bytes() const;
 };
