@@ -361,17 +361,18 @@ ContactTables build_contact(const BodyModel& model, const rig::Skeleton& skeleto
     if (pr.ball_count > 0 && pr.vertex_count > 0) t.pairs.push_back(pr);
   }
   build_ring(rest, t);
-  t.slot_band.assign(t.slot_vertex.size(), kNoBandNeighbours);
-  t.slot_band_follow.assign(t.slot_vertex.size(), -1);
-  for (size_t k = 0; k < t.slot_vertex.size(); ++k)
-    t.slot_band[k] = band[t.slot_vertex[k]], t.slot_band_follow[k] = band_follow[t.slot_vertex[k]];
-  const auto none = static_cast<uint32_t>(t.slot_vertex.size());
-  t.slot_band_slots.assign(t.slot_vertex.size(), {none, none, none, none});
-  for (size_t k = 0; k < t.slot_vertex.size(); ++k)
-    if (t.slot_band[k] != kNoBandNeighbours)
-      for (int i = 0; i < 4; ++i)
-        if (const int32_t slot = t.slot_of[t.slot_band[k][i]]; slot >= 0)
-          t.slot_band_slots[k][i] = static_cast<uint32_t>(slot);
+  const size_t slots = t.slot_vertex.size();
+  const auto none = static_cast<uint32_t>(slots);
+  t.slot_band.resize(slots);
+  t.slot_band_follow.resize(slots);
+  t.slot_band_slots.assign(slots, {none, none, none, none});
+  for (size_t k = 0; k < slots; ++k) {
+    const BandNeighbours& nb = t.slot_band[k] = band[t.slot_vertex[k]];
+    t.slot_band_follow[k] = band_follow[t.slot_vertex[k]];
+    if (nb == kNoBandNeighbours) continue;
+    for (int i = 0; i < 4; ++i)
+      if (const int32_t slot = t.slot_of[nb[i]]; slot >= 0) t.slot_band_slots[k][i] = static_cast<uint32_t>(slot);
+  }
 
   return t;
 }
@@ -385,7 +386,7 @@ namespace {
 // grows from nothing smooths from nothing, so the skin moves on continuously with the pose.
 // st.push holds the move each touched slot made, and keeps doing so.
 void relax_band(const ContactTables& t, ContactState& st, std::span<glm::vec3> pos) {
-  // Two chains: the first touched band's slots from the front of band_touched, the other band's
+  // Two chains: the first touched band's slots from the front of band_touched, any other band's
   // from its back, each in the order touched. An update waits on its neighbours' (the previous
   // update's, mostly); the two arms' bands share no vertex, so their updates interleaved run side
   // by side in the core and each band's sums stay those of the band alone.
