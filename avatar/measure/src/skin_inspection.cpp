@@ -67,6 +67,9 @@ Result<std::vector<SweepResult>> inspect_joint_zones(const BodyModel& base_model
   const rig::Skeleton& skeleton = full->skeleton();
   RealtimeOptions ro;
   ro.rigid_parts = false;
+  // The joint's own deformation, as the other methods have it: no contact (which turns an arm
+  // whose folded forearm reaches the chest, out of the frames the zone is measured in).
+  ro.contact = false;
   auto body = RealtimeBody::create(model, skeleton, ro);
   if (!body) return tl::unexpected(body.error());
   RealtimeSkin realtime(*body);

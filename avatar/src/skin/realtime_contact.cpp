@@ -7,17 +7,12 @@
 
 #include <glm/gtx/euler_angles.hpp>
 
+#include "contact_field.h"
 #include "mimic/avatar/simd.h"
 
 namespace mimic::avatar::realtime_detail {
 
 namespace {
-
-constexpr GroupMask bits(std::initializer_list<Group> gs) {
-  GroupMask m = 0;
-  for (Group g : gs) m = static_cast<GroupMask>(m | group_bit(g));
-  return m;
-}
 
 // A skin piece's volume: the metaballs of its groups (`field`), less those in the `own` groups
 // of the piece pushed out of it: a primitive the two share (the hip's for a thigh, an arm's
@@ -31,15 +26,16 @@ struct Piece {
 };
 using G = Group;
 const Piece kPieces[] = {
-    {"torso", bits({G::upper_torso, G::lower_torso, G::hip}), bits({G::upper_torso, G::lower_torso, G::hip})},
-    {"left_upper_arm", bits({G::left_upper_arm}), bits({G::left_upper_arm}), true},
-    {"right_upper_arm", bits({G::right_upper_arm}), bits({G::right_upper_arm}), true},
-    {"left_lower_arm", bits({G::left_lower_arm}), bits({G::left_lower_arm})},
-    {"right_lower_arm", bits({G::right_lower_arm}), bits({G::right_lower_arm})},
-    {"left_upper_leg", bits({G::left_upper_leg}), bits({G::left_upper_leg, G::hip})},
-    {"right_upper_leg", bits({G::right_upper_leg}), bits({G::right_upper_leg, G::hip})},
-    {"left_lower_leg", bits({G::left_lower_leg}), bits({G::left_lower_leg, G::left_ankle})},
-    {"right_lower_leg", bits({G::right_lower_leg}), bits({G::right_lower_leg, G::right_ankle})},
+    {"torso", group_bits({G::upper_torso, G::lower_torso, G::hip}),
+     group_bits({G::upper_torso, G::lower_torso, G::hip})},
+    {"left_upper_arm", group_bits({G::left_upper_arm}), group_bits({G::left_upper_arm}), true},
+    {"right_upper_arm", group_bits({G::right_upper_arm}), group_bits({G::right_upper_arm}), true},
+    {"left_lower_arm", group_bits({G::left_lower_arm}), group_bits({G::left_lower_arm})},
+    {"right_lower_arm", group_bits({G::right_lower_arm}), group_bits({G::right_lower_arm})},
+    {"left_upper_leg", group_bits({G::left_upper_leg}), group_bits({G::left_upper_leg, G::hip})},
+    {"right_upper_leg", group_bits({G::right_upper_leg}), group_bits({G::right_upper_leg, G::hip})},
+    {"left_lower_leg", group_bits({G::left_lower_leg}), group_bits({G::left_lower_leg, G::left_ankle})},
+    {"right_lower_leg", group_bits({G::right_lower_leg}), group_bits({G::right_lower_leg, G::right_ankle})},
 };
 
 // (pushed, against): the pushed piece's skin gives way. One side of each pair only, so the two
@@ -73,146 +69,6 @@ constexpr int kNewtonSteps = 3;
 // frame against 16.0 and 76.7 with three, at a third of the field evaluations).
 constexpr int kBandNewtonSteps = 1;
 constexpr uint32_t kCullBlock = 8;
-
-struct FieldAt {
-  float value = 0;
-  glm::vec3 gradient{0.0f};
-};
-
-// The field alone, each ball's bounding sphere tested first (most are out of reach).
-float field_value(const ContactTables& t, std::span<const uint16_t> balls, const ContactState& st, const glm::vec3& p) {
-  float value = 0;
-  for (const uint16_t i : balls) {
-    const ContactTables::Ball& b = t.balls[i];
-    const glm::vec3 d = p - st.centre[i];
-    if (glm::dot(d, d) >= b.bound_m * b.bound_m) continue;
-    const glm::vec3 q = st.unit_from_world[i] * d;
-    const float u = 1.0f - glm::dot(q, q) * b.inv_r2;
-    if (u > 0.0f) value += b.weight_norm * u * u * u;
-  }
-  return value;
-}
-
-// The active balls as eight-lane rows (ContactState::lanes); returns the padded count.
-uint32_t fill_lanes(const ContactTables& t, ContactState& st, uint32_t n) {
-  const uint32_t padded = (n + 7) / 8 * 8;
-  float* rows = st.lanes.data();
-  const size_t w = st.lane_stride;
-  for (uint32_t k = 0; k < padded; ++k) {
-    if (k >= n) {
-      for (int r = 0; r < ContactState::kLaneRows; ++r) rows[r * w + k] = 0.0f;
-      continue;
-    }
-    const uint16_t i = st.active[k];
-    const glm::mat3& m = st.unit_from_world[i];
-    rows[0 * w + k] = st.centre[i].x, rows[1 * w + k] = st.centre[i].y, rows[2 * w + k] = st.centre[i].z;
-    for (int c = 0; c < 3; ++c)
-      for (int r = 0; r < 3; ++r) rows[(3 + 3 * r + c) * w + k] = m[c][r];  // row r of the matrix
-    rows[12 * w + k] = t.balls[i].inv_r2;
-    rows[13 * w + k] = t.balls[i].weight_norm;
-    rows[14 * w + k] = t.balls[i].inv_min_axis;
-  }
-  return padded;
-}
-
-#ifdef MIMIC_SIMD_AVX2
-// A point's offset from eight balls' centres in their unit spaces (lane rows 0–11), and the sum
-// of eight lanes.
-struct LaneOffset {
-  __m256 x, y, z;
-};
-inline LaneOffset unit_offset(const float* rows, size_t w, uint32_t k, __m256 px, __m256 py, __m256 pz) {
-  auto row = [&](int r) { return _mm256_loadu_ps(rows + static_cast<size_t>(r) * w + k); };
-  const __m256 dx = _mm256_sub_ps(px, row(0)), dy = _mm256_sub_ps(py, row(1)), dz = _mm256_sub_ps(pz, row(2));
-  return {_mm256_fmadd_ps(row(5), dz, _mm256_fmadd_ps(row(4), dy, _mm256_mul_ps(row(3), dx))),
-          _mm256_fmadd_ps(row(8), dz, _mm256_fmadd_ps(row(7), dy, _mm256_mul_ps(row(6), dx))),
-          _mm256_fmadd_ps(row(11), dz, _mm256_fmadd_ps(row(10), dy, _mm256_mul_ps(row(9), dx)))};
-}
-inline __m256 length2(const LaneOffset& q) {
-  return _mm256_fmadd_ps(q.z, q.z, _mm256_fmadd_ps(q.y, q.y, _mm256_mul_ps(q.x, q.x)));
-}
-inline float lane_sum(__m256 v) {
-  const __m128 h = _mm_add_ps(_mm256_castps256_ps128(v), _mm256_extractf128_ps(v, 1));
-  const __m128 h2 = _mm_add_ps(h, _mm_movehl_ps(h, h));
-  return _mm_cvtss_f32(_mm_add_ss(h2, _mm_shuffle_ps(h2, h2, 1)));
-}
-
-// field_value over the lanes, eight balls a step.
-float field_value_lanes(const ContactState& st, uint32_t padded, const glm::vec3& p) {
-  const float* rows = st.lanes.data();
-  const size_t w = st.lane_stride;
-  const __m256 px = _mm256_set1_ps(p.x), py = _mm256_set1_ps(p.y), pz = _mm256_set1_ps(p.z);
-  const __m256 one = _mm256_set1_ps(1.0f), zero = _mm256_setzero_ps();
-  __m256 sum = zero;
-  for (uint32_t k = 0; k < padded; k += 8) {
-    const __m256 s = length2(unit_offset(rows, w, k, px, py, pz));
-    const __m256 u = _mm256_max_ps(_mm256_fnmadd_ps(s, _mm256_loadu_ps(rows + 12 * w + k), one), zero);
-    sum = _mm256_fmadd_ps(_mm256_mul_ps(_mm256_mul_ps(u, u), u), _mm256_loadu_ps(rows + 13 * w + k), sum);
-  }
-  return lane_sum(sum);
-}
-
-// The most the field can be anywhere within `radius` of `centre`: each ball's term at the
-// nearest a point there can be to its centre in the ball's unit space (a metre moves a point at
-// most inv_min_axis there), eight balls a step.
-float field_bound_lanes(const ContactState& st, uint32_t padded, const glm::vec3& centre, float radius) {
-  const float* rows = st.lanes.data();
-  const size_t w = st.lane_stride;
-  const __m256 px = _mm256_set1_ps(centre.x), py = _mm256_set1_ps(centre.y), pz = _mm256_set1_ps(centre.z);
-  const __m256 r = _mm256_set1_ps(radius);
-  const __m256 one = _mm256_set1_ps(1.0f), zero = _mm256_setzero_ps();
-  __m256 sum = zero;
-  for (uint32_t k = 0; k < padded; k += 8) {
-    const __m256 q = _mm256_sqrt_ps(length2(unit_offset(rows, w, k, px, py, pz)));
-    const __m256 d = _mm256_max_ps(_mm256_fnmadd_ps(r, _mm256_loadu_ps(rows + 14 * w + k), q), zero);
-    const __m256 u =
-        _mm256_max_ps(_mm256_fnmadd_ps(_mm256_mul_ps(d, d), _mm256_loadu_ps(rows + 12 * w + k), one), zero);
-    sum = _mm256_fmadd_ps(_mm256_mul_ps(_mm256_mul_ps(u, u), u), _mm256_loadu_ps(rows + 13 * w + k), sum);
-  }
-  return lane_sum(sum);
-}
-
-// field_at over the lanes: the value and its gradient, eight balls a step.
-FieldAt field_at_lanes(const ContactState& st, uint32_t padded, const glm::vec3& p) {
-  const float* rows = st.lanes.data();
-  const size_t w = st.lane_stride;
-  const __m256 px = _mm256_set1_ps(p.x), py = _mm256_set1_ps(p.y), pz = _mm256_set1_ps(p.z);
-  const __m256 one = _mm256_set1_ps(1.0f), zero = _mm256_setzero_ps(), six = _mm256_set1_ps(6.0f);
-  __m256 sum = zero, gx = zero, gy = zero, gz = zero;
-  for (uint32_t k = 0; k < padded; k += 8) {
-    auto row = [&](int r) { return _mm256_loadu_ps(rows + r * w + k); };
-    const LaneOffset q = unit_offset(rows, w, k, px, py, pz);
-    const __m256 u = _mm256_max_ps(_mm256_fnmadd_ps(length2(q), row(12), one), zero);
-    const __m256 wu2 = _mm256_mul_ps(row(13), _mm256_mul_ps(u, u));
-    sum = _mm256_fmadd_ps(wu2, u, sum);
-    // d/dp of w·u³ = −6 w u² / R² · Mᵀ q (zero where u is: outside the ball)
-    const __m256 c = _mm256_mul_ps(_mm256_mul_ps(six, wu2), row(12));
-    gx =
-        _mm256_fnmadd_ps(c, _mm256_fmadd_ps(row(9), q.z, _mm256_fmadd_ps(row(6), q.y, _mm256_mul_ps(row(3), q.x))), gx);
-    gy = _mm256_fnmadd_ps(c, _mm256_fmadd_ps(row(10), q.z, _mm256_fmadd_ps(row(7), q.y, _mm256_mul_ps(row(4), q.x))),
-                          gy);
-    gz = _mm256_fnmadd_ps(c, _mm256_fmadd_ps(row(11), q.z, _mm256_fmadd_ps(row(8), q.y, _mm256_mul_ps(row(5), q.x))),
-                          gz);
-  }
-  return {lane_sum(sum), glm::vec3(lane_sum(gx), lane_sum(gy), lane_sum(gz))};
-}
-#endif
-
-#ifndef MIMIC_SIMD_AVX2
-FieldAt field_at(const ContactTables& t, std::span<const uint16_t> balls, const ContactState& st, const glm::vec3& p) {
-  FieldAt f;
-  for (const uint16_t i : balls) {
-    const ContactTables::Ball& b = t.balls[i];
-    const glm::vec3 q = st.unit_from_world[i] * (p - st.centre[i]);
-    const float u = 1.0f - glm::dot(q, q) * b.inv_r2;
-    if (u <= 0.0f) continue;
-    f.value += b.weight_norm * u * u * u;
-    // d/dp of w·u³ = −6 w u² / R² · Mᵀ q
-    f.gradient -= (6.0f * b.weight_norm * u * u * b.inv_r2) * (glm::transpose(st.unit_from_world[i]) * q);
-  }
-  return f;
-}
-#endif
 
 ContactTables::Ball ball_of(const Primitive& p, int joint) {
   ContactTables::Ball b;
@@ -248,15 +104,6 @@ std::vector<int> vertex_owner(const Mesh& rest) {
   return owner;
 }
 
-// Every ball posed with its joint this frame.
-void pose_balls(const ContactTables& t, ContactState& st, std::span<const rig::RigidTransform> world_from_joint) {
-  for (size_t b = 0; b < t.balls.size(); ++b) {
-    const rig::RigidTransform& w = world_from_joint[t.balls[b].joint];
-    st.unit_from_world[b] = t.balls[b].unit_from_joint * glm::transpose(glm::mat3_cast(w.rotation));
-    st.centre[b] = w.apply(t.balls[b].centre_joint);
-  }
-}
-
 // ContactTables::slot_of and ring: each pair vertex's neighbours that are pair vertices too.
 void build_ring(const Mesh& rest, ContactTables& t) {
   const size_t n = rest.positions.size();
@@ -287,7 +134,9 @@ size_t ContactTables::heap_bytes() const {
          pairs.capacity() * sizeof(Pair) +
          (ring_first.capacity() + ring.capacity() + slot_of.capacity() + slot_vertex.capacity()) * 4 +
          slot_band.capacity() * sizeof(BandNeighbours) + slot_band_slots.capacity() * 16 +
-         slot_band_follow.capacity() * 4;
+         slot_band_follow.capacity() * 4 + arms.capacity() * sizeof(Arm) + arm_joints.capacity() * 4 +
+         probe_groups.capacity() * sizeof(ProbeGroup) + probe_joints.capacity() * sizeof(ProbeJoint) +
+         probes.capacity() * sizeof(Probe) + volume_balls.capacity() * 2;
 }
 
 size_t ContactState::heap_bytes() const {
@@ -360,6 +209,7 @@ ContactTables build_contact(const BodyModel& model, const rig::Skeleton& skeleto
     pr.vertex_count = static_cast<uint32_t>(t.vertices.size()) - pr.vertex_first;
     if (pr.ball_count > 0 && pr.vertex_count > 0) t.pairs.push_back(pr);
   }
+  build_arm_clearance(model, skeleton, ball_of_primitive, t);
   build_ring(rest, t);
   const size_t slots = t.slot_vertex.size();
   const auto none = static_cast<uint32_t>(slots);
@@ -465,9 +315,8 @@ void spread_to_ring(const ContactTables& t, ContactState& st, std::span<glm::vec
 
 }  // namespace
 
-void apply_contact(const ContactTables& t, ContactState& st, std::span<const rig::RigidTransform> world_from_joint,
-                   std::span<const float> follow_fade, std::span<glm::vec3> pos) {
-  pose_balls(t, st, world_from_joint);
+void apply_contact(const ContactTables& t, ContactState& st, std::span<const float> follow_fade,
+                   std::span<glm::vec3> pos) {
   st.moved = 0;
   for (const ContactTables::Pair& pr : t.pairs) {
     // The pushed vertices' bounds this frame, the other volume's balls that reach them, and

@@ -7,6 +7,7 @@
 
 #include <array>
 #include <cstdint>
+#include <initializer_list>
 #include <span>
 #include <vector>
 
@@ -18,6 +19,13 @@
 #include "mimic/rig/transform.h"
 
 namespace mimic::avatar::realtime_detail {
+
+// The mask of several body groups.
+constexpr GroupMask group_bits(std::initializer_list<Group> gs) {
+  GroupMask m = 0;
+  for (Group g : gs) m = static_cast<GroupMask>(m | group_bit(g));
+  return m;
+}
 
 // A boundary-driven band's vertex: its neighbours along its ring (before, after) and along its
 // column (towards the loop, towards S), mesh vertices.
@@ -69,6 +77,62 @@ struct ContactTables {
   int band_relax_iterations = 2;
   float band_relax_rate = 1.5f;
 
+  // The arms keep off the body (clear_arms): a rigid hand cannot flatten against a thigh, so
+  // where a hand or a forearm passes into the torso's or a thigh's volume the whole arm turns
+  // about its shoulder until it lies on that volume's surface. The probes are the hand's and the
+  // forearm's ellipsoids (their metaballs), each tested at its centre and the ends of its axes.
+  struct Probe {
+    int joint = -1;
+    glm::vec3 centre_joint{0.0f};
+    glm::mat3 axes_joint{1.0f};  // R · S: the columns are the semi-axes, in the joint's frame
+    float radius_m = 0;          // the largest semi-axis
+  };
+  // Up to kProbesPerGroup probes of one joint (neighbours in the model: a finger's phalanges), and
+  // a sphere round them (in the joint's frame), tested first: with the arm hanging by the hip one
+  // sphere round the whole hand always reached the thigh, and its twenty probes were tested each.
+  struct ProbeGroup {
+    int joint = -1;
+    glm::vec3 centre_joint{0.0f};
+    float radius_m = 0;
+    uint32_t probe_first = 0, probe_count = 0;  // in probes
+  };
+  // The groups of one joint, and a sphere round them, tested before them.
+  struct ProbeJoint {
+    int joint = -1;
+    glm::vec3 centre_joint{0.0f};
+    float radius_m = 0;
+    uint32_t group_first = 0, group_count = 0;  // in probe_groups
+  };
+  struct Arm {
+    int shoulder = -1;                                        // the joint the arm turns about
+    uint64_t joint_mask = 0;                                  // a bit per joint in arm_joints (below 64)
+    uint32_t joint_first = 0, joint_count = 0;                // in arm_joints: the shoulder and every joint below it
+    uint32_t group_first = 0, group_count = 0;                // in probe_groups
+    uint32_t joint_sphere_first = 0, joint_sphere_count = 0;  // in probe_joints
+  };
+  static constexpr uint32_t kProbesPerGroup = 3, kMaxProbeJoints = 4;
+  std::vector<Arm> arms;
+  std::vector<int> arm_joints;
+  std::vector<ProbeGroup> probe_groups;
+  std::vector<ProbeJoint> probe_joints;
+  std::vector<Probe> probes;
+  // The volumes the arms keep out of (the torso, each thigh): their balls in `volume_balls`, from
+  // volume_first[v] to volume_first[v + 1].
+  static constexpr int kArmVolumes = 3;
+  std::vector<uint16_t> volume_balls;
+  std::array<uint32_t, kArmVolumes + 1> volume_first{};
+  // Measured on every 20th frame of the shared clips at LOD 0 (docs/skin.md, "The arms keep off
+  // the body"): the level 0.5 (a few millimetres off the other surface) crossed 36.9 pairs
+  // between pieces a frame against 40.3 at 0.7 and 32.3 at 0.3, where the hands moved 34% more
+  // and up to 69 mm between two samples. A push fades from full at 40 mm to none at 80 mm: deeper
+  // is a hand the motion puts into the body (05_02's hand in the chest), and turning the arm
+  // that far pops it out. Two rounds of at most 0.2 rad each, three Newton steps per point.
+  float arm_iso = 0.5f;
+  float arm_full_push_m = 0.04f, arm_no_push_m = 0.08f;
+  float arm_turn_max_rad = 0.2f;
+  static constexpr int kArmRounds = 2;
+  static constexpr int kArmNewtonSteps = 3;
+
   bool empty() const { return pairs.empty(); }
   size_t heap_bytes() const;
 };
@@ -109,11 +173,23 @@ ContactTables build_contact(const BodyModel& model, const rig::Skeleton& skeleto
                             std::span<const rig::RigidTransform> world_from_joint, std::span<const BandNeighbours> band,
                             std::span<const int32_t> band_follow);
 
-// Pushes the vertices of each pair that lie inside the other volume onto its surface. A band's
+// The arms' probes and the volumes they keep out of, for build_contact: `ball_of_primitive` maps
+// the model's primitives to ContactTables::balls (−1: none).
+void build_arm_clearance(const BodyModel& model, const rig::Skeleton& skeleton, std::span<const int> ball_of_primitive,
+                         ContactTables& t);
+
+// Poses the volumes' balls for the frame, then turns each arm about its shoulder so that no probe
+// of its hand and forearm lies inside the torso's or a thigh's volume (to within the turn's cap),
+// in `world_from_joint`, before the skin is deformed (and poses the turned arm's balls again).
+// Never allocates.
+void clear_arms(const ContactTables& t, ContactState& st, std::span<rig::RigidTransform> world_from_joint);
+
+// Pushes the vertices of each pair that lie inside the other volume onto its surface, the balls
+// as clear_arms posed them this frame. A band's
 // pushes are scaled by its follow's fade this frame (`follow_fade`, per loop follow: 1 up to
 // 95° of the limb's swing, none past 120°): swung that far the arm passes through the chest by
 // design, and pushing its band there only folded it. Never allocates.
-void apply_contact(const ContactTables& t, ContactState& st, std::span<const rig::RigidTransform> world_from_joint,
-                   std::span<const float> follow_fade, std::span<glm::vec3> pos);
+void apply_contact(const ContactTables& t, ContactState& st, std::span<const float> follow_fade,
+                   std::span<glm::vec3> pos);
 
 }  // namespace mimic::avatar::realtime_detail

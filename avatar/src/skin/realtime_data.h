@@ -215,7 +215,9 @@ struct State {
 };
 
 // The frame's positions (never allocates).
-void deform(const RealtimeBody::Data& d, State& st, const rig::Pose& pose, std::span<glm::vec3> pos, bool muscles);
+// `contact`: the body's contact tables are applied this frame (clear_arms here, apply_contact after).
+void deform(const RealtimeBody::Data& d, State& st, const rig::Pose& pose, std::span<glm::vec3> pos, bool muscles,
+            bool contact);
 
 // A star ring's points (the muscle blocks when `muscle_w` is not null, the band scale, the
 // column slide, then the plane): the scalar reference, and eight at a time where the build

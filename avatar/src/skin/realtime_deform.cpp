@@ -188,9 +188,11 @@ BandTwist band_twist(const Data::RingOp& r, const Frame& axis, const Frame& f, f
   return t;
 }
 
-void deform(const Data& d, State& st, const rig::Pose& pose, std::span<glm::vec3> pos, bool muscles) {
+void deform(const Data& d, State& st, const rig::Pose& pose, std::span<glm::vec3> pos, bool muscles, bool contact) {
   const double t0 = steady_now_s();
   rig::forward_kinematics(d.skeleton, pose, st.world_from_joint);
+  // With contact the arms keep off the body before anything follows them (loops, bands, hands).
+  if (contact) clear_arms(d.contact, st.contact, st.world_from_joint);
   for (Chain& c : st.chains) c.update(st.world_from_joint);
   for (size_t i = 0; i < d.muscle_dofs.size(); ++i) {
     const auto& md = d.muscle_dofs[i];

@@ -228,7 +228,7 @@ Status calibrate_bands(const RestContours& m, const rig::Pose& base, Data& d) {
         p.dof_rad[dof] = theta_b + (theta_end - theta_b) * static_cast<float>(i) / (kSamples - 1);
         auto volume_at = [&](float scale) {
           st.band_scale_forced[band] = scale;
-          deform(d, st, p, pos, muscles == 1);
+          deform(d, st, p, pos, muscles == 1, false);
           const glm::vec3 centre = st.world_from_joint[joint].translation;
           const JointZone zone{centre, safe_normalize(st.world_from_joint[parent].translation - centre, {0, 1, 0}),
                                safe_normalize(st.world_from_joint[joint].apply(sk.tip_m(joint)) - centre, {0, -1, 0}),

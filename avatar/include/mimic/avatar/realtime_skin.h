@@ -61,8 +61,8 @@ struct RealtimeOptions {
   std::optional<rig::Pose> initial_pose;  // where the contours are ray-cast; default the zero posture
   bool rigid_parts = true;                // head, hands, feet
   // Contact (docs/skin.md, "Contact"): the tables that let a frame push one piece's skin out of
-  // another's volume (arm against chest, calf against calf). Off: none are built, and no frame
-  // can apply them.
+  // another's volume (arm against chest, calf against calf) and turn an arm whose hand or forearm
+  // passes into the torso or a thigh off the body. Off: none are built, and no frame can apply them.
   bool contact = true;
 };
 
@@ -142,9 +142,11 @@ class RealtimeSkin {
 
   // Writes body().vertex_count() positions (and, when `normals_out` is not empty, area-weighted
   // unit normals) for the pose. With `muscles` false, the contours keep their initial shape
-  // (the paper's method alone). With `contact` (and a body built with it), a piece's vertices
-  // that pass into another piece's volume are pushed out onto its surface (docs/skin.md,
-  // "Contact"); off, the frame is the same as without the tables. Never allocates, never throws.
+  // (the paper's method alone). With `contact` (and a body built with it), an arm whose hand or
+  // forearm passes into the torso or a thigh turns about its shoulder onto that surface (a rigid
+  // hand cannot flatten), and a piece's vertices that pass into another piece's volume are pushed
+  // out onto its surface (docs/skin.md, "Contact"); off, the frame is the same as without the
+  // tables. Never allocates, never throws.
   void evaluate(const rig::Pose& pose, std::span<glm::vec3> positions_out, std::span<glm::vec3> normals_out = {},
                 bool muscles = true, bool contact = true);
 
