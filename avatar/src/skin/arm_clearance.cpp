@@ -173,8 +173,7 @@ void clear_arms(const ContactTables& t, ContactState& st, std::span<rig::RigidTr
                 alignas(32) float xs[8], ys[8], zs[8];
                 for (int e = 0; e < 7; ++e) xs[e] = sample[e].x, ys[e] = sample[e].y, zs[e] = sample[e].z;
                 xs[7] = ys[7] = zs[7] = 1e6f;  // far from every ball
-                _mm256_storeu_ps(value_at,
-                                 field_values8(t, st, std::span<const uint16_t>(st.active.data(), n), xs, ys, zs));
+                _mm256_storeu_ps(value_at, field_values8(t, st, balls, xs, ys, zs));
               }
 #else
               for (int e = 0; e < 7; ++e) value_at[e] = field_value(t, balls, st, sample[e]);
