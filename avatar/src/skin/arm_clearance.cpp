@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <initializer_list>
+#include <utility>
 #include <vector>
 
 #include <glm/gtx/euler_angles.hpp>
@@ -15,6 +16,49 @@ namespace mimic::avatar::realtime_detail {
 namespace {
 
 using G = Group;
+
+// One probe (centre `c`, semi-axes `axes` in the world) against one volume's `balls`: its centre
+// and the ends of its axes, each inside taken to the volume's level, add the least turns about
+// the shoulder that move them so, weighted by the fourth power of their size. Fixed points, so the pushes change with
+// the pose continuously (a point taken up the field's gradient swung round the probe where the
+// field is faint, and the turn jumped).
+void add_probe_turns(const ContactTables& t, const ContactState& st, std::span<const uint16_t> balls,
+                     const glm::vec3& c, const glm::mat3& axes, const glm::vec3& shoulder, glm::vec3& turn_sum,
+                     float& weight_sum) {
+  glm::vec3 sample[7];
+  for (int e = 0; e < 7; ++e) sample[e] = e == 0 ? c : c + (e % 2 ? 1.0f : -1.0f) * axes[(e - 1) / 2];
+  float value_at[8];
+#ifdef MIMIC_SIMD_AVX2
+  alignas(32) float xs[8], ys[8], zs[8];
+  for (int e = 0; e < 7; ++e) xs[e] = sample[e].x, ys[e] = sample[e].y, zs[e] = sample[e].z;
+  xs[7] = ys[7] = zs[7] = 1e6f;  // far from every ball
+  _mm256_storeu_ps(value_at, field_values8(t, st, balls, xs, ys, zs));
+#else
+  for (int e = 0; e < 7; ++e) value_at[e] = field_value(t, balls, st, sample[e]);
+#endif
+  for (int e = 0; e < 7; ++e) {
+    if (value_at[e] <= t.arm_iso) continue;
+    const glm::vec3 s = sample[e];
+    FieldAt f = field_at(t, balls, st, s);
+    glm::vec3 q = s;
+    for (int step = 0; step < ContactTables::kArmNewtonSteps && f.value > t.arm_iso; ++step) {
+      const float g2 = glm::dot(f.gradient, f.gradient);
+      if (!(g2 > 1e-12f)) break;
+      q -= ((f.value - t.arm_iso) / g2) * f.gradient;
+      if (step + 1 < ContactTables::kArmNewtonSteps) f = field_at(t, balls, st, q);
+    }
+    glm::vec3 push = q - s;
+    const float push_m = glm::length(push);
+    if (push_m > t.arm_full_push_m)
+      push *= std::max(0.0f, (t.arm_no_push_m - push_m) / (t.arm_no_push_m - t.arm_full_push_m));
+    const glm::vec3 r = s - shoulder;
+    const float r2 = glm::dot(r, r);
+    if (!(r2 > 1e-8f)) continue;
+    const glm::vec3 turn = glm::cross(r, push) / r2;
+    const float t2 = glm::dot(turn, turn);
+    turn_sum += (t2 * t2) * turn, weight_sum += t2 * t2;
+  }
+}
 
 }  // namespace
 
@@ -56,64 +100,44 @@ void build_arm_clearance(const BodyModel& model, const rig::Skeleton& skeleton, 
       if (j < 64) arm.joint_mask |= uint64_t{1} << j;
     }
     arm.joint_count = static_cast<uint32_t>(t.arm_joints.size()) - arm.joint_first;
-    std::vector<ContactTables::Probe> probes;
+    std::vector<std::pair<int, ContactTables::Probe>> probes;  // (joint, probe)
     for (const Primitive& p : model.primitives) {
       if (p.kind != PrimitiveKind::metaball) continue;
       if (p.part != side.hand && !(p.part == RigidPart::none && (p.groups & group_bit(side.forearm)))) continue;
       const int joint = skeleton.find_joint(p.joint);
       if (joint < 0) continue;
       const PrimitiveState& s = p.state;
-      const glm::mat3 rot = glm::mat3(glm::eulerAngleZ(s.orientation_rad.z) * glm::eulerAngleY(s.orientation_rad.y) *
-                                      glm::eulerAngleX(s.orientation_rad.x));
+      const glm::mat3 rot = primitive_rotation(s);
       ContactTables::Probe pr;
-      pr.joint = joint;
       pr.centre_joint = s.center_m;
       pr.radius_m = std::max({s.semi_axes_m.x, s.semi_axes_m.y, s.semi_axes_m.z});
       pr.axes_joint = rot * glm::mat3(glm::vec3(s.semi_axes_m.x, 0, 0), glm::vec3(0, s.semi_axes_m.y, 0),
                                       glm::vec3(0, 0, s.semi_axes_m.z));
-      probes.push_back(pr);
+      probes.emplace_back(joint, pr);
     }
-    std::stable_sort(probes.begin(), probes.end(), [](const auto& a, const auto& b) { return a.joint < b.joint; });
-    arm.group_first = static_cast<uint32_t>(t.probe_groups.size());
+    std::stable_sort(probes.begin(), probes.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+    // Per joint, its probes and a sphere round them.
+    arm.probe_joint_first = static_cast<uint32_t>(t.probe_joints.size());
     for (size_t k = 0; k < probes.size();) {
-      ContactTables::ProbeGroup g;
-      g.joint = probes[k].joint;
-      g.probe_first = static_cast<uint32_t>(t.probes.size());
-      glm::vec3 lo(1e30f), hi(-1e30f);
-      for (const size_t end = k + ContactTables::kProbesPerGroup;
-           k < std::min(end, probes.size()) && probes[k].joint == g.joint; ++k) {
-        t.probes.push_back(probes[k]);
-        lo = glm::min(lo, probes[k].centre_joint - probes[k].radius_m);
-        hi = glm::max(hi, probes[k].centre_joint + probes[k].radius_m);
-      }
-      g.probe_count = static_cast<uint32_t>(t.probes.size()) - g.probe_first;
-      g.centre_joint = 0.5f * (lo + hi);
-      for (uint32_t i = g.probe_first; i < g.probe_first + g.probe_count; ++i)
-        g.radius_m =
-            std::max(g.radius_m, glm::distance(t.probes[i].centre_joint, g.centre_joint) + t.probes[i].radius_m);
-      t.probe_groups.push_back(g);
-    }
-    arm.group_count = static_cast<uint32_t>(t.probe_groups.size()) - arm.group_first;
-    // Round each joint's groups, one sphere more.
-    arm.joint_sphere_first = static_cast<uint32_t>(t.probe_joints.size());
-    for (uint32_t g = arm.group_first; g < arm.group_first + arm.group_count;) {
       ContactTables::ProbeJoint pj;
-      pj.joint = t.probe_groups[g].joint;
-      pj.group_first = g;
+      pj.joint = probes[k].first;
+      pj.probe_first = static_cast<uint32_t>(t.probes.size());
       glm::vec3 lo(1e30f), hi(-1e30f);
-      for (; g < arm.group_first + arm.group_count && t.probe_groups[g].joint == pj.joint; ++g) {
-        lo = glm::min(lo, t.probe_groups[g].centre_joint - t.probe_groups[g].radius_m);
-        hi = glm::max(hi, t.probe_groups[g].centre_joint + t.probe_groups[g].radius_m);
+      for (; k < probes.size() && probes[k].first == pj.joint; ++k) {
+        const ContactTables::Probe& pr = probes[k].second;
+        t.probes.push_back(pr);
+        lo = glm::min(lo, pr.centre_joint - pr.radius_m);
+        hi = glm::max(hi, pr.centre_joint + pr.radius_m);
       }
-      pj.group_count = g - pj.group_first;
+      pj.probe_count = static_cast<uint32_t>(t.probes.size()) - pj.probe_first;
       pj.centre_joint = 0.5f * (lo + hi);
-      for (uint32_t i = pj.group_first; i < g; ++i)
-        pj.radius_m = std::max(
-            pj.radius_m, glm::distance(t.probe_groups[i].centre_joint, pj.centre_joint) + t.probe_groups[i].radius_m);
+      for (uint32_t i = pj.probe_first; i < pj.probe_first + pj.probe_count; ++i)
+        pj.radius_m =
+            std::max(pj.radius_m, glm::distance(t.probes[i].centre_joint, pj.centre_joint) + t.probes[i].radius_m);
       t.probe_joints.push_back(pj);
     }
-    arm.joint_sphere_count = static_cast<uint32_t>(t.probe_joints.size()) - arm.joint_sphere_first;
-    if (arm.group_count > 0) t.arms.push_back(arm);
+    arm.probe_joint_count = static_cast<uint32_t>(t.probe_joints.size()) - arm.probe_joint_first;
+    if (arm.probe_joint_count > 0) t.arms.push_back(arm);
   }
 }
 
@@ -123,86 +147,37 @@ void clear_arms(const ContactTables& t, ContactState& st, std::span<rig::RigidTr
     const glm::vec3 shoulder = world_from_joint[arm.shoulder].translation;
     // A second round: the first turn can bring another probe into a volume.
     for (int round = 0; round < ContactTables::kArmRounds; ++round) {
-      // Where each joint's probes are this round.
-      glm::vec3 joint_centre[ContactTables::kMaxProbeJoints];
-      const uint32_t joints = std::min<uint32_t>(arm.joint_sphere_count, ContactTables::kMaxProbeJoints);
-      for (uint32_t j = 0; j < joints; ++j) {
-        const ContactTables::ProbeJoint& pj = t.probe_joints[arm.joint_sphere_first + j];
-        joint_centre[j] = world_from_joint[pj.joint].apply(pj.centre_joint);
-      }
-      // Each deep point's turn (the least rotation about the shoulder moving it by its push),
-      // blended by the fourth power of its size: nearly the largest, but where two points with
-      // pushes in different directions are as deep the turn goes between them instead of jumping
-      // from one to the other (the largest alone moved a hand 60–80 mm between two samples).
+      // The deep points' turns blended by the fourth power of their size: nearly the largest, but
+      // where two points with pushes in different directions are as deep the turn goes between
+      // them instead of jumping from one to the other (the largest alone moved a hand 60–80 mm
+      // between two samples).
       glm::vec3 turn_sum(0.0f);
       float weight_sum = 0;
-      for (int v = 0; v < ContactTables::kArmVolumes; ++v)
-        for (uint32_t j = 0; j < joints; ++j) {
-          // The volume's balls that reach this joint's probes (a few near a hand).
-          const ContactTables::ProbeJoint& pj = t.probe_joints[arm.joint_sphere_first + j];
+      for (uint32_t j = arm.probe_joint_first; j < arm.probe_joint_first + arm.probe_joint_count; ++j) {
+        const ContactTables::ProbeJoint& pj = t.probe_joints[j];
+        const rig::RigidTransform& w = world_from_joint[pj.joint];
+        const glm::vec3 joint_centre = w.apply(pj.centre_joint);
+        for (int v = 0; v < ContactTables::kArmVolumes; ++v) {
+          // The volume's balls that reach this joint's probes (a few near a hand), evaluated a
+          // ball at a time: filling eight-lane rows cost more than the tests.
           uint32_t n = 0;
           for (uint32_t k = t.volume_first[v]; k < t.volume_first[v + 1]; ++k) {
             const uint16_t i = t.volume_balls[k];
             const float reach = t.balls[i].bound_m + pj.radius_m;
-            if (glm::distance2(st.centre[i], joint_centre[j]) < reach * reach) st.active[n++] = i;
+            if (glm::distance2(st.centre[i], joint_centre) < reach * reach) st.active[n++] = i;
           }
-          if (n == 0) continue;
-          // A few balls: evaluated a ball at a time (filling the eight-lane rows cost more than the tests).
           const std::span<const uint16_t> balls(st.active.data(), n);
-          const auto field = [&](const glm::vec3& x) { return field_at(t, balls, st, x); };
           const auto far = [&](const glm::vec3& c, float r) { return field_bound(t, balls, st, c, r) <= t.arm_iso; };
-          if (far(joint_centre[j], pj.radius_m)) continue;
-          const rig::RigidTransform& pw = world_from_joint[pj.joint];
-          for (uint32_t g = pj.group_first; g < pj.group_first + pj.group_count; ++g) {
-            const ContactTables::ProbeGroup& pg = t.probe_groups[g];
-            if (far(pw.apply(pg.centre_joint), pg.radius_m)) continue;
-            for (uint32_t k = pg.probe_first; k < pg.probe_first + pg.probe_count; ++k) {
-              const ContactTables::Probe& pr = t.probes[k];
-              const rig::RigidTransform& w = world_from_joint[pr.joint];
-              const glm::vec3 c = w.apply(pr.centre_joint);
-              if (far(c, pr.radius_m)) continue;
-              // Its centre and the ends of its axes, each pushed to the volume's level: fixed points,
-              // so the pushes change with the pose continuously (a point taken up the field's
-              // gradient swung round the probe where the field is faint, and the turn jumped).
-              const glm::mat3 axes = glm::mat3_cast(w.rotation) * pr.axes_joint;
-              glm::vec3 sample[8];
-              for (int e = 0; e < 7; ++e) sample[e] = e == 0 ? c : c + (e % 2 ? 1.0f : -1.0f) * axes[(e - 1) / 2];
-              float value_at[8];
-#ifdef MIMIC_SIMD_AVX2
-              {
-                alignas(32) float xs[8], ys[8], zs[8];
-                for (int e = 0; e < 7; ++e) xs[e] = sample[e].x, ys[e] = sample[e].y, zs[e] = sample[e].z;
-                xs[7] = ys[7] = zs[7] = 1e6f;  // far from every ball
-                _mm256_storeu_ps(value_at, field_values8(t, st, balls, xs, ys, zs));
-              }
-#else
-              for (int e = 0; e < 7; ++e) value_at[e] = field_value(t, balls, st, sample[e]);
-#endif
-              for (int e = 0; e < 7; ++e) {
-                const glm::vec3 s = sample[e];
-                if (value_at[e] <= t.arm_iso) continue;
-                FieldAt f = field(s);
-                glm::vec3 q = s;
-                for (int step = 0; step < ContactTables::kArmNewtonSteps && f.value > t.arm_iso; ++step) {
-                  const float g2 = glm::dot(f.gradient, f.gradient);
-                  if (!(g2 > 1e-12f)) break;
-                  q -= ((f.value - t.arm_iso) / g2) * f.gradient;
-                  if (step + 1 < ContactTables::kArmNewtonSteps) f = field(q);
-                }
-                glm::vec3 push = q - s;
-                const float push_m = glm::length(push);
-                if (push_m > t.arm_full_push_m)
-                  push *= std::max(0.0f, (t.arm_no_push_m - push_m) / (t.arm_no_push_m - t.arm_full_push_m));
-                const glm::vec3 r = s - shoulder;
-                const float r2 = glm::dot(r, r);
-                if (!(r2 > 1e-8f)) continue;
-                const glm::vec3 turn = glm::cross(r, push) / r2;
-                const float t2 = glm::dot(turn, turn);
-                turn_sum += (t2 * t2) * turn, weight_sum += t2 * t2;
-              }
-            }
+          if (n == 0 || far(joint_centre, pj.radius_m)) continue;
+          for (uint32_t k = pj.probe_first; k < pj.probe_first + pj.probe_count; ++k) {
+            const ContactTables::Probe& pr = t.probes[k];
+            const glm::vec3 c = w.apply(pr.centre_joint);
+            if (far(c, pr.radius_m)) continue;
+            add_probe_turns(t, st, balls, c, glm::mat3_cast(w.rotation) * pr.axes_joint, shoulder, turn_sum,
+                            weight_sum);
           }
         }
+      }
       if (!(weight_sum > 0.0f)) break;
       const glm::vec3 turn = turn_sum / weight_sum;
       const float angle = glm::length(turn);

@@ -319,9 +319,10 @@ void RealtimeSkin::evaluate(const rig::Pose& pose, std::span<glm::vec3> pos, std
   const RealtimeBody::Data& d = body_->data();
   if (pos.size() < d.rest_mesh.positions.size() || pose.dof_rad.size() != static_cast<size_t>(d.skeleton.dof_count()))
     return;  // a caller's sizing error; documented sizes
-  deform(d, *state_, pose, pos, muscles, contact && !d.contact.empty());
+  const bool with_contact = contact && !d.contact.empty();
+  deform(d, *state_, pose, pos, muscles, with_contact);
   state_->contact.moved = 0;
-  if (contact && !d.contact.empty()) {
+  if (with_contact) {
     const double t1 = steady_now_s();
     apply_contact(d.contact, state_->contact, state_->follow_fade, pos);
     state_->timings.contact_us = (steady_now_s() - t1) * 1e6;

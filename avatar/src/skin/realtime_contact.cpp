@@ -70,13 +70,125 @@ constexpr int kNewtonSteps = 3;
 constexpr int kBandNewtonSteps = 1;
 constexpr uint32_t kCullBlock = 8;
 
+// The active balls as eight-lane rows (ContactState::lanes); returns the padded count.
+inline uint32_t fill_lanes(const ContactTables& t, ContactState& st, uint32_t n) {
+  const uint32_t padded = (n + 7) / 8 * 8;
+  float* rows = st.lanes.data();
+  const size_t w = st.lane_stride;
+  for (uint32_t k = 0; k < padded; ++k) {
+    if (k >= n) {
+      for (int r = 0; r < ContactState::kLaneRows; ++r) rows[r * w + k] = 0.0f;
+      continue;
+    }
+    const uint16_t i = st.active[k];
+    const glm::mat3& m = st.unit_from_world[i];
+    rows[0 * w + k] = st.centre[i].x, rows[1 * w + k] = st.centre[i].y, rows[2 * w + k] = st.centre[i].z;
+    for (int c = 0; c < 3; ++c)
+      for (int r = 0; r < 3; ++r) rows[(3 + 3 * r + c) * w + k] = m[c][r];  // row r of the matrix
+    rows[12 * w + k] = t.balls[i].inv_r2;
+    rows[13 * w + k] = t.balls[i].weight_norm;
+    rows[14 * w + k] = t.balls[i].inv_min_axis;
+  }
+  return padded;
+}
+
+#ifdef MIMIC_SIMD_AVX2
+// A point's offset from eight balls' centres in their unit spaces (lane rows 0–11), and the sum
+// of eight lanes.
+struct LaneOffset {
+  __m256 x, y, z;
+};
+inline LaneOffset unit_offset(const float* rows, size_t w, uint32_t k, __m256 px, __m256 py, __m256 pz) {
+  auto row = [&](int r) { return _mm256_loadu_ps(rows + static_cast<size_t>(r) * w + k); };
+  const __m256 dx = _mm256_sub_ps(px, row(0)), dy = _mm256_sub_ps(py, row(1)), dz = _mm256_sub_ps(pz, row(2));
+  return {_mm256_fmadd_ps(row(5), dz, _mm256_fmadd_ps(row(4), dy, _mm256_mul_ps(row(3), dx))),
+          _mm256_fmadd_ps(row(8), dz, _mm256_fmadd_ps(row(7), dy, _mm256_mul_ps(row(6), dx))),
+          _mm256_fmadd_ps(row(11), dz, _mm256_fmadd_ps(row(10), dy, _mm256_mul_ps(row(9), dx)))};
+}
+inline __m256 length2(const LaneOffset& q) {
+  return _mm256_fmadd_ps(q.z, q.z, _mm256_fmadd_ps(q.y, q.y, _mm256_mul_ps(q.x, q.x)));
+}
+inline float lane_sum(__m256 v) {
+  const __m128 h = _mm_add_ps(_mm256_castps256_ps128(v), _mm256_extractf128_ps(v, 1));
+  const __m128 h2 = _mm_add_ps(h, _mm_movehl_ps(h, h));
+  return _mm_cvtss_f32(_mm_add_ss(h2, _mm_shuffle_ps(h2, h2, 1)));
+}
+
+// field_value over the lanes, eight balls a step.
+inline float field_value_lanes(const ContactState& st, uint32_t padded, const glm::vec3& p) {
+  const float* rows = st.lanes.data();
+  const size_t w = st.lane_stride;
+  const __m256 px = _mm256_set1_ps(p.x), py = _mm256_set1_ps(p.y), pz = _mm256_set1_ps(p.z);
+  const __m256 one = _mm256_set1_ps(1.0f), zero = _mm256_setzero_ps();
+  __m256 sum = zero;
+  for (uint32_t k = 0; k < padded; k += 8) {
+    const __m256 s = length2(unit_offset(rows, w, k, px, py, pz));
+    const __m256 u = _mm256_max_ps(_mm256_fnmadd_ps(s, _mm256_loadu_ps(rows + 12 * w + k), one), zero);
+    sum = _mm256_fmadd_ps(_mm256_mul_ps(_mm256_mul_ps(u, u), u), _mm256_loadu_ps(rows + 13 * w + k), sum);
+  }
+  return lane_sum(sum);
+}
+
+// The most the field can be anywhere within `radius` of `centre`: each ball's term at the
+// nearest a point there can be to its centre in the ball's unit space (a metre moves a point at
+// most inv_min_axis there), eight balls a step.
+inline float field_bound_lanes(const ContactState& st, uint32_t padded, const glm::vec3& centre, float radius) {
+  const float* rows = st.lanes.data();
+  const size_t w = st.lane_stride;
+  const __m256 px = _mm256_set1_ps(centre.x), py = _mm256_set1_ps(centre.y), pz = _mm256_set1_ps(centre.z);
+  const __m256 r = _mm256_set1_ps(radius);
+  const __m256 one = _mm256_set1_ps(1.0f), zero = _mm256_setzero_ps();
+  __m256 sum = zero;
+  for (uint32_t k = 0; k < padded; k += 8) {
+    const __m256 q = _mm256_sqrt_ps(length2(unit_offset(rows, w, k, px, py, pz)));
+    const __m256 d = _mm256_max_ps(_mm256_fnmadd_ps(r, _mm256_loadu_ps(rows + 14 * w + k), q), zero);
+    const __m256 u =
+        _mm256_max_ps(_mm256_fnmadd_ps(_mm256_mul_ps(d, d), _mm256_loadu_ps(rows + 12 * w + k), one), zero);
+    sum = _mm256_fmadd_ps(_mm256_mul_ps(_mm256_mul_ps(u, u), u), _mm256_loadu_ps(rows + 13 * w + k), sum);
+  }
+  return lane_sum(sum);
+}
+
+// field_at over the lanes: the value and its gradient, eight balls a step.
+inline FieldAt field_at_lanes(const ContactState& st, uint32_t padded, const glm::vec3& p) {
+  const float* rows = st.lanes.data();
+  const size_t w = st.lane_stride;
+  const __m256 px = _mm256_set1_ps(p.x), py = _mm256_set1_ps(p.y), pz = _mm256_set1_ps(p.z);
+  const __m256 one = _mm256_set1_ps(1.0f), zero = _mm256_setzero_ps(), six = _mm256_set1_ps(6.0f);
+  __m256 sum = zero, gx = zero, gy = zero, gz = zero;
+  for (uint32_t k = 0; k < padded; k += 8) {
+    auto row = [&](int r) { return _mm256_loadu_ps(rows + r * w + k); };
+    const LaneOffset q = unit_offset(rows, w, k, px, py, pz);
+    const __m256 u = _mm256_max_ps(_mm256_fnmadd_ps(length2(q), row(12), one), zero);
+    const __m256 wu2 = _mm256_mul_ps(row(13), _mm256_mul_ps(u, u));
+    sum = _mm256_fmadd_ps(wu2, u, sum);
+    // d/dp of w·u³ = −6 w u² / R² · Mᵀ q (zero where u is: outside the ball)
+    const __m256 c = _mm256_mul_ps(_mm256_mul_ps(six, wu2), row(12));
+    gx =
+        _mm256_fnmadd_ps(c, _mm256_fmadd_ps(row(9), q.z, _mm256_fmadd_ps(row(6), q.y, _mm256_mul_ps(row(3), q.x))), gx);
+    gy = _mm256_fnmadd_ps(c, _mm256_fmadd_ps(row(10), q.z, _mm256_fmadd_ps(row(7), q.y, _mm256_mul_ps(row(4), q.x))),
+                          gy);
+    gz = _mm256_fnmadd_ps(c, _mm256_fmadd_ps(row(11), q.z, _mm256_fmadd_ps(row(8), q.y, _mm256_mul_ps(row(5), q.x))),
+                          gz);
+  }
+  return {lane_sum(sum), glm::vec3(lane_sum(gx), lane_sum(gy), lane_sum(gz))};
+}
+#endif
+
+}  // namespace
+
+glm::mat3 primitive_rotation(const PrimitiveState& s) {
+  return glm::mat3(glm::eulerAngleZ(s.orientation_rad.z) * glm::eulerAngleY(s.orientation_rad.y) *
+                   glm::eulerAngleX(s.orientation_rad.x));
+}
+
+namespace {
+
 ContactTables::Ball ball_of(const Primitive& p, int joint) {
   ContactTables::Ball b;
   b.joint = joint;
   const PrimitiveState& s = p.state;
-  const glm::mat3 rot = glm::mat3(glm::eulerAngleZ(s.orientation_rad.z) * glm::eulerAngleY(s.orientation_rad.y) *
-                                  glm::eulerAngleX(s.orientation_rad.x));
-  glm::mat3 m = glm::transpose(rot);
+  glm::mat3 m = glm::transpose(primitive_rotation(s));
   for (int c = 0; c < 3; ++c)
     for (int r = 0; r < 3; ++r) m[c][r] /= s.semi_axes_m[r];
   b.unit_from_joint = m;
@@ -135,8 +247,7 @@ size_t ContactTables::heap_bytes() const {
          (ring_first.capacity() + ring.capacity() + slot_of.capacity() + slot_vertex.capacity()) * 4 +
          slot_band.capacity() * sizeof(BandNeighbours) + slot_band_slots.capacity() * 16 +
          slot_band_follow.capacity() * 4 + arms.capacity() * sizeof(Arm) + arm_joints.capacity() * 4 +
-         probe_groups.capacity() * sizeof(ProbeGroup) + probe_joints.capacity() * sizeof(ProbeJoint) +
-         probes.capacity() * sizeof(Probe) + volume_balls.capacity() * 2;
+         probe_joints.capacity() * sizeof(ProbeJoint) + probes.capacity() * sizeof(Probe) + volume_balls.capacity() * 2;
 }
 
 size_t ContactState::heap_bytes() const {

@@ -20,6 +20,9 @@
 
 namespace mimic::avatar::realtime_detail {
 
+// A primitive's rotation R = Rz·Ry·Rx from its state's angles (body_model.h), in its joint's frame.
+glm::mat3 primitive_rotation(const PrimitiveState& s);
+
 // The mask of several body groups.
 constexpr GroupMask group_bits(std::initializer_list<Group> gs) {
   GroupMask m = 0;
@@ -81,39 +84,26 @@ struct ContactTables {
   // where a hand or a forearm passes into the torso's or a thigh's volume the whole arm turns
   // about its shoulder until it lies on that volume's surface. The probes are the hand's and the
   // forearm's ellipsoids (their metaballs), each tested at its centre and the ends of its axes.
-  struct Probe {
-    int joint = -1;
+  struct Probe {  // in its ProbeJoint's joint's frame
     glm::vec3 centre_joint{0.0f};
     glm::mat3 axes_joint{1.0f};  // R · S: the columns are the semi-axes, in the joint's frame
     float radius_m = 0;          // the largest semi-axis
   };
-  // Up to kProbesPerGroup probes of one joint (neighbours in the model: a finger's phalanges), and
-  // a sphere round them (in the joint's frame), tested first: with the arm hanging by the hip one
-  // sphere round the whole hand always reached the thigh, and its twenty probes were tested each.
-  struct ProbeGroup {
+  // The probes of one joint, and a sphere round them (in the joint's frame), tested first.
+  struct ProbeJoint {
     int joint = -1;
     glm::vec3 centre_joint{0.0f};
     float radius_m = 0;
     uint32_t probe_first = 0, probe_count = 0;  // in probes
   };
-  // The groups of one joint, and a sphere round them, tested before them.
-  struct ProbeJoint {
-    int joint = -1;
-    glm::vec3 centre_joint{0.0f};
-    float radius_m = 0;
-    uint32_t group_first = 0, group_count = 0;  // in probe_groups
-  };
   struct Arm {
-    int shoulder = -1;                                        // the joint the arm turns about
-    uint64_t joint_mask = 0;                                  // a bit per joint in arm_joints (below 64)
-    uint32_t joint_first = 0, joint_count = 0;                // in arm_joints: the shoulder and every joint below it
-    uint32_t group_first = 0, group_count = 0;                // in probe_groups
-    uint32_t joint_sphere_first = 0, joint_sphere_count = 0;  // in probe_joints
+    int shoulder = -1;                                      // the joint the arm turns about
+    uint64_t joint_mask = 0;                                // a bit per joint in arm_joints (below 64)
+    uint32_t joint_first = 0, joint_count = 0;              // in arm_joints: the shoulder and every joint below it
+    uint32_t probe_joint_first = 0, probe_joint_count = 0;  // in probe_joints
   };
-  static constexpr uint32_t kProbesPerGroup = 3, kMaxProbeJoints = 4;
   std::vector<Arm> arms;
   std::vector<int> arm_joints;
-  std::vector<ProbeGroup> probe_groups;
   std::vector<ProbeJoint> probe_joints;
   std::vector<Probe> probes;
   // The volumes the arms keep out of (the torso, each thigh): their balls in `volume_balls`, from
@@ -178,7 +168,7 @@ ContactTables build_contact(const BodyModel& model, const rig::Skeleton& skeleto
 void build_arm_clearance(const BodyModel& model, const rig::Skeleton& skeleton, std::span<const int> ball_of_primitive,
                          ContactTables& t);
 
-// Poses the volumes' balls for the frame, then turns each arm about its shoulder so that no probe
+// Poses the contact's balls for the frame, then turns each arm about its shoulder so that no probe
 // of its hand and forearm lies inside the torso's or a thigh's volume (to within the turn's cap),
 // in `world_from_joint`, before the skin is deformed (and poses the turned arm's balls again).
 // Never allocates.
