@@ -374,7 +374,13 @@ class WalkMotion final : public ProceduralMotion {
     const FootState b = planted(leg, footprint_psi(leg, step + 1), stance_pitch(0.0));
     const double su = smooth(u);
     FootState f;
-    f.ankle = a.ankle + su * (b.ankle - a.ankle);
+    // Along the foot's own circle, not the chord: a stride spans a sixth of the lap, and the
+    // outer foot's chord cut 15 cm inwards, through the other leg.
+    const double ra = std::hypot(a.ankle.x, a.ankle.z), rb = std::hypot(b.ankle.x, b.ankle.z);
+    const double pa = std::atan2(a.ankle.z, a.ankle.x);
+    const double turn = std::remainder(std::atan2(b.ankle.z, b.ankle.x) - pa, kTwoPi);
+    const double r = ra + su * (rb - ra), psi = pa + su * turn;
+    f.ankle = glm::dvec3(r * std::cos(psi), a.ankle.y + su * (b.ankle.y - a.ankle.y), r * std::sin(psi));
     f.ankle.y += 0.045 * std::sin(kPi * u) + 0.03 * std::sin(kPi * std::min(1.0, u / 0.5)) * (1 - u);
     // The foot turns from its toe-off pitch to the heel-strike pitch: toes down early in swing
     // with the shin, as in real gait, rather than held level (which would overbend the ankle).

@@ -200,6 +200,33 @@ TEST(Motion, WalkPlantsTheStanceFoot) {
   }
 }
 
+// The feet pass beside each other, never across: the left (outer) foot on the circle's outside
+// of the right one at every sample of the lap, by about the two footprints' spacing. Each swing
+// follows its foot's own circle; the chord of a stride (a sixth of the lap) cut 15 cm inwards,
+// and the shins and feet passed through each other at every step of the outer leg.
+TEST(Motion, WalkFeetPassBesideEachOtherNeverAcross) {
+  const Skeleton s = default_skeleton();
+  const auto m = make("walk", s);
+  Pose p = s.zero_pose();
+  std::vector<RigidTransform> w(s.joint_count());
+  const int ankle[2] = {s.find_joint("l_ankle"), s.find_joint("r_ankle")};
+  const int toes[2] = {s.find_joint("l_toes"), s.find_joint("r_toes")};
+  float closest = 1e9f;
+  for (double t = 0; t < m->duration_s(); t += 1.0 / 120) {
+    m->sample(t, p);
+    forward_kinematics(s, p, w);
+    // Each foot's distance from the circle's centre, at its ankle and at its ball (a foot turns
+    // along the curve, so both).
+    for (int pick = 0; pick < 2; ++pick) {
+      const int l = pick == 0 ? ankle[0] : toes[0], r = pick == 0 ? ankle[1] : toes[1];
+      const float outer = glm::length(glm::vec2(w[l].translation.x, w[l].translation.z));
+      const float inner = glm::length(glm::vec2(w[r].translation.x, w[r].translation.z));
+      closest = std::min(closest, outer - inner);
+    }
+  }
+  EXPECT_GT(closest, 0.14f) << "the feet come within " << closest << " m across the path";
+}
+
 TEST(Motion, Deterministic) {
   const Skeleton s = default_skeleton();
   for (const char* name : {"idle", "walk"}) {
