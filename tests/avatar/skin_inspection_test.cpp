@@ -38,6 +38,8 @@ TEST(SkinInspection, SweepsEveryMethodOverTheStandardJoints) {
       ASSERT_EQ(m.samples.size(), r.sweep.angles_deg.size());
       EXPECT_EQ(m.samples[0].volume_change_pct, 0.0);  // the relaxed pose is the reference
       EXPECT_NEAR(m.samples[0].min_section_fraction, 1.0, 1e-12);
+      EXPECT_EQ(m.samples[0].stand_off_mm, 0.0);
+      for (const auto& s : m.samples) EXPECT_GE(s.stand_off_mm, 0.0) << r.sweep.name << " " << m.method;
     }
   }
   EXPECT_EQ(results()[0].sweep.angles_deg.back(), 150.0f);

@@ -24,8 +24,12 @@ TEST(InspectCli, JsonHasEverySweepMethodAndSummary) {
       ASSERT_TRUE(s["methods"].contains(m)) << s["name"] << " " << m;
       EXPECT_EQ(s["methods"][m]["volume_change_pct"].size(), s["angles_deg"].size());
       EXPECT_EQ(s["methods"][m]["min_section_fraction"].size(), s["angles_deg"].size());
+      EXPECT_EQ(s["methods"][m]["stand_off_mm"].size(), s["angles_deg"].size());
     }
   }
+  // The realtime elbow and knee wrap round the joint: their skin stands off the bones no more
+  // than the full method's does (the mitre's needle stood 156 mm off at the knee).
+  EXPECT_LE(j["summary"]["realtime"]["stand_off_mm"].get<double>(), j["summary"]["full"]["stand_off_mm"].get<double>());
   EXPECT_EQ(j["sweeps"][0]["name"], "elbow_flexion");
   EXPECT_GT(j["summary"]["lbs"]["twist_90_abs_volume_change_pct"].get<double>(), 20.0);
   EXPECT_LT(j["summary"]["dqs"]["twist_90_abs_volume_change_pct"].get<double>(), 3.0);

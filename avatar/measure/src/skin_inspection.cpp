@@ -53,6 +53,41 @@ Measures measure(std::span<const glm::vec3> positions, const Mesh& topology, std
   return m;
 }
 
+// Distance from p to the segment [a, b].
+float to_segment(const glm::vec3& p, const glm::vec3& a, const glm::vec3& b) {
+  const glm::vec3 ab = b - a;
+  const float t = std::clamp(glm::dot(p - a, ab) / std::max(glm::dot(ab, ab), 1e-12f), 0.0f, 1.0f);
+  return glm::length(p - (a + t * ab));
+}
+
+// The vertices of `tris` and their distance to the two links (parent joint → joint → the joint's
+// tip), the zone's vertices marked.
+struct StandOff {
+  std::vector<uint32_t> vertices;
+  std::vector<float> distance;
+  std::vector<uint8_t> in_zone;
+};
+
+StandOff stand_off(std::span<const glm::vec3> positions, const Mesh& topology, std::span<const uint32_t> tris,
+                   const JointZone& zone, const glm::vec3& parent, const glm::vec3& tip) {
+  StandOff s;
+  std::vector<uint8_t> seen(positions.size(), 0);
+  for (uint32_t t : tris)
+    for (int k = 0; k < 3; ++k) {
+      const uint32_t v = topology.indices[3 * t + k];
+      if (!seen[v]) seen[v] = 1, s.vertices.push_back(v);
+    }
+  std::sort(s.vertices.begin(), s.vertices.end());
+  for (uint32_t v : s.vertices) {
+    const glm::vec3& p = positions[v];
+    s.distance.push_back(std::min(to_segment(p, parent, zone.center_m), to_segment(p, zone.center_m, tip)));
+    const glm::vec3 d = p - zone.center_m;
+    s.in_zone.push_back(glm::dot(d, zone.proximal_dir) <= zone.half_length_m &&
+                        glm::dot(d, zone.distal_dir) <= zone.half_length_m);
+  }
+  return s;
+}
+
 }  // namespace
 
 Result<std::vector<SweepResult>> inspect_joint_zones(const BodyModel& base_model, const std::vector<JointSweep>& sweeps,
@@ -120,6 +155,7 @@ Result<std::vector<SweepResult>> inspect_joint_zones(const BodyModel& base_model
       if (tris.empty()) return fail(Errc::not_found, "inspect: the skin has none of the parts of sweep " + sweep.name);
       MethodSweep ms{method.name, {}};
       Measures relaxed;
+      StandOff relaxed_off;
       for (size_t k = 0; k < sweep.angles_deg.size(); ++k) {
         rig::Pose p = skeleton.zero_pose();
         p.dof_rad[dof] = sweep.angles_deg[k] * kDeg;
@@ -128,9 +164,15 @@ Result<std::vector<SweepResult>> inspect_joint_zones(const BodyModel& base_model
         const glm::vec3 c = pw[joint].translation;
         const JointZone zone{c, glm::normalize(pw[skeleton.parent(joint)].translation - c),
                              glm::normalize(pw[joint].apply(skeleton.tip_m(joint)) - c), sweep.half_length_m};
-        const Measures m = measure(method.pose(p), topology, tris, zone);
-        if (k == 0) relaxed = m;
+        const std::span<const glm::vec3> posed = method.pose(p);
+        const Measures m = measure(posed, topology, tris, zone);
+        const StandOff off = stand_off(posed, topology, tris, zone, pw[skeleton.parent(joint)].translation,
+                                       pw[joint].apply(skeleton.tip_m(joint)));
+        if (k == 0) relaxed = m, relaxed_off = off;
         SweepSample s{sweep.angles_deg[k], 100.0 * (m.volume / relaxed.volume - 1.0), INFINITY};
+        for (size_t i = 0; i < off.vertices.size(); ++i)
+          if (off.in_zone[i])
+            s.stand_off_mm = std::max(s.stand_off_mm, 1000.0 * (off.distance[i] - relaxed_off.distance[i]));
         for (size_t i = 0; i < m.sections.size(); ++i)
           if (relaxed.sections[i] > 0)
             s.min_section_fraction = std::min(s.min_section_fraction, m.sections[i] / relaxed.sections[i]);

@@ -201,6 +201,7 @@ Result<std::shared_ptr<const RealtimeBody>> RealtimeBody::create(const BodyModel
   d->texture = ::mimic::avatar::texture_layout(layout);
   measure_muscles(model, *skin, rest, base, *d);
   pad_for_kernels(*d);
+  measure_joint_tips(rest, *d);
   if (auto st = calibrate_bands(rest, base, *d); !st) return tl::unexpected(st.error());
   if (options.contact) {
     std::vector<rig::RigidTransform> w(static_cast<size_t>(skeleton.joint_count()));
@@ -278,7 +279,7 @@ size_t RealtimeBody::shared_bytes() const {
   size_t b = sizeof(Data) + d.rings.capacity() * sizeof(Data::RingOp) + d.goals.capacity() * 4 +
              (d.lx.capacity() + d.ly.capacity() + d.lz.capacity()) * 4 +
              (d.lo_x.capacity() + d.lo_y.capacity() + d.hi_x.capacity() + d.hi_y.capacity() + d.dh_lo.capacity() +
-              d.dh_hi.capacity() + d.column_inv_len2.capacity()) *
+              d.dh_hi.capacity() + d.column_inv_len2.capacity() + d.tip_radius2.capacity()) *
                  4 +
              d.muscle_blocks.capacity() * sizeof(Data::MuscleBlock) + d.muscle_data.capacity() * 4 +
              d.frame_runs.capacity() * sizeof(Data::FrameRun) + (d.run_rings.capacity() + d.run_u.capacity()) * 4 +

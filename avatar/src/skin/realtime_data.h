@@ -94,6 +94,9 @@ struct RealtimeBody::Data {
     int band = -1;
     float band_weight = 0;
     glm::vec2 centre{0.0f};
+    // Star rings of the arms and legs: the chain node whose tip they round (round_joint_tip:
+    // 1 the elbow or knee, 2 the wrist or ankle), or −1.
+    int tip_node = -1;
     uint32_t muscle_first = 0, muscle_count = 0;  // blocks in `muscle_blocks`
     int follow = -1;                              // driven: its loop's follow (`follows`), or −1
     bool moves_loop = false;                      // driven: the first ring of its limb moves the loop first
@@ -116,6 +119,10 @@ struct RealtimeBody::Data {
   // grows): where a bend squeezes the band between the loop and S (the armpit and groin side), an
   // offset as long as the column itself would carry the point past its neighbours.
   std::vector<float> column_inv_len2;
+  // Per slot of a ring with a tip node: the squared distance it keeps to from the node's centre
+  // once past the node (round_joint_tip): its distance from its link in the initial pose, or
+  // from the node's centre if it was past the node already.
+  std::vector<float> tip_radius2;
   // The shoulders' and hips' junction loops that follow their limbs (loop_follow.h).
   std::vector<skin_detail::LoopFollow> follows;
   // Per ring (used at S rings with driven rings): the band's rest frame in S's rest frame.
@@ -203,6 +210,9 @@ struct State {
   std::vector<glm::vec2> muscle_w;  // per muscle DOF: (towards θmin, towards θmax)
   std::vector<float> band_scale;    // per band, this frame
   std::vector<float> follow_fade;   // per loop follow, this frame: 1 up to 95° of swing, 0 past 120°
+  // Per chain, this frame: its two links' directions towards the middle node (tip_direction of
+  // the first link there, and of the second; the second's reversed past the end node).
+  std::vector<glm::vec3> tip_along;
   // Build time only: the bands' scales forced (the calibration); empty otherwise.
   std::vector<float> band_scale_forced;
   bool vectorised = true;    // the eight-wide kernels where the build has them
@@ -284,6 +294,36 @@ inline constexpr bool kHasAvx2Kernel =
     false;
 #endif
 
+// The outer side of a bent elbow or knee. The two links' ring planes tilt towards the bisector
+// and meet as a mitre whose outer corner reaches up to 1/cos(72.5°) = 3.3 times the limb's
+// radius out along the tilted planes: a beak at 90°, a needle at full flexion. Flesh wraps round
+// the joint instead, as a capsule round the bent bones does: a point the tilt carries past the
+// joint (beyond the plane across its link at the joint's centre) lies no further from that centre
+// than it lay from its link in the initial pose (times the ring's band scale; a point already
+// past the joint there keeps to its distance from the centre); one that would slides back towards
+// its ring's origin, in the ring's plane, to that distance (or, when the origin is that far
+// itself, to the point of that line nearest the centre). Points short of the joint keep their
+// distance from their link (the column slide moves them along it), so the limb's sides run
+// straight into a round tip. The same at the wrists and ankles. In the initial pose nothing
+// moves; points only move towards their ring's origin along its plane, so the ring's reach holds.
+struct TipRound {
+  glm::vec3 origin{0.0f};  // the ring's
+  glm::vec3 centre{0.0f};  // the tip node's point
+  glm::vec3 along{0.0f};   // tip_direction there: positive past the joint
+  glm::vec3 w{0.0f};       // origin − centre
+  float w2 = 0;            // |w|²
+  float scale2 = 1;        // (band scale)², with a hair's margin
+};
+// Along a ring's link (`segment`) at chain node `node` (1 or 2), pointing past the node.
+inline glm::vec3 tip_direction(const Chain& c, int segment, int node) {
+  const glm::vec3 d = segment == 0 || node == 2 ? c.point[node] - c.point[node - 1] : c.point[1] - c.point[2];
+  return safe_normalize(d, {0, -1, 0});
+}
+// A star ring's points (`out`, the ring's slots) rounded at their tip node (eight at a time where
+// the build has AVX2 and FMA and `vectorised`).
+void round_joint_tip(const RealtimeBody::Data& d, const RealtimeBody::Data::RingOp& r, const TipRound& t,
+                     glm::vec3* out, bool vectorised);
+
 // The bend of a chain at its middle node (radians, 0 straight).
 float chain_bend(const Chain& c);
 
@@ -304,6 +344,8 @@ void measure_columns(const RestContours& m, RealtimeBody::Data& d);
 void measure_driven_columns(const RestContours& m, RealtimeBody::Data& d);
 // The shoulders' and hips' loop follows (Data::follows), in the initial pose `base`.
 void measure_loop_follows(const RestContours& m, const rig::Pose& base, RealtimeBody::Data& d);
+// The rings that round a joint's tip and the distances they keep to (round_joint_tip).
+void measure_joint_tips(const RestContours& m, RealtimeBody::Data& d);
 // Joint bands at the elbows and knees and their scales over each joint's bend.
 Status calibrate_bands(const RestContours& m, const rig::Pose& base, RealtimeBody::Data& d);
 // The muscle terms: `skin` (the layout's implicit skin) ray-casts the contours with each

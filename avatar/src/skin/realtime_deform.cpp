@@ -96,6 +96,20 @@ Frame star_frame(const Chain& c, int segment, float u, bool along_link) {
   return f;
 }
 
+namespace {
+
+// Whether any point of a star ring (its frame `f`, this frame's reach) can be past its tip node:
+// its reach across its plane times the sine of the plane's tilt from the link, and its height
+// over the plane, against how far short of the joint its origin is (a straight limb's rings
+// short of the joint never are).
+bool may_pass_joint(const Frame& f, const Reach& reach, const TipRound& t) {
+  const float short_m = -(glm::dot(t.w, t.along) + reach.height);
+  const float cos_tilt = glm::dot(t.along, f.z);
+  return !(short_m > 0.0f && reach.radius * reach.radius * (1.0f - cos_tilt * cos_tilt) <= short_m * short_m);
+}
+
+}  // namespace
+
 Frame arc_frame(const glm::vec3& from, const glm::vec3& to, const glm::vec3& base_normal, bool flip_up) {
   Frame f;
   f.origin = 0.5f * (from + to);
@@ -122,6 +136,7 @@ State::State(const Data& d)
       muscle_w(d.muscle_dofs.size()),
       band_scale(d.bands.size(), 1.0f),
       follow_fade(d.follows.size(), 1.0f),
+      tip_along(2 * d.chains.size()),
       reach(d.rings.size()) {
   contact.resize(d.contact);
 }
@@ -130,7 +145,7 @@ size_t State::heap_bytes() const {
   size_t b = world_from_joint.capacity() * sizeof(rig::RigidTransform) + frames.capacity() * sizeof(Frame) +
              muscle_w.capacity() * sizeof(glm::vec2) + chains.capacity() * sizeof(Chain) +
              (band_scale.capacity() + band_scale_forced.capacity() + follow_fade.capacity()) * sizeof(float) +
-             reach.capacity() * sizeof(Reach) + contact.heap_bytes();
+             tip_along.capacity() * sizeof(glm::vec3) + reach.capacity() * sizeof(Reach) + contact.heap_bytes();
   for (const Chain& c : chains)
     b += c.nodes.capacity() * sizeof(Chain::Node) +
          (c.point.capacity() + c.normal.capacity() + c.ref.capacity()) * sizeof(glm::vec3);
@@ -204,6 +219,11 @@ void deform(const Data& d, State& st, const rig::Pose& pose, std::span<glm::vec3
                            ? st.band_scale_forced[b]
                            : d.bands[b].scale_at(chain_bend(st.chains[d.bands[b].chain]), muscles);
   star_frames(d, st, kHasAvx2Kernel && st.vectorised);
+  for (size_t c = 0; c < st.chains.size(); ++c)
+    if (st.chains[c].point.size() == 3) {
+      st.tip_along[2 * c] = tip_direction(st.chains[c], 0, 1);
+      st.tip_along[2 * c + 1] = tip_direction(st.chains[c], 1, 1);
+    }
   const double t1 = steady_now_s();
 
   // A limb's driven rings come one after another and share S and the loop: one band frame.
@@ -224,6 +244,18 @@ void deform(const Data& d, State& st, const rig::Pose& pose, std::span<glm::vec3
         const glm::vec2* w = muscles && r.muscle_count > 0 ? st.muscle_w.data() : nullptr;
         st.reach[ri] = kHasAvx2Kernel && st.vectorised ? star_points_avx2(d, r, s, w, pos.data() + r.first)
                                                        : star_points_scalar(d, r, s, w, pos.data() + r.first);
+        if (r.tip_node >= 0) {
+          const glm::vec3& along = st.tip_along[2 * static_cast<size_t>(r.chain) + (r.segment == 0 ? 0 : 1)];
+          TipRound t;
+          t.origin = f.origin;
+          t.centre = st.chains[r.chain].point[r.tip_node];
+          t.along = r.tip_node == 2 ? -along : along;
+          t.w = t.origin - t.centre;
+          t.w2 = glm::dot(t.w, t.w);
+          t.scale2 = s.scale * s.scale * (1.0f + 1e-5f);  // the margin: the initial pose stays put
+          if (may_pass_joint(f, st.reach[ri], t))
+            round_joint_tip(d, r, t, pos.data() + r.first, kHasAvx2Kernel && st.vectorised);
+        }
         if (r.prev_star >= 0)
           crease(r, d.rings[r.prev_star], f, st.frames[r.prev_star], st.reach[ri], st.reach[r.prev_star], pos);
         break;

@@ -179,6 +179,26 @@ int bending_dof(const rig::Skeleton& skeleton, const Chain& chain_template, int 
 // pose, found by the secant method on the realtime skin itself.
 }  // namespace
 
+// Each limb star ring rounds the tip of the nearer of its link's joints: the elbow or knee (both
+// links' rings) or the wrist or ankle (the forearm's and shin's).
+void measure_joint_tips(const RestContours& m, Data& d) {
+  d.tip_radius2.assign(m.ctrl.size() + 8, 0.0f);  // padded for the eight-wide kernel
+  for (const std::vector<int>& stars : limb_star_rings(m))
+    for (int id : stars) {
+      Data::RingOp& r = d.rings[id];
+      const Chain& c = m.chains[r.chain];
+      if (c.nodes.size() != 3) continue;  // the neck
+      r.tip_node = r.segment == 1 && r.u > 0.5f ? 2 : 1;
+      const glm::vec3 centre = c.point[r.tip_node];
+      const glm::vec3 along = tip_direction(c, r.segment, r.tip_node);
+      for (uint32_t k = r.first; k < r.first + r.count; ++k) {
+        const glm::vec3 v = m.ctrl[k] - centre;
+        const float past = glm::dot(v, along);
+        d.tip_radius2[k] = past > 0.0f ? glm::dot(v, v) : glm::dot(v, v) - past * past;
+      }
+    }
+}
+
 Status calibrate_bands(const RestContours& m, const rig::Pose& base, Data& d) {
   const rig::Skeleton& sk = d.skeleton;
   for (const std::vector<int>& stars : limb_star_rings(m)) {
@@ -201,7 +221,6 @@ Status calibrate_bands(const RestContours& m, const rig::Pose& base, Data& d) {
     Data::Band b;
     b.chain = chain;
     d.bands.push_back(b);
-
     const int dof = bending_dof(sk, c, joint, base);
     if (dof < 0) continue;  // scale 1 throughout
     const rig::Dof& dd = sk.dof(dof);
@@ -219,52 +238,65 @@ Status calibrate_bands(const RestContours& m, const rig::Pose& base, Data& d) {
     st.band_scale_forced.assign(d.bands.size(), 1.0f);
     std::vector<glm::vec3> pos(d.rest_mesh.positions.size());
     constexpr int kSamples = 12;
-    for (int muscles = 0; muscles < 2; ++muscles) {
-      std::vector<float> bends, scales;
-      double v_rest = 0;
-      float k = 1.0f;
-      for (int i = 0; i < kSamples; ++i) {
-        rig::Pose p = base;
-        p.dof_rad[dof] = theta_b + (theta_end - theta_b) * static_cast<float>(i) / (kSamples - 1);
-        auto volume_at = [&](float scale) {
-          st.band_scale_forced[band] = scale;
-          deform(d, st, p, pos, muscles == 1, false);
-          const glm::vec3 centre = st.world_from_joint[joint].translation;
-          const JointZone zone{centre, safe_normalize(st.world_from_joint[parent].translation - centre, {0, 1, 0}),
-                               safe_normalize(st.world_from_joint[joint].apply(sk.tip_m(joint)) - centre, {0, -1, 0}),
-                               half};
-          return joint_zone_volume(pos, d.rest_mesh.indices, tris, zone);
-        };
-        if (i == 0) {
-          v_rest = volume_at(1.0f);
-          k = 1.0f;
-        } else {
-          // V grows about as k²: start from the last sample's k, then secant steps.
-          float k0 = k, k1 = k;
-          double v0 = volume_at(k0);
-          k1 = k0 * static_cast<float>(std::sqrt(v_rest / std::max(v0, 1e-12)));
-          for (int it = 0; it < 8; ++it) {
-            const double v1 = volume_at(k1);
-            if (std::abs(v1 / v_rest - 1.0) < 1e-5 || std::abs(v1 - v0) < 1e-15) break;
-            const float k2 = k1 + static_cast<float>((v_rest - v1) * (k1 - k0) / (v1 - v0));
-            k0 = k1, v0 = v1, k1 = std::clamp(k2, 0.5f, 2.0f);
+    // With the joint's tip rounded (round_joint_tip) the scales keep the zone's volume where the
+    // rings are close enough; where no scale up to 2 can (a coarse level of detail, whose few
+    // rings the rounding cuts deep), the joint keeps its mitre and the scales are found again.
+    constexpr double kMostVolumeChange = 0.02;
+    for (int attempt = 0; attempt < 2; ++attempt) {
+      double worst_change = 0;
+      for (int muscles = 0; muscles < 2; ++muscles) {
+        std::vector<float> bends, scales;
+        double v_rest = 0;
+        float k = 1.0f;
+        for (int i = 0; i < kSamples; ++i) {
+          rig::Pose p = base;
+          p.dof_rad[dof] = theta_b + (theta_end - theta_b) * static_cast<float>(i) / (kSamples - 1);
+          auto volume_at = [&](float scale) {
+            st.band_scale_forced[band] = scale;
+            deform(d, st, p, pos, muscles == 1, false);
+            const glm::vec3 centre = st.world_from_joint[joint].translation;
+            const JointZone zone{centre, safe_normalize(st.world_from_joint[parent].translation - centre, {0, 1, 0}),
+                                 safe_normalize(st.world_from_joint[joint].apply(sk.tip_m(joint)) - centre, {0, -1, 0}),
+                                 half};
+            return joint_zone_volume(pos, d.rest_mesh.indices, tris, zone);
+          };
+          if (i == 0) {
+            v_rest = volume_at(1.0f);
+            k = 1.0f;
+          } else {
+            // V grows about as k²: start from the last sample's k, then secant steps.
+            float k0 = k, k1 = k;
+            double v0 = volume_at(k0);
+            k1 = k0 * static_cast<float>(std::sqrt(v_rest / std::max(v0, 1e-12)));
+            for (int it = 0; it < 8; ++it) {
+              const double v1 = volume_at(k1);
+              if (std::abs(v1 / v_rest - 1.0) < 1e-5 || std::abs(v1 - v0) < 1e-15) break;
+              const float k2 = k1 + static_cast<float>((v_rest - v1) * (k1 - k0) / (v1 - v0));
+              k0 = k1, v0 = v1, k1 = std::clamp(k2, 0.5f, 2.0f);
+            }
+            k = k1;
+            worst_change = std::max(worst_change, std::abs(volume_at(k) / v_rest - 1.0));
           }
-          k = k1;
+          bends.push_back(chain_bend(st.chains[chain]));
+          scales.push_back(k);
         }
-        bends.push_back(chain_bend(st.chains[chain]));
-        scales.push_back(k);
+        // Sorted by bend, and exactly 1 from the initial pose's bend down.
+        std::vector<size_t> order(bends.size());
+        for (size_t i = 0; i < order.size(); ++i) order[i] = i;
+        std::sort(order.begin(), order.end(), [&](size_t a, size_t b2) { return bends[a] < bends[b2]; });
+        Data::Band& out = d.bands[band];
+        out.bend_rad.clear();
+        out.scale[muscles].clear();
+        for (size_t i : order) {
+          out.bend_rad.push_back(bends[i]);
+          out.scale[muscles].push_back(i == 0 ? 1.0f : scales[i]);
+        }
       }
-      // Sorted by bend, and exactly 1 from the initial pose's bend down.
-      std::vector<size_t> order(bends.size());
-      for (size_t i = 0; i < order.size(); ++i) order[i] = i;
-      std::sort(order.begin(), order.end(), [&](size_t a, size_t b2) { return bends[a] < bends[b2]; });
-      Data::Band& out = d.bands[band];
-      out.bend_rad.clear();
-      out.scale[muscles].clear();
-      for (size_t i : order) {
-        out.bend_rad.push_back(bends[i]);
-        out.scale[muscles].push_back(i == 0 ? 1.0f : scales[i]);
-      }
+      bool rounded = false;
+      for (int id : stars) rounded = rounded || d.rings[id].tip_node == 1;
+      if (worst_change <= kMostVolumeChange || !rounded) break;
+      for (int id : stars)
+        if (d.rings[id].tip_node == 1) d.rings[id].tip_node = -1;
     }
   }
   return {};

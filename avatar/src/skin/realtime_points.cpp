@@ -86,6 +86,24 @@ void driven_points_twisted_scalar(const Data& d, const Data::RingOp& r, const Ba
     pos[r.first + j] = twisted_point(d, t, r.first + j, pos[s_first + j], pos[goal[j]]);
 }
 
+void round_tip_scalar(const Data& d, const Data::RingOp& r, const TipRound& t, glm::vec3* out) {
+  const float* const radius2 = d.tip_radius2.data() + r.first;
+  for (uint32_t k = 0; k < r.count; ++k) {
+    glm::vec3& p = out[k];
+    const glm::vec3 v = p - t.centre;
+    const float limit2 = t.scale2 * radius2[k];
+    if (!(glm::dot(v, t.along) > 0.0f && glm::dot(v, v) > limit2)) continue;
+    const glm::vec3 u = p - t.origin;
+    const float a = glm::dot(u, u), b = glm::dot(t.w, u), c0 = t.w2 - limit2;
+    if (!(a > 1e-12f)) continue;
+    // |w + s·u|² = limit² for s in (0, 1], the root on u's side; where the ring's origin is that
+    // far itself (a ring short of a sharply bent joint whose tilted plane carries its outer side
+    // past it), the point of the ray nearest the joint's centre.
+    const float s = c0 < 0.0f ? (std::sqrt(std::max(b * b - a * c0, 0.0f)) - b) / a : std::clamp(-b / a, 0.0f, 1.0f);
+    p = t.origin + s * u;
+  }
+}
+
 void star_frames_scalar(const Data& d, State& st) {
   for (const Data::FrameRun& run : d.frame_runs)
     for (uint32_t j = 0; j < run.count; ++j) {
@@ -382,7 +400,48 @@ void rigid_points(const glm::mat3& rot, const glm::vec3& t, const glm::vec3* loc
   for (; i < count; ++i) out[i] = rot * local[i] + t;
 }
 
+void round_joint_tip(const Data& d, const Data::RingOp& r, const TipRound& t, glm::vec3* out, bool vectorised) {
+  if (!vectorised) return round_tip_scalar(d, r, t, out);
+  const V3 centre = splat(t.centre), along = splat(t.along), origin = splat(t.origin), w = splat(t.w);
+  const __m256 scale2 = _mm256_set1_ps(t.scale2), w2 = _mm256_set1_ps(t.w2), zero = _mm256_setzero_ps();
+  const __m256 one = _mm256_set1_ps(1.0f), tiny = _mm256_set1_ps(1e-12f);
+  const __m256 lane = _mm256_setr_ps(0, 1, 2, 3, 4, 5, 6, 7);
+  const float* const radius2 = d.tip_radius2.data() + r.first;  // padded by eight
+  const uint32_t n = r.count;
+  alignas(32) glm::vec3 tail[8];
+  for (uint32_t i = 0; i < n; i += 8) {
+    // A ring's last chunk works on a copy: the ring's points may end the vertex buffer.
+    glm::vec3* const at = i + 8 <= n ? out + i : tail;
+    if (at == tail) std::copy(out + i, out + n, tail);
+    V3 p;
+    simd::load8(&at[0].x, p.x, p.y, p.z);
+    const V3 v = sub_scaled(p, one, centre);
+    const __m256 limit2 = _mm256_mul_ps(scale2, _mm256_loadu_ps(radius2 + i));
+    __m256 move =
+        _mm256_and_ps(_mm256_cmp_ps(dot(v, along), zero, _CMP_GT_OQ), _mm256_cmp_ps(dot(v, v), limit2, _CMP_GT_OQ));
+    move = _mm256_and_ps(move, _mm256_cmp_ps(lane, _mm256_set1_ps(static_cast<float>(n - i)), _CMP_LT_OQ));
+    if (_mm256_movemask_ps(move) == 0) continue;
+    const V3 u = sub_scaled(p, one, origin);
+    const __m256 a = dot(u, u), b = dot(w, u), c0 = _mm256_sub_ps(w2, limit2);
+    move = _mm256_and_ps(move, _mm256_cmp_ps(a, tiny, _CMP_GT_OQ));
+    const __m256 inv_a = _mm256_div_ps(one, _mm256_max_ps(a, tiny));
+    const __m256 root = _mm256_sqrt_ps(_mm256_max_ps(_mm256_fmsub_ps(b, b, _mm256_mul_ps(a, c0)), zero));
+    const __m256 on_sphere = _mm256_mul_ps(_mm256_sub_ps(root, b), inv_a);
+    const __m256 nearest = _mm256_min_ps(_mm256_max_ps(_mm256_mul_ps(_mm256_sub_ps(zero, b), inv_a), zero), one);
+    const __m256 s = _mm256_blendv_ps(nearest, on_sphere, _mm256_cmp_ps(c0, zero, _CMP_LT_OQ));
+    p = select(
+        move,
+        V3{_mm256_fmadd_ps(s, u.x, origin.x), _mm256_fmadd_ps(s, u.y, origin.y), _mm256_fmadd_ps(s, u.z, origin.z)}, p);
+    simd::store8(&at[0].x, p.x, p.y, p.z);
+    if (at == tail) std::copy(tail, tail + (n - i), out + i);
+  }
+}
+
 #else
+
+void round_joint_tip(const Data& d, const Data::RingOp& r, const TipRound& t, glm::vec3* out, bool) {
+  round_tip_scalar(d, r, t, out);
+}
 
 void star_frames(const Data& d, State& st, bool) { star_frames_scalar(d, st); }
 

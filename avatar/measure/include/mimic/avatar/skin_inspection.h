@@ -1,6 +1,7 @@
 // How well a skinning method keeps the body's shape at its joints: the joint-zone volume
 // (joint_zone.h) while a joint sweeps through its range, as a % change from the relaxed pose,
-// and the smallest of the zone's cross-sections as a fraction of the same section at rest.
+// the smallest of the zone's cross-sections as a fraction of the same section at rest, and how
+// far the skin stands off the bones beyond its rest distance (the outer corner's point).
 // Measured for the full contour method (ImplicitSkin, ray cast every frame, realtime resolution),
 // the realtime contour method (RealtimeSkin, with its muscle terms) and the three baselines
 // (LBS, DQS, CoR) bound to the same rest mesh with the contour-derived weights — what
@@ -32,6 +33,11 @@ struct SweepSample {
   float angle_deg = 0;
   double volume_change_pct = 0;     // 100 (V / V_relaxed − 1)
   double min_section_fraction = 1;  // min over the five stations of A / A_relaxed (may exceed 1)
+  // How far the skin stands off the bones beyond its rest distance: over the zone's vertices, the
+  // largest gain of the distance to the two links (segments) against the relaxed pose, mm. A
+  // mitred joint's outer corner (a beak, a needle at full flexion) shows here; flesh wrapping
+  // round the joint keeps it near 0.
+  double stand_off_mm = 0;
 };
 
 struct MethodSweep {
