@@ -301,17 +301,18 @@ inline constexpr bool kHasAvx2Kernel =
 // joint (beyond the plane across its link at the joint's centre) lies no further from that centre
 // than it lay from its link in the initial pose (times the ring's band scale; a point already
 // past the joint there keeps to its distance from the centre); one that would slides back towards
-// its ring's origin, in the ring's plane, to that distance (or, when the origin is that far
-// itself, to the point of that line nearest the centre). Points short of the joint keep their
-// distance from their link (the column slide moves them along it), so the limb's sides run
-// straight into a round tip. The same at the wrists and ankles. In the initial pose nothing
-// moves; points only move towards their ring's origin along its plane, so the ring's reach holds.
+// its ring's origin, in the ring's plane, to where that line leaves the capsule of that radius
+// round its link and the joint's centre (through the capsule's side when the origin is far short
+// of the joint). Points short of the joint keep their distance from their link (the column slide
+// moves them along it), so the limb's sides run straight into a round tip. The same at the wrists and ankles. In the
+// initial pose nothing moves; points only move towards their ring's origin along its plane, so the ring's reach holds.
 struct TipRound {
   glm::vec3 origin{0.0f};  // the ring's
   glm::vec3 centre{0.0f};  // the tip node's point
   glm::vec3 along{0.0f};   // tip_direction there: positive past the joint
-  glm::vec3 w{0.0f};       // origin − centre
+  glm::vec3 w{0.0f};       // origin − centre (along the link: the origin is on its axis)
   float w2 = 0;            // |w|²
+  float origin_past = 0;   // w·along
   float scale2 = 1;        // (band scale)², with a hair's margin
 };
 // Along a ring's link (`segment`) at chain node `node` (1 or 2), pointing past the node.

@@ -103,7 +103,7 @@ namespace {
 // over the plane, against how far short of the joint its origin is (a straight limb's rings
 // short of the joint never are).
 bool may_pass_joint(const Frame& f, const Reach& reach, const TipRound& t) {
-  const float short_m = -(glm::dot(t.w, t.along) + reach.height);
+  const float short_m = -(t.origin_past + reach.height);
   const float cos_tilt = glm::dot(t.along, f.z);
   return !(short_m > 0.0f && reach.radius * reach.radius * (1.0f - cos_tilt * cos_tilt) <= short_m * short_m);
 }
@@ -252,6 +252,7 @@ void deform(const Data& d, State& st, const rig::Pose& pose, std::span<glm::vec3
           t.along = r.tip_node == 2 ? -along : along;
           t.w = t.origin - t.centre;
           t.w2 = glm::dot(t.w, t.w);
+          t.origin_past = glm::dot(t.w, t.along);
           t.scale2 = s.scale * s.scale * (1.0f + 1e-5f);  // the margin: the initial pose stays put
           if (may_pass_joint(f, st.reach[ri], t))
             round_joint_tip(d, r, t, pos.data() + r.first, kHasAvx2Kernel && st.vectorised);

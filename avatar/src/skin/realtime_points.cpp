@@ -93,14 +93,18 @@ void round_tip_scalar(const Data& d, const Data::RingOp& r, const TipRound& t, g
     const glm::vec3 v = p - t.centre;
     const float limit2 = t.scale2 * radius2[k];
     if (!(glm::dot(v, t.along) > 0.0f && glm::dot(v, v) > limit2)) continue;
+    // Back along the ray from the ring's origin (on the link's axis) to where it leaves the
+    // capsule of that radius round the link and the joint's centre: through its side while short
+    // of the joint, else through the sphere round the centre (the far root of |w + s·u|² =
+    // limit²). Continuous as the pose and the limit change.
     const glm::vec3 u = p - t.origin;
-    const float a = glm::dot(u, u), b = glm::dot(t.w, u), c0 = t.w2 - limit2;
+    const float a = glm::dot(u, u), b = glm::dot(t.w, u), along_u = glm::dot(u, t.along);
+    const float across2 = a - along_u * along_u;
     if (!(a > 1e-12f)) continue;
-    // |w + s·u|² = limit² for s in (0, 1], the root on u's side; where the ring's origin is that
-    // far itself (a ring short of a sharply bent joint whose tilted plane carries its outer side
-    // past it), the point of the ray nearest the joint's centre.
-    const float s = c0 < 0.0f ? (std::sqrt(std::max(b * b - a * c0, 0.0f)) - b) / a : std::clamp(-b / a, 0.0f, 1.0f);
-    p = t.origin + s * u;
+    const float s_side = across2 > 1e-12f ? std::sqrt(limit2 / across2) : 1.0f;
+    const float s_sphere = (std::sqrt(std::max(b * b - a * (t.w2 - limit2), 0.0f)) - b) / a;
+    const float s = t.origin_past + s_side * along_u <= 0.0f ? s_side : s_sphere;
+    p = t.origin + std::clamp(s, 0.0f, 1.0f) * u;
   }
 }
 
@@ -405,6 +409,7 @@ void round_joint_tip(const Data& d, const Data::RingOp& r, const TipRound& t, gl
   const V3 centre = splat(t.centre), along = splat(t.along), origin = splat(t.origin), w = splat(t.w);
   const __m256 scale2 = _mm256_set1_ps(t.scale2), w2 = _mm256_set1_ps(t.w2), zero = _mm256_setzero_ps();
   const __m256 one = _mm256_set1_ps(1.0f), tiny = _mm256_set1_ps(1e-12f);
+  const __m256 origin_past = _mm256_set1_ps(t.origin_past);
   const __m256 lane = _mm256_setr_ps(0, 1, 2, 3, 4, 5, 6, 7);
   const float* const radius2 = d.tip_radius2.data() + r.first;  // padded by eight
   const uint32_t n = r.count;
@@ -422,13 +427,16 @@ void round_joint_tip(const Data& d, const Data::RingOp& r, const TipRound& t, gl
     move = _mm256_and_ps(move, _mm256_cmp_ps(lane, _mm256_set1_ps(static_cast<float>(n - i)), _CMP_LT_OQ));
     if (_mm256_movemask_ps(move) == 0) continue;
     const V3 u = sub_scaled(p, one, origin);
-    const __m256 a = dot(u, u), b = dot(w, u), c0 = _mm256_sub_ps(w2, limit2);
+    const __m256 a = dot(u, u), b = dot(w, u), along_u = dot(u, along);
+    const __m256 across2 = _mm256_fnmadd_ps(along_u, along_u, a);
     move = _mm256_and_ps(move, _mm256_cmp_ps(a, tiny, _CMP_GT_OQ));
-    const __m256 inv_a = _mm256_div_ps(one, _mm256_max_ps(a, tiny));
-    const __m256 root = _mm256_sqrt_ps(_mm256_max_ps(_mm256_fmsub_ps(b, b, _mm256_mul_ps(a, c0)), zero));
-    const __m256 on_sphere = _mm256_mul_ps(_mm256_sub_ps(root, b), inv_a);
-    const __m256 nearest = _mm256_min_ps(_mm256_max_ps(_mm256_mul_ps(_mm256_sub_ps(zero, b), inv_a), zero), one);
-    const __m256 s = _mm256_blendv_ps(nearest, on_sphere, _mm256_cmp_ps(c0, zero, _CMP_LT_OQ));
+    const __m256 s_side = _mm256_blendv_ps(one, _mm256_sqrt_ps(_mm256_div_ps(limit2, _mm256_max_ps(across2, tiny))),
+                                           _mm256_cmp_ps(across2, tiny, _CMP_GT_OQ));
+    const __m256 root =
+        _mm256_sqrt_ps(_mm256_max_ps(_mm256_fmsub_ps(b, b, _mm256_mul_ps(a, _mm256_sub_ps(w2, limit2))), zero));
+    const __m256 s_sphere = _mm256_div_ps(_mm256_sub_ps(root, b), _mm256_max_ps(a, tiny));
+    const __m256 short_of_joint = _mm256_cmp_ps(_mm256_fmadd_ps(s_side, along_u, origin_past), zero, _CMP_LE_OQ);
+    const __m256 s = _mm256_min_ps(_mm256_max_ps(_mm256_blendv_ps(s_sphere, s_side, short_of_joint), zero), one);
     p = select(
         move,
         V3{_mm256_fmadd_ps(s, u.x, origin.x), _mm256_fmadd_ps(s, u.y, origin.y), _mm256_fmadd_ps(s, u.z, origin.z)}, p);
