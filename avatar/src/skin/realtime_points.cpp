@@ -2,6 +2,9 @@
 // coordinates, and the rigid parts' vertices. Scalar reference loops, and eight-wide AVX2/FMA
 // kernels where the build targets them (selected at compile time, as the baseline skinnings'
 // kernels are: mimic/avatar/simd.h).
+#include <algorithm>
+#include <cmath>
+
 #include "mimic/avatar/simd.h"
 #include "realtime_data.h"
 
@@ -417,7 +420,7 @@ void round_joint_tip(const Data& d, const Data::RingOp& r, const TipRound& t, gl
   for (uint32_t i = 0; i < n; i += 8) {
     // A ring's last chunk works on a copy: the ring's points may end the vertex buffer.
     glm::vec3* const at = i + 8 <= n ? out + i : tail;
-    if (at == tail) std::copy(out + i, out + n, tail);
+    if (at == tail) std::fill(std::copy(out + i, out + n, tail), tail + 8, glm::vec3(0.0f));
     V3 p;
     simd::load8(&at[0].x, p.x, p.y, p.z);
     const V3 v = sub_scaled(p, one, centre);
