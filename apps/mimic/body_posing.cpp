@@ -20,6 +20,32 @@ Result<avatar::BodyModel> body_from_path(const std::string& path) {
   return avatar::default_body_model();
 }
 
+namespace {
+
+// "l_shoulder_abduction=2.5,r_elbow_flexion=1" onto the pose; errors name the DOF.
+Status apply_dof_settings(const std::string& list, const rig::Skeleton& skeleton, rig::Pose& pose) {
+  size_t start = 0;
+  while (start < list.size()) {
+    size_t comma = list.find(',', start);
+    if (comma == std::string::npos) comma = list.size();
+    const std::string item = list.substr(start, comma - start);
+    const size_t eq = item.find('=');
+    if (eq == std::string::npos) return fail(Errc::invalid_argument, "--set wants DOF=RADIANS, got '" + item + "'");
+    const std::string name = item.substr(0, eq);
+    const int dof = skeleton.find_dof(name);
+    if (dof < 0) return fail(Errc::invalid_argument, "--set: the skeleton has no DOF '" + name + "'");
+    try {
+      pose.dof_rad[dof] = std::stof(item.substr(eq + 1));
+    } catch (...) {
+      return fail(Errc::invalid_argument, "--set: '" + item.substr(eq + 1) + "' is not a number");
+    }
+    start = comma + 1;
+  }
+  return {};
+}
+
+}  // namespace
+
 void add_pose_options(CLI::App& app, PoseOptions& o) {
   auto* bvh = app.add_option("--bvh", o.bvh,
                              "pose: frame --frame N of a BVH clip (frames count from 0, the clip's first\n"
@@ -43,6 +69,8 @@ void add_pose_options(CLI::App& app, PoseOptions& o) {
       ->check(CLI::IsMember({"zero", "rest"}))
       ->excludes(bvh)
       ->excludes(motion);
+  app.add_option("--set", o.set, "then set these joint DOFs (radians), e.g. l_shoulder_abduction=2.5")
+      ->type_name("DOF=RAD,...");
 }
 
 Result<PoseRequest> pose_from(const PoseOptions& o, const rig::Skeleton& skeleton) {
@@ -75,6 +103,10 @@ Result<PoseRequest> pose_from(const PoseOptions& o, const rig::Skeleton& skeleto
       return fail(Errc::invalid_argument, "--pose must be zero or rest, got '" + which + "'");
     req.pose.root_position_m.y = rig::standing_root_height_m(skeleton);
     req.description = which + " posture";
+  }
+  if (!o.set.empty()) {
+    if (auto s = apply_dof_settings(o.set, skeleton, req.pose); !s) return tl::unexpected(s.error());
+    req.description += ", " + o.set;
   }
   req.load_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   return req;

@@ -27,6 +27,7 @@ struct PoseOptions {
   long frame = -1;   // -1: not given
   double scale = 0;  // metres per BVH unit; 0: the CMU unit
   double time_s = 0;
+  std::string set;  // --set DOF=RAD,...: then these DOFs, whatever the pose came from
 };
 
 // Declares the pose options on a command (ranges, choices and exclusions with them).

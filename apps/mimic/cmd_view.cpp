@@ -68,7 +68,6 @@ constexpr const char* kFooter =
 struct ShotOptions {
   std::string out;  // --screenshot OUT.png; "": the interactive viewer
   PoseOptions pose;
-  std::string set;  // --set DOF=RAD,...
   bool empty = false;
   std::string body;         // --body before any --source
   std::string compare_obj;  // --compare-obj: a reference mesh drawn beside the body
@@ -116,28 +115,6 @@ bool parse_look(const std::string& text, float& yaw_rad, float& pitch_rad) {
   yaw_rad = static_cast<float>(yaw * kRadPerDeg);
   pitch_rad = static_cast<float>(pitch * kRadPerDeg);
   return true;
-}
-
-// "l_shoulder_abduction=2.5,r_elbow_flexion=1" onto the pose; errors name the DOF.
-Status apply_dof_settings(const std::string& list, const rig::Skeleton& skeleton, rig::Pose& pose) {
-  size_t start = 0;
-  while (start < list.size()) {
-    size_t comma = list.find(',', start);
-    if (comma == std::string::npos) comma = list.size();
-    const std::string item = list.substr(start, comma - start);
-    const size_t eq = item.find('=');
-    if (eq == std::string::npos) return fail(Errc::invalid_argument, "--set wants DOF=RADIANS, got '" + item + "'");
-    const std::string name = item.substr(0, eq);
-    const int dof = skeleton.find_dof(name);
-    if (dof < 0) return fail(Errc::invalid_argument, "--set: the skeleton has no DOF '" + name + "'");
-    try {
-      pose.dof_rad[dof] = std::stof(item.substr(eq + 1));
-    } catch (...) {
-      return fail(Errc::invalid_argument, "--set: '" + item.substr(eq + 1) + "' is not a number");
-    }
-    start = comma + 1;
-  }
-  return {};
 }
 
 // The reference mesh of --compare-obj beside the body (box lo..hi, facing `facing_yaw_rad`):
@@ -214,10 +191,6 @@ int screenshot(const ShotOptions& shot, const ViewOptions& view) {
     if (!request) {
       const bool usage = request.error().code == Errc::invalid_argument;
       return usage ? usage_error(kName, request.error().message) : failure(kName, request.error().message);
-    }
-    if (!shot.set.empty()) {
-      if (auto s = apply_dof_settings(shot.set, lods->skeleton(), request->pose); !s)
-        return usage_error(kName, s.error().message);
     }
     // Frame the body as posed: centred on its footprint, its height fitted.
     const int probe_lod = view.lod >= 0 ? view.lod : 0;
@@ -315,14 +288,11 @@ CLI::Option* add_shot_options(cli::Parser& p, ShotOptions& shot) {
           ->type_name("OUT.png");
   shot.pose.pose = "rest";
   add_pose_options(p.app(), shot.pose);
-  for (const char* name : {"--bvh", "--frame", "--scale", "--motion", "--time", "--pose"})
+  for (const char* name : {"--bvh", "--frame", "--scale", "--motion", "--time", "--pose", "--set"})
     p->get_option(name)->group(group);
   p->get_option("--pose")
       ->description("pose: the T-pose the body is authored in (zero), or the relaxed posture (rest)")
       ->default_str("rest");
-  p->add_option("--set", shot.set, "then set these joint DOFs (radians), e.g. l_shoulder_abduction=2.5")
-      ->type_name("DOF=RAD,...")
-      ->group(group);
   p->add_flag("--empty", shot.empty, "no avatar: the floor alone")->group(group);
   p->add_option("--compare-obj", shot.compare_obj,
                 "draw this mesh (OBJ, e.g. a MakeHuman export) beside the body, in grey,\n"

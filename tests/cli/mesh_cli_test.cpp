@@ -5,6 +5,7 @@
 
 #include <sys/wait.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <string>
@@ -65,6 +66,39 @@ TEST(MeshCli, BuiltInMotionsAndRealtimeMode) {
   EXPECT_NE(r.output.find("frame     realtime"), std::string::npos) << r.output;
   expect_closed_body(out);
   std::filesystem::remove(out);
+}
+
+// --set bends joints of whatever pose was asked for (as `mimic view --set` does): the left knee
+// bent to 149° lifts the left foot behind the body and leaves the right foot where it was.
+TEST(MeshCli, SetBendsJointsOfTheChosenPose) {
+  const std::string straight = temp("straight.obj"), bent = temp("bent.obj");
+  Outcome r = run_mimic("mesh --pose zero --out '" + straight + "'");
+  ASSERT_EQ(r.status, 0) << r.output;
+  r = run_mimic("mesh --pose zero --set l_knee_flexion=2.6 --out '" + bent + "'");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("l_knee_flexion=2.6"), std::string::npos) << r.output;
+  expect_closed_body(bent);
+  auto a = mimic::avatar::read_mesh(straight), b = mimic::avatar::read_mesh(bent);
+  ASSERT_TRUE(a && b);
+  ASSERT_EQ(a->positions.size(), b->positions.size());
+  auto lowest = [](const mimic::avatar::Mesh& m, const std::string& part) {
+    float y = 1e9f;
+    for (const auto& p : m.parts)
+      if (p.name == part)
+        for (uint32_t t = p.first_triangle; t < p.first_triangle + p.triangle_count; ++t)
+          for (int k = 0; k < 3; ++k) y = std::min(y, m.positions[m.indices[3 * t + k]].y);
+    return y;
+  };
+  EXPECT_GT(lowest(*b, "left_foot") - lowest(*a, "left_foot"), 0.3f);
+  EXPECT_NEAR(lowest(*b, "right_foot"), lowest(*a, "right_foot"), 1e-6f);
+  r = run_mimic("mesh --pose zero --set l_knee_flexion=bent --out /tmp/x.obj");
+  EXPECT_EQ(r.status, 2) << r.output;
+  EXPECT_NE(r.output.find("'bent' is not a number"), std::string::npos) << r.output;
+  r = run_mimic("mesh --pose zero --set l_tail_wag=1 --out /tmp/x.obj");
+  EXPECT_EQ(r.status, 2) << r.output;
+  EXPECT_NE(r.output.find("no DOF 'l_tail_wag'"), std::string::npos) << r.output;
+  std::filesystem::remove(straight);
+  std::filesystem::remove(bent);
 }
 
 // The realtime method at every LOD from a clip frame: closed, 16 parts, fewer triangles as the
