@@ -94,8 +94,9 @@ struct RealtimeBody::Data {
     int band = -1;
     float band_weight = 0;
     glm::vec2 centre{0.0f};
-    // Star rings of the arms and legs: the chain node whose tip they round (round_joint_tip:
-    // 1 the elbow or knee, 2 the wrist or ankle), or −1.
+    // Star rings of the arms, legs and neck: the chain node whose tip they round
+    // (round_joint_tip: 1 the elbow, knee or the neck's middle joint, 2 the wrist, ankle or
+    // head), or −1.
     int tip_node = -1;
     uint32_t muscle_first = 0, muscle_count = 0;  // blocks in `muscle_blocks`
     int follow = -1;                              // driven: its loop's follow (`follows`), or −1
@@ -304,8 +305,9 @@ inline constexpr bool kHasAvx2Kernel =
 // its ring's origin, in the ring's plane, to where that line leaves the capsule of that radius
 // round its link and the joint's centre (through the capsule's side when the origin is far short
 // of the joint). Points short of the joint keep their distance from their link (the column slide
-// moves them along it), so the limb's sides run straight into a round tip. The same at the wrists and ankles. In the
-// initial pose nothing moves; points only move towards their ring's origin along its plane, so the ring's reach holds.
+// moves them along it), so the limb's sides run straight into a round tip. The same at the wrists
+// and ankles and along the neck. In the initial pose nothing moves; points only move towards
+// their ring's origin along its plane, so the ring's reach holds.
 struct TipRound {
   glm::vec3 origin{0.0f};  // the ring's
   glm::vec3 centre{0.0f};  // the tip node's point

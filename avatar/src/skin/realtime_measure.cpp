@@ -180,14 +180,15 @@ int bending_dof(const rig::Skeleton& skeleton, const Chain& chain_template, int 
 }  // namespace
 
 // Each limb star ring rounds the tip of the nearer of its link's joints: the elbow or knee (both
-// links' rings) or the wrist or ankle (the forearm's and shin's).
+// links' rings) or the wrist or ankle (the forearm's and shin's); the neck's, its middle joint or
+// the head's.
 void measure_joint_tips(const RestContours& m, Data& d) {
   d.tip_radius2.assign(m.ctrl.size() + 8, 0.0f);  // padded for the eight-wide kernel
   for (const std::vector<int>& stars : limb_star_rings(m))
     for (int id : stars) {
       Data::RingOp& r = d.rings[id];
       const Chain& c = m.chains[r.chain];
-      if (c.nodes.size() != 3) continue;  // the neck
+      if (c.nodes.size() != 3) continue;  // three joints in a row: arms, legs, the neck
       r.tip_node = r.segment == 1 && r.u > 0.5f ? 2 : 1;
       const glm::vec3 centre = c.point[r.tip_node];
       const glm::vec3 along = tip_direction(c, r.segment, r.tip_node);
