@@ -34,11 +34,16 @@ Status apply_dof_settings(const std::string& list, const rig::Skeleton& skeleton
     const std::string name = item.substr(0, eq);
     const int dof = skeleton.find_dof(name);
     if (dof < 0) return fail(Errc::invalid_argument, "--set: the skeleton has no DOF '" + name + "'");
+    // The whole value, and finite: "1.2x", "nan" and "inf" are no angles.
+    const std::string value = item.substr(eq + 1);
+    size_t used = 0;
+    float rad = NAN;
     try {
-      pose.dof_rad[dof] = std::stof(item.substr(eq + 1));
-    } catch (...) {
-      return fail(Errc::invalid_argument, "--set: '" + item.substr(eq + 1) + "' is not a number");
-    }
+      rad = std::stof(value, &used);
+    } catch (...) {}
+    if (used != value.size() || !std::isfinite(rad))
+      return fail(Errc::invalid_argument, "--set: '" + value + "' is not a number");
+    pose.dof_rad[dof] = rad;
     start = comma + 1;
   }
   return {};

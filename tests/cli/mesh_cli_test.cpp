@@ -94,6 +94,11 @@ TEST(MeshCli, SetBendsJointsOfTheChosenPose) {
   r = run_mimic("mesh --pose zero --set l_knee_flexion=bent --out /tmp/x.obj");
   EXPECT_EQ(r.status, 2) << r.output;
   EXPECT_NE(r.output.find("'bent' is not a number"), std::string::npos) << r.output;
+  for (const char* value : {"nan", "inf", "1.2x"}) {
+    r = run_mimic(std::string("mesh --pose zero --set l_knee_flexion=") + value + " --out /tmp/x.obj");
+    EXPECT_EQ(r.status, 2) << value << ": " << r.output;
+    EXPECT_NE(r.output.find("is not a number"), std::string::npos) << r.output;
+  }
   r = run_mimic("mesh --pose zero --set l_tail_wag=1 --out /tmp/x.obj");
   EXPECT_EQ(r.status, 2) << r.output;
   EXPECT_NE(r.output.find("no DOF 'l_tail_wag'"), std::string::npos) << r.output;

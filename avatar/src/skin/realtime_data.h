@@ -301,13 +301,13 @@ inline constexpr bool kHasAvx2Kernel =
 // the joint instead, as a capsule round the bent bones does: a point the tilt carries past the
 // joint (beyond the plane across its link at the joint's centre) lies no further from that centre
 // than it lay from its link in the initial pose (times the ring's band scale; a point already
-// past the joint there keeps to its distance from the centre); one that would slides back towards
-// its ring's origin, in the ring's plane, to where that line leaves the capsule of that radius
-// round its link and the joint's centre (through the capsule's side when the origin is far short
-// of the joint). Points short of the joint keep their distance from their link (the column slide
+// past the joint there keeps to its distance from the centre); one that would slides straight
+// back towards its ring's origin, to where that line leaves the capsule of that radius round its
+// link and the joint's centre (through the capsule's side when the origin is far short of the
+// joint). Points short of the joint keep their distance from their link (the column slide
 // moves them along it), so the limb's sides run straight into a round tip. The same at the wrists
 // and ankles and along the neck. In the initial pose nothing moves; points only move towards
-// their ring's origin along its plane, so the ring's reach holds.
+// their ring's origin, straight, so the ring's reach and height over its plane hold.
 struct TipRound {
   glm::vec3 origin{0.0f};  // the ring's
   glm::vec3 centre{0.0f};  // the tip node's point

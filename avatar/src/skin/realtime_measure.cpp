@@ -205,43 +205,28 @@ namespace {
 // The scale in [0.5, 2] at which `volume_at` (growing with the scale, about as its square, with
 // kinks where the rounded tip's points start or stop sliding) gives `v_rest`, from the last
 // sample's `start`: secant steps while they stay inside the bracket found so far, else the
-// bracket's regula falsi (Illinois), until within 1e-5 of the volume.
+// bracket's midpoint, until within 1e-5 of the volume. Returns the scale and the volume it gives.
+struct ScaleFound {
+  float scale;
+  double volume;
+};
 template <typename VolumeAt>
-float scale_keeping_volume(VolumeAt&& volume_at, double v_rest, float start) {
-  constexpr float kLo = 0.5f, kHi = 2.0f;
-  float lo = kLo, hi = kHi;
-  double v_lo = -1, v_hi = -1;  // not evaluated yet
-  float k0 = start;
-  double v0 = volume_at(k0);
-  auto bracket = [&](float k, double v) {
-    if (v < v_rest) {
-      if (k >= lo) lo = k, v_lo = v;
-    } else if (k <= hi) {
-      hi = k, v_hi = v;
-    }
-  };
-  bracket(k0, v0);
-  float k1 = std::clamp(k0 * static_cast<float>(std::sqrt(v_rest / std::max(v0, 1e-12))), kLo, kHi);
-  int side = 0;  // Illinois: which end was kept last
-  for (int it = 0; it < 24; ++it) {
-    const double v1 = volume_at(k1);
-    if (std::abs(v1 / v_rest - 1.0) < 1e-5) return k1;
-    bracket(k1, v1);
-    if (hi - lo < 1e-6f) return v_hi >= 0 && std::abs(v_hi - v_rest) < std::abs(v_lo - v_rest) ? hi : lo;
-    float k2 = std::abs(v1 - v0) > 1e-15 ? k1 + static_cast<float>((v_rest - v1) * (k1 - k0) / (v1 - v0)) : -1.0f;
-    if (!(k2 > lo && k2 < hi)) {
-      if (v_lo < 0) v_lo = volume_at(lo);
-      if (v_hi < 0) v_hi = volume_at(hi);
-      if (v_lo >= v_rest) return lo;  // even the smallest scale keeps too much
-      if (v_hi <= v_rest) return hi;  // even the largest keeps too little
-      const double wl = side == -1 ? 0.5 : 1.0, wh = side == 1 ? 0.5 : 1.0;
-      const double fl = (v_lo - v_rest) * wl, fh = (v_hi - v_rest) * wh;
-      k2 = static_cast<float>(lo - fl * (hi - lo) / (fh - fl));
-      side = v1 < v_rest ? -1 : 1;
-    }
-    k0 = k1, v0 = v1, k1 = std::clamp(k2, lo, hi);
+ScaleFound scale_keeping_volume(VolumeAt&& volume_at, double v_rest, float start) {
+  float lo = 0.5f, hi = 2.0f;
+  ScaleFound best{start, volume_at(start)}, last = best;
+  (best.volume < v_rest ? lo : hi) = start;
+  float k = std::clamp(start * static_cast<float>(std::sqrt(v_rest / std::max(best.volume, 1e-12))), lo, hi);
+  for (int it = 0; it < 24 && std::abs(best.volume / v_rest - 1.0) >= 1e-5; ++it) {
+    const ScaleFound now{k, volume_at(k)};
+    if (std::abs(now.volume - v_rest) < std::abs(best.volume - v_rest)) best = now;
+    (now.volume < v_rest ? lo : hi) = k;
+    if (hi - lo < 1e-6f) break;
+    const double dv = now.volume - last.volume;
+    float next = std::abs(dv) > 1e-15 ? k + static_cast<float>((v_rest - now.volume) * (k - last.scale) / dv) : lo;
+    if (!(next > lo && next < hi)) next = 0.5f * (lo + hi);
+    last = now, k = next;
   }
-  return k1;
+  return best;
 }
 
 }  // namespace
@@ -311,8 +296,9 @@ Status calibrate_bands(const RestContours& m, const rig::Pose& base, Data& d) {
             v_rest = volume_at(1.0f);
             k = 1.0f;
           } else {
-            k = scale_keeping_volume(volume_at, v_rest, k);
-            worst_change = std::max(worst_change, std::abs(volume_at(k) / v_rest - 1.0));
+            const ScaleFound found = scale_keeping_volume(volume_at, v_rest, k);
+            k = found.scale;
+            worst_change = std::max(worst_change, std::abs(found.volume / v_rest - 1.0));
           }
           bends.push_back(chain_bend(st.chains[chain]));
           scales.push_back(k);
