@@ -9,6 +9,7 @@
 #include "mimic/avatar/texture_layout.h"
 #include "mimic/core/clock.h"
 #include "mimic/core/vertex_normals.h"
+#include "band_sweep.h"
 #include "realtime_data.h"
 
 namespace mimic::avatar {
@@ -191,6 +192,11 @@ Result<std::shared_ptr<const RealtimeBody>> RealtimeBody::create(const BodyModel
   measure_columns(rest, *d);
   measure_driven_columns(rest, *d);
   measure_loop_follows(rest, base, *d);
+  {
+    std::vector<rig::RigidTransform> w(static_cast<size_t>(skeleton.joint_count()));
+    rig::forward_kinematics(skeleton, base, w);
+    measure_sweeps(rest.ctrl, w, *d);
+  }
   group_frame_runs(*d);
   ring_centres(*d);
   copy_caps_and_rigid(L, *d);

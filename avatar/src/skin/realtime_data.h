@@ -105,6 +105,7 @@ struct RealtimeBody::Data {
     // twist, (1 − α)^power.
     bool twists = false;
     float twist_share = 0;
+    int sweep = -1;  // driven: the swept band (`sweeps`) it is a ring of, or −1 (band_sweep.h)
   };
   std::vector<RingOp> rings;
   std::vector<uint32_t> goals;
@@ -130,6 +131,26 @@ struct RealtimeBody::Data {
   std::vector<glm::mat3> band_in_s;
   // Per ring (used at S rings of twisting bands): band_twist_rad in the initial pose.
   std::vector<float> band_twist_rest;
+  // The shoulders' bands, swept as tubes (band_sweep.h): rings first_ring .. first_ring + rings
+  // − 1, from the loop towards S, each with `columns` points.
+  struct Sweep {
+    int first_ring = -1, rings = 0;
+    uint32_t columns = 0, column_first = 0;  // its columns' entries in sweep_rest_turn
+    uint32_t offset_first = 0;               // its points' entries in sweep_off_*
+    float sign_g = 1, sign_s = 1;            // G's and S's point order against the band's direction
+    // The limb's twist (limb_twist_rad): its joint and parent, the joint's rotation in the
+    // parent's frame in the initial pose (inverted) and the limb's axis there.
+    int joint = -1, parent = -1;
+    glm::quat rest_local_inv{1, 0, 0, 0};
+    glm::vec3 rest_axis{0, -1, 0};
+  };
+  std::vector<Sweep> sweeps;
+  // Per column of each sweep: the angle from G's point to S's in the initial pose, radians, and
+  // its cosine and sine.
+  std::vector<float> sweep_rest_turn, sweep_rest_cos, sweep_rest_sin;
+  // Per point of each sweep: its polar offset from the blend (radius, angle, height) that gives
+  // the initial pose's point back.
+  std::vector<float> sweep_off_r, sweep_off_a, sweep_off_h;
 
   struct MuscleDof {
     int dof = -1;
@@ -203,6 +224,14 @@ struct Reach {
   float radius = 0, height = 0;
 };
 
+// A swept band's columns this frame (band_sweep.h), sized for the widest band.
+struct SweepScratch {
+  std::vector<float> ug_x, ug_y, r_g, h_g, r_s, h_s, turn, shrink;
+  std::vector<glm::vec3> points;  // the band's rings, one after another
+  void resize(size_t columns, size_t points);
+  size_t heap_bytes() const;
+};
+
 // One avatar's per-frame state.
 struct State {
   std::vector<rig::RigidTransform> world_from_joint;
@@ -219,6 +248,7 @@ struct State {
   bool vectorised = true;    // the eight-wide kernels where the build has them
   std::vector<Reach> reach;  // per ring, this frame (star rings)
   ContactState contact;
+  SweepScratch sweep;
   RealtimeTimings timings;
 
   explicit State(const RealtimeBody::Data& d);

@@ -10,6 +10,7 @@
 #include <glm/gtx/quaternion.hpp>
 
 #include "mimic/core/clock.h"
+#include "band_sweep.h"
 #include "realtime_data.h"
 
 namespace mimic::avatar::realtime_detail {
@@ -139,13 +140,19 @@ State::State(const Data& d)
       tip_along(2 * d.chains.size()),
       reach(d.rings.size()) {
   contact.resize(d.contact);
+  size_t columns = 0, points = 0;
+  for (const Data::Sweep& b : d.sweeps)
+    columns = std::max<size_t>(columns, b.columns),
+    points = std::max(points, static_cast<size_t>(b.columns) * static_cast<size_t>(b.rings));
+  sweep.resize(columns, points);
 }
 
 size_t State::heap_bytes() const {
   size_t b = world_from_joint.capacity() * sizeof(rig::RigidTransform) + frames.capacity() * sizeof(Frame) +
              muscle_w.capacity() * sizeof(glm::vec2) + chains.capacity() * sizeof(Chain) +
              (band_scale.capacity() + band_scale_forced.capacity() + follow_fade.capacity()) * sizeof(float) +
-             tip_along.capacity() * sizeof(glm::vec3) + reach.capacity() * sizeof(Reach) + contact.heap_bytes();
+             tip_along.capacity() * sizeof(glm::vec3) + reach.capacity() * sizeof(Reach) + contact.heap_bytes() +
+             sweep.heap_bytes();
   for (const Chain& c : chains)
     b += c.nodes.capacity() * sizeof(Chain::Node) +
          (c.point.capacity() + c.normal.capacity() + c.ref.capacity()) * sizeof(glm::vec3);
@@ -203,6 +210,84 @@ BandTwist band_twist(const Data::RingOp& r, const Frame& axis, const Frame& f, f
   return t;
 }
 
+namespace {
+
+// What a limb's boundary-driven rings share, from its first ring to its last.
+struct BandState {
+  int s_ring = -1;
+  Frame frame, axis;
+  float phi_rad = 0.0f;
+  glm::mat3 untwist{1.0f};
+  float swept = 0.0f;  // the swept band's share (band_sweep.h) this frame
+};
+
+// The swept band's share for the limb's twist: near half a turn the swept band winds the skin
+// round the short band (the arm raised and twisted to its limit: 419 folds), where the band of
+// straight columns turned about its own axis folds far less (45). It fades with the loop's
+// follow too: with the arm swung across the body (past 120°) the swept band's ends face each
+// other and it loops through the chest (75–77 folds with the arm swung 180° forward, 50–51 so).
+float swept_share(float twist_rad) {
+  constexpr float kFrom_rad = 1.745f, kTo_rad = 2.443f;  // 100°, 140°
+  return std::clamp((kTo_rad - std::abs(twist_rad)) / (kTo_rad - kFrom_rad), 0.0f, 1.0f);
+}
+
+// A boundary-driven ring: P = S + α(G − S), plus the offset the full method's ray found from
+// that point in the initial pose, turned with the band (junction_frame); a shoulder's band is
+// swept instead (band_sweep.h), all its rings at its first, or blended with that as the arm's
+// twist nears half a turn.
+void driven_ring(const Data& d, State& st, size_t ri, std::span<glm::vec3> pos, BandState& b) {
+  const Data::RingOp& r = d.rings[ri];
+  Frame& f = st.frames[ri];
+  if (r.s_ring == b.s_ring) {
+    f = b.frame;
+  } else {
+    float fade = 1.0f;
+    if (r.follow >= 0) {
+      const auto i = static_cast<size_t>(r.follow);
+      if (r.moves_loop) {
+        const skin_detail::LoopFollow& lf = d.follows[i];
+        const Frame& cap = st.frames[static_cast<size_t>(std::max(lf.cap_ring, 0))];
+        st.follow_fade[i] = skin_detail::follow_loop(lf, st.world_from_joint, cap.origin, cap.z, pos);
+      }
+      fade = st.follow_fade[i];
+    }
+    const Frame& s_frame = st.frames[r.s_ring];
+    b.axis = band_axis_frame(d, r, pos, s_frame.z);
+    f = junction_frame(d, r, b.axis, s_frame, fade);
+    b.frame = f, b.s_ring = r.s_ring;
+    if (r.twists) {
+      b.phi_rad =
+          twist_in_band(band_twist_rad(s_frame, b.axis) - d.band_twist_rest[static_cast<size_t>(r.s_ring)]) * fade;
+      b.untwist = glm::mat3_cast(glm::angleAxis(-b.phi_rad, b.axis.z));
+    }
+    b.swept = 0.0f;
+    if (r.sweep >= 0) {
+      const Data::Sweep& sweep = d.sweeps[static_cast<size_t>(r.sweep)];
+      const float twist_rad = limb_twist_rad(sweep, st.world_from_joint);
+      b.swept = swept_share(twist_rad) * fade;
+      if (b.swept > 0.0f) sweep_band(d, sweep, twist_rad, pos, st.sweep, kHasAvx2Kernel && st.vectorised);
+    }
+  }
+  if (b.swept < 1.0f) {
+    if (r.twists)
+      driven_points_twisted(d, r, band_twist(r, b.axis, f, b.phi_rad, b.untwist), pos, st.vectorised);
+    else
+      driven_points(d, r, f, pos, st.vectorised);
+  }
+  if (b.swept > 0.0f) {
+    const Data::Sweep& sweep = d.sweeps[static_cast<size_t>(r.sweep)];
+    const glm::vec3* swept =
+        st.sweep.points.data() + static_cast<size_t>(static_cast<int>(ri) - sweep.first_ring) * sweep.columns;
+    glm::vec3* out = pos.data() + r.first;
+    if (b.swept >= 1.0f)
+      std::copy(swept, swept + r.count, out);
+    else
+      for (uint32_t j = 0; j < r.count; ++j) out[j] += b.swept * (swept[j] - out[j]);
+  }
+}
+
+}  // namespace
+
 void deform(const Data& d, State& st, const rig::Pose& pose, std::span<glm::vec3> pos, bool muscles, bool contact) {
   const double t0 = steady_now_s();
   rig::forward_kinematics(d.skeleton, pose, st.world_from_joint);
@@ -227,10 +312,7 @@ void deform(const Data& d, State& st, const rig::Pose& pose, std::span<glm::vec3
   const double t1 = steady_now_s();
 
   // A limb's driven rings come one after another and share S and the loop: one band frame.
-  int band_s_ring = -1;
-  Frame band_frame, band_axis;
-  float band_phi_rad = 0.0f;
-  glm::mat3 untwist(1.0f);
+  BandState band;
   for (size_t ri = 0; ri < d.rings.size(); ++ri) {
     const auto& r = d.rings[ri];
     Frame& f = st.frames[ri];
@@ -266,39 +348,7 @@ void deform(const Data& d, State& st, const rig::Pose& pose, std::span<glm::vec3
         for (uint32_t k = r.first; k < r.first + r.count; ++k) pos[k] = f.to_world({d.lx[k], d.ly[k], d.lz[k]});
         break;
       }
-      case RingKind::driven: {
-        // P = S + α(G − S), plus the offset the full method's ray found from that point in the
-        // initial pose, turned with the band (junction_frame).
-        if (r.s_ring == band_s_ring) {
-          f = band_frame;
-        } else {
-          float band = 1.0f;
-          if (r.follow >= 0) {
-            const auto i = static_cast<size_t>(r.follow);
-            if (r.moves_loop) {
-              const skin_detail::LoopFollow& lf = d.follows[i];
-              const Frame& cap = st.frames[static_cast<size_t>(std::max(lf.cap_ring, 0))];
-              st.follow_fade[i] = skin_detail::follow_loop(lf, st.world_from_joint, cap.origin, cap.z, pos);
-            }
-            band = st.follow_fade[i];
-          }
-          const Frame& s_frame = st.frames[r.s_ring];
-          band_axis = band_axis_frame(d, r, pos, s_frame.z);
-          f = junction_frame(d, r, band_axis, s_frame, band);
-          band_frame = f, band_s_ring = r.s_ring;
-          if (r.twists) {
-            band_phi_rad =
-                twist_in_band(band_twist_rad(s_frame, band_axis) - d.band_twist_rest[static_cast<size_t>(r.s_ring)]) *
-                band;
-            untwist = glm::mat3_cast(glm::angleAxis(-band_phi_rad, band_axis.z));
-          }
-        }
-        if (r.twists)
-          driven_points_twisted(d, r, band_twist(r, band_axis, f, band_phi_rad, untwist), pos, st.vectorised);
-        else
-          driven_points(d, r, f, pos, st.vectorised);
-        break;
-      }
+      case RingKind::driven: driven_ring(d, st, ri, pos, band); break;
     }
   }
   for (const auto& c : d.caps) {
