@@ -157,7 +157,7 @@ TEST(JunctionFolds, TheRelaxedPostureIsCleanAtEveryLod) {
 }
 
 // The built-in walk (the default of run, view and the server) at the finer levels of detail:
-// not one fold nor one pair of pieces crossing, in every 5th frame of its loop at 30 Hz. The
+// not one fold nor one pair of pieces crossing, in every 8th frame of its loop at 30 Hz. The
 // shoulders' bands swept as tubes took the walk's upper arms from 1.0 fold a frame (37 frames of
 // 199 at LOD 0, the right arm swung back) and 3.8 pairs against the chest to none.
 TEST(JunctionFolds, TheBuiltInWalkNeitherFoldsNorCrossesAtTheFinerLods) {
@@ -171,14 +171,14 @@ TEST(JunctionFolds, TheBuiltInWalkNeitherFoldsNorCrossesAtTheFinerLods) {
     Mesh m = body->rest_mesh();
     rig::Pose pose = body->skeleton().zero_pose();
     size_t frames = 0;
-    for (int k = 0; k / 30.0 <= (*walk)->duration_s(); k += 5, ++frames) {
+    for (int k = 0; k / 30.0 <= (*walk)->duration_s(); k += 8, ++frames) {
       (*walk)->sample(k / 30.0, pose);
       skin.evaluate(pose, m.positions);
       const IntersectionReport r = checker->check(m.positions);
       EXPECT_EQ(r.fold_pairs, 0u) << "LOD " << lod << ", frame " << k;
       EXPECT_EQ(r.between_pairs, 0u) << "LOD " << lod << ", frame " << k;
     }
-    EXPECT_GT(frames, 30u);
+    EXPECT_GT(frames, 20u);
   }
 }
 
