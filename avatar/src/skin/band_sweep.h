@@ -7,14 +7,8 @@
 // column's two ends lie on opposite sides of the band's axis (the armpit, `mimic intersect`: 7.8
 // of the 14 folds a frame of the shared clips at LOD 0).
 //
-// Swept instead: each ring lies in its own plane, centred on a cubic Hermite curve from G's
-// centre (leaving along G's normal) to S's (arriving along S's), its plane across the curve, its
-// axes carried along the curve without turning about it (parallel transport). In that plane a
-// point is placed in polar form, each column's radius, height and angle blended from G's and
-// S's: the angle so that the ring turns from G's shape to S's with the twist (the limb's turn
-// about the band against the initial pose, one for the whole band, tapered as twist_in_band)
-// given mostly near S (its share t^3, t from 0 at G to 1 at S). Every ring is then star-shaped
-// in its plane wherever both ends are, and the planes turn one way along the curve. The
+// Swept instead (sweep_geometry.h): each ring in its own plane along a curve from G to S, each
+// point blended in polar form, so that every ring is star-shaped where both ends are. The
 // initial pose's shape (the full method's points) is kept as polar offsets from that blend
 // (radius, angle, height), shrunk with the column as the Cartesian offsets are.
 #pragma once
@@ -27,9 +21,6 @@
 #include "realtime_data.h"
 
 namespace mimic::avatar::realtime_detail {
-
-// atan2 within 1e-5 rad (a polynomial and quadrant selects; the sweep's scalar reference).
-float approx_atan2(float y, float x);
 
 // The limb's twist about its own axis against the initial pose (swing-twist), radians.
 float limb_twist_rad(const RealtimeBody::Data::Sweep& b, std::span<const rig::RigidTransform> world_from_joint);

@@ -227,6 +227,7 @@ struct Reach {
 // A swept band's columns this frame (band_sweep.h), sized for the widest band.
 struct SweepScratch {
   std::vector<float> ug_x, ug_y, r_g, h_g, r_s, h_s, turn, shrink;
+  std::vector<glm::vec3> g, s;    // the band's ends, column by column
   std::vector<glm::vec3> points;  // the band's rings, one after another
   void resize(size_t columns, size_t points);
   size_t heap_bytes() const;

@@ -12,6 +12,7 @@
 #include "mimic/core/clock.h"
 #include "band_sweep.h"
 #include "realtime_data.h"
+#include "sweep_geometry.h"
 
 namespace mimic::avatar::realtime_detail {
 
@@ -221,16 +222,6 @@ struct BandState {
   float swept = 0.0f;  // the swept band's share (band_sweep.h) this frame
 };
 
-// The swept band's share for the limb's twist: near half a turn the swept band winds the skin
-// round the short band (the arm raised and twisted to its limit: 419 folds), where the band of
-// straight columns turned about its own axis folds far less (45). It fades with the loop's
-// follow too: with the arm swung across the body (past 120°) the swept band's ends face each
-// other and it loops through the chest (75–77 folds with the arm swung 180° forward, 50–51 so).
-float swept_share(float twist_rad) {
-  constexpr float kFrom_rad = 1.745f, kTo_rad = 2.443f;  // 100°, 140°
-  return std::clamp((kTo_rad - std::abs(twist_rad)) / (kTo_rad - kFrom_rad), 0.0f, 1.0f);
-}
-
 // A boundary-driven ring: P = S + α(G − S), plus the offset the full method's ray found from
 // that point in the initial pose, turned with the band (junction_frame); a shoulder's band is
 // swept instead (band_sweep.h), all its rings at its first, or blended with that as the arm's
@@ -264,7 +255,7 @@ void driven_ring(const Data& d, State& st, size_t ri, std::span<glm::vec3> pos, 
     if (r.sweep >= 0) {
       const Data::Sweep& sweep = d.sweeps[static_cast<size_t>(r.sweep)];
       const float twist_rad = limb_twist_rad(sweep, st.world_from_joint);
-      b.swept = swept_share(twist_rad) * fade;
+      b.swept = skin_detail::sweep_share(twist_rad, fade);
       if (b.swept > 0.0f) sweep_band(d, sweep, twist_rad, pos, st.sweep, kHasAvx2Kernel && st.vectorised);
     }
   }
