@@ -1,16 +1,17 @@
 // The geometry of a junction band swept as a tube (the realtime skin's shoulders, band_sweep.h).
 // Not a public header.
 //
-// A band joins a loop G to a limb's first ring S, column by column. Swept, each of its rings lies
-// in its own plane, centred on a cubic Hermite curve from G's centre (leaving along G's normal)
-// to S's (arriving along S's), its plane across the curve, its axes carried along the curve
-// without turning about it (parallel transport). In that plane a point is placed in polar form:
-// its column's radius and height blended from G's point (in G's plane) and S's (in S's), its
-// angle turned from G's direction towards S's by the column's turn in the initial pose (share t,
-// 0 at G, 1 at S) and by this frame's turn against that (share t³, most of it next to S). This
-// frame's turn is one for the band, the columns' mean, each column keeping its own about it; of
-// the mean only the limb's twist about its own axis is tapered (twist_in_band), the swing's part
-// whole. Both ends star-shaped in their planes, every ring is too.
+// A band joins a loop G to a limb's first ring S, column by column. Swept, each of its rings
+// lies in its own plane, centred on a cubic Hermite curve from G's centre (leaving along G's
+// normal) to S's (arriving along S's), its plane turned from G's towards S's evenly along the
+// band, its axes carried from G's without turning about the plane's normal (parallel
+// transport). In that plane a point is placed in polar form: its column's radius and height
+// blended from G's point (in G's plane) and S's (in S's), its angle turned from G's direction
+// towards S's by the column's turn in the initial pose (share t, 0 at G, 1 at S) and by this
+// frame's turn against that (share t³, most of it next to S). This frame's turn is one for the
+// band, the columns' mean, each column keeping its own about it; of the mean only the limb's
+// twist about its own axis is tapered (twist_in_band), the swing's part whole. Both ends
+// star-shaped in their planes, every ring is too.
 #pragma once
 
 #include <algorithm>
