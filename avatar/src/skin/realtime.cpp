@@ -255,6 +255,9 @@ RealtimeBody::FrameWork RealtimeBody::work_per_frame(bool muscles) const {
   constexpr double kStarRead = 9 * 4, kStarFlops = 55;           // coordinates, columns; scale … plane
   constexpr double kMuscleRead = 9 * 4, kMuscleFlops = 15;       // one block: offset, to_min, to_max
   constexpr double kDrivenRead = 3 * 12 + 8, kDrivenFlops = 35;  // S, G (gathered), offset, index, 1/len²
+  // Swept (band_sweep.h): the column's polar form (shared by the band's rings) and its offset;
+  // the turn's sine and cosine, the blend, the plane.
+  constexpr double kSweptRead = 10 * 4, kSweptFlops = 60;
   constexpr double kArcRead = 12, kArcFlops = 21;
   constexpr double kRigidRead = 12, kRigidFlops = 18;
   const Data& d = *data_;
@@ -267,7 +270,12 @@ RealtimeBody::FrameWork RealtimeBody::work_per_frame(bool muscles) const {
         w.flops += n * kStarFlops;
         if (muscles) w.bytes_read += n * r.muscle_count * kMuscleRead, w.flops += n * r.muscle_count * kMuscleFlops;
         break;
-      case RingKind::driven: w.bytes_read += n * kDrivenRead, w.flops += n * kDrivenFlops; break;
+      case RingKind::driven:
+        if (r.sweep >= 0)
+          w.bytes_read += n * kSweptRead, w.flops += n * kSweptFlops;
+        else
+          w.bytes_read += n * kDrivenRead, w.flops += n * kDrivenFlops;
+        break;
       case RingKind::arc: w.bytes_read += n * kArcRead, w.flops += n * kArcFlops; break;
     }
     w.bytes_written += n * 12;
