@@ -142,9 +142,10 @@ State::State(const Data& d)
       reach(d.rings.size()) {
   contact.resize(d.contact);
   size_t columns = 0, points = 0;
-  for (const Data::Sweep& b : d.sweeps)
-    columns = std::max<size_t>(columns, b.columns),
+  for (const Data::Sweep& b : d.sweeps) {
+    columns = std::max<size_t>(columns, b.columns);
     points = std::max(points, static_cast<size_t>(b.columns) * static_cast<size_t>(b.rings));
+  }
   sweep.resize(columns, points);
 }
 
@@ -228,10 +229,7 @@ struct BandState {
 // twist nears half a turn.
 void driven_ring(const Data& d, State& st, size_t ri, std::span<glm::vec3> pos, BandState& b) {
   const Data::RingOp& r = d.rings[ri];
-  Frame& f = st.frames[ri];
-  if (r.s_ring == b.s_ring) {
-    f = b.frame;
-  } else {
+  if (r.s_ring != b.s_ring) {
     float fade = 1.0f;
     if (r.follow >= 0) {
       const auto i = static_cast<size_t>(r.follow);
@@ -242,15 +240,7 @@ void driven_ring(const Data& d, State& st, size_t ri, std::span<glm::vec3> pos, 
       }
       fade = st.follow_fade[i];
     }
-    const Frame& s_frame = st.frames[r.s_ring];
-    b.axis = band_axis_frame(d, r, pos, s_frame.z);
-    f = junction_frame(d, r, b.axis, s_frame, fade);
-    b.frame = f, b.s_ring = r.s_ring;
-    if (r.twists) {
-      b.phi_rad =
-          twist_in_band(band_twist_rad(s_frame, b.axis) - d.band_twist_rest[static_cast<size_t>(r.s_ring)]) * fade;
-      b.untwist = glm::mat3_cast(glm::angleAxis(-b.phi_rad, b.axis.z));
-    }
+    b.s_ring = r.s_ring;
     b.swept = 0.0f;
     if (r.sweep >= 0) {
       const Data::Sweep& sweep = d.sweeps[static_cast<size_t>(r.sweep)];
@@ -258,12 +248,25 @@ void driven_ring(const Data& d, State& st, size_t ri, std::span<glm::vec3> pos, 
       b.swept = skin_detail::sweep_share(twist_rad, fade);
       if (b.swept > 0.0f) sweep_band(d, sweep, twist_rad, pos, st.sweep, kHasAvx2Kernel && st.vectorised);
     }
+    // The straight band's frame and twist, only where it is drawn (no ring's frame outlives
+    // its band).
+    if (b.swept < 1.0f) {
+      const Frame& s_frame = st.frames[r.s_ring];
+      b.axis = band_axis_frame(d, r, pos, s_frame.z);
+      b.frame = junction_frame(d, r, b.axis, s_frame, fade);
+      if (r.twists) {
+        b.phi_rad =
+            twist_in_band(band_twist_rad(s_frame, b.axis) - d.band_twist_rest[static_cast<size_t>(r.s_ring)]) * fade;
+        b.untwist = glm::mat3_cast(glm::angleAxis(-b.phi_rad, b.axis.z));
+      }
+    }
   }
   if (b.swept < 1.0f) {
+    st.frames[ri] = b.frame;
     if (r.twists)
-      driven_points_twisted(d, r, band_twist(r, b.axis, f, b.phi_rad, b.untwist), pos, st.vectorised);
+      driven_points_twisted(d, r, band_twist(r, b.axis, b.frame, b.phi_rad, b.untwist), pos, st.vectorised);
     else
-      driven_points(d, r, f, pos, st.vectorised);
+      driven_points(d, r, b.frame, pos, st.vectorised);
   }
   if (b.swept > 0.0f) {
     const Data::Sweep& sweep = d.sweeps[static_cast<size_t>(r.sweep)];

@@ -12,8 +12,8 @@ namespace mimic::avatar::skin_detail {
 namespace {
 
 // The Hermite curve's tangents leave G and reach S at this multiple of the centres' distance
-// (every 20th frame of the clips, LOD 0: 0.25 / 0.5 / 1 / 1.5 / 2 give 18.1 / 14.6 / 9.3 / 8.0 /
-// 11.2 folds a frame, the shoulders' bands swept alone).
+// (measured with the first form's planes square to the curve, every 20th frame of the clips, LOD
+// 0: 0.25 / 0.5 / 1 / 1.5 / 2 gave 18.1 / 14.6 / 9.3 / 8.0 / 11.2 folds a frame).
 constexpr float kTangentScale = 1.5f;
 
 // Newell's normal of a closed polygon (unnormalised): its direction follows the point order.
@@ -181,9 +181,9 @@ void sweep_geometry(const SweepEnds& e, const float* ts, int rings, const float*
   x = safe_normalize(x - glm::dot(x, ng) * ng, glm::vec3(1, 0, 0));
   const glm::vec3 xg = x, yg = glm::cross(ng, x);
 
-  // Centred on the curve c(t) = h00·gc + h10·k·span·ng + h01·sc + h11·k·span·ns, the rings' axes
+  // Centred on the curve c(t) = h00·gc + h10·k·ng + h01·sc + h11·k·ns, the rings' axes
   // transported from G's plane to theirs.
-  const float kg = kTangentScale * span, ks = kTangentScale * span;
+  const float k = kTangentScale * span;
   // The planes turn from G's towards S's about their common perpendicular, evenly in t. Planes
   // across the curve (turning with its tangent) round the bend's outer side out past the ends'
   // chord: a hanging arm's shoulder stood 239 mm from the body's middle, 10 cm below its top,
@@ -199,7 +199,7 @@ void sweep_geometry(const SweepEnds& e, const float* ts, int rings, const float*
     const float t2 = t * t, t3 = t2 * t;
     SweepPlane& p = planes[q];
     p.t = t;
-    p.c = (2 * t3 - 3 * t2 + 1) * gc + (t3 - 2 * t2 + t) * kg * ng + (3 * t2 - 2 * t3) * sc + (t3 - t2) * ks * ns;
+    p.c = (2 * t3 - 3 * t2 + 1) * gc + (t3 - 2 * t2 + t) * k * ng + (3 * t2 - 2 * t3) * sc + (t3 - t2) * k * ns;
     const float turn_rad = bend_rad * t;
     p.n = ng * std::cos(turn_rad) + glm::cross(bend_axis, ng) * std::sin(turn_rad);
     x = transport(x, prev_n, p.n);
@@ -223,10 +223,9 @@ void sweep_geometry(const SweepEnds& e, const float* ts, int rings, const float*
   // S against axes carried along the curve; each column keeps its own turn about that mean. Only
   // the twist is ambiguous (half a turn either way is as near): it alone tapers (twist_in_band),
   // the swing's share is whole whatever its size.
-  const float mean = approx_atan2(sum.y, sum.x);
-  const float swing_turn = wrap_angle(mean - twist_rad);
-  const float twist = swing_turn + twist_in_band(twist_rad);
   if (rest_cos == nullptr) return;  // the whole turns, as measured
+  const float mean = approx_atan2(sum.y, sum.x);
+  const float twist = wrap_angle(mean - twist_rad) + twist_in_band(twist_rad);
   for (uint32_t j = 0; j < n; ++j) col.turn[j] = twist + wrap_angle(col.turn[j] - mean);
 }
 
