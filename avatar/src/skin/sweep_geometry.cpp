@@ -48,8 +48,6 @@ inline void cos_sin(float a_rad, float& c_out, float& s_out) {
   c_out = ((q + 1) & 2) ? -co : co;
 }
 
-inline float wrap_angle(float a) { return a > kPi ? a - kTwoPi : a < -kPi ? a + kTwoPi : a; }
-
 // One column, scalar: (gx, gy) in ug, (sx, sy) in (r_s, turn) → G's radius and direction, S's
 // radius, the turn from G's direction to S's (less the rest turn); returns (cos, sin) of it.
 inline glm::vec2 column_polar(const SweepColumns& col, uint32_t j, const float* rest_cos, const float* rest_sin) {

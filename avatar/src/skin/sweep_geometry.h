@@ -21,6 +21,8 @@
 #include <glm/glm.hpp>
 #include <glm/gtc/quaternion.hpp>
 
+#include "contour_layout_data.h"
+
 namespace mimic::avatar::skin_detail {
 
 inline constexpr int kSweepMaxRings = 8;
@@ -45,14 +47,15 @@ inline float sweep_share(float twist_rad, float fade) {
   return std::clamp((kTo_rad - std::abs(twist_rad)) / (kTo_rad - kFrom_rad), 0.0f, 1.0f) * fade;
 }
 
+// An angle at most one turn outside [−π, π] brought into it.
+inline float wrap_angle(float a) { return a > kPi ? a - kTwoPi : a < -kPi ? a + kTwoPi : a; }
+
 // A limb's twist about its own axis against the initial pose (swing-twist about `rest_axis`,
 // in the parent's frame), from its joint's rotation in the parent's frame now (`local`) and in
 // the initial pose (`rest_local_inv`, inverted), radians.
 inline float limb_twist_rad(const glm::quat& local, const glm::quat& rest_local_inv, const glm::vec3& rest_axis) {
   const glm::quat q = local * rest_local_inv;
-  const float a = 2.0f * std::atan2(glm::dot(glm::vec3(q.x, q.y, q.z), rest_axis), q.w);
-  constexpr float kPi_ = 3.14159265f;
-  return a > kPi_ ? a - 2.0f * kPi_ : a < -kPi_ ? a + 2.0f * kPi_ : a;
+  return wrap_angle(2.0f * std::atan2(glm::dot(glm::vec3(q.x, q.y, q.z), rest_axis), q.w));
 }
 
 // The band's two ends this frame, gathered column by column (n points each), and the signs that
