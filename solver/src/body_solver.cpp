@@ -6,6 +6,7 @@
 
 #include <glm/gtx/quaternion.hpp>
 
+#include "axis_turn.h"
 #include "floor_clearance.h"
 #include "limb_chain.h"
 #include "mimic/solver/swing_twist.h"
@@ -230,10 +231,12 @@ void SolveJob::SolveTrunk(bool root_known) {
 
 // The world transform of joint j from its parent's (already placed) and its DOFs.
 void SolveJob::PlaceJoint(int j) {
-  const Skeleton& s = model->skeleton_;
+  const SolverModel& m = *model;
+  const Skeleton& s = m.skeleton_;
   SolverContext& c = *context;
   const Pose& p = *pose;
-  const glm::quat local = s.local_rotation(j, p.dof_rad);
+  glm::quat local(1, 0, 0, 0);
+  for (int i = s.dof_begin(j); i < s.dof_end(j); ++i) local = detail::turned(local, s.dof(i).axis, m.axis_kind_[i], p.dof_rad[i]);
   const int par = s.parent(j);
   if (par < 0) {
     c.world_[j] = RigidTransform{p.root_orientation * local, p.root_position_m + p.root_orientation * s.offset_m(j)};

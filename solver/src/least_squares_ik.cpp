@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstddef>
 
+#include "axis_turn.h"
 #include "rotation_vector.h"
 #include "sparse_cholesky.h"
 
@@ -23,19 +24,15 @@ using detail::rotation_vector;
 
 // FK that also records every DOF's rotation axis in world space, for the joints in `mask` only
 // (a set closed under parents: the targets' chains).
-void evaluate(const Skeleton& s, const Pose& pose, uint64_t mask, std::span<RigidTransform> world,
-              std::span<glm::vec3> axis_world) {
+void evaluate(const Skeleton& s, const Pose& pose, uint64_t mask, std::span<const detail::AxisKind> kinds,
+              std::span<RigidTransform> world, std::span<glm::vec3> axis_world) {
   const int n = s.joint_count();
   const glm::quat root_rot = glm::normalize(pose.root_orientation);
   for (int j = 0; j < n; ++j) {
     if (!(mask >> j & 1u)) continue;
     const int p = s.parent(j);
     glm::quat r = p < 0 ? root_rot : world[p].rotation;
-    for (int i = s.dof_begin(j); i < s.dof_end(j); ++i) {
-      const auto& f = s.dof(i);
-      axis_world[i] = r * f.axis;
-      r = r * glm::angleAxis(pose.dof_rad[i], f.axis);
-    }
+    for (int i = s.dof_begin(j); i < s.dof_end(j); ++i) r = detail::turned(r, s.dof(i).axis, kinds[i], pose.dof_rad[i], &axis_world[i]);
     world[j].rotation = r;
     world[j].translation = p < 0 ? pose.root_position_m + root_rot * s.offset_m(j) : world[p].apply(s.offset_m(j));
   }
@@ -69,6 +66,7 @@ LeastSquaresIkContext::LeastSquaresIkContext(const Skeleton& skeleton, int max_d
   const int rows = 6 * max_targets;
   world_.resize(joints_);
   dof_axis_world_.resize(skeleton.dof_count());
+  for (int i = 0; i < skeleton.dof_count(); ++i) axis_kind_.push_back(detail::axis_kind(skeleton.dof(i).axis));
   jacobian_.resize(static_cast<size_t>(rows) * stride_for(cols));
   residual_.resize(rows);
   normal_.resize(static_cast<size_t>(cols) * stride_for(cols));
@@ -79,7 +77,7 @@ LeastSquaresIkContext::LeastSquaresIkContext(const Skeleton& skeleton, int max_d
   columns_.resize(static_cast<size_t>(max_targets) * cols);
   column_begin_.resize(max_targets);
   column_count_.resize(max_targets);
-  runs_.resize(static_cast<size_t>(max_targets) * (cols + 1));
+  runs_.resize(static_cast<size_t>(max_targets) * (cols + 2));
   run_begin_.resize(max_targets);
   run_count_.resize(max_targets);
   target_of_column_.resize(cols);
@@ -117,7 +115,7 @@ struct SpansRightOf {
 
 detail::ColumnSpans SpansRightOf::operator()(int j) const {
   const int t = c->target_of_column_[j];
-  if (t < 0) return detail::ColumnSpans{nullptr, 0};
+  if (t < 0) return detail::ColumnSpans{c->rhs_span_.data(), 1};  // the right-hand side alone
   const int* r = c->runs_.data() + c->run_begin_[t];
   int count = c->run_count_[t];
   while (count > 0 && r[1] <= j + 1) r += 2, --count;
@@ -179,17 +177,20 @@ void LeastSquaresIkJob::ListColumns(int root_cols) {
     for (int k = 0; k < root_cols; ++k) list[n++] = n_dofs + k;
     c.column_count_[t] = n;
     c.run_begin_[t] = static_cast<int>(runs - c.runs_.data());
-    // Spans: runs of consecutive columns, merged across gaps narrower than a block.
+    // Spans: runs of consecutive columns, merged across gaps narrower than a block, and the
+    // right-hand side's column (n_dofs + root_cols) after them.
     int n_runs = 0;
-    for (int k = 0; k < n; ++k) {
-      if (k == 0 || list[k] >= list[k - 1] + kLanes) runs[2 * n_runs++] = list[k];
-      runs[2 * n_runs - 1] = list[k] + 1;
-      c.target_of_column_[list[k]] = static_cast<int>(t);
+    for (int k = 0; k <= n; ++k) {
+      const int col = k < n ? list[k] : n_dofs + root_cols;
+      if (k == 0 || col >= list[k - 1] + kLanes) runs[2 * n_runs++] = col;
+      runs[2 * n_runs - 1] = col + 1;
+      if (k < n) c.target_of_column_[col] = static_cast<int>(t);
     }
     c.run_count_[t] = n_runs;
     runs += 2 * n_runs;
     list += n;
   }
+  c.rhs_span_ = {n_dofs + root_cols, n_dofs + root_cols + 1};
   detail::list_reaching_rows(n_dofs + root_cols, SpansRightOf{&c}, c.reaching_first_.data(), c.reaching_count_.data(),
                              c.reaching_rows_.data());
 }
@@ -214,7 +215,7 @@ bool LeastSquaresIkJob::ColumnsListed(int root_cols) {
 float LeastSquaresIkJob::Objective(float prior2) {
   LeastSquaresIkContext& c = *context;
   const Pose& p = *pose;
-  evaluate(*skeleton, p, c.joint_mask_, c.world_, c.dof_axis_world_);
+  evaluate(*skeleton, p, c.joint_mask_, c.axis_kind_, c.world_, c.dof_axis_world_);
   const int rows = fill_residual(targets, c.world_, c.residual_);
   float sum = 0;
   for (int r = 0; r < rows; ++r) sum += c.residual_[r] * c.residual_[r];
@@ -394,8 +395,7 @@ bool LeastSquaresIkJob::Run() {
     float* a = c.normal_.data();
     float* b = c.rhs_.data();
     std::copy(c.normal0_.data(), c.normal0_.data() + static_cast<size_t>(cols) * stride, a);
-    std::copy(c.rhs0_.data(), c.rhs0_.data() + stride, b);
-    for (int i = 0; i < cols; ++i) a[i * stride + i] += lambda * lambda;
+    for (int i = 0; i < cols; ++i) a[i * stride + i] += lambda * lambda, a[i * stride + cols] = c.rhs0_[i];
     ++iterations;
     const detail::ReachingRows reaching{c.reaching_first_.data(), c.reaching_count_.data(), c.reaching_rows_.data()};
     if (!detail::cholesky_solve(a, b, cols, stride, SpansRightOf{&c}, reaching, c.inv_diag_.data())) break;
@@ -436,7 +436,7 @@ bool LeastSquaresIkJob::Run() {
     }
   }
   c.lambda_ = lambda;
-  if (!world_current) evaluate(*skeleton, p, c.joint_mask_, c.world_, c.dof_axis_world_);
+  if (!world_current) evaluate(*skeleton, p, c.joint_mask_, c.axis_kind_, c.world_, c.dof_axis_world_);
   const int rows = fill_residual(targets, c.world_, c.residual_);
   float sum = 0;
   for (int r = 0; r < rows; ++r) sum += c.residual_[r] * c.residual_[r];

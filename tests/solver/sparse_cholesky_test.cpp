@@ -50,8 +50,10 @@ Structured random_structure(std::mt19937_64& rng) {
   return s;
 }
 
-// The least squares' spans: runs of consecutive columns, merged across gaps under a block.
-std::vector<int> spans_of(const std::vector<int>& cols) {
+// The least squares' spans: runs of consecutive columns, merged across gaps under a block, then
+// the right-hand side's column n.
+std::vector<int> spans_of(std::vector<int> cols, int n) {
+  cols.push_back(n);
   std::vector<int> pairs;
   for (size_t k = 0; k < cols.size(); ++k) {
     if (k == 0 || cols[k] >= cols[k - 1] + kLanes) pairs.push_back(cols[k]), pairs.push_back(0);
@@ -111,20 +113,21 @@ TEST(SparseCholesky, EqualsADenseSolveOnTreeShapedSystems) {
     }
     // Float copies, upper triangle only, padded rows; the lower triangle holds garbage that
     // must never be read.
-    std::vector<float> af(static_cast<size_t>(n) * stride, 0.0f), bf(stride, 0.0f);
+    std::vector<float> af(static_cast<size_t>(n) * stride, 0.0f), xf(n, 0.0f);
     for (int i = 0; i < n; ++i) {
       for (int k = 0; k < i; ++k) af[i * stride + k] = 1e30f;
       for (int k = i; k < n; ++k) af[i * stride + k] = static_cast<float>(a[i * n + k]);
-      bf[i] = static_cast<float>(b[i]);
+      af[i * stride + n] = static_cast<float>(b[i]);
     }
     std::vector<int> owner(n, -1);
     std::vector<std::vector<int>> spans;
     for (size_t t = 0; t < s.targets.size(); ++t) {
-      spans.push_back(spans_of(s.targets[t]));
+      spans.push_back(spans_of(s.targets[t], n));
       for (int c : s.targets[t]) owner[c] = static_cast<int>(t);
     }
+    const int rhs_alone[2] = {n, n + 1};
     auto spans_right_of = [&](int j) {
-      if (owner[j] < 0) return ColumnSpans{};
+      if (owner[j] < 0) return ColumnSpans{rhs_alone, 1};
       const std::vector<int>& p = spans[owner[j]];
       int q = 0;
       while (q < static_cast<int>(p.size()) / 2 && p[2 * q + 1] <= j + 1) ++q;
@@ -133,28 +136,29 @@ TEST(SparseCholesky, EqualsADenseSolveOnTreeShapedSystems) {
     std::vector<int> first(n), count(n), rows(static_cast<size_t>(n) * n / 2 + 1);
     detail::list_reaching_rows(n, spans_right_of, first.data(), count.data(), rows.data());
     std::vector<float> inv_diag(n);
-    ASSERT_TRUE(detail::cholesky_solve(af.data(), bf.data(), n, stride, spans_right_of,
+    ASSERT_TRUE(detail::cholesky_solve(af.data(), xf.data(), n, stride, spans_right_of,
                                        detail::ReachingRows{first.data(), count.data(), rows.data()}, inv_diag.data()));
     const std::vector<double> x = dense_solve(a, b, n);
     double scale = 1e-6;
     for (double v : x) scale = std::max(scale, std::abs(v));
-    for (int i = 0; i < n; ++i) EXPECT_NEAR(bf[i], x[i], 2e-3 * scale) << "trial " << trial << " column " << i;
+    for (int i = 0; i < n; ++i) EXPECT_NEAR(xf[i], x[i], 2e-3 * scale) << "trial " << trial << " column " << i;
     // Padding stays zero (blocks spill into it).
     for (int i = 0; i < n; ++i)
-      for (int k = n; k < stride; ++k) EXPECT_EQ(af[i * stride + k], 0.0f);
-    for (int k = n; k < stride; ++k) EXPECT_EQ(bf[k], 0.0f);
+      for (int k = n + 1; k < stride; ++k) EXPECT_EQ(af[i * stride + k], 0.0f);
   }
 }
 
 TEST(SparseCholesky, RefusesASystemThatIsNotPositiveDefinite) {
   const int n = 3, stride = detail::padded_stride(n);
-  std::vector<float> a(static_cast<size_t>(n) * stride, 0.0f), b(stride, 1.0f);
+  std::vector<float> a(static_cast<size_t>(n) * stride, 0.0f), x(n, 0.0f);
   a[0] = 1.0f, a[stride + 1] = -1.0f, a[2 * stride + 2] = 1.0f;
+  for (int i = 0; i < n; ++i) a[i * stride + n] = 1.0f;
   std::vector<int> first(n), count(n), rows(8);
-  auto no_spans = [](int) { return ColumnSpans{}; };
+  const int rhs_alone[2] = {n, n + 1};
+  auto no_spans = [&](int) { return ColumnSpans{rhs_alone, 1}; };
   detail::list_reaching_rows(n, no_spans, first.data(), count.data(), rows.data());
   std::vector<float> inv_diag(n);
-  EXPECT_FALSE(detail::cholesky_solve(a.data(), b.data(), n, stride, no_spans,
+  EXPECT_FALSE(detail::cholesky_solve(a.data(), x.data(), n, stride, no_spans,
                                       detail::ReachingRows{first.data(), count.data(), rows.data()}, inv_diag.data()));
 }
 

@@ -10,6 +10,7 @@
 // Run() never allocates and returns false when Validate() fails.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <span>
 #include <vector>
@@ -25,6 +26,15 @@ struct IkTarget {
   float position_weight = 0;                   // residual weight per metre; 0 ignores position
   float rotation_weight = 0;                   // residual weight per radian; 0 ignores rotation
 };
+
+namespace detail {
+// A DOF's axis as the FK turns about it: a coordinate axis (0, 1, 2 for x, y, z, with its sign),
+// whose rotation and world direction take half the arithmetic of a general one, or general (3).
+struct AxisKind {
+  uint8_t axis = 3;
+  float sign = 1.0f;
+};
+}  // namespace detail
 
 class LeastSquaresIkContext {
  public:
@@ -46,6 +56,7 @@ class LeastSquaresIkContext {
   int joints_ = 0, max_dofs_ = 0, max_targets_ = 0;
   std::vector<rig::RigidTransform> world_;
   std::vector<glm::vec3> dof_axis_world_;  // per skeleton DOF
+  std::vector<detail::AxisKind> axis_kind_;  // per skeleton DOF
   std::vector<float> jacobian_;            // per target its rows (3 or 6), each padded to a whole row
   std::vector<float> residual_;
   std::vector<float> normal_;  // cols × cols, upper triangle (in elimination order)
@@ -58,6 +69,7 @@ class LeastSquaresIkContext {
   std::vector<int> runs_;
   std::vector<int> run_begin_, run_count_;  // per target: where its spans start (pairs), how many
   std::vector<int> target_of_column_;       // per column, a target touching it (−1: none)
+  std::array<int, 2> rhs_span_{};           // the right-hand side's column as a span
   // Per column, the earlier rows whose spans reach it (sparse_cholesky.h): where its list starts
   // in reaching_rows_, how long it is.
   std::vector<int> reaching_first_, reaching_count_, reaching_rows_;
