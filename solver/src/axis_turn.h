@@ -32,13 +32,16 @@ inline glm::quat turned(const glm::quat& r, const glm::vec3& axis, AxisKind kind
   const float w = r.w, x = r.x, y = r.y, z = r.z;
   switch (kind.axis) {
     case 0:
-      if (axis_world) *axis_world = kind.sign * glm::vec3(1 - 2 * (y * y + z * z), 2 * (x * y + w * z), 2 * (x * z - w * y));
+      if (axis_world)
+        *axis_world = kind.sign * glm::vec3(1 - 2 * (y * y + z * z), 2 * (x * y + w * z), 2 * (x * z - w * y));
       return glm::quat(w * c - x * s, x * c + w * s, y * c + z * s, z * c - y * s);
     case 1:
-      if (axis_world) *axis_world = kind.sign * glm::vec3(2 * (x * y - w * z), 1 - 2 * (x * x + z * z), 2 * (y * z + w * x));
+      if (axis_world)
+        *axis_world = kind.sign * glm::vec3(2 * (x * y - w * z), 1 - 2 * (x * x + z * z), 2 * (y * z + w * x));
       return glm::quat(w * c - y * s, x * c - z * s, y * c + w * s, z * c + x * s);
     default:
-      if (axis_world) *axis_world = kind.sign * glm::vec3(2 * (x * z + w * y), 2 * (y * z - w * x), 1 - 2 * (x * x + y * y));
+      if (axis_world)
+        *axis_world = kind.sign * glm::vec3(2 * (x * z + w * y), 2 * (y * z - w * x), 1 - 2 * (x * x + y * y));
       return glm::quat(w * c - z * s, x * c + y * s, y * c - x * s, z * c + w * s);
   }
 }

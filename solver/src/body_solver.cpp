@@ -236,7 +236,8 @@ void SolveJob::PlaceJoint(int j) {
   SolverContext& c = *context;
   const Pose& p = *pose;
   glm::quat local(1, 0, 0, 0);
-  for (int i = s.dof_begin(j); i < s.dof_end(j); ++i) local = detail::turned(local, s.dof(i).axis, m.axis_kind_[i], p.dof_rad[i]);
+  for (int i = s.dof_begin(j); i < s.dof_end(j); ++i)
+    local = detail::turned(local, s.dof(i).axis, m.axis_kind_[i], p.dof_rad[i]);
   const int par = s.parent(j);
   if (par < 0) {
     c.world_[j] = RigidTransform{p.root_orientation * local, p.root_position_m + p.root_orientation * s.offset_m(j)};

@@ -32,7 +32,8 @@ void evaluate(const Skeleton& s, const Pose& pose, uint64_t mask, std::span<cons
     if (!(mask >> j & 1u)) continue;
     const int p = s.parent(j);
     glm::quat r = p < 0 ? root_rot : world[p].rotation;
-    for (int i = s.dof_begin(j); i < s.dof_end(j); ++i) r = detail::turned(r, s.dof(i).axis, kinds[i], pose.dof_rad[i], &axis_world[i]);
+    for (int i = s.dof_begin(j); i < s.dof_end(j); ++i)
+      r = detail::turned(r, s.dof(i).axis, kinds[i], pose.dof_rad[i], &axis_world[i]);
     world[j].rotation = r;
     world[j].translation = p < 0 ? pose.root_position_m + root_rot * s.offset_m(j) : world[p].apply(s.offset_m(j));
   }
@@ -78,8 +79,10 @@ LeastSquaresIkContext::LeastSquaresIkContext(const Skeleton& skeleton, int max_d
   column_begin_.resize(max_targets);
   column_count_.resize(max_targets);
   runs_.resize(static_cast<size_t>(max_targets) * (cols + 2));
+  solve_runs_.resize(runs_.size());
   run_begin_.resize(max_targets);
   run_count_.resize(max_targets);
+  solve_run_count_.resize(max_targets);
   target_of_column_.resize(cols);
   reaching_first_.resize(cols);
   reaching_count_.resize(cols);
@@ -116,8 +119,8 @@ struct SpansRightOf {
 detail::ColumnSpans SpansRightOf::operator()(int j) const {
   const int t = c->target_of_column_[j];
   if (t < 0) return detail::ColumnSpans{c->rhs_span_.data(), 1};  // the right-hand side alone
-  const int* r = c->runs_.data() + c->run_begin_[t];
-  int count = c->run_count_[t];
+  const int* r = c->solve_runs_.data() + c->run_begin_[t];
+  int count = c->solve_run_count_[t];
   while (count > 0 && r[1] <= j + 1) r += 2, --count;
   return detail::ColumnSpans{r, count};
 }
@@ -177,16 +180,18 @@ void LeastSquaresIkJob::ListColumns(int root_cols) {
     for (int k = 0; k < root_cols; ++k) list[n++] = n_dofs + k;
     c.column_count_[t] = n;
     c.run_begin_[t] = static_cast<int>(runs - c.runs_.data());
-    // Spans: runs of consecutive columns, merged across gaps narrower than a block, and the
-    // right-hand side's column (n_dofs + root_cols) after them.
+    // Spans: runs of consecutive columns, merged across gaps narrower than a block; for the
+    // factorization, with the right-hand side's column (n_dofs + root_cols) after them.
+    int* solve_runs = c.solve_runs_.data() + c.run_begin_[t];
     int n_runs = 0;
     for (int k = 0; k <= n; ++k) {
       const int col = k < n ? list[k] : n_dofs + root_cols;
-      if (k == 0 || col >= list[k - 1] + kLanes) runs[2 * n_runs++] = col;
-      runs[2 * n_runs - 1] = col + 1;
+      if (k == n) std::copy(solve_runs, solve_runs + 2 * n_runs, runs), c.run_count_[t] = n_runs;
+      if (k == 0 || col >= list[k - 1] + kLanes) solve_runs[2 * n_runs++] = col;
+      solve_runs[2 * n_runs - 1] = col + 1;
       if (k < n) c.target_of_column_[col] = static_cast<int>(t);
     }
-    c.run_count_[t] = n_runs;
+    c.solve_run_count_[t] = n_runs;
     runs += 2 * n_runs;
     list += n;
   }

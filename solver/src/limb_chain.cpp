@@ -5,6 +5,7 @@
 
 #include <glm/gtx/quaternion.hpp>
 
+#include "fast_atan2.h"
 #include "mimic/solver/swing_twist.h"
 #include "mimic/solver/two_bone_ik.h"
 
@@ -68,13 +69,13 @@ ChainGeometry chain_geometry(const ChainInput& in, const glm::vec3& pole) {
   b_w = glm::normalize(b_w);
   // A nearly straight limb may be over-extended (a bend below zero) instead: then the bend plane
   // turns over. Keep the plane whose hinge agrees with the hint.
-  g.bend = std::atan2(glm::dot(f, b_w), glm::dot(f, x_w));
+  g.bend = detail::fast_atan2(glm::dot(f, b_w), glm::dot(f, x_w));
   const bool may_flip = flex.min_rad < 0 && g.bend <= -flex.min_rad;
   if (may_flip) {
     const glm::vec3 hint = in.last_bend ? glm::cross(x_w, *in.last_bend) : in.hinge_hint;
     if (glm::dot(glm::cross(x_w, b_w), hint) < 0) {
       b_w = -b_w;
-      g.bend = std::atan2(glm::dot(f, b_w), glm::dot(f, x_w));
+      g.bend = detail::fast_atan2(glm::dot(f, b_w), glm::dot(f, x_w));
     }
   }
   const glm::vec3 h_w = glm::cross(x_w, b_w);

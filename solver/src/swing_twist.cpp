@@ -1,5 +1,6 @@
 #include "mimic/solver/swing_twist.h"
 
+#include "fast_atan2.h"
 #include "mimic/rig/joint_angles.h"
 
 #include <algorithm>
@@ -43,21 +44,21 @@ void euler3_nearest(const glm::quat& local, std::span<const glm::vec3> axes, std
   const float m02 = glm::dot(b0, v2), m12 = glm::dot(b1, v2), m22 = glm::dot(b2, v2);
   const float p0 = previous[0], p1 = previous[1], p2 = s2 * previous[2];
   const float sb = std::clamp(m02, -1.0f, 1.0f);
-  const float t1 = std::asin(sb);
   const float cb = std::sqrt(std::max(0.0f, 1.0f - m02 * m02));
+  const float t1 = detail::fast_atan2(sb, cb);  // asin(sb), cb ≥ 0
   const bool locked = cb < static_cast<float>(rig::kFloatLockCos);
   float t0 = p0, sa = 0, ca = 1;
   if (locked) {
     sa = std::sin(p0), ca = std::cos(p0);
   } else {
-    t0 = std::atan2(-m12, m22);
+    t0 = detail::fast_atan2(-m12, m22);
     const float h = std::sqrt(m12 * m12 + m22 * m22);
     if (h > 0) sa = -m12 / h, ca = m22 / h;
   }
   // Residual (Rx(t0)·Ry(t1))ᵀ·m: its (1,0) and (0,0) entries give t2.
   const float r10 = ca * m10 + sa * m20;
   const float r00 = cb * m00 + sa * sb * m10 - ca * sb * m20;
-  const float t2 = std::atan2(r10, r00);
+  const float t2 = detail::fast_atan2(r10, r00);
   std::array<float, 3> a{unwrap_near(t0, p0), unwrap_near(t1, p1), unwrap_near(t2, p2)};
   std::array<float, 3> b = a;  // the other branch: (t0 + π, π − t1, t2 + π)
   if (!locked) b = {unwrap_near(t0 + kPi, p0), unwrap_near(kPi - t1, p1), unwrap_near(t2 + kPi, p2)};

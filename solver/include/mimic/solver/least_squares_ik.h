@@ -55,9 +55,9 @@ class LeastSquaresIkContext {
   friend struct SpansRightOf;
   int joints_ = 0, max_dofs_ = 0, max_targets_ = 0;
   std::vector<rig::RigidTransform> world_;
-  std::vector<glm::vec3> dof_axis_world_;  // per skeleton DOF
+  std::vector<glm::vec3> dof_axis_world_;    // per skeleton DOF
   std::vector<detail::AxisKind> axis_kind_;  // per skeleton DOF
-  std::vector<float> jacobian_;            // per target its rows (3 or 6), each padded to a whole row
+  std::vector<float> jacobian_;              // per target its rows (3 or 6), each padded to a whole row
   std::vector<float> residual_;
   std::vector<float> normal_;  // cols × cols, upper triangle (in elimination order)
   std::vector<float> rhs_;
@@ -65,11 +65,12 @@ class LeastSquaresIkContext {
   std::vector<float> saved_;                      // DOF values before a trial step
   std::vector<int> columns_;                      // per target, its non-zero Jacobian columns, ascending
   std::vector<int> column_begin_, column_count_;  // per target: where its columns start, how many
-  // Per target, its columns as spans (sparse_cholesky.h): pairs (first, one past the last).
-  std::vector<int> runs_;
-  std::vector<int> run_begin_, run_count_;  // per target: where its spans start (pairs), how many
-  std::vector<int> target_of_column_;       // per column, a target touching it (−1: none)
-  std::array<int, 2> rhs_span_{};           // the right-hand side's column as a span
+  // Per target, its columns as spans (sparse_cholesky.h): pairs (first, one past the last); for
+  // the factorization, with the right-hand side's column.
+  std::vector<int> runs_, solve_runs_;
+  std::vector<int> run_begin_, run_count_, solve_run_count_;  // per target: where its spans start (pairs), how many
+  std::vector<int> target_of_column_;                         // per column, a target touching it (−1: none)
+  std::array<int, 2> rhs_span_{};                             // the right-hand side's column as a span
   // Per column, the earlier rows whose spans reach it (sparse_cholesky.h): where its list starts
   // in reaching_rows_, how long it is.
   std::vector<int> reaching_first_, reaching_count_, reaching_rows_;
