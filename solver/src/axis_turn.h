@@ -19,6 +19,24 @@ inline AxisKind axis_kind(const glm::vec3& a) {
   return {};
 }
 
+// sin and cos of a half angle: Taylor to the 13th and 14th power within ±π/2 (every DOF's half
+// angle inside its limits), within 1.1·10⁻⁷ of the exact values (libm's float sincosf: 3·10⁻⁸),
+// inline instead of a call that was a thirtieth of a frame; libm beyond.
+inline void half_sincos(float h, float& s, float& c) {
+  if (!(std::abs(h) <= 1.5707964f)) {
+    s = std::sin(h), c = std::cos(h);
+    return;
+  }
+  const float z = h * h;
+  s = h + h * z *
+              (-1.66666667e-1f +
+               z * (8.33333333e-3f +
+                    z * (-1.98412698e-4f + z * (2.75573192e-6f + z * (-2.50521084e-8f + z * 1.60590438e-10f)))));
+  c = 1.0f +
+      z * (-0.5f + z * (4.16666667e-2f +
+                        z * (-1.38888889e-3f + z * (2.48015873e-5f + z * (-2.75573192e-7f + z * 2.08767570e-9f)))));
+}
+
 // r·R(axis, angle_rad), and r·axis when `axis_world` is given: (c, s·e_k) multiplied out, and
 // the rotation's k-th column.
 inline glm::quat turned(const glm::quat& r, const glm::vec3& axis, AxisKind kind, float angle_rad,
@@ -27,8 +45,9 @@ inline glm::quat turned(const glm::quat& r, const glm::vec3& axis, AxisKind kind
     if (axis_world) *axis_world = r * axis;
     return r * glm::angleAxis(angle_rad, axis);
   }
-  const float h = 0.5f * angle_rad;
-  const float c = std::cos(h), s = kind.sign * std::sin(h);
+  float s, c;
+  half_sincos(0.5f * angle_rad, s, c);
+  s *= kind.sign;
   const float w = r.w, x = r.x, y = r.y, z = r.z;
   switch (kind.axis) {
     case 0:
