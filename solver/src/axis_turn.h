@@ -9,6 +9,7 @@
 #include <glm/glm.hpp>
 #include <glm/gtc/quaternion.hpp>
 
+#include "fast_trig.h"
 #include "mimic/solver/least_squares_ik.h"
 
 namespace mimic::solver::detail {
@@ -17,24 +18,6 @@ inline AxisKind axis_kind(const glm::vec3& a) {
   for (uint8_t k = 0; k < 3; ++k)
     if (std::abs(a[k]) == 1.0f && a[(k + 1) % 3] == 0.0f && a[(k + 2) % 3] == 0.0f) return {k, a[k]};
   return {};
-}
-
-// sin and cos of a half angle: Taylor to the 13th and 14th power within ±π/2 (every DOF's half
-// angle inside its limits), within 1.1·10⁻⁷ of the exact values (libm's float sincosf: 3·10⁻⁸),
-// inline instead of a call that was a thirtieth of a frame; libm beyond.
-inline void half_sincos(float h, float& s, float& c) {
-  if (!(std::abs(h) <= 1.5707964f)) {
-    s = std::sin(h), c = std::cos(h);
-    return;
-  }
-  const float z = h * h;
-  s = h + h * z *
-              (-1.66666667e-1f +
-               z * (8.33333333e-3f +
-                    z * (-1.98412698e-4f + z * (2.75573192e-6f + z * (-2.50521084e-8f + z * 1.60590438e-10f)))));
-  c = 1.0f +
-      z * (-0.5f + z * (4.16666667e-2f +
-                        z * (-1.38888889e-3f + z * (2.48015873e-5f + z * (-2.75573192e-7f + z * 2.08767570e-9f)))));
 }
 
 // r·R(axis, angle_rad), and r·axis when `axis_world` is given: (c, s·e_k) multiplied out, and

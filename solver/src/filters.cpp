@@ -19,8 +19,9 @@ bool finite(const devices::SensorSample& s) { return detail::finite_sample(s); }
 }  // namespace
 
 float one_euro_alpha(float cutoff_hz, float dt_s) {
-  const float tau = 1.0f / (kTwoPi * std::max(cutoff_hz, 1e-4f));
-  return 1.0f / (1.0f + tau / std::max(dt_s, 1e-6f));
+  // 1/(1 + τ/dt) with τ = 1/(2π·fc), in one division.
+  const float x = kTwoPi * std::max(cutoff_hz, 1e-4f) * std::max(dt_s, 1e-6f);
+  return x / (x + 1.0f);
 }
 
 glm::vec3 OneEuroVec3::filter(const glm::vec3& x, float dt_s) {

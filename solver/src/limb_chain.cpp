@@ -5,7 +5,7 @@
 
 #include <glm/gtx/quaternion.hpp>
 
-#include "fast_atan2.h"
+#include "fast_trig.h"
 #include "mimic/solver/swing_twist.h"
 #include "mimic/solver/two_bone_ik.h"
 

@@ -6,6 +6,8 @@
 #include <glm/glm.hpp>
 #include <glm/gtc/quaternion.hpp>
 
+#include "fast_trig.h"
+
 namespace mimic::solver::detail {
 
 // Of a unit quaternion, the shorter way round (|angle| ≤ π).
@@ -20,7 +22,10 @@ inline glm::vec3 rotation_vector(glm::quat q) {
 inline glm::quat exp_rotation(const glm::vec3& rv) {
   const float angle = glm::length(rv);
   if (angle < 1e-8f) return glm::normalize(glm::quat(1.0f, 0.5f * rv.x, 0.5f * rv.y, 0.5f * rv.z));
-  return glm::angleAxis(angle, rv / angle);
+  float s, c;
+  half_sincos(0.5f * angle, s, c);
+  const glm::vec3 v = rv * (s / angle);
+  return glm::quat(c, v.x, v.y, v.z);
 }
 
 }  // namespace mimic::solver::detail

@@ -1,6 +1,6 @@
 #include "mimic/solver/swing_twist.h"
 
-#include "fast_atan2.h"
+#include "fast_trig.h"
 #include "mimic/rig/joint_angles.h"
 
 #include <algorithm>

@@ -1,7 +1,7 @@
 #include "mimic/solver/swing_twist.h"
 
 #include "../../solver/src/axis_turn.h"
-#include "../../solver/src/fast_atan2.h"
+#include "../../solver/src/fast_trig.h"
 
 #include <gtest/gtest.h>
 
