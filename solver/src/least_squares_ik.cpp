@@ -72,7 +72,6 @@ LeastSquaresIkContext::LeastSquaresIkContext(const Skeleton& skeleton, int max_d
   residual_.resize(rows);
   normal_.resize(static_cast<size_t>(cols) * stride_for(cols));
   rhs_.resize(stride_for(cols));
-  normal0_.resize(static_cast<size_t>(cols) * stride_for(cols));
   rhs0_.resize(stride_for(cols));
   saved_.resize(cols);
   columns_.resize(static_cast<size_t>(max_targets) * cols);
@@ -321,7 +320,7 @@ void LeastSquaresIkJob::BuildNormalEquations(int cols, float prior2) {
   // The residual is the last objective's: it was evaluated at the current pose (the first, or
   // the step just accepted).
   FillJacobian(cols - static_cast<int>(dofs.size()));
-  float* a0 = c.normal0_.data();
+  float* a0 = c.normal_.data();
   float* g0 = c.rhs0_.data();
   const int stride = stride_for(cols);
   std::fill(a0, a0 + static_cast<size_t>(cols) * stride, 0.0f);
@@ -391,15 +390,14 @@ bool LeastSquaresIkJob::Run() {
   // The damping carries over from the last solve with this context: after a hard frame the
   // next one starts with the step size that worked, instead of re-learning it.
   float lambda = std::clamp(c.lambda_, std::max(damping, 1e-4f), 1e3f);
-  bool rebuild = true;
   bool world_current = true;  // world and axes are those of the pose (the last objective's)
   const int stride = stride_for(cols);
   for (int it = 0; it < max_iterations && cols > 0; ++it) {
-    if (rebuild) BuildNormalEquations(cols, prior2);
-    rebuild = false;
+    // The factorization takes the system it solves: every step builds its own (a step undone is
+    // rare, and rebuilding then costs less than keeping a copy of every system).
+    BuildNormalEquations(cols, prior2);
     float* a = c.normal_.data();
     float* b = c.rhs_.data();
-    std::copy(c.normal0_.data(), c.normal0_.data() + static_cast<size_t>(cols) * stride, a);
     for (int i = 0; i < cols; ++i) a[i * stride + i] += lambda * lambda, a[i * stride + cols] = c.rhs0_[i];
     ++iterations;
     const detail::ReachingRows reaching{c.reaching_first_.data(), c.reaching_count_.data(), c.reaching_rows_.data()};
@@ -421,7 +419,6 @@ bool LeastSquaresIkJob::Run() {
       const float lambda_used = lambda;
       cost = trial;
       lambda = std::max(std::max(damping, 1e-4f), lambda * 0.3f);
-      rebuild = true;
       if (biggest < step_tolerance || gain < 1e-4f * cost) break;
       // The gain the linear model promised, δ·g + λ²·|δ|² (from (JᵀJ + P + λ²)·δ = g): when the
       // step gained that to within model_tolerance of the cost left, the model is good there, and
@@ -438,6 +435,8 @@ bool LeastSquaresIkJob::Run() {
       for (size_t k = 0; k < dofs.size(); ++k) p.dof_rad[dofs[k]] = c.saved_[k];
       lambda *= 4.0f;
       if (lambda > 1e3f || biggest < step_tolerance) break;
+      cost = Objective(prior2);  // the world, axes and residual of the pose kept, for the next system
+      world_current = true;
     }
   }
   c.lambda_ = lambda;

@@ -61,7 +61,7 @@ class LeastSquaresIkContext {
   std::vector<float> residual_;
   std::vector<float> normal_;  // cols × cols, upper triangle (in elimination order)
   std::vector<float> rhs_;
-  std::vector<float> normal0_, rhs0_;             // undamped system, kept across rejected steps
+  std::vector<float> rhs0_;                       // the undamped right-hand side (Jᵀr + the prior's pull)
   std::vector<float> saved_;                      // DOF values before a trial step
   std::vector<int> columns_;                      // per target, its non-zero Jacobian columns, ascending
   std::vector<int> column_begin_, column_count_;  // per target: where its columns start, how many
