@@ -200,12 +200,13 @@ void SensorFilterBank::process(std::span<devices::SensorSample> samples) {
       }
       continue;
     }
+    const glm::quat unit = glm::normalize(smp.orientation);
     if (st.seen && dt > 0) {
       // Against the last accepted raw sample: a jump, not the filter's lag, makes an outlier.
       const float since = static_cast<float>(t - st.last_good_t);
       const float allowed = config_.max_speed_m_s * since + config_.jump_allowance_m;
       const float jump = glm::length(smp.position_m - st.last_raw_pos);
-      const glm::quat d = glm::normalize(smp.orientation) * glm::conjugate(st.last_raw_rot);
+      const glm::quat d = unit * glm::conjugate(st.last_raw_rot);
       const float half_sin = glm::length(glm::vec3(d.x, d.y, d.z));
       const float allowed_deg = config_.max_angular_speed_deg_s * since + 10.0f;
       // The turn is 2·asin(half_sin) ≤ π·half_sin: a sample turned well within that bound needs
@@ -229,9 +230,9 @@ void SensorFilterBank::process(std::span<devices::SensorSample> samples) {
     }
     st.outlier_streak = 0;
     st.last_raw_pos = smp.position_m;
-    st.last_raw_rot = glm::normalize(smp.orientation);
+    st.last_raw_rot = unit;
     const glm::vec3 p = st.pos.filter(smp.position_m, dt);
-    const glm::quat q = st.rot.filter(smp.orientation, dt);
+    const glm::quat q = st.rot.filter(unit, dt);
     if (config_.enabled) {
       // Each filter lags by its time constant 1/(2π·fc); extrapolating by it (plus the asked-for
       // horizon) puts the output back on time.
