@@ -416,19 +416,21 @@ bool LeastSquaresIkJob::Run() {
     world_current = trial < cost;
     if (trial < cost) {
       const float gain = cost - trial;
-      const float lambda_used = lambda;
       cost = trial;
-      lambda = std::max(std::max(damping, 1e-4f), lambda * 0.3f);
+      // The gain the linear model promised, δ·g + λ²·|δ|² (from (JᵀJ + P + λ²)·δ = g).
+      float promised = 0, step2 = 0;
+      for (int i = 0; i < cols; ++i) promised += b[i] * c.rhs0_[i], step2 += b[i] * b[i];
+      promised += lambda * lambda * step2;
+      // Less damping by how well the model held (Nielsen's rule on λ²: ×1/3 when the step gained
+      // what was promised, unchanged at half of it): a fixed cut overshot, and a quarter of the
+      // frames then undid a step.
+      const float t = 2.0f * (promised > 0 ? gain / promised : 1.0f) - 1.0f;
+      lambda = std::max(std::max(damping, 1e-4f), lambda * std::sqrt(std::max(1.0f / 3.0f, 1.0f - t * t * t)));
       if (biggest < step_tolerance || gain < 1e-4f * cost) break;
-      // The gain the linear model promised, δ·g + λ²·|δ|² (from (JᵀJ + P + λ²)·δ = g): when the
-      // step gained that to within model_tolerance of the cost left, the model is good there, and
-      // the next step would only take back a part of the difference.
-      if (model_tolerance > 0 && it + 1 >= model_min_iterations) {
-        float promised = 0, step2 = 0;
-        for (int i = 0; i < cols; ++i) promised += b[i] * c.rhs0_[i], step2 += b[i] * b[i];
-        promised += lambda_used * lambda_used * step2;
-        if (std::abs(gain - promised) < model_tolerance * cost) break;
-      }
+      // When the step gained what the model promised to within model_tolerance of the cost left,
+      // the model is good there, and the next step would only take back a part of the difference.
+      if (model_tolerance > 0 && it + 1 >= model_min_iterations && std::abs(gain - promised) < model_tolerance * cost)
+        break;
     } else {
       p.root_position_m = saved_root_pos;
       p.root_orientation = saved_root_rot;
