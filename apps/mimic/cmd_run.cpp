@@ -5,6 +5,7 @@
 #include <csignal>
 #include <cstdio>
 #include <cstdlib>
+#include <optional>
 #include <thread>
 
 #include <nlohmann/json.hpp>
@@ -446,8 +447,16 @@ int run(const std::vector<std::string>& argv) {
   Pipeline pipeline(out.sinks());
   LoopStats loop;
   if (int rc = add_avatars(*scene, o.scene.mesh_lod, pipeline, loop.model_bytes); rc >= 0) return rc;
+  // --realtime: the CPUs also stay out of deep idle states while the loop runs (it naps between
+  // passes, and a CPU woken from one ran the solve and the deform a third slower).
+  std::optional<CpuWakeupLatency> wakeup;
+  if (o.rt_priority > 0 && !wakeup.emplace(0).ok())
+    std::fprintf(stderr,
+                 "mimic run: the CPU wake-up latency request was refused (/dev/cpu_dma_latency needs root); idle CPUs "
+                 "may wake slowly\n");
   start_loop(o, out, pipeline);
   const double elapsed = run_loop(o, !o.quiet, pipeline, out, loop);
+  wakeup.reset();
   std::signal(SIGINT, SIG_DFL);
   std::signal(SIGTERM, SIG_DFL);
   std::signal(SIGUSR1, SIG_DFL);

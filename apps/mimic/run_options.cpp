@@ -211,7 +211,8 @@ std::optional<int> parse_run_options(cli::Parser& p, const std::vector<std::stri
       ->check(cli::finite_range(0, INFINITY));
   p->add_option("--realtime", o.rt_priority,
                 "run the loop at SCHED_FIFO priority PRIO (1-99; needs CAP_SYS_NICE), so a\n"
-                "busy machine does not delay frames")
+                "busy machine does not delay frames, and keep the CPUs out of deep idle states\n"
+                "while it runs (/dev/cpu_dma_latency, needs root), so an idle one wakes at once")
       ->type_name("PRIO")
       ->default_str("")
       ->check(CLI::Range(0L, 99L));

@@ -1,8 +1,11 @@
 #include "mimic/core/thread_priority.h"
 
+#include <fcntl.h>
 #include <pthread.h>
 #include <sched.h>
+#include <unistd.h>
 
+#include <cstdint>
 #include <cstdlib>
 #include <filesystem>
 #include <string>
@@ -17,6 +20,20 @@ sched_param param_of(int priority) noexcept {
 }
 int policy_of(int priority) noexcept { return priority > 0 ? SCHED_FIFO : SCHED_OTHER; }
 }  // namespace
+
+CpuWakeupLatency::CpuWakeupLatency(int max_wakeup_us, const char* device) noexcept
+    : fd_(::open(device, O_WRONLY | O_CLOEXEC)) {
+  // The device takes the bound as a binary 32-bit integer and keeps it while the file is open.
+  const int32_t value = max_wakeup_us < 0 ? 0 : max_wakeup_us;
+  if (fd_ >= 0 && ::write(fd_, &value, sizeof value) != static_cast<ssize_t>(sizeof value)) {
+    ::close(fd_);
+    fd_ = -1;
+  }
+}
+
+CpuWakeupLatency::~CpuWakeupLatency() {
+  if (fd_ >= 0) ::close(fd_);
+}
 
 bool set_thread_fifo(int priority) noexcept {
   const sched_param p = param_of(priority);

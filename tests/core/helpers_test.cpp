@@ -1,9 +1,13 @@
 // The shared helpers of core/: CRC-32, percentiles, HOST:PORT, finite checks, the allocation
 // counter's absence here (core itself never replaces operator new).
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <cmath>
+#include <cstdint>
+#include <cstdio>
 #include <cstring>
+#include <filesystem>
 #include <limits>
 #include <vector>
 
@@ -12,6 +16,7 @@
 #include "mimic/core/finite.h"
 #include "mimic/core/host_port.h"
 #include "mimic/core/percentile.h"
+#include "mimic/core/thread_priority.h"
 
 namespace mimic::helpers_test {
 namespace {
@@ -79,6 +84,40 @@ TEST(Clock, ManualClockMovesOnlyWhenTold) {
   SteadyClock s;
   const double a = s.now_s(), b = s.now_s();
   EXPECT_LE(a, b);
+}
+
+// The wake-up latency request writes the bound as the device wants it (a binary 32-bit integer,
+// negative bounds as 0) and holds it while the object lives; on the kernel's own device the
+// aggregate bound reads back as 0 while held (skipped without root).
+TEST(CpuWakeupLatency, WritesTheBoundAndHoldsItWhileAlive) {
+  const auto path = std::filesystem::temp_directory_path() / ("mimic-qos-" + std::to_string(::getpid()));
+  std::FILE* f = std::fopen(path.c_str(), "w");
+  ASSERT_NE(f, nullptr);
+  std::fclose(f);
+  for (const int bound : {0, 25, -3}) {
+    {
+      const CpuWakeupLatency held(bound, path.c_str());
+      EXPECT_TRUE(held.ok());
+    }
+    int32_t written = -1;
+    f = std::fopen(path.c_str(), "rb");
+    ASSERT_NE(f, nullptr);
+    ASSERT_EQ(std::fread(&written, sizeof written, 1, f), 1u);
+    std::fclose(f);
+    EXPECT_EQ(written, bound < 0 ? 0 : bound);
+    std::filesystem::resize_file(path, 0);
+  }
+  std::filesystem::remove(path);
+  EXPECT_FALSE(CpuWakeupLatency(0, "/nonexistent/cpu_dma_latency").ok());
+
+  const CpuWakeupLatency held(0);
+  if (!held.ok()) GTEST_SKIP() << "/dev/cpu_dma_latency is not writable here";
+  f = std::fopen("/dev/cpu_dma_latency", "rb");
+  ASSERT_NE(f, nullptr);
+  int32_t current = -1;
+  ASSERT_EQ(std::fread(&current, sizeof current, 1, f), 1u);
+  std::fclose(f);
+  EXPECT_EQ(current, 0);
 }
 
 }  // namespace
