@@ -30,7 +30,11 @@ LodScale scale_of(int lod) { return kScale[std::clamp(lod, 0, kSkinLodCount - 1)
 // The torso's rings and the bridges at points factor p (the loops follow from them).
 void scale_torso_points(SkinLayout& l, const SkinLayout& base, float p) {
   if (p >= 1.0f) return;
-  l.chest_front_arc = scaled(base.chest_front_arc, p, 2);
+  // Even: the front arc is halved about the front-centre point, and an odd one
+  // left the ring lopsided, with no back-centre point (LOD 2's 3 segments put the crotch bridge's
+  // end 3.5 cm right of the middle, its point on the right thigh's ring, which folded in every
+  // stride of the built-in walk).
+  l.chest_front_arc = 2 * scaled(base.chest_front_arc, 0.5f * p, 1);
   l.chest_side_arc = scaled(base.chest_side_arc, p, 2);
   l.torso_points = 2 * (l.chest_front_arc + l.chest_side_arc);
   l.shoulder_bridge = scaled(base.shoulder_bridge, p, 2);
