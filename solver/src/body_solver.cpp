@@ -231,13 +231,13 @@ void SolveJob::SolveTrunk(bool root_known) {
 
 // The world transform of joint j from its parent's (already placed) and its DOFs.
 void SolveJob::PlaceJoint(int j) {
-  const SolverModel& m = *model;
-  const Skeleton& s = m.skeleton_;
+  const Skeleton& s = model->skeleton_;
   SolverContext& c = *context;
   const Pose& p = *pose;
+  const std::span<const detail::AxisKind> kinds = c.ls_.axis_kinds();
   glm::quat local(1, 0, 0, 0);
   for (int i = s.dof_begin(j); i < s.dof_end(j); ++i)
-    local = detail::turned(local, s.dof(i).axis, m.axis_kind_[i], p.dof_rad[i]);
+    local = detail::turned(local, s.dof(i).axis, kinds[i], p.dof_rad[i]);
   const int par = s.parent(j);
   if (par < 0) {
     c.world_[j] = RigidTransform{p.root_orientation * local, p.root_position_m + p.root_orientation * s.offset_m(j)};

@@ -71,7 +71,7 @@ LeastSquaresIkContext::LeastSquaresIkContext(const Skeleton& skeleton, int max_d
   jacobian_.resize(static_cast<size_t>(rows) * stride_for(cols));
   residual_.resize(rows);
   normal_.resize(static_cast<size_t>(cols) * stride_for(cols));
-  rhs_.resize(stride_for(cols));
+  step_.resize(cols);
   rhs0_.resize(stride_for(cols));
   saved_.resize(cols);
   columns_.resize(static_cast<size_t>(max_targets) * cols);
@@ -179,16 +179,23 @@ void LeastSquaresIkJob::ListColumns(int root_cols) {
     for (int k = 0; k < root_cols; ++k) list[n++] = n_dofs + k;
     c.column_count_[t] = n;
     c.run_begin_[t] = static_cast<int>(runs - c.runs_.data());
-    // Spans: runs of consecutive columns, merged across gaps narrower than a block; for the
-    // factorization, with the right-hand side's column (n_dofs + root_cols) after them.
-    int* solve_runs = c.solve_runs_.data() + c.run_begin_[t];
+    // Spans: runs of consecutive columns, merged across gaps narrower than a block.
     int n_runs = 0;
-    for (int k = 0; k <= n; ++k) {
-      const int col = k < n ? list[k] : n_dofs + root_cols;
-      if (k == n) std::copy(solve_runs, solve_runs + 2 * n_runs, runs), c.run_count_[t] = n_runs;
-      if (k == 0 || col >= list[k - 1] + kLanes) solve_runs[2 * n_runs++] = col;
-      solve_runs[2 * n_runs - 1] = col + 1;
-      if (k < n) c.target_of_column_[col] = static_cast<int>(t);
+    for (int k = 0; k < n; ++k) {
+      if (k == 0 || list[k] >= list[k - 1] + kLanes) runs[2 * n_runs++] = list[k];
+      runs[2 * n_runs - 1] = list[k] + 1;
+      c.target_of_column_[list[k]] = static_cast<int>(t);
+    }
+    c.run_count_[t] = n_runs;
+    // The factorization's: the same, then the right-hand side's column, by the same rule.
+    int* solve_runs = c.solve_runs_.data() + c.run_begin_[t];
+    std::copy(runs, runs + 2 * n_runs, solve_runs);
+    const int rhs = n_dofs + root_cols;
+    if (n_runs > 0 && rhs < list[n - 1] + kLanes) {
+      solve_runs[2 * n_runs - 1] = rhs + 1;
+    } else {
+      solve_runs[2 * n_runs] = rhs, solve_runs[2 * n_runs + 1] = rhs + 1;
+      ++n_runs;
     }
     c.solve_run_count_[t] = n_runs;
     runs += 2 * n_runs;
@@ -397,13 +404,13 @@ bool LeastSquaresIkJob::Run() {
     // rare, and rebuilding then costs less than keeping a copy of every system).
     BuildNormalEquations(cols, prior2);
     float* a = c.normal_.data();
-    float* b = c.rhs_.data();
+    float* step = c.step_.data();
     for (int i = 0; i < cols; ++i) a[i * stride + i] += lambda * lambda, a[i * stride + cols] = c.rhs0_[i];
     ++iterations;
     const detail::ReachingRows reaching{c.reaching_first_.data(), c.reaching_count_.data(), c.reaching_rows_.data()};
-    if (!detail::cholesky_solve(a, b, cols, stride, SpansRightOf{&c}, reaching, c.inv_diag_.data())) break;
+    if (!detail::cholesky_solve(a, step, cols, stride, SpansRightOf{&c}, reaching, c.inv_diag_.data())) break;
     float biggest = 0;
-    for (int i = 0; i < cols; ++i) biggest = std::max(biggest, std::abs(b[i]));
+    for (int i = 0; i < cols; ++i) biggest = std::max(biggest, std::abs(step[i]));
     if (!std::isfinite(biggest)) break;
 
     // Trial step; kept only if it lowers the objective (Levenberg–Marquardt), else undone with
@@ -411,7 +418,7 @@ bool LeastSquaresIkJob::Run() {
     const glm::vec3 saved_root_pos = p.root_position_m;
     const glm::quat saved_root_rot = p.root_orientation;
     for (size_t k = 0; k < dofs.size(); ++k) c.saved_[k] = p.dof_rad[dofs[k]];
-    ApplyStep(std::span<const float>(b, cols), root_cols);
+    ApplyStep(std::span<const float>(step, cols), root_cols);
     const float trial = Objective(prior2);
     world_current = trial < cost;
     if (trial < cost) {
@@ -419,7 +426,7 @@ bool LeastSquaresIkJob::Run() {
       cost = trial;
       // The gain the linear model promised, δ·g + λ²·|δ|² (from (JᵀJ + P + λ²)·δ = g).
       float promised = 0, step2 = 0;
-      for (int i = 0; i < cols; ++i) promised += b[i] * c.rhs0_[i], step2 += b[i] * b[i];
+      for (int i = 0; i < cols; ++i) promised += step[i] * c.rhs0_[i], step2 += step[i] * step[i];
       promised += lambda * lambda * step2;
       // Less damping by how well the model held (Nielsen's rule on λ²: ×1/3 when the step gained
       // what was promised, unchanged at half of it): a fixed cut overshot, and a quarter of the

@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <cmath>
 
-#include "axis_turn.h"
 #include "mimic/solver/body_solver.h"
 
 namespace mimic::solver {
@@ -114,7 +113,6 @@ Result<SolverModel> SolverModel::create(Skeleton skeleton, std::vector<SensorMou
       }
     }
   }
-  for (int d = 0; d < s.dof_count(); ++d) m.axis_kind_.push_back(detail::axis_kind(s.dof(d).axis));
   m.prior_rad_.resize(s.dof_count());
   for (int d = 0; d < s.dof_count(); ++d) m.prior_rad_[d] = s.dof(d).rest_rad;
   for (int leg = 2; leg < 4; ++leg) {

@@ -132,7 +132,6 @@ class SolverModel {
   std::array<Chain, 4> chains_{};             // l arm, r arm, l leg, r leg
   std::vector<int8_t> chain_of_joint_;        // chain index for upper/mid/end joints, else -1
   std::vector<float> prior_rad_;              // relaxed values
-  std::vector<detail::AxisKind> axis_kind_;   // per DOF
   int head_ = -1;
   glm::vec3 head_from_root_rest_{0.0f};           // head joint relative to the root, relaxed posture
   std::array<float, 2> ankle_below_root_rest_{};  // root height above each ankle, zero posture

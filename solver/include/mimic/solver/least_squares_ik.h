@@ -49,6 +49,8 @@ class LeastSquaresIkContext {
   // World transforms of the last evaluated pose (valid after Run()) for the joints the targets
   // hang from (the targets' joints and their ancestors); the others are not evaluated.
   std::span<const rig::RigidTransform> world_from_joint() const { return world_; }
+  // Per skeleton DOF, how the FK turns about its axis.
+  std::span<const detail::AxisKind> axis_kinds() const { return axis_kind_; }
 
  private:
   friend struct LeastSquaresIkJob;
@@ -59,8 +61,8 @@ class LeastSquaresIkContext {
   std::vector<detail::AxisKind> axis_kind_;  // per skeleton DOF
   std::vector<float> jacobian_;              // per target its rows (3 or 6), each padded to a whole row
   std::vector<float> residual_;
-  std::vector<float> normal_;  // cols × cols, upper triangle (in elimination order)
-  std::vector<float> rhs_;
+  std::vector<float> normal_;                     // cols × cols, upper triangle (in elimination order)
+  std::vector<float> step_;                       // the step a solve found, in column order
   std::vector<float> rhs0_;                       // the undamped right-hand side (Jᵀr + the prior's pull)
   std::vector<float> saved_;                      // DOF values before a trial step
   std::vector<int> columns_;                      // per target, its non-zero Jacobian columns, ascending
