@@ -31,9 +31,9 @@ float smooth01(float t) {
 // midline than the hips do (CMU walks: ankles 9–12 cm apart, hips 18–20 cm).
 glm::vec2 landing(const LocomotionInput& in, const LocomotionState& s, const LocomotionOptions& o, int k,
                   float remaining_s) {
-  glm::vec2 lead = s.velocity_mps * (remaining_s + o.stance_lead_s);
+  glm::vec2 lead = s.velocity_mps * (remaining_s + s.stance_lead_s);
   const float len = glm::length(lead);
-  if (len > o.max_step_m) lead *= o.max_step_m / len;
+  if (len > o.max_step_m && !s.running) lead *= o.max_step_m / len;
   const glm::vec2 left(std::cos(in.root_yaw_rad), -std::sin(in.root_yaw_rad));
   const float lateral = glm::dot(xz(in.hip[k]) - xz(in.root), left);
   const float walking = std::clamp((glm::length(s.velocity_mps) - o.narrow_from_mps) / o.narrow_over_mps, 0.0f, 1.0f);
@@ -145,7 +145,8 @@ void advance_foot(LocomotionState& s, const LocomotionInput& in, const Locomotio
   if (other_known) h = beside(h, other_xz, in.root_yaw_rad, k, o.min_width_m);
   const float step_m = glm::length(xz(f.planted) - xz(f.from));
   const float arc_m = std::max(0.02f, o.arc_height_m * step_m / 0.6f);
-  const float y = f.from.y + t * (floor_y - f.from.y) + std::min(arc_m, 0.15f) * std::sin(kPi * f.phase);
+  const float arc_max_m = s.running ? o.run_arc_max_m : 0.15f;
+  const float y = f.from.y + t * (floor_y - f.from.y) + std::min(arc_m, arc_max_m) * std::sin(kPi * f.phase);
   f.ankle = glm::vec3(h.x, std::max(floor_y, y), h.y);
   f.yaw_rad = f.from_yaw_rad + t * wrap_rad(f.planted_yaw_rad - f.from_yaw_rad);
   if (f.phase >= 1.0f) {
@@ -192,6 +193,55 @@ float track_head(LocomotionState& s, const LocomotionInput& in, float dt, const 
   return sway_m;
 }
 
+// The hands' fore-and-aft difference along the pelvis' heading and its rate
+// (LocomotionState::arm_swing_m, arm_swing_mps).
+void track_arm_swing(LocomotionState& s, const LocomotionInput& in, float dt, const LocomotionOptions& o) {
+  if (!in.have_hands) {
+    s.have_arm_swing = false, s.arm_swing_mps = 0;
+    return;
+  }
+  const glm::vec2 forward(std::sin(in.root_yaw_rad), std::cos(in.root_yaw_rad));
+  const float swing_m = glm::dot(xz(in.hand[0]) - xz(in.hand[1]), forward);
+  if (s.have_arm_swing)
+    s.arm_swing_mps += (1.0f - std::exp(-dt / o.arm_swing_tau_s)) * ((swing_m - s.arm_swing_m) / dt - s.arm_swing_mps);
+  s.arm_swing_m = swing_m, s.have_arm_swing = true;
+}
+
+// A low of the head found while walking or running (the bob times the steps).
+void on_head_low(LocomotionState& s, float sway_m, const LocomotionOptions& o) {
+  LocomotionState::Bob& b = s.bob;
+  // Walking, both feet are down at the low: the swinging foot lands; the trailing one lifts soon.
+  // Running, the low is the supporting foot's mid-stance, and the foot in the air lands before
+  // the next low.
+  const float land_in_s =
+      s.running ? static_cast<float>(b.low_s + (1.0 - o.run_strike_before_low) * b.period_s - b.clock_s) : 0.0f;
+  for (auto& f : s.feet)
+    if (f.driven && f.swinging) retime_swing(f, std::max(0.04f, land_in_s));
+  b.lift_at_s = b.low_s + (s.running ? o.run_lift_after_low : o.bob_lift_fraction) * b.period_s;
+  // At a foot's strike the head is still over the other, trailing foot (its sway lags the
+  // body's weight by about a quarter stride) and moving towards the striking one: the trailing
+  // foot lifts next. The motion says it clearly at every strike; the side only at the first.
+  b.lifter = b.beats < o.bob_sway_beats && std::abs(sway_m) > o.bob_sway_choice_m ? (sway_m > 0 ? 0 : 1) : -1;
+  if (o.bob_sway_speed_mps > 0 && std::abs(s.sway_mps) > o.bob_sway_speed_mps) b.lifter = s.sway_mps > 0 ? 1 : 0;
+  ++b.beats;
+  b.run_catch_up = false;
+  if (!s.running || !s.feet[0].driven || !s.feet[1].driven) return;
+  // Running, the foot under the body lifts next: the one the arms' swing says (the head's sway is
+  // too small beside a run's speed to read), else the one on the floor. If it is in the air the
+  // run is on the wrong foot: it lands now, and the other lifts now to land before the next low.
+  int stance = -1;
+  if (s.have_arm_swing && std::abs(s.arm_swing_mps) > o.run_arm_swing_mps)
+    stance = s.arm_swing_mps > 0 ? 0 : 1;
+  else if (s.feet[0].swinging != s.feet[1].swinging)
+    stance = s.feet[0].swinging ? 1 : 0;
+  if (stance < 0) return;
+  b.lifter = stance;
+  if (s.feet[stance].swinging && !s.feet[1 - stance].swinging) {
+    retime_swing(s.feet[stance], 0.04f);
+    b.lifter = 1 - stance, b.lift_at_s = b.clock_s, b.run_catch_up = true;
+  }
+}
+
 }  // namespace
 
 void update_locomotion(LocomotionState& s, const LocomotionInput& in, const LocomotionOptions& o) {
@@ -205,22 +255,15 @@ void update_locomotion(LocomotionState& s, const LocomotionInput& in, const Loco
   s.have_root = true;
   const float speed = glm::length(s.velocity_mps);
   const float sway_m = track_head(s, in, dt, o);
+  track_arm_swing(s, in, dt, o);
   const bool gate = in.have_head && o.sway_gate_m >= 0 && speed > o.sway_speed_mps;
   const bool low = in.have_head && track_bob(s.bob, in.head.y, dt, o);
   const bool bob_walk = gate && o.bob_timing && s.bob.period_s > 0;
   if (!gate) s.bob.beats = 0;  // a new walk takes its first beats from the sway again
-  if (low && bob_walk) {
-    // Both feet are down at the head's low: the swinging foot lands; the trailing one lifts soon.
-    for (auto& f : s.feet)
-      if (f.driven && f.swinging) retime_swing(f, 0.04f);
-    s.bob.lift_at_s = s.bob.low_s + o.bob_lift_fraction * s.bob.period_s;
-    // At a foot's strike the head is still over the other, trailing foot (its sway lags the
-    // body's weight by about a quarter stride) and moving towards the striking one: the trailing
-    // foot lifts next. The motion says it clearly at every strike; the side only at the first.
-    s.bob.lifter = s.bob.beats < o.bob_sway_beats && std::abs(sway_m) > o.bob_sway_choice_m ? (sway_m > 0 ? 0 : 1) : -1;
-    if (o.bob_sway_speed_mps > 0 && std::abs(s.sway_mps) > o.bob_sway_speed_mps) s.bob.lifter = s.sway_mps > 0 ? 1 : 0;
-    ++s.bob.beats;
-  }
+  if (low && s.bob.beats == 0 && o.run_from_mps > 0 && speed > o.run_from_mps) s.bob.period_s = o.run_first_period_s;
+  s.running = bob_walk && o.run_from_mps > 0 && speed > o.run_from_mps;
+  s.stance_lead_s = s.running ? o.run_strike_before_low * s.bob.period_s : o.stance_lead_s;
+  if (low && bob_walk) on_head_low(s, sway_m, o);
   const float swing_s = o.swing_s_slow + (o.swing_s_fast - o.swing_s_slow) * std::clamp(speed / o.fast_mps, 0.0f, 1.0f);
 
   for (int k = 0; k < 2; ++k) {
@@ -245,8 +288,11 @@ void update_locomotion(LocomotionState& s, const LocomotionInput& in, const Loco
     if (!f.driven || f.swinging) continue;
     const float reach_used = glm::length(in.hip[k] - f.planted) / in.reach_m[k];
     if (any_swinging) {
-      if (o.flight && reach_used > o.flight_reach_fraction) best = k, best_score = 1e9f;
-      continue;
+      if (o.flight && reach_used > o.flight_reach_fraction) {
+        best = k, best_score = 1e9f;
+        continue;
+      }
+      if (!s.running) continue;  // running, the supporting foot lifts on the beat while the other flies
     }
     const float off_m = glm::length(xz(in.hip[k]) - xz(f.planted));
     const float turn = std::abs(wrap_rad(in.root_yaw_rad - f.planted_yaw_rad));
@@ -257,7 +303,7 @@ void update_locomotion(LocomotionState& s, const LocomotionInput& in, const Loco
       // Walking to the head's bob: the trailing foot lifts when its time comes; another only
       // when its leg can no longer reach it, even on tiptoe.
       const int lifter = s.bob.lifter >= 0 ? s.bob.lifter : 1 - s.last_stepped;
-      const bool lost = reach_used > o.bob_lost_reach_fraction;
+      const bool lost = reach_used > (s.running ? o.flight_reach_fraction : o.bob_lost_reach_fraction);
       if (!lost && (k != lifter || s.bob.lift_at_s < 0 || s.bob.clock_s < s.bob.lift_at_s)) continue;
       score = std::max(score, best_score + 1e-3f);
     }
@@ -271,7 +317,17 @@ void update_locomotion(LocomotionState& s, const LocomotionInput& in, const Loco
     f.swinging = true;
     f.phase = 0;
     f.duration_s = swing_s;
-    if (bob_walk) {
+    if (bob_walk && s.running) {
+      // … to land a little before the low after next, when it supports the body again.
+      const double lows = s.bob.run_catch_up ? 0.97 : 2 * 0.97;
+      const double strike_s = s.bob.last_low_s + (lows - o.run_strike_before_low) * s.bob.period_s;
+      f.duration_s = std::clamp(static_cast<float>(strike_s - s.bob.clock_s), 0.6f * swing_s, 3.0f * swing_s);
+      s.bob.lift_at_s = -1;
+      // Caught up: the foot just landed carries the body for a stance, then lifts.
+      if (s.bob.run_catch_up)
+        s.bob.lifter = 1 - best, s.bob.lift_at_s = s.bob.clock_s + o.run_stance_fraction * s.bob.period_s;
+      s.bob.run_catch_up = false;
+    } else if (bob_walk) {
       // … to land at the next low of the head.
       const double next_low_s = s.bob.last_low_s + 0.97 * s.bob.period_s;
       f.duration_s = std::clamp(static_cast<float>(next_low_s - s.bob.clock_s), 0.6f * swing_s, 1.5f * swing_s);
@@ -351,6 +407,10 @@ void SolveJob::place_untracked_feet() {
     in.last_ankle[leg] = c.world_[ch.end].translation;
   }
   if (c.has_target_[m.head_]) in.head = c.segment_target_[m.head_].translation, in.have_head = true;
+  if (c.has_target_[m.chains_[0].end] && c.has_target_[m.chains_[1].end]) {
+    in.hand = {c.segment_target_[m.chains_[0].end].translation, c.segment_target_[m.chains_[1].end].translation};
+    in.have_hands = true;
+  }
   update_locomotion(c.locomotion_, in, o.locomotion);
   for (int leg = 0; leg < 2; ++leg) {
     if (!in.drive[leg]) continue;

@@ -358,6 +358,48 @@ TEST(Locomotion, TheFootTheHeadMovesAwayFromLiftsAfterEachStrike) {
   EXPECT_GE(trailing, counted - 1);
 }
 
+// The stepper alone, fed a run at 3.5 m/s: the head lowest at each mid-stance (every 0.36 s, left
+// foot first), the arms swinging against the legs (the hands' fore-and-aft difference crossing
+// zero at mid-stance, rising over the left foot). Once the run is under way the foot under the
+// body at each low is the one on the floor, and every stride has flight: both feet in the air.
+// The stepper starts with both feet planted, so its first steps may be on the wrong foot.
+TEST(Locomotion, RunningFeetLandBeforeEachLowOnTheFootTheArmsSay) {
+  const double dt = 1.0 / 120, period = 0.36, pi = 3.14159265358979;
+  LocomotionState state;
+  LocomotionInput in = two_driven_feet(dt);
+  in.have_head = in.have_hands = true;
+  int lows = 0, on_the_floor = 0, flight_frames = 0, frames = 0, strides_with_flight = 0;
+  bool flight_this_stride = false;
+  for (int k = 0; k < int(5.0 / dt); ++k) {
+    const double t = k * dt;
+    const float z = static_cast<float>(3.5 * t);
+    in.root = {0.0f, 0.82f, z};
+    in.hip = {glm::vec3(0.11f, 0.80f, z), glm::vec3(-0.11f, 0.80f, z)};
+    in.head = {0.0f, static_cast<float>(1.60 - 0.04 * std::cos(2 * pi * t / period)), z + 0.05f};
+    const float swing_m = static_cast<float>(0.3 * std::sin(pi * t / period));  // left hand ahead of the right
+    in.hand = {glm::vec3(0.2f, 1.0f, z + 0.5f * swing_m), glm::vec3(-0.2f, 1.0f, z - 0.5f * swing_m)};
+    update_locomotion(state, in, LocomotionOptions{});
+    if (t < 1.5) continue;
+    EXPECT_TRUE(state.running) << "at " << t << " s";
+    const bool flying = state.feet[0].swinging && state.feet[1].swinging;
+    ++frames, flight_frames += flying;
+    flight_this_stride = flight_this_stride || flying;
+    const double beats = t / period;
+    if (beats - std::floor(beats) < dt / period) {                               // the frame of a low
+      const int stance = static_cast<int>(std::llround(std::floor(beats))) % 2;  // left on even lows
+      ++lows;
+      if (!state.feet[stance].swinging && state.feet[1 - stance].swinging) ++on_the_floor;
+      if (stance == 0) strides_with_flight += flight_this_stride, flight_this_stride = false;
+    }
+  }
+  std::printf("  run: %d lows, the foot under the body on the floor at %d; both feet in the air %.0f%% of the time\n",
+              lows, on_the_floor, 100.0 * flight_frames / frames);
+  ASSERT_GE(lows, 9);
+  EXPECT_GE(on_the_floor, lows - 1);
+  EXPECT_GE(strides_with_flight, lows / 2 - 1);
+  EXPECT_GT(flight_frames, frames / 10);
+}
+
 // The head lost for half a second of a walk: back, its speed along the path is still the walk's
 // (the whole gap's move was taken as one frame's, 60 times the walk: the smoothed path speed
 // jumped to 2.37 m/s).

@@ -70,6 +70,22 @@ struct LocomotionOptions {
   // Walking to the bob, another foot than the trailing one lifts only when its leg is this far
   // out of reach (flat; the heel lifts up to here): a reach rule that fired earlier broke the beat.
   float bob_lost_reach_fraction = 1.15f;
+  // Running (pelvis faster than `run_from_mps`, the bob timing the steps), the head is lowest at
+  // mid-stance, not at a strike: each foot lands `run_strike_before_low` of the time between lows
+  // before the low, lifts `run_lift_after_low` of it after, and both feet are in the air between
+  // (flight); the feet swing on an arc up to `run_arc_max_m` (the heel kicks up behind). Which
+  // foot is under the body at a low: the arms swing against the legs, so the hands' fore-and-aft
+  // difference (left less right) crosses zero at mid-stance, rising over the left foot, falling
+  // over the right; it must change faster than `run_arm_swing_mps` (smoothed over
+  // `arm_swing_tau_s`) to say so. 0: no running gait.
+  float run_from_mps = 2.2f;
+  float run_strike_before_low = 0.3f;
+  float run_lift_after_low = 0.1f;
+  float run_stance_fraction = 0.4f;  // a foot that lands late still stands this long
+  float run_arc_max_m = 0.40f;
+  float run_first_period_s = 0.36f;  // a run's first low, before the next measures the beat (166 a minute)
+  float run_arm_swing_mps = 0.5f;
+  float arm_swing_tau_s = 0.03f;
   // A stepped foot never moves faster than this (a walking foot swings at 4–5 m/s): a landing
   // spot that moves with the body or a heel that lifts does not make it jump.
   float max_foot_speed_mps = 8.0f;
@@ -109,6 +125,11 @@ struct LocomotionState {
   bool have_root = false;
   double last_time_s = -1;
   int last_stepped = -1;
+  bool running = false;        // this frame's gait is a run (see LocomotionOptions::run_from_mps)
+  float stance_lead_s = 0.3f;  // a step lands where the hip is that long after touchdown
+  float arm_swing_m = 0;       // the left hand ahead of the right, along the heading
+  float arm_swing_mps = 0;     // … its rate, smoothed
+  bool have_arm_swing = false;
   long steps = 0;               // steps started so far
   glm::vec2 sway_centre{0.0f};  // the head's mean horizontal path
   bool have_sway = false;
@@ -126,10 +147,11 @@ struct LocomotionState {
     float extreme_y_m = 0;  // lowest since descending began, or highest since it ended
     double low_s = 0;       // when that lowest was
     double last_low_s = -1;
-    float period_s = 0;     // between the last two lows (half a stride); 0: no gait
-    double lift_at_s = -1;  // the trailing foot lifts then
-    int beats = 0;          // lows since the walk began
-    int lifter = -1;        // … which (the side the head is over at the low), -1: alternate
+    float period_s = 0;         // between the last two lows (half a stride); 0: no gait
+    double lift_at_s = -1;      // the trailing foot lifts then
+    int beats = 0;              // lows since the walk began
+    int lifter = -1;            // … which (the side the head is over at the low), -1: alternate
+    bool run_catch_up = false;  // running on the wrong foot: the lifter lands before the next low
   } bob;
 };
 
@@ -145,6 +167,8 @@ struct LocomotionInput {
   bool have_last_ankle = false;
   glm::vec3 head{0.0f};  // head joint, world
   bool have_head = false;
+  std::array<glm::vec3, 2> hand{};  // wrists (left, right), world, when both are tracked
+  bool have_hands = false;
 };
 
 void update_locomotion(LocomotionState& state, const LocomotionInput& in, const LocomotionOptions& o = {});
