@@ -1,5 +1,5 @@
-// Built-in procedural motions: "idle" (relaxed standing) and "walk" (a gait cycle around a
-// circle). Both loop seamlessly: every periodic term has a whole number of periods in one
+// Built-in procedural motions: "idle" (relaxed standing), "walk" and "run" (gait cycles around
+// a circle). All loop seamlessly: every periodic term has a whole number of periods in one
 // loop. The pelvis height is not authored: a table, computed once per motion, lifts the root
 // so the lowest point of either sole touches the floor (y = 0) at every instant, which also
 // gives the walk its natural vertical bob.
@@ -257,19 +257,35 @@ class IdleMotion final : public ProceduralMotion {
   float leg_m_ = 0.8f;
 };
 
-// Walking around a circle of radius 1.2 m about the origin (the centre on the walker's right),
-// a whole number of 1.1 s gait cycles per lap so the loop is seamless.
+// A gait around a circle about the origin (the centre on the mover's right), a whole number of
+// gait cycles per lap so the loop is seamless: "walk" (1.2 m circle, 1.1 s cycles) and "run"
+// (5 m circle, 0.72 s cycles, each foot on the floor 36 % of a cycle: both feet are in the air
+// between the stances).
 //
 // The feet are placed, not the angles: each footstep is planted on the floor for the stance
-// phase (60 % of the cycle) while the foot rolls over the heel, lies flat, then rises onto the
-// ball with the toes staying flat; in swing the ankle travels to the next footprint on a
-// clearance arc. Each leg is then solved exactly (hip 3 DOFs + knee flexion as a two-bone
-// chain with the knee forward, ankle for the foot's orientation, toes to keep the toes flat),
-// so stance feet neither slide nor sink. The pelvis is as high as the legs allow (a smooth
-// minimum of the standing height and each leg's reach), which gives the natural bob.
-class WalkMotion final : public ProceduralMotion {
+// phase while the foot rolls over the heel, lies flat, then rises onto the ball with the toes
+// staying flat; in swing the ankle travels to the next footprint on a clearance arc (a run's heel
+// kicks up behind). Each leg is then solved exactly (hip 3 DOFs + knee flexion as a two-bone
+// chain with the knee forward, ankle for the foot's orientation, toes to keep the toes flat), so
+// stance feet neither slide nor sink. Walking, the pelvis is as high as the legs allow (a smooth minimum of the
+// standing height and each leg's reach), which gives the natural bob; running, it is lowest at each mid-stance (the
+// knee gives) and highest in flight.
+struct Gait {
+  const char* name;
+  double radius_m, period_s;
+  double stance;                        // fraction of the cycle a foot is down
+  double stride_legs;                   // stride about this many × (thigh + shin)
+  double heel_strike_deg, toe_off_deg;  // foot pitch at heel strike (toes up) and toe-off (heel up)
+  double step_width_m;                  // footprint centre from the path
+  double strike_lead;                   // a footprint this much of a stride ahead of the pelvis at strike
+  bool run;
+};
+constexpr Gait kWalk{"walk", 1.2, 1.1, 0.6, 1.6, 12.0, -38.0, 0.085, 0.25, false};
+constexpr Gait kRun{"run", 5.0, 0.72, 0.36, 2.7, 6.0, -30.0, 0.05, 0.18, true};
+
+class GaitMotion final : public ProceduralMotion {
  public:
-  explicit WalkMotion(const Skeleton& s) : ProceduralMotion(s, "walk", 1.0) {
+  GaitMotion(const Skeleton& s, const Gait& g) : ProceduralMotion(s, g.name, 1.0), g_(g) {
     for (int k = 0; k < 2; ++k) {
       const std::string side = k == 0 ? "l_" : "r_";
       Leg& leg = legs_[k];
@@ -288,11 +304,11 @@ class WalkMotion final : public ProceduralMotion {
     ball_z_m_ = ball.z;
     standing_root_m_ = standing_root_height_m(s);
     hip_offset_ = glm::dvec3(s.offset_m(l.hip));
-    // Stride about 1.6 × (thigh + shin): 1.27 m on the default body, 6 cycles a lap.
-    const double circumference = kTwoPi * kRadius_m;
+    // Walking, a stride of about 1.6 × (thigh + shin): 1.27 m on the default body, 6 cycles a lap.
+    const double circumference = kTwoPi * g_.radius_m;
     // Rounding up: a longer body takes slightly short steps rather than overlong ones.
-    cycles_ = std::max(3, static_cast<int>(std::ceil(circumference / (1.6 * (thigh + shin)))));
-    duration_s_ = cycles_ * kGaitPeriod_s;
+    cycles_ = std::max(3, static_cast<int>(std::ceil(circumference / (g_.stride_legs * (thigh + shin)))));
+    duration_s_ = cycles_ * g_.period_s;
     stride_m_ = circumference / cycles_;
   }
 
@@ -307,13 +323,6 @@ class WalkMotion final : public ProceduralMotion {
   }
 
  private:
-  static constexpr double kRadius_m = 1.2;
-  static constexpr double kGaitPeriod_s = 1.1;
-  static constexpr double kStance = 0.6;         // fraction of the cycle a foot is down
-  static constexpr double kHeelStrike = 12.0;    // foot pitch at heel strike, degrees toes-up
-  static constexpr double kToeOff = -38.0;       // at toe-off, heel up
-  static constexpr double kStepWidth_m = 0.085;  // footprint centre from the path
-
   struct Leg {
     int hip = -1, knee = -1, ankle = -1, toes = -1;
     double side = 1;  // +1 left (outside of the circle), −1 right
@@ -332,18 +341,19 @@ class WalkMotion final : public ProceduralMotion {
   double omega() const { return kTwoPi / duration_s_; }  // path angle rate
 
   // Foot pitch during stance, u in [0, 1): heel rocker, flat, heel rise.
-  static double stance_pitch(double u) {
-    if (u < 0.17) return rad(kHeelStrike) * (1 - smooth(u / 0.17));
+  double stance_pitch(double u) const {
+    if (u < 0.17) return rad(g_.heel_strike_deg) * (1 - smooth(u / 0.17));
     if (u < 0.55) return 0.0;
     const double w = (u - 0.55) / 0.45;
-    return rad(kToeOff) * w * w;
+    return rad(g_.toe_off_deg) * w * w;
   }
 
   // Stance foot: planted at path angle psi_k, pitched by p about the heel (p > 0) or the
   // ball (p < 0).
   FootState planted(const Leg& leg, double psi_k, double pitch) const {
     const glm::dquat yaw = glm::angleAxis(-psi_k, glm::dvec3(0, 1, 0));
-    const glm::dvec3 print = (kRadius_m + leg.side * kStepWidth_m) * glm::dvec3(std::cos(psi_k), 0, std::sin(psi_k));
+    const glm::dvec3 print =
+        (g_.radius_m + leg.side * g_.step_width_m) * glm::dvec3(std::cos(psi_k), 0, std::sin(psi_k));
     const glm::dvec3 flat_ankle(0, ankle_height_m_, 0);
     // Heel rocker about the heel's floor contact; heel rise about the toe joint itself (the
     // toes stay flat, so the ball of the foot does not move).
@@ -359,17 +369,17 @@ class WalkMotion final : public ProceduralMotion {
   // Path angle at which footstep k of a leg is planted: a little ahead of the pelvis at heel
   // strike, so the leg sweeps symmetrically under the body.
   double footprint_psi(const Leg& leg, double step) const {
-    const double t_strike = (step + leg.phase_offset) * kGaitPeriod_s;
-    return omega() * t_strike + 0.25 * stride_m_ / kRadius_m;
+    const double t_strike = (step + leg.phase_offset) * g_.period_s;
+    return omega() * t_strike + g_.strike_lead * stride_m_ / g_.radius_m;
   }
 
   FootState foot(const Leg& leg, double t) const {
-    const double cycle = t / kGaitPeriod_s - leg.phase_offset;
+    const double cycle = t / g_.period_s - leg.phase_offset;
     const double step = std::floor(cycle);
     const double ph = cycle - step;
-    if (ph < kStance) return planted(leg, footprint_psi(leg, step), stance_pitch(ph / kStance));
+    if (ph < g_.stance) return planted(leg, footprint_psi(leg, step), stance_pitch(ph / g_.stance));
     // Swing: from toe-off to the next heel strike.
-    const double u = (ph - kStance) / (1 - kStance);
+    const double u = (ph - g_.stance) / (1 - g_.stance);
     const FootState a = planted(leg, footprint_psi(leg, step), stance_pitch(1.0));
     const FootState b = planted(leg, footprint_psi(leg, step + 1), stance_pitch(0.0));
     const double su = smooth(u);
@@ -381,7 +391,10 @@ class WalkMotion final : public ProceduralMotion {
     const double turn = std::remainder(std::atan2(b.ankle.z, b.ankle.x) - pa, kTwoPi);
     const double r = ra + su * (rb - ra), psi = pa + su * turn;
     f.ankle = glm::dvec3(r * std::cos(psi), a.ankle.y + su * (b.ankle.y - a.ankle.y), r * std::sin(psi));
-    f.ankle.y += 0.045 * std::sin(kPi * u) + 0.03 * std::sin(kPi * std::min(1.0, u / 0.5)) * (1 - u);
+    if (g_.run)
+      f.ankle.y += 0.30 * std::sin(kPi * u) * (1 - 0.3 * u);  // up behind, lowering through the swing
+    else
+      f.ankle.y += 0.045 * std::sin(kPi * u) + 0.03 * std::sin(kPi * std::min(1.0, u / 0.5)) * (1 - u);
     // The foot turns from its toe-off pitch to the heel-strike pitch: toes down early in swing
     // with the shin, as in real gait, rather than held level (which would overbend the ankle).
     f.rotation = glm::slerp(a.rotation, b.rotation, su);
@@ -440,7 +453,7 @@ class WalkMotion final : public ProceduralMotion {
 
   void shape(double t, Pose& p) const override {
     for (auto& v : p.dof_rad) v = 0;
-    const double ph = std::fmod(t / kGaitPeriod_s, 1.0);  // left heel strike at 0
+    const double ph = std::fmod(t / g_.period_s, 1.0);  // left heel strike at 0
     const double c = std::cos(kTwoPi * ph), sn = std::sin(kTwoPi * ph);
     // Pelvis: turns forward with the leading leg, drops on the swing side, sways over the
     // stance foot, tilts forward a little.
@@ -452,11 +465,13 @@ class WalkMotion final : public ProceduralMotion {
         glm::normalize(heading * glm::angleAxis(pelvis_yaw, glm::dvec3(0, 1, 0)) *
                        glm::angleAxis(obliquity, glm::dvec3(0, 0, 1)) * glm::angleAxis(rad(3.0), glm::dvec3(1, 0, 0)));
     const glm::dvec3 root_xz =
-        kRadius_m * glm::dvec3(std::cos(psi), 0, std::sin(psi)) + heading * glm::dvec3(0.02 * sn, 0, 0);
+        g_.radius_m * glm::dvec3(std::cos(psi), 0, std::sin(psi)) + heading * glm::dvec3(0.02 * sn, 0, 0);
     const FootState fl = foot(legs_[0], t), fr = foot(legs_[1], t);
-    // As high as standing allows and both legs reach (smooth minimum, never above either).
+    // As high as standing allows and both legs reach (smooth minimum, never above either);
+    // running, lowest at each mid-stance (the knee gives), highest in flight.
     auto smin = [](double x, double y, double k) { return -k * std::log(std::exp(-x / k) + std::exp(-y / k)); };
     double height = standing_root_m_ - 0.005;
+    if (g_.run) height -= 0.075 + 0.035 * std::cos(kTwoPi * 2 * (ph - 0.5 * g_.stance));
     height = smin(height, reach_bound(root_rot, root_xz, legs_[0], fl.ankle), 0.01);
     height = smin(height, reach_bound(root_rot, root_xz, legs_[1], fr.ankle), 0.01);
     const glm::dvec3 root_pos(root_xz.x, height, root_xz.z);
@@ -466,8 +481,8 @@ class WalkMotion final : public ProceduralMotion {
     solve_leg(p, legs_[0], root_rot, root_pos, fl, forward);
     solve_leg(p, legs_[1], root_rot, root_pos, fr, forward);
     // Torso: the spine undoes the pelvic tilt, rotation and obliquity so the chest stays calm
-    // and the shoulders counter-rotate a little.
-    set(p, kSpineLowerFlexion, rad(-1.0));
+    // and the shoulders counter-rotate a little; a runner leans into the run.
+    set(p, kSpineLowerFlexion, rad(g_.run ? 5.0 : -1.0));
     set(p, kSpineLowerTwist, -0.6 * pelvis_yaw);
     set(p, kSpineMidTwist, -0.8 * pelvis_yaw);
     set(p, kSpineLowerLateralBend, 0.6 * obliquity);  // the bend turns about -Z, the obliquity about +Z
@@ -475,13 +490,19 @@ class WalkMotion final : public ProceduralMotion {
     set(p, kNeckFlexion, rad(3.0));
     set(p, kHeadFlexion, rad(-2.0));
     set(p, kNeckTwist, rad(-6.0));  // looking a little into the curve
-    // Arms swing against the legs: the left arm forward while the left leg is back.
-    const double swing_l = rad(3.0) - rad(14.0) * std::cos(kTwoPi * (ph - 0.93));
-    const double swing_r = rad(3.0) - rad(14.0) * std::cos(kTwoPi * (ph + 0.5 - 0.93));
-    arm(p, 0, swing_l, rad(-78.0), rad(18.0) + 0.6 * std::max(0.0, swing_l));
-    arm(p, 1, swing_r, rad(-78.0), rad(18.0) + 0.6 * std::max(0.0, swing_r));
+    // Arms swing against the legs: the left arm forward while the left leg is back (running,
+    // further, elbows bent).
+    const double amplitude = rad(g_.run ? 26.0 : 14.0), elbow = rad(g_.run ? 85.0 : 18.0);
+    const double swing_l = rad(3.0) - amplitude * std::cos(kTwoPi * (ph - 0.93));
+    const double swing_r = rad(3.0) - amplitude * std::cos(kTwoPi * (ph + 0.5 - 0.93));
+    // (A runner's arms held a little off the body: hanging nearer the shoulder's gimbal, a swing
+    // this wide turned its flexion and twist 7° a sample.)
+    const double abduction = rad(g_.run ? -68.0 : -78.0);
+    arm(p, 0, swing_l, abduction, elbow + 0.6 * std::max(0.0, swing_l));
+    arm(p, 1, swing_r, abduction, elbow + 0.6 * std::max(0.0, swing_r));
   }
 
+  Gait g_;
   std::array<Leg, 2> legs_;
   double leg_reach_m_ = 0.79, ankle_height_m_ = 0.073, ball_z_m_ = 0.135, standing_root_m_ = 0.89;
   double stride_m_ = 1.25;
@@ -493,15 +514,15 @@ class WalkMotion final : public ProceduralMotion {
 
 Result<std::unique_ptr<Motion>> make_builtin_motion(std::string_view name, const Skeleton& skeleton) {
   if (name == "idle") return std::unique_ptr<Motion>(std::make_unique<IdleMotion>(skeleton));
-  if (name == "walk") {
-    if (!WalkMotion::supports(skeleton))
+  if (name == "walk" || name == "run") {
+    if (!GaitMotion::supports(skeleton))
       return fail(Errc::invalid_argument,
-                  "walk needs Mimic's leg joints (l_/r_ hip, knee, ankle, toes; hips on the root)");
-    return std::unique_ptr<Motion>(std::make_unique<WalkMotion>(skeleton));
+                  std::string(name) + " needs Mimic's leg joints (l_/r_ hip, knee, ankle, toes; hips on the root)");
+    return std::unique_ptr<Motion>(std::make_unique<GaitMotion>(skeleton, name == "walk" ? kWalk : kRun));
   }
-  return fail(Errc::not_found, "unknown motion '" + std::string(name) + "' (built in: idle, walk)");
+  return fail(Errc::not_found, "unknown motion '" + std::string(name) + "' (built in: idle, walk, run)");
 }
 
-std::vector<std::string> builtin_motion_names() { return {"idle", "walk"}; }
+std::vector<std::string> builtin_motion_names() { return {"idle", "walk", "run"}; }
 
 }  // namespace mimic::rig

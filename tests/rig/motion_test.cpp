@@ -36,15 +36,17 @@ float lowest_sole(const Skeleton& s, std::span<const RigidTransform> w) {
 }
 
 TEST(Motion, NamesAndUnknownName) {
-  EXPECT_EQ(builtin_motion_names(), (std::vector<std::string>{"idle", "walk"}));
+  EXPECT_EQ(builtin_motion_names(), (std::vector<std::string>{"idle", "walk", "run"}));
   auto m = make_builtin_motion("moonwalk", default_skeleton());
   ASSERT_FALSE(m);
   EXPECT_EQ(m.error().code, Errc::not_found);
   EXPECT_NE(m.error().message.find("moonwalk"), std::string::npos);
 }
 
-// The properties every built-in motion has, checked at 120 Hz over one loop and a bit.
-void check_motion(const Motion& m, double max_joint_step_m) {
+// The properties every built-in motion has, checked at 120 Hz over one loop and a bit. A motion
+// with `flight` (a run) has both feet off the floor at times, the others always stand on it; no
+// DOF turns more than `max_dof_step_deg` a sample (a runner's knee folds at 700–900°/s).
+void check_motion(const Motion& m, double max_joint_step_m, bool flight = false, float max_dof_step_deg = 6.0f) {
   const Skeleton& s = m.skeleton();
   EXPECT_TRUE(m.loops());
   const double dt = 1.0 / 120.0;
@@ -66,14 +68,18 @@ void check_motion(const Motion& m, double max_joint_step_m) {
       for (int j = 0; j < s.joint_count(); ++j)
         worst_step = std::max(worst_step, glm::length(w[j].translation - wp[j].translation));
       for (int d = 0; d < s.dof_count(); ++d)
-        ASSERT_LT(std::abs(p.dof_rad[d] - prev.dof_rad[d]), glm::radians(6.0f)) << s.dof(d).name << " t=" << i * dt;
+        ASSERT_LT(std::abs(p.dof_rad[d] - prev.dof_rad[d]), glm::radians(max_dof_step_deg))
+            << s.dof(d).name << " t=" << i * dt;
     }
     std::swap(w, wp);
     prev = p;
   }
   EXPECT_LT(worst_step, max_joint_step_m) << "no joint jumps between 120 Hz samples";
   EXPECT_GT(lowest, -0.02f) << "feet never sink into the floor";
-  EXPECT_LT(highest_low, 0.02f) << "and never float above it";
+  if (flight)
+    EXPECT_GT(highest_low, 0.03f) << "both feet leave the floor";
+  else
+    EXPECT_LT(highest_low, 0.02f) << "and never float above it";
 
   // Seamless loop: the end meets the start, and time wraps.
   Pose a = s.zero_pose(), b = s.zero_pose();
@@ -98,6 +104,53 @@ TEST(Motion, WalkIsContinuousLoopsStaysInLimitsAndOnTheFloor) {
   const auto m = make("walk", default_skeleton());
   EXPECT_EQ(m->name(), "walk");
   check_motion(*m, 0.06);
+}
+
+TEST(Motion, RunIsContinuousLoopsStaysInLimitsAndHasFlight) {
+  const auto m = make("run", default_skeleton());
+  EXPECT_EQ(m->name(), "run");
+  check_motion(*m, 0.08, true, 9.0f);  // a running foot swings through at up to 8 m/s
+}
+
+// A run: each foot on the floor for a stance (left strike at 0, right at half a cycle), its ball
+// planted at mid-stance; between the stances both feet in the air; the pelvis lowest at each
+// mid-stance (so the head is too, which the solver's running gait reads) and faster than 2.5 m/s.
+TEST(Motion, RunPlantsEachFootThenFlies) {
+  const Skeleton s = default_skeleton();
+  const auto m = make("run", s);
+  const double cycle = 0.72, stance = 0.36;
+  Pose p = s.zero_pose();
+  std::vector<RigidTransform> w(s.joint_count());
+  for (int k = 0; k < 2; ++k) {
+    const int toes = s.find_joint(k == 0 ? "l_toes" : "r_toes");
+    const double start = (k == 0 ? 0.0 : 0.5) * cycle + 3 * cycle;
+    glm::vec3 first{0};
+    float drift = 0;
+    for (double t = start + 0.35 * stance * cycle; t < start + 0.65 * stance * cycle; t += 1.0 / 120) {
+      m->sample(t, p);
+      forward_kinematics(s, p, w);
+      const glm::vec3 ball = w[toes].translation;
+      if (first == glm::vec3(0)) first = ball;
+      drift = std::max(drift, glm::length(ball - first));
+      EXPECT_NEAR(ball.y, 0.018f, 0.006f) << "ball on the floor at mid-stance";
+    }
+    EXPECT_LT(drift, 0.01f) << "no foot sliding";
+  }
+  // Flight: halfway between one stance's end and the next strike, no sole near the floor.
+  m->sample(3 * cycle + (stance + 0.5 - stance) * 0.5 * cycle + 0.5 * stance * cycle, p);
+  forward_kinematics(s, p, w);
+  EXPECT_GT(lowest_sole(s, w), 0.02f) << "both feet in the air";
+  // The pelvis is lowest at mid-stance and highest in flight.
+  Pose mid = s.zero_pose(), fly = s.zero_pose();
+  m->sample(3 * cycle + 0.5 * stance * cycle, mid);
+  m->sample(3 * cycle + (0.5 * stance + 0.25) * cycle, fly);
+  EXPECT_LT(mid.root_position_m.y + 0.04f, fly.root_position_m.y);
+  Pose a = s.zero_pose(), b = s.zero_pose();
+  m->sample(1.0, a);
+  m->sample(2.0, b);
+  const float speed_mps =
+      glm::length(glm::vec2(b.root_position_m.x - a.root_position_m.x, b.root_position_m.z - a.root_position_m.z));
+  EXPECT_GT(speed_mps, 2.5f);
 }
 
 TEST(Motion, IdleStandsRelaxedWithFeetPlanted) {
@@ -229,7 +282,7 @@ TEST(Motion, WalkFeetPassBesideEachOtherNeverAcross) {
 
 TEST(Motion, Deterministic) {
   const Skeleton s = default_skeleton();
-  for (const char* name : {"idle", "walk"}) {
+  for (const char* name : {"idle", "walk", "run"}) {
     const auto a = make(name, s), b = make(name, s);
     Pose pa = s.zero_pose(), pb = s.zero_pose();
     for (double t = 0; t < 5; t += 0.123) {

@@ -400,6 +400,42 @@ TEST(Locomotion, RunningFeetLandBeforeEachLowOnTheFootTheArmsSay) {
   EXPECT_GT(flight_frames, frames / 10);
 }
 
+// Head and hands on the built-in run (about 3 m/s, a stride every 0.72 s, each foot down for
+// 36 % of it): after the first two seconds, at the middle of each true stance the same solved
+// foot is the one on the floor and the other is in the air, and the solved feet fly between the
+// stances as the true ones do.
+TEST(Locomotion, TheBuiltInRunSolvedFromHeadAndHandsRunsOnTheSameFeet) {
+  Wearer w("3");
+  auto run = rig::make_builtin_motion("run", w.s);
+  ASSERT_TRUE(run.has_value());
+  const double cycle_s = 0.72, mid_stance_s = 0.5 * 0.36 * cycle_s;
+  const float floor_y = w.floor_ankle_y();
+  auto down = [&](int leg) { return w.ankle(leg).y < floor_y + 0.03f; };
+  Pose truth = w.s.zero_pose();
+  int stances = 0, same_foot = 0, frames = 0, flying = 0;
+  for (int k = 0; k < int(8 * kRateHz); ++k) {
+    const double t = k / kRateHz;
+    (*run)->sample(t, truth);
+    w.step(truth);
+    if (t < 2.0) continue;
+    ++frames, flying += !down(0) && !down(1);
+    // Left strikes at whole cycles, right half a cycle later; this frame the middle of a stance?
+    for (int leg = 0; leg < 2; ++leg) {
+      const double since_strike = std::fmod(t - leg * 0.5 * cycle_s - mid_stance_s + 10 * cycle_s, cycle_s);
+      if (since_strike >= 1.0 / kRateHz) continue;
+      ++stances;
+      same_foot += down(leg) && !down(1 - leg);
+    }
+  }
+  std::printf(
+      "  run: %d true mid-stances, the same solved foot alone on the floor at %d; both solved feet in the "
+      "air %.0f%% of the time\n",
+      stances, same_foot, 100.0 * flying / frames);
+  ASSERT_GE(stances, 14);
+  EXPECT_GE(same_foot, stances - 2);
+  EXPECT_GT(flying, frames / 10);
+}
+
 // The head lost for half a second of a walk: back, its speed along the path is still the walk's
 // (the whole gap's move was taken as one frame's, 60 times the walk: the smoothed path speed
 // jumped to 2.37 m/s).

@@ -1,5 +1,5 @@
 // Motion sources: anything that yields a Pose of a skeleton at a time. The built-in procedural
-// motions ("idle", "walk") need no data files; BVH clips are retargeted onto Mimic's skeleton.
+// motions ("idle", "walk", "run") need no data files; BVH clips are retargeted onto Mimic's skeleton.
 #pragma once
 
 #include <memory>
@@ -25,7 +25,7 @@ class Motion {
   virtual std::string name() const = 0;
 };
 
-// "idle" or "walk" on the given skeleton (a copy is kept).
+// "idle", "walk" or "run" on the given skeleton (a copy is kept).
 Result<std::unique_ptr<Motion>> make_builtin_motion(std::string_view name, const Skeleton& skeleton);
 std::vector<std::string> builtin_motion_names();
 

@@ -112,7 +112,7 @@ Result<std::unique_ptr<PoseFeed>> make_tracker_feed(std::unique_ptr<devices::Sen
                                                     std::string description);
 inline constexpr double kCycleWait_s = 0.025;
 
-// Built-in motion by name ("walk", "idle").
+// Built-in motion by name ("walk", "run", "idle").
 Result<std::shared_ptr<const rig::Motion>> builtin_motion(const std::string& name, const rig::Skeleton& skeleton);
 
 std::unique_ptr<Deformer> make_fk_deformer(const rig::Skeleton& skeleton);

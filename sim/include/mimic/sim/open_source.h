@@ -1,5 +1,5 @@
 // Opens any tracker source named by a source spec (devices/source.h):
-//   sim:NAME    the sensor rig on a built-in motion ("walk", "idle"; empty = "walk")
+//   sim:NAME    the sensor rig on a built-in motion ("walk", "run", "idle"; empty = "walk")
 //   bvh:CLIP    the sensor rig on a BVH clip retargeted onto Mimic's skeleton
 //   replay:FILE a recorded log (params speed, loop, from)
 //   flock:PATH  a Flock of Birds on a serial port, when the driver is built in
