@@ -267,9 +267,9 @@ class IdleMotion final : public ProceduralMotion {
 // staying flat; in swing the ankle travels to the next footprint on a clearance arc (a run's heel
 // kicks up behind). Each leg is then solved exactly (hip 3 DOFs + knee flexion as a two-bone
 // chain with the knee forward, ankle for the foot's orientation, toes to keep the toes flat), so
-// stance feet neither slide nor sink. Walking, the pelvis is as high as the legs allow (a smooth minimum of the
-// standing height and each leg's reach), which gives the natural bob; running, it is lowest at each mid-stance (the
-// knee gives) and highest in flight.
+// stance feet neither slide nor sink. Walking, the pelvis is as high as the legs allow (a smooth
+// minimum of the standing height and each leg's reach), which gives the natural bob; running, it
+// is lowest at each mid-stance (the knee gives) and highest in flight.
 struct Gait {
   const char* name;
   double radius_m, period_s;
