@@ -418,6 +418,11 @@ void SolveJob::place_untracked_feet() {
     const int e = m.chains_[2 + leg].end;
     const glm::quat yaw = glm::angleAxis(f.yaw_rad, glm::vec3(0, 1, 0));
     c.segment_target_[e] = rig::RigidTransform{yaw, f.ankle};
+    // A running foot hangs toes-down through its swing (see LocomotionOptions::run_swing_pitch_rad).
+    if (f.swinging && c.locomotion_.running)
+      c.segment_target_[e].rotation =
+          yaw * glm::angleAxis(o.locomotion.run_swing_pitch_rad * std::sin(3.14159265f * f.phase), glm::vec3(1, 0, 0));
+    const glm::quat foot = c.segment_target_[e].rotation;
     if (!f.swinging) lift_heel(c.segment_target_[e], in.hip[leg], in.reach_m[leg], m.ball_in_ankle_[leg]);
     auto& fs = c.locomotion_.feet[leg];
     fs.most_move_m = o.locomotion.max_foot_speed_mps * in.dt_s;
@@ -428,9 +433,9 @@ void SolveJob::place_untracked_feet() {
     }
     fs.last_target = fs.have_target ? fs.target : c.segment_target_[e].translation;
     fs.target = c.segment_target_[e].translation, fs.have_target = true;
-    // The toes stay flat on the floor under a lifted heel.
+    // The toes stay flat on the floor under a lifted heel (and in line with a running foot).
     if (const int toes = m.toes_[leg]; toes >= 0 && !c.has_target_[toes]) {
-      c.segment_target_[toes] = rig::RigidTransform{yaw, c.segment_target_[e].apply(m.ball_in_ankle_[leg])};
+      c.segment_target_[toes] = rig::RigidTransform{foot, c.segment_target_[e].apply(m.ball_in_ankle_[leg])};
       c.has_target_[toes] = 1;
     }
     c.has_target_[e] = 1;

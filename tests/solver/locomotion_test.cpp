@@ -403,7 +403,7 @@ TEST(Locomotion, RunningFeetLandBeforeEachLowOnTheFootTheArmsSay) {
 // Head and hands on the built-in run (about 3 m/s, a stride every 0.72 s, each foot down for
 // 36 % of it): after the first two seconds, at the middle of each true stance the same solved
 // foot is the one on the floor and the other is in the air, and the solved feet fly between the
-// stances as the true ones do.
+// stances as the true ones do, their knees never flipping.
 TEST(Locomotion, TheBuiltInRunSolvedFromHeadAndHandsRunsOnTheSameFeet) {
   Wearer w("3");
   auto run = rig::make_builtin_motion("run", w.s);
@@ -413,10 +413,18 @@ TEST(Locomotion, TheBuiltInRunSolvedFromHeadAndHandsRunsOnTheSameFeet) {
   auto down = [&](int leg) { return w.ankle(leg).y < floor_y + 0.03f; };
   Pose truth = w.s.zero_pose();
   int stances = 0, same_foot = 0, frames = 0, flying = 0;
+  const int knees[2] = {w.s.find_joint("l_knee"), w.s.find_joint("r_knee")};
+  glm::vec3 last_knee[2]{};
+  float fastest_knee_m = 0;
   for (int k = 0; k < int(8 * kRateHz); ++k) {
     const double t = k / kRateHz;
     (*run)->sample(t, truth);
     w.step(truth);
+    for (int leg = 0; leg < 2; ++leg) {
+      const glm::vec3 knee = w.world[knees[leg]].translation;
+      if (t >= 2.0) fastest_knee_m = std::max(fastest_knee_m, glm::length(knee - last_knee[leg]));
+      last_knee[leg] = knee;
+    }
     if (t < 2.0) continue;
     ++frames, flying += !down(0) && !down(1);
     // Left strikes at whole cycles, right half a cycle later; this frame the middle of a stance?
@@ -429,11 +437,14 @@ TEST(Locomotion, TheBuiltInRunSolvedFromHeadAndHandsRunsOnTheSameFeet) {
   }
   std::printf(
       "  run: %d true mid-stances, the same solved foot alone on the floor at %d; both solved feet in the "
-      "air %.0f%% of the time\n",
-      stances, same_foot, 100.0 * flying / frames);
+      "air %.0f%% of the time; a knee moves at most %.0f mm in a sample\n",
+      stances, same_foot, 100.0 * flying / frames, 1000.0 * fastest_knee_m);
   ASSERT_GE(stances, 14);
   EXPECT_GE(same_foot, stances - 2);
   EXPECT_GT(flying, frames / 10);
+  // A knee that flips sideways and back moves 40 cm between samples (433 mm with the swinging
+  // foot held flat under the kicked-up shin); a running one at most about a tenth of that.
+  EXPECT_LT(fastest_knee_m, 0.2f);
 }
 
 // The head lost for half a second of a walk: back, its speed along the path is still the walk's

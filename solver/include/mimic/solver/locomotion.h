@@ -83,6 +83,11 @@ struct LocomotionOptions {
   float run_lift_after_low = 0.1f;
   float run_stance_fraction = 0.4f;  // a foot that lands late still stands this long
   float run_arc_max_m = 0.40f;
+  // A running foot's swing pitches it toes-down, by this much at mid-swing: held flat under a
+  // shin kicked up behind, the ankle's limits could not follow, the leg's swivel search turned
+  // the knee out sideways for a frame, and the knees flipped (09_11: a knee 40 cm sideways and
+  // back between two samples; its mean second difference 16 → 6 mm).
+  float run_swing_pitch_rad = 0.6f;
   float run_first_period_s = 0.36f;  // a run's first low, before the next measures the beat (166 a minute)
   float run_arm_swing_mps = 0.5f;
   float arm_swing_tau_s = 0.03f;
