@@ -1,8 +1,8 @@
 // Built-in procedural motions: "idle" (relaxed standing), "walk" and "run" (gait cycles around
 // a circle). All loop seamlessly: every periodic term has a whole number of periods in one
-// loop. The pelvis height is not authored: a table, computed once per motion, lifts the root
-// so the lowest point of either sole touches the floor (y = 0) at every instant, which also
-// gives the walk its natural vertical bob.
+// loop. The idle's pelvis height is not authored: a table, computed once, lifts the root so the
+// lowest point of either sole touches the floor (y = 0) at every instant; the gaits place their
+// feet and take the pelvis height from the legs' reach (GaitMotion).
 #include <array>
 #include <cmath>
 #include <string>
