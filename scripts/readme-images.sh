@@ -61,6 +61,10 @@ if command -v xvfb-run >/dev/null; then
   xvfb-run -a -s "-screen 0 1024x768x24" "$mimic" view --source 'sim:walk?sensors=3' --overlay sensors --lod 0 --frames 150 \
     --no-vsync --no-panel --size 420x480 --capture "$out/walk-3-sensors.png" >/dev/null
   echo "wrote $out/walk-3-sensors.png"
+  # … and running: both feet in the air between two stances.
+  xvfb-run -a -s "-screen 0 1024x768x24" "$mimic" view --source 'sim:run?sensors=3' --overlay sensors --lod 0 --frames 190 \
+    --no-vsync --no-panel --size 420x480 --camera left --capture "$out/run-3-sensors.png" >/dev/null
+  echo "wrote $out/run-3-sensors.png"
 fi
 # The browser viewer (docs/browser.md): its end-to-end test saves the page as headless Chromium drew it.
 if [ -x "$(dirname "$mimic")/mimic_web_tests" ] && command -v chromium >/dev/null; then
