@@ -103,6 +103,13 @@ bool track_bob(LocomotionState::Bob& b, float head_y, float dt, const Locomotion
   if (b.y_m < b.extreme_y_m) b.extreme_y_m = b.y_m, b.low_s = b.clock_s;
   if (b.y_m < b.extreme_y_m + o.bob_rise_m) return false;
   const double since = b.last_low_s >= 0 ? b.low_s - b.last_low_s : 0.0;
+  // A dip sooner than a step after the last low, in a gait already timed, is no step: the beat
+  // goes on (taken as the end of the gait, it dropped a run out of its running steps for half a
+  // second).
+  if (b.last_low_s >= 0 && since < o.bob_min_period_s && b.period_s > 0) {
+    b.descending = false, b.extreme_y_m = b.y_m;
+    return false;
+  }
   b.period_s = since >= o.bob_min_period_s && since <= o.bob_max_period_s ? static_cast<float>(since) : 0.0f;
   // The first low of a walk: a step of a usual length in time, until the next low measures it.
   if (b.last_low_s < 0) b.period_s = o.bob_first_period_s;
