@@ -31,7 +31,9 @@ float smooth01(float t) {
 // midline than the hips do (CMU walks: ankles 9–12 cm apart, hips 18–20 cm).
 glm::vec2 landing(const LocomotionInput& in, const LocomotionState& s, const LocomotionOptions& o, int k,
                   float remaining_s) {
-  glm::vec2 lead = s.velocity_mps * (remaining_s + s.stance_lead_s);
+  // Running, mid-stance (where the hip is over the foot) comes a part of the beat after the strike.
+  const float stance_lead_s = s.running ? o.run_strike_before_low * s.bob.period_s : o.stance_lead_s;
+  glm::vec2 lead = s.velocity_mps * (remaining_s + stance_lead_s);
   const float len = glm::length(lead);
   if (len > o.max_step_m && !s.running) lead *= o.max_step_m / len;
   const glm::vec2 left(std::cos(in.root_yaw_rad), -std::sin(in.root_yaw_rad));
@@ -87,8 +89,9 @@ void lift_heel(rig::RigidTransform& ankle_t, const glm::vec3& hip, float reach_m
   ankle_t.rotation = ankle_t.rotation * glm::angleAxis(hi, glm::vec3(1, 0, 0));
 }
 
-// Follows the head's height; true on the frame a low is found (LocomotionState::Bob).
-bool track_bob(LocomotionState::Bob& b, float head_y, float dt, const LocomotionOptions& o) {
+// Follows the head's height; true on the frame a low is found (LocomotionState::Bob). `running`:
+// the body moves at a run's speed (a first low takes a run's beat).
+bool track_bob(LocomotionState::Bob& b, float head_y, float dt, const LocomotionOptions& o, bool running) {
   b.clock_s += dt;
   if (!b.have) {
     b.y_m = b.extreme_y_m = head_y, b.have = true, b.descending = false;
@@ -111,8 +114,9 @@ bool track_bob(LocomotionState::Bob& b, float head_y, float dt, const Locomotion
     return false;
   }
   b.period_s = since >= o.bob_min_period_s && since <= o.bob_max_period_s ? static_cast<float>(since) : 0.0f;
-  // The first low of a walk: a step of a usual length in time, until the next low measures it.
-  if (b.last_low_s < 0) b.period_s = o.bob_first_period_s;
+  // The first low of a walk (or run): a step of a usual length in time, until the next low
+  // measures it.
+  if (b.last_low_s < 0) b.period_s = running ? o.run_first_period_s : o.bob_first_period_s;
   b.last_low_s = b.low_s;
   b.descending = false, b.extreme_y_m = b.y_m;
   return true;
@@ -264,12 +268,11 @@ void update_locomotion(LocomotionState& s, const LocomotionInput& in, const Loco
   const float sway_m = track_head(s, in, dt, o);
   track_arm_swing(s, in, dt, o);
   const bool gate = in.have_head && o.sway_gate_m >= 0 && speed > o.sway_speed_mps;
-  const bool low = in.have_head && track_bob(s.bob, in.head.y, dt, o);
+  const bool run_speed = o.run_from_mps > 0 && speed > o.run_from_mps;
+  const bool low = in.have_head && track_bob(s.bob, in.head.y, dt, o, run_speed);
   const bool bob_walk = gate && o.bob_timing && s.bob.period_s > 0;
   if (!gate) s.bob.beats = 0;  // a new walk takes its first beats from the sway again
-  if (low && s.bob.beats == 0 && o.run_from_mps > 0 && speed > o.run_from_mps) s.bob.period_s = o.run_first_period_s;
-  s.running = bob_walk && o.run_from_mps > 0 && speed > o.run_from_mps;
-  s.stance_lead_s = s.running ? o.run_strike_before_low * s.bob.period_s : o.stance_lead_s;
+  s.running = bob_walk && run_speed;
   if (low && bob_walk) on_head_low(s, sway_m, o);
   const float swing_s = o.swing_s_slow + (o.swing_s_fast - o.swing_s_slow) * std::clamp(speed / o.fast_mps, 0.0f, 1.0f);
 

@@ -130,10 +130,9 @@ struct LocomotionState {
   bool have_root = false;
   double last_time_s = -1;
   int last_stepped = -1;
-  bool running = false;        // this frame's gait is a run (see LocomotionOptions::run_from_mps)
-  float stance_lead_s = 0.3f;  // a step lands where the hip is that long after touchdown
-  float arm_swing_m = 0;       // the left hand ahead of the right, along the heading
-  float arm_swing_mps = 0;     // … its rate, smoothed
+  bool running = false;     // this frame's gait is a run (see LocomotionOptions::run_from_mps)
+  float arm_swing_m = 0;    // the left hand ahead of the right, along the heading
+  float arm_swing_mps = 0;  // … its rate, smoothed
   bool have_arm_swing = false;
   long steps = 0;               // steps started so far
   glm::vec2 sway_centre{0.0f};  // the head's mean horizontal path
