@@ -48,7 +48,7 @@ struct Options {
   long every = 10, max_frames = 0;
   double fps = 30, seconds = 0;
   int subdivision = 0;
-  bool no_muscles = false, no_contact = false, json = false, summary_only = false;
+  bool no_muscles = false, no_contact = false, json = false, summary_only = false, where = false;
 };
 
 struct Source {
@@ -112,6 +112,9 @@ std::optional<int> parse(cli::Parser& p, const std::vector<std::string>& argv, O
   app.add_flag("--no-contact", o.no_contact, "the realtime method without contact between its pieces");
   app.add_flag("--json", o.json, "one JSON object a line: each frame, then each summary");
   app.add_flag("--summary", o.summary_only, "only the summaries, no line per frame");
+  app.add_flag("--where", o.where,
+               "name the contour rings the folds lie in (ring:column of each triangle's first point), "
+               "each frame and in the summary");
   if (auto exit_code = p.parse(argv)) return exit_code;
   if (bvh->count() + motion->count() + log->count() + pose->count() == 0)
     return p.usage_error("give --bvh CLIP..., --motion NAME, --log SESSION.mlog or --pose zero|rest");
@@ -201,7 +204,45 @@ class Skinner {
       s.full_ = std::make_unique<avatar::ImplicitSkin>(std::move(*f));
       s.mesh_ = s.full_->mesh();
     }
+    if (o.where) {
+      // The realtime mesh's vertices are the full method's at subdivision 0: the layout's control
+      // points, ring after ring; what is beyond them (rigid parts, or B-spline samples) is
+      // named by its part.
+      avatar::SkinOptions so;
+      so.subdivision = 0;
+      so.normals = false;
+      auto f = avatar::ImplicitSkin::create(avatar::with_skin_lod(body, lod), sk, so);
+      if (!f) return tl::unexpected(f.error());
+      if (method == avatar::SkinMethod::realtime || o.subdivision == 0)
+        for (const auto& ring : f->contours())
+          for (size_t i = 0; i < ring.points.size(); ++i)
+            s.vertex_label_.push_back(ring.name + ":" + std::to_string(i));
+      s.triangle_part_.resize(s.mesh_.triangle_count());
+      for (const avatar::MeshPart& part : s.mesh_.parts)
+        for (uint32_t t = part.first_triangle; t < part.first_triangle + part.triangle_count; ++t)
+          s.triangle_part_[t] = part.name;
+    }
     return s;
+  }
+  const std::string& triangle_part(uint32_t t) const { return triangle_part_.at(t); }
+  // A triangle's rings (the strip between two rings: "a+b") and the column of its first point,
+  // or its part's name beyond the contours.
+  std::string triangle_label(uint32_t t) const {
+    const uint32_t* v = &mesh_.indices[3 * size_t(t)];
+    const uint32_t first = std::min({v[0], v[1], v[2]});
+    if (std::max({v[0], v[1], v[2]}) >= vertex_label_.size())
+      return t < triangle_part_.size() ? triangle_part_[t] : std::string("?");
+    std::vector<std::string> rings;
+    for (int k = 0; k < 3; ++k) {
+      const std::string& l = vertex_label_[v[k]];
+      rings.push_back(l.substr(0, l.find(':')));
+    }
+    std::sort(rings.begin(), rings.end());
+    rings.erase(std::unique(rings.begin(), rings.end()), rings.end());
+    std::string label = rings[0];
+    for (size_t k = 1; k < rings.size(); ++k) label += "+" + rings[k];
+    const std::string& f = vertex_label_[first];
+    return label + f.substr(f.find(':'));
   }
   const avatar::Mesh& topology() const { return mesh_; }
   const avatar::Mesh& pose(const rig::Pose& p) {
@@ -218,7 +259,21 @@ class Skinner {
   std::unique_ptr<avatar::ImplicitSkin> full_;
   avatar::Mesh mesh_;
   bool muscles_ = true, contact_ = true;
+  std::vector<std::string> vertex_label_, triangle_part_;
 };
+
+// The rings holding the folds (pairs inside one part), as "ring:column" pairs, most first.
+std::vector<std::pair<std::string, size_t>> fold_places(const Skinner& skinner, const avatar::IntersectionReport& r) {
+  std::map<std::string, size_t> count;
+  for (const auto& [a, b] : r.triangle_pairs) {
+    if (skinner.triangle_part(a) != skinner.triangle_part(b)) continue;
+    const std::string la = skinner.triangle_label(a), lb = skinner.triangle_label(b);
+    ++count[la < lb ? la + " " + lb : lb + " " + la];
+  }
+  std::vector<std::pair<std::string, size_t>> out(count.begin(), count.end());
+  std::stable_sort(out.begin(), out.end(), [](const auto& x, const auto& y) { return x.second > y.second; });
+  return out;
+}
 
 struct Summary {
   Summary(std::string source_name, std::string method_name, int level)
@@ -231,7 +286,16 @@ struct Summary {
   double deepest_mm_max = 0, envelope_mm_max = 0, crease_deg_max = 0;
   std::string deepest_where, envelope_where, crease_where;
   std::map<std::pair<std::string, std::string>, size_t> by_parts;  // by-design pairs left out
+  std::map<std::string, size_t> fold_rings;                        // --where: ring pairs, columns left out
 
+  void add_places(const std::vector<std::pair<std::string, size_t>>& places) {
+    const auto ring = [](const std::string& l) { return l.substr(0, l.find(':')); };
+    for (const auto& [where, n] : places) {
+      const size_t gap = where.find(' ');
+      const std::string a = ring(where.substr(0, gap)), b = ring(where.substr(gap + 1));
+      fold_rings[a == b ? a : a + " " + b] += n;
+    }
+  }
   void add(const avatar::IntersectionReport& r, const std::string& frame) {
     triangles = r.triangles;
     ++frames;
@@ -261,6 +325,7 @@ struct Summary {
     frames_creased += s.frames_creased;
     folds += s.folds, between += s.between, by_design += s.by_design, deepest_mm += s.deepest_mm;
     envelope_mm += s.envelope_mm;
+    for (const auto& [k, n] : s.fold_rings) fold_rings[k] += n;
     if (s.envelope_mm_max > envelope_mm_max) envelope_mm_max = s.envelope_mm_max, envelope_where = s.envelope_where;
     crease_deg += s.crease_deg;
     folds_max = std::max(folds_max, s.folds_max), between_max = std::max(between_max, s.between_max);
@@ -345,6 +410,7 @@ nlohmann::ordered_json summary_json(const Summary& s) {
                            {"crease_where", s.crease_where},
                            {"frames_crease_over_90_deg", s.frames_creased}};
   for (const auto& [k, v] : s.top(8)) j["pairs_per_frame"][k] = v;
+  for (const auto& [k, v] : s.fold_rings) j["folds_per_frame_by_ring"][k] = double(v) / n;
   return j;
 }
 
@@ -371,6 +437,13 @@ void print_summaries(const std::vector<Summary>& all) {
         s.source.c_str(), s.method.c_str(), s.lod, s.deepest_mm_max, s.deepest_where.c_str(), s.envelope_mm_max,
         s.envelope_where.c_str(), s.crease_deg_max, s.crease_where.c_str());
     for (const auto& [k, v] : s.top(5)) std::printf(" %s %.1f", k.c_str(), v);
+    std::printf("\n");
+    if (s.fold_rings.empty()) continue;
+    std::vector<std::pair<std::string, size_t>> rings(s.fold_rings.begin(), s.fold_rings.end());
+    std::stable_sort(rings.begin(), rings.end(), [](const auto& x, const auto& y) { return x.second > y.second; });
+    std::printf("  folds a frame by ring:");
+    for (size_t i = 0; i < std::min<size_t>(rings.size(), 8); ++i)
+      std::printf("%s %s %.2f", i ? "," : "", rings[i].first.c_str(), double(rings[i].second) / double(s.frames));
     std::printf("\n");
   }
 }
@@ -427,8 +500,19 @@ int run(const std::vector<std::string>& argv) {
         for (size_t k = 0; k < src.poses.size(); ++k) {
           const avatar::IntersectionReport r = checker->check(skinner->pose(src.poses[k]).positions);
           sum.add(r, "frame " + std::to_string(src.frames[k]) + " of " + src.name);
-          if (!o.summary_only && o.json) std::printf("%s\n", frame_json(sum, src.frames[k], r).dump().c_str());
-          if (!o.summary_only && !o.json) print_frame(sum, src.frames[k], r);
+          std::vector<std::pair<std::string, size_t>> places;
+          if (o.where) sum.add_places(places = fold_places(*skinner, r));
+          if (!o.summary_only && o.json) {
+            auto j = frame_json(sum, src.frames[k], r);
+            if (o.where) j["folds_where"] = places;
+            std::printf("%s\n", j.dump().c_str());
+          }
+          if (!o.summary_only && !o.json) {
+            print_frame(sum, src.frames[k], r);
+            for (size_t i = 0; i < std::min<size_t>(places.size(), 4); ++i)
+              std::printf("%s %s %zu", i ? "," : "  folds:", places[i].first.c_str(), places[i].second);
+            if (!places.empty()) std::printf("\n");
+          }
           std::fflush(stdout);
           progress.step();
         }

@@ -271,59 +271,82 @@ namespace mimic::avatar {
 
 namespace {
 
-// The disc a contour spans: its Newell plane through its centroid and the polygon in that
-// plane's coordinates.
+// The surface a contour spans: a fan of triangles from its centroid to each of its edges (a
+// flat disc when the contour is planar; a contour a loop's follow bends out of its plane keeps
+// a surface through its own points, where a disc in its mean plane would stand off them).
 struct Disc {
-  glm::vec3 centre{0.0f}, normal{0.0f}, e1{0.0f}, e2{0.0f};
-  std::vector<glm::vec2> polygon;
+  glm::vec3 centre{0.0f};
+  std::vector<glm::vec3> ring;
   bool valid = false;
 };
 
 Disc disc_of(std::span<const glm::vec3> positions, const std::vector<uint32_t>& row) {
   Disc d;
-  glm::vec3 n(0.0f);
-  for (size_t i = 0; i < row.size(); ++i) {
-    const glm::vec3 a = positions[row[i]], b = positions[row[(i + 1) % row.size()]];
-    n += glm::vec3((a.y - b.y) * (a.z + b.z), (a.z - b.z) * (a.x + b.x), (a.x - b.x) * (a.y + b.y));
-    d.centre += a;
-  }
-  const float len = glm::length(n);
-  if (row.size() < 3 || !(len > 0.0f)) return d;
+  if (row.size() < 3) return d;
+  for (uint32_t v : row) d.ring.push_back(positions[v]), d.centre += positions[v];
   d.centre /= static_cast<float>(row.size());
-  d.normal = n / len;
-  d.e1 = glm::normalize(positions[row[0]] - d.centre - glm::dot(positions[row[0]] - d.centre, d.normal) * d.normal);
-  d.e2 = glm::cross(d.normal, d.e1);
-  for (uint32_t v : row)
-    d.polygon.emplace_back(glm::dot(positions[v] - d.centre, d.e1), glm::dot(positions[v] - d.centre, d.e2));
-  d.valid = std::isfinite(d.e1.x + d.e2.x);
+  d.valid = std::isfinite(d.centre.x + d.centre.y + d.centre.z);
   return d;
 }
 
-// Distance of p inside the polygon (0 when outside): winding number, then the nearest edge.
-float depth_inside(const std::vector<glm::vec2>& poly, glm::vec2 p) {
-  int winding = 0;
+// Distance from x (on the disc) to the contour, the disc's edge.
+float depth_inside(const Disc& d, const glm::vec3& x) {
   float nearest = std::numeric_limits<float>::max();
-  for (size_t i = 0; i < poly.size(); ++i) {
-    const glm::vec2 a = poly[i], b = poly[(i + 1) % poly.size()];
-    const float cross = (b.x - a.x) * (p.y - a.y) - (p.x - a.x) * (b.y - a.y);
-    if (a.y <= p.y && b.y > p.y && cross > 0) ++winding;
-    if (a.y > p.y && b.y <= p.y && cross < 0) --winding;
-    const glm::vec2 ab = b - a;
-    const float t = glm::dot(ab, ab) > 0 ? std::clamp(glm::dot(p - a, ab) / glm::dot(ab, ab), 0.0f, 1.0f) : 0.0f;
-    nearest = std::min(nearest, glm::length(p - (a + t * ab)));
+  for (size_t i = 0; i < d.ring.size(); ++i) {
+    const glm::vec3 a = d.ring[i], ab = d.ring[(i + 1) % d.ring.size()] - a;
+    const float len2 = glm::dot(ab, ab);
+    const float t = len2 > 0 ? std::clamp(glm::dot(x - a, ab) / len2, 0.0f, 1.0f) : 0.0f;
+    nearest = std::min(nearest, glm::length(x - (a + t * ab)));
   }
-  return winding != 0 ? nearest : 0.0f;
+  return nearest;
 }
 
-// How deep inside disc `d` the closed polyline `row` passes through it.
+// Where segment a–b passes through triangle (p, q, r), if it does (Möller–Trumbore), and from
+// which side (the sign of the triangle's normal along a–b).
+int segment_hits(const glm::vec3& a, const glm::vec3& b, const glm::vec3& p, const glm::vec3& q, const glm::vec3& r,
+                 glm::vec3& x) {
+  const glm::vec3 dir = b - a, e1 = q - p, e2 = r - p;
+  // Through the triangle's plane, not along it: a point on it (within a micrometre) touches, as
+  // the two rings of a bend meet on the line their planes share.
+  const glm::vec3 n = glm::cross(e1, e2);
+  const float n_len = glm::length(n);
+  if (!(n_len > 0.0f)) return 0;
+  const float sa = glm::dot(a - p, n) / n_len, sb = glm::dot(b - p, n) / n_len;
+  constexpr float kTouch = 1e-6f;
+  if (!((sa > kTouch && sb < -kTouch) || (sa < -kTouch && sb > kTouch))) return 0;
+  const glm::vec3 h = glm::cross(dir, e2);
+  const float det = glm::dot(e1, h);
+  if (std::abs(det) < 1e-12f) return 0;
+  const float inv = 1.0f / det;
+  const glm::vec3 s = a - p;
+  const float u = inv * glm::dot(s, h);
+  if (u < 0.0f || u > 1.0f) return 0;
+  const glm::vec3 qv = glm::cross(s, e1);
+  const float v = inv * glm::dot(dir, qv);
+  if (v < 0.0f || u + v > 1.0f) return 0;
+  const float t = inv * glm::dot(e2, qv);
+  if (t < 0.0f || t > 1.0f) return 0;
+  x = a + t * dir;
+  return det > 0.0f ? 1 : -1;
+}
+
+// How deep inside disc `d` the closed polyline `row` passes through it. An edge passes through
+// where the fan's triangles it hits, counted by side, do not cancel (the winding number: a
+// concave contour's fan folds over itself outside the contour, and there they cancel).
 float piercing(std::span<const glm::vec3> positions, const Disc& d, const std::vector<uint32_t>& row) {
   float worst = 0.0f;
   for (size_t i = 0; i < row.size(); ++i) {
     const glm::vec3 a = positions[row[i]], b = positions[row[(i + 1) % row.size()]];
-    const float sa = glm::dot(a - d.centre, d.normal), sb = glm::dot(b - d.centre, d.normal);
-    if ((sa > 0) == (sb > 0) || sa == sb) continue;
-    const glm::vec3 x = a + (sa / (sa - sb)) * (b - a);
-    worst = std::max(worst, depth_inside(d.polygon, {glm::dot(x - d.centre, d.e1), glm::dot(x - d.centre, d.e2)}));
+    int winding = 0;
+    float depth = std::numeric_limits<float>::max();
+    for (size_t k = 0; k < d.ring.size(); ++k) {
+      glm::vec3 x;
+      const int side = segment_hits(a, b, d.centre, d.ring[k], d.ring[(k + 1) % d.ring.size()], x);
+      if (side == 0) continue;
+      winding += side;
+      depth = std::min(depth, depth_inside(d, x));
+    }
+    if (winding != 0) worst = std::max(worst, depth);
   }
   return worst;
 }

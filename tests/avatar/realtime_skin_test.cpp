@@ -329,6 +329,41 @@ TEST(RealtimeSkin, TheContourCheckFindsCrossingRings) {
   EXPECT_EQ(check_contour_order(pts, std::span(&piece, 1)).crossing, 0u);
 }
 
+// A ring bent out of its plane (a hip's loop whose groin side rises with the thigh and stays off
+// the thigh's first ring) with the next ring above it everywhere: no crossing. A flat disc in
+// the bent ring's mean plane stood 20 mm off its points and "crossed" the ring above; and two
+// rings that meet on a line (the crease of a bend) touch there without crossing.
+TEST(RealtimeSkin, TheContourCheckFollowsABentRingAndLetsRingsTouch) {
+  std::vector<glm::vec3> pts;
+  ContourRows piece{"test", {{}, {}}};
+  for (int ring = 0; ring < 2; ++ring)
+    for (int j = 0; j < 36; ++j) {
+      const float a = 6.2831853f * static_cast<float>(j) / 36.0f;
+      const bool bent = std::cos(a) > 0.5f;
+      // The lower ring's sixth about +x rises 2 cm and draws in 2 cm; the upper stays 6 mm
+      // above the lower all round (9 mm over the bent part, outside it).
+      const float r = ring == 0 && bent ? 0.08f : 0.1f;
+      const float y = ring == 0 ? (bent ? 0.02f : 0.0f) : (bent ? 0.029f : 0.006f);
+      piece.rows[ring].push_back(static_cast<uint32_t>(pts.size()));
+      pts.emplace_back(r * std::cos(a), y, r * std::sin(a));
+    }
+  const ContourOrder bent = check_contour_order(pts, std::span(&piece, 1));
+  EXPECT_EQ(bent.crossing, 0u) << 1000 * bent.worst_m << " mm";
+  // Pushed 1.5 cm further in and 1.5 cm up, through the ring above: found.
+  for (size_t k = 0; k < 36; ++k)
+    if (pts[k].x > 0.05f) pts[k] = glm::vec3(pts[k].x * 0.8f, pts[k].y + 0.015f, pts[k].z * 0.8f);
+  EXPECT_EQ(check_contour_order(pts, std::span(&piece, 1)).crossing, 1u);
+  // Two rings of a bend meeting on the line their planes share (a crease): touching.
+  for (int j = 0; j < 36; ++j) {
+    const float a = 6.2831853f * static_cast<float>(j) / 36.0f;
+    const glm::vec3 p(0.1f * std::cos(a), 0.0f, 0.1f * std::sin(a));
+    pts[size_t(j)] = p.x > 0.05f ? glm::vec3(0.05f, 0.0f, p.z) : p;
+    const glm::vec3 q(p.x, std::max(0.0f, 0.05f - p.x) * 0.6f, p.z);  // tilted, meeting at x = 0.05
+    pts[size_t(36 + j)] = p.x > 0.05f ? glm::vec3(0.05f, 0.0f, p.z) : q;
+  }
+  EXPECT_EQ(check_contour_order(pts, std::span(&piece, 1)).crossing, 0u);
+}
+
 // The eight-wide kernels (AVX2/FMA builds) move every vertex as the scalar reference does,
 // within 1e-5 m, over a clip's poses at every LOD, with and without muscles; and both give the
 // full method's vertices in the initial pose.

@@ -94,6 +94,36 @@ TEST(IntersectCli, TheAuthoredPostureIsClean) {
   }
 }
 
+// --where names the rings each fold lies between: every fold pair once, as the two triangles'
+// strips ("ring+ring:column"), and the summary sums them by ring pair.
+TEST(IntersectCli, WhereNamesTheRingsOfEveryFold) {
+  if (!built()) GTEST_SKIP() << "built without CGAL";
+  const std::string clip = mimic::test::clip_path("02_06");
+  const Outcome r = run_mimic("intersect --bvh '" + clip + "' --every 150 --frames 12 --where --json", true);
+  ASSERT_EQ(r.status, 0) << r.output;
+  const auto lines = json_lines(r.output);
+  ASSERT_EQ(lines.size(), 13u) << r.output;
+  size_t folds = 0, named = 0;
+  for (size_t k = 0; k < 12; ++k) {
+    const auto& f = lines[k];
+    size_t sum = 0;
+    for (const auto& place : f["folds_where"]) {
+      const std::string where = place[0];
+      const size_t gap = where.find(' ');
+      ASSERT_NE(gap, std::string::npos) << where;
+      for (const std::string& t : {where.substr(0, gap), where.substr(gap + 1)})
+        EXPECT_NE(t.find(':'), std::string::npos) << "a triangle's ring and column: " << where;
+      sum += place[1].get<size_t>();
+    }
+    EXPECT_EQ(sum, f["fold_pairs"].get<size_t>()) << f.dump();
+    folds += f["fold_pairs"].get<size_t>(), named += sum;
+  }
+  EXPECT_GT(folds, 0u) << "02_06's crouch folds the thighs' bands";
+  double by_ring = 0;
+  for (const auto& [ring, per_frame] : lines[12]["folds_per_frame_by_ring"].items()) by_ring += per_frame.get<double>();
+  EXPECT_NEAR(by_ring, double(named) / 12, 1e-9);
+}
+
 TEST(IntersectCli, UsageErrorsAndBadInput) {
   if (!built()) GTEST_SKIP() << "built without CGAL";
   for (const char* args :

@@ -88,7 +88,10 @@ void ImplicitSkin::Impl::cast_contours() {
         const Ring& c = L.rings[static_cast<size_t>(lf.cap_ring)];
         cap = ring_plane(chains[static_cast<size_t>(c.chain)], c.segment, c.u);
       }
-      skin_detail::follow_loop(lf, world_from_joint, cap.origin, cap.normal, caster.ctrl, caster.ctrl_hit);
+      const Ring& s = L.rings[static_cast<size_t>(L.rings[ri].s_ring)];
+      const Plane limb = ring_plane(chains[static_cast<size_t>(s.chain)], s.segment, s.u);
+      skin_detail::follow_loop(lf, world_from_joint, cap.origin, cap.normal, limb.origin, limb.normal, caster.ctrl,
+                               caster.ctrl_hit);
     }
     caster.compute_ring(L, field, chains, L.rings[ri]);
   }

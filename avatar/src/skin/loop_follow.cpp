@@ -63,7 +63,16 @@ LoopFollow measure_loop_follow(const ContourLayout::Data& layout, std::span<cons
     cap = ring_plane(chains[kTorsoChain], src.segment, src.u);
     lf.cap_side = glm::dot(centre_world - cap.origin, cap.normal) < 0.0f ? 1.0f : -1.0f;
   }
+  Plane limb{};
+  if (rule.capped) {
+    limb = ring_plane(chains[static_cast<size_t>(s.chain)], s.segment, s.u);
+    lf.limb_cap = true;
+    lf.limb_side = glm::dot(centre_world - limb.origin, limb.normal) < 0.0f ? -1.0f : 1.0f;
+  }
   for (uint32_t slot : lf.slots) {
+    if (lf.limb_cap)
+      lf.limb_room.push_back(kLoopLimbRoom *
+                             std::max(lf.limb_side * glm::dot(ctrl[slot] - limb.origin, limb.normal), 0.0f));
     glm::vec3 dir = parent_from_world.apply(ctrl[slot]) - centre;
     dir -= glm::dot(dir, lf.axis) * lf.axis;
     lf.dir.push_back(safe_normalize(dir, glm::vec3(0.0f)));
@@ -73,9 +82,36 @@ LoopFollow measure_loop_follow(const ContourLayout::Data& layout, std::span<cons
   return lf;
 }
 
-float follow_loop(const LoopFollow& lf, std::span<const rig::RigidTransform> world_from_joint,
-                  const glm::vec3& cap_origin, const glm::vec3& cap_normal, std::span<glm::vec3> pos,
-                  std::span<uint8_t> from_ray) {
+namespace {
+
+// Keeps every loop point on the loop's side of the limb's first ring, short of its plane by its
+// room: with the thigh raised, the groin's points would lie beyond S along the thigh and the band
+// from them to S would run back through S's strip. The move never takes a point past its room
+// under the torso's next ring (an abducted thigh's S faces up along the side of the hip): what
+// would rise past it is taken off, and the point slides along that ring's plane.
+void cap_by_limb(const LoopFollow& lf, const glm::vec3& down, const glm::vec3& cap_origin, const glm::vec3& cap_normal,
+                 const glm::vec3& limb_origin, const glm::vec3& limb_normal, std::span<glm::vec3> pos,
+                 std::span<uint8_t> from_ray) {
+  if (!lf.limb_cap) return;
+  for (size_t k = 0; k < lf.slots.size(); ++k) {
+    glm::vec3& p = pos[lf.slots[k]];
+    const float short_by = lf.limb_side * glm::dot(p - limb_origin, limb_normal);
+    if (short_by >= lf.limb_room[k]) continue;
+    glm::vec3 move = (lf.limb_room[k] - short_by) * lf.limb_side * limb_normal;
+    move -= glm::dot(move, down) * down;
+    if (lf.cap_ring >= 0) {
+      const float below = std::max(-lf.cap_side * glm::dot(p - cap_origin, cap_normal) - lf.room[k], 0.0f);
+      const float rise = lf.cap_side * glm::dot(move, cap_normal);
+      if (rise > below) move -= ((rise - below) * lf.cap_side) * cap_normal;
+    }
+    p += move;
+    if (!from_ray.empty()) from_ray[lf.slots[k]] = 0;
+  }
+}
+
+float follow_swing(const LoopFollow& lf, std::span<const rig::RigidTransform> world_from_joint,
+                   const glm::vec3& cap_origin, const glm::vec3& cap_normal, std::span<glm::vec3> pos,
+                   std::span<uint8_t> from_ray) {
   const rig::RigidTransform& parent = world_from_joint[static_cast<size_t>(lf.parent)];
   const glm::quat parent_from_world = glm::conjugate(parent.rotation);
   const glm::vec3 axis = parent_from_world * (world_from_joint[static_cast<size_t>(lf.joint)].rotation * lf.tip);
@@ -112,6 +148,18 @@ float follow_loop(const LoopFollow& lf, std::span<const rig::RigidTransform> wor
     p += kept * move;
     if (kept > 0.0f && !from_ray.empty()) from_ray[lf.slots[k]] = 0;
   }
+  return fade;
+}
+
+}  // namespace
+
+float follow_loop(const LoopFollow& lf, std::span<const rig::RigidTransform> world_from_joint,
+                  const glm::vec3& cap_origin, const glm::vec3& cap_normal, const glm::vec3& limb_origin,
+                  const glm::vec3& limb_normal, std::span<glm::vec3> pos, std::span<uint8_t> from_ray) {
+  const float fade = follow_swing(lf, world_from_joint, cap_origin, cap_normal, pos, from_ray);
+  // Across the parent's rest axis of the limb (down the pelvis): the loop keeps its height.
+  const glm::vec3 down = world_from_joint[static_cast<size_t>(lf.parent)].rotation * lf.axis;
+  cap_by_limb(lf, down, cap_origin, cap_normal, limb_origin, limb_normal, pos, from_ray);
   return fade;
 }
 

@@ -48,6 +48,15 @@ struct LoopFollowRule {
 inline constexpr LoopFollowRule kLoopFollowRules[] = {{"shoulder", 0.5f, 1.0f, 2.0f, false, false, 0.35f},
                                                       {"hip", 0.7f, 1.0f, 0.0f, true, true, 0.25f}};
 inline constexpr float kLoopFollowCapRoom = 0.15f;
+// A hip's loop stays on the torso's side of the thigh's first ring S, short of its plane by this
+// share of its rest distance from it: with the thigh raised, the groin's side of the loop (cast in
+// the T-pose in front of the hip) lay beyond S along the thigh, and the band from it ran back
+// through S's strip. The point moves across the pelvis's vertical (never up or down it) and never
+// past its room under the torso's next ring. Every 10th clip frame, realtime LOD 0: 6.6 folds a
+// frame without; 5.4 at 0.3, 4.8 at 0.5, 3.9 at 0.8, the pairs between pieces 29.4 → 30.0 / 31.7 /
+// 34.8 (the lower belly left where it is, the thigh's top meets it). Moved straight along S's
+// normal instead, 4.5 at 0.3, but the torso's lowest ring crossed the next by up to 32 mm.
+inline constexpr float kLoopLimbRoom = 0.5f;
 // The rule for a limb whose first joint is `joint_name`, or nullptr (the neck keeps its loop).
 const LoopFollowRule* loop_follow_rule(std::string_view joint_name);
 
@@ -73,8 +82,15 @@ struct LoopFollow {
   std::vector<uint32_t> slots;  // the loop's points, as the driven ring's `goal`
   std::vector<glm::vec3> dir;   // per point
   std::vector<float> room;      // per point
+  // The limb's first ring S (capped loops): every point stays on the loop's side of its plane,
+  // short of it by `limb_room` (metres), so the band never runs back through S.
+  bool limb_cap = false;
+  float limb_side = 1;
+  std::vector<float> limb_room;  // per point
 
-  size_t heap_bytes() const { return slots.capacity() * 4 + dir.capacity() * sizeof(glm::vec3) + room.capacity() * 4; }
+  size_t heap_bytes() const {
+    return slots.capacity() * 4 + dir.capacity() * sizeof(glm::vec3) + room.capacity() * 4 + limb_room.capacity() * 4;
+  }
 };
 
 // The follow of driven ring `driven`'s loop, from the contours `ctrl` cast in the initial pose
@@ -85,10 +101,11 @@ LoopFollow measure_loop_follow(const ContourLayout::Data& layout, std::span<cons
 
 // Moves the loop's points in `pos` for this frame's joints, each stopping short of the cap ring's
 // plane (`cap_origin`, `cap_normal`: this frame's); returns the fade (band_follow_fade of the
-// swing; 1 on the rest axis, 0 swung straight back). A point it moves is no longer where its ray
-// found the surface: its flag in `from_ray`, when given, is cleared.
+// swing; 1 on the rest axis, 0 swung straight back). A capped loop then stays on its side of the
+// limb's first ring (`limb_origin`, `limb_normal`: this frame's plane of S). A point it moves is
+// no longer where its ray found the surface: its flag in `from_ray`, when given, is cleared.
 float follow_loop(const LoopFollow& lf, std::span<const rig::RigidTransform> world_from_joint,
-                  const glm::vec3& cap_origin, const glm::vec3& cap_normal, std::span<glm::vec3> pos,
-                  std::span<uint8_t> from_ray = {});
+                  const glm::vec3& cap_origin, const glm::vec3& cap_normal, const glm::vec3& limb_origin,
+                  const glm::vec3& limb_normal, std::span<glm::vec3> pos, std::span<uint8_t> from_ray = {});
 
 }  // namespace mimic::avatar::skin_detail

@@ -236,7 +236,9 @@ void driven_ring(const Data& d, State& st, size_t ri, std::span<glm::vec3> pos, 
       if (r.moves_loop) {
         const skin_detail::LoopFollow& lf = d.follows[i];
         const Frame& cap = st.frames[static_cast<size_t>(std::max(lf.cap_ring, 0))];
-        st.follow_fade[i] = skin_detail::follow_loop(lf, st.world_from_joint, cap.origin, cap.z, pos);
+        const Frame& limb = st.frames[static_cast<size_t>(r.s_ring)];
+        st.follow_fade[i] =
+            skin_detail::follow_loop(lf, st.world_from_joint, cap.origin, cap.z, limb.origin, limb.z, pos);
       }
       fade = st.follow_fade[i];
     }

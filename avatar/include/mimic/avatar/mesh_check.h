@@ -51,9 +51,10 @@ struct ContourRows {
 };
 
 // Adjacent contours of a piece must not cross inside the skin: neither may pass through the
-// disc the other spans (its polygon in its Newell plane through its centroid). A pair crosses
-// when an edge of one pierces the other's disc more than `tolerance_m` inside its polygon; a
-// contour may still pass beside the other's plane outside the skin (the outer side of a bend).
+// disc the other spans (a fan of triangles from its centroid to its edges: flat for a planar
+// contour, and through the contour's own points where a loop's follow bends it). A pair crosses
+// when an edge of one pierces the other's disc more than `tolerance_m` from its edge; a contour
+// may still pass beside the other outside the skin (the outer side of a bend).
 struct ContourOrder {
   size_t pairs = 0;         // adjacent row pairs checked
   size_t crossing = 0;      // pairs that cross
