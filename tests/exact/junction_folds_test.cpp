@@ -40,6 +40,25 @@ struct Postures {
   }
 };
 
+// Every `every`-th sample at 30/s of one loop of built-in motion `name` on `body`'s realtime
+// skin: `fn(sample, mesh)` with the posed mesh. Returns how many samples it posed.
+template <class Fn>
+size_t for_each_motion_sample(const std::shared_ptr<const RealtimeBody>& body, const char* name, int every, Fn&& fn) {
+  auto motion = rig::make_builtin_motion(name, body->skeleton());
+  EXPECT_TRUE(motion) << motion.error().what();
+  if (!motion) return 0;
+  RealtimeSkin skin(body);
+  Mesh m = body->rest_mesh();
+  rig::Pose pose = body->skeleton().zero_pose();
+  size_t samples = 0;
+  for (int k = 0; k / 30.0 <= (*motion)->duration_s(); k += every, ++samples) {
+    (*motion)->sample(k / 30.0, pose);
+    skin.evaluate(pose, m.positions);
+    fn(k, m);
+  }
+  return samples;
+}
+
 // Every `every`-th frame of every shared clip (each clip's opening T-pose included).
 Folds clip_folds(int lod, size_t every) {
   const auto body = body_at(lod);
@@ -170,19 +189,11 @@ TEST(JunctionFolds, TheBuiltInWalkNeitherFoldsNorCrossesAtAnyLod) {
     const auto body = body_at(lod);
     auto checker = SelfIntersectionChecker::create(body->rest_mesh());
     ASSERT_TRUE(checker) << checker.error().what();
-    auto walk = rig::make_builtin_motion("walk", body->skeleton());
-    ASSERT_TRUE(walk) << walk.error().what();
-    RealtimeSkin skin(body);
-    Mesh m = body->rest_mesh();
-    rig::Pose pose = body->skeleton().zero_pose();
-    size_t frames = 0;
-    for (int k = 0; k / 30.0 <= (*walk)->duration_s(); k += 8, ++frames) {
-      (*walk)->sample(k / 30.0, pose);
-      skin.evaluate(pose, m.positions);
+    const size_t frames = for_each_motion_sample(body, "walk", 8, [&](int k, const Mesh& m) {
       const IntersectionReport r = checker->check(m.positions);
       EXPECT_EQ(r.fold_pairs, 0u) << "LOD " << lod << ", frame " << k;
       EXPECT_EQ(r.between_pairs, 0u) << "LOD " << lod << ", frame " << k;
-    }
+    });
     EXPECT_GT(frames, 20u);
   }
 }
@@ -196,17 +207,8 @@ TEST(JunctionFolds, TheBuiltInRunsThighsFoldLessWithTheLoopHeldOffTheirFirstRing
   const auto body = body_at(0);
   auto checker = SelfIntersectionChecker::create(body->rest_mesh());
   ASSERT_TRUE(checker) << checker.error().what();
-  auto run = rig::make_builtin_motion("run", body->skeleton());
-  ASSERT_TRUE(run) << run.error().what();
-  RealtimeSkin skin(body);
-  Mesh m = body->rest_mesh();
-  rig::Pose pose = body->skeleton().zero_pose();
   Folds folds;
-  for (int k = 0; k / 30.0 <= (*run)->duration_s(); k += 10) {
-    (*run)->sample(k / 30.0, pose);
-    skin.evaluate(pose, m.positions);
-    folds.add(::mimic::test::folds_in(*checker, m, "upper_leg"));
-  }
+  for_each_motion_sample(body, "run", 10, [&](int, const Mesh& m) { folds.add(folds_in(*checker, m, "upper_leg")); });
   std::printf("built-in run, %zu frames: %.1f folds a frame in the thighs, at most %zu\n", folds.frames, folds.mean(),
               folds.worst);
   EXPECT_GT(folds.frames, 30u);
