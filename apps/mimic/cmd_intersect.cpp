@@ -112,9 +112,7 @@ std::optional<int> parse(cli::Parser& p, const std::vector<std::string>& argv, O
   app.add_flag("--no-contact", o.no_contact, "the realtime method without contact between its pieces");
   app.add_flag("--json", o.json, "one JSON object a line: each frame, then each summary");
   app.add_flag("--summary", o.summary_only, "only the summaries, no line per frame");
-  app.add_flag("--where", o.where,
-               "name the contour rings the folds lie in (ring:column of each triangle's first point), "
-               "each frame and in the summary");
+  app.add_flag("--where", o.where, "name the rings each fold lies in (ring:column), each frame and summary");
   if (auto exit_code = p.parse(argv)) return exit_code;
   if (bvh->count() + motion->count() + log->count() + pose->count() == 0)
     return p.usage_error("give --bvh CLIP..., --motion NAME, --log SESSION.mlog or --pose zero|rest");
@@ -208,15 +206,21 @@ class Skinner {
       // The realtime mesh's vertices are the full method's at subdivision 0: the layout's control
       // points, ring after ring; what is beyond them (rigid parts, or B-spline samples) is
       // named by its part.
-      avatar::SkinOptions so;
-      so.subdivision = 0;
-      so.normals = false;
-      auto f = avatar::ImplicitSkin::create(avatar::with_skin_lod(body, lod), sk, so);
-      if (!f) return tl::unexpected(f.error());
-      if (method == avatar::SkinMethod::realtime || o.subdivision == 0)
-        for (const auto& ring : f->contours())
+      // The full method at subdivision 0 has its own skin to name them by.
+      if (method == avatar::SkinMethod::realtime || o.subdivision == 0) {
+        std::unique_ptr<avatar::ImplicitSkin> own;
+        if (!s.full_) {
+          avatar::SkinOptions so;
+          so.subdivision = 0;
+          so.normals = false;
+          auto f = avatar::ImplicitSkin::create(avatar::with_skin_lod(body, lod), sk, so);
+          if (!f) return tl::unexpected(f.error());
+          own = std::make_unique<avatar::ImplicitSkin>(std::move(*f));
+        }
+        for (const auto& ring : (s.full_ ? *s.full_ : *own).contours())
           for (size_t i = 0; i < ring.points.size(); ++i)
             s.vertex_label_.push_back(ring.name + ":" + std::to_string(i));
+      }
       s.triangle_part_.resize(s.mesh_.triangle_count());
       for (const avatar::MeshPart& part : s.mesh_.parts)
         for (uint32_t t = part.first_triangle; t < part.first_triangle + part.triangle_count; ++t)
@@ -262,6 +266,13 @@ class Skinner {
   std::vector<std::string> vertex_label_, triangle_part_;
 };
 
+// Counts by name, the largest first.
+std::vector<std::pair<std::string, size_t>> most_first(const std::map<std::string, size_t>& count) {
+  std::vector<std::pair<std::string, size_t>> out(count.begin(), count.end());
+  std::stable_sort(out.begin(), out.end(), [](const auto& x, const auto& y) { return x.second > y.second; });
+  return out;
+}
+
 // The rings holding the folds (pairs inside one part), as "ring:column" pairs, most first.
 std::vector<std::pair<std::string, size_t>> fold_places(const Skinner& skinner, const avatar::IntersectionReport& r) {
   std::map<std::string, size_t> count;
@@ -270,9 +281,7 @@ std::vector<std::pair<std::string, size_t>> fold_places(const Skinner& skinner, 
     const std::string la = skinner.triangle_label(a), lb = skinner.triangle_label(b);
     ++count[la < lb ? la + " " + lb : lb + " " + la];
   }
-  std::vector<std::pair<std::string, size_t>> out(count.begin(), count.end());
-  std::stable_sort(out.begin(), out.end(), [](const auto& x, const auto& y) { return x.second > y.second; });
-  return out;
+  return most_first(count);
 }
 
 struct Summary {
@@ -439,8 +448,7 @@ void print_summaries(const std::vector<Summary>& all) {
     for (const auto& [k, v] : s.top(5)) std::printf(" %s %.1f", k.c_str(), v);
     std::printf("\n");
     if (s.fold_rings.empty()) continue;
-    std::vector<std::pair<std::string, size_t>> rings(s.fold_rings.begin(), s.fold_rings.end());
-    std::stable_sort(rings.begin(), rings.end(), [](const auto& x, const auto& y) { return x.second > y.second; });
+    const auto rings = most_first(s.fold_rings);
     std::printf("  folds a frame by ring:");
     for (size_t i = 0; i < std::min<size_t>(rings.size(), 8); ++i)
       std::printf("%s %s %.2f", i ? "," : "", rings[i].first.c_str(), double(rings[i].second) / double(s.frames));

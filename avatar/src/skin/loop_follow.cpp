@@ -70,9 +70,12 @@ LoopFollow measure_loop_follow(const ContourLayout::Data& layout, std::span<cons
     lf.limb_side = glm::dot(centre_world - limb.origin, limb.normal) < 0.0f ? -1.0f : 1.0f;
   }
   for (uint32_t slot : lf.slots) {
-    if (lf.limb_cap)
-      lf.limb_room.push_back(kLoopLimbRoom *
-                             std::max(lf.limb_side * glm::dot(ctrl[slot] - limb.origin, limb.normal), 0.0f));
+    if (lf.limb_cap) {
+      // A point already at or past S's plane in the initial pose keeps where it is there: the
+      // initial pose stays the full method's.
+      const float short_by = lf.limb_side * glm::dot(ctrl[slot] - limb.origin, limb.normal);
+      lf.limb_room.push_back(short_by > 0.0f ? kLoopLimbRoom * short_by : short_by);
+    }
     glm::vec3 dir = parent_from_world.apply(ctrl[slot]) - centre;
     dir -= glm::dot(dir, lf.axis) * lf.axis;
     lf.dir.push_back(safe_normalize(dir, glm::vec3(0.0f)));
@@ -92,7 +95,6 @@ namespace {
 void cap_by_limb(const LoopFollow& lf, const glm::vec3& down, const glm::vec3& cap_origin, const glm::vec3& cap_normal,
                  const glm::vec3& limb_origin, const glm::vec3& limb_normal, std::span<glm::vec3> pos,
                  std::span<uint8_t> from_ray) {
-  if (!lf.limb_cap) return;
   for (size_t k = 0; k < lf.slots.size(); ++k) {
     glm::vec3& p = pos[lf.slots[k]];
     const float short_by = lf.limb_side * glm::dot(p - limb_origin, limb_normal);
@@ -157,9 +159,11 @@ float follow_loop(const LoopFollow& lf, std::span<const rig::RigidTransform> wor
                   const glm::vec3& cap_origin, const glm::vec3& cap_normal, const glm::vec3& limb_origin,
                   const glm::vec3& limb_normal, std::span<glm::vec3> pos, std::span<uint8_t> from_ray) {
   const float fade = follow_swing(lf, world_from_joint, cap_origin, cap_normal, pos, from_ray);
-  // Across the parent's rest axis of the limb (down the pelvis): the loop keeps its height.
-  const glm::vec3 down = world_from_joint[static_cast<size_t>(lf.parent)].rotation * lf.axis;
-  cap_by_limb(lf, down, cap_origin, cap_normal, limb_origin, limb_normal, pos, from_ray);
+  if (lf.limb_cap) {
+    // Across the parent's rest axis of the limb (down the pelvis): the loop keeps its height.
+    const glm::vec3 down = world_from_joint[static_cast<size_t>(lf.parent)].rotation * lf.axis;
+    cap_by_limb(lf, down, cap_origin, cap_normal, limb_origin, limb_normal, pos, from_ray);
+  }
   return fade;
 }
 

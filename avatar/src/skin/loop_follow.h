@@ -54,7 +54,7 @@ inline constexpr float kLoopFollowCapRoom = 0.15f;
 // through S's strip. The point moves across the pelvis's vertical (never up or down it) and never
 // past its room under the torso's next ring. Every 10th clip frame, realtime LOD 0: 6.6 folds a
 // frame without; 5.4 at 0.3, 4.8 at 0.5, 3.9 at 0.8, the pairs between pieces 29.4 → 30.0 / 31.7 /
-// 34.8 (the lower belly left where it is, the thigh's top meets it). Moved straight along S's
+// 34.9 (the lower belly left where it is, the thigh's top meets it). Moved straight along S's
 // normal instead, 4.5 at 0.3, but the torso's lowest ring crossed the next by up to 32 mm.
 inline constexpr float kLoopLimbRoom = 0.5f;
 // The rule for a limb whose first joint is `joint_name`, or nullptr (the neck keeps its loop).
