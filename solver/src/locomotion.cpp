@@ -3,9 +3,20 @@
 #include <algorithm>
 
 #include "floor_clearance.h"
+#include "gait_cues.h"
 #include "mimic/solver/body_solver.h"
 
 namespace mimic::solver {
+
+using detail::kPi;
+using detail::on_head_low;
+using detail::retime_swing;
+using detail::track_arm_beat;
+using detail::track_arm_swing;
+using detail::track_bob;
+using detail::track_head;
+using detail::wrap_rad;
+using detail::xz;
 
 namespace {
 
@@ -17,10 +28,6 @@ rig::RigidTransform down_chain(const rig::Skeleton& s, rig::RigidTransform w, st
   return w;
 }
 
-constexpr float kPi = 3.14159265f;
-
-float wrap_rad(float a) { return std::remainder(a, 2.0f * kPi); }
-glm::vec2 xz(const glm::vec3& p) { return {p.x, p.z}; }
 float smooth01(float t) {
   t = std::clamp(t, 0.0f, 1.0f);
   return t * t * (3.0f - 2.0f * t);
@@ -34,6 +41,11 @@ glm::vec2 landing(const LocomotionInput& in, const LocomotionState& s, const Loc
   // Running, mid-stance (where the hip is over the foot) comes a part of the beat after the strike.
   const float stance_lead_s = s.running ? o.run_strike_before_low * s.bob.period_s : o.stance_lead_s;
   glm::vec2 lead = s.velocity_mps * (remaining_s + stance_lead_s);
+  // On a curve the hip goes round it: the chord of the arc turns by half the arc's angle (the
+  // built-in walk turns at 0.9 rad/s; a straight lead put each foot 10 cm off the hips' path).
+  const float half_arc_rad = std::clamp(0.5f * s.turn_rps * (remaining_s + stance_lead_s), -0.6f, 0.6f);
+  const float c = std::cos(half_arc_rad), sn = std::sin(half_arc_rad);
+  lead = glm::vec2(c * lead.x + sn * lead.y, c * lead.y - sn * lead.x);
   const float len = glm::length(lead);
   if (len > o.max_step_m && !s.running) lead *= o.max_step_m / len;
   const glm::vec2 left(std::cos(in.root_yaw_rad), -std::sin(in.root_yaw_rad));
@@ -89,46 +101,6 @@ void lift_heel(rig::RigidTransform& ankle_t, const glm::vec3& hip, float reach_m
   ankle_t.rotation = ankle_t.rotation * glm::angleAxis(hi, glm::vec3(1, 0, 0));
 }
 
-// Follows the head's height; true on the frame a low is found (LocomotionState::Bob). `running`:
-// the body moves at a run's speed (a first low takes a run's beat).
-bool track_bob(LocomotionState::Bob& b, float head_y, float dt, const LocomotionOptions& o, bool running) {
-  b.clock_s += dt;
-  if (!b.have) {
-    b.y_m = b.extreme_y_m = head_y, b.have = true, b.descending = false;
-    return false;
-  }
-  b.y_m += (1.0f - std::exp(-dt / o.bob_tau_s)) * (head_y - b.y_m);
-  if (!b.descending) {
-    if (b.y_m > b.extreme_y_m) b.extreme_y_m = b.y_m;
-    if (b.y_m < b.extreme_y_m - o.bob_rise_m) b.descending = true, b.extreme_y_m = b.y_m, b.low_s = b.clock_s;
-    return false;
-  }
-  if (b.y_m < b.extreme_y_m) b.extreme_y_m = b.y_m, b.low_s = b.clock_s;
-  if (b.y_m < b.extreme_y_m + o.bob_rise_m) return false;
-  const double since = b.last_low_s >= 0 ? b.low_s - b.last_low_s : 0.0;
-  // A dip sooner than a step after the last low, in a gait already timed, is no step: the beat
-  // goes on (taken as the end of the gait, it dropped a run out of its running steps for half a
-  // second).
-  if (b.last_low_s >= 0 && since < o.bob_min_period_s && b.period_s > 0) {
-    b.descending = false, b.extreme_y_m = b.y_m;
-    return false;
-  }
-  b.period_s = since >= o.bob_min_period_s && since <= o.bob_max_period_s ? static_cast<float>(since) : 0.0f;
-  // The first low of a walk (or run): a step of a usual length in time, until the next low
-  // measures it.
-  if (b.last_low_s < 0) b.period_s = running ? o.run_first_period_s : o.bob_first_period_s;
-  b.last_low_s = b.low_s;
-  b.descending = false, b.extreme_y_m = b.y_m;
-  return true;
-}
-
-// A swing hurried to end `remaining_s` from now: the phase stays (the foot does not jump) and
-// runs faster.
-void retime_swing(FootStepState& f, float remaining_s) {
-  if ((1.0f - f.phase) * f.duration_s <= remaining_s) return;
-  f.duration_s = std::max(1e-3f, remaining_s / std::max(1e-3f, 1.0f - f.phase));
-}
-
 // Foot k this frame: held where planted, or carried along its swing towards a landing spot that
 // follows the body for the first part of the swing.
 void advance_foot(LocomotionState& s, const LocomotionInput& in, const LocomotionOptions& o, int k, float dt) {
@@ -138,6 +110,11 @@ void advance_foot(LocomotionState& s, const LocomotionInput& in, const Locomotio
   const FootStepState& other = s.feet[1 - k];
   const glm::vec2 other_xz = other.driven ? xz(other.swinging ? other.ankle : other.planted) : xz(in.last_ankle[1 - k]);
   const bool other_known = other.driven || in.have_last_ankle;
+  // Sideways for the crossing guard: across the line of travel when walking (the pelvis' heading,
+  // from the head, is 5–16° off it on a curve and at a walk's start, and a stride's front foot
+  // then seemed over the other's side and was pushed out).
+  const bool walking_guard = s.have_travel && glm::length(s.velocity_mps) > o.travel_frame_from_mps;
+  const float guard_yaw_rad = walking_guard ? s.travel_yaw_rad : in.root_yaw_rad;
   if (!f.swinging) {
     f.ankle = glm::vec3(f.planted.x, floor_y, f.planted.z);
     f.yaw_rad = f.planted_yaw_rad;
@@ -147,13 +124,17 @@ void advance_foot(LocomotionState& s, const LocomotionInput& in, const Locomotio
   // The landing spot follows the body during the first part of the swing, then is committed.
   if (f.phase < 0.7f) {
     glm::vec2 to = landing(in, s, o, k, (1.0f - f.phase) * f.duration_s);
-    if (other_known) to = beside(to, other_xz, in.root_yaw_rad, k, o.min_width_m);
+    // Walking, a landing spot is on its own side of the line of travel already (see landing()):
+    // kept off the other foot as well, it was pushed out wherever the path curved, the other foot
+    // planted half a stride back on the curve seeming over this one's side (the built-in walk's
+    // feet 23 cm apart against its 16.5).
+    if (other_known && !walking_guard) to = beside(to, other_xz, guard_yaw_rad, k, o.min_width_m);
     f.planted = glm::vec3(to.x, floor_y, to.y);
     f.planted_yaw_rad = in.root_yaw_rad;
   }
   const float t = smooth01(f.phase);
   glm::vec2 h = xz(f.from) + t * (xz(f.planted) - xz(f.from));
-  if (other_known) h = beside(h, other_xz, in.root_yaw_rad, k, o.min_width_m);
+  if (other_known) h = beside(h, other_xz, guard_yaw_rad, k, o.min_width_m);
   const float step_m = glm::length(xz(f.planted) - xz(f.from));
   const float arc_m = std::max(0.02f, o.arc_height_m * step_m / 0.6f);
   const float arc_max_m = s.running ? o.run_arc_max_m : 0.15f;
@@ -170,87 +151,44 @@ void advance_foot(LocomotionState& s, const LocomotionInput& in, const Locomotio
 
 namespace {
 
-// The head's sideways sway about its mean path (which foot carries the body), and its speed
-// along and across that path (LocomotionState::path_mps, sway_mps); returns the sway, metres.
-float track_head(LocomotionState& s, const LocomotionInput& in, float dt, const LocomotionOptions& o) {
-  float sway_m = 0;
-  if (in.have_head) {
-    if (!s.have_sway) s.sway_centre = s.last_head = xz(in.head), s.have_sway = true;
-    s.sway_centre += (1.0f - std::exp(-dt / o.sway_tau_s)) * (xz(in.head) - s.sway_centre);
-    // The mean path trails a walking head by its velocity times the time constant; seen from a
-    // heading a few degrees off the path, that trail would read as sway of several centimetres.
-    const glm::vec2 mean_now = s.sway_centre + o.sway_tau_s * s.velocity_mps;
-    sway_m = glm::dot(xz(in.head) - mean_now, glm::vec2(std::cos(in.root_yaw_rad), -std::sin(in.root_yaw_rad)));
-    // On a curved path the mean path cuts the corner: a steady offset, taken out.
-    s.sway_bias_m += (1.0f - std::exp(-dt / o.sway_bias_tau_s)) * (sway_m - s.sway_bias_m);
-    sway_m -= s.sway_bias_m;
-    // Across the head's own mean path: the pelvis' heading turns with each stride, and a walk's
-    // forward speed seen from a heading a few degrees off would swamp the sideways motion.
-    // Over the time since the head was last seen: back after a dropout, its move over the gap is
-    // not one frame's.
-    const glm::vec2 head_mps = (xz(in.head) - s.last_head) / (dt + s.head_gap_s);
-    s.last_head = xz(in.head);
-    s.head_gap_s = 0;
-    s.path_mps += (1.0f - std::exp(-dt / o.path_tau_s)) * (head_mps - s.path_mps);
-    const float path_speed = glm::length(s.path_mps);
-    const glm::vec2 left = path_speed > 0.2f ? glm::vec2(s.path_mps.y, -s.path_mps.x) / path_speed
-                                             : glm::vec2(std::cos(in.root_yaw_rad), -std::sin(in.root_yaw_rad));
-    // On a curve the mean path's heading lags the head's own: a steady sideways speed, taken out.
-    const float across_mps = glm::dot(head_mps, left);
-    s.sway_mps_bias += (1.0f - std::exp(-dt / o.sway_speed_bias_tau_s)) * (across_mps - s.sway_mps_bias);
-    s.sway_mps += (1.0f - std::exp(-dt / o.sway_speed_tau_s)) * (across_mps - s.sway_mps_bias - s.sway_mps);
+// Foot `best` lifts now: how long its swing lasts (to the beat that times the gait, if one does),
+// and from where.
+void start_swing(LocomotionState& s, const LocomotionInput& in, const LocomotionOptions& o, int best, float swing_s,
+                 bool bob_walk, bool arm_walk) {
+  FootStepState& f = s.feet[best];
+  f.swinging = true;
+  f.phase = 0;
+  f.duration_s = swing_s;
+  if (bob_walk && s.running) {
+    // … to land a little before the low after next, when it supports the body again.
+    const double lows = s.bob.run_catch_up ? 0.97 : 2 * 0.97;
+    const double strike_s = s.bob.last_low_s + (lows - o.run_strike_before_low) * s.bob.period_s;
+    f.duration_s = std::clamp(static_cast<float>(strike_s - s.bob.clock_s), 0.6f * swing_s, 3.0f * swing_s);
+    s.bob.lift_at_s = -1;
+    // Caught up: the foot just landed carries the body for a stance, then lifts.
+    if (s.bob.run_catch_up)
+      s.bob.lifter = 1 - best, s.bob.lift_at_s = s.bob.clock_s + o.run_stance_fraction * s.bob.period_s;
+    s.bob.run_catch_up = false;
+  } else if (arm_walk) {
+    // … to land a part of the beat after the turn that named it.
+    const bool named = best == s.arm.lifter && s.arm.lift_from_s >= 0;
+    const float since_s = named ? static_cast<float>(s.bob.clock_s - s.arm.lift_from_s) : 0.0f;
+    f.duration_s = std::clamp(o.arm_swing_fraction * s.arm.period_s - since_s, 0.6f * swing_s, 1.5f * swing_s);
+    if (named) s.arm.lift_from_s = -1;
+    s.bob.lift_at_s = -1;
+  } else if (bob_walk) {
+    // … to land at the next low of the head.
+    const double next_low_s = s.bob.last_low_s + 0.97 * s.bob.period_s;
+    f.duration_s = std::clamp(static_cast<float>(next_low_s - s.bob.clock_s), 0.6f * swing_s, 1.5f * swing_s);
+    s.bob.lift_at_s = -1;
   }
-  if (!in.have_head && s.have_sway) s.head_gap_s = std::min(s.head_gap_s + dt, 10.0f);
-  return sway_m;
-}
-
-// The hands' fore-and-aft difference along the pelvis' heading and its rate
-// (LocomotionState::arm_swing_m, arm_swing_mps).
-void track_arm_swing(LocomotionState& s, const LocomotionInput& in, float dt, const LocomotionOptions& o) {
-  if (!in.have_hands) {
-    s.have_arm_swing = false, s.arm_swing_mps = 0;
-    return;
-  }
-  const glm::vec2 forward(std::sin(in.root_yaw_rad), std::cos(in.root_yaw_rad));
-  const float swing_m = glm::dot(xz(in.hand[0]) - xz(in.hand[1]), forward);
-  if (s.have_arm_swing)
-    s.arm_swing_mps += (1.0f - std::exp(-dt / o.arm_swing_tau_s)) * ((swing_m - s.arm_swing_m) / dt - s.arm_swing_mps);
-  s.arm_swing_m = swing_m, s.have_arm_swing = true;
-}
-
-// A low of the head found while walking or running (the bob times the steps).
-void on_head_low(LocomotionState& s, float sway_m, const LocomotionOptions& o) {
-  LocomotionState::Bob& b = s.bob;
-  // Walking, both feet are down at the low: the swinging foot lands; the trailing one lifts soon.
-  // Running, the low is the supporting foot's mid-stance, and the foot in the air lands before
-  // the next low.
-  const float land_in_s =
-      s.running ? static_cast<float>(b.low_s + (1.0 - o.run_strike_before_low) * b.period_s - b.clock_s) : 0.0f;
-  for (auto& f : s.feet)
-    if (f.driven && f.swinging) retime_swing(f, std::max(0.04f, land_in_s));
-  b.lift_at_s = b.low_s + (s.running ? o.run_lift_after_low : o.bob_lift_fraction) * b.period_s;
-  // At a foot's strike the head is still over the other, trailing foot (its sway lags the
-  // body's weight by about a quarter stride) and moving towards the striking one: the trailing
-  // foot lifts next. The motion says it clearly at every strike; the side only at the first.
-  b.lifter = b.beats < o.bob_sway_beats && std::abs(sway_m) > o.bob_sway_choice_m ? (sway_m > 0 ? 0 : 1) : -1;
-  if (o.bob_sway_speed_mps > 0 && std::abs(s.sway_mps) > o.bob_sway_speed_mps) b.lifter = s.sway_mps > 0 ? 1 : 0;
-  ++b.beats;
-  b.run_catch_up = false;
-  if (!s.running || !s.feet[0].driven || !s.feet[1].driven) return;
-  // Running, the foot under the body lifts next: the one the arms' swing says (the head's sway is
-  // too small beside a run's speed to read), else the one on the floor. If it is in the air the
-  // run is on the wrong foot: it lands now, and the other lifts now to land before the next low.
-  int stance = -1;
-  if (s.have_arm_swing && std::abs(s.arm_swing_mps) > o.run_arm_swing_mps)
-    stance = s.arm_swing_mps > 0 ? 0 : 1;
-  else if (s.feet[0].swinging != s.feet[1].swinging)
-    stance = s.feet[0].swinging ? 1 : 0;
-  if (stance < 0) return;
-  b.lifter = stance;
-  if (s.feet[stance].swinging && !s.feet[1 - stance].swinging) {
-    retime_swing(s.feet[stance], 0.04f);
-    b.lifter = 1 - stance, b.lift_at_s = b.clock_s, b.run_catch_up = true;
-  }
+  // From where the foot is: a trailing foot has lifted its heel off the planted spot.
+  f.from = f.planted;
+  if (in.have_last_ankle)
+    f.from = glm::vec3(in.last_ankle[best].x, std::max(in.last_ankle[best].y, f.planted.y), in.last_ankle[best].z);
+  f.from_yaw_rad = f.planted_yaw_rad;
+  s.last_stepped = best;
+  ++s.steps;
 }
 
 }  // namespace
@@ -265,15 +203,28 @@ void update_locomotion(LocomotionState& s, const LocomotionInput& in, const Loco
   s.last_root = in.root;
   s.have_root = true;
   const float speed = glm::length(s.velocity_mps);
+  // The line of travel and how fast it turns (a stride's sway smoothed out).
+  if (speed > o.narrow_from_mps) {
+    const float yaw = std::atan2(s.velocity_mps.x, s.velocity_mps.y);
+    if (s.have_travel) {
+      s.turn_rps += (1.0f - std::exp(-dt / o.turn_tau_s)) * (wrap_rad(yaw - s.travel_yaw_rad) / dt - s.turn_rps);
+    }
+    s.travel_yaw_rad = yaw, s.have_travel = true;
+  } else {
+    s.have_travel = false, s.turn_rps = 0;
+  }
   const float sway_m = track_head(s, in, dt, o);
   track_arm_swing(s, in, dt, o);
   const bool gate = in.have_head && o.sway_gate_m >= 0 && speed > o.sway_speed_mps;
   const bool run_speed = o.run_from_mps > 0 && speed > o.run_from_mps;
   const bool low = in.have_head && track_bob(s.bob, in.head.y, dt, o, run_speed);
   const bool bob_walk = gate && o.bob_timing && s.bob.period_s > 0;
+  track_arm_beat(s, o, gate && !run_speed);
+  // Walking with swinging arms, they time the steps; the head's bob goes on being followed.
+  const bool arm_walk = gate && !run_speed && s.bob.clock_s < s.arm.active_until_s;
   if (!gate) s.bob.beats = 0;  // a new walk takes its first beats from the sway again
   s.running = bob_walk && run_speed;
-  if (low && bob_walk) on_head_low(s, sway_m, o);
+  if (low && bob_walk && !arm_walk) on_head_low(s, sway_m, o);
   const float swing_s = o.swing_s_slow + (o.swing_s_fast - o.swing_s_slow) * std::clamp(speed / o.fast_mps, 0.0f, 1.0f);
 
   for (int k = 0; k < 2; ++k) {
@@ -309,7 +260,14 @@ void update_locomotion(LocomotionState& s, const LocomotionInput& in, const Loco
     float score = std::max(off_m / trigger_m, turn / o.turn_threshold_rad);
     if (reach_used > o.reach_fraction) score = std::max(score, o.sway_override);
     if (k == s.last_stepped) score *= 0.8f;  // alternate when both feet are due
-    if (bob_walk) {
+    if (arm_walk) {
+      // Walking to the arms' beat: the foot the last turn named lifts once; another only when
+      // its leg cannot reach it even on tiptoe (at 1.15 leg lengths, as to the bob, it lifted
+      // just before its beat and then again on it: 07_01 stepped twice a stride).
+      const bool lost = reach_used > o.flight_reach_fraction;
+      if (!lost && (k != s.arm.lifter || s.arm.lift_from_s < 0)) continue;
+      score = std::max(score, best_score + 1e-3f);
+    } else if (bob_walk) {
       // Walking to the head's bob: the trailing foot lifts when its time comes; another only
       // when its leg can no longer reach it, even on tiptoe.
       const int lifter = s.bob.lifter >= 0 ? s.bob.lifter : 1 - s.last_stepped;
@@ -319,38 +277,11 @@ void update_locomotion(LocomotionState& s, const LocomotionInput& in, const Loco
     }
     // Walking, the foot the body rests on (the head sways over it) does not lift, unless it has
     // been left far behind: the sway is a hint, not a clock.
-    if (gate && !bob_walk && (k == 0 ? 1.0f : -1.0f) * sway_m > -o.sway_gate_m && score < o.sway_override) continue;
+    if (gate && !bob_walk && !arm_walk && (k == 0 ? 1.0f : -1.0f) * sway_m > -o.sway_gate_m && score < o.sway_override)
+      continue;
     if (score > best_score) best = k, best_score = score;
   }
-  if (best >= 0) {
-    FootStepState& f = s.feet[best];
-    f.swinging = true;
-    f.phase = 0;
-    f.duration_s = swing_s;
-    if (bob_walk && s.running) {
-      // … to land a little before the low after next, when it supports the body again.
-      const double lows = s.bob.run_catch_up ? 0.97 : 2 * 0.97;
-      const double strike_s = s.bob.last_low_s + (lows - o.run_strike_before_low) * s.bob.period_s;
-      f.duration_s = std::clamp(static_cast<float>(strike_s - s.bob.clock_s), 0.6f * swing_s, 3.0f * swing_s);
-      s.bob.lift_at_s = -1;
-      // Caught up: the foot just landed carries the body for a stance, then lifts.
-      if (s.bob.run_catch_up)
-        s.bob.lifter = 1 - best, s.bob.lift_at_s = s.bob.clock_s + o.run_stance_fraction * s.bob.period_s;
-      s.bob.run_catch_up = false;
-    } else if (bob_walk) {
-      // … to land at the next low of the head.
-      const double next_low_s = s.bob.last_low_s + 0.97 * s.bob.period_s;
-      f.duration_s = std::clamp(static_cast<float>(next_low_s - s.bob.clock_s), 0.6f * swing_s, 1.5f * swing_s);
-      s.bob.lift_at_s = -1;
-    }
-    // From where the foot is: a trailing foot has lifted its heel off the planted spot.
-    f.from = f.planted;
-    if (in.have_last_ankle)
-      f.from = glm::vec3(in.last_ankle[best].x, std::max(in.last_ankle[best].y, f.planted.y), in.last_ankle[best].z);
-    f.from_yaw_rad = f.planted_yaw_rad;
-    s.last_stepped = best;
-    ++s.steps;
-  }
+  if (best >= 0) start_swing(s, in, o, best, swing_s, bob_walk, arm_walk);
 
   for (int k = 0; k < 2; ++k) advance_foot(s, in, o, k, dt);
 }

@@ -2,6 +2,7 @@
 // properties of the solved feet, whatever the clip.
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <random>
@@ -33,10 +34,11 @@ struct Wearer {
   std::vector<RigidTransform> world = std::vector<RigidTransform>(s.joint_count());
   int frame = 0;
 
-  explicit Wearer(const char* layout)
-      : mounts(testing::mounts_for(*standard_layout(layout, s), 0.0f, 5)), model(make_model()), ctx(model) {}
-  SolverModel make_model() const {
+  explicit Wearer(const char* layout, const LocomotionOptions& stepping = {})
+      : mounts(testing::mounts_for(*standard_layout(layout, s), 0.0f, 5)), model(make_model(stepping)), ctx(model) {}
+  SolverModel make_model(const LocomotionOptions& stepping) const {
     SolverOptions options;
+    options.locomotion = stepping;
     options.standing_root_y_m = standing_root_y;
     return *SolverModel::create(s, mounts, options);
   }
@@ -126,7 +128,7 @@ TEST(Locomotion, TurningInPlaceSteps) {
 
 // The built-in walk, seen by head and hands only: the solved feet step along, a planted foot does
 // not slide (its ball: a trailing foot lifts its heel), no foot goes under the floor and the
-// feet never cross.
+// feet never cross the line of travel.
 TEST(Locomotion, WalkingFeetStepStayPlantedAndAboveTheFloor) {
   Wearer w("3");
   auto walk = rig::make_builtin_motion("walk", w.s);
@@ -158,7 +160,14 @@ TEST(Locomotion, WalkingFeetStepStayPlantedAndAboveTheFloor) {
       last[leg] = w.ball(leg);
     }
     lowest_m = std::min(lowest_m, w.lowest_foot_point_y());
-    const glm::vec3 left_dir = w.solved.root_orientation * glm::vec3(1, 0, 0);
+    // Across the walker's line of travel (over half a stride either side): on the walk's curve
+    // the pelvis' heading, from the head, is 5–16° off it, and a stride's feet 60 cm apart would
+    // seem to cross across it by 10 cm.
+    Pose ahead = truth, behind = truth;
+    (*walk)->sample(k / kRateHz + 0.55, ahead);
+    (*walk)->sample(k / kRateHz - 0.55, behind);
+    const glm::vec3 path = ahead.root_position_m - behind.root_position_m;
+    const glm::vec3 left_dir = glm::normalize(glm::vec3(path.z, 0, -path.x));
     worst_cross_m = std::min(worst_cross_m, glm::dot(w.ankle(0) - w.ankle(1), left_dir));
     EXPECT_GE(w.ankle(0).y, floor_y - 1e-4f);
     EXPECT_GE(w.ankle(1).y, floor_y - 1e-4f);
@@ -267,26 +276,91 @@ TEST(Locomotion, SteppedKneesDoNotFlip) {
   EXPECT_LT(worst_m, 0.3);
 }
 
-// Walking, the head is lowest as a foot strikes: the stepper keeps that beat (a foot lifts
-// shortly after each low of the head, the feet alternating) rather than a rhythm of its own.
-TEST(Locomotion, WalkingStepsKeepTheHeadsBeat) {
-  Wearer w("3");
+// The built-in walk solved from head and hands, 8 s: the true head's height and ankles, and the
+// frames where the stepper lifted a foot (and which).
+struct WalkedSteps {
+  std::vector<float> head_y;
+  std::array<std::vector<float>, 2> ankle_y;
+  std::vector<int> lift_frames, lifted;
+  int frames = 0;
+};
+WalkedSteps walk_from_head_and_hands(const LocomotionOptions& stepping) {
+  Wearer w("3", stepping);
   auto walk = rig::make_builtin_motion("walk", w.s);
-  ASSERT_TRUE(walk.has_value());
+  WalkedSteps out;
+  if (!walk.has_value()) return out;
   Pose truth = w.s.zero_pose();
   std::vector<RigidTransform> truth_world(w.s.joint_count());
   const int head = w.s.find_joint("head");
-  std::vector<float> head_y;
-  std::vector<int> lift_frames, lifted;
-  const int frames = int(8 * kRateHz);
-  for (int k = 0; k < frames; ++k) {
+  const int ankles[2] = {w.s.find_joint("l_ankle"), w.s.find_joint("r_ankle")};
+  out.frames = int(8 * kRateHz);
+  for (int k = 0; k < out.frames; ++k) {
     (*walk)->sample(k / kRateHz, truth);
     rig::forward_kinematics(w.s, truth, truth_world);
-    head_y.push_back(truth_world[head].translation.y);
+    out.head_y.push_back(truth_world[head].translation.y);
+    for (int leg = 0; leg < 2; ++leg) out.ankle_y[leg].push_back(truth_world[ankles[leg]].translation.y);
     const long before = w.ctx.locomotion().steps;
     w.step(truth);
-    if (w.ctx.locomotion().steps > before) lift_frames.push_back(k), lifted.push_back(w.ctx.locomotion().last_stepped);
+    if (w.ctx.locomotion().steps > before)
+      out.lift_frames.push_back(k), out.lifted.push_back(w.ctx.locomotion().last_stepped);
   }
+  return out;
+}
+
+// Walking, the arms swing against the legs: a hand is most forward as the foot on its side, the
+// one furthest behind, lifts. Timed by the hands, each solved foot lifts when the walker's own
+// does, the feet alternating, one step for each of the walker's.
+TEST(Locomotion, WalkingFeetLiftWithTheWalkersOnTheArmsBeat) {
+  const WalkedSteps walked = walk_from_head_and_hands({});
+  ASSERT_GT(walked.frames, 0);
+  // The walker's lifts: a true ankle rising 2 cm above the lowest it has been since it last fell.
+  std::array<std::vector<int>, 2> true_lifts;
+  for (int leg = 0; leg < 2; ++leg) {
+    const auto& y = walked.ankle_y[leg];
+    float low = y[0];
+    bool up = false;
+    for (int k = 1; k < walked.frames; ++k) {
+      if (!up && y[k] > low + 0.02f) true_lifts[leg].push_back(k), up = true;
+      if (up && y[k] < y[k - 1] - 1e-4f) up = false, low = y[k];
+      if (!up) low = std::min(low, y[k]);
+    }
+  }
+  const int from = int(2 * kRateHz), near = int(0.12 * kRateHz);
+  int counted = 0, with_walker = 0, repeats = 0, truth_count = 0;
+  for (size_t i = 0; i < walked.lift_frames.size(); ++i) {
+    if (walked.lift_frames[i] < from) continue;
+    ++counted;
+    if (i > 0 && walked.lifted[i] == walked.lifted[i - 1]) ++repeats;
+    for (int t : true_lifts[walked.lifted[i]])
+      if (std::abs(t - walked.lift_frames[i]) <= near) {
+        ++with_walker;
+        break;
+      }
+  }
+  for (const auto& lifts : true_lifts)
+    for (int t : lifts) truth_count += t >= from;
+  std::printf(
+      "  walk: %d steps after 2 s (the walker %d), %d of them within 0.12 s of the walker's own lift of that foot; "
+      "%d times a foot stepped twice running\n",
+      counted, truth_count, with_walker, repeats);
+  ASSERT_GE(truth_count, 6);
+  EXPECT_GE(with_walker, 0.8 * counted);
+  EXPECT_NEAR(counted, truth_count, 0.2 * truth_count);
+  EXPECT_EQ(repeats, 0);
+}
+
+// Arms that do not swing (off here) leave the beat to the head, lowest as a foot strikes: a foot
+// lifts shortly after each low of the head, the feet alternating, rather than to a rhythm of the
+// stepper's own.
+TEST(Locomotion, WalkingStepsKeepTheHeadsBeat) {
+  LocomotionOptions stepping;
+  stepping.arm_beat = false;
+  const WalkedSteps walked = walk_from_head_and_hands(stepping);
+  ASSERT_GT(walked.frames, 0);
+  const int frames = walked.frames;
+  const auto& head_y = walked.head_y;
+  const auto& lift_frames = walked.lift_frames;
+  const auto& lifted = walked.lifted;
   // Lows of the true head; the beat is measured after the first two seconds.
   const int from = int(2 * kRateHz), half = int(0.15 * kRateHz);
   std::vector<int> lows;

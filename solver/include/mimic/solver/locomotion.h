@@ -29,6 +29,10 @@ struct LocomotionOptions {
   float stance_lead_s = 0.30f;   // a step lands where the hip is that long after touchdown
   float max_step_m = 0.85f;      // a step never reaches further than this from the hip
   float velocity_tau_s = 0.12f;  // smoothing of the pelvis velocity
+  float turn_tau_s = 0.3f;       // … and of how fast its direction turns (a stride's sway evens out)
+  // Walking faster than this, the feet's crossing guard measures sideways across the line of
+  // travel rather than the pelvis' heading, and keeps only a swinging foot off the other.
+  float travel_frame_from_mps = 0.6f;
   float reach_fraction = 1.10f;  // a planted foot further than this much of the leg (flat) is due
   bool flight = true;            // … and past this much it lifts while the other swings
   float flight_reach_fraction = 1.30f;
@@ -91,6 +95,23 @@ struct LocomotionOptions {
   float run_first_period_s = 0.36f;  // a run's first low, before the next measures the beat (166 a minute)
   float run_arm_swing_mps = 0.5f;
   float arm_swing_tau_s = 0.03f;
+  // Walking, the arms swing against the legs too, and on the beat: a hand is at its most forward
+  // when the foot on its side, the furthest behind, lifts (07_01: the hands' fore-and-aft
+  // difference is -0.6 times the feet's, in phase, ±0.43 m). Walking faster than
+  // `arm_beat_from_mps`, the hands are read along the line of travel (the pelvis' heading starts
+  // a walk 10–20° off it, and the hands' 0.5 m side to side then reads as fore and aft); each time
+  // their difference turns back (its rate past `arm_turn_mps`) after going at least
+  // `arm_beat_min_m` from the last turn, within a beat's time of it, the hand that was forward
+  // names the foot that lifts, the other foot lands, and the swing ends `arm_swing_fraction` of
+  // the time between turns after the turn. The first turn of a walk names the foot when the hand
+  // was `arm_first_m` forward. Arms that do not swing (a dribble, hands on a wheel) leave the
+  // steps to the head's bob.
+  bool arm_beat = true;
+  float arm_beat_from_mps = 0.6f;
+  float arm_turn_mps = 0.3f;
+  float arm_beat_min_m = 0.2f;
+  float arm_first_m = 0.1f;
+  float arm_swing_fraction = 0.9f;
   // A stepped foot never moves faster than this (a walking foot swings at 4–5 m/s): a landing
   // spot that moves with the body or a heel that lifts does not make it jump.
   float max_foot_speed_mps = 8.0f;
@@ -126,6 +147,9 @@ struct FootStepState {
 struct LocomotionState {
   std::array<FootStepState, 2> feet{};  // left, right
   glm::vec2 velocity_mps{0.0f};         // pelvis, horizontal (x, z), smoothed
+  float travel_yaw_rad = 0;             // … its direction (about +Y, 0 = +Z) …
+  float turn_rps = 0;                   // … turning this fast, smoothed
+  bool have_travel = false;
   glm::vec3 last_root{0.0f};
   bool have_root = false;
   double last_time_s = -1;
@@ -134,6 +158,18 @@ struct LocomotionState {
   float arm_swing_m = 0;    // the left hand ahead of the right, along the heading
   float arm_swing_mps = 0;  // … its rate, smoothed
   bool have_arm_swing = false;
+  // The arms' beat (see LocomotionOptions::arm_beat).
+  struct ArmBeat {
+    int sign = 0;                // where the swing goes: +1 the left hand forward, 0 not yet known
+    float extreme_m = 0;         // the furthest it has gone that way …
+    double extreme_s = -1;       // … and when
+    float last_turn_m = 0;       // the swing where it last turned back …
+    double last_turn_s = -1;     // … and when
+    float period_s = 0;          // between the last two turns (half a stride)
+    int lifter = -1;             // the foot the last turn lifts …
+    double lift_from_s = -1;     // … timed from that turn; -1: lifted
+    double active_until_s = -1;  // the arms time the steps until then (a beat and a half on)
+  } arm;
   long steps = 0;               // steps started so far
   glm::vec2 sway_centre{0.0f};  // the head's mean horizontal path
   bool have_sway = false;
