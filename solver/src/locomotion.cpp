@@ -151,6 +151,27 @@ void advance_foot(LocomotionState& s, const LocomotionInput& in, const Locomotio
 
 namespace {
 
+// Standing on both feet (not walking), how far the pelvis is outside the segment joining them and
+// the furthest a hip is from its foot.
+struct StandingSupport {
+  bool standing = false;
+  float pelvis_off_m = 0, most_off_m = 0;
+};
+StandingSupport standing_support(const LocomotionState& s, const LocomotionInput& in, const LocomotionOptions& o,
+                                 bool walking) {
+  StandingSupport out;
+  if (walking || !(o.stand_support_m > 0)) return out;
+  for (const auto& f : s.feet)
+    if (!f.driven || f.swinging) return out;
+  out.standing = true;
+  const glm::vec2 a = xz(s.feet[0].planted), ab = xz(s.feet[1].planted) - a, p = xz(in.root);
+  const float t = glm::dot(ab, ab) > 1e-8f ? std::clamp(glm::dot(p - a, ab) / glm::dot(ab, ab), 0.0f, 1.0f) : 0.0f;
+  out.pelvis_off_m = glm::length(p - (a + t * ab));
+  for (int k = 0; k < 2; ++k)
+    out.most_off_m = std::max(out.most_off_m, glm::length(xz(in.hip[k]) - xz(s.feet[k].planted)));
+  return out;
+}
+
 // Foot `best` lifts now: how long its swing lasts (to the beat that times the gait, if one does),
 // and from where.
 void start_swing(LocomotionState& s, const LocomotionInput& in, const LocomotionOptions& o, int best, float swing_s,
@@ -244,6 +265,7 @@ void update_locomotion(LocomotionState& s, const LocomotionInput& in, const Loco
   const float trigger_m = std::max(o.step_threshold_m, speed * o.stance_lead_s);
   int best = -1;
   float best_score = 1.0f;
+  const StandingSupport support = standing_support(s, in, o, gate);
   for (int k = 0; k < 2; ++k) {
     const FootStepState& f = s.feet[k];
     if (!f.driven || f.swinging) continue;
@@ -257,7 +279,15 @@ void update_locomotion(LocomotionState& s, const LocomotionInput& in, const Loco
     }
     const float off_m = glm::length(xz(in.hip[k]) - xz(f.planted));
     const float turn = std::abs(wrap_rad(in.root_yaw_rad - f.planted_yaw_rad));
-    float score = std::max(off_m / trigger_m, turn / o.turn_threshold_rad);
+    // Standing, the body is carried while the pelvis is over the support between the feet, however
+    // far each hip is from its own foot (a boxer's staggered stance); the foot further from its hip
+    // steps first.
+    const float off_score =
+        support.standing
+            ? std::max(support.pelvis_off_m / o.stand_support_m * off_m / std::max(support.most_off_m, 1e-3f),
+                       off_m / o.stand_foot_m)
+            : off_m / trigger_m;
+    float score = std::max(off_score, turn / o.turn_threshold_rad);
     if (reach_used > o.reach_fraction) score = std::max(score, o.sway_override);
     if (k == s.last_stepped) score *= 0.8f;  // alternate when both feet are due
     if (arm_walk) {

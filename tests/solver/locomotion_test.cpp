@@ -397,6 +397,42 @@ LocomotionInput two_driven_feet(double dt) {
   return in;
 }
 
+// Standing in a staggered stance (a boxer's: the left foot 35 cm ahead of the right), the body
+// sways 10 cm fore and aft over its feet: each hip is then up to 27 cm from its own foot, yet the
+// pelvis never leaves the support between the feet, and no foot steps. Leaning out sideways until
+// the pelvis is 20 cm outside it, the body steps.
+TEST(Locomotion, AStaggeredStanceSwaysOverItsFeetWithoutStepping) {
+  const double dt = 1.0 / 120, pi = 3.14159265358979;
+  LocomotionState state;
+  LocomotionInput in = two_driven_feet(dt);
+  auto stand = [&](float x, float z) {
+    in.root = {x, 0.82f, z};
+    in.hip = {glm::vec3(x + 0.11f, 0.80f, z), glm::vec3(x - 0.11f, 0.80f, z)};
+  };
+  // The stepper takes the feet over where they are: left ahead, right behind.
+  in.have_last_ankle = true;
+  in.last_ankle = {glm::vec3(0.11f, 0.073f, 0.175f), glm::vec3(-0.11f, 0.073f, -0.175f)};
+  stand(0, 0);
+  update_locomotion(state, in, LocomotionOptions{});
+  float farthest_m = 0;
+  for (int k = 0; k < int(6.0 / dt); ++k) {
+    const float z = static_cast<float>(0.10 * std::sin(2 * pi * k * dt / 1.5));
+    stand(0, z);
+    update_locomotion(state, in, LocomotionOptions{});
+    for (int leg = 0; leg < 2; ++leg)
+      farthest_m = std::max(farthest_m, horizontal(in.hip[leg], state.feet[leg].planted));
+  }
+  std::printf("  swaying: %ld steps, a hip up to %.0f cm from its planted foot\n", state.steps, 100 * farthest_m);
+  EXPECT_EQ(state.steps, 0);
+  EXPECT_GT(farthest_m, 0.2f);  // the old rule (each hip within 14 cm of its foot) would have stepped
+  for (int k = 0; k < int(1.0 / dt); ++k) {
+    stand(static_cast<float>(0.30 * std::min(1.0, k * dt / 0.5)), 0);
+    update_locomotion(state, in, LocomotionOptions{});
+  }
+  std::printf("  leaning out 30 cm: %ld steps\n", state.steps);
+  EXPECT_GE(state.steps, 1);
+}
+
 // The stepper alone, fed a head that walks straight on at 1.2 m/s, bobbing at each foot strike
 // (lowest as a foot lands, every 0.55 s) and swaying 3 cm to either side: at a strike the head
 // moves sideways towards the striking foot, as the body's weight shifts onto it. Three seconds

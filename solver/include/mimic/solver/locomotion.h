@@ -21,7 +21,14 @@
 namespace mimic::solver {
 
 struct LocomotionOptions {
-  float step_threshold_m = 0.14f;   // foot this far from its (predicted) home: step
+  float step_threshold_m = 0.14f;  // foot this far from its (predicted) home: step
+  // Standing on both feet (not walking), a step when the pelvis is this far outside the segment
+  // joining the feet, or a foot this far from its hip, rather than each hip 14 cm from its own
+  // foot: people stand with a foot forward and sway over their feet without stepping (the boxer
+  // of 02_05: a hip up to 26 cm from its ankle, the pelvis within 11 cm of the feet's midpoint).
+  // 0: each foot by its own hip.
+  float stand_support_m = 0.12f;
+  float stand_foot_m = 0.40f;
   float turn_threshold_rad = 0.6f;  // body turned this far past the foot (34°): step
   float swing_s_slow = 0.35f;       // swing duration standing …
   float swing_s_fast = 0.30f;       // … and at `fast_mps`
