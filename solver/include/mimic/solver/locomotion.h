@@ -3,9 +3,10 @@
 //
 // Each foot driven here is planted on the floor while it supports the body and does not move. A
 // step starts when the foot's home (under its hip, where the pelvis is heading) has left it
-// further than `step_threshold_m`, the body has turned more than `turn_threshold_rad` past the
-// foot, or the leg cannot reach it; one foot swings at a time, the one left furthest behind,
-// alternating when both are. The step lands where the hip will be half a stance after touchdown
+// further than `step_threshold_m` (standing, when the pelvis has left the support between the
+// feet), the body has turned more than `turn_threshold_rad` past the foot, or the leg cannot
+// reach it; one foot swings at a time, the one left furthest behind, alternating when both are.
+// Walking, the arms' swing (else the head's bob) says when and which foot lifts. The step lands where the hip will be half a stance after touchdown
 // at the pelvis' velocity, so walking feet land ahead of the body; its duration shortens with
 // speed; the foot swings on an arc of a height in proportion to the step, never below the floor
 // and never across the other foot.
