@@ -6,10 +6,11 @@
 // further than `step_threshold_m` (standing, when the pelvis has left the support between the
 // feet), the body has turned more than `turn_threshold_rad` past the foot, or the leg cannot
 // reach it; one foot swings at a time, the one left furthest behind, alternating when both are.
-// Walking, the arms' swing (else the head's bob) says when and which foot lifts. The step lands where the hip will be half a stance after touchdown
-// at the pelvis' velocity, so walking feet land ahead of the body; its duration shortens with
-// speed; the foot swings on an arc of a height in proportion to the step, never below the floor
-// and never across the other foot.
+// Walking, the arms' swing (else the head's bob) says when and which foot lifts. The step lands
+// where the hip will be half a stance after touchdown at the pelvis' velocity (round a curve), so
+// walking feet land ahead of the body; its duration shortens with speed; the foot swings on an
+// arc of a height in proportion to the step, never below the floor and never across the other
+// foot.
 //
 // State lives in the caller's SolverContext; update() never allocates or throws.
 #pragma once
