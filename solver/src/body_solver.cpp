@@ -97,7 +97,7 @@ void SolveJob::GatherTargets() {
 // the hips stay up; a head bob of a few centimetres is no crouch.)
 IkTarget SolveJob::StandingRootTarget(const glm::quat& heading) const {
   const SolverModel& m = *model;
-  const SolverContext& c = *context;
+  SolverContext& c = *context;
   const Skeleton& s = m.skeleton_;
   const SolverOptions& o = m.options_;
   const Pose& p = *pose;
@@ -121,6 +121,7 @@ IkTarget SolveJob::StandingRootTarget(const glm::quat& heading) const {
     const glm::quat lean = glm::rotation(glm::vec3(0, 1, 0), lean_up);
     const glm::vec3 under = head.translation - lean * (heading * m.head_from_root_rest_);
     if (o.root_follow_weight > 0) goal.x = under.x, goal.z = under.z, weight = o.root_follow_weight;
+    FollowWalkingHead(heading, up, goal, weight);
   }
   // A planted foot must stay within the leg's reach: the hips come down between wide-apart
   // feet, as they do in a stride.
@@ -135,6 +136,50 @@ IkTarget SolveJob::StandingRootTarget(const glm::quat& heading) const {
     goal.y = std::min(goal.y, f.planted.y + up_m - hip_offset.y);
   }
   return IkTarget{0, goal, glm::quat(1, 0, 0, 0), weight, 0.0f};
+}
+
+// Walking with swinging arms, the hips go under the head as a trunk leaning part of the head's
+// tilt hangs them (SolverOptions::walk_root_follow_weight): `goal`'s horizontal and `weight` move
+// to that pull's as the walk fades in.
+void SolveJob::FollowWalkingHead(const glm::quat& heading, const glm::vec3& head_up, glm::vec3& goal,
+                                 float& weight) const {
+  const SolverModel& m = *model;
+  SolverContext& c = *context;
+  const SolverOptions& o = m.options_;
+  LocomotionState& ls = c.locomotion_;
+  const float speed_mps = glm::length(ls.velocity_mps);
+  const bool gait = ls.bob.clock_s < ls.arm.active_until_s;
+  const float walking = gait && o.step ? std::clamp((speed_mps - 0.8f) / 0.4f, 0.0f, 1.0f) *
+                                             std::clamp((2.2f - speed_mps) / 0.4f, 0.0f, 1.0f)
+                                       : 0.0f;
+  if (!(walking > 0.0f) || !(o.walk_root_follow_weight > 0.0f)) {
+    ls.have_walk_root_goal = false, ls.walk_follow_s = 0;
+    return;
+  }
+  const glm::vec3 lean_up = glm::normalize(glm::vec3(0, 1, 0) + o.walk_lean_follow * (head_up - glm::vec3(0, 1, 0)));
+  const glm::vec3 under = c.segment_target_[m.head_].translation -
+                          glm::rotation(glm::vec3(0, 1, 0), lean_up) * (heading * m.head_from_root_rest_);
+  // Smoothed (the head's orientation noise would shake the hips) and led by the pelvis' velocity
+  // for the time the smoothing lags.
+  double now_s = -1;
+  for (const auto& smp : samples)
+    if (smp.flags & devices::kSampleValid) now_s = std::max(now_s, smp.device_time_s);
+  const float dt_s =
+      now_s > c.last_time_s_ && c.last_time_s_ >= 0 ? static_cast<float>(now_s - c.last_time_s_) : 1.0f / 120;
+  const glm::vec2 to(under.x, under.z);
+  if (!ls.have_walk_root_goal || !(o.walk_follow_tau_s > 0.0f))
+    ls.walk_root_goal = to, ls.have_walk_root_goal = true;
+  else
+    ls.walk_root_goal +=
+        (1.0f - std::exp(-std::clamp(dt_s, 1e-4f, 0.1f) / o.walk_follow_tau_s)) * (to - ls.walk_root_goal);
+  const glm::vec2 led = ls.walk_root_goal + std::max(0.0f, o.walk_follow_tau_s) * ls.velocity_mps;
+  // Only once the walk has lasted 0.3 s, faded in over the next 0.3: a run's start passes through
+  // walking speeds in a tenth of a second, and a pull that came and went in it shook the run
+  // (09_11's jitter 2.95 → 3.77 mm).
+  ls.walk_follow_s = std::min(ls.walk_follow_s + dt_s, 1.0f);
+  const float share = walking * std::clamp((ls.walk_follow_s - 0.3f) / 0.3f, 0.0f, 1.0f);
+  goal.x += share * (led.x - goal.x), goal.z += share * (led.y - goal.z);
+  weight = share * o.walk_root_follow_weight + (1.0f - share) * weight;
 }
 
 // An observed trunk without a pelvis sensor: the root is an unknown, kept upright and facing

@@ -179,6 +179,9 @@ struct LocomotionState {
     double lift_from_s = -1;     // … timed from that turn; -1: lifted
     double active_until_s = -1;  // the arms time the steps until then (a beat and a half on)
   } arm;
+  glm::vec2 walk_root_goal{0.0f};  // where walking hips go under the head, smoothed (body_solver.cpp)
+  bool have_walk_root_goal = false;
+  float walk_follow_s = 0;      // … followed for this long
   long steps = 0;               // steps started so far
   glm::vec2 sway_centre{0.0f};  // the head's mean horizontal path
   bool have_sway = false;
