@@ -95,7 +95,7 @@ void SolveJob::GatherTargets() {
 // height nobody tracks is standing, unless the head has come down while staying upright — a
 // squat or a seat, where the hips go down with it. (Bending over tilts the head too, and there
 // the hips stay up; a head bob of a few centimetres is no crouch.)
-IkTarget SolveJob::StandingRootTarget(const glm::quat& heading) const {
+IkTarget SolveJob::StandingRootTarget(const glm::quat& heading) {
   const SolverModel& m = *model;
   SolverContext& c = *context;
   const Skeleton& s = m.skeleton_;
@@ -141,8 +141,7 @@ IkTarget SolveJob::StandingRootTarget(const glm::quat& heading) const {
 // Walking with swinging arms, the hips go under the head as a trunk leaning part of the head's
 // tilt hangs them (SolverOptions::walk_root_follow_weight): `goal`'s horizontal and `weight` move
 // to that pull's as the walk fades in.
-void SolveJob::FollowWalkingHead(const glm::quat& heading, const glm::vec3& head_up, glm::vec3& goal,
-                                 float& weight) const {
+void SolveJob::FollowWalkingHead(const glm::quat& heading, const glm::vec3& head_up, glm::vec3& goal, float& weight) {
   const SolverModel& m = *model;
   SolverContext& c = *context;
   const SolverOptions& o = m.options_;
@@ -173,9 +172,9 @@ void SolveJob::FollowWalkingHead(const glm::quat& heading, const glm::vec3& head
     ls.walk_root_goal +=
         (1.0f - std::exp(-std::clamp(dt_s, 1e-4f, 0.1f) / o.walk_follow_tau_s)) * (to - ls.walk_root_goal);
   const glm::vec2 led = ls.walk_root_goal + std::max(0.0f, o.walk_follow_tau_s) * ls.velocity_mps;
-  // Only once the walk has lasted 0.3 s, faded in over the next 0.3: a run's start passes through
-  // walking speeds in a tenth of a second, and a pull that came and went in it shook the run
-  // (09_11's jitter 2.95 → 3.77 mm).
+  // Only once the walk has lasted 0.3 s, faded in over the next 0.3 (goal and weight alike): a
+  // run's start passes through walking speeds in a few frames, and a goal moved there changed
+  // 09_11's steps (its jitter 2.95 → 3.77 mm).
   ls.walk_follow_s = std::min(ls.walk_follow_s + dt_s, 1.0f);
   const float share = walking * std::clamp((ls.walk_follow_s - 0.3f) / 0.3f, 0.0f, 1.0f);
   goal.x += share * (led.x - goal.x), goal.z += share * (led.y - goal.z);

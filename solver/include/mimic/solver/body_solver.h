@@ -196,8 +196,8 @@ struct SolveJob {
   // The stages of Run() (body_solver.cpp, locomotion.cpp).
   void GatherTargets();
   void AddRootTargets();
-  IkTarget StandingRootTarget(const glm::quat& heading) const;
-  void FollowWalkingHead(const glm::quat& heading, const glm::vec3& head_up, glm::vec3& goal, float& weight) const;
+  IkTarget StandingRootTarget(const glm::quat& heading);
+  void FollowWalkingHead(const glm::quat& heading, const glm::vec3& head_up, glm::vec3& goal, float& weight);
   void AddArmTargets();
   void SolveTrunk(bool root_known);
   void place_untracked_feet();
