@@ -29,8 +29,8 @@ struct LocomotionOptions {
   // foot: people stand with a foot forward and sway over their feet without stepping (the boxer
   // of 02_05: a hip up to 26 cm from its ankle, the pelvis within 11 cm of the feet's midpoint).
   // 0: each foot by its own hip.
-  float stand_support_m = 0.12f;
-  float stand_foot_m = 0.40f;
+  float stand_support_m = 0.15f;
+  float stand_foot_m = 0.30f;
   float turn_threshold_rad = 0.6f;  // body turned this far past the foot (34°): step
   float swing_s_slow = 0.35f;       // swing duration standing …
   float swing_s_fast = 0.30f;       // … and at `fast_mps`
