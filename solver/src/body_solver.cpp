@@ -160,11 +160,7 @@ void SolveJob::FollowWalkingHead(const glm::quat& heading, const glm::vec3& head
                           glm::rotation(glm::vec3(0, 1, 0), lean_up) * (heading * m.head_from_root_rest_);
   // Smoothed (the head's orientation noise would shake the hips) and led by the pelvis' velocity
   // for the time the smoothing lags.
-  double now_s = -1;
-  for (const auto& smp : samples)
-    if (smp.flags & devices::kSampleValid) now_s = std::max(now_s, smp.device_time_s);
-  const float dt_s =
-      now_s > c.last_time_s_ && c.last_time_s_ >= 0 ? static_cast<float>(now_s - c.last_time_s_) : 1.0f / 120;
+  const float dt_s = SampleStep(SampleTime());
   const glm::vec2 to(under.x, under.z);
   if (!ls.have_walk_root_goal || !(o.walk_follow_tau_s > 0.0f))
     ls.walk_root_goal = to, ls.have_walk_root_goal = true;

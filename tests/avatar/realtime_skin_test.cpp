@@ -5,6 +5,8 @@
 #include <algorithm>
 #include <array>
 #include <random>
+#include <utility>
+#include <vector>
 
 #include "mimic/rig/bvh.h"
 #include "mimic/avatar/mesh_check.h"
@@ -309,19 +311,25 @@ TEST(RealtimeSkin, StaysClosedInRandomPostures) {
   }
 }
 
+// Two rings of `count` points as one piece, `point(ring, angle_rad)` placing each.
+template <typename Point>
+std::pair<std::vector<glm::vec3>, ContourRows> two_rings(int count, const Point& point) {
+  std::pair<std::vector<glm::vec3>, ContourRows> out{{}, ContourRows{"test", {{}, {}}}};
+  for (int ring = 0; ring < 2; ++ring)
+    for (int j = 0; j < count; ++j) {
+      out.second.rows[ring].push_back(static_cast<uint32_t>(out.first.size()));
+      out.first.push_back(point(ring, 6.2831853f * static_cast<float>(j) / static_cast<float>(count)));
+    }
+  return out;
+}
+
 // The check itself: two rings pushed through each other are found.
 TEST(RealtimeSkin, TheContourCheckFindsCrossingRings) {
-  std::vector<glm::vec3> pts;
-  ContourRows piece{"test", {{}, {}}};
-  for (int ring = 0; ring < 2; ++ring)
-    for (int j = 0; j < 12; ++j) {
-      const float a = 6.2831853f * static_cast<float>(j) / 12.0f;
-      // The second ring tilted 60° about x and only 1 cm further along: it cuts the first.
-      const glm::vec3 p(0.05f * std::cos(a), 0.05f * std::sin(a), 0.0f);
-      const glm::vec3 q = ring == 0 ? p : glm::vec3(p.x, p.y * 0.5f, 0.01f + p.y * 0.866f);
-      piece.rows[ring].push_back(static_cast<uint32_t>(pts.size()));
-      pts.push_back(q);
-    }
+  auto [pts, piece] = two_rings(12, [](int ring, float a) {
+    // The second ring tilted 60° about x and only 1 cm further along: it cuts the first.
+    const glm::vec3 p(0.05f * std::cos(a), 0.05f * std::sin(a), 0.0f);
+    return ring == 0 ? p : glm::vec3(p.x, p.y * 0.5f, 0.01f + p.y * 0.866f);
+  });
   const ContourOrder bad = check_contour_order(pts, std::span(&piece, 1));
   EXPECT_EQ(bad.crossing, 1u);
   EXPECT_GT(bad.worst_m, 0.001f);
@@ -334,19 +342,14 @@ TEST(RealtimeSkin, TheContourCheckFindsCrossingRings) {
 // the bent ring's mean plane stood 20 mm off its points and "crossed" the ring above; and two
 // rings that meet on a line (the crease of a bend) touch there without crossing.
 TEST(RealtimeSkin, TheContourCheckFollowsABentRingAndLetsRingsTouch) {
-  std::vector<glm::vec3> pts;
-  ContourRows piece{"test", {{}, {}}};
-  for (int ring = 0; ring < 2; ++ring)
-    for (int j = 0; j < 36; ++j) {
-      const float a = 6.2831853f * static_cast<float>(j) / 36.0f;
-      const bool bent = std::cos(a) > 0.5f;
-      // The lower ring's sixth about +x rises 2 cm and draws in 2 cm; the upper stays 6 mm
-      // above the lower all round (9 mm over the bent part, outside it).
-      const float r = ring == 0 && bent ? 0.08f : 0.1f;
-      const float y = ring == 0 ? (bent ? 0.02f : 0.0f) : (bent ? 0.029f : 0.006f);
-      piece.rows[ring].push_back(static_cast<uint32_t>(pts.size()));
-      pts.emplace_back(r * std::cos(a), y, r * std::sin(a));
-    }
+  auto [pts, piece] = two_rings(36, [](int ring, float a) {
+    const bool bent = std::cos(a) > 0.5f;
+    // The lower ring's sixth about +x rises 2 cm and draws in 2 cm; the upper stays 6 mm
+    // above the lower all round (9 mm over the bent part, outside it).
+    const float r = ring == 0 && bent ? 0.08f : 0.1f;
+    const float y = ring == 0 ? (bent ? 0.02f : 0.0f) : (bent ? 0.029f : 0.006f);
+    return glm::vec3(r * std::cos(a), y, r * std::sin(a));
+  });
   const ContourOrder bent = check_contour_order(pts, std::span(&piece, 1));
   EXPECT_EQ(bent.crossing, 0u) << 1000 * bent.worst_m << " mm";
   // Pushed 1.5 cm further in and 1.5 cm up, through the ring above: found.

@@ -201,6 +201,10 @@ struct SolveJob {
   void AddArmTargets();
   void SolveTrunk(bool root_known);
   void place_untracked_feet();
+  // The newest valid sample's time (−1: none) and the time since the frame before (1/120 s when
+  // either is unknown).
+  double SampleTime() const;
+  float SampleStep(double now_s) const;
   void SolveLimbsAndRest(bool trunk_observed);
   bool SolveLimb(int chain);
   void LiftSteppedFootOffFloor(int chain);            // locomotion.cpp
