@@ -227,8 +227,10 @@ void Client::Impl::on_packet(std::span<const uint8_t> p) {
     case MsgType::avatar_model: {
       AvatarModel m;
       if (decode_avatar_model(p, m) != Reject::ok) break;
+      const auto had = avatars.find(m.avatar);
+      // The same revision again: a resumed session is sent every model (docs/protocol.md).
+      const bool same = had != avatars.end() && had->second.revision == m.revision;
       auto& a = avatars[m.avatar];
-      const bool same = a.id == m.avatar && a.revision == m.revision;
       a.id = m.avatar;
       a.name = m.name;
       a.dof_count = m.dof_count;
@@ -242,7 +244,7 @@ void Client::Impl::on_packet(std::span<const uint8_t> p) {
       }
       stats.models++;
       stats.model_bytes += p.size();
-      if (owner->on_model) owner->on_model(a);
+      if (owner->on_model && !same) owner->on_model(a);
       if (auto e = early.find(m.avatar); e != early.end()) {
         const std::vector<uint8_t> frame = std::move(e->second);
         early.erase(e);

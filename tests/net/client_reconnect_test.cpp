@@ -89,6 +89,45 @@ void stalled_viewer_comes_back(bool udp) {
 TEST(ClientReconnect, StalledViewerComesBackWithTheNewestFrames) { stalled_viewer_comes_back(false); }
 TEST(ClientReconnect, StalledUdpViewerComesBackWithTheNewestFrames) { stalled_viewer_comes_back(true); }
 
+// An avatar joins while the viewer is stalled (a viewer skinning a newcomer under load): its model
+// is among the bytes the stalled viewer drops to resume at the newest frames. The resumed session
+// brings it again, so the viewer has both avatars, each with frames; the first one is no news.
+TEST(ClientReconnect, AModelDroppedWithAStallsBufferedBytesComesAgain) {
+  ServerThread st;
+  auto pub = join(st.endpoint(), Role::publisher);
+  auto sub = join(st.endpoint(), Role::subscriber);
+  ASSERT_TRUE(pub && sub);
+  std::vector<std::string> announced;
+  sub->on_model = [&](const RemoteAvatar& a) { announced.push_back(a.name); };
+  const uint8_t first = *pub->add_avatar("first", kDofs, "first model");
+  uint32_t seq = publish_for(*pub, first, 0, 0.3, {sub.get()});
+  ASSERT_TRUE(pump({sub.get(), pub.get()}, [&] { return sub->stats().frames >= 5; }));
+  // Not driven for 1.5 s (over the 1 s stall limit): the second avatar's model waits in its socket.
+  const uint8_t second = *pub->add_avatar("second", kDofs, "second model");
+  uint32_t seq2 = 0;
+  const auto quiet_until = Clock::now() + std::chrono::milliseconds(1500);
+  while (Clock::now() < quiet_until) {
+    seq = publish_for(*pub, first, seq, 0.005, {});
+    seq2 = publish_for(*pub, second, seq2, 0.005, {});
+  }
+  auto both_moving = [&] {
+    if (sub->avatars().size() != 2) return false;
+    for (const auto& entry : sub->avatars())
+      if (!entry.second.has_pose) return false;
+    return true;
+  };
+  const auto deadline = Clock::now() + std::chrono::seconds(10);
+  while (!both_moving() && Clock::now() < deadline) {
+    ASSERT_TRUE(sub->run_until(Clock::now() + std::chrono::milliseconds(1))) << "the cut ended the session";
+    seq = publish_for(*pub, first, seq, 0.005, {});
+    seq2 = publish_for(*pub, second, seq2, 0.005, {});
+  }
+  EXPECT_GE(sub->stats().stall_resyncs, 1u);
+  EXPECT_GE(sub->stats().resumed, 1u);
+  ASSERT_TRUE(both_moving()) << sub->avatars().size() << " avatar(s)";
+  EXPECT_EQ(announced, (std::vector<std::string>{"first", "second"}));
+}
+
 // The server restarts; the publisher (another process) goes on meanwhile. The viewer's new
 // session is a new scene, but the same avatar of the same publisher carries its sequence: the
 // frames published while the server was down count as lost, and the outage is timed.

@@ -66,10 +66,9 @@ void Session::on_hello(std::span<const uint8_t> packet) {
     if (it != srv.resume.end() && it->second.role == role) {
       resumed = true;
       token = h.resume_token;
-      if (role == Role::subscriber)
-        models_known = std::move(it->second.models_known);
-      else
-        reattach(it->second.slots);
+      // A resumed subscriber is sent every model again: one queued on the dead connection (or
+      // dropped unread by a client that stalled) may never have reached it.
+      if (role == Role::publisher) reattach(it->second.slots);
       srv.resume.erase(it);
       srv.stats.resumed++;
     }
@@ -97,8 +96,6 @@ void Session::on_hello(std::span<const uint8_t> packet) {
     std::vector<SceneEntry> scene;
     for (const auto& a : srv.avatars)
       if (a.live) scene.push_back({a.id, a.revision});
-    for (auto it = models_known.begin(); it != models_known.end();)
-      it = srv.avatar(it->first) ? std::next(it) : models_known.erase(it);
     std::vector<uint8_t> scene_packet(scene_packet_bytes(scene.size()));
     queue_control(std::span<const uint8_t>(scene_packet.data(), encode_scene(scene, scene_packet)));
     // Late joiner: every model it does not hold yet, then every latest pose, at once.

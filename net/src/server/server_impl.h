@@ -84,8 +84,7 @@ struct Avatar {
 struct ResumeRecord {
   Role role = Role::subscriber;
   Clock::time_point expires;
-  std::map<uint16_t, uint32_t> models_known;  // subscriber: avatar -> revision delivered
-  std::map<uint8_t, uint16_t> slots;          // publisher: slot -> avatar
+  std::map<uint8_t, uint16_t> slots;  // publisher: slot -> avatar
 };
 
 // A queued control packet. `model_of` names the avatar of a model packet: a newer revision of the
@@ -294,7 +293,7 @@ struct Session : std::enable_shared_from_this<Session> {
 
   // Inbound
   std::map<uint8_t, uint16_t> slots;          // publisher slot -> avatar id
-  std::map<uint16_t, uint32_t> models_known;  // subscriber: avatar -> revision delivered
+  std::map<uint16_t, uint32_t> models_known;  // subscriber: avatar -> revision queued this session
   double tokens = 0;
   Clock::time_point last_refill;
   rig::Pose scratch_pose;

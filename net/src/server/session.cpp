@@ -193,7 +193,6 @@ void Session::close(bool clean) {
     ResumeRecord r;
     r.role = role;
     r.expires = now + seconds(srv.opt.resume_grace_s);
-    r.models_known = models_known;
     r.slots = slots;
     srv.resume[token] = std::move(r);
   }
