@@ -35,14 +35,17 @@ struct Wearer {
   int frame = 0;
 
   explicit Wearer(const char* layout, const LocomotionOptions& stepping = {},
-                  float walk_root_follow_weight = SolverOptions{}.walk_root_follow_weight)
+                  float walk_root_follow_weight = SolverOptions{}.walk_root_follow_weight,
+                  float hands_heading_share = SolverOptions{}.hands_heading_share)
       : mounts(testing::mounts_for(*standard_layout(layout, s), 0.0f, 5)),
-        model(make_model(stepping, walk_root_follow_weight)),
+        model(make_model(stepping, walk_root_follow_weight, hands_heading_share)),
         ctx(model) {}
-  SolverModel make_model(const LocomotionOptions& stepping, float walk_root_follow_weight) const {
+  SolverModel make_model(const LocomotionOptions& stepping, float walk_root_follow_weight,
+                         float hands_heading_share) const {
     SolverOptions options;
     options.locomotion = stepping;
     options.walk_root_follow_weight = walk_root_follow_weight;
+    options.hands_heading_share = hands_heading_share;
     options.standing_root_y_m = standing_root_y;
     return *SolverModel::create(s, mounts, options);
   }
@@ -109,6 +112,42 @@ TEST(Locomotion, StandingStillTakesNoSteps) {
   EXPECT_EQ(w.ctx.locomotion().steps, steps0);
   EXPECT_LT(glm::length(w.ankle(0) - l0), 0.002f);
   EXPECT_LT(glm::length(w.ankle(1) - r0), 0.002f);
+}
+
+// Head and hands only, standing: the head looks 70° to the left (neck and head turned, as far as
+// they go) while the hips and the outstretched hands stay. The hips, taken from the head alone,
+// turn with it; read between the head and the hands' line they stay within 30° of the truth's.
+// Arms crossed over the chest (the hands' line backwards) say nothing: the hips follow the head.
+TEST(Locomotion, AHeadLookingAsideTurnsTheHipsOnlyPartOfTheWayWhenTheHandsStay) {
+  auto hips_off_deg = [](float share, bool crossed) {
+    Wearer w("3", {}, SolverOptions{}.walk_root_follow_weight, share);
+    Pose truth = standing(w, {0.3f, 0, -0.4f}, 0.0f);
+    if (crossed) {
+      for (const char* side : {"l_", "r_"}) {
+        truth.dof_rad[w.s.find_dof(std::string(side) + "shoulder_flexion")] = glm::radians(125.0f);
+        truth.dof_rad[w.s.find_dof(std::string(side) + "shoulder_abduction")] = glm::radians(-20.0f);
+      }
+      std::vector<RigidTransform> at(w.s.joint_count());
+      rig::forward_kinematics(w.s, truth, at);
+      const float left_of_right =
+          at[w.s.find_joint("l_wrist")].translation.x - at[w.s.find_joint("r_wrist")].translation.x;
+      EXPECT_LT(left_of_right, -0.1f) << "the arms are not crossed";
+    }
+    for (int k = 0; k < int(2 * kRateHz); ++k) w.step(truth);  // the hands' line held for its time
+    for (const char* joint : {"neck_twist", "neck_upper_twist", "head_twist"})
+      truth.dof_rad[w.s.find_dof(joint)] = glm::radians(25.0f);
+    for (int k = 0; k < int(1 * kRateHz); ++k) w.step(truth);
+    const glm::vec3 f = w.solved.root_orientation * glm::vec3(0, 0, 1);
+    return std::abs(glm::degrees(std::atan2(f.x, f.z)));
+  };
+  const float head_only = hips_off_deg(0.0f, false),
+              with_hands = hips_off_deg(SolverOptions{}.hands_heading_share, false);
+  const float crossed = hips_off_deg(SolverOptions{}.hands_heading_share, true);
+  std::printf("  hips off the truth's: %.0f deg from the head alone, %.0f with the hands, %.0f arms crossed\n",
+              head_only, with_hands, crossed);
+  EXPECT_GT(head_only, 45.0f);
+  EXPECT_LT(with_hands, 30.0f);
+  EXPECT_GT(crossed, 45.0f);
 }
 
 TEST(Locomotion, TurningInPlaceSteps) {

@@ -89,7 +89,16 @@ struct SolverOptions {
   float walk_root_follow_weight = 3.0f;
   float walk_lean_follow = 0.5f;
   float walk_follow_tau_s = 0.05f;
-  float locomotion_reach = 0.97f;  // hips no higher than this much of a straight leg above a planted foot
+  // With head and hands only, the hips' heading turns `hands_heading_share` of the way from the
+  // head's to the hands' line across the body (held over `hands_heading_tau_s`) where the two
+  // disagree by more than `hands_heading_from_rad`, fully past that plus `hands_heading_over_rad`
+  // (0: the head's alone). Eight clips, seeds 1–3 / 4–6: MPJPE 7.15 / 7.29 → 6.99 / 7.09 cm
+  // (docs/solver.md, "The hips between a looking head and the hands").
+  float hands_heading_share = 0.7f;
+  float hands_heading_tau_s = 1.0f;
+  float hands_heading_from_rad = 0.52f;  // 30°
+  float hands_heading_over_rad = 0.26f;  // 15°
+  float locomotion_reach = 0.97f;        // hips no higher than this much of a straight leg above a planted foot
   // Legs nobody tracks (no sensor on thigh, shin or foot, or the foot's sensor lost) step.
   bool step = true;
   LocomotionOptions locomotion;
@@ -198,6 +207,7 @@ struct SolveJob {
   void AddRootTargets();
   IkTarget StandingRootTarget(const glm::quat& heading);
   void FollowWalkingHead(const glm::quat& heading, const glm::vec3& head_up, glm::vec3& goal, float& weight);
+  glm::quat TurnTowardsTheHands(const glm::quat& head_heading);
   void AddArmTargets();
   void SolveTrunk(bool root_known);
   void place_untracked_feet();

@@ -181,7 +181,10 @@ struct LocomotionState {
   } arm;
   glm::vec2 walk_root_goal{0.0f};  // where walking hips go under the head, smoothed (body_solver.cpp)
   bool have_walk_root_goal = false;
-  float walk_follow_s = 0;      // … followed for this long
+  float walk_follow_s = 0;       // … followed for this long
+  glm::vec2 hands_across{0.0f};  // left hand minus right, horizontal, smoothed (body_solver.cpp)
+  bool have_hands_across = false;
+  float hands_seen_s = 0;       // … over this long
   long steps = 0;               // steps started so far
   glm::vec2 sway_centre{0.0f};  // the head's mean horizontal path
   bool have_sway = false;
