@@ -547,6 +547,44 @@ TEST(Locomotion, TheFootTheHeadMovesAwayFromLiftsAfterEachStrike) {
   EXPECT_GE(trailing, counted - 1);
 }
 
+// The stepper alone, fed a walk at 1.5 m/s whose head bobs at a dribble's beat (every 0.3 s, half
+// a stride's time): timed to the next low, a swing would fly its stride in 0.19 s. Every swing lasts
+// at least as long as its ground takes at 3 m/s on average; with no such bound some fly faster.
+TEST(Locomotion, ASwingTimedToAQuickHeadBeatStillTakesItsTime) {
+  auto fastest_swing_mps = [](float swing_max_mps) {
+    const double dt = 1.0 / 120, period = 0.3, pi = 3.14159265358979;
+    LocomotionOptions o;
+    o.swing_max_mps = swing_max_mps;
+    LocomotionState state;
+    LocomotionInput in = two_driven_feet(dt);
+    in.have_head = true;
+    std::array<glm::vec3, 2> from{};
+    std::array<double, 2> lifted_s{};
+    float fastest = 0;
+    for (int k = 0; k < int(6.0 / dt); ++k) {
+      const double t = k * dt;
+      const float sway = static_cast<float>(0.03 * std::sin(pi * t / period));
+      const float z = static_cast<float>(1.5 * t);
+      in.root = {sway, 0.82f, z};
+      in.hip = {glm::vec3(sway + 0.11f, 0.80f, z), glm::vec3(sway - 0.11f, 0.80f, z)};
+      in.head = {sway, static_cast<float>(1.60 - 0.02 * std::cos(2 * pi * t / period)), z + 0.05f};
+      const std::array<bool, 2> was = {state.feet[0].swinging, state.feet[1].swinging};
+      update_locomotion(state, in, o);
+      for (int leg = 0; leg < 2; ++leg) {
+        const FootStepState& f = state.feet[leg];
+        if (!was[leg] && f.swinging) from[leg] = f.from, lifted_s[leg] = t;
+        if (was[leg] && !f.swinging && t > 1.0)  // landed, once the walk is under way
+          fastest = std::max(fastest, horizontal(f.planted, from[leg]) / static_cast<float>(t - lifted_s[leg] + dt));
+      }
+    }
+    return fastest;
+  };
+  const float bounded = fastest_swing_mps(LocomotionOptions{}.swing_max_mps), free = fastest_swing_mps(0.0f);
+  std::printf("  the fastest swing: %.1f m/s on average, %.1f without the bound\n", bounded, free);
+  EXPECT_LE(bounded, LocomotionOptions{}.swing_max_mps * 1.1f);
+  EXPECT_GT(free, LocomotionOptions{}.swing_max_mps * 1.1f);
+}
+
 // The stepper alone, fed a run at 3.5 m/s: the head lowest at each mid-stance (every 0.36 s, left
 // foot first), the arms swinging against the legs (the hands' fore-and-aft difference crossing
 // zero at mid-stance, rising over the left foot). Once the run is under way the foot under the

@@ -34,6 +34,7 @@ struct LocomotionOptions {
   float turn_threshold_rad = 0.6f;  // body turned this far past the foot (34°): step
   float swing_s_slow = 0.35f;       // swing duration standing …
   float swing_s_fast = 0.30f;       // … and at `fast_mps`
+  float swing_max_mps = 3.0f;       // walking, a swing's mean speed at most (0: any)
   float fast_mps = 2.5f;
   float stance_lead_s = 0.30f;   // a step lands where the hip is that long after touchdown
   float max_step_m = 0.85f;      // a step never reaches further than this from the hip
