@@ -76,7 +76,9 @@ void SolveJob::GatherTargets() {
   std::fill(c.has_target_.begin(), c.has_target_.end(), uint8_t{0});
   c.guessed_end_.fill(false);
   sensors_used = 0;
+  double now_s = -1;
   for (const auto& smp : samples) {
+    if (smp.flags & devices::kSampleValid) now_s = std::max(now_s, smp.device_time_s);
     if (!(smp.flags & devices::kSampleValid) || smp.sensor >= m.slot_of_sensor_.size()) continue;
     const int slot = m.slot_of_sensor_[smp.sensor];
     if (slot < 0 || !finite_sample(smp)) continue;
@@ -86,6 +88,10 @@ void SolveJob::GatherTargets() {
     c.has_target_[j] = 1;
     ++sensors_used;
   }
+  // The frame's clock, read once here for every stage that smooths or times over it.
+  const double last_s = c.last_time_s_;
+  c.sample_time_s_ = now_s;
+  c.sample_step_s_ = now_s > last_s && last_s >= 0 ? static_cast<float>(now_s - last_s) : 1.0f / 120;
   if (!std::isfinite(p.root_position_m.x + p.root_position_m.y + p.root_position_m.z) ||
       !(glm::dot(p.root_orientation, p.root_orientation) > 0.25f))
     p.root_position_m = glm::vec3(0.0f), p.root_orientation = glm::quat(1, 0, 0, 0);
@@ -160,7 +166,7 @@ void SolveJob::FollowWalkingHead(const glm::quat& heading, const glm::vec3& head
                           glm::rotation(glm::vec3(0, 1, 0), lean_up) * (heading * m.head_from_root_rest_);
   // Smoothed (the head's orientation noise would shake the hips) and led by the pelvis' velocity
   // for the time the smoothing lags.
-  const float dt_s = SampleStep(SampleTime());
+  const float dt_s = c.sample_step_s_;
   const glm::vec2 to(under.x, under.z);
   if (!ls.have_walk_root_goal || !(o.walk_follow_tau_s > 0.0f))
     ls.walk_root_goal = to, ls.have_walk_root_goal = true;
@@ -195,7 +201,7 @@ glm::quat SolveJob::TurnTowardsTheHands(const glm::quat& head_heading) {
   }
   const glm::vec3 d = c.segment_target_[left].translation - c.segment_target_[right].translation;
   const glm::vec2 across(d.x, d.z);
-  const float dt_s = std::clamp(SampleStep(SampleTime()), 1e-4f, 0.1f);
+  const float dt_s = std::clamp(c.sample_step_s_, 1e-4f, 0.1f);
   const float tau_s = std::max(o.hands_heading_tau_s, 1e-3f);
   if (!ls.have_hands_across)
     ls.hands_across = across, ls.have_hands_across = true, ls.hands_seen_s = 0;

@@ -345,18 +345,6 @@ void hang_untracked_feet(const SolverModel& m, SolverContext& c, const rig::Pose
   }
 }
 
-double SolveJob::SampleTime() const {
-  double now_s = -1;
-  for (const auto& smp : samples)
-    if (smp.flags & devices::kSampleValid) now_s = std::max(now_s, smp.device_time_s);
-  return now_s;
-}
-
-float SolveJob::SampleStep(double now_s) const {
-  const double last_s = context->last_time_s_;
-  return now_s > last_s && last_s >= 0 ? static_cast<float>(now_s - last_s) : 1.0f / 120;
-}
-
 // Feet of legs without a sensor (or whose sensor is lost): the stepper plants and swings them;
 // their targets join the chains' solve as guesses.
 void SolveJob::place_untracked_feet() {
@@ -380,9 +368,8 @@ void SolveJob::place_untracked_feet() {
     c.locomotion_.feet[0].driven = c.locomotion_.feet[1].driven = false;
     return;
   }
-  const double now_s = SampleTime();
-  in.dt_s = SampleStep(now_s);
-  if (now_s >= 0) c.last_time_s_ = now_s;
+  in.dt_s = c.sample_step_s_;
+  if (c.sample_time_s_ >= 0) c.last_time_s_ = c.sample_time_s_;
   glm::vec3 fwd = p.root_orientation * glm::vec3(0, 0, 1);
   in.root = p.root_position_m;
   in.root_yaw_rad = glm::length(glm::vec2(fwd.x, fwd.z)) > 1e-3f ? std::atan2(fwd.x, fwd.z) : 0.0f;

@@ -182,7 +182,11 @@ class SolverContext {
   std::array<glm::vec3, 4> last_bend_world_{};
   bool have_previous_ = false;
   LocomotionState locomotion_;
-  double last_time_s_ = -1;
+  double last_time_s_ = -1;  // the newest sample's time the frame before (−1: none yet)
+  // This frame's clock (GatherTargets): the newest valid sample's time (−1: none) and the time
+  // since last_time_s_ (1/120 s when either is unknown).
+  double sample_time_s_ = -1;
+  float sample_step_s_ = 1.0f / 120;
 };
 
 struct SolveJob {
@@ -211,10 +215,6 @@ struct SolveJob {
   void AddArmTargets();
   void SolveTrunk(bool root_known);
   void place_untracked_feet();
-  // The newest valid sample's time (−1: none) and the time since the frame before (1/120 s when
-  // either is unknown).
-  double SampleTime() const;
-  float SampleStep(double now_s) const;
   void SolveLimbsAndRest(bool trunk_observed);
   bool SolveLimb(int chain);
   void LiftSteppedFootOffFloor(int chain);            // locomotion.cpp
