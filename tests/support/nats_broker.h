@@ -10,6 +10,7 @@
 #include <netinet/in.h>
 #include <signal.h>
 #include <spawn.h>
+#include <sys/prctl.h>
 #include <sys/socket.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -156,7 +157,24 @@ class NatsBroker {
     for (auto& e : env_text) envp.push_back(e.data());
     for (char** e = environ; *e; ++e) envp.push_back(*e);
     envp.push_back(nullptr);
-    if (posix_spawn(&pid_, bin.c_str(), nullptr, nullptr, argv.data(), envp.data()) != 0) return false;
+    // Forked rather than spawned, to be tied to this process: a test that crashes takes its
+    // brokers with it (they would otherwise run on, retrying their cluster routes, and keep
+    // the test's output pipe open, so CTest waits out its whole timeout). Between fork and exec
+    // only async-signal-safe calls. The broker writes its log to the file; nothing to the pipe.
+    const pid_t parent = ::getpid();
+    pid_ = ::fork();
+    if (pid_ < 0) return false;
+    if (pid_ == 0) {
+      ::prctl(PR_SET_PDEATHSIG, SIGKILL);
+      if (::getppid() != parent) ::_exit(127);
+      if (const int null = ::open("/dev/null", O_RDWR); null >= 0) {
+        ::dup2(null, 0);
+        ::dup2(null, 1);
+        ::dup2(null, 2);
+      }
+      ::execve(bin.c_str(), argv.data(), envp.data());
+      ::_exit(127);
+    }
     const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
     while (std::chrono::steady_clock::now() < deadline) {
       if (port_accepts(port)) return true;

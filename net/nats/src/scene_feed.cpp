@@ -154,8 +154,7 @@ void NatsSceneFeed::Impl::tick() {
       ++it;
       continue;
     }
-    natsSubscription_Unsubscribe(it->second.sub);
-    natsSubscription_Destroy(it->second.sub);
+    retire(it->second.sub);
     it = mesh_subs.erase(it);
   }
   if (!conn.connected()) return;
@@ -185,14 +184,32 @@ void NatsSceneFeed::Impl::tick() {
   }
 }
 
+// libnats (3.4) looks a subscription up and then uses it without holding it: one destroyed
+// right after its unsubscribe can be written to, freed, by the connection's reading thread. The
+// reading thread handles the server's answer to a flush only after every message before it, so
+// once a flush sent after the unsubscribe has come back, nothing can reach the subscription.
+void NatsSceneFeed::Impl::retire(natsSubscription* s) {
+  natsSubscription_Unsubscribe(s);
+  retired_subs.push_back(s);
+  if (natsConnection_FlushTimeout(conn.get(), 1000) != NATS_OK) return;  // kept until the connection closes
+  for (natsSubscription* r : retired_subs) natsSubscription_Destroy(r);
+  retired_subs.clear();
+}
+
 void NatsSceneFeed::Impl::watch_loop() {
   jsCtx* js = nullptr;
   kvStore* kv = nullptr;
   kvWatcher* w = nullptr;
+  // A watch is stopped and parked with its handles (see `parked`); handles that never made a
+  // watch (no bucket yet) hold no subscription and go at once.
   auto reset = [&] {
-    if (w) kvWatcher_Destroy(w);
-    if (kv) kvStore_Destroy(kv);
-    if (js) jsCtx_Destroy(js);
+    if (w) {
+      kvWatcher_Stop(w);
+      parked.push_back({js, kv, w});
+    } else {
+      if (kv) kvStore_Destroy(kv);
+      if (js) jsCtx_Destroy(js);
+    }
     w = nullptr;
     kv = nullptr;
     js = nullptr;
@@ -209,7 +226,7 @@ void NatsSceneFeed::Impl::watch_loop() {
       tick();
     }
     // After a reconnect libnats resets the watch's ordered consumer on a thread of its own:
-    // the old watch is destroyed once that has settled, not while it runs (see parked_watch).
+    // the old watch is stopped once that has settled, not while it runs, and parked (see `parked`).
     if (rewatch.exchange(false) && rewatch_at == 0) rewatch_at = w ? now + kRewatchSettle_us : now;
     if (rewatch_at > 0 && now >= rewatch_at) {
       rewatch_at = 0;
@@ -287,7 +304,9 @@ void NatsSceneFeed::Impl::watch_loop() {
     models_in.push_back(std::move(ev));
     schedule_pump_locked();
   }
-  parked_watch = w, parked_kv = kv, parked_js = js;  // destroyed once the connection is closed
+  // The last watch is not even stopped here: its consumer may be resetting; closing the
+  // connection ends that first (~Impl).
+  if (w || kv || js) parked.push_back({js, kv, w});
 }
 
 NatsSceneFeed::Impl::~Impl() {
@@ -306,9 +325,12 @@ NatsSceneFeed::Impl::~Impl() {
   conn.close();
   for (natsSubscription* s : subs)
     if (s) natsSubscription_Destroy(s);
-  if (parked_watch) kvWatcher_Destroy(parked_watch);
-  if (parked_kv) kvStore_Destroy(parked_kv);
-  if (parked_js) jsCtx_Destroy(parked_js);
+  for (natsSubscription* s : retired_subs) natsSubscription_Destroy(s);
+  for (const ParkedWatch& p : parked) {
+    if (p.watch) kvWatcher_Destroy(p.watch);
+    if (p.kv) kvStore_Destroy(p.kv);
+    if (p.js) jsCtx_Destroy(p.js);
+  }
   *alive = false;
 }
 

@@ -137,13 +137,22 @@ struct NatsSceneFeed::Impl {
   std::thread watcher;
   std::atomic<bool> stopping{false};
   std::atomic<bool> rewatch{true};
-  // The model watch as the watcher thread left it at stop, destroyed after the connection has
-  // closed (libnats can free an ordered consumer's name while a concurrent destroy still reads
-  // it: its consumer reset after a reconnect or missed heartbeats runs on a thread of its own,
-  // and a closed connection stops it).
-  jsCtx* parked_js = nullptr;
-  kvStore* parked_kv = nullptr;
-  kvWatcher* parked_watch = nullptr;
+  // Model watches stopped (at a rewatch, and the last one at stop), destroyed only after the
+  // connection has closed. libnats (3.4) frees a subscription that its reading thread may still
+  // be delivering to, and an ordered consumer reset (after a reconnect or missed heartbeats, on
+  // a thread of its own) can leave the watch under a second id; either way, a watch destroyed
+  // while the connection reads writes into freed memory. One is parked per rewatch, that is per
+  // reconnect: a few hundred bytes each.
+  struct ParkedWatch {
+    jsCtx* js = nullptr;
+    kvStore* kv = nullptr;
+    kvWatcher* watch = nullptr;
+  };
+  std::vector<ParkedWatch> parked;  // watcher thread; ~Impl after it has joined
+  // Mesh subscriptions no viewer wants any more: unsubscribed at once, destroyed once a flush
+  // has shown the reading thread is past them (or after the connection has closed).
+  std::vector<natsSubscription*> retired_subs;
+  void retire(natsSubscription* s);       // watcher thread
   std::atomic<int64_t> bucket_ttl_ns{0};  // the model bucket's TTL (0: none), read when watching
   mutable std::mutex error_mutex;
   std::string last_error;
