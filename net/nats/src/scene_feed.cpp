@@ -154,10 +154,12 @@ void NatsSceneFeed::Impl::tick() {
       ++it;
       continue;
     }
-    retire(it->second.sub);
+    natsSubscription_Unsubscribe(it->second.sub);
+    retired_subs.push_back(it->second.sub);
     it = mesh_subs.erase(it);
   }
   if (!conn.connected()) return;
+  destroy_retired();
   const int64_t now = monotonic_us();
   for (const MeshWant& w : want) {
     auto [it, fresh] = mesh_subs.try_emplace({w.key, w.lod});
@@ -187,11 +189,10 @@ void NatsSceneFeed::Impl::tick() {
 // libnats (3.4) looks a subscription up and then uses it without holding it: one destroyed
 // right after its unsubscribe can be written to, freed, by the connection's reading thread. The
 // reading thread handles the server's answer to a flush only after every message before it, so
-// once a flush sent after the unsubscribe has come back, nothing can reach the subscription.
-void NatsSceneFeed::Impl::retire(natsSubscription* s) {
-  natsSubscription_Unsubscribe(s);
-  retired_subs.push_back(s);
-  if (natsConnection_FlushTimeout(conn.get(), 1000) != NATS_OK) return;  // kept until the connection closes
+// once a flush sent after the unsubscribes has come back, nothing can reach them. A flush that
+// fails (the link went down) leaves them for a later tick, or for ~Impl after the close.
+void NatsSceneFeed::Impl::destroy_retired() {
+  if (retired_subs.empty() || natsConnection_FlushTimeout(conn.get(), 500) != NATS_OK) return;
   for (natsSubscription* r : retired_subs) natsSubscription_Destroy(r);
   retired_subs.clear();
 }

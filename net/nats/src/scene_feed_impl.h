@@ -151,8 +151,8 @@ struct NatsSceneFeed::Impl {
   std::vector<ParkedWatch> parked;  // watcher thread; ~Impl after it has joined
   // Mesh subscriptions no viewer wants any more: unsubscribed at once, destroyed once a flush
   // has shown the reading thread is past them (or after the connection has closed).
-  std::vector<natsSubscription*> retired_subs;
-  void retire(natsSubscription* s);       // watcher thread
+  std::vector<natsSubscription*> retired_subs;  // watcher thread
+  void destroy_retired();
   std::atomic<int64_t> bucket_ttl_ns{0};  // the model bucket's TTL (0: none), read when watching
   mutable std::mutex error_mutex;
   std::string last_error;
