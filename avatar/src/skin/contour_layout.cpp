@@ -4,6 +4,7 @@
 // mesh's rows and triangles.
 #include <array>
 #include <cassert>
+#include <limits>
 
 #include "rigid_part_mesh.h"
 #include "skin_impl.h"
@@ -454,6 +455,29 @@ void add_limb(Data& d, const LimbSpec& spec, std::span<const glm::vec3> ctrl) {
   d.surfaces.push_back(std::move(s));
 }
 
+// A leg's last ring, at the ankle, cuts the calf's field on the plane between shin and foot,
+// where the calf is up to 2.5 cm wider than the foot's ankle: the leg's capped end stood out of
+// the foot as a cuff in every frame. Its rays now end no further out than the foot's own surface
+// (measured along each ray in the zero posture, a few millimetres inside it), so the leg tapers
+// into the foot over its last link and the cap stays hidden inside.
+void add_foot_reach(Data& d, const BodyField& field, int chain, RigidPart foot) {
+  constexpr float kInside_m = 0.003f;
+  std::vector<uint16_t> cand(kMaxCandidates);
+  cand.resize(static_cast<size_t>(field.candidates_of_part(foot, cand)));
+  Ring* last = nullptr;
+  for (Ring& r : d.rings)
+    if (r.kind == RingKind::star && r.chain == chain) last = &r;
+  if (cand.empty() || !last) return;
+  const Plane p = ring_plane(d.chains[static_cast<size_t>(chain)], last->segment, last->u);
+  if (field.field_of_part(p.origin, foot) < 1.0f) return;  // a foot that does not reach the ankle bounds nothing
+  const Directions& dir = d.direction_tables[static_cast<size_t>(last->angles)];
+  std::vector<RayHit> hits(dir.cos.size());
+  field.cast_star(p.origin, p.front, p.left, dir.cos, dir.sin, cand, hits);
+  last->reach_m.assign(hits.size(), std::numeric_limits<float>::max());
+  for (size_t j = 0; j < hits.size(); ++j)
+    if (hits[j].hit()) last->reach_m[j] = std::max(hits[j].t - kInside_m, kInside_m);
+}
+
 // A rigid part meshed once in the zero posture from its primitives' field (iso_mesh.h), kept in
 // its joint's frame: marching tetrahedra on a grid fine enough for its thinnest primitive (a
 // finger, an ear), simplified to the part's vertex budget.
@@ -531,6 +555,8 @@ Result<ContourLayout> ContourLayout::build(const BodyModel& model, const rig::Sk
          static_cast<int>(loops.l_arm.size()) == loop_points(d->counts).arm &&
          static_cast<int>(loops.r_leg.size()) == loop_points(d->counts).leg);
   for (const LimbSpec& spec : limb_specs(d->counts, loops)) add_limb(*d, spec, caster.ctrl);
+  add_foot_reach(*d, *field, 4, RigidPart::left_foot);
+  add_foot_reach(*d, *field, 5, RigidPart::right_foot);
   if (options.rigid_parts)
     for (int pi = 1; pi <= kRigidPartCount; ++pi)
       add_rigid_part(*d, static_cast<RigidPart>(pi), model, *field, world_from_joint);

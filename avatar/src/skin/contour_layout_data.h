@@ -131,6 +131,9 @@ struct Ring {
   int chain = -1, segment = 0;
   float u = 0;
   int angles = -1;  // direction table (stars and arcs)
+  // star: per ray, the farthest its point may lie from the ring's origin (empty: no bound). A
+  // leg's last ring ends inside the rigid foot it sinks into (add_foot_reach).
+  std::vector<float> reach_m;
   // driven: P = S + alpha (G − S), ray from P's projection on the chain's first link
   int s_ring = -1;
   std::vector<uint32_t> goal;  // G's slots (a loop made of other rings' points)

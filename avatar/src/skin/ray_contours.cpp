@@ -172,7 +172,11 @@ void RingCaster::star_ring(const ContourLayout::Data& layout, const BodyField& f
   field.cast_star(p.origin, p.front, p.left, dir.cos, dir.sin, cand, hits);
   for (size_t j = 0; j < r.slots.size(); ++j) {
     const glm::vec3 d = dir.cos[j] * p.front + dir.sin[j] * p.left;
+    // Cut short by the ring's reach: inside its surface, no longer where the ray found it.
+    const bool bounded = !r.reach_m.empty() && hits[j].hit() && hits[j].t > r.reach_m[j];
+    if (bounded) hits[j].t = r.reach_m[j];
     store(r.slots[j], p.origin, d, hits[j], p.origin + kMissRadius_m * d);
+    if (bounded) ctrl_hit[r.slots[j]] = 0;
   }
 }
 
