@@ -95,7 +95,7 @@ TEST(Skin, ALegsLastRingEndsInsideItsFoot) {
   for (int pose = 0; pose < 6; ++pose) {
     if (pose > 0) s.evaluate(random_pose(s.skeleton(), rng, 0.5f));
     const std::vector<ImplicitSkin::ContourView> contours = s.contours();
-    for (const auto& [prefix, foot] : {std::pair{"l_leg_", RigidPart::left_foot}, {"r_leg_", RigidPart::right_foot}}) {
+    for (const auto& [prefix, part] : {std::pair{"l_leg_", RigidPart::left_foot}, {"r_leg_", RigidPart::right_foot}}) {
       const ImplicitSkin::ContourView* last = nullptr;
       int last_index = -1;
       for (const auto& c : contours) {
@@ -105,7 +105,7 @@ TEST(Skin, ALegsLastRingEndsInsideItsFoot) {
       }
       ASSERT_NE(last, nullptr) << prefix;
       int inside = 0;
-      for (const glm::vec3& p : last->points) inside += s.field().field_of_part(p, foot) >= 1.0f;
+      for (const glm::vec3& p : last->points) inside += s.field().field_of_part(p, part) >= 1.0f;
       const int n = static_cast<int>(last->points.size());
       std::printf("[ figure ] pose %d %s: %d of %d points inside the foot\n", pose, last->name.c_str(), inside, n);
       if (pose == 0)

@@ -132,7 +132,7 @@ struct Ring {
   float u = 0;
   int angles = -1;  // direction table (stars and arcs)
   // star: per ray, the farthest its point may lie from the ring's origin (empty: no bound). A
-  // leg's last ring ends inside the rigid foot it sinks into (add_foot_reach).
+  // leg's last ring ends inside the rigid foot it sinks into (add_end_reach).
   std::vector<float> reach_m;
   // driven: P = S + alpha (G − S), ray from P's projection on the chain's first link
   int s_ring = -1;
