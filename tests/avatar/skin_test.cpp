@@ -85,7 +85,7 @@ TEST(Skin, StaysClosedAndOutwardInRandomPostures) {
 }
 
 // A leg's last ring, at the ankle, ends inside the rigid foot it sinks into: its capped end is
-// hidden, not a cuff standing out of the foot (the calf is up to 2.5 cm wider there than the
+// hidden, not a cuff standing out of the foot (the calf is up to 2.3 cm wider there than the
 // foot's ankle). In the zero posture, where the rays' reach is measured, every point (10 of 24
 // before); bent at the ankle, the reach kept in the ring's plane leaves a few points outside (22
 // to 24 of 24 inside in these postures).

@@ -159,7 +159,8 @@ class NatsBroker {
     envp.push_back(nullptr);
     // Forked rather than spawned, to be tied to this process: a test that crashes takes its
     // brokers with it (they would otherwise run on, retrying their cluster routes, and keep
-    // the test's output pipe open, so CTest waits out its whole timeout). Between fork and exec
+    // the test's output pipe open, so CTest waits out its whole timeout). The signal comes when
+    // the starting thread ends: start brokers on the test's own thread. Between fork and exec
     // only async-signal-safe calls. The broker writes its log to the file; nothing to the pipe.
     const pid_t parent = ::getpid();
     pid_ = ::fork();

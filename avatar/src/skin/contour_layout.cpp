@@ -456,7 +456,7 @@ void add_limb(Data& d, const LimbSpec& spec, std::span<const glm::vec3> ctrl) {
 }
 
 // A limb's last ring cuts its field on the plane between the limb and the rigid part it ends
-// in. At the ankle the calf is up to 2.5 cm wider there than the foot's ankle: the leg's capped
+// in. At the ankle the calf is up to 2.3 cm wider there than the foot's ankle: the leg's capped
 // end stood out of the foot as a cuff in every frame. Its rays now end no further out than the
 // part's own surface (measured along each ray in the zero posture, a few millimetres inside it),
 // so the limb tapers into the part over its last link and the cap stays hidden inside.
